@@ -1,0 +1,28 @@
+//! `sonarproj devices`: the adapters wgpu sees and the one `auto` would use.
+
+use sonarproj::gpu::context::{describe, list_adapters};
+use sonarproj::{Backend, BackendChoice, Result};
+
+/// Runs `sonarproj devices`.
+pub fn run() -> Result<()> {
+    let adapters = list_adapters();
+    let backends =
+        std::env::var("WGPU_BACKEND").unwrap_or_else(|_| "vulkan,metal,dx12 (default)".into());
+    println!("backends: {backends}");
+    if adapters.is_empty() {
+        println!("adapters: none");
+    } else {
+        println!("adapters:");
+        for (i, info) in adapters.iter().enumerate() {
+            println!("  {i}: {}", describe(info));
+        }
+    }
+    match Backend::select(BackendChoice::Auto)? {
+        (b @ Backend::Gpu(_), _) => println!("auto uses: {}", b.device()),
+        (_, notice) => println!(
+            "auto uses: the CPU reference ({})",
+            notice.unwrap_or_default().trim_start_matches("note: ")
+        ),
+    }
+    Ok(())
+}

@@ -1,0 +1,78 @@
+//! Argument parsing (clap) and dispatch to the sub-commands.
+
+mod batch;
+mod devices;
+mod pose_args;
+mod project;
+
+use clap::{Parser, Subcommand};
+
+use sonarproj::{Backend, BackendChoice, Result, Sampling, Sonar};
+
+/// Epipolar geometry of sonar: where a feature seen by one sonar can appear in another.
+#[derive(Debug, Parser)]
+#[command(name = "sonarproj", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Project one feature from sonar 1 into sonar 2; print the metrics as JSON.
+    Project(project::ProjectArgs),
+    /// Project every row of a CSV of poses; write a CSV of metrics.
+    Batch(batch::BatchArgs),
+    /// List the GPU adapters wgpu sees and which one `--backend auto` would use.
+    Devices,
+}
+
+/// Sonar pair, sampling and backend: the options every projecting sub-command shares.
+#[derive(Debug, clap::Args)]
+pub struct PairArgs {
+    /// Sonar 1 (measures the feature): a preset name or a sonar TOML file.
+    #[arg(long, value_name = "SONAR")]
+    from: String,
+    /// Sonar 2 (where the feature is looked for): a preset name or a sonar TOML file.
+    #[arg(long, value_name = "SONAR")]
+    to: String,
+    /// Sampling step in degrees (as the published code; 0.1 there). Default: auto, so that
+    /// neighbouring samples land less than half a bin and half a beam apart in sonar 2.
+    #[arg(long, value_name = "DEG")]
+    step: Option<f64>,
+    /// Where to compute: auto picks the GPU when an adapter exists, else the CPU reference.
+    #[arg(long, value_enum, default_value = "auto")]
+    backend: BackendChoice,
+}
+
+impl PairArgs {
+    /// Returns sonar 1, sonar 2 and the sampling, checked.
+    fn resolve(&self) -> Result<(Sonar, Sonar, Sampling)> {
+        let source = Sonar::resolve(&self.from)?;
+        let target = Sonar::resolve(&self.to)?;
+        let sampling = match self.step {
+            Some(s) => Sampling::Step(s),
+            None => Sampling::Auto,
+        }
+        .validated()?;
+        Ok((source, target, sampling))
+    }
+
+    /// Returns the backend, printing the one-line notice when `auto` fell back to the CPU.
+    fn backend(&self) -> Result<Backend> {
+        let (backend, notice) = Backend::select(self.backend)?;
+        if let Some(n) = notice {
+            eprintln!("{n}");
+        }
+        Ok(backend)
+    }
+}
+
+/// Runs the parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Project(a) => project::run(a),
+        Command::Batch(a) => batch::run(a),
+        Command::Devices => devices::run(),
+    }
+}

@@ -1,0 +1,117 @@
+//! Pose options shared by the sub-commands that take one pose.
+
+use sonarproj::error::{Error, Result};
+use sonarproj::{RelativePose, Rotation};
+
+/// The relative pose: a rotation (roll/pitch/yaw, quaternion or matrix) and either a placement of
+/// the feature in sonar 2 or an explicit translation.
+#[derive(Debug, clap::Args)]
+pub struct PoseArgs {
+    /// Roll (deg). R = (Rz(yaw) Ry(pitch) Rx(roll))ᵀ, as the paper's code.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    roll: f64,
+    /// Pitch (deg).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pitch: f64,
+    /// Yaw (deg).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    yaw: f64,
+    /// Rotation R as a unit quaternion W,X,Y,Z (instead of roll/pitch/yaw).
+    #[arg(long, value_name = "W,X,Y,Z", allow_hyphen_values = true,
+          conflicts_with_all = ["roll", "pitch", "yaw", "matrix"])]
+    quaternion: Option<String>,
+    /// Rotation R as a 3x3 matrix, row-major: R11,R12,R13,R21,...,R33 (checked orthonormal).
+    #[arg(long, value_name = "R11,...,R33", allow_hyphen_values = true,
+          conflicts_with_all = ["roll", "pitch", "yaw"])]
+    matrix: Option<String>,
+    /// Placement: the feature appears at this range (m) in sonar 2; t = sph(place) − R·sph(feature).
+    #[arg(
+        long,
+        value_name = "M",
+        required_unless_present = "translation",
+        conflicts_with = "translation"
+    )]
+    place_range: Option<f64>,
+    /// Placement azimuth (deg) in sonar 2.
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        requires = "place_range"
+    )]
+    place_azimuth: f64,
+    /// Placement elevation (deg) in sonar 2.
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        requires = "place_range"
+    )]
+    place_elevation: f64,
+    /// Translation t (m) as X,Y,Z: p2 = R p1 + t.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    translation: Option<String>,
+}
+
+/// Returns the `N` comma-separated numbers of `text`, or an error naming `field`.
+pub fn numbers<const N: usize>(field: &str, text: &str) -> Result<[f64; N]> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != N {
+        return Err(Error::invalid(
+            field,
+            format!("{text:?}"),
+            format!("needs {N} comma-separated numbers, got {}", parts.len()),
+        ));
+    }
+    let mut out = [0.0; N];
+    for (o, p) in out.iter_mut().zip(&parts) {
+        *o = p
+            .parse()
+            .map_err(|_| Error::invalid(field, format!("{p:?}"), "must be a number"))?;
+    }
+    Ok(out)
+}
+
+impl PoseArgs {
+    /// Returns the rotation as given.
+    fn rotation(&self) -> Result<Rotation> {
+        if let Some(q) = &self.quaternion {
+            return Ok(Rotation::Quaternion(numbers::<4>("--quaternion", q)?));
+        }
+        if let Some(m) = &self.matrix {
+            let v = numbers::<9>("--matrix", m)?;
+            return Ok(Rotation::Matrix([
+                [v[0], v[1], v[2]],
+                [v[3], v[4], v[5]],
+                [v[6], v[7], v[8]],
+            ]));
+        }
+        Ok(Rotation::RollPitchYaw {
+            roll: self.roll,
+            pitch: self.pitch,
+            yaw: self.yaw,
+        })
+    }
+
+    /// Returns the pose; `feature` is the true point in sonar 1 `[range, azimuth, elevation]`
+    /// (m, deg, deg), used by the placement.
+    pub fn pose(&self, feature: [f64; 3]) -> Result<RelativePose> {
+        let rotation = self.rotation()?;
+        match (&self.translation, self.place_range) {
+            (Some(t), _) => RelativePose::new(rotation, numbers::<3>("--translation", t)?),
+            (None, Some(r)) => RelativePose::placement(
+                rotation,
+                feature,
+                [r, self.place_azimuth, self.place_elevation],
+            )
+            .map_err(|e| e.in_context("--place")),
+            (None, None) => Err(Error::invalid(
+                "pose",
+                "no translation",
+                "give --place-range or --translation",
+            )),
+        }
+    }
+}

@@ -1,0 +1,99 @@
+//! `sonarproj project`: one feature, one pose; metrics as JSON, occupancy optionally to a file.
+
+use std::path::PathBuf;
+
+use serde_json::json;
+use sonarproj::ambiguity::SamplingPlan;
+use sonarproj::report::occupancy_image::{self, Orientation};
+use sonarproj::{Batch, BatchItem, Measurement, Result, Sampling};
+
+use super::PairArgs;
+use super::pose_args::PoseArgs;
+
+/// Options of `sonarproj project`.
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct ProjectArgs {
+    #[command(flatten)]
+    pair: PairArgs,
+    /// Range (m) of the feature in sonar 1 (its measurement).
+    #[arg(long, value_name = "M")]
+    range: f64,
+    /// Azimuth (deg) of the feature in sonar 1 (measured by an FLS; used by the placement).
+    #[arg(long, value_name = "DEG", default_value_t = 0.0)]
+    azimuth: f64,
+    /// Elevation (deg) of the feature's true point in sonar 1 (used by the placement only).
+    #[arg(long, value_name = "DEG", default_value_t = 0.0)]
+    elevation: f64,
+    #[command(flatten)]
+    pose: PoseArgs,
+    /// Also write the occupancy buffer: FILE.png (for a person) or FILE.npy (uint8 0/1 for
+    /// numpy; [range_bin, beam] for an FLS, [range_bin] for an SSS). Row 0 is range_min and
+    /// column 0 is beam 0 at -aperture/2 (starboard) unless flipped.
+    #[arg(long, value_name = "FILE")]
+    occupancy: Option<PathBuf>,
+    /// Write the occupancy with range_max in row 0 (near range at the bottom of a picture).
+    #[arg(long, requires = "occupancy")]
+    flip_range: bool,
+    /// Write the occupancy with the last beam (+aperture/2, port) in column 0.
+    #[arg(long, requires = "occupancy")]
+    flip_beams: bool,
+}
+
+/// Runs `sonarproj project`.
+pub fn run(a: ProjectArgs) -> Result<()> {
+    let (source, target, sampling) = a.pair.resolve()?;
+    source.check_point("feature", a.range, a.azimuth, a.elevation)?;
+    let measurement = Measurement::of(&source, a.range, a.azimuth)?;
+    let pose = a.pose.pose([a.range, a.azimuth, a.elevation])?;
+    let plan = SamplingPlan::new(&source, &target, &measurement, sampling)?;
+    if let Some(path) = &a.occupancy {
+        occupancy_image::check_extension(path)?;
+    }
+    let backend = a.pair.backend()?;
+    let batch = Batch {
+        source,
+        target,
+        sampling,
+        items: vec![BatchItem { measurement, pose }],
+    };
+    let result = backend
+        .project(&batch, a.occupancy.is_some())?
+        .pop()
+        .expect("one item in, one result out");
+    if let (Some(path), Some(occ)) = (&a.occupancy, &result.occupancy) {
+        let orientation = Orientation {
+            flip_range: a.flip_range,
+            flip_beams: a.flip_beams,
+        };
+        occupancy_image::write(path, occ, orientation)?;
+    }
+    let rows = pose.rotation.transpose().to_cols_array_2d();
+    let out = json!({
+        "from": batch.source.name,
+        "to": batch.target.name,
+        "backend": backend.name(),
+        "device": backend.device(),
+        "measurement": {
+            "range": measurement.range,
+            "azimuth": match batch.source.kind {
+                sonarproj::SonarKind::Fls => Some(measurement.azimuth),
+                sonarproj::SonarKind::Sss => None,
+            },
+        },
+        "pose": { "rotation": rows, "translation": pose.translation.to_array() },
+        "sampling": {
+            "mode": match sampling { Sampling::Step(_) => "step", Sampling::Auto => "auto" },
+            "step_deg": match sampling { Sampling::Step(s) => Some(s), Sampling::Auto => None },
+            "azimuth_samples": plan.azimuths.len(),
+            "elevation_samples": plan.elevations.len(),
+        },
+        "metrics": result.metrics,
+        "occupancy_file": a.occupancy,
+    });
+    println!(
+        "{}",
+        serde_json::to_string_pretty(&out).expect("plain JSON values")
+    );
+    Ok(())
+}

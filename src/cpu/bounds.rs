@@ -1,0 +1,158 @@
+//! How far an f32 implementation (the GPU) may honestly differ from the f64 reference (SPEC §10).
+//!
+//! The GPU computes `R p + t` in f32. Its error is a few units in the last place of the
+//! magnitudes it adds, `range + |t|`, so every sample is given a tolerance of
+//! [`RELATIVE_TOLERANCE`] × (`range + |t|`) metres: an interval of ranges, and the matching
+//! intervals of azimuth (divided by the distance from sonar 2's z axis) and elevation (divided by
+//! the range). A sample whose intervals straddle a clip bound or a bin edge may land either way;
+//! all other samples must land exactly where the reference puts them. This module returns, for
+//! one pose, the *certain* occupancy (pixels set by samples far from every edge), the *possible*
+//! occupancy (every pixel a sample could reach within its tolerance), and matching intervals for
+//! every metric. A correct f32 result lies inside all of them.
+
+use crate::ambiguity::SamplingPlan;
+use crate::occupancy::{Layout, Occupancy};
+use crate::pose::{RelativePose, cart_to_sph, sph_to_cart};
+use std::f64::consts::{FRAC_PI_2, PI};
+
+/// Relative size (against `range + |t|`) of the neighbourhood of a bound or edge within which
+/// f32 and f64 may disagree.
+pub const RELATIVE_TOLERANCE: f64 = 1e-5;
+
+/// The envelope a correct f32 projection of one pose lies in.
+#[derive(Clone, Debug)]
+pub struct Bounds {
+    /// Samples certainly visible (lower bound of `visible`).
+    pub visible_min: u64,
+    /// Samples possibly visible (upper bound of `visible`).
+    pub visible_max: u64,
+    /// Samples within tolerance of a clip bound or bin edge.
+    pub near_edge: u64,
+    /// Pixels set by samples far from every edge: a correct result sets all of them.
+    pub certain: Occupancy,
+    /// Pixels any sample could reach: a correct result sets none outside.
+    pub possible: Occupancy,
+    /// Interval of the smallest visible range (m).
+    pub range_min: (f64, f64),
+    /// Interval of the largest visible range (m).
+    pub range_max: (f64, f64),
+    /// Interval of the smallest visible azimuth (deg).
+    pub azimuth_min: (f64, f64),
+    /// Interval of the largest visible azimuth (deg).
+    pub azimuth_max: (f64, f64),
+}
+
+/// Returns the envelope of one pose: see the module documentation.
+pub fn bounds(
+    layout: &Layout,
+    plan: &SamplingPlan,
+    base_azimuth: f64,
+    range: f64,
+    pose: &RelativePose,
+) -> Bounds {
+    let mut b = Bounds {
+        visible_min: 0,
+        visible_max: 0,
+        near_edge: 0,
+        certain: Occupancy::new(layout.range_bins, layout.beams()),
+        possible: Occupancy::new(layout.range_bins, layout.beams()),
+        range_min: (f64::INFINITY, f64::INFINITY),
+        range_max: (f64::NEG_INFINITY, f64::NEG_INFINITY),
+        azimuth_min: (f64::INFINITY, f64::INFINITY),
+        azimuth_max: (f64::NEG_INFINITY, f64::NEG_INFINITY),
+    };
+    let tol = RELATIVE_TOLERANCE * (range + pose.translation.length());
+    let full_azimuth = layout.half_azimuth >= PI;
+    let full_elevation = layout.half_elevation >= FRAC_PI_2;
+    for &el in &plan.elevations {
+        for &da in &plan.azimuths {
+            let p2 = pose.apply(sph_to_cart(range, base_azimuth + da, el));
+            let (r, az, el2) = cart_to_sph(p2);
+            let d_el = if r > 0.0 { tol / r } else { PI };
+            let rho = r * el2.cos();
+            let d_az = if rho > tol { (tol / rho).min(PI) } else { PI };
+            let (r_lo, r_hi) = (r - tol, r + tol);
+            let az_ok_all = full_azimuth || az.abs() + d_az <= layout.half_azimuth;
+            let az_ok_any = full_azimuth || az.abs() - d_az <= layout.half_azimuth;
+            let el_ok_all = full_elevation || el2.abs() + d_el <= layout.half_elevation;
+            let el_ok_any = full_elevation || el2.abs() - d_el <= layout.half_elevation;
+            let certainly_in = r_lo > 0.0
+                && r_lo >= layout.range_min
+                && r_hi <= layout.range_max
+                && az_ok_all
+                && el_ok_all;
+            let possibly_in =
+                r_hi >= layout.range_min && r_lo <= layout.range_max && az_ok_any && el_ok_any;
+            if !possibly_in {
+                continue;
+            }
+            let bins = layout.range_bin(r_lo.max(layout.range_min))
+                ..=layout.range_bin(r_hi.min(layout.range_max));
+            let beams = candidate_beams(layout, az, d_az);
+            if certainly_in {
+                b.visible_min += 1;
+                b.range_min.1 = b.range_min.1.min(r_hi);
+                b.range_max.0 = b.range_max.0.max(r_lo);
+                b.azimuth_min.1 = b.azimuth_min.1.min(az + d_az);
+                b.azimuth_max.0 = b.azimuth_max.0.max(az - d_az);
+            }
+            b.visible_max += 1;
+            b.range_min.0 = b.range_min.0.min(r_lo);
+            b.range_max.1 = b.range_max.1.max(r_hi);
+            b.azimuth_min.0 = b.azimuth_min.0.min(az - d_az);
+            b.azimuth_max.1 = b.azimuth_max.1.max(az + d_az);
+            let single = bins.start() == bins.end() && beams.len() == 1;
+            if certainly_in && single {
+                b.certain.set(*bins.start(), beams[0]);
+            } else {
+                b.near_edge += 1;
+            }
+            for i in bins {
+                for &j in &beams {
+                    b.possible.set(i, j);
+                }
+            }
+        }
+    }
+    for v in [&mut b.azimuth_min, &mut b.azimuth_max] {
+        *v = (v.0.to_degrees(), v.1.to_degrees());
+    }
+    b
+}
+
+/// Returns the beams a sample at azimuth `az` ± `d_az` (rad) can fall in, wrapping around ±π
+/// when the aperture is the full circle.
+fn candidate_beams(layout: &Layout, az: f64, d_az: f64) -> Vec<usize> {
+    let h = layout.half_azimuth;
+    let span = |lo: f64, hi: f64| -> Vec<usize> {
+        let (lo, hi) = (lo.max(-h), hi.min(h));
+        if lo > hi {
+            return Vec::new();
+        }
+        (layout.beam(lo)..=layout.beam(hi)).collect()
+    };
+    if d_az >= PI {
+        return (0..layout.beams()).collect();
+    }
+    let (lo, hi) = (az - d_az, az + d_az);
+    let mut beams = span(lo, hi);
+    if h >= PI {
+        if lo < -PI {
+            beams.extend(span(lo + 2.0 * PI, PI));
+        }
+        if hi > PI {
+            beams.extend(span(-PI, hi - 2.0 * PI));
+        }
+        beams.sort_unstable();
+        beams.dedup();
+    }
+    beams
+}
+
+impl Bounds {
+    /// Returns the interval `(certain, possible)` of the occupied measure under `layout`.
+    pub fn measure(&self, layout: &Layout) -> (f64, f64) {
+        let sum = |o: &Occupancy| o.pixels().map(|(i, j)| layout.pixel_measure(i, j)).sum();
+        (sum(&self.certain), sum(&self.possible))
+    }
+}

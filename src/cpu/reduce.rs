@@ -1,0 +1,15 @@
+//! CPU mirror of `shaders/reduce.wgsl`: one pose's occupancy buffer becomes the occupied count and
+//! the occupied measure (bin widths for an SSS, true pixel areas for an FLS: SPEC §7).
+
+use crate::occupancy::{Layout, Occupancy};
+
+/// Returns `(occupied, occupied_measure)` of `occupancy` drawn in `layout`.
+pub fn reduce(layout: &Layout, occupancy: &Occupancy) -> (u64, f64) {
+    let mut occupied = 0;
+    let mut measure = 0.0;
+    for (i, j) in occupancy.pixels() {
+        occupied += 1;
+        measure += layout.pixel_measure(i, j);
+    }
+    (occupied, measure)
+}

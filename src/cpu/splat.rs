@@ -1,0 +1,44 @@
+//! CPU mirror of `shaders/splat.wgsl`: every sample of one pose is placed in sonar 1, moved into
+//! sonar 2 (`R p + t`), clipped to its field of view and set in the occupancy buffer.
+//! Same inputs in the same order as the shader's bindings: layout (params, beam edges), pose,
+//! plan (sample directions), occupancy (bits); returns what the shader accumulates in `metrics`.
+
+use crate::ambiguity::SamplingPlan;
+use crate::occupancy::{Extremes, Layout, Occupancy};
+use crate::pose::{RelativePose, cart_to_sph, sph_to_cart};
+
+/// What splatting one pose produced besides the occupancy bits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SplatResult {
+    /// Samples kept by the clip.
+    pub visible: u64,
+    /// Range and azimuth extremes of the kept samples (m, rad).
+    pub extremes: Extremes,
+}
+
+/// Splats the samples of `plan` (measured at `range`, azimuths offset by `base_azimuth`) through
+/// `pose` into `occupancy`, and returns the visible count and the extremes.
+pub fn splat(
+    layout: &Layout,
+    plan: &SamplingPlan,
+    base_azimuth: f64,
+    range: f64,
+    pose: &RelativePose,
+    occupancy: &mut Occupancy,
+) -> SplatResult {
+    let mut visible = 0;
+    let mut extremes = Extremes::default();
+    for &el in &plan.elevations {
+        for &da in &plan.azimuths {
+            let p2 = pose.apply(sph_to_cart(range, base_azimuth + da, el));
+            let (r, az, el2) = cart_to_sph(p2);
+            if !layout.inside(r, az, el2) {
+                continue;
+            }
+            visible += 1;
+            occupancy.set(layout.range_bin(r), layout.beam(az));
+            extremes.add(r, az);
+        }
+    }
+    SplatResult { visible, extremes }
+}

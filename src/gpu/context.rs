@@ -1,0 +1,99 @@
+//! The wgpu instance, adapter, device and queue. Kept apart from the work so tests and callers
+//! can bring their own device.
+
+use crate::error::{Error, Result};
+
+/// Timeout for one wait on the GPU; lavapipe can be slow on big batches.
+pub const WAIT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(600);
+
+/// A device ready for compute work, with the adapter it came from.
+#[derive(Debug)]
+pub struct GpuContext {
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// What the adapter says of itself.
+    pub info: wgpu::AdapterInfo,
+    /// The limits the device was created with.
+    pub limits: wgpu::Limits,
+}
+
+/// Returns a wgpu instance over the backends named in `WGPU_BACKEND` (default: the primary ones,
+/// Vulkan, Metal, DX12).
+pub fn instance() -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle().with_env();
+    if wgpu::Backends::from_env().is_none() {
+        desc.backends = wgpu::Backends::PRIMARY;
+    }
+    wgpu::Instance::new(desc)
+}
+
+/// Returns what every adapter wgpu sees says of itself.
+pub fn list_adapters() -> Vec<wgpu::AdapterInfo> {
+    let inst = instance();
+    let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+    pollster::block_on(inst.enumerate_adapters(backends))
+        .iter()
+        .map(|a| a.get_info())
+        .collect()
+}
+
+/// Returns a short description of an adapter: name, backend, type, driver.
+pub fn describe(info: &wgpu::AdapterInfo) -> String {
+    format!(
+        "{} ({:?}, {:?}, driver {} {})",
+        info.name, info.backend, info.device_type, info.driver, info.driver_info
+    )
+    .replace(" )", ")")
+}
+
+impl GpuContext {
+    /// Returns a context on the adapter `auto` picks: `WGPU_ADAPTER_NAME` when set, else the
+    /// high-performance adapter of the enabled backends (a software one such as lavapipe counts).
+    ///
+    /// # Errors
+    /// [`Error::NoAdapter`] when no adapter exists; [`Error::Gpu`] when the device cannot be made.
+    pub fn new() -> Result<Self> {
+        let inst = instance();
+        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(
+            &inst, None,
+        ))
+        .map_err(|e| Error::NoAdapter {
+            hint: format!(": {e}"),
+        })?;
+        Self::from_adapter(&adapter)
+    }
+
+    /// Returns a context on `adapter`, asking for the larger buffer limits it offers.
+    ///
+    /// # Errors
+    /// [`Error::Gpu`] when the device cannot be made.
+    pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<Self> {
+        let offered = adapter.limits();
+        let mut limits = wgpu::Limits::default();
+        // Ask for up to 1 GiB bindings where the adapter has them; chunks are sized from these.
+        limits.max_storage_buffer_binding_size = offered.max_storage_buffer_binding_size.clamp(
+            limits
+                .max_storage_buffer_binding_size
+                .min(offered.max_storage_buffer_binding_size),
+            1 << 30,
+        );
+        limits.max_buffer_size = offered.max_buffer_size.min(1 << 30);
+        limits.max_storage_buffers_per_shader_stage = limits
+            .max_storage_buffers_per_shader_stage
+            .min(offered.max_storage_buffers_per_shader_stage);
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("sonarproj"),
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| Error::Gpu(format!("cannot create a device: {e}")))?;
+        Ok(GpuContext {
+            device,
+            queue,
+            info: adapter.get_info(),
+            limits,
+        })
+    }
+}
