@@ -1,0 +1,307 @@
+//! CPU reference vs GPU on random poses: for each of the four sonar pairs and several presets,
+//! 1000 random configurations, every GPU result inside the envelope the CPU computes for it
+//! (SPEC §10: bin-exact except samples within 1e-5 relative of a clip bound or bin edge), and
+//! the number of pixels where the two differ never above the number of such samples.
+
+mod common;
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use sonarproj::cpu::{self, bounds};
+use sonarproj::{
+    Batch, BatchItem, BeamLayout, Measurement, RelativePose, Rotation, Sampling, Sonar, SonarKind,
+};
+
+const POSES: usize = 1000;
+
+/// Returns a random point `[range, azimuth, elevation]` inside `s`'s field of view.
+fn point_in(rng: &mut ChaCha8Rng, s: &Sonar) -> [f64; 3] {
+    let (ha, he) = (s.azimuth_aperture / 2.0, s.elevation_aperture / 2.0);
+    [
+        rng.random_range(s.range_min.max(0.05)..=s.range_max),
+        rng.random_range(-ha..=ha),
+        rng.random_range(-he..=he),
+    ]
+}
+
+/// Returns `n` random items from `source` to `target`: mostly placements of a random feature
+/// at a random place in sonar 2 under a random rotation, one in ten a random translation (often
+/// nothing visible).
+fn random_items(seed: u64, source: &Sonar, target: &Sonar, n: usize) -> Vec<BatchItem> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..n)
+        .map(|k| {
+            let feature = point_in(&mut rng, source);
+            let rotation = Rotation::RollPitchYaw {
+                roll: rng.random_range(-180.0..180.0),
+                pitch: rng.random_range(-180.0..180.0),
+                yaw: rng.random_range(-180.0..180.0),
+            };
+            let pose = if k % 10 == 9 {
+                let r = target.range_max;
+                let t = [(); 3].map(|_| rng.random_range(-r..r));
+                RelativePose::new(rotation, t).unwrap()
+            } else {
+                RelativePose::placement(rotation, feature, point_in(&mut rng, target)).unwrap()
+            };
+            BatchItem {
+                measurement: Measurement::of(source, feature[0], feature[1]).unwrap(),
+                pose,
+            }
+        })
+        .collect()
+}
+
+/// An FLS with non-uniform beams (denser at the centre, as real ones are).
+fn nonuniform_fls() -> Sonar {
+    let n = 256;
+    let edges = (0..=n)
+        .map(|k| {
+            let u = -1.0 + 2.0 * k as f64 / n as f64;
+            45.0 * (u + 0.3 * u * u * u) / 1.3
+        })
+        .collect();
+    Sonar {
+        name: "nonuniform".into(),
+        kind: SonarKind::Fls,
+        range_min: 0.5,
+        range_max: 20.0,
+        azimuth_aperture: 90.0,
+        elevation_aperture: 20.0,
+        range_bins: 780,
+        beams: BeamLayout::Edges(edges),
+    }
+}
+
+/// An FLS that sees everything: 360° azimuth, 180° elevation, range from 0.
+fn omni_fls() -> Sonar {
+    Sonar {
+        name: "omni".into(),
+        kind: SonarKind::Fls,
+        range_min: 0.0,
+        range_max: 12.0,
+        azimuth_aperture: 360.0,
+        elevation_aperture: 180.0,
+        range_bins: 600,
+        beams: BeamLayout::Uniform { count: 720 },
+    }
+}
+
+fn preset(name: &str) -> Sonar {
+    Sonar::preset(name).unwrap()
+}
+
+/// Runs `POSES` random configurations on both backends and checks every GPU result.
+fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usize) {
+    source.validate().unwrap();
+    target.validate().unwrap();
+    let Some(gpu) = common::gpu() else { return };
+    let batch = Batch {
+        items: random_items(seed, &source, &target, poses),
+        source,
+        target,
+        sampling,
+    };
+    let prepared = batch.prepare().unwrap();
+    let cpu_results = cpu::project(&prepared, true);
+    let gpu_results = gpu.project(&prepared, true).unwrap();
+    let (mut near, mut differing, mut visible) = (0, 0, 0);
+    for (k, (c, g)) in cpu_results.iter().zip(&gpu_results).enumerate() {
+        let item = &batch.items[k];
+        let plan = &prepared.plans[prepared.plan_of[k]];
+        let b = bounds::bounds(
+            &prepared.layout,
+            plan,
+            prepared.base_azimuth[k],
+            item.measurement.range,
+            &item.pose,
+        );
+        // The reference lies in its own envelope (a check of the envelope), the GPU too.
+        common::check_within_bounds(&prepared.layout, &b, c)
+            .unwrap_or_else(|e| panic!("pose {k}: CPU outside its envelope: {e}"));
+        common::check_within_bounds(&prepared.layout, &b, g).unwrap_or_else(|e| {
+            panic!("pose {k} ({item:?}): GPU outside the envelope: {e}\ncpu {c:?}\ngpu {g:?}")
+        });
+        assert_eq!(c.metrics.total, g.metrics.total);
+        let diff =
+            common::differing_pixels(c.occupancy.as_ref().unwrap(), g.occupancy.as_ref().unwrap());
+        assert!(
+            diff <= b.near_edge,
+            "pose {k}: {diff} pixels differ, {} samples near an edge",
+            b.near_edge
+        );
+        near += b.near_edge;
+        differing += diff;
+        visible += c.metrics.visible;
+    }
+    eprintln!(
+        "{} -> {}: {poses} poses, {visible} visible samples, {near} near an edge, {differing} pixels differ",
+        batch.source.name, batch.target.name
+    );
+    assert!(
+        visible > poses as u64,
+        "the random poses must see something"
+    );
+}
+
+#[test]
+fn fls_to_sss() {
+    agree(
+        1,
+        preset("paper-fls"),
+        preset("paper-sss"),
+        Sampling::Auto,
+        POSES,
+    );
+    agree(
+        2,
+        preset("oculus-m1200d-hf"),
+        preset("holoocean-sidescan"),
+        Sampling::Step(0.1),
+        POSES,
+    );
+}
+
+#[test]
+fn sss_to_fls() {
+    agree(
+        3,
+        preset("paper-sss"),
+        preset("paper-fls"),
+        Sampling::Step(0.1),
+        POSES,
+    );
+    agree(
+        4,
+        preset("holoocean-sidescan"),
+        preset("holoocean-imaging"),
+        Sampling::Step(0.1),
+        POSES,
+    );
+    agree(
+        5,
+        preset("paper-sss"),
+        nonuniform_fls(),
+        Sampling::Step(0.1),
+        POSES,
+    );
+}
+
+#[test]
+fn fls_to_fls() {
+    agree(
+        6,
+        preset("paper-fls"),
+        preset("holoocean-imaging"),
+        Sampling::Auto,
+        POSES,
+    );
+    agree(
+        7,
+        preset("oculus-m750d"),
+        omni_fls(),
+        Sampling::Step(0.1),
+        POSES,
+    );
+    agree(
+        8,
+        preset("holoocean-imaging"),
+        nonuniform_fls(),
+        Sampling::Auto,
+        POSES,
+    );
+}
+
+#[test]
+fn sss_to_sss() {
+    agree(
+        9,
+        preset("paper-sss"),
+        preset("holoocean-sidescan"),
+        Sampling::Step(0.1),
+        POSES,
+    );
+    agree(
+        10,
+        preset("holoocean-sidescan"),
+        preset("paper-sss"),
+        Sampling::Step(0.1),
+        POSES,
+    );
+}
+
+#[test]
+fn auto_sampling_of_surfaces() {
+    // Auto sampling draws far more samples from a surface; fewer poses keep the CPU side quick.
+    agree(
+        11,
+        preset("paper-sss"),
+        preset("paper-fls"),
+        Sampling::Auto,
+        30,
+    );
+    agree(
+        12,
+        preset("holoocean-sidescan"),
+        preset("holoocean-imaging"),
+        Sampling::Auto,
+        10,
+    );
+}
+
+#[test]
+fn results_do_not_depend_on_the_chunk_size() {
+    let Some(gpu) = common::gpu() else { return };
+    let (source, target) = (preset("paper-sss"), preset("paper-fls"));
+    let batch = Batch {
+        items: random_items(13, &source, &target, 100),
+        source,
+        target,
+        sampling: Sampling::Step(0.2),
+    };
+    let prepared = batch.prepare().unwrap();
+    let whole = gpu.project(&prepared, true).unwrap();
+    let gpu = gpu.with_max_chunk_poses(7);
+    let chunked = gpu.project(&prepared, true).unwrap();
+    assert_eq!(whole, chunked);
+}
+
+#[test]
+fn the_envelope_check_catches_wrong_results() {
+    let Some(gpu) = common::gpu() else { return };
+    let (source, target) = (preset("paper-sss"), preset("paper-fls"));
+    let batch = Batch {
+        items: random_items(14, &source, &target, 1),
+        source,
+        target,
+        sampling: Sampling::Step(0.1),
+    };
+    let prepared = batch.prepare().unwrap();
+    let good = gpu.project(&prepared, true).unwrap().remove(0);
+    let item = &batch.items[0];
+    let b = bounds::bounds(
+        &prepared.layout,
+        &prepared.plans[0],
+        0.0,
+        item.measurement.range,
+        &item.pose,
+    );
+    common::check_within_bounds(&prepared.layout, &b, &good).unwrap();
+    assert!(good.metrics.visible > 0);
+
+    let mut dropped = good.clone();
+    let (i, j) = b.certain.pixels().next().expect("a certain pixel");
+    let occ = dropped.occupancy.as_mut().unwrap();
+    let k = i * occ.beams + j;
+    occ.words[k / 32] &= !(1 << (k % 32));
+    dropped.metrics.occupied -= 1;
+    assert!(common::check_within_bounds(&prepared.layout, &b, &dropped).is_err());
+
+    let mut counted = good.clone();
+    counted.metrics.visible = b.visible_max + 1;
+    assert!(common::check_within_bounds(&prepared.layout, &b, &counted).is_err());
+
+    let mut far = good.clone();
+    far.metrics.range_max = Some(b.range_max.1 + 1e-4);
+    assert!(common::check_within_bounds(&prepared.layout, &b, &far).is_err());
+}

@@ -1,0 +1,573 @@
+//! The command line from the outside: `project`, `batch`, `devices`, and bad input (exit status
+//! 2, a message naming the field and value, no output file left behind).
+
+mod common;
+
+use assert_cmd::Command;
+use serde_json::Value;
+
+fn sonarproj() -> Command {
+    let mut c = Command::cargo_bin("sonarproj").unwrap();
+    c.env("NODEVICE_SELECT", "1");
+    c
+}
+
+/// Returns the backends to try: the CPU always, the GPU where an adapter exists (always in CI).
+fn backends() -> Vec<&'static str> {
+    let mut b = vec!["cpu"];
+    if common::gpu().is_some() {
+        b.push("gpu");
+    }
+    b
+}
+
+fn json(out: &[u8]) -> Value {
+    serde_json::from_slice(out)
+        .unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(out)))
+}
+
+#[test]
+fn project_prints_metrics_as_json() {
+    for backend in backends() {
+        let out = sonarproj()
+            .args([
+                "project",
+                "--from",
+                "paper-fls",
+                "--to",
+                "paper-sss",
+                "--range",
+                "5",
+            ])
+            .args([
+                "--pitch",
+                "90",
+                "--place-range",
+                "15",
+                "--step",
+                "0.1",
+                "--backend",
+                backend,
+            ])
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        let v = json(&out);
+        assert_eq!(v["backend"], backend);
+        assert_eq!(v["metrics"]["visible"], 121);
+        assert_eq!(v["metrics"]["total"], 121);
+        assert_eq!(v["sampling"]["elevation_samples"], 121);
+        let span = v["metrics"]["span"].as_f64().unwrap();
+        assert!((span - 1.0452).abs() < 1e-3, "{span}");
+    }
+}
+
+#[test]
+fn project_accepts_every_rotation_form_alike() {
+    // The same rotation three ways: yaw 90° (paper convention), its quaternion and its matrix.
+    let base = [
+        "project",
+        "--from",
+        "paper-sss",
+        "--to",
+        "paper-fls",
+        "--range",
+        "12",
+        "--step",
+        "0.1",
+    ];
+    let tail = [
+        "--place-range",
+        "5",
+        "--place-azimuth",
+        "10",
+        "--place-elevation",
+        "2",
+        "--backend",
+        "cpu",
+    ];
+    let forms: [&[&str]; 3] = [
+        &["--yaw", "90"],
+        &["--quaternion", "0.7071067811865476,0,0,-0.7071067811865476"],
+        &["--matrix", "0,1,0,-1,0,0,0,0,1"],
+    ];
+    let metrics: Vec<Value> = forms
+        .iter()
+        .map(|f| {
+            let out = sonarproj()
+                .args(base)
+                .args(*f)
+                .args(tail)
+                .assert()
+                .success()
+                .get_output()
+                .stdout
+                .clone();
+            json(&out)["metrics"].clone()
+        })
+        .collect();
+    assert!(metrics[0]["visible"].as_u64().unwrap() > 0);
+    for m in &metrics[1..] {
+        assert_eq!(m["visible"], metrics[0]["visible"]);
+        assert_eq!(m["occupied"], metrics[0]["occupied"]);
+    }
+}
+
+#[test]
+fn project_writes_occupancy_as_npy_and_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let npy = dir.path().join("occ.npy");
+    let png = dir.path().join("occ.png");
+    for (file, backend) in [(&npy, "cpu"), (&png, "auto")] {
+        let out = sonarproj()
+            .args([
+                "project",
+                "--from",
+                "paper-sss",
+                "--to",
+                "paper-fls",
+                "--range",
+                "15",
+            ])
+            .args([
+                "--roll",
+                "-30",
+                "--place-range",
+                "5",
+                "--step",
+                "0.1",
+                "--backend",
+                backend,
+            ])
+            .arg("--occupancy")
+            .arg(file)
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        assert!(json(&out)["metrics"]["occupied"].as_u64().unwrap() > 0);
+    }
+    let bytes = std::fs::read(&npy).unwrap();
+    assert_eq!(&bytes[..6], b"\x93NUMPY");
+    let header = String::from_utf8_lossy(&bytes[..128]);
+    assert!(
+        header.replace(' ', "").contains("'shape':(990,512,)"),
+        "{header}"
+    );
+    assert!(header.contains("|u1"), "{header}");
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
+    let reader = decoder.read_info().unwrap();
+    assert_eq!((reader.info().width, reader.info().height), (512, 990));
+}
+
+#[test]
+fn batch_reads_poses_and_writes_metrics() {
+    let input = "range,azimuth,elevation,roll,pitch,yaw,place_range,place_azimuth,place_elevation\n\
+                 5,0,0,0,90,0,15,0,0\n\
+                 5,10,-3,20,30,40,15,5,0\n\
+                 5,0,0,0,0,0,15,0,0\n";
+    for backend in backends() {
+        let out = sonarproj()
+            .args([
+                "batch",
+                "--from",
+                "paper-fls",
+                "--to",
+                "paper-sss",
+                "--step",
+                "0.1",
+                "--backend",
+                backend,
+            ])
+            .write_stdin(input)
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        let text = String::from_utf8(out).unwrap();
+        let mut rdr = csv::Reader::from_reader(text.as_bytes());
+        let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
+        assert_eq!(header.len(), 9 + 9);
+        assert_eq!(
+            header[9..].join(","),
+            "visible,total,range_min,range_max,span,azimuth_min,azimuth_max,occupied,occupied_measure"
+        );
+        let rows: Vec<csv::StringRecord> = rdr.records().map(Result::unwrap).collect();
+        assert_eq!(rows.len(), 3);
+        assert_eq!(
+            &rows[0][9], "121",
+            "{backend}: pitch 90 keeps the whole arc"
+        );
+        assert_eq!(&rows[1][1], "10", "input columns echoed as given");
+        for row in &rows {
+            assert_eq!(&row[10], "121");
+        }
+    }
+}
+
+#[test]
+fn batch_takes_translations_and_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in.csv");
+    let output = dir.path().join("out.csv");
+    std::fs::write(
+        &input,
+        "tx,ty,tz,yaw,pitch,roll,range,azimuth,elevation\n10,0,0,0,0,0,5,0,0\n",
+    )
+    .unwrap();
+    sonarproj()
+        .args([
+            "batch",
+            "--from",
+            "paper-sss",
+            "--to",
+            "paper-fls",
+            "--backend",
+            "cpu",
+            "--step",
+            "0.1",
+        ])
+        .arg("--input")
+        .arg(&input)
+        .arg("--output")
+        .arg(&output)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&output).unwrap();
+    assert!(
+        text.starts_with("tx,ty,tz,yaw,pitch,roll,range,azimuth,elevation,visible,"),
+        "{text}"
+    );
+    assert_eq!(text.lines().count(), 2);
+}
+
+#[test]
+fn devices_lists_adapters_and_the_choice() {
+    let out = sonarproj()
+        .arg("devices")
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    assert!(text.contains("adapters"), "{text}");
+    assert!(text.contains("auto uses:"), "{text}");
+    if common::gpu().is_some() {
+        assert!(!text.contains("adapters: none"), "{text}");
+    }
+}
+
+/// Runs `args`, expects exit status 2 and a stderr that contains each of `needles`.
+fn rejects(args: &[&str], stdin: Option<&str>, needles: &[&str]) {
+    let mut cmd = sonarproj();
+    cmd.args(args);
+    if let Some(s) = stdin {
+        cmd.write_stdin(s);
+    }
+    let out = cmd.assert().code(2).get_output().clone();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "stderr lacks {n:?}: {err}");
+    }
+}
+
+const PROJECT: [&str; 5] = ["project", "--from", "paper-fls", "--to", "paper-sss"];
+
+/// Returns `sonarproj project --from paper-fls --to paper-sss` followed by `extra`.
+fn p<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    [&PROJECT[..], extra].concat()
+}
+
+#[test]
+fn bad_project_input_exits_2_naming_field_and_value() {
+    rejects(
+        &p(&["--range", "11", "--place-range", "5"]),
+        None,
+        &["feature range = 11", "[0.1, 10]"],
+    );
+    rejects(
+        &p(&["--range", "-1", "--place-range", "5"]),
+        None,
+        &["feature range = -1"],
+    );
+    rejects(
+        &p(&["--range", "5", "--azimuth", "31", "--place-range", "5"]),
+        None,
+        &["feature azimuth = 31", "[-30, 30]"],
+    );
+    rejects(
+        &p(&["--range", "5", "--elevation", "7", "--place-range", "5"]),
+        None,
+        &["feature elevation = 7"],
+    );
+    rejects(
+        &p(&["--range", "NaN", "--place-range", "5"]),
+        None,
+        &["feature range = NaN", "finite"],
+    );
+    rejects(
+        &p(&["--range", "5", "--place-range", "5", "--step", "0"]),
+        None,
+        &["step = 0"],
+    );
+    rejects(
+        &p(&["--range", "5", "--place-range", "5", "--step", "-1"]),
+        None,
+        &["step = -1"],
+    );
+    rejects(
+        &p(&["--range", "5", "--place-range", "-2"]),
+        None,
+        &["place range = -2"],
+    );
+    rejects(
+        &p(&["--range", "5", "--place-range", "5", "--roll", "inf"]),
+        None,
+        &["roll = inf"],
+    );
+    rejects(
+        &p(&[
+            "--range",
+            "5",
+            "--place-range",
+            "5",
+            "--matrix",
+            "1,0,0,0,1,0,0,0.5,1",
+        ]),
+        None,
+        &["orthonormal"],
+    );
+    rejects(
+        &p(&[
+            "--range",
+            "5",
+            "--place-range",
+            "5",
+            "--matrix",
+            "1,0,0,0,1,0,0,0,-1",
+        ]),
+        None,
+        &["determinant"],
+    );
+    rejects(
+        &p(&["--range", "5", "--place-range", "5", "--matrix", "1,0,0"]),
+        None,
+        &["--matrix", "9 comma-separated"],
+    );
+    rejects(
+        &p(&[
+            "--range",
+            "5",
+            "--place-range",
+            "5",
+            "--quaternion",
+            "1,1,0,0",
+        ]),
+        None,
+        &["unit quaternion"],
+    );
+    rejects(
+        &p(&["--range", "5", "--translation", "1,x,3"]),
+        None,
+        &["--translation", "\"x\""],
+    );
+    rejects(&p(&["--range", "5"]), None, &["--place-range"]);
+    rejects(
+        &p(&[
+            "--range",
+            "5",
+            "--place-range",
+            "5",
+            "--translation",
+            "1,2,3",
+        ]),
+        None,
+        &["cannot be used with"],
+    );
+    rejects(
+        &p(&["--range", "5", "--place-range", "5", "--occupancy", "x.bmp"]),
+        None,
+        &["--occupancy", ".png or .npy"],
+    );
+    rejects(
+        &[
+            "project",
+            "--from",
+            "paper-fls",
+            "--to",
+            "sonar-x",
+            "--range",
+            "5",
+            "--place-range",
+            "5",
+        ],
+        None,
+        &["unknown sonar \"sonar-x\"", "paper-sss"],
+    );
+}
+
+#[test]
+fn bad_sonar_files_exit_2_naming_file_key_and_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (
+            "range_min = -1\nrange_max = 5\nazimuth_aperture = 30\nelevation_aperture = 10",
+            "range_min = -1",
+        ),
+        (
+            "range_min = 6\nrange_max = 5\nazimuth_aperture = 30\nelevation_aperture = 10",
+            "range_max = 5",
+        ),
+        (
+            "range_min = 1\nrange_max = 5\nazimuth_aperture = 400\nelevation_aperture = 10",
+            "azimuth_aperture = 400",
+        ),
+        (
+            "range_min = 1\nrange_max = 5\nazimuth_aperture = 30\nelevation_aperture = 0",
+            "elevation_aperture = 0",
+        ),
+        (
+            "range_min = 1\nrange_max = 5\nazimuth_aperture = 30\nelevation_aperture = 190",
+            "elevation_aperture = 190",
+        ),
+        (
+            "range_min = 1\nrange_max = 5\nazimuth_aperture = 30\nelevation_aperture = 10\ncolour = 'red'",
+            "colour",
+        ),
+        (
+            "range_min = 1\nrange_max = 5\nazimuth_aperture = 30",
+            "elevation_aperture",
+        ),
+    ];
+    for (k, (body, needle)) in cases.iter().enumerate() {
+        let path = dir.path().join(format!("s{k}.toml"));
+        std::fs::write(
+            &path,
+            format!("kind = 'fls'\nrange_bins = 10\nbeams = 16\n{body}\n"),
+        )
+        .unwrap();
+        let path = path.to_str().unwrap();
+        rejects(
+            &[
+                "project",
+                "--from",
+                path,
+                "--to",
+                "paper-sss",
+                "--range",
+                "2",
+                "--place-range",
+                "5",
+            ],
+            None,
+            &[needle, path],
+        );
+    }
+}
+
+#[test]
+fn bad_batch_input_exits_2_naming_the_row_and_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("out.csv");
+    let out = output.to_str().unwrap();
+    let args = [
+        "batch",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--step",
+        "0.5",
+        "--output",
+        out,
+        "--backend",
+        "cpu",
+    ];
+    let header = "range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz\n";
+    let good = "5,0,0,0,0,0,1,0,0\n";
+    let cases: [(String, &[&str]); 10] = [
+        (String::new(), &["empty input"]),
+        (header.to_string(), &["no rows"]),
+        (
+            format!("{header}{good}{good}5,0,0,0,0,0,1,0,abc\n"),
+            &["row 3", "line 4", "column tz", "\"abc\""],
+        ),
+        (
+            format!("{header}{good}50,0,0,0,0,0,1,0,0\n"),
+            &["row 2", "feature range = 50"],
+        ),
+        (
+            format!("{header}{good}5,40,0,0,0,0,1,0,0\n"),
+            &["row 2", "feature azimuth = 40"],
+        ),
+        (
+            format!("{header}5,0,0,nan,0,0,1,0,0\n"),
+            &["row 1", "roll = NaN"],
+        ),
+        (format!("{header}5,0,0,0,0\n"), &["row 1"]),
+        (
+            "range,azimuth,elevation,roll,pitch,yaw\n5,0,0,0,0,0\n".to_string(),
+            &["missing translation"],
+        ),
+        (
+            "range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz,bogus\n".to_string(),
+            &["unknown column \"bogus\""],
+        ),
+        (
+            "range,azimuth,roll,pitch,yaw,tx,ty,tz\n".to_string(),
+            &["missing column \"elevation\""],
+        ),
+    ];
+    for (input, needles) in cases {
+        rejects(&args, Some(&input), needles);
+        assert!(!output.exists(), "a failed batch left {out} behind");
+    }
+    let both = "range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz,place_range,place_azimuth,place_elevation\n";
+    rejects(&args, Some(both), &["not both"]);
+    // Nothing half-written either: no temporary files remain in the directory.
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn gpu_backend_without_adapter_is_a_failure_not_bad_input() {
+    // An empty backend list leaves wgpu with no adapter: --backend gpu exits 1, auto falls back.
+    let args = [
+        "project",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--range",
+        "5",
+        "--place-range",
+        "15",
+        "--step",
+        "1",
+    ];
+    let out = sonarproj()
+        .env("WGPU_BACKEND", "none")
+        .args(args)
+        .args(["--backend", "gpu"])
+        .assert()
+        .code(1)
+        .get_output()
+        .clone();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no GPU adapter"));
+    let out = sonarproj()
+        .env("WGPU_BACKEND", "none")
+        .args(args)
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "one-line notice: {err}");
+    assert!(err.contains("CPU"), "{err}");
+    assert_eq!(json(&out.stdout)["backend"], "cpu");
+}

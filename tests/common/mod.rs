@@ -1,0 +1,103 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code, reason = "each test binary uses a different subset")]
+
+use sonarproj::gpu::{GpuBackend, GpuContext};
+
+/// Returns a GPU backend on the adapter `auto` would use. Without an adapter it panics when
+/// `CI=true` (GPU tests must run in CI, on lavapipe) and otherwise returns `None` after saying
+/// that the test is skipped.
+pub fn gpu() -> Option<GpuBackend> {
+    match GpuContext::new() {
+        Ok(ctx) => Some(GpuBackend::new(ctx)),
+        Err(e) => {
+            if std::env::var("CI").is_ok_and(|v| v == "true" || v == "1") {
+                panic!("CI=true but no GPU adapter: {e}. Install lavapipe (mesa-vulkan-drivers).");
+            }
+            eprintln!("SKIPPED (no GPU adapter outside CI): {e}");
+            None
+        }
+    }
+}
+
+use sonarproj::Projection;
+use sonarproj::cpu::bounds::Bounds;
+use sonarproj::occupancy::Layout;
+use sonarproj::sonar::SonarKind;
+
+/// Relative error allowed on the GPU's FLS occupied measure: it sums pixel areas in f32, at most
+/// about (rows per thread + log2 256) roundings of 2^-24 each, well under 1e-5 for every layout
+/// here. The SSS measure is computed in f64 from the exact count and gets no allowance.
+pub const F32_AREA_SUM_RELATIVE: f64 = 1e-5;
+
+/// Returns `Ok` when `p` (a GPU result with its occupancy) lies inside the envelope `b` computed
+/// by the CPU reference for the same pose, else a message saying which check failed.
+pub fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Result<(), String> {
+    let m = &p.metrics;
+    let occ = p.occupancy.as_ref().ok_or("no occupancy read back")?;
+    if !(b.visible_min..=b.visible_max).contains(&m.visible) {
+        return Err(format!(
+            "visible {} outside [{}, {}]",
+            m.visible, b.visible_min, b.visible_max
+        ));
+    }
+    if !b.certain.is_subset_of(occ) {
+        let missing: Vec<_> = b
+            .certain
+            .pixels()
+            .filter(|&(i, j)| !occ.get(i, j))
+            .take(5)
+            .collect();
+        return Err(format!("certain pixels not set: {missing:?}"));
+    }
+    if !occ.is_subset_of(&b.possible) {
+        let extra: Vec<_> = occ
+            .pixels()
+            .filter(|&(i, j)| !b.possible.get(i, j))
+            .take(5)
+            .collect();
+        return Err(format!("pixels set that no sample can reach: {extra:?}"));
+    }
+    if m.occupied != occ.count() {
+        return Err(format!(
+            "occupied {} but {} bits set",
+            m.occupied,
+            occ.count()
+        ));
+    }
+    let (lo, hi) = b.measure(layout);
+    let slack = match layout.kind {
+        SonarKind::Fls => F32_AREA_SUM_RELATIVE,
+        SonarKind::Sss => 1e-12,
+    };
+    if m.occupied_measure < lo * (1.0 - slack) || m.occupied_measure > hi * (1.0 + slack) {
+        return Err(format!(
+            "measure {} outside [{lo}, {hi}]",
+            m.occupied_measure
+        ));
+    }
+    if m.visible > 0 {
+        let inside = |name: &str, v: Option<f64>, (lo, hi): (f64, f64)| -> Result<(), String> {
+            let v = v.ok_or(format!("{name} missing"))?;
+            if v < lo || v > hi {
+                return Err(format!("{name} {v} outside [{lo}, {hi}]"));
+            }
+            Ok(())
+        };
+        inside("range_min", m.range_min, b.range_min)?;
+        inside("range_max", m.range_max, b.range_max)?;
+        inside("azimuth_min", m.azimuth_min, b.azimuth_min)?;
+        inside("azimuth_max", m.azimuth_max, b.azimuth_max)?;
+    } else if m.range_min.is_some() || m.span != 0.0 {
+        return Err("nothing visible but extremes or span reported".into());
+    }
+    Ok(())
+}
+
+/// Returns the number of pixels set in exactly one of `a` and `b`.
+pub fn differing_pixels(a: &sonarproj::Occupancy, b: &sonarproj::Occupancy) -> u64 {
+    a.words
+        .iter()
+        .zip(&b.words)
+        .map(|(x, y)| u64::from((x ^ y).count_ones()))
+        .sum()
+}
