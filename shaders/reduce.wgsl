@@ -1,56 +1,68 @@
 // Stage 2: one pose's bitset becomes its occupied count and occupied measure.
 // CPU mirror: src/cpu/reduce.rs. Dispatch (poses, 1, 1): workgroup x reduces pose x; each thread
-// takes rows l, l + 256, ... and the workgroup sums the threads' results.
+// takes words (SSS) or range rows (FLS) l, l + 64, ... and the workgroup sums their results.
 
 @group(0) @binding(0) var<uniform> params: TargetParams;
 @group(0) @binding(1) var<storage, read> beam_edges: array<BeamEdge>;
-// (r_{i+1}^2 - r_i^2) / 2 per range bin for an FLS (0 for an SSS, whose measure the CPU derives
-// exactly from the count)
+// (r_{i+1}^2 - r_i^2) / 2 per range bin (read only when params.measure_area is 1)
 @group(0) @binding(2) var<storage, read> row_weights: array<f32>;
 @group(0) @binding(3) var<storage, read> bits: array<u32>;
 @group(0) @binding(4) var<storage, read_write> metrics: array<u32>;
 
-const WORKGROUP: u32 = 256u;
+const WORKGROUP: u32 = 64u;
 
-var<workgroup> partial_count: array<u32, 256>;
-var<workgroup> partial_measure: array<f32, 256>;
+var<workgroup> partial_count: array<u32, 64>;
+var<workgroup> partial_measure: array<f32, 64>;
 
-@compute @workgroup_size(256)
+@compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let pose_index = wid.x;
     let base_word = pose_index * params.words_per_pose;
     let beams = params.beams;
     var count = 0u;
     var measure = 0.0;
-    for (var i = lid; i < params.range_bins; i += WORKGROUP) {
-        // pixels [first, last) of row i
-        let first = i * beams;
-        let last = first + beams;
-        var row_count = 0u;
-        var row_width = 0.0;
-        for (var w = first >> 5u; w <= (last - 1u) >> 5u; w++) {
-            var word = bits[base_word + w];
-            let lo = w << 5u;
-            if first > lo {
-                word &= ~0u << (first - lo);
-            }
-            if last < lo + 32u {
-                word &= (1u << (last - lo)) - 1u;
-            }
-            row_count += countOneBits(word);
-            if params.beams_uniform == 0u {
-                while word != 0u {
-                    let b = firstTrailingBit(word);
-                    row_width += beam_edges[lo + b - first].width;
-                    word &= word - 1u;
+    // A workgroup past the chunk's poses reads and writes nothing.
+    let valid = pose_index < params.pose_count;
+    if params.measure_area == 0u {
+        // SSS: the count is all; the CPU derives the measure from it exactly.
+        let words = select(0u, params.words_per_pose, valid);
+        for (var w = lid; w < words; w += WORKGROUP) {
+            count += countOneBits(bits[base_word + w]);
+        }
+    } else {
+        // FLS: per range row, the occupied pixels' count (uniform beams) or summed beam widths,
+        // times the row's area weight.
+        let rows = select(0u, params.range_bins, valid);
+        for (var i = lid; i < rows; i += WORKGROUP) {
+            // pixels [first, last) of row i
+            let first = i * beams;
+            let last = first + beams;
+            var row_count = 0u;
+            var row_width = 0.0;
+            for (var w = first >> 5u; w <= (last - 1u) >> 5u; w++) {
+                var word = bits[base_word + w];
+                let lo = w << 5u;
+                if first > lo {
+                    word &= ~0u << (first - lo);
+                }
+                if last < lo + 32u {
+                    word &= (1u << (last - lo)) - 1u;
+                }
+                row_count += countOneBits(word);
+                if params.beams_uniform == 0u {
+                    while word != 0u {
+                        let b = firstTrailingBit(word);
+                        row_width += beam_edges[lo + b - first].width;
+                        word &= word - 1u;
+                    }
                 }
             }
+            if params.beams_uniform != 0u {
+                row_width = f32(row_count) * beam_edges[0].width;
+            }
+            count += row_count;
+            measure += row_width * row_weights[i];
         }
-        if params.beams_uniform != 0u {
-            row_width = f32(row_count) * beam_edges[0].width;
-        }
-        count += row_count;
-        measure += row_width * row_weights[i];
     }
     partial_count[lid] = count;
     partial_measure[lid] = measure;
@@ -62,7 +74,7 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
         }
         workgroupBarrier();
     }
-    if lid == 0u {
+    if lid == 0u && pose_index < params.pose_count {
         let m = pose_index * METRIC_STRIDE;
         metrics[m + METRIC_OCCUPIED] = partial_count[0];
         metrics[m + METRIC_MEASURE] = bitcast<u32>(partial_measure[0]);

@@ -1,5 +1,5 @@
 // Stage 1: transform, clip, bin, splat. CPU mirror: src/cpu/splat.rs.
-// Dispatch (tiles, poses, 1): workgroup (x, y) handles samples x*256 + l, stepping by tiles*256,
+// Dispatch (tiles, poses, 1): workgroup (x, y) handles samples x*64 + l, stepping by tiles*64,
 // of pose y. Each visible sample sets its pixel's bit with atomicOr; the workgroup then folds its
 // visible count and range/azimuth extremes into the pose's metric slots.
 
@@ -11,7 +11,7 @@
 @group(0) @binding(4) var<storage, read_write> bits: array<atomic<u32>>;
 @group(0) @binding(5) var<storage, read_write> metrics: array<atomic<u32>>;
 
-const WORKGROUP: u32 = 256u;
+const WORKGROUP: u32 = 64u;
 
 var<workgroup> wg_visible: atomic<u32>;
 var<workgroup> wg_range_min_not: atomic<u32>;
@@ -63,7 +63,7 @@ fn beam_of(p: vec3<f32>, az: f32) -> u32 {
     return u32(j);
 }
 
-@compute @workgroup_size(256)
+@compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
@@ -79,9 +79,10 @@ fn main(
     workgroupBarrier();
 
     let pose_index = wid.y;
-    let pose = poses[pose_index];
+    let pose = poses[min(pose_index, params.pose_count - 1u)];
     let n_az = pose.plan.y;
-    let n = n_az * pose.plan.w;
+    // A workgroup past the chunk's poses draws nothing.
+    let n = select(0u, n_az * pose.plan.w, pose_index < params.pose_count);
     let base_word = pose_index * params.words_per_pose;
 
     var visible = 0u;
@@ -131,7 +132,7 @@ fn main(
         atomicMax(&wg_azimuth_max, order_key(az_max));
     }
     workgroupBarrier();
-    if lid == 0u {
+    if lid == 0u && pose_index < params.pose_count {
         let seen = atomicLoad(&wg_visible);
         if seen > 0u {
             let m = pose_index * METRIC_STRIDE;

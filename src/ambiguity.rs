@@ -133,9 +133,7 @@ pub fn base_azimuth(source: &Sonar, m: &Measurement) -> f64 {
 /// Returns the step-mode sample count for aperture `a` and step `s` (deg): `round(a/s)` with ties
 /// to even (as Python's `round`), plus one if even.
 pub fn step_count(a: f64, s: f64) -> usize {
-    let n = (a / s)
-        .round_ties_even()
-        .min(MAX_SAMPLES_PER_POSE as f64 * 2.0) as usize;
+    let n = (a / s).round_ties_even().min(MAX_SAMPLES_PER_POSE as f64 * 2.0) as usize;
     if n.is_multiple_of(2) { n + 1 } else { n }
 }
 
@@ -202,10 +200,7 @@ mod tests {
         let arc = SamplingPlan::new(&fls, &sss, &m, Sampling::Step(0.1)).unwrap();
         assert_eq!((arc.azimuths.len(), arc.elevations.len()), (1, 121));
         let surface = SamplingPlan::new(&sss, &fls, &m, Sampling::Step(0.1)).unwrap();
-        assert_eq!(
-            (surface.azimuths.len(), surface.elevations.len()),
-            (1301, 3)
-        );
+        assert_eq!((surface.azimuths.len(), surface.elevations.len()), (1301, 3));
         assert_eq!(surface.total(), 3903);
         assert_eq!(arc.elevations[0], (-6f64).to_radians());
         assert_eq!(arc.elevations[120], (6f64).to_radians());
@@ -219,13 +214,7 @@ mod tests {
         // paper-fls target: 1 cm bins; beam arc at 0.1 m is 0.2 mm, floored to 1 cm.
         assert!((auto_spacing(&fls) - 0.005).abs() < 1e-12);
         assert!((auto_spacing(&sss) - 0.005).abs() < 1e-12);
-        for &(a, r) in &[
-            (12.0, 0.1),
-            (12.0, 9.9),
-            (130.0, 29.0),
-            (0.3, 15.0),
-            (0.3, 0.2),
-        ] {
+        for &(a, r) in &[(12.0, 0.1), (12.0, 9.9), (130.0, 29.0), (0.3, 15.0), (0.3, 0.2)] {
             let n = auto_count(a, r, 0.005);
             assert!(n % 2 == 1, "odd count for the centre sample");
             let spacing = a.to_radians() * r / (n - 1) as f64;

@@ -39,9 +39,7 @@ impl Backend {
                 Ok(b) => Ok((b, None)),
                 Err(e) => Ok((
                     Backend::Cpu,
-                    Some(format!(
-                        "note: no usable GPU ({e}); running on the CPU reference"
-                    )),
+                    Some(format!("note: no usable GPU ({e}); running on the CPU reference")),
                 )),
             },
         }

@@ -138,10 +138,7 @@ pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
                 message: e.to_string(),
             }
         })?;
-        let line = record
-            .position()
-            .map(|p| p.line())
-            .unwrap_or(row_no as u64 + 1);
+        let line = record.position().map(|p| p.line()).unwrap_or(row_no as u64 + 1);
         let context = format!("input row {row_no} (line {line})");
         let row_err = |e: Error| Error::Csv {
             context: context.clone(),
@@ -149,9 +146,8 @@ pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
         };
         let get = |c: &str| -> Result<f64> {
             let s = &record[index[c]];
-            s.parse::<f64>().map_err(|_| {
-                Error::invalid(format!("column {c}"), format!("{s:?}"), "must be a number")
-            })
+            s.parse::<f64>()
+                .map_err(|_| Error::invalid(format!("column {c}"), format!("{s:?}"), "must be a number"))
         };
         let item = (|| -> Result<BatchItem> {
             let (range, azimuth, elevation) = (get("range")?, get("azimuth")?, get("elevation")?);
@@ -189,11 +185,7 @@ pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
             message: "no rows after the header: nothing to compute".into(),
         });
     }
-    Ok(BatchInput {
-        headers,
-        rows,
-        items,
-    })
+    Ok(BatchInput { headers, rows, items })
 }
 
 /// Returns the metric fields of one projection, in [`METRIC_COLUMNS`] order: numbers in their

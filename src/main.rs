@@ -23,9 +23,7 @@ fn main() -> ExitCode {
 /// a Wayland display and prints an error line for every instance; it only reorders adapters, so
 /// it is switched off there (`NODEVICE_SELECT=1`) unless the user set that variable.
 fn quiet_headless_vulkan() {
-    if std::env::var_os("XDG_RUNTIME_DIR").is_none()
-        && std::env::var_os("NODEVICE_SELECT").is_none()
-    {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() && std::env::var_os("NODEVICE_SELECT").is_none() {
         // SAFETY: called first thing in main, before any other thread exists.
         unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
     }

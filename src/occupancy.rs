@@ -155,10 +155,7 @@ impl Occupancy {
 
     /// Returns true when every pixel set here is also set in `other`.
     pub fn is_subset_of(&self, other: &Occupancy) -> bool {
-        self.words
-            .iter()
-            .zip(&other.words)
-            .all(|(a, b)| a & !b == 0)
+        self.words.iter().zip(&other.words).all(|(a, b)| a & !b == 0)
     }
 
     /// Returns the occupancy as bytes, 0 or 1, row-major, optionally flipped along each axis.
@@ -171,11 +168,7 @@ impl Occupancy {
                 row
             };
             for col in 0..self.beams {
-                let j = if flip_beams {
-                    self.beams - 1 - col
-                } else {
-                    col
-                };
+                let j = if flip_beams { self.beams - 1 - col } else { col };
                 out.push(u8::from(self.get(i, j)));
             }
         }
@@ -251,11 +244,7 @@ impl Metrics {
             total,
             range_min: some(ex.range_min),
             range_max: some(ex.range_max),
-            span: if seen {
-                ex.range_max - ex.range_min
-            } else {
-                0.0
-            },
+            span: if seen { ex.range_max - ex.range_min } else { 0.0 },
             azimuth_min: some(ex.azimuth_min.to_degrees()),
             azimuth_max: some(ex.azimuth_max.to_degrees()),
             occupied,
@@ -277,11 +266,7 @@ mod tests {
         let f = Layout::of(&Sonar::preset("paper-fls").unwrap());
         assert_eq!(f.beam(-(30f64).to_radians()), 0);
         assert_eq!(f.beam(0.0), 256, "0 is the lower edge of beam 256");
-        assert_eq!(
-            f.beam((30f64).to_radians()),
-            511,
-            "+A/2 goes to the last beam"
-        );
+        assert_eq!(f.beam((30f64).to_radians()), 511, "+A/2 goes to the last beam");
     }
 
     #[test]

@@ -38,11 +38,7 @@ pub enum Rotation {
 
 /// Returns the Cartesian point of spherical `(r, az, el)` (radians): SPEC §2.
 pub fn sph_to_cart(r: f64, az: f64, el: f64) -> DVec3 {
-    DVec3::new(
-        r * el.cos() * az.cos(),
-        r * el.cos() * az.sin(),
-        r * el.sin(),
-    )
+    DVec3::new(r * el.cos() * az.cos(), r * el.cos() * az.sin(), r * el.sin())
 }
 
 /// Returns `(r, az, el)` (radians) of a Cartesian point: `r = |p|`, `az = atan2(y, x)`,
@@ -86,14 +82,9 @@ impl Rotation {
                 Ok((rz * ry * rx).transpose())
             }
             Rotation::Quaternion(q) => {
-                for (i, name) in [
-                    "quaternion w",
-                    "quaternion x",
-                    "quaternion y",
-                    "quaternion z",
-                ]
-                .iter()
-                .enumerate()
+                for (i, name) in ["quaternion w", "quaternion x", "quaternion y", "quaternion z"]
+                    .iter()
+                    .enumerate()
                 {
                     finite(name, q[i])?;
                 }
@@ -151,9 +142,7 @@ impl Rotation {
                     return Err(Error::invalid(
                         "matrix",
                         format!("{rows:?}"),
-                        format!(
-                            "must be a rotation with determinant +1 (it is {det:.6}: a reflection)"
-                        ),
+                        format!("must be a rotation with determinant +1 (it is {det:.6}: a reflection)"),
                     ));
                 }
                 Ok(m)

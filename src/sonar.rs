@@ -322,11 +322,7 @@ impl Sonar {
         finite(&f("azimuth_aperture"), self.azimuth_aperture)?;
         finite(&f("elevation_aperture"), self.elevation_aperture)?;
         if self.range_min < 0.0 {
-            return Err(Error::invalid(
-                f("range_min"),
-                self.range_min,
-                "must be >= 0 m",
-            ));
+            return Err(Error::invalid(f("range_min"), self.range_min, "must be >= 0 m"));
         }
         if self.range_max <= self.range_min {
             return Err(Error::invalid(
@@ -359,11 +355,7 @@ impl Sonar {
         match &self.beams {
             BeamLayout::Uniform { count } => {
                 if self.kind == SonarKind::Sss && *count != 1 {
-                    return Err(Error::invalid(
-                        f("beams"),
-                        count,
-                        "an SSS has exactly 1 beam",
-                    ));
+                    return Err(Error::invalid(f("beams"), count, "an SSS has exactly 1 beam"));
                 }
                 if *count == 0 || *count > MAX_BEAMS {
                     return Err(Error::invalid(
@@ -375,11 +367,7 @@ impl Sonar {
             }
             BeamLayout::Edges(edges) => {
                 if self.kind == SonarKind::Sss {
-                    return Err(Error::invalid(
-                        f("beam_edges"),
-                        "given",
-                        "an SSS has no beams",
-                    ));
+                    return Err(Error::invalid(f("beam_edges"), "given", "an SSS has no beams"));
                 }
                 check_edges(&ctx, self.azimuth_aperture, edges)?;
             }
@@ -533,10 +521,7 @@ fn edges_from_centres(ctx: &str, aperture: f64, centres: &[f64]) -> Result<Vec<f
             return Err(Error::invalid(
                 format!("{field}[{i}]"),
                 c,
-                format!(
-                    "centres must increase strictly (previous is {})",
-                    centres[i - 1]
-                ),
+                format!("centres must increase strictly (previous is {})", centres[i - 1]),
             ));
         }
     }

@@ -123,8 +123,7 @@ fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usi
             panic!("pose {k} ({item:?}): GPU outside the envelope: {e}\ncpu {c:?}\ngpu {g:?}")
         });
         assert_eq!(c.metrics.total, g.metrics.total);
-        let diff =
-            common::differing_pixels(c.occupancy.as_ref().unwrap(), g.occupancy.as_ref().unwrap());
+        let diff = common::differing_pixels(c.occupancy.as_ref().unwrap(), g.occupancy.as_ref().unwrap());
         assert!(
             diff <= b.near_edge,
             "pose {k}: {diff} pixels differ, {} samples near an edge",
@@ -138,21 +137,12 @@ fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usi
         "{} -> {}: {poses} poses, {visible} visible samples, {near} near an edge, {differing} pixels differ",
         batch.source.name, batch.target.name
     );
-    assert!(
-        visible > poses as u64,
-        "the random poses must see something"
-    );
+    assert!(visible > poses as u64, "the random poses must see something");
 }
 
 #[test]
 fn fls_to_sss() {
-    agree(
-        1,
-        preset("paper-fls"),
-        preset("paper-sss"),
-        Sampling::Auto,
-        POSES,
-    );
+    agree(1, preset("paper-fls"), preset("paper-sss"), Sampling::Auto, POSES);
     agree(
         2,
         preset("oculus-m1200d-hf"),
@@ -196,13 +186,7 @@ fn fls_to_fls() {
         Sampling::Auto,
         POSES,
     );
-    agree(
-        7,
-        preset("oculus-m750d"),
-        omni_fls(),
-        Sampling::Step(0.1),
-        POSES,
-    );
+    agree(7, preset("oculus-m750d"), omni_fls(), Sampling::Step(0.1), POSES);
     agree(
         8,
         preset("holoocean-imaging"),
@@ -233,13 +217,7 @@ fn sss_to_sss() {
 #[test]
 fn auto_sampling_of_surfaces() {
     // Auto sampling draws far more samples from a surface; fewer poses keep the CPU side quick.
-    agree(
-        11,
-        preset("paper-sss"),
-        preset("paper-fls"),
-        Sampling::Auto,
-        30,
-    );
+    agree(11, preset("paper-sss"), preset("paper-fls"), Sampling::Auto, 30);
     agree(
         12,
         preset("holoocean-sidescan"),

@@ -5,8 +5,7 @@
 mod common;
 
 use sonarproj::{
-    Backend, Batch, BatchItem, BeamLayout, Measurement, Metrics, RelativePose, Rotation, Sampling,
-    Sonar,
+    Backend, Batch, BatchItem, BeamLayout, Measurement, Metrics, RelativePose, Rotation, Sampling, Sonar,
 };
 
 /// Returns the metrics from every backend available: the CPU, and the GPU when there is one.
@@ -26,10 +25,7 @@ fn run_all(
             pose,
         }],
     };
-    let mut out = vec![(
-        "cpu",
-        Backend::Cpu.project(&batch, false).unwrap()[0].metrics,
-    )];
+    let mut out = vec![("cpu", Backend::Cpu.project(&batch, false).unwrap()[0].metrics)];
     if let Some(gpu) = common::gpu() {
         let prepared = batch.prepare().unwrap();
         out.push(("gpu", gpu.project(&prepared, false).unwrap()[0].metrics));

@@ -22,8 +22,7 @@ fn backends() -> Vec<&'static str> {
 }
 
 fn json(out: &[u8]) -> Value {
-    serde_json::from_slice(out)
-        .unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(out)))
+    serde_json::from_slice(out).unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(out)))
 }
 
 #[test]
@@ -153,10 +152,7 @@ fn project_writes_occupancy_as_npy_and_png() {
     let bytes = std::fs::read(&npy).unwrap();
     assert_eq!(&bytes[..6], b"\x93NUMPY");
     let header = String::from_utf8_lossy(&bytes[..128]);
-    assert!(
-        header.replace(' ', "").contains("'shape':(990,512,)"),
-        "{header}"
-    );
+    assert!(header.replace(' ', "").contains("'shape':(990,512,)"), "{header}");
     assert!(header.contains("|u1"), "{header}");
     let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
     let reader = decoder.read_info().unwrap();
@@ -198,10 +194,7 @@ fn batch_reads_poses_and_writes_metrics() {
         );
         let rows: Vec<csv::StringRecord> = rdr.records().map(Result::unwrap).collect();
         assert_eq!(rows.len(), 3);
-        assert_eq!(
-            &rows[0][9], "121",
-            "{backend}: pitch 90 keeps the whole arc"
-        );
+        assert_eq!(&rows[0][9], "121", "{backend}: pitch 90 keeps the whole arc");
         assert_eq!(&rows[1][1], "10", "input columns echoed as given");
         for row in &rows {
             assert_eq!(&row[10], "121");
@@ -286,130 +279,97 @@ fn p<'a>(extra: &[&'a str]) -> Vec<&'a str> {
 
 #[test]
 fn bad_project_input_exits_2_naming_field_and_value() {
-    rejects(
-        &p(&["--range", "11", "--place-range", "5"]),
-        None,
-        &["feature range = 11", "[0.1, 10]"],
-    );
-    rejects(
-        &p(&["--range", "-1", "--place-range", "5"]),
-        None,
-        &["feature range = -1"],
-    );
-    rejects(
-        &p(&["--range", "5", "--azimuth", "31", "--place-range", "5"]),
-        None,
-        &["feature azimuth = 31", "[-30, 30]"],
-    );
-    rejects(
-        &p(&["--range", "5", "--elevation", "7", "--place-range", "5"]),
-        None,
-        &["feature elevation = 7"],
-    );
-    rejects(
-        &p(&["--range", "NaN", "--place-range", "5"]),
-        None,
-        &["feature range = NaN", "finite"],
-    );
-    rejects(
-        &p(&["--range", "5", "--place-range", "5", "--step", "0"]),
-        None,
-        &["step = 0"],
-    );
-    rejects(
-        &p(&["--range", "5", "--place-range", "5", "--step", "-1"]),
-        None,
-        &["step = -1"],
-    );
-    rejects(
-        &p(&["--range", "5", "--place-range", "-2"]),
-        None,
-        &["place range = -2"],
-    );
-    rejects(
-        &p(&["--range", "5", "--place-range", "5", "--roll", "inf"]),
-        None,
-        &["roll = inf"],
-    );
-    rejects(
-        &p(&[
-            "--range",
-            "5",
-            "--place-range",
-            "5",
-            "--matrix",
-            "1,0,0,0,1,0,0,0.5,1",
-        ]),
-        None,
-        &["orthonormal"],
-    );
-    rejects(
-        &p(&[
-            "--range",
-            "5",
-            "--place-range",
-            "5",
-            "--matrix",
-            "1,0,0,0,1,0,0,0,-1",
-        ]),
-        None,
-        &["determinant"],
-    );
-    rejects(
-        &p(&["--range", "5", "--place-range", "5", "--matrix", "1,0,0"]),
-        None,
-        &["--matrix", "9 comma-separated"],
-    );
-    rejects(
-        &p(&[
-            "--range",
-            "5",
-            "--place-range",
-            "5",
-            "--quaternion",
-            "1,1,0,0",
-        ]),
-        None,
-        &["unit quaternion"],
-    );
-    rejects(
-        &p(&["--range", "5", "--translation", "1,x,3"]),
-        None,
-        &["--translation", "\"x\""],
-    );
-    rejects(&p(&["--range", "5"]), None, &["--place-range"]);
-    rejects(
-        &p(&[
-            "--range",
-            "5",
-            "--place-range",
-            "5",
-            "--translation",
-            "1,2,3",
-        ]),
-        None,
-        &["cannot be used with"],
-    );
-    rejects(
-        &p(&["--range", "5", "--place-range", "5", "--occupancy", "x.bmp"]),
-        None,
-        &["--occupancy", ".png or .npy"],
-    );
-    rejects(
-        &[
-            "project",
-            "--from",
-            "paper-fls",
-            "--to",
-            "sonar-x",
-            "--range",
-            "5",
-            "--place-range",
-            "5",
-        ],
-        None,
-        &["unknown sonar \"sonar-x\"", "paper-sss"],
-    );
+    // (arguments after `project --from paper-fls --to paper-sss`, what stderr must say)
+    let cases: &[(&[&str], &[&str])] = &[
+        (
+            &["--range", "11", "--place-range", "5"],
+            &["feature range = 11", "[0.1, 10]"],
+        ),
+        (&["--range", "-1", "--place-range", "5"], &["feature range = -1"]),
+        (
+            &["--range", "5", "--azimuth", "31", "--place-range", "5"],
+            &["feature azimuth = 31", "[-30, 30]"],
+        ),
+        (
+            &["--range", "5", "--elevation", "7", "--place-range", "5"],
+            &["feature elevation = 7"],
+        ),
+        (
+            &["--range", "NaN", "--place-range", "5"],
+            &["feature range = NaN", "finite"],
+        ),
+        (
+            &["--range", "5", "--place-range", "5", "--step", "0"],
+            &["step = 0"],
+        ),
+        (
+            &["--range", "5", "--place-range", "5", "--step", "-1"],
+            &["step = -1"],
+        ),
+        (&["--range", "5", "--place-range", "-2"], &["place range = -2"]),
+        (
+            &["--range", "5", "--place-range", "5", "--roll", "inf"],
+            &["roll = inf"],
+        ),
+        (
+            &[
+                "--range",
+                "5",
+                "--place-range",
+                "5",
+                "--matrix",
+                "1,0,0,0,1,0,0,0.5,1",
+            ],
+            &["orthonormal"],
+        ),
+        (
+            &[
+                "--range",
+                "5",
+                "--place-range",
+                "5",
+                "--matrix",
+                "1,0,0,0,1,0,0,0,-1",
+            ],
+            &["determinant"],
+        ),
+        (
+            &["--range", "5", "--place-range", "5", "--matrix", "1,0,0"],
+            &["--matrix", "9 comma-separated"],
+        ),
+        (
+            &["--range", "5", "--place-range", "5", "--quaternion", "1,1,0,0"],
+            &["unit quaternion"],
+        ),
+        (
+            &["--range", "5", "--translation", "1,x,3"],
+            &["--translation", "\"x\""],
+        ),
+        (&["--range", "5"], &["--place-range"]),
+        (
+            &["--range", "5", "--place-range", "5", "--translation", "1,2,3"],
+            &["cannot be used with"],
+        ),
+        (
+            &["--range", "5", "--place-range", "5", "--occupancy", "x.bmp"],
+            &["--occupancy", ".png or .npy"],
+        ),
+    ];
+    for (args, needles) in cases {
+        rejects(&p(args), None, needles);
+    }
+    let unknown = [
+        "project",
+        "--from",
+        "paper-fls",
+        "--to",
+        "sonar-x",
+        "--range",
+        "5",
+        "--place-range",
+        "5",
+    ];
+    rejects(&unknown, None, &["unknown sonar \"sonar-x\"", "paper-sss"]);
 }
 
 #[test]
@@ -506,10 +466,7 @@ fn bad_batch_input_exits_2_naming_the_row_and_leaves_no_file() {
             format!("{header}{good}5,40,0,0,0,0,1,0,0\n"),
             &["row 2", "feature azimuth = 40"],
         ),
-        (
-            format!("{header}5,0,0,nan,0,0,1,0,0\n"),
-            &["row 1", "roll = NaN"],
-        ),
+        (format!("{header}5,0,0,nan,0,0,1,0,0\n"), &["row 1", "roll = NaN"]),
         (format!("{header}5,0,0,0,0\n"), &["row 1"]),
         (
             "range,azimuth,elevation,roll,pitch,yaw\n5,0,0,0,0,0\n".to_string(),

@@ -38,10 +38,7 @@ fn shared_structs_have_the_rust_sizes() {
         std::mem::size_of::<types::TargetParams>()
     );
     assert_eq!(size_of("Pose"), std::mem::size_of::<types::PoseGpu>());
-    assert_eq!(
-        size_of("BeamEdge"),
-        std::mem::size_of::<types::BeamEdgeGpu>()
-    );
+    assert_eq!(size_of("BeamEdge"), std::mem::size_of::<types::BeamEdgeGpu>());
 }
 
 #[test]
@@ -64,10 +61,7 @@ fn metric_slots_match() {
     assert_eq!(value("METRIC_OCCUPIED"), types::METRIC_OCCUPIED);
     assert_eq!(value("METRIC_RANGE_MIN_NOT"), types::METRIC_RANGE_MIN_NOT);
     assert_eq!(value("METRIC_RANGE_MAX"), types::METRIC_RANGE_MAX);
-    assert_eq!(
-        value("METRIC_AZIMUTH_MIN_NOT"),
-        types::METRIC_AZIMUTH_MIN_NOT
-    );
+    assert_eq!(value("METRIC_AZIMUTH_MIN_NOT"), types::METRIC_AZIMUTH_MIN_NOT);
     assert_eq!(value("METRIC_AZIMUTH_MAX"), types::METRIC_AZIMUTH_MAX);
     assert_eq!(value("METRIC_MEASURE"), types::METRIC_MEASURE);
 }

@@ -23,7 +23,9 @@ struct TargetParams {
     inv_beam_width: f32,
     words_per_pose: u32,
     pose_count: u32,
-    _pad: u32,
+    // 1 when the occupied measure is an area summed on the GPU (FLS); 0 for an SSS, whose
+    // measure the CPU derives exactly from the count
+    measure_area: u32,
 }
 
 // One pose of a chunk: rows of M = range * R * Rz(base azimuth), translation in .w, and the

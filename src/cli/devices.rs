@@ -6,8 +6,7 @@ use sonarproj::{Backend, BackendChoice, Result};
 /// Runs `sonarproj devices`.
 pub fn run() -> Result<()> {
     let adapters = list_adapters();
-    let backends =
-        std::env::var("WGPU_BACKEND").unwrap_or_else(|_| "vulkan,metal,dx12 (default)".into());
+    let backends = std::env::var("WGPU_BACKEND").unwrap_or_else(|_| "vulkan,metal,dx12 (default)".into());
     println!("backends: {backends}");
     if adapters.is_empty() {
         println!("adapters: none");

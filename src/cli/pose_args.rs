@@ -101,12 +101,10 @@ impl PoseArgs {
         let rotation = self.rotation()?;
         match (&self.translation, self.place_range) {
             (Some(t), _) => RelativePose::new(rotation, numbers::<3>("--translation", t)?),
-            (None, Some(r)) => RelativePose::placement(
-                rotation,
-                feature,
-                [r, self.place_azimuth, self.place_elevation],
-            )
-            .map_err(|e| e.in_context("--place")),
+            (None, Some(r)) => {
+                RelativePose::placement(rotation, feature, [r, self.place_azimuth, self.place_elevation])
+                    .map_err(|e| e.in_context("--place"))
+            }
             (None, None) => Err(Error::invalid(
                 "pose",
                 "no translation",

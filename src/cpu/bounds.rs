@@ -76,18 +76,14 @@ pub fn bounds(
             let az_ok_any = full_azimuth || az.abs() - d_az <= layout.half_azimuth;
             let el_ok_all = full_elevation || el2.abs() + d_el <= layout.half_elevation;
             let el_ok_any = full_elevation || el2.abs() - d_el <= layout.half_elevation;
-            let certainly_in = r_lo > 0.0
-                && r_lo >= layout.range_min
-                && r_hi <= layout.range_max
-                && az_ok_all
-                && el_ok_all;
-            let possibly_in =
-                r_hi >= layout.range_min && r_lo <= layout.range_max && az_ok_any && el_ok_any;
+            let certainly_in =
+                r_lo > 0.0 && r_lo >= layout.range_min && r_hi <= layout.range_max && az_ok_all && el_ok_all;
+            let possibly_in = r_hi >= layout.range_min && r_lo <= layout.range_max && az_ok_any && el_ok_any;
             if !possibly_in {
                 continue;
             }
-            let bins = layout.range_bin(r_lo.max(layout.range_min))
-                ..=layout.range_bin(r_hi.min(layout.range_max));
+            let bins =
+                layout.range_bin(r_lo.max(layout.range_min))..=layout.range_bin(r_hi.min(layout.range_max));
             let beams = candidate_beams(layout, az, d_az);
             if certainly_in {
                 b.visible_min += 1;

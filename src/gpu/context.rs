@@ -56,12 +56,10 @@ impl GpuContext {
     /// [`Error::NoAdapter`] when no adapter exists; [`Error::Gpu`] when the device cannot be made.
     pub fn new() -> Result<Self> {
         let inst = instance();
-        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(
-            &inst, None,
-        ))
-        .map_err(|e| Error::NoAdapter {
-            hint: format!(": {e}"),
-        })?;
+        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(&inst, None))
+            .map_err(|e| Error::NoAdapter {
+                hint: format!(": {e}"),
+            })?;
         Self::from_adapter(&adapter)
     }
 

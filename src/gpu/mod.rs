@@ -21,10 +21,10 @@ pub use context::GpuContext;
 use pipeline::{REDUCE_BINDINGS, SPLAT_BINDINGS, Stage};
 use types::*;
 
-/// Threads per workgroup in both stages (WGSL `WORKGROUP`).
-const WORKGROUP: u64 = 256;
+/// Threads per workgroup of the splat stage (WGSL `WORKGROUP` in splat.wgsl).
+const SPLAT_WORKGROUP: u64 = 64;
 /// Most workgroups one pose's samples are spread over in the splat stage.
-const MAX_TILES: u64 = 256;
+const MAX_TILES: u64 = 1024;
 /// Most bytes of bitsets one chunk may hold (also capped by the device's binding size).
 const MAX_CHUNK_BITS_BYTES: u64 = 256 << 20;
 
@@ -83,11 +83,7 @@ impl GpuBackend {
     ///
     /// # Errors
     /// [`Error::Gpu`] when the device fails or a bitset does not fit in one binding.
-    pub fn project(
-        &self,
-        prepared: &PreparedBatch<'_>,
-        keep_occupancy: bool,
-    ) -> Result<Vec<Projection>> {
+    pub fn project(&self, prepared: &PreparedBatch<'_>, keep_occupancy: bool) -> Result<Vec<Projection>> {
         let device = &self.ctx.device;
         let layout = &prepared.layout;
         let items = &prepared.batch.items;
@@ -115,16 +111,8 @@ impl GpuBackend {
             bytemuck::bytes_of(&TargetParams::new(layout, chunk as u32)),
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
-        let edges = make(
-            "beam_edges",
-            bytemuck::cast_slice(&beam_edges(layout)),
-            storage,
-        );
-        let weights = make(
-            "row_weights",
-            bytemuck::cast_slice(&row_weights(layout)),
-            storage,
-        );
+        let edges = make("beam_edges", bytemuck::cast_slice(&beam_edges(layout)), storage);
+        let weights = make("row_weights", bytemuck::cast_slice(&row_weights(layout)), storage);
         let empty = |label: &str, size: u64, usage| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -198,14 +186,13 @@ impl GpuBackend {
                 bytemuck::bytes_of(&TargetParams::new(layout, n as u32)),
             );
 
-            let splat_group = self.splat.bind(
-                device,
-                &[&params, &edges, &poses, dir_buffer, &bits, &metrics],
-            );
+            let splat_group = self
+                .splat
+                .bind(device, &[&params, &edges, &poses, dir_buffer, &bits, &metrics]);
             let reduce_group = self
                 .reduce
                 .bind(device, &[&params, &edges, &weights, &bits, &metrics]);
-            let tiles = max_samples.div_ceil(WORKGROUP).clamp(1, MAX_TILES) as u32;
+            let tiles = max_samples.div_ceil(SPLAT_WORKGROUP).clamp(1, MAX_TILES) as u32;
             let used_bits = n as u64 * bits_per_pose_bytes;
             let used_metrics = (n * METRIC_STRIDE * 4) as u64;
 
@@ -246,13 +233,7 @@ impl GpuBackend {
                     SonarKind::Sss => occupied as f64 * layout.range_bin_width,
                     SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_MEASURE])),
                 };
-                let metrics = Metrics::new(
-                    u64::from(m[METRIC_VISIBLE]),
-                    total,
-                    extremes,
-                    occupied,
-                    measure,
-                );
+                let metrics = Metrics::new(u64::from(m[METRIC_VISIBLE]), total, extremes, occupied, measure);
                 let occupancy = raw_bits.as_ref().map(|b| {
                     let words_of = &b[c * words..(c + 1) * words];
                     Occupancy::from_words(layout.range_bins, layout.beams(), words_of.to_vec())
@@ -310,17 +291,9 @@ fn direction_table(
     for &p in used {
         let plan = &prepared.plans[p];
         let az_off = table.len() as u32;
-        table.extend(
-            plan.azimuths
-                .iter()
-                .map(|a| [a.cos() as f32, a.sin() as f32]),
-        );
+        table.extend(plan.azimuths.iter().map(|a| [a.cos() as f32, a.sin() as f32]));
         let el_off = table.len() as u32;
-        table.extend(
-            plan.elevations
-                .iter()
-                .map(|e| [e.cos() as f32, e.sin() as f32]),
-        );
+        table.extend(plan.elevations.iter().map(|e| [e.cos() as f32, e.sin() as f32]));
         offsets.insert(p, [az_off, el_off]);
     }
     (table, offsets)

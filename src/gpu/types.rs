@@ -41,8 +41,8 @@ pub struct TargetParams {
     pub words_per_pose: u32,
     /// Poses in this chunk.
     pub pose_count: u32,
-    /// Padding to 16 bytes.
-    pub _pad: u32,
+    /// 1 when the GPU sums the occupied area (FLS); 0 for an SSS (measure = count × Δ on the CPU).
+    pub measure_area: u32,
 }
 const _: () = assert!(std::mem::size_of::<TargetParams>() == 64);
 
@@ -109,11 +109,7 @@ impl TargetParams {
     /// Returns the parameters of `layout` for a chunk of `pose_count` poses.
     pub fn new(layout: &Layout, pose_count: u32) -> Self {
         let h = layout.half_azimuth;
-        let (sin_half_az, cos_half_az) = if h >= PI {
-            (0.0, -1.0)
-        } else {
-            (h.sin(), h.cos())
-        };
+        let (sin_half_az, cos_half_az) = if h >= PI { (0.0, -1.0) } else { (h.sin(), h.cos()) };
         let sin_half_el = if layout.half_elevation >= FRAC_PI_2 {
             2.0
         } else {
@@ -141,7 +137,7 @@ impl TargetParams {
             inv_beam_width: (1.0 / uniform_width) as f32,
             words_per_pose: words_per_pose(layout) as u32,
             pose_count,
-            _pad: 0,
+            measure_area: u32::from(layout.kind == SonarKind::Fls),
         }
     }
 }
@@ -163,15 +159,13 @@ pub fn beam_edges(layout: &Layout) -> Vec<BeamEdgeGpu> {
         .collect()
 }
 
-/// Returns the per-row weights `(r_{i+1}² − r_i²)/2` of an FLS layout (zeros for an SSS).
+/// Returns the per-row weights `(r_{i+1}² − r_i²)/2` of a layout: a pixel's area is its beam
+/// width times its row's weight.
 pub fn row_weights(layout: &Layout) -> Vec<f32> {
     (0..layout.range_bins)
-        .map(|i| match layout.kind {
-            SonarKind::Sss => 0.0,
-            SonarKind::Fls => {
-                let (a, b) = (layout.range_edge(i), layout.range_edge(i + 1));
-                ((b * b - a * a) / 2.0) as f32
-            }
+        .map(|i| {
+            let (a, b) = (layout.range_edge(i), layout.range_edge(i + 1));
+            ((b * b - a * a) / 2.0) as f32
         })
         .collect()
 }
@@ -185,11 +179,7 @@ mod tests {
         let xs = [-3.5f32, -1e-30, -0.0, 0.0, 1e-30, 2.0, 7.25];
         let key = |x: f32| {
             let b = x.to_bits();
-            if b & 0x8000_0000 != 0 {
-                !b
-            } else {
-                b | 0x8000_0000
-            }
+            if b & 0x8000_0000 != 0 { !b } else { b | 0x8000_0000 }
         };
         for w in xs.windows(2) {
             assert!(key(w[0]) <= key(w[1]));

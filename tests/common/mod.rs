@@ -25,7 +25,7 @@ use sonarproj::occupancy::Layout;
 use sonarproj::sonar::SonarKind;
 
 /// Relative error allowed on the GPU's FLS occupied measure: it sums pixel areas in f32, at most
-/// about (rows per thread + log2 256) roundings of 2^-24 each, well under 1e-5 for every layout
+/// about (rows per thread + log2 64) roundings of 2^-24 each, well under 1e-5 for every layout
 /// here. The SSS measure is computed in f64 from the exact count and gets no allowance.
 pub const F32_AREA_SUM_RELATIVE: f64 = 1e-5;
 
@@ -58,11 +58,7 @@ pub fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Resul
         return Err(format!("pixels set that no sample can reach: {extra:?}"));
     }
     if m.occupied != occ.count() {
-        return Err(format!(
-            "occupied {} but {} bits set",
-            m.occupied,
-            occ.count()
-        ));
+        return Err(format!("occupied {} but {} bits set", m.occupied, occ.count()));
     }
     let (lo, hi) = b.measure(layout);
     let slack = match layout.kind {
@@ -70,10 +66,7 @@ pub fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Resul
         SonarKind::Sss => 1e-12,
     };
     if m.occupied_measure < lo * (1.0 - slack) || m.occupied_measure > hi * (1.0 + slack) {
-        return Err(format!(
-            "measure {} outside [{lo}, {hi}]",
-            m.occupied_measure
-        ));
+        return Err(format!("measure {} outside [{lo}, {hi}]", m.occupied_measure));
     }
     if m.visible > 0 {
         let inside = |name: &str, v: Option<f64>, (lo, hi): (f64, f64)| -> Result<(), String> {
