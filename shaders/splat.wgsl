@@ -1,15 +1,20 @@
 // Stage 1: transform, clip, bin, splat. CPU mirror: src/cpu/splat.rs.
+// The transform and every decision use Real (f64, or double-f32 where the adapter has no f64:
+// shared/real_*.wgsl), so a sample lands where the f64 reference puts it unless it lies within
+// about 1e-12 (relative) of a bound or edge.
 // Dispatch (tiles, poses, 1): workgroup (x, y) handles samples x*64 + l, stepping by tiles*64,
 // of pose y. Each visible sample sets its pixel's bit with atomicOr; the workgroup then folds its
 // visible count and range/azimuth extremes into the pose's metric slots.
 
 @group(0) @binding(0) var<uniform> params: TargetParams;
 @group(0) @binding(1) var<storage, read> beam_edges: array<BeamEdge>;
-@group(0) @binding(2) var<storage, read> poses: array<Pose>;
-// (cos, sin) of the plans' azimuth offsets and elevations
-@group(0) @binding(3) var<storage, read> directions: array<vec2<f32>>;
-@group(0) @binding(4) var<storage, read_write> bits: array<atomic<u32>>;
-@group(0) @binding(5) var<storage, read_write> metrics: array<atomic<u32>>;
+// squared range-bin edges (range_min + i * width)^2, i = 0..=range_bins, double-f32
+@group(0) @binding(2) var<storage, read> range_edges_sq: array<vec2<f32>>;
+@group(0) @binding(3) var<storage, read> poses: array<Pose>;
+// (cos hi, sin hi, cos lo, sin lo) of the plans' azimuth offsets and elevations
+@group(0) @binding(4) var<storage, read> directions: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> bits: array<atomic<u32>>;
+@group(0) @binding(6) var<storage, read_write> metrics: array<atomic<u32>>;
 
 const WORKGROUP: u32 = 64u;
 
@@ -19,21 +24,28 @@ var<workgroup> wg_range_max: atomic<u32>;
 var<workgroup> wg_azimuth_min_not: atomic<u32>;
 var<workgroup> wg_azimuth_max: atomic<u32>;
 
-// Returns the range bin of r: floor((r - range_min) / width), clamped to the bins.
-fn range_bin(r: f32) -> u32 {
-    let i = floor((r - params.range_min) * params.inv_range_bin);
-    return u32(clamp(i, 0.0, f32(params.range_bins - 1u)));
+// Returns the range bin of a point at range r (f32) and squared range r2: a first guess
+// floor((r - range_min) / width), then the exact side of the guessed bin's squared edges.
+fn range_bin(r: f32, r2: Real) -> u32 {
+    let last = i32(params.range_bins) - 1;
+    var i = clamp(i32(floor((r - params.range_min) * params.inv_range_bin)), 0, last);
+    if i > 0 && !r_ge(r2, real(range_edges_sq[i])) {
+        i -= 1;
+    } else if i < last && r_ge(r2, real(range_edges_sq[i + 1])) {
+        i += 1;
+    }
+    return u32(i);
 }
 
 // Returns true when az(p) >= the edge's angle, for p within a beam or two of the edge:
-// sin(az - e) * rho = y cos(e) - x sin(e), free of atan2's error.
-fn at_or_above(p: vec3<f32>, e: BeamEdge) -> bool {
-    return p.y * e.cos_angle - p.x * e.sin_angle >= 0.0;
+// sin(az - e) * rho = y cos(e) - x sin(e) >= 0.
+fn at_or_above(x: Real, y: Real, e: BeamEdge) -> bool {
+    return r_ge(r_mul(y, real(e.cos_angle)), r_mul(x, real(e.sin_angle)));
 }
 
-// Returns the beam of p (inside the aperture): a first guess from atan2, then the exact side of
-// the guessed beam's edges.
-fn beam_of(p: vec3<f32>, az: f32) -> u32 {
+// Returns the beam of the point (x, y) (inside the aperture) at azimuth az (f32): a first guess,
+// then the exact side of the guessed beam's edges.
+fn beam_of(x: Real, y: Real, az: f32) -> u32 {
     let beams = i32(params.beams);
     if beams == 1 {
         return 0u;
@@ -55,12 +67,43 @@ fn beam_of(p: vec3<f32>, az: f32) -> u32 {
         j = lo;
     }
     j = clamp(j, 0, beams - 1);
-    if j > 0 && !at_or_above(p, beam_edges[j]) {
+    if j > 0 && !at_or_above(x, y, beam_edges[j]) {
         j -= 1;
-    } else if j < beams - 1 && at_or_above(p, beam_edges[j + 1]) {
+    } else if j < beams - 1 && at_or_above(x, y, beam_edges[j + 1]) {
         j += 1;
     }
     return u32(j);
+}
+
+// Returns true when the point (x, y, z) with squared range r2 lies in sonar 2's field of view:
+// SPEC section 6, bounds inclusive, the origin outside.
+fn in_view(x: Real, y: Real, z: Real, r2: Real) -> bool {
+    if !r_positive(r2) || !r_ge(r2, real(params.range_min_sq)) || !r_ge(real(params.range_max_sq), r2) {
+        return false;
+    }
+    var abs_y = y;
+    if r_negative(y) {
+        abs_y = r_neg(y);
+    }
+    if !r_ge(r_mul(x, real(params.sin_half_az)), r_mul(abs_y, real(params.cos_half_az))) {
+        return false;
+    }
+    if params.clip_elevation != 0u {
+        let rho2 = r_add(r_mul(x, x), r_mul(y, y));
+        let lhs = r_mul(rho2, real(params.sin2_half_el));
+        if !r_ge(lhs, r_mul(r_mul(z, z), real(params.cos2_half_el))) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// Returns row . u + row.w, the row given as hi + lo pairs.
+fn row_dot(hi: vec4<f32>, lo: vec4<f32>, ux: Real, uy: Real, uz: Real) -> Real {
+    var s = r_mul(real(vec2<f32>(hi.x, lo.x)), ux);
+    s = r_add(s, r_mul(real(vec2<f32>(hi.y, lo.y)), uy));
+    s = r_add(s, r_mul(real(vec2<f32>(hi.z, lo.z)), uz));
+    return r_add(s, real(vec2<f32>(hi.w, lo.w)));
 }
 
 @compute @workgroup_size(64)
@@ -93,25 +136,23 @@ fn main(
     for (var k = wid.x * WORKGROUP + lid; k < n; k += nwg.x * WORKGROUP) {
         let a = directions[pose.plan.x + k % n_az];
         let e = directions[pose.plan.z + k / n_az];
-        let u = vec3<f32>(e.x * a.x, e.x * a.y, e.y);
-        let p = vec3<f32>(
-            dot(pose.m0.xyz, u) + pose.m0.w,
-            dot(pose.m1.xyz, u) + pose.m1.w,
-            dot(pose.m2.xyz, u) + pose.m2.w,
-        );
-        let r2 = dot(p, p);
-        if !(r2 > 0.0 && r2 >= params.range_min_sq && r2 <= params.range_max_sq) {
+        // unit direction (cos el cos az, cos el sin az, sin el)
+        let ce = real(e.xz);
+        let ux = r_mul(ce, real(a.xz));
+        let uy = r_mul(ce, real(a.yw));
+        let uz = real(e.yw);
+        // the sample in sonar 2
+        let x = row_dot(pose.hi0, pose.lo0, ux, uy, uz);
+        let y = row_dot(pose.hi1, pose.lo1, ux, uy, uz);
+        let z = row_dot(pose.hi2, pose.lo2, ux, uy, uz);
+        let r2 = r_add(r_add(r_mul(x, x), r_mul(y, y)), r_mul(z, z));
+        if !in_view(x, y, z, r2) {
             continue;
         }
-        let r = sqrt(r2);
-        if abs(p.z) > r * params.sin_half_el {
-            continue;
-        }
-        if p.x * params.sin_half_az - abs(p.y) * params.cos_half_az < 0.0 {
-            continue;
-        }
-        let az = atan2(p.y, p.x);
-        let pixel = range_bin(r) * params.beams + beam_of(p, az);
+        // reported values: f32 from the rounded point
+        let r = sqrt(r_f32(r2));
+        let az = atan2(r_f32(y), r_f32(x));
+        let pixel = range_bin(r, r2) * params.beams + beam_of(x, y, az);
         let word = base_word + (pixel >> 5u);
         let mask = 1u << (pixel & 31u);
         if (atomicLoad(&bits[word]) & mask) == 0u {

@@ -2,7 +2,7 @@
 
 use crate::batch::{Batch, Projection};
 use crate::cpu;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::gpu::{GpuBackend, GpuContext, context};
 
 /// Which backend a user asked for.
@@ -37,9 +37,18 @@ impl Backend {
             BackendChoice::Gpu => Ok((Backend::gpu()?, None)),
             BackendChoice::Auto => match Backend::gpu() {
                 Ok(b) => Ok((b, None)),
+                Err(Error::NoAdapter { .. }) => Ok((
+                    Backend::Cpu,
+                    Some(
+                        "note: no GPU adapter found, running on the CPU reference (for the GPU \
+                         path install a Vulkan driver; apt-get install mesa-vulkan-drivers gives \
+                         lavapipe)"
+                            .into(),
+                    ),
+                )),
                 Err(e) => Ok((
                     Backend::Cpu,
-                    Some(format!("note: no usable GPU ({e}); running on the CPU reference")),
+                    Some(format!("note: {e}; running on the CPU reference")),
                 )),
             },
         }
@@ -65,7 +74,11 @@ impl Backend {
     pub fn device(&self) -> String {
         match self {
             Backend::Cpu => "CPU reference (f64)".to_string(),
-            Backend::Gpu(g) => context::describe(&g.context().info),
+            Backend::Gpu(g) => format!(
+                "{}, {} transform",
+                context::describe(&g.context().info),
+                g.context().precision.name()
+            ),
         }
     }
 

@@ -1,48 +1,60 @@
 // Structs shared by every stage. Keep in sync with src/gpu/types.rs (sizes asserted there and
 // checked against naga's layout in tests/shaders.rs).
 
-// Sonar 2: field of view and data layout, f32, precomputed in f64 on the CPU.
+// Sonar 2: field of view and data layout, precomputed in f64 on the CPU. vec2<f32> fields hold
+// a value as hi + lo (about 48 significant bits), read through real() (shared/real_*.wgsl).
+// Every in/out and bin decision compares such Real quantities without trigonometry; the f32
+// scalars only serve first guesses and the reported values.
 struct TargetParams {
     range_min: f32,
     range_max: f32,
-    range_min_sq: f32,
-    range_max_sq: f32,
     // range_bins / (range_max - range_min)
     inv_range_bin: f32,
-    range_bins: u32,
-    beams: u32,
-    // 1 when the beams split the aperture uniformly (direct index), 0 for explicit edges
-    beams_uniform: u32,
-    // azimuth clip: x sin(h) - |y| cos(h) >= 0  <=>  |az| <= h, for h in (0, pi]
-    sin_half_az: f32,
-    cos_half_az: f32,
-    // elevation clip: |z| <= r sin(half elevation); 2.0 when the aperture is 180 deg
-    sin_half_el: f32,
     half_az: f32,
     // beams / aperture (rad) for uniform beams
     inv_beam_width: f32,
+    range_bins: u32,
+    beams: u32,
+    // 1 when the beams split the aperture uniformly (direct guess), 0 for explicit edges
+    beams_uniform: u32,
     words_per_pose: u32,
     pose_count: u32,
     // 1 when the occupied measure is an area summed on the GPU (FLS); 0 for an SSS, whose
     // measure the CPU derives exactly from the count
     measure_area: u32,
+    // 0 when the elevation aperture is 180 deg (nothing to clip)
+    clip_elevation: u32,
+    range_min_sq: vec2<f32>,
+    range_max_sq: vec2<f32>,
+    // azimuth clip: x sin(h) - |y| cos(h) >= 0  <=>  |az| <= h, for h in (0, pi]
+    sin_half_az: vec2<f32>,
+    cos_half_az: vec2<f32>,
+    // elevation clip: z^2 cos^2(e) <= (x^2 + y^2) sin^2(e)  <=>  |el| <= e < 90 deg
+    sin2_half_el: vec2<f32>,
+    cos2_half_el: vec2<f32>,
 }
 
-// One pose of a chunk: rows of M = range * R * Rz(base azimuth), translation in .w, and the
-// sample plan: (azimuth table offset, azimuth count, elevation table offset, elevation count).
+// One pose of a chunk: rows of M = range * R * Rz(base azimuth) with the translation in .w, as
+// hi + lo pairs (computed in f64 on the CPU), and the sample plan: (azimuth table offset,
+// azimuth count, elevation table offset, elevation count).
 struct Pose {
-    m0: vec4<f32>,
-    m1: vec4<f32>,
-    m2: vec4<f32>,
+    hi0: vec4<f32>,
+    hi1: vec4<f32>,
+    hi2: vec4<f32>,
+    lo0: vec4<f32>,
+    lo1: vec4<f32>,
+    lo2: vec4<f32>,
     plan: vec4<u32>,
 }
 
-// A beam edge (angle, cos, sin in rad) and the width of the beam that starts at it.
+// A beam edge: its angle (rad, f32 for the first guess), the width of the beam that starts at
+// it, and its cos and sin as hi + lo pairs.
 struct BeamEdge {
     angle: f32,
-    cos_angle: f32,
-    sin_angle: f32,
     width: f32,
+    cos_angle: vec2<f32>,
+    sin_angle: vec2<f32>,
+    _pad: vec2<f32>,
 }
 
 // Per-pose metric slots, 8 u32 each. Minima are stored as the bitwise NOT of the order key so

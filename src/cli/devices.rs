@@ -18,10 +18,12 @@ pub fn run() -> Result<()> {
     }
     match Backend::select(BackendChoice::Auto)? {
         (b @ Backend::Gpu(_), _) => println!("auto uses: {}", b.device()),
-        (_, notice) => println!(
-            "auto uses: the CPU reference ({})",
-            notice.unwrap_or_default().trim_start_matches("note: ")
-        ),
+        (_, notice) => {
+            println!("auto uses: the CPU reference");
+            if let Some(n) = notice {
+                println!("  {}", n.trim_start_matches("note: "));
+            }
+        }
     }
     Ok(())
 }

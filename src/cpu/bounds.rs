@@ -1,23 +1,27 @@
-//! How far an f32 implementation (the GPU) may honestly differ from the f64 reference (SPEC §10).
+//! How far the GPU may honestly differ from the f64 reference (SPEC §10).
 //!
-//! The GPU computes `R p + t` in f32. Its error is a few units in the last place of the
-//! magnitudes it adds, `range + |t|`, so every sample is given a tolerance of
-//! [`RELATIVE_TOLERANCE`] × (`range + |t|`) metres: an interval of ranges, and the matching
-//! intervals of azimuth (divided by the distance from sonar 2's z axis) and elevation (divided by
-//! the range). A sample whose intervals straddle a clip bound or a bin edge may land either way;
-//! all other samples must land exactly where the reference puts them. This module returns, for
-//! one pose, the *certain* occupancy (pixels set by samples far from every edge), the *possible*
-//! occupancy (every pixel a sample could reach within its tolerance), and matching intervals for
-//! every metric. A correct f32 result lies inside all of them.
+//! Every sample is given a tolerance of [`RELATIVE_TOLERANCE`] × its range in sonar 2 (plus
+//! [`INPUT_TOLERANCE`] × (`range + |t|`), for the pose and directions reaching the GPU as f32
+//! hi + lo pairs): an interval of ranges, and the matching intervals of azimuth (divided by the
+//! distance from sonar 2's z axis) and elevation (divided by the range). The GPU transforms and
+//! decides in f64 (or double-f32), far inside this, and reports ranges and azimuths rounded to
+//! f32 (1e-7 relative). A sample whose intervals straddle a clip bound or a bin edge may land
+//! either way; all other samples must land exactly where the reference puts them. This module
+//! returns, for one pose, the *certain* occupancy (pixels set by samples far from every edge),
+//! the *possible* occupancy (every pixel a sample could reach within its tolerance), and matching
+//! intervals for every metric. A correct GPU result lies inside all of them.
 
 use crate::ambiguity::SamplingPlan;
 use crate::occupancy::{Layout, Occupancy};
 use crate::pose::{RelativePose, cart_to_sph, sph_to_cart};
 use std::f64::consts::{FRAC_PI_2, PI};
 
-/// Relative size (against `range + |t|`) of the neighbourhood of a bound or edge within which
-/// f32 and f64 may disagree.
+/// Relative size (against the sample's range in sonar 2) of the neighbourhood of a bound or edge
+/// within which the GPU and the reference may disagree.
 pub const RELATIVE_TOLERANCE: f64 = 1e-5;
+/// Relative size (against `range + |t|`, the magnitudes the transform adds) of the rounding of
+/// the pose and directions to f32 hi + lo pairs (about 48 bits, so 1e-14), with a wide margin.
+pub const INPUT_TOLERANCE: f64 = 1e-9;
 
 /// The envelope a correct f32 projection of one pose lies in.
 #[derive(Clone, Debug)]
@@ -61,13 +65,14 @@ pub fn bounds(
         azimuth_min: (f64::INFINITY, f64::INFINITY),
         azimuth_max: (f64::NEG_INFINITY, f64::NEG_INFINITY),
     };
-    let tol = RELATIVE_TOLERANCE * (range + pose.translation.length());
+    let input_tol = INPUT_TOLERANCE * (range + pose.translation.length());
     let full_azimuth = layout.half_azimuth >= PI;
     let full_elevation = layout.half_elevation >= FRAC_PI_2;
     for &el in &plan.elevations {
         for &da in &plan.azimuths {
             let p2 = pose.apply(sph_to_cart(range, base_azimuth + da, el));
             let (r, az, el2) = cart_to_sph(p2);
+            let tol = RELATIVE_TOLERANCE * r + input_tol;
             let d_el = if r > 0.0 { tol / r } else { PI };
             let rho = r * el2.cos();
             let d_az = if rho > tol { (tol / rho).min(PI) } else { PI };

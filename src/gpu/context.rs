@@ -2,6 +2,7 @@
 //! can bring their own device.
 
 use crate::error::{Error, Result};
+use crate::gpu::shaders::Precision;
 
 /// Timeout for one wait on the GPU; lavapipe can be slow on big batches.
 pub const WAIT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(600);
@@ -17,6 +18,8 @@ pub struct GpuContext {
     pub info: wgpu::AdapterInfo,
     /// The limits the device was created with.
     pub limits: wgpu::Limits,
+    /// The arithmetic of the splat stage: f64 where the adapter has it.
+    pub precision: Precision,
 }
 
 /// Returns a wgpu instance over the backends named in `WGPU_BACKEND` (default: the primary ones,
@@ -81,9 +84,15 @@ impl GpuContext {
         limits.max_storage_buffers_per_shader_stage = limits
             .max_storage_buffers_per_shader_stage
             .min(offered.max_storage_buffers_per_shader_stage);
+        let f64_ok = adapter.features().contains(wgpu::Features::SHADER_F64);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("sonarproj"),
             required_limits: limits.clone(),
+            required_features: if f64_ok {
+                wgpu::Features::SHADER_F64
+            } else {
+                wgpu::Features::empty()
+            },
             ..Default::default()
         }))
         .map_err(|e| Error::Gpu(format!("cannot create a device: {e}")))?;
@@ -92,6 +101,11 @@ impl GpuContext {
             queue,
             info: adapter.get_info(),
             limits,
+            precision: if f64_ok {
+                Precision::F64
+            } else {
+                Precision::DoubleF32
+            },
         })
     }
 }

@@ -40,7 +40,12 @@ pub struct GpuBackend {
 impl GpuBackend {
     /// Returns the backend on `ctx`, building its pipelines.
     pub fn new(ctx: GpuContext) -> Self {
-        let splat = Stage::new(&ctx.device, "splat", &shaders::splat(), &SPLAT_BINDINGS);
+        let splat = Stage::new(
+            &ctx.device,
+            "splat",
+            &shaders::splat(ctx.precision),
+            &SPLAT_BINDINGS,
+        );
         let reduce = Stage::new(&ctx.device, "reduce", &shaders::reduce(), &REDUCE_BINDINGS);
         GpuBackend {
             ctx,
@@ -113,6 +118,11 @@ impl GpuBackend {
         );
         let edges = make("beam_edges", bytemuck::cast_slice(&beam_edges(layout)), storage);
         let weights = make("row_weights", bytemuck::cast_slice(&row_weights(layout)), storage);
+        let edges_sq = make(
+            "range_edges_sq",
+            bytemuck::cast_slice(&range_edges_sq(layout)),
+            storage,
+        );
         let empty = |label: &str, size: u64, usage| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -186,9 +196,10 @@ impl GpuBackend {
                 bytemuck::bytes_of(&TargetParams::new(layout, n as u32)),
             );
 
-            let splat_group = self
-                .splat
-                .bind(device, &[&params, &edges, &poses, dir_buffer, &bits, &metrics]);
+            let splat_group = self.splat.bind(
+                device,
+                &[&params, &edges, &edges_sq, &poses, dir_buffer, &bits, &metrics],
+            );
             let reduce_group = self
                 .reduce
                 .bind(device, &[&params, &edges, &weights, &bits, &metrics]);
@@ -280,35 +291,44 @@ struct Directions {
     offsets: HashMap<usize, [u32; 2]>,
 }
 
-/// Returns the (cos, sin) table of the plans in `used` (azimuths then elevations of each) and,
-/// per plan, the offsets of its azimuth and elevation entries.
+/// Returns the direction table of the plans in `used` (azimuths then elevations of each), each
+/// entry `(cos hi, sin hi, cos lo, sin lo)` in double-f32, and per plan the offsets of its
+/// azimuth and elevation entries.
 fn direction_table(
     prepared: &PreparedBatch<'_>,
     used: &[usize],
-) -> (Vec<[f32; 2]>, HashMap<usize, [u32; 2]>) {
+) -> (Vec<[f32; 4]>, HashMap<usize, [u32; 2]>) {
+    let entry = |angle: &f64| {
+        let (c, s) = (split(angle.cos()), split(angle.sin()));
+        [c.0, s.0, c.1, s.1]
+    };
     let mut table = Vec::new();
     let mut offsets = HashMap::new();
     for &p in used {
         let plan = &prepared.plans[p];
         let az_off = table.len() as u32;
-        table.extend(plan.azimuths.iter().map(|a| [a.cos() as f32, a.sin() as f32]));
+        table.extend(plan.azimuths.iter().map(entry));
         let el_off = table.len() as u32;
-        table.extend(plan.elevations.iter().map(|e| [e.cos() as f32, e.sin() as f32]));
+        table.extend(plan.elevations.iter().map(entry));
         offsets.insert(p, [az_off, el_off]);
     }
     (table, offsets)
 }
 
 /// Returns the GPU pose: rows of `range · R · Rz(base_azimuth)` (computed in f64) with the
-/// translation in `w`, and the plan.
+/// translation in `w`, split into f32 hi + lo pairs, and the plan.
 fn pose_gpu(r: &DMat3, t: [f64; 3], range: f64, base_azimuth: f64, plan: [u32; 4]) -> PoseGpu {
     let m = *r * DMat3::from_rotation_z(base_azimuth) * range;
-    let row = |i: usize| {
-        let v = m.row(i);
-        [v.x as f32, v.y as f32, v.z as f32, t[i] as f32]
-    };
-    PoseGpu {
-        rows: [row(0), row(1), row(2)],
+    let mut pose = PoseGpu {
+        hi: [[0.0; 4]; 3],
+        lo: [[0.0; 4]; 3],
         plan,
+    };
+    for (i, ti) in t.into_iter().enumerate() {
+        let v = m.row(i);
+        for (j, x) in [v.x, v.y, v.z, ti].into_iter().enumerate() {
+            (pose.hi[i][j], pose.lo[i][j]) = split(x);
+        }
     }
+    pose
 }

@@ -93,9 +93,11 @@ impl Stage {
     }
 }
 
-/// Bindings of `shaders/splat.wgsl`: params, beam_edges, poses, directions, bits, metrics.
-pub const SPLAT_BINDINGS: [Binding; 6] = [
+/// Bindings of `shaders/splat.wgsl`: params, beam_edges, range_edges_sq, poses, directions,
+/// bits, metrics.
+pub const SPLAT_BINDINGS: [Binding; 7] = [
     Binding::Uniform,
+    Binding::Read,
     Binding::Read,
     Binding::Read,
     Binding::Read,

@@ -1,11 +1,44 @@
-//! WGSL sources of the stages, each prefixed with the shared structs (WGSL has no includes).
+//! WGSL sources of the stages, each prefixed with the shared structs and, for the splat stage,
+//! the `Real` arithmetic the adapter supports (WGSL has no includes).
 
 /// The shared structs and helpers (`shaders/shared/types.wgsl`).
 pub const SHARED: &str = include_str!("../../shaders/shared/types.wgsl");
 
-/// Returns the full source of the splat stage (`shaders/splat.wgsl`).
-pub fn splat() -> String {
-    format!("{SHARED}\n{}", include_str!("../../shaders/splat.wgsl"))
+/// How the splat stage computes the transform and its decisions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Precision {
+    /// `f64` (needs `wgpu::Features::SHADER_F64`): agrees with the CPU reference to ~1e-15.
+    F64,
+    /// Double-f32 (`hi + lo`): ~1e-13 where the driver keeps IEEE f32 semantics and fuses fma,
+    /// f32 (~1e-7) where it does not.
+    DoubleF32,
+}
+
+impl Precision {
+    /// Returns the `Real` prelude of this precision (`shaders/shared/real_*.wgsl`).
+    pub fn prelude(self) -> &'static str {
+        match self {
+            Precision::F64 => include_str!("../../shaders/shared/real_f64.wgsl"),
+            Precision::DoubleF32 => include_str!("../../shaders/shared/real_df.wgsl"),
+        }
+    }
+
+    /// Returns a short name (`f64`, `double-f32`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F64 => "f64",
+            Precision::DoubleF32 => "double-f32",
+        }
+    }
+}
+
+/// Returns the full source of the splat stage (`shaders/splat.wgsl`) at `precision`.
+pub fn splat(precision: Precision) -> String {
+    format!(
+        "{SHARED}\n{}\n{}",
+        precision.prelude(),
+        include_str!("../../shaders/splat.wgsl")
+    )
 }
 
 /// Returns the full source of the reduce stage (`shaders/reduce.wgsl`).
@@ -13,7 +46,11 @@ pub fn reduce() -> String {
     format!("{SHARED}\n{}", include_str!("../../shaders/reduce.wgsl"))
 }
 
-/// Returns every stage as `(name, full source)`.
-pub fn all() -> Vec<(&'static str, String)> {
-    vec![("splat", splat()), ("reduce", reduce())]
+/// Returns every stage and variant as `(name, full source, needs f64)`.
+pub fn all() -> Vec<(&'static str, String, bool)> {
+    vec![
+        ("splat (f64)", splat(Precision::F64), true),
+        ("splat (double-f32)", splat(Precision::DoubleF32), false),
+        ("reduce", reduce(), false),
+    ]
 }

@@ -7,7 +7,8 @@ use crate::occupancy::Layout;
 use crate::sonar::SonarKind;
 use std::f64::consts::{FRAC_PI_2, PI};
 
-/// Sonar 2's field of view and layout in f32 (WGSL `TargetParams`, a uniform).
+/// Sonar 2's field of view and layout (WGSL `TargetParams`, a uniform). `[f32; 2]` fields are
+/// double-f32 `(hi, lo)`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct TargetParams {
@@ -15,64 +16,79 @@ pub struct TargetParams {
     pub range_min: f32,
     /// Maximum range (m).
     pub range_max: f32,
-    /// `range_min²`.
-    pub range_min_sq: f32,
-    /// `range_max²`.
-    pub range_max_sq: f32,
     /// `range_bins / (range_max − range_min)`.
     pub inv_range_bin: f32,
+    /// Half the azimuth aperture (rad).
+    pub half_az: f32,
+    /// `beams / aperture` (1/rad).
+    pub inv_beam_width: f32,
     /// Number of range bins.
     pub range_bins: u32,
     /// Number of beams (1 for an SSS).
     pub beams: u32,
     /// 1 for uniform beams, 0 for explicit edges.
     pub beams_uniform: u32,
-    /// `sin(h)`, h half the azimuth aperture; 0 when `h = π`.
-    pub sin_half_az: f32,
-    /// `cos(h)`; −1 when `h = π`.
-    pub cos_half_az: f32,
-    /// `sin` of half the elevation aperture; 2 when the aperture is 180°, so nothing is clipped.
-    pub sin_half_el: f32,
-    /// Half the azimuth aperture (rad).
-    pub half_az: f32,
-    /// `beams / aperture` (1/rad).
-    pub inv_beam_width: f32,
     /// u32 words of one pose's bitset.
     pub words_per_pose: u32,
     /// Poses in this chunk.
     pub pose_count: u32,
     /// 1 when the GPU sums the occupied area (FLS); 0 for an SSS (measure = count × Δ on the CPU).
     pub measure_area: u32,
+    /// 0 when the elevation aperture is 180° (nothing to clip), else 1.
+    pub clip_elevation: u32,
+    /// `range_min²`.
+    pub range_min_sq: [f32; 2],
+    /// `range_max²`.
+    pub range_max_sq: [f32; 2],
+    /// `sin(h)`, h half the azimuth aperture; exactly 0 when `h = π`.
+    pub sin_half_az: [f32; 2],
+    /// `cos(h)`; exactly −1 when `h = π`.
+    pub cos_half_az: [f32; 2],
+    /// `sin²` of half the elevation aperture.
+    pub sin2_half_el: [f32; 2],
+    /// `cos²` of half the elevation aperture.
+    pub cos2_half_el: [f32; 2],
 }
-const _: () = assert!(std::mem::size_of::<TargetParams>() == 64);
+const _: () = assert!(std::mem::size_of::<TargetParams>() == 96);
 
 /// One pose of a chunk (WGSL `Pose`): rows of `M = range · R · Rz(base azimuth)` with the
-/// translation in `w`, and the plan `(azimuth offset, n_az, elevation offset, n_el)` into the
-/// direction table.
+/// translation in `w`, as double-f32 (`hi + lo`), and the plan
+/// `(azimuth offset, n_az, elevation offset, n_el)` into the direction table.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct PoseGpu {
-    /// Rows of M, translation in the 4th component.
-    pub rows: [[f32; 4]; 3],
+    /// High parts of the rows of M, translation in the 4th component.
+    pub hi: [[f32; 4]; 3],
+    /// Low parts: `value − hi`, rounded to f32.
+    pub lo: [[f32; 4]; 3],
     /// Offsets and counts of the plan's azimuth and elevation entries.
     pub plan: [u32; 4],
 }
-const _: () = assert!(std::mem::size_of::<PoseGpu>() == 64);
+const _: () = assert!(std::mem::size_of::<PoseGpu>() == 112);
 
-/// A beam edge (WGSL `BeamEdge`): angle, its cos and sin (rad), width of the beam starting here.
+/// Returns `v` as double-f32 `(hi, lo)`: `hi = f32(v)`, `lo = f32(v − hi)`.
+pub fn split(v: f64) -> (f32, f32) {
+    let hi = v as f32;
+    (hi, (v - f64::from(hi)) as f32)
+}
+
+/// A beam edge (WGSL `BeamEdge`): angle (rad), width of the beam starting here, and the angle's
+/// cos and sin as double-f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct BeamEdgeGpu {
     /// Angle (rad).
     pub angle: f32,
-    /// cos(angle).
-    pub cos_angle: f32,
-    /// sin(angle).
-    pub sin_angle: f32,
     /// Width (rad) of the beam whose lower edge this is; 0 for the last edge.
     pub width: f32,
+    /// cos(angle), double-f32.
+    pub cos_angle: [f32; 2],
+    /// sin(angle), double-f32.
+    pub sin_angle: [f32; 2],
+    /// Padding to a 16-byte stride.
+    pub _pad: [f32; 2],
 }
-const _: () = assert!(std::mem::size_of::<BeamEdgeGpu>() == 16);
+const _: () = assert!(std::mem::size_of::<BeamEdgeGpu>() == 32);
 
 /// u32 slots per pose in the metrics buffer (WGSL `METRIC_STRIDE`).
 pub const METRIC_STRIDE: usize = 8;
@@ -105,39 +121,43 @@ pub fn words_per_pose(layout: &Layout) -> usize {
     layout.pixels().div_ceil(32)
 }
 
+/// Returns `v` as a double-f32 pair.
+fn df(v: f64) -> [f32; 2] {
+    let (hi, lo) = split(v);
+    [hi, lo]
+}
+
 impl TargetParams {
     /// Returns the parameters of `layout` for a chunk of `pose_count` poses.
     pub fn new(layout: &Layout, pose_count: u32) -> Self {
         let h = layout.half_azimuth;
         let (sin_half_az, cos_half_az) = if h >= PI { (0.0, -1.0) } else { (h.sin(), h.cos()) };
-        let sin_half_el = if layout.half_elevation >= FRAC_PI_2 {
-            2.0
-        } else {
-            layout.half_elevation.sin()
-        };
-        let edges = &layout.beam_edges;
+        let e = layout.half_elevation;
         let beams = layout.beams();
         let uniform_width = 2.0 * h / beams as f64;
-        let uniform = edges
+        let uniform = layout
+            .beam_edges
             .windows(2)
             .all(|w| ((w[1] - w[0]) - uniform_width).abs() <= 1e-12 * uniform_width);
         TargetParams {
             range_min: layout.range_min as f32,
             range_max: layout.range_max as f32,
-            range_min_sq: (layout.range_min * layout.range_min) as f32,
-            range_max_sq: (layout.range_max * layout.range_max) as f32,
             inv_range_bin: (1.0 / layout.range_bin_width) as f32,
+            half_az: h as f32,
+            inv_beam_width: (1.0 / uniform_width) as f32,
             range_bins: layout.range_bins as u32,
             beams: beams as u32,
             beams_uniform: u32::from(uniform),
-            sin_half_az: sin_half_az as f32,
-            cos_half_az: cos_half_az as f32,
-            sin_half_el: sin_half_el as f32,
-            half_az: h as f32,
-            inv_beam_width: (1.0 / uniform_width) as f32,
             words_per_pose: words_per_pose(layout) as u32,
             pose_count,
             measure_area: u32::from(layout.kind == SonarKind::Fls),
+            clip_elevation: u32::from(e < FRAC_PI_2),
+            range_min_sq: df(layout.range_min * layout.range_min),
+            range_max_sq: df(layout.range_max * layout.range_max),
+            sin_half_az: df(sin_half_az),
+            cos_half_az: df(cos_half_az),
+            sin2_half_el: df(e.sin().powi(2)),
+            cos2_half_el: df(e.cos().powi(2)),
         }
     }
 }
@@ -148,14 +168,22 @@ pub fn beam_edges(layout: &Layout) -> Vec<BeamEdgeGpu> {
     (0..e.len())
         .map(|k| BeamEdgeGpu {
             angle: e[k] as f32,
-            cos_angle: e[k].cos() as f32,
-            sin_angle: e[k].sin() as f32,
             width: if k + 1 < e.len() {
                 (e[k + 1] - e[k]) as f32
             } else {
                 0.0
             },
+            cos_angle: df(e[k].cos()),
+            sin_angle: df(e[k].sin()),
+            _pad: [0.0; 2],
         })
+        .collect()
+}
+
+/// Returns the squared range-bin edges `(range_min + iΔ)²`, `i = 0..=range_bins`, double-f32.
+pub fn range_edges_sq(layout: &Layout) -> Vec<[f32; 2]> {
+    (0..=layout.range_bins)
+        .map(|i| df(layout.range_edge(i).powi(2)))
         .collect()
 }
 
