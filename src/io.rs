@@ -117,10 +117,10 @@ pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
             )));
         }
         _ => {
-            let (group, _) = if has(&PLACE_COLUMNS) > 0 {
-                (&PLACE_COLUMNS, ())
+            let group = if has(&PLACE_COLUMNS) > 0 {
+                &PLACE_COLUMNS
             } else {
-                (&TRANSLATION_COLUMNS, ())
+                &TRANSLATION_COLUMNS
             };
             let missing: Vec<_> = group.iter().filter(|c| !index.contains_key(*c)).collect();
             return Err(header_err(format!("missing column(s) {missing:?}")));

@@ -218,7 +218,7 @@ mod tests {
         .to_matrix()
         .unwrap();
         assert!((r * DVec3::Y - DVec3::X).length() < 1e-12);
-        // pitch 90°: active Ry(90) maps x to -z; passive maps -z... sonar-1 +x to sonar-2 +z.
+        // pitch 90°: the active Ry(90) maps x to -z; the passive pose maps sonar-1 +x to sonar-2 +z.
         let r = Rotation::RollPitchYaw {
             roll: 0.0,
             pitch: 90.0,

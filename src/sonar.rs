@@ -310,7 +310,7 @@ impl Sonar {
         Ok(sonar)
     }
 
-    /// Checks every field against SPEC §3 and returns the sonar unchanged when all hold.
+    /// Returns `Ok(())` when every field holds against SPEC §3.
     ///
     /// # Errors
     /// [`Error::InvalidValue`] naming the sonar, the field, its value and the allowed range.
