@@ -48,6 +48,81 @@ fn shared_structs_have_the_rust_sizes() {
     assert_eq!(size_of("BeamEdge"), std::mem::size_of::<types::BeamEdgeGpu>());
 }
 
+/// Returns `(member name, byte offset)` of WGSL struct `name` in `m`.
+fn wgsl_members(m: &naga::Module, name: &str) -> Vec<(String, usize)> {
+    let ty = m
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no struct {name} in the WGSL"))
+        .1;
+    match &ty.inner {
+        naga::TypeInner::Struct { members, .. } => members
+            .iter()
+            .map(|mb| (mb.name.clone().unwrap_or_default(), mb.offset as usize))
+            .collect(),
+        other => panic!("{name} is not a struct: {other:?}"),
+    }
+}
+
+#[test]
+fn shared_struct_members_sit_at_the_rust_offsets() {
+    use std::mem::offset_of;
+    use types::{BeamEdgeGpu, PoseGpu, TargetParams};
+    let m = module(&shaders::splat(shaders::Precision::F64), "splat");
+    let target = [
+        ("range_min", offset_of!(TargetParams, range_min)),
+        ("range_max", offset_of!(TargetParams, range_max)),
+        ("inv_range_bin", offset_of!(TargetParams, inv_range_bin)),
+        ("half_az", offset_of!(TargetParams, half_az)),
+        ("inv_beam_width", offset_of!(TargetParams, inv_beam_width)),
+        ("range_bins", offset_of!(TargetParams, range_bins)),
+        ("beams", offset_of!(TargetParams, beams)),
+        ("beams_uniform", offset_of!(TargetParams, beams_uniform)),
+        ("words_per_pose", offset_of!(TargetParams, words_per_pose)),
+        ("pose_count", offset_of!(TargetParams, pose_count)),
+        ("measure_area", offset_of!(TargetParams, measure_area)),
+        ("clip_elevation", offset_of!(TargetParams, clip_elevation)),
+        ("range_min_sq", offset_of!(TargetParams, range_min_sq)),
+        ("range_max_sq", offset_of!(TargetParams, range_max_sq)),
+        ("sin_half_az", offset_of!(TargetParams, sin_half_az)),
+        ("cos_half_az", offset_of!(TargetParams, cos_half_az)),
+        ("sin2_half_el", offset_of!(TargetParams, sin2_half_el)),
+        ("cos2_half_el", offset_of!(TargetParams, cos2_half_el)),
+    ];
+    let row = 16;
+    let hi = offset_of!(PoseGpu, hi);
+    let lo = offset_of!(PoseGpu, lo);
+    let pose = [
+        ("hi0", hi),
+        ("hi1", hi + row),
+        ("hi2", hi + 2 * row),
+        ("lo0", lo),
+        ("lo1", lo + row),
+        ("lo2", lo + 2 * row),
+        ("plan", offset_of!(PoseGpu, plan)),
+    ];
+    let edge = [
+        ("angle", offset_of!(BeamEdgeGpu, angle)),
+        ("width", offset_of!(BeamEdgeGpu, width)),
+        ("cos_angle", offset_of!(BeamEdgeGpu, cos_angle)),
+        ("sin_angle", offset_of!(BeamEdgeGpu, sin_angle)),
+        ("_pad", offset_of!(BeamEdgeGpu, _pad)),
+    ];
+    for (name, rust) in [
+        ("TargetParams", &target[..]),
+        ("Pose", &pose[..]),
+        ("BeamEdge", &edge[..]),
+    ] {
+        let wgsl = wgsl_members(&m, name);
+        let rust: Vec<(String, usize)> = rust.iter().map(|(n, o)| (n.to_string(), *o)).collect();
+        assert_eq!(
+            wgsl, rust,
+            "{name}: WGSL members (left) and Rust fields (right) differ"
+        );
+    }
+}
+
 #[test]
 fn metric_slots_match() {
     let m = module(&shaders::splat(shaders::Precision::F64), "splat");
