@@ -484,7 +484,7 @@ impl Context<'_> {
             rec.flags.push(Flag::Tangent);
         }
         let arcs = visible_arcs(&visible, radius);
-        let length: f64 = arcs.iter().map(|[a, b]| radius * (b - a)).sum();
+        let length = arcs.iter().fold(0.0, |sum, [a, b]| sum + radius * (b - a));
         let mut spacing = step;
         if length / spacing > MAX_CURVE_POINTS as f64 {
             spacing = length / MAX_CURVE_POINTS as f64;

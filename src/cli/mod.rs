@@ -4,6 +4,7 @@ mod batch;
 mod devices;
 mod pose_args;
 mod project;
+mod recover;
 
 use clap::{Parser, Subcommand};
 
@@ -23,6 +24,9 @@ enum Command {
     Project(project::ProjectArgs),
     /// Project every row of a CSV of poses; write a CSV of metrics.
     Batch(batch::BatchArgs),
+    /// Recover the coordinate each sonar loses from a feature matched in both; print JSON
+    /// (or, with --input, read a CSV of correspondences and write a CSV of candidates).
+    Recover(recover::RecoverArgs),
     /// List the GPU adapters wgpu sees and which one `--backend auto` would use.
     Devices,
 }
@@ -73,6 +77,17 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Project(a) => project::run(a),
         Command::Batch(a) => batch::run(a),
+        Command::Recover(a) => recover::run(a),
         Command::Devices => devices::run(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_command_line_definition_is_consistent() {
+        super::Cli::command().debug_assert();
     }
 }

@@ -25,31 +25,24 @@ pub struct PoseArgs {
           conflicts_with_all = ["roll", "pitch", "yaw"])]
     matrix: Option<String>,
     /// Placement: the feature appears at this range (m) in sonar 2; t = sph(place) − R·sph(feature).
-    #[arg(
-        long,
-        value_name = "M",
-        required_unless_present = "translation",
-        conflicts_with = "translation"
-    )]
+    #[arg(long, value_name = "M", conflicts_with = "translation")]
     place_range: Option<f64>,
-    /// Placement azimuth (deg) in sonar 2.
+    /// Placement azimuth (deg) in sonar 2 (default 0).
     #[arg(
         long,
         value_name = "DEG",
-        default_value_t = 0.0,
         allow_negative_numbers = true,
         requires = "place_range"
     )]
-    place_azimuth: f64,
-    /// Placement elevation (deg) in sonar 2.
+    place_azimuth: Option<f64>,
+    /// Placement elevation (deg) in sonar 2 (default 0).
     #[arg(
         long,
         value_name = "DEG",
-        default_value_t = 0.0,
         allow_negative_numbers = true,
         requires = "place_range"
     )]
-    place_elevation: f64,
+    place_elevation: Option<f64>,
     /// Translation t (m) as X,Y,Z: p2 = R p1 + t.
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     translation: Option<String>,
@@ -101,10 +94,16 @@ impl PoseArgs {
         let rotation = self.rotation()?;
         match (&self.translation, self.place_range) {
             (Some(t), _) => RelativePose::new(rotation, numbers::<3>("--translation", t)?),
-            (None, Some(r)) => {
-                RelativePose::placement(rotation, feature, [r, self.place_azimuth, self.place_elevation])
-                    .map_err(|e| e.in_context("--place"))
-            }
+            (None, Some(r)) => RelativePose::placement(
+                rotation,
+                feature,
+                [
+                    r,
+                    self.place_azimuth.unwrap_or(0.0),
+                    self.place_elevation.unwrap_or(0.0),
+                ],
+            )
+            .map_err(|e| e.in_context("--place")),
             (None, None) => Err(Error::invalid(
                 "pose",
                 "no translation",

@@ -5,12 +5,13 @@
 //! is `sph(range, azimuth, elevation)` (m, deg, deg); its measurement is `(range, azimuth)` for an
 //! FLS, `range` for an SSS. Output: the input columns as given, then [`METRIC_COLUMNS`].
 
-use std::collections::HashMap;
 use std::io::{Read, Write};
 
 use crate::ambiguity::Measurement;
 use crate::batch::{BatchItem, Projection};
 use crate::error::{Error, Result};
+use crate::io::field;
+use crate::io::table::{Table, header_error, row_error};
 use crate::occupancy::Metrics;
 use crate::pose::{RelativePose, Rotation};
 use crate::sonar::Sonar;
@@ -52,103 +53,49 @@ pub struct BatchInput {
 /// duplicate columns, an empty input, a bad number, a wrong field count, or a feature outside
 /// sonar 1's field of view.
 pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
-    let mut rdr = csv::ReaderBuilder::new()
-        .trim(csv::Trim::All)
-        .flexible(false)
-        .from_reader(reader);
-    let header_err = |message: String| Error::Csv {
-        context: "input header".into(),
-        message,
-    };
-    let headers: Vec<String> = rdr
-        .headers()
-        .map_err(|e| header_err(e.to_string()))?
+    let allowed: Vec<&str> = REQUIRED_COLUMNS
         .iter()
-        .map(str::to_string)
+        .chain(&PLACE_COLUMNS)
+        .chain(&TRANSLATION_COLUMNS)
+        .copied()
         .collect();
-    if headers.is_empty() || headers.iter().all(String::is_empty) {
-        return Err(header_err(format!(
-            "empty input: expected a header with {} and either {} or {}",
-            REQUIRED_COLUMNS.join(","),
-            PLACE_COLUMNS.join(","),
-            TRANSLATION_COLUMNS.join(",")
-        )));
-    }
-    let mut index: HashMap<&str, usize> = HashMap::new();
-    for (i, h) in headers.iter().enumerate() {
-        let known = REQUIRED_COLUMNS
-            .iter()
-            .chain(&PLACE_COLUMNS)
-            .chain(&TRANSLATION_COLUMNS)
-            .any(|c| c == h);
-        if !known {
-            return Err(header_err(format!(
-                "unknown column {h:?} (allowed: {}, {}, {})",
-                REQUIRED_COLUMNS.join(","),
-                PLACE_COLUMNS.join(","),
-                TRANSLATION_COLUMNS.join(",")
-            )));
-        }
-        if index.insert(h.as_str(), i).is_some() {
-            return Err(header_err(format!("column {h:?} appears twice")));
-        }
-    }
-    for c in REQUIRED_COLUMNS {
-        if !index.contains_key(c) {
-            return Err(header_err(format!("missing column {c:?}")));
-        }
-    }
-    let has = |cols: &[&str]| cols.iter().filter(|c| index.contains_key(*c)).count();
-    let placement = match (has(&PLACE_COLUMNS), has(&TRANSLATION_COLUMNS)) {
-        (3, 0) => true,
-        (0, 3) => false,
+    let expected = format!(
+        "{} and either {} or {}",
+        REQUIRED_COLUMNS.join(","),
+        PLACE_COLUMNS.join(","),
+        TRANSLATION_COLUMNS.join(",")
+    );
+    let table = Table::read(reader, &allowed, &expected)?;
+    table.require(&REQUIRED_COLUMNS)?;
+    let count = |cols: &[&str]| cols.iter().filter(|c| table.has(c)).count();
+    let placement = match (count(&PLACE_COLUMNS), count(&TRANSLATION_COLUMNS)) {
         (0, 0) => {
-            return Err(header_err(format!(
+            return Err(header_error(format!(
                 "missing translation: give {} or {}",
                 PLACE_COLUMNS.join(","),
                 TRANSLATION_COLUMNS.join(",")
             )));
         }
         (p, t) if p > 0 && t > 0 => {
-            return Err(header_err(format!(
+            return Err(header_error(format!(
                 "give either {} or {}, not both",
                 PLACE_COLUMNS.join(","),
                 TRANSLATION_COLUMNS.join(",")
             )));
         }
+        (p, _) if p > 0 => {
+            table.require(&PLACE_COLUMNS)?;
+            true
+        }
         _ => {
-            let group = if has(&PLACE_COLUMNS) > 0 {
-                &PLACE_COLUMNS
-            } else {
-                &TRANSLATION_COLUMNS
-            };
-            let missing: Vec<_> = group.iter().filter(|c| !index.contains_key(*c)).collect();
-            return Err(header_err(format!("missing column(s) {missing:?}")));
+            table.require(&TRANSLATION_COLUMNS)?;
+            false
         }
     };
-
-    let mut rows = Vec::new();
-    let mut items = Vec::new();
-    for (n, record) in rdr.records().enumerate() {
-        let row_no = n + 1;
-        let record = record.map_err(|e| {
-            let line = e.position().map(|p| p.line()).unwrap_or(0);
-            Error::Csv {
-                context: format!("input row {row_no} (line {line})"),
-                message: e.to_string(),
-            }
-        })?;
-        let line = record.position().map(|p| p.line()).unwrap_or(row_no as u64 + 1);
-        let context = format!("input row {row_no} (line {line})");
-        let row_err = |e: Error| Error::Csv {
-            context: context.clone(),
-            message: e.to_string(),
-        };
-        let get = |c: &str| -> Result<f64> {
-            let s = &record[index[c]];
-            s.parse::<f64>()
-                .map_err(|_| Error::invalid(format!("column {c}"), format!("{s:?}"), "must be a number"))
-        };
+    table.require_rows()?;
+    let mut items = Vec::with_capacity(table.rows.len());
+    for (row, line, fields) in &table.rows {
+        let get = |c: &str| table.number(fields, c);
         let item = (|| -> Result<BatchItem> {
             let (range, azimuth, elevation) = (get("range")?, get("azimuth")?, get("elevation")?);
             source.check_point("feature", range, azimuth, elevation)?;
@@ -175,24 +122,21 @@ pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
                 pose,
             })
         })()
-        .map_err(row_err)?;
+        .map_err(|e| row_error(*row, *line, e))?;
         items.push(item);
-        rows.push(record.iter().map(str::to_string).collect());
     }
-    if items.is_empty() {
-        return Err(Error::Csv {
-            context: "input".into(),
-            message: "no rows after the header: nothing to compute".into(),
-        });
-    }
-    Ok(BatchInput { headers, rows, items })
+    Ok(BatchInput {
+        headers: table.headers,
+        rows: table.rows.into_iter().map(|(_, _, f)| f).collect(),
+        items,
+    })
 }
 
 /// Returns the metric fields of one projection, in [`METRIC_COLUMNS`] order: numbers in their
 /// shortest exact form (every digit of the f64; f32 results keep their f32 value), empty where
 /// nothing is visible.
 pub fn metric_fields(m: &Metrics) -> [String; 9] {
-    let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
+    let opt = field;
     [
         m.visible.to_string(),
         m.total.to_string(),

@@ -1,0 +1,166 @@
+//! `sonarproj recover`: the coordinate each sonar loses, from a correspondence (SPEC §9). One
+//! correspondence (JSON) or a CSV of them (`--input`).
+
+use std::io::Read;
+use std::path::PathBuf;
+
+use serde_json::json;
+use sonarproj::error::{Error, Result};
+use sonarproj::io::recover::{read_recover_csv, write_recover_csv};
+use sonarproj::io::table::row_error;
+use sonarproj::recover::{DEFAULT_CURVE_STEP, Observation, Recovery, Sigmas, recover};
+use sonarproj::report::write_atomic;
+use sonarproj::{Sonar, SonarKind};
+
+use super::pose_args::{PoseArgs, numbers};
+
+/// Options of `sonarproj recover`.
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct RecoverArgs {
+    /// Sonar 1: a preset name or a sonar TOML file.
+    #[arg(long, value_name = "SONAR")]
+    from: String,
+    /// Sonar 2: a preset name or a sonar TOML file.
+    #[arg(long, value_name = "SONAR")]
+    to: String,
+    /// What sonar 1 measured: R (SSS) or R,A (FLS), metres and degrees.
+    #[arg(
+        long,
+        value_name = "R[,A]",
+        required_unless_present = "input",
+        allow_hyphen_values = true
+    )]
+    first: Option<String>,
+    /// What sonar 2 measured: R (SSS) or R,A (FLS).
+    #[arg(
+        long,
+        value_name = "R[,A]",
+        required_unless_present = "input",
+        allow_hyphen_values = true
+    )]
+    second: Option<String>,
+    #[command(flatten)]
+    pose: PoseArgs,
+    /// Placement only: the feature's azimuth (deg) in sonar 1 when sonar 1 is an SSS.
+    #[arg(long, value_name = "DEG", default_value_t = 0.0)]
+    feature_azimuth: f64,
+    /// Placement only: the feature's elevation (deg) in sonar 1 (the pose is built from it).
+    #[arg(long, value_name = "DEG", default_value_t = 0.0)]
+    feature_elevation: f64,
+    /// Standard deviation of a range measurement (m), for sigma_elevation.
+    #[arg(long, value_name = "M")]
+    sigma_range: Option<f64>,
+    /// Standard deviation of an azimuth measurement (deg), for sigma_elevation.
+    #[arg(long, value_name = "DEG")]
+    sigma_azimuth: Option<f64>,
+    /// SSS + SSS: spacing (m) of the points returned along the curve.
+    #[arg(long, value_name = "M", default_value_t = DEFAULT_CURVE_STEP)]
+    curve_step: f64,
+    /// Batch mode: a CSV of correspondences ('-' for stdin); columns in the README.
+    #[arg(long, value_name = "FILE",
+          conflicts_with_all = ["first", "second", "translation", "place_range", "quaternion", "matrix"])]
+    input: Option<String>,
+    /// Batch mode: the output CSV ('-', the default, for stdout), written whole or not at all.
+    #[arg(long, value_name = "FILE", requires = "input")]
+    output: Option<String>,
+}
+
+/// Returns the observation `text` (`R` or `R,A`) of `which` sonar.
+fn observation(which: &str, text: &str) -> Result<Observation> {
+    let field = format!("--{which}");
+    match text.split(',').count() {
+        1 => Ok(Observation {
+            range: numbers::<1>(&field, text)?[0],
+            azimuth: None,
+        }),
+        _ => {
+            let [range, azimuth] = numbers::<2>(&field, text)?;
+            Ok(Observation {
+                range,
+                azimuth: Some(azimuth),
+            })
+        }
+    }
+}
+
+/// Runs `sonarproj recover`.
+pub fn run(a: RecoverArgs) -> Result<()> {
+    let s1 = Sonar::resolve(&a.from)?;
+    let s2 = Sonar::resolve(&a.to)?;
+    if let Some(input) = &a.input {
+        return run_batch(&a, &s1, &s2, input);
+    }
+    let first = observation("first", a.first.as_deref().expect("clap requires it"))?;
+    let second = observation("second", a.second.as_deref().expect("clap requires it"))?;
+    let feature_azimuth = match s1.kind {
+        SonarKind::Fls => first.azimuth.unwrap_or(0.0),
+        SonarKind::Sss => a.feature_azimuth,
+    };
+    let pose = a.pose.pose([first.range, feature_azimuth, a.feature_elevation])?;
+    let sigmas = match (a.sigma_range, a.sigma_azimuth) {
+        (None, None) => None,
+        (r, az) => Some(Sigmas {
+            range: r.unwrap_or(0.0),
+            azimuth: az.unwrap_or(0.0),
+        }),
+    };
+    let rec: Recovery = recover(&s1, &s2, &pose, first, second, sigmas, a.curve_step)?;
+    let out = json!({
+        "from": s1.name,
+        "to": s2.name,
+        "first": { "range": first.range, "azimuth": first.azimuth },
+        "second": { "range": second.range, "azimuth": second.azimuth },
+        "pose": {
+            "rotation": pose.rotation.transpose().to_cols_array_2d(),
+            "translation": pose.translation.to_array(),
+        },
+        "sigmas": sigmas,
+        "flags": rec.flags,
+        "candidates": rec.candidates,
+        "curve": rec.curve,
+    });
+    println!(
+        "{}",
+        serde_json::to_string_pretty(&out).expect("plain JSON values")
+    );
+    Ok(())
+}
+
+/// Runs the batch mode: every row of `input` recovered, written as CSV.
+fn run_batch(a: &RecoverArgs, s1: &Sonar, s2: &Sonar, input: &str) -> Result<()> {
+    let mut text = Vec::new();
+    if input == "-" {
+        std::io::stdin()
+            .read_to_end(&mut text)
+            .map_err(|source| Error::ReadInput {
+                path: "stdin".into(),
+                source,
+            })?;
+    } else {
+        let path = PathBuf::from(input);
+        text = std::fs::read(&path).map_err(|source| Error::ReadInput { path, source })?;
+    }
+    let parsed = read_recover_csv(text.as_slice())?;
+    let results = parsed
+        .items
+        .iter()
+        .zip(&parsed.rows)
+        .map(|(item, (row, line, _))| {
+            recover(
+                s1,
+                s2,
+                &item.pose,
+                item.first,
+                item.second,
+                item.sigmas,
+                a.curve_step,
+            )
+            .map_err(|e| row_error(*row, *line, e))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    match a.output.as_deref() {
+        None | Some("-") => write_recover_csv(std::io::stdout().lock(), &parsed, &results),
+        Some(path) => write_atomic(&PathBuf::from(path), |w| write_recover_csv(w, &parsed, &results)),
+    }
+}
