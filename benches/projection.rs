@@ -1,9 +1,10 @@
-//! CPU reference vs GPU on the same batches (criterion). `cargo bench --bench projection`.
+//! CPU reference, fast CPU path and GPU on the same batches (criterion).
+//! `cargo bench --bench projection`.
 //! The GPU group is left out when no adapter exists.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use sonarproj::gpu::{GpuBackend, GpuContext};
-use sonarproj::{Batch, BatchItem, Measurement, RelativePose, Rotation, Sampling, Sonar, cpu};
+use sonarproj::{Batch, BatchItem, Measurement, RelativePose, Rotation, Sampling, Sonar, cpu, cpu_fast};
 
 /// Returns `n` placement poses of the paper's kind (features at half range, rotations spread
 /// over the sphere) from `from` to `to`.
@@ -44,6 +45,9 @@ fn projection(c: &mut Criterion) {
         group.throughput(Throughput::Elements(samples as u64));
         group.bench_function("cpu-reference", |bench| {
             bench.iter(|| cpu::project(&prepared, false))
+        });
+        group.bench_function("cpu-fast", |bench| {
+            bench.iter(|| cpu_fast::project(&prepared, false))
         });
         if let Some(g) = &gpu {
             group.bench_function("gpu", |bench| bench.iter(|| g.project(&prepared, false).unwrap()));

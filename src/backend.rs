@@ -1,17 +1,20 @@
 //! One interface over the two backends, so every caller (CLI, tests, benches) can run either.
 
 use crate::batch::{Batch, Projection};
-use crate::cpu;
 use crate::error::{Error, Result};
 use crate::gpu::{GpuBackend, GpuContext, context};
+use crate::{cpu, cpu_fast};
 
 /// Which backend a user asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum BackendChoice {
-    /// The GPU when an adapter exists, else the CPU reference (with a notice).
+    /// The GPU when a hardware adapter exists, else the fast CPU path (with a one-line notice;
+    /// a software adapter such as lavapipe is slower than the CPU path on the same cores).
     Auto,
-    /// The CPU reference (f64).
+    /// The CPU reference (f64, one core, written to be obviously right).
     Cpu,
+    /// The fast CPU path: the GPU's algorithm in f64 on every core.
+    CpuFast,
     /// The GPU (WGSL through wgpu); fails when no adapter exists.
     Gpu,
 }
@@ -21,6 +24,8 @@ pub enum BackendChoice {
 pub enum Backend {
     /// The CPU reference.
     Cpu,
+    /// The fast CPU path.
+    CpuFast,
     /// The GPU, with its pipelines built.
     Gpu(Box<GpuBackend>),
 }
@@ -34,23 +39,27 @@ impl Backend {
     pub fn select(choice: BackendChoice) -> Result<(Backend, Option<String>)> {
         match choice {
             BackendChoice::Cpu => Ok((Backend::Cpu, None)),
+            BackendChoice::CpuFast => Ok((Backend::CpuFast, None)),
             BackendChoice::Gpu => Ok((Backend::gpu()?, None)),
-            BackendChoice::Auto => match Backend::gpu() {
-                Ok(b) => Ok((b, None)),
-                Err(Error::NoAdapter { .. }) => Ok((
-                    Backend::Cpu,
-                    Some(
-                        "note: no GPU adapter found, running on the CPU reference (for the GPU \
-                         path install a Vulkan driver; apt-get install mesa-vulkan-drivers gives \
-                         lavapipe)"
+            BackendChoice::Auto => {
+                let cpu = |why: String| Ok((Backend::CpuFast, Some(format!("note: {why}"))));
+                match GpuContext::new() {
+                    // A software rasterizer (lavapipe, llvmpipe, WARP) runs on the same cores as
+                    // the CPU path and is several times slower than it (BENCHMARKS.md).
+                    Ok(ctx) if ctx.info.device_type == wgpu::DeviceType::Cpu => cpu(format!(
+                        "the only GPU adapter is a software one ({}), slower than the CPU path; \
+                         running on the CPU (all cores; --backend gpu uses the adapter anyway)",
+                        ctx.info.name
+                    )),
+                    Ok(ctx) => Ok((Backend::Gpu(Box::new(GpuBackend::new(ctx))), None)),
+                    Err(Error::NoAdapter { .. }) => cpu(
+                        "no GPU adapter found, running on the CPU (all cores; for the GPU path \
+                         install a Vulkan driver)"
                             .into(),
                     ),
-                )),
-                Err(e) => Ok((
-                    Backend::Cpu,
-                    Some(format!("note: {e}; running on the CPU reference")),
-                )),
-            },
+                    Err(e) => cpu(format!("{e}; running on the CPU (all cores)")),
+                }
+            }
         }
     }
 
@@ -66,6 +75,7 @@ impl Backend {
     pub fn name(&self) -> &'static str {
         match self {
             Backend::Cpu => "cpu",
+            Backend::CpuFast => "cpu-fast",
             Backend::Gpu(_) => "gpu",
         }
     }
@@ -73,7 +83,8 @@ impl Backend {
     /// Returns a description of the device: the adapter for the GPU.
     pub fn device(&self) -> String {
         match self {
-            Backend::Cpu => "CPU reference (f64)".to_string(),
+            Backend::Cpu => "CPU reference (f64, one core)".to_string(),
+            Backend::CpuFast => format!("CPU, {} threads (f64)", rayon::current_num_threads()),
             Backend::Gpu(g) => format!(
                 "{}, {} transform",
                 context::describe(&g.context().info),
@@ -91,6 +102,7 @@ impl Backend {
         let prepared = batch.prepare()?;
         match self {
             Backend::Cpu => Ok(cpu::project(&prepared, keep_occupancy)),
+            Backend::CpuFast => Ok(cpu_fast::project(&prepared, keep_occupancy)),
             Backend::Gpu(g) => g.project(&prepared, keep_occupancy),
         }
     }

@@ -8,6 +8,7 @@ pub mod ambiguity;
 pub mod backend;
 pub mod batch;
 pub mod cpu;
+pub mod cpu_fast;
 pub mod error;
 pub mod gpu;
 pub mod io;

@@ -146,10 +146,13 @@ impl Occupancy {
         self.words.iter().map(|w| u64::from(w.count_ones())).sum()
     }
 
-    /// Returns the set pixels as `(range_bin, beam)` pairs, row-major.
+    /// Returns the set pixels as `(range_bin, beam)` pairs, row-major (empty words skipped).
     pub fn pixels(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
-        (0..self.range_bins * self.beams)
-            .filter(|k| self.words[k / 32] >> (k % 32) & 1 == 1)
+        self.words
+            .iter()
+            .enumerate()
+            .filter(|(_, w)| **w != 0)
+            .flat_map(|(k, &w)| (0..32).filter(move |b| w >> b & 1 == 1).map(move |b| 32 * k + b))
             .map(|k| (k / self.beams, k % self.beams))
     }
 

@@ -1,5 +1,6 @@
-//! CPU reference vs GPU on random poses: for each of the four sonar pairs and several presets,
-//! 1000 random configurations, every GPU result inside the envelope the CPU computes for it
+//! CPU reference vs GPU and fast CPU path on random poses: for each of the four sonar pairs and
+//! several presets, 1000 random configurations, every result inside the envelope the reference
+//! computes for it
 //! (SPEC §10: bin-exact except samples within 1e-5 relative of a clip bound or bin edge), and
 //! the number of pixels where the two differ never above the number of such samples.
 
@@ -8,6 +9,7 @@ mod common;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sonarproj::cpu::{self, bounds};
+use sonarproj::cpu_fast;
 use sonarproj::{
     Batch, BatchItem, BeamLayout, Measurement, RelativePose, Rotation, Sampling, Sonar, SonarKind,
 };
@@ -91,11 +93,11 @@ fn preset(name: &str) -> Sonar {
     Sonar::preset(name).unwrap()
 }
 
-/// Runs `POSES` random configurations on both backends and checks every GPU result.
+/// Runs `poses` random configurations on the reference and checks every result of the fast
+/// CPU path and (where an adapter exists; always in CI) the GPU against the reference's envelope.
 fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usize) {
     source.validate().unwrap();
     target.validate().unwrap();
-    let Some(gpu) = common::gpu() else { return };
     let batch = Batch {
         items: random_items(seed, &source, &target, poses),
         source,
@@ -103,40 +105,52 @@ fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usi
         sampling,
     };
     let prepared = batch.prepare().unwrap();
-    let cpu_results = cpu::project(&prepared, true);
-    let gpu_results = gpu.project(&prepared, true).unwrap();
-    let (mut near, mut differing, mut visible) = (0, 0, 0);
-    for (k, (c, g)) in cpu_results.iter().zip(&gpu_results).enumerate() {
-        let item = &batch.items[k];
-        let plan = &prepared.plans[prepared.plan_of[k]];
-        let b = bounds::bounds(
-            &prepared.layout,
-            plan,
-            prepared.base_azimuth[k],
-            item.measurement.range,
-            &item.pose,
-        );
-        // The reference lies in its own envelope (a check of the envelope), the GPU too.
-        common::check_within_bounds(&prepared.layout, &b, c)
-            .unwrap_or_else(|e| panic!("pose {k}: CPU outside its envelope: {e}"));
-        common::check_within_bounds(&prepared.layout, &b, g).unwrap_or_else(|e| {
-            panic!("pose {k} ({item:?}): GPU outside the envelope: {e}\ncpu {c:?}\ngpu {g:?}")
-        });
-        assert_eq!(c.metrics.total, g.metrics.total);
-        let diff = common::differing_pixels(c.occupancy.as_ref().unwrap(), g.occupancy.as_ref().unwrap());
-        assert!(
-            diff <= b.near_edge,
-            "pose {k}: {diff} pixels differ, {} samples near an edge",
-            b.near_edge
-        );
-        near += b.near_edge;
-        differing += diff;
-        visible += c.metrics.visible;
+    let reference = cpu::project(&prepared, true);
+    let mut checked = vec![("cpu-fast", cpu_fast::project(&prepared, true))];
+    if let Some(gpu) = common::gpu() {
+        checked.push(("gpu", gpu.project(&prepared, true).unwrap()));
     }
-    eprintln!(
-        "{} -> {}: {poses} poses, {visible} visible samples, {near} near an edge, {differing} pixels differ",
-        batch.source.name, batch.target.name
-    );
+    let envelopes: Vec<_> = (0..poses)
+        .map(|k| {
+            let item = &batch.items[k];
+            let plan = &prepared.plans[prepared.plan_of[k]];
+            bounds::bounds(
+                &prepared.layout,
+                plan,
+                prepared.base_azimuth[k],
+                item.measurement.range,
+                &item.pose,
+            )
+        })
+        .collect();
+    let near: u64 = envelopes.iter().map(|b| b.near_edge).sum();
+    let visible: u64 = reference.iter().map(|c| c.metrics.visible).sum();
+    // The reference lies in its own envelope (a check of the envelope).
+    for (k, (c, b)) in reference.iter().zip(&envelopes).enumerate() {
+        common::check_within_bounds(&prepared.layout, b, c)
+            .unwrap_or_else(|e| panic!("pose {k}: reference outside its envelope: {e}"));
+    }
+    for (name, results) in &checked {
+        let mut differing = 0;
+        for (k, ((c, g), b)) in reference.iter().zip(results).zip(&envelopes).enumerate() {
+            let item = &batch.items[k];
+            common::check_within_bounds(&prepared.layout, b, g).unwrap_or_else(|e| {
+                panic!("pose {k} ({item:?}): {name} outside the envelope: {e}\ncpu {c:?}\n{name} {g:?}")
+            });
+            assert_eq!(c.metrics.total, g.metrics.total);
+            let diff = common::differing_pixels(c.occupancy.as_ref().unwrap(), g.occupancy.as_ref().unwrap());
+            assert!(
+                diff <= b.near_edge,
+                "pose {k}: {name}: {diff} pixels differ, {} samples near an edge",
+                b.near_edge
+            );
+            differing += diff;
+        }
+        eprintln!(
+            "{} -> {}, {name}: {poses} poses, {visible} visible samples, {near} near an edge, {differing} pixels differ",
+            batch.source.name, batch.target.name
+        );
+    }
     assert!(visible > poses as u64, "the random poses must see something");
 }
 

@@ -8,7 +8,7 @@ use sonarproj::{
     Backend, Batch, BatchItem, BeamLayout, Measurement, Metrics, RelativePose, Rotation, Sampling, Sonar,
 };
 
-/// Returns the metrics from every backend available: the CPU, and the GPU when there is one.
+/// Returns the metrics from every backend available: both CPU paths, and the GPU when there is one.
 fn run_all(
     source: &Sonar,
     target: &Sonar,
@@ -25,7 +25,13 @@ fn run_all(
             pose,
         }],
     };
-    let mut out = vec![("cpu", Backend::Cpu.project(&batch, false).unwrap()[0].metrics)];
+    let mut out = vec![
+        ("cpu", Backend::Cpu.project(&batch, false).unwrap()[0].metrics),
+        (
+            "cpu-fast",
+            Backend::CpuFast.project(&batch, false).unwrap()[0].metrics,
+        ),
+    ];
     if let Some(gpu) = common::gpu() {
         let prepared = batch.prepare().unwrap();
         out.push(("gpu", gpu.project(&prepared, false).unwrap()[0].metrics));

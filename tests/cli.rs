@@ -526,7 +526,7 @@ fn gpu_backend_without_adapter_is_a_failure_not_bad_input() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.lines().count(), 1, "one-line notice: {err}");
     assert!(err.contains("CPU"), "{err}");
-    assert_eq!(json(&out.stdout)["backend"], "cpu");
+    assert_eq!(json(&out.stdout)["backend"], "cpu-fast");
 }
 
 /// Returns the candidates' `point_first` of `sonarproj recover` run with `args`.

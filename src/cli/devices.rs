@@ -16,14 +16,10 @@ pub fn run() -> Result<()> {
             println!("  {i}: {}", describe(info));
         }
     }
-    match Backend::select(BackendChoice::Auto)? {
-        (b @ Backend::Gpu(_), _) => println!("auto uses: {}", b.device()),
-        (_, notice) => {
-            println!("auto uses: the CPU reference");
-            if let Some(n) = notice {
-                println!("  {}", n.trim_start_matches("note: "));
-            }
-        }
+    let (backend, notice) = Backend::select(BackendChoice::Auto)?;
+    println!("auto uses: {}", backend.device());
+    if let Some(n) = notice {
+        println!("  {}", n.trim_start_matches("note: "));
     }
     Ok(())
 }
