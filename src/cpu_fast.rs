@@ -10,7 +10,6 @@ use rayon::prelude::*;
 use crate::batch::{PreparedBatch, Projection};
 use crate::occupancy::{Extremes, Layout, Metrics, Occupancy};
 use crate::sonar::SonarKind;
-use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Sonar 2's field of view and layout as the decisions use them (the f64 twin of the GPU's
 /// `TargetParams`).
@@ -33,29 +32,20 @@ struct Geometry<'a> {
 
 impl<'a> Geometry<'a> {
     fn new(layout: &'a Layout) -> Self {
-        let h = layout.half_azimuth;
-        let (sin_half_az, cos_half_az) = if h >= PI { (0.0, -1.0) } else { (h.sin(), h.cos()) };
-        let e = layout.half_elevation;
-        let beams = layout.beams();
-        let width = 2.0 * h / beams as f64;
-        let uniform = layout
-            .beam_edges
-            .windows(2)
-            .all(|w| ((w[1] - w[0]) - width).abs() <= 1e-12 * width);
+        let (sin_half_az, cos_half_az) = layout.azimuth_clip();
+        let elevation = layout.elevation_clip();
         Geometry {
             layout,
             range_min_sq: layout.range_min * layout.range_min,
             range_max_sq: layout.range_max * layout.range_max,
             sin_half_az,
             cos_half_az,
-            clip_elevation: e < FRAC_PI_2,
-            sin2_half_el: e.sin().powi(2),
-            cos2_half_el: e.cos().powi(2),
-            range_edges_sq: (0..=layout.range_bins)
-                .map(|i| layout.range_edge(i).powi(2))
-                .collect(),
+            clip_elevation: elevation.is_some(),
+            sin2_half_el: elevation.map_or(1.0, |e| e.0),
+            cos2_half_el: elevation.map_or(0.0, |e| e.1),
+            range_edges_sq: layout.range_edges_sq(),
             beam_edges_cs: layout.beam_edges.iter().map(|a| (a.cos(), a.sin())).collect(),
-            inv_beam_width: uniform.then(|| 1.0 / width),
+            inv_beam_width: layout.uniform_beam_width().map(|w| 1.0 / w),
         }
     }
 

@@ -84,6 +84,41 @@ impl Layout {
         j.saturating_sub(1).min(self.beams() - 1)
     }
 
+    /// Returns `(sin h, cos h)` for the trigonometry-free azimuth clip `x sin h − |y| cos h ≥ 0`
+    /// (⇔ `|az| ≤ h` for `h` in `(0, π]`); exactly `(0, −1)` for the full circle.
+    pub fn azimuth_clip(&self) -> (f64, f64) {
+        let h = self.half_azimuth;
+        if h >= std::f64::consts::PI {
+            (0.0, -1.0)
+        } else {
+            (h.sin(), h.cos())
+        }
+    }
+
+    /// Returns `(sin² e, cos² e)` for the elevation clip `z² cos² e ≤ (x² + y²) sin² e`
+    /// (⇔ `|el| ≤ e`), or `None` for a 180° aperture, which clips nothing.
+    pub fn elevation_clip(&self) -> Option<(f64, f64)> {
+        let e = self.half_elevation;
+        (e < std::f64::consts::FRAC_PI_2).then(|| (e.sin().powi(2), e.cos().powi(2)))
+    }
+
+    /// Returns the beam width (rad) when the beams split the aperture uniformly (to 1e-12
+    /// relative), else `None`.
+    pub fn uniform_beam_width(&self) -> Option<f64> {
+        let width = 2.0 * self.half_azimuth / self.beams() as f64;
+        self.beam_edges
+            .windows(2)
+            .all(|w| ((w[1] - w[0]) - width).abs() <= 1e-12 * width)
+            .then_some(width)
+    }
+
+    /// Returns the squared range-bin edges `(range_min + iΔ)²`, `i = 0..=range_bins`.
+    pub fn range_edges_sq(&self) -> Vec<f64> {
+        (0..=self.range_bins)
+            .map(|i| self.range_edge(i).powi(2))
+            .collect()
+    }
+
     /// Returns the measure of pixel `(i, j)`: the bin width (m) for an SSS; for an FLS the true
     /// area `Δa_j/2 · (r_{i+1}² − r_i²)` (m², Δa in radians).
     pub fn pixel_measure(&self, i: usize, j: usize) -> f64 {

@@ -1,14 +1,9 @@
 //! `sonarproj batch`: a CSV of poses in, a CSV of metrics out.
 
-use std::io::Read;
-use std::path::PathBuf;
-
-use sonarproj::error::Error;
 use sonarproj::io::{read_batch_csv, write_batch_csv};
-use sonarproj::report::write_atomic;
 use sonarproj::{Batch, Result};
 
-use super::PairArgs;
+use super::{PairArgs, read_input, write_output};
 
 /// Options of `sonarproj batch`.
 #[derive(Debug, clap::Args)]
@@ -29,18 +24,7 @@ pub struct BatchArgs {
 /// Runs `sonarproj batch`.
 pub fn run(a: BatchArgs) -> Result<()> {
     let (source, target, sampling) = a.pair.resolve()?;
-    let mut text = Vec::new();
-    if a.input == "-" {
-        std::io::stdin()
-            .read_to_end(&mut text)
-            .map_err(|source| Error::ReadInput {
-                path: "stdin".into(),
-                source,
-            })?;
-    } else {
-        let path = PathBuf::from(&a.input);
-        text = std::fs::read(&path).map_err(|source| Error::ReadInput { path, source })?;
-    }
+    let text = read_input(&a.input)?;
     let input = read_batch_csv(text.as_slice(), &source)?;
     let batch = Batch {
         source,
@@ -52,11 +36,5 @@ pub fn run(a: BatchArgs) -> Result<()> {
     batch.prepare()?;
     let backend = a.pair.backend()?;
     let results = backend.project(&batch, false)?;
-    if a.output == "-" {
-        write_batch_csv(std::io::stdout().lock(), &input, &results)
-    } else {
-        write_atomic(&PathBuf::from(&a.output), |w| {
-            write_batch_csv(w, &input, &results)
-        })
-    }
+    write_output(&a.output, |w| write_batch_csv(w, &input, &results))
 }

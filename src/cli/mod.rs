@@ -8,6 +8,11 @@ mod recover;
 
 use clap::{Parser, Subcommand};
 
+use std::io::{Read, Write};
+use std::path::PathBuf;
+
+use sonarproj::error::Error;
+use sonarproj::report::write_atomic;
 use sonarproj::{Backend, BackendChoice, Result, Sampling, Sonar};
 
 /// Epipolar geometry of sonar: where a feature seen by one sonar can appear in another.
@@ -69,6 +74,31 @@ impl PairArgs {
             eprintln!("{n}");
         }
         Ok(backend)
+    }
+}
+
+/// Returns the bytes of the input `path` ('-' for stdin).
+fn read_input(path: &str) -> Result<Vec<u8>> {
+    if path == "-" {
+        let mut text = Vec::new();
+        std::io::stdin()
+            .read_to_end(&mut text)
+            .map_err(|source| Error::ReadInput {
+                path: "stdin".into(),
+                source,
+            })?;
+        return Ok(text);
+    }
+    let path = PathBuf::from(path);
+    std::fs::read(&path).map_err(|source| Error::ReadInput { path, source })
+}
+
+/// Writes the output `path` ('-' for stdout) with `fill`; a file is written whole or not at all.
+fn write_output(path: &str, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
+    if path == "-" {
+        fill(&mut std::io::stdout().lock())
+    } else {
+        write_atomic(&PathBuf::from(path), fill)
     }
 }
 

@@ -1,18 +1,15 @@
 //! `sonarproj recover`: the coordinate each sonar loses, from a correspondence (SPEC §9). One
 //! correspondence (JSON) or a CSV of them (`--input`).
 
-use std::io::Read;
-use std::path::PathBuf;
-
 use serde_json::json;
-use sonarproj::error::{Error, Result};
+use sonarproj::error::Result;
 use sonarproj::io::recover::{read_recover_csv, write_recover_csv};
 use sonarproj::io::table::row_error;
 use sonarproj::recover::{DEFAULT_CURVE_STEP, Observation, Recovery, Sigmas, recover};
-use sonarproj::report::write_atomic;
 use sonarproj::{Sonar, SonarKind};
 
 use super::pose_args::{PoseArgs, numbers};
+use super::{read_input, write_output};
 
 /// Options of `sonarproj recover`.
 #[derive(Debug, clap::Args)]
@@ -129,18 +126,7 @@ pub fn run(a: RecoverArgs) -> Result<()> {
 
 /// Runs the batch mode: every row of `input` recovered, written as CSV.
 fn run_batch(a: &RecoverArgs, s1: &Sonar, s2: &Sonar, input: &str) -> Result<()> {
-    let mut text = Vec::new();
-    if input == "-" {
-        std::io::stdin()
-            .read_to_end(&mut text)
-            .map_err(|source| Error::ReadInput {
-                path: "stdin".into(),
-                source,
-            })?;
-    } else {
-        let path = PathBuf::from(input);
-        text = std::fs::read(&path).map_err(|source| Error::ReadInput { path, source })?;
-    }
+    let text = read_input(input)?;
     let parsed = read_recover_csv(text.as_slice())?;
     let results = parsed
         .items
@@ -159,8 +145,7 @@ fn run_batch(a: &RecoverArgs, s1: &Sonar, s2: &Sonar, input: &str) -> Result<()>
             .map_err(|e| row_error(*row, *line, e))
         })
         .collect::<Result<Vec<_>>>()?;
-    match a.output.as_deref() {
-        None | Some("-") => write_recover_csv(std::io::stdout().lock(), &parsed, &results),
-        Some(path) => write_atomic(&PathBuf::from(path), |w| write_recover_csv(w, &parsed, &results)),
-    }
+    write_output(a.output.as_deref().unwrap_or("-"), |w| {
+        write_recover_csv(w, &parsed, &results)
+    })
 }

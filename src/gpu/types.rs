@@ -5,7 +5,6 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::occupancy::Layout;
 use crate::sonar::SonarKind;
-use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Sonar 2's field of view and layout (WGSL `TargetParams`, a uniform). `[f32; 2]` fields are
 /// double-f32 `(hi, lo)`.
@@ -130,34 +129,29 @@ fn df(v: f64) -> [f32; 2] {
 impl TargetParams {
     /// Returns the parameters of `layout` for a chunk of `pose_count` poses.
     pub fn new(layout: &Layout, pose_count: u32) -> Self {
-        let h = layout.half_azimuth;
-        let (sin_half_az, cos_half_az) = if h >= PI { (0.0, -1.0) } else { (h.sin(), h.cos()) };
-        let e = layout.half_elevation;
+        let (sin_half_az, cos_half_az) = layout.azimuth_clip();
+        let elevation = layout.elevation_clip();
+        let width = layout.uniform_beam_width();
         let beams = layout.beams();
-        let uniform_width = 2.0 * h / beams as f64;
-        let uniform = layout
-            .beam_edges
-            .windows(2)
-            .all(|w| ((w[1] - w[0]) - uniform_width).abs() <= 1e-12 * uniform_width);
         TargetParams {
             range_min: layout.range_min as f32,
             range_max: layout.range_max as f32,
             inv_range_bin: (1.0 / layout.range_bin_width) as f32,
-            half_az: h as f32,
-            inv_beam_width: (1.0 / uniform_width) as f32,
+            half_az: layout.half_azimuth as f32,
+            inv_beam_width: width.map_or(0.0, |w| (1.0 / w) as f32),
             range_bins: layout.range_bins as u32,
             beams: beams as u32,
-            beams_uniform: u32::from(uniform),
+            beams_uniform: u32::from(width.is_some()),
             words_per_pose: words_per_pose(layout) as u32,
             pose_count,
             measure_area: u32::from(layout.kind == SonarKind::Fls),
-            clip_elevation: u32::from(e < FRAC_PI_2),
+            clip_elevation: u32::from(elevation.is_some()),
             range_min_sq: df(layout.range_min * layout.range_min),
             range_max_sq: df(layout.range_max * layout.range_max),
             sin_half_az: df(sin_half_az),
             cos_half_az: df(cos_half_az),
-            sin2_half_el: df(e.sin().powi(2)),
-            cos2_half_el: df(e.cos().powi(2)),
+            sin2_half_el: df(elevation.map_or(1.0, |e| e.0)),
+            cos2_half_el: df(elevation.map_or(0.0, |e| e.1)),
         }
     }
 }

@@ -9,9 +9,9 @@ use std::io::{Read, Write};
 
 use crate::ambiguity::Measurement;
 use crate::batch::{BatchItem, Projection};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::io::field;
-use crate::io::table::{Table, header_error, row_error};
+use crate::io::table::{Table, header_error, row_error, write_rows};
 use crate::occupancy::Metrics;
 use crate::pose::{RelativePose, Rotation};
 use crate::sonar::Sonar;
@@ -155,29 +155,10 @@ pub fn metric_fields(m: &Metrics) -> [String; 9] {
 /// # Errors
 /// [`Error::WriteOutput`] (named `output`) on I/O failure.
 pub fn write_batch_csv(w: impl Write, input: &BatchInput, results: &[Projection]) -> Result<()> {
-    let err = |e: csv::Error| Error::WriteOutput {
-        path: "output".into(),
-        message: e.to_string(),
-    };
-    let mut wtr = csv::Writer::from_writer(w);
-    let header: Vec<&str> = input
-        .headers
+    let rows = input
+        .rows
         .iter()
-        .map(String::as_str)
-        .chain(METRIC_COLUMNS)
-        .collect();
-    wtr.write_record(&header).map_err(err)?;
-    for (row, p) in input.rows.iter().zip(results) {
-        let fields = metric_fields(&p.metrics);
-        wtr.write_record(
-            row.iter()
-                .map(String::as_str)
-                .chain(fields.iter().map(String::as_str)),
-        )
-        .map_err(err)?;
-    }
-    wtr.flush().map_err(|e| Error::WriteOutput {
-        path: "output".into(),
-        message: e.to_string(),
-    })
+        .zip(results)
+        .map(|(fields, p)| (fields.as_slice(), metric_fields(&p.metrics).to_vec()));
+    write_rows(w, &input.headers, &METRIC_COLUMNS, rows)
 }

@@ -9,9 +9,9 @@
 
 use std::io::{Read, Write};
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::io::field;
-use crate::io::table::{Table, row_error};
+use crate::io::table::{Table, row_error, write_rows};
 use crate::pose::{RelativePose, Rotation};
 use crate::recover::{Flag, Observation, Recovery, Sigmas};
 
@@ -208,28 +208,10 @@ pub fn recovery_rows(r: &Recovery) -> Vec<[String; 21]> {
 /// # Errors
 /// [`Error::WriteOutput`] (named `output`) on I/O failure.
 pub fn write_recover_csv(w: impl Write, input: &RecoverInput, results: &[Recovery]) -> Result<()> {
-    let err = |e: &dyn std::fmt::Display| Error::WriteOutput {
-        path: "output".into(),
-        message: e.to_string(),
-    };
-    let mut wtr = csv::Writer::from_writer(w);
-    let header: Vec<&str> = input
-        .headers
-        .iter()
-        .map(String::as_str)
-        .chain(RECOVER_COLUMNS)
-        .collect();
-    wtr.write_record(&header).map_err(|e| err(&e))?;
-    for ((_, _, fields), rec) in input.rows.iter().zip(results) {
-        for out in recovery_rows(rec) {
-            wtr.write_record(
-                fields
-                    .iter()
-                    .map(String::as_str)
-                    .chain(out.iter().map(String::as_str)),
-            )
-            .map_err(|e| err(&e))?;
-        }
-    }
-    wtr.flush().map_err(|e| err(&e))
+    let rows = input.rows.iter().zip(results).flat_map(|((_, _, fields), rec)| {
+        recovery_rows(rec)
+            .into_iter()
+            .map(move |out| (fields.as_slice(), out.to_vec()))
+    });
+    write_rows(w, &input.headers, &RECOVER_COLUMNS, rows)
 }

@@ -2,7 +2,7 @@
 //! header's width, each remembered with its 1-based row number and its line in the file.
 
 use std::collections::HashMap;
-use std::io::Read;
+use std::io::{Read, Write};
 
 use crate::error::{Error, Result};
 
@@ -129,6 +129,31 @@ impl Table {
         self.optional(fields, c)?
             .ok_or_else(|| Error::invalid(format!("column {c}"), "\"\"", "must be a number"))
     }
+}
+
+/// Writes a CSV: `headers` then `extra` as the header, then each row of `rows` (a row's input
+/// fields followed by its extra fields).
+///
+/// # Errors
+/// [`Error::WriteOutput`] (named `output`) on I/O failure.
+pub fn write_rows<'r>(
+    w: impl Write,
+    headers: &[String],
+    extra: &[&str],
+    rows: impl IntoIterator<Item = (&'r [String], Vec<String>)>,
+) -> Result<()> {
+    let err = |e: &dyn std::fmt::Display| Error::WriteOutput {
+        path: "output".into(),
+        message: e.to_string(),
+    };
+    let mut wtr = csv::Writer::from_writer(w);
+    let header = headers.iter().map(String::as_str).chain(extra.iter().copied());
+    wtr.write_record(header).map_err(|e| err(&e))?;
+    for (fields, more) in rows {
+        let record = fields.iter().chain(&more).map(String::as_str);
+        wtr.write_record(record).map_err(|e| err(&e))?;
+    }
+    wtr.flush().map_err(|e| err(&e))
 }
 
 /// Returns `e` as an error of row `row` at line `line`.
