@@ -70,6 +70,9 @@ pub enum Error {
         /// Extra words on what was tried.
         hint: String,
     },
+    /// A figure could not be drawn.
+    #[error("cannot draw a figure: {0}")]
+    Figure(String),
     /// The GPU failed while running (device lost, mapping failed, out of memory).
     #[error("GPU failure: {0}")]
     Gpu(String),

@@ -13,6 +13,7 @@ pub mod error;
 pub mod gpu;
 pub mod io;
 pub mod occupancy;
+pub mod paper;
 pub mod pose;
 pub mod recover;
 pub mod report;

@@ -710,3 +710,56 @@ fn bad_recover_input_exits_2() {
         &["row 2", "second range = 99"],
     );
 }
+
+#[test]
+fn paper_writes_csv_figures_and_findings() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("paper");
+    sonarproj()
+        .args(["paper", "--angle-step", "30", "--backend", "cpu-fast", "--out"])
+        .arg(&out)
+        .assert()
+        .success();
+    // 30° steps: 7 angles; scenarios 1–6: 9 × 7 poses, 7–9: 7 × 7.
+    let rows = 6 * 9 * 7 + 3 * 7 * 7;
+    for d in ["fls-to-sss", "sss-to-fls"] {
+        let text = std::fs::read_to_string(out.join(format!("{d}.csv"))).unwrap();
+        assert!(text.starts_with("scenario,fraction,roll,pitch,yaw,visible,total,range_min,"));
+        assert_eq!(text.lines().count(), rows + 1, "{d}");
+        for fig in ["lines", "heatmaps"] {
+            let file = std::fs::File::open(out.join(format!("{d}-{fig}.png"))).unwrap();
+            let info = png::Decoder::new(std::io::BufReader::new(file))
+                .read_info()
+                .unwrap();
+            assert!(info.info().width >= 1000, "{d}-{fig}");
+        }
+    }
+    let md = std::fs::read_to_string(out.join("findings.md")).unwrap();
+    assert_eq!(md.matches("\n## ").count(), 4, "{md}");
+}
+
+#[test]
+fn bad_paper_input_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    rejects(
+        &["paper", "--out", out, "--angle-step", "0"],
+        None,
+        &["--angle-step = 0"],
+    );
+    rejects(&["paper", "--out", out, "--step", "-1"], None, &["step = -1"]);
+    let batch = [
+        "batch",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--step",
+        "-0.5",
+    ];
+    rejects(
+        &batch,
+        Some("range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz\n5,0,0,0,0,0,1,0,0\n"),
+        &["step = -0.5"],
+    );
+}

@@ -7,6 +7,7 @@ use super::{PairArgs, read_input, write_output};
 
 /// Options of `sonarproj batch`.
 #[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
 pub struct BatchArgs {
     #[command(flatten)]
     pair: PairArgs,

@@ -2,6 +2,7 @@
 
 mod batch;
 mod devices;
+mod paper;
 mod pose_args;
 mod project;
 mod recover;
@@ -29,6 +30,8 @@ enum Command {
     Project(project::ProjectArgs),
     /// Project every row of a CSV of poses; write a CSV of metrics.
     Batch(batch::BatchArgs),
+    /// Run the paper's simulations (SPEC §8): CSV, figures and the findings, checked.
+    Paper(paper::PaperArgs),
     /// Recover the coordinate each sonar loses from a feature matched in both; print JSON
     /// (or, with --input, read a CSV of correspondences and write a CSV of candidates).
     Recover(recover::RecoverArgs),
@@ -107,6 +110,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Project(a) => project::run(a),
         Command::Batch(a) => batch::run(a),
+        Command::Paper(a) => paper::run(a),
         Command::Recover(a) => recover::run(a),
         Command::Devices => devices::run(),
     }

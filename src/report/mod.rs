@@ -1,6 +1,7 @@
 //! Reports: files written whole or not at all (temporary file, then rename), occupancy as PNG and
 //! NPY.
 
+pub mod figures;
 pub mod occupancy_image;
 
 use std::io::Write;
@@ -30,6 +31,13 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>
         let mut w = std::io::BufWriter::new(tmp.as_file_mut());
         fill(&mut w)?;
         w.flush().map_err(|e| io_err(&e))?;
+    }
+    // The temporary file is created private (0600); the result is an ordinary output file.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let perms = std::fs::Permissions::from_mode(0o644);
+        tmp.as_file().set_permissions(perms).map_err(|e| io_err(&e))?;
     }
     tmp.as_file().sync_all().map_err(|e| io_err(&e))?;
     tmp.persist(path).map_err(|e| io_err(&e.error))?;

@@ -1,0 +1,99 @@
+//! The paper's simulations (SPEC §8): every scenario has the right poses, the distances follow
+//! the table, and the paper's qualitative findings hold at a coarse angle step.
+
+use sonarproj::paper::{self, Direction, FRACTIONS, ScenarioPose, angles, scenario_poses};
+use sonarproj::{Backend, Sampling};
+
+fn count(poses: &[ScenarioPose], s: u8) -> usize {
+    poses.iter().filter(|p| p.scenario == s).count()
+}
+
+#[test]
+fn every_scenario_has_its_poses() {
+    // 1° steps: 181 angles; scenarios 1–6 sweep one angle for nine fractions, 7–9 two angles.
+    let poses = scenario_poses(1.0).unwrap();
+    for s in 1..=6 {
+        assert_eq!(count(&poses, s), 9 * 181, "scenario {s}");
+    }
+    for s in 7..=9 {
+        assert_eq!(count(&poses, s), 181 * 181, "scenario {s}");
+    }
+    assert_eq!(poses.len(), 108_057, "the issue's count per direction");
+    assert_eq!(
+        angles(7.0).unwrap().last(),
+        Some(&175.0),
+        "steps stop at or before 180°"
+    );
+    assert!(angles(0.0).is_err() && angles(181.0).is_err() && angles(f64::NAN).is_err());
+}
+
+#[test]
+fn scenarios_sweep_the_right_angles_at_the_right_distances() {
+    let poses = scenario_poses(30.0).unwrap();
+    let (fls, sss) = Direction::FlsToSss.sonars();
+    for p in &poses {
+        let [roll, pitch, yaw] = p.angles;
+        let moving: Vec<bool> = vec![roll != 0.0, pitch != 0.0, yaw != 0.0];
+        let allowed = paper::swept(p.scenario);
+        for (i, m) in moving.iter().enumerate() {
+            assert!(
+                !m || allowed.contains(&i),
+                "scenario {} moves angle {i}",
+                p.scenario
+            );
+        }
+        let (d1, d2) = paper::distances(p, &fls, &sss);
+        let f = p.fraction.unwrap_or(0.5);
+        let want = match p.scenario {
+            1..=3 => (5.0, f * 30.0),
+            4..=6 => (f * 10.0, 15.0),
+            _ => (5.0, 15.0),
+        };
+        assert!(
+            (d1 - want.0).abs() < 1e-12 && (d2 - want.1).abs() < 1e-12,
+            "{p:?}"
+        );
+        assert_eq!(p.fraction.is_some(), p.scenario <= 6);
+    }
+    let fractions: Vec<f64> = poses
+        .iter()
+        .filter(|p| p.scenario == 1)
+        .filter_map(|p| p.fraction)
+        .collect();
+    for f in FRACTIONS {
+        assert!(fractions.contains(&f));
+    }
+}
+
+#[test]
+fn the_feature_is_always_seen_where_it_was_placed() {
+    // Placement puts the feature's own sample (el = 0, az = 0) at the place point, inside both
+    // fields of view: every pose sees at least that sample, and its range is within the extremes.
+    let poses = scenario_poses(30.0).unwrap();
+    for direction in Direction::both() {
+        let batch = paper::batch(direction, &poses, Sampling::Step(0.1)).unwrap();
+        let results = Backend::CpuFast.project(&batch, false).unwrap();
+        for (p, r) in poses.iter().zip(&results) {
+            let (s1, s2) = direction.sonars();
+            let d2 = paper::distances(p, &s1, &s2).1;
+            assert!(r.metrics.visible >= 1, "{direction:?} {p:?}");
+            let (lo, hi) = (r.metrics.range_min.unwrap(), r.metrics.range_max.unwrap());
+            assert!(
+                lo <= d2 + 1e-9 && d2 <= hi + 1e-9,
+                "{direction:?} {p:?}: {d2} not in [{lo}, {hi}]"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_papers_findings_hold_at_a_coarse_angle_step() {
+    let runs = paper::run(&Backend::CpuFast, 10.0, Sampling::Step(0.1)).unwrap();
+    let findings = paper::findings(&runs);
+    assert_eq!(findings.len(), 4);
+    for f in &findings {
+        assert!(f.holds, "{}: not borne out\n{}", f.claim, f.evidence);
+    }
+    let md = paper::findings_markdown(&findings, 10.0, Sampling::Step(0.1));
+    assert_eq!(md.matches("**Borne out.**").count(), 4);
+}
