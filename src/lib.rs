@@ -7,6 +7,7 @@
 pub mod ambiguity;
 pub mod backend;
 pub mod batch;
+pub mod bench;
 pub mod cpu;
 pub mod cpu_fast;
 pub mod error;

@@ -763,3 +763,29 @@ fn bad_paper_input_exits_2() {
         &["step = -0.5"],
     );
 }
+
+#[test]
+fn bench_times_every_backend_on_the_same_batches() {
+    let out = sonarproj()
+        .args(["bench", "--runs", "1"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    for needle in [
+        "samples/s",
+        "poses/s",
+        "cpu-fast",
+        "paper-fls -> paper-sss",
+        "paper-sss -> paper-fls",
+    ] {
+        assert!(text.contains(needle), "{needle} missing:\n{text}");
+    }
+    // The reference row of each batch is the 1.0x baseline.
+    assert_eq!(text.matches("1.0x").count(), 2, "{text}");
+    if common::gpu().is_some() {
+        assert!(text.lines().any(|l| l.starts_with("gpu ")), "{text}");
+    }
+}

@@ -1,6 +1,7 @@
 //! Argument parsing (clap) and dispatch to the sub-commands.
 
 mod batch;
+mod bench;
 mod devices;
 mod paper;
 mod pose_args;
@@ -35,6 +36,8 @@ enum Command {
     /// Recover the coordinate each sonar loses from a feature matched in both; print JSON
     /// (or, with --input, read a CSV of correspondences and write a CSV of candidates).
     Recover(recover::RecoverArgs),
+    /// Time the same batches on the GPU, the fast CPU path and the CPU reference.
+    Bench(bench::BenchArgs),
     /// List the GPU adapters wgpu sees and which one `--backend auto` would use.
     Devices,
 }
@@ -112,6 +115,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Batch(a) => batch::run(a),
         Command::Paper(a) => paper::run(a),
         Command::Recover(a) => recover::run(a),
+        Command::Bench(a) => bench::run(a),
         Command::Devices => devices::run(),
     }
 }
