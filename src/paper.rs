@@ -170,10 +170,22 @@ pub fn distances(p: &ScenarioPose, s1: &Sonar, s2: &Sonar) -> (f64, f64) {
 /// Invalid poses (none for angles from [`angles`]).
 pub fn batch(direction: Direction, poses: &[ScenarioPose], sampling: Sampling) -> Result<Batch> {
     let (s1, s2) = direction.sonars();
+    batch_at(direction, poses, sampling, |p| distances(p, &s1, &s2))
+}
+
+/// Returns the batch of `poses` for `direction` with the feature distances `(in sonar 1, in
+/// sonar 2)` (m) given by `at`.
+fn batch_at(
+    direction: Direction,
+    poses: &[ScenarioPose],
+    sampling: Sampling,
+    at: impl Fn(&ScenarioPose) -> (f64, f64),
+) -> Result<Batch> {
+    let (s1, s2) = direction.sonars();
     let items = poses
         .iter()
         .map(|p| {
-            let (d1, d2) = distances(p, &s1, &s2);
+            let (d1, d2) = at(p);
             let [roll, pitch, yaw] = p.angles;
             let pose = RelativePose::placement(
                 Rotation::RollPitchYaw { roll, pitch, yaw },
@@ -222,16 +234,9 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
         .into_iter()
         .map(|direction| {
             let results = backend.project(&batch(direction, &poses, sampling)?, false)?;
-            let mut near = batch(direction, &grid, sampling)?;
             let (s1, s2) = direction.sonars();
-            for (item, p) in near.items.iter_mut().zip(&grid) {
-                let (d1, d2) = (NEAR_FRACTION * s1.range_max, NEAR_FRACTION * s2.range_max);
-                let [roll, pitch, yaw] = p.angles;
-                let rot = Rotation::RollPitchYaw { roll, pitch, yaw };
-                item.pose = RelativePose::placement(rot, [d1, 0.0, 0.0], [d2, 0.0, 0.0])?;
-                item.measurement = Measurement::of(&s1, d1, 0.0)?;
-            }
-            let near_both = backend.project(&near, false)?;
+            let near = (NEAR_FRACTION * s1.range_max, NEAR_FRACTION * s2.range_max);
+            let near_both = backend.project(&batch_at(direction, &grid, sampling, |_| near)?, false)?;
             Ok(DirectionRun {
                 direction,
                 poses: poses.clone(),

@@ -67,8 +67,7 @@ pub struct Sigmas {
 }
 
 /// Something about the geometry a caller should know.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Flag {
     /// The arc never reaches the other sonar's range (`|c| > √(a² + b²)`), or the two spheres do
     /// not meet.
@@ -83,6 +82,26 @@ pub enum Flag {
     Degenerate,
     /// Solutions exist, but none lies inside both fields of view.
     NoneInView,
+}
+
+impl Flag {
+    /// Returns the flag's name in JSON and CSV (`no_solution`, `tangent`, `near_tangent`,
+    /// `degenerate`, `none_in_view`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Flag::NoSolution => "no_solution",
+            Flag::Tangent => "tangent",
+            Flag::NearTangent => "near_tangent",
+            Flag::Degenerate => "degenerate",
+            Flag::NoneInView => "none_in_view",
+        }
+    }
+}
+
+impl Serialize for Flag {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
 }
 
 /// One recovered point.

@@ -58,16 +58,8 @@ pub fn run(a: PaperArgs) -> Result<()> {
             fields.extend(p.angles.iter().map(f64::to_string));
             (fields, metric_fields(&r.metrics).to_vec())
         });
-        let rows: Vec<(Vec<String>, Vec<String>)> = rows.collect();
         let csv = a.out.join(format!("{}.csv", run.direction.stem()));
-        write_atomic(&csv, |w| {
-            write_rows(
-                w,
-                &header,
-                &METRIC_COLUMNS,
-                rows.iter().map(|(f, m)| (f.as_slice(), m.clone())),
-            )
-        })?;
+        write_atomic(&csv, |w| write_rows(w, &header, &METRIC_COLUMNS, rows))?;
         figures::line_grid(run, &a.out.join(format!("{}-lines.png", run.direction.stem())))?;
         figures::heatmaps(
             run,

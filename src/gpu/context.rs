@@ -74,12 +74,7 @@ impl GpuContext {
         let offered = adapter.limits();
         let mut limits = wgpu::Limits::default();
         // Ask for up to 1 GiB bindings where the adapter has them; chunks are sized from these.
-        limits.max_storage_buffer_binding_size = offered.max_storage_buffer_binding_size.clamp(
-            limits
-                .max_storage_buffer_binding_size
-                .min(offered.max_storage_buffer_binding_size),
-            1 << 30,
-        );
+        limits.max_storage_buffer_binding_size = offered.max_storage_buffer_binding_size.min(1 << 30);
         limits.max_buffer_size = offered.max_buffer_size.min(1 << 30);
         limits.max_storage_buffers_per_shader_stage = limits
             .max_storage_buffers_per_shader_stage

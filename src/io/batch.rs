@@ -136,15 +136,14 @@ pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
 /// shortest exact form (every digit of the f64; f32 results keep their f32 value), empty where
 /// nothing is visible.
 pub fn metric_fields(m: &Metrics) -> [String; 9] {
-    let opt = field;
     [
         m.visible.to_string(),
         m.total.to_string(),
-        opt(m.range_min),
-        opt(m.range_max),
+        field(m.range_min),
+        field(m.range_max),
         m.span.to_string(),
-        opt(m.azimuth_min),
-        opt(m.azimuth_max),
+        field(m.azimuth_min),
+        field(m.azimuth_max),
         m.occupied.to_string(),
         m.occupied_measure.to_string(),
     ]

@@ -13,7 +13,7 @@ use crate::error::Result;
 use crate::io::field;
 use crate::io::table::{Table, row_error, write_rows};
 use crate::pose::{RelativePose, Rotation};
-use crate::recover::{Flag, Observation, Recovery, Sigmas};
+use crate::recover::{Observation, Recovery, Sigmas};
 
 /// Columns every recovery row must have.
 pub const RECOVER_REQUIRED: [&str; 8] = [
@@ -140,17 +140,7 @@ pub fn read_recover_csv(reader: impl Read) -> Result<RecoverInput> {
 
 /// Returns the flags joined with `;`.
 fn flags(r: &Recovery) -> String {
-    r.flags
-        .iter()
-        .map(|f| match f {
-            Flag::NoSolution => "no_solution",
-            Flag::Tangent => "tangent",
-            Flag::NearTangent => "near_tangent",
-            Flag::Degenerate => "degenerate",
-            Flag::NoneInView => "none_in_view",
-        })
-        .collect::<Vec<_>>()
-        .join(";")
+    r.flags.iter().map(|f| f.name()).collect::<Vec<_>>().join(";")
 }
 
 /// Returns the output rows (after the input columns) of one recovery.

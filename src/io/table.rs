@@ -136,11 +136,11 @@ impl Table {
 ///
 /// # Errors
 /// [`Error::WriteOutput`] (named `output`) on I/O failure.
-pub fn write_rows<'r>(
+pub fn write_rows<F: AsRef<[String]>>(
     w: impl Write,
     headers: &[String],
     extra: &[&str],
-    rows: impl IntoIterator<Item = (&'r [String], Vec<String>)>,
+    rows: impl IntoIterator<Item = (F, Vec<String>)>,
 ) -> Result<()> {
     let err = |e: &dyn std::fmt::Display| Error::WriteOutput {
         path: "output".into(),
@@ -150,7 +150,7 @@ pub fn write_rows<'r>(
     let header = headers.iter().map(String::as_str).chain(extra.iter().copied());
     wtr.write_record(header).map_err(|e| err(&e))?;
     for (fields, more) in rows {
-        let record = fields.iter().chain(&more).map(String::as_str);
+        let record = fields.as_ref().iter().chain(&more).map(String::as_str);
         wtr.write_record(record).map_err(|e| err(&e))?;
     }
     wtr.flush().map_err(|e| err(&e))
