@@ -38,6 +38,14 @@ pub enum Error {
         /// What the parser said.
         message: String,
     },
+    /// A sweep TOML file could not be parsed.
+    #[error("sweep file {path}: {message}")]
+    SweepFile {
+        /// The file.
+        path: PathBuf,
+        /// What the parser said.
+        message: String,
+    },
     /// A CSV input is malformed (header, or one row).
     #[error("{context}: {message}")]
     Csv {
@@ -87,6 +95,7 @@ impl Error {
             Error::InvalidValue { .. }
                 | Error::UnknownSonar { .. }
                 | Error::SonarFile { .. }
+                | Error::SweepFile { .. }
                 | Error::Csv { .. }
                 | Error::ReadInput { .. }
         )

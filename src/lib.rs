@@ -19,6 +19,7 @@ pub mod pose;
 pub mod recover;
 pub mod report;
 pub mod sonar;
+pub mod sweep;
 
 pub use ambiguity::{Measurement, Sampling, SamplingPlan};
 pub use backend::{Backend, BackendChoice};

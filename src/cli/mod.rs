@@ -7,6 +7,7 @@ mod paper;
 mod pose_args;
 mod project;
 mod recover;
+mod sweep;
 
 use clap::{Parser, Subcommand};
 
@@ -33,6 +34,11 @@ enum Command {
     Batch(batch::BatchArgs),
     /// Run the paper's simulations (SPEC §8): CSV, figures and the findings, checked.
     Paper(paper::PaperArgs),
+    /// Run a sweep file (grids of rotations, distances and placements, or pose lists) in
+    /// resumable chunks, optionally as one shard of N; write CSV and a figure.
+    Sweep(sweep::SweepArgs),
+    /// Join the shards of a sweep (`sweep --shard K/N`) into the file one run would have written.
+    Merge(sweep::MergeArgs),
     /// Recover the coordinate each sonar loses from a feature matched in both; print JSON
     /// (or, with --input, read a CSV of correspondences and write a CSV of candidates).
     Recover(recover::RecoverArgs),
@@ -114,6 +120,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Project(a) => project::run(a),
         Command::Batch(a) => batch::run(a),
         Command::Paper(a) => paper::run(a),
+        Command::Sweep(a) => sweep::run(a),
+        Command::Merge(a) => sweep::merge(a),
         Command::Recover(a) => recover::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Devices => devices::run(),

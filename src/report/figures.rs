@@ -209,29 +209,168 @@ pub fn heatmaps(run: &DirectionRun, angles: &[f64], path: &Path) -> Result<()> {
                 }))
                 .map_err(plot_error)?;
             // Colour bar: the metric from 0 to the panel's largest value.
-            let mut cb = ChartBuilder::on(&bar)
-                .margin_top(40)
-                .margin_bottom(52)
-                .margin_right(8)
-                .y_label_area_size(70)
-                .build_cartesian_2d(0f64..1f64, 0f64..vmax)
-                .map_err(plot_error)?;
-            cb.configure_mesh()
-                .disable_mesh()
-                .disable_x_axis()
-                .y_desc(label)
-                .y_labels(8)
-                .label_style((FONT, 13))
-                .draw()
-                .map_err(plot_error)?;
-            let n = 200;
-            cb.draw_series((0..n).map(|i| {
-                let (a, b) = (vmax * i as f64 / n as f64, vmax * (i + 1) as f64 / n as f64);
-                let c = ViridisRGB::get_color_normalized(a as f32, 0.0, vmax as f32);
-                Rectangle::new([(0.0, a), (1.0, b)], c.filled())
-            }))
-            .map_err(plot_error)?;
+            colour_bar(&bar, 0.0, vmax, label)?;
         }
         Ok(())
+    })
+}
+
+/// Draws a vertical Viridis colour bar from `lo` to `hi` labelled `label` on `area`.
+fn colour_bar(
+    area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    lo: f64,
+    hi: f64,
+    label: &str,
+) -> Result<()> {
+    let mut cb = ChartBuilder::on(area)
+        .margin_top(40)
+        .margin_bottom(52)
+        .margin_right(8)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0f64..1f64, lo..hi)
+        .map_err(plot_error)?;
+    cb.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_desc(label)
+        .y_labels(8)
+        .label_style((FONT, 13))
+        .draw()
+        .map_err(plot_error)?;
+    let n = 200;
+    cb.draw_series((0..n).map(|i| {
+        let a = lo + (hi - lo) * i as f64 / n as f64;
+        let b = lo + (hi - lo) * (i + 1) as f64 / n as f64;
+        let c = ViridisRGB::get_color_normalized(a as f32, lo as f32, hi as f32);
+        Rectangle::new([(0.0, a), (1.0, b)], c.filled())
+    }))
+    .map_err(plot_error)?;
+    Ok(())
+}
+
+/// Returns the axis label of sweep column `c`, with its unit.
+fn column_label(c: &str) -> String {
+    let unit = match c {
+        "range" | "place_range" | "tx" | "ty" | "tz" => "m",
+        _ => "deg",
+    };
+    format!("{c} ({unit})")
+}
+
+/// Returns `(lo, hi)` of `v`, widened so that the range is never empty.
+fn extent(v: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+        (a.min(x), b.max(x))
+    });
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    if hi - lo < 1e-12 * lo.abs().max(1.0) {
+        return (lo - 0.5, hi + 0.5);
+    }
+    (lo, hi)
+}
+
+/// Returns the cell edges around sorted distinct `values`: midpoints between neighbours, and
+/// half a gap beyond the ends.
+fn cell_edges(values: &[f64]) -> Vec<f64> {
+    let n = values.len();
+    let mut e = Vec::with_capacity(n + 1);
+    let gap = |i: usize| values[i + 1] - values[i];
+    e.push(values[0] - if n > 1 { gap(0) / 2.0 } else { 0.5 });
+    // Midpoints between neighbours.
+    e.extend(values.windows(2).map(|w| (w[0] + w[1]) / 2.0));
+    e.push(values[n - 1] + if n > 1 { gap(n - 2) / 2.0 } else { 0.5 });
+    e
+}
+
+/// Writes a sweep's figure to `path`: the metric (`label`) against one varying column (a line,
+/// broken where nothing was visible) or two (a heatmap with a colour bar; grey where nothing was
+/// visible). `points` are `(column values, metric)` per pose.
+///
+/// # Errors
+/// [`Error::Figure`] or [`Error::WriteOutput`].
+pub fn sweep(
+    path: &Path,
+    title: &str,
+    columns: &[String],
+    label: &str,
+    points: &[(Vec<f64>, Option<f64>)],
+) -> Result<()> {
+    let (vlo, vhi) = extent(points.iter().filter_map(|p| p.1));
+    if columns.len() == 1 {
+        let (xlo, xhi) = extent(points.iter().map(|p| p.0[0]));
+        let pad = 0.05 * (vhi - vlo);
+        let (ylo, yhi) = (if vlo >= 0.0 { 0.0 } else { vlo - pad }, vhi + pad);
+        return render(path, (1200, 800), |root| {
+            let mut chart = ChartBuilder::on(root)
+                .caption(format!("{title}: {label} against {}", columns[0]), (FONT, 26))
+                .margin(20)
+                .x_label_area_size(50)
+                .y_label_area_size(80)
+                .build_cartesian_2d(xlo..xhi, ylo..yhi)
+                .map_err(plot_error)?;
+            chart
+                .configure_mesh()
+                .x_desc(column_label(&columns[0]))
+                .y_desc(label)
+                .label_style((FONT, 16))
+                .draw()
+                .map_err(plot_error)?;
+            let mut sorted: Vec<(f64, Option<f64>)> = points.iter().map(|p| (p.0[0], p.1)).collect();
+            sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let colour = ViridisRGB::get_color_normalized(0.2, 0.0, 1.0);
+            for run in sorted.split(|p| p.1.is_none()).filter(|r| !r.is_empty()) {
+                let pts: Vec<(f64, f64)> = run.iter().map(|p| (p.0, p.1.expect("split"))).collect();
+                if pts.len() == 1 {
+                    chart
+                        .draw_series(std::iter::once(Circle::new(pts[0], 3, colour.filled())))
+                        .map_err(plot_error)?;
+                } else {
+                    chart
+                        .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                        .map_err(plot_error)?;
+                }
+            }
+            Ok(())
+        });
+    }
+    let distinct = |k: usize| {
+        let mut v: Vec<f64> = points.iter().map(|p| p.0[k]).collect();
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        v
+    };
+    let (xv, yv) = (distinct(0), distinct(1));
+    let (xe, ye) = (cell_edges(&xv), cell_edges(&yv));
+    let find = |v: &[f64], x: f64| v.binary_search_by(|a| a.total_cmp(&x)).unwrap_or(0);
+    render(path, (1300, 1000), |root| {
+        let (map, bar) = root.split_horizontally(1160);
+        let mut chart = ChartBuilder::on(&map)
+            .caption(format!("{title}: {label}"), (FONT, 26))
+            .margin(20)
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(xe[0]..xe[xv.len()], ye[0]..ye[yv.len()])
+            .map_err(plot_error)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(column_label(&columns[0]))
+            .y_desc(column_label(&columns[1]))
+            .label_style((FONT, 16))
+            .draw()
+            .map_err(plot_error)?;
+        chart
+            .draw_series(points.iter().map(|(c, v)| {
+                let (i, j) = (find(&xv, c[0]), find(&yv, c[1]));
+                let colour = match v {
+                    Some(v) => ViridisRGB::get_color_normalized(*v as f32, vlo as f32, vhi as f32),
+                    None => RGBColor(200, 200, 200),
+                };
+                Rectangle::new([(xe[i], ye[j]), (xe[i + 1], ye[j + 1])], colour.filled())
+            }))
+            .map_err(plot_error)?;
+        colour_bar(&bar, vlo, vhi, label)
     })
 }

@@ -1,0 +1,115 @@
+//! `sonarproj sweep` and `sonarproj merge`: grids or pose lists from a TOML file, run in
+//! resumable chunks and shards, with a progress bar on a terminal.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use sonarproj::sweep::run::DEFAULT_CHUNK_POSES;
+use sonarproj::sweep::{self, Options, Shard, SweepConfig};
+use sonarproj::{Backend, BackendChoice, Result};
+
+/// Options of `sonarproj sweep`.
+#[derive(Debug, clap::Args)]
+pub struct SweepArgs {
+    /// The sweep file (TOML): sonar pair, sampling, and a grid ([feature], [place] or
+    /// [translation], [rotation]) or `poses = "FILE.csv"`. See README "Sweeps".
+    #[arg(long, value_name = "FILE.toml")]
+    config: PathBuf,
+    /// Output directory: sweep.csv (or shard-K-of-N.csv), sweep.json, and sweep-METRIC.png for
+    /// a grid with one or two varying axes. Re-running the same command resumes an interrupted run.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Run part K of N independent parts (e.g. a Slurm array task); `sonarproj merge DIR` joins them.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<String>,
+    /// Poses per chunk: each finished chunk is kept on disk, so an interrupted run loses at most one.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_CHUNK_POSES)]
+    chunk_poses: u64,
+    /// Compute at most N chunks, then stop (for time-limited jobs; re-run to go on).
+    #[arg(long, value_name = "N")]
+    max_chunks: Option<u64>,
+    /// Where to compute.
+    #[arg(long, value_enum, default_value = "auto")]
+    backend: BackendChoice,
+}
+
+/// Options of `sonarproj merge`.
+#[derive(Debug, clap::Args)]
+pub struct MergeArgs {
+    /// The --out directory the shards of one sweep wrote to.
+    #[arg(value_name = "DIR")]
+    dir: PathBuf,
+}
+
+/// Runs `sonarproj sweep`.
+pub fn run(a: SweepArgs) -> Result<()> {
+    let shard = a.shard.as_deref().map(Shard::parse).transpose()?;
+    let config = SweepConfig::load(&a.config)?;
+    let opts = Options {
+        out: a.out,
+        shard,
+        chunk_poses: a.chunk_poses,
+        max_chunks: a.max_chunks,
+    };
+    if opts.chunk_poses == 0 {
+        return Err(sonarproj::Error::invalid("--chunk-poses", 0, "must be >= 1"));
+    }
+    let (backend, notice) = Backend::select(a.backend)?;
+    if let Some(n) = notice {
+        eprintln!("{n}");
+    }
+    // Drawn only when stderr is a terminal (indicatif hides it otherwise).
+    let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("{wide_bar} {human_pos}/{human_len} poses  {per_sec}  {eta} left")
+            .expect("valid template"),
+    );
+    let start = Instant::now();
+    let outcome = sweep::run(&config, &backend, &opts, &mut |done, total| {
+        bar.set_length(total);
+        bar.set_position(done);
+    });
+    bar.finish_and_clear();
+    let outcome = outcome?;
+    let secs = start.elapsed().as_secs_f64();
+    let what = match shard {
+        Some(s) => format!("shard {}/{} ({} poses)", s.k, s.n, outcome.poses),
+        None => format!("{} poses", outcome.poses),
+    };
+    match &outcome.file {
+        Some(file) => {
+            let rate = outcome.computed as f64 / secs.max(1e-9);
+            println!(
+                "sweep: {what} on {}: {} computed in {secs:.2} s ({rate:.0} poses/s), {} from earlier runs; wrote {}{}",
+                backend.device(),
+                outcome.computed,
+                outcome.resumed,
+                file.display(),
+                outcome
+                    .figure
+                    .map(|f| format!(" and {}", f.display()))
+                    .unwrap_or_default()
+            );
+        }
+        None => println!(
+            "sweep: {what}: stopped after --max-chunks with {} of {} poses done; re-run the same command to go on",
+            outcome.computed + outcome.resumed,
+            outcome.poses
+        ),
+    }
+    Ok(())
+}
+
+/// Runs `sonarproj merge`.
+pub fn merge(a: MergeArgs) -> Result<()> {
+    let (file, figure) = sweep::merge(&a.dir)?;
+    println!(
+        "merge: wrote {}{}",
+        file.display(),
+        figure
+            .map(|f| format!(" and {}", f.display()))
+            .unwrap_or_default()
+    );
+    Ok(())
+}

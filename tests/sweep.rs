@@ -1,0 +1,400 @@
+//! `sonarproj sweep` and `merge` from the outside: results do not depend on the chunk size, on
+//! interruption and resumption, or on sharding and merging (byte for byte); grids enumerate the
+//! poses they describe; bad sweep files and mismatched re-runs are refused naming the key.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+
+fn sonarproj() -> Command {
+    let mut c = Command::cargo_bin("sonarproj").unwrap();
+    c.env("NODEVICE_SELECT", "1");
+    c
+}
+
+/// A 2-D grid (place range × roll, 9 × 61 = 549 poses) of an FLS feature in an SSS.
+const GRID_2D: &str = r#"
+from = "paper-fls"
+to = "paper-sss"
+step = 0.5
+[feature]
+range = 5
+azimuth = 3
+[place]
+range = { start = 2, stop = 18, step = 2 }
+[rotation]
+roll = { start = 0, stop = 180, step = 3 }
+pitch = 10
+"#;
+
+/// A 1-D grid (yaw, 46 poses) of an SSS feature in an FLS.
+const GRID_1D: &str = r#"
+from = "paper-sss"
+to = "paper-fls"
+step = 1
+[feature]
+range = 5
+[place]
+range = 5
+[rotation]
+yaw = { start = 0, stop = 180, step = 4 }
+"#;
+
+/// Writes `text` as `name` in `dir` and returns its path.
+fn file(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Runs `sweep` with `args` and returns the bytes of the result file `name` in `out`.
+fn sweep(config: &Path, out: &Path, args: &[&str], name: &str) -> Vec<u8> {
+    sonarproj()
+        .args(["sweep", "--config"])
+        .arg(config)
+        .arg("--out")
+        .arg(out)
+        .args(args)
+        .assert()
+        .success();
+    std::fs::read(out.join(name)).unwrap_or_else(|e| panic!("{name} in {}: {e}", out.display()))
+}
+
+/// Returns the backends to try: the fast CPU path always, the GPU where an adapter exists.
+fn backends() -> Vec<&'static str> {
+    let mut b = vec!["cpu-fast"];
+    if common::gpu().is_some() {
+        b.push("gpu");
+    }
+    b
+}
+
+#[test]
+fn a_grid_lists_every_combination_with_the_last_axis_fastest() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = file(dir.path(), "s.toml", GRID_2D);
+    let csv = sweep(&cfg, &dir.path().join("o"), &["--backend", "cpu"], "sweep.csv");
+    let mut rdr = csv::Reader::from_reader(csv.as_slice());
+    let h = rdr.headers().unwrap().clone();
+    let col = |n: &str| h.iter().position(|c| c == n).unwrap();
+    let rows: Vec<csv::StringRecord> = rdr.records().map(Result::unwrap).collect();
+    assert_eq!(rows.len(), 9 * 61);
+    for (i, r) in rows.iter().enumerate() {
+        let num = |n: &str| r[col(n)].parse::<f64>().unwrap();
+        assert_eq!(r[col("index")], i.to_string());
+        assert_eq!(num("place_range"), 2.0 + 2.0 * (i / 61) as f64);
+        assert_eq!(num("roll"), 3.0 * (i % 61) as f64);
+        assert_eq!(
+            (num("pitch"), num("yaw"), num("range"), num("azimuth")),
+            (10.0, 0.0, 5.0, 3.0)
+        );
+        // paper-fls's 12° elevation aperture at 0.5°: round(24) = 24 is even, so 25 samples.
+        assert_eq!(num("total"), 25.0);
+    }
+}
+
+#[test]
+fn results_do_not_depend_on_the_chunk_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = file(dir.path(), "s.toml", GRID_2D);
+    for backend in backends() {
+        let whole = sweep(
+            &cfg,
+            &dir.path().join(format!("{backend}-all")),
+            &["--backend", backend],
+            "sweep.csv",
+        );
+        for chunk in ["1", "7", "100"] {
+            let out = dir.path().join(format!("{backend}-{chunk}"));
+            let part = sweep(
+                &cfg,
+                &out,
+                &["--backend", backend, "--chunk-poses", chunk],
+                "sweep.csv",
+            );
+            assert!(whole == part, "{backend}: chunk size {chunk} changed sweep.csv");
+            assert!(!out.join(".partial-sweep").exists(), "state left behind");
+        }
+    }
+}
+
+#[test]
+fn an_interrupted_sweep_resumes_to_the_same_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = file(dir.path(), "s.toml", GRID_2D);
+    let one = dir.path().join("one");
+    let csv = sweep(
+        &cfg,
+        &one,
+        &["--backend", "cpu-fast", "--chunk-poses", "50"],
+        "sweep.csv",
+    );
+    let png = std::fs::read(one.join("sweep-span.png")).unwrap();
+
+    // Stopped after some chunks, then re-run twice with the same command.
+    let out = dir.path().join("resumed");
+    let args = ["--backend", "cpu-fast", "--chunk-poses", "50"];
+    sonarproj()
+        .args(["sweep", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .args(args)
+        .args(["--max-chunks", "3"])
+        .assert()
+        .success()
+        .stdout(predicates::str::contains("150 of 549 poses done"));
+    assert!(!out.join("sweep.csv").exists());
+    let chunks = std::fs::read_dir(out.join(".partial-sweep")).unwrap().count();
+    assert_eq!(chunks, 3 + 1, "three chunks and the manifest");
+    // A different chunk size cannot resume this run.
+    sonarproj()
+        .args(["sweep", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .args(["--backend", "cpu-fast", "--chunk-poses", "60"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("--chunk-poses = 60"));
+    let out_text = sonarproj()
+        .args(["sweep", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .args(args)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    assert!(
+        String::from_utf8_lossy(&out_text).contains("399 computed"),
+        "{}",
+        String::from_utf8_lossy(&out_text)
+    );
+    assert!(std::fs::read(out.join("sweep.csv")).unwrap() == csv);
+    assert!(std::fs::read(out.join("sweep-span.png")).unwrap() == png);
+    assert!(!out.join(".partial-sweep").exists());
+}
+
+#[test]
+fn a_killed_sweep_resumes_to_the_same_file() {
+    let dir = tempfile::tempdir().unwrap();
+    // 121 × 121 sss→fls poses at a fine step in 367 chunks: killed part-way, twice.
+    let cfg = file(
+        dir.path(),
+        "s.toml",
+        &GRID_1D
+            .replace("step = 1", "step = 0.1")
+            .replace(
+                "[rotation]",
+                "[rotation]\nroll = { start = 0, stop = 180, step = 1.5 }",
+            )
+            .replace("step = 4", "step = 1.5"),
+    );
+    let whole = sweep(
+        &cfg,
+        &dir.path().join("whole"),
+        &["--backend", "cpu-fast"],
+        "sweep.csv",
+    );
+    let out = dir.path().join("killed");
+    let bin = assert_cmd::cargo::cargo_bin("sonarproj");
+    let state = out.join(".partial-sweep");
+    let chunks = || std::fs::read_dir(&state).map_or(0, |d| d.count());
+    for at_least in [3, 10] {
+        let mut child = std::process::Command::new(&bin)
+            .env("NODEVICE_SELECT", "1")
+            .args([
+                "sweep",
+                "--backend",
+                "cpu-fast",
+                "--chunk-poses",
+                "40",
+                "--config",
+            ])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&out)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        while chunks() < at_least && child.try_wait().unwrap().is_none() {
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        let _ = child.kill();
+        child.wait().unwrap();
+        assert!(
+            !out.join("sweep.csv").exists(),
+            "finished before it could be killed"
+        );
+    }
+    let resumed = sweep(
+        &cfg,
+        &out,
+        &["--backend", "cpu-fast", "--chunk-poses", "40"],
+        "sweep.csv",
+    );
+    assert!(whole == resumed, "resumed sweep differs from one run");
+}
+
+#[test]
+fn shards_merge_into_the_file_one_run_writes() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text, png) in [
+        ("2d", GRID_2D, "sweep-span.png"),
+        ("1d", GRID_1D, "sweep-occupied_measure.png"),
+    ] {
+        let cfg = file(dir.path(), &format!("{name}.toml"), text);
+        let one = dir.path().join(format!("{name}-one"));
+        let csv = sweep(&cfg, &one, &["--backend", "cpu-fast"], "sweep.csv");
+        let fig = std::fs::read(one.join(png)).unwrap();
+        let out = dir.path().join(format!("{name}-sharded"));
+        for k in [3, 1, 4, 2] {
+            let shard = format!("{k}/4");
+            sweep(
+                &cfg,
+                &out,
+                &["--backend", "cpu-fast", "--shard", &shard, "--chunk-poses", "9"],
+                &format!("shard-{k}-of-4.csv"),
+            );
+            if k != 2 {
+                // Not all parts yet.
+                sonarproj()
+                    .arg("merge")
+                    .arg(&out)
+                    .assert()
+                    .code(2)
+                    .stderr(predicates::str::contains("lacks shards"));
+            }
+        }
+        sonarproj().arg("merge").arg(&out).assert().success();
+        assert!(
+            std::fs::read(out.join("sweep.csv")).unwrap() == csv,
+            "{name}: merged CSV differs"
+        );
+        assert!(
+            std::fs::read(out.join(png)).unwrap() == fig,
+            "{name}: merged figure differs"
+        );
+    }
+}
+
+#[test]
+fn a_pose_list_gives_the_same_metrics_as_batch() {
+    let dir = tempfile::tempdir().unwrap();
+    let poses =
+        "range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz\n5,2,1,10,20,30,1,2,0.5\n4,-3,0,90,0,0,0,0,0\n";
+    file(dir.path(), "poses.csv", poses);
+    let cfg = file(
+        dir.path(),
+        "s.toml",
+        "from = \"paper-fls\"\nto = \"paper-sss\"\nstep = 0.1\nposes = \"poses.csv\"\n",
+    );
+    let csv = sweep(&cfg, &dir.path().join("o"), &["--backend", "cpu"], "sweep.csv");
+    let batch = sonarproj()
+        .args([
+            "batch",
+            "--from",
+            "paper-fls",
+            "--to",
+            "paper-sss",
+            "--step",
+            "0.1",
+            "--backend",
+            "cpu",
+        ])
+        .write_stdin(poses)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    // The sweep's rows are the batch rows with the index in front.
+    let sweep_text = String::from_utf8(csv).unwrap();
+    let batch_text = String::from_utf8(batch).unwrap();
+    for (i, (s, b)) in sweep_text.lines().zip(batch_text.lines()).enumerate() {
+        let want = if i == 0 {
+            format!("index,{b}")
+        } else {
+            format!("{},{b}", i - 1)
+        };
+        assert_eq!(s, want);
+    }
+    assert_eq!(sweep_text.lines().count(), 3);
+    assert!(
+        !dir.path().join("o/sweep-span.png").exists(),
+        "a list has no figure"
+    );
+}
+
+#[test]
+fn bad_sweep_files_name_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (GRID_2D.replace("roll =", "rol ="), "rotation.rol"),
+        (GRID_2D.replace("pitch = 10", "pitch = \"ten\""), "rotation.pitch"),
+        (GRID_2D.replace("step = 3 }", "step = -3 }"), "rotation.roll.step"),
+        (GRID_2D.replace("stop = 18", "stop = -18"), "place.range.stop"),
+        (GRID_2D.replace("range = 5", "range = 50"), "feature.range"),
+        (
+            GRID_2D.replace("azimuth = 3", "azimuth = [3, 80]"),
+            "feature.azimuth",
+        ),
+        (
+            GRID_2D.replace("[feature]\nrange = 5\n", "[feature]\n"),
+            "feature.range",
+        ),
+        (GRID_2D.replace("paper-sss", "no-such-sonar"), "no-such-sonar"),
+        (GRID_2D.replace("step = 0.5", "step = 0"), "step"),
+        (format!("metric = \"area\"\n{GRID_2D}"), "metric"),
+        (format!("{GRID_2D}[translation]\nx = 1\n"), "translation"),
+        (format!("poses = \"p.csv\"\n{GRID_2D}"), "feature"),
+        (GRID_2D.replace("[rotation]", "[rotation"), "s.toml"),
+    ];
+    for (text, key) in cases {
+        let cfg = file(dir.path(), "s.toml", &text);
+        let out = dir.path().join("never");
+        let assert = sonarproj()
+            .args(["sweep", "--backend", "cpu", "--config"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&out)
+            .assert()
+            .code(2);
+        let err = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+        assert!(err.contains(key), "expected {key:?} in: {err}");
+        assert!(!out.exists(), "output directory created for a bad file");
+    }
+    sonarproj()
+        .args(["sweep", "--shard", "5/4", "--config"])
+        .arg(file(dir.path(), "ok.toml", GRID_1D))
+        .args(["--out", "x"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("--shard"));
+}
+
+#[test]
+fn a_directory_of_another_sweep_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o");
+    sweep(
+        &file(dir.path(), "a.toml", GRID_1D),
+        &out,
+        &["--backend", "cpu-fast"],
+        "sweep.csv",
+    );
+    sonarproj()
+        .args(["sweep", "--backend", "cpu-fast", "--config"])
+        .arg(file(dir.path(), "b.toml", GRID_2D))
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("different sweep"));
+}
