@@ -28,5 +28,10 @@ fn projection(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, projection);
+criterion_group! {
+    name = benches;
+    // No HTML plots: plotters is built with only our embedded font, which criterion does not load.
+    config = Criterion::default().without_plots();
+    targets = projection
+}
 criterion_main!(benches);

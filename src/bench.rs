@@ -88,3 +88,39 @@ pub fn time(backend: &Backend, batch: &Batch, runs: usize) -> Result<Timing> {
         samples,
     })
 }
+
+/// The mask latency cases of issue 4: `(from, to)`.
+pub const MASK_CASES: [(&str, &str); 2] = [
+    ("holoocean-sidescan", "holoocean-imaging"),
+    ("holoocean-imaging", "holoocean-sidescan"),
+];
+
+/// Returns the pose and `n` features of a mask benchmark ping: the two sonars side by side
+/// (0.3 m apart, 0.1 m in height), nearly aligned (pitch 5°, yaw 10°), so that a sidescan's
+/// fan lies inside the imaging sonar's elevation aperture (the largest masks, the slowest case)
+/// and each imaging-sonar arc crosses the sidescan's beam; features spread evenly over the
+/// ranges both sonars see and (for an FLS) over 90 % of the azimuths.
+///
+/// # Errors
+/// None for valid sonars.
+pub fn mask_ping(source: &Sonar, target: &Sonar, n: usize) -> Result<(RelativePose, Vec<Measurement>)> {
+    let pose = RelativePose::new(
+        Rotation::RollPitchYaw {
+            roll: 0.0,
+            pitch: 5.0,
+            yaw: 10.0,
+        },
+        [0.3, 0.2, -0.1],
+    )?;
+    let far = source.range_max.min(0.95 * target.range_max);
+    let features = (0..n)
+        .map(|k| {
+            let f = (k as f64 + 0.5) / n as f64;
+            let range = source.range_min + f * (far - source.range_min);
+            // A golden-ratio walk over the aperture, decorrelated from the range.
+            let g = (k as f64 * 0.618_033_988_749_895).fract();
+            Measurement::of(source, range, (g - 0.5) * 0.9 * source.azimuth_aperture)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok((pose, features))
+}

@@ -13,6 +13,7 @@ pub mod cpu_fast;
 pub mod error;
 pub mod gpu;
 pub mod io;
+pub mod mask;
 pub mod occupancy;
 pub mod paper;
 pub mod pose;

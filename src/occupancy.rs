@@ -170,6 +170,18 @@ impl Occupancy {
         self.words[k / 32] |= 1 << (k % 32);
     }
 
+    /// Sets pixels `(i, j0..=j1)`, a word at a time.
+    pub fn set_span(&mut self, i: usize, j0: usize, j1: usize) {
+        let (mut k, end) = (i * self.beams + j0, i * self.beams + j1 + 1);
+        while k < end {
+            let (w, b) = (k / 32, k % 32);
+            let n = (32 - b).min(end - k);
+            let bits = if n == 32 { u32::MAX } else { ((1u32 << n) - 1) << b };
+            self.words[w] |= bits;
+            k += n;
+        }
+    }
+
     /// Returns whether pixel `(i, j)` is set.
     pub fn get(&self, i: usize, j: usize) -> bool {
         let k = i * self.beams + j;

@@ -1,11 +1,26 @@
 //! `sonarproj bench`: the same batches on every backend, samples and poses per second.
 
 use sonarproj::bench::{self, STANDARD, Timing};
+use std::time::Instant;
+
+use sonarproj::mask::MaskEngine;
 use sonarproj::{Backend, BackendChoice, Result, Sonar};
+
+/// What `sonarproj bench` measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Subject {
+    /// Projection batches: samples and poses per second on every backend.
+    Projection,
+    /// Correspondence-mask latency: one mask, and a ping of 100 features (issue 4's cases).
+    Masks,
+}
 
 /// Options of `sonarproj bench`.
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
+    /// What to measure.
+    #[arg(value_enum, default_value = "projection")]
+    subject: Subject,
     /// Timed runs per backend and batch (the median is reported, after one warm-up run).
     #[arg(long, default_value_t = 5)]
     runs: usize,
@@ -16,6 +31,9 @@ pub struct BenchArgs {
 
 /// Runs `sonarproj bench`.
 pub fn run(a: BenchArgs) -> Result<()> {
+    if a.subject == Subject::Masks {
+        return masks(a.runs.max(1));
+    }
     let mut backends = vec![Backend::CpuFast];
     if !a.no_reference {
         backends.push(Backend::Cpu);
@@ -59,6 +77,55 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 t.poses_per_second(),
                 t.samples_per_second(),
                 ratio
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Prints the median latency of one mask and of a 100-feature ping for each of
+/// [`bench::MASK_CASES`].
+fn masks(runs: usize) -> Result<()> {
+    let runs = runs.max(20);
+    println!(
+        "mask engine: CPU, {} threads (f64); median of {runs} runs after one warm-up",
+        rayon::current_num_threads()
+    );
+    println!();
+    println!(
+        "{:44} {:>9} {:>13} {:>13} {:>11} {:>12} {:>10} {:>14}",
+        "case", "features", "median (ms)", "p90 (ms)", "pings/s", "cells/mask", "seen", "pixels/mask"
+    );
+    for (from, to) in bench::MASK_CASES {
+        let (s1, s2) = (
+            Sonar::preset(from).expect("preset"),
+            Sonar::preset(to).expect("preset"),
+        );
+        let engine = MaskEngine::new(s1.clone(), s2.clone());
+        for n in [1, 100] {
+            let (pose, features) = bench::mask_ping(&s1, &s2, n)?;
+            let set = engine.masks(&pose, &features, None, false)?;
+            let cells = set.masks.iter().map(|m| m.cells).sum::<u64>() / n as u64;
+            let seen = set.masks.iter().filter(|m| m.occupancy.count() > 0).count();
+            let pixels = set.masks.iter().map(|m| m.occupancy.count()).sum::<u64>() / n as u64;
+            let mut times = Vec::with_capacity(runs);
+            for _ in 0..runs {
+                let start = Instant::now();
+                engine.masks(&pose, &features, None, false)?;
+                times.push(start.elapsed().as_secs_f64());
+            }
+            times.sort_by(f64::total_cmp);
+            let median = times[runs / 2];
+            println!(
+                "{:44} {:>9} {:>13.3} {:>13.3} {:>11.1} {:>12} {:>10} {:>14}",
+                format!("{from} -> {to}"),
+                n,
+                median * 1e3,
+                times[runs * 9 / 10] * 1e3,
+                1.0 / median,
+                cells,
+                format!("{seen}/{n}"),
+                pixels
             );
         }
     }

@@ -3,6 +3,7 @@
 mod batch;
 mod bench;
 mod devices;
+mod mask;
 mod paper;
 mod pose_args;
 mod project;
@@ -39,6 +40,9 @@ enum Command {
     Sweep(sweep::SweepArgs),
     /// Join the shards of a sweep (`sweep --shard K/N`) into the file one run would have written.
     Merge(sweep::MergeArgs),
+    /// Draw correspondence masks: where each feature of sonar 1 can be in sonar 2 (PNG, NPY,
+    /// JSON; or --stream JSON lines for a live pipeline).
+    Mask(mask::MaskArgs),
     /// Recover the coordinate each sonar loses from a feature matched in both; print JSON
     /// (or, with --input, read a CSV of correspondences and write a CSV of candidates).
     Recover(recover::RecoverArgs),
@@ -122,6 +126,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Paper(a) => paper::run(a),
         Command::Sweep(a) => sweep::run(a),
         Command::Merge(a) => sweep::merge(a),
+        Command::Mask(a) => mask::run(a),
         Command::Recover(a) => recover::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Devices => devices::run(),

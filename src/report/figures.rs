@@ -15,10 +15,10 @@ use crate::report::write_atomic;
 /// Names of the swept angles by index.
 const ANGLE_NAMES: [&str; 3] = ["roll", "pitch", "yaw"];
 /// The font family the figures use (registered from embedded bytes).
-const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 
 /// Registers the embedded font once (plotters' ab_glyph backend has no system fonts).
-fn fonts() {
+pub(crate) fn fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The bytes are a valid TTF shipped by the crate; failure would be a packaging bug.

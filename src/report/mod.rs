@@ -2,6 +2,7 @@
 //! NPY.
 
 pub mod figures;
+pub mod mask_image;
 pub mod occupancy_image;
 
 use std::io::Write;

@@ -1,0 +1,391 @@
+//! `sonarproj mask`: where each feature of sonar 1 can be in sonar 2 — PNG, NPY, JSON, or a
+//! stream of JSON lines for a live pipeline.
+
+use std::io::{BufRead, Write};
+use std::path::PathBuf;
+use std::time::Instant;
+
+use serde::Deserialize;
+use serde_json::{Value, json};
+use sonarproj::error::{Error, Result};
+use sonarproj::mask::{MaskEngine, MaskSet, Noise, bounding_box, run_lengths};
+use sonarproj::report::mask_image;
+use sonarproj::{Measurement, RelativePose, Rotation, Sonar, SonarKind};
+
+use super::pose_args::{PoseArgs, numbers};
+
+/// Options of `sonarproj mask`.
+#[derive(Debug, clap::Args)]
+#[command(allow_negative_numbers = true)]
+pub struct MaskArgs {
+    /// Sonar 1 (measured the features): a preset name or a sonar TOML file.
+    #[arg(long, value_name = "SONAR")]
+    from: String,
+    /// Sonar 2 (where the masks are drawn): a preset name or a sonar TOML file.
+    #[arg(long, value_name = "SONAR")]
+    to: String,
+    #[command(flatten)]
+    pose: PoseArgs,
+    /// A feature measured by sonar 1: range (m) and, for an FLS, azimuth (deg). Repeat for more.
+    /// --place-* puts the first feature (at elevation 0) where it says.
+    #[arg(
+        long,
+        value_name = "R[,A]",
+        allow_hyphen_values = true,
+        required_unless_present = "stream"
+    )]
+    feature: Vec<String>,
+    /// Standard deviation of roll, pitch, yaw (deg): one value for all three, or three.
+    #[arg(long, value_name = "DEG[,DEG,DEG]")]
+    sigma_rotation: Option<String>,
+    /// Standard deviation of the translation (m): one value for x, y, z, or three.
+    #[arg(long, value_name = "M[,M,M]")]
+    sigma_translation: Option<String>,
+    /// Standard deviation of the measured range (m).
+    #[arg(long, value_name = "M")]
+    sigma_range: Option<f64>,
+    /// Standard deviation of the measured azimuth (deg, FLS features).
+    #[arg(long, value_name = "DEG")]
+    sigma_azimuth: Option<f64>,
+    /// Probability that a widened mask holds the true pixel (with any --sigma-*).
+    #[arg(long, value_name = "P", default_value_t = 0.99)]
+    coverage: f64,
+    /// Write a PNG: the fan (FLS) or range strips (SSS) as a person looks at them, and the raw
+    /// range × beam layout, one colour per feature.
+    #[arg(long, value_name = "FILE.png")]
+    out: Option<PathBuf>,
+    /// Write the masks as NPY: [feature][range_bin][beam] (FLS) or [feature][range_bin] (SSS),
+    /// uint8 0/1 (uint32 counts with --counts).
+    #[arg(long, value_name = "FILE.npy")]
+    npy: Option<PathBuf>,
+    /// Per-pixel counts (how many cells of the back-projected set may land there) instead of
+    /// 0/1 in the NPY file.
+    #[arg(long, requires = "npy")]
+    counts: bool,
+    /// Print JSON (per-feature occupied counts and bounding boxes); the default when neither
+    /// --out nor --npy is given.
+    #[arg(long)]
+    json: bool,
+    /// Read one JSON object per line from stdin (pose, features, optional sigma) and write one
+    /// JSON line per input: per-feature run-length masks, counts and timing.
+    #[arg(long, conflicts_with_all = ["feature", "out", "npy", "json"])]
+    stream: bool,
+}
+
+/// Returns `text` as one number or three, named `field`.
+fn one_or_three(field: &str, text: &str) -> Result<[f64; 3]> {
+    if text.contains(',') {
+        numbers::<3>(field, text)
+    } else {
+        let [v] = numbers::<1>(field, text)?;
+        Ok([v; 3])
+    }
+}
+
+/// Returns the measurement `R[,A]` of a feature in `source`, named `--feature N`.
+fn feature(source: &Sonar, k: usize, text: &str) -> Result<Measurement> {
+    let field = format!("--feature {}", k + 1);
+    let parts: Vec<&str> = text.split(',').collect();
+    let (range, azimuth) = match parts.as_slice() {
+        [r] => (numbers::<1>(&field, r)?[0], 0.0),
+        [r, a] => (numbers::<1>(&field, r)?[0], numbers::<1>(&field, a)?[0]),
+        _ => {
+            return Err(Error::invalid(
+                field,
+                format!("{text:?}"),
+                "must be R or R,A (m, deg)",
+            ));
+        }
+    };
+    Measurement::of(source, range, azimuth).map_err(|e| e.in_context(&field))
+}
+
+/// Returns the per-feature JSON of `set`: occupied count and bounding box, with the run-length
+/// masks when `runs`.
+fn features_json(engine: &MaskEngine, features: &[Measurement], set: &MaskSet, runs: bool) -> Vec<Value> {
+    let fls = engine.source().kind == SonarKind::Fls;
+    features
+        .iter()
+        .zip(&set.masks)
+        .map(|(f, m)| {
+            let mut v = json!({
+                "range": f.range,
+                "azimuth": fls.then_some(f.azimuth),
+                "occupied": m.occupancy.count(),
+                "bounding_box": bounding_box(engine.layout(), &m.occupancy),
+                "radius": m.radius,
+                "noise_radius": m.noise_radius,
+                "cells": m.cells,
+            });
+            if runs {
+                v["runs"] = json!(run_lengths(&m.occupancy));
+            }
+            v
+        })
+        .collect()
+}
+
+/// Runs `sonarproj mask`.
+pub fn run(a: MaskArgs) -> Result<()> {
+    let source = Sonar::resolve(&a.from)?;
+    let target = Sonar::resolve(&a.to)?;
+    let engine = MaskEngine::new(source, target);
+    if a.stream {
+        return stream(&engine);
+    }
+    let features = a
+        .feature
+        .iter()
+        .enumerate()
+        .map(|(k, t)| feature(engine.source(), k, t))
+        .collect::<Result<Vec<_>>>()?;
+    let first = features[0];
+    let pose = a.pose.pose([first.range, first.azimuth, 0.0])?;
+    let any_sigma = a.sigma_rotation.is_some()
+        || a.sigma_translation.is_some()
+        || a.sigma_range.is_some()
+        || a.sigma_azimuth.is_some();
+    let noise = if any_sigma {
+        let n = Noise {
+            rotation: a
+                .sigma_rotation
+                .as_deref()
+                .map_or(Ok([0.0; 3]), |t| one_or_three("--sigma-rotation", t))?,
+            translation: a
+                .sigma_translation
+                .as_deref()
+                .map_or(Ok([0.0; 3]), |t| one_or_three("--sigma-translation", t))?,
+            range: a.sigma_range.unwrap_or(0.0),
+            azimuth: a.sigma_azimuth.unwrap_or(0.0),
+            coverage: a.coverage,
+        };
+        Some(n.validated().map_err(|e| e.in_context("--sigma"))?)
+    } else {
+        None
+    };
+    for (path, ext) in [(&a.out, "png"), (&a.npy, "npy")] {
+        if let Some(p) = path
+            .as_ref()
+            .filter(|p| p.extension().and_then(|e| e.to_str()) != Some(ext))
+        {
+            return Err(Error::invalid(
+                format!("--{}", if ext == "png" { "out" } else { "npy" }),
+                p.display(),
+                format!("must end in .{ext}"),
+            ));
+        }
+    }
+    let start = Instant::now();
+    let set = engine.masks(&pose, &features, noise.as_ref(), a.counts)?;
+    let elapsed = start.elapsed().as_secs_f64() * 1e3;
+    if let Some(path) = &a.out {
+        let labels: Vec<String> = features
+            .iter()
+            .enumerate()
+            .map(|(k, f)| match engine.source().kind {
+                SonarKind::Fls => format!("{}: {} m, {}°", k + 1, f.range, f.azimuth),
+                SonarKind::Sss => format!("{}: {} m", k + 1, f.range),
+            })
+            .collect();
+        let title = format!(
+            "{} features of {} in {}{}",
+            features.len(),
+            engine.source().name,
+            engine.target().name,
+            noise
+                .map(|n| format!(", widened to {} coverage", n.coverage))
+                .unwrap_or_default()
+        );
+        mask_image::write_png(path, engine.layout(), &set.masks, &title, &labels)?;
+    }
+    if let Some(path) = &a.npy {
+        mask_image::write_npy(path, engine.layout(), &set.masks, a.counts)?;
+    }
+    if a.json || (a.out.is_none() && a.npy.is_none()) {
+        let out = json!({
+            "from": engine.source().name,
+            "to": engine.target().name,
+            "pose": {
+                "rotation": pose.rotation.transpose().to_cols_array_2d(),
+                "translation": pose.translation.to_array(),
+            },
+            "noise": noise,
+            "features": features_json(&engine, &features, &set, false),
+            "union_occupied": set.union.count(),
+            "elapsed_ms": elapsed,
+        });
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&out).expect("plain JSON values")
+        );
+    }
+    Ok(())
+}
+
+/// A pose in a stream line.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PoseLine {
+    roll: Option<f64>,
+    pitch: Option<f64>,
+    yaw: Option<f64>,
+    quaternion: Option<[f64; 4]>,
+    matrix: Option<[[f64; 3]; 3]>,
+    translation: [f64; 3],
+}
+
+/// One number for all three axes, or three.
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum Triple {
+    One(f64),
+    Three([f64; 3]),
+}
+
+impl Triple {
+    fn get(&self) -> [f64; 3] {
+        match self {
+            Triple::One(v) => [*v; 3],
+            Triple::Three(v) => *v,
+        }
+    }
+}
+
+/// Noise in a stream line.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SigmaLine {
+    rotation: Option<Triple>,
+    translation: Option<Triple>,
+    range: Option<f64>,
+    azimuth: Option<f64>,
+    coverage: Option<f64>,
+}
+
+/// One stream input line.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Line {
+    pose: PoseLine,
+    features: Vec<Vec<f64>>,
+    sigma: Option<SigmaLine>,
+}
+
+/// Returns the pose, features and noise of a stream line.
+fn parse_line(engine: &MaskEngine, text: &str) -> Result<(RelativePose, Vec<Measurement>, Option<Noise>)> {
+    let line: Line = serde_json::from_str(text).map_err(|e| Error::invalid("line", e, "must be one JSON object: {\"pose\": {\"roll\",\"pitch\",\"yaw\" | \"quaternion\" | \"matrix\", \"translation\"}, \"features\": [[R, A], …], \"sigma\"?: {…}}"))?;
+    let p = &line.pose;
+    let rotation = match (p.quaternion, p.matrix) {
+        (Some(q), None) if p.roll.is_none() && p.pitch.is_none() && p.yaw.is_none() => {
+            Rotation::Quaternion(q)
+        }
+        (None, Some(m)) if p.roll.is_none() && p.pitch.is_none() && p.yaw.is_none() => Rotation::Matrix(m),
+        (None, None) => Rotation::RollPitchYaw {
+            roll: p.roll.unwrap_or(0.0),
+            pitch: p.pitch.unwrap_or(0.0),
+            yaw: p.yaw.unwrap_or(0.0),
+        },
+        _ => {
+            return Err(Error::invalid(
+                "pose",
+                "several rotations",
+                "give roll/pitch/yaw, quaternion or matrix",
+            ));
+        }
+    };
+    let pose = RelativePose::new(rotation, p.translation).map_err(|e| e.in_context("pose"))?;
+    if line.features.is_empty() {
+        return Err(Error::invalid(
+            "features",
+            "[]",
+            "must list at least one [R] or [R, A]",
+        ));
+    }
+    let features = line
+        .features
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            let field = format!("features[{k}]");
+            match f.as_slice() {
+                [r] => Measurement::of(engine.source(), *r, 0.0),
+                [r, a] => Measurement::of(engine.source(), *r, *a),
+                _ => Err(Error::invalid(&field, format!("{f:?}"), "must be [R] or [R, A]")),
+            }
+            .map_err(|e| e.in_context(&field))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let noise = line
+        .sigma
+        .map(|s| {
+            Noise {
+                rotation: s.rotation.map_or([0.0; 3], |t| t.get()),
+                translation: s.translation.map_or([0.0; 3], |t| t.get()),
+                range: s.range.unwrap_or(0.0),
+                azimuth: s.azimuth.unwrap_or(0.0),
+                coverage: s.coverage.unwrap_or(0.99),
+            }
+            .validated()
+            .map_err(|e| e.in_context("sigma"))
+        })
+        .transpose()?;
+    Ok((pose, features, noise))
+}
+
+/// Runs the stream mode: a JSON line out for every line in; a bad line gets `{"line", "error"}`
+/// and the stream goes on (exit status 2 at the end if any line was bad).
+fn stream(engine: &MaskEngine) -> Result<()> {
+    let stdin = std::io::stdin();
+    let mut out = std::io::stdout().lock();
+    let mut bad = 0usize;
+    let write_error = |e: std::io::Error| Error::WriteOutput {
+        path: "stdout".into(),
+        message: e.to_string(),
+    };
+    for (n, text) in stdin.lock().lines().enumerate() {
+        let text = text.map_err(|source| Error::ReadInput {
+            path: "stdin".into(),
+            source,
+        })?;
+        if text.trim().is_empty() {
+            continue;
+        }
+        let line = n + 1;
+        let reply = match parse_line(engine, &text) {
+            Ok((pose, features, noise)) => {
+                let start = Instant::now();
+                match engine.masks(&pose, &features, noise.as_ref(), false) {
+                    Ok(set) => {
+                        let elapsed = start.elapsed().as_secs_f64() * 1e3;
+                        json!({
+                            "line": line,
+                            "features": features_json(engine, &features, &set, true),
+                            "union_occupied": set.union.count(),
+                            "union_runs": run_lengths(&set.union),
+                            "elapsed_ms": elapsed,
+                        })
+                    }
+                    Err(e) => {
+                        bad += 1;
+                        json!({ "line": line, "error": e.to_string() })
+                    }
+                }
+            }
+            Err(e) => {
+                bad += 1;
+                json!({ "line": line, "error": e.to_string() })
+            }
+        };
+        serde_json::to_writer(&mut out, &reply).map_err(|e| write_error(e.into()))?;
+        out.write_all(b"\n").map_err(write_error)?;
+        out.flush().map_err(write_error)?;
+    }
+    if bad > 0 {
+        return Err(Error::invalid(
+            "stdin",
+            format!("{bad} bad line(s)"),
+            "see the \"error\" objects in the output",
+        ));
+    }
+    Ok(())
+}
