@@ -26,13 +26,17 @@ use serde::Serialize;
 use statrs::distribution::{ChiSquared, ContinuousCDF, Normal};
 
 use crate::ambiguity::Measurement;
+use crate::backend::BackendChoice;
 use crate::error::{Error, Result, finite};
+use crate::gpu::GpuContext;
+use crate::gpu::mask::{GpuMasks, Job, slack};
 use crate::occupancy::{Layout, Occupancy};
 use crate::pose::{RelativePose, sph_to_cart};
 use crate::sonar::{Sonar, SonarKind};
 
-/// Cells per block side (blocks are culled as a whole before their cells are visited).
-const BLOCK: usize = 8;
+/// Cells per block side (blocks are culled as a whole before their cells are visited). Keep in
+/// sync with BLOCK in shaders/mask.wgsl.
+pub(crate) const BLOCK: usize = 8;
 /// The most cells one mask may visit.
 pub const MAX_CELLS: u64 = 1 << 26;
 
@@ -152,24 +156,38 @@ pub struct MaskSet {
     pub union: Occupancy,
 }
 
-/// Draws masks for one sonar pair; built once, used for every ping.
-#[derive(Clone, Debug)]
+/// Draws masks for one sonar pair; built once, used for every ping. On the CPU (all cores, f64)
+/// by default; [`MaskEngine::on_gpu`] draws them with `shaders/mask.wgsl` instead.
+#[derive(Debug)]
 pub struct MaskEngine {
     source: Sonar,
     target: Sonar,
     layout: Layout,
     tan_elevation: Option<f64>,
     tan_azimuth: Option<f64>,
+    gpu: Option<Box<GpuMasks>>,
+}
+
+/// What one mask is drawn from: the cells of the set, their ball radius and the noise part of it.
+pub(crate) struct Plan {
+    /// The cells.
+    pub cells: Cells,
+    /// The set's range in sonar 1 (m).
+    pub range: f64,
+    /// Cell ball radius plus noise radius (m), without rounding slack.
+    pub radius: f64,
+    /// The noise radius (m).
+    pub noise_radius: f64,
 }
 
 /// The cells of one back-projected set: angle grid and the radius of a cell's ball.
-struct Cells {
+pub(crate) struct Cells {
     /// Cell-centre azimuths (rad, absolute in sonar 1).
-    azimuths: Vec<f64>,
+    pub azimuths: Vec<f64>,
     /// Cell-centre elevations (rad).
-    elevations: Vec<f64>,
+    pub elevations: Vec<f64>,
     /// Half the cell's angular sizes `(Δa/2, Δe/2)` (rad).
-    half: (f64, f64),
+    pub half: (f64, f64),
 }
 
 impl MaskEngine {
@@ -183,6 +201,62 @@ impl MaskEngine {
             source,
             target,
             layout,
+            gpu: None,
+        }
+    }
+
+    /// Returns the engine drawing its masks on the GPU of `ctx` (pipeline and buffers built
+    /// once, kept between pings).
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] when sonar 2's azimuth aperture is 180° or more (the GPU's beam
+    /// search needs less; the CPU engine has no such limit).
+    pub fn on_gpu(source: Sonar, target: Sonar, ctx: GpuContext) -> Result<MaskEngine> {
+        let mut engine = MaskEngine::new(source, target);
+        engine.gpu = Some(Box::new(GpuMasks::new(ctx, &engine.layout)?));
+        Ok(engine)
+    }
+
+    /// Returns the engine `choice` asks for and, when `auto` fell back to the CPU, a one-line
+    /// notice saying so. `cpu` and `cpu-fast` are the same engine for masks (f64, every core);
+    /// `auto` takes a hardware GPU, and the CPU when `counts` are wanted (drawn there only).
+    ///
+    /// # Errors
+    /// [`Error::NoAdapter`] or [`Error::Gpu`] when `gpu` was asked for and cannot be had; as
+    /// [`MaskEngine::on_gpu`].
+    pub fn select(
+        source: Sonar,
+        target: Sonar,
+        choice: BackendChoice,
+        counts: bool,
+    ) -> Result<(MaskEngine, Option<String>)> {
+        match choice {
+            BackendChoice::Cpu | BackendChoice::CpuFast => Ok((MaskEngine::new(source, target), None)),
+            BackendChoice::Gpu => Ok((MaskEngine::on_gpu(source, target, GpuContext::new()?)?, None)),
+            BackendChoice::Auto if counts => Ok((MaskEngine::new(source, target), None)),
+            BackendChoice::Auto => {
+                let cpu = |why: String, s, t| Ok((MaskEngine::new(s, t), Some(format!("note: {why}"))));
+                match GpuContext::new() {
+                    Ok(ctx) if ctx.info.device_type == wgpu::DeviceType::Cpu => cpu(
+                        format!(
+                            "the only GPU adapter is a software one ({}); drawing masks on the CPU (--backend gpu uses it anyway)",
+                            ctx.info.name
+                        ),
+                        source,
+                        target,
+                    ),
+                    Ok(ctx) => Ok((MaskEngine::on_gpu(source, target, ctx)?, None)),
+                    Err(e) => cpu(format!("{e}; drawing masks on the CPU"), source, target),
+                }
+            }
+        }
+    }
+
+    /// Returns a description of where masks are drawn.
+    pub fn device(&self) -> String {
+        match &self.gpu {
+            Some(g) => g.describe(),
+            None => format!("CPU, {} threads (f64)", rayon::current_num_threads()),
         }
     }
 
@@ -215,6 +289,27 @@ impl MaskEngine {
         counts: bool,
     ) -> Result<MaskSet> {
         let noise = noise.map(|n| n.validated()).transpose()?;
+        if let Some(gpu) = &self.gpu {
+            if counts {
+                return Err(Error::invalid(
+                    "counts",
+                    "on the GPU",
+                    "per-pixel counts are drawn on the CPU only",
+                ));
+            }
+            let jobs = features
+                .iter()
+                .enumerate()
+                .map(|(k, m)| {
+                    let plan = self
+                        .plan(m, noise.as_ref())
+                        .map_err(|e| e.in_context(&format!("feature {}", k + 1)))?;
+                    Ok(self.gpu_job(*pose, plan))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let masks = gpu.draw(&self.layout, &jobs)?;
+            return Ok(self.with_union(masks));
+        }
         let masks = features
             .par_iter()
             .enumerate()
@@ -223,13 +318,62 @@ impl MaskEngine {
                     .map_err(|e| e.in_context(&format!("feature {}", k + 1)))
             })
             .collect::<Result<Vec<_>>>()?;
+        Ok(self.with_union(masks))
+    }
+
+    /// Returns the masks of many scenes at once, each feature with its own pose (for tests and
+    /// sweeps of scenes); no noise, no counts.
+    ///
+    /// # Errors
+    /// As [`MaskEngine::masks`].
+    pub fn masks_of_scenes(&self, scenes: &[(RelativePose, Measurement)]) -> Result<Vec<Mask>> {
+        if let Some(gpu) = &self.gpu {
+            let jobs = scenes
+                .iter()
+                .map(|(pose, m)| Ok(self.gpu_job(*pose, self.plan(m, None)?)))
+                .collect::<Result<Vec<_>>>()?;
+            return gpu.draw(&self.layout, &jobs);
+        }
+        scenes
+            .par_iter()
+            .map(|(pose, m)| self.mask(pose, m, None, false))
+            .collect()
+    }
+
+    /// Returns the GPU's job for `plan` under `pose`: the blocks culled here, with the GPU's
+    /// rounding slack.
+    fn gpu_job(&self, pose: RelativePose, plan: Plan) -> Job {
+        let extra = plan.noise_radius + slack(plan.range, &pose, &self.layout);
+        let blocks = self.blocks(&pose, &plan.cells, plan.range, extra);
+        Job { pose, plan, blocks }
+    }
+
+    /// Returns `masks` with their union.
+    fn with_union(&self, masks: Vec<Mask>) -> MaskSet {
         let mut union = Occupancy::new(self.layout.range_bins, self.layout.beams());
         for m in &masks {
             for (u, w) in union.words.iter_mut().zip(&m.occupancy.words) {
                 *u |= w;
             }
         }
-        Ok(MaskSet { masks, union })
+        MaskSet { masks, union }
+    }
+
+    /// Returns the cells and radius of the mask of `m` (checked against sonar 1) under `noise`.
+    pub(crate) fn plan(&self, m: &Measurement, noise: Option<&Noise>) -> Result<Plan> {
+        let m = Measurement::of(&self.source, m.range, m.azimuth)?;
+        let noise_radius = noise.map_or(0.0, |n| n.radius(m.range, self.source.kind));
+        // Half a range bin, or a quarter of the noise radius when that is larger (a finer cell
+        // would not make the widened mask noticeably smaller).
+        let h_target = (self.layout.range_bin_width / 2.0).max(noise_radius / 4.0);
+        let cells = self.cells(&m, h_target)?;
+        let h = m.range * cells.half.0.hypot(cells.half.1);
+        Ok(Plan {
+            cells,
+            range: m.range,
+            radius: h + noise_radius,
+            noise_radius,
+        })
     }
 
     /// Returns the mask of one feature; see [`MaskEngine::masks`].
@@ -243,42 +387,23 @@ impl MaskEngine {
         noise: Option<&Noise>,
         counts: bool,
     ) -> Result<Mask> {
-        let m = Measurement::of(&self.source, m.range, m.azimuth)?;
-        let noise_radius = noise.map_or(0.0, |n| n.radius(m.range, self.source.kind));
-        // Half a range bin, or a quarter of the noise radius when that is larger (a finer cell
-        // would not make the widened mask noticeably smaller).
-        let h_target = (self.layout.range_bin_width / 2.0).max(noise_radius / 4.0);
-        let cells = self.cells(&m, h_target)?;
-        let r = m.range;
-        let h = r * cells.half.0.hypot(cells.half.1);
+        let Plan {
+            cells,
+            range: r,
+            radius,
+            noise_radius,
+        } = self.plan(m, noise)?;
         // Slack for the rounding of q = R p + t and |q| in f64 (relative 1e-12 of the distances).
         let slack = 1e-12 * (r + pose.translation.length() + self.layout.range_max) + 1e-12;
-        let radius = h + noise_radius + slack;
+        let radius = radius + slack;
         let (na, ne) = (cells.azimuths.len(), cells.elevations.len());
         let mut occ = Occupancy::new(self.layout.range_bins, self.layout.beams());
         let mut count = counts.then(|| vec![0u32; self.layout.pixels()]);
         let point = |i: usize, j: usize| pose.apply(sph_to_cart(r, cells.azimuths[i], cells.elevations[j]));
-        for bi in (0..na).step_by(BLOCK) {
-            for bj in (0..ne).step_by(BLOCK) {
-                let (ei, ej) = ((bi + BLOCK).min(na), (bj + BLOCK).min(ne));
-                // The block's ball: around its middle point, covering all its cells.
-                let (a0, a1) = (
-                    cells.azimuths[bi] - cells.half.0,
-                    cells.azimuths[ei - 1] + cells.half.0,
-                );
-                let (e0, e1) = (
-                    cells.elevations[bj] - cells.half.1,
-                    cells.elevations[ej - 1] + cells.half.1,
-                );
-                let centre = pose.apply(sph_to_cart(r, (a0 + a1) / 2.0, (e0 + e1) / 2.0));
-                let block_radius = r * ((a1 - a0) / 2.0).hypot((e1 - e0) / 2.0) + noise_radius + slack;
-                if !self.may_meet_view(centre, block_radius) {
-                    continue;
-                }
-                for i in bi..ei {
-                    for j in bj..ej {
-                        self.mark(point(i, j), radius, &mut occ, count.as_deref_mut());
-                    }
+        for (bi, bj) in self.blocks(pose, &cells, r, noise_radius + slack) {
+            for i in bi..(bi + BLOCK).min(na) {
+                for j in bj..(bj + BLOCK).min(ne) {
+                    self.mark(point(i, j), radius, &mut occ, count.as_deref_mut());
                 }
             }
         }
@@ -289,6 +414,39 @@ impl MaskEngine {
             noise_radius,
             cells: (na * ne) as u64,
         })
+    }
+
+    /// Returns the first cells `(azimuth, elevation)` of the blocks of `BLOCK × BLOCK` cells whose
+    /// ball (around the block's middle point, covering all its cells, grown by `extra`) may meet
+    /// sonar 2's field of view under `pose`: the only cells worth visiting.
+    pub(crate) fn blocks(
+        &self,
+        pose: &RelativePose,
+        cells: &Cells,
+        r: f64,
+        extra: f64,
+    ) -> Vec<(usize, usize)> {
+        let (na, ne) = (cells.azimuths.len(), cells.elevations.len());
+        let mut out = Vec::new();
+        for bi in (0..na).step_by(BLOCK) {
+            for bj in (0..ne).step_by(BLOCK) {
+                let (ei, ej) = ((bi + BLOCK).min(na), (bj + BLOCK).min(ne));
+                let (a0, a1) = (
+                    cells.azimuths[bi] - cells.half.0,
+                    cells.azimuths[ei - 1] + cells.half.0,
+                );
+                let (e0, e1) = (
+                    cells.elevations[bj] - cells.half.1,
+                    cells.elevations[ej - 1] + cells.half.1,
+                );
+                let centre = pose.apply(sph_to_cart(r, (a0 + a1) / 2.0, (e0 + e1) / 2.0));
+                let radius = r * ((a1 - a0) / 2.0).hypot((e1 - e0) / 2.0) + extra;
+                if self.may_meet_view(centre, radius) {
+                    out.push((bi, bj));
+                }
+            }
+        }
+        out
     }
 
     /// Returns the cells of the set measured by `m`, sized so that a cell's ball radius is at

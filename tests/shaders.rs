@@ -147,3 +147,53 @@ fn metric_slots_match() {
     assert_eq!(value("METRIC_AZIMUTH_MAX"), types::METRIC_AZIMUTH_MAX);
     assert_eq!(value("METRIC_MEASURE"), types::METRIC_MEASURE);
 }
+
+#[test]
+fn mask_structs_match_the_rust_layout() {
+    use sonarproj::gpu::mask::{MASK_JOB_SIZE, MASK_PARAMS_SIZE, MaskJob, MaskParams, source};
+    use std::mem::offset_of;
+    let m = module(source(), "mask");
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(m.to_ctx()).unwrap();
+    let size = |name: &str| {
+        let (h, _) = m
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some(name))
+            .unwrap();
+        layouter[h].size as usize
+    };
+    assert_eq!(size("MaskParams"), MASK_PARAMS_SIZE);
+    assert_eq!(size("MaskJob"), MASK_JOB_SIZE);
+    let params = [
+        ("range_min", offset_of!(MaskParams, range_min)),
+        ("range_max", offset_of!(MaskParams, range_max)),
+        ("inv_range_bin", offset_of!(MaskParams, inv_range_bin)),
+        ("range_bins", offset_of!(MaskParams, range_bins)),
+        ("beams", offset_of!(MaskParams, beams)),
+        ("words_per_mask", offset_of!(MaskParams, words_per_mask)),
+        ("job_count", offset_of!(MaskParams, job_count)),
+        ("fls", offset_of!(MaskParams, fls)),
+        ("tan_half_el", offset_of!(MaskParams, tan_half_el)),
+        ("tan_half_az", offset_of!(MaskParams, tan_half_az)),
+        ("cos_half_az", offset_of!(MaskParams, cos_half_az)),
+        ("_pad", offset_of!(MaskParams, _pad)),
+    ];
+    let want: Vec<(String, usize)> = params.iter().map(|(n, o)| (n.to_string(), *o)).collect();
+    assert_eq!(wgsl_members(&m, "MaskParams"), want);
+    let job = [
+        ("row0", offset_of!(MaskJob, rows)),
+        ("row1", offset_of!(MaskJob, rows) + 16),
+        ("row2", offset_of!(MaskJob, rows) + 32),
+        ("range", offset_of!(MaskJob, range)),
+        ("radius", offset_of!(MaskJob, radius)),
+        ("az_count", offset_of!(MaskJob, az_count)),
+        ("el_count", offset_of!(MaskJob, el_count)),
+        ("az_offset", offset_of!(MaskJob, az_offset)),
+        ("el_offset", offset_of!(MaskJob, el_offset)),
+        ("block_offset", offset_of!(MaskJob, block_offset)),
+        ("block_count", offset_of!(MaskJob, block_count)),
+    ];
+    let want: Vec<(String, usize)> = job.iter().map(|(n, o)| (n.to_string(), *o)).collect();
+    assert_eq!(wgsl_members(&m, "MaskJob"), want);
+}

@@ -3,6 +3,7 @@
 use sonarproj::bench::{self, STANDARD, Timing};
 use std::time::Instant;
 
+use sonarproj::gpu::GpuContext;
 use sonarproj::mask::MaskEngine;
 use sonarproj::{Backend, BackendChoice, Result, Sonar};
 
@@ -84,49 +85,75 @@ pub fn run(a: BenchArgs) -> Result<()> {
 }
 
 /// Prints the median latency of one mask and of a 100-feature ping for each of
-/// [`bench::MASK_CASES`].
+/// [`bench::MASK_CASES`], on the GPU (when an adapter exists) and the CPU engine.
 fn masks(runs: usize) -> Result<()> {
     let runs = runs.max(20);
-    println!(
-        "mask engine: CPU, {} threads (f64); median of {runs} runs after one warm-up",
-        rayon::current_num_threads()
-    );
+    let gpu = match GpuContext::new() {
+        Ok(ctx) => {
+            println!("gpu   {}", sonarproj::gpu::context::describe(&ctx.info));
+            true
+        }
+        Err(e) => {
+            println!("GPU: not measured ({e})");
+            false
+        }
+    };
+    println!("cpu   CPU, {} threads (f64)", rayon::current_num_threads());
+    println!("median and 90th percentile of {runs} runs after one warm-up");
     println!();
     println!(
-        "{:44} {:>9} {:>13} {:>13} {:>11} {:>12} {:>10} {:>14}",
-        "case", "features", "median (ms)", "p90 (ms)", "pings/s", "cells/mask", "seen", "pixels/mask"
+        "{:44} {:6} {:>9} {:>12} {:>10} {:>10} {:>11} {:>9} {:>12}",
+        "case",
+        "engine",
+        "features",
+        "median (ms)",
+        "p90 (ms)",
+        "pings/s",
+        "cells/mask",
+        "seen",
+        "pixels/mask"
     );
     for (from, to) in bench::MASK_CASES {
         let (s1, s2) = (
             Sonar::preset(from).expect("preset"),
             Sonar::preset(to).expect("preset"),
         );
-        let engine = MaskEngine::new(s1.clone(), s2.clone());
-        for n in [1, 100] {
-            let (pose, features) = bench::mask_ping(&s1, &s2, n)?;
-            let set = engine.masks(&pose, &features, None, false)?;
-            let cells = set.masks.iter().map(|m| m.cells).sum::<u64>() / n as u64;
-            let seen = set.masks.iter().filter(|m| m.occupancy.count() > 0).count();
-            let pixels = set.masks.iter().map(|m| m.occupancy.count()).sum::<u64>() / n as u64;
-            let mut times = Vec::with_capacity(runs);
-            for _ in 0..runs {
-                let start = Instant::now();
-                engine.masks(&pose, &features, None, false)?;
-                times.push(start.elapsed().as_secs_f64());
+        let mut engines = Vec::new();
+        if gpu {
+            engines.push((
+                "gpu",
+                MaskEngine::on_gpu(s1.clone(), s2.clone(), GpuContext::new()?)?,
+            ));
+        }
+        engines.push(("cpu", MaskEngine::new(s1.clone(), s2.clone())));
+        for (name, engine) in &engines {
+            for n in [1, 100] {
+                let (pose, features) = bench::mask_ping(&s1, &s2, n)?;
+                let set = engine.masks(&pose, &features, None, false)?;
+                let cells = set.masks.iter().map(|m| m.cells).sum::<u64>() / n as u64;
+                let seen = set.masks.iter().filter(|m| m.occupancy.count() > 0).count();
+                let pixels = set.masks.iter().map(|m| m.occupancy.count()).sum::<u64>() / n as u64;
+                let mut times = Vec::with_capacity(runs);
+                for _ in 0..runs {
+                    let start = Instant::now();
+                    engine.masks(&pose, &features, None, false)?;
+                    times.push(start.elapsed().as_secs_f64());
+                }
+                times.sort_by(f64::total_cmp);
+                let median = times[runs / 2];
+                println!(
+                    "{:44} {:6} {:>9} {:>12.3} {:>10.3} {:>10.1} {:>11} {:>9} {:>12}",
+                    format!("{from} -> {to}"),
+                    name,
+                    n,
+                    median * 1e3,
+                    times[runs * 9 / 10] * 1e3,
+                    1.0 / median,
+                    cells,
+                    format!("{seen}/{n}"),
+                    pixels
+                );
             }
-            times.sort_by(f64::total_cmp);
-            let median = times[runs / 2];
-            println!(
-                "{:44} {:>9} {:>13.3} {:>13.3} {:>11.1} {:>12} {:>10} {:>14}",
-                format!("{from} -> {to}"),
-                n,
-                median * 1e3,
-                times[runs * 9 / 10] * 1e3,
-                1.0 / median,
-                cells,
-                format!("{seen}/{n}"),
-                pixels
-            );
         }
     }
     Ok(())

@@ -10,7 +10,7 @@ use serde_json::{Value, json};
 use sonarproj::error::{Error, Result};
 use sonarproj::mask::{MaskEngine, MaskSet, Noise, bounding_box, run_lengths};
 use sonarproj::report::mask_image;
-use sonarproj::{Measurement, RelativePose, Rotation, Sonar, SonarKind};
+use sonarproj::{BackendChoice, Measurement, RelativePose, Rotation, Sonar, SonarKind};
 
 use super::pose_args::{PoseArgs, numbers};
 
@@ -66,6 +66,10 @@ pub struct MaskArgs {
     /// --out nor --npy is given.
     #[arg(long)]
     json: bool,
+    /// Where to draw: auto (a hardware GPU, else the CPU), gpu, or cpu (cpu-fast is the same
+    /// engine for masks: f64 on every core).
+    #[arg(long, value_enum, default_value = "auto")]
+    backend: BackendChoice,
     /// Read one JSON object per line from stdin (pose, features, optional sigma) and write one
     /// JSON line per input: per-feature run-length masks, counts and timing.
     #[arg(long, conflicts_with_all = ["feature", "out", "npy", "json"])]
@@ -129,7 +133,10 @@ fn features_json(engine: &MaskEngine, features: &[Measurement], set: &MaskSet, r
 pub fn run(a: MaskArgs) -> Result<()> {
     let source = Sonar::resolve(&a.from)?;
     let target = Sonar::resolve(&a.to)?;
-    let engine = MaskEngine::new(source, target);
+    let (engine, notice) = MaskEngine::select(source, target, a.backend, a.counts)?;
+    if let Some(n) = notice {
+        eprintln!("{n}");
+    }
     if a.stream {
         return stream(&engine);
     }
@@ -210,6 +217,7 @@ pub fn run(a: MaskArgs) -> Result<()> {
                 "translation": pose.translation.to_array(),
             },
             "noise": noise,
+            "device": engine.device(),
             "features": features_json(&engine, &features, &set, false),
             "union_occupied": set.union.count(),
             "elapsed_ms": elapsed,

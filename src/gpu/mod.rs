@@ -3,6 +3,7 @@
 //! metrics per pose (plus the bitsets only when occupancy is asked for).
 
 pub mod context;
+pub mod mask;
 pub mod pipeline;
 pub mod shaders;
 pub mod types;

@@ -52,5 +52,6 @@ pub fn all() -> Vec<(&'static str, String, bool)> {
         ("splat (f64)", splat(Precision::F64), true),
         ("splat (double-f32)", splat(Precision::DoubleF32), false),
         ("reduce", reduce(), false),
+        ("mask", crate::gpu::mask::source().to_string(), false),
     ]
 }
