@@ -6,7 +6,7 @@
 //! arithmetic and the edge tests), so GPU masks contain the CPU engine's and never miss.
 
 use std::collections::HashMap;
-use std::sync::{Mutex, mpsc};
+use std::sync::Mutex;
 
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
@@ -364,7 +364,7 @@ impl GpuMasks {
         }
         enc.copy_buffer_to_buffer(&b.bits, 0, &b.staging, 0, bytes);
         queue.submit([enc.finish()]);
-        let raw = read(&self.ctx, &b.staging, bytes)?;
+        let raw = super::read(&self.ctx, &b.staging, bytes)?;
         Ok(jobs
             .iter()
             .enumerate()
@@ -381,30 +381,4 @@ impl GpuMasks {
             })
             .collect())
     }
-}
-
-/// Returns the first `size` bytes of the mappable `buffer` as u32s, waiting for the GPU.
-fn read(ctx: &GpuContext, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u32>> {
-    let slice = buffer.slice(..size);
-    let (tx, rx) = mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    ctx.device
-        .poll(wgpu::PollType::Wait {
-            submission_index: None,
-            timeout: Some(context::WAIT_TIMEOUT),
-        })
-        .map_err(|e| Error::Gpu(format!("waiting for the GPU: {e}")))?;
-    rx.recv()
-        .map_err(|e| Error::Gpu(format!("readback never answered: {e}")))?
-        .map_err(|e| Error::Gpu(format!("cannot map the readback buffer: {e}")))?;
-    let data = {
-        let view = slice
-            .get_mapped_range()
-            .map_err(|e| Error::Gpu(format!("cannot read the readback buffer: {e}")))?;
-        bytemuck::cast_slice::<u8, u32>(&view).to_vec()
-    };
-    buffer.unmap();
-    Ok(data)
 }

@@ -226,9 +226,9 @@ impl GpuBackend {
             }
             self.ctx.queue.submit([enc.finish()]);
 
-            let raw: Vec<u32> = self.read(&metrics_staging, used_metrics)?;
+            let raw: Vec<u32> = read(&self.ctx, &metrics_staging, used_metrics)?;
             let raw_bits: Option<Vec<u32>> = match &bits_staging {
-                Some(staging) => Some(self.read(staging, used_bits)?),
+                Some(staging) => Some(read(&self.ctx, staging, used_bits)?),
                 None => None,
             };
             for (c, k) in (start..end).enumerate() {
@@ -255,33 +255,32 @@ impl GpuBackend {
         }
         Ok(out)
     }
+}
 
-    /// Returns the first `size` bytes of the mappable `buffer` as u32s, waiting for the GPU.
-    fn read(&self, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u32>> {
-        let slice = buffer.slice(..size);
-        let (tx, rx) = mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.ctx
-            .device
-            .poll(wgpu::PollType::Wait {
-                submission_index: None,
-                timeout: Some(context::WAIT_TIMEOUT),
-            })
-            .map_err(|e| Error::Gpu(format!("waiting for the GPU: {e}")))?;
-        rx.recv()
-            .map_err(|e| Error::Gpu(format!("readback never answered: {e}")))?
-            .map_err(|e| Error::Gpu(format!("cannot map the readback buffer: {e}")))?;
-        let data = {
-            let view = slice
-                .get_mapped_range()
-                .map_err(|e| Error::Gpu(format!("cannot read the readback buffer: {e}")))?;
-            bytemuck::cast_slice::<u8, u32>(&view).to_vec()
-        };
-        buffer.unmap();
-        Ok(data)
-    }
+/// Returns the first `size` bytes of the mappable `buffer` as u32s, waiting for the GPU of `ctx`.
+pub(crate) fn read(ctx: &GpuContext, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u32>> {
+    let slice = buffer.slice(..size);
+    let (tx, rx) = mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    ctx.device
+        .poll(wgpu::PollType::Wait {
+            submission_index: None,
+            timeout: Some(context::WAIT_TIMEOUT),
+        })
+        .map_err(|e| Error::Gpu(format!("waiting for the GPU: {e}")))?;
+    rx.recv()
+        .map_err(|e| Error::Gpu(format!("readback never answered: {e}")))?
+        .map_err(|e| Error::Gpu(format!("cannot map the readback buffer: {e}")))?;
+    let data = {
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| Error::Gpu(format!("cannot read the readback buffer: {e}")))?;
+        bytemuck::cast_slice::<u8, u32>(&view).to_vec()
+    };
+    buffer.unmap();
+    Ok(data)
 }
 
 /// The direction table uploaded for a chunk: which plans it holds, the buffer, and per plan the
