@@ -28,6 +28,8 @@
 
 use std::path::{Path, PathBuf};
 
+use rayon::prelude::*;
+
 use crate::ambiguity::{Measurement, Sampling};
 use crate::batch::BatchItem;
 use crate::error::{Error, Result};
@@ -489,24 +491,26 @@ impl SweepConfig {
     /// # Errors
     /// Invalid poses (a rotation that is not one; none for grids of finite angles).
     pub fn items(&self, range: std::ops::Range<u64>) -> Result<(Vec<BatchItem>, Vec<Vec<String>>)> {
-        let mut items = Vec::with_capacity((range.end - range.start) as usize);
-        let mut fields = Vec::with_capacity(items.capacity());
-        for i in range {
-            let mut row = vec![i.to_string()];
-            match &self.poses {
-                Poses::List(l) => {
-                    items.push(l.items[i as usize]);
-                    row.extend(l.rows[i as usize].iter().cloned());
-                }
-                Poses::Grid(g) => {
-                    let v = g.values(i);
-                    row.extend(v.iter().map(f64::to_string));
-                    items.push(g.item(&self.source, v)?);
-                }
-            }
-            fields.push(row);
-        }
-        Ok((items, fields))
+        // In parallel: formatting the fields costs as much as projecting some batches.
+        let pairs = range
+            .into_par_iter()
+            .map(|i| {
+                let mut row = vec![i.to_string()];
+                let item = match &self.poses {
+                    Poses::List(l) => {
+                        row.extend(l.rows[i as usize].iter().cloned());
+                        l.items[i as usize]
+                    }
+                    Poses::Grid(g) => {
+                        let v = g.values(i);
+                        row.extend(v.iter().map(f64::to_string));
+                        g.item(&self.source, v)?
+                    }
+                };
+                Ok((item, row))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(pairs.into_iter().unzip())
     }
 
     /// Returns a fingerprint of everything that decides the output (sonars, sampling, poses):
