@@ -62,8 +62,14 @@ pub fn run(a: SweepArgs) -> Result<()> {
     // Drawn only when stderr is a terminal (indicatif hides it otherwise).
     let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
     bar.set_style(
-        ProgressStyle::with_template("{wide_bar} {human_pos}/{human_len} poses  {per_sec}  {eta} left")
-            .expect("valid template"),
+        ProgressStyle::with_template("{wide_bar} {human_pos}/{human_len} poses  {rate}  {eta} left")
+            .expect("valid template")
+            .with_key(
+                "rate",
+                |s: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                    let _ = write!(w, "{:.0} poses/s", s.per_sec());
+                },
+            ),
     );
     let start = Instant::now();
     let outcome = sweep::run(&config, &backend, &opts, &mut |done, total| {
