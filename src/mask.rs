@@ -245,7 +245,11 @@ impl MaskEngine {
                         source,
                         target,
                     ),
-                    Ok(ctx) => Ok((MaskEngine::on_gpu(source, target, ctx)?, None)),
+                    Ok(ctx) => match MaskEngine::on_gpu(source.clone(), target.clone(), ctx) {
+                        Ok(engine) => Ok((engine, None)),
+                        // A field of view the GPU engine does not take (180° or wider).
+                        Err(e) => cpu(format!("{e}; drawing masks on the CPU"), source, target),
+                    },
                     Err(e) => cpu(format!("{e}; drawing masks on the CPU"), source, target),
                 }
             }
