@@ -2,6 +2,8 @@
 //! points pushed onto bin edges and field-of-view bounds), stay tight, and under noise keep the
 //! true pixel at least as often as the stated coverage.
 
+mod common;
+
 use glam::{DMat3, DQuat, DVec3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -457,6 +459,7 @@ mod cli {
 
 mod gpu {
     use super::*;
+    use crate::common;
     use sonarproj::gpu::GpuContext;
 
     /// Scenes per preset pair on the GPU. The CPU engine's test above runs 10 000 per pair;
@@ -473,7 +476,7 @@ mod gpu {
 
     #[test]
     fn gpu_masks_never_miss_and_hold_the_cpu_masks() {
-        if super::super_common_gpu().is_none() {
+        if common::gpu().is_none() {
             return;
         }
         let names = Sonar::preset_names();
@@ -529,19 +532,5 @@ mod gpu {
             "GPU masks {:.3} % larger than the CPU's",
             100.0 * extra
         );
-    }
-}
-
-/// Returns a GPU context, or `None` outside CI without an adapter (in CI: a panic).
-fn super_common_gpu() -> Option<()> {
-    match sonarproj::gpu::GpuContext::new() {
-        Ok(_) => Some(()),
-        Err(e) => {
-            if std::env::var("CI").is_ok_and(|v| v == "true" || v == "1") {
-                panic!("CI=true but no GPU adapter: {e}. Install lavapipe (mesa-vulkan-drivers).");
-            }
-            eprintln!("SKIPPED (no GPU adapter outside CI): {e}");
-            None
-        }
     }
 }

@@ -52,9 +52,6 @@ pub fn run(a: SweepArgs) -> Result<()> {
         chunk_poses: a.chunk_poses,
         max_chunks: a.max_chunks,
     };
-    if opts.chunk_poses == 0 {
-        return Err(sonarproj::Error::invalid("--chunk-poses", 0, "must be >= 1"));
-    }
     let (backend, notice) = Backend::select(a.backend)?;
     if let Some(n) = notice {
         eprintln!("{n}");

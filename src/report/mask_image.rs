@@ -5,14 +5,13 @@
 
 use std::path::Path;
 
-use npyz::WriterBuilder;
 use plotters::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::mask::Mask;
 use crate::occupancy::Layout;
 use crate::report::figures::{FONT, fonts};
-use crate::report::write_atomic;
+use crate::report::{self, write_atomic};
 use crate::sonar::SonarKind;
 
 /// Feature colours (Tableau 10), cycled.
@@ -69,6 +68,8 @@ pub fn write_png(path: &Path, layout: &Layout, masks: &[Mask], title: &str, labe
     // Left: the person's view, 900 × 760 below the title; right: the raw layout, 500 × 760.
     let (fan_x, fan_y, fan_w, fan_h) = (50u32, 90u32, 820u32, 760u32);
     let (raw_x, raw_y, raw_w, raw_h) = (960u32, 90u32, 440u32, 760u32);
+    // An SSS target: one strip of range bins per feature, and the union.
+    let strip = (fan_h / (masks.len() as u32 + 1)).clamp(4, 60);
     let rows = layout.range_bins;
     let beams = layout.beams();
     // Raw layout (FLS): range bin 0 at the bottom, beam 0 on the left.
@@ -115,8 +116,6 @@ pub fn write_png(path: &Path, layout: &Layout, masks: &[Mask], title: &str, labe
         // An SSS: its raw layout is the picture, one strip of range bins per feature (range
         // increasing to the right, as a waterfall row), the union last.
         SonarKind::Sss => {
-            let n = masks.len() as u32 + 1;
-            let strip = (fan_h / n).clamp(4, 60);
             let width = raw_x + raw_w - fan_x;
             for k in 0..=masks.len() {
                 let y0 = fan_y + k as u32 * strip;
@@ -202,7 +201,6 @@ pub fn write_png(path: &Path, layout: &Layout, masks: &[Mask], title: &str, labe
             None => {
                 // Range ticks under the strips.
                 let n = masks.len() as u32 + 1;
-                let strip = (fan_h / n).clamp(4, 60);
                 let (y, width) = ((fan_y + n * strip + 4) as i32, f64::from(raw_x + raw_w - fan_x));
                 let x_of = |r: f64| {
                     fan_x as i32 + ((r - layout.range_min) / (r_max - layout.range_min) * width) as i32
@@ -283,35 +281,19 @@ pub fn write_npy(path: &Path, layout: &Layout, masks: &[Mask], counts: bool) -> 
     if layout.kind == SonarKind::Fls {
         shape.push(layout.beams() as u64);
     }
-    let err = |e: std::io::Error| Error::WriteOutput {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    };
     write_atomic(path, |w| {
         if counts {
-            let mut writer = npyz::WriteOptions::<u32>::new()
-                .default_dtype()
-                .shape(&shape)
-                .writer(w)
-                .begin_nd()
-                .map_err(err)?;
-            for m in masks {
-                writer
-                    .extend(m.counts.as_ref().expect("counts asked for").iter().copied())
-                    .map_err(err)?;
-            }
-            writer.finish().map_err(err)
+            let counts = masks
+                .iter()
+                .flat_map(|m| m.counts.as_ref().expect("counts asked for").iter().copied());
+            report::write_npy(w, &shape, counts, path)
         } else {
-            let mut writer = npyz::WriteOptions::<u8>::new()
-                .default_dtype()
-                .shape(&shape)
-                .writer(w)
-                .begin_nd()
-                .map_err(err)?;
-            for m in masks {
-                writer.extend(m.occupancy.to_bytes(false, false)).map_err(err)?;
-            }
-            writer.finish().map_err(err)
+            report::write_npy(
+                w,
+                &shape,
+                masks.iter().flat_map(|m| m.occupancy.to_bytes(false, false)),
+                path,
+            )
         }
     })
 }

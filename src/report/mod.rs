@@ -10,6 +10,31 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 
+/// Writes `values` to `w` as an NPY array of `shape` (named `path` in errors).
+///
+/// # Errors
+/// [`Error::WriteOutput`] on I/O failure.
+pub fn write_npy<T: npyz::AutoSerialize>(
+    w: &mut dyn Write,
+    shape: &[u64],
+    values: impl IntoIterator<Item = T>,
+    path: &Path,
+) -> Result<()> {
+    use npyz::WriterBuilder;
+    let err = |e: std::io::Error| Error::WriteOutput {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let mut writer = npyz::WriteOptions::<T>::new()
+        .default_dtype()
+        .shape(shape)
+        .writer(w)
+        .begin_nd()
+        .map_err(err)?;
+    writer.extend(values).map_err(err)?;
+    writer.finish().map_err(err)
+}
+
 /// Writes `path` whole or not at all: `fill` writes into a temporary file beside it, which is
 /// renamed over `path` only when `fill` succeeded.
 ///

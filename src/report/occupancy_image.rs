@@ -8,8 +8,6 @@
 use std::io::Write;
 use std::path::Path;
 
-use npyz::WriterBuilder;
-
 use crate::error::{Error, Result};
 use crate::occupancy::Occupancy;
 use crate::report::write_atomic;
@@ -101,18 +99,5 @@ fn write_npy(w: &mut dyn Write, occ: &Occupancy, o: Orientation, path: &Path) ->
     } else {
         vec![occ.range_bins as u64, occ.beams as u64]
     };
-    let err = |e: std::io::Error| Error::WriteOutput {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    };
-    let mut writer = npyz::WriteOptions::<u8>::new()
-        .default_dtype()
-        .shape(&shape)
-        .writer(w)
-        .begin_nd()
-        .map_err(err)?;
-    writer
-        .extend(occ.to_bytes(o.flip_range, o.flip_beams))
-        .map_err(err)?;
-    writer.finish().map_err(err)
+    crate::report::write_npy(w, &shape, occ.to_bytes(o.flip_range, o.flip_beams), path)
 }
