@@ -16,4 +16,7 @@ fi
 export WGPU_BACKEND="${WGPU_BACKEND:-vulkan}"
 export NODEVICE_SELECT=1
 
-cargo test --all-targets "$@"
+# The release profile, so the tests reuse the dependency tree that `cargo run --release` built
+# (a debug build would compile it all again); overflow checks on for this crate alone, which leaves
+# the dependencies' builds untouched (the shipped binary runs without them: 25 % faster).
+cargo test --release --config 'profile.release.package.sonarproj.overflow-checks=true' --all-targets "$@"

@@ -46,7 +46,7 @@ impl Backend {
                 match GpuContext::new() {
                     // A software rasterizer (lavapipe, llvmpipe, WARP) runs on the same cores as
                     // the CPU path and is several times slower than it (BENCHMARKS.md).
-                    Ok(ctx) if ctx.info.device_type == wgpu::DeviceType::Cpu => cpu(format!(
+                    Ok(ctx) if ctx.is_software() => cpu(format!(
                         "the only GPU adapter is a software one ({}), slower than the CPU path; \
                          running on the CPU (all cores; --backend gpu uses the adapter anyway)",
                         ctx.info.name
@@ -71,12 +71,21 @@ impl Backend {
         Ok(Backend::Gpu(Box::new(GpuBackend::new(GpuContext::new()?))))
     }
 
-    /// Returns `"cpu"` or `"gpu"`.
+    /// Returns `"cpu"`, `"cpu-fast"` or `"gpu"`.
     pub fn name(&self) -> &'static str {
         match self {
             Backend::Cpu => "cpu",
             Backend::CpuFast => "cpu-fast",
             Backend::Gpu(_) => "gpu",
+        }
+    }
+
+    /// Returns the name for tables: [`Backend::name`], with `gpu-sw` for a software adapter
+    /// (lavapipe, llvmpipe, WARP), whose speed says nothing of a real GPU's.
+    pub fn label(&self) -> &'static str {
+        match self {
+            Backend::Gpu(g) if g.context().is_software() => "gpu-sw",
+            b => b.name(),
         }
     }
 

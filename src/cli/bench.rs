@@ -28,6 +28,11 @@ pub struct BenchArgs {
     /// Leave out the CPU reference (slow on big batches).
     #[arg(long)]
     no_reference: bool,
+    /// Multiply the standard batches' pose counts (2000 fls→sss, 200 sss→fls) by this, so
+    /// that each batch runs long enough to measure (`--scale 500` runs about a second on two
+    /// cores; at most 1000).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    scale: u32,
 }
 
 /// Runs `sonarproj bench`.
@@ -44,7 +49,10 @@ pub fn run(a: BenchArgs) -> Result<()> {
         Err(e) => println!("GPU: not measured ({e})"),
     }
     for b in &backends {
-        println!("{:8} {}", b.name(), b.device());
+        println!("{:8} {}", b.label(), b.device());
+    }
+    if backends.iter().any(|b| b.label() == "gpu-sw") {
+        println!("gpu-sw: a software adapter on the CPU's cores; its figures say nothing of a real GPU");
     }
     println!();
     println!(
@@ -55,7 +63,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         let batch = bench::batch(
             &Sonar::preset(from).expect("preset"),
             &Sonar::preset(to).expect("preset"),
-            n,
+            n * a.scale as usize,
         )?;
         let timings: Vec<(&Backend, Timing)> = backends
             .iter()
@@ -72,7 +80,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             println!(
                 "{:28} {:8} {:>8} {:>12.2} {:>14.0} {:>14.3e} {:>12}",
                 format!("{from} -> {to}"),
-                b.name(),
+                b.label(),
                 t.poses,
                 t.median.as_secs_f64() * 1e3,
                 t.poses_per_second(),
@@ -89,13 +97,18 @@ pub fn run(a: BenchArgs) -> Result<()> {
 fn masks(runs: usize) -> Result<()> {
     let runs = runs.max(20);
     let gpu = match GpuContext::new() {
+        Ok(ctx) if ctx.is_software() => {
+            println!("gpu-sw {}", sonarproj::gpu::context::describe(&ctx.info));
+            println!("gpu-sw: a software adapter on the CPU's cores; its figures say nothing of a real GPU");
+            Some("gpu-sw")
+        }
         Ok(ctx) => {
             println!("gpu   {}", sonarproj::gpu::context::describe(&ctx.info));
-            true
+            Some("gpu")
         }
         Err(e) => {
             println!("GPU: not measured ({e})");
-            false
+            None
         }
     };
     println!("cpu   CPU, {} threads (f64)", rayon::current_num_threads());
@@ -119,9 +132,9 @@ fn masks(runs: usize) -> Result<()> {
             Sonar::preset(to).expect("preset"),
         );
         let mut engines = Vec::new();
-        if gpu {
+        if let Some(label) = gpu {
             engines.push((
-                "gpu",
+                label,
                 MaskEngine::on_gpu(s1.clone(), s2.clone(), GpuContext::new()?)?,
             ));
         }

@@ -52,6 +52,12 @@ pub fn describe(info: &wgpu::AdapterInfo) -> String {
 }
 
 impl GpuContext {
+    /// Returns whether the adapter is a software one (lavapipe, llvmpipe, WARP): it runs on the
+    /// CPU's cores.
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
     /// Returns a context on the adapter `auto` picks: `WGPU_ADAPTER_NAME` when set, else the
     /// high-performance adapter of the enabled backends (a software one such as lavapipe counts).
     ///
