@@ -86,10 +86,30 @@ impl SamplingPlan {
         measurement: &Measurement,
         sampling: Sampling,
     ) -> Result<Self> {
+        let (n_az, n_el) = Self::counts(source, target, measurement, sampling, None)?;
+        Ok(Self::with_counts(source, n_az, n_el))
+    }
+
+    /// Returns `(azimuth samples, elevation samples)` of the plan [`SamplingPlan::new`] draws,
+    /// without drawing it. `spacing`, when given, is [`auto_spacing`]`(target)` computed once
+    /// by a caller that counts many plans (only [`Sampling::Auto`] uses it).
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] when the plan would exceed [`MAX_SAMPLES_PER_POSE`].
+    pub fn counts(
+        source: &Sonar,
+        target: &Sonar,
+        measurement: &Measurement,
+        sampling: Sampling,
+        spacing: Option<f64>,
+    ) -> Result<(usize, usize)> {
         let count = |aperture: f64| -> usize {
             match sampling {
                 Sampling::Step(s) => step_count(aperture, s),
-                Sampling::Auto => auto_count(aperture, measurement.range, auto_spacing(target)),
+                Sampling::Auto => {
+                    let d = spacing.unwrap_or_else(|| auto_spacing(target));
+                    auto_count(aperture, measurement.range, d)
+                }
             }
         };
         let n_el = count(source.elevation_aperture);
@@ -105,14 +125,19 @@ impl SamplingPlan {
                 format!("at most {MAX_SAMPLES_PER_POSE} samples per pose; use a coarser --step"),
             ));
         }
+        Ok((n_az, n_el))
+    }
+
+    /// Returns the plan of `n_az × n_el` samples over `source`'s aperture (`n_az` is 1 for an FLS).
+    pub fn with_counts(source: &Sonar, n_az: usize, n_el: usize) -> Self {
         let azimuths = match source.kind {
             SonarKind::Fls => vec![0.0],
             SonarKind::Sss => linspace_rad(source.azimuth_aperture, n_az),
         };
-        Ok(SamplingPlan {
+        SamplingPlan {
             azimuths,
             elevations: linspace_rad(source.elevation_aperture, n_el),
-        })
+        }
     }
 
     /// Returns the number of samples drawn.

@@ -4,7 +4,7 @@
 
 use std::collections::HashMap;
 
-use crate::ambiguity::{Measurement, Sampling, SamplingPlan, base_azimuth};
+use crate::ambiguity::{Measurement, Sampling, SamplingPlan, auto_spacing, base_azimuth};
 use crate::error::Result;
 use crate::occupancy::{Layout, Metrics, Occupancy};
 use crate::pose::RelativePose;
@@ -68,11 +68,12 @@ impl Batch {
         let mut index: HashMap<(usize, usize), usize> = HashMap::new();
         let mut plan_of = Vec::with_capacity(self.items.len());
         let mut base = Vec::with_capacity(self.items.len());
+        // Plans are drawn once per distinct sample count, not once per item.
+        let spacing = matches!(sampling, Sampling::Auto).then(|| auto_spacing(&self.target));
         for item in &self.items {
-            let plan = SamplingPlan::new(&self.source, &self.target, &item.measurement, sampling)?;
-            let key = (plan.azimuths.len(), plan.elevations.len());
+            let key = SamplingPlan::counts(&self.source, &self.target, &item.measurement, sampling, spacing)?;
             let k = *index.entry(key).or_insert_with(|| {
-                plans.push(plan);
+                plans.push(SamplingPlan::with_counts(&self.source, key.0, key.1));
                 plans.len() - 1
             });
             plan_of.push(k);

@@ -276,8 +276,18 @@ impl Default for Extremes {
 impl Extremes {
     /// Widens the extremes to include a sample at range `r`, azimuth `az`.
     pub fn add(&mut self, r: f64, az: f64) {
+        self.add_range(r);
+        self.add_azimuth(az);
+    }
+
+    /// Widens the range extremes to include `r`.
+    pub fn add_range(&mut self, r: f64) {
         self.range_min = self.range_min.min(r);
         self.range_max = self.range_max.max(r);
+    }
+
+    /// Widens the azimuth extremes to include `az`.
+    pub fn add_azimuth(&mut self, az: f64) {
         self.azimuth_min = self.azimuth_min.min(az);
         self.azimuth_max = self.azimuth_max.max(az);
     }

@@ -1,0 +1,95 @@
+#!/usr/bin/env bash
+# Runs the GPU checks and measurements on a machine with a real GPU that has no Rust toolchain
+# and no network (an NVIDIA H100 lent for half an hour, say), so that its time goes to measuring.
+#
+#   scripts/gpu-remote.sh prepare   # here: build, strip and pack everything into .gpu/ (< 64 MiB)
+#   scripts/gpu-remote.sh run       # there, from the repository root, with .gpu/ copied along:
+#                                   # Vulkan loader, NVIDIA ICD, GPU tests, benches, paper; logs
+#                                   # into $OUT (or .gpu/out)
+#
+# `prepare` needs cargo and apt-get (for the Vulkan loader packages, unpacked there with dpkg -x).
+# `run` needs only the NVIDIA driver on the remote machine; it also works on lavapipe here, for a
+# dry run (`GPU_REMOTE_ICD=` picks the ICD file; by default the NVIDIA one when it exists).
+# Variants: `run` takes extra `sonarproj bench` arguments from GPU_REMOTE_BENCH (default
+# `--scale 200`), and GPU_SCENES for the mask test's scene count.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bundle=.gpu
+
+prepare() {
+    rm -rf "$bundle" && mkdir -p "$bundle/bin" "$bundle/debs"
+    cargo build --release
+    # The GPU test and bench binaries, as cargo names them (hash suffixes included).
+    cargo test --release --no-run --message-format=json \
+        --test agreement --test masks --test cli --bench projection --bench masks 2>/dev/null |
+        python3 -c '
+import json, sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m.get("executable") and m["target"]["kind"] != ["bin"]:
+        print(m["target"]["name"] + ("-bench" if m["target"]["kind"] == ["bench"] else "") + " " + m["executable"])
+' | while read -r name exe; do
+        strip -o "$bundle/bin/$name" "$exe"
+    done
+    strip -o "$bundle/bin/sonarproj" target/release/sonarproj
+    # The Vulkan loader: the remote machine has the NVIDIA driver and its ICD file, not always
+    # libvulkan.so.1.
+    (cd "$bundle/debs" && apt-get download libvulkan1 >/dev/null 2>&1) ||
+        echo "note: could not download libvulkan1 (apt-get update first?); run will use the remote's" >&2
+    tar -C "$bundle" -cJf "$bundle/bin.tar.xz" bin && rm -rf "$bundle/bin"
+    du -sh "$bundle"
+    echo "carry .gpu and run: bash scripts/gpu-remote.sh run"
+}
+
+run() {
+    local out="${OUT:-$bundle/out}"
+    mkdir -p "$out"
+    tar -C "$bundle" -xJf "$bundle/bin.tar.xz"
+    if ! ldconfig -p 2>/dev/null | grep -q libvulkan.so.1; then
+        for f in "$bundle"/debs/*.deb; do [ -e "$f" ] && dpkg -x "$f" /; done
+        ldconfig || true
+    fi
+    local nvidia=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+    [ -e /usr/share/vulkan/icd.d/nvidia_icd.json ] && nvidia=/usr/share/vulkan/icd.d/nvidia_icd.json
+    export VK_DRIVER_FILES="${GPU_REMOTE_ICD-$( [ -e "$nvidia" ] && echo "$nvidia")}"
+    [ -n "$VK_DRIVER_FILES" ] || unset VK_DRIVER_FILES
+    export WGPU_BACKEND=vulkan NODEVICE_SELECT=1 CI=true
+    # The CLI tests find the binary here (assert_cmd reads this variable first).
+    export CARGO_BIN_EXE_sonarproj="$PWD/$bundle/bin/sonarproj"
+    local bin="$bundle/bin" status=0
+    step() {
+        local name=$1
+        shift
+        echo "== $name: $*" | tee -a "$out/summary.txt"
+        local start=$SECONDS
+        if "$@" >"$out/$name.log" 2>&1; then
+            echo "   ok ($((SECONDS - start)) s)" | tee -a "$out/summary.txt"
+        else
+            echo "   FAILED ($((SECONDS - start)) s): tail of $name.log" | tee -a "$out/summary.txt"
+            tail -20 "$out/$name.log" | tee -a "$out/summary.txt"
+            status=1
+        fi
+    }
+    (nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv || true) >"$out/gpu.txt" 2>&1
+    step devices "$bin/sonarproj" devices
+    step test-agreement "$bin/agreement"
+    step test-masks "$bin/masks"
+    step test-cli "$bin/cli"
+    # shellcheck disable=SC2086
+    step bench-projection "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
+    step bench-masks "$bin/sonarproj" bench masks
+    step paper-gpu "$bin/sonarproj" paper --backend gpu --out "$bundle/paper-gpu"
+    step paper-cpu "$bin/sonarproj" paper --backend cpu-fast --out "$bundle/paper-cpu"
+    step criterion-projection "$bin/projection-bench" --bench
+    grep -h "paper:" "$out"/paper-*.log >>"$out/summary.txt" || true
+    return $status
+}
+
+case "${1:-}" in
+prepare) prepare ;;
+run) run ;;
+*)
+    echo "usage: scripts/gpu-remote.sh prepare|run" >&2
+    exit 2
+    ;;
+esac
