@@ -1,6 +1,8 @@
 //! `sonarproj paper`: the paper's simulations (SPEC §8), CSV, figures and findings.
 
 use std::path::PathBuf;
+
+use rayon::prelude::*;
 use std::time::Instant;
 
 use sonarproj::error::{Error, Result};
@@ -49,24 +51,29 @@ pub fn run(a: PaperArgs) -> Result<()> {
         .iter()
         .map(|s| s.to_string())
         .collect();
-    for run in &runs {
-        let rows = run.poses.iter().zip(&run.results).map(|(p, r)| {
-            let mut fields = vec![
-                p.scenario.to_string(),
-                p.fraction.map(|f| f.to_string()).unwrap_or_default(),
-            ];
-            fields.extend(p.angles.iter().map(f64::to_string));
-            (fields, metric_fields(&r.metrics).to_vec())
+    // The two directions' CSV and figures are independent: written on all cores at once.
+    runs.par_iter().try_for_each(|run| -> Result<()> {
+        let stem = run.direction.stem();
+        let write_csv = || {
+            let rows = run.poses.iter().zip(&run.results).map(|(p, r)| {
+                let mut fields = vec![
+                    p.scenario.to_string(),
+                    p.fraction.map(|f| f.to_string()).unwrap_or_default(),
+                ];
+                fields.extend(p.angles.iter().map(f64::to_string));
+                (fields, metric_fields(&r.metrics).to_vec())
+            });
+            let csv = a.out.join(format!("{stem}.csv"));
+            write_atomic(&csv, |w| write_rows(w, &header, &METRIC_COLUMNS, rows))
+        };
+        let (csv, (lines, heatmaps)) = rayon::join(write_csv, || {
+            rayon::join(
+                || figures::line_grid(run, &a.out.join(format!("{stem}-lines.png"))),
+                || figures::heatmaps(run, &swept, &a.out.join(format!("{stem}-heatmaps.png"))),
+            )
         });
-        let csv = a.out.join(format!("{}.csv", run.direction.stem()));
-        write_atomic(&csv, |w| write_rows(w, &header, &METRIC_COLUMNS, rows))?;
-        figures::line_grid(run, &a.out.join(format!("{}-lines.png", run.direction.stem())))?;
-        figures::heatmaps(
-            run,
-            &swept,
-            &a.out.join(format!("{}-heatmaps.png", run.direction.stem())),
-        )?;
-    }
+        csv.and(lines).and(heatmaps)
+    })?;
     let findings = paper::findings(&runs);
     let md = paper::findings_markdown(&findings, a.angle_step, sampling);
     write_atomic(&a.out.join("findings.md"), |w| {
