@@ -58,6 +58,10 @@ struct Geometry<'a> {
     inv_range_bin: f64,
     /// `(range_min + iΔ)²`, `i = 0..=range_bins`.
     range_edges_sq: Vec<f64>,
+    /// Half of each beam's width `Δa_j / 2` and each row's `r_{i+1}² − r_i²`: their product is
+    /// [`Layout::pixel_measure`], bit for bit.
+    half_beam_widths: Vec<f64>,
+    row_areas: Vec<f64>,
     /// `(cos, sin)` of each beam edge.
     beam_edges_cs: Vec<(f64, f64)>,
     /// `beams / aperture` when the beams are uniform.
@@ -80,6 +84,17 @@ impl<'a> Geometry<'a> {
             sin_cos_half_el: (layout.half_elevation.sin(), layout.half_elevation.cos()),
             inv_range_bin: 1.0 / layout.range_bin_width,
             range_edges_sq: layout.range_edges_sq(),
+            half_beam_widths: layout
+                .beam_edges
+                .windows(2)
+                .map(|e| (e[1] - e[0]) / 2.0)
+                .collect(),
+            row_areas: (0..layout.range_bins)
+                .map(|i| {
+                    let (r0, r1) = (layout.range_edge(i), layout.range_edge(i + 1));
+                    r1 * r1 - r0 * r0
+                })
+                .collect(),
             beam_edges_cs: layout.beam_edges.iter().map(|a| (a.cos(), a.sin())).collect(),
             inv_beam_width: layout.uniform_beam_width().map(|w| 1.0 / w),
         }
@@ -245,72 +260,64 @@ impl Directions {
     }
 }
 
-/// One thread's occupancy buffer and the words it has touched since it was last cleared.
+/// One thread's occupancy buffer and a summary of it: one bit per occupancy word, set when the
+/// word is, so that counting, summing and clearing visit the touched words only, in row-major
+/// order, without sorting.
 struct Scratch {
     occ: Occupancy,
-    touched: Vec<usize>,
+    summary: Vec<u64>,
 }
 
 impl Scratch {
     fn new(layout: &Layout) -> Self {
-        Scratch {
-            occ: Occupancy::new(layout.range_bins, layout.beams()),
-            touched: Vec::new(),
-        }
+        let occ = Occupancy::new(layout.range_bins, layout.beams());
+        let summary = vec![0; occ.words.len().div_ceil(64)];
+        Scratch { occ, summary }
     }
 
-    /// Sets pixel `(i, j)`, noting its word when it was empty.
+    /// Sets pixel `(i, j)`, marking its word in the summary.
     fn set(&mut self, i: usize, j: usize) {
         let k = i * self.occ.beams + j;
-        let word = &mut self.occ.words[k / 32];
-        if *word == 0 {
-            self.touched.push(k / 32);
-        }
-        *word |= 1 << (k % 32);
+        let w = k / 32;
+        self.occ.words[w] |= 1 << (k % 32);
+        self.summary[w / 64] |= 1 << (w % 64);
     }
 
     /// Returns `(occupied, occupied_measure)` (the reduce shader's work, over the touched words
-    /// in row-major order) and the occupancy when asked for, leaving the buffer empty.
-    fn reduce(&mut self, layout: &Layout, keep: bool) -> (u64, f64, Option<Occupancy>) {
-        // Row-major order: sort the touched words, or take every word between the first and
-        // the last when they are dense enough that scanning is cheaper than sorting.
-        let (lo, hi) = self
-            .touched
-            .iter()
-            .fold((usize::MAX, 0), |(a, b), &w| (a.min(w), b.max(w)));
-        if !self.touched.is_empty() && hi - lo < 8 * self.touched.len() {
-            self.touched.clear();
-            self.touched.extend((lo..=hi).filter(|&w| self.occ.words[w] != 0));
-        } else {
-            self.touched.sort_unstable();
-        }
-        let words = &self.occ.words;
-        let occupied = self
-            .touched
-            .iter()
-            .map(|&w| u64::from(words[w].count_ones()))
-            .sum::<u64>();
-        let measure = match layout.kind {
-            SonarKind::Sss => occupied as f64 * layout.range_bin_width,
-            SonarKind::Fls => {
-                let beams = layout.beams();
-                let mut sum = 0.0;
-                for &w in &self.touched {
-                    let mut bits = words[w];
+    /// in row-major order, so the area sums in the order of the plain loop) and the occupancy
+    /// when asked for, leaving the buffer empty.
+    fn reduce(&mut self, geo: &Geometry<'_>, keep: bool) -> (u64, f64, Option<Occupancy>) {
+        let layout = geo.layout;
+        let beams = layout.beams();
+        let kept = keep.then(|| self.occ.clone());
+        let (mut occupied, mut area) = (0, 0.0);
+        for (s, summary) in self.summary.iter_mut().enumerate() {
+            let mut touched = std::mem::take(summary);
+            while touched != 0 {
+                let w = 64 * s + touched.trailing_zeros() as usize;
+                touched &= touched - 1;
+                let mut bits = std::mem::take(&mut self.occ.words[w]);
+                occupied += u64::from(bits.count_ones());
+                if layout.kind == SonarKind::Fls {
+                    // One division per word: pixels follow each other along the rows.
+                    let k0 = 32 * w;
+                    let (mut i, mut row_start) = (k0 / beams, k0 / beams * beams);
                     while bits != 0 {
-                        let k = 32 * w + bits.trailing_zeros() as usize;
-                        sum += layout.pixel_measure(k / beams, k % beams);
+                        let k = k0 + bits.trailing_zeros() as usize;
                         bits &= bits - 1;
+                        while k >= row_start + beams {
+                            i += 1;
+                            row_start += beams;
+                        }
+                        area += geo.half_beam_widths[k - row_start] * geo.row_areas[i];
                     }
                 }
-                sum
             }
-        };
-        let kept = keep.then(|| self.occ.clone());
-        for &w in &self.touched {
-            self.occ.words[w] = 0;
         }
-        self.touched.clear();
+        let measure = match layout.kind {
+            SonarKind::Sss => occupied as f64 * layout.range_bin_width,
+            SonarKind::Fls => area,
+        };
         (occupied, measure, kept)
     }
 }
@@ -388,7 +395,7 @@ pub fn project(prepared: &PreparedBatch<'_>, keep_occupancy: bool) -> Vec<Projec
                     }
                     visible += count as u64;
                 }
-                let (occupied, measure, occupancy) = scratch.reduce(layout, keep_occupancy);
+                let (occupied, measure, occupancy) = scratch.reduce(&geo, keep_occupancy);
                 Projection {
                     metrics: Metrics::new(visible, dirs.units.len() as u64, extremes, occupied, measure),
                     occupancy,
