@@ -1,4 +1,5 @@
-// Stage 1: transform, clip, bin, splat. CPU mirror: src/cpu/splat.rs.
+// Stage 1: transform, clip, bin, splat. CPU twin: src/cpu_fast.rs (the same algorithm in f64,
+// block culling included; the reference src/cpu/splat.rs stays plain).
 // The transform and every decision use Real (f64, or double-f32 where the adapter has no f64:
 // shared/real_*.wgsl), so a sample lands where the f64 reference puts it unless it lies within
 // about 1e-12 (relative) of a bound or edge.
@@ -11,12 +12,24 @@
 // squared range-bin edges (range_min + i * width)^2, i = 0..=range_bins, double-f32
 @group(0) @binding(2) var<storage, read> range_edges_sq: array<vec2<f32>>;
 @group(0) @binding(3) var<storage, read> poses: array<Pose>;
-// (cos hi, sin hi, cos lo, sin lo) of the plans' azimuth offsets and elevations
+// (cos hi, sin hi, cos lo, sin lo) of the plans' azimuth offsets and elevations; after each
+// plan's elevations, one culling ball per block of BLOCK samples (centre xyz, radius w, f32)
 @group(0) @binding(4) var<storage, read> directions: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> bits: array<atomic<u32>>;
 @group(0) @binding(6) var<storage, read_write> metrics: array<atomic<u32>>;
 
 const WORKGROUP: u32 = 64u;
+// Samples per culling block (consecutive in the plan's order): cpu_fast::BLOCK.
+const BLOCK: u32 = 16u;
+// Where a block's ball lies: cpu_fast's Side.
+const OUTSIDE: u32 = 0u;
+const ACROSS: u32 = 1u;
+const INSIDE: u32 = 2u;
+const BLOCKS_PER_STEP: u32 = WORKGROUP / BLOCK;
+// Pipeline constant (gpu::SplatOptions): false draws every sample with every clip test.
+override CULL: bool = true;
+
+var<workgroup> wg_side: array<u32, BLOCKS_PER_STEP>;
 
 var<workgroup> wg_visible: atomic<u32>;
 var<workgroup> wg_range_min_not: atomic<u32>;
@@ -98,12 +111,89 @@ fn in_view(x: Real, y: Real, z: Real, r2: Real) -> bool {
     return true;
 }
 
+// Returns where the block's ball (unit directions within ball.w of ball.xyz) lies once the pose
+// moves it: wholly outside sonar 2's field of view, wholly inside, or across a bound. Twin of
+// cpu_fast's Geometry::ball_side: each clip bound is a 1-Lipschitz function of the point, so
+// its value at the centre moves by at most the radius over the ball. Decided in f32 from the
+// pose's hi parts, with a slack of 1e-5 * (range + |t| + range_max), over a hundred times the
+// f32 roundings here, so a culled sample is one the Real test rejects and a sample of an INSIDE
+// block one it keeps.
+fn block_side(pose: Pose, ball: vec4<f32>) -> u32 {
+    let c = vec3<f32>(
+        dot(pose.hi0.xyz, ball.xyz) + pose.hi0.w,
+        dot(pose.hi1.xyz, ball.xyz) + pose.hi1.w,
+        dot(pose.hi2.xyz, ball.xyz) + pose.hi2.w,
+    );
+    let range = length(pose.hi0.xyz);
+    let t = length(vec3<f32>(pose.hi0.w, pose.hi1.w, pose.hi2.w));
+    let radius = range * ball.w * 1.00001 + 1e-5 * (range + t + params.range_max);
+    let d = length(c);
+    // azimuth: the two half-planes' signed distances, intersected for h <= 90 deg, else united
+    let upper = c.x * params.sin_half_az.x - c.y * params.cos_half_az.x;
+    let lower = c.x * params.sin_half_az.x + c.y * params.cos_half_az.x;
+    var az = max(upper, lower);
+    if params.cos_half_az.x >= 0.0 {
+        az = min(upper, lower);
+    }
+    // elevation: |z| cos e - rho sin e, positive outside
+    var cone = -3.0e38;
+    if params.clip_elevation != 0u {
+        cone = abs(c.z) * sqrt(params.cos2_half_el.x) - length(c.xy) * sqrt(params.sin2_half_el.x);
+    }
+    if d - radius > params.range_max || d + radius < params.range_min || az < -radius || cone > radius {
+        return OUTSIDE;
+    }
+    if d - radius > max(params.range_min, 0.0) && d + radius < params.range_max && az > radius
+        && cone < -radius {
+        return INSIDE;
+    }
+    return ACROSS;
+}
+
 // Returns row . u + row.w, the row given as hi + lo pairs.
 fn row_dot(hi: vec4<f32>, lo: vec4<f32>, ux: Real, uy: Real, uz: Real) -> Real {
     var s = r_mul(real(vec2<f32>(hi.x, lo.x)), ux);
     s = r_add(s, r_mul(real(vec2<f32>(hi.y, lo.y)), uy));
     s = r_add(s, r_mul(real(vec2<f32>(hi.z, lo.z)), uz));
     return r_add(s, real(vec2<f32>(hi.w, lo.w)));
+}
+
+// A drawn sample: whether it is visible, and its range and azimuth (f32, from the rounded point).
+struct Drawn {
+    seen: bool,
+    r: f32,
+    az: f32,
+}
+
+// Draws sample k of the pose: transform, clip (unless its block lies wholly inside), bins, and
+// the pixel's bit in the pose's bitset.
+fn draw(pose: Pose, k: u32, inside: bool, base_word: u32) -> Drawn {
+    let n_az = pose.plan.y;
+    let a = directions[pose.plan.x + k % n_az];
+    let e = directions[pose.plan.z + k / n_az];
+    // unit direction (cos el cos az, cos el sin az, sin el)
+    let ce = real(e.xz);
+    let ux = r_mul(ce, real(a.xz));
+    let uy = r_mul(ce, real(a.yw));
+    let uz = real(e.yw);
+    // the sample in sonar 2
+    let x = row_dot(pose.hi0, pose.lo0, ux, uy, uz);
+    let y = row_dot(pose.hi1, pose.lo1, ux, uy, uz);
+    let z = row_dot(pose.hi2, pose.lo2, ux, uy, uz);
+    let r2 = r_add(r_add(r_mul(x, x), r_mul(y, y)), r_mul(z, z));
+    if !inside && !in_view(x, y, z, r2) {
+        return Drawn(false, 0.0, 0.0);
+    }
+    // reported values: f32 from the rounded point
+    let r = sqrt(r_f32(r2));
+    let az = atan2(r_f32(y), r_f32(x));
+    let pixel = range_bin(r, r2) * params.beams + beam_of(x, y, az);
+    let word = base_word + (pixel >> 5u);
+    let mask = 1u << (pixel & 31u);
+    if (atomicLoad(&bits[word]) & mask) == 0u {
+        atomicOr(&bits[word], mask);
+    }
+    return Drawn(true, r, az);
 }
 
 @compute @workgroup_size(64)
@@ -123,9 +213,8 @@ fn main(
 
     let pose_index = wid.y;
     let pose = poses[min(pose_index, params.pose_count - 1u)];
-    let n_az = pose.plan.y;
     // A workgroup past the chunk's poses draws nothing.
-    let n = select(0u, n_az * pose.plan.w, pose_index < params.pose_count);
+    let n = select(0u, pose.plan.y * pose.plan.w, pose_index < params.pose_count);
     let base_word = pose_index * params.words_per_pose;
 
     var visible = 0u;
@@ -133,36 +222,36 @@ fn main(
     var r_max = -3.0e38;
     var az_min = 3.0e38;
     var az_max = -3.0e38;
-    for (var k = wid.x * WORKGROUP + lid; k < n; k += nwg.x * WORKGROUP) {
-        let a = directions[pose.plan.x + k % n_az];
-        let e = directions[pose.plan.z + k / n_az];
-        // unit direction (cos el cos az, cos el sin az, sin el)
-        let ce = real(e.xz);
-        let ux = r_mul(ce, real(a.xz));
-        let uy = r_mul(ce, real(a.yw));
-        let uz = real(e.yw);
-        // the sample in sonar 2
-        let x = row_dot(pose.hi0, pose.lo0, ux, uy, uz);
-        let y = row_dot(pose.hi1, pose.lo1, ux, uy, uz);
-        let z = row_dot(pose.hi2, pose.lo2, ux, uy, uz);
-        let r2 = r_add(r_add(r_mul(x, x), r_mul(y, y)), r_mul(z, z));
-        if !in_view(x, y, z, r2) {
-            continue;
+    // The workgroup takes WORKGROUP consecutive samples at a time, BLOCKS_PER_STEP blocks: their
+    // sides are decided once, by the first lanes, and shared.
+    for (var base = wid.x * WORKGROUP; base < n; base += nwg.x * WORKGROUP) {
+        var side = ACROSS;
+        if CULL {
+            if lid < BLOCKS_PER_STEP {
+                var block = OUTSIDE;
+                let b = base / BLOCK + lid;
+                if b * BLOCK < n {
+                    block = block_side(pose, directions[pose.plan.z + pose.plan.w + b]);
+                }
+                wg_side[lid] = block;
+            }
+            workgroupBarrier();
+            side = wg_side[lid / BLOCK];
         }
-        // reported values: f32 from the rounded point
-        let r = sqrt(r_f32(r2));
-        let az = atan2(r_f32(y), r_f32(x));
-        let pixel = range_bin(r, r2) * params.beams + beam_of(x, y, az);
-        let word = base_word + (pixel >> 5u);
-        let mask = 1u << (pixel & 31u);
-        if (atomicLoad(&bits[word]) & mask) == 0u {
-            atomicOr(&bits[word], mask);
+        let k = base + lid;
+        if k < n && side != OUTSIDE {
+            let s = draw(pose, k, side == INSIDE, base_word);
+            if s.seen {
+                visible += 1u;
+                r_min = min(r_min, s.r);
+                r_max = max(r_max, s.r);
+                az_min = min(az_min, s.az);
+                az_max = max(az_max, s.az);
+            }
         }
-        visible += 1u;
-        r_min = min(r_min, r);
-        r_max = max(r_max, r);
-        az_min = min(az_min, az);
-        az_max = max(az_max, az);
+        if CULL {
+            workgroupBarrier();
+        }
     }
 
     if visible > 0u {

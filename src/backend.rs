@@ -95,9 +95,10 @@ impl Backend {
             Backend::Cpu => "CPU reference (f64, one core)".to_string(),
             Backend::CpuFast => format!("CPU, {} threads (f64)", rayon::current_num_threads()),
             Backend::Gpu(g) => format!(
-                "{}, {} transform",
+                "{}, {} transform, {}",
                 context::describe(&g.context().info),
-                g.context().precision.name()
+                g.context().precision.name(),
+                g.options().describe()
             ),
         }
     }

@@ -229,6 +229,13 @@ struct Seen {
     key: f64,
 }
 
+/// Returns, per block of [`BLOCK`] consecutive samples of the plan with these azimuth offsets
+/// and elevations (rad), the centre and radius of a ball holding the block's unit directions:
+/// the culling balls of this path and of the splat shader.
+pub fn block_balls(azimuths: &[f64], elevations: &[f64]) -> Vec<(DVec3, f64)> {
+    Directions::of(azimuths, elevations).blocks
+}
+
 /// A plan's unit directions (azimuth index fastest) and, per block of [`BLOCK`] of them, the
 /// centre and radius of a ball holding them.
 struct Directions {

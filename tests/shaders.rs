@@ -146,6 +146,9 @@ fn metric_slots_match() {
     assert_eq!(value("METRIC_AZIMUTH_MIN_NOT"), types::METRIC_AZIMUTH_MIN_NOT);
     assert_eq!(value("METRIC_AZIMUTH_MAX"), types::METRIC_AZIMUTH_MAX);
     assert_eq!(value("METRIC_MEASURE"), types::METRIC_MEASURE);
+    // The culling blocks of the shader are those of its CPU twin (the direction table holds
+    // one ball per cpu_fast block).
+    assert_eq!(value("BLOCK"), sonarproj::cpu_fast::BLOCK);
 }
 
 #[test]

@@ -8,7 +8,7 @@ use crate::gpu::shaders::Precision;
 pub const WAIT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(600);
 
 /// A device ready for compute work, with the adapter it came from.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct GpuContext {
     /// The device.
     pub device: wgpu::Device,

@@ -1,6 +1,7 @@
 //! The GPU backend: WGSL compute shaders through wgpu. A batch is cut into chunks that fit the
 //! device; each chunk is one submission of two stages (splat, reduce) and reads back 32 bytes of
-//! metrics per pose (plus the bitsets only when occupancy is asked for).
+//! metrics per pose (plus the bitsets only when occupancy is asked for). The CPU twin of the two
+//! stages is `cpu_fast`, block culling included.
 
 pub mod context;
 pub mod mask;
@@ -15,6 +16,7 @@ use glam::DMat3;
 use wgpu::util::DeviceExt;
 
 use crate::batch::{PreparedBatch, Projection};
+use crate::cpu_fast;
 use crate::error::{Error, Result};
 use crate::occupancy::{Extremes, Metrics, Occupancy};
 use crate::sonar::SonarKind;
@@ -29,29 +31,68 @@ const MAX_TILES: u64 = 1024;
 /// Most bytes of bitsets one chunk may hold (also capped by the device's binding size).
 const MAX_CHUNK_BITS_BYTES: u64 = 256 << 20;
 
+/// Variants of the splat stage, chosen when its pipeline is built (WGSL `override` constants), so
+/// that one build can measure each on a GPU.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SplatOptions {
+    /// Skip blocks of samples whose ball lies wholly outside sonar 2's view, and the clip tests
+    /// of those wholly inside (the fast CPU path always does). Results are the same either way.
+    pub cull: bool,
+}
+
+impl Default for SplatOptions {
+    /// Returns culling on.
+    fn default() -> Self {
+        SplatOptions { cull: true }
+    }
+}
+
+impl SplatOptions {
+    /// Returns the default options, with culling off when the environment variable
+    /// `SONARPROJ_GPU_CULL` is `0` (for measuring both variants with one build).
+    pub fn from_env() -> Self {
+        SplatOptions {
+            cull: std::env::var("SONARPROJ_GPU_CULL").map_or(true, |v| v.trim() != "0"),
+        }
+    }
+
+    /// Returns a short description: `culling` or `no culling`.
+    pub fn describe(&self) -> &'static str {
+        if self.cull { "culling" } else { "no culling" }
+    }
+}
+
 /// The GPU backend: a device and the two pipelines, built once.
 #[derive(Debug)]
 pub struct GpuBackend {
     ctx: GpuContext,
     splat: Stage,
     reduce: Stage,
+    options: SplatOptions,
     max_chunk_poses: Option<usize>,
 }
 
 impl GpuBackend {
-    /// Returns the backend on `ctx`, building its pipelines.
+    /// Returns the backend on `ctx`, building its pipelines with [`SplatOptions::from_env`].
     pub fn new(ctx: GpuContext) -> Self {
-        let splat = Stage::new(
+        Self::with_options(ctx, SplatOptions::from_env())
+    }
+
+    /// Returns the backend on `ctx`, building its pipelines with `options`.
+    pub fn with_options(ctx: GpuContext, options: SplatOptions) -> Self {
+        let splat = Stage::with_constants(
             &ctx.device,
             "splat",
             &shaders::splat(ctx.precision),
             &SPLAT_BINDINGS,
+            &[("CULL", f64::from(u8::from(options.cull)))],
         );
         let reduce = Stage::new(&ctx.device, "reduce", &shaders::reduce(), &REDUCE_BINDINGS);
         GpuBackend {
             ctx,
             splat,
             reduce,
+            options,
             max_chunk_poses: None,
         }
     }
@@ -59,6 +100,11 @@ impl GpuBackend {
     /// Returns the device context.
     pub fn context(&self) -> &GpuContext {
         &self.ctx
+    }
+
+    /// Returns the splat stage's variant.
+    pub fn options(&self) -> SplatOptions {
+        self.options
     }
 
     /// Returns the backend with chunks of at most `poses` poses (results do not depend on it;
@@ -291,9 +337,11 @@ struct Directions {
     offsets: HashMap<usize, [u32; 2]>,
 }
 
-/// Returns the direction table of the plans in `used` (azimuths then elevations of each), each
-/// entry `(cos hi, sin hi, cos lo, sin lo)` in double-f32, and per plan the offsets of its
-/// azimuth and elevation entries.
+/// Returns the direction table of the plans in `used` — azimuths then elevations of each, each
+/// entry `(cos hi, sin hi, cos lo, sin lo)` in double-f32, then the plan's culling balls
+/// (`cpu_fast::block_balls`: centre xyz, radius w, in f32 with the radius rounded up past the
+/// centre's rounding) right after its elevations — and per plan the offsets of its azimuth and
+/// elevation entries.
 fn direction_table(
     prepared: &PreparedBatch<'_>,
     used: &[usize],
@@ -310,6 +358,20 @@ fn direction_table(
         table.extend(plan.azimuths.iter().map(entry));
         let el_off = table.len() as u32;
         table.extend(plan.elevations.iter().map(entry));
+        // The shader finds block b of this plan at el_off + n_el + b. Rounding the centre to f32
+        // moves it by at most √3 · 2⁻²⁴ < 2e-7; the radius grows by that and rounds up.
+        table.extend(
+            cpu_fast::block_balls(&plan.azimuths, &plan.elevations)
+                .into_iter()
+                .map(|(c, r)| {
+                    [
+                        c.x as f32,
+                        c.y as f32,
+                        c.z as f32,
+                        ((r + 2e-7) * (1.0 + 1e-6)) as f32,
+                    ]
+                }),
+        );
         offsets.insert(p, [az_off, el_off]);
     }
     (table, offsets)

@@ -39,6 +39,18 @@ pub struct Stage {
 impl Stage {
     /// Returns the pipeline of WGSL `source` (entry point `main`) with `bindings` in group 0.
     pub fn new(device: &wgpu::Device, name: &str, source: &str, bindings: &[Binding]) -> Self {
+        Self::with_constants(device, name, source, bindings, &[])
+    }
+
+    /// Returns the pipeline as [`Stage::new`], with the WGSL `override` constants set to
+    /// `constants` (name, value).
+    pub fn with_constants(
+        device: &wgpu::Device,
+        name: &str,
+        source: &str,
+        bindings: &[Binding],
+        constants: &[(&str, f64)],
+    ) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(name),
             source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(source)),
@@ -69,7 +81,10 @@ impl Stage {
             layout: Some(&pipeline_layout),
             module: &module,
             entry_point: Some("main"),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                ..Default::default()
+            },
             cache: None,
         });
         Stage { pipeline, layout }
