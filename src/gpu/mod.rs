@@ -40,20 +40,18 @@ pub struct SplatOptions {
     pub cull: bool,
 }
 
-impl Default for SplatOptions {
-    /// Returns culling on.
-    fn default() -> Self {
-        SplatOptions { cull: true }
-    }
-}
-
 impl SplatOptions {
-    /// Returns the default options, with culling off when the environment variable
-    /// `SONARPROJ_GPU_CULL` is `0` (for measuring both variants with one build).
-    pub fn from_env() -> Self {
-        SplatOptions {
-            cull: std::env::var("SONARPROJ_GPU_CULL").map_or(true, |v| v.trim() != "0"),
-        }
+    /// Returns the options for `ctx`'s adapter: culling on a hardware GPU, off on a software
+    /// adapter such as lavapipe (measured 15–25 % slower there with culling: BENCHMARKS.md);
+    /// the environment variable `SONARPROJ_GPU_CULL` (`0` or `1`) overrides it, so one build
+    /// measures both variants.
+    pub fn for_adapter(ctx: &GpuContext) -> Self {
+        let cull = match std::env::var("SONARPROJ_GPU_CULL").as_deref().map(str::trim) {
+            Ok("0") => false,
+            Ok("1") => true,
+            _ => !ctx.is_software(),
+        };
+        SplatOptions { cull }
     }
 
     /// Returns a short description: `culling` or `no culling`.
@@ -73,9 +71,10 @@ pub struct GpuBackend {
 }
 
 impl GpuBackend {
-    /// Returns the backend on `ctx`, building its pipelines with [`SplatOptions::from_env`].
+    /// Returns the backend on `ctx`, building its pipelines with [`SplatOptions::for_adapter`].
     pub fn new(ctx: GpuContext) -> Self {
-        Self::with_options(ctx, SplatOptions::from_env())
+        let options = SplatOptions::for_adapter(&ctx);
+        Self::with_options(ctx, options)
     }
 
     /// Returns the backend on `ctx`, building its pipelines with `options`.
