@@ -4,8 +4,8 @@
 #
 #   scripts/gpu-remote.sh prepare   # here: build, strip and pack everything into .gpu/ (< 64 MiB)
 #   scripts/gpu-remote.sh run       # there, from the repository root, with .gpu/ copied along:
-#                                   # Vulkan loader, NVIDIA ICD, GPU tests, benches, paper; logs
-#                                   # into $OUT (or .gpu/out)
+#                                   # Vulkan loader, NVIDIA ICD, GPU tests, benches, paper;
+#                                   # summary.txt and logs.tar.gz into $OUT (or .gpu/out)
 #
 # `prepare` needs cargo and apt-get (for the Vulkan loader packages, unpacked there with dpkg -x).
 # `run` needs only the NVIDIA driver on the remote machine; it also works on lavapipe here, for a
@@ -43,8 +43,9 @@ for line in sys.stdin:
 }
 
 run() {
-    local out="${OUT:-$bundle/out}"
-    mkdir -p "$out"
+    # $OUT brings back at most 8 files: the logs travel as one archive beside the summary.
+    local out="${OUT:-$bundle/out}" logs="$bundle/logs"
+    mkdir -p "$out" && rm -rf "$logs" && mkdir -p "$logs"
     tar -C "$bundle" -xJf "$bundle/bin.tar.xz"
     if ! ldconfig -p 2>/dev/null | grep -q libvulkan.so.1; then
         for f in "$bundle"/debs/*.deb; do [ -e "$f" ] && dpkg -x "$f" /; done
@@ -61,17 +62,17 @@ run() {
     step() {
         local name=$1
         shift
-        echo "== $name: $*" | tee -a "$out/summary.txt"
+        echo "== $name: $*" | tee -a "$logs/summary.txt"
         local start=$SECONDS
-        if "$@" >"$out/$name.log" 2>&1; then
-            echo "   ok ($((SECONDS - start)) s)" | tee -a "$out/summary.txt"
+        if "$@" >"$logs/$name.log" 2>&1; then
+            echo "   ok ($((SECONDS - start)) s)" | tee -a "$logs/summary.txt"
         else
-            echo "   FAILED ($((SECONDS - start)) s): tail of $name.log" | tee -a "$out/summary.txt"
-            tail -20 "$out/$name.log" | tee -a "$out/summary.txt"
+            echo "   FAILED ($((SECONDS - start)) s): tail of $name.log" | tee -a "$logs/summary.txt"
+            tail -20 "$logs/$name.log" | tee -a "$logs/summary.txt"
             status=1
         fi
     }
-    (nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv || true) >"$out/gpu.txt" 2>&1
+    (nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv || true) >"$logs/gpu.txt" 2>&1
     step devices "$bin/sonarproj" devices
     step test-agreement "$bin/agreement"
     step test-masks "$bin/masks"
@@ -84,7 +85,10 @@ run() {
     step paper-gpu "$bin/sonarproj" paper --backend gpu --out "$bundle/paper-gpu"
     step paper-cpu "$bin/sonarproj" paper --backend cpu-fast --out "$bundle/paper-cpu"
     step criterion-projection "$bin/projection-bench" --bench
-    grep -h "paper:" "$out"/paper-*.log >>"$out/summary.txt" || true
+    grep -h "paper:" "$logs"/paper-*.log >>"$logs/summary.txt" || true
+    grep -h -- "->" "$logs"/bench-projection*.log >>"$logs/summary.txt" || true
+    cp "$logs/summary.txt" "$out/summary.txt"
+    tar -C "$bundle" -czf "$out/logs.tar.gz" logs
     return $status
 }
 

@@ -273,21 +273,19 @@ impl Directions {
 struct Scratch {
     occ: Occupancy,
     summary: Vec<u64>,
+    /// The visible samples of the pose being drawn.
+    seen: Vec<Seen>,
 }
 
 impl Scratch {
     fn new(layout: &Layout) -> Self {
         let occ = Occupancy::new(layout.range_bins, layout.beams());
         let summary = vec![0; occ.words.len().div_ceil(64)];
-        Scratch { occ, summary }
-    }
-
-    /// Sets pixel `(i, j)`, marking its word in the summary.
-    fn set(&mut self, i: usize, j: usize) {
-        let k = i * self.occ.beams + j;
-        let w = k / 32;
-        self.occ.words[w] |= 1 << (k % 32);
-        self.summary[w / 64] |= 1 << (w % 64);
+        Scratch {
+            occ,
+            summary,
+            seen: Vec::new(),
+        }
     }
 
     /// Returns `(occupied, occupied_measure)` (the reduce shader's work, over the touched words
@@ -329,6 +327,14 @@ impl Scratch {
     }
 }
 
+/// Sets pixel `(i, j)` of `occ`, marking its word in `summary`.
+fn set(occ: &mut Occupancy, summary: &mut [u64], i: usize, j: usize) {
+    let k = i * occ.beams + j;
+    let w = k / 32;
+    occ.words[w] |= 1 << (k % 32);
+    summary[w / 64] |= 1 << (w % 64);
+}
+
 /// Returns the projections of every item of `prepared` on all cores; with `keep_occupancy` each
 /// carries its occupancy buffer.
 pub fn project(prepared: &PreparedBatch<'_>, keep_occupancy: bool) -> Vec<Projection> {
@@ -352,18 +358,15 @@ pub fn project(prepared: &PreparedBatch<'_>, keep_occupancy: bool) -> Vec<Projec
                 let m = item.pose.rotation * DMat3::from_rotation_z(prepared.base_azimuth[n]) * range;
                 let t = item.pose.translation;
                 let slack = CULL_SLACK * (range + t.length() + layout.range_max);
-                let mut visible = 0;
-                let mut extremes = Extremes::default();
-                let mut beam = 0;
-                let mut seen = [Seen::default(); BLOCK];
+                // Pass 1, block by block: clip; keep the visible samples and their azimuth keys.
+                let Scratch { occ, summary, seen } = &mut *scratch;
+                seen.clear();
+                let (mut key_min, mut key_max) = (f64::INFINITY, f64::NEG_INFINITY);
                 for (block, &(centre, radius)) in dirs.units.chunks(BLOCK).zip(&dirs.blocks) {
                     let side = geo.ball_side(m * centre + t, range * radius * (1.0 + 1e-12) + slack);
                     if side == Side::Outside {
                         continue;
                     }
-                    // Pass 1: clip; keep the visible samples and their azimuth keys.
-                    let mut count = 0;
-                    let (mut key_min, mut key_max) = (f64::INFINITY, f64::NEG_INFINITY);
                     for u in block {
                         let p = m * *u + t;
                         let r2 = p.length_squared();
@@ -373,35 +376,36 @@ pub fn project(prepared: &PreparedBatch<'_>, keep_occupancy: bool) -> Vec<Projec
                             let key = if p.x > 0.0 { p.y / p.x } else { f64::NAN };
                             key_min = key_min.min(key);
                             key_max = key_max.max(key);
-                            seen[count] = Seen { p, r2, key };
-                            count += 1;
+                            seen.push(Seen { p, r2, key });
                         }
                     }
-                    // Pass 2, in sample order: bins, range extremes, and exact azimuths for the
-                    // samples that may be an azimuth extreme (the fold then equals the fold over
-                    // every sample: the others are strictly inside).
-                    let low = key_min + KEY_TOLERANCE * key_min.abs();
-                    let high = key_max - KEY_TOLERANCE * key_max.abs();
-                    for s in &seen[..count] {
-                        let r = s.r2.sqrt();
-                        let exact = !(s.key > low && s.key < high);
-                        let az = if exact { s.p.y.atan2(s.p.x) } else { f64::NAN };
-                        beam = if geo.layout.beams() == 1 {
-                            0
-                        } else if exact {
-                            geo.beam(s.p, az)
-                        } else {
-                            geo.beam_near(s.p, beam)
-                                .unwrap_or_else(|| geo.beam(s.p, s.p.y.atan2(s.p.x)))
-                        };
-                        scratch.set(geo.range_bin(r, s.r2), beam);
-                        extremes.add_range(r);
-                        if exact {
-                            extremes.add_azimuth(az);
-                        }
-                    }
-                    visible += count as u64;
                 }
+                // Pass 2, in sample order: bins, range extremes, and exact azimuths for the
+                // samples that may be an azimuth extreme (the fold then equals the fold over
+                // every sample: the others are strictly inside).
+                let low = key_min + KEY_TOLERANCE * key_min.abs();
+                let high = key_max - KEY_TOLERANCE * key_max.abs();
+                let mut extremes = Extremes::default();
+                let mut beam = 0;
+                for s in seen.iter() {
+                    let r = s.r2.sqrt();
+                    let exact = !(s.key > low && s.key < high);
+                    let az = if exact { s.p.y.atan2(s.p.x) } else { f64::NAN };
+                    beam = if geo.layout.beams() == 1 {
+                        0
+                    } else if exact {
+                        geo.beam(s.p, az)
+                    } else {
+                        geo.beam_near(s.p, beam)
+                            .unwrap_or_else(|| geo.beam(s.p, s.p.y.atan2(s.p.x)))
+                    };
+                    set(occ, summary, geo.range_bin(r, s.r2), beam);
+                    extremes.add_range(r);
+                    if exact {
+                        extremes.add_azimuth(az);
+                    }
+                }
+                let visible = seen.len() as u64;
                 let (occupied, measure, occupancy) = scratch.reduce(&geo, keep_occupancy);
                 Projection {
                     metrics: Metrics::new(visible, dirs.units.len() as u64, extremes, occupied, measure),
