@@ -193,8 +193,13 @@ impl<'a> Geometry<'a> {
 
     /// Returns the beam of `p` found by walking at most [`WALK`] edges from beam `from` (the
     /// previous sample's), or `None` when it lies farther. The edge tests are those of
-    /// [`Geometry::beam`], so both give the same beam.
+    /// [`Geometry::beam`], so both give the same beam. The side test `sin(az − e) ≥ 0` is right
+    /// only within half a turn of the edge, which every edge is when the aperture is at most 180°;
+    /// wider sonars (an edge may lie behind the point) always take `None`.
     fn beam_near(&self, p: DVec3, from: usize) -> Option<usize> {
+        if self.layout.half_azimuth > std::f64::consts::FRAC_PI_2 {
+            return None;
+        }
         let last = self.layout.beams() - 1;
         let mut j = from.min(last);
         for _ in 0..WALK {
@@ -241,6 +246,92 @@ pub fn block_balls(azimuths: &[f64], elevations: &[f64]) -> Vec<(DVec3, f64)> {
 struct Directions {
     units: Vec<DVec3>,
     blocks: Vec<(DVec3, f64)>,
+    /// The same units block by block in structure-of-arrays form, for the clip loop.
+    lanes: Vec<BlockUnits>,
+}
+
+/// The unit directions of one block, one array per coordinate; lanes past `len` repeat the last
+/// unit and are never kept.
+#[derive(Clone)]
+struct BlockUnits {
+    x: [f64; BLOCK],
+    y: [f64; BLOCK],
+    z: [f64; BLOCK],
+    len: usize,
+}
+
+/// One block after the transform and clip: the points, squared ranges, azimuth keys and which
+/// lanes are visible.
+struct BlockPoints {
+    x: [f64; BLOCK],
+    y: [f64; BLOCK],
+    z: [f64; BLOCK],
+    r2: [f64; BLOCK],
+    key: [f64; BLOCK],
+    keep: [bool; BLOCK],
+}
+
+impl Default for BlockPoints {
+    fn default() -> Self {
+        let zero = [0.0; BLOCK];
+        BlockPoints {
+            x: zero,
+            y: zero,
+            z: zero,
+            r2: zero,
+            key: zero,
+            keep: [false; BLOCK],
+        }
+    }
+}
+
+/// Transforms and clips the lanes of `u` into `out`: `p = M u + t` in the operation order of
+/// glam's `DMat3 * DVec3` and `length_squared`, the clip of [`Geometry::in_view`] (skipped when
+/// `inside`), the key `y / x` (NaN where `x ≤ 0`). Branch-free over the lanes, so it vectorises;
+/// `m` is `M`'s columns then `t`.
+#[inline(always)]
+fn clip_lanes(geo: &Geometry<'_>, m: &[f64; 12], u: &BlockUnits, inside: bool, out: &mut BlockPoints) {
+    for k in 0..BLOCK {
+        let (ux, uy, uz) = (u.x[k], u.y[k], u.z[k]);
+        let x = m[0] * ux + m[3] * uy + m[6] * uz + m[9];
+        let y = m[1] * ux + m[4] * uy + m[7] * uz + m[10];
+        let z = m[2] * ux + m[5] * uy + m[8] * uz + m[11];
+        let r2 = x * x + y * y + z * z;
+        out.x[k] = x;
+        out.y[k] = y;
+        out.z[k] = z;
+        out.r2[k] = r2;
+        let q = y / x;
+        out.key[k] = if x > 0.0 { q } else { f64::NAN };
+        out.keep[k] = inside | geo.in_view(DVec3::new(x, y, z), r2);
+    }
+}
+
+/// [`clip_lanes`] compiled for AVX2 (four f64 lanes a vector): the same IEEE operations, so the
+/// same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn clip_lanes_avx2(geo: &Geometry<'_>, m: &[f64; 12], u: &BlockUnits, inside: bool, out: &mut BlockPoints) {
+    clip_lanes(geo, m, u, inside, out);
+}
+
+/// Runs [`clip_lanes`], in its AVX2 build where the processor has AVX2 (`avx2` says so).
+fn clip_block(
+    geo: &Geometry<'_>,
+    m: &[f64; 12],
+    u: &BlockUnits,
+    inside: bool,
+    out: &mut BlockPoints,
+    avx2: bool,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` is `is_x86_feature_detected!("avx2")`, so the processor runs AVX2.
+        unsafe { clip_lanes_avx2(geo, m, u, inside, out) };
+        return;
+    }
+    let _ = avx2;
+    clip_lanes(geo, m, u, inside, out);
 }
 
 impl Directions {
@@ -263,7 +354,19 @@ impl Directions {
                 (centre, radius)
             })
             .collect();
-        Directions { units, blocks }
+        let lanes = units
+            .chunks(BLOCK)
+            .map(|b| {
+                let at = |k: usize| b[k.min(b.len() - 1)];
+                BlockUnits {
+                    x: std::array::from_fn(|k| at(k).x),
+                    y: std::array::from_fn(|k| at(k).y),
+                    z: std::array::from_fn(|k| at(k).z),
+                    len: b.len(),
+                }
+            })
+            .collect();
+        Directions { units, blocks, lanes }
     }
 }
 
@@ -275,6 +378,8 @@ struct Scratch {
     summary: Vec<u64>,
     /// The visible samples of the pose being drawn.
     seen: Vec<Seen>,
+    /// The block being clipped.
+    points: Box<BlockPoints>,
 }
 
 impl Scratch {
@@ -285,6 +390,7 @@ impl Scratch {
             occ,
             summary,
             seen: Vec::new(),
+            points: Box::default(),
         }
     }
 
@@ -338,6 +444,20 @@ fn set(occ: &mut Occupancy, summary: &mut [u64], i: usize, j: usize) {
 /// Returns the projections of every item of `prepared` on all cores; with `keep_occupancy` each
 /// carries its occupancy buffer.
 pub fn project(prepared: &PreparedBatch<'_>, keep_occupancy: bool) -> Vec<Projection> {
+    project_with(prepared, keep_occupancy, has_avx2())
+}
+
+/// Returns whether the processor runs AVX2 (detected at run time: the binary itself targets
+/// baseline x86-64).
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return is_x86_feature_detected!("avx2");
+    #[cfg(not(target_arch = "x86_64"))]
+    return false;
+}
+
+/// [`project`], with the AVX2 build of the clip loop or without it (tests run both).
+fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, avx2: bool) -> Vec<Projection> {
     let layout = &prepared.layout;
     let geo = Geometry::new(layout);
     let directions: Vec<Directions> = prepared
@@ -359,24 +479,35 @@ pub fn project(prepared: &PreparedBatch<'_>, keep_occupancy: bool) -> Vec<Projec
                 let t = item.pose.translation;
                 let slack = CULL_SLACK * (range + t.length() + layout.range_max);
                 // Pass 1, block by block: clip; keep the visible samples and their azimuth keys.
-                let Scratch { occ, summary, seen } = &mut *scratch;
+                let Scratch {
+                    occ,
+                    summary,
+                    seen,
+                    points,
+                } = &mut *scratch;
                 seen.clear();
                 let (mut key_min, mut key_max) = (f64::INFINITY, f64::NEG_INFINITY);
-                for (block, &(centre, radius)) in dirs.units.chunks(BLOCK).zip(&dirs.blocks) {
+                let columns = [m.x_axis, m.y_axis, m.z_axis, t].map(|c| c.to_array());
+                let columns: [f64; 12] = std::array::from_fn(|k| columns[k / 3][k % 3]);
+                for (units, &(centre, radius)) in dirs.lanes.iter().zip(&dirs.blocks) {
                     let side = geo.ball_side(m * centre + t, range * radius * (1.0 + 1e-12) + slack);
                     if side == Side::Outside {
                         continue;
                     }
-                    for u in block {
-                        let p = m * *u + t;
-                        let r2 = p.length_squared();
-                        if side == Side::Inside || geo.in_view(p, r2) {
+                    clip_block(&geo, &columns, units, side == Side::Inside, points, avx2);
+                    for k in 0..units.len {
+                        if points.keep[k] {
                             // y / x orders azimuths in (−90°, 90°); elsewhere the key is NaN and
                             // the sample always gets an exact atan2.
-                            let key = if p.x > 0.0 { p.y / p.x } else { f64::NAN };
+                            let key = points.key[k];
                             key_min = key_min.min(key);
                             key_max = key_max.max(key);
-                            seen.push(Seen { p, r2, key });
+                            let p = DVec3::new(points.x[k], points.y[k], points.z[k]);
+                            seen.push(Seen {
+                                p,
+                                r2: points.r2[k],
+                                key,
+                            });
                         }
                     }
                 }
@@ -467,17 +598,45 @@ mod tests {
             .collect()
     }
 
-    /// Culling, walking beams, exact `atan2` only for extreme candidates and the sparse reduce
-    /// change no bit of any result: the fast path against the plain loop on random placements
+    /// Culling, walking beams, exact `atan2` only for extreme candidates, the sparse reduce and
+    /// the AVX2 build of the clip loop change no bit of any result: the fast path against the plain loop on random placements
     /// (features anywhere in sonar 1's view, placed anywhere in sonar 2's, random rotations)
     /// for every preset pair, in both sampling modes.
     #[test]
     fn culling_changes_no_result() {
         let mut rng = ChaCha8Rng::seed_from_u64(9);
-        let names = Sonar::preset_names();
-        for from in &names {
-            for to in &names {
-                let (s1, s2) = (Sonar::preset(from).unwrap(), Sonar::preset(to).unwrap());
+        // The presets, a sonar that sees everything (edges behind a point: 360° of beams) and
+        // one with non-uniform beams.
+        let mut sonars: Vec<Sonar> = Sonar::preset_names()
+            .into_iter()
+            .map(|n| Sonar::preset(n).unwrap())
+            .collect();
+        let omni = Sonar::from_toml_str(
+            "omni",
+            "kind = 'fls'\nrange_min = 0\nrange_max = 12\nazimuth_aperture = 360\n\
+             elevation_aperture = 180\nrange_bins = 600\nbeams = 720\n",
+        )
+        .unwrap();
+        let centres: Vec<String> = (0..64)
+            .map(|k| {
+                let u = -1.0 + 2.0 * (k as f64 + 0.5) / 64.0;
+                format!("{}", 40.0 * (u + 0.3 * u * u * u) / 1.3)
+            })
+            .collect();
+        let nonuniform = Sonar::from_toml_str(
+            "nonuniform",
+            &format!(
+                "kind = 'fls'\nrange_min = 0.5\nrange_max = 20\nazimuth_aperture = 90\n\
+                 elevation_aperture = 20\nrange_bins = 390\nbeam_centres = [{}]\n",
+                centres.join(", ")
+            ),
+        )
+        .unwrap();
+        sonars.extend([omni, nonuniform]);
+        for s1 in &sonars {
+            for s2 in &sonars {
+                let (from, to) = (&s1.name, &s2.name);
+                let (s1, s2) = (s1.clone(), s2.clone());
                 for sampling in [Sampling::Step(0.5), Sampling::Auto] {
                     let point = |s: &Sonar, rng: &mut ChaCha8Rng| {
                         let r = s.range_min + rng.random::<f64>() * (s.range_max - s.range_min);
@@ -507,8 +666,12 @@ mod tests {
                         items,
                     };
                     let prepared = batch.prepare().unwrap();
-                    let fast = project(&prepared, true);
                     let plain = project_plainly(&prepared);
+                    // Both builds of the clip loop (the AVX2 one only where the processor has it).
+                    let fast = project_with(&prepared, true, false);
+                    if has_avx2() {
+                        assert_eq!(project_with(&prepared, true, true), fast, "{from} -> {to}: AVX2");
+                    }
                     let mut seen = 0;
                     for (k, (f, (metrics, occ))) in fast.iter().zip(&plain).enumerate() {
                         assert_eq!(&f.metrics, metrics, "{from} -> {to} {sampling:?} item {k}");
