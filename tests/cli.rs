@@ -799,3 +799,90 @@ fn bench_times_every_backend_on_the_same_batches() {
         assert_eq!(rows.count(), 2, "{text}");
     }
 }
+
+/// Runs the binary with `args` and stdout on `out`; returns the exit code and stderr.
+fn run_with_stdout(args: &[&str], out: std::process::Stdio) -> (Option<i32>, String) {
+    let output = std::process::Command::new(assert_cmd::cargo::cargo_bin("sonarproj"))
+        .args(args)
+        .env("NODEVICE_SELECT", "1")
+        .stdout(out)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    (
+        output.status.code(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+const ONE_PROJECTION: [&str; 9] = [
+    "project",
+    "--from",
+    "paper-fls",
+    "--to",
+    "paper-sss",
+    "--range",
+    "5",
+    "--place-range",
+    "15",
+];
+
+/// A closed pipe or a full disk on stdout is a failure with a message (exit status 1), never a
+/// panic (exit status 101).
+#[test]
+fn output_errors_are_reported_not_panics() {
+    let commands: [&[&str]; 3] = [&["devices"], &ONE_PROJECTION, &["bench", "masks", "--runs", "1"]];
+    for args in commands {
+        // A pipe whose reading end is already closed: every write fails with EPIPE.
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let (code, stderr) = run_with_stdout(args, writer.into());
+        assert_eq!(code, Some(1), "{args:?} into a closed pipe: {stderr}");
+        assert!(stderr.contains("cannot write stdout"), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        if std::path::Path::new("/dev/full").exists() {
+            let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+            let (code, stderr) = run_with_stdout(args, full.into());
+            assert_eq!(code, Some(1), "{args:?} into /dev/full: {stderr}");
+            assert!(stderr.contains("No space left"), "{args:?}: {stderr}");
+        }
+    }
+}
+
+/// `WGPU_ADAPTER_NAME` naming no adapter is bad input (exit status 2, the variable and value
+/// named), not wgpu's panic; `auto` falls back to the CPU with a notice, `devices` says so.
+#[test]
+fn an_adapter_name_that_matches_nothing_is_bad_input() {
+    let wanted = "no-such-adapter-xyz";
+    let mut gpu = ONE_PROJECTION.to_vec();
+    gpu.extend(["--backend", "gpu"]);
+    let out = sonarproj()
+        .args(&gpu)
+        .env("WGPU_ADAPTER_NAME", wanted)
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("WGPU_ADAPTER_NAME") && stderr.contains(wanted),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let out = sonarproj()
+        .args(ONE_PROJECTION)
+        .env("WGPU_ADAPTER_NAME", wanted)
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("WGPU_ADAPTER_NAME"));
+    let out = sonarproj()
+        .arg("devices")
+        .env("WGPU_ADAPTER_NAME", wanted)
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    assert!(String::from_utf8_lossy(&out.stdout).contains(wanted));
+}

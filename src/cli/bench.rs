@@ -46,19 +46,25 @@ pub fn run(a: BenchArgs) -> Result<()> {
     }
     match Backend::select(BackendChoice::Gpu) {
         Ok((gpu, _)) => backends.insert(0, gpu),
-        Err(e) => println!("GPU: not measured ({e})"),
+        Err(e) => outln!("GPU: not measured ({e})")?,
     }
     for b in &backends {
-        println!("{:8} {}", b.label(), b.device());
+        outln!("{:8} {}", b.label(), b.device())?;
     }
     if backends.iter().any(|b| b.label() == "gpu-sw") {
-        println!("gpu-sw: a software adapter on the CPU's cores; its figures say nothing of a real GPU");
+        outln!("gpu-sw: a software adapter on the CPU's cores; its figures say nothing of a real GPU")?;
     }
-    println!();
-    println!(
+    outln!()?;
+    outln!(
         "{:28} {:8} {:>8} {:>12} {:>14} {:>14} {:>12}",
-        "batch", "backend", "poses", "median (ms)", "poses/s", "samples/s", "vs reference"
-    );
+        "batch",
+        "backend",
+        "poses",
+        "median (ms)",
+        "poses/s",
+        "samples/s",
+        "vs reference"
+    )?;
     for (from, to, n) in STANDARD {
         let batch = bench::batch(
             &Sonar::preset(from).expect("preset"),
@@ -77,7 +83,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             let ratio = reference
                 .map(|r| format!("{:.1}x", t.samples_per_second() / r))
                 .unwrap_or_default();
-            println!(
+            outln!(
                 "{:28} {:8} {:>8} {:>12.2} {:>14.0} {:>14.3e} {:>12}",
                 format!("{from} -> {to}"),
                 b.label(),
@@ -86,7 +92,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 t.poses_per_second(),
                 t.samples_per_second(),
                 ratio
-            );
+            )?;
         }
     }
     Ok(())
@@ -98,23 +104,23 @@ fn masks(runs: usize) -> Result<()> {
     let runs = runs.max(20);
     let gpu = match GpuContext::new() {
         Ok(ctx) if ctx.is_software() => {
-            println!("gpu-sw {}", sonarproj::gpu::context::describe(&ctx.info));
-            println!("gpu-sw: a software adapter on the CPU's cores; its figures say nothing of a real GPU");
+            outln!("gpu-sw {}", sonarproj::gpu::context::describe(&ctx.info))?;
+            outln!("gpu-sw: a software adapter on the CPU's cores; its figures say nothing of a real GPU")?;
             Some("gpu-sw")
         }
         Ok(ctx) => {
-            println!("gpu   {}", sonarproj::gpu::context::describe(&ctx.info));
+            outln!("gpu   {}", sonarproj::gpu::context::describe(&ctx.info))?;
             Some("gpu")
         }
         Err(e) => {
-            println!("GPU: not measured ({e})");
+            outln!("GPU: not measured ({e})")?;
             None
         }
     };
-    println!("cpu   CPU, {} threads (f64)", rayon::current_num_threads());
-    println!("median and 90th percentile of {runs} runs after one warm-up");
-    println!();
-    println!(
+    outln!("cpu   CPU, {} threads (f64)", rayon::current_num_threads())?;
+    outln!("median and 90th percentile of {runs} runs after one warm-up")?;
+    outln!()?;
+    outln!(
         "{:44} {:6} {:>9} {:>12} {:>10} {:>10} {:>11} {:>9} {:>12}",
         "case",
         "engine",
@@ -125,7 +131,7 @@ fn masks(runs: usize) -> Result<()> {
         "cells/mask",
         "seen",
         "pixels/mask"
-    );
+    )?;
     for (from, to) in bench::MASK_CASES {
         let (s1, s2) = (
             Sonar::preset(from).expect("preset"),
@@ -154,7 +160,7 @@ fn masks(runs: usize) -> Result<()> {
                 }
                 times.sort_by(f64::total_cmp);
                 let median = times[runs / 2];
-                println!(
+                outln!(
                     "{:44} {:6} {:>9} {:>12.3} {:>10.3} {:>10.1} {:>11} {:>9} {:>12}",
                     format!("{from} -> {to}"),
                     name,
@@ -165,7 +171,7 @@ fn masks(runs: usize) -> Result<()> {
                     cells,
                     format!("{seen}/{n}"),
                     pixels
-                );
+                )?;
             }
         }
     }

@@ -7,19 +7,19 @@ use sonarproj::{Backend, BackendChoice, Result};
 pub fn run() -> Result<()> {
     let adapters = list_adapters();
     let backends = std::env::var("WGPU_BACKEND").unwrap_or_else(|_| "vulkan,metal,dx12 (default)".into());
-    println!("backends: {backends}");
+    outln!("backends: {backends}")?;
     if adapters.is_empty() {
-        println!("adapters: none");
+        outln!("adapters: none")?;
     } else {
-        println!("adapters:");
+        outln!("adapters:")?;
         for (i, info) in adapters.iter().enumerate() {
-            println!("  {i}: {}", describe(info));
+            outln!("  {i}: {}", describe(info))?;
         }
     }
     let (backend, notice) = Backend::select(BackendChoice::Auto)?;
-    println!("auto uses: {}", backend.device());
+    outln!("auto uses: {}", backend.device())?;
     if let Some(n) = notice {
-        println!("  {}", n.trim_start_matches("note: "));
+        outln!("  {}", n.trim_start_matches("note: "))?;
     }
     Ok(())
 }

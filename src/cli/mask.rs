@@ -222,10 +222,10 @@ pub fn run(a: MaskArgs) -> Result<()> {
             "union_occupied": set.union.count(),
             "elapsed_ms": elapsed,
         });
-        println!(
+        outln!(
             "{}",
             serde_json::to_string_pretty(&out).expect("plain JSON values")
-        );
+        )?;
     }
     Ok(())
 }

@@ -1,5 +1,16 @@
 //! Argument parsing (clap) and dispatch to the sub-commands.
 
+/// Writes a line to stdout as `println!` does, but returns [`Error::WriteOutput`] (exit status
+/// 1) instead of panicking when stdout is a closed pipe or a full disk.
+macro_rules! outln {
+    () => {
+        $crate::cli::write_stdout(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 mod batch;
 mod bench;
 mod devices;
@@ -107,6 +118,20 @@ fn read_input(path: &str) -> Result<Vec<u8>> {
     }
     let path = PathBuf::from(path);
     std::fs::read(&path).map_err(|source| Error::ReadInput { path, source })
+}
+
+/// Writes `args` to stdout (the [`outln!`] macro's work).
+///
+/// # Errors
+/// [`Error::WriteOutput`] naming stdout when the write fails.
+pub fn write_stdout(args: std::fmt::Arguments<'_>) -> Result<()> {
+    std::io::stdout()
+        .lock()
+        .write_fmt(args)
+        .map_err(|e| Error::WriteOutput {
+            path: "stdout".into(),
+            message: e.to_string(),
+        })
 }
 
 /// Writes the output `path` ('-' for stdout) with `fill`; a file is written whole or not at all.

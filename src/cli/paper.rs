@@ -88,7 +88,7 @@ pub fn run(a: PaperArgs) -> Result<()> {
         .flat_map(|r| &r.results)
         .map(|r| r.metrics.total)
         .sum();
-    println!(
+    outln!(
         "paper: {poses} poses ({} per direction, {samples} samples) on {} in {:.2} s; findings borne out: {}/{}; wrote {}",
         poses / 2,
         backend.device(),
@@ -96,6 +96,6 @@ pub fn run(a: PaperArgs) -> Result<()> {
         findings.iter().filter(|f| f.holds).count(),
         findings.len(),
         a.out.display()
-    );
+    )?;
     Ok(())
 }

@@ -91,9 +91,9 @@ pub fn run(a: ProjectArgs) -> Result<()> {
         "metrics": result.metrics,
         "occupancy_file": a.occupancy,
     });
-    println!(
+    outln!(
         "{}",
         serde_json::to_string_pretty(&out).expect("plain JSON values")
-    );
+    )?;
     Ok(())
 }

@@ -117,10 +117,10 @@ pub fn run(a: RecoverArgs) -> Result<()> {
         "candidates": rec.candidates,
         "curve": rec.curve,
     });
-    println!(
+    outln!(
         "{}",
         serde_json::to_string_pretty(&out).expect("plain JSON values")
-    );
+    )?;
     Ok(())
 }
 

@@ -83,7 +83,7 @@ pub fn run(a: SweepArgs) -> Result<()> {
     match &outcome.file {
         Some(file) => {
             let rate = outcome.computed as f64 / secs.max(1e-9);
-            println!(
+            outln!(
                 "sweep: {what} on {}: {} computed in {secs:.2} s ({rate:.0} poses/s), {} from earlier runs; wrote {}{}",
                 backend.device(),
                 outcome.computed,
@@ -93,13 +93,13 @@ pub fn run(a: SweepArgs) -> Result<()> {
                     .figure
                     .map(|f| format!(" and {}", f.display()))
                     .unwrap_or_default()
-            );
+            )?;
         }
-        None => println!(
+        None => outln!(
             "sweep: {what}: stopped after --max-chunks with {} of {} poses done; re-run the same command to go on",
             outcome.computed + outcome.resumed,
             outcome.poses
-        ),
+        )?,
     }
     Ok(())
 }
@@ -107,12 +107,12 @@ pub fn run(a: SweepArgs) -> Result<()> {
 /// Runs `sonarproj merge`.
 pub fn merge(a: MergeArgs) -> Result<()> {
     let (file, figure) = sweep::merge(&a.dir)?;
-    println!(
+    outln!(
         "merge: wrote {}{}",
         file.display(),
         figure
             .map(|f| format!(" and {}", f.display()))
             .unwrap_or_default()
-    );
+    )?;
     Ok(())
 }

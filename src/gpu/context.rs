@@ -62,13 +62,44 @@ impl GpuContext {
     /// high-performance adapter of the enabled backends (a software one such as lavapipe counts).
     ///
     /// # Errors
-    /// [`Error::NoAdapter`] when no adapter exists; [`Error::Gpu`] when the device cannot be made.
+    /// [`Error::NoAdapter`] when no adapter exists; [`Error::Gpu`] when the device cannot be made;
+    /// [`Error::InvalidValue`] when `WGPU_ADAPTER_NAME` names no adapter.
     pub fn new() -> Result<Self> {
         let inst = instance();
-        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(&inst, None))
+        let adapter = match std::env::var("WGPU_ADAPTER_NAME") {
+            // wgpu's own helper for this variable panics when nothing matches.
+            Ok(wanted) => {
+                let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+                let adapters = pollster::block_on(inst.enumerate_adapters(backends));
+                let lower = wanted.to_lowercase();
+                let found = adapters
+                    .iter()
+                    .position(|a| a.get_info().name.to_lowercase().contains(&lower));
+                match found {
+                    Some(k) => adapters.into_iter().nth(k).expect("found above"),
+                    None => {
+                        let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+                        let excerpt: String = wanted.chars().take(80).collect();
+                        return Err(Error::invalid(
+                            "WGPU_ADAPTER_NAME",
+                            format!("{excerpt:?}"),
+                            if names.is_empty() {
+                                "the name of an adapter, but wgpu sees none".to_string()
+                            } else {
+                                format!("part of an adapter's name: {}", names.join(", "))
+                            },
+                        ));
+                    }
+                }
+            }
+            Err(_) => pollster::block_on(inst.request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::from_env().unwrap_or_default(),
+                ..Default::default()
+            }))
             .map_err(|e| Error::NoAdapter {
                 hint: format!(": {e}"),
-            })?;
+            })?,
+        };
         Self::from_adapter(&adapter)
     }
 
