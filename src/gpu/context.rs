@@ -103,7 +103,9 @@ impl GpuContext {
         Self::from_adapter(&adapter)
     }
 
-    /// Returns a context on `adapter`, asking for the larger buffer limits it offers.
+    /// Returns a context on `adapter`, asking for the larger buffer limits it offers; the splat
+    /// stage computes in f64 where the adapter has it, unless the environment variable
+    /// `SONARPROJ_GPU_PRECISION` is `df` (double-f32, for measuring that path).
     ///
     /// # Errors
     /// [`Error::Gpu`] when the device cannot be made.
@@ -116,7 +118,10 @@ impl GpuContext {
         limits.max_storage_buffers_per_shader_stage = limits
             .max_storage_buffers_per_shader_stage
             .min(offered.max_storage_buffers_per_shader_stage);
-        let f64_ok = adapter.features().contains(wgpu::Features::SHADER_F64);
+        // SONARPROJ_GPU_PRECISION=df measures the double-f32 path (what GPUs without f64 run)
+        // on a GPU that has f64.
+        let force_df = std::env::var("SONARPROJ_GPU_PRECISION").is_ok_and(|v| v.trim() == "df");
+        let f64_ok = adapter.features().contains(wgpu::Features::SHADER_F64) && !force_df;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("sonarproj"),
             required_limits: limits.clone(),
