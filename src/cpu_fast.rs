@@ -4,7 +4,8 @@
 //! visible samples take a square root and an `atan2`. The reference (`cpu`) stays the checker:
 //! `tests/agreement.rs` holds this path to the same envelope as the GPU.
 //!
-//! Two things make it fast without changing a single result:
+//! What makes it fast changes no result (a unit test holds it to the plain sample-by-sample
+//! loop, bit for bit):
 //!
 //! - **Blocks that cannot be seen are skipped.** A plan's samples are cut into blocks of
 //!   [`BLOCK`] consecutive samples; each block's unit directions lie in a ball (centre `c`,
@@ -13,10 +14,16 @@
 //!   field of view, by more than a slack far above every rounding, is not visited: each clip
 //!   bound is a 1-Lipschitz function of the point (range; the azimuth half-planes; the elevation
 //!   cone's `|z| cos e − ρ sin e`), so its value at the centre less the radius bounds it over the
-//!   ball. Every skipped sample is one the per-sample test would have rejected.
-//! - **Occupancy is reused and counted sparsely.** Each thread keeps one occupancy buffer and the
-//!   list of words it touched; counting, the area sum (in row-major order, as before) and clearing
-//!   visit those words only.
+//!   ball. Every skipped sample is one the per-sample test would have rejected; a block wholly
+//!   inside skips the clip tests.
+//! - **Lanes.** A visited block is transformed and clipped over its lanes in structure-of-arrays
+//!   form, branch-free, in the same IEEE operations as the scalar code; an AVX2 build of that loop
+//!   is chosen at run time.
+//! - **Few `atan2`.** Beams are found by walking from the previous sample's beam; an exact
+//!   `atan2` is taken only for the samples that may be an azimuth extreme of the pose.
+//! - **Occupancy is reused and counted sparsely.** Each thread keeps one occupancy buffer and a
+//!   one-bit-per-word summary of it; counting, the area sum (in row-major order, as the plain loop
+//!   sums it) and clearing visit the touched words only.
 
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
@@ -31,7 +38,7 @@ pub const BLOCK: usize = 16;
 /// Most beam edges walked from the previous sample's beam before an `atan2` guess is taken.
 const WALK: usize = 4;
 
-/// Relative tolerance on the azimuth key `y / x`: samples whose key lies within it of a block's
+/// Relative tolerance on the azimuth key `y / x`: samples whose key lies within it of the pose's
 /// smallest (largest) key get an exact `atan2` for the azimuth extremes; the others' azimuths are
 /// larger (smaller) by far more than `atan2`'s rounding, so they cannot be an extreme.
 const KEY_TOLERANCE: f64 = 1e-12;
@@ -226,7 +233,7 @@ enum Side {
     Across,
 }
 
-/// A visible sample of the block being drawn: its point, squared range and azimuth key.
+/// A visible sample of the pose being drawn: its point, squared range and azimuth key.
 #[derive(Clone, Copy, Default)]
 struct Seen {
     p: DVec3,
