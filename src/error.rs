@@ -133,9 +133,18 @@ impl Error {
 
 /// Returns `Ok(v)` when `v` is finite, else an error naming `field`.
 pub fn finite(field: &str, v: f64) -> Result<f64> {
+    finite_named(|| field.to_string(), v)
+}
+
+/// Returns `v` when it is finite, else [`Error::InvalidValue`] for the field `field()` names;
+/// the name is only built for the error (hot paths check every pose).
+///
+/// # Errors
+/// [`Error::InvalidValue`] for NaN and infinities.
+pub fn finite_named(field: impl FnOnce() -> String, v: f64) -> Result<f64> {
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(Error::invalid(field, v, "must be a finite number"))
+        Err(Error::invalid(field(), v, "must be a finite number"))
     }
 }

@@ -2,7 +2,7 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::error::{Error, Result, finite};
+use crate::error::{Error, Result, finite, finite_named};
 
 /// Largest deviation from orthonormality (`max |RᵀR − I|`) accepted for a given matrix.
 pub const ORTHONORMAL_TOLERANCE: f64 = 1e-6;
@@ -120,7 +120,7 @@ impl Rotation {
             Rotation::Matrix(rows) => {
                 for (i, row) in rows.iter().enumerate() {
                     for (j, v) in row.iter().enumerate() {
-                        finite(&format!("matrix r{}{}", i + 1, j + 1), *v)?;
+                        finite_named(|| format!("matrix r{}{}", i + 1, j + 1), *v)?;
                     }
                 }
                 let m = from_rows(rows);
@@ -190,9 +190,9 @@ impl RelativePose {
 
 /// Returns the Cartesian point of `[range, azimuth, elevation]` (m, deg, deg), checked.
 fn spherical_point(what: &str, v: [f64; 3]) -> Result<DVec3> {
-    let r = finite(&format!("{what} range"), v[0])?;
-    let az = finite(&format!("{what} azimuth"), v[1])?;
-    let el = finite(&format!("{what} elevation"), v[2])?;
+    let r = finite_named(|| format!("{what} range"), v[0])?;
+    let az = finite_named(|| format!("{what} azimuth"), v[1])?;
+    let el = finite_named(|| format!("{what} elevation"), v[2])?;
     if r < 0.0 {
         return Err(Error::invalid(format!("{what} range"), r, "must be >= 0 m"));
     }

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use crate::error::{Error, Result, finite};
+use crate::error::{Error, Result, finite, finite_named};
 
 /// The two sonar kinds: what a sonar keeps of a 3D point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, Deserialize)]
@@ -429,9 +429,9 @@ impl Sonar {
     /// [`Error::InvalidValue`] for a non-finite value or one outside the field of view.
     pub fn check_point(&self, what: &str, range: f64, azimuth: f64, elevation: f64) -> Result<()> {
         let f = |c: &str| format!("{what} {c}");
-        finite(&f("range"), range)?;
-        finite(&f("azimuth"), azimuth)?;
-        finite(&f("elevation"), elevation)?;
+        finite_named(|| f("range"), range)?;
+        finite_named(|| f("azimuth"), azimuth)?;
+        finite_named(|| f("elevation"), elevation)?;
         if range < self.range_min || range > self.range_max || range <= 0.0 {
             return Err(Error::invalid(
                 f("range"),
