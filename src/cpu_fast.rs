@@ -245,7 +245,35 @@ struct Seen {
 /// and elevations (rad), the centre and radius of a ball holding the block's unit directions:
 /// the culling balls of this path and of the splat shader.
 pub fn block_balls(azimuths: &[f64], elevations: &[f64]) -> Vec<(DVec3, f64)> {
-    Directions::of(azimuths, elevations).blocks
+    balls(&unit_directions(azimuths, elevations))
+}
+
+/// Returns the unit directions of the plan with these azimuth offsets and elevations (rad),
+/// azimuth index fastest.
+fn unit_directions(azimuths: &[f64], elevations: &[f64]) -> Vec<DVec3> {
+    let azimuths: Vec<(f64, f64)> = azimuths.iter().map(|a| (a.cos(), a.sin())).collect();
+    elevations
+        .iter()
+        .flat_map(|e| {
+            let (ce, se) = (e.cos(), e.sin());
+            azimuths
+                .iter()
+                .map(move |&(ca, sa)| DVec3::new(ce * ca, ce * sa, se))
+        })
+        .collect()
+}
+
+/// Returns, per block of [`BLOCK`] of `units`, the centre (their mean) and radius of a ball
+/// holding them.
+fn balls(units: &[DVec3]) -> Vec<(DVec3, f64)> {
+    units
+        .chunks(BLOCK)
+        .map(|b| {
+            let centre = b.iter().sum::<DVec3>() / b.len() as f64;
+            let radius = b.iter().map(|u| (*u - centre).length()).fold(0.0, f64::max);
+            (centre, radius)
+        })
+        .collect()
 }
 
 /// A plan's unit directions (azimuth index fastest) and, per block of [`BLOCK`] of them, the
@@ -343,24 +371,8 @@ fn clip_block(
 
 impl Directions {
     fn of(azimuths: &[f64], elevations: &[f64]) -> Self {
-        let azimuths: Vec<(f64, f64)> = azimuths.iter().map(|a| (a.cos(), a.sin())).collect();
-        let units: Vec<DVec3> = elevations
-            .iter()
-            .flat_map(|e| {
-                let (ce, se) = (e.cos(), e.sin());
-                azimuths
-                    .iter()
-                    .map(move |&(ca, sa)| DVec3::new(ce * ca, ce * sa, se))
-            })
-            .collect();
-        let blocks = units
-            .chunks(BLOCK)
-            .map(|b| {
-                let centre = b.iter().sum::<DVec3>() / b.len() as f64;
-                let radius = b.iter().map(|u| (*u - centre).length()).fold(0.0, f64::max);
-                (centre, radius)
-            })
-            .collect();
+        let units = unit_directions(azimuths, elevations);
+        let blocks = balls(&units);
         let lanes = units
             .chunks(BLOCK)
             .map(|b| {

@@ -815,24 +815,21 @@ fn run_with_stdout(args: &[&str], out: std::process::Stdio) -> (Option<i32>, Str
     )
 }
 
-const ONE_PROJECTION: [&str; 9] = [
-    "project",
-    "--from",
-    "paper-fls",
-    "--to",
-    "paper-sss",
-    "--range",
-    "5",
-    "--place-range",
-    "15",
-];
+/// Returns the arguments of one small projection.
+fn one_projection() -> Vec<&'static str> {
+    p(&["--range", "5", "--place-range", "15"])
+}
 
 /// A closed pipe or a full disk on stdout is a failure with a message (exit status 1), never a
 /// panic (exit status 101).
 #[test]
 fn output_errors_are_reported_not_panics() {
-    let commands: [&[&str]; 3] = [&["devices"], &ONE_PROJECTION, &["bench", "masks", "--runs", "1"]];
-    for args in commands {
+    let commands = [
+        vec!["devices"],
+        one_projection(),
+        vec!["bench", "masks", "--runs", "1"],
+    ];
+    for args in &commands {
         // A pipe whose reading end is already closed: every write fails with EPIPE.
         let (reader, writer) = std::io::pipe().unwrap();
         drop(reader);
@@ -854,7 +851,7 @@ fn output_errors_are_reported_not_panics() {
 #[test]
 fn an_adapter_name_that_matches_nothing_is_bad_input() {
     let wanted = "no-such-adapter-xyz";
-    let mut gpu = ONE_PROJECTION.to_vec();
+    let mut gpu = one_projection();
     gpu.extend(["--backend", "gpu"]);
     let out = sonarproj()
         .args(&gpu)
@@ -870,7 +867,7 @@ fn an_adapter_name_that_matches_nothing_is_bad_input() {
     );
     assert!(!stderr.contains("panicked"), "{stderr}");
     let out = sonarproj()
-        .args(ONE_PROJECTION)
+        .args(one_projection())
         .env("WGPU_ADAPTER_NAME", wanted)
         .assert()
         .success()

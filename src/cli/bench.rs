@@ -7,6 +7,10 @@ use sonarproj::gpu::GpuContext;
 use sonarproj::mask::MaskEngine;
 use sonarproj::{Backend, BackendChoice, Result, Sonar};
 
+/// Printed under the device list when the GPU is a software adapter.
+const SOFTWARE_NOTE: &str =
+    "gpu-sw: a software adapter on the CPU's cores; its figures say nothing of a real GPU";
+
 /// What `sonarproj bench` measures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Subject {
@@ -52,7 +56,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         outln!("{:8} {}", b.label(), b.device())?;
     }
     if backends.iter().any(|b| b.label() == "gpu-sw") {
-        outln!("gpu-sw: a software adapter on the CPU's cores; its figures say nothing of a real GPU")?;
+        outln!("{SOFTWARE_NOTE}")?;
     }
     outln!()?;
     outln!(
@@ -105,7 +109,7 @@ fn masks(runs: usize) -> Result<()> {
     let gpu = match GpuContext::new() {
         Ok(ctx) if ctx.is_software() => {
             outln!("gpu-sw {}", sonarproj::gpu::context::describe(&ctx.info))?;
-            outln!("gpu-sw: a software adapter on the CPU's cores; its figures say nothing of a real GPU")?;
+            outln!("{SOFTWARE_NOTE}")?;
             Some("gpu-sw")
         }
         Ok(ctx) => {
