@@ -89,7 +89,7 @@ fn beam_of(x: Real, y: Real, az: f32) -> u32 {
 }
 
 // Returns true when the point (x, y, z) with squared range r2 lies in sonar 2's field of view:
-// SPEC section 6, bounds inclusive, the origin outside.
+// the README's conventions, bounds inclusive, the origin outside.
 fn in_view(x: Real, y: Real, z: Real, r2: Real) -> bool {
     if !r_positive(r2) || !r_ge(r2, real(params.range_min_sq)) || !r_ge(real(params.range_max_sq), r2) {
         return false;

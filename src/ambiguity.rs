@@ -1,5 +1,5 @@
 //! Measurements, the set of 3D points each one back-projects to (an arc for an FLS, a surface for
-//! an SSS: SPEC §5), and the sampling plan that draws points from that set.
+//! an SSS: README: Commands, `--step`), and the sampling plan that draws points from that set.
 
 use crate::error::{Error, Result, finite};
 use crate::sonar::{Sonar, SonarKind};
@@ -42,7 +42,7 @@ pub enum Sampling {
     /// `linspace(-A/2, A/2, n)`.
     Step(f64),
     /// Steps chosen so neighbouring samples land less than half a range bin and half a beam
-    /// apart in sonar 2 (SPEC §5): see [`auto_spacing`].
+    /// apart in sonar 2 (README: Commands, `--step`): see [`auto_spacing`].
     Auto,
 }
 

@@ -35,7 +35,7 @@ pub struct Batch {
 /// The result of one projection.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Projection {
-    /// The metrics of SPEC §7.
+    /// The metrics (README: Conventions).
     pub metrics: Metrics,
     /// The occupancy buffer, when it was asked for.
     pub occupancy: Option<Occupancy>,

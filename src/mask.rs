@@ -2,7 +2,7 @@
 //! pixels where it can be, conservative so that the true pixel is never missed.
 //!
 //! How a mask is drawn (and why it cannot miss):
-//! 1. The back-projected set (an FLS arc or an SSS surface, SPEC §5) is cut into cells of the
+//! 1. The back-projected set (an FLS arc or an SSS surface, README: Commands, `--step`) is cut into cells of the
 //!    angle grid that tile sonar 1's aperture exactly: `n_e` elevation cells (and for an SSS `n_a`
 //!    azimuth cells) at range `r`. Every point of a cell lies within `h = r·√((Δa/2)² + (Δe/2)²)`
 //!    of the cell's centre point (the path along the sphere in a straight line of the angles is at

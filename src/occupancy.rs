@@ -1,4 +1,4 @@
-//! Sonar 2's data layout (range bins, beams: SPEC §7), the occupancy bitset drawn in it, and the
+//! Sonar 2's data layout (range bins, beams: README: Conventions), the occupancy bitset drawn in it, and the
 //! metrics of one projection.
 
 use serde::Serialize;
@@ -51,7 +51,7 @@ impl Layout {
         self.range_bins * self.beams()
     }
 
-    /// Returns true when `(r, az, el)` (m, rad, rad) lies in the field of view: SPEC §6, bounds
+    /// Returns true when `(r, az, el)` (m, rad, rad) lies in the field of view: README: Conventions, bounds
     /// inclusive, the origin outside.
     pub fn inside(&self, r: f64, az: f64, el: f64) -> bool {
         r > 0.0
@@ -226,7 +226,7 @@ impl Occupancy {
     }
 }
 
-/// The metrics of one projection (SPEC §7). Ranges in metres, azimuths in degrees.
+/// The metrics of one projection (README: Conventions). Ranges in metres, azimuths in degrees.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Metrics {
     /// Samples kept by the clip.

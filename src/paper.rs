@@ -1,4 +1,4 @@
-//! The paper's simulations (SPEC §8): for each direction (fls→sss, sss→fls) with the paper
+//! The paper's simulations (README): for each direction (fls→sss, sss→fls) with the paper
 //! presets, features at azimuth 0 and elevation 0 in both sonars, placement poses, and nine
 //! scenarios of swept rotations and feature distances. This module builds the poses, runs them
 //! on a backend and checks the paper's qualitative findings against the numbers.
@@ -278,7 +278,7 @@ fn quantile(v: &[f64], q: f64) -> f64 {
 /// The verdict on one of the paper's qualitative findings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Finding {
-    /// The finding in the paper's words (SPEC §8).
+    /// The finding in the paper's words (README: The paper's simulations).
     pub claim: &'static str,
     /// Whether the numbers bear it out.
     pub holds: bool,
@@ -286,7 +286,7 @@ pub struct Finding {
     pub evidence: String,
 }
 
-/// Returns the four findings of SPEC §8 checked against `runs` (both directions, with 0°, 90° and
+/// Returns the paper's four findings (README: The paper's simulations) checked against `runs` (both directions, with 0°, 90° and
 /// 180° among the angles and every fraction).
 pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
     let get = |d: Direction| {
@@ -415,7 +415,7 @@ pub fn findings_markdown(findings: &[Finding], angle_step: f64, sampling: Sampli
     };
     let _ = writeln!(
         md,
-        "Computed by `sonarproj paper` at an angle step of {angle_step}° with {sampling} (SPEC §8). \
+        "Computed by `sonarproj paper` at an angle step of {angle_step}° with {sampling}. \
          \"Short\" means at or below the 10th percentile of the scenario's grid, \"long\" at or \
          above the 90th, \"smallest\" at or below the 10th percentile.\n"
     );

@@ -1,4 +1,4 @@
-//! Relative poses between two sonars (SPEC §4): `p2 = R p1 + t`.
+//! Relative poses between two sonars (README: Conventions): `p2 = R p1 + t`.
 
 use glam::{DMat3, DVec3};
 
@@ -36,13 +36,13 @@ pub enum Rotation {
     Matrix([[f64; 3]; 3]),
 }
 
-/// Returns the Cartesian point of spherical `(r, az, el)` (radians): SPEC §2.
+/// Returns the Cartesian point of spherical `(r, az, el)` (radians): README: Conventions.
 pub fn sph_to_cart(r: f64, az: f64, el: f64) -> DVec3 {
     DVec3::new(r * el.cos() * az.cos(), r * el.cos() * az.sin(), r * el.sin())
 }
 
 /// Returns `(r, az, el)` (radians) of a Cartesian point: `r = |p|`, `az = atan2(y, x)`,
-/// `el = asin(z / r)` (SPEC §2); `el = 0` at the origin.
+/// `el = asin(z / r)` (README: Conventions); `el = 0` at the origin.
 pub fn cart_to_sph(p: DVec3) -> (f64, f64, f64) {
     let r = p.length();
     let el = if r > 0.0 {
@@ -166,7 +166,7 @@ impl RelativePose {
         })
     }
 
-    /// Returns the placement pose of SPEC §4: the feature's true point `sph(first)` in sonar 1
+    /// Returns the placement pose (README: Conventions): the feature's true point `sph(first)` in sonar 1
     /// appears at `sph(second)` in sonar 2, so `t = sph(second) − R sph(first)`. Both are
     /// `[range (m), azimuth (deg), elevation (deg)]`.
     ///

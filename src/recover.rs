@@ -1,4 +1,4 @@
-//! Recovering the coordinate a sonar loses from a correspondence between two sonars (SPEC §9).
+//! Recovering the coordinate a sonar loses from a correspondence between two sonars (README: Recovering the lost coordinate).
 //!
 //! An FLS measurement `(r, az)` leaves the elevation free: the point lies on the arc
 //! `p(el) = sph(r, az, el)`. A range `d` measured by the other sonar puts it on the sphere of

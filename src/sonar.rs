@@ -1,4 +1,4 @@
-//! Sonars: kind, field of view and data layout (SPEC §3), the presets, and sonar TOML files.
+//! Sonars: kind, field of view and data layout (README: Sonars), the presets, and sonar TOML files.
 
 use std::path::Path;
 
@@ -83,7 +83,7 @@ type PresetRow = (
     &'static str,
 );
 
-/// The presets of SPEC §3. Sources are kept beside each row.
+/// The presets (README: Sonars). Sources are kept beside each row.
 const PRESETS: &[PresetRow] = &[
     // Paper Table I; layout ours: 1 cm range bins, 512 beams.
     (
@@ -310,7 +310,7 @@ impl Sonar {
         Ok(sonar)
     }
 
-    /// Returns `Ok(())` when every field holds against SPEC §3.
+    /// Returns `Ok(())` when every field holds (README: Sonars).
     ///
     /// # Errors
     /// [`Error::InvalidValue`] naming the sonar, the field, its value and the allowed range.

@@ -42,7 +42,7 @@ fn cart(r: f64, az: f64, el: f64) -> DVec3 {
 }
 
 /// Returns the bin or pixel `(i, j)` of the point `p` in sonar `s`, written here from the
-/// sonar's definition (SPEC §7), not taken from the library: bins `[edge_i, edge_i+1)` with the
+/// sonar's definition (README: Conventions), not taken from the library: bins `[edge_i, edge_i+1)` with the
 /// last one closed, beams likewise.
 fn true_pixel(s: &Sonar, p: DVec3) -> (usize, usize) {
     let r = p.length();

@@ -1,4 +1,4 @@
-//! `sonarproj recover`: the coordinate each sonar loses, from a correspondence (SPEC §9). One
+//! `sonarproj recover`: the coordinate each sonar loses, from a correspondence (README: Recovering the lost coordinate). One
 //! correspondence (JSON) or a CSV of them (`--input`).
 
 use serde_json::json;

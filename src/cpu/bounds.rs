@@ -1,4 +1,4 @@
-//! How far the GPU may honestly differ from the f64 reference (SPEC §10).
+//! How far the GPU may honestly differ from the f64 reference (README: How the GPU is checked).
 //!
 //! Every sample is given a tolerance of [`RELATIVE_TOLERANCE`] × its range in sonar 2 (plus
 //! [`INPUT_TOLERANCE`] × (`range + |t|`), for the pose and directions reaching the GPU as f32

@@ -1,6 +1,6 @@
 //! The CPU reference: plain f64 loops, written to be obviously right, one module per shader stage
 //! (`splat` ↔ `shaders/splat.wgsl`, `reduce` ↔ `shaders/reduce.wgsl`), plus `bounds`, which says
-//! how far an f32 implementation may honestly differ (SPEC §10).
+//! how far an f32 implementation may honestly differ (README: How the GPU is checked).
 
 pub mod bounds;
 pub mod reduce;

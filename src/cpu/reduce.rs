@@ -1,5 +1,5 @@
 //! CPU mirror of `shaders/reduce.wgsl`: one pose's occupancy buffer becomes the occupied count and
-//! the occupied measure (bin widths for an SSS, true pixel areas for an FLS: SPEC §7).
+//! the occupied measure (bin widths for an SSS, true pixel areas for an FLS: README: Conventions).
 
 use crate::occupancy::{Layout, Occupancy};
 

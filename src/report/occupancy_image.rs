@@ -1,6 +1,6 @@
 //! Occupancy buffers as files: PNG for a person, NPY for numpy.
 //!
-//! Orientation (SPEC §7): row 0 is `range_min`, column 0 is beam 0 at `-aperture/2` (starboard,
+//! Orientation (README: Conventions): row 0 is `range_min`, column 0 is beam 0 at `-aperture/2` (starboard,
 //! since +azimuth is toward +y, port). `flip_range` puts `range_max` in row 0 (near range at the
 //! bottom of a picture, as most sonar viewers draw it); `flip_beams` puts the port-most beam in
 //! column 0.
