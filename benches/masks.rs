@@ -2,13 +2,14 @@
 //! `bench::MASK_CASES`, on the fast CPU path. `cargo bench --bench masks`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use sonarproj::Sonar;
 use sonarproj::mask::MaskEngine;
-use sonarproj::{Sonar, bench};
+use sonarproj_apps::bench;
 
 fn masks(c: &mut Criterion) {
     for (from, to) in bench::MASK_CASES {
         let (s1, s2) = (Sonar::preset(from).unwrap(), Sonar::preset(to).unwrap());
-        let engine = MaskEngine::new(s1.clone(), s2.clone());
+        let engine = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
         let mut group = c.benchmark_group(format!("mask {from}->{to}"));
         for n in [1, 100] {
             let (pose, features) = bench::mask_ping(&s1, &s2, n).unwrap();

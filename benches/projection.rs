@@ -4,7 +4,8 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use sonarproj::gpu::{GpuBackend, GpuContext};
-use sonarproj::{Sonar, bench, cpu, cpu_fast};
+use sonarproj::{Sonar, cpu, cpu_fast};
+use sonarproj_apps::bench;
 
 fn projection(c: &mut Criterion) {
     let gpu = GpuContext::new().ok().map(GpuBackend::new);

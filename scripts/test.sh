@@ -17,6 +17,12 @@ export WGPU_BACKEND="${WGPU_BACKEND:-vulkan}"
 export NODEVICE_SELECT=1
 
 # The release profile, so the tests reuse the dependency tree that `cargo run --release` built
-# (a debug build would compile it all again); overflow checks on for this crate alone, which leaves
-# the dependencies' builds untouched (the shipped binary runs without them: 25 % faster).
-cargo test --release --config 'profile.release.package.sonarproj.overflow-checks=true' --all-targets "$@"
+# (a debug build would compile it all again); overflow checks on for the workspace's own crates
+# alone, which leaves the dependencies' builds untouched (the shipped binary runs without them:
+# 25 % faster). --all-targets builds the examples, which tests/examples.rs runs; doctests after.
+checks=()
+for p in sonarproj sonarproj-apps sonarproj-cli; do
+    checks+=(--config "profile.release.package.$p.overflow-checks=true")
+done
+cargo test --release "${checks[@]}" --workspace --all-targets "$@"
+cargo test --release "${checks[@]}" --workspace --doc "$@"

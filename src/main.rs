@@ -14,6 +14,9 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
+            if let sonarproj_apps::Error::Engine(sonarproj::Error::NoAdapter { .. }) = e {
+                eprintln!("hint: --backend cpu-fast runs on the CPU, without a GPU");
+            }
             ExitCode::from(if e.is_input() { 2 } else { 1 })
         }
     }

@@ -94,6 +94,10 @@ fn identity_pose_keeps_the_arc_in_one_pixel() {
 }
 
 #[test]
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "bin counts of the presets, far below u64::MAX"
+)]
 fn translation_along_the_bearing_stretches_the_arc_in_range_only() {
     // t = d (cos az, sin az, 0): the arc stays in the vertical plane of the bearing, so the
     // azimuth is unchanged and the range is sqrt(r² + d² + 2 r d cos el), largest at el = 0.
@@ -126,6 +130,10 @@ fn translation_along_the_bearing_stretches_the_arc_in_range_only() {
 }
 
 #[test]
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "bin counts of the presets, far below u64::MAX"
+)]
 fn pitch_90_lays_the_fls_arc_along_the_sss_range_axis() {
     // Pitch 90°: R maps sonar-1 (x, y, z) to sonar-2 (−z, y, x). The arc 5 (cos e, 0, sin e),
     // placed at 15 m in the SSS, becomes (15 − 5 sin e, 0, 5 cos e − 5): a line through the

@@ -44,6 +44,10 @@ fn cart(r: f64, az: f64, el: f64) -> DVec3 {
 /// Returns the bin or pixel `(i, j)` of the point `p` in sonar `s`, written here from the
 /// sonar's definition (README: Conventions), not taken from the library: bins `[edge_i, edge_i+1)` with the
 /// last one closed, beams likewise.
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "a saturating float-to-index conversion, clamped to the table right after"
+)]
 fn true_pixel(s: &Sonar, p: DVec3) -> (usize, usize) {
     let r = p.length();
     let w = (s.range_max - s.range_min) / f64::from(s.range_bins);
@@ -108,7 +112,7 @@ fn masks_never_miss_the_true_pixel() {
     for (a, from) in names.iter().enumerate() {
         for (b, to) in names.iter().enumerate() {
             let (s1, s2) = (Sonar::preset(from).unwrap(), Sonar::preset(to).unwrap());
-            let engine = MaskEngine::new(s1.clone(), s2.clone());
+            let engine = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
             let mut rng = ChaCha8Rng::seed_from_u64(1000 + 10 * a as u64 + b as u64);
             let scenes: Vec<Scene> = (0..SCENES).map(|_| scene(&mut rng, &s1, &s2)).collect();
             // The features of many scenes that share no pose are drawn one at a time; batching
@@ -147,7 +151,7 @@ fn masks_are_tight_at_the_sensors_resolution() {
         Sonar::preset("holoocean-imaging").unwrap(),
         Sonar::preset("holoocean-sidescan").unwrap(),
     );
-    let engine = MaskEngine::new(s1.clone(), s2.clone());
+    let engine = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
     let pose = RelativePose {
         rotation: DMat3::from_rotation_x(90f64.to_radians()),
         translation: DVec3::new(10.0, 0.0, 0.0),
@@ -184,7 +188,7 @@ fn the_union_holds_every_mask() {
         Sonar::preset("holoocean-sidescan").unwrap(),
         Sonar::preset("holoocean-imaging").unwrap(),
     );
-    let engine = MaskEngine::new(s1.clone(), s2.clone());
+    let engine = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let sc = scene(&mut rng, &s1, &s2);
     let features: Vec<Measurement> = (0..20)
@@ -220,7 +224,7 @@ fn widened_masks_reach_the_stated_coverage_under_simulated_noise() {
         ("oculus-m750d", "oculus-m1200d-hf"),
     ] {
         let (s1, s2) = (Sonar::preset(from).unwrap(), Sonar::preset(to).unwrap());
-        let engine = MaskEngine::new(s1.clone(), s2.clone());
+        let engine = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
         let noise = Noise {
             rotation: [0.5, 0.5, 1.0],
             translation: [0.05, 0.05, 0.02],
@@ -319,7 +323,8 @@ mod cli {
         let engine = MaskEngine::new(
             Sonar::preset("holoocean-sidescan").unwrap(),
             Sonar::preset("holoocean-imaging").unwrap(),
-        );
+        )
+        .unwrap();
         let pose = RelativePose::new(
             Rotation::RollPitchYaw {
                 roll: 0.0,
@@ -485,7 +490,7 @@ mod gpu {
         for (a, from) in names.iter().enumerate() {
             for (b, to) in names.iter().enumerate() {
                 let (s1, s2) = (Sonar::preset(from).unwrap(), Sonar::preset(to).unwrap());
-                let cpu = MaskEngine::new(s1.clone(), s2.clone());
+                let cpu = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
                 let gpu = MaskEngine::on_gpu(s1.clone(), s2.clone(), GpuContext::new().unwrap()).unwrap();
                 let mut rng = ChaCha8Rng::seed_from_u64(5000 + 10 * a as u64 + b as u64);
                 let scenes: Vec<Scene> = (0..gpu_scenes()).map(|_| scene(&mut rng, &s1, &s2)).collect();

@@ -1,8 +1,8 @@
 //! The paper's simulations (README): every scenario has the right poses, the distances follow
 //! the table, and the paper's qualitative findings hold at a coarse angle step.
 
-use sonarproj::paper::{self, Direction, FRACTIONS, ScenarioPose, angles, scenario_poses};
 use sonarproj::{Backend, Sampling};
+use sonarproj_apps::paper::{self, Direction, FRACTIONS, ScenarioPose, angles, scenario_poses};
 
 fn count(poses: &[ScenarioPose], s: u8) -> usize {
     poses.iter().filter(|p| p.scenario == s).count()

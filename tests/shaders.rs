@@ -175,7 +175,7 @@ fn mask_structs_match_the_rust_layout() {
         ("range_bins", offset_of!(MaskParams, range_bins)),
         ("beams", offset_of!(MaskParams, beams)),
         ("words_per_mask", offset_of!(MaskParams, words_per_mask)),
-        ("job_count", offset_of!(MaskParams, job_count)),
+        ("_pad0", offset_of!(MaskParams, _pad0)),
         ("fls", offset_of!(MaskParams, fls)),
         ("tan_half_el", offset_of!(MaskParams, tan_half_el)),
         ("tan_half_az", offset_of!(MaskParams, tan_half_az)),

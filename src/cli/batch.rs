@@ -1,14 +1,15 @@
 //! `sonarproj batch`: a CSV of poses in, a CSV of metrics out.
 
-use sonarproj::io::{read_batch_csv, write_batch_csv};
-use sonarproj::{Batch, Result};
+use sonarproj::Batch;
+use sonarproj_apps::Result;
+use sonarproj_apps::io::{read_batch_csv, write_batch_csv};
 
 use super::{PairArgs, read_input, write_output};
 
 /// Options of `sonarproj batch`.
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
-pub struct BatchArgs {
+pub(super) struct BatchArgs {
     #[command(flatten)]
     pair: PairArgs,
     /// Input CSV ('-' for stdin). Columns (any order): range,azimuth,elevation,roll,pitch,yaw and
@@ -23,7 +24,7 @@ pub struct BatchArgs {
 }
 
 /// Runs `sonarproj batch`.
-pub fn run(a: BatchArgs) -> Result<()> {
+pub(super) fn run(a: BatchArgs) -> Result<()> {
     let (source, target, sampling) = a.pair.resolve()?;
     let text = read_input(&a.input)?;
     let input = read_batch_csv(text.as_slice(), &source)?;

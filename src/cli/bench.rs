@@ -1,11 +1,12 @@
 //! `sonarproj bench`: the same batches on every backend, samples and poses per second.
 
-use sonarproj::bench::{self, STANDARD, Timing};
+use sonarproj_apps::bench::{self, STANDARD, Timing};
 use std::time::Instant;
 
 use sonarproj::gpu::GpuContext;
 use sonarproj::mask::MaskEngine;
-use sonarproj::{Backend, BackendChoice, Result, Sonar};
+use sonarproj::{Backend, BackendChoice, Sonar};
+use sonarproj_apps::Result;
 
 /// Printed under the device list when the GPU is a software adapter.
 const SOFTWARE_NOTE: &str =
@@ -13,7 +14,7 @@ const SOFTWARE_NOTE: &str =
 
 /// What `sonarproj bench` measures.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Subject {
+pub(super) enum Subject {
     /// Projection batches: samples and poses per second on every backend.
     Projection,
     /// Correspondence-mask latency: one mask, and a ping of 100 features (issue 4's cases).
@@ -22,7 +23,7 @@ pub enum Subject {
 
 /// Options of `sonarproj bench`.
 #[derive(Debug, clap::Args)]
-pub struct BenchArgs {
+pub(super) struct BenchArgs {
     /// What to measure.
     #[arg(value_enum, default_value = "projection")]
     subject: Subject,
@@ -40,7 +41,7 @@ pub struct BenchArgs {
 }
 
 /// Runs `sonarproj bench`.
-pub fn run(a: BenchArgs) -> Result<()> {
+pub(super) fn run(a: BenchArgs) -> Result<()> {
     if a.subject == Subject::Masks {
         return masks(a.runs.max(1));
     }
@@ -148,7 +149,7 @@ fn masks(runs: usize) -> Result<()> {
                 MaskEngine::on_gpu(s1.clone(), s2.clone(), GpuContext::new()?)?,
             ));
         }
-        engines.push(("cpu", MaskEngine::new(s1.clone(), s2.clone())));
+        engines.push(("cpu", MaskEngine::new(s1.clone(), s2.clone())?));
         for (name, engine) in &engines {
             for n in [1, 100] {
                 let (pose, features) = bench::mask_ping(&s1, &s2, n)?;

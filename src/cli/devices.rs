@@ -1,10 +1,11 @@
 //! `sonarproj devices`: the adapters wgpu sees and the one `auto` would use.
 
 use sonarproj::gpu::context::{describe, list_adapters};
-use sonarproj::{Backend, BackendChoice, Result};
+use sonarproj::{Backend, BackendChoice};
+use sonarproj_apps::Result;
 
 /// Runs `sonarproj devices`.
-pub fn run() -> Result<()> {
+pub(super) fn run() -> Result<()> {
     let adapters = list_adapters();
     let backends = std::env::var("WGPU_BACKEND").unwrap_or_else(|_| "vulkan,metal,dx12 (default)".into());
     outln!("backends: {backends}")?;

@@ -7,17 +7,18 @@ use std::time::Instant;
 
 use serde::Deserialize;
 use serde_json::{Value, json};
-use sonarproj::error::{Error, Result};
 use sonarproj::mask::{MaskEngine, MaskSet, Noise, bounding_box, run_lengths};
-use sonarproj::report::mask_image;
-use sonarproj::{BackendChoice, Measurement, RelativePose, Rotation, Sonar, SonarKind};
+use sonarproj::{Measurement, RelativePose, Rotation, Sonar, SonarKind};
+use sonarproj_apps::report::mask_image;
+use sonarproj_apps::{Error, Result};
 
+use super::BackendArg;
 use super::pose_args::{PoseArgs, numbers};
 
 /// Options of `sonarproj mask`.
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
-pub struct MaskArgs {
+pub(super) struct MaskArgs {
     /// Sonar 1 (measured the features): a preset name or a sonar TOML file.
     #[arg(long, value_name = "SONAR")]
     from: String,
@@ -69,7 +70,7 @@ pub struct MaskArgs {
     /// Where to draw: auto (a hardware GPU, else the CPU), gpu, or cpu (cpu-fast is the same
     /// engine for masks: f64 on every core).
     #[arg(long, value_enum, default_value = "auto")]
-    backend: BackendChoice,
+    backend: BackendArg,
     /// Read one JSON object per line from stdin (pose, features, optional sigma) and write one
     /// JSON line per input: per-feature run-length masks, counts and timing.
     #[arg(long, conflicts_with_all = ["feature", "out", "npy", "json"])]
@@ -101,7 +102,7 @@ fn feature(source: &Sonar, k: usize, text: &str) -> Result<Measurement> {
             ));
         }
     };
-    Measurement::of(source, range, azimuth).map_err(|e| e.in_context(&field))
+    Measurement::of(source, range, azimuth).map_err(|e| Error::from(e).in_context(&field))
 }
 
 /// Returns the per-feature JSON of `set`: occupied count and bounding box, with the run-length
@@ -130,10 +131,10 @@ fn features_json(engine: &MaskEngine, features: &[Measurement], set: &MaskSet, r
 }
 
 /// Runs `sonarproj mask`.
-pub fn run(a: MaskArgs) -> Result<()> {
+pub(super) fn run(a: MaskArgs) -> Result<()> {
     let source = Sonar::resolve(&a.from)?;
     let target = Sonar::resolve(&a.to)?;
-    let (engine, notice) = MaskEngine::select(source, target, a.backend, a.counts)?;
+    let (engine, notice) = MaskEngine::select(source, target, a.backend.into(), a.counts)?;
     if let Some(n) = notice {
         eprintln!("{n}");
     }
@@ -316,8 +317,8 @@ fn parse_line(engine: &MaskEngine, text: &str) -> Result<(RelativePose, Vec<Meas
         .map(|(k, f)| {
             let field = format!("features[{k}]");
             match f.as_slice() {
-                [r] => Measurement::of(engine.source(), *r, 0.0),
-                [r, a] => Measurement::of(engine.source(), *r, *a),
+                [r] => Measurement::of(engine.source(), *r, 0.0).map_err(Error::from),
+                [r, a] => Measurement::of(engine.source(), *r, *a).map_err(Error::from),
                 _ => Err(Error::invalid(&field, format!("{f:?}"), "must be [R] or [R, A]")),
             }
             .map_err(|e| e.in_context(&field))

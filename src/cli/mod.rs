@@ -26,14 +26,15 @@ use clap::{Parser, Subcommand};
 use std::io::{Read, Write};
 use std::path::PathBuf;
 
-use sonarproj::error::Error;
-use sonarproj::report::write_atomic;
-use sonarproj::{Backend, BackendChoice, Result, Sampling, Sonar};
+use sonarproj::{Backend, BackendChoice, Sampling, Sonar};
+use sonarproj_apps::Error;
+use sonarproj_apps::Result;
+use sonarproj_apps::report::write_atomic;
 
 /// Epipolar geometry of sonar: where a feature seen by one sonar can appear in another.
 #[derive(Debug, Parser)]
 #[command(name = "sonarproj", version, about, long_about = None)]
-pub struct Cli {
+pub(crate) struct Cli {
     #[command(subcommand)]
     command: Command,
 }
@@ -63,9 +64,34 @@ enum Command {
     Devices,
 }
 
+/// Which backend a user asked for: `--backend auto|cpu|cpu-fast|gpu`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum BackendArg {
+    /// A hardware GPU when one exists, else the fast CPU path (with a one-line notice; a
+    /// software adapter such as lavapipe is slower than the CPU path on the same cores).
+    Auto,
+    /// The CPU reference (f64, one core, written to be obviously right).
+    Cpu,
+    /// The fast CPU path: the GPU's algorithm in f64 on every core.
+    CpuFast,
+    /// The GPU (WGSL through wgpu); fails when no adapter exists.
+    Gpu,
+}
+
+impl From<BackendArg> for BackendChoice {
+    fn from(a: BackendArg) -> BackendChoice {
+        match a {
+            BackendArg::Auto => BackendChoice::Auto,
+            BackendArg::Cpu => BackendChoice::Cpu,
+            BackendArg::CpuFast => BackendChoice::CpuFast,
+            BackendArg::Gpu => BackendChoice::Gpu,
+        }
+    }
+}
+
 /// Sonar pair, sampling and backend: the options every projecting sub-command shares.
 #[derive(Debug, clap::Args)]
-pub struct PairArgs {
+pub(crate) struct PairArgs {
     /// Sonar 1 (measures the feature): a preset name or a sonar TOML file.
     #[arg(long, value_name = "SONAR")]
     from: String,
@@ -76,9 +102,9 @@ pub struct PairArgs {
     /// neighbouring samples land less than half a bin and half a beam apart in sonar 2.
     #[arg(long, value_name = "DEG")]
     step: Option<f64>,
-    /// Where to compute: auto picks the GPU when an adapter exists, else the CPU reference.
+    /// Where to compute: auto picks a hardware GPU when one exists, else the fast CPU path.
     #[arg(long, value_enum, default_value = "auto")]
-    backend: BackendChoice,
+    backend: BackendArg,
 }
 
 impl PairArgs {
@@ -96,7 +122,7 @@ impl PairArgs {
 
     /// Returns the backend, printing the one-line notice when `auto` fell back to the CPU.
     fn backend(&self) -> Result<Backend> {
-        let (backend, notice) = Backend::select(self.backend)?;
+        let (backend, notice) = Backend::select(self.backend.into())?;
         if let Some(n) = notice {
             eprintln!("{n}");
         }
@@ -124,7 +150,7 @@ fn read_input(path: &str) -> Result<Vec<u8>> {
 ///
 /// # Errors
 /// [`Error::WriteOutput`] naming stdout when the write fails.
-pub fn write_stdout(args: std::fmt::Arguments<'_>) -> Result<()> {
+pub(crate) fn write_stdout(args: std::fmt::Arguments<'_>) -> Result<()> {
     std::io::stdout()
         .lock()
         .write_fmt(args)
@@ -144,7 +170,7 @@ fn write_output(path: &str, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> 
 }
 
 /// Runs the parsed command line.
-pub fn run(cli: Cli) -> Result<()> {
+pub(crate) fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Project(a) => project::run(a),
         Command::Batch(a) => batch::run(a),

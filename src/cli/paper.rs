@@ -5,17 +5,18 @@ use std::path::PathBuf;
 use rayon::prelude::*;
 use std::time::Instant;
 
-use sonarproj::error::{Error, Result};
-use sonarproj::io::table::write_rows;
-use sonarproj::io::{METRIC_COLUMNS, metric_fields};
-use sonarproj::paper::{self, angles};
-use sonarproj::report::{figures, write_atomic};
-use sonarproj::{Backend, BackendChoice, Sampling};
+use super::BackendArg;
+use sonarproj::{Backend, Sampling};
+use sonarproj_apps::io::table::write_rows;
+use sonarproj_apps::io::{METRIC_COLUMNS, metric_fields};
+use sonarproj_apps::paper::{self, angles};
+use sonarproj_apps::report::{figures, write_atomic};
+use sonarproj_apps::{Error, Result};
 
 /// Options of `sonarproj paper`.
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
-pub struct PaperArgs {
+pub(super) struct PaperArgs {
     /// Output directory (created when missing): fls-to-sss.csv, sss-to-fls.csv, the figures
     /// (*-lines.png: scenarios 1–6, *-heatmaps.png: scenarios 7–9) and findings.md.
     #[arg(long, value_name = "DIR")]
@@ -28,18 +29,18 @@ pub struct PaperArgs {
     step: f64,
     /// Where to compute.
     #[arg(long, value_enum, default_value = "auto")]
-    backend: BackendChoice,
+    backend: BackendArg,
 }
 
 /// Runs `sonarproj paper`.
-pub fn run(a: PaperArgs) -> Result<()> {
+pub(super) fn run(a: PaperArgs) -> Result<()> {
     let sampling = Sampling::Step(a.step).validated()?;
     let swept = angles(a.angle_step)?;
     std::fs::create_dir_all(&a.out).map_err(|e| Error::WriteOutput {
         path: a.out.clone(),
         message: e.to_string(),
     })?;
-    let (backend, notice) = Backend::select(a.backend)?;
+    let (backend, notice) = Backend::select(a.backend.into())?;
     if let Some(n) = notice {
         eprintln!("{n}");
     }

@@ -1,12 +1,12 @@
 //! Pose options shared by the sub-commands that take one pose.
 
-use sonarproj::error::{Error, Result};
 use sonarproj::{RelativePose, Rotation};
+use sonarproj_apps::{Error, Result};
 
 /// The relative pose: a rotation (roll/pitch/yaw, quaternion or matrix) and either a placement of
 /// the feature in sonar 2 or an explicit translation.
 #[derive(Debug, clap::Args)]
-pub struct PoseArgs {
+pub(super) struct PoseArgs {
     /// Roll (deg). R = (Rz(yaw) Ry(pitch) Rx(roll))ᵀ, as the paper's code.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     roll: f64,
@@ -49,7 +49,7 @@ pub struct PoseArgs {
 }
 
 /// Returns the `N` comma-separated numbers of `text`, or an error naming `field`.
-pub fn numbers<const N: usize>(field: &str, text: &str) -> Result<[f64; N]> {
+pub(super) fn numbers<const N: usize>(field: &str, text: &str) -> Result<[f64; N]> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != N {
         return Err(Error::invalid(
@@ -90,10 +90,10 @@ impl PoseArgs {
 
     /// Returns the pose; `feature` is the true point in sonar 1 `[range, azimuth, elevation]`
     /// (m, deg, deg), used by the placement.
-    pub fn pose(&self, feature: [f64; 3]) -> Result<RelativePose> {
+    pub(super) fn pose(&self, feature: [f64; 3]) -> Result<RelativePose> {
         let rotation = self.rotation()?;
         match (&self.translation, self.place_range) {
-            (Some(t), _) => RelativePose::new(rotation, numbers::<3>("--translation", t)?),
+            (Some(t), _) => Ok(RelativePose::new(rotation, numbers::<3>("--translation", t)?)?),
             (None, Some(r)) => RelativePose::placement(
                 rotation,
                 feature,
@@ -103,7 +103,7 @@ impl PoseArgs {
                     self.place_elevation.unwrap_or(0.0),
                 ],
             )
-            .map_err(|e| e.in_context("--place")),
+            .map_err(|e| Error::from(e).in_context("--place")),
             (None, None) => Err(Error::invalid(
                 "pose",
                 "no translation",

@@ -4,8 +4,9 @@ use std::path::PathBuf;
 
 use serde_json::json;
 use sonarproj::ambiguity::SamplingPlan;
-use sonarproj::report::occupancy_image::{self, Orientation};
-use sonarproj::{Batch, BatchItem, Measurement, Result, Sampling};
+use sonarproj::{Batch, BatchItem, Measurement, Sampling};
+use sonarproj_apps::Result;
+use sonarproj_apps::report::occupancy_image::{self, Orientation};
 
 use super::PairArgs;
 use super::pose_args::PoseArgs;
@@ -13,7 +14,7 @@ use super::pose_args::PoseArgs;
 /// Options of `sonarproj project`.
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
-pub struct ProjectArgs {
+pub(super) struct ProjectArgs {
     #[command(flatten)]
     pair: PairArgs,
     /// Range (m) of the feature in sonar 1 (its measurement).
@@ -41,7 +42,7 @@ pub struct ProjectArgs {
 }
 
 /// Runs `sonarproj project`.
-pub fn run(a: ProjectArgs) -> Result<()> {
+pub(super) fn run(a: ProjectArgs) -> Result<()> {
     let (source, target, sampling) = a.pair.resolve()?;
     source.check_point("feature", a.range, a.azimuth, a.elevation)?;
     let measurement = Measurement::of(&source, a.range, a.azimuth)?;

@@ -2,11 +2,11 @@
 //! correspondence (JSON) or a CSV of them (`--input`).
 
 use serde_json::json;
-use sonarproj::error::Result;
-use sonarproj::io::recover::{read_recover_csv, write_recover_csv};
-use sonarproj::io::table::row_error;
 use sonarproj::recover::{DEFAULT_CURVE_STEP, Observation, Recovery, Sigmas, recover};
 use sonarproj::{Sonar, SonarKind};
+use sonarproj_apps::Result;
+use sonarproj_apps::io::recover::{read_recover_csv, write_recover_csv};
+use sonarproj_apps::io::table::row_error;
 
 use super::pose_args::{PoseArgs, numbers};
 use super::{read_input, write_output};
@@ -14,7 +14,7 @@ use super::{read_input, write_output};
 /// Options of `sonarproj recover`.
 #[derive(Debug, clap::Args)]
 #[command(allow_negative_numbers = true)]
-pub struct RecoverArgs {
+pub(super) struct RecoverArgs {
     /// Sonar 1: a preset name or a sonar TOML file.
     #[arg(long, value_name = "SONAR")]
     from: String,
@@ -82,7 +82,7 @@ fn observation(which: &str, text: &str) -> Result<Observation> {
 }
 
 /// Runs `sonarproj recover`.
-pub fn run(a: RecoverArgs) -> Result<()> {
+pub(super) fn run(a: RecoverArgs) -> Result<()> {
     let s1 = Sonar::resolve(&a.from)?;
     let s2 = Sonar::resolve(&a.to)?;
     if let Some(input) = &a.input {
@@ -142,7 +142,7 @@ fn run_batch(a: &RecoverArgs, s1: &Sonar, s2: &Sonar, input: &str) -> Result<()>
                 item.sigmas,
                 a.curve_step,
             )
-            .map_err(|e| row_error(*row, *line, e))
+            .map_err(|e| row_error(*row, *line, e.into()))
         })
         .collect::<Result<Vec<_>>>()?;
     write_output(a.output.as_deref().unwrap_or("-"), |w| {

@@ -4,14 +4,16 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use super::BackendArg;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use sonarproj::sweep::run::DEFAULT_CHUNK_POSES;
-use sonarproj::sweep::{self, Options, Shard, SweepConfig};
-use sonarproj::{Backend, BackendChoice, Result};
+use sonarproj::Backend;
+use sonarproj_apps::Result;
+use sonarproj_apps::sweep::run::DEFAULT_CHUNK_POSES;
+use sonarproj_apps::sweep::{self, Options, Shard, SweepConfig};
 
 /// Options of `sonarproj sweep`.
 #[derive(Debug, clap::Args)]
-pub struct SweepArgs {
+pub(super) struct SweepArgs {
     /// The sweep file (TOML): sonar pair, sampling, and a grid ([feature], [place] or
     /// [translation], [rotation]) or `poses = "FILE.csv"`. See README "Sweeps".
     #[arg(long, value_name = "FILE.toml")]
@@ -31,19 +33,19 @@ pub struct SweepArgs {
     max_chunks: Option<u64>,
     /// Where to compute.
     #[arg(long, value_enum, default_value = "auto")]
-    backend: BackendChoice,
+    backend: BackendArg,
 }
 
 /// Options of `sonarproj merge`.
 #[derive(Debug, clap::Args)]
-pub struct MergeArgs {
+pub(super) struct MergeArgs {
     /// The --out directory the shards of one sweep wrote to.
     #[arg(value_name = "DIR")]
     dir: PathBuf,
 }
 
 /// Runs `sonarproj sweep`.
-pub fn run(a: SweepArgs) -> Result<()> {
+pub(super) fn run(a: SweepArgs) -> Result<()> {
     let shard = a.shard.as_deref().map(Shard::parse).transpose()?;
     let config = SweepConfig::load(&a.config)?;
     let opts = Options {
@@ -52,7 +54,7 @@ pub fn run(a: SweepArgs) -> Result<()> {
         chunk_poses: a.chunk_poses,
         max_chunks: a.max_chunks,
     };
-    let (backend, notice) = Backend::select(a.backend)?;
+    let (backend, notice) = Backend::select(a.backend.into())?;
     if let Some(n) = notice {
         eprintln!("{n}");
     }
@@ -105,7 +107,7 @@ pub fn run(a: SweepArgs) -> Result<()> {
 }
 
 /// Runs `sonarproj merge`.
-pub fn merge(a: MergeArgs) -> Result<()> {
+pub(super) fn merge(a: MergeArgs) -> Result<()> {
     let (file, figure) = sweep::merge(&a.dir)?;
     outln!(
         "merge: wrote {}{}",

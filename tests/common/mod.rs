@@ -6,7 +6,7 @@ use sonarproj::gpu::{GpuBackend, GpuContext};
 /// Returns a GPU backend on the adapter `auto` would use. Without an adapter it panics when
 /// `CI=true` (GPU tests must run in CI, on lavapipe) and otherwise returns `None` after saying
 /// that the test is skipped.
-pub fn gpu() -> Option<GpuBackend> {
+pub(crate) fn gpu() -> Option<GpuBackend> {
     match GpuContext::new() {
         Ok(ctx) => Some(GpuBackend::new(ctx)),
         Err(e) => {
@@ -27,11 +27,11 @@ use sonarproj::sonar::SonarKind;
 /// Relative error allowed on the GPU's FLS occupied measure: it sums pixel areas in f32, at most
 /// about (rows per thread + log2 64) roundings of 2^-24 each, well under 1e-5 for every layout
 /// here. The SSS measure is computed in f64 from the exact count and gets no allowance.
-pub const F32_AREA_SUM_RELATIVE: f64 = 1e-5;
+pub(crate) const F32_AREA_SUM_RELATIVE: f64 = 1e-5;
 
 /// Returns `Ok` when `p` (a GPU result with its occupancy) lies inside the envelope `b` computed
 /// by the CPU reference for the same pose, else a message saying which check failed.
-pub fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Result<(), String> {
+pub(crate) fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Result<(), String> {
     let m = &p.metrics;
     let occ = p.occupancy.as_ref().ok_or("no occupancy read back")?;
     if !(b.visible_min..=b.visible_max).contains(&m.visible) {
@@ -87,7 +87,7 @@ pub fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Resul
 }
 
 /// Returns the number of pixels set in exactly one of `a` and `b`.
-pub fn differing_pixels(a: &sonarproj::Occupancy, b: &sonarproj::Occupancy) -> u64 {
+pub(crate) fn differing_pixels(a: &sonarproj::Occupancy, b: &sonarproj::Occupancy) -> u64 {
     a.words
         .iter()
         .zip(&b.words)

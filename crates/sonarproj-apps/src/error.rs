@@ -1,0 +1,91 @@
+//! The applications' error type: the engine's errors, plus what reading and writing files can
+//! go wrong with (sweep files, CSV tables, output files, figures).
+
+use std::path::PathBuf;
+
+/// Returns the applications' result type, with [`Error`] as the error.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Everything that can go wrong in the applications.
+///
+/// [`Error::is_input`] tells bad input (exit status 2 in the CLI) from other failures (status 1).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// An error of the engine (an invalid value, a sonar file, the GPU).
+    #[error(transparent)]
+    Engine(#[from] sonarproj::Error),
+    /// A sweep TOML file could not be parsed.
+    #[error("sweep file {path}: {message}")]
+    SweepFile {
+        /// The file.
+        path: PathBuf,
+        /// What the parser said.
+        message: String,
+    },
+    /// A CSV input is malformed (header, or one row).
+    #[error("{context}: {message}")]
+    Csv {
+        /// Where: `input header` or `input row N (line L)`.
+        context: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// An input file could not be read.
+    #[error("cannot read {path}: {source}")]
+    ReadInput {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// An output file could not be written.
+    #[error("cannot write {path}: {message}")]
+    WriteOutput {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        message: String,
+    },
+    /// A figure could not be drawn.
+    #[error("cannot draw a figure: {0}")]
+    Figure(String),
+}
+
+impl Error {
+    /// Returns true when the error is the caller's input (CLI exit status 2), false when it is a
+    /// failure of the machine (status 1).
+    pub fn is_input(&self) -> bool {
+        match self {
+            Error::Engine(e) => e.is_input(),
+            Error::SweepFile { .. } | Error::Csv { .. } | Error::ReadInput { .. } => true,
+            Error::WriteOutput { .. } | Error::Figure(_) => false,
+        }
+    }
+
+    /// Returns the engine's [`sonarproj::Error::InvalidValue`] for `field`, `value` and the
+    /// `allowed` text.
+    pub fn invalid(
+        field: impl Into<String>,
+        value: impl std::fmt::Display,
+        allowed: impl Into<String>,
+    ) -> Self {
+        Error::Engine(sonarproj::Error::invalid(field, value, allowed))
+    }
+
+    /// Returns the same error with `prefix: ` put in front of the field name of an invalid value.
+    pub fn in_context(self, prefix: &str) -> Self {
+        match self {
+            Error::Engine(e) => Error::Engine(e.in_context(prefix)),
+            other => other,
+        }
+    }
+}
+
+/// Returns `Ok(v)` when `v` is finite, else an error naming `field`.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] for NaN and infinities.
+pub fn finite(field: &str, v: f64) -> Result<f64> {
+    Ok(sonarproj::error::finite(field, v)?)
+}

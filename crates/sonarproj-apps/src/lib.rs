@@ -1,0 +1,14 @@
+//! The applications built on the [`sonarproj`] engine: the paper's simulations ([`paper`]),
+//! pose sweeps in chunks, shards and merges ([`sweep`]), speed comparisons ([`bench`]), figures
+//! and images ([`report`]) and the CSV formats of batches and recoveries ([`io`]).
+//!
+//! The command line and the Python package are thin fronts on this crate and the engine.
+
+pub mod bench;
+pub mod error;
+pub mod io;
+pub mod paper;
+pub mod report;
+pub mod sweep;
+
+pub use error::{Error, Result};

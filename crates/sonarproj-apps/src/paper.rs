@@ -1,0 +1,440 @@
+//! The paper's simulations (README): for each direction (fls→sss, sss→fls) with the paper
+//! presets, features at azimuth 0 and elevation 0 in both sonars, placement poses, and nine
+//! scenarios of swept rotations and feature distances. This module builds the poses, runs them
+//! on a backend and checks the paper's qualitative findings against the numbers.
+
+use std::fmt::Write as _;
+
+use crate::error::{Error, Result, finite};
+use sonarproj::ambiguity::{Measurement, Sampling};
+use sonarproj::backend::Backend;
+use sonarproj::batch::{Batch, BatchItem, Projection};
+use sonarproj::occupancy::Metrics;
+use sonarproj::pose::{RelativePose, Rotation};
+use sonarproj::sonar::Sonar;
+
+/// The distance fractions of scenarios 1–6.
+pub const FRACTIONS: [f64; 9] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9];
+
+/// Which sonar measures and which one looks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    /// A paper-fls feature looked for in the paper-sss: range span is the metric.
+    FlsToSss,
+    /// A paper-sss feature looked for in the paper-fls: projection area is the metric.
+    SssToFls,
+}
+
+impl Direction {
+    /// Returns both directions.
+    pub fn both() -> [Direction; 2] {
+        [Direction::FlsToSss, Direction::SssToFls]
+    }
+
+    /// Returns the file stem: `fls-to-sss` or `sss-to-fls`.
+    pub fn stem(self) -> &'static str {
+        match self {
+            Direction::FlsToSss => "fls-to-sss",
+            Direction::SssToFls => "sss-to-fls",
+        }
+    }
+
+    /// Returns (sonar 1, sonar 2): the paper presets.
+    pub fn sonars(self) -> (Sonar, Sonar) {
+        let (a, b) = match self {
+            Direction::FlsToSss => ("paper-fls", "paper-sss"),
+            Direction::SssToFls => ("paper-sss", "paper-fls"),
+        };
+        (
+            Sonar::preset(a).expect("preset"),
+            Sonar::preset(b).expect("preset"),
+        )
+    }
+
+    /// Returns the metric the paper plots for this direction, its label and unit.
+    pub fn metric(self, m: &Metrics) -> f64 {
+        match self {
+            Direction::FlsToSss => m.span,
+            Direction::SssToFls => m.occupied_measure,
+        }
+    }
+
+    /// Returns the metric's axis label.
+    pub fn metric_label(self) -> &'static str {
+        match self {
+            Direction::FlsToSss => "range span (m)",
+            Direction::SssToFls => "projection area (m²)",
+        }
+    }
+}
+
+/// One pose of a scenario.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScenarioPose {
+    /// Scenario 1–9.
+    pub scenario: u8,
+    /// The distance fraction f (scenarios 1–6).
+    pub fraction: Option<f64>,
+    /// Roll, pitch, yaw (deg).
+    pub angles: [f64; 3],
+}
+
+/// Returns the swept angles `0, s, 2s, …` up to 180° (deg).
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] naming `--angle-step` unless it is in `(0, 180]`.
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "a count of angle steps or a quantile index, finite and bounded by the checked input"
+)]
+pub fn angles(step: f64) -> Result<Vec<f64>> {
+    finite("--angle-step", step)?;
+    if !(step > 0.0 && step <= 180.0) {
+        return Err(Error::invalid(
+            "--angle-step",
+            step,
+            "must be in (0, 180] degrees",
+        ));
+    }
+    let n = (180.0 / step + 1e-9).floor() as usize;
+    Ok((0..=n).map(|i| i as f64 * step).collect())
+}
+
+/// Returns the swept angle indices (0 roll, 1 pitch, 2 yaw) of scenario `s` (1–9).
+pub fn swept(s: u8) -> &'static [usize] {
+    match s {
+        1 | 4 => &[0],
+        2 | 5 => &[1],
+        3 | 6 => &[2],
+        7 => &[0, 1],
+        8 => &[1, 2],
+        _ => &[2, 0],
+    }
+}
+
+/// Returns every pose of scenarios 1–9 at angle step `step` (deg), scenario by scenario;
+/// within a scenario fraction by fraction (1–6), then the first swept angle, then the second.
+///
+/// # Errors
+/// As [`angles`].
+pub fn scenario_poses(step: f64) -> Result<Vec<ScenarioPose>> {
+    let a = angles(step)?;
+    let mut out = Vec::new();
+    for s in 1..=9u8 {
+        let axes = swept(s);
+        let fractions: Vec<Option<f64>> = if s <= 6 {
+            FRACTIONS.iter().map(|&f| Some(f)).collect()
+        } else {
+            vec![None]
+        };
+        for fraction in fractions {
+            if axes.len() == 1 {
+                for &x in &a {
+                    let mut angles = [0.0; 3];
+                    angles[axes[0]] = x;
+                    out.push(ScenarioPose {
+                        scenario: s,
+                        fraction,
+                        angles,
+                    });
+                }
+            } else {
+                for &x in &a {
+                    for &y in &a {
+                        let mut angles = [0.0; 3];
+                        angles[axes[0]] = x;
+                        angles[axes[1]] = y;
+                        out.push(ScenarioPose {
+                            scenario: s,
+                            fraction,
+                            angles,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Returns the feature distances `(in sonar 1, in sonar 2)` (m) of a scenario pose.
+pub fn distances(p: &ScenarioPose, s1: &Sonar, s2: &Sonar) -> (f64, f64) {
+    let f = p.fraction.unwrap_or(0.5);
+    match p.scenario {
+        1..=3 => (0.5 * s1.range_max, f * s2.range_max),
+        4..=6 => (f * s1.range_max, 0.5 * s2.range_max),
+        _ => (0.5 * s1.range_max, 0.5 * s2.range_max),
+    }
+}
+
+/// Returns the batch of `poses` for `direction`: placement poses of a feature at azimuth and
+/// elevation 0 in both sonars.
+///
+/// # Errors
+/// Invalid poses (none for angles from [`angles`]).
+pub fn batch(direction: Direction, poses: &[ScenarioPose], sampling: Sampling) -> Result<Batch> {
+    let (s1, s2) = direction.sonars();
+    batch_at(direction, poses, sampling, |p| distances(p, &s1, &s2))
+}
+
+/// Returns the batch of `poses` for `direction` with the feature distances `(in sonar 1, in
+/// sonar 2)` (m) given by `at`.
+fn batch_at(
+    direction: Direction,
+    poses: &[ScenarioPose],
+    sampling: Sampling,
+    at: impl Fn(&ScenarioPose) -> (f64, f64),
+) -> Result<Batch> {
+    let (s1, s2) = direction.sonars();
+    let items = poses
+        .iter()
+        .map(|p| {
+            let (d1, d2) = at(p);
+            let [roll, pitch, yaw] = p.angles;
+            let pose = RelativePose::placement(
+                Rotation::RollPitchYaw { roll, pitch, yaw },
+                [d1, 0.0, 0.0],
+                [d2, 0.0, 0.0],
+            )?;
+            Ok(BatchItem {
+                measurement: Measurement::of(&s1, d1, 0.0)?,
+                pose,
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Batch {
+        source: s1,
+        target: s2,
+        sampling,
+        items,
+    })
+}
+
+/// One direction's poses and results.
+#[derive(Clone, Debug)]
+pub struct DirectionRun {
+    /// The direction.
+    pub direction: Direction,
+    /// The poses, in order.
+    pub poses: Vec<ScenarioPose>,
+    /// Their projections, in the same order.
+    pub results: Vec<Projection>,
+    /// Scenario 7's grid again with both features at [`NEAR_FRACTION`] of their sonar's
+    /// maximum range (for the finding about the minimum range; not one of the paper's nine).
+    pub near_both: Vec<Projection>,
+}
+
+/// The distance fraction taken as "near the minimum range" of both sonars.
+pub const NEAR_FRACTION: f64 = 0.1;
+
+/// Returns both directions run on `backend` at angle step `angle_step` and `sampling`.
+///
+/// # Errors
+/// As [`scenario_poses`] and [`Backend::project`].
+pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec<DirectionRun>> {
+    let poses = scenario_poses(angle_step)?;
+    let grid: Vec<ScenarioPose> = poses.iter().filter(|p| p.scenario == 7).copied().collect();
+    Direction::both()
+        .into_iter()
+        .map(|direction| {
+            let results = backend.project(&batch(direction, &poses, sampling)?, false)?;
+            let (s1, s2) = direction.sonars();
+            let near = (NEAR_FRACTION * s1.range_max, NEAR_FRACTION * s2.range_max);
+            let near_both = backend.project(&batch_at(direction, &grid, sampling, |_| near)?, false)?;
+            Ok(DirectionRun {
+                direction,
+                poses: poses.clone(),
+                results,
+                near_both,
+            })
+        })
+        .collect()
+}
+
+impl DirectionRun {
+    /// Returns the metric at `scenario`, `fraction` and angles (deg), if that pose was run.
+    pub fn at(&self, scenario: u8, fraction: Option<f64>, angles: [f64; 3]) -> Option<f64> {
+        self.poses
+            .iter()
+            .zip(&self.results)
+            .find(|(p, _)| p.scenario == scenario && p.fraction == fraction && p.angles == angles)
+            .map(|(_, r)| self.direction.metric(&r.metrics))
+    }
+
+    /// Returns the metric over every pose of `scenario` and `fraction`.
+    pub fn values(&self, scenario: u8, fraction: Option<f64>) -> Vec<f64> {
+        self.poses
+            .iter()
+            .zip(&self.results)
+            .filter(|(p, _)| p.scenario == scenario && p.fraction == fraction)
+            .map(|(_, r)| self.direction.metric(&r.metrics))
+            .collect()
+    }
+}
+
+/// Returns the `q`-quantile (0–1) of `v` (nearest rank).
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "a count of angle steps or a quantile index, finite and bounded by the checked input"
+)]
+fn quantile(v: &[f64], q: f64) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[((s.len() - 1) as f64 * q).round() as usize]
+}
+
+/// The verdict on one of the paper's qualitative findings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Finding {
+    /// The finding in the paper's words (README: The paper's simulations).
+    pub claim: &'static str,
+    /// Whether the numbers bear it out.
+    pub holds: bool,
+    /// The numbers that show it, in Markdown.
+    pub evidence: String,
+}
+
+/// Returns the paper's four findings (README: The paper's simulations) checked against `runs` (both directions, with 0°, 90° and
+/// 180° among the angles and every fraction).
+pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
+    let get = |d: Direction| {
+        runs.iter()
+            .find(|r| r.direction == d)
+            .expect("both directions run")
+    };
+    let (fs, sf) = (get(Direction::FlsToSss), get(Direction::SssToFls));
+    let mut out = Vec::new();
+
+    // 1. fls→sss spans short with all angles 0 or 180°: corners of the (roll, pitch) grid.
+    let grid = fs.values(7, None);
+    let (p10, p90) = (quantile(&grid, 0.1), quantile(&grid, 0.9));
+    let corners: Vec<(f64, f64, f64)> = [(0.0, 0.0), (0.0, 180.0), (180.0, 0.0), (180.0, 180.0)]
+        .iter()
+        .filter_map(|&(r, p)| fs.at(7, None, [r, p, 0.0]).map(|v| (r, p, v)))
+        .collect();
+    let mut ev = format!(
+        "Scenario 7 (roll × pitch, yaw 0): 10th percentile of the span over the grid {p10:.4} m, \
+         90th {p90:.4} m.\n\n| roll | pitch | span (m) |\n|---|---|---|\n"
+    );
+    for (r, p, v) in &corners {
+        let _ = writeln!(ev, "| {r} | {p} | {v:.6} |");
+    }
+    out.push(Finding {
+        claim: "fls→sss: range spans are short when all angles are 0 or 180°",
+        holds: !corners.is_empty() && corners.iter().all(|c| c.2 <= p10),
+        evidence: ev,
+    });
+
+    // 2. fls→sss spans long for roll 0/180° with pitch 90°.
+    let long: Vec<(f64, f64)> = [0.0, 180.0]
+        .iter()
+        .filter_map(|&r| fs.at(7, None, [r, 90.0, 0.0]).map(|v| (r, v)))
+        .collect();
+    let max = grid.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut ev = format!(
+        "Scenario 7 (roll × pitch): largest span over the grid {max:.4} m, 90th percentile \
+         {p90:.4} m.\n\n| roll | pitch | span (m) |\n|---|---|---|\n"
+    );
+    for (r, v) in &long {
+        let _ = writeln!(ev, "| {r} | 90 | {v:.6} |");
+    }
+    out.push(Finding {
+        claim: "fls→sss: range spans are long for roll 0° or 180° with pitch 90°",
+        holds: long.len() == 2 && long.iter().all(|l| l.1 >= p90),
+        evidence: ev,
+    });
+
+    // 3. sss→fls areas smallest for roll 90° with pitch and yaw at 0 or 180°.
+    let rp = sf.values(7, None);
+    let yr = sf.values(9, None);
+    let (rp10, yr10) = (quantile(&rp, 0.1), quantile(&yr, 0.1));
+    let mut ev = format!(
+        "10th percentile of the area: scenario 7 (roll × pitch) {rp10:.6} m², scenario 9 \
+         (yaw × roll) {yr10:.6} m².\n\n| scenario | roll | pitch | yaw | area (m²) |\n|---|---|---|---|---|\n"
+    );
+    let mut all_small = true;
+    let mut seen = 0;
+    for (s, angles, p10) in [
+        (7, [90.0, 0.0, 0.0], rp10),
+        (7, [90.0, 180.0, 0.0], rp10),
+        (9, [90.0, 0.0, 0.0], yr10),
+        (9, [90.0, 0.0, 180.0], yr10),
+    ] {
+        if let Some(v) = sf.at(s, None, angles) {
+            seen += 1;
+            all_small &= v <= p10;
+            let _ = writeln!(
+                ev,
+                "| {s} | {} | {} | {} | {v:.6} |",
+                angles[0], angles[1], angles[2]
+            );
+        }
+    }
+    out.push(Finding {
+        claim: "sss→fls: projection areas are smallest for roll 90° with pitch and yaw at 0 or 180°",
+        holds: seen == 4 && all_small,
+        evidence: ev,
+    });
+
+    // 4. Both shrink when the feature is near the minimum range of both sonars: scenario 7's
+    // grid with both features at NEAR_FRACTION of r_max against the same grid at 0.5 r_max.
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let mut ev = format!(
+        "Mean over scenario 7's roll × pitch grid with both features at {NEAR_FRACTION} of their \
+         sonar's maximum range, against the same grid at 0.5 (scenario 7 itself):\n\n\
+         | direction | mean, both near | mean, both at 0.5 |\n|---|---|---|\n"
+    );
+    let mut shrinks = true;
+    for run in [fs, sf] {
+        let near: Vec<f64> = run
+            .near_both
+            .iter()
+            .map(|r| run.direction.metric(&r.metrics))
+            .collect();
+        let (near, half) = (mean(&near), mean(&run.values(7, None)));
+        shrinks &= near < half;
+        let _ = writeln!(ev, "| {} | {near:.6} | {half:.6} |", run.direction.stem());
+    }
+    ev.push_str(
+        "\nWith one feature distance moved at a time (scenarios 1–3 move it in sonar 2, 4–6 in \
+         sonar 1), the mean over the swept angle at f = 0.1 and f = 0.9:\n\n\
+         | direction | scenario | mean at f = 0.1 | mean at f = 0.9 |\n|---|---|---|---|\n",
+    );
+    for run in [fs, sf] {
+        for s in 1..=6u8 {
+            let (lo, hi) = (mean(&run.values(s, Some(0.1))), mean(&run.values(s, Some(0.9))));
+            let _ = writeln!(ev, "| {} | {s} | {lo:.6} | {hi:.6} |", run.direction.stem());
+        }
+    }
+    out.push(Finding {
+        claim: "both metrics shrink when the feature is near the minimum range of both sonars",
+        holds: shrinks,
+        evidence: ev,
+    });
+    out
+}
+
+/// Returns `findings.md`: each finding, whether the numbers bear it out, and the numbers.
+pub fn findings_markdown(findings: &[Finding], angle_step: f64, sampling: Sampling) -> String {
+    let mut md = String::from("# The paper's qualitative findings, checked\n\n");
+    let sampling = match sampling {
+        Sampling::Step(s) => format!("step sampling {s}°"),
+        Sampling::Auto => "auto sampling".into(),
+    };
+    let _ = writeln!(
+        md,
+        "Computed by `sonarproj paper` at an angle step of {angle_step}° with {sampling}. \
+         \"Short\" means at or below the 10th percentile of the scenario's grid, \"long\" at or \
+         above the 90th, \"smallest\" at or below the 10th percentile.\n"
+    );
+    for f in findings {
+        let _ = writeln!(
+            md,
+            "## {}\n\n**{}**\n\n{}",
+            f.claim,
+            if f.holds { "Borne out." } else { "Not borne out." },
+            f.evidence
+        );
+    }
+    md
+}

@@ -1,0 +1,592 @@
+//! Sweep files: a TOML description of a sonar pair, a sampling rule and the poses to run — a
+//! grid over the feature, its placement (or the translation) and roll/pitch/yaw, or an explicit
+//! list of poses in a batch CSV.
+//!
+//! ```toml
+//! from = "paper-fls"          # sonar 1: preset or sonar TOML file (relative to this file)
+//! to = "paper-sss"            # sonar 2
+//! step = 0.1                  # sampling step (deg); leave out for auto sampling
+//! metric = "span"             # metric drawn in the figure (default: span for an SSS target,
+//!                             # occupied_measure for an FLS target)
+//!
+//! [feature]                   # the feature's true point in sonar 1 (m, deg, deg)
+//! range = { start = 10, stop = 50, step = 10 }
+//! azimuth = 0
+//! elevation = 0
+//!
+//! [place]                     # where it appears in sonar 2 (or [translation] x, y, z in m)
+//! range = 25
+//!
+//! [rotation]                  # roll, pitch, yaw (deg), R = (Rz Ry Rx)ᵀ
+//! roll = { start = 0, stop = 180, step = 1 }
+//! yaw = [0, 45, 90]
+//! ```
+//!
+//! Every grid key takes a number, a list of numbers or `{ start, stop, step }` (start, start +
+//! step, … up to stop); keys left out are 0 (`feature.range` and `place.range` are required).
+//! Instead of the grid, `poses = "poses.csv"` names a batch CSV (the columns of `sonarproj batch`).
+
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::io::{BatchInput, read_batch_csv};
+use sonarproj::ambiguity::{Measurement, Sampling};
+use sonarproj::batch::BatchItem;
+use sonarproj::pose::{RelativePose, Rotation};
+use sonarproj::sonar::{Sonar, SonarKind};
+
+/// The most poses one sweep may have.
+pub const MAX_POSES: u64 = 1 << 40;
+
+/// Metrics a figure may draw, with their axis labels for an SSS and an FLS target.
+pub const FIGURE_METRICS: [(&str, &str, &str); 8] = [
+    ("span", "range span (m)", "range span (m)"),
+    ("occupied_measure", "occupied length (m)", "projection area (m²)"),
+    ("occupied", "occupied range bins", "occupied pixels"),
+    ("visible", "visible samples", "visible samples"),
+    ("range_min", "minimum range (m)", "minimum range (m)"),
+    ("range_max", "maximum range (m)", "maximum range (m)"),
+    ("azimuth_min", "minimum azimuth (deg)", "minimum azimuth (deg)"),
+    ("azimuth_max", "maximum azimuth (deg)", "maximum azimuth (deg)"),
+];
+
+/// One grid axis: a column of the output and the values it takes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Axis {
+    /// The output column (also the batch CSV column).
+    pub column: &'static str,
+    /// The values, in order.
+    pub values: Vec<f64>,
+}
+
+/// A full grid: every combination of the axes' values, the last axis fastest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grid {
+    /// The axes in column order: range, azimuth, elevation, then place_range, place_azimuth,
+    /// place_elevation (or tx, ty, tz), then roll, pitch, yaw.
+    pub axes: Vec<Axis>,
+    /// Whether the translation is a placement (else tx, ty, tz).
+    pub placement: bool,
+}
+
+/// Where a sweep's poses come from.
+#[derive(Clone, Debug)]
+pub enum Poses {
+    /// A grid.
+    Grid(Grid),
+    /// An explicit list (a batch CSV).
+    List(BatchInput),
+}
+
+/// A parsed, checked sweep file.
+#[derive(Clone, Debug)]
+pub struct SweepConfig {
+    /// Sonar 1.
+    pub source: Sonar,
+    /// Sonar 2.
+    pub target: Sonar,
+    /// The sampling rule.
+    pub sampling: Sampling,
+    /// The metric the figure draws (a [`FIGURE_METRICS`] name).
+    pub metric: &'static str,
+    /// The poses.
+    pub poses: Poses,
+}
+
+/// Returns the error for key `key` of sweep file `file`.
+fn key_error(file: &str, key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Error {
+    Error::invalid(format!("sweep file {file:?}: {key}"), value, allowed)
+}
+
+/// Returns the values of grid key `key` given as `v`: a number, a list or `{start, stop, step}`.
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "grid sizes are checked against MAX_POSES before they are used as indices"
+)]
+fn axis_values(file: &str, key: &str, v: &toml::Value) -> Result<Vec<f64>> {
+    let shape = "must be a number, a list of numbers or { start, stop, step }";
+    let number = |v: &toml::Value, k: &str| -> Result<f64> {
+        let x = match v {
+            toml::Value::Integer(i) => *i as f64,
+            toml::Value::Float(f) => *f,
+            other => return Err(key_error(file, k, other, "must be a number")),
+        };
+        if x.is_finite() {
+            Ok(x)
+        } else {
+            Err(key_error(file, k, x, "must be a finite number"))
+        }
+    };
+    match v {
+        toml::Value::Integer(_) | toml::Value::Float(_) => Ok(vec![number(v, key)?]),
+        toml::Value::Array(a) if !a.is_empty() => a
+            .iter()
+            .enumerate()
+            .map(|(i, x)| number(x, &format!("{key}[{i}]")))
+            .collect(),
+        toml::Value::Array(_) => Err(key_error(file, key, "[]", "must list at least one value")),
+        toml::Value::Table(t) => {
+            for k in t.keys() {
+                if !["start", "stop", "step"].contains(&k.as_str()) {
+                    return Err(key_error(
+                        file,
+                        &format!("{key}.{k}"),
+                        t[k].clone(),
+                        "unknown key (allowed: start, stop, step)",
+                    ));
+                }
+            }
+            let get = |k: &str| -> Result<f64> {
+                let full = format!("{key}.{k}");
+                match t.get(k) {
+                    Some(x) => number(x, &full),
+                    None => Err(key_error(
+                        file,
+                        &full,
+                        "missing",
+                        "required with start, stop, step",
+                    )),
+                }
+            };
+            let (start, stop, step) = (get("start")?, get("stop")?, get("step")?);
+            if step <= 0.0 {
+                return Err(key_error(file, &format!("{key}.step"), step, "must be > 0"));
+            }
+            if stop < start {
+                return Err(key_error(
+                    file,
+                    &format!("{key}.stop"),
+                    stop,
+                    format!("must be >= start ({start})"),
+                ));
+            }
+            let n = ((stop - start) / step + 1e-9).floor();
+            if n >= MAX_POSES as f64 {
+                return Err(key_error(
+                    file,
+                    &format!("{key}.step"),
+                    step,
+                    "gives too many values",
+                ));
+            }
+            Ok((0..=n as u64).map(|i| start + i as f64 * step).collect())
+        }
+        other => Err(key_error(file, key, other, shape)),
+    }
+}
+
+/// Returns the table under `key` (empty when missing), checking its keys against `allowed`.
+fn section<'a>(
+    file: &str,
+    top: &'a toml::Table,
+    key: &str,
+    allowed: &[&str],
+) -> Result<Option<&'a toml::Table>> {
+    match top.get(key) {
+        None => Ok(None),
+        Some(toml::Value::Table(t)) => {
+            for k in t.keys() {
+                if !allowed.contains(&k.as_str()) {
+                    return Err(key_error(
+                        file,
+                        &format!("{key}.{k}"),
+                        t[k].clone(),
+                        format!("unknown key (allowed: {})", allowed.join(", ")),
+                    ));
+                }
+            }
+            Ok(Some(t))
+        }
+        Some(other) => Err(key_error(file, key, other, "must be a table ([{key}])")),
+    }
+}
+
+/// Returns the axis `column` read from `table.name` (0 when left out, an error when `required`).
+fn axis(
+    file: &str,
+    table: Option<&toml::Table>,
+    prefix: &str,
+    name: &str,
+    column: &'static str,
+    required: bool,
+) -> Result<Axis> {
+    let key = format!("{prefix}.{name}");
+    let values = match table.and_then(|t| t.get(name)) {
+        Some(v) => axis_values(file, &key, v)?,
+        None if required => return Err(key_error(file, &key, "missing", "required")),
+        None => vec![0.0],
+    };
+    Ok(Axis { column, values })
+}
+
+/// Returns the sonar `spec` names from a sweep file in `base`: a preset, or a file relative to
+/// the sweep file.
+fn resolve_sonar(spec: &str, base: &Path) -> Result<Sonar> {
+    if Sonar::preset(spec).is_some() || Path::new(spec).is_absolute() {
+        return Ok(Sonar::resolve(spec)?);
+    }
+    let path = base.join(spec);
+    if path.is_file() {
+        Ok(Sonar::from_toml_file(&path)?)
+    } else {
+        Ok(Sonar::resolve(spec)?)
+    }
+}
+
+impl SweepConfig {
+    /// Returns the sweep described by the file at `path`, checked.
+    ///
+    /// # Errors
+    /// [`Error::ReadInput`], [`Error::SweepFile`] (TOML syntax) or [`sonarproj::Error::InvalidValue`] naming
+    /// the file and the key.
+    pub fn load(path: &Path) -> Result<SweepConfig> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::ReadInput {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        SweepConfig::parse(&path.display().to_string(), &text, &base)
+    }
+
+    /// Returns the sweep described by TOML `text`, called `file` in messages, with relative
+    /// paths taken from `base`.
+    ///
+    /// # Errors
+    /// As [`SweepConfig::load`].
+    pub fn parse(file: &str, text: &str, base: &Path) -> Result<SweepConfig> {
+        let top: toml::Table = text.parse().map_err(|e: toml::de::Error| Error::SweepFile {
+            path: PathBuf::from(file),
+            message: e.to_string().trim_end().replace('\n', " "),
+        })?;
+        const TOP: [&str; 9] = [
+            "from",
+            "to",
+            "step",
+            "metric",
+            "feature",
+            "place",
+            "translation",
+            "rotation",
+            "poses",
+        ];
+        for k in top.keys() {
+            if !TOP.contains(&k.as_str()) {
+                return Err(key_error(
+                    file,
+                    k,
+                    top[k].clone(),
+                    format!("unknown key (allowed: {})", TOP.join(", ")),
+                ));
+            }
+        }
+        let string = |k: &str| -> Result<Option<&str>> {
+            match top.get(k) {
+                None => Ok(None),
+                Some(toml::Value::String(s)) => Ok(Some(s)),
+                Some(other) => Err(key_error(file, k, other, "must be a string")),
+            }
+        };
+        let sonar = |k: &str| -> Result<Sonar> {
+            let spec = string(k)?.ok_or_else(|| {
+                key_error(file, k, "missing", "required: a preset name or a sonar TOML file")
+            })?;
+            resolve_sonar(spec, base)
+        };
+        let (source, target) = (sonar("from")?, sonar("to")?);
+        let sampling = match top.get("step") {
+            None => Sampling::Auto,
+            Some(toml::Value::String(s)) if s == "auto" => Sampling::Auto,
+            Some(v) => {
+                let s = axis_values(file, "step", v)?;
+                if s.len() != 1 || s[0] <= 0.0 {
+                    return Err(key_error(
+                        file,
+                        "step",
+                        v,
+                        "must be one number > 0 (deg) or \"auto\"",
+                    ));
+                }
+                Sampling::Step(s[0])
+            }
+        };
+        let metric = match string("metric")? {
+            None => match target.kind {
+                SonarKind::Sss => "span",
+                SonarKind::Fls => "occupied_measure",
+            },
+            Some(m) => FIGURE_METRICS
+                .iter()
+                .find(|f| f.0 == m)
+                .map(|f| f.0)
+                .ok_or_else(|| {
+                    let names: Vec<&str> = FIGURE_METRICS.iter().map(|f| f.0).collect();
+                    key_error(
+                        file,
+                        "metric",
+                        format!("{m:?}"),
+                        format!("must be one of {}", names.join(", ")),
+                    )
+                })?,
+        };
+        let poses = if let Some(list) = string("poses")? {
+            for k in ["feature", "place", "translation", "rotation"] {
+                if top.contains_key(k) {
+                    return Err(key_error(
+                        file,
+                        k,
+                        top[k].clone(),
+                        "cannot be combined with poses (the list gives every pose)",
+                    ));
+                }
+            }
+            let path = base.join(list);
+            let bytes = std::fs::read(&path).map_err(|source| Error::ReadInput {
+                path: path.clone(),
+                source,
+            })?;
+            let input = read_batch_csv(bytes.as_slice(), &source).map_err(|e| match e {
+                Error::Csv { context, message } => Error::Csv {
+                    context: format!("{}: {context}", path.display()),
+                    message,
+                },
+                other => other,
+            })?;
+            Poses::List(input)
+        } else {
+            Poses::Grid(Self::grid(file, &top, &source)?)
+        };
+        let config = SweepConfig {
+            source,
+            target,
+            sampling,
+            metric,
+            poses,
+        };
+        config.count()?;
+        Ok(config)
+    }
+
+    /// Returns the grid of sweep file `file`, the feature checked against sonar 1.
+    fn grid(file: &str, top: &toml::Table, source: &Sonar) -> Result<Grid> {
+        let rae = ["range", "azimuth", "elevation"];
+        let feature = section(file, top, "feature", &rae)?;
+        let place = section(file, top, "place", &rae)?;
+        let translation = section(file, top, "translation", &["x", "y", "z"])?;
+        let rotation = section(file, top, "rotation", &["roll", "pitch", "yaw"])?;
+        if feature.is_none() {
+            return Err(key_error(
+                file,
+                "feature",
+                "missing",
+                "required: [feature] with range (or poses = \"FILE.csv\")",
+            ));
+        }
+        let mut axes = vec![
+            axis(file, feature, "feature", "range", "range", true)?,
+            axis(file, feature, "feature", "azimuth", "azimuth", false)?,
+            axis(file, feature, "feature", "elevation", "elevation", false)?,
+        ];
+        let placement = match (place, translation) {
+            (Some(_), Some(_)) => {
+                return Err(key_error(
+                    file,
+                    "translation",
+                    "given",
+                    "give [place] or [translation], not both",
+                ));
+            }
+            (None, None) => {
+                return Err(key_error(
+                    file,
+                    "place",
+                    "missing",
+                    "required: [place] with range, or [translation]",
+                ));
+            }
+            (Some(_), None) => {
+                let a = axis(file, place, "place", "range", "place_range", true)?;
+                if let Some(r) = a.values.iter().find(|r| **r < 0.0) {
+                    return Err(key_error(file, "place.range", r, "must be >= 0 m"));
+                }
+                axes.extend([
+                    a,
+                    axis(file, place, "place", "azimuth", "place_azimuth", false)?,
+                    axis(file, place, "place", "elevation", "place_elevation", false)?,
+                ]);
+                true
+            }
+            (None, Some(_)) => {
+                axes.extend([
+                    axis(file, translation, "translation", "x", "tx", false)?,
+                    axis(file, translation, "translation", "y", "ty", false)?,
+                    axis(file, translation, "translation", "z", "tz", false)?,
+                ]);
+                false
+            }
+        };
+        for name in ["roll", "pitch", "yaw"] {
+            axes.push(axis(file, rotation, "rotation", name, name, false)?);
+        }
+        // Every feature point must lie in sonar 1's field of view.
+        for (k, a) in axes[..3].iter().enumerate() {
+            for &v in &a.values {
+                let mut p = [axes[0].values[0], axes[1].values[0], axes[2].values[0]];
+                p[k] = v;
+                // Bounds are per coordinate, so checking each value with the others at their
+                // first values covers every combination.
+                source
+                    .check_point("feature", p[0], p[1], p[2])
+                    .map_err(|e| e.in_context(&format!("sweep file {file:?}: feature.{}", rae[k])))?;
+            }
+        }
+        Ok(Grid { axes, placement })
+    }
+
+    /// Returns the number of poses.
+    ///
+    /// # Errors
+    /// [`sonarproj::Error::InvalidValue`] when the grid has more than [`MAX_POSES`].
+    pub fn count(&self) -> Result<u64> {
+        match &self.poses {
+            Poses::List(l) => Ok(l.items.len() as u64),
+            Poses::Grid(g) => g.axes.iter().try_fold(1u64, |n, a| {
+                n.checked_mul(a.values.len() as u64)
+                    .filter(|&n| n <= MAX_POSES)
+                    .ok_or_else(|| {
+                        Error::invalid(
+                            "sweep grid",
+                            "too many poses",
+                            format!("at most {MAX_POSES} poses"),
+                        )
+                    })
+            }),
+        }
+    }
+
+    /// Returns the output columns before the metrics: `index`, then the grid's columns (or the
+    /// list's columns as given).
+    pub fn columns(&self) -> Vec<String> {
+        let mut out = vec!["index".to_string()];
+        match &self.poses {
+            Poses::Grid(g) => out.extend(g.axes.iter().map(|a| a.column.to_string())),
+            Poses::List(l) => out.extend(l.headers.iter().cloned()),
+        }
+        out
+    }
+
+    /// Returns the grid columns that take more than one value (none for a list).
+    pub fn varying(&self) -> Vec<String> {
+        match &self.poses {
+            Poses::Grid(g) => g
+                .axes
+                .iter()
+                .filter(|a| a.values.len() > 1)
+                .map(|a| a.column.to_string())
+                .collect(),
+            Poses::List(_) => Vec::new(),
+        }
+    }
+
+    /// Returns the poses with indices in `range` as batch items with their leading output fields
+    /// (index and pose columns).
+    ///
+    /// # Errors
+    /// Invalid poses (a rotation that is not one; none for grids of finite angles).
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "grid sizes are checked against MAX_POSES before they are used as indices"
+    )]
+    pub fn items(&self, range: std::ops::Range<u64>) -> Result<(Vec<BatchItem>, Vec<Vec<String>>)> {
+        // In parallel: formatting the fields costs as much as projecting some batches.
+        let pairs = range
+            .into_par_iter()
+            .map(|i| {
+                let mut row = vec![i.to_string()];
+                let item = match &self.poses {
+                    Poses::List(l) => {
+                        row.extend(l.rows[i as usize].iter().cloned());
+                        l.items[i as usize]
+                    }
+                    Poses::Grid(g) => {
+                        let v = g.values(i);
+                        row.extend(v.iter().map(f64::to_string));
+                        g.item(&self.source, v)?
+                    }
+                };
+                Ok((item, row))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(pairs.into_iter().unzip())
+    }
+
+    /// Returns a fingerprint of everything that decides the output (sonars, sampling, poses):
+    /// FNV-1a over their full debug form, so a resumed or merged sweep can tell its own parts.
+    pub fn fingerprint(&self) -> String {
+        let text = format!(
+            "{:?}|{:?}|{:?}|{}|{:?}",
+            self.source,
+            self.target,
+            self.sampling,
+            self.metric,
+            match &self.poses {
+                Poses::Grid(g) => format!("{g:?}"),
+                Poses::List(l) => format!("{:?}{:?}", l.headers, l.rows),
+            }
+        );
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in text.bytes() {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+        format!("{h:016x}")
+    }
+
+    /// Returns the figure's axis label for the metric (it depends on sonar 2's kind).
+    pub fn metric_label(&self) -> &'static str {
+        let m = FIGURE_METRICS
+            .iter()
+            .find(|f| f.0 == self.metric)
+            .expect("checked metric");
+        match self.target.kind {
+            SonarKind::Sss => m.1,
+            SonarKind::Fls => m.2,
+        }
+    }
+}
+
+impl Grid {
+    /// Returns the axis values of pose `i` (mixed radix, the last axis fastest).
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "grid sizes are checked against MAX_POSES before they are used as indices"
+    )]
+    pub fn values(&self, mut i: u64) -> Vec<f64> {
+        let mut out = vec![0.0; self.axes.len()];
+        for (k, a) in self.axes.iter().enumerate().rev() {
+            let n = a.values.len() as u64;
+            out[k] = a.values[(i % n) as usize];
+            i /= n;
+        }
+        out
+    }
+
+    /// Returns the batch item of axis values `v` (in [`Grid::axes`] order).
+    fn item(&self, source: &Sonar, v: Vec<f64>) -> Result<BatchItem> {
+        let rotation = Rotation::RollPitchYaw {
+            roll: v[6],
+            pitch: v[7],
+            yaw: v[8],
+        };
+        let pose = if self.placement {
+            RelativePose::placement(rotation, [v[0], v[1], v[2]], [v[3], v[4], v[5]])?
+        } else {
+            RelativePose::new(rotation, [v[3], v[4], v[5]])?
+        };
+        Ok(BatchItem {
+            measurement: Measurement::of(source, v[0], v[1])?,
+            pose,
+        })
+    }
+}

@@ -1,0 +1,509 @@
+//! Running a sweep in chunks that survive interruption, in shards that can run on different
+//! machines, and merging the shards into the file one run would have written.
+//!
+//! Files in the output directory `DIR`:
+//! - `sweep.json`: what the sweep is (fingerprint, pose count, columns, figure axes); every run
+//!   and shard writes the same one and refuses a directory holding another sweep's;
+//! - `sweep.csv` (a whole run) or `shard-K-of-N.csv` (one shard): `index`, the pose columns and
+//!   the metrics, one row per pose in index order;
+//! - `sweep-METRIC.png`: the metric against the grid's one or two varying axes (whole runs and
+//!   merges only);
+//! - `.partial-sweep/` or `.partial-shard-K-of-N/` while unfinished: `manifest.json` and one
+//!   `chunk-NNNNNNNN.csv` per finished chunk, each written whole or not at all. A re-run skips the
+//!   finished chunks; the directory is removed once the result file is written.
+
+use std::io::{BufRead, BufReader};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use rayon::prelude::*;
+use sonarproj::backend::Backend;
+
+use crate::error::{Error, Result};
+use crate::io::table::write_rows;
+use crate::io::{METRIC_COLUMNS, metric_fields};
+use crate::report::{figures, write_atomic};
+use crate::sweep::SweepConfig;
+use sonarproj::batch::{Batch, Projection};
+
+/// The default number of poses per chunk.
+pub const DEFAULT_CHUNK_POSES: u64 = 20_000;
+
+/// Part `k` (1-based) of `n` independent parts of a sweep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Shard {
+    /// Which part, 1 to `n`.
+    pub k: u64,
+    /// How many parts.
+    pub n: u64,
+}
+
+impl Shard {
+    /// Returns the shard written `K/N`.
+    ///
+    /// # Errors
+    /// [`sonarproj::Error::InvalidValue`] naming `--shard` unless `1 <= K <= N`.
+    pub fn parse(text: &str) -> Result<Shard> {
+        let bad = || {
+            Error::invalid(
+                "--shard",
+                format!("{text:?}"),
+                "must be K/N with 1 <= K <= N, e.g. 3/8",
+            )
+        };
+        let (k, n) = text.split_once('/').ok_or_else(bad)?;
+        let (k, n): (u64, u64) = (
+            k.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if k == 0 || k > n {
+            return Err(bad());
+        }
+        Ok(Shard { k, n })
+    }
+
+    /// Returns the pose indices of this shard out of `total`: contiguous, sizes differing by at
+    /// most one.
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "pose counts and chunk sizes are bounded (MAX_POSES) before this point"
+    )]
+    pub fn range(self, total: u64) -> Range<u64> {
+        let at = |k: u64| (u128::from(total) * u128::from(k) / u128::from(self.n)) as u64;
+        at(self.k - 1)..at(self.k)
+    }
+
+    /// Returns the shard's file stem, `shard-K-of-N`.
+    pub fn stem(self) -> String {
+        format!("shard-{}-of-{}", self.k, self.n)
+    }
+}
+
+/// What a sweep is: written to `DIR/sweep.json` by every run and shard.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Descriptor {
+    /// [`SweepConfig::fingerprint`].
+    pub fingerprint: String,
+    /// The number of poses of the whole sweep.
+    pub poses: u64,
+    /// The CSV header.
+    pub columns: Vec<String>,
+    /// The grid columns that vary (a figure is drawn for one or two).
+    pub varying: Vec<String>,
+    /// The metric the figure draws and its axis label.
+    pub metric: String,
+    /// The metric's axis label.
+    pub metric_label: String,
+    /// The figure title.
+    pub title: String,
+}
+
+/// The state of an unfinished run, in its `.partial-*` directory.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct Manifest {
+    fingerprint: String,
+    chunk_poses: u64,
+    shard: Option<Shard>,
+    backend: String,
+}
+
+/// How to run a sweep.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// The output directory.
+    pub out: PathBuf,
+    /// One part of the sweep, or all of it.
+    pub shard: Option<Shard>,
+    /// Poses per chunk (the unit of resumption).
+    pub chunk_poses: u64,
+    /// Stop after computing this many chunks (the run stays resumable).
+    pub max_chunks: Option<u64>,
+}
+
+/// What a call to [`run`] did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Outcome {
+    /// The result file, when the sweep (or shard) is complete.
+    pub file: Option<PathBuf>,
+    /// The figure written, if any.
+    pub figure: Option<PathBuf>,
+    /// Poses of this run or shard.
+    pub poses: u64,
+    /// Poses computed by this call.
+    pub computed: u64,
+    /// Poses found finished by an earlier call.
+    pub resumed: u64,
+}
+
+/// Returns an output error for `path`.
+fn write_error(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::WriteOutput {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Returns the JSON in `path`, or `None` when the file does not exist.
+fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Option<T>> {
+    match std::fs::read(path) {
+        Ok(bytes) => serde_json::from_slice(&bytes).map(Some).map_err(|e| Error::Csv {
+            context: path.display().to_string(),
+            message: format!("not a sonarproj sweep file ({e}); remove it or choose another --out"),
+        }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(source) => Err(Error::ReadInput {
+            path: path.to_path_buf(),
+            source,
+        }),
+    }
+}
+
+/// Writes `value` to `path` as pretty JSON, whole or not at all.
+fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+    write_atomic(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, value).map_err(|e| write_error(path, e))?;
+        w.write_all(b"\n").map_err(|e| write_error(path, e))
+    })
+}
+
+/// Returns the descriptor of `config`.
+pub fn descriptor(config: &SweepConfig) -> Result<Descriptor> {
+    let mut columns = config.columns();
+    columns.extend(METRIC_COLUMNS.iter().map(|c| c.to_string()));
+    Ok(Descriptor {
+        fingerprint: config.fingerprint(),
+        poses: config.count()?,
+        columns,
+        varying: config.varying(),
+        metric: config.metric.to_string(),
+        metric_label: config.metric_label().to_string(),
+        title: format!("{} to {}", config.source.name, config.target.name),
+    })
+}
+
+/// Writes `DIR/sweep.json`, or checks that the one there describes the same sweep.
+fn claim(dir: &Path, d: &Descriptor) -> Result<()> {
+    let path = dir.join("sweep.json");
+    match read_json::<Descriptor>(&path)? {
+        Some(old) if old == *d => Ok(()),
+        Some(_) => Err(Error::invalid(
+            "--out",
+            dir.display(),
+            "holds results of a different sweep (its sweep.json differs); choose another directory or empty this one",
+        )),
+        None => write_json(&path, d),
+    }
+}
+
+/// Runs `config` (or one shard of it) on `backend` into `opts.out`, resuming from finished
+/// chunks; `progress(done, total)` is called after each chunk with this run's pose counts.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] for a directory holding another sweep or an unfinished run with
+/// other settings; errors of [`Backend::project`] and of writing files.
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "pose counts and chunk sizes are bounded (MAX_POSES) before this point"
+)]
+pub fn run(
+    config: &SweepConfig,
+    backend: &Backend,
+    opts: &Options,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<Outcome> {
+    if opts.chunk_poses == 0 {
+        return Err(Error::invalid("--chunk-poses", 0, "must be >= 1"));
+    }
+    let dir = &opts.out;
+    std::fs::create_dir_all(dir).map_err(|e| write_error(dir, e))?;
+    let desc = descriptor(config)?;
+    claim(dir, &desc)?;
+    let (stem, range) = match opts.shard {
+        Some(s) => (s.stem(), s.range(desc.poses)),
+        None => ("sweep".to_string(), 0..desc.poses),
+    };
+    let file = dir.join(format!("{stem}.csv"));
+    let poses = range.end - range.start;
+    let mut outcome = Outcome {
+        file: None,
+        figure: None,
+        poses,
+        computed: 0,
+        resumed: 0,
+    };
+    if file.is_file() {
+        // Finished earlier (the result is written only once every chunk is).
+        outcome.resumed = poses;
+        outcome.file = Some(file);
+        progress(poses, poses);
+        return Ok(outcome);
+    }
+    let state = dir.join(format!(".partial-{stem}"));
+    std::fs::create_dir_all(&state).map_err(|e| write_error(&state, e))?;
+    let manifest = Manifest {
+        fingerprint: desc.fingerprint.clone(),
+        chunk_poses: opts.chunk_poses,
+        shard: opts.shard,
+        backend: backend.name().to_string(),
+    };
+    let manifest_path = state.join("manifest.json");
+    match read_json::<Manifest>(&manifest_path)? {
+        None => write_json(&manifest_path, &manifest)?,
+        Some(old) if old == manifest => {}
+        Some(old) => {
+            let (field, was, now) = if old.chunk_poses != manifest.chunk_poses {
+                (
+                    "--chunk-poses",
+                    old.chunk_poses.to_string(),
+                    manifest.chunk_poses.to_string(),
+                )
+            } else if old.backend != manifest.backend {
+                ("--backend", old.backend, manifest.backend)
+            } else {
+                ("--config", "another sweep".into(), "this one".into())
+            };
+            return Err(Error::invalid(
+                field,
+                now,
+                format!(
+                    "the unfinished run in {} used {was}; re-run with the same settings to resume, or remove that directory to start over",
+                    state.display()
+                ),
+            ));
+        }
+    }
+
+    let chunks: Vec<Range<u64>> = (range.start..range.end)
+        .step_by(opts.chunk_poses as usize)
+        .map(|s| s..(s + opts.chunk_poses).min(range.end))
+        .collect();
+    let chunk_path = |c: usize| state.join(format!("chunk-{c:08}.csv"));
+    let header = config.columns();
+    let mut done = 0;
+    let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
+    for (c, r) in chunks.iter().enumerate() {
+        let path = chunk_path(c);
+        if path.is_file() {
+            outcome.resumed += r.end - r.start;
+        } else {
+            if budget == 0 {
+                return Ok(outcome);
+            }
+            budget -= 1;
+            let (items, fields) = config.items(r.clone())?;
+            let batch = Batch {
+                source: config.source.clone(),
+                target: config.target.clone(),
+                sampling: config.sampling,
+                items,
+            };
+            let results = backend.project(&batch, false)?;
+            let body = csv_rows(&fields, &results, &path)?;
+            write_atomic(&path, |w| {
+                write_rows(
+                    &mut *w,
+                    &header,
+                    &METRIC_COLUMNS,
+                    std::iter::empty::<(&[String], Vec<String>)>(),
+                )?;
+                w.write_all(&body).map_err(|e| write_error(&path, e))
+            })?;
+            outcome.computed += r.end - r.start;
+        }
+        done += r.end - r.start;
+        progress(done, poses);
+    }
+    let parts: Vec<PathBuf> = (0..chunks.len()).map(chunk_path).collect();
+    concatenate(&parts, &desc.columns, &file, None)?;
+    std::fs::remove_dir_all(&state).map_err(|e| write_error(&state, e))?;
+    if opts.shard.is_none() {
+        outcome.figure = figure(dir, &desc)?;
+    }
+    outcome.file = Some(file);
+    Ok(outcome)
+}
+
+/// Returns the CSV rows (no header) of `fields` followed by the metrics of `results`, formatted
+/// in parallel blocks (the same bytes as one writer would produce: each record is formatted on
+/// its own).
+fn csv_rows(fields: &[Vec<String>], results: &[Projection], path: &Path) -> Result<Vec<u8>> {
+    let blocks: Vec<Vec<u8>> = fields
+        .par_chunks(4096)
+        .zip(results.par_chunks(4096))
+        .map(|(f, r)| {
+            let mut w = csv::WriterBuilder::new()
+                .has_headers(false)
+                .from_writer(Vec::new());
+            for (fields, p) in f.iter().zip(r) {
+                let metrics = metric_fields(&p.metrics);
+                w.write_record(fields.iter().chain(metrics.iter()))
+                    .map_err(|e| write_error(path, e))?;
+            }
+            w.into_inner().map_err(|e| write_error(path, e))
+        })
+        .collect::<Result<_>>()?;
+    Ok(blocks.concat())
+}
+
+/// Writes `out`: the header `columns`, then the rows of each CSV in `parts` (whose own header
+/// must be `columns`); with `expect`, each part must hold exactly that many rows.
+fn concatenate(parts: &[PathBuf], columns: &[String], out: &Path, expect: Option<&[u64]>) -> Result<()> {
+    let mut want = Vec::new();
+    {
+        let mut w = csv::Writer::from_writer(&mut want);
+        w.write_record(columns).map_err(|e| write_error(out, e))?;
+        w.flush().map_err(|e| write_error(out, e))?;
+    }
+    write_atomic(out, |w| {
+        w.write_all(&want).map_err(|e| write_error(out, e))?;
+        for (k, part) in parts.iter().enumerate() {
+            let f = std::fs::File::open(part).map_err(|source| Error::ReadInput {
+                path: part.clone(),
+                source,
+            })?;
+            let mut r = BufReader::new(f);
+            let mut line = Vec::new();
+            let read = |r: &mut BufReader<std::fs::File>, line: &mut Vec<u8>| {
+                line.clear();
+                r.read_until(b'\n', line).map_err(|source| Error::ReadInput {
+                    path: part.clone(),
+                    source,
+                })
+            };
+            read(&mut r, &mut line)?;
+            if line != want {
+                return Err(Error::Csv {
+                    context: part.display().to_string(),
+                    message: "its header differs from this sweep's columns: a part of another sweep".into(),
+                });
+            }
+            let mut rows = 0u64;
+            while read(&mut r, &mut line)? > 0 {
+                w.write_all(&line).map_err(|e| write_error(out, e))?;
+                rows += 1;
+            }
+            let n = expect.map_or(rows, |e| e[k]);
+            if rows != n {
+                return Err(Error::Csv {
+                    context: part.display().to_string(),
+                    message: format!(
+                        "has {rows} rows, expected {n}: the part is incomplete or from another sweep"
+                    ),
+                });
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Joins the shard files `shard-K-of-N.csv` in `dir` into `dir/sweep.csv` (byte for byte the
+/// file one run would have written) and draws the figure; returns both paths.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] naming `DIR` when there is no sweep there, parts of different
+/// counts, or a missing part; [`Error::Csv`] for a part with the wrong header or row count.
+pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
+    let desc: Descriptor = read_json(&dir.join("sweep.json"))?.ok_or_else(|| {
+        Error::invalid(
+            "DIR",
+            dir.display(),
+            "has no sweep.json: not the --out directory of a sharded sweep",
+        )
+    })?;
+    let mut shards = Vec::new();
+    let entries = std::fs::read_dir(dir).map_err(|source| Error::ReadInput {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().to_string();
+        if let Some(s) = name
+            .strip_prefix("shard-")
+            .and_then(|s| s.strip_suffix(".csv"))
+            .and_then(|s| Shard::parse(&s.replace("-of-", "/")).ok())
+        {
+            shards.push(s);
+        }
+    }
+    let n = match shards
+        .iter()
+        .map(|s| s.n)
+        .collect::<std::collections::BTreeSet<_>>()
+    {
+        ns if ns.len() == 1 => *ns.first().expect("one"),
+        ns if ns.is_empty() => {
+            return Err(Error::invalid(
+                "DIR",
+                dir.display(),
+                "holds no finished shard-K-of-N.csv",
+            ));
+        }
+        ns => {
+            return Err(Error::invalid(
+                "DIR",
+                dir.display(),
+                format!("holds shards of different counts N ({ns:?}); keep one set"),
+            ));
+        }
+    };
+    let missing: Vec<u64> = (1..=n).filter(|k| !shards.iter().any(|s| s.k == *k)).collect();
+    if !missing.is_empty() {
+        return Err(Error::invalid(
+            "DIR",
+            dir.display(),
+            format!("lacks shards {missing:?} of {n} (run them with --shard K/{n}, or finish them)"),
+        ));
+    }
+    let parts: Vec<Shard> = (1..=n).map(|k| Shard { k, n }).collect();
+    let files: Vec<PathBuf> = parts
+        .iter()
+        .map(|s| dir.join(format!("{}.csv", s.stem())))
+        .collect();
+    let sizes: Vec<u64> = parts
+        .iter()
+        .map(|s| {
+            let r = s.range(desc.poses);
+            r.end - r.start
+        })
+        .collect();
+    let out = dir.join("sweep.csv");
+    concatenate(&files, &desc.columns, &out, Some(&sizes))?;
+    let fig = figure(dir, &desc)?;
+    Ok((out, fig))
+}
+
+/// Draws `DIR/sweep-METRIC.png` from `DIR/sweep.csv` when the grid has one or two varying
+/// axes; returns its path.
+fn figure(dir: &Path, d: &Descriptor) -> Result<Option<PathBuf>> {
+    if d.varying.is_empty() || d.varying.len() > 2 {
+        return Ok(None);
+    }
+    let csv_path = dir.join("sweep.csv");
+    let mut rdr = csv::Reader::from_path(&csv_path).map_err(|e| Error::Csv {
+        context: csv_path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let col = |name: &str| {
+        d.columns
+            .iter()
+            .position(|c| c == name)
+            .expect("descriptor column")
+    };
+    let xs: Vec<usize> = d.varying.iter().map(|v| col(v)).collect();
+    let m = col(&d.metric);
+    let mut points = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| Error::Csv {
+            context: csv_path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        let num = |i: usize| rec.get(i).and_then(|s| s.parse::<f64>().ok());
+        let coords: Vec<f64> = xs.iter().map(|&i| num(i).unwrap_or(f64::NAN)).collect();
+        points.push((coords, num(m)));
+    }
+    let path = dir.join(format!("sweep-{}.png", d.metric));
+    figures::sweep(&path, &d.title, &d.varying, &d.metric_label, &points)?;
+    Ok(Some(path))
+}

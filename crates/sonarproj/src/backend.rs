@@ -1,0 +1,151 @@
+//! One interface over the two backends, so every caller (CLI, tests, benches) can run either.
+
+use crate::batch::{Batch, Projection};
+use crate::error::{Error, Result};
+use crate::gpu::{GpuBackend, GpuContext, context};
+use crate::{cpu, cpu_fast};
+
+/// Which backend a user asked for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BackendChoice {
+    /// The GPU when a hardware adapter exists, else the fast CPU path (with a one-line notice;
+    /// a software adapter such as lavapipe is slower than the CPU path on the same cores).
+    Auto,
+    /// The CPU reference (f64, one core, written to be obviously right).
+    Cpu,
+    /// The fast CPU path: the GPU's algorithm in f64 on every core.
+    CpuFast,
+    /// The GPU (WGSL through wgpu); fails when no adapter exists.
+    Gpu,
+}
+
+/// Returns where a [`BackendChoice`] runs: the CPU (with the notice saying why when `auto` fell
+/// back to it) or a GPU device, which projections ([`Backend`]) and masks
+/// ([`crate::mask::MaskEngine`]) can share.
+#[derive(Debug)]
+pub enum Device {
+    /// The CPU; the notice when `auto` found no usable GPU.
+    Cpu(Option<String>),
+    /// A GPU device.
+    Gpu(Box<GpuContext>),
+}
+
+impl BackendChoice {
+    /// Returns the device this choice runs on: the one selection policy of projections and
+    /// masks. `auto` takes a hardware GPU adapter and otherwise the CPU, saying why: a software
+    /// adapter (lavapipe, llvmpipe, WARP) runs on the same cores as the CPU path and measured
+    /// several times slower than it (BENCHMARKS.md).
+    ///
+    /// # Errors
+    /// [`Error::NoAdapter`] or [`Error::Gpu`] when `Gpu` was chosen and cannot be had.
+    pub fn device(self) -> Result<Device> {
+        match self {
+            BackendChoice::Cpu | BackendChoice::CpuFast => Ok(Device::Cpu(None)),
+            BackendChoice::Gpu => Ok(Device::Gpu(Box::new(GpuContext::new()?))),
+            BackendChoice::Auto => {
+                let cpu = |why: String| Ok(Device::Cpu(Some(format!("note: {why}"))));
+                match GpuContext::new() {
+                    Ok(ctx) if ctx.is_software() => cpu(format!(
+                        "the only GPU adapter is a software one ({}), slower than the CPU path; \
+                         running on the CPU (all cores; choosing the GPU backend uses the adapter \
+                         anyway)",
+                        ctx.info.name
+                    )),
+                    Ok(ctx) => Ok(Device::Gpu(Box::new(ctx))),
+                    Err(Error::NoAdapter { .. }) => cpu(
+                        "no GPU adapter found, running on the CPU (all cores; for the GPU path \
+                         install a Vulkan driver)"
+                            .into(),
+                    ),
+                    Err(e) => cpu(format!("{e}; running on the CPU (all cores)")),
+                }
+            }
+        }
+    }
+}
+
+/// A backend ready to run batches.
+#[derive(Debug)]
+pub enum Backend {
+    /// The CPU reference.
+    Cpu,
+    /// The fast CPU path.
+    CpuFast,
+    /// The GPU, with its pipelines built.
+    Gpu(Box<GpuBackend>),
+}
+
+impl Backend {
+    /// Returns the backend for `choice` and, when `auto` fell back to the CPU, a one-line notice
+    /// saying why.
+    ///
+    /// # Errors
+    /// [`Error::NoAdapter`] or [`Error::Gpu`] when `gpu` was asked for and cannot be had.
+    pub fn select(choice: BackendChoice) -> Result<(Backend, Option<String>)> {
+        let backend = match choice.device()? {
+            Device::Gpu(ctx) => Backend::on(*ctx),
+            Device::Cpu(_) if choice == BackendChoice::Cpu => Backend::Cpu,
+            Device::Cpu(notice) => return Ok((Backend::CpuFast, notice)),
+        };
+        Ok((backend, None))
+    }
+
+    /// Returns the GPU backend on the adapter `auto` would pick.
+    ///
+    /// # Errors
+    /// [`Error::NoAdapter`] or [`Error::Gpu`].
+    pub fn gpu() -> Result<Backend> {
+        Ok(Backend::on(GpuContext::new()?))
+    }
+
+    /// Returns the GPU backend on `ctx`, a device it may share with a mask engine.
+    pub fn on(ctx: GpuContext) -> Backend {
+        Backend::Gpu(Box::new(GpuBackend::new(ctx)))
+    }
+
+    /// Returns `"cpu"`, `"cpu-fast"` or `"gpu"`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Backend::Cpu => "cpu",
+            Backend::CpuFast => "cpu-fast",
+            Backend::Gpu(_) => "gpu",
+        }
+    }
+
+    /// Returns the name for tables: [`Backend::name`], with `gpu-sw` for a software adapter
+    /// (lavapipe, llvmpipe, WARP), whose speed says nothing of a real GPU's.
+    pub fn label(&self) -> &'static str {
+        match self {
+            Backend::Gpu(g) if g.context().is_software() => "gpu-sw",
+            b => b.name(),
+        }
+    }
+
+    /// Returns a description of the device: the adapter for the GPU.
+    pub fn device(&self) -> String {
+        match self {
+            Backend::Cpu => "CPU reference (f64, one core)".to_string(),
+            Backend::CpuFast => format!("CPU, {} threads (f64)", rayon::current_num_threads()),
+            Backend::Gpu(g) => format!(
+                "{}, {} transform, {}",
+                context::describe(&g.context().info),
+                g.context().precision.name(),
+                g.options().describe()
+            ),
+        }
+    }
+
+    /// Returns the projections of every item of `batch`, in order; with `keep_occupancy` each
+    /// carries its occupancy buffer.
+    ///
+    /// # Errors
+    /// Invalid sampling; [`Error::Gpu`] on device failure.
+    pub fn project(&self, batch: &Batch, keep_occupancy: bool) -> Result<Vec<Projection>> {
+        let prepared = batch.prepare()?;
+        match self {
+            Backend::Cpu => Ok(cpu::project(&prepared, keep_occupancy)),
+            Backend::CpuFast => Ok(cpu_fast::project(&prepared, keep_occupancy)),
+            Backend::Gpu(g) => g.project(&prepared, keep_occupancy),
+        }
+    }
+}

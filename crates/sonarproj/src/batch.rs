@@ -1,0 +1,100 @@
+//! A batch of projections: one sonar pair, one sampling rule, many (measurement, pose) items.
+//! Preparing it turns every measurement into a sampling plan, shared between items with the same
+//! sample counts, which is what both backends consume.
+
+use std::collections::HashMap;
+
+use crate::ambiguity::{Measurement, Sampling, SamplingPlan, auto_spacing, base_azimuth};
+use crate::error::Result;
+use crate::occupancy::{Layout, Metrics, Occupancy};
+use crate::pose::RelativePose;
+use crate::sonar::Sonar;
+
+/// One projection to compute: what sonar 1 measured and where sonar 2 is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BatchItem {
+    /// The measurement in sonar 1.
+    pub measurement: Measurement,
+    /// The pose mapping sonar-1 to sonar-2 coordinates.
+    pub pose: RelativePose,
+}
+
+/// Many projections between the same two sonars.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Batch {
+    /// Sonar 1, which measured the features.
+    pub source: Sonar,
+    /// Sonar 2, where the features are looked for.
+    pub target: Sonar,
+    /// How the back-projected sets are sampled.
+    pub sampling: Sampling,
+    /// The projections, in order.
+    pub items: Vec<BatchItem>,
+}
+
+/// The result of one projection.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Projection {
+    /// The metrics (README: Conventions).
+    pub metrics: Metrics,
+    /// The occupancy buffer, when it was asked for.
+    pub occupancy: Option<Occupancy>,
+}
+
+/// A batch made ready for a backend: sonar 2's layout and the distinct sampling plans.
+#[derive(Clone, Debug)]
+pub struct PreparedBatch<'a> {
+    /// The batch itself.
+    pub batch: &'a Batch,
+    /// Sonar 2's data layout.
+    pub layout: Layout,
+    /// The distinct sampling plans.
+    pub plans: Vec<SamplingPlan>,
+    /// For each item, the index of its plan in `plans`.
+    pub plan_of: Vec<usize>,
+    /// For each item, the azimuth (rad) its plan's azimuth offsets are added to.
+    pub base_azimuth: Vec<f64>,
+}
+
+impl Batch {
+    /// Returns the batch prepared for a backend: sampling checked, one plan per distinct sample
+    /// count.
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`](crate::Error::InvalidValue) for an invalid sonar, sampling,
+    /// measurement or pose (each checked here: the fields are public and may be set by hand,
+    /// and item `k`'s errors name it), or a plan that would draw too many samples.
+    pub fn prepare(&self) -> Result<PreparedBatch<'_>> {
+        self.source.validate().map_err(|e| e.in_context("sonar 1"))?;
+        self.target.validate().map_err(|e| e.in_context("sonar 2"))?;
+        let sampling = self.sampling.validated()?;
+        for (k, item) in self.items.iter().enumerate() {
+            item.measurement
+                .validate(&self.source)
+                .and_then(|()| item.pose.validate())
+                .map_err(|e| e.in_context(&format!("item {k}")))?;
+        }
+        let mut plans = Vec::new();
+        let mut index: HashMap<(usize, usize), usize> = HashMap::new();
+        let mut plan_of = Vec::with_capacity(self.items.len());
+        let mut base = Vec::with_capacity(self.items.len());
+        // Plans are drawn once per distinct sample count, not once per item.
+        let spacing = matches!(sampling, Sampling::Auto).then(|| auto_spacing(&self.target));
+        for item in &self.items {
+            let key = SamplingPlan::counts(&self.source, &self.target, &item.measurement, sampling, spacing)?;
+            let k = *index.entry(key).or_insert_with(|| {
+                plans.push(SamplingPlan::with_counts(&self.source, key.0, key.1));
+                plans.len() - 1
+            });
+            plan_of.push(k);
+            base.push(base_azimuth(&self.source, &item.measurement));
+        }
+        Ok(PreparedBatch {
+            batch: self,
+            layout: Layout::of(&self.target),
+            plans,
+            plan_of,
+            base_azimuth: base,
+        })
+    }
+}

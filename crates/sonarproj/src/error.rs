@@ -1,0 +1,121 @@
+//! The engine's error type: every failure names what went wrong and, for bad input, the field,
+//! the value and the allowed range.
+
+use std::path::PathBuf;
+
+/// Returns the crate's result type, with [`Error`] as the error.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Everything that can go wrong in sonarproj.
+///
+/// [`Error::is_input`] tells bad input (exit status 2 in the CLI) from other failures (status 1).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A value is outside its allowed range.
+    #[error("{field} = {value} is invalid: {allowed}")]
+    InvalidValue {
+        /// Which field, with enough context to find it (e.g. `sonar "rig.toml": range_max`).
+        field: String,
+        /// The value as given.
+        value: String,
+        /// What is allowed instead.
+        allowed: String,
+    },
+    /// A sonar name is neither a preset nor an existing file.
+    #[error("unknown sonar {name:?}: not a preset ({presets}) and no such file")]
+    UnknownSonar {
+        /// The name as given.
+        name: String,
+        /// The preset names, comma-separated.
+        presets: String,
+    },
+    /// A sonar TOML file could not be parsed.
+    #[error("sonar file {path}: {message}")]
+    SonarFile {
+        /// The file.
+        path: PathBuf,
+        /// What the parser said.
+        message: String,
+    },
+    /// An input file could not be read.
+    #[error("cannot read {path}: {source}")]
+    ReadInput {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// The GPU backend was asked for but no adapter exists.
+    #[error(
+        "no GPU adapter found (wgpu saw none{hint}); the CPU backends need none, the GPU path needs a Vulkan, Metal or DX12 driver (on Linux, apt-get install -y mesa-vulkan-drivers gives the software one, lavapipe)"
+    )]
+    NoAdapter {
+        /// Extra words on what was tried.
+        hint: String,
+    },
+    /// The GPU failed while running (device lost, mapping failed, out of memory).
+    #[error("GPU failure: {0}")]
+    Gpu(String),
+}
+
+impl Error {
+    /// Returns true when the error is the caller's input (CLI exit status 2), false when it is a
+    /// failure of the machine (status 1).
+    pub fn is_input(&self) -> bool {
+        matches!(
+            self,
+            Error::InvalidValue { .. }
+                | Error::UnknownSonar { .. }
+                | Error::SonarFile { .. }
+                | Error::ReadInput { .. }
+        )
+    }
+
+    /// Returns an [`Error::InvalidValue`] for `field`, `value` and the `allowed` text.
+    pub fn invalid(
+        field: impl Into<String>,
+        value: impl std::fmt::Display,
+        allowed: impl Into<String>,
+    ) -> Self {
+        Error::InvalidValue {
+            field: field.into(),
+            value: value.to_string(),
+            allowed: allowed.into(),
+        }
+    }
+
+    /// Returns the same error with `prefix: ` put in front of the field name (for nesting context).
+    pub fn in_context(self, prefix: &str) -> Self {
+        match self {
+            Error::InvalidValue {
+                field,
+                value,
+                allowed,
+            } => Error::InvalidValue {
+                field: format!("{prefix}: {field}"),
+                value,
+                allowed,
+            },
+            other => other,
+        }
+    }
+}
+
+/// Returns `Ok(v)` when `v` is finite, else an error naming `field`.
+pub fn finite(field: &str, v: f64) -> Result<f64> {
+    finite_named(|| field.to_string(), v)
+}
+
+/// Returns `v` when it is finite, else [`Error::InvalidValue`] for the field `field()` names;
+/// the name is only built for the error (hot paths check every pose).
+///
+/// # Errors
+/// [`Error::InvalidValue`] for NaN and infinities.
+pub fn finite_named(field: impl FnOnce() -> String, v: f64) -> Result<f64> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(Error::invalid(field(), v, "must be a finite number"))
+    }
+}

@@ -1,0 +1,134 @@
+//! Pipelines of the two stages, built once per backend. Binding order follows the WGSL files.
+#![expect(
+    clippy::cast_possible_truncation,
+    reason = "buffer sizes and counts bounded by the device limits checked before packing"
+)]
+
+use std::borrow::Cow;
+
+/// Returns a bind-group layout entry for a compute-visible buffer at `binding`.
+fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// The kind of each binding of a stage, in binding order.
+#[derive(Clone, Copy, Debug)]
+pub enum Binding {
+    /// `var<uniform>`.
+    Uniform,
+    /// `var<storage, read>`.
+    Read,
+    /// `var<storage, read_write>`.
+    ReadWrite,
+}
+
+/// A compute pipeline with its bind-group layout.
+#[derive(Debug)]
+pub struct Stage {
+    /// The pipeline.
+    pub pipeline: wgpu::ComputePipeline,
+    /// Layout of its one bind group.
+    pub layout: wgpu::BindGroupLayout,
+}
+
+impl Stage {
+    /// Returns the pipeline of WGSL `source` (entry point `main`) with `bindings` in group 0.
+    pub fn new(device: &wgpu::Device, name: &str, source: &str, bindings: &[Binding]) -> Self {
+        Self::with_constants(device, name, source, bindings, &[])
+    }
+
+    /// Returns the pipeline as [`Stage::new`], with the WGSL `override` constants set to
+    /// `constants` (name, value).
+    pub fn with_constants(
+        device: &wgpu::Device,
+        name: &str,
+        source: &str,
+        bindings: &[Binding],
+        constants: &[(&str, f64)],
+    ) -> Self {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(name),
+            source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(source)),
+        });
+        let entries: Vec<_> = bindings
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let ty = match b {
+                    Binding::Uniform => wgpu::BufferBindingType::Uniform,
+                    Binding::Read => wgpu::BufferBindingType::Storage { read_only: true },
+                    Binding::ReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
+                };
+                entry(i as u32, ty)
+            })
+            .collect();
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(name),
+            entries: &entries,
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(name),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(name),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                ..Default::default()
+            },
+            cache: None,
+        });
+        Stage { pipeline, layout }
+    }
+
+    /// Returns a bind group of `buffers`, in binding order.
+    pub fn bind(&self, device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+        let entries: Vec<_> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &self.layout,
+            entries: &entries,
+        })
+    }
+}
+
+/// Bindings of `shaders/splat.wgsl`: params, beam_edges, range_edges_sq, poses, directions,
+/// bits, metrics.
+pub const SPLAT_BINDINGS: [Binding; 7] = [
+    Binding::Uniform,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::ReadWrite,
+    Binding::ReadWrite,
+];
+
+/// Bindings of `shaders/reduce.wgsl`: params, beam_edges, row_weights, bits, metrics.
+pub const REDUCE_BINDINGS: [Binding; 5] = [
+    Binding::Uniform,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::ReadWrite,
+];

@@ -1,0 +1,217 @@
+//! GPU-side structs. Keep in sync with `shaders/shared/types.wgsl` (sizes asserted here and
+//! checked against naga's layout of the WGSL in `tests/shaders.rs`).
+#![expect(
+    clippy::cast_possible_truncation,
+    reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose and counts are bounded by the device limits checked before packing"
+)]
+
+use bytemuck::{Pod, Zeroable};
+
+use crate::occupancy::Layout;
+use crate::sonar::SonarKind;
+
+/// Sonar 2's field of view and layout (WGSL `TargetParams`, a uniform). `[f32; 2]` fields are
+/// double-f32 `(hi, lo)`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct TargetParams {
+    /// Minimum range (m).
+    pub range_min: f32,
+    /// Maximum range (m).
+    pub range_max: f32,
+    /// `range_bins / (range_max − range_min)`.
+    pub inv_range_bin: f32,
+    /// Half the azimuth aperture (rad).
+    pub half_az: f32,
+    /// `beams / aperture` (1/rad).
+    pub inv_beam_width: f32,
+    /// Number of range bins.
+    pub range_bins: u32,
+    /// Number of beams (1 for an SSS).
+    pub beams: u32,
+    /// 1 for uniform beams, 0 for explicit edges.
+    pub beams_uniform: u32,
+    /// u32 words of one pose's bitset.
+    pub words_per_pose: u32,
+    /// Poses in this chunk.
+    pub pose_count: u32,
+    /// 1 when the GPU sums the occupied area (FLS); 0 for an SSS (measure = count × Δ on the CPU).
+    pub measure_area: u32,
+    /// 0 when the elevation aperture is 180° (nothing to clip), else 1.
+    pub clip_elevation: u32,
+    /// `range_min²`.
+    pub range_min_sq: [f32; 2],
+    /// `range_max²`.
+    pub range_max_sq: [f32; 2],
+    /// `sin(h)`, h half the azimuth aperture; exactly 0 when `h = π`.
+    pub sin_half_az: [f32; 2],
+    /// `cos(h)`; exactly −1 when `h = π`.
+    pub cos_half_az: [f32; 2],
+    /// `sin²` of half the elevation aperture.
+    pub sin2_half_el: [f32; 2],
+    /// `cos²` of half the elevation aperture.
+    pub cos2_half_el: [f32; 2],
+}
+const _: () = assert!(std::mem::size_of::<TargetParams>() == 96);
+
+/// One pose of a chunk (WGSL `Pose`): rows of `M = range · R · Rz(base azimuth)` with the
+/// translation in `w`, as double-f32 (`hi + lo`), and the plan
+/// `(azimuth offset, n_az, elevation offset, n_el)` into the direction table.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct PoseGpu {
+    /// High parts of the rows of M, translation in the 4th component.
+    pub hi: [[f32; 4]; 3],
+    /// Low parts: `value − hi`, rounded to f32.
+    pub lo: [[f32; 4]; 3],
+    /// Offsets and counts of the plan's azimuth and elevation entries.
+    pub plan: [u32; 4],
+}
+const _: () = assert!(std::mem::size_of::<PoseGpu>() == 112);
+
+/// Returns `v` as double-f32 `(hi, lo)`: `hi = f32(v)`, `lo = f32(v − hi)`.
+pub fn split(v: f64) -> (f32, f32) {
+    let hi = v as f32;
+    (hi, (v - f64::from(hi)) as f32)
+}
+
+/// A beam edge (WGSL `BeamEdge`): angle (rad), width of the beam starting here, and the angle's
+/// cos and sin as double-f32.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct BeamEdgeGpu {
+    /// Angle (rad).
+    pub angle: f32,
+    /// Width (rad) of the beam whose lower edge this is; 0 for the last edge.
+    pub width: f32,
+    /// cos(angle), double-f32.
+    pub cos_angle: [f32; 2],
+    /// sin(angle), double-f32.
+    pub sin_angle: [f32; 2],
+    /// Padding to a 16-byte stride.
+    pub _pad: [f32; 2],
+}
+const _: () = assert!(std::mem::size_of::<BeamEdgeGpu>() == 32);
+
+/// u32 slots per pose in the metrics buffer (WGSL `METRIC_STRIDE`).
+pub const METRIC_STRIDE: usize = 8;
+/// Slot of the visible count.
+pub const METRIC_VISIBLE: usize = 0;
+/// Slot of the occupied count.
+pub const METRIC_OCCUPIED: usize = 1;
+/// Slot of NOT the order key of the smallest range.
+pub const METRIC_RANGE_MIN_NOT: usize = 2;
+/// Slot of the order key of the largest range.
+pub const METRIC_RANGE_MAX: usize = 3;
+/// Slot of NOT the order key of the smallest azimuth.
+pub const METRIC_AZIMUTH_MIN_NOT: usize = 4;
+/// Slot of the order key of the largest azimuth.
+pub const METRIC_AZIMUTH_MAX: usize = 5;
+/// Slot of the f32 bits of the FLS occupied measure.
+pub const METRIC_MEASURE: usize = 6;
+
+/// Returns the f32 whose order key (WGSL `order_key`) is `key`.
+pub fn from_order_key(key: u32) -> f32 {
+    if key & 0x8000_0000 != 0 {
+        f32::from_bits(key & 0x7fff_ffff)
+    } else {
+        f32::from_bits(!key)
+    }
+}
+
+/// Returns the u32 words of one pose's bitset for `layout`.
+pub fn words_per_pose(layout: &Layout) -> usize {
+    layout.pixels().div_ceil(32)
+}
+
+/// Returns `v` as a double-f32 pair.
+fn df(v: f64) -> [f32; 2] {
+    let (hi, lo) = split(v);
+    [hi, lo]
+}
+
+impl TargetParams {
+    /// Returns the parameters of `layout` for a chunk of `pose_count` poses.
+    pub fn new(layout: &Layout, pose_count: u32) -> Self {
+        let (sin_half_az, cos_half_az) = layout.azimuth_clip();
+        let elevation = layout.elevation_clip();
+        let width = layout.uniform_beam_width();
+        let beams = layout.beams();
+        TargetParams {
+            range_min: layout.range_min as f32,
+            range_max: layout.range_max as f32,
+            inv_range_bin: (1.0 / layout.range_bin_width) as f32,
+            half_az: layout.half_azimuth as f32,
+            inv_beam_width: width.map_or(0.0, |w| (1.0 / w) as f32),
+            range_bins: layout.range_bins as u32,
+            beams: beams as u32,
+            beams_uniform: u32::from(width.is_some()),
+            words_per_pose: words_per_pose(layout) as u32,
+            pose_count,
+            measure_area: u32::from(layout.kind == SonarKind::Fls),
+            clip_elevation: u32::from(elevation.is_some()),
+            range_min_sq: df(layout.range_min * layout.range_min),
+            range_max_sq: df(layout.range_max * layout.range_max),
+            sin_half_az: df(sin_half_az),
+            cos_half_az: df(cos_half_az),
+            sin2_half_el: df(elevation.map_or(1.0, |e| e.0)),
+            cos2_half_el: df(elevation.map_or(0.0, |e| e.1)),
+        }
+    }
+}
+
+/// Returns the beam edges of `layout` for the GPU.
+pub fn beam_edges(layout: &Layout) -> Vec<BeamEdgeGpu> {
+    let e = &layout.beam_edges;
+    (0..e.len())
+        .map(|k| BeamEdgeGpu {
+            angle: e[k] as f32,
+            width: if k + 1 < e.len() {
+                (e[k + 1] - e[k]) as f32
+            } else {
+                0.0
+            },
+            cos_angle: df(e[k].cos()),
+            sin_angle: df(e[k].sin()),
+            _pad: [0.0; 2],
+        })
+        .collect()
+}
+
+/// Returns the squared range-bin edges `(range_min + iΔ)²`, `i = 0..=range_bins`, double-f32.
+pub fn range_edges_sq(layout: &Layout) -> Vec<[f32; 2]> {
+    (0..=layout.range_bins)
+        .map(|i| df(layout.range_edge(i).powi(2)))
+        .collect()
+}
+
+/// Returns the per-row weights `(r_{i+1}² − r_i²)/2` of a layout: a pixel's area is its beam
+/// width times its row's weight.
+pub fn row_weights(layout: &Layout) -> Vec<f32> {
+    (0..layout.range_bins)
+        .map(|i| {
+            let (a, b) = (layout.range_edge(i), layout.range_edge(i + 1));
+            ((b * b - a * a) / 2.0) as f32
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn order_keys_sort_like_floats() {
+        let xs = [-3.5f32, -1e-30, -0.0, 0.0, 1e-30, 2.0, 7.25];
+        let key = |x: f32| {
+            let b = x.to_bits();
+            if b & 0x8000_0000 != 0 { !b } else { b | 0x8000_0000 }
+        };
+        for w in xs.windows(2) {
+            assert!(key(w[0]) <= key(w[1]));
+        }
+        for x in xs {
+            assert_eq!(from_order_key(key(x)).to_bits(), x.to_bits());
+        }
+    }
+}

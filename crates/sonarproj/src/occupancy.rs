@@ -1,0 +1,358 @@
+//! Sonar 2's data layout (range bins, beams: README: Conventions), the occupancy bitset drawn in it, and the
+//! metrics of one projection.
+
+use serde::Serialize;
+
+use crate::sonar::{Sonar, SonarKind};
+
+/// The geometry of sonar 2's data: field of view, range bins, beam edges, all in radians/metres.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layout {
+    /// FLS (polar image) or SSS (range bins).
+    pub kind: SonarKind,
+    /// Minimum range (m).
+    pub range_min: f64,
+    /// Maximum range (m).
+    pub range_max: f64,
+    /// Number of range bins.
+    pub range_bins: usize,
+    /// Width of one range bin (m).
+    pub range_bin_width: f64,
+    /// Beam edges (rad), increasing, `beams + 1` values from `-half_azimuth` to `half_azimuth`.
+    pub beam_edges: Vec<f64>,
+    /// Half the azimuth aperture (rad).
+    pub half_azimuth: f64,
+    /// Half the elevation aperture (rad).
+    pub half_elevation: f64,
+}
+
+impl Layout {
+    /// Returns the layout of `sonar`'s data.
+    pub fn of(sonar: &Sonar) -> Self {
+        Layout {
+            kind: sonar.kind,
+            range_min: sonar.range_min,
+            range_max: sonar.range_max,
+            range_bins: sonar.range_bins as usize,
+            range_bin_width: sonar.range_bin_width(),
+            beam_edges: sonar.beam_edges_rad(),
+            half_azimuth: sonar.half_azimuth(),
+            half_elevation: sonar.half_elevation(),
+        }
+    }
+
+    /// Returns the number of beams (1 for an SSS).
+    pub fn beams(&self) -> usize {
+        self.beam_edges.len() - 1
+    }
+
+    /// Returns the number of bins (SSS) or pixels (FLS): `range_bins × beams`.
+    pub fn pixels(&self) -> usize {
+        self.range_bins * self.beams()
+    }
+
+    /// Returns true when `(r, az, el)` (m, rad, rad) lies in the field of view: README: Conventions, bounds
+    /// inclusive, the origin outside.
+    pub fn inside(&self, r: f64, az: f64, el: f64) -> bool {
+        r > 0.0
+            && r >= self.range_min
+            && r <= self.range_max
+            && az.abs() <= self.half_azimuth
+            && el.abs() <= self.half_elevation
+    }
+
+    /// Returns the lower edge (m) of range bin `i`; `i = range_bins` gives `range_max`.
+    pub fn range_edge(&self, i: usize) -> f64 {
+        if i >= self.range_bins {
+            self.range_max
+        } else {
+            self.range_min + i as f64 * self.range_bin_width
+        }
+    }
+
+    /// Returns the range bin of `r` (m): bin `i` covers `[edge(i), edge(i+1))`, the last one also
+    /// takes `range_max`. `r` must lie in `[range_min, range_max]`.
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "a saturating float-to-index conversion, clamped to the table right after"
+    )]
+    pub fn range_bin(&self, r: f64) -> usize {
+        let i = ((r - self.range_min) / self.range_bin_width).floor();
+        (i.max(0.0) as usize).min(self.range_bins - 1)
+    }
+
+    /// Returns the beam of `az` (rad): beam `j` covers `[e_j, e_{j+1})`, the last one also takes
+    /// `+half_azimuth`. `az` must lie in the aperture.
+    pub fn beam(&self, az: f64) -> usize {
+        let j = self.beam_edges.partition_point(|&e| e <= az);
+        j.saturating_sub(1).min(self.beams() - 1)
+    }
+
+    /// Returns `(sin h, cos h)` for the trigonometry-free azimuth clip `x sin h − |y| cos h ≥ 0`
+    /// (⇔ `|az| ≤ h` for `h` in `(0, π]`); exactly `(0, −1)` for the full circle.
+    pub fn azimuth_clip(&self) -> (f64, f64) {
+        let h = self.half_azimuth;
+        if h >= std::f64::consts::PI {
+            (0.0, -1.0)
+        } else {
+            (h.sin(), h.cos())
+        }
+    }
+
+    /// Returns `(sin² e, cos² e)` for the elevation clip `z² cos² e ≤ (x² + y²) sin² e`
+    /// (⇔ `|el| ≤ e`), or `None` for a 180° aperture, which clips nothing.
+    pub fn elevation_clip(&self) -> Option<(f64, f64)> {
+        let e = self.half_elevation;
+        (e < std::f64::consts::FRAC_PI_2).then(|| (e.sin().powi(2), e.cos().powi(2)))
+    }
+
+    /// Returns the beam width (rad) when the beams split the aperture uniformly (to 1e-12
+    /// relative), else `None`.
+    pub fn uniform_beam_width(&self) -> Option<f64> {
+        let width = 2.0 * self.half_azimuth / self.beams() as f64;
+        self.beam_edges
+            .windows(2)
+            .all(|w| ((w[1] - w[0]) - width).abs() <= 1e-12 * width)
+            .then_some(width)
+    }
+
+    /// Returns the squared range-bin edges `(range_min + iΔ)²`, `i = 0..=range_bins`.
+    pub fn range_edges_sq(&self) -> Vec<f64> {
+        (0..=self.range_bins)
+            .map(|i| self.range_edge(i).powi(2))
+            .collect()
+    }
+
+    /// Returns the measure of pixel `(i, j)`: the bin width (m) for an SSS; for an FLS the true
+    /// area `Δa_j/2 · (r_{i+1}² − r_i²)` (m², Δa in radians).
+    pub fn pixel_measure(&self, i: usize, j: usize) -> f64 {
+        match self.kind {
+            SonarKind::Sss => self.range_bin_width,
+            SonarKind::Fls => {
+                let (r0, r1) = (self.range_edge(i), self.range_edge(i + 1));
+                let da = self.beam_edges[j + 1] - self.beam_edges[j];
+                da / 2.0 * (r1 * r1 - r0 * r0)
+            }
+        }
+    }
+}
+
+/// A set of occupied bins or pixels, row-major `[range_bin][beam]`, one bit each.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Occupancy {
+    /// Number of range bins (rows).
+    pub range_bins: usize,
+    /// Number of beams (columns; 1 for an SSS).
+    pub beams: usize,
+    /// The bits, 32 per word, pixel `k = i·beams + j` at bit `k % 32` of word `k / 32`.
+    pub words: Vec<u32>,
+}
+
+impl Occupancy {
+    /// Returns an empty occupancy of `range_bins × beams`.
+    pub fn new(range_bins: usize, beams: usize) -> Self {
+        Occupancy {
+            range_bins,
+            beams,
+            words: vec![0; (range_bins * beams).div_ceil(32)],
+        }
+    }
+
+    /// Returns the occupancy with the given words (as read back from the GPU).
+    pub fn from_words(range_bins: usize, beams: usize, words: Vec<u32>) -> Self {
+        debug_assert_eq!(words.len(), (range_bins * beams).div_ceil(32));
+        Occupancy {
+            range_bins,
+            beams,
+            words,
+        }
+    }
+
+    /// Sets pixel `(i, j)`.
+    pub fn set(&mut self, i: usize, j: usize) {
+        let k = i * self.beams + j;
+        self.words[k / 32] |= 1 << (k % 32);
+    }
+
+    /// Sets pixels `(i, j0..=j1)`, a word at a time.
+    pub fn set_span(&mut self, i: usize, j0: usize, j1: usize) {
+        let (mut k, end) = (i * self.beams + j0, i * self.beams + j1 + 1);
+        while k < end {
+            let (w, b) = (k / 32, k % 32);
+            let n = (32 - b).min(end - k);
+            let bits = if n == 32 { u32::MAX } else { ((1u32 << n) - 1) << b };
+            self.words[w] |= bits;
+            k += n;
+        }
+    }
+
+    /// Returns whether pixel `(i, j)` is set.
+    pub fn get(&self, i: usize, j: usize) -> bool {
+        let k = i * self.beams + j;
+        self.words[k / 32] >> (k % 32) & 1 == 1
+    }
+
+    /// Returns the number of set pixels.
+    pub fn count(&self) -> u64 {
+        self.words.iter().map(|w| u64::from(w.count_ones())).sum()
+    }
+
+    /// Returns the set pixels as `(range_bin, beam)` pairs, row-major (empty words skipped).
+    pub fn pixels(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.words
+            .iter()
+            .enumerate()
+            .filter(|(_, w)| **w != 0)
+            .flat_map(|(k, &w)| (0..32).filter(move |b| w >> b & 1 == 1).map(move |b| 32 * k + b))
+            .map(|k| (k / self.beams, k % self.beams))
+    }
+
+    /// Returns true when every pixel set here is also set in `other`.
+    pub fn is_subset_of(&self, other: &Occupancy) -> bool {
+        self.words.iter().zip(&other.words).all(|(a, b)| a & !b == 0)
+    }
+
+    /// Returns the occupancy as bytes, 0 or 1, row-major, optionally flipped along each axis.
+    pub fn to_bytes(&self, flip_range: bool, flip_beams: bool) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.range_bins * self.beams);
+        for row in 0..self.range_bins {
+            let i = if flip_range {
+                self.range_bins - 1 - row
+            } else {
+                row
+            };
+            for col in 0..self.beams {
+                let j = if flip_beams { self.beams - 1 - col } else { col };
+                out.push(u8::from(self.get(i, j)));
+            }
+        }
+        out
+    }
+}
+
+/// The metrics of one projection (README: Conventions). Ranges in metres, azimuths in degrees.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Metrics {
+    /// Samples kept by the clip.
+    pub visible: u64,
+    /// Samples drawn.
+    pub total: u64,
+    /// Smallest range (m) of a visible sample in sonar 2; `None` when nothing is visible.
+    pub range_min: Option<f64>,
+    /// Largest range (m) of a visible sample in sonar 2.
+    pub range_max: Option<f64>,
+    /// `range_max − range_min` (m), 0 when nothing is visible: the paper's range span.
+    pub span: f64,
+    /// Smallest azimuth (deg) of a visible sample in sonar 2.
+    pub azimuth_min: Option<f64>,
+    /// Largest azimuth (deg) of a visible sample in sonar 2.
+    pub azimuth_max: Option<f64>,
+    /// Number of occupied bins (SSS) or pixels (FLS).
+    pub occupied: u64,
+    /// Occupied bins × bin width (m, SSS) or summed true area of occupied pixels (m², FLS).
+    pub occupied_measure: f64,
+}
+
+/// Running extremes of the visible samples' range and azimuth (m, rad).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Extremes {
+    /// Smallest range seen (`+inf` when none).
+    pub range_min: f64,
+    /// Largest range seen (`-inf` when none).
+    pub range_max: f64,
+    /// Smallest azimuth seen (rad).
+    pub azimuth_min: f64,
+    /// Largest azimuth seen (rad).
+    pub azimuth_max: f64,
+}
+
+impl Default for Extremes {
+    fn default() -> Self {
+        Extremes {
+            range_min: f64::INFINITY,
+            range_max: f64::NEG_INFINITY,
+            azimuth_min: f64::INFINITY,
+            azimuth_max: f64::NEG_INFINITY,
+        }
+    }
+}
+
+impl Extremes {
+    /// Widens the extremes to include a sample at range `r`, azimuth `az`.
+    pub fn add(&mut self, r: f64, az: f64) {
+        self.add_range(r);
+        self.add_azimuth(az);
+    }
+
+    /// Widens the range extremes to include `r`.
+    pub fn add_range(&mut self, r: f64) {
+        self.range_min = self.range_min.min(r);
+        self.range_max = self.range_max.max(r);
+    }
+
+    /// Widens the azimuth extremes to include `az`.
+    pub fn add_azimuth(&mut self, az: f64) {
+        self.azimuth_min = self.azimuth_min.min(az);
+        self.azimuth_max = self.azimuth_max.max(az);
+    }
+}
+
+impl Metrics {
+    /// Returns the metrics from the sample counts, the extremes (m, rad) and the occupancy
+    /// summary; extremes are `None` and the span 0 when nothing is visible.
+    pub fn new(visible: u64, total: u64, ex: Extremes, occupied: u64, measure: f64) -> Self {
+        let seen = visible > 0;
+        let some = |v: f64| seen.then_some(v);
+        Metrics {
+            visible,
+            total,
+            range_min: some(ex.range_min),
+            range_max: some(ex.range_max),
+            span: if seen { ex.range_max - ex.range_min } else { 0.0 },
+            azimuth_min: some(ex.azimuth_min.to_degrees()),
+            azimuth_max: some(ex.azimuth_max.to_degrees()),
+            occupied,
+            occupied_measure: measure,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bins_follow_spec_edges() {
+        let l = Layout::of(&Sonar::preset("paper-sss").unwrap());
+        assert_eq!(l.range_bin(0.1), 0);
+        assert_eq!(l.range_bin(0.1 + 0.015), 1);
+        assert_eq!(l.range_bin(30.0), 2989, "range_max goes to the last bin");
+        let f = Layout::of(&Sonar::preset("paper-fls").unwrap());
+        assert_eq!(f.beam(-(30f64).to_radians()), 0);
+        assert_eq!(f.beam(0.0), 256, "0 is the lower edge of beam 256");
+        assert_eq!(f.beam((30f64).to_radians()), 511, "+A/2 goes to the last beam");
+    }
+
+    #[test]
+    fn pixel_areas_sum_to_the_fan() {
+        let f = Layout::of(&Sonar::preset("paper-fls").unwrap());
+        let total: f64 = (0..f.range_bins)
+            .flat_map(|i| (0..f.beams()).map(move |j| (i, j)))
+            .map(|(i, j)| f.pixel_measure(i, j))
+            .sum();
+        let fan = (60f64).to_radians() / 2.0 * (10.0f64.powi(2) - 0.1f64.powi(2));
+        assert!((total - fan).abs() < 1e-9 * fan);
+    }
+
+    #[test]
+    fn occupancy_bits_round_trip() {
+        let mut o = Occupancy::new(3, 5);
+        o.set(2, 4);
+        o.set(0, 1);
+        assert!(o.get(2, 4) && o.get(0, 1) && !o.get(1, 1));
+        assert_eq!(o.count(), 2);
+        assert_eq!(o.pixels().collect::<Vec<_>>(), vec![(0, 1), (2, 4)]);
+        let flipped = o.to_bytes(true, true);
+        assert_eq!(flipped[0], 1, "pixel (2,4) flipped to (0,0)");
+    }
+}

@@ -1,0 +1,634 @@
+//! Sonars: kind, field of view and data layout (README: Sonars), the presets, and sonar TOML files.
+
+use std::path::Path;
+
+use serde::Deserialize;
+
+use crate::error::{Error, Result, finite, finite_named};
+
+/// The two sonar kinds: what a sonar keeps of a 3D point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SonarKind {
+    /// Forward-looking (imaging) sonar: keeps range and azimuth, loses elevation.
+    Fls,
+    /// Sidescan sonar: keeps range only.
+    Sss,
+}
+
+impl SonarKind {
+    /// Returns the lowercase name used in files and on the command line (`fls`, `sss`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SonarKind::Fls => "fls",
+            SonarKind::Sss => "sss",
+        }
+    }
+}
+
+/// How the azimuth aperture of an FLS image is split into beams.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BeamLayout {
+    /// `count` beams of equal width over the aperture (an SSS has one).
+    Uniform {
+        /// Number of beams.
+        count: u32,
+    },
+    /// Explicit beam edges in degrees, increasing, from `-aperture/2` to `+aperture/2`
+    /// (`beams + 1` values), for sonars whose beams are not uniform.
+    Edges(Vec<f64>),
+}
+
+/// A sonar: kind, field of view (metres, degrees) and the layout of its data.
+///
+/// Construct it from a preset ([`Sonar::preset`]), a TOML file ([`Sonar::from_toml_file`]) or
+/// directly followed by [`Sonar::validate`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sonar {
+    /// A name for messages and reports (preset name or file name).
+    pub name: String,
+    /// FLS or SSS.
+    pub kind: SonarKind,
+    /// Minimum range (m), `0 <= range_min < range_max`.
+    pub range_min: f64,
+    /// Maximum range (m).
+    pub range_max: f64,
+    /// Full azimuth aperture (deg), in `(0, 360]`, centred on the boresight.
+    pub azimuth_aperture: f64,
+    /// Full elevation aperture (deg), in `(0, 180]`, centred on the boresight.
+    pub elevation_aperture: f64,
+    /// Number of uniform range bins over `[range_min, range_max]`.
+    pub range_bins: u32,
+    /// Beams of the FLS image; `Uniform { count: 1 }` for an SSS.
+    pub beams: BeamLayout,
+}
+
+/// The largest number of range bins a sonar may have.
+pub const MAX_RANGE_BINS: u32 = 1 << 20;
+/// The largest number of beams a sonar may have.
+pub const MAX_BEAMS: u32 = 1 << 16;
+/// The largest number of pixels (range bins × beams) a sonar image may have.
+pub const MAX_PIXELS: u64 = 1 << 26;
+
+/// One row of the preset table: name, kind, range, apertures, range bins, beams, source.
+type PresetRow = (
+    &'static str,
+    SonarKind,
+    f64,
+    f64,
+    f64,
+    f64,
+    u32,
+    u32,
+    &'static str,
+);
+
+/// The presets (README: Sonars). Sources are kept beside each row.
+const PRESETS: &[PresetRow] = &[
+    // Paper Table I; layout ours: 1 cm range bins, 512 beams.
+    (
+        "paper-fls",
+        SonarKind::Fls,
+        0.1,
+        10.0,
+        60.0,
+        12.0,
+        990,
+        512,
+        "paper Table I",
+    ),
+    // Paper Table I; 1 cm range bins.
+    (
+        "paper-sss",
+        SonarKind::Sss,
+        0.1,
+        30.0,
+        130.0,
+        0.3,
+        2990,
+        1,
+        "paper Table I",
+    ),
+    // Blueprint Subsea Oculus M750d data sheet, 750 kHz mode: 0.1-120 m, 130° x 20°, 512 beams.
+    // The maker's beams are not uniform and its image height follows the range setting; we
+    // use 512 uniform beams and 10 cm range bins. Give beam_edges in a sonar file to match a unit.
+    (
+        "oculus-m750d",
+        SonarKind::Fls,
+        0.1,
+        120.0,
+        130.0,
+        20.0,
+        1199,
+        512,
+        "Blueprint Subsea M750d sheet, 750 kHz",
+    ),
+    // Blueprint Subsea Oculus M1200d data sheet, 2.1 MHz mode: 0.1-30 m, 60° x 12°, 512 beams;
+    // 1 cm range bins (ours).
+    (
+        "oculus-m1200d-hf",
+        SonarKind::Fls,
+        0.1,
+        30.0,
+        60.0,
+        12.0,
+        2990,
+        512,
+        "Blueprint Subsea M1200d sheet, 2.1 MHz",
+    ),
+    // HoloOcean ImagingSonar defaults: RangeMin 0.1, RangeMax 10, Azimuth 120, Elevation 20,
+    // RangeBins 512, AzimuthBins 512.
+    (
+        "holoocean-imaging",
+        SonarKind::Fls,
+        0.1,
+        10.0,
+        120.0,
+        20.0,
+        512,
+        512,
+        "HoloOcean ImagingSonar defaults",
+    ),
+    // HoloOcean SidescanSonar defaults: RangeMin 0.5, RangeMax 35, Azimuth 170, Elevation 0.25,
+    // RangeBins 2000.
+    (
+        "holoocean-sidescan",
+        SonarKind::Sss,
+        0.5,
+        35.0,
+        170.0,
+        0.25,
+        2000,
+        1,
+        "HoloOcean SidescanSonar defaults",
+    ),
+];
+
+/// The keys of a sonar TOML file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SonarFile {
+    kind: SonarKind,
+    range_min: f64,
+    range_max: f64,
+    azimuth_aperture: f64,
+    elevation_aperture: f64,
+    range_bins: u32,
+    beams: Option<u32>,
+    beam_edges: Option<Vec<f64>>,
+    beam_centres: Option<Vec<f64>>,
+}
+
+impl Sonar {
+    /// Returns the names of all presets, in table order.
+    pub fn preset_names() -> Vec<&'static str> {
+        PRESETS.iter().map(|p| p.0).collect()
+    }
+
+    /// Returns the preset called `name`, or `None`.
+    pub fn preset(name: &str) -> Option<Sonar> {
+        PRESETS.iter().find(|p| p.0 == name).map(
+            |&(name, kind, range_min, range_max, az, el, range_bins, beams, _source)| Sonar {
+                name: name.to_string(),
+                kind,
+                range_min,
+                range_max,
+                azimuth_aperture: az,
+                elevation_aperture: el,
+                range_bins,
+                beams: BeamLayout::Uniform { count: beams },
+            },
+        )
+    }
+
+    /// Returns the source of a preset's numbers (maker's sheet, paper, simulator), or `None`.
+    pub fn preset_source(name: &str) -> Option<&'static str> {
+        PRESETS.iter().find(|p| p.0 == name).map(|p| p.8)
+    }
+
+    /// Returns the sonar named by `spec`: a preset name, or else a path to a sonar TOML file.
+    ///
+    /// # Errors
+    /// [`Error::UnknownSonar`] when it is neither; file and validation errors from
+    /// [`Sonar::from_toml_file`].
+    pub fn resolve(spec: &str) -> Result<Sonar> {
+        if let Some(s) = Sonar::preset(spec) {
+            return Ok(s);
+        }
+        let path = Path::new(spec);
+        if path.is_file() {
+            return Sonar::from_toml_file(path);
+        }
+        Err(Error::UnknownSonar {
+            name: spec.to_string(),
+            presets: Sonar::preset_names().join(", "),
+        })
+    }
+
+    /// Returns the sonar described by the TOML file at `path`, validated.
+    ///
+    /// Keys: `kind` (`"fls"`/`"sss"`), `range_min`, `range_max` (m), `azimuth_aperture`,
+    /// `elevation_aperture` (deg), `range_bins`, and for an FLS one of `beams` (uniform),
+    /// `beam_edges` or `beam_centres` (deg).
+    ///
+    /// # Errors
+    /// [`Error::ReadInput`], [`Error::SonarFile`] (syntax, unknown or missing keys) or
+    /// [`Error::InvalidValue`] naming the file and the key.
+    pub fn from_toml_file(path: &Path) -> Result<Sonar> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::ReadInput {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let name = path.display().to_string();
+        Sonar::from_toml_str(&name, &text).map_err(|e| match e {
+            Error::SonarFile { message, .. } => Error::SonarFile {
+                path: path.to_path_buf(),
+                message,
+            },
+            other => other,
+        })
+    }
+
+    /// Returns the sonar described by TOML `text`, called `name` in messages, validated.
+    ///
+    /// # Errors
+    /// As [`Sonar::from_toml_file`].
+    pub fn from_toml_str(name: &str, text: &str) -> Result<Sonar> {
+        let file: SonarFile = toml::from_str(text).map_err(|e| Error::SonarFile {
+            path: name.into(),
+            message: e.to_string().trim_end().replace('\n', " "),
+        })?;
+        let ctx = format!("sonar {name:?}");
+        let given = [
+            file.beams.is_some(),
+            file.beam_edges.is_some(),
+            file.beam_centres.is_some(),
+        ]
+        .iter()
+        .filter(|&&b| b)
+        .count();
+        if given > 1 {
+            return Err(Error::invalid(
+                format!("{ctx}: beams/beam_edges/beam_centres"),
+                "more than one",
+                "give exactly one of beams, beam_edges, beam_centres",
+            ));
+        }
+        let beams = match (file.kind, file.beams, file.beam_edges, file.beam_centres) {
+            (SonarKind::Sss, None | Some(1), None, None) => BeamLayout::Uniform { count: 1 },
+            (SonarKind::Sss, _, _, _) => {
+                return Err(Error::invalid(
+                    format!("{ctx}: beams"),
+                    "given",
+                    "an SSS has no beams (leave beams, beam_edges and beam_centres out)",
+                ));
+            }
+            (SonarKind::Fls, Some(n), None, None) => BeamLayout::Uniform { count: n },
+            (SonarKind::Fls, None, Some(edges), None) => BeamLayout::Edges(edges),
+            (SonarKind::Fls, None, None, Some(centres)) => {
+                BeamLayout::Edges(edges_from_centres(&ctx, file.azimuth_aperture, &centres)?)
+            }
+            (SonarKind::Fls, _, _, _) => {
+                return Err(Error::invalid(
+                    format!("{ctx}: beams"),
+                    "missing",
+                    "an FLS needs beams (a count), beam_edges or beam_centres",
+                ));
+            }
+        };
+        let sonar = Sonar {
+            name: name.to_string(),
+            kind: file.kind,
+            range_min: file.range_min,
+            range_max: file.range_max,
+            azimuth_aperture: file.azimuth_aperture,
+            elevation_aperture: file.elevation_aperture,
+            range_bins: file.range_bins,
+            beams,
+        };
+        sonar.validate()?;
+        Ok(sonar)
+    }
+
+    /// Returns the sonar when every field holds (README: Sonars): the way to check a sonar
+    /// built by hand.
+    ///
+    /// ```
+    /// use sonarproj::{BeamLayout, Sonar, SonarKind};
+    /// let sonar = Sonar {
+    ///     name: "my-fls".into(),
+    ///     kind: SonarKind::Fls,
+    ///     range_min: 0.5,
+    ///     range_max: 30.0,
+    ///     azimuth_aperture: 130.0,
+    ///     elevation_aperture: 20.0,
+    ///     range_bins: 512,
+    ///     beams: BeamLayout::Uniform { count: 256 },
+    /// };
+    /// assert!(sonar.clone().validated().is_ok());
+    /// let broken = Sonar { range_bins: 0, ..sonar };
+    /// let e = broken.validated().unwrap_err().to_string();
+    /// assert!(e.contains("range_bins = 0"), "{e}");
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Sonar::validate`].
+    pub fn validated(self) -> Result<Sonar> {
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// Returns `Ok(())` when every field holds (README: Sonars).
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] naming the sonar, the field, its value and the allowed range.
+    pub fn validate(&self) -> Result<()> {
+        let ctx = format!("sonar {:?}", self.name);
+        let f = |field: &str| format!("{ctx}: {field}");
+        finite(&f("range_min"), self.range_min)?;
+        finite(&f("range_max"), self.range_max)?;
+        finite(&f("azimuth_aperture"), self.azimuth_aperture)?;
+        finite(&f("elevation_aperture"), self.elevation_aperture)?;
+        if self.range_min < 0.0 {
+            return Err(Error::invalid(f("range_min"), self.range_min, "must be >= 0 m"));
+        }
+        if self.range_max <= self.range_min {
+            return Err(Error::invalid(
+                f("range_max"),
+                self.range_max,
+                format!("must be greater than range_min = {} m", self.range_min),
+            ));
+        }
+        if !(self.azimuth_aperture > 0.0 && self.azimuth_aperture <= 360.0) {
+            return Err(Error::invalid(
+                f("azimuth_aperture"),
+                self.azimuth_aperture,
+                "must be in (0, 360] degrees",
+            ));
+        }
+        if !(self.elevation_aperture > 0.0 && self.elevation_aperture <= 180.0) {
+            return Err(Error::invalid(
+                f("elevation_aperture"),
+                self.elevation_aperture,
+                "must be in (0, 180] degrees",
+            ));
+        }
+        if self.range_bins == 0 || self.range_bins > MAX_RANGE_BINS {
+            return Err(Error::invalid(
+                f("range_bins"),
+                self.range_bins,
+                format!("must be in [1, {MAX_RANGE_BINS}]"),
+            ));
+        }
+        match &self.beams {
+            BeamLayout::Uniform { count } => {
+                if self.kind == SonarKind::Sss && *count != 1 {
+                    return Err(Error::invalid(f("beams"), count, "an SSS has exactly 1 beam"));
+                }
+                if *count == 0 || *count > MAX_BEAMS {
+                    return Err(Error::invalid(
+                        f("beams"),
+                        count,
+                        format!("must be in [1, {MAX_BEAMS}]"),
+                    ));
+                }
+            }
+            BeamLayout::Edges(edges) => {
+                if self.kind == SonarKind::Sss {
+                    return Err(Error::invalid(f("beam_edges"), "given", "an SSS has no beams"));
+                }
+                check_edges(&ctx, self.azimuth_aperture, edges)?;
+            }
+        }
+        let pixels = u64::from(self.range_bins) * u64::from(self.beam_count());
+        if pixels > MAX_PIXELS {
+            return Err(Error::invalid(
+                f("range_bins x beams"),
+                pixels,
+                format!("must be at most {MAX_PIXELS} pixels"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Returns the number of beams (1 for an SSS; 0 for an invalid sonar with fewer than two
+    /// beam edges).
+    pub fn beam_count(&self) -> u32 {
+        match &self.beams {
+            BeamLayout::Uniform { count } => *count,
+            BeamLayout::Edges(e) => u32::try_from(e.len().saturating_sub(1)).unwrap_or(u32::MAX),
+        }
+    }
+
+    /// Returns the beam edges in radians, increasing, `beam_count() + 1` values from
+    /// `-azimuth_aperture/2` to `+azimuth_aperture/2`.
+    pub fn beam_edges_rad(&self) -> Vec<f64> {
+        let h = self.half_azimuth();
+        match &self.beams {
+            BeamLayout::Uniform { count } => {
+                let n = *count as usize;
+                let w = 2.0 * h / n as f64;
+                let mut e: Vec<f64> = (0..=n).map(|j| -h + j as f64 * w).collect();
+                e[n] = h;
+                e
+            }
+            BeamLayout::Edges(edges) => edges.iter().map(|d| d.to_radians()).collect(),
+        }
+    }
+
+    /// Returns half the azimuth aperture in radians.
+    pub fn half_azimuth(&self) -> f64 {
+        (self.azimuth_aperture / 2.0).to_radians()
+    }
+
+    /// Returns half the elevation aperture in radians.
+    pub fn half_elevation(&self) -> f64 {
+        (self.elevation_aperture / 2.0).to_radians()
+    }
+
+    /// Returns the width of one range bin in metres.
+    pub fn range_bin_width(&self) -> f64 {
+        (self.range_max - self.range_min) / f64::from(self.range_bins)
+    }
+
+    /// Returns `Ok(())` when the point `(range, azimuth, elevation)` (m, deg, deg) lies in this
+    /// sonar's field of view, else an error naming `what` (e.g. `"feature"`) and the bound.
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] for a non-finite value or one outside the field of view.
+    pub fn check_point(&self, what: &str, range: f64, azimuth: f64, elevation: f64) -> Result<()> {
+        let f = |c: &str| format!("{what} {c}");
+        finite_named(|| f("range"), range)?;
+        finite_named(|| f("azimuth"), azimuth)?;
+        finite_named(|| f("elevation"), elevation)?;
+        if range < self.range_min || range > self.range_max || range <= 0.0 {
+            return Err(Error::invalid(
+                f("range"),
+                range,
+                format!(
+                    "must be within sonar {:?}'s range [{}, {}] m (and > 0)",
+                    self.name, self.range_min, self.range_max
+                ),
+            ));
+        }
+        let ha = self.azimuth_aperture / 2.0;
+        if azimuth.abs() > ha {
+            return Err(Error::invalid(
+                f("azimuth"),
+                azimuth,
+                format!(
+                    "must be within sonar {:?}'s azimuth aperture [-{ha}, {ha}] deg",
+                    self.name
+                ),
+            ));
+        }
+        let he = self.elevation_aperture / 2.0;
+        if elevation.abs() > he {
+            return Err(Error::invalid(
+                f("elevation"),
+                elevation,
+                format!(
+                    "must be within sonar {:?}'s elevation aperture [-{he}, {he}] deg",
+                    self.name
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Checks explicit beam edges (deg): at least two, strictly increasing, from -A/2 to +A/2.
+fn check_edges(ctx: &str, aperture: f64, edges: &[f64]) -> Result<()> {
+    let field = format!("{ctx}: beam_edges");
+    if edges.len() < 2 || edges.len() - 1 > MAX_BEAMS as usize {
+        return Err(Error::invalid(
+            field,
+            format!("{} values", edges.len()),
+            format!("needs beams + 1 values, between 2 and {}", MAX_BEAMS + 1),
+        ));
+    }
+    for (i, &e) in edges.iter().enumerate() {
+        finite(&format!("{field}[{i}]"), e)?;
+    }
+    let h = aperture / 2.0;
+    let tol = 1e-9 * aperture;
+    if (edges[0] + h).abs() > tol || (edges[edges.len() - 1] - h).abs() > tol {
+        return Err(Error::invalid(
+            field,
+            format!("[{}, …, {}]", edges[0], edges[edges.len() - 1]),
+            format!("must start at -{h} and end at {h} deg (the aperture)"),
+        ));
+    }
+    if let Some(i) = edges.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(Error::invalid(
+            format!("{field}[{}]", i + 1),
+            edges[i + 1],
+            format!("edges must increase strictly (previous is {})", edges[i]),
+        ));
+    }
+    Ok(())
+}
+
+/// Returns beam edges (deg) from beam centres (deg): midpoints between centres, and the aperture
+/// bounds at both ends.
+fn edges_from_centres(ctx: &str, aperture: f64, centres: &[f64]) -> Result<Vec<f64>> {
+    let field = format!("{ctx}: beam_centres");
+    let h = aperture / 2.0;
+    if centres.is_empty() {
+        return Err(Error::invalid(field, "[]", "needs at least one centre"));
+    }
+    for (i, &c) in centres.iter().enumerate() {
+        finite(&format!("{field}[{i}]"), c)?;
+        if c.abs() >= h {
+            return Err(Error::invalid(
+                format!("{field}[{i}]"),
+                c,
+                format!("must lie strictly inside (-{h}, {h}) deg"),
+            ));
+        }
+        if i > 0 && c <= centres[i - 1] {
+            return Err(Error::invalid(
+                format!("{field}[{i}]"),
+                c,
+                format!("centres must increase strictly (previous is {})", centres[i - 1]),
+            ));
+        }
+    }
+    let mut edges = Vec::with_capacity(centres.len() + 1);
+    edges.push(-h);
+    edges.extend(centres.windows(2).map(|w| 0.5 * (w[0] + w[1])));
+    edges.push(h);
+    Ok(edges)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_validate_and_match_spec_layouts() {
+        for name in Sonar::preset_names() {
+            Sonar::preset(name).unwrap().validate().unwrap();
+            assert!(Sonar::preset_source(name).is_some());
+        }
+        let fls = Sonar::preset("paper-fls").unwrap();
+        assert_eq!((fls.range_bins, fls.beam_count()), (990, 512));
+        assert!((fls.range_bin_width() - 0.01).abs() < 1e-12);
+        let sss = Sonar::preset("paper-sss").unwrap();
+        assert_eq!((sss.range_bins, sss.beam_count()), (2990, 1));
+        assert!((sss.range_bin_width() - 0.01).abs() < 1e-12);
+    }
+
+    #[test]
+    fn beam_edges_span_the_aperture() {
+        let fls = Sonar::preset("paper-fls").unwrap();
+        let e = fls.beam_edges_rad();
+        assert_eq!(e.len(), 513);
+        assert_eq!(e[0], -(30f64).to_radians());
+        assert_eq!(e[512], (30f64).to_radians());
+    }
+
+    #[test]
+    fn toml_file_with_centres() {
+        let s = Sonar::from_toml_str(
+            "t",
+            "kind = 'fls'\nrange_min = 1\nrange_max = 5\nazimuth_aperture = 30\nelevation_aperture = 10\nrange_bins = 4\nbeam_centres = [-10, 0, 10]\n",
+        )
+        .unwrap();
+        assert_eq!(s.beams, BeamLayout::Edges(vec![-15.0, -5.0, 5.0, 15.0]));
+    }
+
+    #[test]
+    fn bad_sonars_name_field_and_value() {
+        let base = "kind = 'fls'\nrange_bins = 4\nbeams = 8\nelevation_aperture = 10\n";
+        let cases = [
+            (
+                "range_min = -1\nrange_max = 5\nazimuth_aperture = 30\n",
+                "range_min = -1",
+            ),
+            (
+                "range_min = 6\nrange_max = 5\nazimuth_aperture = 30\n",
+                "range_max = 5",
+            ),
+            (
+                "range_min = 1\nrange_max = 5\nazimuth_aperture = 0\n",
+                "azimuth_aperture = 0",
+            ),
+            (
+                "range_min = 1\nrange_max = 5\nazimuth_aperture = 361\n",
+                "azimuth_aperture = 361",
+            ),
+            (
+                "range_min = 1\nrange_max = 5\nazimuth_aperture = nan\n",
+                "azimuth_aperture = NaN",
+            ),
+        ];
+        for (extra, want) in cases {
+            let err = Sonar::from_toml_str("t", &format!("{base}{extra}")).unwrap_err();
+            assert!(err.is_input());
+            assert!(err.to_string().contains(want), "{err} lacks {want}");
+        }
+        let err = Sonar::from_toml_str("t", "kind = 'fls'\nbogus = 1\n").unwrap_err();
+        assert!(err.to_string().contains("bogus"), "{err}");
+    }
+}

@@ -1,0 +1,216 @@
+//! Arbitrary values (NaN, infinities, zero, negative, huge, tiny) through every public
+//! constructor and entry point of the engine: each returns `Ok` or a typed error, and never
+//! panics or aborts. A value that passes validation must also run: projections on both CPU
+//! backends, masks and recovery are carried out whenever a constructor accepted their inputs.
+
+use glam::{DMat3, DVec3};
+use proptest::prelude::*;
+use sonarproj::mask::{MaskEngine, Noise};
+use sonarproj::recover::{Observation, Sigmas, recover};
+use sonarproj::{
+    Backend, Batch, BatchItem, BeamLayout, Measurement, RelativePose, Rotation, Sampling, Sonar, SonarKind,
+};
+
+/// Returns a strategy over the floats that break code: specials, signs, extremes, and plain
+/// values near the scales sonars use.
+fn wild() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        Just(f64::NAN),
+        Just(f64::INFINITY),
+        Just(f64::NEG_INFINITY),
+        Just(0.0),
+        Just(-0.0),
+        Just(f64::MAX),
+        Just(f64::MIN_POSITIVE),
+        Just(1e-300),
+        Just(1e300),
+        Just(-1.0),
+        Just(360.0),
+        Just(180.0),
+        -1e3..1e3f64,
+        0.0..200.0f64,
+    ]
+}
+
+/// Returns a strategy over counts: zero, one, typical, the limits and beyond.
+fn count() -> impl Strategy<Value = u32> {
+    prop_oneof![Just(0u32), Just(1), Just(u32::MAX), Just(1 << 20), 1..2048u32]
+}
+
+fn kind() -> impl Strategy<Value = SonarKind> {
+    prop_oneof![Just(SonarKind::Fls), Just(SonarKind::Sss)]
+}
+
+fn beams() -> impl Strategy<Value = BeamLayout> {
+    prop_oneof![
+        count().prop_map(|count| BeamLayout::Uniform { count }),
+        proptest::collection::vec(wild(), 0..6).prop_map(BeamLayout::Edges),
+        Just(BeamLayout::Edges(vec![-60.0, -10.0, 0.0, 5.0, 60.0])),
+    ]
+}
+
+/// Returns a strategy over sonars: arbitrary fields, and presets (so that valid pairs occur).
+fn sonar() -> impl Strategy<Value = Sonar> {
+    let built = (kind(), wild(), wild(), wild(), wild(), count(), beams()).prop_map(
+        |(kind, range_min, range_max, azimuth_aperture, elevation_aperture, range_bins, beams)| Sonar {
+            name: "arbitrary".into(),
+            kind,
+            range_min,
+            range_max,
+            azimuth_aperture,
+            elevation_aperture,
+            range_bins,
+            beams,
+        },
+    );
+    let preset = proptest::sample::select(Sonar::preset_names()).prop_map(|n| Sonar::preset(n).unwrap());
+    prop_oneof![1 => built, 3 => preset]
+}
+
+fn rotation() -> impl Strategy<Value = Rotation> {
+    prop_oneof![
+        (wild(), wild(), wild()).prop_map(|(roll, pitch, yaw)| Rotation::RollPitchYaw { roll, pitch, yaw }),
+        prop::array::uniform4(wild()).prop_map(Rotation::Quaternion),
+        prop::array::uniform3(prop::array::uniform3(wild())).prop_map(Rotation::Matrix),
+        (-180.0..180.0f64, -90.0..90.0f64, -180.0..180.0f64)
+            .prop_map(|(roll, pitch, yaw)| Rotation::RollPitchYaw { roll, pitch, yaw }),
+    ]
+}
+
+/// Returns a strategy over poses: from the constructors when they accept, and built by hand
+/// with arbitrary matrices and translations.
+fn pose() -> impl Strategy<Value = RelativePose> {
+    let constructed = (rotation(), prop::array::uniform3(wild()))
+        .prop_filter_map("rejected by RelativePose::new", |(r, t)| {
+            RelativePose::new(r, t).ok()
+        });
+    let by_hand =
+        (prop::array::uniform9(wild()), prop::array::uniform3(wild())).prop_map(|(m, t)| RelativePose {
+            rotation: DMat3::from_cols_array(&m),
+            translation: DVec3::from_array(t),
+        });
+    let placed = (-30.0..30.0f64, 1.0..20.0f64).prop_map(|(yaw, r)| {
+        RelativePose::placement(
+            Rotation::RollPitchYaw {
+                roll: 0.0,
+                pitch: 0.0,
+                yaw,
+            },
+            [r, 0.0, 0.0],
+            [r, 0.0, 0.0],
+        )
+        .unwrap()
+    });
+    prop_oneof![2 => constructed, 1 => by_hand, 3 => placed]
+}
+
+fn sampling() -> impl Strategy<Value = Sampling> {
+    prop_oneof![
+        Just(Sampling::Auto),
+        wild().prop_map(Sampling::Step),
+        (0.05..5.0f64).prop_map(Sampling::Step)
+    ]
+}
+
+/// Returns a strategy over one coordinate of a feature: arbitrary, or (as `Err(f)`) a
+/// fraction `f` of the sonar's span, resolved by [`within`] so that valid features are common.
+fn coordinate() -> impl Strategy<Value = Result<f64, f64>> {
+    prop_oneof![1 => wild().prop_map(Ok), 3 => (0.0..=1.0f64).prop_map(Err)]
+}
+
+/// Returns the coordinate: the arbitrary value, or the fraction of `[lo, hi]`.
+fn within(c: Result<f64, f64>, lo: f64, hi: f64) -> f64 {
+    c.unwrap_or_else(|f| lo + f * (hi - lo))
+}
+
+/// The most samples a projection in this test may draw: larger valid batches are correct but
+/// too slow on the reference for hundreds of cases (the engine's own cap is checked apart).
+const TEST_SAMPLES: usize = 2_000_000;
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    #[test]
+    fn sonars_validate_without_panicking(s in sonar()) {
+        let ok = s.clone().validated().is_ok();
+        // A sonar that validates has a sane layout.
+        if ok {
+            prop_assert!(s.beam_count() >= 1 && s.range_bins >= 1);
+            prop_assert!(s.range_max > s.range_min);
+        }
+    }
+
+    #[test]
+    fn rotations_and_poses_never_panic(r in rotation(), t in prop::array::uniform3(wild()),
+                                       a in prop::array::uniform3(wild()), b in prop::array::uniform3(wild())) {
+        if let Ok(m) = r.to_matrix() {
+            prop_assert!(m.to_cols_array().iter().all(|v| v.is_finite()));
+        }
+        if let Ok(p) = RelativePose::new(r, t) {
+            prop_assert!(p.validate().is_ok());
+        }
+        if let Ok(p) = RelativePose::placement(r, a, b) {
+            prop_assert!(p.translation.is_finite());
+        }
+    }
+
+    #[test]
+    fn batches_project_or_refuse(source in sonar(), target in sonar(), sampling in sampling(),
+                                 range in coordinate(), azimuth in coordinate(), pose in pose()) {
+        let range = within(range, source.range_min, source.range_max);
+        let azimuth = within(azimuth, -source.azimuth_aperture / 2.0, source.azimuth_aperture / 2.0);
+        let batch = Batch {
+            source: source.clone(),
+            target,
+            sampling,
+            items: vec![BatchItem { measurement: Measurement { range, azimuth }, pose }],
+        };
+        let Ok(prepared) = batch.prepare() else { return Ok(()) };
+        // Accepted: every part is valid, so the measurement could come from sonar 1.
+        prop_assert!(Measurement::of(&source, range, azimuth).is_ok());
+        prop_assert!(pose.validate().is_ok());
+        let samples: usize = prepared.plan_of.iter().map(|&k| prepared.plans[k].total()).sum();
+        if samples <= TEST_SAMPLES {
+            for backend in [Backend::Cpu, Backend::CpuFast] {
+                let out = backend.project(&batch, true).expect("a prepared batch projects");
+                prop_assert_eq!(out.len(), 1);
+                prop_assert!(out[0].metrics.visible <= out[0].metrics.total);
+            }
+        }
+    }
+
+    #[test]
+    fn masks_draw_or_refuse(source in sonar(), target in sonar(), pose in pose(),
+                            range in coordinate(), azimuth in coordinate(),
+                            noise in prop::option::of((prop::array::uniform3(wild()), prop::array::uniform3(wild()), wild(), wild(), wild())),
+                            counts in any::<bool>()) {
+        let range = within(range, source.range_min, source.range_max);
+        let azimuth = within(azimuth, -source.azimuth_aperture / 2.0, source.azimuth_aperture / 2.0);
+        let Ok(engine) = MaskEngine::new(source, target) else { return Ok(()) };
+        let noise = noise.map(|(rotation, translation, range, azimuth, coverage)| Noise { rotation, translation, range, azimuth, coverage });
+        let features = [Measurement { range, azimuth }];
+        if let Ok(set) = engine.masks(&pose, &features, noise.as_ref(), counts) {
+            prop_assert!(pose.validate().is_ok());
+            prop_assert_eq!(set.masks.len(), 1);
+        }
+    }
+
+    #[test]
+    fn recovery_answers_or_refuses(s1 in sonar(), s2 in sonar(), pose in pose(),
+                                   r1 in coordinate(), a1 in coordinate(), flip1 in prop::bool::weighted(0.2),
+                                   r2 in coordinate(), a2 in coordinate(), flip2 in prop::bool::weighted(0.2),
+                                   sigmas in prop::option::of((wild(), wild())), step in wild()) {
+        let sigmas = sigmas.map(|(range, azimuth)| Sigmas { range, azimuth });
+        // An azimuth for an FLS, none for an SSS; the other way round one time in five.
+        let observe = |s: &Sonar, r, a, flip: bool| Observation {
+            range: within(r, s.range_min, s.range_max),
+            azimuth: ((s.kind == SonarKind::Fls) != flip)
+                .then(|| within(a, -s.azimuth_aperture / 2.0, s.azimuth_aperture / 2.0)),
+        };
+        let first = observe(&s1, r1, a1, flip1);
+        let second = observe(&s2, r2, a2, flip2);
+        if let Ok(rec) = recover(&s1, &s2, &pose, first, second, sigmas, step) {
+            prop_assert!(rec.candidates.iter().all(|c| c.point_first.iter().all(|v| v.is_finite())));
+        }
+    }
+}
