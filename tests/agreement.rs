@@ -90,10 +90,6 @@ fn omni_fls() -> Sonar {
     }
 }
 
-fn preset(name: &str) -> Sonar {
-    Sonar::preset(name).unwrap()
-}
-
 /// Runs `poses` random configurations on the reference and checks every result of the fast
 /// CPU path and (where an adapter exists; always in CI) the GPU against the reference's envelope.
 fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usize) {
@@ -166,11 +162,17 @@ fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usi
 
 #[test]
 fn fls_to_sss() {
-    agree(1, preset("paper-fls"), preset("paper-sss"), Sampling::Auto, POSES);
+    agree(
+        1,
+        common::preset("paper-fls"),
+        common::preset("paper-sss"),
+        Sampling::Auto,
+        POSES,
+    );
     agree(
         2,
-        preset("oculus-m1200d-hf"),
-        preset("holoocean-sidescan"),
+        common::preset("oculus-m1200d-hf"),
+        common::preset("holoocean-sidescan"),
         Sampling::Step(0.1),
         POSES,
     );
@@ -180,21 +182,21 @@ fn fls_to_sss() {
 fn sss_to_fls() {
     agree(
         3,
-        preset("paper-sss"),
-        preset("paper-fls"),
+        common::preset("paper-sss"),
+        common::preset("paper-fls"),
         Sampling::Step(0.1),
         POSES,
     );
     agree(
         4,
-        preset("holoocean-sidescan"),
-        preset("holoocean-imaging"),
+        common::preset("holoocean-sidescan"),
+        common::preset("holoocean-imaging"),
         Sampling::Step(0.1),
         POSES,
     );
     agree(
         5,
-        preset("paper-sss"),
+        common::preset("paper-sss"),
         nonuniform_fls(),
         Sampling::Step(0.1),
         POSES,
@@ -205,15 +207,21 @@ fn sss_to_fls() {
 fn fls_to_fls() {
     agree(
         6,
-        preset("paper-fls"),
-        preset("holoocean-imaging"),
+        common::preset("paper-fls"),
+        common::preset("holoocean-imaging"),
         Sampling::Auto,
         POSES,
     );
-    agree(7, preset("oculus-m750d"), omni_fls(), Sampling::Step(0.1), POSES);
+    agree(
+        7,
+        common::preset("oculus-m750d"),
+        omni_fls(),
+        Sampling::Step(0.1),
+        POSES,
+    );
     agree(
         8,
-        preset("holoocean-imaging"),
+        common::preset("holoocean-imaging"),
         nonuniform_fls(),
         Sampling::Auto,
         POSES,
@@ -224,15 +232,15 @@ fn fls_to_fls() {
 fn sss_to_sss() {
     agree(
         9,
-        preset("paper-sss"),
-        preset("holoocean-sidescan"),
+        common::preset("paper-sss"),
+        common::preset("holoocean-sidescan"),
         Sampling::Step(0.1),
         POSES,
     );
     agree(
         10,
-        preset("holoocean-sidescan"),
-        preset("paper-sss"),
+        common::preset("holoocean-sidescan"),
+        common::preset("paper-sss"),
         Sampling::Step(0.1),
         POSES,
     );
@@ -241,11 +249,17 @@ fn sss_to_sss() {
 #[test]
 fn auto_sampling_of_surfaces() {
     // Auto sampling draws far more samples from a surface; fewer poses keep the CPU side quick.
-    agree(11, preset("paper-sss"), preset("paper-fls"), Sampling::Auto, 30);
+    agree(
+        11,
+        common::preset("paper-sss"),
+        common::preset("paper-fls"),
+        Sampling::Auto,
+        30,
+    );
     agree(
         12,
-        preset("holoocean-sidescan"),
-        preset("holoocean-imaging"),
+        common::preset("holoocean-sidescan"),
+        common::preset("holoocean-imaging"),
         Sampling::Auto,
         10,
     );
@@ -254,7 +268,7 @@ fn auto_sampling_of_surfaces() {
 #[test]
 fn results_do_not_depend_on_the_chunk_size() {
     let Some(gpu) = common::gpu() else { return };
-    let (source, target) = (preset("paper-sss"), preset("paper-fls"));
+    let (source, target) = (common::preset("paper-sss"), common::preset("paper-fls"));
     let batch = Batch {
         items: random_items(13, &source, &target, 100),
         source,
@@ -271,7 +285,7 @@ fn results_do_not_depend_on_the_chunk_size() {
 #[test]
 fn the_envelope_check_catches_wrong_results() {
     let Some(gpu) = common::gpu() else { return };
-    let (source, target) = (preset("paper-sss"), preset("paper-fls"));
+    let (source, target) = (common::preset("paper-sss"), common::preset("paper-fls"));
     let batch = Batch {
         items: random_items(14, &source, &target, 1),
         source,

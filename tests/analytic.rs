@@ -48,16 +48,12 @@ fn close(what: &str, got: Option<f64>, want: f64) {
     );
 }
 
-fn preset(name: &str) -> Sonar {
-    Sonar::preset(name).unwrap()
-}
-
 /// paper-fls with a 20° elevation aperture, so a paper-fls arc (±6°) is never clipped.
 fn tall_fls() -> Sonar {
     Sonar {
         name: "tall".into(),
         elevation_aperture: 20.0,
-        ..preset("paper-fls")
+        ..common::preset("paper-fls")
     }
 }
 
@@ -66,7 +62,7 @@ const MID_BEAM: f64 = -30.0 + 341.5 * 60.0 / 512.0;
 
 #[test]
 fn identity_pose_keeps_the_arc_in_one_pixel() {
-    let (s1, s2) = (preset("paper-fls"), tall_fls());
+    let (s1, s2) = (common::preset("paper-fls"), tall_fls());
     // 5.005 m is the middle of range bin 490 ([5.00, 5.01)).
     let pose = RelativePose::new(
         Rotation::RollPitchYaw {
@@ -101,7 +97,7 @@ fn identity_pose_keeps_the_arc_in_one_pixel() {
 fn translation_along_the_bearing_stretches_the_arc_in_range_only() {
     // t = d (cos az, sin az, 0): the arc stays in the vertical plane of the bearing, so the
     // azimuth is unchanged and the range is sqrt(r² + d² + 2 r d cos el), largest at el = 0.
-    let (s1, s2) = (preset("paper-fls"), tall_fls());
+    let (s1, s2) = (common::preset("paper-fls"), tall_fls());
     let (r, d) = (4.0, 1.005);
     let az = MID_BEAM.to_radians();
     let pose = RelativePose::new(
@@ -138,7 +134,7 @@ fn pitch_90_lays_the_fls_arc_along_the_sss_range_axis() {
     // Pitch 90°: R maps sonar-1 (x, y, z) to sonar-2 (−z, y, x). The arc 5 (cos e, 0, sin e),
     // placed at 15 m in the SSS, becomes (15 − 5 sin e, 0, 5 cos e − 5): a line through the
     // SSS's thin beam along its range axis, every sample visible (|el2| <= 0.11° < 0.15°).
-    let (s1, s2) = (preset("paper-fls"), preset("paper-sss"));
+    let (s1, s2) = (common::preset("paper-fls"), common::preset("paper-sss"));
     let rot = Rotation::RollPitchYaw {
         roll: 0.0,
         pitch: 90.0,
@@ -173,10 +169,10 @@ fn the_field_of_view_cuts_an_sss_surface_at_the_fls_azimuth_bound() {
     // elevation −0.15, 0, 0.15°) seen by an FLS of 60.05° aperture keeps the 601 azimuth columns
     // within ±30°; the bound at ±30.025° lies between samples. Beams are 0.117° wide, wider than
     // the 0.1° spacing, so every beam of range bin 490 is hit.
-    let s1 = preset("paper-sss");
+    let s1 = common::preset("paper-sss");
     let s2 = Sonar {
         azimuth_aperture: 60.05,
-        ..preset("paper-fls")
+        ..common::preset("paper-fls")
     };
     let pose = RelativePose::new(
         Rotation::RollPitchYaw {
@@ -205,14 +201,14 @@ fn the_field_of_view_cuts_an_sss_surface_at_the_fls_azimuth_bound() {
 fn a_sample_at_sonar_2_origin_is_not_visible() {
     // t = −sph(5, 0, 0) brings the el = 0 sample to sonar 2's origin; an omnidirectional FLS
     // from range 0 sees the other 120.
-    let s1 = preset("paper-fls");
+    let s1 = common::preset("paper-fls");
     let s2 = Sonar {
         name: "omni".into(),
         range_min: 0.0,
         azimuth_aperture: 360.0,
         elevation_aperture: 180.0,
         beams: BeamLayout::Uniform { count: 360 },
-        ..preset("paper-fls")
+        ..common::preset("paper-fls")
     };
     let pose = RelativePose::new(
         Rotation::RollPitchYaw {
@@ -230,7 +226,7 @@ fn a_sample_at_sonar_2_origin_is_not_visible() {
 
 #[test]
 fn nothing_visible_gives_empty_metrics() {
-    let (s1, s2) = (preset("paper-fls"), preset("paper-sss"));
+    let (s1, s2) = (common::preset("paper-fls"), common::preset("paper-sss"));
     let pose = RelativePose::new(
         Rotation::RollPitchYaw {
             roll: 0.0,
@@ -252,7 +248,7 @@ fn nothing_visible_gives_empty_metrics() {
 
 #[test]
 fn measurements_at_the_edge_of_sonar_1_are_accepted_and_beyond_rejected() {
-    let s = preset("paper-fls");
+    let s = common::preset("paper-fls");
     assert!(Measurement::of(&s, 10.0, 30.0).is_ok());
     assert!(Measurement::of(&s, 0.1, -30.0).is_ok());
     let e = Measurement::of(&s, 10.001, 0.0).unwrap_err();

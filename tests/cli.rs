@@ -3,23 +3,7 @@
 
 mod common;
 
-use assert_cmd::Command;
 use serde_json::Value;
-
-fn sonarproj() -> Command {
-    let mut c = Command::cargo_bin("sonarproj").unwrap();
-    c.env("NODEVICE_SELECT", "1");
-    c
-}
-
-/// Returns the backends to try: the CPU always, the GPU where an adapter exists (always in CI).
-fn backends() -> Vec<&'static str> {
-    let mut b = vec!["cpu"];
-    if common::gpu().is_some() {
-        b.push("gpu");
-    }
-    b
-}
 
 fn json(out: &[u8]) -> Value {
     serde_json::from_slice(out).unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(out)))
@@ -27,8 +11,8 @@ fn json(out: &[u8]) -> Value {
 
 #[test]
 fn project_prints_metrics_as_json() {
-    for backend in backends() {
-        let out = sonarproj()
+    for backend in common::cli_backends("cpu") {
+        let out = common::sonarproj()
             .args([
                 "project",
                 "--from",
@@ -95,7 +79,7 @@ fn project_accepts_every_rotation_form_alike() {
     let metrics: Vec<Value> = forms
         .iter()
         .map(|f| {
-            let out = sonarproj()
+            let out = common::sonarproj()
                 .args(base)
                 .args(*f)
                 .args(tail)
@@ -120,7 +104,7 @@ fn project_writes_occupancy_as_npy_and_png() {
     let npy = dir.path().join("occ.npy");
     let png = dir.path().join("occ.png");
     for (file, backend) in [(&npy, "cpu"), (&png, "auto")] {
-        let out = sonarproj()
+        let out = common::sonarproj()
             .args([
                 "project",
                 "--from",
@@ -165,8 +149,8 @@ fn batch_reads_poses_and_writes_metrics() {
                  5,0,0,0,90,0,15,0,0\n\
                  5,10,-3,20,30,40,15,5,0\n\
                  5,0,0,0,0,0,15,0,0\n";
-    for backend in backends() {
-        let out = sonarproj()
+    for backend in common::cli_backends("cpu") {
+        let out = common::sonarproj()
             .args([
                 "batch",
                 "--from",
@@ -212,7 +196,7 @@ fn batch_takes_translations_and_files() {
         "tx,ty,tz,yaw,pitch,roll,range,azimuth,elevation\n10,0,0,0,0,0,5,0,0\n",
     )
     .unwrap();
-    sonarproj()
+    common::sonarproj()
         .args([
             "batch",
             "--from",
@@ -240,7 +224,7 @@ fn batch_takes_translations_and_files() {
 
 #[test]
 fn devices_lists_adapters_and_the_choice() {
-    let out = sonarproj()
+    let out = common::sonarproj()
         .arg("devices")
         .assert()
         .success()
@@ -257,7 +241,7 @@ fn devices_lists_adapters_and_the_choice() {
 
 /// Runs `args`, expects exit status 2 and a stderr that contains each of `needles`.
 fn rejects(args: &[&str], stdin: Option<&str>, needles: &[&str]) {
-    let mut cmd = sonarproj();
+    let mut cmd = common::sonarproj();
     cmd.args(args);
     if let Some(s) = stdin {
         cmd.write_stdin(s);
@@ -507,7 +491,7 @@ fn gpu_backend_without_adapter_is_a_failure_not_bad_input() {
         "--step",
         "1",
     ];
-    let out = sonarproj()
+    let out = common::sonarproj()
         .env("WGPU_BACKEND", "none")
         .args(args)
         .args(["--backend", "gpu"])
@@ -516,7 +500,7 @@ fn gpu_backend_without_adapter_is_a_failure_not_bad_input() {
         .get_output()
         .clone();
     assert!(String::from_utf8_lossy(&out.stderr).contains("no GPU adapter"));
-    let out = sonarproj()
+    let out = common::sonarproj()
         .env("WGPU_BACKEND", "none")
         .args(args)
         .assert()
@@ -531,7 +515,7 @@ fn gpu_backend_without_adapter_is_a_failure_not_bad_input() {
 
 /// Returns the candidates' `point_first` of `sonarproj recover` run with `args`.
 fn recover_points(args: &[&str]) -> (Value, Vec<[f64; 3]>) {
-    let out = sonarproj()
+    let out = common::sonarproj()
         .arg("recover")
         .args(args)
         .assert()
@@ -627,7 +611,7 @@ fn recover_batch_writes_one_row_per_candidate() {
     let input = "first_range,first_azimuth,second_range,roll,pitch,yaw,tx,ty,tz,sigma_range\n\
                  5,0,5.5,0,0,0,-10,0,0,0.01\n\
                  5,0,2,0,0,0,-10,0,0,\n";
-    let out = sonarproj()
+    let out = common::sonarproj()
         .args([
             "recover",
             "--from",
@@ -715,7 +699,7 @@ fn bad_recover_input_exits_2() {
 fn paper_writes_csv_figures_and_findings() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("paper");
-    sonarproj()
+    common::sonarproj()
         .args(["paper", "--angle-step", "30", "--backend", "cpu-fast", "--out"])
         .arg(&out)
         .assert()
@@ -766,7 +750,7 @@ fn bad_paper_input_exits_2() {
 
 #[test]
 fn bench_times_every_backend_on_the_same_batches() {
-    let out = sonarproj()
+    let out = common::sonarproj()
         .args(["bench", "--runs", "1"])
         .assert()
         .success()
@@ -853,7 +837,7 @@ fn an_adapter_name_that_matches_nothing_is_bad_input() {
     let wanted = "no-such-adapter-xyz";
     let mut gpu = one_projection();
     gpu.extend(["--backend", "gpu"]);
-    let out = sonarproj()
+    let out = common::sonarproj()
         .args(&gpu)
         .env("WGPU_ADAPTER_NAME", wanted)
         .assert()
@@ -866,7 +850,7 @@ fn an_adapter_name_that_matches_nothing_is_bad_input() {
         "{stderr}"
     );
     assert!(!stderr.contains("panicked"), "{stderr}");
-    let out = sonarproj()
+    let out = common::sonarproj()
         .args(one_projection())
         .env("WGPU_ADAPTER_NAME", wanted)
         .assert()
@@ -874,7 +858,7 @@ fn an_adapter_name_that_matches_nothing_is_bad_input() {
         .get_output()
         .clone();
     assert!(String::from_utf8_lossy(&out.stderr).contains("WGPU_ADAPTER_NAME"));
-    let out = sonarproj()
+    let out = common::sonarproj()
         .arg("devices")
         .env("WGPU_ADAPTER_NAME", wanted)
         .assert()

@@ -304,16 +304,9 @@ fn set_span_sets_the_same_bits_as_set() {
 }
 
 mod cli {
-    use assert_cmd::Command;
     use serde_json::Value;
     use sonarproj::mask::{MaskEngine, run_lengths};
     use sonarproj::{Measurement, RelativePose, Rotation, Sonar};
-
-    fn sonarproj() -> Command {
-        let mut c = Command::cargo_bin("sonarproj").unwrap();
-        c.env("NODEVICE_SELECT", "1");
-        c
-    }
 
     const PAIR: [&str; 4] = ["--from", "holoocean-sidescan", "--to", "holoocean-imaging"];
     const POSE: [&str; 6] = ["--pitch", "5", "--yaw", "10", "--translation", "0.3,0.2,-0.1"];
@@ -354,7 +347,7 @@ mod cli {
     fn json_png_and_npy_describe_the_same_masks() {
         let dir = tempfile::tempdir().unwrap();
         let (png, npy) = (dir.path().join("m.png"), dir.path().join("m.npy"));
-        let out = sonarproj()
+        let out = crate::common::sonarproj()
             .arg("mask")
             .args(PAIR)
             .args(POSE)
@@ -404,7 +397,7 @@ mod cli {
             r#"{"pose": {"pitch": 5}, "features": [[4]]}"#,
         ]
         .join("\n");
-        let assert = sonarproj()
+        let assert = crate::common::sonarproj()
             .arg("mask")
             .args(PAIR)
             .arg("--stream")
@@ -449,7 +442,7 @@ mod cli {
             ),
             (vec!["--feature", "5", "--out", "x.jpg"], "--out"),
         ] {
-            let assert = sonarproj()
+            let assert = crate::common::sonarproj()
                 .arg("mask")
                 .args(PAIR)
                 .args(POSE)

@@ -9,9 +9,7 @@ use sonarproj::pose::{cart_to_sph, sph_to_cart};
 use sonarproj::recover::{DEFAULT_CURVE_STEP, Flag, Observation, Recovery, Sigmas, recover};
 use sonarproj::{RelativePose, Rotation, Sonar, SonarKind};
 
-fn preset(name: &str) -> Sonar {
-    Sonar::preset(name).unwrap()
-}
+mod common;
 
 /// A random scene: a pose and a point seen by both sonars (true point, `[r, az, el]` in each).
 struct Scene {
@@ -80,7 +78,7 @@ const PAIRS: [(&str, &str); 8] = [
 fn exact_measurements_recover_the_true_point() {
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     for (a, b) in PAIRS {
-        let (s1, s2) = (preset(a), preset(b));
+        let (s1, s2) = (common::preset(a), common::preset(b));
         for k in 0..500 {
             let sc = scene(&mut rng, &s1, &s2);
             let rec = run(
@@ -164,7 +162,7 @@ fn noisy_measurements_land_within_the_predicted_sigmas() {
         ("paper-sss", "paper-fls"),
         ("paper-fls", "holoocean-imaging"),
     ] {
-        let (s1, s2) = (preset(a), preset(b));
+        let (s1, s2) = (common::preset(a), common::preset(b));
         let (mut n, mut within1, mut within3, mut lost, mut near) = (0, 0, 0, 0, 0);
         while n < 3000 {
             let sc = scene(&mut rng, &s1, &s2);
@@ -231,7 +229,7 @@ fn noisy_measurements_land_within_the_predicted_sigmas() {
 
 #[test]
 fn degenerate_geometry_is_reported() {
-    let (fls, sss) = (preset("paper-fls"), preset("paper-sss"));
+    let (fls, sss) = (common::preset("paper-fls"), common::preset("paper-sss"));
     let ident = |t: [f64; 3]| {
         RelativePose::new(
             Rotation::RollPitchYaw {
@@ -309,7 +307,7 @@ fn degenerate_geometry_is_reported() {
 
 #[test]
 fn bad_observations_name_the_field() {
-    let (fls, sss) = (preset("paper-fls"), preset("paper-sss"));
+    let (fls, sss) = (common::preset("paper-fls"), common::preset("paper-sss"));
     let pose = RelativePose::new(
         Rotation::RollPitchYaw {
             roll: 0.0,

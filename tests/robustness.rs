@@ -5,8 +5,10 @@
 
 use glam::{DMat3, DVec3};
 use proptest::prelude::*;
+use proptest::test_runner::RngSeed;
 use sonarproj::mask::{MaskEngine, Noise};
 use sonarproj::recover::{Observation, Sigmas, recover};
+use sonarproj::rig::{Mount, relative_pose, sidescan_pair};
 use sonarproj::{
     Backend, Batch, BatchItem, BeamLayout, Measurement, RelativePose, Rotation, Sampling, Sonar, SonarKind,
 };
@@ -70,7 +72,7 @@ fn sonar() -> impl Strategy<Value = Sonar> {
 fn rotation() -> impl Strategy<Value = Rotation> {
     prop_oneof![
         (wild(), wild(), wild()).prop_map(|(roll, pitch, yaw)| Rotation::RollPitchYaw { roll, pitch, yaw }),
-        prop::array::uniform4(wild()).prop_map(Rotation::Quaternion),
+        prop::array::uniform4(wild()).prop_map(Rotation::QuaternionWxyz),
         prop::array::uniform3(prop::array::uniform3(wild())).prop_map(Rotation::Matrix),
         (-180.0..180.0f64, -90.0..90.0f64, -180.0..180.0f64)
             .prop_map(|(roll, pitch, yaw)| Rotation::RollPitchYaw { roll, pitch, yaw }),
@@ -123,12 +125,28 @@ fn within(c: Result<f64, f64>, lo: f64, hi: f64) -> f64 {
     c.unwrap_or_else(|f| lo + f * (hi - lo))
 }
 
+/// Returns the runner's configuration: 256 cases from a fixed seed, so a run is repeatable and
+/// CI sees the same cases; `PROPTEST_RNG_SEED=N` explores others (failures found so far are
+/// replayed first from `robustness.proptest-regressions`).
+fn config() -> ProptestConfig {
+    let default = ProptestConfig::default();
+    let rng_seed = match default.rng_seed {
+        RngSeed::Random => RngSeed::Fixed(20_261_122),
+        chosen => chosen,
+    };
+    ProptestConfig {
+        cases: 256,
+        rng_seed,
+        ..default
+    }
+}
+
 /// The most samples a projection in this test may draw: larger valid batches are correct but
 /// too slow on the reference for hundreds of cases (the engine's own cap is checked apart).
 const TEST_SAMPLES: usize = 2_000_000;
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+    #![proptest_config(config())]
 
     #[test]
     fn sonars_validate_without_panicking(s in sonar()) {
@@ -151,6 +169,31 @@ proptest! {
         }
         if let Ok(p) = RelativePose::placement(r, a, b) {
             prop_assert!(p.translation.is_finite());
+        }
+    }
+
+    #[test]
+    fn rigs_never_panic(q in prop::array::uniform4(wild()), o in prop::array::uniform3(wild()),
+                        rpy in prop::array::uniform3(wild()), channel in sonar(), depression in wild()) {
+        let q = glam::DQuat::from_xyzw(q[0], q[1], q[2], q[3]);
+        let o = DVec3::from_array(o);
+        let mounts = [
+            Mount::new(q, o),
+            Mount::from_frd(q, o),
+            Mount::from_rpy_deg(rpy[0], rpy[1], rpy[2], o),
+        ];
+        for a in mounts.iter().flatten() {
+            for b in mounts.iter().flatten() {
+                let pose = relative_pose(a, b);
+                prop_assert!(pose.is_ok_and(|p| p.validate().is_ok()));
+            }
+        }
+        if let Ok(pair) = sidescan_pair(&channel, depression, o, -o) {
+            prop_assert!(pair.port.0.validate().is_ok() && pair.starboard.0.validate().is_ok());
+        }
+        let _ = Rotation::Quat(q).to_matrix();
+        if let Ok(s) = channel.with_beam_centres(&rpy, None) {
+            prop_assert!(s.validate().is_ok());
         }
     }
 

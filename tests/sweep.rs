@@ -6,14 +6,6 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use assert_cmd::Command;
-
-fn sonarproj() -> Command {
-    let mut c = Command::cargo_bin("sonarproj").unwrap();
-    c.env("NODEVICE_SELECT", "1");
-    c
-}
-
 /// A 2-D grid (place range × roll, 9 × 61 = 549 poses) of an FLS feature in an SSS.
 const GRID_2D: &str = r#"
 from = "paper-fls"
@@ -51,7 +43,7 @@ fn file(dir: &Path, name: &str, text: &str) -> PathBuf {
 
 /// Runs `sweep` with `args` and returns the bytes of the result file `name` in `out`.
 fn sweep(config: &Path, out: &Path, args: &[&str], name: &str) -> Vec<u8> {
-    sonarproj()
+    common::sonarproj()
         .args(["sweep", "--config"])
         .arg(config)
         .arg("--out")
@@ -60,15 +52,6 @@ fn sweep(config: &Path, out: &Path, args: &[&str], name: &str) -> Vec<u8> {
         .assert()
         .success();
     std::fs::read(out.join(name)).unwrap_or_else(|e| panic!("{name} in {}: {e}", out.display()))
-}
-
-/// Returns the backends to try: the fast CPU path always, the GPU where an adapter exists.
-fn backends() -> Vec<&'static str> {
-    let mut b = vec!["cpu-fast"];
-    if common::gpu().is_some() {
-        b.push("gpu");
-    }
-    b
 }
 
 #[test]
@@ -99,7 +82,7 @@ fn a_grid_lists_every_combination_with_the_last_axis_fastest() {
 fn results_do_not_depend_on_the_chunk_size() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = file(dir.path(), "s.toml", GRID_2D);
-    for backend in backends() {
+    for backend in common::cli_backends("cpu-fast") {
         let whole = sweep(
             &cfg,
             &dir.path().join(format!("{backend}-all")),
@@ -136,7 +119,7 @@ fn an_interrupted_sweep_resumes_to_the_same_files() {
     // Stopped after some chunks, then re-run twice with the same command.
     let out = dir.path().join("resumed");
     let args = ["--backend", "cpu-fast", "--chunk-poses", "50"];
-    sonarproj()
+    common::sonarproj()
         .args(["sweep", "--config"])
         .arg(&cfg)
         .arg("--out")
@@ -150,7 +133,7 @@ fn an_interrupted_sweep_resumes_to_the_same_files() {
     let chunks = std::fs::read_dir(out.join(".partial-sweep")).unwrap().count();
     assert_eq!(chunks, 3 + 1, "three chunks and the manifest");
     // A different chunk size cannot resume this run.
-    sonarproj()
+    common::sonarproj()
         .args(["sweep", "--config"])
         .arg(&cfg)
         .arg("--out")
@@ -159,7 +142,7 @@ fn an_interrupted_sweep_resumes_to_the_same_files() {
         .assert()
         .code(2)
         .stderr(predicates::str::contains("--chunk-poses = 60"));
-    let out_text = sonarproj()
+    let out_text = common::sonarproj()
         .args(["sweep", "--config"])
         .arg(&cfg)
         .arg("--out")
@@ -264,7 +247,7 @@ fn shards_merge_into_the_file_one_run_writes() {
             );
             if k != 2 {
                 // Not all parts yet.
-                sonarproj()
+                common::sonarproj()
                     .arg("merge")
                     .arg(&out)
                     .assert()
@@ -272,7 +255,7 @@ fn shards_merge_into_the_file_one_run_writes() {
                     .stderr(predicates::str::contains("lacks shards"));
             }
         }
-        sonarproj().arg("merge").arg(&out).assert().success();
+        common::sonarproj().arg("merge").arg(&out).assert().success();
         assert!(
             std::fs::read(out.join("sweep.csv")).unwrap() == csv,
             "{name}: merged CSV differs"
@@ -296,7 +279,7 @@ fn a_pose_list_gives_the_same_metrics_as_batch() {
         "from = \"paper-fls\"\nto = \"paper-sss\"\nstep = 0.1\nposes = \"poses.csv\"\n",
     );
     let csv = sweep(&cfg, &dir.path().join("o"), &["--backend", "cpu"], "sweep.csv");
-    let batch = sonarproj()
+    let batch = common::sonarproj()
         .args([
             "batch",
             "--from",
@@ -359,7 +342,7 @@ fn bad_sweep_files_name_the_key() {
     for (text, key) in cases {
         let cfg = file(dir.path(), "s.toml", &text);
         let out = dir.path().join("never");
-        let assert = sonarproj()
+        let assert = common::sonarproj()
             .args(["sweep", "--backend", "cpu", "--config"])
             .arg(&cfg)
             .arg("--out")
@@ -370,7 +353,7 @@ fn bad_sweep_files_name_the_key() {
         assert!(err.contains(key), "expected {key:?} in: {err}");
         assert!(!out.exists(), "output directory created for a bad file");
     }
-    sonarproj()
+    common::sonarproj()
         .args(["sweep", "--shard", "5/4", "--config"])
         .arg(file(dir.path(), "ok.toml", GRID_1D))
         .args(["--out", "x"])
@@ -389,7 +372,7 @@ fn a_directory_of_another_sweep_is_refused() {
         &["--backend", "cpu-fast"],
         "sweep.csv",
     );
-    sonarproj()
+    common::sonarproj()
         .args(["sweep", "--backend", "cpu-fast", "--config"])
         .arg(file(dir.path(), "b.toml", GRID_2D))
         .arg("--out")

@@ -286,7 +286,7 @@ fn parse_line(engine: &MaskEngine, text: &str) -> Result<(RelativePose, Vec<Meas
     let p = &line.pose;
     let rotation = match (p.quaternion, p.matrix) {
         (Some(q), None) if p.roll.is_none() && p.pitch.is_none() && p.yaw.is_none() => {
-            Rotation::Quaternion(q)
+            Rotation::QuaternionWxyz(q)
         }
         (None, Some(m)) if p.roll.is_none() && p.pitch.is_none() && p.yaw.is_none() => Rotation::Matrix(m),
         (None, None) => Rotation::RollPitchYaw {

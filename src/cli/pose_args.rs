@@ -71,7 +71,7 @@ impl PoseArgs {
     /// Returns the rotation as given.
     fn rotation(&self) -> Result<Rotation> {
         if let Some(q) = &self.quaternion {
-            return Ok(Rotation::Quaternion(numbers::<4>("--quaternion", q)?));
+            return Ok(Rotation::QuaternionWxyz(numbers::<4>("--quaternion", q)?));
         }
         if let Some(m) = &self.matrix {
             let v = numbers::<9>("--matrix", m)?;

@@ -1,7 +1,31 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
+use sonarproj::Sonar;
 use sonarproj::gpu::{GpuBackend, GpuContext};
+
+/// Returns the preset `name` (a test names only presets that exist).
+pub(crate) fn preset(name: &str) -> Sonar {
+    Sonar::preset(name).unwrap_or_else(|| panic!("no preset {name:?}"))
+}
+
+/// Returns a command running the built `sonarproj` binary, quiet about Mesa's device-select
+/// layer on headless machines.
+pub(crate) fn sonarproj() -> assert_cmd::Command {
+    let mut c = assert_cmd::Command::cargo_bin("sonarproj").expect("the sonarproj binary");
+    c.env("NODEVICE_SELECT", "1");
+    c
+}
+
+/// Returns the `--backend` values to try: `cpu` (the CPU backend a test wants) always, `gpu`
+/// where an adapter exists (always in CI, where [`gpu`] fails loudly without one).
+pub(crate) fn cli_backends(cpu: &'static str) -> Vec<&'static str> {
+    let mut b = vec![cpu];
+    if gpu().is_some() {
+        b.push("gpu");
+    }
+    b
+}
 
 /// Returns a GPU backend on the adapter `auto` would use. Without an adapter it panics when
 /// `CI=true` (GPU tests must run in CI, on lavapipe) and otherwise returns `None` after saying

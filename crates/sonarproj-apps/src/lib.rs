@@ -1,5 +1,5 @@
 //! The applications built on the [`sonarproj`] engine: the paper's simulations ([`paper`]),
-//! pose sweeps in chunks, shards and merges ([`sweep`]), speed comparisons ([`bench`]), figures
+//! pose sweeps in chunks, shards and merges ([`sweep`]), speed comparisons ([`bench`](mod@bench)), figures
 //! and images ([`report`]) and the CSV formats of batches and recoveries ([`io`]).
 //!
 //! The command line and the Python package are thin fronts on this crate and the engine.

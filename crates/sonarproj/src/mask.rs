@@ -156,8 +156,27 @@ pub struct MaskSet {
     pub union: Occupancy,
 }
 
-/// Draws masks for one sonar pair; built once, used for every ping. On the CPU (all cores, f64)
-/// by default; [`MaskEngine::on_gpu`] draws them with `shaders/mask.wgsl` instead.
+/// Draws masks for one sonar pair; built once, used for every ping.
+///
+/// ```
+/// use sonarproj::mask::MaskEngine;
+/// use sonarproj::{Measurement, RelativePose, Rotation, Sonar};
+///
+/// let engine = MaskEngine::new(
+///     Sonar::preset("holoocean-sidescan").unwrap(),
+///     Sonar::preset("holoocean-imaging").unwrap(),
+/// )?;
+/// let pose = RelativePose::new(Rotation::RollPitchYaw { roll: 0.0, pitch: 5.0, yaw: 10.0 }, [0.3, 0.2, -0.1])?;
+/// let ping = [Measurement::of(engine.source(), 4.0, 0.0)?];
+/// let set = engine.masks(&pose, &ping, None, false)?;
+/// // A few hundred of the imaging sonar's 512 × 512 pixels can hold the feature.
+/// let pixels = set.masks[0].occupancy.count();
+/// assert!(pixels > 100 && pixels < 5_000, "{pixels}");
+/// # Ok::<(), sonarproj::Error>(())
+/// ```
+///
+/// On the CPU (all cores, f64) by default; [`MaskEngine::on_gpu`] draws them with
+/// `shaders/mask.wgsl` instead.
 #[derive(Debug)]
 pub struct MaskEngine {
     source: Sonar,

@@ -1,6 +1,6 @@
 //! Relative poses between two sonars (README: Conventions): `p2 = R p1 + t`.
 
-use glam::{DMat3, DVec3};
+use glam::{DMat3, DQuat, DVec3};
 
 use crate::error::{Error, Result, finite, finite_named};
 
@@ -30,8 +30,13 @@ pub enum Rotation {
         /// Yaw (deg), about z.
         yaw: f64,
     },
-    /// Unit quaternion `(w, x, y, z)` of the rotation `R` itself.
-    Quaternion([f64; 4]),
+    /// Unit quaternion of the rotation `R` itself, in the order `[w, x, y, z]` (the command
+    /// line's `--quaternion W,X,Y,Z`; glam, ROS and scipy write `x, y, z, w`: use
+    /// [`Rotation::Quat`] with a glam quaternion instead).
+    QuaternionWxyz([f64; 4]),
+    /// Unit quaternion of the rotation `R` itself, as glam's `DQuat` (built with
+    /// `DQuat::from_xyzw(x, y, z, w)`).
+    Quat(DQuat),
     /// The 3×3 matrix `R`, row-major.
     Matrix([[f64; 3]; 3]),
 }
@@ -81,7 +86,8 @@ impl Rotation {
                 let rz = from_rows([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]]);
                 Ok((rz * ry * rx).transpose())
             }
-            Rotation::Quaternion(q) => {
+            Rotation::Quat(q) => Rotation::QuaternionWxyz([q.w, q.x, q.y, q.z]).to_matrix(),
+            Rotation::QuaternionWxyz(q) => {
                 for (i, name) in ["quaternion w", "quaternion x", "quaternion y", "quaternion z"]
                     .iter()
                     .enumerate()
@@ -170,15 +176,36 @@ impl RelativePose {
     /// appears at `sph(second)` in sonar 2, so `t = sph(second) − R sph(first)`. Both are
     /// `[range (m), azimuth (deg), elevation (deg)]`.
     ///
+    /// ```
+    /// use sonarproj::{RelativePose, Rotation};
+    /// use sonarproj::pose::sph_to_cart;
+    ///
+    /// let yaw = Rotation::RollPitchYaw { roll: 0.0, pitch: 0.0, yaw: 30.0 };
+    /// let pose = RelativePose::placement(yaw, [5.0, 0.0, 0.0], [8.0, 0.0, 0.0])?;
+    /// // The feature's point 5 m ahead of sonar 1 is 8 m ahead of sonar 2.
+    /// let p2 = pose.apply(sph_to_cart(5.0, 0.0, 0.0));
+    /// assert!((p2 - sph_to_cart(8.0, 0.0, 0.0)).length() < 1e-12);
+    /// # Ok::<(), sonarproj::Error>(())
+    /// ```
+    ///
     /// # Errors
-    /// As [`Rotation::to_matrix`], and for non-finite or negative ranges.
+    /// As [`Rotation::to_matrix`], and for non-finite or negative ranges, or ranges so large
+    /// that the translation overflows.
     pub fn placement(rotation: Rotation, first: [f64; 3], second: [f64; 3]) -> Result<Self> {
         let rotation = rotation.to_matrix()?;
         let p1 = spherical_point("feature", first)?;
         let p2 = spherical_point("place", second)?;
+        let translation = p2 - rotation * p1;
+        if !translation.is_finite() {
+            return Err(Error::invalid(
+                "placement",
+                format!("feature range {} m, place range {} m", first[0], second[0]),
+                "ranges too large: the translation overflows",
+            ));
+        }
         Ok(RelativePose {
             rotation,
-            translation: p2 - rotation * p1,
+            translation,
         })
     }
 
@@ -252,7 +279,7 @@ mod tests {
     fn quaternion_and_matrix_agree_with_rpy() {
         // The passive yaw of 90° is an active rotation of -90° about z: q = (cos45, 0, 0, -sin45).
         let s = std::f64::consts::FRAC_1_SQRT_2;
-        let q = Rotation::Quaternion([s, 0.0, 0.0, -s]).to_matrix().unwrap();
+        let q = Rotation::QuaternionWxyz([s, 0.0, 0.0, -s]).to_matrix().unwrap();
         let rpy = Rotation::RollPitchYaw {
             roll: 0.0,
             pitch: 0.0,
@@ -277,7 +304,7 @@ mod tests {
             .to_matrix()
             .unwrap_err();
         assert!(e.to_string().contains("orthonormal"), "{e}");
-        let e = Rotation::Quaternion([1.0, 1.0, 0.0, 0.0])
+        let e = Rotation::QuaternionWxyz([1.0, 1.0, 0.0, 0.0])
             .to_matrix()
             .unwrap_err();
         assert!(e.to_string().contains("unit quaternion"), "{e}");

@@ -338,6 +338,62 @@ impl Sonar {
         Ok(self)
     }
 
+    /// Returns this FLS with the beams of a driver's beam-angle table: `centres` (deg,
+    /// increasing; what ProjectedSonarImage's beam directions or an Oculus bearing table give,
+    /// converted to degrees of azimuth) become beams whose edges are the midpoints between
+    /// neighbours. The outer edges are `±azimuth_aperture / 2` when it is given, else the
+    /// aperture is the smallest symmetric one that gives the outer beams half their neighbour's
+    /// spacing on their outer side.
+    ///
+    /// ```
+    /// use sonarproj::Sonar;
+    /// // Beams denser at the centre, as many imaging sonars have them.
+    /// let centres = [-50.0, -30.0, -15.0, -5.0, 0.0, 5.0, 15.0, 30.0, 50.0];
+    /// let sonar = Sonar::preset("holoocean-imaging").unwrap().with_beam_centres(&centres, None)?;
+    /// assert_eq!(sonar.beam_count(), 9);
+    /// assert_eq!(sonar.azimuth_aperture, 120.0); // 50 + (50 - 30) / 2 on each side
+    /// # Ok::<(), sonarproj::Error>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] when the sonar is not an FLS, a centre is not finite, the centres
+    /// do not increase strictly or do not lie inside the aperture, or the result is invalid.
+    pub fn with_beam_centres(self, centres: &[f64], azimuth_aperture: Option<f64>) -> Result<Sonar> {
+        let ctx = format!("sonar {:?}", self.name);
+        if self.kind != SonarKind::Fls {
+            return Err(Error::invalid(
+                format!("{ctx}: kind"),
+                self.kind.name(),
+                "beams need an FLS",
+            ));
+        }
+        for (i, &c) in centres.iter().enumerate() {
+            finite_named(|| format!("{ctx}: beam_centres[{i}]"), c)?;
+        }
+        let aperture = match (azimuth_aperture, centres.len()) {
+            (Some(a), _) => a,
+            (None, 0 | 1) => {
+                return Err(Error::invalid(
+                    format!("{ctx}: azimuth_aperture"),
+                    "missing",
+                    "needed when the table has fewer than two beams",
+                ));
+            }
+            (None, n) => {
+                let low = centres[0] - (centres[1] - centres[0]) / 2.0;
+                let high = centres[n - 1] + (centres[n - 1] - centres[n - 2]) / 2.0;
+                2.0 * low.abs().max(high.abs())
+            }
+        };
+        let edges = edges_from_centres(&ctx, aperture, centres)?;
+        Sonar {
+            azimuth_aperture: aperture,
+            beams: BeamLayout::Edges(edges),
+            ..self
+        }
+        .validated()
+    }
+
     /// Returns `Ok(())` when every field holds (README: Sonars).
     ///
     /// # Errors

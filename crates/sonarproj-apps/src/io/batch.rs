@@ -49,7 +49,7 @@ pub struct BatchInput {
 /// Returns the batch read from CSV `reader`, each row checked against sonar 1 (`source`).
 ///
 /// # Errors
-/// [`Error::Csv`] naming the header or the row (1-based, with its line) for missing, unknown or
+/// [`Error::Csv`](crate::Error::Csv) naming the header or the row (1-based, with its line) for missing, unknown or
 /// duplicate columns, an empty input, a bad number, a wrong field count, or a feature outside
 /// sonar 1's field of view.
 pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
@@ -152,7 +152,7 @@ pub fn metric_fields(m: &Metrics) -> [String; 9] {
 /// Writes the output CSV: the input's columns as given, then the metrics of each row.
 ///
 /// # Errors
-/// [`Error::WriteOutput`] (named `output`) on I/O failure.
+/// [`Error::WriteOutput`](crate::Error::WriteOutput) (named `output`) on I/O failure.
 pub fn write_batch_csv(w: impl Write, input: &BatchInput, results: &[Projection]) -> Result<()> {
     let rows = input
         .rows

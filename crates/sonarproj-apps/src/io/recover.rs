@@ -80,7 +80,7 @@ pub struct RecoverInput {
 /// Returns the correspondences read from CSV `reader`.
 ///
 /// # Errors
-/// [`Error::Csv`] naming the header or the row for missing, unknown or duplicate columns, an
+/// [`Error::Csv`](crate::Error::Csv) naming the header or the row for missing, unknown or duplicate columns, an
 /// empty input, a bad number or pose.
 pub fn read_recover_csv(reader: impl Read) -> Result<RecoverInput> {
     let allowed: Vec<&str> = RECOVER_REQUIRED
@@ -196,7 +196,7 @@ pub fn recovery_rows(r: &Recovery) -> Vec<[String; 21]> {
 /// Writes the output CSV: each input row's columns as given, then its recovery's rows.
 ///
 /// # Errors
-/// [`Error::WriteOutput`] (named `output`) on I/O failure.
+/// [`Error::WriteOutput`](crate::Error::WriteOutput) (named `output`) on I/O failure.
 pub fn write_recover_csv(w: impl Write, input: &RecoverInput, results: &[Recovery]) -> Result<()> {
     let rows = input.rows.iter().zip(results).flat_map(|((_, _, fields), rec)| {
         recovery_rows(rec)
