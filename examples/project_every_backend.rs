@@ -3,7 +3,7 @@
 //!
 //! Run: `cargo run --release --example project_every_backend`
 
-use sonarproj::{Backend, Batch, BatchItem, Measurement, RelativePose, Rotation, Sampling, Sonar};
+use sonarproj::{Backend, Batch, BatchItem, Measurement, Output, RelativePose, Rotation, Sampling, Sonar};
 
 fn main() -> Result<(), sonarproj::Error> {
     // The paper's pair: a feature seen by the FLS, looked for in the sidescan.
@@ -36,7 +36,7 @@ fn main() -> Result<(), sonarproj::Error> {
     }
     let mut reference = None;
     for backend in &backends {
-        let m = backend.project(&batch, false)?.remove(0).metrics;
+        let m = backend.project(&batch, Output::MetricsOnly)?.remove(0).metrics;
         println!(
             "{:8} visible {:5} of {:5}  range {:.4}..{:.4} m  span {:.4} m  occupied {} bins",
             backend.label(),

@@ -4,6 +4,7 @@
 
 mod common;
 
+use sonarproj::Output;
 use sonarproj::{
     Backend, Batch, BatchItem, BeamLayout, Measurement, Metrics, RelativePose, Rotation, Sampling, Sonar,
 };
@@ -26,10 +27,13 @@ fn run_all(
         }],
     };
     let mut out = vec![
-        ("cpu", Backend::Cpu.project(&batch, false).unwrap()[0].metrics),
+        (
+            "cpu",
+            Backend::Cpu.project(&batch, Output::MetricsOnly).unwrap()[0].metrics,
+        ),
         (
             "cpu-fast",
-            Backend::CpuFast.project(&batch, false).unwrap()[0].metrics,
+            Backend::CpuFast.project(&batch, Output::MetricsOnly).unwrap()[0].metrics,
         ),
     ];
     if let Some(gpu) = common::gpu() {

@@ -1,6 +1,7 @@
 //! The paper's simulations (README): every scenario has the right poses, the distances follow
 //! the table, and the paper's qualitative findings hold at a coarse angle step.
 
+use sonarproj::Output;
 use sonarproj::{Backend, Sampling};
 use sonarproj_apps::paper::{self, Direction, FRACTIONS, ScenarioPose, angles, scenario_poses};
 
@@ -72,7 +73,7 @@ fn the_feature_is_always_seen_where_it_was_placed() {
     let poses = scenario_poses(30.0).unwrap();
     for direction in Direction::both() {
         let batch = paper::batch(direction, &poses, Sampling::Step(0.1)).unwrap();
-        let results = Backend::CpuFast.project(&batch, false).unwrap();
+        let results = Backend::CpuFast.project(&batch, Output::MetricsOnly).unwrap();
         for (p, r) in poses.iter().zip(&results) {
             let (s1, s2) = direction.sonars();
             let d2 = paper::distances(p, &s1, &s2).1;

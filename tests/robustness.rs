@@ -6,6 +6,7 @@
 use glam::{DMat3, DVec3};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
+use sonarproj::Output;
 use sonarproj::mask::{MaskEngine, Noise};
 use sonarproj::recover::{Observation, Sigmas, recover};
 use sonarproj::rig::{Mount, relative_pose, sidescan_pair};
@@ -215,7 +216,7 @@ proptest! {
         let samples: usize = prepared.plan_of.iter().map(|&k| prepared.plans[k].total()).sum();
         if samples <= TEST_SAMPLES {
             for backend in [Backend::Cpu, Backend::CpuFast] {
-                let out = backend.project(&batch, true).expect("a prepared batch projects");
+                let out = backend.project(&batch, Output::WithOccupancy).expect("a prepared batch projects");
                 prop_assert_eq!(out.len(), 1);
                 prop_assert!(out[0].metrics.visible <= out[0].metrics.total);
             }

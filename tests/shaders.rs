@@ -200,3 +200,63 @@ fn mask_structs_match_the_rust_layout() {
     let want: Vec<(String, usize)> = job.iter().map(|(n, o)| (n.to_string(), *o)).collect();
     assert_eq!(wgsl_members(&m, "MaskJob"), want);
 }
+
+/// Returns the kinds of `module`'s group-0 bindings in binding order, and the x size of the
+/// `main` entry point's workgroup.
+fn interface(module: &naga::Module) -> (Vec<sonarproj::gpu::pipeline::Binding>, u32) {
+    use sonarproj::gpu::pipeline::Binding;
+    let mut bindings: Vec<(u32, Binding)> = module
+        .global_variables
+        .iter()
+        .filter_map(|(_, v)| {
+            let b = v.binding.as_ref()?;
+            assert_eq!(b.group, 0, "{:?} is not in group 0", v.name);
+            let kind = match v.space {
+                naga::AddressSpace::Uniform => Binding::Uniform,
+                naga::AddressSpace::Storage { access } if access.contains(naga::StorageAccess::STORE) => {
+                    Binding::ReadWrite
+                }
+                naga::AddressSpace::Storage { .. } => Binding::Read,
+                other => panic!("{:?}: unexpected address space {other:?}", v.name),
+            };
+            Some((b.binding, kind))
+        })
+        .collect();
+    bindings.sort_by_key(|&(b, _)| b);
+    let numbers: Vec<u32> = bindings.iter().map(|&(b, _)| b).collect();
+    assert_eq!(
+        numbers,
+        (0..u32::try_from(numbers.len()).unwrap()).collect::<Vec<_>>(),
+        "bindings are not 0..n"
+    );
+    let main = module
+        .entry_points
+        .iter()
+        .find(|e| e.name == "main")
+        .expect("a main entry point");
+    assert_eq!(main.workgroup_size[1..], [1, 1], "workgroups are one-dimensional");
+    (
+        bindings.into_iter().map(|(_, k)| k).collect(),
+        main.workgroup_size[0],
+    )
+}
+
+/// The binding tables the pipelines are built with, and the workgroup sizes the dispatches are
+/// computed with, are the WGSL's (they were kept in sync by comments only).
+#[test]
+fn binding_tables_and_workgroup_sizes_match_the_wgsl() {
+    use sonarproj::gpu::mask::{MASK_BINDINGS, MASK_WORKGROUP, source};
+    use sonarproj::gpu::pipeline::{REDUCE_BINDINGS, SPLAT_BINDINGS};
+    use sonarproj::gpu::{REDUCE_WORKGROUP, SPLAT_WORKGROUP};
+    for precision in [shaders::Precision::F64, shaders::Precision::DoubleF32] {
+        let (b, w) = interface(&module(&shaders::splat(precision), "splat"));
+        assert_eq!(b, SPLAT_BINDINGS, "splat.wgsl bindings");
+        assert_eq!(u64::from(w), SPLAT_WORKGROUP, "splat.wgsl workgroup size");
+    }
+    let (b, w) = interface(&module(&shaders::reduce(), "reduce"));
+    assert_eq!(b, REDUCE_BINDINGS, "reduce.wgsl bindings");
+    assert_eq!(u64::from(w), REDUCE_WORKGROUP, "reduce.wgsl workgroup size");
+    let (b, w) = interface(&module(source(), "mask"));
+    assert_eq!(b, MASK_BINDINGS, "mask.wgsl bindings");
+    assert_eq!(u64::from(w), MASK_WORKGROUP, "mask.wgsl workgroup size");
+}

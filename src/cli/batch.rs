@@ -1,6 +1,7 @@
 //! `sonarproj batch`: a CSV of poses in, a CSV of metrics out.
 
 use sonarproj::Batch;
+use sonarproj::Output;
 use sonarproj_apps::Result;
 use sonarproj_apps::io::{read_batch_csv, write_batch_csv};
 
@@ -37,6 +38,6 @@ pub(super) fn run(a: BatchArgs) -> Result<()> {
     // Check the sampling of every row before any device work.
     batch.prepare()?;
     let backend = a.pair.backend()?;
-    let results = backend.project(&batch, false)?;
+    let results = backend.project(&batch, Output::MetricsOnly)?;
     write_output(&a.output, |w| write_batch_csv(w, &input, &results))
 }

@@ -1,5 +1,6 @@
 //! `sonarproj project`: one feature, one pose; metrics as JSON, occupancy optionally to a file.
 
+use sonarproj::Output;
 use std::path::PathBuf;
 
 use serde_json::json;
@@ -59,7 +60,14 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
         items: vec![BatchItem { measurement, pose }],
     };
     let result = backend
-        .project(&batch, a.occupancy.is_some())?
+        .project(
+            &batch,
+            if a.occupancy.is_some() {
+                Output::WithOccupancy
+            } else {
+                Output::MetricsOnly
+            },
+        )?
         .pop()
         .expect("one item in, one result out");
     if let (Some(path), Some(occ)) = (&a.occupancy, &result.occupancy) {

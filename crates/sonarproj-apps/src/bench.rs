@@ -2,6 +2,7 @@
 //! poses of the paper's kind (features at half range in both sonars, rotations spread over the
 //! sphere), step sampling 0.1° as the published code.
 
+use sonarproj::Output;
 use std::time::{Duration, Instant};
 
 use crate::error::Result;
@@ -73,12 +74,12 @@ impl Timing {
 /// # Errors
 /// As [`Backend::project`].
 pub fn time(backend: &Backend, batch: &Batch, runs: usize) -> Result<Timing> {
-    let first = backend.project(batch, false)?;
+    let first = backend.project(batch, Output::MetricsOnly)?;
     let samples = first.iter().map(|p| p.metrics.total).sum();
     let mut times = Vec::with_capacity(runs.max(1));
     for _ in 0..runs.max(1) {
         let start = Instant::now();
-        backend.project(batch, false)?;
+        backend.project(batch, Output::MetricsOnly)?;
         times.push(start.elapsed());
     }
     times.sort();

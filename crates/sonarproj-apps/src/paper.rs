@@ -3,6 +3,7 @@
 //! scenarios of swept rotations and feature distances. This module builds the poses, runs them
 //! on a backend and checks the paper's qualitative findings against the numbers.
 
+use sonarproj::Output;
 use std::fmt::Write as _;
 
 use crate::error::{Error, Result, finite};
@@ -237,10 +238,13 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
     Direction::both()
         .into_iter()
         .map(|direction| {
-            let results = backend.project(&batch(direction, &poses, sampling)?, false)?;
+            let results = backend.project(&batch(direction, &poses, sampling)?, Output::MetricsOnly)?;
             let (s1, s2) = direction.sonars();
             let near = (NEAR_FRACTION * s1.range_max, NEAR_FRACTION * s2.range_max);
-            let near_both = backend.project(&batch_at(direction, &grid, sampling, |_| near)?, false)?;
+            let near_both = backend.project(
+                &batch_at(direction, &grid, sampling, |_| near)?,
+                Output::MetricsOnly,
+            )?;
             Ok(DirectionRun {
                 direction,
                 poses: poses.clone(),

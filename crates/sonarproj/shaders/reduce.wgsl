@@ -1,5 +1,7 @@
 // Stage 2: one pose's bitset becomes its occupied count and occupied measure.
-// CPU mirror: src/cpu/reduce.rs. Dispatch (poses, 1, 1): workgroup x reduces pose x; each thread
+// CPU twin: the reduce step of src/cpu_fast.rs (counts and, for an FLS, per-row areas summed in
+// row order); the plain reference is src/cpu/reduce.rs. Dispatch (poses, 1, 1): workgroup x
+// reduces pose x; each thread
 // takes words (SSS) or range rows (FLS) l, l + 64, ... and the workgroup sums their results.
 
 @group(0) @binding(0) var<uniform> params: TargetParams;

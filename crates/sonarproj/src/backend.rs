@@ -64,6 +64,15 @@ impl BackendChoice {
     }
 }
 
+/// What a projection returns besides its metrics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Output {
+    /// The metrics only (the occupancy buffers are not kept, or read back from the GPU).
+    MetricsOnly,
+    /// The metrics and each item's occupancy buffer.
+    WithOccupancy,
+}
+
 /// A backend ready to run batches.
 #[derive(Debug)]
 pub enum Backend {
@@ -135,12 +144,13 @@ impl Backend {
         }
     }
 
-    /// Returns the projections of every item of `batch`, in order; with `keep_occupancy` each
-    /// carries its occupancy buffer.
+    /// Returns the projections of every item of `batch`, in order; with
+    /// [`Output::WithOccupancy`] each carries its occupancy buffer.
     ///
     /// # Errors
-    /// Invalid sampling; [`Error::Gpu`] on device failure.
-    pub fn project(&self, batch: &Batch, keep_occupancy: bool) -> Result<Vec<Projection>> {
+    /// As [`Batch::prepare`]; [`Error::Gpu`] on device failure.
+    pub fn project(&self, batch: &Batch, output: Output) -> Result<Vec<Projection>> {
+        let keep_occupancy = output == Output::WithOccupancy;
         let prepared = batch.prepare()?;
         match self {
             Backend::Cpu => Ok(cpu::project(&prepared, keep_occupancy)),

@@ -9,7 +9,7 @@
 //! their docs say).
 //!
 //! ```
-//! use sonarproj::{Backend, Batch, BatchItem, Measurement, RelativePose, Rotation, Sampling, Sonar};
+//! use sonarproj::{Backend, Batch, BatchItem, Measurement, Output, RelativePose, Rotation, Sampling, Sonar};
 //!
 //! let fls = Sonar::preset("paper-fls").unwrap();
 //! let sss = Sonar::preset("paper-sss").unwrap();
@@ -24,7 +24,7 @@
 //!     sampling: Sampling::Step(0.1),
 //!     items: vec![BatchItem { measurement: feature, pose }],
 //! };
-//! let metrics = Backend::CpuFast.project(&batch, false)?[0].metrics;
+//! let metrics = Backend::CpuFast.project(&batch, Output::MetricsOnly)?[0].metrics;
 //! // Every sample of the arc is seen; its ranges in the sidescan straddle 15 m.
 //! assert_eq!(metrics.visible, metrics.total);
 //! assert!(metrics.range_min.unwrap() < 15.0 && metrics.range_max.unwrap() > 15.0);
@@ -46,7 +46,7 @@ pub mod rig;
 pub mod sonar;
 
 pub use ambiguity::{Measurement, Sampling, SamplingPlan};
-pub use backend::{Backend, BackendChoice};
+pub use backend::{Backend, BackendChoice, Output};
 pub use batch::{Batch, BatchItem, Projection};
 pub use error::{Error, Result};
 pub use occupancy::{Layout, Metrics, Occupancy};

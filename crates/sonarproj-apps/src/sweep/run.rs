@@ -12,6 +12,7 @@
 //!   `chunk-NNNNNNNN.csv` per finished chunk, each written whole or not at all. A re-run skips the
 //!   finished chunks; the directory is removed once the result file is written.
 
+use sonarproj::Output;
 use std::io::{BufRead, BufReader};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -299,7 +300,7 @@ pub fn run(
                 sampling: config.sampling,
                 items,
             };
-            let results = backend.project(&batch, false)?;
+            let results = backend.project(&batch, Output::MetricsOnly)?;
             let body = csv_rows(&fields, &results, &path)?;
             write_atomic(&path, |w| {
                 write_rows(

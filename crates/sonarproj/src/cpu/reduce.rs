@@ -1,4 +1,5 @@
-//! CPU mirror of `shaders/reduce.wgsl`: one pose's occupancy buffer becomes the occupied count and
+//! The reference's reduce stage (the GPU's is `shaders/reduce.wgsl`, its fast CPU twin the
+//! reduce step of `cpu_fast.rs`): one pose's occupancy buffer becomes the occupied count and
 //! the occupied measure (bin widths for an SSS, true pixel areas for an FLS: README: Conventions).
 
 use crate::occupancy::{Layout, Occupancy};

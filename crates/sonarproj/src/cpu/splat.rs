@@ -1,7 +1,10 @@
-//! CPU mirror of `shaders/splat.wgsl`: every sample of one pose is placed in sonar 1, moved into
-//! sonar 2 (`R p + t`), clipped to its field of view and set in the occupancy buffer.
-//! Same inputs in the same order as the shader's bindings: layout (params, beam edges), pose,
-//! plan (sample directions), occupancy (bits); returns what the shader accumulates in `metrics`.
+//! The reference's splat stage, written to be obviously right (trigonometry, one sample at a
+//! time): every sample of one pose is placed in sonar 1, moved into sonar 2 (`R p + t`),
+//! clipped to its field of view and set in the occupancy buffer. The GPU's `shaders/splat.wgsl`
+//! and its CPU twin `cpu_fast.rs` run a faster algorithm that tests hold to this one.
+//! Arguments: sonar 2's layout, the plan (sample directions), the feature's base azimuth and
+//! range, the pose, and the occupancy it writes; it returns what the shader accumulates in
+//! `metrics` (visible count, extremes).
 
 use crate::ambiguity::SamplingPlan;
 use crate::occupancy::{Extremes, Layout, Occupancy};

@@ -96,8 +96,9 @@ pub const MASK_BINDINGS: [Binding; 6] = [
     Binding::ReadWrite,
 ];
 
-/// Workgroup size of the mask stage.
-const WORKGROUP: u64 = 64;
+/// Threads per workgroup of the mask stage (WGSL `@workgroup_size` in mask.wgsl; checked in
+/// tests/shaders.rs).
+pub const MASK_WORKGROUP: u64 = 64;
 /// The most workgroups along x (cells are strided beyond).
 const MAX_TILES: u64 = 1024;
 /// The relative size of the f32 rounding slack (about 17 f32 ulps of the largest distance).
@@ -381,7 +382,7 @@ impl GpuMasks {
             let mut pass = enc.begin_compute_pass(&Default::default());
             pass.set_pipeline(&self.stage.pipeline);
             pass.set_bind_group(0, &group, &[]);
-            let tiles = max_cells.div_ceil(WORKGROUP).clamp(1, MAX_TILES) as u32;
+            let tiles = max_cells.div_ceil(MASK_WORKGROUP).clamp(1, MAX_TILES) as u32;
             pass.dispatch_workgroups(tiles, n as u32, 1);
         }
         enc.copy_buffer_to_buffer(&b.bits, 0, &b.staging, 0, bytes);

@@ -28,8 +28,12 @@ pub use context::GpuContext;
 use pipeline::{REDUCE_BINDINGS, SPLAT_BINDINGS, Stage};
 use types::*;
 
-/// Threads per workgroup of the splat stage (WGSL `WORKGROUP` in splat.wgsl).
-const SPLAT_WORKGROUP: u64 = 64;
+/// Threads per workgroup of the splat stage (WGSL `@workgroup_size` in splat.wgsl; checked in
+/// tests/shaders.rs).
+pub const SPLAT_WORKGROUP: u64 = 64;
+/// Threads per workgroup of the reduce stage (WGSL `@workgroup_size` in reduce.wgsl; checked in
+/// tests/shaders.rs): one workgroup per pose, whatever its size.
+pub const REDUCE_WORKGROUP: u64 = 64;
 /// Most workgroups one pose's samples are spread over in the splat stage.
 const MAX_TILES: u64 = 1024;
 /// Most bytes of bitsets one chunk may hold (also capped by the device's binding size).
