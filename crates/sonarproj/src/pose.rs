@@ -217,10 +217,21 @@ impl RelativePose {
     /// # Errors
     /// [`Error::InvalidValue`] naming `pose tx` … or the `pose matrix` and what is wrong with it.
     pub fn validate(&self) -> Result<()> {
+        // The common case first, without building anything (batches check every pose); the
+        // slow path below finds and names what is wrong.
+        let m = self.rotation;
+        if self.translation.is_finite() && m.is_finite() {
+            let dev = (m.transpose() * m - DMat3::IDENTITY)
+                .to_cols_array()
+                .iter()
+                .fold(0.0f64, |a, v| a.max(v.abs()));
+            if dev <= ORTHONORMAL_TOLERANCE && m.determinant() >= 0.0 {
+                return Ok(());
+            }
+        }
         for (i, c) in ["tx", "ty", "tz"].iter().enumerate() {
             finite_named(|| format!("pose {c}"), self.translation[i])?;
         }
-        let m = self.rotation;
         let rows = [0, 1, 2].map(|i| m.row(i).to_array());
         Rotation::Matrix(rows)
             .to_matrix()
