@@ -19,10 +19,12 @@ export NODEVICE_SELECT=1
 # The release profile, so the tests reuse the dependency tree that `cargo run --release` built
 # (a debug build would compile it all again); overflow checks on for the workspace's own crates
 # alone, which leaves the dependencies' builds untouched (the shipped binary runs without them:
-# 25 % faster). --all-targets builds the examples, which tests/examples.rs runs; doctests after.
+# 25 % faster). The examples are built as programs first (`cargo test` builds them only as test
+# harnesses), for tests/examples.rs to run; doctests last.
 checks=()
 for p in sonarproj sonarproj-apps sonarproj-cli; do
     checks+=(--config "profile.release.package.$p.overflow-checks=true")
 done
+cargo build --release "${checks[@]}" --examples
 cargo test --release "${checks[@]}" --workspace --all-targets "$@"
 cargo test --release "${checks[@]}" --workspace --doc "$@"

@@ -867,3 +867,56 @@ fn an_adapter_name_that_matches_nothing_is_bad_input() {
         .clone();
     assert!(String::from_utf8_lossy(&out.stdout).contains(wanted));
 }
+
+/// Sizes taken from the input are bounded before anything is allocated: each of these used to
+/// abort allocating terabytes; now each is bad input (exit 2) naming the key and the limit.
+#[test]
+fn sizes_from_the_input_are_bounded_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = dir.path().join("fine.toml");
+    std::fs::write(
+        &sweep,
+        "from = \"paper-fls\"\nto = \"paper-sss\"\n[feature]\nrange = 5\n\
+         [place]\nrange = { start = 0, stop = 180, step = 1e-9 }\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let (sweep, out) = (sweep.to_str().unwrap(), out.to_str().unwrap());
+    let cases: [(Vec<&str>, &[&str]); 4] = [
+        (
+            vec!["paper", "--out", out, "--angle-step", "1e-9"],
+            &["--angle-step = 0.000000001", "[0.01, 180]"],
+        ),
+        (
+            vec!["sweep", "--config", sweep, "--out", out],
+            &["place.range.step", "at most 1000000 per axis"],
+        ),
+        (
+            vec![
+                "sweep",
+                "--config",
+                "data/example-sweep.toml",
+                "--out",
+                out,
+                "--shard",
+                "1/1099511627776",
+            ],
+            &["--shard", "at most 100000"],
+        ),
+        (vec!["bench", "--runs", "1000000000"], &["--runs", "1..=10000"]),
+    ];
+    for (args, words) in cases {
+        let output = common::sonarproj()
+            .args(&args)
+            .env("WGPU_BACKEND", "metal")
+            .assert()
+            .code(2)
+            .get_output()
+            .clone();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        for w in words {
+            assert!(stderr.contains(w), "{args:?}: {w:?} not in {stderr}");
+        }
+        assert!(!std::path::Path::new(out).join("sweep.csv").exists());
+    }
+}

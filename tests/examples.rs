@@ -1,5 +1,6 @@
-//! The programs in `examples/` run and print what they promise. Cargo builds them with the
-//! tests (`cargo test` builds examples by default); this test runs the built binaries.
+//! The programs in `examples/` run and print what they promise. `scripts/test.sh` builds them
+//! (`cargo build --release --examples`: `cargo test` builds examples only as test harnesses)
+//! before the tests; this test runs the built programs.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -18,7 +19,7 @@ fn example(name: &str) -> PathBuf {
         .join(format!("{name}{}", std::env::consts::EXE_SUFFIX));
     assert!(
         path.is_file(),
-        "{} not built: run the tests with `cargo test` (which builds the examples) or scripts/test.sh",
+        "{} not built: run scripts/test.sh, or `cargo build --release --examples` before the tests",
         path.display()
     );
     path

@@ -27,9 +27,10 @@ pub(super) struct BenchArgs {
     /// What to measure.
     #[arg(value_enum, default_value = "projection")]
     subject: Subject,
-    /// Timed runs per backend and batch (the median is reported, after one warm-up run).
-    #[arg(long, default_value_t = 5)]
-    runs: usize,
+    /// Timed runs per backend and batch (the median is reported, after one warm-up run; at
+    /// most 10000).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    runs: u32,
     /// Leave out the CPU reference (slow on big batches).
     #[arg(long)]
     no_reference: bool,
@@ -105,7 +106,7 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
 
 /// Prints the median latency of one mask and of a 100-feature ping for each of
 /// [`bench::MASK_CASES`], on the GPU (when an adapter exists) and the CPU engine.
-fn masks(runs: usize) -> Result<()> {
+fn masks(runs: u32) -> Result<()> {
     let runs = runs.max(20);
     let gpu = match GpuContext::new() {
         Ok(ctx) if ctx.is_software() => {
@@ -157,21 +158,21 @@ fn masks(runs: usize) -> Result<()> {
                 let cells = set.masks.iter().map(|m| m.cells).sum::<u64>() / n as u64;
                 let seen = set.masks.iter().filter(|m| m.occupancy.count() > 0).count();
                 let pixels = set.masks.iter().map(|m| m.occupancy.count()).sum::<u64>() / n as u64;
-                let mut times = Vec::with_capacity(runs);
+                let mut times = Vec::with_capacity(runs as usize);
                 for _ in 0..runs {
                     let start = Instant::now();
                     engine.masks(&pose, &features, None, false)?;
                     times.push(start.elapsed().as_secs_f64());
                 }
                 times.sort_by(f64::total_cmp);
-                let median = times[runs / 2];
+                let median = times[times.len() / 2];
                 outln!(
                     "{:44} {:6} {:>9} {:>12.3} {:>10.3} {:>10.1} {:>11} {:>9} {:>12}",
                     format!("{from} -> {to}"),
                     name,
                     n,
                     median * 1e3,
-                    times[runs * 9 / 10] * 1e3,
+                    times[times.len() * 9 / 10] * 1e3,
                     1.0 / median,
                     cells,
                     format!("{seen}/{n}"),

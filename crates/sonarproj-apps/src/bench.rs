@@ -5,7 +5,7 @@
 use sonarproj::Output;
 use std::time::{Duration, Instant};
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use sonarproj::ambiguity::{Measurement, Sampling};
 use sonarproj::backend::Backend;
 use sonarproj::batch::{Batch, BatchItem};
@@ -69,15 +69,25 @@ impl Timing {
     }
 }
 
+/// The most timed runs of one measurement.
+pub const MAX_RUNS: u32 = 10_000;
+
 /// Returns the median time of `runs` runs (after one warm-up run) of `batch` on `backend`.
 ///
 /// # Errors
-/// As [`Backend::project`].
-pub fn time(backend: &Backend, batch: &Batch, runs: usize) -> Result<Timing> {
+/// [`sonarproj::Error::InvalidValue`] unless `1 <= runs <= MAX_RUNS`; as [`Backend::project`].
+pub fn time(backend: &Backend, batch: &Batch, runs: u32) -> Result<Timing> {
+    if !(1..=MAX_RUNS).contains(&runs) {
+        return Err(Error::invalid(
+            "runs",
+            runs,
+            format!("must be in [1, {MAX_RUNS}]"),
+        ));
+    }
     let first = backend.project(batch, Output::MetricsOnly)?;
     let samples = first.iter().map(|p| p.metrics.total).sum();
-    let mut times = Vec::with_capacity(runs.max(1));
-    for _ in 0..runs.max(1) {
+    let mut times = Vec::with_capacity(runs as usize);
+    for _ in 0..runs {
         let start = Instant::now();
         backend.project(batch, Output::MetricsOnly)?;
         times.push(start.elapsed());

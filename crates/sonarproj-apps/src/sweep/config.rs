@@ -40,6 +40,10 @@ use sonarproj::sonar::{Sonar, SonarKind};
 /// The most poses one sweep may have.
 pub const MAX_POSES: u64 = 1 << 40;
 
+/// The most values one grid axis may take (its values are held in memory, 8 bytes each); grids
+/// reach [`MAX_POSES`] through the product of their axes.
+pub const MAX_AXIS_VALUES: u64 = 1_000_000;
+
 /// Metrics a figure may draw, with their axis labels for an SSS and an FLS target.
 pub const FIGURE_METRICS: [(&str, &str, &str); 8] = [
     ("span", "range span (m)", "range span (m)"),
@@ -163,12 +167,15 @@ fn axis_values(file: &str, key: &str, v: &toml::Value) -> Result<Vec<f64>> {
                 ));
             }
             let n = ((stop - start) / step + 1e-9).floor();
-            if n >= MAX_POSES as f64 {
+            if n >= MAX_AXIS_VALUES as f64 {
                 return Err(key_error(
                     file,
                     &format!("{key}.step"),
                     step,
-                    "gives too many values",
+                    format!(
+                        "gives {} values from {start} to {stop}; at most {MAX_AXIS_VALUES} per axis",
+                        n + 1.0
+                    ),
                 ));
             }
             Ok((0..=n as u64).map(|i| start + i as f64 * step).collect())

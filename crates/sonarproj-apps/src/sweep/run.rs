@@ -41,6 +41,9 @@ pub struct Shard {
     pub n: u64,
 }
 
+/// The most parts a sweep may be cut into.
+pub const MAX_SHARDS: u64 = 100_000;
+
 impl Shard {
     /// Returns the shard written `K/N`.
     ///
@@ -61,6 +64,13 @@ impl Shard {
         );
         if k == 0 || k > n {
             return Err(bad());
+        }
+        if n > MAX_SHARDS {
+            return Err(Error::invalid(
+                "--shard",
+                format!("{text:?}"),
+                format!("N must be at most {MAX_SHARDS} (merge lists the parts it finds)"),
+            ));
         }
         Ok(Shard { k, n })
     }
