@@ -3,7 +3,7 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use sonarproj::Sonar;
-use sonarproj::mask::MaskEngine;
+use sonarproj::mask::{Counts, MaskEngine};
 use sonarproj_apps::bench;
 
 fn masks(c: &mut Criterion) {
@@ -14,7 +14,7 @@ fn masks(c: &mut Criterion) {
         for n in [1, 100] {
             let (pose, features) = bench::mask_ping(&s1, &s2, n).unwrap();
             group.bench_function(format!("cpu-fast, {n} feature(s)"), |b| {
-                b.iter(|| engine.masks(&pose, &features, None, false).unwrap())
+                b.iter(|| engine.masks(&pose, &features, None, Counts::Skip).unwrap())
             });
         }
         group.finish();

@@ -4,7 +4,7 @@
 //!
 //! Run: `cargo run --release --example mask_ping [OUT.npy]` (default: in the temp directory).
 
-use sonarproj::mask::MaskEngine;
+use sonarproj::mask::{Counts, MaskEngine};
 use sonarproj::{Measurement, RelativePose, Rotation, Sonar};
 
 fn main() -> Result<(), sonarproj_apps::Error> {
@@ -29,7 +29,7 @@ fn main() -> Result<(), sonarproj_apps::Error> {
         .iter()
         .map(|&r| Measurement::of(engine.source(), r, 0.0))
         .collect::<Result<Vec<_>, _>>()?;
-    let set = engine.masks(&pose, &features, None, false)?;
+    let set = engine.masks(&pose, &features, None, Counts::Skip)?;
     for (k, mask) in set.masks.iter().enumerate() {
         println!(
             "feature {} at {:>4} m: {:5} of {} pixels possible",

@@ -7,7 +7,7 @@ mod common;
 use glam::{DMat3, DQuat, DVec3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sonarproj::mask::{MaskEngine, Noise};
+use sonarproj::mask::{Counts, MaskEngine, Noise};
 use sonarproj::sonar::{BeamLayout, SonarKind};
 use sonarproj::{Measurement, RelativePose, Sonar};
 
@@ -121,7 +121,9 @@ fn masks_never_miss_the_true_pixel() {
             let misses: Vec<String> = scenes
                 .par_iter()
                 .filter_map(|sc| {
-                    let m = engine.mask(&sc.pose, &sc.measurement, None, false).unwrap();
+                    let m = engine
+                        .mask(&sc.pose, &sc.measurement, None, Counts::Skip)
+                        .unwrap();
                     let (i, j) = true_pixel(&s2, sc.p2);
                     (!m.occupancy.get(i, j)).then(|| {
                         format!(
@@ -164,7 +166,7 @@ fn masks_are_tight_at_the_sensors_resolution() {
                 azimuth: 0.0,
             },
             None,
-            true,
+            Counts::Draw,
         )
         .unwrap();
     let w: f64 = (35.0 - 0.5) / 2000.0;
@@ -197,7 +199,7 @@ fn the_union_holds_every_mask() {
             azimuth: 0.0,
         })
         .collect();
-    let set = engine.masks(&sc.pose, &features, None, false).unwrap();
+    let set = engine.masks(&sc.pose, &features, None, Counts::Skip).unwrap();
     let mut expected = set.masks[0].occupancy.clone();
     for m in &set.masks {
         assert!(m.occupancy.is_subset_of(&set.union));
@@ -267,7 +269,7 @@ fn widened_masks_reach_the_stated_coverage_under_simulated_noise() {
                 },
             };
             // A measurement pushed outside sonar 1's view is not one the sonar could report.
-            let Ok(m) = engine.mask(&estimate, &measured, Some(&noise), false) else {
+            let Ok(m) = engine.mask(&estimate, &measured, Some(&noise), Counts::Skip) else {
                 continue;
             };
             run += 1;
@@ -305,7 +307,7 @@ fn set_span_sets_the_same_bits_as_set() {
 
 mod cli {
     use serde_json::Value;
-    use sonarproj::mask::{MaskEngine, run_lengths};
+    use sonarproj::mask::{Counts, MaskEngine, run_lengths};
     use sonarproj::{Measurement, RelativePose, Rotation, Sonar};
 
     const PAIR: [&str; 4] = ["--from", "holoocean-sidescan", "--to", "holoocean-imaging"];
@@ -335,7 +337,7 @@ mod cli {
             })
             .collect();
         engine
-            .masks(&pose, &ms, None, false)
+            .masks(&pose, &ms, None, Counts::Skip)
             .unwrap()
             .masks
             .into_iter()

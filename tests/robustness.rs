@@ -7,7 +7,7 @@ use glam::{DMat3, DVec3};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 use sonarproj::Output;
-use sonarproj::mask::{MaskEngine, Noise};
+use sonarproj::mask::{Counts, MaskEngine, Noise};
 use sonarproj::recover::{Observation, Sigmas, recover};
 use sonarproj::rig::{Mount, relative_pose, sidescan_pair};
 use sonarproj::{
@@ -233,6 +233,7 @@ proptest! {
         let Ok(engine) = MaskEngine::new(source, target) else { return Ok(()) };
         let noise = noise.map(|(rotation, translation, range, azimuth, coverage)| Noise { rotation, translation, range, azimuth, coverage });
         let features = [Measurement { range, azimuth }];
+        let counts = if counts { Counts::Draw } else { Counts::Skip };
         if let Ok(set) = engine.masks(&pose, &features, noise.as_ref(), counts) {
             prop_assert!(pose.validate().is_ok());
             prop_assert_eq!(set.masks.len(), 1);

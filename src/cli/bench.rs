@@ -4,7 +4,7 @@ use sonarproj_apps::bench::{self, STANDARD, Timing};
 use std::time::Instant;
 
 use sonarproj::gpu::GpuContext;
-use sonarproj::mask::MaskEngine;
+use sonarproj::mask::{Counts, MaskEngine};
 use sonarproj::{Backend, BackendChoice, Sonar};
 use sonarproj_apps::Result;
 
@@ -154,14 +154,14 @@ fn masks(runs: u32) -> Result<()> {
         for (name, engine) in &engines {
             for n in [1, 100] {
                 let (pose, features) = bench::mask_ping(&s1, &s2, n)?;
-                let set = engine.masks(&pose, &features, None, false)?;
+                let set = engine.masks(&pose, &features, None, Counts::Skip)?;
                 let cells = set.masks.iter().map(|m| m.cells).sum::<u64>() / n as u64;
                 let seen = set.masks.iter().filter(|m| m.occupancy.count() > 0).count();
                 let pixels = set.masks.iter().map(|m| m.occupancy.count()).sum::<u64>() / n as u64;
                 let mut times = Vec::with_capacity(runs as usize);
                 for _ in 0..runs {
                     let start = Instant::now();
-                    engine.masks(&pose, &features, None, false)?;
+                    engine.masks(&pose, &features, None, Counts::Skip)?;
                     times.push(start.elapsed().as_secs_f64());
                 }
                 times.sort_by(f64::total_cmp);

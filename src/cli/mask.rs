@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use serde::Deserialize;
 use serde_json::{Value, json};
-use sonarproj::mask::{MaskEngine, MaskSet, Noise, bounding_box, run_lengths};
+use sonarproj::mask::{Counts, MaskEngine, MaskSet, Noise, bounding_box, run_lengths};
 use sonarproj::{Measurement, RelativePose, Rotation, Sonar, SonarKind};
 use sonarproj_apps::report::mask_image;
 use sonarproj_apps::{Error, Result};
@@ -134,7 +134,8 @@ fn features_json(engine: &MaskEngine, features: &[Measurement], set: &MaskSet, r
 pub(super) fn run(a: MaskArgs) -> Result<()> {
     let source = Sonar::resolve(&a.from)?;
     let target = Sonar::resolve(&a.to)?;
-    let (engine, notice) = MaskEngine::select(source, target, a.backend.into(), a.counts)?;
+    let counts = if a.counts { Counts::Draw } else { Counts::Skip };
+    let (engine, notice) = MaskEngine::select(source, target, a.backend.into(), counts)?;
     if let Some(n) = notice {
         eprintln!("{n}");
     }
@@ -184,7 +185,7 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
         }
     }
     let start = Instant::now();
-    let set = engine.masks(&pose, &features, noise.as_ref(), a.counts)?;
+    let set = engine.masks(&pose, &features, noise.as_ref(), counts)?;
     let elapsed = start.elapsed().as_secs_f64() * 1e3;
     if let Some(path) = &a.out {
         let labels: Vec<String> = features
@@ -363,7 +364,7 @@ fn stream(engine: &MaskEngine) -> Result<()> {
         let reply = match parse_line(engine, &text) {
             Ok((pose, features, noise)) => {
                 let start = Instant::now();
-                match engine.masks(&pose, &features, noise.as_ref(), false) {
+                match engine.masks(&pose, &features, noise.as_ref(), Counts::Skip) {
                     Ok(set) => {
                         let elapsed = start.elapsed().as_secs_f64() * 1e3;
                         json!({

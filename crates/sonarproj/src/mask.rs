@@ -156,10 +156,20 @@ pub struct MaskSet {
     pub union: Occupancy,
 }
 
+/// Whether masks carry per-pixel counts (how many cells of the back-projected set may fall in
+/// each pixel, a prior for a matcher), drawn on the CPU only.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Counts {
+    /// The bits only.
+    Skip,
+    /// The bits and the counts.
+    Draw,
+}
+
 /// Draws masks for one sonar pair; built once, used for every ping.
 ///
 /// ```
-/// use sonarproj::mask::MaskEngine;
+/// use sonarproj::mask::{Counts, MaskEngine};
 /// use sonarproj::{Measurement, RelativePose, Rotation, Sonar};
 ///
 /// let engine = MaskEngine::new(
@@ -168,7 +178,7 @@ pub struct MaskSet {
 /// )?;
 /// let pose = RelativePose::new(Rotation::RollPitchYaw { roll: 0.0, pitch: 5.0, yaw: 10.0 }, [0.3, 0.2, -0.1])?;
 /// let ping = [Measurement::of(engine.source(), 4.0, 0.0)?];
-/// let set = engine.masks(&pose, &ping, None, false)?;
+/// let set = engine.masks(&pose, &ping, None, Counts::Skip)?;
 /// // A few hundred of the imaging sonar's 512 × 512 pixels can hold the feature.
 /// let pixels = set.masks[0].occupancy.count();
 /// assert!(pixels > 100 && pixels < 5_000, "{pixels}");
@@ -253,9 +263,9 @@ impl MaskEngine {
         source: Sonar,
         target: Sonar,
         choice: BackendChoice,
-        counts: bool,
+        counts: Counts,
     ) -> Result<(MaskEngine, Option<String>)> {
-        if counts && choice == BackendChoice::Auto {
+        if counts == Counts::Draw && choice == BackendChoice::Auto {
             return Ok((MaskEngine::new(source, target)?, None));
         }
         match choice.device()? {
@@ -308,12 +318,12 @@ impl MaskEngine {
         pose: &RelativePose,
         features: &[Measurement],
         noise: Option<&Noise>,
-        counts: bool,
+        counts: Counts,
     ) -> Result<MaskSet> {
         pose.validate()?;
         let noise = noise.map(|n| n.validated()).transpose()?;
         if let Some(gpu) = &self.gpu {
-            if counts {
+            if counts == Counts::Draw {
                 return Err(Error::invalid(
                     "counts",
                     "on the GPU",
@@ -363,7 +373,7 @@ impl MaskEngine {
         }
         scenes
             .par_iter()
-            .map(|(pose, m)| self.mask(pose, m, None, false))
+            .map(|(pose, m)| self.mask(pose, m, None, Counts::Skip))
             .collect()
     }
 
@@ -412,9 +422,10 @@ impl MaskEngine {
         pose: &RelativePose,
         m: &Measurement,
         noise: Option<&Noise>,
-        counts: bool,
+        counts: Counts,
     ) -> Result<Mask> {
         pose.validate()?;
+        let counts = counts == Counts::Draw;
         let Plan {
             cells,
             range: r,

@@ -158,17 +158,19 @@ impl Rotation {
 }
 
 impl RelativePose {
-    /// Returns the pose with rotation `rotation` and translation `t` (m).
+    /// Returns the pose with rotation `rotation` and translation `t` (m): a `DVec3` or an
+    /// `[x, y, z]` array.
     ///
     /// # Errors
     /// As [`Rotation::to_matrix`], and for a non-finite translation.
-    pub fn new(rotation: Rotation, t: [f64; 3]) -> Result<Self> {
+    pub fn new(rotation: Rotation, t: impl Into<DVec3>) -> Result<Self> {
+        let t: DVec3 = t.into();
         for (i, c) in ["tx", "ty", "tz"].iter().enumerate() {
             finite(c, t[i])?;
         }
         Ok(RelativePose {
             rotation: rotation.to_matrix()?,
-            translation: DVec3::from_array(t),
+            translation: t,
         })
     }
 

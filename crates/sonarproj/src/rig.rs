@@ -138,7 +138,7 @@ pub fn relative_pose(first: &Mount, second: &Mount) -> Result<RelativePose> {
     let r = DMat3::from_quat(inv * first.rotation);
     let t = inv * (first.position - second.position);
     let rows = [0, 1, 2].map(|i| r.row(i).to_array());
-    RelativePose::new(Rotation::Matrix(rows), t.to_array())
+    RelativePose::new(Rotation::Matrix(rows), t)
 }
 
 /// The two channels of a sidescan: each an SSS sonar with its mount in the vehicle frame.
