@@ -68,19 +68,17 @@ impl Batch {
         self.source.validate().map_err(|e| e.in_context("sonar 1"))?;
         self.target.validate().map_err(|e| e.in_context("sonar 2"))?;
         let sampling = self.sampling.validated()?;
-        for (k, item) in self.items.iter().enumerate() {
-            item.measurement
-                .validate(&self.source)
-                .and_then(|()| item.pose.validate())
-                .map_err(|e| e.in_context(&format!("item {k}")))?;
-        }
         let mut plans = Vec::new();
         let mut index: HashMap<(usize, usize), usize> = HashMap::new();
         let mut plan_of = Vec::with_capacity(self.items.len());
         let mut base = Vec::with_capacity(self.items.len());
         // Plans are drawn once per distinct sample count, not once per item.
         let spacing = matches!(sampling, Sampling::Auto).then(|| auto_spacing(&self.target));
-        for item in &self.items {
+        for (k, item) in self.items.iter().enumerate() {
+            item.measurement
+                .validate(&self.source)
+                .and_then(|()| item.pose.validate())
+                .map_err(|e| e.in_context(&format!("item {k}")))?;
             let key = SamplingPlan::counts(&self.source, &self.target, &item.measurement, sampling, spacing)?;
             let k = *index.entry(key).or_insert_with(|| {
                 plans.push(SamplingPlan::with_counts(&self.source, key.0, key.1));

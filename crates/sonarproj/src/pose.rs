@@ -130,10 +130,7 @@ impl Rotation {
                     }
                 }
                 let m = from_rows(rows);
-                let dev = (m.transpose() * m - DMat3::IDENTITY)
-                    .to_cols_array()
-                    .iter()
-                    .fold(0.0f64, |a, v| a.max(v.abs()));
+                let dev = orthonormal_deviation(m);
                 if dev > ORTHONORMAL_TOLERANCE {
                     return Err(Error::invalid(
                         "matrix",
@@ -222,14 +219,12 @@ impl RelativePose {
         // The common case first, without building anything (batches check every pose); the
         // slow path below finds and names what is wrong.
         let m = self.rotation;
-        if self.translation.is_finite() && m.is_finite() {
-            let dev = (m.transpose() * m - DMat3::IDENTITY)
-                .to_cols_array()
-                .iter()
-                .fold(0.0f64, |a, v| a.max(v.abs()));
-            if dev <= ORTHONORMAL_TOLERANCE && m.determinant() >= 0.0 {
-                return Ok(());
-            }
+        if self.translation.is_finite()
+            && m.is_finite()
+            && orthonormal_deviation(m) <= ORTHONORMAL_TOLERANCE
+            && m.determinant() >= 0.0
+        {
+            return Ok(());
         }
         for (i, c) in ["tx", "ty", "tz"].iter().enumerate() {
             finite_named(|| format!("pose {c}"), self.translation[i])?;
@@ -245,6 +240,14 @@ impl RelativePose {
     pub fn apply(&self, p: DVec3) -> DVec3 {
         self.rotation * p + self.translation
     }
+}
+
+/// Returns `max |RᵀR − I|` over the entries: 0 for an orthonormal `m`.
+fn orthonormal_deviation(m: DMat3) -> f64 {
+    (m.transpose() * m - DMat3::IDENTITY)
+        .to_cols_array()
+        .iter()
+        .fold(0.0f64, |a, v| a.max(v.abs()))
 }
 
 /// Returns the Cartesian point of `[range, azimuth, elevation]` (m, deg, deg), checked.

@@ -10,14 +10,14 @@
 //! **Roll, pitch, yaw.** A URDF `<origin rpy="r p y">` (and ROS's `setRPY`) is the *active*
 //! rotation `Rz(yaw) · Ry(pitch) · Rx(roll)` that turns the child frame's axes into the parent's
 //! ([`Mount::from_rpy_deg`], in degrees where URDF writes radians). The paper's roll/pitch/yaw
-//! ([`Rotation::RollPitchYaw`]) is the *transposed* (passive) rotation: a sonar 2 mounted with
+//! ([`Rotation::RollPitchYaw`](crate::pose::Rotation::RollPitchYaw)) is the *transposed* (passive) rotation: a sonar 2 mounted with
 //! ROS angles `(r, p, y)` in sonar 1's frame has the relative rotation
 //! `Rotation::RollPitchYaw { roll: r, pitch: p, yaw: y }`, not its inverse.
 
 use glam::{DMat3, DQuat, DVec3};
 
 use crate::error::{Error, Result, finite_named};
-use crate::pose::{QUATERNION_NORM_TOLERANCE, RelativePose, Rotation};
+use crate::pose::{QUATERNION_NORM_TOLERANCE, RelativePose};
 use crate::sonar::{Sonar, SonarKind};
 
 /// Where a sonar is mounted: the transform from the sonar's frame into the common frame,
@@ -132,13 +132,17 @@ impl Mount {
 /// ```
 ///
 /// # Errors
-/// None for mounts built by [`Mount`]'s constructors; kept for the pose's own check.
+/// As [`RelativePose::validate`]: none for mounts built by [`Mount`]'s constructors, whose
+/// rotations are unit quaternions and positions finite (a difference of huge positions may
+/// still overflow).
 pub fn relative_pose(first: &Mount, second: &Mount) -> Result<RelativePose> {
     let inv = second.rotation.inverse();
-    let r = DMat3::from_quat(inv * first.rotation);
-    let t = inv * (first.position - second.position);
-    let rows = [0, 1, 2].map(|i| r.row(i).to_array());
-    RelativePose::new(Rotation::Matrix(rows), t)
+    let pose = RelativePose {
+        rotation: DMat3::from_quat(inv * first.rotation),
+        translation: inv * (first.position - second.position),
+    };
+    pose.validate()?;
+    Ok(pose)
 }
 
 /// The two channels of a sidescan: each an SSS sonar with its mount in the vehicle frame.
