@@ -34,10 +34,12 @@ for line in sys.stdin:
         strip -o "$bundle/bin/$name" "$exe"
     done
     strip -o "$bundle/bin/sonarproj" target/release/sonarproj
-    # The Vulkan loader: the remote machine has the NVIDIA driver and its ICD file, not always
-    # libvulkan.so.1.
-    (cd "$bundle/debs" && apt-get download libvulkan1 >/dev/null 2>&1) ||
-        echo "note: could not download libvulkan1 (apt-get update first?); run will use the remote's" >&2
+    # The Vulkan loader and GLVND: the remote machine has the NVIDIA driver and its ICD file, not
+    # always libvulkan.so.1, and without GLVND's dispatch libraries the ICD (libGLX_nvidia.so.0)
+    # loads but yields no vkCreateInstance ("Found no drivers").
+    (cd "$bundle/debs" && apt-get download libvulkan1 libglvnd0 libglx0 libegl1 libgl1 libopengl0 \
+        libgles2 >/dev/null 2>&1) ||
+        echo "note: could not download the loader packages (apt-get update first?)" >&2
     tar -C "$bundle" -cJf "$bundle/bin.tar.xz" bin && rm -rf "$bundle/bin"
     du -sh "$bundle"
     echo "carry .gpu and run: bash scripts/gpu-remote.sh run"
@@ -48,10 +50,8 @@ run() {
     local out="${OUT:-$bundle/out}" logs="$bundle/logs"
     mkdir -p "$out" && rm -rf "$logs" && mkdir -p "$logs"
     tar -C "$bundle" -xJf "$bundle/bin.tar.xz"
-    if ! ldconfig -p 2>/dev/null | grep -q libvulkan.so.1; then
-        for f in "$bundle"/debs/*.deb; do [ -e "$f" ] && dpkg -x "$f" /; done
-        ldconfig || true
-    fi
+    for f in "$bundle"/debs/*.deb; do [ -e "$f" ] && dpkg -x "$f" /; done
+    ldconfig || true
     local nvidia=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
     [ -e /usr/share/vulkan/icd.d/nvidia_icd.json ] && nvidia=/usr/share/vulkan/icd.d/nvidia_icd.json
     export VK_DRIVER_FILES="${GPU_REMOTE_ICD-$( [ -e "$nvidia" ] && echo "$nvidia")}"

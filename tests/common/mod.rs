@@ -27,12 +27,16 @@ pub(crate) fn cli_backends(cpu: &'static str) -> Vec<&'static str> {
     b
 }
 
-/// Returns a GPU backend on the adapter `auto` would use. Without an adapter it panics when
-/// `CI=true` (GPU tests must run in CI, on lavapipe) and otherwise returns `None` after saying
-/// that the test is skipped.
-pub(crate) fn gpu() -> Option<GpuBackend> {
-    match GpuContext::new() {
-        Ok(ctx) => Some(GpuBackend::new(ctx)),
+/// Returns the test binary's one GPU context on the adapter `auto` would use, created by the
+/// first test that asks and shared by all, as an application shares its device. (On an H100
+/// with NVIDIA's Vulkan driver, tests that each created and dropped their own instance crashed
+/// the process when they ran in parallel, and instances created after others were dropped found
+/// no driver.) Without an adapter it panics when `CI=true` (GPU tests must run in CI, on
+/// lavapipe) and otherwise returns `None` after saying that the test is skipped.
+pub(crate) fn gpu_context() -> Option<GpuContext> {
+    static CONTEXT: std::sync::OnceLock<Result<GpuContext, String>> = std::sync::OnceLock::new();
+    match CONTEXT.get_or_init(|| GpuContext::new().map_err(|e| e.to_string())) {
+        Ok(ctx) => Some(ctx.clone()),
         Err(e) => {
             if std::env::var("CI").is_ok_and(|v| v == "true" || v == "1") {
                 panic!("CI=true but no GPU adapter: {e}. Install lavapipe (mesa-vulkan-drivers).");
@@ -41,6 +45,11 @@ pub(crate) fn gpu() -> Option<GpuBackend> {
             None
         }
     }
+}
+
+/// Returns a GPU backend on the shared context of [`gpu_context`].
+pub(crate) fn gpu() -> Option<GpuBackend> {
+    gpu_context().map(GpuBackend::new)
 }
 
 use sonarproj::Projection;
