@@ -3,7 +3,7 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use sonarproj::Sonar;
-use sonarproj::mask::{Counts, MaskEngine};
+use sonarproj::masks::{Counts, MaskEngine};
 use sonarproj_apps::bench;
 
 fn masks(c: &mut Criterion) {

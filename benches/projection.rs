@@ -3,8 +3,10 @@
 //! The GPU group is left out when no adapter exists.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use sonarproj::gpu::{GpuBackend, GpuContext};
-use sonarproj::{Sonar, cpu, cpu_fast};
+use sonarproj::gpu::GpuContext;
+use sonarproj::projection::gpu::GpuBackend;
+use sonarproj::projection::{fast, reference};
+use sonarproj::{Output, Sonar};
 use sonarproj_apps::bench;
 
 fn projection(c: &mut Criterion) {
@@ -12,18 +14,20 @@ fn projection(c: &mut Criterion) {
     for (from, to, n) in bench::STANDARD {
         let b = bench::batch(&Sonar::preset(from).unwrap(), &Sonar::preset(to).unwrap(), n).unwrap();
         let prepared = b.prepare().unwrap();
-        let samples: usize = prepared.plan_of.iter().map(|&p| prepared.plans[p].total()).sum();
+        let samples: usize = prepared.total_samples();
         let mut group = c.benchmark_group(format!("{from}->{to} x{n}"));
         group.sample_size(10);
         group.throughput(Throughput::Elements(samples as u64));
         group.bench_function("cpu-reference", |bench| {
-            bench.iter(|| cpu::project(&prepared, false))
+            bench.iter(|| reference::project(&prepared, Output::MetricsOnly))
         });
         group.bench_function("cpu-fast", |bench| {
-            bench.iter(|| cpu_fast::project(&prepared, false))
+            bench.iter(|| fast::project(&prepared, Output::MetricsOnly))
         });
         if let Some(g) = &gpu {
-            group.bench_function("gpu", |bench| bench.iter(|| g.project(&prepared, false).unwrap()));
+            group.bench_function("gpu", |bench| {
+                bench.iter(|| g.project(&prepared, Output::MetricsOnly).unwrap())
+            });
         }
         group.finish();
     }
@@ -42,7 +46,9 @@ fn prepare(c: &mut Criterion) {
     let mut group = c.benchmark_group(format!("prepare {from}->{to} x100000"));
     group.sample_size(10);
     group.throughput(Throughput::Elements(100_000));
-    group.bench_function("prepare", |bench| bench.iter(|| b.prepare().unwrap().plans.len()));
+    group.bench_function("prepare", |bench| {
+        bench.iter(|| b.prepare().unwrap().plans().len())
+    });
     group.bench_function("validate items", |bench| {
         bench.iter(|| {
             b.items

@@ -4,7 +4,7 @@
 //!
 //! Run: `cargo run --release --example mask_ping [OUT.npy]` (default: in the temp directory).
 
-use sonarproj::mask::{Counts, MaskEngine};
+use sonarproj::masks::{Counts, MaskEngine};
 use sonarproj::{Measurement, RelativePose, Rotation, Sonar};
 
 fn main() -> Result<(), sonarproj_apps::Error> {

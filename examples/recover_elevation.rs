@@ -3,8 +3,8 @@
 //!
 //! Run: `cargo run --release --example recover_elevation`
 
-use sonarproj::pose::{cart_to_sph, sph_to_cart};
-use sonarproj::recover::{DEFAULT_CURVE_STEP, Observation, Sigmas, recover};
+use sonarproj::geometry::pose::{cart_to_sph, sph_to_cart};
+use sonarproj::recovery::{DEFAULT_CURVE_STEP, Observation, Sigmas, recover};
 use sonarproj::{RelativePose, Rotation, Sonar};
 
 fn main() -> Result<(), sonarproj::Error> {

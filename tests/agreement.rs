@@ -8,9 +8,9 @@ mod common;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sonarproj::cpu::{self, bounds};
-use sonarproj::cpu_fast;
-use sonarproj::gpu::{GpuBackend, SplatOptions};
+use sonarproj::Output;
+use sonarproj::projection::gpu::{GpuBackend, SplatOptions};
+use sonarproj::projection::{envelope, fast, reference};
 use sonarproj::{
     Batch, BatchItem, BeamLayout, Measurement, RelativePose, Rotation, Sampling, Sonar, SonarKind,
 };
@@ -102,15 +102,15 @@ fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usi
         sampling,
     };
     let prepared = batch.prepare().unwrap();
-    let reference = cpu::project(&prepared, true);
-    let mut checked = vec![("cpu-fast", cpu_fast::project(&prepared, true))];
+    let reference = reference::project(&prepared, Output::WithOccupancy);
+    let mut checked = vec![("cpu-fast", fast::project(&prepared, Output::WithOccupancy))];
     if let Some(gpu) = common::gpu() {
-        let culled = gpu.project(&prepared, true).unwrap();
+        let culled = gpu.project(&prepared, Output::WithOccupancy).unwrap();
         // Culling skips samples and clip tests, never changes a decision: the splat stage
         // without it gives the very same bits.
         let plain = GpuBackend::with_options(gpu.context().clone(), SplatOptions { cull: false });
         assert_eq!(
-            plain.project(&prepared, true).unwrap(),
+            plain.project(&prepared, Output::WithOccupancy).unwrap(),
             culled,
             "GPU with and without culling"
         );
@@ -119,11 +119,11 @@ fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usi
     let envelopes: Vec<_> = (0..poses)
         .map(|k| {
             let item = &batch.items[k];
-            let plan = &prepared.plans[prepared.plan_of[k]];
-            bounds::bounds(
-                &prepared.layout,
+            let plan = prepared.plan(k);
+            envelope::bounds(
+                prepared.layout(),
                 plan,
-                prepared.base_azimuth[k],
+                prepared.base_azimuth(k),
                 item.measurement.range,
                 &item.pose,
             )
@@ -133,14 +133,14 @@ fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usi
     let visible: u64 = reference.iter().map(|c| c.metrics.visible).sum();
     // The reference lies in its own envelope (a check of the envelope).
     for (k, (c, b)) in reference.iter().zip(&envelopes).enumerate() {
-        common::check_within_bounds(&prepared.layout, b, c)
+        common::check_within_bounds(prepared.layout(), b, c)
             .unwrap_or_else(|e| panic!("pose {k}: reference outside its envelope: {e}"));
     }
     for (name, results) in &checked {
         let mut differing = 0;
         for (k, ((c, g), b)) in reference.iter().zip(results).zip(&envelopes).enumerate() {
             let item = &batch.items[k];
-            common::check_within_bounds(&prepared.layout, b, g).unwrap_or_else(|e| {
+            common::check_within_bounds(prepared.layout(), b, g).unwrap_or_else(|e| {
                 panic!("pose {k} ({item:?}): {name} outside the envelope: {e}\ncpu {c:?}\n{name} {g:?}")
             });
             assert_eq!(c.metrics.total, g.metrics.total);
@@ -276,9 +276,9 @@ fn results_do_not_depend_on_the_chunk_size() {
         sampling: Sampling::Step(0.2),
     };
     let prepared = batch.prepare().unwrap();
-    let whole = gpu.project(&prepared, true).unwrap();
+    let whole = gpu.project(&prepared, Output::WithOccupancy).unwrap();
     let gpu = gpu.with_max_chunk_poses(7);
-    let chunked = gpu.project(&prepared, true).unwrap();
+    let chunked = gpu.project(&prepared, Output::WithOccupancy).unwrap();
     assert_eq!(whole, chunked);
 }
 
@@ -293,16 +293,16 @@ fn the_envelope_check_catches_wrong_results() {
         sampling: Sampling::Step(0.1),
     };
     let prepared = batch.prepare().unwrap();
-    let good = gpu.project(&prepared, true).unwrap().remove(0);
+    let good = gpu.project(&prepared, Output::WithOccupancy).unwrap().remove(0);
     let item = &batch.items[0];
-    let b = bounds::bounds(
-        &prepared.layout,
-        &prepared.plans[0],
+    let b = envelope::bounds(
+        prepared.layout(),
+        prepared.plan(0),
         0.0,
         item.measurement.range,
         &item.pose,
     );
-    common::check_within_bounds(&prepared.layout, &b, &good).unwrap();
+    common::check_within_bounds(prepared.layout(), &b, &good).unwrap();
     assert!(good.metrics.visible > 0);
 
     let mut dropped = good.clone();
@@ -311,13 +311,13 @@ fn the_envelope_check_catches_wrong_results() {
     let k = i * occ.beams + j;
     occ.words[k / 32] &= !(1 << (k % 32));
     dropped.metrics.occupied -= 1;
-    assert!(common::check_within_bounds(&prepared.layout, &b, &dropped).is_err());
+    assert!(common::check_within_bounds(prepared.layout(), &b, &dropped).is_err());
 
     let mut counted = good.clone();
     counted.metrics.visible = b.visible_max + 1;
-    assert!(common::check_within_bounds(&prepared.layout, &b, &counted).is_err());
+    assert!(common::check_within_bounds(prepared.layout(), &b, &counted).is_err());
 
     let mut far = good.clone();
     far.metrics.range_max = Some(b.range_max.1 + 1e-4);
-    assert!(common::check_within_bounds(&prepared.layout, &b, &far).is_err());
+    assert!(common::check_within_bounds(prepared.layout(), &b, &far).is_err());
 }

@@ -38,7 +38,10 @@ fn run_all(
     ];
     if let Some(gpu) = common::gpu() {
         let prepared = batch.prepare().unwrap();
-        out.push(("gpu", gpu.project(&prepared, false).unwrap()[0].metrics));
+        out.push((
+            "gpu",
+            gpu.project(&prepared, Output::MetricsOnly).unwrap()[0].metrics,
+        ));
     }
     out
 }

@@ -7,8 +7,8 @@ mod common;
 use glam::{DMat3, DQuat, DVec3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sonarproj::mask::{Counts, MaskEngine, Noise};
-use sonarproj::sonar::{BeamLayout, SonarKind};
+use sonarproj::geometry::sonar::{BeamLayout, SonarKind};
+use sonarproj::masks::{Counts, MaskEngine, Noise};
 use sonarproj::{Measurement, RelativePose, Sonar};
 
 /// Scenes per preset pair (issue 4: at least 10 000).
@@ -307,7 +307,7 @@ fn set_span_sets_the_same_bits_as_set() {
 
 mod cli {
     use serde_json::Value;
-    use sonarproj::mask::{Counts, MaskEngine, run_lengths};
+    use sonarproj::masks::{Counts, MaskEngine, run_lengths};
     use sonarproj::{Measurement, RelativePose, Rotation, Sonar};
 
     const PAIR: [&str; 4] = ["--from", "holoocean-sidescan", "--to", "holoocean-imaging"];
@@ -449,6 +449,13 @@ mod cli {
                 "coverage",
             ),
             (vec!["--feature", "5", "--out", "x.jpg"], "--out"),
+            // Without any sigma the coverage means nothing, but a bad one is still refused.
+            (vec!["--feature", "5", "--coverage", "NaN"], "--coverage"),
+            (vec!["--feature", "5", "--coverage", "inf"], "--coverage"),
+            (vec!["--feature", "5", "--coverage", "0"], "--coverage"),
+            (vec!["--feature", "5", "--coverage", "1.5"], "--coverage"),
+            // A sidescan measures no azimuth: one given is refused, not dropped.
+            (vec!["--feature", "4,5"], "a sidescan measures no azimuth"),
         ] {
             let assert = crate::common::sonarproj()
                 .arg("mask")

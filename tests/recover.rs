@@ -5,8 +5,8 @@
 use glam::DVec3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sonarproj::pose::{cart_to_sph, sph_to_cart};
-use sonarproj::recover::{DEFAULT_CURVE_STEP, Flag, Observation, Recovery, Sigmas, recover};
+use sonarproj::geometry::pose::{cart_to_sph, sph_to_cart};
+use sonarproj::recovery::{DEFAULT_CURVE_STEP, Flag, Observation, Recovery, Sigmas, recover};
 use sonarproj::{RelativePose, Rotation, Sonar, SonarKind};
 
 mod common;

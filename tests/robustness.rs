@@ -7,8 +7,8 @@ use glam::{DMat3, DVec3};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 use sonarproj::Output;
-use sonarproj::mask::{Counts, MaskEngine, Noise};
-use sonarproj::recover::{Observation, Sigmas, recover};
+use sonarproj::masks::{Counts, MaskEngine, Noise};
+use sonarproj::recovery::{Observation, Sigmas, recover};
 use sonarproj::rig::{Mount, relative_pose, sidescan_pair};
 use sonarproj::{
     Backend, Batch, BatchItem, BeamLayout, Measurement, RelativePose, Rotation, Sampling, Sonar, SonarKind,
@@ -213,7 +213,7 @@ proptest! {
         // Accepted: every part is valid, so the measurement could come from sonar 1.
         prop_assert!(Measurement::of(&source, range, azimuth).is_ok());
         prop_assert!(pose.validate().is_ok());
-        let samples: usize = prepared.plan_of.iter().map(|&k| prepared.plans[k].total()).sum();
+        let samples: usize = prepared.total_samples();
         if samples <= TEST_SAMPLES {
             for backend in [Backend::Cpu, Backend::CpuFast] {
                 let out = backend.project(&batch, Output::WithOccupancy).expect("a prepared batch projects");

@@ -2,7 +2,8 @@
 //! the same sizes and values on both sides (the "keep in sync" comments, checked).
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
-use sonarproj::gpu::{shaders, types};
+use sonarproj::gpu::shaders;
+use sonarproj::projection::gpu::types;
 
 fn module(source: &str, name: &str) -> naga::Module {
     let module = naga::front::wgsl::parse_str(source)
@@ -148,12 +149,12 @@ fn metric_slots_match() {
     assert_eq!(value("METRIC_MEASURE"), types::METRIC_MEASURE);
     // The culling blocks of the shader are those of its CPU twin (the direction table holds
     // one ball per cpu_fast block).
-    assert_eq!(value("BLOCK"), sonarproj::cpu_fast::BLOCK);
+    assert_eq!(value("BLOCK"), sonarproj::projection::fast::BLOCK);
 }
 
 #[test]
 fn mask_structs_match_the_rust_layout() {
-    use sonarproj::gpu::mask::{MASK_JOB_SIZE, MASK_PARAMS_SIZE, MaskJob, MaskParams, source};
+    use sonarproj::masks::gpu::{MASK_JOB_SIZE, MASK_PARAMS_SIZE, MaskJob, MaskParams, source};
     use std::mem::offset_of;
     let m = module(source(), "mask");
     let mut layouter = naga::proc::Layouter::default();
@@ -245,9 +246,9 @@ fn interface(module: &naga::Module) -> (Vec<sonarproj::gpu::pipeline::Binding>, 
 /// computed with, are the WGSL's (they were kept in sync by comments only).
 #[test]
 fn binding_tables_and_workgroup_sizes_match_the_wgsl() {
-    use sonarproj::gpu::mask::{MASK_BINDINGS, MASK_WORKGROUP, source};
-    use sonarproj::gpu::pipeline::{REDUCE_BINDINGS, SPLAT_BINDINGS};
-    use sonarproj::gpu::{REDUCE_WORKGROUP, SPLAT_WORKGROUP};
+    use sonarproj::masks::gpu::{MASK_BINDINGS, MASK_WORKGROUP, source};
+    use sonarproj::projection::gpu::{REDUCE_BINDINGS, SPLAT_BINDINGS};
+    use sonarproj::projection::gpu::{REDUCE_WORKGROUP, SPLAT_WORKGROUP};
     for precision in [shaders::Precision::F64, shaders::Precision::DoubleF32] {
         let (b, w) = interface(&module(&shaders::splat(precision), "splat"));
         assert_eq!(b, SPLAT_BINDINGS, "splat.wgsl bindings");

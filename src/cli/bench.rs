@@ -4,7 +4,7 @@ use sonarproj_apps::bench::{self, STANDARD, Timing};
 use std::time::Instant;
 
 use sonarproj::gpu::GpuContext;
-use sonarproj::mask::{Counts, MaskEngine};
+use sonarproj::masks::{Counts, MaskEngine};
 use sonarproj::{Backend, BackendChoice, Sonar};
 use sonarproj_apps::Result;
 

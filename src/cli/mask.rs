@@ -1,14 +1,15 @@
 //! `sonarproj mask`: where each feature of sonar 1 can be in sonar 2 — PNG, NPY, JSON, or a
 //! stream of JSON lines for a live pipeline.
 
-use std::io::{BufRead, Write};
+use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
 use serde::Deserialize;
 use serde_json::{Value, json};
-use sonarproj::mask::{Counts, MaskEngine, MaskSet, Noise, bounding_box, run_lengths};
+use sonarproj::masks::{Counts, MaskEngine, MaskSet, Noise, bounding_box, run_lengths};
 use sonarproj::{Measurement, RelativePose, Rotation, Sonar, SonarKind};
+use sonarproj_apps::io::{BoundedLine, MAX_LINE_BYTES, read_line_bounded};
 use sonarproj_apps::report::mask_image;
 use sonarproj_apps::{Error, Result};
 
@@ -27,7 +28,8 @@ pub(super) struct MaskArgs {
     to: String,
     #[command(flatten)]
     pose: PoseArgs,
-    /// A feature measured by sonar 1: range (m) and, for an FLS, azimuth (deg). Repeat for more.
+    /// A feature measured by sonar 1: `R` (m) for a sidescan, `R,A` (m, deg) for an imaging
+    /// sonar — an azimuth is required there and refused for a sidescan. Repeat for more.
     /// --place-* puts the first feature (at elevation 0) where it says.
     #[arg(
         long,
@@ -87,22 +89,38 @@ fn one_or_three(field: &str, text: &str) -> Result<[f64; 3]> {
     }
 }
 
-/// Returns the measurement `R[,A]` of a feature in `source`, named `--feature N`.
-fn feature(source: &Sonar, k: usize, text: &str) -> Result<Measurement> {
-    let field = format!("--feature {}", k + 1);
-    let parts: Vec<&str> = text.split(',').collect();
-    let (range, azimuth) = match parts.as_slice() {
-        [r] => (numbers::<1>(&field, r)?[0], 0.0),
-        [r, a] => (numbers::<1>(&field, r)?[0], numbers::<1>(&field, a)?[0]),
-        _ => {
+/// Returns the measurement of a feature of `source` given as numbers (`R` for a sidescan, `R, A`
+/// for an imaging sonar), or an error saying which form this sonar takes.
+fn measurement(source: &Sonar, field: &str, numbers: &[f64]) -> Result<Measurement> {
+    let (range, azimuth) = match (numbers, source.kind) {
+        ([r], SonarKind::Sss) => (*r, 0.0),
+        ([r, a], SonarKind::Fls) => (*r, *a),
+        (_, SonarKind::Sss) => {
             return Err(Error::invalid(
                 field,
-                format!("{text:?}"),
-                "must be R or R,A (m, deg)",
+                format!("{numbers:?}"),
+                "must be one number, the range R (m): a sidescan measures no azimuth",
+            ));
+        }
+        (_, SonarKind::Fls) => {
+            return Err(Error::invalid(
+                field,
+                format!("{numbers:?}"),
+                "must be two numbers, range and azimuth R,A (m, deg): an imaging sonar measures both",
             ));
         }
     };
-    Measurement::of(source, range, azimuth).map_err(|e| Error::from(e).in_context(&field))
+    Measurement::of(source, range, azimuth).map_err(|e| Error::from(e).in_context(field))
+}
+
+/// Returns the measurement `R` or `R,A` of a feature in `source`, named `--feature N`.
+fn feature(source: &Sonar, k: usize, text: &str) -> Result<Measurement> {
+    let field = format!("--feature {}", k + 1);
+    let values = text
+        .split(',')
+        .map(|part| numbers::<1>(&field, part).map(|v| v[0]))
+        .collect::<Result<Vec<f64>>>()?;
+    measurement(source, &field, &values)
 }
 
 /// Returns the per-feature JSON of `set`: occupied count and bounding box, with the run-length
@@ -132,6 +150,14 @@ fn features_json(engine: &MaskEngine, features: &[Measurement], set: &MaskSet, r
 
 /// Runs `sonarproj mask`.
 pub(super) fn run(a: MaskArgs) -> Result<()> {
+    // Checked even without a sigma: a coverage that means nothing is still a mistake.
+    if !(a.coverage > 0.0 && a.coverage < 1.0) {
+        return Err(Error::invalid(
+            "--coverage",
+            a.coverage,
+            "must be a probability in (0, 1)",
+        ));
+    }
     let source = Sonar::resolve(&a.from)?;
     let target = Sonar::resolve(&a.to)?;
     let counts = if a.counts { Counts::Draw } else { Counts::Skip };
@@ -317,12 +343,7 @@ fn parse_line(engine: &MaskEngine, text: &str) -> Result<(RelativePose, Vec<Meas
         .enumerate()
         .map(|(k, f)| {
             let field = format!("features[{k}]");
-            match f.as_slice() {
-                [r] => Measurement::of(engine.source(), *r, 0.0).map_err(Error::from),
-                [r, a] => Measurement::of(engine.source(), *r, *a).map_err(Error::from),
-                _ => Err(Error::invalid(&field, format!("{f:?}"), "must be [R] or [R, A]")),
-            }
-            .map_err(|e| e.in_context(&field))
+            measurement(engine.source(), &field, f)
         })
         .collect::<Result<Vec<_>>>()?;
     let noise = line
@@ -345,23 +366,36 @@ fn parse_line(engine: &MaskEngine, text: &str) -> Result<(RelativePose, Vec<Meas
 /// Runs the stream mode: a JSON line out for every line in; a bad line gets `{"line", "error"}`
 /// and the stream goes on (exit status 2 at the end if any line was bad).
 fn stream(engine: &MaskEngine) -> Result<()> {
-    let stdin = std::io::stdin();
+    let mut input = std::io::stdin().lock();
     let mut out = std::io::stdout().lock();
-    let mut bad = 0usize;
+    let (mut bad, mut lines) = (0usize, 0usize);
     let write_error = |e: std::io::Error| Error::WriteOutput {
         path: "stdout".into(),
         message: e.to_string(),
     };
-    for (n, text) in stdin.lock().lines().enumerate() {
-        let text = text.map_err(|source| Error::ReadInput {
+    let mut buf = Vec::new();
+    while let Some(read) =
+        read_line_bounded(&mut input, MAX_LINE_BYTES, &mut buf).map_err(|source| Error::ReadInput {
             path: "stdin".into(),
             source,
-        })?;
-        if text.trim().is_empty() {
+        })?
+    {
+        lines += 1;
+        let line = lines;
+        // Each bad line gets its own error reply; the stream goes on.
+        let text = match read {
+            BoundedLine::TooLong(len) => Err(Error::invalid(
+                "line",
+                format!("of {len} bytes"),
+                format!("is longer than {MAX_LINE_BYTES} bytes"),
+            )),
+            BoundedLine::Line => std::str::from_utf8(&buf)
+                .map_err(|e| Error::invalid("line", "(bytes)", format!("is not valid UTF-8: {e}"))),
+        };
+        if matches!(&text, Ok(t) if t.trim().is_empty()) {
             continue;
         }
-        let line = n + 1;
-        let reply = match parse_line(engine, &text) {
+        let reply = match text.and_then(|t| parse_line(engine, t)) {
             Ok((pose, features, noise)) => {
                 let start = Instant::now();
                 match engine.masks(&pose, &features, noise.as_ref(), Counts::Skip) {
@@ -391,11 +425,7 @@ fn stream(engine: &MaskEngine) -> Result<()> {
         out.flush().map_err(write_error)?;
     }
     if bad > 0 {
-        return Err(Error::invalid(
-            "stdin",
-            format!("{bad} bad line(s)"),
-            "see the \"error\" objects in the output",
-        ));
+        return Err(Error::BadLines { bad, lines });
     }
     Ok(())
 }

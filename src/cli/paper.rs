@@ -62,7 +62,7 @@ pub(super) fn run(a: PaperArgs) -> Result<()> {
                     p.fraction.map(|f| f.to_string()).unwrap_or_default(),
                 ];
                 fields.extend(p.angles.iter().map(f64::to_string));
-                (fields, metric_fields(&r.metrics).to_vec())
+                (fields, metric_fields(&r.metrics))
             });
             let csv = a.out.join(format!("{stem}.csv"));
             write_atomic(&csv, |w| write_rows(w, &header, &METRIC_COLUMNS, rows))

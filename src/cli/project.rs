@@ -4,7 +4,7 @@ use sonarproj::Output;
 use std::path::PathBuf;
 
 use serde_json::json;
-use sonarproj::ambiguity::SamplingPlan;
+use sonarproj::sampling::SamplingPlan;
 use sonarproj::{Batch, BatchItem, Measurement, Sampling};
 use sonarproj_apps::Result;
 use sonarproj_apps::report::occupancy_image::{self, Orientation};

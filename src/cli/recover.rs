@@ -2,7 +2,7 @@
 //! correspondence (JSON) or a CSV of them (`--input`).
 
 use serde_json::json;
-use sonarproj::recover::{DEFAULT_CURVE_STEP, Observation, Recovery, Sigmas, recover};
+use sonarproj::recovery::{DEFAULT_CURVE_STEP, Observation, Recovery, Sigmas, recover};
 use sonarproj::{Sonar, SonarKind};
 use sonarproj_apps::Result;
 use sonarproj_apps::io::recover::{read_recover_csv, write_recover_csv};

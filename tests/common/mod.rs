@@ -2,7 +2,8 @@
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
 use sonarproj::Sonar;
-use sonarproj::gpu::{GpuBackend, GpuContext};
+use sonarproj::gpu::GpuContext;
+use sonarproj::projection::gpu::GpuBackend;
 
 /// Returns the preset `name` (a test names only presets that exist).
 pub(crate) fn preset(name: &str) -> Sonar {
@@ -53,9 +54,9 @@ pub(crate) fn gpu() -> Option<GpuBackend> {
 }
 
 use sonarproj::Projection;
-use sonarproj::cpu::bounds::Bounds;
+use sonarproj::geometry::sonar::SonarKind;
 use sonarproj::occupancy::Layout;
-use sonarproj::sonar::SonarKind;
+use sonarproj::projection::envelope::Bounds;
 
 /// Relative error allowed on the GPU's FLS occupied measure: it sums pixel areas in f32, at most
 /// about (rows per thread + log2 64) roundings of 2^-24 each, well under 1e-5 for every layout

@@ -6,11 +6,11 @@ use sonarproj::Output;
 use std::time::{Duration, Instant};
 
 use crate::error::{Error, Result};
-use sonarproj::ambiguity::{Measurement, Sampling};
-use sonarproj::backend::Backend;
-use sonarproj::batch::{Batch, BatchItem};
-use sonarproj::pose::{RelativePose, Rotation};
-use sonarproj::sonar::Sonar;
+use sonarproj::geometry::pose::{RelativePose, Rotation};
+use sonarproj::geometry::sonar::Sonar;
+use sonarproj::projection::Backend;
+use sonarproj::projection::{Batch, BatchItem};
+use sonarproj::sampling::{Measurement, Sampling};
 
 /// The standard batches: `(from, to, poses)`, sized so each takes about as long on the reference.
 pub const STANDARD: [(&str, &str, usize); 2] =
@@ -59,11 +59,13 @@ pub struct Timing {
 
 impl Timing {
     /// Returns poses per second.
+    #[must_use]
     pub fn poses_per_second(&self) -> f64 {
         self.poses as f64 / self.median.as_secs_f64()
     }
 
     /// Returns samples per second.
+    #[must_use]
     pub fn samples_per_second(&self) -> f64 {
         self.samples as f64 / self.median.as_secs_f64()
     }

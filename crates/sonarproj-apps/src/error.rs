@@ -50,15 +50,27 @@ pub enum Error {
     /// A figure could not be drawn.
     #[error("cannot draw a figure: {0}")]
     Figure(String),
+    /// Some lines of a line-by-line input were bad; each got its own error in the output.
+    #[error("{bad} of {lines} input lines were bad; each has an \"error\" object in the output")]
+    BadLines {
+        /// The bad lines.
+        bad: usize,
+        /// All lines read.
+        lines: usize,
+    },
 }
 
 impl Error {
     /// Returns true when the error is the caller's input (CLI exit status 2), false when it is a
     /// failure of the machine (status 1).
+    #[must_use]
     pub fn is_input(&self) -> bool {
         match self {
             Error::Engine(e) => e.is_input(),
-            Error::SweepFile { .. } | Error::Csv { .. } | Error::ReadInput { .. } => true,
+            Error::SweepFile { .. }
+            | Error::Csv { .. }
+            | Error::ReadInput { .. }
+            | Error::BadLines { .. } => true,
             Error::WriteOutput { .. } | Error::Figure(_) => false,
         }
     }
@@ -74,6 +86,7 @@ impl Error {
     }
 
     /// Returns the same error with `prefix: ` put in front of the field name of an invalid value.
+    #[must_use]
     pub fn in_context(self, prefix: &str) -> Self {
         match self {
             Error::Engine(e) => Error::Engine(e.in_context(prefix)),

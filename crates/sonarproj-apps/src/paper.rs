@@ -7,12 +7,12 @@ use sonarproj::Output;
 use std::fmt::Write as _;
 
 use crate::error::{Error, Result, finite};
-use sonarproj::ambiguity::{Measurement, Sampling};
-use sonarproj::backend::Backend;
-use sonarproj::batch::{Batch, BatchItem, Projection};
-use sonarproj::occupancy::Metrics;
-use sonarproj::pose::{RelativePose, Rotation};
-use sonarproj::sonar::Sonar;
+use sonarproj::geometry::pose::{RelativePose, Rotation};
+use sonarproj::geometry::sonar::Sonar;
+use sonarproj::metrics::Metrics;
+use sonarproj::projection::Backend;
+use sonarproj::projection::{Batch, BatchItem, Projection};
+use sonarproj::sampling::{Measurement, Sampling};
 
 /// The distance fractions of scenarios 1–6.
 pub const FRACTIONS: [f64; 9] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9];
@@ -28,11 +28,13 @@ pub enum Direction {
 
 impl Direction {
     /// Returns both directions.
+    #[must_use]
     pub fn both() -> [Direction; 2] {
         [Direction::FlsToSss, Direction::SssToFls]
     }
 
     /// Returns the file stem: `fls-to-sss` or `sss-to-fls`.
+    #[must_use]
     pub fn stem(self) -> &'static str {
         match self {
             Direction::FlsToSss => "fls-to-sss",
@@ -41,6 +43,7 @@ impl Direction {
     }
 
     /// Returns (sonar 1, sonar 2): the paper presets.
+    #[must_use]
     pub fn sonars(self) -> (Sonar, Sonar) {
         let (a, b) = match self {
             Direction::FlsToSss => ("paper-fls", "paper-sss"),
@@ -53,6 +56,7 @@ impl Direction {
     }
 
     /// Returns the metric the paper plots for this direction, its label and unit.
+    #[must_use]
     pub fn metric(self, m: &Metrics) -> f64 {
         match self {
             Direction::FlsToSss => m.span,
@@ -61,6 +65,7 @@ impl Direction {
     }
 
     /// Returns the metric's axis label.
+    #[must_use]
     pub fn metric_label(self) -> &'static str {
         match self {
             Direction::FlsToSss => "range span (m)",
@@ -110,6 +115,7 @@ pub fn angles(step: f64) -> Result<Vec<f64>> {
 }
 
 /// Returns the swept angle indices (0 roll, 1 pitch, 2 yaw) of scenario `s` (1–9).
+#[must_use]
 pub fn swept(s: u8) -> &'static [usize] {
     match s {
         1 | 4 => &[0],
@@ -167,6 +173,7 @@ pub fn scenario_poses(step: f64) -> Result<Vec<ScenarioPose>> {
 }
 
 /// Returns the feature distances `(in sonar 1, in sonar 2)` (m) of a scenario pose.
+#[must_use]
 pub fn distances(p: &ScenarioPose, s1: &Sonar, s2: &Sonar) -> (f64, f64) {
     let f = p.fraction.unwrap_or(0.5);
     match p.scenario {
@@ -265,6 +272,7 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
 
 impl DirectionRun {
     /// Returns the metric at `scenario`, `fraction` and angles (deg), if that pose was run.
+    #[must_use]
     pub fn at(&self, scenario: u8, fraction: Option<f64>, angles: [f64; 3]) -> Option<f64> {
         self.poses
             .iter()
@@ -274,6 +282,7 @@ impl DirectionRun {
     }
 
     /// Returns the metric over every pose of `scenario` and `fraction`.
+    #[must_use]
     pub fn values(&self, scenario: u8, fraction: Option<f64>) -> Vec<f64> {
         self.poses
             .iter()
@@ -427,6 +436,7 @@ pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
 }
 
 /// Returns `findings.md`: each finding, whether the numbers bear it out, and the numbers.
+#[must_use]
 pub fn findings_markdown(findings: &[Finding], angle_step: f64, sampling: Sampling) -> String {
     let mut md = String::from("# The paper's qualitative findings, checked\n\n");
     let sampling = match sampling {

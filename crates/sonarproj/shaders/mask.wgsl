@@ -1,9 +1,9 @@
-// Correspondence masks on the GPU: the same cells and balls as src/mask.rs (read the two side by
+// Correspondence masks on the GPU: the same cells and balls as src/masks/ (read the two side by
 // side), in f32. Every rounding error is absorbed by a slack the CPU adds to each job's radius
-// (src/gpu/mask.rs), so a mask can only grow, never miss a pixel; beams are found without
+// (src/masks/gpu.rs), so a mask can only grow, never miss a pixel; beams are found without
 // trigonometry by the side of each beam edge the ball lies on.
 //
-// Structs: keep in sync with src/gpu/mask.rs (sizes asserted there, layout checked in
+// Structs: keep in sync with src/masks/gpu.rs (sizes asserted there, layout checked in
 // tests/shaders.rs).
 
 struct MaskParams {

@@ -1,6 +1,6 @@
 // Stage 2: one pose's bitset becomes its occupied count and occupied measure.
-// CPU twin: the reduce step of src/cpu_fast.rs (counts and, for an FLS, per-row areas summed in
-// row order); the plain reference is src/cpu/reduce.rs. Dispatch (poses, 1, 1): workgroup x
+// CPU twin: the reduce step of src/projection/fast.rs (counts and, for an FLS, per-row areas summed in
+// row order); the plain reference is src/projection/reference/reduce.rs. Dispatch (poses, 1, 1): workgroup x
 // reduces pose x; each thread
 // takes words (SSS) or range rows (FLS) l, l + 64, ... and the workgroup sums their results.
 

@@ -1,5 +1,5 @@
-// Stage 1: transform, clip, bin, splat. CPU twin: src/cpu_fast.rs (the same algorithm in f64,
-// block culling included; the reference src/cpu/splat.rs stays plain).
+// Stage 1: transform, clip, bin, splat. CPU twin: src/projection/fast.rs (the same algorithm in f64,
+// block culling included; the reference src/projection/reference/splat.rs stays plain).
 // The transform and every decision use Real (f64, or double-f32 where the adapter has no f64:
 // shared/real_*.wgsl), so a sample lands where the f64 reference puts it unless it lies within
 // about 1e-12 (relative) of a bound or edge.
@@ -19,9 +19,9 @@
 @group(0) @binding(6) var<storage, read_write> metrics: array<atomic<u32>>;
 
 const WORKGROUP: u32 = 64u;
-// Samples per culling block (consecutive in the plan's order): cpu_fast::BLOCK.
+// Samples per culling block (consecutive in the plan's order): projection::fast::BLOCK.
 const BLOCK: u32 = 16u;
-// Where a block's ball lies: cpu_fast's Side.
+// Where a block's ball lies: projection::fast's Side.
 const OUTSIDE: u32 = 0u;
 const ACROSS: u32 = 1u;
 const INSIDE: u32 = 2u;
@@ -113,7 +113,7 @@ fn in_view(x: Real, y: Real, z: Real, r2: Real) -> bool {
 
 // Returns where the block's ball (unit directions within ball.w of ball.xyz) lies once the pose
 // moves it: wholly outside sonar 2's field of view, wholly inside, or across a bound. Twin of
-// cpu_fast's Geometry::ball_side: each clip bound is a 1-Lipschitz function of the point, so
+// projection::fast's Geometry::ball_side: each clip bound is a 1-Lipschitz function of the point, so
 // its value at the centre moves by at most the radius over the ball. Decided in f32 from the
 // pose's hi parts, with a slack of 1e-5 * (range + |t| + range_max), over a hundred times the
 // f32 roundings here, so a culled sample is one the Real test rejects and a sample of an INSIDE

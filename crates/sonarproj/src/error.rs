@@ -62,6 +62,7 @@ pub enum Error {
 impl Error {
     /// Returns true when the error is the caller's input (CLI exit status 2), false when it is a
     /// failure of the machine (status 1).
+    #[must_use]
     pub fn is_input(&self) -> bool {
         matches!(
             self,
@@ -86,6 +87,7 @@ impl Error {
     }
 
     /// Returns the same error with `prefix: ` put in front of the field name (for nesting context).
+    #[must_use]
     pub fn in_context(self, prefix: &str) -> Self {
         match self {
             Error::InvalidValue {

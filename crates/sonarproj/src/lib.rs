@@ -1,12 +1,17 @@
 //! sonarproj: the epipolar geometry of sonar. Given a feature measured by one sonar (FLS or SSS)
 //! and the pose of a second sonar, compute where in the second sonar's data the feature can be.
 //!
-//! Data flows one way: [`Measurement`] + sonars → [`SamplingPlan`] → [`Backend`] (CPU reference
-//! or WGSL on the GPU) → [`Occupancy`] → [`Metrics`] → reports. See `ARCHITECTURE.md`.
+//! Data flows one way, and the modules follow it: [`geometry`] (sonars, poses, rigs) →
+//! [`sampling`] ([`Measurement`] → [`SamplingPlan`]) → [`projection`] ([`Backend`]: the f64
+//! reference, the fast CPU path, or WGSL on the GPU) → [`occupancy`] → [`metrics`] → reports;
+//! beside it, [`masks`] (correspondence masks) and [`recovery`] (the lost coordinate), with the
+//! GPU plumbing in [`gpu`]. See `ARCHITECTURE.md`.
 //!
-//! Units: ranges and translations in metres; angles of sonars, measurements, rotations and
-//! reported metrics in degrees (sampling plans and [`occupancy::Extremes`] in radians, as
-//! their docs say).
+//! Units: metres for ranges and translations. Angles are in degrees wherever a user gives or
+//! reads them — sonars, measurements, rotations, mounts, noise, metrics, mask bounding boxes —
+//! and in radians only inside the computation's own types ([`Layout`]'s beam edges and half
+//! apertures, [`SamplingPlan`], [`metrics::Extremes`], [`geometry::sph_to_cart`]); every field
+//! and argument says which.
 //!
 //! ```
 //! use sonarproj::{Backend, Batch, BatchItem, Measurement, Output, RelativePose, Rotation, Sampling, Sonar};
@@ -31,24 +36,20 @@
 //! # Ok::<(), sonarproj::Error>(())
 //! ```
 
-pub mod ambiguity;
-pub mod backend;
-pub mod batch;
-pub mod cpu;
-pub mod cpu_fast;
 pub mod error;
+pub mod geometry;
 pub mod gpu;
-pub mod mask;
+pub mod masks;
+pub mod metrics;
 pub mod occupancy;
-pub mod pose;
-pub mod recover;
-pub mod rig;
-pub mod sonar;
+pub mod projection;
+pub mod recovery;
+pub mod sampling;
 
-pub use ambiguity::{Measurement, Sampling, SamplingPlan};
-pub use backend::{Backend, BackendChoice, Output};
-pub use batch::{Batch, BatchItem, Projection};
 pub use error::{Error, Result};
-pub use occupancy::{Layout, Metrics, Occupancy};
-pub use pose::{RelativePose, Rotation};
-pub use sonar::{BeamLayout, Sonar, SonarKind};
+pub use geometry::{BeamLayout, RelativePose, Rotation, Sonar, SonarKind, rig};
+pub use masks::{Counts, MaskEngine};
+pub use metrics::{Metric, Metrics};
+pub use occupancy::{Layout, Occupancy};
+pub use projection::{Backend, BackendChoice, Batch, BatchItem, Output, Projection};
+pub use sampling::{Measurement, Sampling, SamplingPlan};

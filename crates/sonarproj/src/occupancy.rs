@@ -1,9 +1,7 @@
-//! Sonar 2's data layout (range bins, beams: README: Conventions), the occupancy bitset drawn in it, and the
-//! metrics of one projection.
+//! Sonar 2's data layout (range bins, beams: README: Conventions) and the occupancy bitset drawn
+//! in it.
 
-use serde::Serialize;
-
-use crate::sonar::{Sonar, SonarKind};
+use crate::geometry::{Sonar, SonarKind};
 
 /// The geometry of sonar 2's data: field of view, range bins, beam edges, all in radians/metres.
 #[derive(Clone, Debug, PartialEq)]
@@ -28,6 +26,7 @@ pub struct Layout {
 
 impl Layout {
     /// Returns the layout of `sonar`'s data.
+    #[must_use]
     pub fn of(sonar: &Sonar) -> Self {
         Layout {
             kind: sonar.kind,
@@ -42,17 +41,20 @@ impl Layout {
     }
 
     /// Returns the number of beams (1 for an SSS).
+    #[must_use]
     pub fn beams(&self) -> usize {
         self.beam_edges.len() - 1
     }
 
     /// Returns the number of bins (SSS) or pixels (FLS): `range_bins × beams`.
+    #[must_use]
     pub fn pixels(&self) -> usize {
         self.range_bins * self.beams()
     }
 
     /// Returns true when `(r, az, el)` (m, rad, rad) lies in the field of view: README: Conventions, bounds
     /// inclusive, the origin outside.
+    #[must_use]
     pub fn inside(&self, r: f64, az: f64, el: f64) -> bool {
         r > 0.0
             && r >= self.range_min
@@ -62,6 +64,7 @@ impl Layout {
     }
 
     /// Returns the lower edge (m) of range bin `i`; `i = range_bins` gives `range_max`.
+    #[must_use]
     pub fn range_edge(&self, i: usize) -> f64 {
         if i >= self.range_bins {
             self.range_max
@@ -76,6 +79,7 @@ impl Layout {
         clippy::cast_possible_truncation,
         reason = "a saturating float-to-index conversion, clamped to the table right after"
     )]
+    #[must_use]
     pub fn range_bin(&self, r: f64) -> usize {
         let i = ((r - self.range_min) / self.range_bin_width).floor();
         (i.max(0.0) as usize).min(self.range_bins - 1)
@@ -83,6 +87,7 @@ impl Layout {
 
     /// Returns the beam of `az` (rad): beam `j` covers `[e_j, e_{j+1})`, the last one also takes
     /// `+half_azimuth`. `az` must lie in the aperture.
+    #[must_use]
     pub fn beam(&self, az: f64) -> usize {
         let j = self.beam_edges.partition_point(|&e| e <= az);
         j.saturating_sub(1).min(self.beams() - 1)
@@ -90,6 +95,7 @@ impl Layout {
 
     /// Returns `(sin h, cos h)` for the trigonometry-free azimuth clip `x sin h − |y| cos h ≥ 0`
     /// (⇔ `|az| ≤ h` for `h` in `(0, π]`); exactly `(0, −1)` for the full circle.
+    #[must_use]
     pub fn azimuth_clip(&self) -> (f64, f64) {
         let h = self.half_azimuth;
         if h >= std::f64::consts::PI {
@@ -101,6 +107,7 @@ impl Layout {
 
     /// Returns `(sin² e, cos² e)` for the elevation clip `z² cos² e ≤ (x² + y²) sin² e`
     /// (⇔ `|el| ≤ e`), or `None` for a 180° aperture, which clips nothing.
+    #[must_use]
     pub fn elevation_clip(&self) -> Option<(f64, f64)> {
         let e = self.half_elevation;
         (e < std::f64::consts::FRAC_PI_2).then(|| (e.sin().powi(2), e.cos().powi(2)))
@@ -108,6 +115,7 @@ impl Layout {
 
     /// Returns the beam width (rad) when the beams split the aperture uniformly (to 1e-12
     /// relative), else `None`.
+    #[must_use]
     pub fn uniform_beam_width(&self) -> Option<f64> {
         let width = 2.0 * self.half_azimuth / self.beams() as f64;
         self.beam_edges
@@ -117,6 +125,7 @@ impl Layout {
     }
 
     /// Returns the squared range-bin edges `(range_min + iΔ)²`, `i = 0..=range_bins`.
+    #[must_use]
     pub fn range_edges_sq(&self) -> Vec<f64> {
         (0..=self.range_bins)
             .map(|i| self.range_edge(i).powi(2))
@@ -125,6 +134,7 @@ impl Layout {
 
     /// Returns the measure of pixel `(i, j)`: the bin width (m) for an SSS; for an FLS the true
     /// area `Δa_j/2 · (r_{i+1}² − r_i²)` (m², Δa in radians).
+    #[must_use]
     pub fn pixel_measure(&self, i: usize, j: usize) -> f64 {
         match self.kind {
             SonarKind::Sss => self.range_bin_width,
@@ -150,6 +160,7 @@ pub struct Occupancy {
 
 impl Occupancy {
     /// Returns an empty occupancy of `range_bins × beams`.
+    #[must_use]
     pub fn new(range_bins: usize, beams: usize) -> Self {
         Occupancy {
             range_bins,
@@ -159,6 +170,7 @@ impl Occupancy {
     }
 
     /// Returns the occupancy with the given words (as read back from the GPU).
+    #[must_use]
     pub fn from_words(range_bins: usize, beams: usize, words: Vec<u32>) -> Self {
         debug_assert_eq!(words.len(), (range_bins * beams).div_ceil(32));
         Occupancy {
@@ -187,12 +199,14 @@ impl Occupancy {
     }
 
     /// Returns whether pixel `(i, j)` is set.
+    #[must_use]
     pub fn get(&self, i: usize, j: usize) -> bool {
         let k = i * self.beams + j;
         self.words[k / 32] >> (k % 32) & 1 == 1
     }
 
     /// Returns the number of set pixels.
+    #[must_use]
     pub fn count(&self) -> u64 {
         self.words.iter().map(|w| u64::from(w.count_ones())).sum()
     }
@@ -208,11 +222,13 @@ impl Occupancy {
     }
 
     /// Returns true when every pixel set here is also set in `other`.
+    #[must_use]
     pub fn is_subset_of(&self, other: &Occupancy) -> bool {
         self.words.iter().zip(&other.words).all(|(a, b)| a & !b == 0)
     }
 
     /// Returns the occupancy as bytes, 0 or 1, row-major, optionally flipped along each axis.
+    #[must_use]
     pub fn to_bytes(&self, flip_range: bool, flip_beams: bool) -> Vec<u8> {
         let mut out = Vec::with_capacity(self.range_bins * self.beams);
         for row in 0..self.range_bins {
@@ -227,93 +243,6 @@ impl Occupancy {
             }
         }
         out
-    }
-}
-
-/// The metrics of one projection (README: Conventions). Ranges in metres, azimuths in degrees.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Metrics {
-    /// Samples kept by the clip.
-    pub visible: u64,
-    /// Samples drawn.
-    pub total: u64,
-    /// Smallest range (m) of a visible sample in sonar 2; `None` when nothing is visible.
-    pub range_min: Option<f64>,
-    /// Largest range (m) of a visible sample in sonar 2.
-    pub range_max: Option<f64>,
-    /// `range_max − range_min` (m), 0 when nothing is visible: the paper's range span.
-    pub span: f64,
-    /// Smallest azimuth (deg) of a visible sample in sonar 2.
-    pub azimuth_min: Option<f64>,
-    /// Largest azimuth (deg) of a visible sample in sonar 2.
-    pub azimuth_max: Option<f64>,
-    /// Number of occupied bins (SSS) or pixels (FLS).
-    pub occupied: u64,
-    /// Occupied bins × bin width (m, SSS) or summed true area of occupied pixels (m², FLS).
-    pub occupied_measure: f64,
-}
-
-/// Running extremes of the visible samples' range and azimuth (m, rad).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Extremes {
-    /// Smallest range seen (`+inf` when none).
-    pub range_min: f64,
-    /// Largest range seen (`-inf` when none).
-    pub range_max: f64,
-    /// Smallest azimuth seen (rad).
-    pub azimuth_min: f64,
-    /// Largest azimuth seen (rad).
-    pub azimuth_max: f64,
-}
-
-impl Default for Extremes {
-    fn default() -> Self {
-        Extremes {
-            range_min: f64::INFINITY,
-            range_max: f64::NEG_INFINITY,
-            azimuth_min: f64::INFINITY,
-            azimuth_max: f64::NEG_INFINITY,
-        }
-    }
-}
-
-impl Extremes {
-    /// Widens the extremes to include a sample at range `r`, azimuth `az`.
-    pub fn add(&mut self, r: f64, az: f64) {
-        self.add_range(r);
-        self.add_azimuth(az);
-    }
-
-    /// Widens the range extremes to include `r`.
-    pub fn add_range(&mut self, r: f64) {
-        self.range_min = self.range_min.min(r);
-        self.range_max = self.range_max.max(r);
-    }
-
-    /// Widens the azimuth extremes to include `az`.
-    pub fn add_azimuth(&mut self, az: f64) {
-        self.azimuth_min = self.azimuth_min.min(az);
-        self.azimuth_max = self.azimuth_max.max(az);
-    }
-}
-
-impl Metrics {
-    /// Returns the metrics from the sample counts, the extremes (m, rad) and the occupancy
-    /// summary; extremes are `None` and the span 0 when nothing is visible.
-    pub fn new(visible: u64, total: u64, ex: Extremes, occupied: u64, measure: f64) -> Self {
-        let seen = visible > 0;
-        let some = |v: f64| seen.then_some(v);
-        Metrics {
-            visible,
-            total,
-            range_min: some(ex.range_min),
-            range_max: some(ex.range_max),
-            span: if seen { ex.range_max - ex.range_min } else { 0.0 },
-            azimuth_min: some(ex.azimuth_min.to_degrees()),
-            azimuth_max: some(ex.azimuth_max.to_degrees()),
-            occupied,
-            occupied_measure: measure,
-        }
     }
 }
 

@@ -10,11 +10,11 @@ use std::io::{Read, Write};
 use crate::error::Result;
 use crate::io::field;
 use crate::io::table::{Table, header_error, row_error, write_rows};
-use sonarproj::ambiguity::Measurement;
-use sonarproj::batch::{BatchItem, Projection};
-use sonarproj::occupancy::Metrics;
-use sonarproj::pose::{RelativePose, Rotation};
-use sonarproj::sonar::Sonar;
+use sonarproj::geometry::pose::{RelativePose, Rotation};
+use sonarproj::geometry::sonar::Sonar;
+use sonarproj::metrics::{METRIC_NAMES, METRICS, Metrics, Value};
+use sonarproj::projection::{BatchItem, Projection};
+use sonarproj::sampling::Measurement;
 
 /// Columns every input row must have.
 pub const REQUIRED_COLUMNS: [&str; 6] = ["range", "azimuth", "elevation", "roll", "pitch", "yaw"];
@@ -22,18 +22,8 @@ pub const REQUIRED_COLUMNS: [&str; 6] = ["range", "azimuth", "elevation", "roll"
 pub const PLACE_COLUMNS: [&str; 3] = ["place_range", "place_azimuth", "place_elevation"];
 /// Translation columns (the other way).
 pub const TRANSLATION_COLUMNS: [&str; 3] = ["tx", "ty", "tz"];
-/// The metric columns appended to every output row.
-pub const METRIC_COLUMNS: [&str; 9] = [
-    "visible",
-    "total",
-    "range_min",
-    "range_max",
-    "span",
-    "azimuth_min",
-    "azimuth_max",
-    "occupied",
-    "occupied_measure",
-];
+/// The metric columns appended to every output row: the metric table's names, in its order.
+pub const METRIC_COLUMNS: [&str; METRICS.len()] = METRIC_NAMES;
 
 /// A parsed batch CSV: the rows as given (for echoing) and the projections they ask for.
 #[derive(Clone, Debug)]
@@ -135,18 +125,16 @@ pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
 /// Returns the metric fields of one projection, in [`METRIC_COLUMNS`] order: numbers in their
 /// shortest exact form (every digit of the f64; f32 results keep their f32 value), empty where
 /// nothing is visible.
-pub fn metric_fields(m: &Metrics) -> [String; 9] {
-    [
-        m.visible.to_string(),
-        m.total.to_string(),
-        field(m.range_min),
-        field(m.range_max),
-        m.span.to_string(),
-        field(m.azimuth_min),
-        field(m.azimuth_max),
-        m.occupied.to_string(),
-        m.occupied_measure.to_string(),
-    ]
+#[must_use]
+pub fn metric_fields(m: &Metrics) -> Vec<String> {
+    METRICS
+        .iter()
+        .map(|info| match m.get(info.metric) {
+            Value::Count(n) => n.to_string(),
+            Value::Real(v) => v.to_string(),
+            Value::Extreme(v) => field(v),
+        })
+        .collect()
 }
 
 /// Writes the output CSV: the input's columns as given, then the metrics of each row.
@@ -158,6 +146,6 @@ pub fn write_batch_csv(w: impl Write, input: &BatchInput, results: &[Projection]
         .rows
         .iter()
         .zip(results)
-        .map(|(fields, p)| (fields.as_slice(), metric_fields(&p.metrics).to_vec()));
+        .map(|(fields, p)| (fields.as_slice(), metric_fields(&p.metrics)));
     write_rows(w, &input.headers, &METRIC_COLUMNS, rows)
 }

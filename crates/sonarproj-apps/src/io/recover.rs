@@ -12,8 +12,8 @@ use std::io::{Read, Write};
 use crate::error::Result;
 use crate::io::field;
 use crate::io::table::{Table, row_error, write_rows};
-use sonarproj::pose::{RelativePose, Rotation};
-use sonarproj::recover::{Observation, Recovery, Sigmas};
+use sonarproj::geometry::pose::{RelativePose, Rotation};
+use sonarproj::recovery::{Observation, Recovery, Sigmas};
 
 /// Columns every recovery row must have.
 pub const RECOVER_REQUIRED: [&str; 8] = [
@@ -144,6 +144,7 @@ fn flags(r: &Recovery) -> String {
 }
 
 /// Returns the output rows (after the input columns) of one recovery.
+#[must_use]
 pub fn recovery_rows(r: &Recovery) -> Vec<[String; 21]> {
     let empty = || std::array::from_fn(|_| String::new());
     if let Some(curve) = &r.curve {

@@ -17,6 +17,7 @@ pub struct Table {
 }
 
 /// Returns an error about the header.
+#[must_use]
 pub fn header_error(message: String) -> Error {
     Error::Csv {
         context: "input header".into(),
@@ -91,6 +92,7 @@ impl Table {
     }
 
     /// Returns whether column `c` is present.
+    #[must_use]
     pub fn has(&self, c: &str) -> bool {
         self.index.contains_key(c)
     }
@@ -157,6 +159,7 @@ pub fn write_rows<F: AsRef<[String]>>(
 }
 
 /// Returns `e` as an error of row `row` at line `line`.
+#[must_use]
 pub fn row_error(row: usize, line: u64, e: Error) -> Error {
     Error::Csv {
         context: format!("input row {row} (line {line})"),

@@ -14,9 +14,9 @@ use plotters::prelude::*;
 use crate::error::{Error, Result};
 use crate::report::figures::{FONT, fonts};
 use crate::report::{self, write_atomic};
-use sonarproj::mask::Mask;
+use sonarproj::geometry::sonar::SonarKind;
+use sonarproj::masks::Mask;
 use sonarproj::occupancy::Layout;
-use sonarproj::sonar::SonarKind;
 
 /// Feature colours (Tableau 10), cycled.
 const PALETTE: [(u8, u8, u8); 10] = [
@@ -33,6 +33,7 @@ const PALETTE: [(u8, u8, u8); 10] = [
 ];
 
 /// Returns the colour of feature `k`.
+#[must_use]
 pub fn colour(k: usize) -> RGBColor {
     let (r, g, b) = PALETTE[k % PALETTE.len()];
     RGBColor(r, g, b)

@@ -6,7 +6,7 @@ pub mod mask_image;
 pub mod occupancy_image;
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 
@@ -35,16 +35,76 @@ pub fn write_npy<T: npyz::AutoSerialize>(
     writer.finish().map_err(err)
 }
 
+/// Where an output path leads, decided before anything is written.
+#[derive(Debug, PartialEq, Eq)]
+enum Target {
+    /// A regular file (or none yet) at this path, replaced atomically: a symlink is followed to
+    /// the file it names, which is replaced, and the link kept.
+    Replace(PathBuf),
+    /// A device, FIFO, socket or terminal, or a magic link such as `/proc/self/fd/1` or
+    /// `/dev/stdout`: written straight through, never replaced.
+    Through,
+}
+
+/// Returns where writing `path` leads.
+fn target(path: &Path) -> Result<Target> {
+    if path.as_os_str().is_empty() {
+        return Err(Error::invalid("output path", "\"\"", "must name a file"));
+    }
+    // Descriptors reached through /proc or /dev/fd are open files of this process or another:
+    // replacing the link's target would detach them from whoever holds them.
+    let magic = ["/proc", "/dev/fd", "/dev/stdout", "/dev/stderr", "/dev/stdin"]
+        .iter()
+        .any(|p| path.starts_with(p));
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_dir() => Err(Error::invalid(
+            "output path",
+            path.display(),
+            "is a directory; give a file path",
+        )),
+        Ok(m) if !m.is_file() || magic => Ok(Target::Through),
+        Ok(_) => Ok(Target::Replace(
+            std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()),
+        )),
+        // A link to nothing yet: the file is created where the link points.
+        Err(_) if path.is_symlink() => {
+            let dest = std::fs::read_link(path).unwrap_or_else(|_| path.to_path_buf());
+            let dest = match path.parent() {
+                Some(dir) if dest.is_relative() => dir.join(dest),
+                _ => dest,
+            };
+            Ok(Target::Replace(dest))
+        }
+        Err(_) => Ok(Target::Replace(path.to_path_buf())),
+    }
+}
+
 /// Writes `path` whole or not at all: `fill` writes into a temporary file beside it, which is
-/// renamed over `path` only when `fill` succeeded.
+/// renamed over `path` only when `fill` succeeded. A symlink is followed and the file it names is
+/// replaced (the link stays); a special file — a device, FIFO, socket, terminal, or a magic link
+/// such as `/proc/self/fd/1` — is written straight through and never replaced.
 ///
 /// # Errors
-/// [`Error::WriteOutput`] on I/O failure; any error `fill` returns (the file is then not created).
+/// [`Error::WriteOutput`] on I/O failure; an input error for an empty path or a directory; any
+/// error `fill` returns (a regular file is then not created or changed).
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
     let io_err = |e: &dyn std::fmt::Display| Error::WriteOutput {
         path: path.to_path_buf(),
         message: e.to_string(),
     };
+    let path = match target(path)? {
+        Target::Replace(p) => p,
+        Target::Through => {
+            let file = std::fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(|e| io_err(&e))?;
+            let mut w = std::io::BufWriter::new(file);
+            fill(&mut w)?;
+            return w.flush().map_err(|e| io_err(&e));
+        }
+    };
+    let path = path.as_path();
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),

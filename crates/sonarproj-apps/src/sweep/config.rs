@@ -32,10 +32,11 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::io::{BatchInput, read_batch_csv};
-use sonarproj::ambiguity::{Measurement, Sampling};
-use sonarproj::batch::BatchItem;
-use sonarproj::pose::{RelativePose, Rotation};
-use sonarproj::sonar::{Sonar, SonarKind};
+use sonarproj::geometry::pose::{RelativePose, Rotation};
+use sonarproj::geometry::sonar::{Sonar, SonarKind};
+use sonarproj::metrics::Metric;
+use sonarproj::projection::BatchItem;
+use sonarproj::sampling::{Measurement, Sampling};
 
 /// The most poses one sweep may have.
 pub const MAX_POSES: u64 = 1 << 40;
@@ -43,18 +44,6 @@ pub const MAX_POSES: u64 = 1 << 40;
 /// The most values one grid axis may take (its values are held in memory, 8 bytes each); grids
 /// reach [`MAX_POSES`] through the product of their axes.
 pub const MAX_AXIS_VALUES: u64 = 1_000_000;
-
-/// Metrics a figure may draw, with their axis labels for an SSS and an FLS target.
-pub const FIGURE_METRICS: [(&str, &str, &str); 8] = [
-    ("span", "range span (m)", "range span (m)"),
-    ("occupied_measure", "occupied length (m)", "projection area (m²)"),
-    ("occupied", "occupied range bins", "occupied pixels"),
-    ("visible", "visible samples", "visible samples"),
-    ("range_min", "minimum range (m)", "minimum range (m)"),
-    ("range_max", "maximum range (m)", "maximum range (m)"),
-    ("azimuth_min", "minimum azimuth (deg)", "minimum azimuth (deg)"),
-    ("azimuth_max", "maximum azimuth (deg)", "maximum azimuth (deg)"),
-];
 
 /// One grid axis: a column of the output and the values it takes.
 #[derive(Clone, Debug, PartialEq)]
@@ -93,8 +82,8 @@ pub struct SweepConfig {
     pub target: Sonar,
     /// The sampling rule.
     pub sampling: Sampling,
-    /// The metric the figure draws (a [`FIGURE_METRICS`] name).
-    pub metric: &'static str,
+    /// The metric the figure draws (one with a figure label in the metric table).
+    pub metric: Metric,
     /// The poses.
     pub poses: Poses,
 }
@@ -320,15 +309,16 @@ impl SweepConfig {
         };
         let metric = match string("metric")? {
             None => match target.kind {
-                SonarKind::Sss => "span",
-                SonarKind::Fls => "occupied_measure",
+                SonarKind::Sss => Metric::Span,
+                SonarKind::Fls => Metric::OccupiedMeasure,
             },
-            Some(m) => FIGURE_METRICS
-                .iter()
-                .find(|f| f.0 == m)
-                .map(|f| f.0)
+            Some(m) => Metric::from_name(m)
+                .filter(|m| m.label(target.kind).is_some())
                 .ok_or_else(|| {
-                    let names: Vec<&str> = FIGURE_METRICS.iter().map(|f| f.0).collect();
+                    let names: Vec<&str> = Metric::all()
+                        .filter(|m| m.label(target.kind).is_some())
+                        .map(Metric::name)
+                        .collect();
                     key_error(
                         file,
                         "metric",
@@ -474,6 +464,7 @@ impl SweepConfig {
 
     /// Returns the output columns before the metrics: `index`, then the grid's columns (or the
     /// list's columns as given).
+    #[must_use]
     pub fn columns(&self) -> Vec<String> {
         let mut out = vec!["index".to_string()];
         match &self.poses {
@@ -484,6 +475,7 @@ impl SweepConfig {
     }
 
     /// Returns the grid columns that take more than one value (none for a list).
+    #[must_use]
     pub fn varying(&self) -> Vec<String> {
         match &self.poses {
             Poses::Grid(g) => g
@@ -530,13 +522,14 @@ impl SweepConfig {
 
     /// Returns a fingerprint of everything that decides the output (sonars, sampling, poses):
     /// FNV-1a over their full debug form, so a resumed or merged sweep can tell its own parts.
+    #[must_use]
     pub fn fingerprint(&self) -> String {
         let text = format!(
             "{:?}|{:?}|{:?}|{}|{:?}",
             self.source,
             self.target,
             self.sampling,
-            self.metric,
+            self.metric.name(),
             match &self.poses {
                 Poses::Grid(g) => format!("{g:?}"),
                 Poses::List(l) => format!("{:?}{:?}", l.headers, l.rows),
@@ -551,15 +544,10 @@ impl SweepConfig {
     }
 
     /// Returns the figure's axis label for the metric (it depends on sonar 2's kind).
+    #[must_use]
     pub fn metric_label(&self) -> &'static str {
-        let m = FIGURE_METRICS
-            .iter()
-            .find(|f| f.0 == self.metric)
-            .expect("checked metric");
-        match self.target.kind {
-            SonarKind::Sss => m.1,
-            SonarKind::Fls => m.2,
-        }
+        // Checked when read: only metrics with a label are accepted.
+        self.metric.label(self.target.kind).unwrap_or(self.metric.name())
     }
 }
 
@@ -569,6 +557,7 @@ impl Grid {
         clippy::cast_possible_truncation,
         reason = "grid sizes are checked against MAX_POSES before they are used as indices"
     )]
+    #[must_use]
     pub fn values(&self, mut i: u64) -> Vec<f64> {
         let mut out = vec![0.0; self.axes.len()];
         for (k, a) in self.axes.iter().enumerate().rev() {

@@ -20,14 +20,14 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use rayon::prelude::*;
-use sonarproj::backend::Backend;
+use sonarproj::projection::Backend;
 
 use crate::error::{Error, Result};
 use crate::io::table::write_rows;
 use crate::io::{METRIC_COLUMNS, metric_fields};
 use crate::report::{figures, write_atomic};
 use crate::sweep::SweepConfig;
-use sonarproj::batch::{Batch, Projection};
+use sonarproj::projection::{Batch, Projection};
 
 /// The default number of poses per chunk.
 pub const DEFAULT_CHUNK_POSES: u64 = 20_000;
@@ -81,12 +81,14 @@ impl Shard {
         clippy::cast_possible_truncation,
         reason = "pose counts and chunk sizes are bounded (MAX_POSES) before this point"
     )]
+    #[must_use]
     pub fn range(self, total: u64) -> Range<u64> {
         let at = |k: u64| (u128::from(total) * u128::from(k) / u128::from(self.n)) as u64;
         at(self.k - 1)..at(self.k)
     }
 
     /// Returns the shard's file stem, `shard-K-of-N`.
+    #[must_use]
     pub fn stem(self) -> String {
         format!("shard-{}-of-{}", self.k, self.n)
     }
@@ -188,7 +190,7 @@ pub fn descriptor(config: &SweepConfig) -> Result<Descriptor> {
         poses: config.count()?,
         columns,
         varying: config.varying(),
-        metric: config.metric.to_string(),
+        metric: config.metric.name().to_string(),
         metric_label: config.metric_label().to_string(),
         title: format!("{} to {}", config.source.name, config.target.name),
     })

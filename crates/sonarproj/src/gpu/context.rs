@@ -24,6 +24,7 @@ pub struct GpuContext {
 
 /// Returns a wgpu instance over the backends named in `WGPU_BACKEND` (default: the primary ones,
 /// Vulkan, Metal, DX12).
+#[must_use]
 pub fn instance() -> wgpu::Instance {
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle().with_env();
     if wgpu::Backends::from_env().is_none() {
@@ -33,6 +34,7 @@ pub fn instance() -> wgpu::Instance {
 }
 
 /// Returns what every adapter wgpu sees says of itself.
+#[must_use]
 pub fn list_adapters() -> Vec<wgpu::AdapterInfo> {
     let inst = instance();
     let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
@@ -43,6 +45,7 @@ pub fn list_adapters() -> Vec<wgpu::AdapterInfo> {
 }
 
 /// Returns a short description of an adapter: name, backend, type, driver.
+#[must_use]
 pub fn describe(info: &wgpu::AdapterInfo) -> String {
     format!(
         "{} ({:?}, {:?}, driver {} {})",
@@ -54,6 +57,7 @@ pub fn describe(info: &wgpu::AdapterInfo) -> String {
 impl GpuContext {
     /// Returns whether the adapter is a software one (lavapipe, llvmpipe, WARP): it runs on the
     /// CPU's cores.
+    #[must_use]
     pub fn is_software(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu
     }

@@ -42,12 +42,14 @@ pub struct Stage {
 
 impl Stage {
     /// Returns the pipeline of WGSL `source` (entry point `main`) with `bindings` in group 0.
+    #[must_use]
     pub fn new(device: &wgpu::Device, name: &str, source: &str, bindings: &[Binding]) -> Self {
         Self::with_constants(device, name, source, bindings, &[])
     }
 
     /// Returns the pipeline as [`Stage::new`], with the WGSL `override` constants set to
     /// `constants` (name, value).
+    #[must_use]
     pub fn with_constants(
         device: &wgpu::Device,
         name: &str,
@@ -95,6 +97,7 @@ impl Stage {
     }
 
     /// Returns a bind group of `buffers`, in binding order.
+    #[must_use]
     pub fn bind(&self, device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
         let entries: Vec<_> = buffers
             .iter()
@@ -111,24 +114,3 @@ impl Stage {
         })
     }
 }
-
-/// Bindings of `shaders/splat.wgsl`: params, beam_edges, range_edges_sq, poses, directions,
-/// bits, metrics.
-pub const SPLAT_BINDINGS: [Binding; 7] = [
-    Binding::Uniform,
-    Binding::Read,
-    Binding::Read,
-    Binding::Read,
-    Binding::Read,
-    Binding::ReadWrite,
-    Binding::ReadWrite,
-];
-
-/// Bindings of `shaders/reduce.wgsl`: params, beam_edges, row_weights, bits, metrics.
-pub const REDUCE_BINDINGS: [Binding; 5] = [
-    Binding::Uniform,
-    Binding::Read,
-    Binding::Read,
-    Binding::Read,
-    Binding::ReadWrite,
-];

@@ -16,6 +16,7 @@ pub enum Precision {
 
 impl Precision {
     /// Returns the `Real` prelude of this precision (`shaders/shared/real_*.wgsl`).
+    #[must_use]
     pub fn prelude(self) -> &'static str {
         match self {
             Precision::F64 => include_str!("../../shaders/shared/real_f64.wgsl"),
@@ -24,6 +25,7 @@ impl Precision {
     }
 
     /// Returns a short name (`f64`, `double-f32`).
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             Precision::F64 => "f64",
@@ -33,6 +35,7 @@ impl Precision {
 }
 
 /// Returns the full source of the splat stage (`shaders/splat.wgsl`) at `precision`.
+#[must_use]
 pub fn splat(precision: Precision) -> String {
     format!(
         "{SHARED}\n{}\n{}",
@@ -42,16 +45,24 @@ pub fn splat(precision: Precision) -> String {
 }
 
 /// Returns the full source of the reduce stage (`shaders/reduce.wgsl`).
+#[must_use]
 pub fn reduce() -> String {
     format!("{SHARED}\n{}", include_str!("../../shaders/reduce.wgsl"))
 }
 
+/// Returns the full source of the mask stage (`shaders/mask.wgsl`, self-contained).
+#[must_use]
+pub fn mask() -> &'static str {
+    include_str!("../../shaders/mask.wgsl")
+}
+
 /// Returns every stage and variant as `(name, full source, needs f64)`.
+#[must_use]
 pub fn all() -> Vec<(&'static str, String, bool)> {
     vec![
         ("splat (f64)", splat(Precision::F64), true),
         ("splat (double-f32)", splat(Precision::DoubleF32), false),
         ("reduce", reduce(), false),
-        ("mask", crate::gpu::mask::source().to_string(), false),
+        ("mask", mask().to_string(), false),
     ]
 }

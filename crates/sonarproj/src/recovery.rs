@@ -30,8 +30,8 @@ use glam::DVec3;
 use serde::Serialize;
 
 use crate::error::{Error, Result, finite};
-use crate::pose::{RelativePose, cart_to_sph, sph_to_cart};
-use crate::sonar::{Sonar, SonarKind};
+use crate::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
+use crate::geometry::sonar::{Sonar, SonarKind};
 
 /// Relative tolerance for what counts as zero in the geometry (`a² + b²`, a vanishing circle)
 /// and for the field-of-view test of a recovered point (which sits exactly on a bound when the
@@ -87,6 +87,7 @@ pub enum Flag {
 impl Flag {
     /// Returns the flag's name in JSON and CSV (`no_solution`, `tangent`, `near_tangent`,
     /// `degenerate`, `none_in_view`).
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             Flag::NoSolution => "no_solution",
@@ -181,6 +182,7 @@ pub enum ArcSolution {
 
 /// Returns the elevations (rad) where the arc `sph(r, az, ·)` is at distance `d` from `o`;
 /// `scale` (m², typically `r·|o|`) sets what counts as zero.
+#[must_use]
 pub fn solve_arc(r: f64, az: f64, o: DVec3, d: f64) -> ArcSolution {
     let a = r * (o.x * az.cos() + o.y * az.sin());
     let b = r * o.z;

@@ -42,12 +42,14 @@ pub enum Rotation {
 }
 
 /// Returns the Cartesian point of spherical `(r, az, el)` (radians): README: Conventions.
+#[must_use]
 pub fn sph_to_cart(r: f64, az: f64, el: f64) -> DVec3 {
     DVec3::new(r * el.cos() * az.cos(), r * el.cos() * az.sin(), r * el.sin())
 }
 
 /// Returns `(r, az, el)` (radians) of a Cartesian point: `r = |p|`, `az = atan2(y, x)`,
 /// `el = asin(z / r)` (README: Conventions); `el = 0` at the origin.
+#[must_use]
 pub fn cart_to_sph(p: DVec3) -> (f64, f64, f64) {
     let r = p.length();
     let el = if r > 0.0 {
@@ -78,12 +80,12 @@ impl Rotation {
                     finite("pitch", pitch)?.to_radians(),
                     finite("yaw", yaw)?.to_radians(),
                 );
-                let (cr, sr) = (roll.cos(), roll.sin());
-                let (cp, sp) = (pitch.cos(), pitch.sin());
-                let (cy, sy) = (yaw.cos(), yaw.sin());
-                let rx = from_rows([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]]);
-                let ry = from_rows([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]]);
-                let rz = from_rows([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]]);
+                // R = (Rz Ry Rx)ᵀ: the passive rotation (README: Conventions).
+                let (rx, ry, rz) = (
+                    DMat3::from_rotation_x(roll),
+                    DMat3::from_rotation_y(pitch),
+                    DMat3::from_rotation_z(yaw),
+                );
                 Ok((rz * ry * rx).transpose())
             }
             Rotation::Quat(q) => Rotation::QuaternionWxyz([q.w, q.x, q.y, q.z]).to_matrix(),
@@ -105,23 +107,7 @@ impl Rotation {
                     ));
                 }
                 let [w, x, y, z] = q.map(|v| v / n);
-                Ok(from_rows([
-                    [
-                        1.0 - 2.0 * (y * y + z * z),
-                        2.0 * (x * y - w * z),
-                        2.0 * (x * z + w * y),
-                    ],
-                    [
-                        2.0 * (x * y + w * z),
-                        1.0 - 2.0 * (x * x + z * z),
-                        2.0 * (y * z - w * x),
-                    ],
-                    [
-                        2.0 * (x * z - w * y),
-                        2.0 * (y * z + w * x),
-                        1.0 - 2.0 * (x * x + y * y),
-                    ],
-                ]))
+                Ok(DMat3::from_quat(DQuat::from_xyzw(x, y, z, w)))
             }
             Rotation::Matrix(rows) => {
                 for (i, row) in rows.iter().enumerate() {
@@ -177,7 +163,7 @@ impl RelativePose {
     ///
     /// ```
     /// use sonarproj::{RelativePose, Rotation};
-    /// use sonarproj::pose::sph_to_cart;
+    /// use sonarproj::geometry::sph_to_cart;
     ///
     /// let yaw = Rotation::RollPitchYaw { roll: 0.0, pitch: 0.0, yaw: 30.0 };
     /// let pose = RelativePose::placement(yaw, [5.0, 0.0, 0.0], [8.0, 0.0, 0.0])?;
@@ -237,6 +223,7 @@ impl RelativePose {
     }
 
     /// Returns `R p + t`.
+    #[must_use]
     pub fn apply(&self, p: DVec3) -> DVec3 {
         self.rotation * p + self.translation
     }

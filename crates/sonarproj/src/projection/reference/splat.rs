@@ -1,14 +1,15 @@
 //! The reference's splat stage, written to be obviously right (trigonometry, one sample at a
 //! time): every sample of one pose is placed in sonar 1, moved into sonar 2 (`R p + t`),
 //! clipped to its field of view and set in the occupancy buffer. The GPU's `shaders/splat.wgsl`
-//! and its CPU twin `cpu_fast.rs` run a faster algorithm that tests hold to this one.
+//! and its CPU twin `projection::fast` run a faster algorithm that tests hold to this one.
 //! Arguments: sonar 2's layout, the plan (sample directions), the feature's base azimuth and
 //! range, the pose, and the occupancy it writes; it returns what the shader accumulates in
 //! `metrics` (visible count, extremes).
 
-use crate::ambiguity::SamplingPlan;
-use crate::occupancy::{Extremes, Layout, Occupancy};
-use crate::pose::{RelativePose, cart_to_sph, sph_to_cart};
+use crate::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
+use crate::metrics::Extremes;
+use crate::occupancy::{Layout, Occupancy};
+use crate::sampling::SamplingPlan;
 
 /// What splatting one pose produced besides the occupancy bits.
 #[derive(Clone, Copy, Debug, PartialEq)]

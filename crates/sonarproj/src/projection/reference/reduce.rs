@@ -1,10 +1,11 @@
 //! The reference's reduce stage (the GPU's is `shaders/reduce.wgsl`, its fast CPU twin the
-//! reduce step of `cpu_fast.rs`): one pose's occupancy buffer becomes the occupied count and
+//! reduce step of `projection::fast`): one pose's occupancy buffer becomes the occupied count and
 //! the occupied measure (bin widths for an SSS, true pixel areas for an FLS: README: Conventions).
 
 use crate::occupancy::{Layout, Occupancy};
 
 /// Returns `(occupied, occupied_measure)` of `occupancy` drawn in `layout`.
+#[must_use]
 pub fn reduce(layout: &Layout, occupancy: &Occupancy) -> (u64, f64) {
     let mut occupied = 0;
     let mut measure = 0.0;

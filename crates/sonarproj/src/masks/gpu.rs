@@ -1,4 +1,4 @@
-//! The GPU side of [`crate::mask::MaskEngine`]: `shaders/mask.wgsl`, its pipeline and buffers
+//! The GPU side of [`super::MaskEngine`]: `shaders/mask.wgsl`, its pipeline and buffers
 //! (built once, grown when a ping needs more), one dispatch per ping, the bitsets read back.
 //!
 //! The shader works in f32. Each job's radius carries a slack that bounds every rounding of
@@ -16,12 +16,12 @@ use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
 use crate::error::{Error, Result};
+use crate::geometry::{RelativePose, SonarKind};
 use crate::gpu::pipeline::{Binding, Stage};
-use crate::gpu::{GpuContext, context};
-use crate::mask::{BLOCK, Mask, Plan};
+use crate::gpu::{GpuContext, context, read, shaders};
 use crate::occupancy::{Layout, Occupancy};
-use crate::pose::RelativePose;
-use crate::sonar::SonarKind;
+
+use super::plan::{BLOCK, Plan};
 
 /// Parameters of sonar 2 (members as documented in shaders/mask.wgsl). Keep in sync with
 /// `MaskParams` there.
@@ -110,7 +110,7 @@ pub(crate) struct Job {
     pub pose: RelativePose,
     /// The cells and radius.
     pub plan: Plan,
-    /// First cells of the blocks to visit ([`crate::mask::MaskEngine`]'s `blocks`).
+    /// First cells of the blocks to visit ([`super::MaskEngine`]'s `blocks`).
     pub blocks: Vec<(usize, usize)>,
 }
 
@@ -121,8 +121,9 @@ pub(crate) fn slack(r: f64, pose: &RelativePose, layout: &Layout) -> f64 {
 }
 
 /// Returns the full source of the mask stage.
+#[must_use]
 pub fn source() -> &'static str {
-    include_str!("../../shaders/mask.wgsl")
+    shaders::mask()
 }
 
 /// Buffers kept between pings, grown on demand.
@@ -225,7 +226,7 @@ impl GpuMasks {
     ///
     /// # Errors
     /// [`Error::Gpu`] on device failure.
-    pub(crate) fn draw(&self, layout: &Layout, jobs: &[Job]) -> Result<Vec<Mask>> {
+    pub(crate) fn draw(&self, layout: &Layout, jobs: &[Job]) -> Result<Vec<Occupancy>> {
         let words = u64::from(self.params.words_per_mask);
         // Jobs per dispatch: the dispatch's y limit and the device's storage binding size for
         // the bitsets (at most 256 MiB).
@@ -254,7 +255,7 @@ impl GpuMasks {
     }
 
     /// Draws one dispatch's worth of `jobs`; buffers stay within `limit` bytes.
-    fn draw_chunk(&self, layout: &Layout, jobs: &[Job], limit: u64) -> Result<Vec<Mask>> {
+    fn draw_chunk(&self, layout: &Layout, jobs: &[Job], limit: u64) -> Result<Vec<Occupancy>> {
         let device = &self.ctx.device;
         let words = u64::from(self.params.words_per_mask);
         // Cell tables, shared between jobs with the same angles (an SSS surface's azimuth cells
@@ -387,20 +388,14 @@ impl GpuMasks {
         }
         enc.copy_buffer_to_buffer(&b.bits, 0, &b.staging, 0, bytes);
         queue.submit([enc.finish()]);
-        let raw = super::read(&self.ctx, &b.staging, bytes)?;
-        Ok(jobs
-            .iter()
-            .enumerate()
-            .map(|(k, Job { plan, .. })| Mask {
-                occupancy: Occupancy::from_words(
+        let raw = read(&self.ctx, &b.staging, bytes)?;
+        Ok((0..jobs.len())
+            .map(|k| {
+                Occupancy::from_words(
                     layout.range_bins,
                     layout.beams(),
                     raw[k * words as usize..(k + 1) * words as usize].to_vec(),
-                ),
-                counts: None,
-                radius: plan.radius,
-                noise_radius: plan.noise_radius,
-                cells: (plan.cells.azimuths.len() * plan.cells.elevations.len()) as u64,
+                )
             })
             .collect())
     }

@@ -1,17 +1,19 @@
 //! The CPU reference: plain f64 loops, written to be obviously right, one module per shader stage
-//! (`splat` ↔ `shaders/splat.wgsl`, `reduce` ↔ `shaders/reduce.wgsl`), plus `bounds`, which says
-//! how far an f32 implementation may honestly differ (README: How the GPU is checked).
+//! (`splat` ↔ `shaders/splat.wgsl`, `reduce` ↔ `shaders/reduce.wgsl`). How far an f32
+//! implementation may honestly differ from it is [`crate::projection::envelope`].
 
-pub mod bounds;
 pub mod reduce;
 pub mod splat;
 
-use crate::batch::{PreparedBatch, Projection};
-use crate::occupancy::{Metrics, Occupancy};
+use crate::metrics::Metrics;
+use crate::occupancy::Occupancy;
+use crate::projection::{Output, PreparedBatch, Projection};
 
 /// Returns the projections of every item of `prepared`, computed in f64 one sample at a time;
-/// with `keep_occupancy` each carries its occupancy buffer.
-pub fn project(prepared: &PreparedBatch<'_>, keep_occupancy: bool) -> Vec<Projection> {
+/// with [`Output::WithOccupancy`] each carries its occupancy buffer.
+#[must_use]
+pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> {
+    let keep_occupancy = output == Output::WithOccupancy;
     let layout = &prepared.layout;
     prepared
         .batch

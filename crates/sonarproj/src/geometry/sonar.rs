@@ -18,6 +18,7 @@ pub enum SonarKind {
 
 impl SonarKind {
     /// Returns the lowercase name used in files and on the command line (`fls`, `sss`).
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             SonarKind::Fls => "fls",
@@ -63,6 +64,9 @@ pub struct Sonar {
     pub beams: BeamLayout,
 }
 
+/// The longest range a sonar may have (m): 10 km covers every real sonar and keeps every
+/// derived length, area and count far from overflow.
+pub const MAX_RANGE: f64 = 10_000.0;
 /// The largest number of range bins a sonar may have.
 pub const MAX_RANGE_BINS: u32 = 1 << 20;
 /// The largest number of beams a sonar may have.
@@ -181,11 +185,13 @@ struct SonarFile {
 
 impl Sonar {
     /// Returns the names of all presets, in table order.
+    #[must_use]
     pub fn preset_names() -> Vec<&'static str> {
         PRESETS.iter().map(|p| p.0).collect()
     }
 
     /// Returns the preset called `name`, or `None`.
+    #[must_use]
     pub fn preset(name: &str) -> Option<Sonar> {
         PRESETS.iter().find(|p| p.0 == name).map(
             |&(name, kind, range_min, range_max, az, el, range_bins, beams, _source)| Sonar {
@@ -202,6 +208,7 @@ impl Sonar {
     }
 
     /// Returns the source of a preset's numbers (maker's sheet, paper, simulator), or `None`.
+    #[must_use]
     pub fn preset_source(name: &str) -> Option<&'static str> {
         PRESETS.iter().find(|p| p.0 == name).map(|p| p.8)
     }
@@ -415,6 +422,13 @@ impl Sonar {
                 format!("must be greater than range_min = {} m", self.range_min),
             ));
         }
+        if self.range_max > MAX_RANGE {
+            return Err(Error::invalid(
+                f("range_max"),
+                self.range_max,
+                format!("must be at most {MAX_RANGE} m (no sonar reaches farther)"),
+            ));
+        }
         if !(self.azimuth_aperture > 0.0 && self.azimuth_aperture <= 360.0) {
             return Err(Error::invalid(
                 f("azimuth_aperture"),
@@ -469,6 +483,7 @@ impl Sonar {
 
     /// Returns the number of beams (1 for an SSS; 0 for an invalid sonar with fewer than two
     /// beam edges).
+    #[must_use]
     pub fn beam_count(&self) -> u32 {
         match &self.beams {
             BeamLayout::Uniform { count } => *count,
@@ -478,6 +493,7 @@ impl Sonar {
 
     /// Returns the beam edges in radians, increasing, `beam_count() + 1` values from
     /// `-azimuth_aperture/2` to `+azimuth_aperture/2`.
+    #[must_use]
     pub fn beam_edges_rad(&self) -> Vec<f64> {
         let h = self.half_azimuth();
         match &self.beams {
@@ -493,16 +509,19 @@ impl Sonar {
     }
 
     /// Returns half the azimuth aperture in radians.
+    #[must_use]
     pub fn half_azimuth(&self) -> f64 {
         (self.azimuth_aperture / 2.0).to_radians()
     }
 
     /// Returns half the elevation aperture in radians.
+    #[must_use]
     pub fn half_elevation(&self) -> f64 {
         (self.elevation_aperture / 2.0).to_radians()
     }
 
     /// Returns the width of one range bin in metres.
+    #[must_use]
     pub fn range_bin_width(&self) -> f64 {
         (self.range_max - self.range_min) / f64::from(self.range_bins)
     }

@@ -2,7 +2,7 @@
 //! an SSS: README: Commands, `--step`), and the sampling plan that draws points from that set.
 
 use crate::error::{Error, Result, finite};
-use crate::sonar::{Sonar, SonarKind};
+use crate::geometry::sonar::{Sonar, SonarKind};
 
 /// The most samples one pose may draw; more is refused with a message naming the cause.
 pub const MAX_SAMPLES_PER_POSE: u64 = 1 << 26;
@@ -138,6 +138,7 @@ impl SamplingPlan {
     }
 
     /// Returns the plan of `n_az × n_el` samples over `source`'s aperture (`n_az` is 1 for an FLS).
+    #[must_use]
     pub fn with_counts(source: &Sonar, n_az: usize, n_el: usize) -> Self {
         let azimuths = match source.kind {
             SonarKind::Fls => vec![0.0],
@@ -150,6 +151,7 @@ impl SamplingPlan {
     }
 
     /// Returns the number of samples drawn.
+    #[must_use]
     pub fn total(&self) -> usize {
         self.azimuths.len() * self.elevations.len()
     }
@@ -157,6 +159,7 @@ impl SamplingPlan {
 
 /// Returns the azimuth (rad) that a plan's azimuth offsets are added to: the measured azimuth for
 /// an FLS, 0 for an SSS.
+#[must_use]
 pub fn base_azimuth(source: &Sonar, m: &Measurement) -> f64 {
     match source.kind {
         SonarKind::Fls => m.azimuth.to_radians(),
@@ -170,6 +173,7 @@ pub fn base_azimuth(source: &Sonar, m: &Measurement) -> f64 {
     clippy::cast_possible_truncation,
     reason = "sample counts are capped (MAX_SAMPLES_PER_POSE) before or right after the conversion"
 )]
+#[must_use]
 pub fn step_count(a: f64, s: f64) -> usize {
     let n = (a / s).round_ties_even().min(MAX_SAMPLES_PER_POSE as f64 * 2.0) as usize;
     if n.is_multiple_of(2) { n + 1 } else { n }
@@ -202,6 +206,7 @@ pub fn auto_spacing(target: &Sonar) -> f64 {
     clippy::cast_possible_truncation,
     reason = "sample counts are capped (MAX_SAMPLES_PER_POSE) before or right after the conversion"
 )]
+#[must_use]
 pub fn auto_count(a: f64, r: f64, d: f64) -> usize {
     let needed = ((a.to_radians() * r / d).floor() + 1.0).min(MAX_SAMPLES_PER_POSE as f64 * 2.0);
     let mut intervals = (needed as u64).max(2);

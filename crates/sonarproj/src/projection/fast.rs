@@ -1,7 +1,7 @@
 //! The fast CPU path: the GPU's algorithm (`shaders/splat.wgsl`, `shaders/reduce.wgsl`) in f64
 //! on every core (rayon), so a machine without a GPU is still fast. Unit directions are computed
 //! once per plan, a sample costs `M u + t` and trigonometry-free clip and bin decisions; only
-//! visible samples take a square root and an `atan2`. The reference (`cpu`) stays the checker:
+//! visible samples take a square root and an `atan2`. The reference stays the checker:
 //! `tests/agreement.rs` holds this path to the same envelope as the GPU.
 //!
 //! What makes it fast changes no result (a unit test holds it to the plain sample-by-sample
@@ -28,9 +28,10 @@
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
-use crate::batch::{PreparedBatch, Projection};
-use crate::occupancy::{Extremes, Layout, Metrics, Occupancy};
-use crate::sonar::SonarKind;
+use crate::geometry::sonar::SonarKind;
+use crate::metrics::{Extremes, Metrics};
+use crate::occupancy::{Layout, Occupancy};
+use crate::projection::{Output, PreparedBatch, Projection};
 
 /// Samples per culling block (consecutive in the plan's order, azimuth index fastest).
 pub const BLOCK: usize = 16;
@@ -252,6 +253,7 @@ struct Seen {
 /// Returns, per block of [`BLOCK`] consecutive samples of the plan with these azimuth offsets
 /// and elevations (rad), the centre and radius of a ball holding the block's unit directions:
 /// the culling balls of this path and of the splat shader.
+#[must_use]
 pub fn block_balls(azimuths: &[f64], elevations: &[f64]) -> Vec<(DVec3, f64)> {
     balls(&unit_directions(azimuths, elevations))
 }
@@ -468,10 +470,11 @@ fn set(occ: &mut Occupancy, summary: &mut [u64], i: usize, j: usize) {
     summary[w / 64] |= 1 << (w % 64);
 }
 
-/// Returns the projections of every item of `prepared` on all cores; with `keep_occupancy` each
-/// carries its occupancy buffer.
-pub fn project(prepared: &PreparedBatch<'_>, keep_occupancy: bool) -> Vec<Projection> {
-    project_with(prepared, keep_occupancy, has_avx2())
+/// Returns the projections of every item of `prepared` on all cores; with
+/// [`Output::WithOccupancy`] each carries its occupancy buffer.
+#[must_use]
+pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> {
+    project_with(prepared, output == Output::WithOccupancy, has_avx2())
 }
 
 /// Returns whether the processor runs AVX2 (detected at run time: the binary itself targets
@@ -580,10 +583,10 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     use super::*;
-    use crate::ambiguity::{Measurement, Sampling};
-    use crate::batch::{Batch, BatchItem};
-    use crate::pose::{RelativePose, Rotation};
-    use crate::sonar::Sonar;
+    use crate::geometry::pose::{RelativePose, Rotation};
+    use crate::geometry::sonar::Sonar;
+    use crate::projection::{Batch, BatchItem};
+    use crate::sampling::{Measurement, Sampling};
 
     /// Returns the projections drawn sample by sample with every clip test: no culling, no
     /// walking beams, no sparse reduce, `atan2` for every visible sample. The fast path must give

@@ -10,15 +10,15 @@
 //! **Roll, pitch, yaw.** A URDF `<origin rpy="r p y">` (and ROS's `setRPY`) is the *active*
 //! rotation `Rz(yaw) · Ry(pitch) · Rx(roll)` that turns the child frame's axes into the parent's
 //! ([`Mount::from_rpy_deg`], in degrees where URDF writes radians). The paper's roll/pitch/yaw
-//! ([`Rotation::RollPitchYaw`](crate::pose::Rotation::RollPitchYaw)) is the *transposed* (passive) rotation: a sonar 2 mounted with
+//! ([`Rotation::RollPitchYaw`](crate::geometry::pose::Rotation::RollPitchYaw)) is the *transposed* (passive) rotation: a sonar 2 mounted with
 //! ROS angles `(r, p, y)` in sonar 1's frame has the relative rotation
 //! `Rotation::RollPitchYaw { roll: r, pitch: p, yaw: y }`, not its inverse.
 
 use glam::{DMat3, DQuat, DVec3};
 
 use crate::error::{Error, Result, finite_named};
-use crate::pose::{QUATERNION_NORM_TOLERANCE, RelativePose};
-use crate::sonar::{Sonar, SonarKind};
+use crate::geometry::pose::{QUATERNION_NORM_TOLERANCE, RelativePose};
+use crate::geometry::sonar::{Sonar, SonarKind};
 
 /// Where a sonar is mounted: the transform from the sonar's frame into the common frame,
 /// `p_common = rotation · p_sonar + position` (TF's parent = common frame, child = sonar).
@@ -94,21 +94,25 @@ impl Mount {
     }
 
     /// Returns the sonar's orientation in the common frame.
+    #[must_use]
     pub fn rotation(&self) -> DQuat {
         self.rotation
     }
 
     /// Returns the sonar's position in the common frame (m).
+    #[must_use]
     pub fn position(&self) -> DVec3 {
         self.position
     }
 
     /// Returns the point `p` of the sonar's frame in the common frame (m).
+    #[must_use]
     pub fn to_common(&self, p: DVec3) -> DVec3 {
         self.rotation * p + self.position
     }
 
     /// Returns the point `p` of the common frame in the sonar's frame (m).
+    #[must_use]
     pub fn to_sonar(&self, p: DVec3) -> DVec3 {
         self.rotation.inverse() * (p - self.position)
     }

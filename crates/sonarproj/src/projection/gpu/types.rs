@@ -7,8 +7,9 @@
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::geometry::SonarKind;
+use crate::metrics::Metric;
 use crate::occupancy::Layout;
-use crate::sonar::SonarKind;
 
 /// Sonar 2's field of view and layout (WGSL `TargetParams`, a uniform). `[f32; 2]` fields are
 /// double-f32 `(hi, lo)`.
@@ -70,6 +71,7 @@ pub struct PoseGpu {
 const _: () = assert!(std::mem::size_of::<PoseGpu>() == 112);
 
 /// Returns `v` as double-f32 `(hi, lo)`: `hi = f32(v)`, `lo = f32(v − hi)`.
+#[must_use]
 pub fn split(v: f64) -> (f32, f32) {
     let hi = v as f32;
     (hi, (v - f64::from(hi)) as f32)
@@ -95,22 +97,30 @@ const _: () = assert!(std::mem::size_of::<BeamEdgeGpu>() == 32);
 
 /// u32 slots per pose in the metrics buffer (WGSL `METRIC_STRIDE`).
 pub const METRIC_STRIDE: usize = 8;
+/// Returns the GPU slot the metric table gives `metric` (a compile-time check that it has one).
+const fn slot(metric: Metric) -> usize {
+    match metric.gpu_slot() {
+        Some(s) => s,
+        None => panic!("metric without a GPU slot"),
+    }
+}
 /// Slot of the visible count.
-pub const METRIC_VISIBLE: usize = 0;
+pub const METRIC_VISIBLE: usize = slot(Metric::Visible);
 /// Slot of the occupied count.
-pub const METRIC_OCCUPIED: usize = 1;
+pub const METRIC_OCCUPIED: usize = slot(Metric::Occupied);
 /// Slot of NOT the order key of the smallest range.
-pub const METRIC_RANGE_MIN_NOT: usize = 2;
+pub const METRIC_RANGE_MIN_NOT: usize = slot(Metric::RangeMin);
 /// Slot of the order key of the largest range.
-pub const METRIC_RANGE_MAX: usize = 3;
+pub const METRIC_RANGE_MAX: usize = slot(Metric::RangeMax);
 /// Slot of NOT the order key of the smallest azimuth.
-pub const METRIC_AZIMUTH_MIN_NOT: usize = 4;
+pub const METRIC_AZIMUTH_MIN_NOT: usize = slot(Metric::AzimuthMin);
 /// Slot of the order key of the largest azimuth.
-pub const METRIC_AZIMUTH_MAX: usize = 5;
+pub const METRIC_AZIMUTH_MAX: usize = slot(Metric::AzimuthMax);
 /// Slot of the f32 bits of the FLS occupied measure.
-pub const METRIC_MEASURE: usize = 6;
+pub const METRIC_MEASURE: usize = slot(Metric::OccupiedMeasure);
 
 /// Returns the f32 whose order key (WGSL `order_key`) is `key`.
+#[must_use]
 pub fn from_order_key(key: u32) -> f32 {
     if key & 0x8000_0000 != 0 {
         f32::from_bits(key & 0x7fff_ffff)
@@ -120,6 +130,7 @@ pub fn from_order_key(key: u32) -> f32 {
 }
 
 /// Returns the u32 words of one pose's bitset for `layout`.
+#[must_use]
 pub fn words_per_pose(layout: &Layout) -> usize {
     layout.pixels().div_ceil(32)
 }
@@ -132,6 +143,7 @@ fn df(v: f64) -> [f32; 2] {
 
 impl TargetParams {
     /// Returns the parameters of `layout` for a chunk of `pose_count` poses.
+    #[must_use]
     pub fn new(layout: &Layout, pose_count: u32) -> Self {
         let (sin_half_az, cos_half_az) = layout.azimuth_clip();
         let elevation = layout.elevation_clip();
@@ -161,6 +173,7 @@ impl TargetParams {
 }
 
 /// Returns the beam edges of `layout` for the GPU.
+#[must_use]
 pub fn beam_edges(layout: &Layout) -> Vec<BeamEdgeGpu> {
     let e = &layout.beam_edges;
     (0..e.len())
@@ -179,6 +192,7 @@ pub fn beam_edges(layout: &Layout) -> Vec<BeamEdgeGpu> {
 }
 
 /// Returns the squared range-bin edges `(range_min + iΔ)²`, `i = 0..=range_bins`, double-f32.
+#[must_use]
 pub fn range_edges_sq(layout: &Layout) -> Vec<[f32; 2]> {
     (0..=layout.range_bins)
         .map(|i| df(layout.range_edge(i).powi(2)))
@@ -187,6 +201,7 @@ pub fn range_edges_sq(layout: &Layout) -> Vec<[f32; 2]> {
 
 /// Returns the per-row weights `(r_{i+1}² − r_i²)/2` of a layout: a pixel's area is its beam
 /// width times its row's weight.
+#[must_use]
 pub fn row_weights(layout: &Layout) -> Vec<f32> {
     (0..layout.range_bins)
         .map(|i| {

@@ -1,9 +1,9 @@
 //! One interface over the two backends, so every caller (CLI, tests, benches) can run either.
 
-use crate::batch::{Batch, Projection};
 use crate::error::{Error, Result};
-use crate::gpu::{GpuBackend, GpuContext, context};
-use crate::{cpu, cpu_fast};
+use crate::gpu::{GpuContext, context};
+use crate::projection::gpu::GpuBackend;
+use crate::projection::{Batch, Projection, fast, reference};
 
 /// Which backend a user asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -21,7 +21,7 @@ pub enum BackendChoice {
 
 /// Returns where a [`BackendChoice`] runs: the CPU (with the notice saying why when `auto` fell
 /// back to it) or a GPU device, which projections ([`Backend`]) and masks
-/// ([`crate::mask::MaskEngine`]) can share.
+/// ([`crate::masks::MaskEngine`]) can share.
 #[derive(Debug)]
 pub enum Device {
     /// The CPU; the notice when `auto` found no usable GPU.
@@ -108,11 +108,13 @@ impl Backend {
     }
 
     /// Returns the GPU backend on `ctx`, a device it may share with a mask engine.
+    #[must_use]
     pub fn on(ctx: GpuContext) -> Backend {
         Backend::Gpu(Box::new(GpuBackend::new(ctx)))
     }
 
     /// Returns `"cpu"`, `"cpu-fast"` or `"gpu"`.
+    #[must_use]
     pub fn name(&self) -> &'static str {
         match self {
             Backend::Cpu => "cpu",
@@ -123,6 +125,7 @@ impl Backend {
 
     /// Returns the name for tables: [`Backend::name`], with `gpu-sw` for a software adapter
     /// (lavapipe, llvmpipe, WARP), whose speed says nothing of a real GPU's.
+    #[must_use]
     pub fn label(&self) -> &'static str {
         match self {
             Backend::Gpu(g) if g.context().is_software() => "gpu-sw",
@@ -131,6 +134,7 @@ impl Backend {
     }
 
     /// Returns a description of the device: the adapter for the GPU.
+    #[must_use]
     pub fn device(&self) -> String {
         match self {
             Backend::Cpu => "CPU reference (f64, one core)".to_string(),
@@ -150,12 +154,11 @@ impl Backend {
     /// # Errors
     /// As [`Batch::prepare`]; [`Error::Gpu`] on device failure.
     pub fn project(&self, batch: &Batch, output: Output) -> Result<Vec<Projection>> {
-        let keep_occupancy = output == Output::WithOccupancy;
         let prepared = batch.prepare()?;
         match self {
-            Backend::Cpu => Ok(cpu::project(&prepared, keep_occupancy)),
-            Backend::CpuFast => Ok(cpu_fast::project(&prepared, keep_occupancy)),
-            Backend::Gpu(g) => g.project(&prepared, keep_occupancy),
+            Backend::Cpu => Ok(reference::project(&prepared, output)),
+            Backend::CpuFast => Ok(fast::project(&prepared, output)),
+            Backend::Gpu(g) => g.project(&prepared, output),
         }
     }
 }

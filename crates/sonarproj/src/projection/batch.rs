@@ -4,11 +4,12 @@
 
 use std::collections::HashMap;
 
-use crate::ambiguity::{Measurement, Sampling, SamplingPlan, auto_spacing, base_azimuth};
 use crate::error::Result;
-use crate::occupancy::{Layout, Metrics, Occupancy};
-use crate::pose::RelativePose;
-use crate::sonar::Sonar;
+use crate::geometry::pose::RelativePose;
+use crate::geometry::sonar::Sonar;
+use crate::metrics::Metrics;
+use crate::occupancy::{Layout, Occupancy};
+use crate::sampling::{Measurement, Sampling, SamplingPlan, auto_spacing, base_azimuth};
 
 /// One projection to compute: what sonar 1 measured and where sonar 2 is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,15 +46,59 @@ pub struct Projection {
 #[derive(Clone, Debug)]
 pub struct PreparedBatch<'a> {
     /// The batch itself.
-    pub batch: &'a Batch,
+    pub(crate) batch: &'a Batch,
     /// Sonar 2's data layout.
-    pub layout: Layout,
+    pub(crate) layout: Layout,
     /// The distinct sampling plans.
-    pub plans: Vec<SamplingPlan>,
+    pub(crate) plans: Vec<SamplingPlan>,
     /// For each item, the index of its plan in `plans`.
-    pub plan_of: Vec<usize>,
+    pub(crate) plan_of: Vec<usize>,
     /// For each item, the azimuth (rad) its plan's azimuth offsets are added to.
-    pub base_azimuth: Vec<f64>,
+    pub(crate) base_azimuth: Vec<f64>,
+}
+
+impl PreparedBatch<'_> {
+    /// Returns the batch this preparation is of.
+    #[must_use]
+    pub fn batch(&self) -> &Batch {
+        self.batch
+    }
+
+    /// Returns sonar 2's data layout.
+    #[must_use]
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// Returns the sampling plan of item `k`.
+    ///
+    /// # Panics
+    /// When `k` is not an item index of the batch.
+    #[must_use]
+    pub fn plan(&self, k: usize) -> &SamplingPlan {
+        &self.plans[self.plan_of[k]]
+    }
+
+    /// Returns the samples drawn over all items.
+    #[must_use]
+    pub fn total_samples(&self) -> usize {
+        self.plan_of.iter().map(|&p| self.plans[p].total()).sum()
+    }
+
+    /// Returns the distinct sampling plans (items with equal sample counts share one).
+    #[must_use]
+    pub fn plans(&self) -> &[SamplingPlan] {
+        &self.plans
+    }
+
+    /// Returns the azimuth (rad) that item `k`'s plan offsets are added to.
+    ///
+    /// # Panics
+    /// When `k` is not an item index of the batch.
+    #[must_use]
+    pub fn base_azimuth(&self, k: usize) -> f64 {
+        self.base_azimuth[k]
+    }
 }
 
 impl Batch {

@@ -11,9 +11,9 @@
 //! the *possible* occupancy (every pixel a sample could reach within its tolerance), and matching
 //! intervals for every metric. A correct GPU result lies inside all of them.
 
-use crate::ambiguity::SamplingPlan;
+use crate::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
 use crate::occupancy::{Layout, Occupancy};
-use crate::pose::{RelativePose, cart_to_sph, sph_to_cart};
+use crate::sampling::SamplingPlan;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Relative size (against the sample's range in sonar 2) of the neighbourhood of a bound or edge
@@ -47,6 +47,7 @@ pub struct Bounds {
 }
 
 /// Returns the envelope of one pose: see the module documentation.
+#[must_use]
 pub fn bounds(
     layout: &Layout,
     plan: &SamplingPlan,
@@ -152,6 +153,7 @@ fn candidate_beams(layout: &Layout, az: f64, d_az: f64) -> Vec<usize> {
 
 impl Bounds {
     /// Returns the interval `(certain, possible)` of the occupied measure under `layout`.
+    #[must_use]
     pub fn measure(&self, layout: &Layout) -> (f64, f64) {
         let sum = |o: &Occupancy| o.pixels().map(|(i, j)| layout.pixel_measure(i, j)).sum();
         (sum(&self.certain), sum(&self.possible))

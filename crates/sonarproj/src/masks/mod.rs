@@ -1,0 +1,331 @@
+//! Correspondence masks: for each feature measured by sonar 1, the set of sonar 2's bins or
+//! pixels where it can be, conservative so that the true pixel is never missed.
+//!
+//! How a mask is drawn (and why it cannot miss):
+//! 1. The back-projected set (an FLS arc or an SSS surface, README: Commands, `--step`) is cut into cells of the
+//!    angle grid that tile sonar 1's aperture exactly: `n_e` elevation cells (and for an SSS `n_a`
+//!    azimuth cells) at range `r`. Every point of a cell lies within `h = r·√((Δa/2)² + (Δe/2)²)`
+//!    of the cell's centre point (the path along the sphere in a straight line of the angles is at
+//!    most that long, and the straight chord is shorter).
+//! 2. A rigid pose keeps distances, so in sonar 2 every point of the cell lies in the ball of
+//!    radius `h` around the centre's image `q`. The mask marks every bin or pixel that ball may
+//!    touch inside sonar 2's field of view: range bins over `[|q| − h, |q| + h]`, and for an FLS
+//!    beams over `az(q) ± asin(h/ρ)` (`ρ` the distance from sonar 2's vertical axis; every beam
+//!    when `h ≥ ρ`). Balls that cannot touch the field of view are skipped, tested with bounds
+//!    that only ever keep too many (`|q_z| ≤ tan(e)(ρ + h) + h`, `|q_y| ≤ tan(a)(q_x + h) + h`).
+//! 3. Cells are sized so that `h` is half a range bin of sonar 2 (more under noise, below); the
+//!    mask is then at most about one bin wider on each side than the exact image, and has no
+//!    holes. Cells are visited in blocks whose own ball is tested first, so parts of the set far
+//!    outside sonar 2's view cost one test per block.
+//!
+//! Under noise ([`Noise`]) the ball grows by a radius `D` that holds with probability at least
+//! `coverage`: see [`Noise::radius`].
+
+//!
+//! Modules: [`plan`] (cells, blocks, the view test), `cpu` (drawing in f64), [`gpu`] (drawing with
+//! `shaders/mask.wgsl`), [`noise`], [`summary`] (bounding box, run lengths); this module holds
+//! the engine that picks between them.
+
+mod cpu;
+pub mod gpu;
+pub mod noise;
+pub mod plan;
+pub mod summary;
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::geometry::{RelativePose, Sonar};
+use crate::gpu::GpuContext;
+use crate::occupancy::{Layout, Occupancy};
+use crate::projection::{BackendChoice, Device};
+use crate::sampling::Measurement;
+use gpu::{GpuMasks, Job, slack};
+pub use noise::Noise;
+pub use plan::MAX_CELLS;
+use plan::{Plan, View};
+pub use summary::{BoundingBox, bounding_box, run_lengths};
+
+/// One feature's mask in sonar 2's layout.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mask {
+    /// The bins or pixels where the feature can be.
+    pub occupancy: Occupancy,
+    /// Per bin or pixel, how many cells of the back-projected set may fall there (a prior for a
+    /// matcher), row-major; only when asked for.
+    pub counts: Option<Vec<u32>>,
+    /// The ball radius used (m): half a cell's diagonal plus the noise radius.
+    pub radius: f64,
+    /// The noise radius `D` (m), 0 without noise.
+    pub noise_radius: f64,
+    /// The cells the set was cut into.
+    pub cells: u64,
+}
+
+impl Mask {
+    /// Returns the masks the GPU drew for `jobs` (`drawn`, one occupancy per job, in order).
+    fn of_gpu(drawn: Vec<Occupancy>, jobs: &[Job]) -> Vec<Mask> {
+        drawn
+            .into_iter()
+            .zip(jobs)
+            .map(|(occupancy, Job { plan, .. })| Mask {
+                occupancy,
+                counts: None,
+                radius: plan.radius,
+                noise_radius: plan.noise_radius,
+                cells: plan.cells.count(),
+            })
+            .collect()
+    }
+}
+
+/// The masks of a ping's features and their union.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaskSet {
+    /// One mask per feature, in order.
+    pub masks: Vec<Mask>,
+    /// Every pixel any feature may occupy.
+    pub union: Occupancy,
+}
+
+/// Whether masks carry per-pixel counts (how many cells of the back-projected set may fall in
+/// each pixel, a prior for a matcher), drawn on the CPU only.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Counts {
+    /// The bits only.
+    Skip,
+    /// The bits and the counts.
+    Draw,
+}
+
+/// Draws masks for one sonar pair; built once, used for every ping.
+///
+/// ```
+/// use sonarproj::masks::{Counts, MaskEngine};
+/// use sonarproj::{Measurement, RelativePose, Rotation, Sonar};
+///
+/// let engine = MaskEngine::new(
+///     Sonar::preset("holoocean-sidescan").unwrap(),
+///     Sonar::preset("holoocean-imaging").unwrap(),
+/// )?;
+/// let pose = RelativePose::new(Rotation::RollPitchYaw { roll: 0.0, pitch: 5.0, yaw: 10.0 }, [0.3, 0.2, -0.1])?;
+/// let ping = [Measurement::of(engine.source(), 4.0, 0.0)?];
+/// let set = engine.masks(&pose, &ping, None, Counts::Skip)?;
+/// // A few hundred of the imaging sonar's 512 × 512 pixels can hold the feature.
+/// let pixels = set.masks[0].occupancy.count();
+/// assert!(pixels > 100 && pixels < 5_000, "{pixels}");
+/// # Ok::<(), sonarproj::Error>(())
+/// ```
+///
+/// On the CPU (all cores, f64) by default; [`MaskEngine::on_gpu`] draws them with
+/// `shaders/mask.wgsl` instead.
+#[derive(Debug)]
+pub struct MaskEngine {
+    source: Sonar,
+    target: Sonar,
+    view: View,
+    gpu: Option<Box<GpuMasks>>,
+}
+
+impl MaskEngine {
+    /// Returns the engine for features measured by `source` and looked for in `target`,
+    /// drawing on the CPU.
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] when either sonar is invalid ([`Sonar::validate`]).
+    pub fn new(source: Sonar, target: Sonar) -> Result<MaskEngine> {
+        source.validate().map_err(|e| e.in_context("sonar 1"))?;
+        target.validate().map_err(|e| e.in_context("sonar 2"))?;
+        Ok(MaskEngine {
+            view: View::of(&target),
+            source,
+            target,
+            gpu: None,
+        })
+    }
+
+    /// Returns the engine drawing its masks on the GPU of `ctx` (pipeline and buffers built
+    /// once, kept between pings).
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] when sonar 2's azimuth aperture is 180° or more (the GPU's beam
+    /// search needs less; the CPU engine has no such limit).
+    pub fn on_gpu(source: Sonar, target: Sonar, ctx: GpuContext) -> Result<MaskEngine> {
+        let mut engine = MaskEngine::new(source, target)?;
+        engine.gpu = Some(Box::new(GpuMasks::new(ctx, &engine.view.layout)?));
+        Ok(engine)
+    }
+
+    /// Returns the engine `choice` asks for and, when `auto` fell back to the CPU, a one-line
+    /// notice saying so. `cpu` and `cpu-fast` are the same engine for masks (f64, every core);
+    /// `auto` takes a hardware GPU, and the CPU when `counts` are wanted (drawn there only).
+    ///
+    /// # Errors
+    /// [`Error::NoAdapter`] or [`Error::Gpu`] when `gpu` was asked for and cannot be had; as
+    /// [`MaskEngine::on_gpu`].
+    pub fn select(
+        source: Sonar,
+        target: Sonar,
+        choice: BackendChoice,
+        counts: Counts,
+    ) -> Result<(MaskEngine, Option<String>)> {
+        if counts == Counts::Draw && choice == BackendChoice::Auto {
+            return Ok((MaskEngine::new(source, target)?, None));
+        }
+        match choice.device()? {
+            Device::Cpu(notice) => Ok((MaskEngine::new(source, target)?, notice)),
+            Device::Gpu(ctx) if choice == BackendChoice::Gpu => {
+                Ok((MaskEngine::on_gpu(source, target, *ctx)?, None))
+            }
+            Device::Gpu(ctx) => match MaskEngine::on_gpu(source.clone(), target.clone(), *ctx) {
+                Ok(engine) => Ok((engine, None)),
+                // A field of view the GPU engine does not take (180° or wider).
+                Err(e) => {
+                    let notice = format!("note: {e}; drawing masks on the CPU");
+                    Ok((MaskEngine::new(source, target)?, Some(notice)))
+                }
+            },
+        }
+    }
+
+    /// Returns a description of where masks are drawn.
+    #[must_use]
+    pub fn device(&self) -> String {
+        match &self.gpu {
+            Some(g) => g.describe(),
+            None => format!("CPU, {} threads (f64)", rayon::current_num_threads()),
+        }
+    }
+
+    /// Returns sonar 1.
+    #[must_use]
+    pub fn source(&self) -> &Sonar {
+        &self.source
+    }
+
+    /// Returns sonar 2.
+    #[must_use]
+    pub fn target(&self) -> &Sonar {
+        &self.target
+    }
+
+    /// Returns sonar 2's layout.
+    #[must_use]
+    pub fn layout(&self) -> &Layout {
+        &self.view.layout
+    }
+
+    /// Returns the masks of `features` (measured by sonar 1) under `pose`, widened for `noise`,
+    /// with per-pixel counts when `counts`; features are drawn in parallel.
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] for a feature outside sonar 1's field of view, invalid noise, or a
+    /// set that would need more than [`MAX_CELLS`] cells.
+    pub fn masks(
+        &self,
+        pose: &RelativePose,
+        features: &[Measurement],
+        noise: Option<&Noise>,
+        counts: Counts,
+    ) -> Result<MaskSet> {
+        pose.validate()?;
+        let noise = noise.map(|n| n.validated()).transpose()?;
+        if let Some(gpu) = &self.gpu {
+            if counts == Counts::Draw {
+                return Err(Error::invalid(
+                    "counts",
+                    "on the GPU",
+                    "per-pixel counts are drawn on the CPU only",
+                ));
+            }
+            let jobs = features
+                .iter()
+                .enumerate()
+                .map(|(k, m)| {
+                    let plan = plan::plan(&self.source, &self.view.layout, m, noise.as_ref())
+                        .map_err(|e| e.in_context(&format!("feature {}", k + 1)))?;
+                    Ok(self.gpu_job(*pose, plan))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let drawn = gpu.draw(&self.view.layout, &jobs)?;
+            return Ok(self.with_union(Mask::of_gpu(drawn, &jobs)));
+        }
+        let masks = features
+            .par_iter()
+            .enumerate()
+            .map(|(k, m)| {
+                self.mask(pose, m, noise.as_ref(), counts)
+                    .map_err(|e| e.in_context(&format!("feature {}", k + 1)))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(self.with_union(masks))
+    }
+
+    /// Returns the masks of many scenes at once, each feature with its own pose (for tests and
+    /// sweeps of scenes); no noise, no counts.
+    ///
+    /// # Errors
+    /// As [`MaskEngine::masks`].
+    pub fn masks_of_scenes(&self, scenes: &[(RelativePose, Measurement)]) -> Result<Vec<Mask>> {
+        for (k, (pose, _)) in scenes.iter().enumerate() {
+            pose.validate()
+                .map_err(|e| e.in_context(&format!("scene {}", k + 1)))?;
+        }
+        if let Some(gpu) = &self.gpu {
+            let jobs = scenes
+                .iter()
+                .map(|(pose, m)| {
+                    Ok(self.gpu_job(*pose, plan::plan(&self.source, &self.view.layout, m, None)?))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let drawn = gpu.draw(&self.view.layout, &jobs)?;
+            return Ok(Mask::of_gpu(drawn, &jobs));
+        }
+        scenes
+            .par_iter()
+            .map(|(pose, m)| self.mask(pose, m, None, Counts::Skip))
+            .collect()
+    }
+
+    /// Returns the GPU's job for `plan` under `pose`: the blocks culled here, with the GPU's
+    /// rounding slack.
+    fn gpu_job(&self, pose: RelativePose, plan: Plan) -> Job {
+        let extra = plan.noise_radius + slack(plan.range, &pose, &self.view.layout);
+        let blocks = self.view.blocks(&pose, &plan.cells, plan.range, extra);
+        Job { pose, plan, blocks }
+    }
+
+    /// Returns `masks` with their union.
+    fn with_union(&self, masks: Vec<Mask>) -> MaskSet {
+        let mut union = Occupancy::new(self.view.layout.range_bins, self.view.layout.beams());
+        for m in &masks {
+            for (u, w) in union.words.iter_mut().zip(&m.occupancy.words) {
+                *u |= w;
+            }
+        }
+        MaskSet { masks, union }
+    }
+
+    /// Returns the mask of one feature; see [`MaskEngine::masks`].
+    ///
+    /// # Errors
+    /// As [`MaskEngine::masks`].
+    pub fn mask(
+        &self,
+        pose: &RelativePose,
+        m: &Measurement,
+        noise: Option<&Noise>,
+        counts: Counts,
+    ) -> Result<Mask> {
+        pose.validate()?;
+        let plan = plan::plan(&self.source, &self.view.layout, m, noise)?;
+        let drawn = cpu::draw(&self.view, pose, &plan, counts == Counts::Draw);
+        Ok(Mask {
+            occupancy: drawn.occupancy,
+            counts: drawn.counts,
+            radius: drawn.radius,
+            noise_radius: plan.noise_radius,
+            cells: plan.cells.count(),
+        })
+    }
+}

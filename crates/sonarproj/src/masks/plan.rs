@@ -1,0 +1,187 @@
+//! What a mask is drawn from, shared by the CPU and GPU drawings: the cells that tile the
+//! back-projected set and their ball radius (`Plan`), and the test that a ball may meet
+//! sonar 2's field of view (`View`), applied to blocks of cells before their cells are visited.
+
+use glam::DVec3;
+
+use crate::error::{Error, Result};
+use crate::geometry::{RelativePose, Sonar, SonarKind, sph_to_cart};
+use crate::occupancy::Layout;
+use crate::sampling::Measurement;
+
+use super::noise::Noise;
+
+/// Cells per block side (blocks are culled as a whole before their cells are visited). Keep in
+/// sync with BLOCK in shaders/mask.wgsl.
+pub(crate) const BLOCK: usize = 8;
+/// The most cells one mask may visit.
+pub const MAX_CELLS: u64 = 1 << 26;
+
+/// What one mask is drawn from: the cells of the set, their ball radius and the noise part of it.
+pub(crate) struct Plan {
+    /// The cells.
+    pub cells: Cells,
+    /// The set's range in sonar 1 (m).
+    pub range: f64,
+    /// Cell ball radius plus noise radius (m), without rounding slack.
+    pub radius: f64,
+    /// The noise radius (m).
+    pub noise_radius: f64,
+}
+
+/// The cells of one back-projected set: angle grid and the radius of a cell's ball.
+pub(crate) struct Cells {
+    /// Cell-centre azimuths (rad, absolute in sonar 1).
+    pub azimuths: Vec<f64>,
+    /// Cell-centre elevations (rad).
+    pub elevations: Vec<f64>,
+    /// Half the cell's angular sizes `(Δa/2, Δe/2)` (rad).
+    pub half: (f64, f64),
+}
+
+impl Cells {
+    /// Returns the number of cells.
+    pub(crate) fn count(&self) -> u64 {
+        (self.azimuths.len() * self.elevations.len()) as u64
+    }
+}
+
+/// Sonar 2's field of view as the balls of a mask are tested against it.
+#[derive(Debug)]
+pub(crate) struct View {
+    /// Sonar 2's layout.
+    pub layout: Layout,
+    /// `tan` of the half elevation aperture, `None` at 90° or more (no bound).
+    tan_elevation: Option<f64>,
+    /// `tan` of the half azimuth aperture, `None` at 90° or more (no bound).
+    tan_azimuth: Option<f64>,
+}
+
+impl View {
+    /// Returns the view of sonar 2 (`target`, validated).
+    pub(crate) fn of(target: &Sonar) -> View {
+        let layout = Layout::of(target);
+        let tan = |h: f64| (h < std::f64::consts::FRAC_PI_2 - 1e-9).then(|| h.tan());
+        View {
+            tan_elevation: tan(layout.half_elevation),
+            tan_azimuth: tan(layout.half_azimuth),
+            layout,
+        }
+    }
+
+    /// Returns the first cells `(azimuth, elevation)` of the blocks of `BLOCK × BLOCK` cells whose
+    /// ball (around the block's middle point, covering all its cells, grown by `extra`) may meet
+    /// sonar 2's field of view under `pose`: the only cells worth visiting.
+    pub(crate) fn blocks(
+        &self,
+        pose: &RelativePose,
+        cells: &Cells,
+        r: f64,
+        extra: f64,
+    ) -> Vec<(usize, usize)> {
+        let (na, ne) = (cells.azimuths.len(), cells.elevations.len());
+        let mut out = Vec::new();
+        for bi in (0..na).step_by(BLOCK) {
+            for bj in (0..ne).step_by(BLOCK) {
+                let (ei, ej) = ((bi + BLOCK).min(na), (bj + BLOCK).min(ne));
+                let (a0, a1) = (
+                    cells.azimuths[bi] - cells.half.0,
+                    cells.azimuths[ei - 1] + cells.half.0,
+                );
+                let (e0, e1) = (
+                    cells.elevations[bj] - cells.half.1,
+                    cells.elevations[ej - 1] + cells.half.1,
+                );
+                let centre = pose.apply(sph_to_cart(r, (a0 + a1) / 2.0, (e0 + e1) / 2.0));
+                let radius = r * ((a1 - a0) / 2.0).hypot((e1 - e0) / 2.0) + extra;
+                if self.may_meet(centre, radius) {
+                    out.push((bi, bj));
+                }
+            }
+        }
+        out
+    }
+
+    /// Returns false only when no point within `radius` of `q` lies in sonar 2's field of view.
+    pub(crate) fn may_meet(&self, q: DVec3, radius: f64) -> bool {
+        let l = &self.layout;
+        let d = q.length();
+        if d - radius > l.range_max || d + radius < l.range_min {
+            return false;
+        }
+        let rho = q.x.hypot(q.y);
+        let outside_elevation = self
+            .tan_elevation
+            .is_some_and(|t| q.z.abs() > t * (rho + radius) + radius);
+        let outside_azimuth = self
+            .tan_azimuth
+            .is_some_and(|t| q.x + radius < 0.0 || q.y.abs() > t * (q.x + radius) + radius);
+        !(outside_elevation || outside_azimuth)
+    }
+}
+
+/// Returns the cells and radius of the mask of `m` (checked against sonar 1, `source`) in
+/// sonar 2's `layout` under `noise`.
+pub(crate) fn plan(source: &Sonar, layout: &Layout, m: &Measurement, noise: Option<&Noise>) -> Result<Plan> {
+    let m = Measurement::of(source, m.range, m.azimuth)?;
+    let noise_radius = noise.map_or(0.0, |n| n.radius(m.range, source.kind));
+    // Half a range bin, or a quarter of the noise radius when that is larger (a finer cell
+    // would not make the widened mask noticeably smaller).
+    let h_target = (layout.range_bin_width / 2.0).max(noise_radius / 4.0);
+    let cells = cells(source, &m, h_target)?;
+    let h = m.range * cells.half.0.hypot(cells.half.1);
+    Ok(Plan {
+        cells,
+        range: m.range,
+        radius: h + noise_radius,
+        noise_radius,
+    })
+}
+
+/// Returns the cells of the set measured by `m`, sized so that a cell's ball radius is at
+/// most `h` (m).
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "a saturating float-to-count conversion of a finite, validated extent"
+)]
+fn cells(source: &Sonar, m: &Measurement, h: f64) -> Result<Cells> {
+    let r = m.range;
+    let el = 2.0 * source.half_elevation();
+    let split = |extent: f64, size: f64| ((extent / size).ceil().max(1.0)) as usize;
+    let centres = |lo: f64, extent: f64, n: usize| -> Vec<f64> {
+        (0..n)
+            .map(|k| lo + extent * (k as f64 + 0.5) / n as f64)
+            .collect()
+    };
+    let (azimuths, ne, half_a) = match source.kind {
+        // An arc: one azimuth, the cell's half-size all in elevation.
+        SonarKind::Fls => (vec![m.azimuth.to_radians()], split(el * r, 2.0 * h), 0.0),
+        // A surface: square cells of diagonal 2h (side h√2).
+        SonarKind::Sss => {
+            let az = 2.0 * source.half_azimuth();
+            let side = h * std::f64::consts::SQRT_2;
+            let na = split(az * r, side);
+            let total = na as u64 * split(el * r, side) as u64;
+            if total > MAX_CELLS {
+                return Err(Error::invalid(
+                    "mask cells",
+                    total,
+                    format!("at most {MAX_CELLS}: sonar 2's range bins are too fine for this surface"),
+                ));
+            }
+            (
+                centres(-az / 2.0, az, na),
+                split(el * r, side),
+                az / na as f64 / 2.0,
+            )
+        }
+    };
+    if ne as u64 > MAX_CELLS {
+        return Err(Error::invalid("mask cells", ne, format!("at most {MAX_CELLS}")));
+    }
+    Ok(Cells {
+        azimuths,
+        elevations: centres(-el / 2.0, el, ne),
+        half: (half_a, el / ne as f64 / 2.0),
+    })
+}

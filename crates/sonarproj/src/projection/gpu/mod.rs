@@ -1,0 +1,401 @@
+//! The GPU backend: WGSL compute shaders through wgpu. A batch is cut into chunks that fit the
+//! device; each chunk is one submission of two stages (splat, reduce) and reads back 32 bytes of
+//! metrics per pose (plus the bitsets only when occupancy is asked for). The CPU twin of the two
+//! stages is [`crate::projection::fast`], block culling included.
+#![expect(
+    clippy::cast_possible_truncation,
+    reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose and counts are bounded by the device limits checked before packing"
+)]
+
+pub mod types;
+
+use std::collections::HashMap;
+
+use glam::DMat3;
+use wgpu::util::DeviceExt;
+
+use crate::error::{Error, Result};
+use crate::geometry::SonarKind;
+use crate::gpu::pipeline::{Binding, Stage};
+use crate::gpu::{GpuContext, read, shaders};
+use crate::metrics::{Extremes, Metrics};
+use crate::occupancy::Occupancy;
+use crate::projection::fast;
+use crate::projection::{Output, PreparedBatch, Projection};
+use types::*;
+
+/// Bindings of `shaders/splat.wgsl`: params, beam_edges, range_edges_sq, poses, directions,
+/// bits, metrics.
+pub const SPLAT_BINDINGS: [Binding; 7] = [
+    Binding::Uniform,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::ReadWrite,
+    Binding::ReadWrite,
+];
+
+/// Bindings of `shaders/reduce.wgsl`: params, beam_edges, row_weights, bits, metrics.
+pub const REDUCE_BINDINGS: [Binding; 5] = [
+    Binding::Uniform,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::ReadWrite,
+];
+
+/// Threads per workgroup of the splat stage (WGSL `@workgroup_size` in splat.wgsl; checked in
+/// tests/shaders.rs).
+pub const SPLAT_WORKGROUP: u64 = 64;
+/// Threads per workgroup of the reduce stage (WGSL `@workgroup_size` in reduce.wgsl; checked in
+/// tests/shaders.rs): one workgroup per pose, whatever its size.
+pub const REDUCE_WORKGROUP: u64 = 64;
+/// Most workgroups one pose's samples are spread over in the splat stage.
+const MAX_TILES: u64 = 1024;
+/// Most bytes of bitsets one chunk may hold (also capped by the device's binding size).
+const MAX_CHUNK_BITS_BYTES: u64 = 256 << 20;
+
+/// Variants of the splat stage, chosen when its pipeline is built (WGSL `override` constants), so
+/// that one build can measure each on a GPU.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SplatOptions {
+    /// Skip blocks of samples whose ball lies wholly outside sonar 2's view, and the clip tests
+    /// of those wholly inside (the fast CPU path always does). Results are the same either way.
+    pub cull: bool,
+}
+
+impl SplatOptions {
+    /// Returns the options for `ctx`'s adapter: culling on a hardware GPU, off on a software
+    /// adapter such as lavapipe (measured 15–25 % slower there with culling: BENCHMARKS.md);
+    /// the environment variable `SONARPROJ_GPU_CULL` (`0` or `1`) overrides it, so one build
+    /// measures both variants.
+    pub fn for_adapter(ctx: &GpuContext) -> Self {
+        let cull = match std::env::var("SONARPROJ_GPU_CULL").as_deref().map(str::trim) {
+            Ok("0") => false,
+            Ok("1") => true,
+            _ => !ctx.is_software(),
+        };
+        SplatOptions { cull }
+    }
+
+    /// Returns a short description: `culling` or `no culling`.
+    #[must_use]
+    pub fn describe(&self) -> &'static str {
+        if self.cull { "culling" } else { "no culling" }
+    }
+}
+
+/// The GPU backend: a device and the two pipelines, built once.
+#[derive(Debug)]
+pub struct GpuBackend {
+    ctx: GpuContext,
+    splat: Stage,
+    reduce: Stage,
+    options: SplatOptions,
+    max_chunk_poses: Option<usize>,
+}
+
+impl GpuBackend {
+    /// Returns the backend on `ctx`, building its pipelines with [`SplatOptions::for_adapter`].
+    #[must_use]
+    pub fn new(ctx: GpuContext) -> Self {
+        let options = SplatOptions::for_adapter(&ctx);
+        Self::with_options(ctx, options)
+    }
+
+    /// Returns the backend on `ctx`, building its pipelines with `options`.
+    #[must_use]
+    pub fn with_options(ctx: GpuContext, options: SplatOptions) -> Self {
+        let splat = Stage::with_constants(
+            &ctx.device,
+            "splat",
+            &shaders::splat(ctx.precision),
+            &SPLAT_BINDINGS,
+            &[("CULL", f64::from(u8::from(options.cull)))],
+        );
+        let reduce = Stage::new(&ctx.device, "reduce", &shaders::reduce(), &REDUCE_BINDINGS);
+        GpuBackend {
+            ctx,
+            splat,
+            reduce,
+            options,
+            max_chunk_poses: None,
+        }
+    }
+
+    /// Returns the device context.
+    #[must_use]
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// Returns the splat stage's variant.
+    #[must_use]
+    pub fn options(&self) -> SplatOptions {
+        self.options
+    }
+
+    /// Returns the backend with chunks of at most `poses` poses (results do not depend on it;
+    /// tests use it to prove so).
+    #[must_use]
+    pub fn with_max_chunk_poses(mut self, poses: usize) -> Self {
+        self.max_chunk_poses = Some(poses.max(1));
+        self
+    }
+
+    /// Returns the number of poses per chunk for bitsets of `words` u32 each.
+    fn chunk_poses(&self, words: usize, total: usize) -> usize {
+        let limits = &self.ctx.limits;
+        let bytes_per_pose = (words as u64 * 4).max(4);
+        let budget = MAX_CHUNK_BITS_BYTES
+            .min(limits.max_storage_buffer_binding_size)
+            .min(limits.max_buffer_size);
+        let by_memory = (budget / bytes_per_pose).max(1) as usize;
+        let by_dispatch = limits.max_compute_workgroups_per_dimension as usize;
+        let mut n = by_memory.min(by_dispatch).min(total.max(1));
+        if let Some(cap) = self.max_chunk_poses {
+            n = n.min(cap);
+        }
+        n
+    }
+
+    /// Returns the projections of every item of `prepared`; with [`Output::WithOccupancy`] each
+    /// carries its occupancy buffer (read back from the GPU).
+    ///
+    /// # Errors
+    /// [`Error::Gpu`] when the device fails or a bitset does not fit in one binding.
+    pub fn project(&self, prepared: &PreparedBatch<'_>, output: Output) -> Result<Vec<Projection>> {
+        let keep_occupancy = output == Output::WithOccupancy;
+        let device = &self.ctx.device;
+        let layout = &prepared.layout;
+        let items = &prepared.batch.items;
+        let words = words_per_pose(layout);
+        let bits_per_pose_bytes = (words as u64 * 4).max(4);
+        if bits_per_pose_bytes > self.ctx.limits.max_storage_buffer_binding_size {
+            return Err(Error::Gpu(format!(
+                "one occupancy buffer ({bits_per_pose_bytes} bytes) exceeds this device's \
+                 largest storage binding ({} bytes); the CPU backends have no such limit",
+                self.ctx.limits.max_storage_buffer_binding_size
+            )));
+        }
+        let chunk = self.chunk_poses(words, items.len());
+
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let make = |label: &str, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let params = make(
+            "params",
+            bytemuck::bytes_of(&TargetParams::new(layout, chunk as u32)),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let edges = make("beam_edges", bytemuck::cast_slice(&beam_edges(layout)), storage);
+        let weights = make("row_weights", bytemuck::cast_slice(&row_weights(layout)), storage);
+        let edges_sq = make(
+            "range_edges_sq",
+            bytemuck::cast_slice(&range_edges_sq(layout)),
+            storage,
+        );
+        let empty = |label: &str, size: u64, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(4),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let bits_size = chunk as u64 * bits_per_pose_bytes;
+        let metrics_size = (chunk * METRIC_STRIDE * 4) as u64;
+        let copy_src = wgpu::BufferUsages::COPY_SRC;
+        let bits = empty("bits", bits_size, storage | copy_src);
+        let metrics = empty("metrics", metrics_size, storage | copy_src);
+        let poses = empty("poses", (chunk * size_of::<PoseGpu>()) as u64, storage);
+        let readback = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
+        let metrics_staging = empty("metrics_staging", metrics_size, readback);
+        let bits_staging = keep_occupancy.then(|| empty("bits_staging", bits_size, readback));
+
+        let mut out = Vec::with_capacity(items.len());
+        let mut directions: Option<Directions> = None;
+        for start in (0..items.len()).step_by(chunk) {
+            let end = (start + chunk).min(items.len());
+            let n = end - start;
+
+            // Direction table of the plans this chunk uses (kept when the same plans repeat).
+            let mut used: Vec<usize> = prepared.plan_of[start..end].to_vec();
+            used.sort_unstable();
+            used.dedup();
+            if directions.as_ref().is_none_or(|d| d.plans != used) {
+                let (table, offsets) = direction_table(prepared, &used);
+                let buffer = make("directions", bytemuck::cast_slice(&table), storage);
+                directions = Some(Directions {
+                    plans: used,
+                    buffer,
+                    offsets,
+                });
+            }
+            let Directions {
+                buffer: dir_buffer,
+                offsets,
+                ..
+            } = directions.as_ref().expect("set above");
+
+            let mut max_samples = 1u64;
+            let pose_data: Vec<PoseGpu> = (start..end)
+                .map(|k| {
+                    let plan_index = prepared.plan_of[k];
+                    let plan = &prepared.plans[plan_index];
+                    max_samples = max_samples.max(plan.total() as u64);
+                    let [az_off, el_off] = offsets[&plan_index];
+                    pose_gpu(
+                        &items[k].pose.rotation,
+                        items[k].pose.translation.to_array(),
+                        items[k].measurement.range,
+                        prepared.base_azimuth[k],
+                        [
+                            az_off,
+                            plan.azimuths.len() as u32,
+                            el_off,
+                            plan.elevations.len() as u32,
+                        ],
+                    )
+                })
+                .collect();
+            self.ctx
+                .queue
+                .write_buffer(&poses, 0, bytemuck::cast_slice(&pose_data));
+            self.ctx.queue.write_buffer(
+                &params,
+                0,
+                bytemuck::bytes_of(&TargetParams::new(layout, n as u32)),
+            );
+
+            let splat_group = self.splat.bind(
+                device,
+                &[&params, &edges, &edges_sq, &poses, dir_buffer, &bits, &metrics],
+            );
+            let reduce_group = self
+                .reduce
+                .bind(device, &[&params, &edges, &weights, &bits, &metrics]);
+            let tiles = max_samples.div_ceil(SPLAT_WORKGROUP).clamp(1, MAX_TILES) as u32;
+            let used_bits = n as u64 * bits_per_pose_bytes;
+            let used_metrics = (n * METRIC_STRIDE * 4) as u64;
+
+            let mut enc = device.create_command_encoder(&Default::default());
+            enc.clear_buffer(&bits, 0, Some(used_bits));
+            enc.clear_buffer(&metrics, 0, Some(used_metrics));
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&self.splat.pipeline);
+                pass.set_bind_group(0, &splat_group, &[]);
+                pass.dispatch_workgroups(tiles, n as u32, 1);
+                pass.set_pipeline(&self.reduce.pipeline);
+                pass.set_bind_group(0, &reduce_group, &[]);
+                pass.dispatch_workgroups(n as u32, 1, 1);
+            }
+            enc.copy_buffer_to_buffer(&metrics, 0, &metrics_staging, 0, used_metrics);
+            if let Some(staging) = &bits_staging {
+                enc.copy_buffer_to_buffer(&bits, 0, staging, 0, used_bits);
+            }
+            self.ctx.queue.submit([enc.finish()]);
+
+            let raw: Vec<u32> = read(&self.ctx, &metrics_staging, used_metrics)?;
+            let raw_bits: Option<Vec<u32>> = match &bits_staging {
+                Some(staging) => Some(read(&self.ctx, staging, used_bits)?),
+                None => None,
+            };
+            for (c, k) in (start..end).enumerate() {
+                let m = &raw[c * METRIC_STRIDE..(c + 1) * METRIC_STRIDE];
+                let total = prepared.plans[prepared.plan_of[k]].total() as u64;
+                let extremes = Extremes {
+                    range_min: f64::from(from_order_key(!m[METRIC_RANGE_MIN_NOT])),
+                    range_max: f64::from(from_order_key(m[METRIC_RANGE_MAX])),
+                    azimuth_min: f64::from(from_order_key(!m[METRIC_AZIMUTH_MIN_NOT])),
+                    azimuth_max: f64::from(from_order_key(m[METRIC_AZIMUTH_MAX])),
+                };
+                let occupied = u64::from(m[METRIC_OCCUPIED]);
+                let measure = match layout.kind {
+                    SonarKind::Sss => occupied as f64 * layout.range_bin_width,
+                    SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_MEASURE])),
+                };
+                let metrics = Metrics::new(u64::from(m[METRIC_VISIBLE]), total, extremes, occupied, measure);
+                let occupancy = raw_bits.as_ref().map(|b| {
+                    let words_of = &b[c * words..(c + 1) * words];
+                    Occupancy::from_words(layout.range_bins, layout.beams(), words_of.to_vec())
+                });
+                out.push(Projection { metrics, occupancy });
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// The direction table uploaded for a chunk: which plans it holds, the buffer, and per plan the
+/// offsets of its azimuth and elevation entries.
+struct Directions {
+    plans: Vec<usize>,
+    buffer: wgpu::Buffer,
+    offsets: HashMap<usize, [u32; 2]>,
+}
+
+/// Returns the direction table of the plans in `used` — azimuths then elevations of each, each
+/// entry `(cos hi, sin hi, cos lo, sin lo)` in double-f32, then the plan's culling balls
+/// (`fast::block_balls`: centre xyz, radius w, in f32 with the radius rounded up past the
+/// centre's rounding) right after its elevations — and per plan the offsets of its azimuth and
+/// elevation entries.
+fn direction_table(
+    prepared: &PreparedBatch<'_>,
+    used: &[usize],
+) -> (Vec<[f32; 4]>, HashMap<usize, [u32; 2]>) {
+    let entry = |angle: &f64| {
+        let (c, s) = (split(angle.cos()), split(angle.sin()));
+        [c.0, s.0, c.1, s.1]
+    };
+    let mut table = Vec::new();
+    let mut offsets = HashMap::new();
+    for &p in used {
+        let plan = &prepared.plans[p];
+        let az_off = table.len() as u32;
+        table.extend(plan.azimuths.iter().map(entry));
+        let el_off = table.len() as u32;
+        table.extend(plan.elevations.iter().map(entry));
+        // The shader finds block b of this plan at el_off + n_el + b. Rounding the centre to f32
+        // moves it by at most √3 · 2⁻²⁴ < 2e-7; the radius grows by that and rounds up.
+        table.extend(
+            fast::block_balls(&plan.azimuths, &plan.elevations)
+                .into_iter()
+                .map(|(c, r)| {
+                    [
+                        c.x as f32,
+                        c.y as f32,
+                        c.z as f32,
+                        ((r + 2e-7) * (1.0 + 1e-6)) as f32,
+                    ]
+                }),
+        );
+        offsets.insert(p, [az_off, el_off]);
+    }
+    (table, offsets)
+}
+
+/// Returns the GPU pose: rows of `range · R · Rz(base_azimuth)` (computed in f64) with the
+/// translation in `w`, split into f32 hi + lo pairs, and the plan.
+fn pose_gpu(r: &DMat3, t: [f64; 3], range: f64, base_azimuth: f64, plan: [u32; 4]) -> PoseGpu {
+    let m = *r * DMat3::from_rotation_z(base_azimuth) * range;
+    let mut pose = PoseGpu {
+        hi: [[0.0; 4]; 3],
+        lo: [[0.0; 4]; 3],
+        plan,
+    };
+    for (i, ti) in t.into_iter().enumerate() {
+        let v = m.row(i);
+        for (j, x) in [v.x, v.y, v.z, ti].into_iter().enumerate() {
+            (pose.hi[i][j], pose.lo[i][j]) = split(x);
+        }
+    }
+    pose
+}

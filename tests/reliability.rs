@@ -1,0 +1,242 @@
+//! Reliability from the outside: what the binary does with special output files, symlinks, bad
+//! output paths and bad lines in a stream (README: Reliability).
+
+mod common;
+
+use std::io::{Read, Write};
+
+use predicates::prelude::*;
+use std::os::unix::fs::FileTypeExt;
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+/// Returns the arguments of a small `batch` run writing to `out`.
+fn batch_to(out: &Path) -> Vec<String> {
+    [
+        "batch",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--backend",
+        "cpu-fast",
+        "--input",
+        "data/example-poses.csv",
+        "--output",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .chain([out.display().to_string()])
+    .collect()
+}
+
+/// Returns whether this process runs as root (device nodes can be created).
+fn is_root() -> bool {
+    let out = Command::new("id").arg("-u").output().unwrap();
+    String::from_utf8_lossy(&out.stdout).trim() == "0"
+}
+
+#[test]
+fn a_fifo_is_written_through_and_stays_a_fifo() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("out.fifo");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || {
+            let mut text = String::new();
+            std::fs::File::open(fifo)
+                .unwrap()
+                .read_to_string(&mut text)
+                .unwrap();
+            text
+        })
+    };
+    common::sonarproj().args(batch_to(&fifo)).assert().success();
+    // Checked before joining: a replaced FIFO would leave the reader waiting for a writer.
+    let kind = std::fs::symlink_metadata(&fifo).unwrap().file_type();
+    assert!(kind.is_fifo(), "the FIFO was replaced by {kind:?}");
+    let text = reader.join().unwrap();
+    assert!(text.starts_with("range,"), "{text}");
+    assert!(text.lines().count() > 2, "every row came through the FIFO");
+    let stray: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert_eq!(stray.len(), 1, "no temporary file left beside it");
+}
+
+#[test]
+fn device_nodes_are_written_through_and_never_replaced() {
+    if !is_root() {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "CI must run this test as root (it creates device nodes)"
+        );
+        eprintln!("SKIPPED: creating device nodes needs root");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    // The test's own device nodes, never the system's /dev: 1,3 is null, 1,7 is full.
+    let null = dir.path().join("null");
+    let full = dir.path().join("full");
+    for (node, minor) in [(&null, "3"), (&full, "7")] {
+        let ok = Command::new("mknod")
+            .arg(node)
+            .args(["c", "1", minor])
+            .status()
+            .unwrap();
+        assert!(ok.success(), "mknod {}", node.display());
+    }
+    common::sonarproj().args(batch_to(&null)).assert().success();
+    common::sonarproj()
+        .args(batch_to(&full))
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains("No space left on device"));
+    for node in [&null, &full] {
+        let kind = std::fs::symlink_metadata(node).unwrap().file_type();
+        assert!(kind.is_char_device(), "{} became {kind:?}", node.display());
+    }
+    let stray: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert_eq!(stray.len(), 2, "no temporary file left beside them");
+}
+
+#[test]
+fn a_symlink_is_followed_and_its_file_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let real = dir.path().join("real.csv");
+    let link = dir.path().join("link.csv");
+    std::fs::write(&real, "old contents\n").unwrap();
+    std::os::unix::fs::symlink("real.csv", &link).unwrap();
+    common::sonarproj().args(batch_to(&link)).assert().success();
+    assert!(
+        std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(),
+        "the link stays"
+    );
+    let text = std::fs::read_to_string(&real).unwrap();
+    assert!(
+        text.starts_with("range,"),
+        "the file it names holds the output: {text}"
+    );
+    // A dangling link: the file is created where it points.
+    let new_link = dir.path().join("new-link.csv");
+    std::os::unix::fs::symlink("created.csv", &new_link).unwrap();
+    common::sonarproj().args(batch_to(&new_link)).assert().success();
+    assert!(
+        std::fs::read_to_string(dir.path().join("created.csv"))
+            .unwrap()
+            .starts_with("range,")
+    );
+}
+
+#[test]
+fn an_empty_or_directory_output_path_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    common::sonarproj()
+        .args(batch_to(Path::new("")))
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("output path"));
+    common::sonarproj()
+        .args(batch_to(dir.path()))
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("is a directory"));
+}
+
+/// Returns the JSON replies of `mask --stream` to `input`, and its exit status.
+fn stream(input: &[u8]) -> (Vec<serde_json::Value>, i32) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sonarproj"))
+        .args([
+            "mask",
+            "--from",
+            "paper-fls",
+            "--to",
+            "paper-sss",
+            "--backend",
+            "cpu",
+            "--stream",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let input = input.to_vec();
+    let writer = std::thread::spawn(move || {
+        let _ = stdin.write_all(&input);
+    });
+    let out = child.wait_with_output().unwrap();
+    writer.join().unwrap();
+    let replies = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    (replies, out.status.code().unwrap())
+}
+
+#[test]
+fn a_bad_stream_line_gets_its_error_and_the_stream_goes_on() {
+    let good = br#"{"pose": {"pitch": 90, "translation": [15, 0, 0]}, "features": [[5, 10]]}"#;
+    let mut input = Vec::new();
+    input.extend_from_slice(good);
+    input.extend_from_slice(b"\n{\"pitch\": \xff\xfe}\n");
+    // A line far past the limit: answered with an error, not read into memory whole.
+    input.extend(std::iter::repeat_n(b' ', 5 << 20));
+    input.extend_from_slice(b"\n");
+    input.extend_from_slice(good);
+    input.extend_from_slice(b"\n");
+    let (replies, code) = stream(&input);
+    assert_eq!(replies.len(), 4, "{replies:?}");
+    assert!(replies[0].get("features").is_some(), "{}", replies[0]);
+    assert!(
+        replies[1]["error"].as_str().unwrap().contains("UTF-8"),
+        "{}",
+        replies[1]
+    );
+    assert!(
+        replies[2]["error"].as_str().unwrap().contains("longer than"),
+        "{}",
+        replies[2]
+    );
+    assert_eq!(replies[3]["line"], 4);
+    assert!(
+        replies[3].get("features").is_some(),
+        "the line after the bad ones is answered"
+    );
+    assert_eq!(code, 2, "bad lines make the exit status 2");
+}
+
+#[test]
+fn values_that_would_overflow_or_mean_nothing_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let far = dir.path().join("far.toml");
+    std::fs::write(
+        &far,
+        "kind = \"sss\"\nrange_min = 0.1\nrange_max = 1e308\nazimuth_aperture = 1.0\n\
+         elevation_aperture = 60.0\nrange_bins = 100\nbeams = 1\n",
+    )
+    .unwrap();
+    common::sonarproj()
+        .args(["project", "--from", "paper-fls", "--to"])
+        .arg(&far)
+        .args(["--range", "5", "--pitch", "90", "--place-range", "15"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("range_max").and(predicates::str::contains("10000")));
+    // An imaging sonar's feature needs its azimuth: not read as 0.
+    common::sonarproj()
+        .args([
+            "mask",
+            "--from",
+            "paper-fls",
+            "--to",
+            "paper-sss",
+            "--pitch",
+            "90",
+        ])
+        .args(["--place-range", "15", "--feature", "5"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("an imaging sonar measures both"));
+}
