@@ -3,12 +3,12 @@
 
 mod common;
 
-use std::io::{Read, Write};
+use std::io::Read;
 
 use predicates::prelude::*;
 use std::os::unix::fs::FileTypeExt;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 /// Returns the arguments of a small `batch` run writing to `out`.
 fn batch_to(out: &Path) -> Vec<String> {
@@ -143,8 +143,8 @@ fn an_empty_or_directory_output_path_is_bad_input() {
 }
 
 /// Returns the JSON replies of `mask --stream` to `input`, and its exit status.
-fn stream(input: &[u8]) -> (Vec<serde_json::Value>, i32) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_sonarproj"))
+fn stream(input: Vec<u8>) -> (Vec<serde_json::Value>, i32) {
+    let out = common::sonarproj()
         .args([
             "mask",
             "--from",
@@ -153,20 +153,11 @@ fn stream(input: &[u8]) -> (Vec<serde_json::Value>, i32) {
             "paper-sss",
             "--backend",
             "cpu",
-            "--stream",
         ])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
+        .arg("--stream")
+        .write_stdin(input)
+        .output()
         .unwrap();
-    let mut stdin = child.stdin.take().unwrap();
-    let input = input.to_vec();
-    let writer = std::thread::spawn(move || {
-        let _ = stdin.write_all(&input);
-    });
-    let out = child.wait_with_output().unwrap();
-    writer.join().unwrap();
     let replies = String::from_utf8(out.stdout)
         .unwrap()
         .lines()
@@ -186,7 +177,7 @@ fn a_bad_stream_line_gets_its_error_and_the_stream_goes_on() {
     input.extend_from_slice(b"\n");
     input.extend_from_slice(good);
     input.extend_from_slice(b"\n");
-    let (replies, code) = stream(&input);
+    let (replies, code) = stream(input);
     assert_eq!(replies.len(), 4, "{replies:?}");
     assert!(replies[0].get("features").is_some(), "{}", replies[0]);
     assert!(

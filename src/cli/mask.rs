@@ -150,14 +150,28 @@ fn features_json(engine: &MaskEngine, features: &[Measurement], set: &MaskSet, r
 
 /// Runs `sonarproj mask`.
 pub(super) fn run(a: MaskArgs) -> Result<()> {
-    // Checked even without a sigma: a coverage that means nothing is still a mistake.
-    if !(a.coverage > 0.0 && a.coverage < 1.0) {
-        return Err(Error::invalid(
-            "--coverage",
-            a.coverage,
-            "must be a probability in (0, 1)",
-        ));
+    // The noise is checked even without a sigma (a coverage that means nothing is still a
+    // mistake), by Noise's own rules, before anything is built.
+    let any_sigma = a.sigma_rotation.is_some()
+        || a.sigma_translation.is_some()
+        || a.sigma_range.is_some()
+        || a.sigma_azimuth.is_some();
+    let noise = Noise {
+        rotation: a
+            .sigma_rotation
+            .as_deref()
+            .map_or(Ok([0.0; 3]), |t| one_or_three("--sigma-rotation", t))?,
+        translation: a
+            .sigma_translation
+            .as_deref()
+            .map_or(Ok([0.0; 3]), |t| one_or_three("--sigma-translation", t))?,
+        range: a.sigma_range.unwrap_or(0.0),
+        azimuth: a.sigma_azimuth.unwrap_or(0.0),
+        coverage: a.coverage,
     }
+    .validated()
+    .map_err(|e| Error::from(e).in_context("noise (--sigma-*, --coverage)"))?;
+    let noise = any_sigma.then_some(noise);
     let source = Sonar::resolve(&a.from)?;
     let target = Sonar::resolve(&a.to)?;
     let counts = if a.counts { Counts::Draw } else { Counts::Skip };
@@ -176,28 +190,6 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
         .collect::<Result<Vec<_>>>()?;
     let first = features[0];
     let pose = a.pose.pose([first.range, first.azimuth, 0.0])?;
-    let any_sigma = a.sigma_rotation.is_some()
-        || a.sigma_translation.is_some()
-        || a.sigma_range.is_some()
-        || a.sigma_azimuth.is_some();
-    let noise = if any_sigma {
-        let n = Noise {
-            rotation: a
-                .sigma_rotation
-                .as_deref()
-                .map_or(Ok([0.0; 3]), |t| one_or_three("--sigma-rotation", t))?,
-            translation: a
-                .sigma_translation
-                .as_deref()
-                .map_or(Ok([0.0; 3]), |t| one_or_three("--sigma-translation", t))?,
-            range: a.sigma_range.unwrap_or(0.0),
-            azimuth: a.sigma_azimuth.unwrap_or(0.0),
-            coverage: a.coverage,
-        };
-        Some(n.validated().map_err(|e| e.in_context("--sigma"))?)
-    } else {
-        None
-    };
     for (path, ext) in [(&a.out, "png"), (&a.npy, "npy")] {
         if let Some(p) = path
             .as_ref()

@@ -8,8 +8,8 @@ use std::fmt::Write as _;
 
 use crate::error::{Error, Result, finite};
 use sonarproj::geometry::pose::{RelativePose, Rotation};
-use sonarproj::geometry::sonar::Sonar;
-use sonarproj::metrics::Metrics;
+use sonarproj::geometry::sonar::{Sonar, SonarKind};
+use sonarproj::metrics::{Metric, Metrics};
 use sonarproj::projection::Backend;
 use sonarproj::projection::{Batch, BatchItem, Projection};
 use sonarproj::sampling::{Measurement, Sampling};
@@ -55,22 +55,27 @@ impl Direction {
         )
     }
 
-    /// Returns the metric the paper plots for this direction, its label and unit.
+    /// Returns the metric the paper plots for this direction: the range span for an SSS target,
+    /// the projection area for an FLS target.
     #[must_use]
-    pub fn metric(self, m: &Metrics) -> f64 {
+    pub fn plotted(self) -> (Metric, SonarKind) {
         match self {
-            Direction::FlsToSss => m.span,
-            Direction::SssToFls => m.occupied_measure,
+            Direction::FlsToSss => (Metric::Span, SonarKind::Sss),
+            Direction::SssToFls => (Metric::OccupiedMeasure, SonarKind::Fls),
         }
     }
 
-    /// Returns the metric's axis label.
+    /// Returns the value of the plotted metric in `m` (both are numbers, never empty).
+    #[must_use]
+    pub fn metric(self, m: &Metrics) -> f64 {
+        m.get(self.plotted().0).as_f64().unwrap_or(0.0)
+    }
+
+    /// Returns the plotted metric's axis label, from the metric table.
     #[must_use]
     pub fn metric_label(self) -> &'static str {
-        match self {
-            Direction::FlsToSss => "range span (m)",
-            Direction::SssToFls => "projection area (m²)",
-        }
+        let (metric, kind) = self.plotted();
+        metric.label(kind).unwrap_or(metric.name())
     }
 }
 

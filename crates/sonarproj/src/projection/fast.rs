@@ -600,7 +600,7 @@ mod tests {
             .iter()
             .enumerate()
             .map(|(n, item)| {
-                let plan = &prepared.plans[prepared.plan_of[n]];
+                let plan = prepared.plan(n);
                 let dirs = Directions::of(&plan.azimuths, &plan.elevations);
                 let m = item.pose.rotation
                     * DMat3::from_rotation_z(prepared.base_azimuth[n])

@@ -310,7 +310,7 @@ impl GpuBackend {
             };
             for (c, k) in (start..end).enumerate() {
                 let m = &raw[c * METRIC_STRIDE..(c + 1) * METRIC_STRIDE];
-                let total = prepared.plans[prepared.plan_of[k]].total() as u64;
+                let total = prepared.plan(k).total() as u64;
                 let extremes = Extremes {
                     range_min: f64::from(from_order_key(!m[METRIC_RANGE_MIN_NOT])),
                     range_max: f64::from(from_order_key(m[METRIC_RANGE_MAX])),

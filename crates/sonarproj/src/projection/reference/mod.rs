@@ -21,7 +21,7 @@ pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> 
         .iter()
         .enumerate()
         .map(|(n, item)| {
-            let plan = &prepared.plans[prepared.plan_of[n]];
+            let plan = prepared.plan(n);
             let mut occupancy = Occupancy::new(layout.range_bins, layout.beams());
             let splat = splat::splat(
                 layout,
