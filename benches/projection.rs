@@ -59,10 +59,33 @@ fn prepare(c: &mut Criterion) {
     group.finish();
 }
 
+/// One small call after another on one GPU backend (a live mask or a robot's query loop): with
+/// the buffers it keeps between calls, and with them freed before each call as every call did
+/// before they were kept.
+fn small_calls(c: &mut Criterion) {
+    let Ok(ctx) = GpuContext::new() else { return };
+    let gpu = GpuBackend::new(ctx);
+    let (from, to) = ("paper-sss", "paper-fls");
+    let b = bench::batch(&Sonar::preset(from).unwrap(), &Sonar::preset(to).unwrap(), 4).unwrap();
+    let prepared = b.prepare().unwrap();
+    let mut group = c.benchmark_group(format!("gpu calls {from}->{to} x4"));
+    group.sample_size(20);
+    group.bench_function("kept buffers", |bench| {
+        bench.iter(|| gpu.project(&prepared, Output::WithOccupancy).unwrap())
+    });
+    group.bench_function("new buffers", |bench| {
+        bench.iter(|| {
+            gpu.release_buffers();
+            gpu.project(&prepared, Output::WithOccupancy).unwrap()
+        })
+    });
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     // No HTML plots: plotters is built with only our embedded font, which criterion does not load.
     config = Criterion::default().without_plots();
-    targets = projection, prepare
+    targets = projection, prepare, small_calls
 }
 criterion_main!(benches);

@@ -282,6 +282,43 @@ fn results_do_not_depend_on_the_chunk_size() {
     assert_eq!(whole, chunked);
 }
 
+/// One backend kept across calls of different sizes and targets (its buffers reused, grown and
+/// holding an earlier call's data) answers exactly as a fresh backend does for each call, and a
+/// repeated call allocates nothing more.
+#[test]
+fn kept_buffers_do_not_change_results() {
+    let Some(ctx) = common::gpu_context() else { return };
+    let kept = GpuBackend::new(ctx.clone());
+    let batch = |seed, source: &str, target: &str, n| {
+        let (source, target) = (common::preset(source), common::preset(target));
+        Batch {
+            items: random_items(seed, &source, &target, n),
+            source,
+            target,
+            sampling: Sampling::Step(0.2),
+        }
+    };
+    let calls = [
+        (batch(21, "paper-sss", "paper-fls", 40), Output::WithOccupancy),
+        (batch(22, "paper-fls", "paper-sss", 3), Output::MetricsOnly),
+        (batch(23, "paper-sss", "paper-fls", 5), Output::WithOccupancy),
+        (batch(24, "paper-fls", "paper-sss", 60), Output::WithOccupancy),
+        (batch(21, "paper-sss", "paper-fls", 40), Output::WithOccupancy),
+    ];
+    let mut sizes = Vec::new();
+    for (k, (batch, output)) in calls.iter().enumerate() {
+        let prepared = batch.prepare().unwrap();
+        let fresh = GpuBackend::new(ctx.clone()).project(&prepared, *output).unwrap();
+        let reused = kept.project(&prepared, *output).unwrap();
+        assert_eq!(reused, fresh, "call {k}");
+        sizes.push(kept.kept_bytes());
+    }
+    assert!(sizes[0] > 0, "nothing kept: {sizes:?}");
+    assert_eq!(sizes[4], sizes[3], "a repeated call grew the buffers: {sizes:?}");
+    kept.release_buffers();
+    assert_eq!(kept.kept_bytes(), 0);
+}
+
 #[test]
 fn the_envelope_check_catches_wrong_results() {
     let Some(gpu) = common::gpu() else { return };

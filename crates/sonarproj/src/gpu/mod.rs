@@ -1,9 +1,10 @@
 //! The GPU plumbing shared by the projection and the mask pipelines: the device
 //! ([`GpuContext`]), compute stages and their binding tables ([`pipeline`]), the WGSL sources
-//! ([`shaders`]) and reading buffers back.
+//! ([`shaders`]), buffers kept between calls (`pool`) and reading buffers back.
 
 pub mod context;
 pub mod pipeline;
+pub(crate) mod pool;
 pub mod shaders;
 
 use std::sync::mpsc;

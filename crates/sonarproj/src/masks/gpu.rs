@@ -10,7 +10,6 @@
 )]
 
 use std::collections::HashMap;
-use std::sync::Mutex;
 
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
@@ -18,6 +17,7 @@ use wgpu::util::DeviceExt;
 use crate::error::{Error, Result};
 use crate::geometry::{RelativePose, SonarKind};
 use crate::gpu::pipeline::{Binding, Stage};
+use crate::gpu::pool::SharedPool;
 use crate::gpu::{GpuContext, context, read, shaders};
 use crate::occupancy::{Layout, Occupancy};
 
@@ -126,16 +126,13 @@ pub fn source() -> &'static str {
     shaders::mask()
 }
 
-/// Buffers kept between pings, grown on demand.
+/// The buffers of one dispatch, taken from the pool.
 struct Buffers {
     jobs: wgpu::Buffer,
     dirs: wgpu::Buffer,
     blocks: wgpu::Buffer,
     bits: wgpu::Buffer,
     staging: wgpu::Buffer,
-    job_capacity: u64,
-    dir_capacity: u64,
-    word_capacity: u64,
 }
 
 /// The mask pipeline on one GPU, for one sonar 2.
@@ -145,7 +142,7 @@ pub struct GpuMasks {
     params: MaskParams,
     params_buffer: wgpu::Buffer,
     edges: wgpu::Buffer,
-    buffers: Mutex<Option<Buffers>>,
+    pool: SharedPool,
 }
 
 impl std::fmt::Debug for GpuMasks {
@@ -213,7 +210,7 @@ impl GpuMasks {
             params,
             params_buffer,
             edges,
-            buffers: Mutex::new(None),
+            pool: SharedPool::default(),
         })
     }
 
@@ -309,61 +306,47 @@ impl GpuMasks {
             )
             .collect();
         let n = jobs.len() as u64;
-        let mut guard = self
-            .buffers
-            .lock()
-            .map_err(|_| Error::Gpu("mask buffers poisoned".into()))?;
-        // Blocks share the dirs buffer's capacity accounting: both are 8-byte entries.
-        let need = (n, (dirs.len() + blocks.len()) as u64, n * words);
-        let fits = guard.as_ref().is_some_and(|b| {
-            b.job_capacity >= need.0 && b.dir_capacity >= need.1 && b.word_capacity >= need.2
-        });
-        if !fits {
-            let old = guard
-                .as_ref()
-                .map_or((0, 0, 0), |b| (b.job_capacity, b.dir_capacity, b.word_capacity));
-            let grow = |need: u64, old: u64, size: u64| {
-                need.max(old).next_power_of_two().min(limit / size).max(need)
-            };
-            let cap = (
-                grow(need.0, old.0, MASK_JOB_SIZE as u64),
-                grow(need.1, old.1, 8),
-                grow(need.2, old.2, 4),
-            );
-            let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
-                device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size: size.max(16),
-                    usage,
-                    mapped_at_creation: false,
-                })
-            };
+        self.pool.with(|pool| {
             let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-            *guard = Some(Buffers {
-                jobs: buffer("mask jobs", cap.0 * MASK_JOB_SIZE as u64, storage),
-                dirs: buffer("mask dirs", cap.1 * 8, storage),
-                blocks: buffer("mask blocks", cap.1 * 8, storage),
-                bits: buffer("mask bits", cap.2 * 4, storage | wgpu::BufferUsages::COPY_SRC),
-                staging: buffer(
+            let mut get = |label, size, usage| pool.get(device, label, size, limit, usage);
+            let b = Buffers {
+                jobs: get("mask jobs", n * MASK_JOB_SIZE as u64, storage),
+                dirs: get("mask dirs", dirs.len() as u64 * 8, storage),
+                blocks: get("mask blocks", blocks.len() as u64 * 8, storage),
+                bits: get("mask bits", n * words * 4, storage | wgpu::BufferUsages::COPY_SRC),
+                staging: get(
                     "mask staging",
-                    cap.2 * 4,
+                    n * words * 4,
                     wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                 ),
-                job_capacity: cap.0,
-                dir_capacity: cap.1,
-                word_capacity: cap.2,
-            });
-        }
-        let b = guard.as_ref().expect("set above");
+            };
+            self.submit(layout, &b, &gpu_jobs, &dirs, &blocks, max_cells)
+        })
+    }
+
+    /// Uploads one dispatch's jobs, cell tables and blocks into `b`, draws them and returns
+    /// their masks.
+    fn submit(
+        &self,
+        layout: &Layout,
+        b: &Buffers,
+        gpu_jobs: &[MaskJob],
+        dirs: &[[f32; 2]],
+        blocks: &[[u32; 2]],
+        max_cells: u64,
+    ) -> Result<Vec<Occupancy>> {
+        let device = &self.ctx.device;
+        let words = u64::from(self.params.words_per_mask);
+        let n = gpu_jobs.len() as u64;
         let params = self.params;
         let queue = &self.ctx.queue;
         queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&params));
-        queue.write_buffer(&b.jobs, 0, bytemuck::cast_slice(&gpu_jobs));
+        queue.write_buffer(&b.jobs, 0, bytemuck::cast_slice(gpu_jobs));
         if !dirs.is_empty() {
-            queue.write_buffer(&b.dirs, 0, bytemuck::cast_slice(&dirs));
+            queue.write_buffer(&b.dirs, 0, bytemuck::cast_slice(dirs));
         }
         if !blocks.is_empty() {
-            queue.write_buffer(&b.blocks, 0, bytemuck::cast_slice(&blocks));
+            queue.write_buffer(&b.blocks, 0, bytemuck::cast_slice(blocks));
         }
         let group = self.stage.bind(
             device,
@@ -389,7 +372,7 @@ impl GpuMasks {
         enc.copy_buffer_to_buffer(&b.bits, 0, &b.staging, 0, bytes);
         queue.submit([enc.finish()]);
         let raw = read(&self.ctx, &b.staging, bytes)?;
-        Ok((0..jobs.len())
+        Ok((0..gpu_jobs.len())
             .map(|k| {
                 Occupancy::from_words(
                     layout.range_bins,

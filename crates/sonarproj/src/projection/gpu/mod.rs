@@ -12,11 +12,11 @@ pub mod types;
 use std::collections::HashMap;
 
 use glam::DMat3;
-use wgpu::util::DeviceExt;
 
 use crate::error::{Error, Result};
 use crate::geometry::SonarKind;
 use crate::gpu::pipeline::{Binding, Stage};
+use crate::gpu::pool::{BufferPool, SharedPool};
 use crate::gpu::{GpuContext, read, shaders};
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::Occupancy;
@@ -86,7 +86,10 @@ impl SplatOptions {
     }
 }
 
-/// The GPU backend: a device and the two pipelines, built once.
+/// The GPU backend: a device and the two pipelines, built once, and the chunk buffers, kept
+/// between calls and grown to the largest batch seen ([`GpuBackend::kept_bytes`] says how much
+/// GPU memory that is, [`GpuBackend::release_buffers`] frees it). Calls from several threads at
+/// once are allowed: one uses the kept buffers, the others allocate their own.
 #[derive(Debug)]
 pub struct GpuBackend {
     ctx: GpuContext,
@@ -94,6 +97,7 @@ pub struct GpuBackend {
     reduce: Stage,
     options: SplatOptions,
     max_chunk_poses: Option<usize>,
+    pool: SharedPool,
 }
 
 impl GpuBackend {
@@ -121,6 +125,7 @@ impl GpuBackend {
             reduce,
             options,
             max_chunk_poses: None,
+            pool: SharedPool::default(),
         }
     }
 
@@ -166,6 +171,28 @@ impl GpuBackend {
     /// # Errors
     /// [`Error::Gpu`] when the device fails or a bitset does not fit in one binding.
     pub fn project(&self, prepared: &PreparedBatch<'_>, output: Output) -> Result<Vec<Projection>> {
+        self.pool.with(|pool| self.project_with(pool, prepared, output))
+    }
+
+    /// Returns the bytes of GPU memory the backend keeps between calls (its chunk buffers, grown
+    /// to the largest batch seen so far).
+    #[must_use]
+    pub fn kept_bytes(&self) -> u64 {
+        self.pool.bytes()
+    }
+
+    /// Frees the buffers kept between calls (the next call allocates them again).
+    pub fn release_buffers(&self) {
+        self.pool.clear();
+    }
+
+    /// [`GpuBackend::project`] with the buffers of `pool`.
+    fn project_with(
+        &self,
+        pool: &mut BufferPool,
+        prepared: &PreparedBatch<'_>,
+        output: Output,
+    ) -> Result<Vec<Projection>> {
         let keep_occupancy = output == Output::WithOccupancy;
         let device = &self.ctx.device;
         let layout = &prepared.layout;
@@ -181,37 +208,37 @@ impl GpuBackend {
         }
         let chunk = self.chunk_poses(words, items.len());
 
+        // Every buffer comes from the pool: the target's tables are rewritten on each call (a few
+        // KiB), the chunk buffers are reused whenever the kept ones are large enough.
+        // Buffers are bound whole, so growth stops at the largest binding.
+        let limit = self
+            .ctx
+            .limits
+            .max_storage_buffer_binding_size
+            .min(self.ctx.limits.max_buffer_size);
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let make = |label: &str, contents: &[u8], usage| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            })
+        let queue = &self.ctx.queue;
+        let mut upload = |label: &'static str, contents: &[u8], usage| {
+            let buffer = pool.get(device, label, contents.len() as u64, limit, usage);
+            queue.write_buffer(&buffer, 0, contents);
+            buffer
         };
-        let params = make(
+        let params = upload(
             "params",
             bytemuck::bytes_of(&TargetParams::new(layout, chunk as u32)),
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
-        let edges = make("beam_edges", bytemuck::cast_slice(&beam_edges(layout)), storage);
-        let weights = make("row_weights", bytemuck::cast_slice(&row_weights(layout)), storage);
-        let edges_sq = make(
+        let edges = upload("beam_edges", bytemuck::cast_slice(&beam_edges(layout)), storage);
+        let weights = upload("row_weights", bytemuck::cast_slice(&row_weights(layout)), storage);
+        let edges_sq = upload(
             "range_edges_sq",
             bytemuck::cast_slice(&range_edges_sq(layout)),
             storage,
         );
-        let empty = |label: &str, size: u64, usage| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: size.max(4),
-                usage,
-                mapped_at_creation: false,
-            })
-        };
         let bits_size = chunk as u64 * bits_per_pose_bytes;
         let metrics_size = (chunk * METRIC_STRIDE * 4) as u64;
         let copy_src = wgpu::BufferUsages::COPY_SRC;
+        let mut empty = |label, size, usage| pool.get(device, label, size, limit, usage);
         let bits = empty("bits", bits_size, storage | copy_src);
         let metrics = empty("metrics", metrics_size, storage | copy_src);
         let poses = empty("poses", (chunk * size_of::<PoseGpu>()) as u64, storage);
@@ -231,7 +258,9 @@ impl GpuBackend {
             used.dedup();
             if directions.as_ref().is_none_or(|d| d.plans != used) {
                 let (table, offsets) = direction_table(prepared, &used);
-                let buffer = make("directions", bytemuck::cast_slice(&table), storage);
+                let bytes: &[u8] = bytemuck::cast_slice(&table);
+                let buffer = pool.get(device, "directions", bytes.len() as u64, limit, storage);
+                queue.write_buffer(&buffer, 0, bytes);
                 directions = Some(Directions {
                     plans: used,
                     buffer,
@@ -265,10 +294,8 @@ impl GpuBackend {
                     )
                 })
                 .collect();
-            self.ctx
-                .queue
-                .write_buffer(&poses, 0, bytemuck::cast_slice(&pose_data));
-            self.ctx.queue.write_buffer(
+            queue.write_buffer(&poses, 0, bytemuck::cast_slice(&pose_data));
+            queue.write_buffer(
                 &params,
                 0,
                 bytemuck::bytes_of(&TargetParams::new(layout, n as u32)),
@@ -301,7 +328,7 @@ impl GpuBackend {
             if let Some(staging) = &bits_staging {
                 enc.copy_buffer_to_buffer(&bits, 0, staging, 0, used_bits);
             }
-            self.ctx.queue.submit([enc.finish()]);
+            queue.submit([enc.finish()]);
 
             let raw: Vec<u32> = read(&self.ctx, &metrics_staging, used_metrics)?;
             let raw_bits: Option<Vec<u32>> = match &bits_staging {

@@ -1,0 +1,88 @@
+//! Buffers kept between calls: a stage asks for a buffer by name and size and gets the one it
+//! used last time when it is large enough, or a new one grown to the next power of two (within
+//! the device's limit), so that a stream of calls of similar size allocates nothing.
+
+use std::collections::HashMap;
+use std::sync::{Mutex, MutexGuard};
+
+/// Named GPU buffers kept between calls and grown on demand.
+#[derive(Debug, Default)]
+pub(crate) struct BufferPool {
+    buffers: HashMap<&'static str, wgpu::Buffer>,
+}
+
+impl BufferPool {
+    /// Returns the pool's buffer `label` of at least `size` bytes with `usage`: the one kept from
+    /// an earlier call when it is large enough, otherwise a new one of `size` rounded up to a
+    /// power of two but at most `limit` bytes (never less than `size`), kept for later calls.
+    /// The contents are whatever an earlier call left: callers write or clear what they read.
+    pub(crate) fn get(
+        &mut self,
+        device: &wgpu::Device,
+        label: &'static str,
+        size: u64,
+        limit: u64,
+        usage: wgpu::BufferUsages,
+    ) -> wgpu::Buffer {
+        let size = size.max(16);
+        if let Some(buffer) = self.buffers.get(label)
+            && buffer.size() >= size
+            && buffer.usage() == usage
+        {
+            return buffer.clone();
+        }
+        let grown = size.next_power_of_two().min(limit).max(size);
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: grown,
+            usage,
+            mapped_at_creation: false,
+        });
+        self.buffers.insert(label, buffer.clone());
+        buffer
+    }
+
+    /// Returns the bytes of GPU memory the pool holds.
+    pub(crate) fn bytes(&self) -> u64 {
+        self.buffers.values().map(wgpu::Buffer::size).sum()
+    }
+}
+
+/// A pool behind a lock, shared by the calls of one backend.
+#[derive(Debug, Default)]
+pub(crate) struct SharedPool(Mutex<BufferPool>);
+
+impl SharedPool {
+    /// Runs `f` with the shared pool, or with a fresh pool when another thread holds it (calls on
+    /// one backend from several threads then allocate instead of waiting). When `f` fails the
+    /// kept buffers are dropped, since a failed readback may leave one mapped.
+    pub(crate) fn with<T, E>(&self, f: impl FnOnce(&mut BufferPool) -> Result<T, E>) -> Result<T, E> {
+        let mut guard: MutexGuard<'_, BufferPool> = match self.0.try_lock() {
+            Ok(guard) => guard,
+            Err(std::sync::TryLockError::Poisoned(poisoned)) => {
+                let mut guard = poisoned.into_inner();
+                *guard = BufferPool::default();
+                self.0.clear_poison();
+                guard
+            }
+            Err(std::sync::TryLockError::WouldBlock) => return f(&mut BufferPool::default()),
+        };
+        let result = f(&mut guard);
+        if result.is_err() {
+            *guard = BufferPool::default();
+        }
+        result
+    }
+
+    /// Returns the bytes of GPU memory the shared pool holds (0 while another call uses it).
+    pub(crate) fn bytes(&self) -> u64 {
+        self.0.try_lock().map_or(0, |pool| pool.bytes())
+    }
+
+    /// Drops every kept buffer (they are rebuilt on the next call).
+    pub(crate) fn clear(&self) {
+        if let Ok(mut pool) = self.0.lock() {
+            *pool = BufferPool::default();
+        }
+    }
+}
