@@ -1,5 +1,5 @@
 //! Reliability from the outside: what the binary does with special output files, symlinks, bad
-//! output paths and bad lines in a stream (README: Reliability).
+//! output paths, bad lines in a stream and bad rows in long CSV inputs (README: Reliability).
 
 mod common;
 
@@ -230,4 +230,176 @@ fn values_that_would_overflow_or_mean_nothing_are_refused() {
         .assert()
         .code(2)
         .stderr(predicates::str::contains("an imaging sonar measures both"));
+}
+
+/// A batch input of `rows` rows, every one valid except row `bad` (1-based), whose tz is `x`.
+fn batch_rows(rows: usize, bad: usize) -> String {
+    let mut text = String::from("range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz\n");
+    for k in 1..=rows {
+        let tz = if k == bad {
+            "x".to_string()
+        } else {
+            format!("{}", k % 7)
+        };
+        text.push_str(&format!("{},0,0,0,90,{},15,0,{tz}\n", 2 + k % 5, k % 11));
+    }
+    text
+}
+
+/// Returns the arguments of `batch` over `input` (cheap sampling: the rows are many).
+fn batch_of(input: &Path) -> Vec<String> {
+    let args = ["batch", "--from", "paper-fls", "--to", "paper-sss", "--step", "2"];
+    let args = args.iter().map(|s| s.to_string());
+    args.chain(["--backend".into(), "cpu-fast".into(), "--input".into()])
+        .chain([input.display().to_string()])
+        .collect()
+}
+
+#[test]
+fn a_bad_batch_row_stops_the_batch_after_the_rows_before_it() {
+    // More rows than one chunk (16 384) before the bad one, so earlier chunks have gone out.
+    let (rows, bad) = (40_000, 39_990);
+    let dir = tempfile::tempdir().unwrap();
+    let (input, good_input) = (dir.path().join("in.csv"), dir.path().join("good.csv"));
+    std::fs::write(&input, batch_rows(rows, bad)).unwrap();
+    std::fs::write(&good_input, batch_rows(bad - 1, 0)).unwrap();
+    let context = format!("input row {bad} (line {})", bad + 1);
+
+    // To stdout: the rows before the bad one are out, exit status 2, the error names the row.
+    let out = common::sonarproj().args(batch_of(&input)).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains(&context) && stderr.contains("tz"), "{stderr}");
+    let good = common::sonarproj().args(batch_of(&good_input)).output().unwrap();
+    assert!(good.status.success());
+    assert_eq!(out.stdout.len(), good.stdout.len());
+    assert!(
+        out.stdout == good.stdout,
+        "the rows before the bad one differ from a clean run"
+    );
+    assert_eq!(String::from_utf8_lossy(&good.stdout).lines().count(), bad);
+
+    // To a file: nothing written.
+    let output = dir.path().join("out.csv");
+    common::sonarproj()
+        .args(batch_of(&input))
+        .arg("--output")
+        .arg(&output)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(context));
+    assert!(!output.exists(), "a failed batch left {}", output.display());
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert_eq!(leftovers.len(), 2, "temporaries left: {leftovers:?}");
+}
+
+/// Runs `args` with an endless stdin that starts with `head`; returns the exit status, stderr
+/// and how many bytes the command took before it stopped reading (it must not read on).
+fn endless_stdin(args: &[&str], head: &[u8], filler: &[u8]) -> (Option<i32>, String, usize) {
+    use std::io::Write;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sonarproj"))
+        .args(args)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let block = filler.repeat((1 << 16) / filler.len().max(1) + 1);
+    let mut sent = head.len();
+    let limit = 1usize << 30;
+    if stdin.write_all(head).is_ok() {
+        while sent < limit && stdin.write_all(&block).is_ok() {
+            sent += block.len();
+        }
+    }
+    drop(stdin);
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    (out.status.code(), stderr, sent)
+}
+
+#[test]
+fn a_bad_first_row_or_an_endless_line_stops_reading_at_once() {
+    let batch = [
+        "batch",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--backend",
+        "cpu",
+    ];
+    let header = b"range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz\n";
+    // Row 1 is bad and endless good rows follow: the command stops at row 1, not at the end.
+    let head = [&header[..], b"5,0,0,0,0,0,1,2,oops\n"].concat();
+    let (code, stderr, sent) = endless_stdin(&batch, &head, b"5,0,0,0,0,0,1,2,3\n");
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("input row 1 (line 2)"), "{stderr}");
+    assert!(sent < 64 << 20, "{sent} bytes were read after a bad first row");
+    // One endless line (no newline ever): refused at the line limit, with the row named.
+    let (code, stderr, sent) = endless_stdin(&batch, header, b"1");
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(
+        stderr.contains("input row 1") && stderr.contains("longer than"),
+        "{stderr}"
+    );
+    assert!(sent < 64 << 20, "{sent} bytes were read into one line");
+    // The same for recover's CSV.
+    let recover = [
+        "recover",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-fls",
+        "--input",
+        "-",
+    ];
+    let header = b"first_range,first_azimuth,second_range,second_azimuth,roll,pitch,yaw,tx,ty,tz\n";
+    let (code, stderr, sent) = endless_stdin(&recover, header, b"\0");
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("longer than"), "{stderr}");
+    assert!(sent < 64 << 20, "{sent} bytes were read into one line");
+}
+
+#[test]
+fn a_bad_recover_row_stops_after_the_rows_before_it() {
+    let row = "8,5,8.5,-3,0,0,20,1,0.5,0\n";
+    let input = format!(
+        "first_range,first_azimuth,second_range,second_azimuth,roll,pitch,yaw,tx,ty,tz\n\
+         {row}{row}-8,5,8.5,-3,0,0,20,1,0.5,0\n{row}"
+    );
+    let args = [
+        "recover",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-fls",
+        "--input",
+        "-",
+    ];
+    let out = common::sonarproj()
+        .args(args)
+        .write_stdin(input.clone())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("input row 3 (line 4)") && stderr.contains("first range"),
+        "{stderr}"
+    );
+    // Rows 1 and 2 are out (each has two candidates), row 4 is not.
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(stdout.lines().count(), 1 + 2 * 2, "{stdout}");
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("out.csv");
+    common::sonarproj()
+        .args(args)
+        .arg("--output")
+        .arg(&output)
+        .write_stdin(input)
+        .assert()
+        .code(2);
+    assert!(!output.exists());
 }

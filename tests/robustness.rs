@@ -209,7 +209,13 @@ proptest! {
             sampling,
             items: vec![BatchItem { measurement: Measurement { range, azimuth }, pose }],
         };
-        let Ok(prepared) = batch.prepare() else { return Ok(()) };
+        // The one-item check of a streaming reader agrees with preparing the batch.
+        let checked = batch.check_item(&batch.items[0]);
+        let Ok(prepared) = batch.prepare() else {
+            prop_assert!(checked.is_err(), "check_item accepted what prepare refused");
+            return Ok(());
+        };
+        prop_assert!(checked.is_ok(), "check_item refused what prepare accepted: {:?}", checked);
         // Accepted: every part is valid, so the measurement could come from sonar 1.
         prop_assert!(Measurement::of(&source, range, azimuth).is_ok());
         prop_assert!(pose.validate().is_ok());

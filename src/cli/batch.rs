@@ -1,11 +1,10 @@
 //! `sonarproj batch`: a CSV of poses in, a CSV of metrics out.
 
-use sonarproj::Batch;
-use sonarproj::Output;
+use sonarproj::{Backend, Batch, Output};
 use sonarproj_apps::Result;
-use sonarproj_apps::io::{read_batch_csv, write_batch_csv};
+use sonarproj_apps::io::project_csv;
 
-use super::{PairArgs, read_input, write_output};
+use super::{PairArgs, open_input, write_output};
 
 /// Options of `sonarproj batch`.
 #[derive(Debug, clap::Args)]
@@ -19,25 +18,32 @@ pub(super) struct BatchArgs {
     input: String,
     /// Output CSV ('-' for stdout): the input columns, then
     /// visible,total,range_min,range_max,span,azimuth_min,azimuth_max,occupied,occupied_measure.
-    /// A file is written whole or not at all.
+    /// A file is written whole or not at all; on stdout, rows go out as they are computed, and
+    /// a bad input row stops the command (exit status 2) after the rows before it.
     #[arg(long, value_name = "FILE", default_value = "-")]
     output: String,
 }
 
-/// Runs `sonarproj batch`.
+/// Runs `sonarproj batch`: rows are read, projected and written a chunk at a time; the device is
+/// opened when the first chunk is ready (a bad header or first row never waits for it).
 pub(super) fn run(a: BatchArgs) -> Result<()> {
     let (source, target, sampling) = a.pair.resolve()?;
-    let text = read_input(&a.input)?;
-    let input = read_batch_csv(text.as_slice(), &source)?;
-    let batch = Batch {
+    let input = open_input(&a.input)?;
+    let pair = Batch {
         source,
         target,
         sampling,
-        items: input.items.clone(),
+        items: Vec::new(),
     };
-    // Check the sampling of every row before any device work.
-    batch.prepare()?;
-    let backend = a.pair.backend()?;
-    let results = backend.project(&batch, Output::MetricsOnly)?;
-    write_output(&a.output, |w| write_batch_csv(w, &input, &results))
+    let mut backend: Option<Backend> = None;
+    write_output(&a.output, |w| {
+        project_csv(input, w, &pair, |chunk| {
+            let backend = match &mut backend {
+                Some(b) => b,
+                None => backend.insert(a.pair.backend()?),
+            };
+            Ok(backend.project(chunk, Output::MetricsOnly)?)
+        })
+        .map(|_| ())
+    })
 }

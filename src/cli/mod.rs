@@ -130,20 +130,26 @@ impl PairArgs {
     }
 }
 
-/// Returns the bytes of the input `path` ('-' for stdin).
-fn read_input(path: &str) -> Result<Vec<u8>> {
+/// Returns the input `path` ('-' for stdin) opened for reading as a stream.
+///
+/// # Errors
+/// [`Error::ReadInput`] naming the file when it cannot be opened or is a directory.
+fn open_input(path: &str) -> Result<Box<dyn Read>> {
     if path == "-" {
-        let mut text = Vec::new();
-        std::io::stdin()
-            .read_to_end(&mut text)
-            .map_err(|source| Error::ReadInput {
-                path: "stdin".into(),
-                source,
-            })?;
-        return Ok(text);
+        return Ok(Box::new(std::io::stdin().lock()));
     }
     let path = PathBuf::from(path);
-    std::fs::read(&path).map_err(|source| Error::ReadInput { path, source })
+    let file = std::fs::File::open(&path).map_err(|source| Error::ReadInput {
+        path: path.clone(),
+        source,
+    })?;
+    match file.metadata() {
+        Ok(m) if m.is_dir() => Err(Error::ReadInput {
+            path,
+            source: std::io::Error::other("it is a directory, not a file"),
+        }),
+        _ => Ok(Box::new(file)),
+    }
 }
 
 /// Writes `args` to stdout (the [`outln!`] macro's work).

@@ -5,11 +5,10 @@ use serde_json::json;
 use sonarproj::recovery::{DEFAULT_CURVE_STEP, Observation, Recovery, Sigmas, recover};
 use sonarproj::{Sonar, SonarKind};
 use sonarproj_apps::Result;
-use sonarproj_apps::io::recover::{read_recover_csv, write_recover_csv};
-use sonarproj_apps::io::table::row_error;
+use sonarproj_apps::io::recover::recover_csv;
 
 use super::pose_args::{PoseArgs, numbers};
-use super::{read_input, write_output};
+use super::{open_input, write_output};
 
 /// Options of `sonarproj recover`.
 #[derive(Debug, clap::Args)]
@@ -124,16 +123,12 @@ pub(super) fn run(a: RecoverArgs) -> Result<()> {
     Ok(())
 }
 
-/// Runs the batch mode: every row of `input` recovered, written as CSV.
+/// Runs the batch mode: every row of `input` recovered, written as CSV row by row.
 fn run_batch(a: &RecoverArgs, s1: &Sonar, s2: &Sonar, input: &str) -> Result<()> {
-    let text = read_input(input)?;
-    let parsed = read_recover_csv(text.as_slice())?;
-    let results = parsed
-        .items
-        .iter()
-        .zip(&parsed.rows)
-        .map(|(item, (row, line, _))| {
-            recover(
+    let input = open_input(input)?;
+    write_output(a.output.as_deref().unwrap_or("-"), |w| {
+        recover_csv(input, w, |item| {
+            Ok(recover(
                 s1,
                 s2,
                 &item.pose,
@@ -141,11 +136,8 @@ fn run_batch(a: &RecoverArgs, s1: &Sonar, s2: &Sonar, input: &str) -> Result<()>
                 item.second,
                 item.sigmas,
                 a.curve_step,
-            )
-            .map_err(|e| row_error(*row, *line, e.into()))
+            )?)
         })
-        .collect::<Result<Vec<_>>>()?;
-    write_output(a.output.as_deref().unwrap_or("-"), |w| {
-        write_recover_csv(w, &parsed, &results)
+        .map(|_| ())
     })
 }

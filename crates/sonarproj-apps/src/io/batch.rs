@@ -1,19 +1,22 @@
-//! Batch CSV files: poses in, metrics out.
+//! Batch CSV files: poses in, metrics out, streamed.
 //!
 //! Input header (any order): `range,azimuth,elevation,roll,pitch,yaw` and either
 //! `place_range,place_azimuth,place_elevation` or `tx,ty,tz`. The feature's true point in sonar 1
 //! is `sph(range, azimuth, elevation)` (m, deg, deg); its measurement is `(range, azimuth)` for an
 //! FLS, `range` for an SSS. Output: the input columns as given, then [`METRIC_COLUMNS`].
+//!
+//! [`project_csv`] reads, projects and writes [`CHUNK_ROWS`] rows at a time, so a batch of any
+//! length runs in bounded memory; it stops at the first bad row, after writing the rows before it.
 
 use std::io::{Read, Write};
 
 use crate::error::Result;
 use crate::io::field;
-use crate::io::table::{Table, header_error, row_error, write_rows};
+use crate::io::table::{CsvOut, Row, TableReader, header_error, row_error};
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::Sonar;
 use sonarproj::metrics::{METRIC_NAMES, METRICS, Metrics, Value};
-use sonarproj::projection::{BatchItem, Projection};
+use sonarproj::projection::{Batch, BatchItem, Projection};
 use sonarproj::sampling::Measurement;
 
 /// Columns every input row must have.
@@ -24,8 +27,125 @@ pub const PLACE_COLUMNS: [&str; 3] = ["place_range", "place_azimuth", "place_ele
 pub const TRANSLATION_COLUMNS: [&str; 3] = ["tx", "ty", "tz"];
 /// The metric columns appended to every output row: the metric table's names, in its order.
 pub const METRIC_COLUMNS: [&str; METRICS.len()] = METRIC_NAMES;
+/// Rows read, projected and written at a time by [`project_csv`] (a few MiB of rows in memory,
+/// enough poses to keep a GPU busy).
+pub const CHUNK_ROWS: usize = 16_384;
 
-/// A parsed batch CSV: the rows as given (for echoing) and the projections they ask for.
+/// A batch CSV read row by row, each row checked against sonar 1.
+#[derive(Debug)]
+pub struct BatchReader<'s, R: Read> {
+    table: TableReader<R>,
+    source: &'s Sonar,
+    placement: bool,
+}
+
+impl<'s, R: Read> BatchReader<'s, R> {
+    /// Returns the reader of the batch CSV `reader` with its header read and checked; rows are
+    /// checked against sonar 1 (`source`) as they are read.
+    ///
+    /// # Errors
+    /// [`Error::Csv`](crate::Error::Csv) for missing, unknown or duplicate columns or an empty
+    /// input.
+    pub fn new(reader: R, source: &'s Sonar) -> Result<Self> {
+        let allowed: Vec<&str> = REQUIRED_COLUMNS
+            .iter()
+            .chain(&PLACE_COLUMNS)
+            .chain(&TRANSLATION_COLUMNS)
+            .copied()
+            .collect();
+        let expected = format!(
+            "{} and either {} or {}",
+            REQUIRED_COLUMNS.join(","),
+            PLACE_COLUMNS.join(","),
+            TRANSLATION_COLUMNS.join(",")
+        );
+        let table = TableReader::new(reader, &allowed, &expected)?;
+        table.require(&REQUIRED_COLUMNS)?;
+        let count = |cols: &[&str]| cols.iter().filter(|c| table.has(c)).count();
+        let placement = match (count(&PLACE_COLUMNS), count(&TRANSLATION_COLUMNS)) {
+            (0, 0) => {
+                return Err(header_error(format!(
+                    "missing translation: give {} or {}",
+                    PLACE_COLUMNS.join(","),
+                    TRANSLATION_COLUMNS.join(",")
+                )));
+            }
+            (p, t) if p > 0 && t > 0 => {
+                return Err(header_error(format!(
+                    "give either {} or {}, not both",
+                    PLACE_COLUMNS.join(","),
+                    TRANSLATION_COLUMNS.join(",")
+                )));
+            }
+            (p, _) if p > 0 => {
+                table.require(&PLACE_COLUMNS)?;
+                true
+            }
+            _ => {
+                table.require(&TRANSLATION_COLUMNS)?;
+                false
+            }
+        };
+        Ok(BatchReader {
+            table,
+            source,
+            placement,
+        })
+    }
+
+    /// Returns the header as given.
+    #[must_use]
+    pub fn headers(&self) -> &[String] {
+        self.table.headers()
+    }
+
+    /// Returns the next row with the projection it asks for, or `None` at the end of the input.
+    ///
+    /// # Errors
+    /// [`Error::Csv`](crate::Error::Csv) naming the row (1-based, with its line) for a bad
+    /// number, a wrong field count, an invalid pose or a feature outside sonar 1's field of view.
+    pub fn next_item(&mut self) -> Result<Option<(Row, BatchItem)>> {
+        let Some(row) = self.table.next_row()? else {
+            return Ok(None);
+        };
+        let item = self
+            .item(&row.fields)
+            .map_err(|e| row_error(row.number, row.line, e))?;
+        Ok(Some((row, item)))
+    }
+
+    /// Returns the projection that the row `fields` asks for.
+    fn item(&self, fields: &[String]) -> Result<BatchItem> {
+        let get = |c: &str| self.table.number(fields, c);
+        let (range, azimuth, elevation) = (get("range")?, get("azimuth")?, get("elevation")?);
+        self.source.check_point("feature", range, azimuth, elevation)?;
+        let rotation = Rotation::RollPitchYaw {
+            roll: get("roll")?,
+            pitch: get("pitch")?,
+            yaw: get("yaw")?,
+        };
+        let pose = if self.placement {
+            RelativePose::placement(
+                rotation,
+                [range, azimuth, elevation],
+                [
+                    get("place_range")?,
+                    get("place_azimuth")?,
+                    get("place_elevation")?,
+                ],
+            )?
+        } else {
+            RelativePose::new(rotation, [get("tx")?, get("ty")?, get("tz")?])?
+        };
+        Ok(BatchItem {
+            measurement: Measurement::of(self.source, range, azimuth)?,
+            pose,
+        })
+    }
+}
+
+/// A batch CSV read whole (a sweep's pose list): the rows as given and the projections they ask
+/// for.
 #[derive(Clone, Debug)]
 pub struct BatchInput {
     /// The header as given.
@@ -36,90 +156,103 @@ pub struct BatchInput {
     pub items: Vec<BatchItem>,
 }
 
-/// Returns the batch read from CSV `reader`, each row checked against sonar 1 (`source`).
+/// Returns the whole batch read from CSV `reader`, each row checked against sonar 1 (`source`).
+/// (A long batch is better streamed through [`project_csv`].)
 ///
 /// # Errors
-/// [`Error::Csv`](crate::Error::Csv) naming the header or the row (1-based, with its line) for missing, unknown or
-/// duplicate columns, an empty input, a bad number, a wrong field count, or a feature outside
-/// sonar 1's field of view.
+/// As [`BatchReader::new`] and [`BatchReader::next_item`]; [`Error::Csv`](crate::Error::Csv)
+/// for an input without rows.
 pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
-    let allowed: Vec<&str> = REQUIRED_COLUMNS
-        .iter()
-        .chain(&PLACE_COLUMNS)
-        .chain(&TRANSLATION_COLUMNS)
-        .copied()
-        .collect();
-    let expected = format!(
-        "{} and either {} or {}",
-        REQUIRED_COLUMNS.join(","),
-        PLACE_COLUMNS.join(","),
-        TRANSLATION_COLUMNS.join(",")
-    );
-    let table = Table::read(reader, &allowed, &expected)?;
-    table.require(&REQUIRED_COLUMNS)?;
-    let count = |cols: &[&str]| cols.iter().filter(|c| table.has(c)).count();
-    let placement = match (count(&PLACE_COLUMNS), count(&TRANSLATION_COLUMNS)) {
-        (0, 0) => {
-            return Err(header_error(format!(
-                "missing translation: give {} or {}",
-                PLACE_COLUMNS.join(","),
-                TRANSLATION_COLUMNS.join(",")
-            )));
-        }
-        (p, t) if p > 0 && t > 0 => {
-            return Err(header_error(format!(
-                "give either {} or {}, not both",
-                PLACE_COLUMNS.join(","),
-                TRANSLATION_COLUMNS.join(",")
-            )));
-        }
-        (p, _) if p > 0 => {
-            table.require(&PLACE_COLUMNS)?;
-            true
-        }
-        _ => {
-            table.require(&TRANSLATION_COLUMNS)?;
-            false
-        }
-    };
-    table.require_rows()?;
-    let mut items = Vec::with_capacity(table.rows.len());
-    for (row, line, fields) in &table.rows {
-        let get = |c: &str| table.number(fields, c);
-        let item = (|| -> Result<BatchItem> {
-            let (range, azimuth, elevation) = (get("range")?, get("azimuth")?, get("elevation")?);
-            source.check_point("feature", range, azimuth, elevation)?;
-            let rotation = Rotation::RollPitchYaw {
-                roll: get("roll")?,
-                pitch: get("pitch")?,
-                yaw: get("yaw")?,
-            };
-            let pose = if placement {
-                RelativePose::placement(
-                    rotation,
-                    [range, azimuth, elevation],
-                    [
-                        get("place_range")?,
-                        get("place_azimuth")?,
-                        get("place_elevation")?,
-                    ],
-                )?
-            } else {
-                RelativePose::new(rotation, [get("tx")?, get("ty")?, get("tz")?])?
-            };
-            Ok(BatchItem {
-                measurement: Measurement::of(source, range, azimuth)?,
-                pose,
-            })
-        })()
-        .map_err(|e| row_error(*row, *line, e))?;
+    let mut input = BatchReader::new(reader, source)?;
+    let (mut rows, mut items) = (Vec::new(), Vec::new());
+    while let Some((row, item)) = input.next_item()? {
+        rows.push(row.fields);
         items.push(item);
     }
+    if rows.is_empty() {
+        return Err(no_rows());
+    }
     Ok(BatchInput {
-        headers: table.headers,
-        rows: table.rows.into_iter().map(|(_, _, f)| f).collect(),
+        headers: input.headers().to_vec(),
+        rows,
         items,
     })
+}
+
+/// Returns the error of an input with a header and no rows.
+pub(crate) fn no_rows() -> crate::Error {
+    crate::Error::Csv {
+        context: "input".into(),
+        message: "no rows after the header: nothing to compute".into(),
+    }
+}
+
+/// Reads the batch CSV `input`, projects its rows with `project` ([`CHUNK_ROWS`] at a time,
+/// between sonars and with the sampling of `pair`, whose items are ignored) and writes the output
+/// CSV to `output`; returns the number of rows. Memory stays bounded whatever the input's
+/// length. At the first bad row, the rows before it are projected and written, then its error is
+/// returned (a caller writing a file discards it; on a stream they are out).
+///
+/// # Errors
+/// As [`BatchReader`] for the input, with each row also checked by [`Batch::check_item`] (its
+/// sampling plan); an input without rows; `project`'s errors; [`Error::WriteOutput`](crate::Error::WriteOutput) on I/O failure.
+pub fn project_csv(
+    input: impl Read,
+    output: impl Write,
+    pair: &Batch,
+    mut project: impl FnMut(&Batch) -> Result<Vec<Projection>>,
+) -> Result<usize> {
+    let mut reader = BatchReader::new(input, &pair.source)?;
+    let headers = reader.headers().to_vec();
+    let mut out = CsvOut::new(output, &headers, &METRIC_COLUMNS);
+    let mut chunk = Batch {
+        source: pair.source.clone(),
+        target: pair.target.clone(),
+        sampling: pair.sampling,
+        items: Vec::with_capacity(CHUNK_ROWS),
+    };
+    let mut fields: Vec<Vec<String>> = Vec::with_capacity(CHUNK_ROWS);
+    let mut total = 0;
+    let mut flush = |chunk: &mut Batch, fields: &mut Vec<Vec<String>>| -> Result<()> {
+        if chunk.items.is_empty() {
+            return Ok(());
+        }
+        let results = project(chunk)?;
+        for (f, p) in fields.iter().zip(&results) {
+            out.row(f, &metric_fields(&p.metrics))?;
+        }
+        out.flush()?;
+        chunk.items.clear();
+        fields.clear();
+        Ok(())
+    };
+    let stop = loop {
+        let next = reader.next_item().and_then(|next| match next {
+            Some((row, item)) => match chunk.check_item(&item) {
+                Ok(()) => Ok(Some((row, item))),
+                Err(e) => Err(row_error(row.number, row.line, e.into())),
+            },
+            None => Ok(None),
+        });
+        match next {
+            Ok(Some((row, item))) => {
+                chunk.items.push(item);
+                fields.push(row.fields);
+                total += 1;
+                if chunk.items.len() == CHUNK_ROWS {
+                    flush(&mut chunk, &mut fields)?;
+                }
+            }
+            Ok(None) => break None,
+            Err(e) => break Some(e),
+        }
+    };
+    flush(&mut chunk, &mut fields)?;
+    match stop {
+        Some(e) => Err(e),
+        None if total == 0 => Err(no_rows()),
+        None => Ok(total),
+    }
 }
 
 /// Returns the metric fields of one projection, in [`METRIC_COLUMNS`] order: numbers in their
@@ -135,17 +268,4 @@ pub fn metric_fields(m: &Metrics) -> Vec<String> {
             Value::Extreme(v) => field(v),
         })
         .collect()
-}
-
-/// Writes the output CSV: the input's columns as given, then the metrics of each row.
-///
-/// # Errors
-/// [`Error::WriteOutput`](crate::Error::WriteOutput) (named `output`) on I/O failure.
-pub fn write_batch_csv(w: impl Write, input: &BatchInput, results: &[Projection]) -> Result<()> {
-    let rows = input
-        .rows
-        .iter()
-        .zip(results)
-        .map(|(fields, p)| (fields.as_slice(), metric_fields(&p.metrics)));
-    write_rows(w, &input.headers, &METRIC_COLUMNS, rows)
 }

@@ -5,7 +5,7 @@ pub mod batch;
 pub mod recover;
 pub mod table;
 
-pub use batch::{BatchInput, METRIC_COLUMNS, metric_fields, read_batch_csv, write_batch_csv};
+pub use batch::{BatchInput, BatchReader, METRIC_COLUMNS, metric_fields, project_csv, read_batch_csv};
 
 /// Returns `v` in its shortest exact form, or an empty field for `None`.
 #[must_use]
@@ -13,8 +13,23 @@ pub fn field(v: Option<f64>) -> String {
     v.map(|x| x.to_string()).unwrap_or_default()
 }
 
-/// The longest input line read whole (1 MiB): a stream line longer than this is answered with an
-/// error instead of being held in memory.
+/// The longest text an error message quotes from its input whole (characters); longer text is
+/// cut to this many and marked with its length.
+pub const EXCERPT_CHARS: usize = 40;
+
+/// Returns `text` quoted for an error message: whole when it has at most [`EXCERPT_CHARS`]
+/// characters, else its beginning followed by `…` and its length in bytes.
+#[must_use]
+pub fn excerpt(text: &str) -> String {
+    match text.char_indices().nth(EXCERPT_CHARS) {
+        None => format!("{text:?}"),
+        Some((cut, _)) => format!("{:?}… ({} bytes)", &text[..cut], text.len()),
+    }
+}
+
+/// The longest input line or CSV record read whole (1 MiB): a stream line longer than this is
+/// answered with an error, a longer CSV record stops the table at its row; neither is held
+/// in memory.
 pub const MAX_LINE_BYTES: usize = 1 << 20;
 
 /// One line read by [`read_line_bounded`].
@@ -78,6 +93,15 @@ pub fn read_line_bounded(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn excerpts_cut_long_text() {
+        assert_eq!(excerpt("range"), "\"range\"");
+        let long = "é".repeat(1000);
+        let quoted = excerpt(&long);
+        assert!(quoted.starts_with(&format!("{:?}", "é".repeat(EXCERPT_CHARS))));
+        assert!(quoted.ends_with("… (2000 bytes)"), "{quoted}");
+    }
 
     #[test]
     fn lines_are_read_whole_or_skipped_past_the_limit() {

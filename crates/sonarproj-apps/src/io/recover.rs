@@ -1,4 +1,4 @@
-//! Recovery CSV files: correspondences in, candidates out.
+//! Recovery CSV files: correspondences in, candidates out, streamed row by row.
 //!
 //! Input header (any order): `first_range,second_range,roll,pitch,yaw,tx,ty,tz`, plus
 //! `first_azimuth` / `second_azimuth` for an FLS (left out, or empty, for an SSS), and optionally
@@ -10,8 +10,9 @@
 use std::io::{Read, Write};
 
 use crate::error::Result;
+use crate::io::batch::{CHUNK_ROWS, no_rows};
 use crate::io::field;
-use crate::io::table::{Table, row_error, write_rows};
+use crate::io::table::{CsvOut, Row, TableReader, row_error};
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::recovery::{Observation, Recovery, Sigmas};
 
@@ -66,76 +67,121 @@ pub struct RecoverItem {
     pub sigmas: Option<Sigmas>,
 }
 
-/// A parsed recovery CSV: the rows as given (for echoing) and the correspondences.
-#[derive(Clone, Debug)]
-pub struct RecoverInput {
-    /// The header as given.
-    pub headers: Vec<String>,
-    /// Each row's fields as given, with its row number and line.
-    pub rows: Vec<(usize, u64, Vec<String>)>,
-    /// Each row's correspondence.
-    pub items: Vec<RecoverItem>,
+/// A recovery CSV read row by row.
+#[derive(Debug)]
+pub struct RecoverReader<R: Read> {
+    table: TableReader<R>,
 }
 
-/// Returns the correspondences read from CSV `reader`.
+impl<R: Read> RecoverReader<R> {
+    /// Returns the reader of the recovery CSV `reader` with its header read and checked.
+    ///
+    /// # Errors
+    /// [`Error::Csv`](crate::Error::Csv) for missing, unknown or duplicate columns or an empty
+    /// input.
+    pub fn new(reader: R) -> Result<Self> {
+        let allowed: Vec<&str> = RECOVER_REQUIRED
+            .iter()
+            .chain(&RECOVER_OPTIONAL)
+            .copied()
+            .collect();
+        let expected = format!(
+            "{} (and first_azimuth/second_azimuth for an FLS)",
+            RECOVER_REQUIRED.join(",")
+        );
+        let table = TableReader::new(reader, &allowed, &expected)?;
+        table.require(&RECOVER_REQUIRED)?;
+        Ok(RecoverReader { table })
+    }
+
+    /// Returns the header as given.
+    #[must_use]
+    pub fn headers(&self) -> &[String] {
+        self.table.headers()
+    }
+
+    /// Returns the next row with its correspondence, or `None` at the end of the input.
+    ///
+    /// # Errors
+    /// [`Error::Csv`](crate::Error::Csv) naming the row (1-based, with its line) for a bad
+    /// number or pose, or a wrong field count.
+    pub fn next_item(&mut self) -> Result<Option<(Row, RecoverItem)>> {
+        let Some(row) = self.table.next_row()? else {
+            return Ok(None);
+        };
+        let item = self
+            .item(&row.fields)
+            .map_err(|e| row_error(row.number, row.line, e))?;
+        Ok(Some((row, item)))
+    }
+
+    /// Returns the correspondence of the row `fields`.
+    fn item(&self, fields: &[String]) -> Result<RecoverItem> {
+        let table = &self.table;
+        let get = |c: &str| table.number(fields, c);
+        let rotation = Rotation::RollPitchYaw {
+            roll: get("roll")?,
+            pitch: get("pitch")?,
+            yaw: get("yaw")?,
+        };
+        let pose = RelativePose::new(rotation, [get("tx")?, get("ty")?, get("tz")?])?;
+        let sigmas = match (
+            table.optional(fields, "sigma_range")?,
+            table.optional(fields, "sigma_azimuth")?,
+        ) {
+            (None, None) => None,
+            (r, a) => Some(Sigmas {
+                range: r.unwrap_or(0.0),
+                azimuth: a.unwrap_or(0.0),
+            }),
+        };
+        Ok(RecoverItem {
+            pose,
+            first: Observation {
+                range: get("first_range")?,
+                azimuth: table.optional(fields, "first_azimuth")?,
+            },
+            second: Observation {
+                range: get("second_range")?,
+                azimuth: table.optional(fields, "second_azimuth")?,
+            },
+            sigmas,
+        })
+    }
+}
+
+/// Reads the recovery CSV `input`, recovers each row with `recover` and writes the output CSV to
+/// `output` row by row; returns the number of input rows. Memory stays bounded whatever the
+/// input's length. At the first bad row (unreadable, or refused by `recover`), the rows before
+/// it have been written, and its error, naming it, is returned.
 ///
 /// # Errors
-/// [`Error::Csv`](crate::Error::Csv) naming the header or the row for missing, unknown or duplicate columns, an
-/// empty input, a bad number or pose.
-pub fn read_recover_csv(reader: impl Read) -> Result<RecoverInput> {
-    let allowed: Vec<&str> = RECOVER_REQUIRED
-        .iter()
-        .chain(&RECOVER_OPTIONAL)
-        .copied()
-        .collect();
-    let expected = format!(
-        "{} (and first_azimuth/second_azimuth for an FLS)",
-        RECOVER_REQUIRED.join(",")
-    );
-    let table = Table::read(reader, &allowed, &expected)?;
-    table.require(&RECOVER_REQUIRED)?;
-    table.require_rows()?;
-    let mut items = Vec::with_capacity(table.rows.len());
-    for (row, line, fields) in &table.rows {
-        let get = |c: &str| table.number(fields, c);
-        let item = (|| -> Result<RecoverItem> {
-            let rotation = Rotation::RollPitchYaw {
-                roll: get("roll")?,
-                pitch: get("pitch")?,
-                yaw: get("yaw")?,
-            };
-            let pose = RelativePose::new(rotation, [get("tx")?, get("ty")?, get("tz")?])?;
-            let sigmas = match (
-                table.optional(fields, "sigma_range")?,
-                table.optional(fields, "sigma_azimuth")?,
-            ) {
-                (None, None) => None,
-                (r, a) => Some(Sigmas {
-                    range: r.unwrap_or(0.0),
-                    azimuth: a.unwrap_or(0.0),
-                }),
-            };
-            Ok(RecoverItem {
-                pose,
-                first: Observation {
-                    range: get("first_range")?,
-                    azimuth: table.optional(fields, "first_azimuth")?,
-                },
-                second: Observation {
-                    range: get("second_range")?,
-                    azimuth: table.optional(fields, "second_azimuth")?,
-                },
-                sigmas,
-            })
-        })()
-        .map_err(|e| row_error(*row, *line, e))?;
-        items.push(item);
+/// As [`RecoverReader`]; an input without rows; `recover`'s errors, naming the row;
+/// [`Error::WriteOutput`](crate::Error::WriteOutput) on I/O failure.
+pub fn recover_csv(
+    input: impl Read,
+    output: impl Write,
+    mut recover: impl FnMut(&RecoverItem) -> Result<Recovery>,
+) -> Result<usize> {
+    let mut reader = RecoverReader::new(input)?;
+    let headers = reader.headers().to_vec();
+    let mut out = CsvOut::new(output, &headers, &RECOVER_COLUMNS);
+    let mut rows = 0;
+    while let Some((row, item)) = reader.next_item()? {
+        let rec = recover(&item).map_err(|e| row_error(row.number, row.line, e))?;
+        for more in recovery_rows(&rec) {
+            out.row(&row.fields, &more)?;
+        }
+        rows += 1;
+        if rows % CHUNK_ROWS == 0 {
+            out.flush()?;
+        }
     }
-    Ok(RecoverInput {
-        headers: table.headers,
-        rows: table.rows,
-        items,
-    })
+    out.flush()?;
+    if rows == 0 {
+        return Err(no_rows());
+    }
+    Ok(rows)
 }
 
 /// Returns the flags joined with `;`.
@@ -192,17 +238,4 @@ pub fn recovery_rows(r: &Recovery) -> Vec<[String; 21]> {
             ]
         })
         .collect()
-}
-
-/// Writes the output CSV: each input row's columns as given, then its recovery's rows.
-///
-/// # Errors
-/// [`Error::WriteOutput`](crate::Error::WriteOutput) (named `output`) on I/O failure.
-pub fn write_recover_csv(w: impl Write, input: &RecoverInput, results: &[Recovery]) -> Result<()> {
-    let rows = input.rows.iter().zip(results).flat_map(|((_, _, fields), rec)| {
-        recovery_rows(rec)
-            .into_iter()
-            .map(move |out| (fields.as_slice(), out.to_vec()))
-    });
-    write_rows(w, &input.headers, &RECOVER_COLUMNS, rows)
 }

@@ -102,6 +102,23 @@ impl PreparedBatch<'_> {
 }
 
 impl Batch {
+    /// Returns `Ok` when `item` could be an item of this batch: its measurement valid for sonar
+    /// 1, its pose valid and its sampling plan within [`MAX_SAMPLES_PER_POSE`](crate::sampling::MAX_SAMPLES_PER_POSE).
+    /// A reader that streams items through small batches checks each one as it comes, so that an
+    /// error names the item at fault ([`Batch::prepare`] makes the same checks).
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`](crate::Error::InvalidValue) for an invalid sonar, sampling,
+    /// measurement or pose, or a plan that would draw too many samples.
+    pub fn check_item(&self, item: &BatchItem) -> Result<()> {
+        self.source.validate().map_err(|e| e.in_context("sonar 1"))?;
+        self.target.validate().map_err(|e| e.in_context("sonar 2"))?;
+        let sampling = self.sampling.validated()?;
+        item.measurement.validate(&self.source)?;
+        item.pose.validate()?;
+        SamplingPlan::counts(&self.source, &self.target, &item.measurement, sampling, None).map(|_| ())
+    }
+
     /// Returns the batch prepared for a backend: sampling checked, one plan per distinct sample
     /// count.
     ///
