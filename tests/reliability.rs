@@ -403,3 +403,66 @@ fn a_bad_recover_row_stops_after_the_rows_before_it() {
         .code(2);
     assert!(!output.exists());
 }
+
+#[test]
+fn a_refused_run_leaves_nothing_that_blocks_the_corrected_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let example = std::fs::read_to_string("data/example-sweep.toml").unwrap();
+    assert!(
+        example.contains("step = 0.1 "),
+        "the example sweep's step line changed"
+    );
+    let good = dir.path().join("good.toml");
+    std::fs::write(&good, &example).unwrap();
+    // 120 000 001 samples per pose: more than a pose may draw.
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, example.replacen("step = 0.1 ", "step = 0.0000001 ", 1)).unwrap();
+    let out = dir.path().join("out");
+    common::sonarproj()
+        .args(["sweep", "--backend", "cpu-fast", "--config"])
+        .arg(&bad)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("samples per pose"));
+    assert!(!out.exists(), "a refused sweep created {}", out.display());
+    common::sonarproj()
+        .args(["sweep", "--backend", "cpu-fast", "--config"])
+        .arg(&good)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    assert!(out.join("sweep.csv").is_file());
+
+    let paper = dir.path().join("paper");
+    common::sonarproj()
+        .args(["paper", "--backend", "cpu-fast", "--step", "0.0000001", "--out"])
+        .arg(&paper)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("samples per pose"));
+    assert!(!paper.exists(), "a refused paper run created {}", paper.display());
+}
+
+#[test]
+fn a_file_given_as_an_output_directory_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("results");
+    std::fs::write(&file, "keep me").unwrap();
+    let not_a_dir = predicates::str::contains("is a file, not a directory");
+    common::sonarproj()
+        .args(["sweep", "--config", "data/example-sweep.toml", "--out"])
+        .arg(&file)
+        .assert()
+        .code(2)
+        .stderr(not_a_dir.clone());
+    common::sonarproj()
+        .args(["paper", "--angle-step", "30", "--out"])
+        .arg(&file)
+        .assert()
+        .code(2)
+        .stderr(not_a_dir);
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
+}

@@ -10,7 +10,7 @@ use sonarproj::{Backend, Sampling};
 use sonarproj_apps::io::table::write_rows;
 use sonarproj_apps::io::{METRIC_COLUMNS, metric_fields};
 use sonarproj_apps::paper::{self, angles};
-use sonarproj_apps::report::{figures, write_atomic};
+use sonarproj_apps::report::{check_output_dir, figures, output_dir, write_atomic};
 use sonarproj_apps::{Error, Result};
 
 /// Options of `sonarproj paper`.
@@ -36,10 +36,9 @@ pub(super) struct PaperArgs {
 pub(super) fn run(a: PaperArgs) -> Result<()> {
     let sampling = Sampling::Step(a.step).validated()?;
     let swept = angles(a.angle_step)?;
-    std::fs::create_dir_all(&a.out).map_err(|e| Error::WriteOutput {
-        path: a.out.clone(),
-        message: e.to_string(),
-    })?;
+    // A file where the directory should be is refused before any work; the directory itself is
+    // created once the results exist, so a refused run leaves nothing behind.
+    check_output_dir(&a.out, "--out")?;
     let (backend, notice) = Backend::select(a.backend.into())?;
     if let Some(n) = notice {
         eprintln!("{n}");
@@ -47,6 +46,7 @@ pub(super) fn run(a: PaperArgs) -> Result<()> {
     let start = Instant::now();
     let runs = paper::run(&backend, a.angle_step, sampling)?;
     let computed = start.elapsed();
+    output_dir(&a.out, "--out")?;
 
     let header: Vec<String> = ["scenario", "fraction", "roll", "pitch", "yaw"]
         .iter()

@@ -79,6 +79,38 @@ fn target(path: &Path) -> Result<Target> {
     }
 }
 
+/// Returns `Ok` when `path` (the value of `field`) can be an output directory: a directory, or
+/// nothing yet. Commands call it before any work, and [`output_dir`] once there is something to
+/// write, so that a refused run leaves nothing behind.
+///
+/// # Errors
+/// An input error naming `field` when `path` is empty or exists and is not a directory.
+pub fn check_output_dir(path: &Path, field: &str) -> Result<()> {
+    if path.as_os_str().is_empty() {
+        return Err(Error::invalid(field, "\"\"", "must name a directory"));
+    }
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_dir() => Err(Error::invalid(
+            field,
+            path.display(),
+            "is a file, not a directory; give a directory (created when missing)",
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Creates the output directory `path` (the value of `field`) when missing, with its parents.
+///
+/// # Errors
+/// As [`check_output_dir`]; [`Error::WriteOutput`] when it cannot be created.
+pub fn output_dir(path: &Path, field: &str) -> Result<()> {
+    check_output_dir(path, field)?;
+    std::fs::create_dir_all(path).map_err(|e| Error::WriteOutput {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
 /// Writes `path` whole or not at all: `fill` writes into a temporary file beside it, which is
 /// renamed over `path` only when `fill` succeeded. A symlink is followed and the file it names is
 /// replaced (the link stays); a special file — a device, FIFO, socket, terminal, or a magic link

@@ -35,7 +35,7 @@ use crate::io::{BatchInput, read_batch_csv};
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::{Sonar, SonarKind};
 use sonarproj::metrics::Metric;
-use sonarproj::projection::BatchItem;
+use sonarproj::projection::{Batch, BatchItem};
 use sonarproj::sampling::{Measurement, Sampling};
 
 /// The most poses one sweep may have.
@@ -362,7 +362,41 @@ impl SweepConfig {
             poses,
         };
         config.count()?;
+        config.check_sampling()?;
         Ok(config)
+    }
+
+    /// Returns `Ok` when no pose would draw more samples than a pose may, so that a sweep is
+    /// refused before it creates anything: each listed pose is checked; for a grid, the pose with
+    /// its largest feature range (a plan's sample count grows with the feature's range and depends
+    /// on nothing else a grid varies).
+    ///
+    /// # Errors
+    /// [`sonarproj::Error::InvalidValue`] for the sampling, naming the list row when there is one.
+    fn check_sampling(&self) -> Result<()> {
+        let pair = Batch {
+            source: self.source.clone(),
+            target: self.target.clone(),
+            sampling: self.sampling,
+            items: Vec::new(),
+        };
+        match &self.poses {
+            Poses::List(l) => {
+                for (k, item) in l.items.iter().enumerate() {
+                    pair.check_item(item).map_err(|e| Error::Csv {
+                        context: format!("pose list row {}", k + 1),
+                        message: e.to_string(),
+                    })?;
+                }
+            }
+            Poses::Grid(g) if g.axes.iter().all(|a| !a.values.is_empty()) => {
+                let mut v: Vec<f64> = g.axes.iter().map(|a| a.values[0]).collect();
+                v[0] = g.axes[0].values.iter().copied().fold(f64::MIN, f64::max);
+                pair.check_item(&g.item(&self.source, v)?)?;
+            }
+            Poses::Grid(_) => {}
+        }
+        Ok(())
     }
 
     /// Returns the grid of sweep file `file`, the feature checked against sonar 1.

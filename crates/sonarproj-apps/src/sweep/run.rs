@@ -25,7 +25,7 @@ use sonarproj::projection::Backend;
 use crate::error::{Error, Result};
 use crate::io::table::write_rows;
 use crate::io::{METRIC_COLUMNS, metric_fields};
-use crate::report::{figures, write_atomic};
+use crate::report::{figures, output_dir, write_atomic};
 use crate::sweep::SweepConfig;
 use sonarproj::projection::{Batch, Projection};
 
@@ -229,9 +229,10 @@ pub fn run(
     if opts.chunk_poses == 0 {
         return Err(Error::invalid("--chunk-poses", 0, "must be >= 1"));
     }
+    // Everything is checked before the directory is created: a refused run leaves nothing.
     let dir = &opts.out;
-    std::fs::create_dir_all(dir).map_err(|e| write_error(dir, e))?;
     let desc = descriptor(config)?;
+    output_dir(dir, "--out")?;
     claim(dir, &desc)?;
     let (stem, range) = match opts.shard {
         Some(s) => (s.stem(), s.range(desc.poses)),
