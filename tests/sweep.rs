@@ -131,7 +131,7 @@ fn an_interrupted_sweep_resumes_to_the_same_files() {
         .stdout(predicates::str::contains("150 of 549 poses done"));
     assert!(!out.join("sweep.csv").exists());
     let chunks = std::fs::read_dir(out.join(".partial-sweep")).unwrap().count();
-    assert_eq!(chunks, 3 + 1, "three chunks and the manifest");
+    assert_eq!(chunks, 3 * 2 + 1, "three chunks, their records and the manifest");
     // A different chunk size cannot resume this run.
     common::sonarproj()
         .args(["sweep", "--config"])
@@ -380,4 +380,137 @@ fn a_directory_of_another_sweep_is_refused() {
         .assert()
         .code(2)
         .stderr(predicates::str::contains("different sweep"));
+}
+
+/// Returns the stderr of a successful `sweep` run with `args`.
+fn sweep_stderr(config: &Path, out: &Path, args: &[&str]) -> String {
+    let output = common::sonarproj()
+        .args(["sweep", "--config"])
+        .arg(config)
+        .arg("--out")
+        .arg(out)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{output:?}");
+    String::from_utf8(output.stderr).unwrap()
+}
+
+#[test]
+fn damaged_chunks_and_results_are_computed_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = file(dir.path(), "2d.toml", GRID_2D);
+    let reference = sweep(
+        &cfg,
+        &dir.path().join("one"),
+        &["--backend", "cpu-fast"],
+        "sweep.csv",
+    );
+    let out = dir.path().join("o");
+    let args = ["--backend", "cpu-fast", "--chunk-poses", "100"];
+    let partial = |args: &[&str]| {
+        common::sonarproj()
+            .args(["sweep", "--config"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&out)
+            .args(args)
+            .args(["--max-chunks", "4"])
+            .assert()
+            .success();
+    };
+    partial(&args);
+    let chunk = |c: usize| out.join(format!(".partial-sweep/chunk-{c:08}.csv"));
+    // Chunk 0 truncated (a row missing), chunk 1 copied over by chunk 2 (another index range, same
+    // length), chunk 3 with its record copied from chunk 2 too (a whole part moved).
+    let text = std::fs::read_to_string(chunk(0)).unwrap();
+    let cut = text.trim_end().rfind('\n').unwrap() + 1;
+    std::fs::write(chunk(0), &text[..cut]).unwrap();
+    std::fs::copy(chunk(2), chunk(1)).unwrap();
+    std::fs::copy(chunk(2), chunk(3)).unwrap();
+    std::fs::copy(
+        chunk(2).with_extension("meta.json"),
+        chunk(3).with_extension("meta.json"),
+    )
+    .unwrap();
+    let stderr = sweep_stderr(&cfg, &out, &args);
+    for c in [0, 1, 3] {
+        let name = format!("chunk-{c:08}.csv is damaged");
+        assert!(stderr.contains(&name), "chunk {c} not redone: {stderr}");
+    }
+    assert!(
+        !stderr.contains("chunk-00000002.csv"),
+        "a good chunk was redone: {stderr}"
+    );
+    assert!(std::fs::read(out.join("sweep.csv")).unwrap() == reference);
+
+    // A damaged result is computed again, not taken as finished.
+    let mut damaged = reference.clone();
+    let at = damaged.len() / 2;
+    damaged[at] = if damaged[at] == b'1' { b'2' } else { b'1' };
+    std::fs::write(out.join("sweep.csv"), &damaged).unwrap();
+    let stderr = sweep_stderr(&cfg, &out, &args);
+    assert!(stderr.contains("sweep.csv is damaged"), "{stderr}");
+    assert!(std::fs::read(out.join("sweep.csv")).unwrap() == reference);
+}
+
+#[test]
+fn merge_refuses_foreign_or_damaged_shards_naming_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = file(dir.path(), "2d.toml", GRID_2D);
+    let other = file(dir.path(), "1d.toml", GRID_1D);
+    let (out, foreign) = (dir.path().join("o"), dir.path().join("f"));
+    for k in 1..=3 {
+        let shard = format!("{k}/3");
+        let args = ["--backend", "cpu-fast", "--shard", shard.as_str()];
+        sweep(&cfg, &out, &args, &format!("shard-{k}-of-3.csv"));
+        sweep(&other, &foreign, &args, &format!("shard-{k}-of-3.csv"));
+    }
+    let shard = |dir: &Path, k: u64, ext: &str| dir.join(format!("shard-{k}-of-3.{ext}"));
+    let keep = dir.path().join("keep");
+    std::fs::create_dir(&keep).unwrap();
+    for k in 1..=3 {
+        for ext in ["csv", "meta.json"] {
+            std::fs::copy(shard(&out, k, ext), shard(&keep, k, ext)).unwrap();
+        }
+    }
+    let restore = || {
+        for k in 1..=3 {
+            for ext in ["csv", "meta.json"] {
+                std::fs::copy(shard(&keep, k, ext), shard(&out, k, ext)).unwrap();
+            }
+        }
+    };
+    let refused = |what: &str, expect: &str| {
+        common::sonarproj()
+            .arg("merge")
+            .arg(&out)
+            .assert()
+            .code(2)
+            .stderr(predicates::str::contains("shard-2-of-3.csv").and(predicates::str::contains(expect)));
+        assert!(!out.join("sweep.csv").exists(), "{what}: merge wrote sweep.csv");
+        restore();
+    };
+    use predicates::prelude::*;
+    // Another sweep's shard, with its record.
+    std::fs::copy(shard(&foreign, 2, "csv"), shard(&out, 2, "csv")).unwrap();
+    std::fs::copy(shard(&foreign, 2, "meta.json"), shard(&out, 2, "meta.json")).unwrap();
+    refused("foreign shard", "another sweep");
+    // Shard 1 copied over shard 2 (duplicate and missing indices), with and without its record.
+    std::fs::copy(shard(&out, 1, "csv"), shard(&out, 2, "csv")).unwrap();
+    refused("copied csv", "record says");
+    std::fs::copy(shard(&out, 1, "csv"), shard(&out, 2, "csv")).unwrap();
+    std::fs::copy(shard(&out, 1, "meta.json"), shard(&out, 2, "meta.json")).unwrap();
+    refused("copied shard", "where poses");
+    // One byte changed, length kept.
+    let mut bytes = std::fs::read(shard(&out, 2, "csv")).unwrap();
+    let at = bytes.len() - 3;
+    bytes[at] = if bytes[at] == b'1' { b'2' } else { b'1' };
+    std::fs::write(shard(&out, 2, "csv"), bytes).unwrap();
+    refused("changed byte", "checksum");
+    // A shard written before records existed (or whose record was lost).
+    std::fs::remove_file(shard(&out, 2, "meta.json")).unwrap();
+    refused("no record", "missing");
+    // Whole again: merges.
+    common::sonarproj().arg("merge").arg(&out).assert().success();
 }

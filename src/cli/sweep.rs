@@ -9,7 +9,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use sonarproj::Backend;
 use sonarproj_apps::Result;
 use sonarproj_apps::sweep::run::DEFAULT_CHUNK_POSES;
-use sonarproj_apps::sweep::{self, Options, Shard, SweepConfig};
+use sonarproj_apps::sweep::{self, Event, Options, Shard, SweepConfig};
 
 /// Options of `sonarproj sweep`.
 #[derive(Debug, clap::Args)]
@@ -71,9 +71,18 @@ pub(super) fn run(a: SweepArgs) -> Result<()> {
             ),
     );
     let start = Instant::now();
-    let outcome = sweep::run(&config, &backend, &opts, &mut |done, total| {
-        bar.set_length(total);
-        bar.set_position(done);
+    let outcome = sweep::run(&config, &backend, &opts, &mut |event| match event {
+        Event::Progress { done, total } => {
+            bar.set_length(total);
+            bar.set_position(done);
+        }
+        Event::Recomputing { file, reason } => bar.suspend(|| {
+            eprintln!(
+                "sweep: {} is damaged ({reason}); computing it again",
+                file.display()
+            );
+        }),
+        _ => {}
     });
     bar.finish_and_clear();
     let outcome = outcome?;

@@ -1,8 +1,10 @@
 //! Sweeps: any sonar pair over grids of rotations, feature distances and placements, or over
-//! explicit pose lists (`config`), run in resumable chunks and shards (`run`).
+//! explicit pose lists (`config`), run in resumable chunks and shards (`run`), each part on disk checked against its
+//! record (`parts`).
 
 pub mod config;
+pub mod parts;
 pub mod run;
 
 pub use config::{Axis, Grid, Poses, SweepConfig};
-pub use run::{Options, Outcome, Shard, merge, run};
+pub use run::{Event, Options, Outcome, Shard, merge, run};

@@ -5,15 +5,16 @@
 //! - `sweep.json`: what the sweep is (fingerprint, pose count, columns, figure axes); every run
 //!   and shard writes the same one and refuses a directory holding another sweep's;
 //! - `sweep.csv` (a whole run) or `shard-K-of-N.csv` (one shard): `index`, the pose columns and
-//!   the metrics, one row per pose in index order;
+//!   the metrics, one row per pose in index order; beside each, `NAME.meta.json`, the record of
+//!   what it holds ([`parts`](super::parts): sweep fingerprint, first index, rows, size, CRC-32);
 //! - `sweep-METRIC.png`: the metric against the grid's one or two varying axes (whole runs and
 //!   merges only);
 //! - `.partial-sweep/` or `.partial-shard-K-of-N/` while unfinished: `manifest.json` and one
-//!   `chunk-NNNNNNNN.csv` per finished chunk, each written whole or not at all. A re-run skips the
-//!   finished chunks; the directory is removed once the result file is written.
+//!   `chunk-NNNNNNNN.csv` per finished chunk (with its record), each written whole or not at all.
+//!   A re-run skips the finished chunks whose bytes match their records and computes the others
+//!   again, saying so; the directory is removed once the result file is written.
 
 use sonarproj::Output;
-use std::io::{BufRead, BufReader};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -26,7 +27,7 @@ use crate::error::{Error, Result};
 use crate::io::table::write_rows;
 use crate::io::{METRIC_COLUMNS, metric_fields};
 use crate::report::{figures, output_dir, write_atomic};
-use crate::sweep::SweepConfig;
+use crate::sweep::{SweepConfig, parts};
 use sonarproj::projection::{Batch, Projection};
 
 /// The default number of poses per chunk.
@@ -150,6 +151,26 @@ pub struct Outcome {
     pub resumed: u64,
 }
 
+/// What [`run`] reports while it works.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Event {
+    /// `done` of this run's `total` poses are finished.
+    Progress {
+        /// Poses finished.
+        done: u64,
+        /// Poses of this run or shard.
+        total: u64,
+    },
+    /// A part on disk was not what its record says and is computed again.
+    Recomputing {
+        /// The part.
+        file: PathBuf,
+        /// Why it was set aside.
+        reason: String,
+    },
+}
+
 /// Returns an output error for `path`.
 fn write_error(path: &Path, e: impl std::fmt::Display) -> Error {
     Error::WriteOutput {
@@ -211,7 +232,7 @@ fn claim(dir: &Path, d: &Descriptor) -> Result<()> {
 }
 
 /// Runs `config` (or one shard of it) on `backend` into `opts.out`, resuming from finished
-/// chunks; `progress(done, total)` is called after each chunk with this run's pose counts.
+/// chunks; `events` hears of progress after each chunk and of every damaged part set aside.
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] for a directory holding another sweep or an unfinished run with
@@ -224,7 +245,7 @@ pub fn run(
     config: &SweepConfig,
     backend: &Backend,
     opts: &Options,
-    progress: &mut dyn FnMut(u64, u64),
+    events: &mut dyn FnMut(Event),
 ) -> Result<Outcome> {
     if opts.chunk_poses == 0 {
         return Err(Error::invalid("--chunk-poses", 0, "must be >= 1"));
@@ -247,12 +268,27 @@ pub fn run(
         computed: 0,
         resumed: 0,
     };
-    if file.is_file() {
+    let whole = parts::Expected {
+        fingerprint: &desc.fingerprint,
+        first: range.start,
+        rows: poses,
+    };
+    match parts::check(&file, whole) {
         // Finished earlier (the result is written only once every chunk is).
-        outcome.resumed = poses;
-        outcome.file = Some(file);
-        progress(poses, poses);
-        return Ok(outcome);
+        parts::Status::Good => {
+            outcome.resumed = poses;
+            outcome.file = Some(file);
+            events(Event::Progress {
+                done: poses,
+                total: poses,
+            });
+            return Ok(outcome);
+        }
+        parts::Status::Missing => {}
+        parts::Status::Damaged(reason) => events(Event::Recomputing {
+            file: file.clone(),
+            reason,
+        }),
     }
     let state = dir.join(format!(".partial-{stem}"));
     std::fs::create_dir_all(&state).map_err(|e| write_error(&state, e))?;
@@ -294,18 +330,30 @@ pub fn run(
         .map(|s| s..(s + opts.chunk_poses).min(range.end))
         .collect();
     let chunk_path = |c: usize| state.join(format!("chunk-{c:08}.csv"));
+    let expected = |r: &Range<u64>| parts::Expected {
+        fingerprint: &desc.fingerprint,
+        first: r.start,
+        rows: r.end - r.start,
+    };
     let header = config.columns();
     let mut done = 0;
     let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
     for (c, r) in chunks.iter().enumerate() {
         let path = chunk_path(c);
-        if path.is_file() {
+        let status = parts::check(&path, expected(r));
+        if status == parts::Status::Good {
             outcome.resumed += r.end - r.start;
         } else {
             if budget == 0 {
                 return Ok(outcome);
             }
             budget -= 1;
+            if let parts::Status::Damaged(reason) = status {
+                events(Event::Recomputing {
+                    file: path.clone(),
+                    reason,
+                });
+            }
             let (items, fields) = config.items(r.clone())?;
             let batch = Batch {
                 source: config.source.clone(),
@@ -315,7 +363,7 @@ pub fn run(
             };
             let results = backend.project(&batch, Output::MetricsOnly)?;
             let body = csv_rows(&fields, &results, &path)?;
-            write_atomic(&path, |w| {
+            parts::write(&path, expected(r), |w| {
                 write_rows(
                     &mut *w,
                     &header,
@@ -327,10 +375,10 @@ pub fn run(
             outcome.computed += r.end - r.start;
         }
         done += r.end - r.start;
-        progress(done, poses);
+        events(Event::Progress { done, total: poses });
     }
-    let parts: Vec<PathBuf> = (0..chunks.len()).map(chunk_path).collect();
-    concatenate(&parts, &desc.columns, &file, None)?;
+    let chunk_files: Vec<PathBuf> = (0..chunks.len()).map(chunk_path).collect();
+    parts::join(&chunk_files, &desc.columns, &file, whole)?;
     std::fs::remove_dir_all(&state).map_err(|e| write_error(&state, e))?;
     if opts.shard.is_none() {
         outcome.figure = figure(dir, &desc)?;
@@ -359,57 +407,6 @@ fn csv_rows(fields: &[Vec<String>], results: &[Projection], path: &Path) -> Resu
         })
         .collect::<Result<_>>()?;
     Ok(blocks.concat())
-}
-
-/// Writes `out`: the header `columns`, then the rows of each CSV in `parts` (whose own header
-/// must be `columns`); with `expect`, each part must hold exactly that many rows.
-fn concatenate(parts: &[PathBuf], columns: &[String], out: &Path, expect: Option<&[u64]>) -> Result<()> {
-    let mut want = Vec::new();
-    {
-        let mut w = csv::Writer::from_writer(&mut want);
-        w.write_record(columns).map_err(|e| write_error(out, e))?;
-        w.flush().map_err(|e| write_error(out, e))?;
-    }
-    write_atomic(out, |w| {
-        w.write_all(&want).map_err(|e| write_error(out, e))?;
-        for (k, part) in parts.iter().enumerate() {
-            let f = std::fs::File::open(part).map_err(|source| Error::ReadInput {
-                path: part.clone(),
-                source,
-            })?;
-            let mut r = BufReader::new(f);
-            let mut line = Vec::new();
-            let read = |r: &mut BufReader<std::fs::File>, line: &mut Vec<u8>| {
-                line.clear();
-                r.read_until(b'\n', line).map_err(|source| Error::ReadInput {
-                    path: part.clone(),
-                    source,
-                })
-            };
-            read(&mut r, &mut line)?;
-            if line != want {
-                return Err(Error::Csv {
-                    context: part.display().to_string(),
-                    message: "its header differs from this sweep's columns: a part of another sweep".into(),
-                });
-            }
-            let mut rows = 0u64;
-            while read(&mut r, &mut line)? > 0 {
-                w.write_all(&line).map_err(|e| write_error(out, e))?;
-                rows += 1;
-            }
-            let n = expect.map_or(rows, |e| e[k]);
-            if rows != n {
-                return Err(Error::Csv {
-                    context: part.display().to_string(),
-                    message: format!(
-                        "has {rows} rows, expected {n}: the part is incomplete or from another sweep"
-                    ),
-                });
-            }
-        }
-        Ok(())
-    })
 }
 
 /// Joins the shard files `shard-K-of-N.csv` in `dir` into `dir/sweep.csv` (byte for byte the
@@ -470,20 +467,44 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
             format!("lacks shards {missing:?} of {n} (run them with --shard K/{n}, or finish them)"),
         ));
     }
-    let parts: Vec<Shard> = (1..=n).map(|k| Shard { k, n }).collect();
-    let files: Vec<PathBuf> = parts
-        .iter()
-        .map(|s| dir.join(format!("{}.csv", s.stem())))
-        .collect();
-    let sizes: Vec<u64> = parts
-        .iter()
-        .map(|s| {
-            let r = s.range(desc.poses);
-            r.end - r.start
-        })
-        .collect();
+    // Every shard must be this sweep's part K, whole: checked against its record before
+    // anything is written, and again while it is copied.
+    let mut files = Vec::new();
+    for k in 1..=n {
+        let shard = Shard { k, n };
+        let file = dir.join(format!("{}.csv", shard.stem()));
+        let r = shard.range(desc.poses);
+        let expected = parts::Expected {
+            fingerprint: &desc.fingerprint,
+            first: r.start,
+            rows: r.end - r.start,
+        };
+        match parts::check(&file, expected) {
+            parts::Status::Good => files.push(file),
+            parts::Status::Missing => {
+                return Err(Error::invalid(
+                    "DIR",
+                    dir.display(),
+                    format!("lost shard {k} of {n} while merging"),
+                ));
+            }
+            parts::Status::Damaged(reason) => {
+                return Err(Error::Csv {
+                    context: file.display().to_string(),
+                    message: format!(
+                        "{reason}; nothing merged (run `sweep --shard {k}/{n}` again to recompute this shard)"
+                    ),
+                });
+            }
+        }
+    }
     let out = dir.join("sweep.csv");
-    concatenate(&files, &desc.columns, &out, Some(&sizes))?;
+    let whole = parts::Expected {
+        fingerprint: &desc.fingerprint,
+        first: 0,
+        rows: desc.poses,
+    };
+    parts::join(&files, &desc.columns, &out, whole)?;
     let fig = figure(dir, &desc)?;
     Ok((out, fig))
 }

@@ -1,0 +1,324 @@
+//! The parts of a sweep on disk — chunk files, shard files and the result — each with a record
+//! beside it (`NAME.meta.json`) of what it holds: the sweep's fingerprint, its first pose index,
+//! its row count, and its size and CRC-32 in bytes. A part counts only when its record matches
+//! what the reader expects and its bytes match the record, so a truncated part, a part of
+//! another sweep, or a part copied over another is found out.
+
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::report::write_atomic;
+
+/// What a part file holds, written beside it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PartRecord {
+    /// The fingerprint of the sweep the part belongs to.
+    pub fingerprint: String,
+    /// The index of its first pose.
+    pub first: u64,
+    /// Its rows (poses), header not counted.
+    pub rows: u64,
+    /// Its size in bytes.
+    pub bytes: u64,
+    /// The CRC-32 of its bytes, as 8 hex digits.
+    pub crc32: String,
+}
+
+/// What a reader expects of a part.
+#[derive(Clone, Copy, Debug)]
+pub struct Expected<'a> {
+    /// The sweep's fingerprint.
+    pub fingerprint: &'a str,
+    /// The index of the first pose.
+    pub first: u64,
+    /// The number of poses.
+    pub rows: u64,
+}
+
+/// What a part on disk turned out to be.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Status {
+    /// Present and as expected.
+    Good,
+    /// Not there.
+    Missing,
+    /// There, but not what is expected; why, in words.
+    Damaged(String),
+}
+
+/// Returns the path of the record of part `file` (`NAME.csv` → `NAME.meta.json`).
+#[must_use]
+pub fn record_path(file: &Path) -> PathBuf {
+    file.with_extension("meta.json")
+}
+
+/// A writer that counts and checksums what passes through it.
+struct Summing<'w> {
+    inner: &'w mut dyn Write,
+    hasher: crc32fast::Hasher,
+    bytes: u64,
+}
+
+impl Write for Summing<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.hasher.update(&buf[..n]);
+        self.bytes += n as u64;
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Writes part `file` with `fill` (whole or not at all), then its record for `expected`. The
+/// record comes second, so a part interrupted between the two is found damaged and redone.
+///
+/// # Errors
+/// As [`write_atomic`], and `fill`'s errors.
+pub fn write(
+    file: &Path,
+    expected: Expected<'_>,
+    fill: impl FnOnce(&mut dyn Write) -> Result<()>,
+) -> Result<()> {
+    let mut sums = (0u64, 0u32);
+    write_atomic(file, |w| {
+        let mut summing = Summing {
+            inner: w,
+            hasher: crc32fast::Hasher::new(),
+            bytes: 0,
+        };
+        fill(&mut summing)?;
+        sums = (summing.bytes, summing.hasher.finalize());
+        Ok(())
+    })?;
+    let record = PartRecord {
+        fingerprint: expected.fingerprint.to_string(),
+        first: expected.first,
+        rows: expected.rows,
+        bytes: sums.0,
+        crc32: format!("{:08x}", sums.1),
+    };
+    let path = record_path(file);
+    write_atomic(&path, |w| {
+        serde_json::to_writer_pretty(&mut *w, &record).map_err(|e| Error::WriteOutput {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        w.write_all(b"\n").map_err(|e| Error::WriteOutput {
+            path: path.clone(),
+            message: e.to_string(),
+        })
+    })
+}
+
+/// Returns the record of part `file` when it says the part is what `expected` describes.
+fn check_record(file: &Path, expected: Expected<'_>) -> std::result::Result<PartRecord, String> {
+    let path = record_path(file);
+    let text = std::fs::read(&path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => format!("its record {} is missing", name(&path)),
+        _ => format!("its record {} cannot be read ({e})", name(&path)),
+    })?;
+    let record: PartRecord =
+        serde_json::from_slice(&text).map_err(|e| format!("its record {} is not one ({e})", name(&path)))?;
+    if record.fingerprint != expected.fingerprint {
+        return Err(format!(
+            "it belongs to another sweep (its fingerprint is {}, sweep.json's is {})",
+            record.fingerprint, expected.fingerprint
+        ));
+    }
+    if (record.first, record.rows) != (expected.first, expected.rows) {
+        return Err(format!(
+            "it holds poses {} to {} where poses {} to {} belong",
+            record.first,
+            (record.first + record.rows).saturating_sub(1),
+            expected.first,
+            (expected.first + expected.rows).saturating_sub(1)
+        ));
+    }
+    Ok(record)
+}
+
+/// Returns the file name of `path` for messages.
+fn name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+/// Returns what part `file` is: good when its record matches `expected` and its bytes the
+/// record; missing when there is no file; damaged (with the reason) otherwise.
+#[must_use]
+pub fn check(file: &Path, expected: Expected<'_>) -> Status {
+    if !file.exists() {
+        return Status::Missing;
+    }
+    let record = match check_record(file, expected) {
+        Ok(r) => r,
+        Err(reason) => return Status::Damaged(reason),
+    };
+    match sums(file) {
+        Ok((bytes, crc)) if bytes == record.bytes && format!("{crc:08x}") == record.crc32 => Status::Good,
+        Ok((bytes, _)) if bytes != record.bytes => Status::Damaged(format!(
+            "it has {bytes} bytes where its record says {}",
+            record.bytes
+        )),
+        Ok(_) => Status::Damaged("its bytes differ from its record's checksum".into()),
+        Err(e) => Status::Damaged(format!("it cannot be read ({e})")),
+    }
+}
+
+/// Returns the size and CRC-32 of `file`.
+fn sums(file: &Path) -> std::io::Result<(u64, u32)> {
+    let mut r = BufReader::with_capacity(1 << 16, std::fs::File::open(file)?);
+    let mut hasher = crc32fast::Hasher::new();
+    let mut bytes = 0u64;
+    loop {
+        let buf = r.fill_buf()?;
+        if buf.is_empty() {
+            return Ok((bytes, hasher.finalize()));
+        }
+        hasher.update(buf);
+        let n = buf.len();
+        bytes += n as u64;
+        r.consume(n);
+    }
+}
+
+/// Writes `out` (with its record for `expected`): the header `columns`, then the rows of each
+/// part in `parts` (each checked as it is read: its header must be `columns`, and its size and
+/// checksum those of its record); `out` is written whole or not at all.
+///
+/// # Errors
+/// [`Error::Csv`] naming a part that is not what its record says; [`Error::ReadInput`] and
+/// [`Error::WriteOutput`] on I/O failure.
+pub fn join(parts: &[PathBuf], columns: &[String], out: &Path, expected: Expected<'_>) -> Result<()> {
+    let mut want = Vec::new();
+    {
+        let mut w = csv::Writer::from_writer(&mut want);
+        w.write_record(columns).map_err(|e| write_error(out, e))?;
+        w.flush().map_err(|e| write_error(out, e))?;
+    }
+    write(out, expected, |w| {
+        w.write_all(&want).map_err(|e| write_error(out, e))?;
+        for part in parts {
+            let damaged = |message: String| Error::Csv {
+                context: part.display().to_string(),
+                message,
+            };
+            let record = std::fs::read(record_path(part))
+                .ok()
+                .and_then(|t| serde_json::from_slice::<PartRecord>(&t).ok())
+                .ok_or_else(|| damaged("its record is missing or unreadable".into()))?;
+            let f = std::fs::File::open(part).map_err(|source| Error::ReadInput {
+                path: part.clone(),
+                source,
+            })?;
+            let mut r = BufReader::with_capacity(1 << 16, f);
+            let mut hasher = crc32fast::Hasher::new();
+            let mut line = Vec::new();
+            let mut read = |r: &mut BufReader<std::fs::File>, line: &mut Vec<u8>| {
+                line.clear();
+                let n = r.read_until(b'\n', line).map_err(|source| Error::ReadInput {
+                    path: part.clone(),
+                    source,
+                })?;
+                hasher.update(line);
+                Ok::<_, Error>(n)
+            };
+            read(&mut r, &mut line)?;
+            if line != want {
+                return Err(damaged(
+                    "its header differs from this sweep's columns: a part of another sweep".into(),
+                ));
+            }
+            let mut bytes = line.len() as u64;
+            while read(&mut r, &mut line)? > 0 {
+                w.write_all(&line).map_err(|e| write_error(out, e))?;
+                bytes += line.len() as u64;
+            }
+            let crc = format!("{:08x}", hasher.finalize());
+            if bytes != record.bytes || crc != record.crc32 {
+                return Err(damaged(
+                    "its bytes changed after it was checked (size or checksum differ from its record)".into(),
+                ));
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Returns an output error for `path`.
+fn write_error(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::WriteOutput {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+/// Removes part `file` and its record, when they exist.
+///
+/// # Errors
+/// [`Error::WriteOutput`] when one exists and cannot be removed.
+pub fn remove(file: &Path) -> Result<()> {
+    for path in [file.to_path_buf(), record_path(file)] {
+        match std::fs::remove_file(&path) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(write_error(&path, e)),
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_part_is_good_only_as_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("chunk-00000001.csv");
+        let expected = Expected {
+            fingerprint: "abc",
+            first: 10,
+            rows: 2,
+        };
+        assert_eq!(check(&file, expected), Status::Missing);
+        write(&file, expected, |w| {
+            w.write_all(b"index,x\n10,1\n11,2\n").unwrap();
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(check(&file, expected), Status::Good);
+        // The CRC-32 of the bytes, computed independently of the writer.
+        let record: PartRecord = serde_json::from_slice(&std::fs::read(record_path(&file)).unwrap()).unwrap();
+        assert_eq!(
+            record.crc32,
+            format!("{:08x}", crc32fast::hash(b"index,x\n10,1\n11,2\n"))
+        );
+        assert_eq!(record.bytes, 18);
+
+        let other = Expected {
+            fingerprint: "abd",
+            ..expected
+        };
+        assert!(matches!(check(&file, other), Status::Damaged(r) if r.contains("another sweep")));
+        let moved = Expected {
+            first: 12,
+            ..expected
+        };
+        assert!(matches!(check(&file, moved), Status::Damaged(r) if r.contains("poses 10 to 11")));
+        std::fs::write(&file, b"index,x\n10,1\n11,3\n").unwrap();
+        assert!(matches!(check(&file, expected), Status::Damaged(r) if r.contains("checksum")));
+        std::fs::write(&file, b"index,x\n10,1\n").unwrap();
+        assert!(matches!(check(&file, expected), Status::Damaged(r) if r.contains("bytes")));
+        std::fs::remove_file(record_path(&file)).unwrap();
+        assert!(matches!(check(&file, expected), Status::Damaged(r) if r.contains("missing")));
+    }
+}
