@@ -9,6 +9,7 @@ use clap::Parser;
 
 fn main() -> ExitCode {
     quiet_headless_vulkan();
+    clean_up_on_signals();
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
@@ -20,6 +21,23 @@ fn main() -> ExitCode {
             ExitCode::from(if e.is_input() { 2 } else { 1 })
         }
     }
+}
+
+/// On SIGINT, SIGTERM or SIGHUP, removes the temporary files of outputs being written, then ends
+/// the process as the signal would have (the shell sees the signal, e.g. status 130 for Ctrl-C).
+/// Finished outputs and a sweep's finished chunks stay; a re-run goes on from them.
+fn clean_up_on_signals() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+        return;
+    };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            sonarproj_apps::report::remove_live_temporaries();
+            let _ = signal_hook::low_level::emulate_default_handler(signal);
+            std::process::exit(128 + signal);
+        }
+    });
 }
 
 /// On a headless machine (no `XDG_RUNTIME_DIR`), Mesa's Vulkan device-select layer tries to reach

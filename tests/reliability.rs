@@ -466,3 +466,109 @@ fn a_file_given_as_an_output_directory_is_bad_input() {
         .stderr(not_a_dir);
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
 }
+
+/// Returns this host's name as temporary file names carry it.
+fn host() -> String {
+    let out = Command::new("uname").arg("-n").output().unwrap();
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .trim()
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// Returns the names of the files in `dir` that start with `.sonarproj-`.
+fn temporaries(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(".sonarproj-"))
+        .collect()
+}
+
+#[test]
+fn a_signal_during_a_write_removes_the_temporary() {
+    use std::io::Write;
+    use std::os::unix::process::ExitStatusExt;
+    for (signal, number) in [("TERM", 15), ("INT", 2), ("HUP", 1)] {
+        let dir = tempfile::tempdir().unwrap();
+        let output = dir.path().join("out.csv");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_sonarproj"))
+            .args(["batch", "--from", "paper-fls", "--to", "paper-sss", "--step", "2"])
+            .args(["--backend", "cpu-fast", "--input", "-", "--output"])
+            .arg(&output)
+            .stdin(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        // More than one chunk of rows, and stdin left open: the command is mid-write.
+        let mut stdin = child.stdin.take().unwrap();
+        stdin
+            .write_all(b"range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz\n")
+            .unwrap();
+        stdin.write_all(&b"5,0,0,0,90,0,15,0,0\n".repeat(20_000)).unwrap();
+        stdin.flush().unwrap();
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+        while temporaries(dir.path()).is_empty() {
+            assert!(std::time::Instant::now() < deadline, "no temporary appeared");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let temp = temporaries(dir.path()).remove(0);
+        let pid = child.id().to_string();
+        assert!(
+            temp.starts_with(&format!(".sonarproj-{}-{pid}-", host())),
+            "{temp}"
+        );
+        Command::new("kill")
+            .arg(format!("-{signal}"))
+            .arg(&pid)
+            .status()
+            .unwrap();
+        let status = child.wait().unwrap();
+        drop(stdin);
+        assert_eq!(status.signal(), Some(number), "SIG{signal}: {status:?}");
+        assert!(temporaries(dir.path()).is_empty(), "SIG{signal} left {temp}");
+        assert!(!output.exists(), "SIG{signal} left a partial output");
+    }
+}
+
+#[test]
+fn stale_temporaries_of_dead_processes_here_are_removed_and_no_others() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut done = Command::new("true").spawn().unwrap();
+    let dead = done.id();
+    done.wait().unwrap();
+    let mut sleeper = Command::new("sleep").arg("60").spawn().unwrap();
+    let live = sleeper.id();
+    let host = host();
+    let stale = format!(".sonarproj-{host}-{dead}-aaaaaa.tmp");
+    let kept = [
+        format!(".sonarproj-{host}-{live}-bbbbbb.tmp"),
+        format!(".sonarproj-other.host-{dead}-cccccc.tmp"),
+        ".sonarproj-XyZ123".to_string(),
+        "notes.txt".to_string(),
+    ];
+    for name in kept.iter().chain([&stale]) {
+        std::fs::write(dir.path().join(name), "x").unwrap();
+    }
+    common::sonarproj()
+        .args(batch_to(&dir.path().join("out.csv")))
+        .assert()
+        .success();
+    let _ = sleeper.kill();
+    let _ = sleeper.wait();
+    assert!(
+        !dir.path().join(&stale).exists(),
+        "the dead process's temporary stayed"
+    );
+    for name in &kept {
+        assert!(dir.path().join(name).exists(), "{name} was removed");
+    }
+}

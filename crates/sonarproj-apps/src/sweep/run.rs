@@ -6,7 +6,7 @@
 //!   and shard writes the same one and refuses a directory holding another sweep's;
 //! - `sweep.csv` (a whole run) or `shard-K-of-N.csv` (one shard): `index`, the pose columns and
 //!   the metrics, one row per pose in index order; beside each, `NAME.meta.json`, the record of
-//!   what it holds ([`parts`](super::parts): sweep fingerprint, first index, rows, size, CRC-32);
+//!   what it holds ([`super::parts`]: sweep fingerprint, first index, rows, size, CRC-32);
 //! - `sweep-METRIC.png`: the metric against the grid's one or two varying axes (whole runs and
 //!   merges only);
 //! - `.partial-sweep/` or `.partial-shard-K-of-N/` while unfinished: `manifest.json` and one
@@ -26,7 +26,7 @@ use sonarproj::projection::Backend;
 use crate::error::{Error, Result};
 use crate::io::table::write_rows;
 use crate::io::{METRIC_COLUMNS, metric_fields};
-use crate::report::{figures, output_dir, write_atomic};
+use crate::report::{figures, output_dir, remove_stale_temporaries, write_atomic};
 use crate::sweep::{SweepConfig, parts};
 use sonarproj::projection::{Batch, Projection};
 
@@ -254,6 +254,7 @@ pub fn run(
     let dir = &opts.out;
     let desc = descriptor(config)?;
     output_dir(dir, "--out")?;
+    remove_stale_temporaries(dir);
     claim(dir, &desc)?;
     let (stem, range) = match opts.shard {
         Some(s) => (s.stem(), s.range(desc.poses)),
@@ -292,6 +293,7 @@ pub fn run(
     }
     let state = dir.join(format!(".partial-{stem}"));
     std::fs::create_dir_all(&state).map_err(|e| write_error(&state, e))?;
+    remove_stale_temporaries(&state);
     let manifest = Manifest {
         fingerprint: desc.fingerprint.clone(),
         chunk_poses: opts.chunk_poses,

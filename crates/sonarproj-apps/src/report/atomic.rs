@@ -1,0 +1,238 @@
+//! Files written whole or not at all: a temporary file beside the output, renamed over it once
+//! everything is written.
+//!
+//! A temporary's name says whose it is: `.sonarproj-HOST-PID-RANDOM.tmp`. The process keeps a
+//! list of the temporaries it has open, so that a signal handler can remove them
+//! ([`remove_live_temporaries`]); a later run removes the temporaries that this host's dead
+//! processes left ([`remove_stale_temporaries`]) and never touches one of a live process or of
+//! another host (shards of one sweep may write to one directory from several machines).
+
+use std::collections::BTreeSet;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use crate::error::{Error, Result};
+
+/// The temporaries this process has open.
+static LIVE: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
+/// The directories whose stale temporaries this process has already looked for.
+static SWEPT: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
+
+/// Returns this machine's host name, made safe for a file name (`unknown` when it has none).
+fn host() -> String {
+    #[cfg(unix)]
+    let name = rustix::system::uname().nodename().to_string_lossy().into_owned();
+    #[cfg(not(unix))]
+    let name = std::env::var("COMPUTERNAME").unwrap_or_default();
+    let safe: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if safe.is_empty() { "unknown".into() } else { safe }
+}
+
+/// Returns the start of the names of this host's temporaries, `.sonarproj-HOST-`.
+fn host_prefix() -> String {
+    format!(".sonarproj-{}-", host())
+}
+
+/// Returns whether process `pid` of this host is alive (true when that cannot be told).
+fn alive(pid: u32) -> bool {
+    #[cfg(unix)]
+    {
+        let Some(pid) = i32::try_from(pid).ok().and_then(rustix::process::Pid::from_raw) else {
+            return true;
+        };
+        // ESRCH: no such process. Any other answer (EPERM: another user's) means it exists.
+        !matches!(
+            rustix::process::test_kill_process(pid),
+            Err(e) if e == rustix::io::Errno::SRCH
+        )
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = pid;
+        true
+    }
+}
+
+/// Removes the temporaries this process has open (they are never renamed afterwards: the caller
+/// is about to exit). Returns how many were removed. Safe to call from a signal-handling thread.
+pub fn remove_live_temporaries() -> usize {
+    let live = match LIVE.lock() {
+        Ok(live) => live,
+        Err(poisoned) => poisoned.into_inner(),
+    };
+    live.iter().filter(|p| std::fs::remove_file(p).is_ok()).count()
+}
+
+/// Removes from `dir` the temporaries of this host's processes that no longer run, and returns
+/// how many (callers may ignore it: there is nothing to act on). Temporaries of live processes, of other hosts, and files of other names are never
+/// touched.
+#[expect(
+    clippy::must_use_candidate,
+    reason = "the count is for tests and logs; a caller has nothing to act on"
+)]
+pub fn remove_stale_temporaries(dir: &Path) -> usize {
+    let prefix = host_prefix();
+    let me = std::process::id();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name
+            .to_str()
+            .and_then(|n| n.strip_prefix(&prefix))
+            .and_then(|rest| rest.split('-').next())
+            .and_then(|pid| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        let regular = entry.file_type().is_ok_and(|t| t.is_file());
+        if regular && pid != me && !alive(pid) && std::fs::remove_file(entry.path()).is_ok() {
+            removed += 1;
+        }
+    }
+    removed
+}
+
+/// Removes `dir`'s stale temporaries the first time this process writes there.
+fn sweep_once(dir: &Path) {
+    let key = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+    let first = SWEPT.lock().map(|mut s| s.insert(key)).unwrap_or(false);
+    if first {
+        remove_stale_temporaries(dir);
+    }
+}
+
+/// A temporary file on the list of live ones; taken off the list when dropped.
+struct Listed(PathBuf);
+
+impl Drop for Listed {
+    fn drop(&mut self) {
+        if let Ok(mut live) = LIVE.lock() {
+            live.remove(&self.0);
+        }
+    }
+}
+
+/// Where an output path leads, decided before anything is written.
+#[derive(Debug, PartialEq, Eq)]
+enum Target {
+    /// A regular file (or none yet) at this path, replaced atomically: a symlink is followed to
+    /// the file it names, which is replaced, and the link kept.
+    Replace(PathBuf),
+    /// A device, FIFO, socket or terminal, or a magic link such as `/proc/self/fd/1` or
+    /// `/dev/stdout`: written straight through, never replaced.
+    Through,
+}
+
+/// Returns where writing `path` leads.
+fn target(path: &Path) -> Result<Target> {
+    if path.as_os_str().is_empty() {
+        return Err(Error::invalid("output path", "\"\"", "must name a file"));
+    }
+    // Descriptors reached through /proc or /dev/fd are open files of this process or another:
+    // replacing the link's target would detach them from whoever holds them.
+    let magic = ["/proc", "/dev/fd", "/dev/stdout", "/dev/stderr", "/dev/stdin"]
+        .iter()
+        .any(|p| path.starts_with(p));
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_dir() => Err(Error::invalid(
+            "output path",
+            path.display(),
+            "is a directory; give a file path",
+        )),
+        Ok(m) if !m.is_file() || magic => Ok(Target::Through),
+        Ok(_) => Ok(Target::Replace(
+            std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()),
+        )),
+        // A link to nothing yet: the file is created where the link points.
+        Err(_) if path.is_symlink() => {
+            let dest = std::fs::read_link(path).unwrap_or_else(|_| path.to_path_buf());
+            let dest = match path.parent() {
+                Some(dir) if dest.is_relative() => dir.join(dest),
+                _ => dest,
+            };
+            Ok(Target::Replace(dest))
+        }
+        Err(_) => Ok(Target::Replace(path.to_path_buf())),
+    }
+}
+
+/// Writes `path` whole or not at all: `fill` writes into a temporary file beside it
+/// (`.sonarproj-HOST-PID-RANDOM.tmp`, on the list [`remove_live_temporaries`] empties), which is
+/// renamed over `path` only when `fill` succeeded; the first write into a directory removes
+/// the temporaries this host's dead processes left there. A symlink is followed and the file it names is
+/// replaced (the link stays); a special file — a device, FIFO, socket, terminal, or a magic link
+/// such as `/proc/self/fd/1` — is written straight through and never replaced.
+///
+/// # Errors
+/// [`Error::WriteOutput`] on I/O failure; an input error for an empty path or a directory; any
+/// error `fill` returns (a regular file is then not created or changed).
+pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
+    let io_err = |e: &dyn std::fmt::Display| Error::WriteOutput {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let path = match target(path)? {
+        Target::Replace(p) => p,
+        Target::Through => {
+            let file = std::fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(|e| io_err(&e))?;
+            let mut w = std::io::BufWriter::new(file);
+            fill(&mut w)?;
+            return w.flush().map_err(|e| io_err(&e));
+        }
+    };
+    let path = path.as_path();
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    sweep_once(dir);
+    // Listed before it exists and until it is gone (`listed` is dropped after `tmp`), so that a
+    // signal handler finds it; names with this process's id are made by no other live process.
+    let mut listed: Option<Listed> = None;
+    let mut tmp = tempfile::Builder::new()
+        .prefix(&format!("{}{}-", host_prefix(), std::process::id()))
+        .suffix(".tmp")
+        .make_in(dir, |p| {
+            if let Ok(mut live) = LIVE.lock() {
+                live.insert(p.to_path_buf());
+            }
+            listed = Some(Listed(p.to_path_buf()));
+            let mut options = std::fs::OpenOptions::new();
+            options.read(true).write(true).create_new(true);
+            #[cfg(unix)]
+            std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+            options.open(p)
+        })
+        .map_err(|e| io_err(&e))?;
+    {
+        let mut w = std::io::BufWriter::new(tmp.as_file_mut());
+        fill(&mut w)?;
+        w.flush().map_err(|e| io_err(&e))?;
+    }
+    // The temporary file is created private (0600); the result is an ordinary output file.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let perms = std::fs::Permissions::from_mode(0o644);
+        tmp.as_file().set_permissions(perms).map_err(|e| io_err(&e))?;
+    }
+    tmp.as_file().sync_all().map_err(|e| io_err(&e))?;
+    tmp.persist(path).map_err(|e| io_err(&e.error))?;
+    Ok(())
+}
