@@ -572,3 +572,82 @@ fn stale_temporaries_of_dead_processes_here_are_removed_and_no_others() {
         assert!(dir.path().join(name).exists(), "{name} was removed");
     }
 }
+
+#[test]
+fn messages_are_plain_short_and_keep_their_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let stderr_of = |cmd: &mut assert_cmd::Command| {
+        let out = cmd.output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{out:?}");
+        String::from_utf8(out.stderr).unwrap()
+    };
+    // A directory given as a sonar file is called one.
+    let e = stderr_of(
+        common::sonarproj()
+            .args(["project", "--to", "paper-sss", "--range", "5", "--from"])
+            .arg(dir.path()),
+    );
+    assert!(e.contains("is a directory") && !e.contains("no such file"), "{e}");
+    // A 100 000-byte column name is quoted as a short excerpt.
+    let long = "a".repeat(100_000);
+    let e = stderr_of(
+        common::sonarproj()
+            .args(["batch", "--from", "paper-fls", "--to", "paper-sss"])
+            .write_stdin(format!("range,{long}\n")),
+    );
+    assert!(
+        e.len() < 1_000 && e.contains("100000 bytes"),
+        "{} bytes: {}",
+        e.len(),
+        &e[..e.len().min(300)]
+    );
+    // A TOML error keeps its lines (where, the line, the caret), each cut short.
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(
+        &bad,
+        format!("kind = \"fls\"\nrange_min = {}\n", "x".repeat(100_000)),
+    )
+    .unwrap();
+    let e = stderr_of(
+        common::sonarproj()
+            .args(["project", "--to", "paper-sss", "--range", "5", "--from"])
+            .arg(&bad),
+    );
+    assert!(e.lines().count() >= 4, "{e}");
+    assert!(e.contains("line 2") && e.contains('^'), "{e}");
+    assert!(e.len() < 2_000, "{} bytes", e.len());
+    // Something missing is said in words, not as "X = missing is invalid".
+    let e = stderr_of(common::sonarproj().args([
+        "project",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--range",
+        "5",
+    ]));
+    assert!(
+        e.contains("pose: no translation given; give --place-range or --translation"),
+        "{e}"
+    );
+    assert!(!e.contains("is invalid"), "{e}");
+    let e = stderr_of(common::sonarproj().args([
+        "recover",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--pitch",
+        "90",
+        "--place-range",
+        "15",
+        "--first",
+        "5",
+        "--second",
+        "15",
+    ]));
+    assert!(
+        e.contains("first azimuth: missing") && !e.contains("is invalid"),
+        "{e}"
+    );
+}

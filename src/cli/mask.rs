@@ -5,16 +5,16 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use serde::Deserialize;
 use serde_json::{Value, json};
 use sonarproj::masks::{Counts, MaskEngine, MaskSet, Noise, bounding_box, run_lengths};
-use sonarproj::{Measurement, RelativePose, Rotation, Sonar, SonarKind};
+use sonarproj::{Measurement, Sonar, SonarKind};
+use sonarproj_apps::io::text::{feature, one_or_three, parse_mask_line};
 use sonarproj_apps::io::{BoundedLine, MAX_LINE_BYTES, read_line_bounded};
 use sonarproj_apps::report::mask_image;
 use sonarproj_apps::{Error, Result};
 
 use super::BackendArg;
-use super::pose_args::{PoseArgs, numbers};
+use super::pose_args::PoseArgs;
 
 /// Options of `sonarproj mask`.
 #[derive(Debug, clap::Args)]
@@ -77,50 +77,6 @@ pub(super) struct MaskArgs {
     /// JSON line per input: per-feature run-length masks, counts and timing.
     #[arg(long, conflicts_with_all = ["feature", "out", "npy", "json"])]
     stream: bool,
-}
-
-/// Returns `text` as one number or three, named `field`.
-fn one_or_three(field: &str, text: &str) -> Result<[f64; 3]> {
-    if text.contains(',') {
-        numbers::<3>(field, text)
-    } else {
-        let [v] = numbers::<1>(field, text)?;
-        Ok([v; 3])
-    }
-}
-
-/// Returns the measurement of a feature of `source` given as numbers (`R` for a sidescan, `R, A`
-/// for an imaging sonar), or an error saying which form this sonar takes.
-fn measurement(source: &Sonar, field: &str, numbers: &[f64]) -> Result<Measurement> {
-    let (range, azimuth) = match (numbers, source.kind) {
-        ([r], SonarKind::Sss) => (*r, 0.0),
-        ([r, a], SonarKind::Fls) => (*r, *a),
-        (_, SonarKind::Sss) => {
-            return Err(Error::invalid(
-                field,
-                format!("{numbers:?}"),
-                "must be one number, the range R (m): a sidescan measures no azimuth",
-            ));
-        }
-        (_, SonarKind::Fls) => {
-            return Err(Error::invalid(
-                field,
-                format!("{numbers:?}"),
-                "must be two numbers, range and azimuth R,A (m, deg): an imaging sonar measures both",
-            ));
-        }
-    };
-    Measurement::of(source, range, azimuth).map_err(|e| Error::from(e).in_context(field))
-}
-
-/// Returns the measurement `R` or `R,A` of a feature in `source`, named `--feature N`.
-fn feature(source: &Sonar, k: usize, text: &str) -> Result<Measurement> {
-    let field = format!("--feature {}", k + 1);
-    let values = text
-        .split(',')
-        .map(|part| numbers::<1>(&field, part).map(|v| v[0]))
-        .collect::<Result<Vec<f64>>>()?;
-    measurement(source, &field, &values)
 }
 
 /// Returns the per-feature JSON of `set`: occupied count and bounding box, with the run-length
@@ -250,111 +206,6 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
     Ok(())
 }
 
-/// A pose in a stream line.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct PoseLine {
-    roll: Option<f64>,
-    pitch: Option<f64>,
-    yaw: Option<f64>,
-    quaternion: Option<[f64; 4]>,
-    matrix: Option<[[f64; 3]; 3]>,
-    translation: [f64; 3],
-}
-
-/// One number for all three axes, or three.
-#[derive(Debug, Deserialize)]
-#[serde(untagged)]
-enum Triple {
-    One(f64),
-    Three([f64; 3]),
-}
-
-impl Triple {
-    fn get(&self) -> [f64; 3] {
-        match self {
-            Triple::One(v) => [*v; 3],
-            Triple::Three(v) => *v,
-        }
-    }
-}
-
-/// Noise in a stream line.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SigmaLine {
-    rotation: Option<Triple>,
-    translation: Option<Triple>,
-    range: Option<f64>,
-    azimuth: Option<f64>,
-    coverage: Option<f64>,
-}
-
-/// One stream input line.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Line {
-    pose: PoseLine,
-    features: Vec<Vec<f64>>,
-    sigma: Option<SigmaLine>,
-}
-
-/// Returns the pose, features and noise of a stream line.
-fn parse_line(engine: &MaskEngine, text: &str) -> Result<(RelativePose, Vec<Measurement>, Option<Noise>)> {
-    let line: Line = serde_json::from_str(text).map_err(|e| Error::invalid("line", e, "must be one JSON object: {\"pose\": {\"roll\",\"pitch\",\"yaw\" | \"quaternion\" | \"matrix\", \"translation\"}, \"features\": [[R, A], …], \"sigma\"?: {…}}"))?;
-    let p = &line.pose;
-    let rotation = match (p.quaternion, p.matrix) {
-        (Some(q), None) if p.roll.is_none() && p.pitch.is_none() && p.yaw.is_none() => {
-            Rotation::QuaternionWxyz(q)
-        }
-        (None, Some(m)) if p.roll.is_none() && p.pitch.is_none() && p.yaw.is_none() => Rotation::Matrix(m),
-        (None, None) => Rotation::RollPitchYaw {
-            roll: p.roll.unwrap_or(0.0),
-            pitch: p.pitch.unwrap_or(0.0),
-            yaw: p.yaw.unwrap_or(0.0),
-        },
-        _ => {
-            return Err(Error::invalid(
-                "pose",
-                "several rotations",
-                "give roll/pitch/yaw, quaternion or matrix",
-            ));
-        }
-    };
-    let pose = RelativePose::new(rotation, p.translation).map_err(|e| e.in_context("pose"))?;
-    if line.features.is_empty() {
-        return Err(Error::invalid(
-            "features",
-            "[]",
-            "must list at least one [R] or [R, A]",
-        ));
-    }
-    let features = line
-        .features
-        .iter()
-        .enumerate()
-        .map(|(k, f)| {
-            let field = format!("features[{k}]");
-            measurement(engine.source(), &field, f)
-        })
-        .collect::<Result<Vec<_>>>()?;
-    let noise = line
-        .sigma
-        .map(|s| {
-            Noise {
-                rotation: s.rotation.map_or([0.0; 3], |t| t.get()),
-                translation: s.translation.map_or([0.0; 3], |t| t.get()),
-                range: s.range.unwrap_or(0.0),
-                azimuth: s.azimuth.unwrap_or(0.0),
-                coverage: s.coverage.unwrap_or(0.99),
-            }
-            .validated()
-            .map_err(|e| e.in_context("sigma"))
-        })
-        .transpose()?;
-    Ok((pose, features, noise))
-}
-
 /// Runs the stream mode: a JSON line out for every line in; a bad line gets `{"line", "error"}`
 /// and the stream goes on (exit status 2 at the end if any line was bad).
 fn stream(engine: &MaskEngine) -> Result<()> {
@@ -376,18 +227,20 @@ fn stream(engine: &MaskEngine) -> Result<()> {
         let line = lines;
         // Each bad line gets its own error reply; the stream goes on.
         let text = match read {
-            BoundedLine::TooLong(len) => Err(Error::invalid(
+            BoundedLine::TooLong(len) => Err(Error::input(
                 "line",
-                format!("of {len} bytes"),
-                format!("is longer than {MAX_LINE_BYTES} bytes"),
+                format!("{len} bytes, longer than the {MAX_LINE_BYTES} a line may hold"),
             )),
-            BoundedLine::Line => std::str::from_utf8(&buf)
-                .map_err(|e| Error::invalid("line", "(bytes)", format!("is not valid UTF-8: {e}"))),
+            BoundedLine::Line => {
+                std::str::from_utf8(&buf).map_err(|e| Error::input("line", format!("not valid UTF-8 ({e})")))
+            }
         };
         if matches!(&text, Ok(t) if t.trim().is_empty()) {
             continue;
         }
-        let reply = match text.and_then(|t| parse_line(engine, t)) {
+        let reply = match text
+            .and_then(|t| parse_mask_line(engine.source(), t).map(|l| (l.pose, l.features, l.noise)))
+        {
             Ok((pose, features, noise)) => {
                 let start = Instant::now();
                 match engine.masks(&pose, &features, noise.as_ref(), Counts::Skip) {

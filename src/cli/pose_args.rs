@@ -1,6 +1,7 @@
 //! Pose options shared by the sub-commands that take one pose.
 
 use sonarproj::{RelativePose, Rotation};
+use sonarproj_apps::io::text::numbers;
 use sonarproj_apps::{Error, Result};
 
 /// The relative pose: a rotation (roll/pitch/yaw, quaternion or matrix) and either a placement of
@@ -48,25 +49,6 @@ pub(super) struct PoseArgs {
     translation: Option<String>,
 }
 
-/// Returns the `N` comma-separated numbers of `text`, or an error naming `field`.
-pub(super) fn numbers<const N: usize>(field: &str, text: &str) -> Result<[f64; N]> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    if parts.len() != N {
-        return Err(Error::invalid(
-            field,
-            format!("{text:?}"),
-            format!("needs {N} comma-separated numbers, got {}", parts.len()),
-        ));
-    }
-    let mut out = [0.0; N];
-    for (o, p) in out.iter_mut().zip(&parts) {
-        *o = p
-            .parse()
-            .map_err(|_| Error::invalid(field, format!("{p:?}"), "must be a number"))?;
-    }
-    Ok(out)
-}
-
 impl PoseArgs {
     /// Returns the rotation as given.
     fn rotation(&self) -> Result<Rotation> {
@@ -104,10 +86,9 @@ impl PoseArgs {
                 ],
             )
             .map_err(|e| Error::from(e).in_context("--place")),
-            (None, None) => Err(Error::invalid(
+            (None, None) => Err(Error::input(
                 "pose",
-                "no translation",
-                "give --place-range or --translation",
+                "no translation given; give --place-range or --translation",
             )),
         }
     }

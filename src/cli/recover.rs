@@ -7,8 +7,9 @@ use sonarproj::{Sonar, SonarKind};
 use sonarproj_apps::Result;
 use sonarproj_apps::io::recover::recover_csv;
 
-use super::pose_args::{PoseArgs, numbers};
+use super::pose_args::PoseArgs;
 use super::{open_input, write_output};
+use sonarproj_apps::io::text::numbers;
 
 /// Options of `sonarproj recover`.
 #[derive(Debug, clap::Args)]

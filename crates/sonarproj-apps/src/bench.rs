@@ -71,8 +71,7 @@ impl Timing {
     }
 }
 
-/// The most timed runs of one measurement.
-pub const MAX_RUNS: u32 = 10_000;
+pub use sonarproj::limits::MAX_RUNS;
 
 /// Returns the median time of `runs` runs (after one warm-up run) of `batch` on `backend`.
 ///

@@ -85,6 +85,12 @@ impl Error {
         Error::Engine(sonarproj::Error::invalid(field, value, allowed))
     }
 
+    /// Returns the engine's [`sonarproj::Error::Input`]: `field` is missing or given with one it
+    /// excludes, as `message` says.
+    pub fn input(field: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Engine(sonarproj::Error::input(field, message))
+    }
+
     /// Returns the same error with `prefix: ` put in front of the field name of an invalid value.
     #[must_use]
     pub fn in_context(self, prefix: &str) -> Self {

@@ -90,9 +90,7 @@ pub struct ScenarioPose {
     pub angles: [f64; 3],
 }
 
-/// The finest angle step of the paper's simulations (deg): 18 001 angles, about 3 million poses
-/// a direction, whose results are held in memory.
-pub const MIN_ANGLE_STEP: f64 = 0.01;
+pub use sonarproj::limits::MIN_ANGLE_STEP;
 
 /// Returns the swept angles `0, s, 2s, …` up to 180° (deg).
 ///

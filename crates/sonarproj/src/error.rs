@@ -22,6 +22,14 @@ pub enum Error {
         /// What is allowed instead.
         allowed: String,
     },
+    /// An input is missing, or given together with one it excludes; said in words.
+    #[error("{field}: {message}")]
+    Input {
+        /// Which input, with enough context to find it.
+        field: String,
+        /// What is wrong and what to give instead.
+        message: String,
+    },
     /// A sonar name is neither a preset nor an existing file.
     #[error("unknown sonar {name:?}: not a preset ({presets}) and no such file")]
     UnknownSonar {
@@ -67,13 +75,15 @@ impl Error {
         matches!(
             self,
             Error::InvalidValue { .. }
+                | Error::Input { .. }
                 | Error::UnknownSonar { .. }
                 | Error::SonarFile { .. }
                 | Error::ReadInput { .. }
         )
     }
 
-    /// Returns an [`Error::InvalidValue`] for `field`, `value` and the `allowed` text.
+    /// Returns an [`Error::InvalidValue`] for `field`, `value` and the `allowed` text; a long
+    /// value is quoted as an [`excerpt`].
     pub fn invalid(
         field: impl Into<String>,
         value: impl std::fmt::Display,
@@ -81,8 +91,17 @@ impl Error {
     ) -> Self {
         Error::InvalidValue {
             field: field.into(),
-            value: value.to_string(),
+            value: shortened(&value.to_string()),
             allowed: allowed.into(),
+        }
+    }
+
+    /// Returns an [`Error::Input`]: `field` is missing or given with one it excludes, as
+    /// `message` says.
+    pub fn input(field: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Input {
+            field: field.into(),
+            message: message.into(),
         }
     }
 
@@ -99,9 +118,46 @@ impl Error {
                 value,
                 allowed,
             },
+            Error::Input { field, message } => Error::Input {
+                field: format!("{prefix}: {field}"),
+                message,
+            },
             other => other,
         }
     }
+}
+
+/// Returns `text` quoted for an error message: whole when it has at most
+/// [`EXCERPT_CHARS`](crate::limits::EXCERPT_CHARS) characters, else its beginning followed by `…`
+/// and its length in bytes (a message never echoes a long piece of its input whole).
+#[must_use]
+pub fn excerpt(text: &str) -> String {
+    match text.char_indices().nth(crate::limits::EXCERPT_CHARS) {
+        None => format!("{text:?}"),
+        Some((cut, _)) => format!("{:?}… ({} bytes)", &text[..cut], text.len()),
+    }
+}
+
+/// Returns `value` as an error shows it: whole up to [`MAX_VALUE_CHARS`](crate::limits::MAX_VALUE_CHARS)
+/// characters, else cut there and marked with its length.
+fn shortened(value: &str) -> String {
+    match value.char_indices().nth(crate::limits::MAX_VALUE_CHARS) {
+        None => value.to_string(),
+        Some((cut, _)) => format!("{}… ({} bytes)", &value[..cut], value.len()),
+    }
+}
+
+/// Returns a parser's multi-line message (a TOML error with the offending line and a caret)
+/// with its lines kept and each cut to [`MAX_VALUE_CHARS`](crate::limits::MAX_VALUE_CHARS)
+/// characters, so that a huge line of input is never echoed whole.
+#[must_use]
+pub fn parser_message(message: &str) -> String {
+    message
+        .trim_end()
+        .lines()
+        .map(shortened)
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 /// Returns `Ok(v)` when `v` is finite, else an error naming `field`.

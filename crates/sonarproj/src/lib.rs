@@ -39,6 +39,7 @@
 pub mod error;
 pub mod geometry;
 pub mod gpu;
+pub mod limits;
 pub mod masks;
 pub mod metrics;
 pub mod occupancy;

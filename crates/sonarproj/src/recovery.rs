@@ -45,8 +45,7 @@ pub const TANGENCY_TOLERANCE: f64 = 1e-12;
 pub const NEAR_TANGENT_SIGMAS: f64 = 5.0;
 /// Default spacing (m) of the points returned along an SSS + SSS curve.
 pub const DEFAULT_CURVE_STEP: f64 = 0.01;
-/// Most points returned along an SSS + SSS curve (the spacing grows past it).
-pub const MAX_CURVE_POINTS: usize = 10_000;
+pub use crate::limits::MAX_CURVE_POINTS;
 
 /// What one sonar measured of the feature: range (m), and azimuth (deg) for an FLS.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -250,10 +249,12 @@ fn check(which: &str, sonar: &Sonar, obs: &Observation) -> Result<()> {
         ));
     }
     match (sonar.kind, obs.azimuth) {
-        (SonarKind::Fls, None) => Err(Error::invalid(
+        (SonarKind::Fls, None) => Err(Error::input(
             f("azimuth"),
-            "missing",
-            format!("sonar {:?} is an FLS: give R,A (range, azimuth)", sonar.name),
+            format!(
+                "missing; sonar {:?} is an FLS, which measures one: give R,A (range, azimuth)",
+                sonar.name
+            ),
         )),
         (SonarKind::Sss, Some(a)) => Err(Error::invalid(
             f("azimuth"),

@@ -4,8 +4,7 @@
 use crate::error::{Error, Result, finite};
 use crate::geometry::sonar::{Sonar, SonarKind};
 
-/// The most samples one pose may draw; more is refused with a message naming the cause.
-pub const MAX_SAMPLES_PER_POSE: u64 = 1 << 26;
+pub use crate::limits::MAX_SAMPLES_PER_POSE;
 
 /// What sonar 1 measured of a feature: range (m), and azimuth (deg) for an FLS.
 #[derive(Clone, Copy, Debug, PartialEq)]

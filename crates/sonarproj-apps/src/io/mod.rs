@@ -1,9 +1,11 @@
-//! CSV files in and out: projection batches (`batch`) and correspondences to recover
-//! (`recover`), both read through one checked table reader (`table`).
+//! Input and output formats: CSV projection batches (`batch`) and correspondences to recover
+//! (`recover`), both read through one checked table reader (`table`), and values given as text
+//! — pose strings, features, mask stream lines (`text`).
 
 pub mod batch;
 pub mod recover;
 pub mod table;
+pub mod text;
 
 pub use batch::{BatchInput, BatchReader, METRIC_COLUMNS, metric_fields, project_csv, read_batch_csv};
 
@@ -13,24 +15,8 @@ pub fn field(v: Option<f64>) -> String {
     v.map(|x| x.to_string()).unwrap_or_default()
 }
 
-/// The longest text an error message quotes from its input whole (characters); longer text is
-/// cut to this many and marked with its length.
-pub const EXCERPT_CHARS: usize = 40;
-
-/// Returns `text` quoted for an error message: whole when it has at most [`EXCERPT_CHARS`]
-/// characters, else its beginning followed by `…` and its length in bytes.
-#[must_use]
-pub fn excerpt(text: &str) -> String {
-    match text.char_indices().nth(EXCERPT_CHARS) {
-        None => format!("{text:?}"),
-        Some((cut, _)) => format!("{:?}… ({} bytes)", &text[..cut], text.len()),
-    }
-}
-
-/// The longest input line or CSV record read whole (1 MiB): a stream line longer than this is
-/// answered with an error, a longer CSV record stops the table at its row; neither is held
-/// in memory.
-pub const MAX_LINE_BYTES: usize = 1 << 20;
+pub use sonarproj::error::excerpt;
+pub use sonarproj::limits::{EXCERPT_CHARS, MAX_LINE_BYTES};
 
 /// One line read by [`read_line_bounded`].
 #[derive(Debug, PartialEq, Eq)]

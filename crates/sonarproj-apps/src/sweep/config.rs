@@ -38,12 +38,7 @@ use sonarproj::metrics::Metric;
 use sonarproj::projection::{Batch, BatchItem};
 use sonarproj::sampling::{Measurement, Sampling};
 
-/// The most poses one sweep may have.
-pub const MAX_POSES: u64 = 1 << 40;
-
-/// The most values one grid axis may take (its values are held in memory, 8 bytes each); grids
-/// reach [`MAX_POSES`] through the product of their axes.
-pub const MAX_AXIS_VALUES: u64 = 1_000_000;
+pub use sonarproj::limits::{MAX_AXIS_VALUES, MAX_POSES};
 
 /// One grid axis: a column of the output and the values it takes.
 #[derive(Clone, Debug, PartialEq)]
@@ -93,6 +88,14 @@ fn key_error(file: &str, key: &str, value: impl std::fmt::Display, allowed: impl
     Error::invalid(format!("sweep file {file:?}: {key}"), value, allowed)
 }
 
+/// Returns the error of sweep file `file` for the missing key `key`, which `needed` explains.
+fn missing_key(file: &str, key: &str, needed: &str) -> Error {
+    Error::input(
+        format!("sweep file {file:?}: {key}"),
+        format!("missing; {needed}"),
+    )
+}
+
 /// Returns the values of grid key `key` given as `v`: a number, a list or `{start, stop, step}`.
 #[expect(
     clippy::cast_possible_truncation,
@@ -135,12 +138,7 @@ fn axis_values(file: &str, key: &str, v: &toml::Value) -> Result<Vec<f64>> {
                 let full = format!("{key}.{k}");
                 match t.get(k) {
                     Some(x) => number(x, &full),
-                    None => Err(key_error(
-                        file,
-                        &full,
-                        "missing",
-                        "required with start, stop, step",
-                    )),
+                    None => Err(missing_key(file, &full, "required with start, stop, step")),
                 }
             };
             let (start, stop, step) = (get("start")?, get("stop")?, get("step")?);
@@ -211,7 +209,7 @@ fn axis(
     let key = format!("{prefix}.{name}");
     let values = match table.and_then(|t| t.get(name)) {
         Some(v) => axis_values(file, &key, v)?,
-        None if required => return Err(key_error(file, &key, "missing", "required")),
+        None if required => return Err(missing_key(file, &key, "required")),
         None => vec![0.0],
     };
     Ok(Axis { column, values })
@@ -254,7 +252,7 @@ impl SweepConfig {
     pub fn parse(file: &str, text: &str, base: &Path) -> Result<SweepConfig> {
         let top: toml::Table = text.parse().map_err(|e: toml::de::Error| Error::SweepFile {
             path: PathBuf::from(file),
-            message: e.to_string().trim_end().replace('\n', " "),
+            message: sonarproj::error::parser_message(&e.to_string()),
         })?;
         const TOP: [&str; 9] = [
             "from",
@@ -285,9 +283,8 @@ impl SweepConfig {
             }
         };
         let sonar = |k: &str| -> Result<Sonar> {
-            let spec = string(k)?.ok_or_else(|| {
-                key_error(file, k, "missing", "required: a preset name or a sonar TOML file")
-            })?;
+            let spec = string(k)?
+                .ok_or_else(|| missing_key(file, k, "required: a preset name or a sonar TOML file"))?;
             resolve_sonar(spec, base)
         };
         let (source, target) = (sonar("from")?, sonar("to")?);
@@ -407,10 +404,9 @@ impl SweepConfig {
         let translation = section(file, top, "translation", &["x", "y", "z"])?;
         let rotation = section(file, top, "rotation", &["roll", "pitch", "yaw"])?;
         if feature.is_none() {
-            return Err(key_error(
+            return Err(missing_key(
                 file,
                 "feature",
-                "missing",
                 "required: [feature] with range (or poses = \"FILE.csv\")",
             ));
         }
@@ -429,10 +425,9 @@ impl SweepConfig {
                 ));
             }
             (None, None) => {
-                return Err(key_error(
+                return Err(missing_key(
                     file,
                     "place",
-                    "missing",
                     "required: [place] with range, or [translation]",
                 ));
             }
@@ -486,10 +481,9 @@ impl SweepConfig {
                 n.checked_mul(a.values.len() as u64)
                     .filter(|&n| n <= MAX_POSES)
                     .ok_or_else(|| {
-                        Error::invalid(
+                        Error::input(
                             "sweep grid",
-                            "too many poses",
-                            format!("at most {MAX_POSES} poses"),
+                            format!("too many poses; a sweep may have at most {MAX_POSES}"),
                         )
                     })
             }),

@@ -42,8 +42,7 @@ pub struct Shard {
     pub n: u64,
 }
 
-/// The most parts a sweep may be cut into.
-pub const MAX_SHARDS: u64 = 100_000;
+pub use sonarproj::limits::MAX_SHARDS;
 
 impl Shard {
     /// Returns the shard written `K/N`.

@@ -64,15 +64,7 @@ pub struct Sonar {
     pub beams: BeamLayout,
 }
 
-/// The longest range a sonar may have (m): 10 km covers every real sonar and keeps every
-/// derived length, area and count far from overflow.
-pub const MAX_RANGE: f64 = 10_000.0;
-/// The largest number of range bins a sonar may have.
-pub const MAX_RANGE_BINS: u32 = 1 << 20;
-/// The largest number of beams a sonar may have.
-pub const MAX_BEAMS: u32 = 1 << 16;
-/// The largest number of pixels (range bins × beams) a sonar image may have.
-pub const MAX_PIXELS: u64 = 1 << 26;
+pub use crate::limits::{MAX_BEAMS, MAX_PIXELS, MAX_RANGE, MAX_RANGE_BINS};
 
 /// One row of the preset table: name, kind, range, apertures, range bins, beams, source.
 type PresetRow = (
@@ -226,6 +218,12 @@ impl Sonar {
         if path.is_file() {
             return Sonar::from_toml_file(path);
         }
+        if path.is_dir() {
+            return Err(Error::ReadInput {
+                path: path.to_path_buf(),
+                source: std::io::Error::other("it is a directory; give a sonar TOML file or a preset"),
+            });
+        }
         Err(Error::UnknownSonar {
             name: spec.to_string(),
             presets: Sonar::preset_names().join(", "),
@@ -263,7 +261,7 @@ impl Sonar {
     pub fn from_toml_str(name: &str, text: &str) -> Result<Sonar> {
         let file: SonarFile = toml::from_str(text).map_err(|e| Error::SonarFile {
             path: name.into(),
-            message: e.to_string().trim_end().replace('\n', " "),
+            message: crate::error::parser_message(&e.to_string()),
         })?;
         let ctx = format!("sonar {name:?}");
         let given = [
@@ -275,19 +273,17 @@ impl Sonar {
         .filter(|&&b| b)
         .count();
         if given > 1 {
-            return Err(Error::invalid(
+            return Err(Error::input(
                 format!("{ctx}: beams/beam_edges/beam_centres"),
-                "more than one",
-                "give exactly one of beams, beam_edges, beam_centres",
+                "more than one given; give exactly one of beams, beam_edges, beam_centres",
             ));
         }
         let beams = match (file.kind, file.beams, file.beam_edges, file.beam_centres) {
             (SonarKind::Sss, None | Some(1), None, None) => BeamLayout::Uniform { count: 1 },
             (SonarKind::Sss, _, _, _) => {
-                return Err(Error::invalid(
+                return Err(Error::input(
                     format!("{ctx}: beams"),
-                    "given",
-                    "an SSS has no beams (leave beams, beam_edges and beam_centres out)",
+                    "an SSS has no beams; leave beams, beam_edges and beam_centres out",
                 ));
             }
             (SonarKind::Fls, Some(n), None, None) => BeamLayout::Uniform { count: n },
@@ -296,10 +292,9 @@ impl Sonar {
                 BeamLayout::Edges(edges_from_centres(&ctx, file.azimuth_aperture, &centres)?)
             }
             (SonarKind::Fls, _, _, _) => {
-                return Err(Error::invalid(
+                return Err(Error::input(
                     format!("{ctx}: beams"),
-                    "missing",
-                    "an FLS needs beams (a count), beam_edges or beam_centres",
+                    "missing; an FLS needs beams (a count), beam_edges or beam_centres",
                 ));
             }
         };
@@ -380,10 +375,9 @@ impl Sonar {
         let aperture = match (azimuth_aperture, centres.len()) {
             (Some(a), _) => a,
             (None, 0 | 1) => {
-                return Err(Error::invalid(
+                return Err(Error::input(
                     format!("{ctx}: azimuth_aperture"),
-                    "missing",
-                    "needed when the table has fewer than two beams",
+                    "missing; it is needed when the table has fewer than two beams",
                 ));
             }
             (None, n) => {

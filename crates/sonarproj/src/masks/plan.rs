@@ -14,8 +14,7 @@ use super::noise::Noise;
 /// Cells per block side (blocks are culled as a whole before their cells are visited). Keep in
 /// sync with BLOCK in shaders/mask.wgsl.
 pub(crate) const BLOCK: usize = 8;
-/// The most cells one mask may visit.
-pub const MAX_CELLS: u64 = 1 << 26;
+pub use crate::limits::MAX_CELLS;
 
 /// What one mask is drawn from: the cells of the set, their ball radius and the noise part of it.
 pub(crate) struct Plan {

@@ -1,0 +1,55 @@
+//! Every size limit of sonarproj in one place, for the engine, the applications, the command
+//! line and the Python package alike. Each bounds something derived from input before it is
+//! allocated, so that no input can exhaust memory or overflow a count; an input past a limit is
+//! refused with a message naming the field, the value and the limit.
+
+/// The longest range a sonar may have (m): 10 km covers every real sonar and keeps every
+/// derived length, area and count far from overflow.
+pub const MAX_RANGE: f64 = 10_000.0;
+/// The largest number of range bins a sonar may have.
+pub const MAX_RANGE_BINS: u32 = 1 << 20;
+/// The largest number of beams a sonar may have.
+pub const MAX_BEAMS: u32 = 1 << 16;
+/// The largest number of pixels (range bins × beams) a sonar image may have (an occupancy of
+/// 8 MiB of bits).
+pub const MAX_PIXELS: u64 = 1 << 26;
+/// The most samples one pose may draw.
+pub const MAX_SAMPLES_PER_POSE: u64 = 1 << 26;
+/// The most cells one mask may visit.
+pub const MAX_CELLS: u64 = 1 << 26;
+/// The most points returned along an SSS + SSS recovery curve (the spacing grows past it).
+pub const MAX_CURVE_POINTS: usize = 10_000;
+/// The most poses one sweep may have (they are streamed in chunks, never held at once).
+pub const MAX_POSES: u64 = 1 << 40;
+/// The most values one sweep grid axis may take (its values are held in memory, 8 bytes each);
+/// grids reach [`MAX_POSES`] through the product of their axes.
+pub const MAX_AXIS_VALUES: u64 = 1_000_000;
+/// The most parts a sweep may be cut into.
+pub const MAX_SHARDS: u64 = 100_000;
+/// The finest angle step of the paper's simulations (deg): 18 001 angles, about 3 million poses
+/// a direction, whose results are held in memory.
+pub const MIN_ANGLE_STEP: f64 = 0.01;
+/// The most timed runs of one benchmark measurement.
+pub const MAX_RUNS: u32 = 10_000;
+/// The longest input line (a stream's JSON line) or CSV record read whole (1 MiB): a longer one
+/// is refused before it is held in memory.
+pub const MAX_LINE_BYTES: usize = 1 << 20;
+/// The most characters of input text an error quotes whole (a column name, a field); longer
+/// text is cut and marked with its length.
+pub const EXCERPT_CHARS: usize = 40;
+/// The most characters of a value an error shows whole.
+pub const MAX_VALUE_CHARS: usize = 200;
+
+// The limits keep derived sizes far from overflow, checked when the crate compiles: a whole
+// image of bits fits in 8 MiB and a u32 word index; sample and cell counts fit the GPU's u32
+// indices; a sweep's pose index is exact in an f64 (CSV columns print it); a square grid of
+// full axes stays within a sweep.
+const _: () = {
+    assert!(MAX_PIXELS / 8 <= 8 << 20);
+    assert!(MAX_PIXELS <= u32::MAX as u64);
+    assert!(MAX_RANGE_BINS as u64 * MAX_BEAMS as u64 >= MAX_PIXELS);
+    assert!(MAX_SAMPLES_PER_POSE <= u32::MAX as u64);
+    assert!(MAX_CELLS <= u32::MAX as u64);
+    assert!(MAX_POSES < 1 << 53);
+    assert!(MAX_AXIS_VALUES * MAX_AXIS_VALUES <= MAX_POSES);
+};
