@@ -5,32 +5,18 @@
 //! case takes milliseconds and a few MiB; a case slower than 100 ms is reported on stderr
 //! (`cargo test --release --test parsers -- --nocapture`), never failed on time.
 
+mod common;
+
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
-use proptest::test_runner::RngSeed;
 use sonarproj::Sonar;
 use sonarproj::recovery::recover;
 use sonarproj_apps::io::recover::recover_csv;
 use sonarproj_apps::io::text::{feature, numbers, one_or_three, parse_mask_line};
 use sonarproj_apps::io::{project_csv, read_batch_csv};
 use sonarproj_apps::sweep::SweepConfig;
-
-/// Returns the runner's configuration: 256 cases from a fixed seed (repeatable in CI;
-/// `PROPTEST_RNG_SEED=N` explores others).
-fn config() -> ProptestConfig {
-    let default = ProptestConfig::default();
-    let rng_seed = match default.rng_seed {
-        RngSeed::Random => RngSeed::Fixed(20_261_122),
-        chosen => chosen,
-    };
-    ProptestConfig {
-        cases: 256,
-        rng_seed,
-        ..default
-    }
-}
 
 /// Returns a strategy over number-like text: specials, extremes, signs and garbage.
 fn number_text() -> impl Strategy<Value = String> {
@@ -127,7 +113,7 @@ fn toml_value() -> impl Strategy<Value = String> {
 }
 
 proptest! {
-    #![proptest_config(config())]
+    #![proptest_config(common::proptest_config())]
 
     #[test]
     fn sonar_files_parse_or_refuse(text in any_text(),

@@ -319,6 +319,20 @@ fn endless_stdin(args: &[&str], head: &[u8], filler: &[u8]) -> (Option<i32>, Str
     (out.status.code(), stderr, sent)
 }
 
+/// `recover` of a CSV on stdin between two FLS.
+const RECOVER_STDIN: [&str; 7] = [
+    "recover",
+    "--from",
+    "paper-fls",
+    "--to",
+    "paper-fls",
+    "--input",
+    "-",
+];
+/// The header of a recover CSV with azimuths.
+const RECOVER_HEADER: &str =
+    "first_range,first_azimuth,second_range,second_azimuth,roll,pitch,yaw,tx,ty,tz\n";
+
 #[test]
 fn a_bad_first_row_or_an_endless_line_stops_reading_at_once() {
     let batch = [
@@ -346,17 +360,7 @@ fn a_bad_first_row_or_an_endless_line_stops_reading_at_once() {
     );
     assert!(sent < 64 << 20, "{sent} bytes were read into one line");
     // The same for recover's CSV.
-    let recover = [
-        "recover",
-        "--from",
-        "paper-fls",
-        "--to",
-        "paper-fls",
-        "--input",
-        "-",
-    ];
-    let header = b"first_range,first_azimuth,second_range,second_azimuth,roll,pitch,yaw,tx,ty,tz\n";
-    let (code, stderr, sent) = endless_stdin(&recover, header, b"\0");
+    let (code, stderr, sent) = endless_stdin(&RECOVER_STDIN, RECOVER_HEADER.as_bytes(), b"\0");
     assert_eq!(code, Some(2), "{stderr}");
     assert!(stderr.contains("longer than"), "{stderr}");
     assert!(sent < 64 << 20, "{sent} bytes were read into one line");
@@ -365,21 +369,9 @@ fn a_bad_first_row_or_an_endless_line_stops_reading_at_once() {
 #[test]
 fn a_bad_recover_row_stops_after_the_rows_before_it() {
     let row = "8,5,8.5,-3,0,0,20,1,0.5,0\n";
-    let input = format!(
-        "first_range,first_azimuth,second_range,second_azimuth,roll,pitch,yaw,tx,ty,tz\n\
-         {row}{row}-8,5,8.5,-3,0,0,20,1,0.5,0\n{row}"
-    );
-    let args = [
-        "recover",
-        "--from",
-        "paper-fls",
-        "--to",
-        "paper-fls",
-        "--input",
-        "-",
-    ];
+    let input = format!("{RECOVER_HEADER}{row}{row}-8,5,8.5,-3,0,0,20,1,0.5,0\n{row}");
     let out = common::sonarproj()
-        .args(args)
+        .args(RECOVER_STDIN)
         .write_stdin(input.clone())
         .output()
         .unwrap();
@@ -395,7 +387,7 @@ fn a_bad_recover_row_stops_after_the_rows_before_it() {
     let dir = tempfile::tempdir().unwrap();
     let output = dir.path().join("out.csv");
     common::sonarproj()
-        .args(args)
+        .args(RECOVER_STDIN)
         .arg("--output")
         .arg(&output)
         .write_stdin(input)

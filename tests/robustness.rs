@@ -3,9 +3,10 @@
 //! panics or aborts. A value that passes validation must also run: projections on both CPU
 //! backends, masks and recovery are carried out whenever a constructor accepted their inputs.
 
+mod common;
+
 use glam::{DMat3, DVec3};
 use proptest::prelude::*;
-use proptest::test_runner::RngSeed;
 use sonarproj::Output;
 use sonarproj::masks::{Counts, MaskEngine, Noise};
 use sonarproj::recovery::{Observation, Sigmas, recover};
@@ -126,28 +127,12 @@ fn within(c: Result<f64, f64>, lo: f64, hi: f64) -> f64 {
     c.unwrap_or_else(|f| lo + f * (hi - lo))
 }
 
-/// Returns the runner's configuration: 256 cases from a fixed seed, so a run is repeatable and
-/// CI sees the same cases; `PROPTEST_RNG_SEED=N` explores others (failures found so far are
-/// replayed first from `robustness.proptest-regressions`).
-fn config() -> ProptestConfig {
-    let default = ProptestConfig::default();
-    let rng_seed = match default.rng_seed {
-        RngSeed::Random => RngSeed::Fixed(20_261_122),
-        chosen => chosen,
-    };
-    ProptestConfig {
-        cases: 256,
-        rng_seed,
-        ..default
-    }
-}
-
 /// The most samples a projection in this test may draw: larger valid batches are correct but
 /// too slow on the reference for hundreds of cases (the engine's own cap is checked apart).
 const TEST_SAMPLES: usize = 2_000_000;
 
 proptest! {
-    #![proptest_config(config())]
+    #![proptest_config(common::proptest_config())]
 
     #[test]
     fn sonars_validate_without_panicking(s in sonar()) {
@@ -210,12 +195,12 @@ proptest! {
             items: vec![BatchItem { measurement: Measurement { range, azimuth }, pose }],
         };
         // The one-item check of a streaming reader agrees with preparing the batch.
-        let checked = batch.check_item(&batch.items[0]);
+        let checked = batch.checker().and_then(|c| c.check(&batch.items[0]));
         let Ok(prepared) = batch.prepare() else {
-            prop_assert!(checked.is_err(), "check_item accepted what prepare refused");
+            prop_assert!(checked.is_err(), "the checker accepted what prepare refused");
             return Ok(());
         };
-        prop_assert!(checked.is_ok(), "check_item refused what prepare accepted: {:?}", checked);
+        prop_assert!(checked.is_ok(), "the checker refused what prepare accepted: {:?}", checked);
         // Accepted: every part is valid, so the measurement could come from sonar 1.
         prop_assert!(Measurement::of(&source, range, azimuth).is_ok());
         prop_assert!(pose.validate().is_ok());

@@ -85,6 +85,14 @@ impl Error {
         Error::Engine(sonarproj::Error::invalid(field, value, allowed))
     }
 
+    /// Returns an [`Error::WriteOutput`] for `path` failing with `e`.
+    pub fn write_output(path: &std::path::Path, e: impl std::fmt::Display) -> Self {
+        Error::WriteOutput {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        }
+    }
+
     /// Returns the engine's [`sonarproj::Error::Input`]: `field` is missing or given with one it
     /// excludes, as `message` says.
     pub fn input(field: impl Into<String>, message: impl Into<String>) -> Self {

@@ -132,18 +132,23 @@ impl Error {
 /// and its length in bytes (a message never echoes a long piece of its input whole).
 #[must_use]
 pub fn excerpt(text: &str) -> String {
-    match text.char_indices().nth(crate::limits::EXCERPT_CHARS) {
-        None => format!("{text:?}"),
-        Some((cut, _)) => format!("{:?}… ({} bytes)", &text[..cut], text.len()),
-    }
+    let (head, mark) = cut(text, crate::limits::EXCERPT_CHARS);
+    format!("{head:?}{mark}")
 }
 
 /// Returns `value` as an error shows it: whole up to [`MAX_VALUE_CHARS`](crate::limits::MAX_VALUE_CHARS)
 /// characters, else cut there and marked with its length.
 fn shortened(value: &str) -> String {
-    match value.char_indices().nth(crate::limits::MAX_VALUE_CHARS) {
-        None => value.to_string(),
-        Some((cut, _)) => format!("{}… ({} bytes)", &value[..cut], value.len()),
+    let (head, mark) = cut(value, crate::limits::MAX_VALUE_CHARS);
+    format!("{head}{mark}")
+}
+
+/// Returns the first `chars` characters of `text` and, when it has more, the mark
+/// `… (N bytes)` giving its whole length (empty otherwise).
+fn cut(text: &str, chars: usize) -> (&str, String) {
+    match text.char_indices().nth(chars) {
+        None => (text, String::new()),
+        Some((at, _)) => (&text[..at], format!("… ({} bytes)", text.len())),
     }
 }
 

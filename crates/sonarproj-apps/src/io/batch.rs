@@ -105,43 +105,45 @@ impl<'s, R: Read> BatchReader<'s, R> {
     /// [`Error::Csv`](crate::Error::Csv) naming the row (1-based, with its line) for a bad
     /// number, a wrong field count, an invalid pose or a feature outside sonar 1's field of view.
     pub fn next_item(&mut self) -> Result<Option<(Row, BatchItem)>> {
-        let Some(row) = self.table.next_row()? else {
-            return Ok(None);
-        };
-        let item = self
-            .item(&row.fields)
-            .map_err(|e| row_error(row.number, row.line, e))?;
-        Ok(Some((row, item)))
+        let (source, placement) = (self.source, self.placement);
+        self.table
+            .next_parsed(|table, fields| item(table, source, placement, fields))
     }
+}
 
-    /// Returns the projection that the row `fields` asks for.
-    fn item(&self, fields: &[String]) -> Result<BatchItem> {
-        let get = |c: &str| self.table.number(fields, c);
-        let (range, azimuth, elevation) = (get("range")?, get("azimuth")?, get("elevation")?);
-        self.source.check_point("feature", range, azimuth, elevation)?;
-        let rotation = Rotation::RollPitchYaw {
-            roll: get("roll")?,
-            pitch: get("pitch")?,
-            yaw: get("yaw")?,
-        };
-        let pose = if self.placement {
-            RelativePose::placement(
-                rotation,
-                [range, azimuth, elevation],
-                [
-                    get("place_range")?,
-                    get("place_azimuth")?,
-                    get("place_elevation")?,
-                ],
-            )?
-        } else {
-            RelativePose::new(rotation, [get("tx")?, get("ty")?, get("tz")?])?
-        };
-        Ok(BatchItem {
-            measurement: Measurement::of(self.source, range, azimuth)?,
-            pose,
-        })
-    }
+/// Returns the projection that the row `fields` of `table` asks for, checked against sonar 1
+/// (`source`); `placement` says whether the translation is given as a placement.
+fn item<R: Read>(
+    table: &TableReader<R>,
+    source: &Sonar,
+    placement: bool,
+    fields: &[String],
+) -> Result<BatchItem> {
+    let get = |c: &str| table.number(fields, c);
+    let (range, azimuth, elevation) = (get("range")?, get("azimuth")?, get("elevation")?);
+    source.check_point("feature", range, azimuth, elevation)?;
+    let rotation = Rotation::RollPitchYaw {
+        roll: get("roll")?,
+        pitch: get("pitch")?,
+        yaw: get("yaw")?,
+    };
+    let pose = if placement {
+        RelativePose::placement(
+            rotation,
+            [range, azimuth, elevation],
+            [
+                get("place_range")?,
+                get("place_azimuth")?,
+                get("place_elevation")?,
+            ],
+        )?
+    } else {
+        RelativePose::new(rotation, [get("tx")?, get("ty")?, get("tz")?])?
+    };
+    Ok(BatchItem {
+        measurement: Measurement::of(source, range, azimuth)?,
+        pose,
+    })
 }
 
 /// A batch CSV read whole (a sweep's pose list): the rows as given and the projections they ask
@@ -194,7 +196,7 @@ pub(crate) fn no_rows() -> crate::Error {
 /// returned (a caller writing a file discards it; on a stream they are out).
 ///
 /// # Errors
-/// As [`BatchReader`] for the input, with each row also checked by [`Batch::check_item`] (its
+/// As [`BatchReader`] for the input, with each row also checked by [`Batch::checker`] (its
 /// sampling plan); an input without rows; `project`'s errors; [`Error::WriteOutput`](crate::Error::WriteOutput) on I/O failure.
 pub fn project_csv(
     input: impl Read,
@@ -202,6 +204,8 @@ pub fn project_csv(
     pair: &Batch,
     mut project: impl FnMut(&Batch) -> Result<Vec<Projection>>,
 ) -> Result<usize> {
+    // The sonars and sampling are checked once; each row then only for itself.
+    let checker = pair.checker()?;
     let mut reader = BatchReader::new(input, &pair.source)?;
     let headers = reader.headers().to_vec();
     let mut out = CsvOut::new(output, &headers, &METRIC_COLUMNS);
@@ -228,8 +232,8 @@ pub fn project_csv(
     };
     let stop = loop {
         let next = reader.next_item().and_then(|next| match next {
-            Some((row, item)) => match chunk.check_item(&item) {
-                Ok(()) => Ok(Some((row, item))),
+            Some((row, item)) => match checker.check(&item) {
+                Ok(_) => Ok(Some((row, item))),
                 Err(e) => Err(row_error(row.number, row.line, e.into())),
             },
             None => Ok(None),

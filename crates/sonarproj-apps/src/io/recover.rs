@@ -106,48 +106,41 @@ impl<R: Read> RecoverReader<R> {
     /// [`Error::Csv`](crate::Error::Csv) naming the row (1-based, with its line) for a bad
     /// number or pose, or a wrong field count.
     pub fn next_item(&mut self) -> Result<Option<(Row, RecoverItem)>> {
-        let Some(row) = self.table.next_row()? else {
-            return Ok(None);
-        };
-        let item = self
-            .item(&row.fields)
-            .map_err(|e| row_error(row.number, row.line, e))?;
-        Ok(Some((row, item)))
+        self.table.next_parsed(item)
     }
+}
 
-    /// Returns the correspondence of the row `fields`.
-    fn item(&self, fields: &[String]) -> Result<RecoverItem> {
-        let table = &self.table;
-        let get = |c: &str| table.number(fields, c);
-        let rotation = Rotation::RollPitchYaw {
-            roll: get("roll")?,
-            pitch: get("pitch")?,
-            yaw: get("yaw")?,
-        };
-        let pose = RelativePose::new(rotation, [get("tx")?, get("ty")?, get("tz")?])?;
-        let sigmas = match (
-            table.optional(fields, "sigma_range")?,
-            table.optional(fields, "sigma_azimuth")?,
-        ) {
-            (None, None) => None,
-            (r, a) => Some(Sigmas {
-                range: r.unwrap_or(0.0),
-                azimuth: a.unwrap_or(0.0),
-            }),
-        };
-        Ok(RecoverItem {
-            pose,
-            first: Observation {
-                range: get("first_range")?,
-                azimuth: table.optional(fields, "first_azimuth")?,
-            },
-            second: Observation {
-                range: get("second_range")?,
-                azimuth: table.optional(fields, "second_azimuth")?,
-            },
-            sigmas,
-        })
-    }
+/// Returns the correspondence of the row `fields` of `table`.
+fn item<R: Read>(table: &TableReader<R>, fields: &[String]) -> Result<RecoverItem> {
+    let get = |c: &str| table.number(fields, c);
+    let rotation = Rotation::RollPitchYaw {
+        roll: get("roll")?,
+        pitch: get("pitch")?,
+        yaw: get("yaw")?,
+    };
+    let pose = RelativePose::new(rotation, [get("tx")?, get("ty")?, get("tz")?])?;
+    let sigmas = match (
+        table.optional(fields, "sigma_range")?,
+        table.optional(fields, "sigma_azimuth")?,
+    ) {
+        (None, None) => None,
+        (r, a) => Some(Sigmas {
+            range: r.unwrap_or(0.0),
+            azimuth: a.unwrap_or(0.0),
+        }),
+    };
+    Ok(RecoverItem {
+        pose,
+        first: Observation {
+            range: get("first_range")?,
+            azimuth: table.optional(fields, "first_azimuth")?,
+        },
+        second: Observation {
+            range: get("second_range")?,
+            azimuth: table.optional(fields, "second_azimuth")?,
+        },
+        sigmas,
+    })
 }
 
 /// Reads the recovery CSV `input`, recovers each row with `recover` and writes the output CSV to

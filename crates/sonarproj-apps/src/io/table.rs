@@ -202,6 +202,22 @@ impl<R: Read> TableReader<R> {
         }
     }
 
+    /// Returns the next row with what `parse` makes of its fields, or `None` at the end of the
+    /// input.
+    ///
+    /// # Errors
+    /// As [`TableReader::next_row`]; `parse`'s error, named by the row and its line.
+    pub fn next_parsed<T>(
+        &mut self,
+        parse: impl FnOnce(&Self, &[String]) -> Result<T>,
+    ) -> Result<Option<(Row, T)>> {
+        let Some(row) = self.next_row()? else {
+            return Ok(None);
+        };
+        let parsed = parse(self, &row.fields).map_err(|e| row_error(row.number, row.line, e))?;
+        Ok(Some((row, parsed)))
+    }
+
     /// Returns whether column `c` is present.
     #[must_use]
     pub fn has(&self, c: &str) -> bool {

@@ -377,10 +377,11 @@ impl SweepConfig {
             sampling: self.sampling,
             items: Vec::new(),
         };
+        let checker = pair.checker()?;
         match &self.poses {
             Poses::List(l) => {
                 for (k, item) in l.items.iter().enumerate() {
-                    pair.check_item(item).map_err(|e| Error::Csv {
+                    checker.check(item).map_err(|e| Error::Csv {
                         context: format!("pose list row {}", k + 1),
                         message: e.to_string(),
                     })?;
@@ -389,7 +390,7 @@ impl SweepConfig {
             Poses::Grid(g) if g.axes.iter().all(|a| !a.values.is_empty()) => {
                 let mut v: Vec<f64> = g.axes.iter().map(|a| a.values[0]).collect();
                 v[0] = g.axes[0].values.iter().copied().fold(f64::MIN, f64::max);
-                pair.check_item(&g.item(&self.source, v)?)?;
+                checker.check(&g.item(&self.source, v)?)?;
             }
             Poses::Grid(_) => {}
         }

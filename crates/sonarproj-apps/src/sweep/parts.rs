@@ -103,16 +103,17 @@ pub fn write(
         bytes: sums.0,
         crc32: format!("{:08x}", sums.1),
     };
-    let path = record_path(file);
-    write_atomic(&path, |w| {
-        serde_json::to_writer_pretty(&mut *w, &record).map_err(|e| Error::WriteOutput {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
-        w.write_all(b"\n").map_err(|e| Error::WriteOutput {
-            path: path.clone(),
-            message: e.to_string(),
-        })
+    write_json(&record_path(file), &record)
+}
+
+/// Writes `value` to `path` as pretty JSON, whole or not at all.
+///
+/// # Errors
+/// [`Error::WriteOutput`] on I/O failure.
+pub(crate) fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+    write_atomic(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, value).map_err(|e| Error::write_output(path, e))?;
+        w.write_all(b"\n").map_err(|e| Error::write_output(path, e))
     })
 }
 
@@ -201,11 +202,11 @@ pub fn join(parts: &[PathBuf], columns: &[String], out: &Path, expected: Expecte
     let mut want = Vec::new();
     {
         let mut w = csv::Writer::from_writer(&mut want);
-        w.write_record(columns).map_err(|e| write_error(out, e))?;
-        w.flush().map_err(|e| write_error(out, e))?;
+        w.write_record(columns).map_err(|e| Error::write_output(out, e))?;
+        w.flush().map_err(|e| Error::write_output(out, e))?;
     }
     write(out, expected, |w| {
-        w.write_all(&want).map_err(|e| write_error(out, e))?;
+        w.write_all(&want).map_err(|e| Error::write_output(out, e))?;
         for part in parts {
             let damaged = |message: String| Error::Csv {
                 context: part.display().to_string(),
@@ -239,7 +240,7 @@ pub fn join(parts: &[PathBuf], columns: &[String], out: &Path, expected: Expecte
             }
             let mut bytes = line.len() as u64;
             while read(&mut r, &mut line)? > 0 {
-                w.write_all(&line).map_err(|e| write_error(out, e))?;
+                w.write_all(&line).map_err(|e| Error::write_output(out, e))?;
                 bytes += line.len() as u64;
             }
             let crc = format!("{:08x}", hasher.finalize());
@@ -253,14 +254,6 @@ pub fn join(parts: &[PathBuf], columns: &[String], out: &Path, expected: Expecte
     })
 }
 
-/// Returns an output error for `path`.
-fn write_error(path: &Path, e: impl std::fmt::Display) -> Error {
-    Error::WriteOutput {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    }
-}
-
 /// Removes part `file` and its record, when they exist.
 ///
 /// # Errors
@@ -270,7 +263,7 @@ pub fn remove(file: &Path) -> Result<()> {
         match std::fs::remove_file(&path) {
             Ok(()) => {}
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => return Err(write_error(&path, e)),
+            Err(e) => return Err(Error::write_output(&path, e)),
         }
     }
     Ok(())

@@ -26,8 +26,9 @@ use sonarproj::projection::Backend;
 use crate::error::{Error, Result};
 use crate::io::table::write_rows;
 use crate::io::{METRIC_COLUMNS, metric_fields};
-use crate::report::{figures, output_dir, remove_stale_temporaries, write_atomic};
-use crate::sweep::{SweepConfig, parts};
+use crate::report::{figures, output_dir, remove_stale_temporaries};
+use crate::sweep::SweepConfig;
+use crate::sweep::parts::{self, write_json};
 use sonarproj::projection::{Batch, Projection};
 
 /// The default number of poses per chunk.
@@ -170,14 +171,6 @@ pub enum Event {
     },
 }
 
-/// Returns an output error for `path`.
-fn write_error(path: &Path, e: impl std::fmt::Display) -> Error {
-    Error::WriteOutput {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    }
-}
-
 /// Returns the JSON in `path`, or `None` when the file does not exist.
 fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Option<T>> {
     match std::fs::read(path) {
@@ -191,14 +184,6 @@ fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Option<T>> {
             source,
         }),
     }
-}
-
-/// Writes `value` to `path` as pretty JSON, whole or not at all.
-fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
-    write_atomic(path, |w| {
-        serde_json::to_writer_pretty(&mut *w, value).map_err(|e| write_error(path, e))?;
-        w.write_all(b"\n").map_err(|e| write_error(path, e))
-    })
 }
 
 /// Returns the descriptor of `config`.
@@ -291,7 +276,7 @@ pub fn run(
         }),
     }
     let state = dir.join(format!(".partial-{stem}"));
-    std::fs::create_dir_all(&state).map_err(|e| write_error(&state, e))?;
+    std::fs::create_dir_all(&state).map_err(|e| Error::write_output(&state, e))?;
     remove_stale_temporaries(&state);
     let manifest = Manifest {
         fingerprint: desc.fingerprint.clone(),
@@ -371,7 +356,7 @@ pub fn run(
                     &METRIC_COLUMNS,
                     std::iter::empty::<(&[String], Vec<String>)>(),
                 )?;
-                w.write_all(&body).map_err(|e| write_error(&path, e))
+                w.write_all(&body).map_err(|e| Error::write_output(&path, e))
             })?;
             outcome.computed += r.end - r.start;
         }
@@ -380,7 +365,7 @@ pub fn run(
     }
     let chunk_files: Vec<PathBuf> = (0..chunks.len()).map(chunk_path).collect();
     parts::join(&chunk_files, &desc.columns, &file, whole)?;
-    std::fs::remove_dir_all(&state).map_err(|e| write_error(&state, e))?;
+    std::fs::remove_dir_all(&state).map_err(|e| Error::write_output(&state, e))?;
     if opts.shard.is_none() {
         outcome.figure = figure(dir, &desc)?;
     }
@@ -402,9 +387,9 @@ fn csv_rows(fields: &[Vec<String>], results: &[Projection], path: &Path) -> Resu
             for (fields, p) in f.iter().zip(r) {
                 let metrics = metric_fields(&p.metrics);
                 w.write_record(fields.iter().chain(metrics.iter()))
-                    .map_err(|e| write_error(path, e))?;
+                    .map_err(|e| Error::write_output(path, e))?;
             }
-            w.into_inner().map_err(|e| write_error(path, e))
+            w.into_inner().map_err(|e| Error::write_output(path, e))
         })
         .collect::<Result<_>>()?;
     Ok(blocks.concat())

@@ -101,22 +101,64 @@ impl PreparedBatch<'_> {
     }
 }
 
-impl Batch {
-    /// Returns `Ok` when `item` could be an item of this batch: its measurement valid for sonar
-    /// 1, its pose valid and its sampling plan within [`MAX_SAMPLES_PER_POSE`](crate::sampling::MAX_SAMPLES_PER_POSE).
-    /// A reader that streams items through small batches checks each one as it comes, so that an
-    /// error names the item at fault ([`Batch::prepare`] makes the same checks).
+/// The checks of items against one sonar pair and sampling, which were validated once when it
+/// was made ([`Batch::checker`]); [`Batch::prepare`] checks its items with one, and a reader
+/// that streams items through small batches checks each row as it comes.
+#[derive(Clone, Copy, Debug)]
+pub struct ItemChecker<'a> {
+    batch: &'a Batch,
+    sampling: Sampling,
+    spacing: Option<f64>,
+}
+
+impl ItemChecker<'_> {
+    /// Returns `item`'s sample counts `(azimuths, elevations)` when it could be an item of the
+    /// batch: its measurement valid for sonar 1, its pose valid and its sampling plan within
+    /// [`MAX_SAMPLES_PER_POSE`](crate::sampling::MAX_SAMPLES_PER_POSE).
     ///
     /// # Errors
-    /// [`Error::InvalidValue`](crate::Error::InvalidValue) for an invalid sonar, sampling,
-    /// measurement or pose, or a plan that would draw too many samples.
-    pub fn check_item(&self, item: &BatchItem) -> Result<()> {
+    /// [`Error::InvalidValue`](crate::Error::InvalidValue) for an invalid measurement or pose,
+    /// or a plan that would draw too many samples.
+    pub fn check(&self, item: &BatchItem) -> Result<(usize, usize)> {
+        self.validate(item)?;
+        self.counts(item)
+    }
+
+    /// Returns `Ok` when `item`'s measurement is valid for sonar 1 and its pose valid.
+    fn validate(&self, item: &BatchItem) -> Result<()> {
+        item.measurement.validate(&self.batch.source)?;
+        item.pose.validate()
+    }
+
+    /// Returns the sample counts of `item`'s plan, refused past the per-pose limit.
+    fn counts(&self, item: &BatchItem) -> Result<(usize, usize)> {
+        let b = self.batch;
+        SamplingPlan::counts(
+            &b.source,
+            &b.target,
+            &item.measurement,
+            self.sampling,
+            self.spacing,
+        )
+    }
+}
+
+impl Batch {
+    /// Returns the checker of items for this batch's sonars and sampling, after validating them
+    /// (once, however many items are checked).
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`](crate::Error::InvalidValue) for an invalid sonar or sampling.
+    pub fn checker(&self) -> Result<ItemChecker<'_>> {
         self.source.validate().map_err(|e| e.in_context("sonar 1"))?;
         self.target.validate().map_err(|e| e.in_context("sonar 2"))?;
         let sampling = self.sampling.validated()?;
-        item.measurement.validate(&self.source)?;
-        item.pose.validate()?;
-        SamplingPlan::counts(&self.source, &self.target, &item.measurement, sampling, None).map(|_| ())
+        Ok(ItemChecker {
+            batch: self,
+            sampling,
+            // Computed once for every plan that auto sampling counts.
+            spacing: matches!(sampling, Sampling::Auto).then(|| auto_spacing(&self.target)),
+        })
     }
 
     /// Returns the batch prepared for a backend: sampling checked, one plan per distinct sample
@@ -127,21 +169,18 @@ impl Batch {
     /// measurement or pose (each checked here: the fields are public and may be set by hand,
     /// and item `k`'s errors name it), or a plan that would draw too many samples.
     pub fn prepare(&self) -> Result<PreparedBatch<'_>> {
-        self.source.validate().map_err(|e| e.in_context("sonar 1"))?;
-        self.target.validate().map_err(|e| e.in_context("sonar 2"))?;
-        let sampling = self.sampling.validated()?;
+        let checker = self.checker()?;
         let mut plans = Vec::new();
         let mut index: HashMap<(usize, usize), usize> = HashMap::new();
         let mut plan_of = Vec::with_capacity(self.items.len());
         let mut base = Vec::with_capacity(self.items.len());
         // Plans are drawn once per distinct sample count, not once per item.
-        let spacing = matches!(sampling, Sampling::Auto).then(|| auto_spacing(&self.target));
         for (k, item) in self.items.iter().enumerate() {
-            item.measurement
-                .validate(&self.source)
-                .and_then(|()| item.pose.validate())
+            // An invalid item is named; a plan too large is the sampling's fault, not the item's.
+            checker
+                .validate(item)
                 .map_err(|e| e.in_context(&format!("item {k}")))?;
-            let key = SamplingPlan::counts(&self.source, &self.target, &item.measurement, sampling, spacing)?;
+            let key = checker.counts(item)?;
             let k = *index.entry(key).or_insert_with(|| {
                 plans.push(SamplingPlan::with_counts(&self.source, key.0, key.1));
                 plans.len() - 1

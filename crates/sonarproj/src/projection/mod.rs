@@ -15,4 +15,4 @@ pub mod gpu;
 pub mod reference;
 
 pub use backend::{Backend, BackendChoice, Device, Output};
-pub use batch::{Batch, BatchItem, PreparedBatch, Projection};
+pub use batch::{Batch, BatchItem, ItemChecker, PreparedBatch, Projection};
