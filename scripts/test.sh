@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Runs the whole test suite, GPU tests on lavapipe (Mesa's Vulkan CPU driver), installing it when
-# it is missing. Usage: scripts/test.sh [extra cargo test arguments]
+# Runs the whole test suite — Rust, then the Python package's — with GPU tests on lavapipe
+# (Mesa's Vulkan CPU driver), installing what is missing. Usage: scripts/test.sh [extra cargo
+# test arguments]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -22,9 +23,28 @@ export NODEVICE_SELECT=1
 # 25 % faster). The examples are built as programs first (`cargo test` builds them only as test
 # harnesses), for tests/examples.rs to run; doctests last.
 checks=()
-for p in sonarproj sonarproj-apps sonarproj-cli; do
+for p in sonarproj sonarproj-apps sonarproj-cli sonarproj-py; do
     checks+=(--config "profile.release.package.$p.overflow-checks=true")
 done
 cargo build --release "${checks[@]}" --examples
-cargo test --release "${checks[@]}" --workspace --all-targets "$@"
-cargo test --release "${checks[@]}" --workspace --doc "$@"
+# The Python extension module is tested from Python (below): a Rust test harness would have to
+# link libpython.
+cargo test --release "${checks[@]}" --workspace --exclude sonarproj-py --all-targets "$@"
+cargo test --release "${checks[@]}" --workspace --exclude sonarproj-py --doc "$@"
+
+# Python: the package built as an abi3 manylinux wheel from the same target directory (the
+# dependencies built above are reused), installed into a fresh virtual environment, then its
+# tests (against the binary built above) and the Python examples.
+venv=target/python-venv
+rm -rf "$venv" target/wheels
+"${PYTHON:-python3}" -m venv "$venv"
+"$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" numpy pytest matplotlib
+"$venv/bin/maturin" build --release --quiet "${checks[@]}" -o target/wheels
+"$venv/bin/pip" install -q --disable-pip-version-check --no-deps target/wheels/sonarproj-*.whl
+SONARPROJ_BIN="$PWD/target/release/sonarproj" "$venv/bin/pytest" -q python/tests
+examples_out="$(mktemp -d)"
+trap 'rm -rf "$examples_out"' EXIT
+for example in examples/python/*.py; do
+    echo "example: $example" >&2
+    MPLBACKEND=Agg "$venv/bin/python" "$example" --out "$examples_out/$(basename "$example" .py)" >/dev/null
+done

@@ -2,16 +2,13 @@
 
 use std::path::PathBuf;
 
-use rayon::prelude::*;
 use std::time::Instant;
 
 use super::BackendArg;
 use sonarproj::{Backend, Sampling};
-use sonarproj_apps::io::table::write_rows;
-use sonarproj_apps::io::{METRIC_COLUMNS, metric_fields};
+use sonarproj_apps::Result;
 use sonarproj_apps::paper::{self, angles};
-use sonarproj_apps::report::{check_output_dir, figures, output_dir, write_atomic};
-use sonarproj_apps::{Error, Result};
+use sonarproj_apps::report::check_output_dir;
 
 /// Options of `sonarproj paper`.
 #[derive(Debug, clap::Args)]
@@ -35,7 +32,7 @@ pub(super) struct PaperArgs {
 /// Runs `sonarproj paper`.
 pub(super) fn run(a: PaperArgs) -> Result<()> {
     let sampling = Sampling::Step(a.step).validated()?;
-    let swept = angles(a.angle_step)?;
+    angles(a.angle_step)?;
     // A file where the directory should be is refused before any work; the directory itself is
     // created once the results exist, so a refused run leaves nothing behind.
     check_output_dir(&a.out, "--out")?;
@@ -46,43 +43,7 @@ pub(super) fn run(a: PaperArgs) -> Result<()> {
     let start = Instant::now();
     let runs = paper::run(&backend, a.angle_step, sampling)?;
     let computed = start.elapsed();
-    output_dir(&a.out, "--out")?;
-
-    let header: Vec<String> = ["scenario", "fraction", "roll", "pitch", "yaw"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-    // The two directions' CSV and figures are independent: written on all cores at once.
-    runs.par_iter().try_for_each(|run| -> Result<()> {
-        let stem = run.direction.stem();
-        let write_csv = || {
-            let rows = run.poses.iter().zip(&run.results).map(|(p, r)| {
-                let mut fields = vec![
-                    p.scenario.to_string(),
-                    p.fraction.map(|f| f.to_string()).unwrap_or_default(),
-                ];
-                fields.extend(p.angles.iter().map(f64::to_string));
-                (fields, metric_fields(&r.metrics))
-            });
-            let csv = a.out.join(format!("{stem}.csv"));
-            write_atomic(&csv, |w| write_rows(w, &header, &METRIC_COLUMNS, rows))
-        };
-        let (csv, (lines, heatmaps)) = rayon::join(write_csv, || {
-            rayon::join(
-                || figures::line_grid(run, &a.out.join(format!("{stem}-lines.png"))),
-                || figures::heatmaps(run, &swept, &a.out.join(format!("{stem}-heatmaps.png"))),
-            )
-        });
-        csv.and(lines).and(heatmaps)
-    })?;
-    let findings = paper::findings(&runs);
-    let md = paper::findings_markdown(&findings, a.angle_step, sampling);
-    write_atomic(&a.out.join("findings.md"), |w| {
-        w.write_all(md.as_bytes()).map_err(|e| Error::WriteOutput {
-            path: "findings.md".into(),
-            message: e.to_string(),
-        })
-    })?;
+    let findings = paper::write(&a.out, "--out", &runs, a.angle_step, sampling)?;
     let poses: usize = runs.iter().map(|r| r.poses.len()).sum();
     let samples: u64 = runs
         .iter()

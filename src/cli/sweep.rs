@@ -1,6 +1,7 @@
 //! `sonarproj sweep` and `sonarproj merge`: grids or pose lists from a TOML file, run in
 //! resumable chunks and shards, with a progress bar on a terminal.
 
+use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -75,14 +76,18 @@ pub(super) fn run(a: SweepArgs) -> Result<()> {
         Event::Progress { done, total } => {
             bar.set_length(total);
             bar.set_position(done);
+            ControlFlow::Continue(())
         }
-        Event::Recomputing { file, reason } => bar.suspend(|| {
-            eprintln!(
-                "sweep: {} is damaged ({reason}); computing it again",
-                file.display()
-            );
-        }),
-        _ => {}
+        Event::Recomputing { file, reason } => {
+            bar.suspend(|| {
+                eprintln!(
+                    "sweep: {} is damaged ({reason}); computing it again",
+                    file.display()
+                );
+            });
+            ControlFlow::Continue(())
+        }
+        _ => ControlFlow::Continue(()),
     });
     bar.finish_and_clear();
     let outcome = outcome?;

@@ -463,3 +463,64 @@ pub fn findings_markdown(findings: &[Finding], angle_step: f64, sampling: Sampli
     }
     md
 }
+
+/// Writes the results of [`run`] into the directory `out` (created when missing; `field` names
+/// it in errors): `fls-to-sss.csv` and `sss-to-fls.csv` (scenario, fraction, roll, pitch, yaw,
+/// then the metric columns), the figures (`*-lines.png`: scenarios 1–6, `*-heatmaps.png`:
+/// scenarios 7–9) and `findings.md`; returns the findings. Each file is written whole or not at
+/// all; the two directions are written on all cores at once. The command line's `paper` and the
+/// Python package's `paper()` both end here.
+///
+/// # Errors
+/// As [`angles`] for `angle_step`; [`crate::report::output_dir`]'s for `out`; errors of
+/// writing files and drawing figures.
+pub fn write(
+    out: &std::path::Path,
+    field: &str,
+    runs: &[DirectionRun],
+    angle_step: f64,
+    sampling: Sampling,
+) -> Result<Vec<Finding>> {
+    use crate::io::table::write_rows;
+    use crate::io::{METRIC_COLUMNS, metric_fields};
+    use crate::report::{figures, output_dir, write_atomic};
+    use rayon::prelude::*;
+
+    let swept = angles(angle_step)?;
+    output_dir(out, field)?;
+    let header: Vec<String> = ["scenario", "fraction", "roll", "pitch", "yaw"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    runs.par_iter().try_for_each(|run| -> Result<()> {
+        let stem = run.direction.stem();
+        let write_csv = || {
+            let rows = run.poses.iter().zip(&run.results).map(|(p, r)| {
+                let mut fields = vec![
+                    p.scenario.to_string(),
+                    p.fraction.map(|f| f.to_string()).unwrap_or_default(),
+                ];
+                fields.extend(p.angles.iter().map(f64::to_string));
+                (fields, metric_fields(&r.metrics))
+            });
+            let csv = out.join(format!("{stem}.csv"));
+            write_atomic(&csv, |w| write_rows(w, &header, &METRIC_COLUMNS, rows))
+        };
+        let (csv, (lines, heatmaps)) = rayon::join(write_csv, || {
+            rayon::join(
+                || figures::line_grid(run, &out.join(format!("{stem}-lines.png"))),
+                || figures::heatmaps(run, &swept, &out.join(format!("{stem}-heatmaps.png"))),
+            )
+        });
+        csv.and(lines).and(heatmaps)
+    })?;
+    let found = findings(runs);
+    let md = findings_markdown(&found, angle_step, sampling);
+    write_atomic(&out.join("findings.md"), |w| {
+        w.write_all(md.as_bytes()).map_err(|e| Error::WriteOutput {
+            path: "findings.md".into(),
+            message: e.to_string(),
+        })
+    })?;
+    Ok(found)
+}

@@ -120,25 +120,47 @@ fn item<R: Read>(
     fields: &[String],
 ) -> Result<BatchItem> {
     let get = |c: &str| table.number(fields, c);
-    let (range, azimuth, elevation) = (get("range")?, get("azimuth")?, get("elevation")?);
+    let feature = [get("range")?, get("azimuth")?, get("elevation")?];
+    let rpy = [get("roll")?, get("pitch")?, get("yaw")?];
+    let translation = if placement {
+        [
+            get("place_range")?,
+            get("place_azimuth")?,
+            get("place_elevation")?,
+        ]
+    } else {
+        [get("tx")?, get("ty")?, get("tz")?]
+    };
+    Ok(batch_item(source, feature, rpy, placement, translation)?)
+}
+
+/// Returns the projection one batch row asks for, checked against sonar 1 (`source`): the
+/// feature's true point `feature` = `[range, azimuth, elevation]` (m, deg, deg), the rotation
+/// `rpy` = `[roll, pitch, yaw]` (deg), and `translation`: `[place_range, place_azimuth,
+/// place_elevation]` when `placement`, else `[tx, ty, tz]` (m). The CSV reader and the Python
+/// package's column arrays both build their items here.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] for a feature outside sonar 1's field of view or an
+/// invalid pose.
+pub fn batch_item(
+    source: &Sonar,
+    feature: [f64; 3],
+    rpy: [f64; 3],
+    placement: bool,
+    translation: [f64; 3],
+) -> sonarproj::Result<BatchItem> {
+    let [range, azimuth, elevation] = feature;
     source.check_point("feature", range, azimuth, elevation)?;
     let rotation = Rotation::RollPitchYaw {
-        roll: get("roll")?,
-        pitch: get("pitch")?,
-        yaw: get("yaw")?,
+        roll: rpy[0],
+        pitch: rpy[1],
+        yaw: rpy[2],
     };
     let pose = if placement {
-        RelativePose::placement(
-            rotation,
-            [range, azimuth, elevation],
-            [
-                get("place_range")?,
-                get("place_azimuth")?,
-                get("place_elevation")?,
-            ],
-        )?
+        RelativePose::placement(rotation, feature, translation)?
     } else {
-        RelativePose::new(rotation, [get("tx")?, get("ty")?, get("tz")?])?
+        RelativePose::new(rotation, translation)?
     };
     Ok(BatchItem {
         measurement: Measurement::of(source, range, azimuth)?,

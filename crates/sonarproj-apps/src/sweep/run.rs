@@ -15,7 +15,7 @@
 //!   again, saying so; the directory is removed once the result file is written.
 
 use sonarproj::Output;
-use std::ops::Range;
+use std::ops::{ControlFlow, Range};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -217,6 +217,8 @@ fn claim(dir: &Path, d: &Descriptor) -> Result<()> {
 
 /// Runs `config` (or one shard of it) on `backend` into `opts.out`, resuming from finished
 /// chunks; `events` hears of progress after each chunk and of every damaged part set aside.
+/// When `events` answers [`ControlFlow::Break`], the run stops there as `max_chunks` stops it:
+/// finished chunks stay on disk, the outcome has no file, and the same call resumes.
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] for a directory holding another sweep or an unfinished run with
@@ -229,7 +231,7 @@ pub fn run(
     config: &SweepConfig,
     backend: &Backend,
     opts: &Options,
-    events: &mut dyn FnMut(Event),
+    events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Outcome> {
     if opts.chunk_poses == 0 {
         return Err(Error::invalid("--chunk-poses", 0, "must be >= 1"));
@@ -263,17 +265,24 @@ pub fn run(
         parts::Status::Good => {
             outcome.resumed = poses;
             outcome.file = Some(file);
-            events(Event::Progress {
+            // Finished: nothing left to stop.
+            let _ = events(Event::Progress {
                 done: poses,
                 total: poses,
             });
             return Ok(outcome);
         }
         parts::Status::Missing => {}
-        parts::Status::Damaged(reason) => events(Event::Recomputing {
-            file: file.clone(),
-            reason,
-        }),
+        parts::Status::Damaged(reason) => {
+            if events(Event::Recomputing {
+                file: file.clone(),
+                reason,
+            })
+            .is_break()
+            {
+                return Ok(outcome);
+            }
+        }
     }
     let state = dir.join(format!(".partial-{stem}"));
     std::fs::create_dir_all(&state).map_err(|e| Error::write_output(&state, e))?;
@@ -334,11 +343,14 @@ pub fn run(
                 return Ok(outcome);
             }
             budget -= 1;
-            if let parts::Status::Damaged(reason) = status {
-                events(Event::Recomputing {
+            if let parts::Status::Damaged(reason) = status
+                && events(Event::Recomputing {
                     file: path.clone(),
                     reason,
-                });
+                })
+                .is_break()
+            {
+                return Ok(outcome);
             }
             let (items, fields) = config.items(r.clone())?;
             let batch = Batch {
@@ -361,7 +373,9 @@ pub fn run(
             outcome.computed += r.end - r.start;
         }
         done += r.end - r.start;
-        events(Event::Progress { done, total: poses });
+        if events(Event::Progress { done, total: poses }).is_break() {
+            return Ok(outcome);
+        }
     }
     let chunk_files: Vec<PathBuf> = (0..chunks.len()).map(chunk_path).collect();
     parts::join(&chunk_files, &desc.columns, &file, whole)?;

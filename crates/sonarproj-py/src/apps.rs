@@ -1,0 +1,138 @@
+//! `sonarproj.sweep` and `sonarproj.paper`: the applications the command line runs, with the
+//! same code.
+
+use std::ops::ControlFlow;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use sonarproj::Sampling;
+use sonarproj_apps::paper;
+use sonarproj_apps::report::check_output_dir;
+use sonarproj_apps::sweep::{self, Event, Options, Shard, SweepConfig};
+
+use crate::{backend, errors};
+
+/// The command line's flags named in the applications' messages, and the Python parameters
+/// that stand for them.
+const FLAGS: [(&str, &str); 5] = [
+    ("--out", "out_dir"),
+    ("--chunk-poses", "chunk_poses"),
+    ("--max-chunks", "max_chunks"),
+    ("--shard", "shard"),
+    ("--config", "config"),
+];
+
+/// Returns the error of an applications call, with the command line's flags renamed.
+fn error(e: sonarproj_apps::Error) -> PyErr {
+    errors::apps_renamed(e, &FLAGS)
+}
+
+/// Runs the sweep of the TOML file `config` into `out_dir` (resuming a run there); returns what
+/// was done and the notice of the backend's selection. `progress(done, total)` is called after
+/// each chunk; Ctrl-C stops the run between chunks (finished chunks stay on disk).
+#[pyfunction]
+#[pyo3(signature = (config, out_dir, shard, chunk_poses, max_chunks, backend_name, progress))]
+#[expect(clippy::too_many_arguments, reason = "the Python function's parameters")]
+pub(crate) fn sweep_run<'py>(
+    py: Python<'py>,
+    config: PathBuf,
+    out_dir: PathBuf,
+    shard: Option<&str>,
+    chunk_poses: u64,
+    max_chunks: Option<u64>,
+    backend_name: &str,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
+    let shard = shard.map(Shard::parse).transpose().map_err(error)?;
+    let config = SweepConfig::load(&config).map_err(error)?;
+    let opts = Options {
+        out: out_dir,
+        shard,
+        chunk_poses,
+        max_chunks,
+    };
+    let (backend, notice) = backend::get(backend_name)?;
+    let start = Instant::now();
+    // The run goes on without the GIL; after each chunk it takes it back to report progress and
+    // to look for Ctrl-C, and stops (keeping the finished chunks) when Python raised.
+    let mut raised: Option<PyErr> = None;
+    let outcome = py.detach(|| {
+        sweep::run(&config, &backend, &opts, &mut |event| {
+            let Event::Progress { done, total } = event else {
+                return ControlFlow::Continue(());
+            };
+            Python::attach(|py| {
+                let result = py.check_signals().and_then(|()| match &progress {
+                    Some(f) => f.bind(py).call1((done, total)).map(|_| ()),
+                    None => Ok(()),
+                });
+                match result {
+                    Ok(()) => ControlFlow::Continue(()),
+                    Err(e) => {
+                        raised = Some(e);
+                        ControlFlow::Break(())
+                    }
+                }
+            })
+        })
+    });
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    let outcome = outcome.map_err(error)?;
+    let d = PyDict::new(py);
+    d.set_item("file", outcome.file)?;
+    d.set_item("figure", outcome.figure)?;
+    d.set_item("poses", outcome.poses)?;
+    d.set_item("computed", outcome.computed)?;
+    d.set_item("resumed", outcome.resumed)?;
+    d.set_item("seconds", start.elapsed().as_secs_f64())?;
+    d.set_item("device", backend.device())?;
+    Ok((d, notice))
+}
+
+/// Runs the paper's simulations and writes their CSV, figures and findings into `out_dir`;
+/// returns the findings and the notice of the backend's selection.
+#[pyfunction]
+#[pyo3(signature = (out_dir, angle_step, step, backend_name))]
+pub(crate) fn paper_run<'py>(
+    py: Python<'py>,
+    out_dir: PathBuf,
+    angle_step: f64,
+    step: f64,
+    backend_name: &str,
+) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
+    let sampling = Sampling::Step(step)
+        .validated()
+        .map_err(|e| errors::engine(e.in_context("step")))?;
+    paper::angles(angle_step).map_err(|e| error(e.in_context("angle_step")))?;
+    check_output_dir(&out_dir, "out_dir").map_err(error)?;
+    let (backend, notice) = backend::get(backend_name)?;
+    let start = Instant::now();
+    let runs = py
+        .detach(|| paper::run(&backend, angle_step, sampling))
+        .map_err(error)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let findings = py
+        .detach(|| paper::write(&out_dir, "out_dir", &runs, angle_step, sampling))
+        .map_err(error)?;
+    let d = PyDict::new(py);
+    let list = findings
+        .iter()
+        .map(|f| {
+            let item = PyDict::new(py);
+            item.set_item("claim", f.claim)?;
+            item.set_item("holds", f.holds)?;
+            item.set_item("evidence", &f.evidence)?;
+            Ok(item)
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    d.set_item("findings", list)?;
+    d.set_item("poses", runs.iter().map(|r| r.poses.len()).sum::<usize>())?;
+    d.set_item("seconds", seconds)?;
+    d.set_item("device", backend.device())?;
+    d.set_item("out_dir", out_dir)?;
+    Ok((d, notice))
+}

@@ -1,0 +1,43 @@
+//! The native module of the `sonarproj` Python package: the engine and the applications bound
+//! with PyO3. The Python package (`python/sonarproj/`) wraps these functions: it checks array
+//! shapes and dtypes, turns mappings into columns and notices into warnings, and carries the
+//! documentation a Python user reads. Angles are degrees and distances metres at this boundary,
+//! as on the command line.
+
+use pyo3::prelude::*;
+
+mod apps;
+mod arrays;
+mod backend;
+mod batch;
+mod errors;
+mod masks;
+mod pose;
+mod recover;
+mod sonar;
+
+/// Registers the module's classes, functions and exception.
+#[pymodule]
+fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("InputError", m.py().get_type::<errors::InputError>())?;
+    m.add_class::<sonar::PySonar>()?;
+    m.add_class::<pose::PyPose>()?;
+    m.add_class::<pose::PyMount>()?;
+    m.add_class::<masks::PyMaskEngine>()?;
+    m.add_class::<masks::PyMaskSet>()?;
+    m.add_function(wrap_pyfunction!(sonar::presets, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::batch_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::bench_rust_batch, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::project_one, m)?)?;
+    m.add_function(wrap_pyfunction!(recover::recover_one, m)?)?;
+    m.add_function(wrap_pyfunction!(recover::recover_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(apps::sweep_run, m)?)?;
+    m.add_function(wrap_pyfunction!(apps::paper_run, m)?)?;
+    m.add("METRIC_COLUMNS", sonarproj_apps::io::METRIC_COLUMNS.to_vec())?;
+    m.add(
+        "DEFAULT_CHUNK_POSES",
+        sonarproj_apps::sweep::run::DEFAULT_CHUNK_POSES,
+    )?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,227 @@
+//! `sonarproj.Pose` (sonar 2 relative to sonar 1) and `sonarproj.Mount` (a sonar in a common
+//! frame).
+
+use glam::{DMat3, DQuat, DVec3};
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, ToPyArray};
+use pyo3::prelude::*;
+use sonarproj::geometry::rig::{self, Mount};
+use sonarproj::{RelativePose, Rotation};
+
+use crate::errors;
+
+/// The pose of sonar 2 relative to sonar 1: `p2 = R p1 + t` (m).
+///
+/// `Pose(roll=0, pitch=0, yaw=0, t=(0, 0, 0))`: roll, pitch, yaw in degrees with the paper's
+/// `R = (Rz(yaw) Ry(pitch) Rx(roll))^T`, translation `t` in metres. Other forms:
+/// `Pose.from_quat_xyzw`, `Pose.from_matrix`, `Pose.placement` (the paper's simulations) and
+/// `Pose.from_mounts` (two sonars mounted in a common frame).
+#[pyclass(name = "Pose", module = "sonarproj", frozen)]
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PyPose {
+    pub(crate) inner: RelativePose,
+}
+
+/// Returns the rotation given by at most one of roll/pitch/yaw (non-zero), `quat_xyzw` and
+/// `matrix`.
+fn rotation(rpy: [f64; 3], quat_xyzw: Option<[f64; 4]>, matrix: Option<[[f64; 3]; 3]>) -> PyResult<Rotation> {
+    let rpy_given = rpy.iter().any(|v| *v != 0.0);
+    match (quat_xyzw, matrix) {
+        (Some(_), Some(_)) => Err(errors::input(
+            "quat_xyzw",
+            "give one rotation: roll/pitch/yaw, quat_xyzw or matrix",
+        )),
+        (Some(_), None) | (None, Some(_)) if rpy_given => Err(errors::input(
+            "roll/pitch/yaw",
+            "give one rotation: roll/pitch/yaw, quat_xyzw or matrix",
+        )),
+        (Some([x, y, z, w]), None) => Ok(Rotation::QuaternionWxyz([w, x, y, z])),
+        (None, Some(m)) => Ok(Rotation::Matrix(m)),
+        (None, None) => Ok(Rotation::RollPitchYaw {
+            roll: rpy[0],
+            pitch: rpy[1],
+            yaw: rpy[2],
+        }),
+    }
+}
+
+#[pymethods]
+impl PyPose {
+    /// Returns the pose with roll, pitch, yaw (deg; the paper's `R = (Rz(yaw) Ry(pitch)
+    /// Rx(roll))ᵀ`) and translation `t` (m).
+    #[new]
+    #[pyo3(signature = (roll=0.0, pitch=0.0, yaw=0.0, t=[0.0, 0.0, 0.0]), text_signature = "(roll=0.0, pitch=0.0, yaw=0.0, t=(0.0, 0.0, 0.0))")]
+    fn new(roll: f64, pitch: f64, yaw: f64, t: [f64; 3]) -> PyResult<Self> {
+        let r = Rotation::RollPitchYaw { roll, pitch, yaw };
+        Ok(PyPose {
+            inner: RelativePose::new(r, t).map_err(errors::engine)?,
+        })
+    }
+
+    /// Returns the pose whose rotation `R` is the unit quaternion `quat_xyzw` (x, y, z, w: the
+    /// order of ROS and scipy) and translation `t` (m).
+    #[staticmethod]
+    #[pyo3(signature = (quat_xyzw, t=[0.0, 0.0, 0.0]), text_signature = "(quat_xyzw, t=(0.0, 0.0, 0.0))")]
+    fn from_quat_xyzw(quat_xyzw: [f64; 4], t: [f64; 3]) -> PyResult<Self> {
+        let r = rotation([0.0; 3], Some(quat_xyzw), None)?;
+        Ok(PyPose {
+            inner: RelativePose::new(r, t).map_err(errors::engine)?,
+        })
+    }
+
+    /// Returns the pose with the rotation matrix `matrix` (3×3, row-major) and translation `t`.
+    #[staticmethod]
+    #[pyo3(signature = (matrix, t=[0.0, 0.0, 0.0]), text_signature = "(matrix, t=(0.0, 0.0, 0.0))")]
+    fn from_matrix(matrix: [[f64; 3]; 3], t: [f64; 3]) -> PyResult<Self> {
+        Ok(PyPose {
+            inner: RelativePose::new(Rotation::Matrix(matrix), t).map_err(errors::engine)?,
+        })
+    }
+
+    /// Returns the placement pose of the paper's simulations: the feature's true point
+    /// `feature` = (range, azimuth, elevation) in sonar 1 appears at `place` in sonar 2.
+    #[staticmethod]
+    #[pyo3(signature = (feature, place, roll=0.0, pitch=0.0, yaw=0.0, *, quat_xyzw=None, matrix=None))]
+    fn placement(
+        feature: [f64; 3],
+        place: [f64; 3],
+        roll: f64,
+        pitch: f64,
+        yaw: f64,
+        quat_xyzw: Option<[f64; 4]>,
+        matrix: Option<[[f64; 3]; 3]>,
+    ) -> PyResult<Self> {
+        let r = rotation([roll, pitch, yaw], quat_xyzw, matrix)?;
+        Ok(PyPose {
+            inner: RelativePose::placement(r, feature, place).map_err(errors::engine)?,
+        })
+    }
+
+    /// Returns the pose of sonar 2 relative to sonar 1 from their mounts in a common frame.
+    #[staticmethod]
+    fn from_mounts(first: &PyMount, second: &PyMount) -> PyResult<Self> {
+        Ok(PyPose {
+            inner: rig::relative_pose(&first.inner, &second.inner).map_err(errors::engine)?,
+        })
+    }
+
+    /// The rotation matrix `R` (3×3).
+    #[getter]
+    fn rotation<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        matrix(self.inner.rotation).to_pyarray(py)
+    }
+
+    /// The translation `t` (m).
+    #[getter]
+    fn translation<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.inner.translation.to_array().to_pyarray(py)
+    }
+
+    /// Returns `R p + t` for points `p` (m) of sonar 1's frame, shape `(3,)` or `(n, 3)`: the
+    /// points in sonar 2's frame, same shape.
+    fn apply<'py>(
+        &self,
+        py: Python<'py>,
+        p: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, numpy::PyArrayDyn<f64>>> {
+        let numpy_module = py.import("numpy")?;
+        let converted = numpy_module
+            .call_method1("asarray", (p, "float64"))
+            .map_err(|e| errors::input("p", format!("not an array of numbers ({e})")))?;
+        let array = converted
+            .cast::<numpy::PyArrayDyn<f64>>()
+            .map_err(|e| errors::input("p", e.to_string()))?
+            .readonly();
+        let a = array.as_array();
+        let shape = a.shape().to_vec();
+        if shape.last() != Some(&3) || shape.len() > 2 {
+            return Err(errors::input(
+                "p",
+                format!("must have shape (3,) or (n, 3), got {shape:?}"),
+            ));
+        }
+        let flat: Vec<f64> = a.iter().copied().collect();
+        let out: Vec<f64> = flat
+            .chunks_exact(3)
+            .flat_map(|c| self.inner.apply(DVec3::new(c[0], c[1], c[2])).to_array())
+            .collect();
+        Ok(numpy::ndarray::ArrayD::from_shape_vec(shape, out)
+            .expect("same shape")
+            .into_pyarray(py))
+    }
+
+    fn __repr__(&self) -> String {
+        let r = self.inner.rotation.transpose().to_cols_array_2d();
+        format!(
+            "Pose(rotation={:?}, translation={:?})",
+            r,
+            self.inner.translation.to_array()
+        )
+    }
+}
+
+/// Returns the row-major array of `m`.
+fn matrix(m: DMat3) -> Array2<f64> {
+    let rows = m.transpose().to_cols_array();
+    Array2::from_shape_vec((3, 3), rows.to_vec()).expect("nine values")
+}
+
+/// Where a sonar is mounted in a common frame (x forward, y left, z up):
+/// `p_common = rotation · p_sonar + position`.
+#[pyclass(name = "Mount", module = "sonarproj", frozen)]
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PyMount {
+    inner: Mount,
+}
+
+#[pymethods]
+impl PyMount {
+    /// Returns the mount at `position` (m) turned by `quat_xyzw` (x, y, z, w) or by URDF
+    /// `rpy` (deg, fixed axes: Rz(yaw) Ry(pitch) Rx(roll)); no rotation when neither is given.
+    #[new]
+    #[pyo3(signature = (position, *, quat_xyzw=None, rpy=None))]
+    fn new(position: [f64; 3], quat_xyzw: Option<[f64; 4]>, rpy: Option<[f64; 3]>) -> PyResult<Self> {
+        let p = DVec3::from_array(position);
+        let inner = match (quat_xyzw, rpy) {
+            (Some(_), Some(_)) => {
+                return Err(errors::input("quat_xyzw", "give quat_xyzw or rpy, not both"));
+            }
+            (Some([x, y, z, w]), None) => Mount::new(DQuat::from_xyzw(x, y, z, w), p),
+            (None, Some([r, pi, y])) => Mount::from_rpy_deg(r, pi, y, p),
+            (None, None) => Mount::new(DQuat::IDENTITY, p),
+        }
+        .map_err(errors::engine)?;
+        Ok(PyMount { inner })
+    }
+
+    /// Returns the mount given in FRD axes (x forward, y starboard, z down; NED for a world
+    /// frame), converted to the common FLU frame.
+    #[staticmethod]
+    fn from_frd(position: [f64; 3], quat_xyzw: [f64; 4]) -> PyResult<Self> {
+        let [x, y, z, w] = quat_xyzw;
+        Ok(PyMount {
+            inner: Mount::from_frd(DQuat::from_xyzw(x, y, z, w), DVec3::from_array(position))
+                .map_err(errors::engine)?,
+        })
+    }
+
+    /// The mount's rotation as a unit quaternion (x, y, z, w).
+    #[getter]
+    fn quat_xyzw(&self) -> [f64; 4] {
+        self.inner.rotation().to_array()
+    }
+
+    /// The mount's position (m) in the common frame.
+    #[getter]
+    fn position(&self) -> [f64; 3] {
+        self.inner.position().to_array()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Mount(position={:?}, quat_xyzw={:?})",
+            self.position(),
+            self.quat_xyzw()
+        )
+    }
+}

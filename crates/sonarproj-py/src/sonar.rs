@@ -1,0 +1,237 @@
+//! `sonarproj.Sonar` and `sonarproj.presets()`.
+
+use std::path::PathBuf;
+
+use numpy::{PyArray1, ToPyArray};
+use pyo3::prelude::*;
+use sonarproj::{BeamLayout, Sonar, SonarKind};
+
+use crate::errors;
+
+/// A sonar: kind, field of view (metres, degrees) and data layout.
+///
+/// `Sonar(kind, range_min, range_max, azimuth_aperture, elevation_aperture, range_bins,
+/// beams=None, beam_edges=None, beam_centres=None, name=None)`: `kind` "fls" (imaging) or "sss"
+/// (sidescan); ranges in m (`0 <= range_min < range_max <= 10000`); full apertures in degrees
+/// (azimuth in (0, 360], elevation in (0, 180]); `range_bins` uniform bins; for an imaging sonar
+/// exactly one of `beams` (a count of equal beams), `beam_edges` (deg, beams + 1 increasing
+/// values from -aperture/2, starboard, to +aperture/2, port) or `beam_centres` (deg; edges at
+/// the midpoints). Also `Sonar.preset(name)` and `Sonar.from_toml(path)`.
+#[pyclass(name = "Sonar", module = "sonarproj", frozen)]
+#[derive(Clone, Debug)]
+pub(crate) struct PySonar {
+    pub(crate) inner: Sonar,
+}
+
+/// Returns `v` as a count for `field`, or an `InputError` naming it when it is negative or too
+/// large.
+fn count(field: &str, v: i64) -> PyResult<u32> {
+    u32::try_from(v).map_err(|_| {
+        errors::input(
+            field,
+            format!("{v} is not a count: give an integer from 1 to {}", u32::MAX),
+        )
+    })
+}
+
+#[pymethods]
+impl PySonar {
+    /// Returns a sonar from its fields (see the Python docstring of `sonarproj.Sonar`).
+    #[new]
+    #[pyo3(signature = (kind, range_min, range_max, azimuth_aperture, elevation_aperture, range_bins, beams=None, beam_edges=None, beam_centres=None, name=None))]
+    #[expect(clippy::too_many_arguments, reason = "the sonar's fields, as Python keywords")]
+    fn new(
+        kind: &str,
+        range_min: f64,
+        range_max: f64,
+        azimuth_aperture: f64,
+        elevation_aperture: f64,
+        range_bins: i64,
+        beams: Option<i64>,
+        beam_edges: Option<Vec<f64>>,
+        beam_centres: Option<Vec<f64>>,
+        name: Option<String>,
+    ) -> PyResult<Self> {
+        let kind = match kind {
+            "fls" => SonarKind::Fls,
+            "sss" => SonarKind::Sss,
+            other => {
+                return Err(errors::input(
+                    "kind",
+                    format!("{other:?} is not a sonar kind; use \"fls\" (imaging) or \"sss\" (sidescan)"),
+                ));
+            }
+        };
+        let given = [beams.is_some(), beam_edges.is_some(), beam_centres.is_some()]
+            .iter()
+            .filter(|g| **g)
+            .count();
+        if given > 1 {
+            return Err(errors::input(
+                "beams",
+                "give one of beams, beam_edges and beam_centres, not several",
+            ));
+        }
+        if kind == SonarKind::Sss && given > 0 {
+            return Err(errors::input(
+                "beams",
+                "a sidescan sonar has one beam; give beams, beam_edges or beam_centres for an fls only",
+            ));
+        }
+        if kind == SonarKind::Fls && given == 0 {
+            return Err(errors::input(
+                "beams",
+                "an fls needs its beams: give beams (a count), beam_edges or beam_centres (deg)",
+            ));
+        }
+        let layout = match (beams, beam_edges) {
+            (Some(n), _) => BeamLayout::Uniform {
+                count: count("beams", n)?,
+            },
+            (None, Some(edges)) => BeamLayout::Edges(edges),
+            (None, None) => BeamLayout::Uniform { count: 1 },
+        };
+        let sonar = Sonar {
+            name: name.unwrap_or_else(|| format!("custom-{}", kind.name())),
+            kind,
+            range_min,
+            range_max,
+            azimuth_aperture,
+            elevation_aperture,
+            range_bins: count("range_bins", range_bins)?,
+            beams: layout,
+        };
+        let sonar = match beam_centres {
+            Some(c) => sonar.with_beam_centres(&c, Some(azimuth_aperture)),
+            None => sonar.validated(),
+        }
+        .map_err(errors::engine)?;
+        Ok(PySonar { inner: sonar })
+    }
+
+    /// Returns the preset called `name` (see `sonarproj.presets()`).
+    #[staticmethod]
+    fn preset(name: &str) -> PyResult<Self> {
+        Sonar::preset(name).map(|inner| PySonar { inner }).ok_or_else(|| {
+            errors::input(
+                "name",
+                format!(
+                    "{name:?} is not a preset; the presets are {}",
+                    Sonar::preset_names().join(", ")
+                ),
+            )
+        })
+    }
+
+    /// Returns the sonar described by the TOML file at `path`.
+    #[staticmethod]
+    fn from_toml(path: PathBuf) -> PyResult<Self> {
+        Sonar::from_toml_file(&path)
+            .map(|inner| PySonar { inner })
+            .map_err(errors::engine)
+    }
+
+    /// The sonar's name (a preset's name, the file, or the name given).
+    #[getter]
+    fn name(&self) -> &str {
+        &self.inner.name
+    }
+
+    /// "fls" or "sss".
+    #[getter]
+    fn kind(&self) -> &'static str {
+        self.inner.kind.name()
+    }
+
+    /// Minimum range (m).
+    #[getter]
+    fn range_min(&self) -> f64 {
+        self.inner.range_min
+    }
+
+    /// Maximum range (m).
+    #[getter]
+    fn range_max(&self) -> f64 {
+        self.inner.range_max
+    }
+
+    /// Full azimuth aperture (deg).
+    #[getter]
+    fn azimuth_aperture(&self) -> f64 {
+        self.inner.azimuth_aperture
+    }
+
+    /// Full elevation aperture (deg).
+    #[getter]
+    fn elevation_aperture(&self) -> f64 {
+        self.inner.elevation_aperture
+    }
+
+    /// Number of range bins.
+    #[getter]
+    fn range_bins(&self) -> u32 {
+        self.inner.range_bins
+    }
+
+    /// Number of beams (1 for a sidescan).
+    #[getter]
+    fn beams(&self) -> u32 {
+        self.inner.beam_count()
+    }
+
+    /// Beam edges (deg), increasing, `beams + 1` values from -aperture/2 (starboard) to
+    /// +aperture/2 (port).
+    #[getter]
+    fn beam_edges<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let edges: Vec<f64> = self
+            .inner
+            .beam_edges_rad()
+            .iter()
+            .map(|e| e.to_degrees())
+            .collect();
+        let edges = match &self.inner.beams {
+            BeamLayout::Edges(given) => given.clone(),
+            BeamLayout::Uniform { .. } => edges,
+        };
+        edges.to_pyarray(py)
+    }
+
+    /// The shape of the sonar's data as numpy holds it: `(range_bins, beams)` for an FLS,
+    /// `(range_bins,)` for an SSS.
+    #[getter]
+    fn shape<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+        let bins = self.inner.range_bins as usize;
+        match self.inner.kind {
+            SonarKind::Fls => pyo3::types::PyTuple::new(py, [bins, self.inner.beam_count() as usize]),
+            SonarKind::Sss => pyo3::types::PyTuple::new(py, [bins]),
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        let s = &self.inner;
+        let beams = match s.kind {
+            SonarKind::Fls => format!(", beams={}", s.beam_count()),
+            SonarKind::Sss => String::new(),
+        };
+        format!(
+            "Sonar(name={:?}, kind={:?}, range_min={}, range_max={}, azimuth_aperture={}, elevation_aperture={}, range_bins={}{beams})",
+            s.name,
+            s.kind.name(),
+            s.range_min,
+            s.range_max,
+            s.azimuth_aperture,
+            s.elevation_aperture,
+            s.range_bins
+        )
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other.cast::<PySonar>().is_ok_and(|o| o.get().inner == self.inner)
+    }
+}
+
+/// Returns the names of the preset sonars.
+#[pyfunction]
+pub(crate) fn presets() -> Vec<&'static str> {
+    Sonar::preset_names()
+}

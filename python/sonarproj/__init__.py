@@ -1,0 +1,629 @@
+"""sonarproj: the epipolar geometry of sonar, from Python.
+
+Given a feature measured by one sonar (a forward-looking imaging sonar, "fls", or a sidescan,
+"sss") and the pose of a second sonar, sonarproj computes where in the second sonar's data the
+feature can be: metrics of the projection (visible samples, range span, projection area),
+occupancy in the second sonar's own layout, correspondence masks, and recovery of the coordinate
+a sonar loses. The computation runs in the Rust engine (GPU when a hardware adapter exists, else
+all CPU cores) with no subprocess and no temporary files.
+
+Units at this boundary are those of the command line and its CSV columns: **metres** for ranges
+and translations, **degrees** for every angle (azimuths, elevations, apertures, roll, pitch,
+yaw, sigmas of angles). Conventions:
+
+* A point at range ``r``, azimuth ``az``, elevation ``el`` of a sonar is
+  ``(r cos el cos az, r cos el sin az, r sin el)``: x forward, y to port (left), z up. Positive
+  azimuth is port; beam 0 of an imaging sonar is the starboard-most beam (-aperture/2).
+* The pose of sonar 2 relative to sonar 1 maps a point of sonar 1's frame into sonar 2's:
+  ``p2 = R p1 + t``. From roll, pitch, yaw (the paper's convention)
+  ``R = (Rz(yaw) Ry(pitch) Rx(roll))^T``.
+* Data layouts, as numpy holds them: an imaging sonar's image is ``(range_bins, beams)`` with
+  row 0 at ``range_min`` and column 0 the starboard-most beam; a sidescan ping is
+  ``(range_bins,)``. These are the layouts of the command line's NPY files.
+
+>>> import sonarproj
+>>> pose = sonarproj.Pose.placement(feature=(5, 10, 0), place=(15, 0, 0), pitch=90)
+>>> m = sonarproj.project("paper-fls", "paper-sss", pose, (5, 10), step=0.1, backend="cpu-fast")
+>>> m["visible"] == m["total"]
+True
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import warnings
+from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _sonarproj as _native
+from ._sonarproj import (
+    DEFAULT_CHUNK_POSES,
+    METRIC_COLUMNS,
+    InputError,
+    MaskSet,
+    Mount,
+    Pose,
+    Sonar,
+    __version__,
+    presets,
+)
+
+__all__ = [
+    "BackendNotice",
+    "InputError",
+    "MaskEngine",
+    "MaskSet",
+    "METRIC_COLUMNS",
+    "Mount",
+    "Pose",
+    "Sonar",
+    "batch",
+    "masks",
+    "paper",
+    "presets",
+    "project",
+    "recover",
+    "recover_many",
+    "sweep",
+    "__version__",
+]
+
+SonarLike = Union[Sonar, str, "os.PathLike[str]"]
+"""A :class:`Sonar`, a preset name (see :func:`presets`), or the path of a sonar TOML file."""
+
+REQUIRED_COLUMNS = ("range", "azimuth", "elevation", "roll", "pitch", "yaw")
+PLACE_COLUMNS = ("place_range", "place_azimuth", "place_elevation")
+TRANSLATION_COLUMNS = ("tx", "ty", "tz")
+SIGMA_KEYS = ("roll", "pitch", "yaw", "tx", "ty", "tz", "range", "azimuth")
+
+
+class BackendNotice(UserWarning):
+    """Warned when ``backend="auto"`` runs on the CPU, saying why (no GPU adapter, or only a
+    software one, which is slower than the CPU path)."""
+
+
+_warned: set[str] = set()
+
+
+def _warn(notice: Optional[str]) -> None:
+    """Warns `notice` once per process (the backends are opened once and kept)."""
+    if notice and notice not in _warned:
+        _warned.add(notice)
+        warnings.warn(notice.removeprefix("note: "), BackendNotice, stacklevel=3)
+
+
+def _sonar(parameter: str, value: Any) -> Sonar:
+    """Returns the sonar `value` names, or raises InputError naming `parameter`."""
+    if isinstance(value, Sonar):
+        return value
+    if isinstance(value, (str, os.PathLike)):
+        text = os.fspath(value)
+        if isinstance(value, str) and text in presets():
+            return Sonar.preset(text)
+        if os.path.isfile(text):
+            return Sonar.from_toml(text)
+        raise InputError(
+            f"{parameter}: {text!r} is neither a preset ({', '.join(presets())}) nor a sonar TOML file"
+        )
+    raise InputError(
+        f"{parameter}: expected a Sonar, a preset name or a sonar file path, got {type(value).__name__}"
+    )
+
+
+def _pose(parameter: str, value: Any) -> Pose:
+    if isinstance(value, Pose):
+        return value
+    raise InputError(
+        f"{parameter}: expected a sonarproj.Pose (Pose(roll, pitch, yaw, t=...), Pose.from_quat_xyzw, "
+        f"Pose.from_matrix, Pose.placement or Pose.from_mounts), got {type(value).__name__}"
+    )
+
+
+def _number(parameter: str, value: Any, *, optional: bool = False) -> Optional[float]:
+    """Returns `value` as a float, or raises InputError naming `parameter`."""
+    if value is None and optional:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InputError(f"{parameter}: expected a number, got {value!r} ({type(value).__name__})")
+    return float(value)
+
+
+def _real_array(parameter: str, value: Any) -> np.ndarray:
+    """Returns `value` as a float64 array, refusing non-numeric, boolean and complex dtypes."""
+    try:
+        a = np.asarray(value)
+    except Exception as e:  # ragged sequences and the like
+        raise InputError(f"{parameter}: not an array of numbers ({e})") from None
+    if a.dtype.kind not in "fiu":
+        raise InputError(
+            f"{parameter}: dtype {a.dtype} is not a real number type; give float or integer values"
+        )
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _column(parameter: str, value: Any) -> np.ndarray:
+    a = _real_array(parameter, value)
+    if a.ndim != 1:
+        raise InputError(f"{parameter}: must be a 1-D array, got shape {a.shape}")
+    return a
+
+
+def _backend(value: Any) -> str:
+    if not isinstance(value, str):
+        raise InputError(
+            f'backend: expected "auto", "gpu", "cpu-fast" or "cpu", got {value!r}'
+        )
+    return value
+
+
+def _step(value: Any) -> Optional[float]:
+    return _number("step", value, optional=True)
+
+
+def _columns_of(parameter: str, table: Any) -> tuple[list[str], Callable[[str], Any]]:
+    """Returns the column names of a mapping or DataFrame and a getter."""
+    if hasattr(table, "keys") and hasattr(table, "__getitem__"):
+        names = [str(k) for k in table.keys()]
+        return names, lambda k: table[k]
+    raise InputError(
+        f"{parameter}: expected a mapping of column name to 1-D array (a dict or a pandas DataFrame), "
+        f"got {type(table).__name__}"
+    )
+
+
+def batch(
+    first: SonarLike,
+    second: SonarLike,
+    poses: Mapping[str, Any],
+    *,
+    step: Optional[float] = None,
+    backend: str = "auto",
+) -> dict[str, np.ndarray]:
+    """Returns the metrics of many projections of features of sonar `first` into sonar `second`.
+
+    `poses` is a mapping (a dict of 1-D arrays, or a pandas DataFrame) with exactly the columns
+    of the command line's ``batch`` input: ``range, azimuth, elevation`` (the feature's true
+    point in `first`: m, deg, deg), ``roll, pitch, yaw`` (deg, the paper's convention) and
+    either ``place_range, place_azimuth, place_elevation`` (m, deg, deg: where the true point
+    appears in `second`) or ``tx, ty, tz`` (m). `step` is the sampling step (deg) of the arc or
+    surface as in the published code (e.g. 0.1); None chooses it from `second`'s resolution.
+    `backend` is ``"auto"`` (GPU on a hardware adapter, else every CPU core, with a
+    :class:`BackendNotice`), ``"gpu"``, ``"cpu-fast"`` or ``"cpu"`` (the f64 reference).
+
+    Returns a dict of 1-D arrays named as the command line's metric columns (``visible, total,
+    range_min, range_max, span, azimuth_min, azimuth_max, occupied, occupied_measure``):
+    counts as int64, the rest float64 in m, deg, and m (sidescan) or m² (imaging) for
+    ``occupied_measure``; NaN where the command line leaves a cell empty (nothing visible).
+    The numbers are those of ``sonarproj batch`` for the same inputs, bit for bit on the CPU
+    backends. Runs without the GIL; Ctrl-C stops it between chunks of 65 536 poses.
+
+    Raises InputError (a ValueError) naming the column and row for bad input.
+    """
+    s1, s2 = _sonar("first", first), _sonar("second", second)
+    names, get = _columns_of("poses", poses)
+    allowed = set(REQUIRED_COLUMNS + PLACE_COLUMNS + TRANSLATION_COLUMNS)
+    unknown = [n for n in names if n not in allowed]
+    if unknown:
+        raise InputError(
+            f"poses: unknown column(s) {', '.join(unknown)}; the columns are "
+            f"{','.join(REQUIRED_COLUMNS)} and either {','.join(PLACE_COLUMNS)} or {','.join(TRANSLATION_COLUMNS)}"
+        )
+    missing = [n for n in REQUIRED_COLUMNS if n not in names]
+    if missing:
+        raise InputError(f"poses: missing column(s) {', '.join(missing)}")
+    place = [n for n in PLACE_COLUMNS if n in names]
+    trans = [n for n in TRANSLATION_COLUMNS if n in names]
+    if place and trans:
+        raise InputError(
+            f"poses: give either {','.join(PLACE_COLUMNS)} or {','.join(TRANSLATION_COLUMNS)}, not both"
+        )
+    if not place and not trans:
+        raise InputError(
+            f"poses: missing translation: give {','.join(PLACE_COLUMNS)} or {','.join(TRANSLATION_COLUMNS)}"
+        )
+    extra = PLACE_COLUMNS if place else TRANSLATION_COLUMNS
+    missing = [n for n in extra if n not in names]
+    if missing:
+        raise InputError(f"poses: missing column(s) {', '.join(missing)}")
+    order = REQUIRED_COLUMNS + extra
+    cols = [_column(f"poses[{n!r}]", get(n)) for n in order]
+    lengths = {len(c) for c in cols}
+    if len(lengths) > 1:
+        detail = ", ".join(f"{n}: {len(c)}" for n, c in zip(order, cols))
+        raise InputError(f"poses: the columns have different lengths ({detail})")
+    result, notice = _native.batch_columns(
+        s1, s2, cols, bool(place), _step(step), _backend(backend)
+    )
+    _warn(notice)
+    return result
+
+
+def _feature(parameter: str, source: Sonar, feature: Any) -> tuple[float, float]:
+    """Returns (range, azimuth) of one measurement of `source`."""
+    a = _real_array(parameter, feature).reshape(-1)
+    if source.kind == "fls":
+        if a.shape != (2,):
+            raise InputError(
+                f"{parameter}: an imaging-sonar feature is (range, azimuth) in m and deg, got {feature!r}"
+            )
+        return float(a[0]), float(a[1])
+    if a.shape != (1,):
+        raise InputError(
+            f"{parameter}: a sidescan feature is its range (m) alone; a sidescan measures no azimuth, got {feature!r}"
+        )
+    return float(a[0]), 0.0
+
+
+def project(
+    first: SonarLike,
+    second: SonarLike,
+    pose: Pose,
+    feature: Any,
+    *,
+    step: Optional[float] = None,
+    occupancy: bool = False,
+    backend: str = "auto",
+) -> dict[str, Any]:
+    """Returns the projection of one feature of sonar `first` into sonar `second` under `pose`.
+
+    `feature` is what `first` measured: ``(range, azimuth)`` (m, deg) for an imaging sonar, the
+    range (m) for a sidescan. `pose` is a :class:`Pose` (``p2 = R p1 + t``). `step` and
+    `backend` as in :func:`batch`.
+
+    Returns a dict with the metrics (the names of :func:`batch`'s columns, as Python numbers;
+    NaN where nothing is visible), ``device``, and with ``occupancy=True`` the key
+    ``"occupancy"``: a uint8 0/1 array in `second`'s layout, ``(range_bins, beams)`` for an
+    imaging sonar (row 0 = range_min, column 0 = the starboard-most beam) or ``(range_bins,)``
+    for a sidescan, as the command line's NPY files.
+    """
+    s1, s2 = _sonar("first", first), _sonar("second", second)
+    p = _pose("pose", pose)
+    r, az = _feature("feature", s1, feature)
+    result, notice = _native.project_one(
+        s1, s2, p, r, az, _step(step), bool(occupancy), _backend(backend)
+    )
+    _warn(notice)
+    return result
+
+
+def _sigma(sigma: Any, covariance: Any) -> Optional[list[float]]:
+    """Returns the eight sigmas [roll, pitch, yaw (deg), tx, ty, tz (m), range (m), azimuth
+    (deg)] of `sigma` and `covariance`, or None when neither is given."""
+    if sigma is None and covariance is None:
+        return None
+    values = dict.fromkeys(SIGMA_KEYS, 0.0)
+    if sigma is not None:
+        if not isinstance(sigma, Mapping):
+            raise InputError(
+                f"sigma: expected a dict with keys among {', '.join(SIGMA_KEYS)}, got {type(sigma).__name__}"
+            )
+        for k, v in sigma.items():
+            if k not in values:
+                raise InputError(f"sigma: unknown key {k!r}; the keys are {', '.join(SIGMA_KEYS)}")
+            values[k] = _number(f"sigma[{k!r}]", v)
+    if covariance is not None:
+        if sigma is not None and any(k in sigma for k in SIGMA_KEYS[:6]):
+            raise InputError(
+                "covariance: give the pose's uncertainty once: a covariance, or sigmas of "
+                "roll/pitch/yaw/tx/ty/tz, not both (sigma may still give range and azimuth)"
+            )
+        c = _real_array("covariance", covariance)
+        if c.shape != (6, 6):
+            raise InputError(
+                f"covariance: must be a 6x6 array (x, y, z, roll, pitch, yaw; m² and rad²), got shape {c.shape}"
+            )
+        if not np.all(np.isfinite(c)):
+            raise InputError("covariance: holds values that are not finite")
+        scale = max(float(np.max(np.abs(c))), 1e-300)
+        if float(np.max(np.abs(c - c.T))) > 1e-9 * scale:
+            raise InputError("covariance: is not symmetric")
+        for name, block, unit in (("translation", c[:3, :3], "m²"), ("rotation", c[3:, 3:], "rad²")):
+            lam = np.linalg.eigvalsh(block)
+            if lam[0] < -1e-9 * scale:
+                raise InputError(
+                    f"covariance: its {name} block has a negative eigenvalue ({lam[0]:.3g} {unit}): not a covariance"
+                )
+        # Conservative per-axis bounds: each axis gets the standard deviation along the block's
+        # worst direction, sqrt of its largest eigenvalue.
+        st = float(np.sqrt(max(np.linalg.eigvalsh(c[:3, :3])[-1], 0.0)))
+        sr = float(np.degrees(np.sqrt(max(np.linalg.eigvalsh(c[3:, 3:])[-1], 0.0))))
+        values.update(roll=sr, pitch=sr, yaw=sr, tx=st, ty=st, tz=st)
+    return [values[k] for k in SIGMA_KEYS]
+
+
+def _features(parameter: str, source: Sonar, features: Any) -> tuple[list[float], Optional[list[float]]]:
+    """Returns the ranges and azimuths (None for a sidescan) of a ping's features."""
+    a = _real_array(parameter, features)
+    if source.kind == "fls":
+        if a.ndim == 1 and a.shape == (2,):
+            a = a.reshape(1, 2)
+        if a.ndim != 2 or a.shape[1] != 2:
+            raise InputError(
+                f"{parameter}: imaging-sonar features are an (n, 2) array of (range m, azimuth deg), got shape {a.shape}"
+            )
+        return a[:, 0].tolist(), a[:, 1].tolist()
+    if a.ndim == 0:
+        a = a.reshape(1)
+    if a.ndim != 1:
+        raise InputError(
+            f"{parameter}: sidescan features are a 1-D array of ranges (m); a sidescan measures no azimuth, got shape {a.shape}"
+        )
+    return a.tolist(), None
+
+
+def _coverage(value: Any) -> float:
+    return _number("coverage", value)
+
+
+class MaskEngine:
+    """Draws correspondence masks of features of sonar `first` in sonar `second`'s data; built
+    once and used for every ping (on a GPU it keeps its buffers between pings).
+
+    `backend` as in :func:`batch` (``"cpu"`` and ``"cpu-fast"`` are the same for masks: f64 on
+    every core). `counts=True` makes the engine able to return per-pixel counts (drawn on the
+    CPU only; ``"auto"`` then chooses the CPU).
+    """
+
+    def __init__(self, first: SonarLike, second: SonarLike, *, backend: str = "auto", counts: bool = False):
+        self.first = _sonar("first", first)
+        self.second = _sonar("second", second)
+        self._engine = _native._MaskEngine(self.first, self.second, _backend(backend), bool(counts))
+        _warn(self._engine.notice)
+
+    @property
+    def device(self) -> str:
+        """Where masks are drawn."""
+        return self._engine.device
+
+    def masks(
+        self,
+        pose: Pose,
+        features: Any,
+        *,
+        sigma: Optional[Mapping[str, float]] = None,
+        covariance: Any = None,
+        coverage: float = 0.99,
+        counts: bool = False,
+    ) -> MaskSet:
+        """Returns the masks of one ping's features under `pose`.
+
+        `features`: an ``(n, 2)`` array of (range m, azimuth deg) for an imaging sonar `first`,
+        a 1-D array of ranges (m) for a sidescan. `sigma`: standard deviations as a dict with
+        keys among ``roll, pitch, yaw`` (deg), ``tx, ty, tz`` (m), ``range`` (m), ``azimuth``
+        (deg). `covariance`: a 6×6 pose covariance from a navigation filter in the order
+        ``x, y, z, roll, pitch, yaw`` (m², rad², as ROS's PoseWithCovariance), bounded
+        conservatively by the largest eigenvalue of its translation and rotation blocks. The
+        masks are widened so the true pixel lies inside with probability at least `coverage`.
+
+        Returns a :class:`MaskSet`: ``masks`` (uint8, ``(n, range_bins, beams)`` or
+        ``(n, range_bins)``, row 0 = range_min, column 0 = the starboard-most beam), ``union``,
+        ``boxes`` (per feature a dict of range_min, range_max in m and azimuth_min,
+        azimuth_max in deg, or None), ``counts`` (uint32 like ``masks``, with ``counts=True``),
+        ``radius``, ``noise_radius`` and ``device``.
+        """
+        p = _pose("pose", pose)
+        ranges, azimuths = _features("features", self.first, features)
+        return self._engine.masks(
+            p, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage), bool(counts)
+        )
+
+    def masks_of_pings(
+        self,
+        poses: Sequence[Pose],
+        features: Sequence[Any],
+        *,
+        sigma: Optional[Mapping[str, float]] = None,
+        covariance: Any = None,
+        coverage: float = 0.99,
+        counts: bool = False,
+    ) -> list[MaskSet]:
+        """Returns the masks of a sequence of pings: ``poses[k]`` and ``features[k]`` (as in
+        :meth:`masks`) per ping, one :class:`MaskSet` each. Ctrl-C stops it between pings."""
+        poses = list(poses)
+        features = list(features)
+        if len(poses) != len(features):
+            raise InputError(
+                f"features: {len(features)} pings of features for {len(poses)} poses; give one per pose"
+            )
+        ps = [_pose(f"poses[{k}]", p) for k, p in enumerate(poses)]
+        fs = [_features(f"features[{k}]", self.first, f) for k, f in enumerate(features)]
+        azimuths = None if self.first.kind == "sss" else [f[1] for f in fs]
+        return self._engine.masks_of_pings(
+            ps, [f[0] for f in fs], azimuths, _sigma(sigma, covariance), _coverage(coverage), bool(counts)
+        )
+
+
+def masks(
+    first: SonarLike,
+    second: SonarLike,
+    pose: Pose,
+    features: Any,
+    *,
+    sigma: Optional[Mapping[str, float]] = None,
+    covariance: Any = None,
+    coverage: float = 0.99,
+    counts: bool = False,
+    backend: str = "auto",
+) -> MaskSet:
+    """Returns the correspondence masks of one ping: where each of `features` (measured by
+    `first`) can be in `second`'s data under `pose`. A one-off :class:`MaskEngine`; build one
+    and call :meth:`MaskEngine.masks` for a stream of pings. Parameters as there."""
+    engine = MaskEngine(first, second, backend=backend, counts=counts)
+    return engine.masks(pose, features, sigma=sigma, covariance=covariance, coverage=coverage, counts=counts)
+
+
+def _observation(parameter: str, sonar: Sonar, value: Any) -> tuple[float, float]:
+    r, az = _feature(parameter, sonar, value)
+    return (r, az) if sonar.kind == "fls" else (r, float("nan"))
+
+
+def recover(
+    first: SonarLike,
+    second: SonarLike,
+    pose: Pose,
+    first_obs: Any,
+    second_obs: Any,
+    *,
+    sigma_range: Optional[float] = None,
+    sigma_azimuth: Optional[float] = None,
+    curve_step: float = 0.01,
+) -> dict[str, Any]:
+    """Returns the 3-D point(s) of one correspondence: the coordinate each sonar lost, recovered
+    from both measurements and the pose.
+
+    `first_obs` and `second_obs` are what each sonar measured: ``(range, azimuth)`` (m, deg)
+    for an imaging sonar, the range (m) for a sidescan. `sigma_range` (m) and `sigma_azimuth`
+    (deg) give first-order sigmas of the recovered elevation. For two sidescans the answer is
+    the visible part of a circle, sampled every `curve_step` m.
+
+    Returns the command line's ``recover`` JSON as a dict: ``candidates`` (best first; each with
+    ``point_first``, ``point_second`` in m, ``first``, ``second`` as [range m, azimuth deg,
+    elevation deg], ``in_view`` and more), ``flags`` and ``curve``.
+    """
+    s1, s2 = _sonar("first", first), _sonar("second", second)
+    p = _pose("pose", pose)
+    text = _native.recover_one(
+        s1,
+        s2,
+        p,
+        _observation("first_obs", s1, first_obs),
+        _observation("second_obs", s2, second_obs),
+        _number("sigma_range", sigma_range, optional=True),
+        _number("sigma_azimuth", sigma_azimuth, optional=True),
+        _number("curve_step", curve_step),
+    )
+    return json.loads(text)
+
+
+def recover_many(
+    first: SonarLike,
+    second: SonarLike,
+    pose: Pose,
+    correspondences: Mapping[str, Any],
+    *,
+    sigma_range: Optional[float] = None,
+    sigma_azimuth: Optional[float] = None,
+) -> dict[str, Any]:
+    """Returns the recovery of many correspondences under one pose, vectorised.
+
+    `correspondences` is a mapping of 1-D arrays: ``first_range``, ``second_range`` (m), and
+    ``first_azimuth`` / ``second_azimuth`` (deg) for the imaging sonars among the two.
+
+    Returns a dict of arrays, one value per correspondence: ``candidates`` (int64), the best
+    candidate's ``in_view`` (bool), ``x_first, y_first, z_first, x_second, y_second, z_second``
+    (m), ``range_first, azimuth_first, elevation_first, range_second, azimuth_second,
+    elevation_second`` (m, deg), ``range_per_elevation`` (m/deg), ``sigma_elevation`` (deg),
+    ``azimuth_residual`` (deg), ``consistent`` (1.0, 0.0 or NaN) — NaN where there is no single
+    best point — ``curve_length`` (m, two sidescans) and ``flags`` (a list of ';'-joined names).
+    """
+    s1, s2 = _sonar("first", first), _sonar("second", second)
+    p = _pose("pose", pose)
+    names, get = _columns_of("correspondences", correspondences)
+    wanted = ["first_range", "second_range"]
+    if s1.kind == "fls":
+        wanted.append("first_azimuth")
+    if s2.kind == "fls":
+        wanted.append("second_azimuth")
+    unknown = [n for n in names if n not in wanted]
+    if unknown:
+        raise InputError(
+            f"correspondences: unexpected column(s) {', '.join(unknown)} for a {s1.kind}+{s2.kind} pair; "
+            f"the columns are {', '.join(wanted)}"
+        )
+    missing = [n for n in wanted if n not in names]
+    if missing:
+        raise InputError(f"correspondences: missing column(s) {', '.join(missing)}")
+    cols = {n: _column(f"correspondences[{n!r}]", get(n)) for n in wanted}
+    n = len(cols["first_range"])
+    for k, c in cols.items():
+        if len(c) != n:
+            raise InputError(
+                f"correspondences: {k} has {len(c)} values where first_range has {n}"
+            )
+    nan = np.full(n, np.nan)
+    ordered = [
+        cols["first_range"],
+        cols.get("first_azimuth", nan),
+        cols["second_range"],
+        cols.get("second_azimuth", nan),
+    ]
+    return _native.recover_columns(
+        s1,
+        s2,
+        p,
+        ordered,
+        _number("sigma_range", sigma_range, optional=True),
+        _number("sigma_azimuth", sigma_azimuth, optional=True),
+    )
+
+
+def _count(parameter: str, value: Any, *, optional: bool = False) -> Optional[int]:
+    if value is None and optional:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise InputError(f"{parameter}: expected a whole number >= 1, got {value!r}")
+    return int(value)
+
+
+def sweep(
+    config: Union[str, "os.PathLike[str]"],
+    out_dir: Union[str, "os.PathLike[str]"],
+    *,
+    shard: Optional[str] = None,
+    chunk_poses: int = DEFAULT_CHUNK_POSES,
+    max_chunks: Optional[int] = None,
+    backend: str = "auto",
+    progress: Optional[Callable[[int, int], None]] = None,
+) -> dict[str, Any]:
+    """Runs the sweep described by the TOML file `config` into the directory `out_dir`, with the
+    command line's code (``sonarproj sweep``): ``sweep.csv`` (the grid's columns, then the
+    metric columns; angles in deg, distances in m), ``sweep.json`` and, for a grid with one or
+    two varying axes, the figure ``sweep-METRIC.png``.
+
+    Finished chunks of `chunk_poses` poses stay on disk, so calling it again resumes; Ctrl-C
+    (KeyboardInterrupt) stops it between chunks. `shard` ``"K/N"`` runs part K of N;
+    `max_chunks` stops after that many chunks. `progress(done, total)` is called after each
+    chunk.
+
+    Returns a dict: ``file`` (the CSV, or None when stopped early), ``figure``, ``poses``,
+    ``computed``, ``resumed``, ``seconds``, ``device``.
+    """
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress: expected a callable (done, total), got {type(progress).__name__}")
+    if shard is not None and not isinstance(shard, str):
+        raise InputError(f'shard: expected "K/N", e.g. "1/4", got {shard!r}')
+    result, notice = _native.sweep_run(
+        os.fspath(config),
+        os.fspath(out_dir),
+        shard,
+        _count("chunk_poses", chunk_poses),
+        _count("max_chunks", max_chunks, optional=True),
+        _backend(backend),
+        progress,
+    )
+    _warn(notice)
+    return result
+
+
+def paper(
+    out_dir: Union[str, "os.PathLike[str]"],
+    *,
+    angle_step: float = 1.0,
+    step: float = 0.1,
+    backend: str = "auto",
+) -> dict[str, Any]:
+    """Runs the paper's simulations (both directions, nine scenarios, angles every `angle_step`
+    deg, arcs and surfaces sampled every `step` deg) with the command line's code (``sonarproj
+    paper``) and writes ``fls-to-sss.csv``, ``sss-to-fls.csv``, the figures and ``findings.md``
+    into `out_dir`.
+
+    Returns a dict: ``findings`` (a list of dicts: ``claim``, ``holds``, ``evidence``),
+    ``poses``, ``seconds`` (compute time), ``device``, ``out_dir``.
+    """
+    result, notice = _native.paper_run(
+        os.fspath(out_dir), _number("angle_step", angle_step), _number("step", step), _backend(backend)
+    )
+    _warn(notice)
+    return result

@@ -1,0 +1,249 @@
+"""The Python API against the command line on the same inputs: the same engine and the same
+applications behind both, so the numbers must agree bit for bit on the CPU backends and the
+files byte for byte."""
+
+import csv
+import json
+import math
+
+import numpy as np
+import pytest
+
+import sonarproj
+
+PAIRS = [("paper-fls", "paper-sss"), ("paper-sss", "paper-fls"), ("holoocean-imaging", "oculus-m1200d-hf")]
+
+
+def random_columns(first, second, n, rng, placement=True):
+    s1, s2 = sonarproj.Sonar.preset(first), sonarproj.Sonar.preset(second)
+    cols = {
+        "range": rng.uniform(s1.range_min + 0.5, s1.range_max * 0.9, n),
+        "azimuth": rng.uniform(-s1.azimuth_aperture / 2, s1.azimuth_aperture / 2, n) * 0.9,
+        "elevation": rng.uniform(-s1.elevation_aperture / 2, s1.elevation_aperture / 2, n) * 0.9,
+        "roll": rng.uniform(-180, 180, n),
+        "pitch": rng.uniform(-90, 90, n),
+        "yaw": rng.uniform(-180, 180, n),
+    }
+    if placement:
+        # A fifth of the features placed beyond sonar 2's range: rows where nothing is seen.
+        cols["place_range"] = rng.uniform(s2.range_min, s2.range_max * 1.25, n)
+        cols["place_azimuth"] = rng.uniform(-s2.azimuth_aperture / 2, s2.azimuth_aperture / 2, n)
+        cols["place_elevation"] = rng.uniform(-s2.elevation_aperture / 2, s2.elevation_aperture / 2, n)
+    else:
+        for k in ("tx", "ty", "tz"):
+            cols[k] = rng.uniform(-3, 3, n)
+    return cols
+
+
+def write_csv(path, cols):
+    names = list(cols)
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(names)
+        for row in zip(*(cols[n] for n in names)):
+            w.writerow([repr(float(v)) for v in row])
+
+
+def read_metric_csv(path):
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    out = {}
+    for name in sonarproj.METRIC_COLUMNS:
+        out[name] = [math.nan if r[name] == "" else float(r[name]) for r in rows]
+    return out
+
+
+def same(a, b):
+    """Bit-for-bit equality of floats, NaN equal to NaN."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    return a.shape == b.shape and bool(np.all((a == b) | (np.isnan(a) & np.isnan(b))))
+
+
+@pytest.mark.parametrize("first,second", PAIRS)
+@pytest.mark.parametrize("backend", ["cpu", "cpu-fast"])
+@pytest.mark.parametrize("placement", [True, False])
+def test_batch_equals_the_command_line(tmp_path, cli, first, second, backend, placement):
+    rng = np.random.default_rng(7)
+    cols = random_columns(first, second, 150, rng, placement)
+    write_csv(tmp_path / "in.csv", cols)
+    cli("batch", "--from", first, "--to", second, "--step", "0.1", "--backend", backend,
+        "--input", tmp_path / "in.csv", "--output", tmp_path / "out.csv")
+    expected = read_metric_csv(tmp_path / "out.csv")
+    got = sonarproj.batch(first, second, cols, step=0.1, backend=backend)
+    assert list(got) == sonarproj.METRIC_COLUMNS
+    for name in sonarproj.METRIC_COLUMNS:
+        assert same(got[name], expected[name]), name
+    assert got["visible"].dtype == np.int64 and got["span"].dtype == np.float64
+    # Something is seen, and something is not: both kinds of cells are compared.
+    assert (got["visible"] > 0).any() and (got["visible"] == 0).any()
+
+
+def test_batch_with_auto_sampling_equals_the_command_line(tmp_path, cli):
+    rng = np.random.default_rng(3)
+    cols = random_columns("paper-sss", "paper-fls", 40, rng)
+    write_csv(tmp_path / "in.csv", cols)
+    cli("batch", "--from", "paper-sss", "--to", "paper-fls", "--backend", "cpu-fast",
+        "--input", tmp_path / "in.csv", "--output", tmp_path / "out.csv")
+    expected = read_metric_csv(tmp_path / "out.csv")
+    got = sonarproj.batch("paper-sss", "paper-fls", cols, backend="cpu-fast")
+    for name in sonarproj.METRIC_COLUMNS:
+        assert same(got[name], expected[name]), name
+
+
+def test_a_dataframe_like_mapping_and_integer_columns_are_taken(cli):
+    class Frame:
+        """The part of a pandas DataFrame batch() uses: keys() and column lookup."""
+
+        def __init__(self, d):
+            self.d = d
+
+        def keys(self):
+            return self.d.keys()
+
+        def __getitem__(self, k):
+            return self.d[k]
+
+    cols = {"range": [5], "azimuth": [0], "elevation": [0], "roll": [0], "pitch": [90], "yaw": [0],
+            "place_range": [15], "place_azimuth": [0], "place_elevation": [0]}
+    a = sonarproj.batch("paper-fls", "paper-sss", Frame(cols), step=0.1, backend="cpu")
+    b = sonarproj.batch("paper-fls", "paper-sss", {k: np.array(v, dtype=np.float64) for k, v in cols.items()},
+                        step=0.1, backend="cpu")
+    for name in sonarproj.METRIC_COLUMNS:
+        assert same(a[name], b[name])
+    assert a["visible"][0] == a["total"][0] == 121
+
+
+@pytest.mark.parametrize("first,second,feature,pose_args", [
+    ("paper-fls", "paper-sss", (5.0, 10.0), ["--pitch", "90", "--place-range", "15"]),
+    ("paper-sss", "paper-fls", (8.0,), ["--roll", "20", "--yaw", "-5", "--translation", "0.5,-1,0.25"]),
+    ("holoocean-imaging", "oculus-m750d", (4.0, -20.0), ["--quaternion", "0.9659258262890683,0,0.25881904510252074,0", "--translation", "1,0,0"]),
+])
+def test_project_equals_the_command_line(tmp_path, cli, first, second, feature, pose_args):
+    args = ["project", "--from", first, "--to", second, "--step", "0.1", "--backend", "cpu",
+            "--range", feature[0], "--occupancy", tmp_path / "occ.npy", *pose_args]
+    if len(feature) == 2:
+        args += ["--azimuth", feature[1]]
+    out = json.loads(cli(*args).stdout)
+    if "--place-range" in pose_args:
+        pose = sonarproj.Pose.placement(feature=(feature[0], feature[1] if len(feature) == 2 else 0, 0),
+                                        place=(15, 0, 0), pitch=90)
+    elif "--quaternion" in pose_args:
+        w, x, y, z = (float(v) for v in pose_args[1].split(","))
+        pose = sonarproj.Pose.from_quat_xyzw((x, y, z, w), t=(1, 0, 0))
+    else:
+        pose = sonarproj.Pose(roll=20, yaw=-5, t=(0.5, -1, 0.25))
+    np.testing.assert_array_equal(pose.rotation, np.array(out["pose"]["rotation"]))
+    np.testing.assert_array_equal(pose.translation, np.array(out["pose"]["translation"]))
+    got = sonarproj.project(first, second, pose, feature if len(feature) == 2 else feature[0],
+                            step=0.1, occupancy=True, backend="cpu")
+    for name in sonarproj.METRIC_COLUMNS:
+        expected = out["metrics"][name]
+        assert same([got[name]], [math.nan if expected is None else expected]), name
+    occ = np.load(tmp_path / "occ.npy")
+    assert got["occupancy"].dtype == np.uint8 and got["occupancy"].shape == occ.shape
+    np.testing.assert_array_equal(got["occupancy"], occ)
+    assert got["occupancy"].shape == sonarproj.Sonar.preset(second).shape
+
+
+def test_masks_equal_the_command_line(tmp_path, cli):
+    done = cli("mask", "--from", "holoocean-sidescan", "--to", "holoocean-imaging", "--backend", "cpu",
+               "--pitch", "5", "--yaw", "10", "--translation", "0.3,0.2,-0.1", "--feature", "4",
+               "--feature", "7.5", "--sigma-rotation", "0.5", "--sigma-range", "0.05",
+               "--npy", tmp_path / "m.npy", "--json")
+    report = json.loads(done.stdout)
+    expected = np.load(tmp_path / "m.npy")
+    pose = sonarproj.Pose(pitch=5, yaw=10, t=(0.3, 0.2, -0.1))
+    got = sonarproj.masks("holoocean-sidescan", "holoocean-imaging", pose, [4, 7.5],
+                          sigma={"roll": 0.5, "pitch": 0.5, "yaw": 0.5, "range": 0.05}, backend="cpu")
+    assert got.masks.shape == expected.shape == (2, 512, 512)
+    np.testing.assert_array_equal(got.masks, expected)
+    for k, f in enumerate(report["features"]):
+        assert got.boxes[k] == f["bounding_box"]
+        assert got.radius[k] == f["radius"] and got.noise_radius[k] == f["noise_radius"]
+    np.testing.assert_array_equal(got.union, got.masks.max(axis=0))
+
+
+@pytest.mark.parametrize("first,second,feature,place,rpy,sigmas", [
+    ("paper-fls", "paper-sss", (5.0, 10.0, 3.0), (15.0, 20.0, 0.0), (0, 90, 0), None),
+    ("holoocean-imaging", "holoocean-imaging", (5.0, 10.0, 4.0), (5.5, 12.0, -2.0), (5, 3, 20), (0.02, 0.2)),
+    ("paper-sss", "paper-fls", (8.0, 40.0, 0.1), (6.0, -10.0, 2.0), (10, -30, 45), None),
+    ("paper-sss", "paper-sss", (8.0, 30.0, 0.1), (8.3, 35.0, 0.0), (0, 0, 3), None),
+])
+def test_recover_equals_the_command_line(cli, first, second, feature, place, rpy, sigmas):
+    """A true point seen by both sonars (placed there), recovered from its two measurements."""
+    pose = sonarproj.Pose.placement(feature=feature, place=place, roll=rpy[0], pitch=rpy[1], yaw=rpy[2])
+    obs1 = feature[:2] if sonarproj.Sonar.preset(first).kind == "fls" else feature[0]
+    obs2 = place[:2] if sonarproj.Sonar.preset(second).kind == "fls" else place[0]
+    text = lambda v: ",".join(repr(float(x)) for x in np.ravel(v))
+    args = ["recover", "--from", first, "--to", second, "--matrix", text(pose.rotation),
+            "--translation", text(pose.translation), "--first", text(obs1), "--second", text(obs2)]
+    kwargs = {}
+    if sigmas:
+        args += ["--sigma-range", sigmas[0], "--sigma-azimuth", sigmas[1]]
+        kwargs = {"sigma_range": sigmas[0], "sigma_azimuth": sigmas[1]}
+    out = json.loads(cli(*args).stdout)
+    got = sonarproj.recover(first, second, pose, obs1, obs2, **kwargs)
+    assert got["candidates"] == out["candidates"]
+    assert got["flags"] == out["flags"]
+    assert got["curve"] == out.get("curve")
+    assert got["candidates"], "the case recovers something"
+    if got["curve"] is None:
+        # The true point is among the candidates.
+        best = min(got["candidates"], key=lambda c: abs(c["first"][2] - feature[2]))
+        assert abs(best["first"][2] - feature[2]) < 1e-6
+
+
+def test_recover_many_equals_one_by_one():
+    rng = np.random.default_rng(11)
+    pose = sonarproj.Pose(roll=3, pitch=80, yaw=2, t=(0.2, 0.1, 0.5))
+    n = 50
+    fr = rng.uniform(2, 9, n)
+    fa = rng.uniform(-25, 25, n)
+    # The second range of the true point at elevation 0 and elevation 3, so most rows recover.
+    el = rng.uniform(-5, 5, n)
+    pts = np.stack([fr * np.cos(np.radians(el)) * np.cos(np.radians(fa)),
+                    fr * np.cos(np.radians(el)) * np.sin(np.radians(fa)),
+                    fr * np.sin(np.radians(el))], axis=1)
+    sr = np.linalg.norm(pts @ pose.rotation.T + pose.translation, axis=1)
+    many = sonarproj.recover_many("paper-fls", "paper-sss", pose,
+                                  {"first_range": fr, "first_azimuth": fa, "second_range": sr})
+    assert (many["candidates"] > 0).sum() > n // 2
+    for k in range(n):
+        one = sonarproj.recover("paper-fls", "paper-sss", pose, (fr[k], fa[k]), sr[k])
+        assert many["candidates"][k] == len(one["candidates"])
+        assert many["flags"][k] == ";".join(one["flags"])
+        if one["candidates"]:
+            best = one["candidates"][0]
+            assert many["elevation_first"][k] == best["first"][2]
+            assert many["x_second"][k] == best["point_second"][0]
+            assert bool(many["in_view"][k]) == best["in_view"]
+        else:
+            assert math.isnan(many["elevation_first"][k])
+
+
+def test_sweep_writes_what_the_command_line_writes(tmp_path, cli, root):
+    config = tmp_path / "sweep.toml"
+    config.write_text(
+        'from = "paper-fls"\nto = "paper-sss"\nstep = 0.5\nmetric = "span"\n'
+        "[feature]\nrange = 5\n[place]\nrange = [5, 15]\n[rotation]\npitch = { start = 0, stop = 90, step = 15 }\n"
+    )
+    cli("sweep", "--config", config, "--out", tmp_path / "cli", "--backend", "cpu-fast", "--chunk-poses", "5")
+    calls = []
+    got = sonarproj.sweep(config, tmp_path / "py", backend="cpu-fast", chunk_poses=5,
+                          progress=lambda done, total: calls.append((done, total)))
+    assert got["poses"] == 14 and got["computed"] == 14 and got["resumed"] == 0
+    assert (tmp_path / "cli" / "sweep.csv").read_bytes() == (tmp_path / "py" / "sweep.csv").read_bytes()
+    assert calls[-1] == (14, 14) and len(calls) == 3
+    assert got["figure"] is not None and str(got["figure"]).endswith(".png")
+    # A second call resumes: nothing computed again.
+    again = sonarproj.sweep(config, tmp_path / "py", backend="cpu-fast", chunk_poses=5)
+    assert again["computed"] == 0 and again["resumed"] == 14
+
+
+def test_paper_writes_what_the_command_line_writes(tmp_path, cli):
+    cli("paper", "--out", tmp_path / "cli", "--angle-step", "45", "--step", "0.5", "--backend", "cpu-fast")
+    got = sonarproj.paper(tmp_path / "py", angle_step=45, step=0.5, backend="cpu-fast")
+    for name in ("fls-to-sss.csv", "sss-to-fls.csv", "findings.md"):
+        assert (tmp_path / "cli" / name).read_bytes() == (tmp_path / "py" / name).read_bytes(), name
+    assert len(got["findings"]) == 4 and all("claim" in f and "holds" in f for f in got["findings"])
+    assert got["poses"] > 0
