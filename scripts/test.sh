@@ -35,13 +35,15 @@ cargo test --release "${checks[@]}" --workspace --exclude sonarproj-py --doc "$@
 # Python: the package built as an abi3 manylinux wheel from the same target directory (the
 # dependencies built above are reused), installed into a fresh virtual environment, then its
 # tests (against the binary built above) and the Python examples.
-venv=target/python-venv
-rm -rf "$venv" target/wheels
+target_dir="${CARGO_TARGET_DIR:-$PWD/target}"
+venv="$target_dir/python-venv"
+wheels="$target_dir/wheels"
+rm -rf "$venv" "$wheels"
 "${PYTHON:-python3}" -m venv "$venv"
 "$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" numpy pytest matplotlib
-"$venv/bin/maturin" build --release --quiet "${checks[@]}" -o target/wheels
-"$venv/bin/pip" install -q --disable-pip-version-check --no-deps target/wheels/sonarproj-*.whl
-SONARPROJ_BIN="$PWD/target/release/sonarproj" "$venv/bin/pytest" -q python/tests
+"$venv/bin/maturin" build --release --quiet "${checks[@]}" -o "$wheels"
+"$venv/bin/pip" install -q --disable-pip-version-check --no-deps "$wheels"/sonarproj-*.whl
+SONARPROJ_BIN="$target_dir/release/sonarproj" "$venv/bin/pytest" -q python/tests
 examples_out="$(mktemp -d)"
 trap 'rm -rf "$examples_out"' EXIT
 for example in examples/python/*.py; do
