@@ -173,6 +173,22 @@ def _columns_of(parameter: str, table: Any) -> tuple[list[str], Callable[[str], 
     )
 
 
+def _same_length_columns(parameter: str, order: Sequence[str], get: Callable[[str], Any]) -> list[np.ndarray]:
+    """Returns the columns `order` of a table as 1-D float64 arrays of one length."""
+    cols = [_column(f"{parameter}[{n!r}]", get(n)) for n in order]
+    if len({len(c) for c in cols}) > 1:
+        detail = ", ".join(f"{n}: {len(c)}" for n, c in zip(order, cols))
+        raise InputError(f"{parameter}: the columns have different lengths ({detail})")
+    return cols
+
+
+def _require(parameter: str, names: Sequence[str], wanted: Sequence[str]) -> None:
+    """Raises InputError naming the columns of `wanted` missing from `names`."""
+    missing = [n for n in wanted if n not in names]
+    if missing:
+        raise InputError(f"{parameter}: missing column(s) {', '.join(missing)}")
+
+
 def batch(
     first: SonarLike,
     second: SonarLike,
@@ -210,9 +226,7 @@ def batch(
             f"poses: unknown column(s) {', '.join(unknown)}; the columns are "
             f"{','.join(REQUIRED_COLUMNS)} and either {','.join(PLACE_COLUMNS)} or {','.join(TRANSLATION_COLUMNS)}"
         )
-    missing = [n for n in REQUIRED_COLUMNS if n not in names]
-    if missing:
-        raise InputError(f"poses: missing column(s) {', '.join(missing)}")
+    _require("poses", names, REQUIRED_COLUMNS)
     place = [n for n in PLACE_COLUMNS if n in names]
     trans = [n for n in TRANSLATION_COLUMNS if n in names]
     if place and trans:
@@ -224,15 +238,8 @@ def batch(
             f"poses: missing translation: give {','.join(PLACE_COLUMNS)} or {','.join(TRANSLATION_COLUMNS)}"
         )
     extra = PLACE_COLUMNS if place else TRANSLATION_COLUMNS
-    missing = [n for n in extra if n not in names]
-    if missing:
-        raise InputError(f"poses: missing column(s) {', '.join(missing)}")
-    order = REQUIRED_COLUMNS + extra
-    cols = [_column(f"poses[{n!r}]", get(n)) for n in order]
-    lengths = {len(c) for c in cols}
-    if len(lengths) > 1:
-        detail = ", ".join(f"{n}: {len(c)}" for n, c in zip(order, cols))
-        raise InputError(f"poses: the columns have different lengths ({detail})")
+    _require("poses", names, extra)
+    cols = _same_length_columns("poses", REQUIRED_COLUMNS + extra, get)
     result, notice = _native.batch_columns(
         s1, s2, cols, bool(place), _step(step), _backend(backend)
     )
@@ -532,17 +539,9 @@ def recover_many(
             f"correspondences: unexpected column(s) {', '.join(unknown)} for a {s1.kind}+{s2.kind} pair; "
             f"the columns are {', '.join(wanted)}"
         )
-    missing = [n for n in wanted if n not in names]
-    if missing:
-        raise InputError(f"correspondences: missing column(s) {', '.join(missing)}")
-    cols = {n: _column(f"correspondences[{n!r}]", get(n)) for n in wanted}
-    n = len(cols["first_range"])
-    for k, c in cols.items():
-        if len(c) != n:
-            raise InputError(
-                f"correspondences: {k} has {len(c)} values where first_range has {n}"
-            )
-    nan = np.full(n, np.nan)
+    _require("correspondences", names, wanted)
+    cols = dict(zip(wanted, _same_length_columns("correspondences", wanted, get)))
+    nan = np.full(len(cols["first_range"]), np.nan)
     ordered = [
         cols["first_range"],
         cols.get("first_azimuth", nan),

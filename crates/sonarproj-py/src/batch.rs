@@ -74,9 +74,29 @@ fn items(
     .collect()
 }
 
-/// Returns the metrics of every row of `cols` (the nine columns of `PLACE_NAMES` or
-/// `TRANSLATION_NAMES`), as a dict of arrays named as the command line's metric columns, and the
-/// notice of the backend's selection.
+/// Returns the column slices of `columns` (the nine of `PLACE_NAMES` when `placement`, else of
+/// `TRANSLATION_NAMES`), their length, and the pair they are projected between: the sonars and
+/// the sampling of `step`, no items yet.
+fn columns_and_pair<'a>(
+    first: &PySonar,
+    second: &PySonar,
+    columns: &'a [PyReadonlyArray1<'_, f64>],
+    placement: bool,
+    step: Option<f64>,
+) -> PyResult<(Vec<&'a [f64]>, usize, Batch)> {
+    let names = if placement { PLACE_NAMES } else { TRANSLATION_NAMES };
+    let (cols, len) = slices(&names, columns)?;
+    let pair = Batch {
+        source: first.inner.clone(),
+        target: second.inner.clone(),
+        sampling: sampling(step)?,
+        items: Vec::new(),
+    };
+    Ok((cols, len, pair))
+}
+
+/// Returns the metrics of every row of `columns` (see `columns_and_pair`), as a dict of arrays
+/// named as the command line's metric columns, and the notice of the backend's selection.
 #[pyfunction]
 #[pyo3(signature = (first, second, columns, placement, step, backend_name))]
 pub(crate) fn batch_columns<'py>(
@@ -88,23 +108,16 @@ pub(crate) fn batch_columns<'py>(
     step: Option<f64>,
     backend_name: &str,
 ) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
-    let names = if placement { PLACE_NAMES } else { TRANSLATION_NAMES };
-    let (cols, len) = slices(&names, &columns)?;
-    let mut chunk = Batch {
-        source: first.inner.clone(),
-        target: second.inner.clone(),
-        sampling: sampling(step)?,
-        items: Vec::new(),
-    };
-    let pair = chunk.clone();
+    let (cols, len, pair) = columns_and_pair(first, second, &columns, placement, step)?;
     let checker = pair.checker().map_err(errors::engine)?;
     let (backend, notice) = backend::get(backend_name)?;
+    let mut chunk = pair.clone();
     let mut metrics: Vec<Metrics> = Vec::with_capacity(len);
     let mut start = 0;
     while start < len {
         let end = (start + CHUNK_POSES).min(len);
         let results = py.detach(|| -> sonarproj::Result<Vec<Metrics>> {
-            chunk.items = items(&chunk.source, &cols, placement, start..end, &checker)?;
+            chunk.items = items(&pair.source, &cols, placement, start..end, &checker)?;
             let projected = backend.project(&chunk, Output::MetricsOnly)?;
             Ok(projected.into_iter().map(|p| p.metrics).collect())
         });
@@ -116,8 +129,8 @@ pub(crate) fn batch_columns<'py>(
 }
 
 /// Returns the seconds the Rust library takes for the batch `batch_columns` would compute
-/// (items built from the columns, checked, projected in one call, metrics collected), for the
-/// benchmark comparing the Python call with the library.
+/// (the pair checked, items built from the columns and checked, projected in one call, metrics
+/// collected), for the benchmark comparing the Python call with the library.
 #[pyfunction]
 #[pyo3(signature = (first, second, columns, placement, step, backend_name))]
 pub(crate) fn bench_rust_batch<'py>(
@@ -129,24 +142,15 @@ pub(crate) fn bench_rust_batch<'py>(
     step: Option<f64>,
     backend_name: &str,
 ) -> PyResult<f64> {
-    let names = if placement { PLACE_NAMES } else { TRANSLATION_NAMES };
-    let (cols, len) = slices(&names, &columns)?;
-    let owned: Vec<Vec<f64>> = cols.iter().map(|c| c.to_vec()).collect();
-    let sampling = sampling(step)?;
+    let (cols, len, pair) = columns_and_pair(first, second, &columns, placement, step)?;
     let (backend, _) = backend::get(backend_name)?;
-    let (source, target) = (first.inner.clone(), second.inner.clone());
-    py.detach(move || -> sonarproj::Result<f64> {
+    py.detach(|| -> sonarproj::Result<f64> {
         let start = Instant::now();
-        let cols: Vec<&[f64]> = owned.iter().map(Vec::as_slice).collect();
-        let mut batch = Batch {
-            source,
-            target,
-            sampling,
-            items: Vec::new(),
-        };
-        let pair = batch.clone();
         let checker = pair.checker()?;
-        batch.items = items(&batch.source, &cols, placement, 0..len, &checker)?;
+        let batch = Batch {
+            items: items(&pair.source, &cols, placement, 0..len, &checker)?,
+            ..pair.clone()
+        };
         let metrics: Vec<Metrics> = backend
             .project(&batch, Output::MetricsOnly)?
             .into_iter()
