@@ -1,16 +1,22 @@
 #!/usr/bin/env bash
-# Runs the whole test suite — Rust, then the Python package's — with GPU tests on lavapipe
-# (Mesa's Vulkan CPU driver), installing what is missing. Usage: scripts/test.sh [extra cargo
+# Runs the whole test suite — Rust, then the Python package's, then the viewer's in a browser —
+# with GPU tests on lavapipe (Mesa's Vulkan CPU driver), installing what is missing. Usage: scripts/test.sh [extra cargo
 # test arguments]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-if ! ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1; then
-    echo "lavapipe not found: installing mesa-vulkan-drivers" >&2
+# System packages: lavapipe (Mesa's Vulkan CPU driver) for the GPU tests, Chromium and its
+# WebDriver for the viewer's browser tests.
+missing=()
+ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 || missing+=(mesa-vulkan-drivers libvulkan1)
+command -v chromium >/dev/null 2>&1 || missing+=(chromium)
+command -v chromedriver >/dev/null 2>&1 || missing+=(chromium-driver)
+if [ "${#missing[@]}" -gt 0 ]; then
+    echo "installing ${missing[*]} (apt)" >&2
     sudo=""
     [ "$(id -u)" -eq 0 ] || sudo="sudo"
     $sudo apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq mesa-vulkan-drivers libvulkan1 >/dev/null
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
 
 # Vulkan is the backend that has lavapipe; the device-select layer only prints noise headless.
@@ -40,10 +46,12 @@ venv="$target_dir/python-venv"
 wheels="$target_dir/wheels"
 rm -rf "$venv" "$wheels"
 "${PYTHON:-python3}" -m venv "$venv"
-"$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" numpy pytest matplotlib
+"$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" numpy pytest matplotlib "selenium>=4.20,<5"
 "$venv/bin/maturin" build --release --quiet "${checks[@]}" -o "$wheels"
 "$venv/bin/pip" install -q --disable-pip-version-check --no-deps "$wheels"/sonarproj-*.whl
 SONARPROJ_BIN="$target_dir/release/sonarproj" "$venv/bin/pytest" -q python/tests
+# The viewer (`sonarproj view`) driven in headless Chromium.
+SONARPROJ_BIN="$target_dir/release/sonarproj" "$venv/bin/pytest" -q web/tests
 examples_out="$(mktemp -d)"
 trap 'rm -rf "$examples_out"' EXIT
 for example in examples/python/*.py; do

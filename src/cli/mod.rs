@@ -20,6 +20,7 @@ mod pose_args;
 mod project;
 mod recover;
 mod sweep;
+mod view;
 
 use clap::{Parser, Subcommand};
 
@@ -62,6 +63,10 @@ enum Command {
     Bench(bench::BenchArgs),
     /// List the GPU adapters wgpu sees and which one `--backend auto` would use.
     Devices,
+    /// Open the interactive viewer: a local web page (served from this binary on 127.0.0.1)
+    /// with sliders for the feature and the pose, the 3-D geometry, sonar 2's data, the metrics
+    /// and the scene as a command line, a sweep file or Python.
+    View(view::ViewArgs),
 }
 
 /// Which backend a user asked for: `--backend auto|cpu|cpu-fast|gpu`.
@@ -187,6 +192,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
         Command::Recover(a) => recover::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Devices => devices::run(),
+        Command::View(a) => view::run(a),
     }
 }
 

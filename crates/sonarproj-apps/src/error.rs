@@ -50,6 +50,9 @@ pub enum Error {
     /// A figure could not be drawn.
     #[error("cannot draw a figure: {0}")]
     Figure(String),
+    /// The viewer's web server failed (the address cannot be bound, a reply cannot be sent).
+    #[error("viewer server: {0}")]
+    Serve(String),
     /// Some lines of a line-by-line input were bad; each got its own error in the output.
     #[error("{bad} of {lines} input lines were bad; each has an \"error\" object in the output")]
     BadLines {
@@ -71,7 +74,7 @@ impl Error {
             | Error::Csv { .. }
             | Error::ReadInput { .. }
             | Error::BadLines { .. } => true,
-            Error::WriteOutput { .. } | Error::Figure(_) => false,
+            Error::WriteOutput { .. } | Error::Figure(_) | Error::Serve(_) => false,
         }
     }
 

@@ -1,0 +1,328 @@
+"""The viewer (`sonarproj view`) in a real browser: headless Chromium loads the page, moves
+sliders and types values, and what the page shows is checked against the command line
+(`sonarproj project --backend cpu`, an independent process) and against where the documented
+picture convention puts each occupied bin: near range at the bottom, port on the left, beam 0
+(starboard-most) on the right of the raw layout."""
+
+import http.client
+import io
+import json
+import math
+import os
+import shlex
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from conftest import Page, chrome
+
+RED = (214, 39, 40)  # the page's colour of occupied bins and pixels
+
+
+@pytest.fixture()
+def page(browser, viewer):
+    return Page(browser, viewer.url)
+
+
+def project(cli, tmp_path, pair, feature, rotation, place=None, translation=None, occupancy=False):
+    """Returns `sonarproj project --backend cpu`'s JSON (and its occupancy as numpy)."""
+    args = ["project", "--backend", "cpu", "--from", pair[0], "--to", pair[1],
+            "--range", feature[0], "--azimuth", feature[1], "--elevation", feature[2],
+            "--roll", rotation[0], "--pitch", rotation[1], "--yaw", rotation[2]]
+    if place is not None:
+        args += ["--place-range", place[0], "--place-azimuth", place[1], "--place-elevation", place[2]]
+    else:
+        args += ["--translation", ",".join(map(str, translation))]
+    npy = tmp_path / "occupancy.npy"
+    if occupancy:
+        args += ["--occupancy", npy]
+    out = json.loads(cli(*args).stdout)
+    return out, (np.load(npy) if occupancy else None)
+
+
+def set_scene(page, pair, feature, rotation, place=None, translation=None):
+    """Sets every field of the page, moving the sliders where a person would drag them."""
+    if page.d.execute_script("return document.getElementById('from').value") != pair[0]:
+        page.select("from", pair[0])
+    if page.d.execute_script("return document.getElementById('to').value") != pair[1]:
+        page.select("to", pair[1])
+    for key, v in zip(("feature.range", "feature.azimuth", "feature.elevation"), feature):
+        page.type(key, v)
+    for key, v in zip(("rotation.roll", "rotation.pitch", "rotation.yaw"), rotation):
+        page.slide(key, v)
+    if place is not None:
+        page.mode("place")
+        for key, v in zip(("place.range", "place.azimuth", "place.elevation"), place):
+            page.type(key, v)
+    else:
+        page.mode("translation")
+        for key, v in zip(("translation.x", "translation.y", "translation.z"), translation):
+            page.type(key, v)
+
+
+SCENES = [
+    # (pair, feature (m, deg, deg), roll/pitch/yaw (deg), place or None, translation or None)
+    (("paper-fls", "paper-sss"), (5, 10, 0), (0, 90, 0), (15, 0, 0), None),
+    (("paper-sss", "paper-fls"), (5, 0, 0), (20, 30, 40), (5, 5, 0), None),
+    (("paper-fls", "paper-fls"), (4, -12, 3), (5, 0, -15), None, (-1.0, 0.5, 0.2)),
+    (("holoocean-sidescan", "holoocean-sidescan"), (12, 0, 0), (0, 0, 30), (14, -10, 0), None),
+]
+
+
+def test_the_page_loads_without_console_errors(page):
+    assert page.severe_logs() == []
+    assert page.error() is None
+    assert page.metrics()["total"] > 0
+
+
+@pytest.mark.parametrize("scene", SCENES, ids=lambda s: f"{s[0][0]}-{s[0][1]}")
+def test_moving_sliders_shows_the_numbers_of_sonarproj_project(page, cli, tmp_path, scene):
+    pair, feature, rotation, place, translation = scene
+    set_scene(page, pair, feature, rotation, place, translation)
+    shown = page.metrics()
+    expected, _ = project(cli, tmp_path, pair, feature, rotation, place, translation)
+    assert shown == expected["metrics"], "the page shows other numbers than the command line"
+    assert shown["visible"] > 0, "a scene where sonar 2 sees something"
+    # and the slider moved them: a yaw of 170° more shows another projection
+    page.slide("rotation.yaw", rotation[2] - 170 if rotation[2] > 0 else rotation[2] + 170)
+    assert page.metrics() != shown
+    assert page.severe_logs() == []
+
+
+def red_pixels(page, canvas_id="data-canvas"):
+    """Returns the (x, y) canvas pixels painted in the occupied colour."""
+    data = page.d.execute_script(
+        "const c = document.getElementById(arguments[0]);"
+        "return [c.width, c.height, Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data)];",
+        canvas_id)
+    w, h, rgba = data
+    a = np.array(rgba, dtype=np.int32).reshape(h, w, 4)
+    hit = (np.abs(a[..., 0] - RED[0]) <= 6) & (np.abs(a[..., 1] - RED[1]) <= 6) & (np.abs(a[..., 2] - RED[2]) <= 6)
+    ys, xs = np.nonzero(hit)
+    return xs, ys
+
+
+def occupied_centres(occ, sonar):
+    """Returns the (range m, azimuth rad) centres of the occupied pixels of an FLS occupancy."""
+    i, j = np.nonzero(occ)
+    dr = (sonar["range_max"] - sonar["range_min"]) / sonar["range_bins"]
+    edges = np.radians(sonar["beam_edges"])
+    r = sonar["range_min"] + (i + 0.5) * dr
+    az = 0.5 * (edges[j] + edges[j + 1])
+    return i, j, r, az
+
+
+def test_the_fan_puts_port_on_the_left_and_near_range_at_the_bottom(page, cli, tmp_path):
+    # a feature seen at +20° (port) and 3 m, near the fan's apex; rolled 90° so that the arc
+    # spreads over beams
+    scene = (("paper-fls", "paper-fls"), (5, 0, 0), (90, 0, 0), (3, 20, 0), None)
+    set_scene(page, *scene)
+    page.d.execute_script(
+        "const s = document.getElementById('layout-view'); s.value = 'fan';"
+        "s.dispatchEvent(new Event('change'));")
+    _, occ = project(cli, tmp_path, *scene, occupancy=True)
+    sonar = page.answer()["to"]
+    _, _, r, az = occupied_centres(occ, sonar)
+    drawn = page.d.execute_script("return window.sonarprojDrawn")
+    assert drawn["view"] == "fan"
+    xs, ys = red_pixels(page)
+    assert len(xs) > 20, "the projected region is drawn"
+    # where the documented convention puts the occupied pixels: forward up, +y (port) left
+    x_expected = drawn["cx"] - np.mean(r * np.sin(az)) * drawn["scale"]
+    y_expected = drawn["cy"] - np.mean(r * np.cos(az)) * drawn["scale"]
+    assert abs(np.mean(xs) - x_expected) < 3 and abs(np.mean(ys) - y_expected) < 3, \
+        (np.mean(xs), np.mean(ys), x_expected, y_expected)
+    assert np.mean(xs) < drawn["cx"], "a port feature is left of the sonar"
+    fan_height = sonar["range_max"] * drawn["scale"]
+    assert drawn["cy"] - np.mean(ys) < fan_height / 2, "3 m of 10 m is in the lower half"
+
+
+def test_the_raw_layout_puts_beam_0_on_the_right_and_row_0_at_the_bottom(page, cli, tmp_path):
+    scene = (("paper-fls", "paper-fls"), (5, 0, 0), (90, 0, 0), (8, -20, 0), None)  # starboard, far
+    set_scene(page, *scene)
+    page.d.execute_script(
+        "const s = document.getElementById('layout-view'); s.value = 'raw';"
+        "s.dispatchEvent(new Event('change'));")
+    try:
+        _, occ = project(cli, tmp_path, *scene, occupancy=True)
+        sonar = page.answer()["to"]
+        i, j, _, _ = occupied_centres(occ, sonar)
+        drawn = page.d.execute_script("return window.sonarprojDrawn")
+        assert drawn["view"] == "raw"
+        xs, ys = red_pixels(page)
+        assert len(xs) > 0
+        cw = drawn["width"] / sonar["beams"]
+        rh = drawn["height"] / sonar["range_bins"]
+        x_expected = drawn["left"] + (sonar["beams"] - 1 - np.mean(j) + 0.5) * cw
+        y_expected = drawn["top"] + drawn["height"] - (np.mean(i) + 0.5) * rh
+        assert abs(np.mean(xs) - x_expected) < 2 and abs(np.mean(ys) - y_expected) < 2
+        assert np.mean(xs) > drawn["left"] + drawn["width"] / 2, "starboard is on the right"
+        assert np.mean(ys) < drawn["top"] + drawn["height"] / 2, "8 m of 10 m is in the upper half"
+    finally:
+        page.d.execute_script(
+            "const s = document.getElementById('layout-view'); s.value = 'fan';"
+            "s.dispatchEvent(new Event('change'));")
+
+
+def test_the_sidescan_strip_puts_near_range_at_the_bottom(page, cli, tmp_path):
+    scene = (("paper-fls", "paper-sss"), (5, 10, 0), (0, 90, 0), (6, 0, 0), None)
+    set_scene(page, *scene)
+    _, occ = project(cli, tmp_path, *scene, occupancy=True)
+    sonar = page.answer()["to"]
+    bins = np.nonzero(occ)[0]
+    drawn = page.d.execute_script("return window.sonarprojDrawn")
+    assert drawn["view"] == "strip"
+    xs, ys = red_pixels(page)
+    assert len(xs) > 0
+    rh = drawn["height"] / sonar["range_bins"]
+    y_expected = drawn["top"] + drawn["height"] - (np.mean(bins) + 0.5) * rh
+    assert abs(np.mean(ys) - y_expected) < 2
+    assert np.mean(ys) > drawn["top"] + drawn["height"] * 0.7, "6 m of 30 m is near the bottom"
+
+
+def test_the_screenshots_are_not_blank_and_the_3d_view_shows_the_seen_samples(page):
+    set_scene(page, ("paper-fls", "paper-sss"), (5, 0, 0), (0, 90, 0), (15, 0, 0))
+    for element_id in ("data-canvas", "three-canvas"):
+        png = page.d.find_element("id", element_id).screenshot_as_png
+        image = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+        distinct = len(np.unique(image.reshape(-1, 3), axis=0))
+        assert distinct > 20, f"{element_id} is blank ({distinct} colours)"
+        red = np.sum((np.abs(image - np.array(RED)) <= 20).all(axis=2))
+        assert red > 10, f"{element_id} shows no seen samples / occupied bins"
+
+
+def test_a_bad_value_shows_the_engines_message_and_nothing_breaks(page, cli):
+    set_scene(page, ("paper-fls", "paper-sss"), (5, 0, 0), (0, 90, 0), (15, 0, 0))
+    good = page.metrics()
+    page.type("feature.range", "50")
+    done = cli("project", "--from", "paper-fls", "--to", "paper-sss", "--range", "50",
+               "--pitch", "90", "--place-range", "15", check=False)
+    assert done.returncode == 2
+    message = done.stderr.strip().removeprefix("error: ")
+    assert page.error() == message
+    page.type("feature.range", "5")
+    page.type("place.range", "-3")  # a second bad value: the page keeps answering
+    assert page.error() == "place range = -3 is invalid: must be >= 0 m"
+    page.type("place.range", "15")
+    page.type("feature.range", "5")
+    assert page.error() is None
+    assert page.metrics() == good
+    # the browser logs each refused scene (HTTP 400) as a failed load; nothing else
+    assert [e for e in page.severe_logs() if "status of 400" not in e["message"]] == []
+
+
+def test_noise_draws_a_widened_mask_holding_the_exact_occupancy(page):
+    set_scene(page, ("paper-fls", "paper-fls"), (5, 0, 0), (0, 0, 10), (6, 5, 0))
+    page.check("noise-on", True)
+    try:
+        a = page.answer()
+        assert a["mask"] is not None
+        mask = {k for s, n in a["mask"]["runs"] for k in range(s, s + n)}
+        exact = {k for s, n in a["occupancy"]["runs"] for k in range(s, s + n)}
+        assert exact and exact <= mask and len(mask) > len(exact)
+    finally:
+        page.check("noise-on", False)
+
+
+def test_recovery_finds_the_true_point(page):
+    set_scene(page, ("paper-fls", "paper-fls"), (5, 8, 2), (0, 10, 20), (6, -4, 1))
+    page.check("second-on", True)
+    try:
+        page._changed("document.getElementById('second-truth').click()")
+        best = page.answer()["recovery"]["candidates"][0]
+        feature = np.radians([8, 2])
+        truth = 5 * np.array([math.cos(feature[1]) * math.cos(feature[0]),
+                              math.cos(feature[1]) * math.sin(feature[0]), math.sin(feature[1])])
+        assert np.allclose(best["point_first"], truth, atol=1e-6)
+    finally:
+        page.check("second-on", False)
+
+
+def metric_lines(text):
+    out = {}
+    for line in text.splitlines():
+        name, value = line.split(" ", 1)
+        out[name] = float(value)
+    return out
+
+
+def test_copy_as_reproduces_the_view(page, cli, tmp_path):
+    scene = (("paper-sss", "paper-fls"), (5, 0, 0), (20, 30, 40), (5, 5, 0), None)
+    set_scene(page, *scene)
+    shown = page.metrics()
+    copy = page.answer()["copy"]
+    # the command line, computed on the same backend as the viewer: the same numbers
+    first = shlex.split(copy["command"].splitlines()[0])
+    assert first[:2] == ["sonarproj", "project"]
+    args = [a if a != "occupancy.npy" else str(tmp_path / "o.npy") for a in first[1:]]
+    assert json.loads(cli(*args, "--backend", "cpu").stdout)["metrics"] == shown
+    # the sweep file: one row with the same numbers
+    (tmp_path / "one.toml").write_text(copy["toml"])
+    cli("sweep", "--config", tmp_path / "one.toml", "--out", tmp_path / "sweep", "--backend", "cpu")
+    rows = (tmp_path / "sweep" / "sweep.csv").read_text().splitlines()
+    header, row = rows[0].split(","), rows[1].split(",")
+    assert len(rows) == 2
+    for name in ("visible", "total", "occupied"):
+        assert int(row[header.index(name)]) == shown[name]
+    for name in ("range_min", "range_max", "span", "occupied_measure"):
+        assert float(row[header.index(name)]) == shown[name]
+    # Python: the package's default backend (the fast CPU path here) agrees with the reference
+    # to rounding (1e-9 m), counts exactly
+    done = subprocess.run([sys.executable, "-c", copy["python"]], capture_output=True, text=True,
+                          env=dict(os.environ, NODEVICE_SELECT="1"))
+    assert done.returncode == 0, done.stderr
+    got = metric_lines(done.stdout)
+    for name in ("visible", "total", "occupied"):
+        assert got[name] == shown[name]
+    for name in ("range_min", "range_max", "span", "occupied_measure"):
+        assert abs(got[name] - shown[name]) <= 1e-9
+
+
+def test_without_webgl_the_2d_view_and_metrics_still_work(viewer):
+    driver = chrome("--disable-3d-apis", "--disable-webgl")
+    try:
+        page = Page(driver, viewer.url)
+        assert driver.execute_script("return !document.getElementById('no-webgl').hidden")
+        page.slide("rotation.pitch", 90)
+        assert page.metrics()["visible"] > 0
+        assert len(red_pixels(page)[0]) > 0
+        assert page.severe_logs() == []
+    finally:
+        driver.quit()
+
+
+def request(viewer, method, path, body=None, headers=None):
+    conn = http.client.HTTPConnection("127.0.0.1", viewer.port, timeout=10)
+    conn.request(method, path, body=body, headers=headers or {})
+    res = conn.getresponse()
+    data = res.read()
+    conn.close()
+    return res.status, data
+
+
+def test_the_server_refuses_other_hosts_origins_files_and_oversized_requests(viewer):
+    scene = json.dumps({"from": "paper-fls", "to": "paper-sss", "feature": {"range": 5},
+                        "place": {"range": 15}})
+    assert request(viewer, "POST", "/api/scene", scene)[0] == 200
+    # DNS rebinding: a page on another name that resolves to 127.0.0.1
+    status, body = request(viewer, "GET", "/", headers={"Host": f"attacker.example:{viewer.port}"})
+    assert status == 403 and b"not this viewer" in body
+    status, _ = request(viewer, "POST", "/api/scene", scene, {"Origin": "http://attacker.example"})
+    assert status == 403
+    # a sonar is a label the server offers, never a path it would read
+    status, body = request(viewer, "POST", "/api/scene", scene.replace('"paper-fls"', '"/etc/passwd"'))
+    assert status == 400 and b"one of paper-fls" in body
+    for path in ("/../Cargo.toml", "/etc/passwd", "/vendor/three/../../Cargo.toml"):
+        assert request(viewer, "GET", path)[0] == 404
+    status, body = request(viewer, "POST", "/api/scene", " " * (70 * 1024))
+    assert status == 400 and b"at most 65536 bytes" in body
+    status, body = request(viewer, "POST", "/api/scene", "{not json")
+    assert status == 400 and b"request" in body
+    # the engine's size limits: a sampling step that would need too many samples
+    fine = json.dumps({"from": "paper-sss", "to": "paper-fls", "feature": {"range": 5},
+                       "place": {"range": 5}, "step": 1e-6})
+    status, body = request(viewer, "POST", "/api/scene", fine)
+    assert status == 400 and b"samples per pose" in body

@@ -1,0 +1,650 @@
+// sonarproj view: the page. Every change posts the scene to /api/scene; the engine (in the
+// sonarproj process) computes it and this script draws the answer: a 3-D view of both fields of
+// view and the sampled arc or surface (three.js), sonar 2's data (fan seen from above, raw
+// layout, or a sidescan's range strip), the metrics and the "copy as" texts.
+//
+// Picture convention (as every picture of sonarproj): near range at the bottom, port on the
+// left; in the raw layout beam 0 (starboard-most) is the rightmost column.
+
+const COLOURS = {
+  s1: 0x1f77b4, s2: 0xff7f0e, seen: 0xd62728, unseen: 0xa0a4ab, truth: 0x111111, rec: 0x2ca02c,
+};
+const METRICS = ["visible", "total", "range_min", "range_max", "span", "azimuth_min",
+  "azimuth_max", "occupied", "occupied_measure"];
+
+const $ = (id) => document.getElementById(id);
+const state = { sonars: new Map(), last: null, copy: "command", fitted: false };
+// Where the last 2-D picture put sonar 2's data (canvas pixels), for tests.
+window.sonarprojDrawn = null;
+// What a test harness or benchmark reads: one entry per answered update.
+window.sonarprojStats = { updates: [], errors: 0 };
+
+// ---------------------------------------------------------------- fields (slider + number)
+
+const fields = new Map();
+
+function buildFields() {
+  for (const div of document.querySelectorAll(".field")) {
+    const key = div.dataset.key;
+    const label = document.createElement("label");
+    label.textContent = div.dataset.label;
+    const slider = document.createElement("input");
+    slider.type = "range";
+    const number = document.createElement("input");
+    number.type = "number";
+    number.step = "any";
+    const id = "f-" + key.replace(".", "-");
+    number.id = id;
+    slider.id = id + "-slider";
+    label.htmlFor = id;
+    const unit = document.createElement("span");
+    unit.textContent = div.dataset.unit;
+    div.append(label, slider, number, unit);
+    slider.addEventListener("input", () => { number.value = slider.value; changed(); });
+    number.addEventListener("input", () => {
+      if (number.value !== "" && Number.isFinite(Number(number.value))) slider.value = number.value;
+      changed();
+    });
+    fields.set(key, { slider, number, div });
+  }
+}
+
+function setRange(key, min, max, step) {
+  const f = fields.get(key);
+  f.slider.min = min;
+  f.slider.max = max;
+  f.slider.step = step;
+}
+
+function setValue(key, v) {
+  const f = fields.get(key);
+  const r = Number(Number(v).toPrecision(12));
+  f.number.value = String(r);
+  f.slider.value = String(r);
+}
+
+function value(key) {
+  const text = fields.get(key).number.value.trim();
+  const v = Number(text);
+  if (text === "" || !Number.isFinite(v)) throw new Error(`${key.replace(".", " ")}: "${text}" is not a number`);
+  return v;
+}
+
+function clamp(v, lo, hi) { return Math.min(hi, Math.max(lo, v)); }
+
+// ---------------------------------------------------------------- sonar pair
+
+function sonar(which) { return state.sonars.get($(which).value); }
+
+function configurePair(reset) {
+  const s1 = sonar("from"), s2 = sonar("to");
+  const r1 = s1.range_max - s1.range_min, r2 = s2.range_max - s2.range_min;
+  setRange("feature.range", s1.range_min, s1.range_max, r1 / 2000);
+  setRange("feature.azimuth", -s1.azimuth_aperture / 2, s1.azimuth_aperture / 2, s1.azimuth_aperture / 1200);
+  setRange("feature.elevation", -s1.elevation_aperture / 2, s1.elevation_aperture / 2, s1.elevation_aperture / 1200);
+  for (const k of ["roll", "pitch", "yaw"]) setRange("rotation." + k, -180, 180, 0.5);
+  setRange("place.range", s2.range_min, s2.range_max, r2 / 2000);
+  setRange("place.azimuth", -s2.azimuth_aperture / 2, s2.azimuth_aperture / 2, s2.azimuth_aperture / 1200);
+  setRange("place.elevation", -s2.elevation_aperture / 2, s2.elevation_aperture / 2, s2.elevation_aperture / 1200);
+  const reach = Math.max(s1.range_max, s2.range_max);
+  for (const k of ["x", "y", "z"]) setRange("translation." + k, -reach, reach, reach / 2000);
+  setRange("second.range", s2.range_min, s2.range_max, r2 / 2000);
+  setRange("second.azimuth", -s2.azimuth_aperture / 2, s2.azimuth_aperture / 2, s2.azimuth_aperture / 1200);
+  fields.get("second.azimuth").div.hidden = s2.kind !== "fls";
+  fields.get("feature.azimuth").div.querySelector("label").textContent =
+    s1.kind === "fls" ? "azimuth" : "azimuth*";
+  $("feature-note").textContent = s1.kind === "fls"
+    ? "An FLS measures range and azimuth; the elevation is lost (the arc)."
+    : "A sidescan measures only the range; azimuth* and elevation place the true point on the surface.";
+  $("pair-note").textContent = `${s1.kind.toUpperCase()} → ${s2.kind.toUpperCase()}`;
+  if (reset) {
+    setValue("feature.range", clamp(Math.min(5, s1.range_min + r1 / 2), s1.range_min, s1.range_max));
+    setValue("feature.azimuth", 0);
+    setValue("feature.elevation", 0);
+    for (const k of ["roll", "pitch", "yaw"]) setValue("rotation." + k, 0);
+    setValue("place.range", clamp(Math.min(15, s2.range_min + r2 / 2), s2.range_min, s2.range_max));
+    setValue("place.azimuth", 0);
+    setValue("place.elevation", 0);
+    for (const k of ["x", "y", "z"]) setValue("translation." + k, 0);
+    setValue("translation.x", -1);
+    setValue("second.range", fields.get("place.range").number.value);
+    setValue("second.azimuth", 0);
+    state.fitted = false;
+  }
+}
+
+// ---------------------------------------------------------------- the scene sent
+
+function mode() { return document.querySelector("input[name=mode]:checked").value; }
+
+function readScene() {
+  const scene = {
+    from: $("from").value,
+    to: $("to").value,
+    feature: { range: value("feature.range"), azimuth: value("feature.azimuth"), elevation: value("feature.elevation") },
+    rotation: { roll: value("rotation.roll"), pitch: value("rotation.pitch"), yaw: value("rotation.yaw") },
+  };
+  if (mode() === "place") {
+    scene.place = { range: value("place.range"), azimuth: value("place.azimuth"), elevation: value("place.elevation") };
+  } else {
+    scene.translation = [value("translation.x"), value("translation.y"), value("translation.z")];
+  }
+  if (!$("auto-step").checked) scene.step = numberOf("step", "step");
+  if ($("noise-on").checked) {
+    scene.sigma = {};
+    for (const k of ["roll", "pitch", "yaw", "tx", "ty", "tz", "range", "azimuth"]) {
+      scene.sigma[k] = numberOf("sigma-" + k, "sigma " + k);
+    }
+    scene.coverage = numberOf("coverage", "coverage");
+  }
+  if ($("second-on").checked) {
+    scene.second = { range: value("second.range") };
+    if (sonar("to").kind === "fls") scene.second.azimuth = value("second.azimuth");
+  }
+  return scene;
+}
+
+function numberOf(id, name) {
+  const text = $(id).value.trim();
+  const v = Number(text);
+  if (text === "" || !Number.isFinite(v)) throw new Error(`${name}: "${text}" is not a number`);
+  return v;
+}
+
+// One request at a time; a change during a request is sent when it returns (the latest wins).
+let inflight = false, pending = false, changedAt = 0;
+
+function changed() {
+  changedAt = performance.now();
+  if (inflight) { pending = true; return; }
+  send();
+}
+
+async function send() {
+  const started = changedAt;
+  let scene;
+  try {
+    scene = readScene();
+  } catch (e) {
+    showError(e.message);
+    return;
+  }
+  inflight = true;
+  try {
+    const res = await fetch("/api/scene", {
+      method: "POST",
+      headers: { "Content-Type": "application/json" },
+      body: JSON.stringify(scene),
+    });
+    const body = await res.json();
+    if (!res.ok) {
+      showError(body.error || `the server answered ${res.status}`);
+    } else {
+      showError(null);
+      render(body, performance.now() - started);
+      window.sonarprojStats.updates.push({ ms: performance.now() - started, compute_ms: body.compute_ms });
+    }
+  } catch (e) {
+    showError(`no answer from the viewer's server (${e.message}); is \`sonarproj view\` still running?`);
+  } finally {
+    inflight = false;
+    document.body.dataset.updates = String(window.sonarprojStats.updates.length);
+    if (pending) { pending = false; send(); }
+  }
+}
+
+function showError(message) {
+  const box = $("error");
+  if (message) {
+    box.textContent = message;
+    box.hidden = false;
+    window.sonarprojStats.errors += 1;
+    document.body.dataset.errors = String(window.sonarprojStats.errors);
+  } else {
+    box.hidden = true;
+    box.textContent = "";
+  }
+}
+
+// ---------------------------------------------------------------- rendering an answer
+
+function fmt(v, digits) {
+  if (v === null || v === undefined) return "—";
+  if (Number.isInteger(v) && digits === undefined) return String(v);
+  return Number(v).toPrecision(digits || 7);
+}
+
+function render(r, roundTrip) {
+  state.last = r;
+  window.sonarprojLast = r;
+  for (const name of METRICS) {
+    const el = $("m-" + name);
+    const v = r.metrics[name];
+    el.textContent = fmt(v);
+    el.dataset.value = v === null ? "" : String(v);
+  }
+  $("m-mask").textContent = r.mask
+    ? `${r.mask.count} ${r.to.kind === "fls" ? "pixels" : "bins"} (ball radius ${fmt(r.mask.radius, 3)} m)`
+    : "— (turn on noise)";
+  $("m-recovery").textContent = recoveryText(r.recovery);
+  $("m-time").textContent = `${r.compute_ms.toFixed(1)} ms in the engine (${r.device}), ${roundTrip.toFixed(1)} ms round trip`;
+  $("copy-text").textContent = r.copy[state.copy];
+  drawData();
+  update3d(r);
+}
+
+function recoveryText(rec) {
+  if (!rec) return "— (give a second measurement)";
+  const c = rec.candidates;
+  const flags = rec.flags.length ? `; flags: ${rec.flags.join(", ")}` : "";
+  if (rec.curve) return `a curve of ${fmt(rec.curve.length, 4)} m seen by both (${c.length} points)${flags}`;
+  if (!c.length) return `no point fits both measurements${flags}`;
+  const b = c[0];
+  return `${c.length} candidate(s); best: elevation ${fmt(b.first[2], 5)}° in sonar 1, ` +
+    `${fmt(b.second[2], 5)}° in sonar 2${b.in_view ? "" : " (outside a field of view)"}${flags}`;
+}
+
+// ---------------------------------------------------------------- sonar 2's data, 2-D
+
+function occupancyGrid(o) {
+  const grid = new Uint8Array(o.range_bins * o.beams);
+  for (const [start, len] of o.runs) grid.fill(1, start, start + len);
+  return grid;
+}
+
+// Calls fn(row, j0, j1) for every run of set pixels, split at row ends.
+function eachRun(runs, beams, fn) {
+  for (const [start, len] of runs) {
+    let k = start;
+    const end = start + len;
+    while (k < end) {
+      const row = Math.floor(k / beams), j0 = k % beams;
+      const j1 = Math.min(beams - 1, j0 + (end - k) - 1);
+      fn(row, j0, j1);
+      k += j1 - j0 + 1;
+    }
+  }
+}
+
+function niceStep(span, target) {
+  const raw = span / target;
+  const p = Math.pow(10, Math.floor(Math.log10(raw)));
+  for (const m of [1, 2, 2.5, 5, 10]) if (m * p >= raw) return m * p;
+  return 10 * p;
+}
+
+function drawData() {
+  const r = state.last;
+  const canvas = $("data-canvas");
+  const ctx = canvas.getContext("2d");
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.clearRect(0, 0, canvas.width, canvas.height);
+  if (!r) return;
+  ctx.font = "13px system-ui, sans-serif";
+  if (r.to.kind === "sss") drawStrip(ctx, canvas, r);
+  else if ($("layout-view").value === "raw") drawRaw(ctx, canvas, r);
+  else drawFan(ctx, canvas, r);
+}
+
+// Returns the fan's geometry on the canvas: sonar 2 at (cx, cy), forward up, port (+y) left.
+function fanGeometry(canvas, s) {
+  const half = s.azimuth_aperture / 2 * Math.PI / 180;
+  const pts = [[0, 0]];
+  for (let i = 0; i <= 64; i++) {
+    const a = -half + 2 * half * i / 64;
+    pts.push([s.range_max * Math.cos(a), s.range_max * Math.sin(a)]);
+  }
+  const xs = pts.map((p) => p[0]), ys = pts.map((p) => p[1]);
+  const [xmin, xmax, ymin, ymax] = [Math.min(...xs), Math.max(...xs), Math.min(...ys), Math.max(...ys)];
+  const pad = { l: 70, r: 70, t: 34, b: 40 };
+  const scale = Math.min((canvas.width - pad.l - pad.r) / (ymax - ymin), (canvas.height - pad.t - pad.b) / (xmax - xmin));
+  const cx = pad.l + (ymax / (ymax - ymin)) * (ymax - ymin) * scale +
+    ((canvas.width - pad.l - pad.r) - (ymax - ymin) * scale) / 2;
+  const cy = pad.t + xmax * scale + ((canvas.height - pad.t - pad.b) - (xmax - xmin) * scale) / 2;
+  // canvas angle of azimuth a (rad): forward is up, +azimuth (port) to the left.
+  const ang = (a) => -Math.PI / 2 - a;
+  return { cx, cy, scale, half, ang };
+}
+
+function sector(ctx, g, r0, r1, a0, a1) {
+  ctx.beginPath();
+  // azimuth a0 < a1 → canvas angles ang(a0) > ang(a1); draw counter-clockwise from ang(a0).
+  ctx.arc(g.cx, g.cy, r1 * g.scale, g.ang(a0), g.ang(a1), true);
+  ctx.arc(g.cx, g.cy, Math.max(r0, 0) * g.scale, g.ang(a1), g.ang(a0), false);
+  ctx.closePath();
+}
+
+// Fills the canvas pixels the rectangle touches (whole pixels, at least one): small regions are
+// drawn in their exact colour instead of an anti-aliased blend.
+function snapRect(ctx, x, y, w, h) {
+  const x0 = Math.floor(x), y0 = Math.floor(y);
+  const x1 = Math.max(x0 + 1, Math.ceil(x + w)), y1 = Math.max(y0 + 1, Math.ceil(y + h));
+  ctx.fillRect(x0, y0, x1 - x0, y1 - y0);
+}
+
+function drawFan(ctx, canvas, r) {
+  const s = r.to, g = fanGeometry(canvas, s);
+  const edges = s.beam_edges.map((e) => e * Math.PI / 180);
+  const dr = (s.range_max - s.range_min) / s.range_bins;
+  ctx.fillStyle = "#e8eef7";
+  ctx.strokeStyle = "#9aa8bd";
+  sector(ctx, g, s.range_min, s.range_max, -g.half, g.half);
+  ctx.fill();
+  ctx.stroke();
+  const paint = (runs, fill) => {
+    ctx.fillStyle = fill;
+    ctx.strokeStyle = fill;
+    ctx.lineWidth = 0.8;
+    eachRun(runs, s.beams, (row, j0, j1) => {
+      const r0 = s.range_min + row * dr, a0 = edges[j0], a1 = edges[j1 + 1];
+      sector(ctx, g, r0, r0 + dr, a0, a1);
+      ctx.fill();
+      ctx.stroke();
+      // a region smaller than 2 canvas pixels is drawn as a 3-pixel square, so it stays visible
+      if (dr * g.scale < 2 || (a1 - a0) * (r0 + dr) * g.scale < 2) {
+        const rm = r0 + dr / 2, am = (a0 + a1) / 2;
+        snapRect(ctx, g.cx + Math.cos(g.ang(am)) * rm * g.scale - 1.5, g.cy + Math.sin(g.ang(am)) * rm * g.scale - 1.5, 3, 3);
+      }
+    });
+  };
+  if (r.mask) paint(r.mask.runs, "#fdd0a2");
+  paint(r.occupancy.runs, "#d62728");
+  // range rings and bearings
+  ctx.strokeStyle = "rgba(60,70,90,0.35)";
+  ctx.fillStyle = "#374151";
+  ctx.lineWidth = 1;
+  const step = niceStep(s.range_max, 5);
+  ctx.textAlign = "left";
+  for (let q = step; q <= s.range_max + 1e-9; q += step) {
+    ctx.beginPath();
+    ctx.arc(g.cx, g.cy, q * g.scale, g.ang(-g.half), g.ang(g.half), true);
+    ctx.stroke();
+    const a = g.ang(-g.half);
+    ctx.fillText(`${+q.toPrecision(6)} m`, g.cx + Math.cos(a) * q * g.scale + 4, g.cy + Math.sin(a) * q * g.scale + 4);
+  }
+  const bstep = niceStep(2 * g.half * 180 / Math.PI, 6);
+  ctx.textAlign = "center";
+  for (let b = -Math.floor(g.half * 180 / Math.PI / bstep) * bstep; b <= g.half * 180 / Math.PI + 1e-9; b += bstep) {
+    const a = g.ang(b * Math.PI / 180);
+    ctx.beginPath();
+    ctx.moveTo(g.cx, g.cy);
+    ctx.lineTo(g.cx + Math.cos(a) * s.range_max * g.scale, g.cy + Math.sin(a) * s.range_max * g.scale);
+    ctx.stroke();
+    const t = s.range_max * g.scale + 14;
+    ctx.fillText(`${b > 0 ? "+" : ""}${+b.toPrecision(4)}°`, g.cx + Math.cos(a) * t, g.cy + Math.sin(a) * t + 4);
+  }
+  window.sonarprojDrawn = { view: "fan", cx: g.cx, cy: g.cy, scale: g.scale };
+  ctx.font = "bold 14px system-ui, sans-serif";
+  ctx.textAlign = "left";
+  ctx.fillText("◀ port", 8, canvas.height - 12);
+  ctx.textAlign = "right";
+  ctx.fillText("starboard ▶", canvas.width - 8, canvas.height - 12);
+  ctx.textAlign = "center";
+  ctx.font = "12px system-ui, sans-serif";
+  ctx.fillText("sonar 2, seen from above (forward up)", canvas.width / 2, canvas.height - 12);
+}
+
+function axisLayout(canvas) {
+  return { l: 64, r: 24, t: 30, b: 56, w: canvas.width - 88, h: canvas.height - 86 };
+}
+
+function drawRaw(ctx, canvas, r) {
+  const s = r.to, p = axisLayout(canvas);
+  const cw = p.w / s.beams, rh = p.h / s.range_bins;
+  // column of beam j: beam 0 (starboard-most) at the right.
+  const x = (j) => p.l + (s.beams - 1 - j) * cw;
+  const y = (row) => p.t + p.h - (row + 1) * rh;
+  ctx.fillStyle = "#e8eef7";
+  ctx.fillRect(p.l, p.t, p.w, p.h);
+  const paint = (runs, fill) => {
+    ctx.fillStyle = fill;
+    eachRun(runs, s.beams, (row, j0, j1) => {
+      snapRect(ctx, x(j1), y(row), (j1 - j0 + 1) * cw, rh);
+    });
+  };
+  if (r.mask) paint(r.mask.runs, "#fdd0a2");
+  paint(r.occupancy.runs, "#d62728");
+  ctx.strokeStyle = "#9aa8bd";
+  ctx.strokeRect(p.l, p.t, p.w, p.h);
+  window.sonarprojDrawn = { view: "raw", left: p.l, top: p.t, width: p.w, height: p.h };
+  ctx.fillStyle = "#374151";
+  ctx.textAlign = "center";
+  for (const j of [s.beams - 1, Math.floor((s.beams - 1) / 2), 0]) {
+    ctx.fillText(String(j), x(j) + cw / 2, p.t + p.h + 16);
+  }
+  ctx.fillText("beam (0 = starboard-most, on the right)", p.l + p.w / 2, p.t + p.h + 34);
+  ctx.font = "bold 14px system-ui, sans-serif";
+  ctx.textAlign = "left";
+  ctx.fillText("◀ port", 8, canvas.height - 8);
+  ctx.textAlign = "right";
+  ctx.fillText("starboard ▶", canvas.width - 8, canvas.height - 8);
+  ctx.font = "13px system-ui, sans-serif";
+  rangeAxis(ctx, s, p, "range bin (near range at the bottom)");
+}
+
+function rangeAxis(ctx, s, p, title) {
+  ctx.textAlign = "right";
+  ctx.fillStyle = "#374151";
+  const step = niceStep(s.range_max - s.range_min, 6);
+  for (let q = Math.ceil(s.range_min / step) * step; q <= s.range_max + 1e-9; q += step) {
+    const yy = p.t + p.h - (q - s.range_min) / (s.range_max - s.range_min) * p.h;
+    ctx.fillText(`${+q.toPrecision(6)} m`, p.l - 6, yy + 4);
+  }
+  ctx.save();
+  ctx.translate(14, p.t + p.h / 2);
+  ctx.rotate(-Math.PI / 2);
+  ctx.textAlign = "center";
+  ctx.fillText(title, 0, 0);
+  ctx.restore();
+}
+
+function drawStrip(ctx, canvas, r) {
+  const s = r.to;
+  const p = { l: 150, r: 150, t: 30, b: 56 };
+  p.w = canvas.width - p.l - p.r;
+  p.h = canvas.height - p.t - p.b;
+  const rh = p.h / s.range_bins;
+  ctx.fillStyle = "#e8eef7";
+  ctx.fillRect(p.l, p.t, p.w, p.h);
+  const paint = (runs, fill) => {
+    ctx.fillStyle = fill;
+    for (const [start, len] of runs) {
+      snapRect(ctx, p.l, p.t + p.h - (start + len) * rh, p.w, len * rh);
+    }
+  };
+  if (r.mask) paint(r.mask.runs, "#fdd0a2");
+  paint(r.occupancy.runs, "#d62728");
+  ctx.strokeStyle = "#9aa8bd";
+  ctx.strokeRect(p.l, p.t, p.w, p.h);
+  window.sonarprojDrawn = { view: "strip", left: p.l, top: p.t, width: p.w, height: p.h };
+  rangeAxis(ctx, s, p, "range (near range at the bottom)");
+  ctx.fillStyle = "#374151";
+  ctx.textAlign = "center";
+  ctx.fillText("one sidescan channel: range bins only", p.l + p.w / 2, p.t + p.h + 18);
+  ctx.fillText("(port and starboard are separate channels)", p.l + p.w / 2, p.t + p.h + 34);
+  ctx.font = "bold 14px system-ui, sans-serif";
+  ctx.textAlign = "left";
+  ctx.fillText("◀ port", 8, canvas.height - 8);
+  ctx.textAlign = "right";
+  ctx.fillText("starboard ▶", canvas.width - 8, canvas.height - 8);
+}
+
+// ---------------------------------------------------------------- 3-D
+
+const three = { ok: false };
+
+async function init3d() {
+  let THREE, OrbitControls;
+  try {
+    THREE = await import("/vendor/three/three.module.min.js");
+    ({ OrbitControls } = await import("/vendor/three/OrbitControls.js"));
+    const canvas = $("three-canvas");
+    if (!canvas.getContext("webgl2") && !canvas.getContext("webgl")) throw new Error("no WebGL");
+    const renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
+    renderer.setPixelRatio(window.devicePixelRatio || 1);
+    renderer.setSize(canvas.width, canvas.height, false);
+    renderer.setClearColor(0xffffff);
+    const scene = new THREE.Scene();
+    const camera = new THREE.PerspectiveCamera(45, canvas.width / canvas.height, 0.01, 5000);
+    camera.up.set(0, 0, 1);  // the sonars' z is up
+    camera.position.set(-8, -8, 6);
+    const controls = new OrbitControls(camera, canvas);
+    controls.addEventListener("change", () => renderer.render(scene, camera));
+    scene.add(new THREE.AxesHelper(1));
+    Object.assign(three, { ok: true, THREE, renderer, scene, camera, controls, dynamic: [] });
+  } catch (e) {
+    $("three-canvas").hidden = true;
+    $("no-webgl").hidden = false;
+  }
+}
+
+function fovLines(THREE, s, colour) {
+  const half = s.azimuth_aperture / 2 * Math.PI / 180, eh = s.elevation_aperture / 2 * Math.PI / 180;
+  const sph = (r, a, e) => new THREE.Vector3(r * Math.cos(e) * Math.cos(a), r * Math.cos(e) * Math.sin(a), r * Math.sin(e));
+  const pts = [];
+  const seg = (p, q) => pts.push(p, q);
+  const n = 48;
+  for (const r of [s.range_min, s.range_max]) {
+    if (r <= 0) continue;
+    for (const e of [-eh, eh]) for (let i = 0; i < n; i++) seg(sph(r, -half + 2 * half * i / n, e), sph(r, -half + 2 * half * (i + 1) / n, e));
+    for (const a of [-half, half]) for (let i = 0; i < 12; i++) seg(sph(r, a, -eh + 2 * eh * i / 12), sph(r, a, -eh + 2 * eh * (i + 1) / 12));
+  }
+  for (const a of [-half, half]) for (const e of [-eh, eh]) seg(sph(s.range_min, a, e), sph(s.range_max, a, e));
+  const geom = new THREE.BufferGeometry().setFromPoints(pts);
+  return new THREE.LineSegments(geom, new THREE.LineBasicMaterial({ color: colour, transparent: true, opacity: 0.7 }));
+}
+
+function update3d(r) {
+  if (!three.ok) return;
+  const { THREE, scene } = three;
+  for (const o of three.dynamic) { scene.remove(o); o.geometry && o.geometry.dispose(); }
+  three.dynamic = [];
+  const add = (o) => { scene.add(o); three.dynamic.push(o); return o; };
+  add(fovLines(THREE, r.from, COLOURS.s1));
+  // sonar 2's frame in sonar 1's: p1 = Rᵀ (p2 − t); rotation[i] is row i of R.
+  const R = r.pose.rotation, t = r.pose.translation;
+  const m = new THREE.Matrix4();
+  const rt = [0, 1, 2].map((i) => -(R[0][i] * t[0] + R[1][i] * t[1] + R[2][i] * t[2]));
+  m.set(R[0][0], R[1][0], R[2][0], rt[0], R[0][1], R[1][1], R[2][1], rt[1], R[0][2], R[1][2], R[2][2], rt[2], 0, 0, 0, 1);
+  const g2 = new THREE.Group();
+  g2.add(fovLines(THREE, r.to, COLOURS.s2));
+  g2.add(new THREE.AxesHelper(0.6));
+  g2.matrixAutoUpdate = false;
+  g2.matrix.copy(m);
+  add(g2);
+  const pos = r.samples.first, vis = r.samples.visible;
+  const colours = new Float32Array(vis.length * 3);
+  const seen = new THREE.Color(COLOURS.seen), unseen = new THREE.Color(COLOURS.unseen);
+  vis.forEach((v, k) => (v ? seen : unseen).toArray(colours, 3 * k));
+  const geom = new THREE.BufferGeometry();
+  geom.setAttribute("position", new THREE.Float32BufferAttribute(pos, 3));
+  geom.setAttribute("color", new THREE.Float32BufferAttribute(colours, 3));
+  add(new THREE.Points(geom, new THREE.PointsMaterial({ size: 3, sizeAttenuation: false, vertexColors: true })));
+  const s1 = r.from, f = readSceneSafe();
+  if (f) {
+    const e = f.feature.elevation * Math.PI / 180, a = f.feature.azimuth * Math.PI / 180;
+    const p = [f.feature.range * Math.cos(e) * Math.cos(a), f.feature.range * Math.cos(e) * Math.sin(a), f.feature.range * Math.sin(e)];
+    const tg = new THREE.BufferGeometry();
+    tg.setAttribute("position", new THREE.Float32BufferAttribute(p, 3));
+    add(new THREE.Points(tg, new THREE.PointsMaterial({ size: 9, sizeAttenuation: false, color: COLOURS.truth })));
+  }
+  if (r.recovery && r.recovery.candidates.length) {
+    const rp = r.recovery.candidates.flatMap((c) => c.point_first);
+    const rg = new THREE.BufferGeometry();
+    rg.setAttribute("position", new THREE.Float32BufferAttribute(rp, 3));
+    add(new THREE.Points(rg, new THREE.PointsMaterial({ size: 8, sizeAttenuation: false, color: COLOURS.rec })));
+  }
+  if (!state.fitted) fit(r, s1);
+  three.renderer.render(scene, three.camera);
+}
+
+function readSceneSafe() { try { return readScene(); } catch (e) { return null; } }
+
+function fit(r) {
+  if (!three.ok) return;
+  const { THREE, camera, controls } = three;
+  const box = new THREE.Box3();
+  const pos = r.samples.first;
+  for (let k = 0; k < pos.length; k += 3) box.expandByPoint(new THREE.Vector3(pos[k], pos[k + 1], pos[k + 2]));
+  box.expandByPoint(new THREE.Vector3(0, 0, 0));
+  const R = r.pose.rotation, t = r.pose.translation;
+  const o2 = [0, 1, 2].map((i) => -(R[0][i] * t[0] + R[1][i] * t[1] + R[2][i] * t[2]));
+  box.expandByPoint(new THREE.Vector3(...o2));
+  const centre = box.getCenter(new THREE.Vector3());
+  const size = Math.max(box.getSize(new THREE.Vector3()).length(), 1);
+  controls.target.copy(centre);
+  camera.position.copy(centre).add(new THREE.Vector3(-0.6, -0.9, 0.7).multiplyScalar(size));
+  camera.near = size / 1000;
+  camera.far = size * 100;
+  camera.updateProjectionMatrix();
+  controls.update();
+  state.fitted = true;
+}
+
+// ---------------------------------------------------------------- start
+
+async function start() {
+  buildFields();
+  await init3d();
+  let init;
+  try {
+    init = await (await fetch("/api/init")).json();
+  } catch (e) {
+    showError(`cannot reach the viewer's server: ${e.message}`);
+    return;
+  }
+  $("device").textContent = `computing on ${init.device} (${init.backend})`;
+  for (const s of init.sonars) state.sonars.set(s.label, s);
+  for (const id of ["from", "to"]) {
+    const sel = $(id);
+    for (const s of init.sonars) sel.add(new Option(`${s.label} (${s.kind})`, s.label));
+    sel.value = init.initial[id];
+    sel.addEventListener("change", () => { configurePair(true); changed(); });
+  }
+  configurePair(true);
+  for (const el of document.querySelectorAll("input[name=mode]")) {
+    el.addEventListener("change", () => {
+      $("place-fields").hidden = mode() !== "place";
+      $("translation-fields").hidden = mode() === "place";
+      changed();
+    });
+  }
+  $("auto-step").addEventListener("change", () => { $("step").disabled = $("auto-step").checked; changed(); });
+  $("step").addEventListener("input", changed);
+  $("noise-on").addEventListener("change", () => { $("noise-fields").hidden = !$("noise-on").checked; changed(); });
+  for (const el of document.querySelectorAll("#noise-fields input")) el.addEventListener("input", changed);
+  $("second-on").addEventListener("change", () => { $("second-fields").hidden = !$("second-on").checked; changed(); });
+  $("second-truth").addEventListener("click", () => {
+    if (!state.last) return;
+    const [range, azimuth] = state.last.truth_second;
+    setValue("second.range", range);
+    setValue("second.azimuth", azimuth);
+    changed();
+  });
+  $("layout-view").addEventListener("change", drawData);
+  $("fit").addEventListener("click", () => state.last && fit(state.last));
+  for (const b of document.querySelectorAll(".tabs button[data-copy]")) {
+    b.addEventListener("click", () => {
+      state.copy = b.dataset.copy;
+      for (const o of document.querySelectorAll(".tabs button[data-copy]")) o.classList.toggle("active", o === b);
+      if (state.last) $("copy-text").textContent = state.last.copy[state.copy];
+    });
+  }
+  $("copy-button").addEventListener("click", async () => {
+    const text = $("copy-text").textContent;
+    try {
+      await navigator.clipboard.writeText(text);
+      $("copy-button").textContent = "copied";
+    } catch (e) {
+      const range = document.createRange();
+      range.selectNodeContents($("copy-text"));
+      window.getSelection().removeAllRanges();
+      window.getSelection().addRange(range);
+      $("copy-button").textContent = "selected: press Ctrl-C";
+    }
+    setTimeout(() => { $("copy-button").textContent = "copy"; }, 1500);
+  });
+  changed();
+}
+
+start();
