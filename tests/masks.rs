@@ -11,7 +11,7 @@ use sonarproj::geometry::sonar::{BeamLayout, SonarKind};
 use sonarproj::masks::{Counts, MaskEngine, Noise};
 use sonarproj::{Measurement, RelativePose, Sonar};
 
-/// Scenes per preset pair (issue 4: at least 10 000).
+/// Scenes per preset pair (the masks are checked on at least 10 000).
 const SCENES: usize = 10_000;
 
 /// Returns a value in `[lo, hi]`, one time in ten exactly at a bound.
