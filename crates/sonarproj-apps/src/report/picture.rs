@@ -464,7 +464,7 @@ impl Strips {
         )];
         if let Some((rects, window)) = &self.zoom {
             let (r0, r1) = (layout.range_edge(window.start), layout.range_edge(window.end));
-            panels.push((rects, r0, r1, "zoomed on the masks".to_string()));
+            panels.push((rects, r0, r1, "zoomed on the occupied bins".to_string()));
         }
         for (rects, r0, r1, heading) in panels {
             let (first, last) = (rects[0], rects[rects.len() - 1]);
@@ -558,25 +558,21 @@ pub(crate) fn circle_small(
 }
 
 /// Points, in the layer's colour, at each layer painted on fewer than a few pixel rows of a
-/// strip: a small triangle on each side of the strip.
+/// strip: a small triangle in the gap right of the strip.
 pub(crate) fn point_at_thin(
     area: &Area<'_>,
     extents: &[Option<Extent>],
     colours: &[(u8, u8, u8)],
 ) -> Result<()> {
     for (e, &(r, g, b)) in extents.iter().zip(colours) {
-        let Some((x0, y0, x1, y1)) = *e else {
+        let Some((_, y0, x1, y1)) = *e else {
             continue;
         };
         if y1 - y0 < SMALL_EXTENT {
-            let (l, rt, y) = (x0 as i32 - 2, x1 as i32 + 2, (y0 + y1) as i32 / 2);
-            for tri in [
-                vec![(l, y), (l - 9, y - 6), (l - 9, y + 6)],
-                vec![(rt, y), (rt + 9, y - 6), (rt + 9, y + 6)],
-            ] {
-                area.draw(&Polygon::new(tri, RGBColor(r, g, b).filled()))
-                    .map_err(plot_error)?;
-            }
+            let (x, y) = (x1 as i32 + 2, (y0 + y1) as i32 / 2);
+            let tri = vec![(x, y), (x + 8, y - 5), (x + 8, y + 5)];
+            area.draw(&Polygon::new(tri, RGBColor(r, g, b).filled()))
+                .map_err(plot_error)?;
         }
     }
     Ok(())
