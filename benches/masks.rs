@@ -1,5 +1,5 @@
-//! Correspondence-mask latency (issue 4): one mask and a 100-feature ping for each case of
-//! `bench::MASK_CASES`, on the fast CPU path. `cargo bench --bench masks`.
+//! Correspondence-mask latency: one mask and a 100-feature ping for each of the mask latency
+//! cases, `bench::MASK_CASES` (sidescan to imaging sonar and back), on the fast CPU path. `cargo bench --bench masks`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use sonarproj::Sonar;

@@ -139,9 +139,149 @@ fn project_writes_occupancy_as_npy_and_png() {
     let header = String::from_utf8_lossy(&bytes[..128]);
     assert!(header.replace(' ', "").contains("'shape':(990,512,)"), "{header}");
     assert!(header.contains("|u1"), "{header}");
-    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
-    let reader = decoder.read_info().unwrap();
-    assert_eq!((reader.info().width, reader.info().height), (512, 990));
+    // The PNG is a labelled picture (RGB), its one panel the raw layout holding the arc.
+    let pic = common::Picture::read(&png);
+    let panels = pic.panels();
+    assert_eq!(panels.len(), 1, "{panels:?}");
+    assert!(!pic.coloured(panels[0]).is_empty());
+}
+
+/// Runs `project` from paper-fls to itself with no motion, a feature at `range` (m) and
+/// `azimuth` (deg), writing the occupancy to `file` with `extra` options.
+fn project_in_place(range: &str, azimuth: &str, file: &std::path::Path, extra: &[&str]) {
+    common::sonarproj()
+        .args([
+            "project",
+            "--from",
+            "paper-fls",
+            "--to",
+            "paper-fls",
+            "--range",
+            range,
+        ])
+        .args(["--azimuth", azimuth, "--translation", "0,0,0", "--backend", "cpu"])
+        .arg("--occupancy")
+        .arg(file)
+        .args(extra)
+        .assert()
+        .success();
+}
+
+#[test]
+fn occupancy_png_shows_port_on_the_left_and_near_range_at_the_bottom() {
+    // Sonar 2 is sonar 1: the feature stays where it is. +azimuth is +y, port; the paper FLS
+    // reaches 10 m, so 2 m is near and 8 m far.
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("occ.png");
+    for (range, azimuth, port, near) in [
+        ("2", "20", true, true),
+        ("8", "-20", false, false),
+        ("8", "25", true, false),
+    ] {
+        project_in_place(range, azimuth, &png, &[]);
+        let pic = common::Picture::read(&png);
+        let panels = pic.panels();
+        assert_eq!(panels.len(), 1, "{panels:?}");
+        pic.assert_side(
+            panels[0],
+            Some(port),
+            near,
+            &format!("feature at {range} m, {azimuth}°"),
+        );
+    }
+    // A sidescan target: a vertical strip (the first panel: the whole range), near range low.
+    for (range, near) in [("4", true), ("26", false)] {
+        common::sonarproj()
+            .args([
+                "project",
+                "--from",
+                "paper-sss",
+                "--to",
+                "paper-sss",
+                "--range",
+                range,
+            ])
+            .args(["--translation", "0,0,0", "--backend", "cpu", "--occupancy"])
+            .arg(&png)
+            .assert()
+            .success();
+        let pic = common::Picture::read(&png);
+        let strip = pic.panels()[0];
+        assert!(
+            strip.y1 - strip.y0 > 3 * (strip.x1 - strip.x0),
+            "vertical: {strip:?}"
+        );
+        pic.assert_side(strip, None, near, &format!("sidescan feature at {range} m"));
+    }
+}
+
+#[test]
+fn occupancy_npy_keeps_its_layout_and_flips_apply_to_it_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let read = |path: &std::path::Path| -> Vec<u8> {
+        let bytes = std::fs::read(path).unwrap();
+        let npy = npyz::NpyFile::new(bytes.as_slice()).unwrap();
+        assert_eq!(npy.shape(), &[990, 512]);
+        npy.into_vec().unwrap()
+    };
+    let plain = dir.path().join("plain.npy");
+    project_in_place("2", "20", &plain, &[]);
+    let plain = read(&plain);
+    let set: Vec<(usize, usize)> = (0..plain.len())
+        .filter(|&k| plain[k] == 1)
+        .map(|k| (k / 512, k % 512))
+        .collect();
+    assert!(!set.is_empty());
+    // Row 0 is range_min (0.1 m, 1 cm bins: 2 m is row 190); column 0 is the starboard-most
+    // beam, so a port feature (+20° of ±30°) is in the upper columns.
+    for &(i, j) in &set {
+        assert!((189..=191).contains(&i) && j > 256, "pixel ({i}, {j})");
+    }
+    for (flags, mirror_rows, mirror_cols) in [
+        (&["--flip-range"][..], true, false),
+        (&["--flip-beams"][..], false, true),
+        (&["--flip-range", "--flip-beams"][..], true, true),
+    ] {
+        let path = dir.path().join("flipped.npy");
+        project_in_place("2", "20", &path, flags);
+        let flipped = read(&path);
+        for i in 0..990 {
+            for j in 0..512 {
+                let (fi, fj) = (
+                    if mirror_rows { 989 - i } else { i },
+                    if mirror_cols { 511 - j } else { j },
+                );
+                assert_eq!(flipped[fi * 512 + fj], plain[i * 512 + j], "{flags:?} ({i}, {j})");
+            }
+        }
+    }
+    // A picture always follows the convention: a flip asked for one is refused.
+    for flag in ["--flip-range", "--flip-beams"] {
+        let png = dir.path().join("o.png");
+        let png = png.to_str().unwrap();
+        rejects(
+            &[
+                "project",
+                "--from",
+                "paper-fls",
+                "--to",
+                "paper-fls",
+                "--range",
+                "2",
+                "--translation",
+                "0,0,0",
+                "--occupancy",
+                png,
+                flag,
+            ],
+            None,
+            &[flag, ".npy"],
+        );
+        assert!(
+            !std::path::Path::new(png).exists(),
+            "nothing written when refused"
+        );
+    }
 }
 
 #[test]

@@ -11,7 +11,7 @@ use sonarproj::geometry::sonar::{BeamLayout, SonarKind};
 use sonarproj::masks::{Counts, MaskEngine, Noise};
 use sonarproj::{Measurement, RelativePose, Sonar};
 
-/// Scenes per preset pair (issue 4: at least 10 000).
+/// Scenes per preset pair (the masks are checked on at least 10 000).
 const SCENES: usize = 10_000;
 
 /// Returns a value in `[lo, hi]`, one time in ten exactly at a bound.
@@ -393,6 +393,50 @@ mod cli {
             );
         }
         assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    }
+
+    /// Runs `mask` from `sonar` to itself with no motion for `features`, writing the PNG to
+    /// `png`, and reads it back.
+    fn picture_in_place(sonar: &str, features: &[&str], png: &std::path::Path) -> crate::common::Picture {
+        let mut cmd = crate::common::sonarproj();
+        cmd.args(["mask", "--from", sonar, "--to", sonar, "--translation", "0,0,0"])
+            .args(CPU);
+        for f in features {
+            cmd.args(["--feature", f]);
+        }
+        cmd.arg("--out").arg(png).assert().success();
+        crate::common::Picture::read(png)
+    }
+
+    #[test]
+    fn png_shows_port_on_the_left_and_near_range_at_the_bottom() {
+        // Sonar 2 is sonar 1: each feature's mask lies where the feature is. +azimuth is +y,
+        // port; holoocean-imaging reaches 10 m (±60°), so 2 m is near and 8 m far.
+        let dir = tempfile::tempdir().unwrap();
+        let png = dir.path().join("m.png");
+        for (feature, port, near) in [
+            ("2,30", true, true),
+            ("8,-30", false, false),
+            ("8,40", true, false),
+            ("3,-45", false, true),
+        ] {
+            let pic = picture_in_place("holoocean-imaging", &[feature], &png);
+            let panels = pic.panels();
+            assert_eq!(panels.len(), 2, "the fan and the raw layout: {panels:?}");
+            for (p, name) in panels.iter().zip(["fan", "raw layout"]) {
+                pic.assert_side(*p, Some(port), near, &format!("{name}, feature {feature}"));
+            }
+        }
+        // A sidescan target: vertical strips (the feature's, then the union), near range low.
+        for (feature, near) in [("5", true), ("30", false)] {
+            let pic = picture_in_place("holoocean-sidescan", &[feature], &png);
+            let panels = pic.panels();
+            assert!(panels.len() >= 2, "{panels:?}");
+            for p in &panels[..2] {
+                assert!(p.y1 - p.y0 > 3 * (p.x1 - p.x0), "vertical: {p:?}");
+                pic.assert_side(*p, None, near, &format!("strip, feature {feature}"));
+            }
+        }
     }
 
     #[test]

@@ -17,7 +17,8 @@ const SOFTWARE_NOTE: &str =
 pub(super) enum Subject {
     /// Projection batches: samples and poses per second on every backend.
     Projection,
-    /// Correspondence-mask latency: one mask, and a ping of 100 features (issue 4's cases).
+    /// Correspondence-mask latency: one mask, and a ping of 100 features (the mask latency
+    /// cases: holoocean-sidescan to holoocean-imaging and back).
     Masks,
 }
 

@@ -53,12 +53,15 @@ pub(super) struct MaskArgs {
     /// Probability that a widened mask holds the true pixel (with any --sigma-*).
     #[arg(long, value_name = "P", default_value_t = 0.99)]
     coverage: f64,
-    /// Write a PNG: the fan (FLS) or range strips (SSS) as a person looks at them, and the raw
-    /// range × beam layout, one colour per feature.
+    /// Write a PNG for a person, near range at the bottom and port on the left: for an FLS
+    /// target the fan seen from above (+azimuth, port, to the left) beside the raw range × beam
+    /// layout (beam 0, starboard-most, at the right); for an SSS target one vertical range strip
+    /// per feature and their union. One colour per feature.
     #[arg(long, value_name = "FILE.png")]
     out: Option<PathBuf>,
     /// Write the masks as NPY: [feature][range_bin][beam] (FLS) or [feature][range_bin] (SSS),
-    /// uint8 0/1 (uint32 counts with --counts).
+    /// uint8 0/1 (uint32 counts with --counts); range bin 0 is range_min and beam 0 the
+    /// starboard-most (-aperture/2), the PNG's raw layout with its columns mirrored.
     #[arg(long, value_name = "FILE.npy")]
     npy: Option<PathBuf>,
     /// Per-pixel counts (how many cells of the back-projected set may land there) instead of

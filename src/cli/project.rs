@@ -4,10 +4,11 @@ use sonarproj::Output;
 use std::path::PathBuf;
 
 use serde_json::json;
+use sonarproj::occupancy::Layout;
 use sonarproj::sampling::SamplingPlan;
 use sonarproj::{Batch, BatchItem, Measurement, Sampling};
-use sonarproj_apps::Result;
-use sonarproj_apps::report::occupancy_image::{self, Orientation};
+use sonarproj_apps::report::occupancy_image::{self, Format, Orientation};
+use sonarproj_apps::{Error, Result};
 
 use super::PairArgs;
 use super::pose_args::PoseArgs;
@@ -29,15 +30,19 @@ pub(super) struct ProjectArgs {
     elevation: f64,
     #[command(flatten)]
     pose: PoseArgs,
-    /// Also write the occupancy buffer: FILE.png (for a person) or FILE.npy (uint8 0/1 for
-    /// numpy; [range_bin, beam] for an FLS, [range_bin] for an SSS). Row 0 is range_min and
-    /// column 0 is beam 0 at -aperture/2 (starboard) unless flipped.
+    /// Also write the occupancy buffer: FILE.png, a labelled picture for a person (near range at
+    /// the bottom and port on the left; an FLS as its range × beam layout with beam 0, the
+    /// starboard-most, at the right; an SSS as a vertical range strip), or FILE.npy, uint8 0/1
+    /// for numpy ([range_bin, beam] for an FLS, [range_bin] for an SSS; row 0 is range_min and
+    /// column 0 is beam 0 at -aperture/2, starboard, unless flipped).
     #[arg(long, value_name = "FILE")]
     occupancy: Option<PathBuf>,
-    /// Write the occupancy with range_max in row 0 (near range at the bottom of a picture).
+    /// NPY only: write range_max in row 0 instead of range_min (refused with a .png, which
+    /// always draws near range at the bottom).
     #[arg(long, requires = "occupancy")]
     flip_range: bool,
-    /// Write the occupancy with the last beam (+aperture/2, port) in column 0.
+    /// NPY only: write the last beam (+aperture/2, port) in column 0 instead of beam 0 (refused
+    /// with a .png, which always draws port on the left).
     #[arg(long, requires = "occupancy")]
     flip_beams: bool,
 }
@@ -49,8 +54,22 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
     let measurement = Measurement::of(&source, a.range, a.azimuth)?;
     let pose = a.pose.pose([a.range, a.azimuth, a.elevation])?;
     let plan = SamplingPlan::new(&source, &target, &measurement, sampling)?;
-    if let Some(path) = &a.occupancy {
-        occupancy_image::check_extension(path)?;
+    let png = match &a.occupancy {
+        Some(path) => occupancy_image::check_extension(path)? == Format::Png,
+        None => false,
+    };
+    if let Some(path) = a.occupancy.as_ref().filter(|_| png) {
+        for (flag, given) in [("--flip-range", a.flip_range), ("--flip-beams", a.flip_beams)] {
+            if given {
+                return Err(Error::input(
+                    flag,
+                    format!(
+                        "applies to a .npy occupancy only; {} is a picture, always drawn with near range at the bottom and port on the left",
+                        path.display()
+                    ),
+                ));
+            }
+        }
     }
     let backend = a.pair.backend()?;
     let batch = Batch {
@@ -75,7 +94,11 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
             flip_range: a.flip_range,
             flip_beams: a.flip_beams,
         };
-        occupancy_image::write(path, occ, orientation)?;
+        let title = format!(
+            "{} to {}: occupancy of the feature at {} m",
+            batch.source.name, batch.target.name, measurement.range
+        );
+        occupancy_image::write(path, occ, &Layout::of(&batch.target), &title, orientation)?;
     }
     let rows = pose.rotation.transpose().to_cols_array_2d();
     let out = json!({

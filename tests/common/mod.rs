@@ -145,3 +145,123 @@ pub(crate) fn proptest_config() -> proptest::test_runner::Config {
         ..default
     }
 }
+
+/// A picture the CLI wrote, decoded, read by the picture convention (README: Conventions; the
+/// `report` module's documentation): the panels of sonar data are the areas of its light grey
+/// (235, 235, 235, the field of view where nothing is occupied); masks and occupied pixels are
+/// coloured.
+pub(crate) struct Picture {
+    pub w: usize,
+    pub h: usize,
+    rgb: Vec<u8>,
+}
+
+/// A panel's bounding box in a [`Picture`], inclusive.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Panel {
+    pub x0: usize,
+    pub x1: usize,
+    pub y0: usize,
+    pub y1: usize,
+}
+
+/// The light grey of the empty field of view.
+const EMPTY: [u8; 3] = [235, 235, 235];
+
+impl Picture {
+    /// Decodes the PNG at `path`, which must be 8-bit RGB.
+    pub(crate) fn read(path: &std::path::Path) -> Self {
+        let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+        let mut reader = png::Decoder::new(file).read_info().unwrap();
+        let mut rgb = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut rgb).unwrap();
+        assert_eq!(info.color_type, png::ColorType::Rgb, "{}", path.display());
+        assert_eq!(info.bit_depth, png::BitDepth::Eight, "{}", path.display());
+        rgb.truncate(info.buffer_size());
+        Picture {
+            w: info.width as usize,
+            h: info.height as usize,
+            rgb,
+        }
+    }
+
+    fn px(&self, x: usize, y: usize) -> [u8; 3] {
+        let k = (y * self.w + x) * 3;
+        [self.rgb[k], self.rgb[k + 1], self.rgb[k + 2]]
+    }
+
+    /// Returns the panels, left to right: runs of columns holding 20 light grey pixels in a row
+    /// (runs a few columns apart, as split by a bearing line, are one panel), each with the rows
+    /// holding 8 of its light grey pixels side by side (anti-aliased text is not a panel).
+    pub(crate) fn panels(&self) -> Vec<Panel> {
+        let longest = |cells: &mut dyn Iterator<Item = [u8; 3]>| {
+            let (mut best, mut run) = (0, 0);
+            for c in cells {
+                run = if c == EMPTY { run + 1 } else { 0 };
+                best = best.max(run);
+            }
+            best
+        };
+        let mut runs: Vec<(usize, usize)> = Vec::new();
+        for x in 0..self.w {
+            if longest(&mut (0..self.h).map(|y| self.px(x, y))) < 20 {
+                continue;
+            }
+            match runs.last_mut() {
+                Some(r) if x <= r.1 + 4 => r.1 = x,
+                _ => runs.push((x, x)),
+            }
+        }
+        runs.into_iter()
+            .map(|(x0, x1)| {
+                let rows: Vec<usize> = (0..self.h)
+                    .filter(|&y| longest(&mut (x0..=x1).map(|x| self.px(x, y))) >= 8)
+                    .collect();
+                Panel {
+                    x0,
+                    x1,
+                    y0: rows[0],
+                    y1: rows[rows.len() - 1],
+                }
+            })
+            .collect()
+    }
+
+    /// Returns the coloured pixels (channels at least 60 apart: not white, grey or black text)
+    /// inside `p`.
+    pub(crate) fn coloured(&self, p: Panel) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        for y in p.y0..=p.y1 {
+            for x in p.x0..=p.x1 {
+                let c = self.px(x, y);
+                if c.iter().max().unwrap() - c.iter().min().unwrap() >= 60 {
+                    out.push((x, y));
+                }
+            }
+        }
+        out
+    }
+
+    /// Asserts that panel `p` holds coloured pixels, all in its left half (`port`: `Some(true)`)
+    /// or its right half (`Some(false)`; `None`: not checked), and all in its lower half
+    /// (`near`) or its upper half.
+    pub(crate) fn assert_side(&self, p: Panel, port: Option<bool>, near: bool, what: &str) {
+        let px = self.coloured(p);
+        assert!(!px.is_empty(), "{what}: nothing coloured in panel {p:?}");
+        let (cx, cy) = ((p.x0 + p.x1) / 2, (p.y0 + p.y1) / 2);
+        for &(x, y) in &px {
+            if let Some(port) = port {
+                assert_eq!(
+                    x < cx,
+                    port,
+                    "{what}: pixel ({x}, {y}) in panel {p:?}: port must be on the left"
+                );
+            }
+            assert_eq!(
+                y > cy,
+                near,
+                "{what}: pixel ({x}, {y}) in panel {p:?}: near range must be at the bottom"
+            );
+        }
+    }
+}

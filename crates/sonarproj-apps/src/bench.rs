@@ -101,7 +101,7 @@ pub fn time(backend: &Backend, batch: &Batch, runs: u32) -> Result<Timing> {
     })
 }
 
-/// The mask latency cases of issue 4: `(from, to)`.
+/// The mask latency cases: `(from, to)`, a sidescan to an imaging sonar and back.
 pub const MASK_CASES: [(&str, &str); 2] = [
     ("holoocean-sidescan", "holoocean-imaging"),
     ("holoocean-imaging", "holoocean-sidescan"),

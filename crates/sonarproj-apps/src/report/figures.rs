@@ -1,6 +1,7 @@
 //! The paper's figures as PNG (plotters, drawn in memory, fonts embedded): per direction a 2×3
 //! grid of line plots (scenarios 1–6: metric against the swept angle, one curve per distance
-//! fraction) and a 1×3 row of heatmaps (scenarios 7–9, colour bar with units).
+//! fraction, one legend for all panels above them) and a 1×3 row of heatmaps (scenarios 7–9,
+//! each with its own colour scale, said on its colour bar); and the sweep figure.
 #![expect(
     clippy::cast_possible_truncation,
     reason = "pixel coordinates, palette indices and colours of images a few thousand pixels wide"
@@ -12,14 +13,25 @@ use std::sync::Once;
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
 
+use plotters::style::text_anchor::{HPos, VPos};
+
 use crate::error::{Error, Result};
 use crate::paper::{DirectionRun, FRACTIONS, swept};
+use crate::report::picture::{self, text};
 use crate::report::write_atomic;
 
 /// Names of the swept angles by index.
 const ANGLE_NAMES: [&str; 3] = ["roll", "pitch", "yaw"];
 /// The font family the figures use (registered from embedded bytes).
 pub(crate) const FONT: &str = "sans-serif";
+/// Font sizes (px) of the figures: tick labels, axis titles, panel captions, figure titles.
+const TICKS: u32 = 17;
+/// Font size (px) of axis titles.
+const AXES: u32 = 19;
+/// Font size (px) of panel captions.
+const CAPTION: u32 = 21;
+/// Font size (px) of figure titles.
+const TITLE: u32 = 28;
 
 /// Registers the embedded font once (plotters' ab_glyph backend has no system fonts).
 pub(crate) fn fonts() {
@@ -78,9 +90,11 @@ pub fn line_grid(run: &DirectionRun, path: &Path) -> Result<()> {
         crate::paper::Direction::FlsToSss => "paper-fls to paper-sss: range span",
         crate::paper::Direction::SssToFls => "paper-sss to paper-fls: projection area",
     };
-    render(path, (1800, 1100), |root| {
-        let (top, body) = root.split_vertically(50);
-        top.titled(title, (FONT, 28)).map_err(plot_error)?;
+    render(path, (1800, 1160), |root| {
+        let (top, body) = root.split_vertically(96);
+        let (head, key) = top.split_vertically(50);
+        head.titled(title, (FONT, TITLE)).map_err(plot_error)?;
+        legend_row(&key)?;
         for (k, panel) in body.split_evenly((2, 3)).iter().enumerate() {
             let s = k as u8 + 1;
             let axis = swept(s)[0];
@@ -110,11 +124,11 @@ pub fn line_grid(run: &DirectionRun, path: &Path) -> Result<()> {
                         ANGLE_NAMES[axis],
                         distances_text(s)
                     ),
-                    (FONT, 18),
+                    (FONT, CAPTION),
                 )
                 .margin(12)
-                .x_label_area_size(40)
-                .y_label_area_size(70)
+                .x_label_area_size(50)
+                .y_label_area_size(90)
                 .build_cartesian_2d(0f64..180f64, 0f64..ymax)
                 .map_err(plot_error)?;
             chart
@@ -123,28 +137,53 @@ pub fn line_grid(run: &DirectionRun, path: &Path) -> Result<()> {
                 .y_desc(label)
                 .x_labels(10)
                 .x_label_formatter(&|v| format!("{v:.0}"))
-                .label_style((FONT, 14))
+                .label_style((FONT, TICKS))
+                .axis_desc_style((FONT, AXES))
                 .draw()
                 .map_err(plot_error)?;
-            for (i, (f, pts)) in curves.into_iter().enumerate() {
-                let color = ViridisRGB::get_color_normalized(i as f32, 0.0, 9.0);
+            for (i, (_, pts)) in curves.into_iter().enumerate() {
                 chart
-                    .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-                    .map_err(plot_error)?
-                    .label(format!("f = {f:.1}"))
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+                    .draw_series(LineSeries::new(pts, fraction_colour(i).stroke_width(2)))
+                    .map_err(plot_error)?;
             }
-            chart
-                .configure_series_labels()
-                .label_font((FONT, 13))
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .position(SeriesLabelPosition::UpperRight)
-                .draw()
-                .map_err(plot_error)?;
         }
         Ok(())
     })
+}
+
+/// Returns the colour of the curve of distance fraction number `i`.
+fn fraction_colour(i: usize) -> RGBColor {
+    ViridisRGB::get_color_normalized(i as f32, 0.0, (FRACTIONS.len() - 1) as f32)
+}
+
+/// Draws the one legend of the line grid, centred on `area`: a line sample and `f = …` per
+/// distance fraction.
+fn legend_row(area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> Result<()> {
+    let lead = "distance fraction f (same in every panel):";
+    let item = 110;
+    let lead_w = picture::text_width(area, lead, AXES)? as i32;
+    let total = lead_w + 16 + item * FRACTIONS.len() as i32;
+    let (w, h) = area.dim_in_pixel();
+    let (mut x, y) = ((w as i32 - total) / 2, h as i32 / 2);
+    text(area, lead, (x, y), AXES, HPos::Left, VPos::Center)?;
+    x += lead_w + 16;
+    for (i, f) in FRACTIONS.iter().enumerate() {
+        area.draw(&PathElement::new(
+            vec![(x, y), (x + 28, y)],
+            fraction_colour(i).stroke_width(4),
+        ))
+        .map_err(plot_error)?;
+        text(
+            area,
+            &format!("{f:.1}"),
+            (x + 34, y),
+            AXES,
+            HPos::Left,
+            VPos::Center,
+        )?;
+        x += item;
+    }
+    Ok(())
 }
 
 /// Writes the 1×3 row of heatmaps of scenarios 7–9 to `path`.
@@ -154,9 +193,11 @@ pub fn line_grid(run: &DirectionRun, path: &Path) -> Result<()> {
 pub fn heatmaps(run: &DirectionRun, angles: &[f64], path: &Path) -> Result<()> {
     let label = run.direction.metric_label();
     let title = match run.direction {
-        crate::paper::Direction::FlsToSss => "paper-fls to paper-sss: range span, both features at 0.5 r_max",
+        crate::paper::Direction::FlsToSss => {
+            "paper-fls to paper-sss: range span, both features at 0.5 r_max (each panel its own colour scale)"
+        }
         crate::paper::Direction::SssToFls => {
-            "paper-sss to paper-fls: projection area, both features at 0.5 r_max"
+            "paper-sss to paper-fls: projection area, both features at 0.5 r_max (each panel its own colour scale)"
         }
     };
     let step = if angles.len() > 1 {
@@ -164,9 +205,9 @@ pub fn heatmaps(run: &DirectionRun, angles: &[f64], path: &Path) -> Result<()> {
     } else {
         1.0
     };
-    render(path, (1950, 640), |root| {
-        let (top, body) = root.split_vertically(50);
-        top.titled(title, (FONT, 28)).map_err(plot_error)?;
+    render(path, (2010, 700), |root| {
+        let (top, body) = root.split_vertically(56);
+        top.titled(title, (FONT, TITLE)).map_err(plot_error)?;
         for (k, panel) in body.split_evenly((1, 3)).iter().enumerate() {
             let s = 7 + k as u8;
             let [ax, ay] = [swept(s)[0], swept(s)[1]];
@@ -178,17 +219,17 @@ pub fn heatmaps(run: &DirectionRun, angles: &[f64], path: &Path) -> Result<()> {
                 .map(|(p, r)| (p.angles[ax], p.angles[ay], run.direction.metric(&r.metrics)))
                 .collect();
             let vmax = cells.iter().map(|c| c.2).fold(0.0f64, f64::max).max(1e-12);
-            let (map, bar) = panel.split_horizontally(panel.dim_in_pixel().0 as i32 - 120);
+            let (map, bar) = panel.split_horizontally(panel.dim_in_pixel().0 as i32 - 170);
             let lo = -step / 2.0;
             let hi = 180.0 + step / 2.0;
             let mut chart = ChartBuilder::on(&map)
                 .caption(
                     format!("Scenario {s}: {} × {}", ANGLE_NAMES[ax], ANGLE_NAMES[ay]),
-                    (FONT, 18),
+                    (FONT, CAPTION),
                 )
                 .margin(12)
-                .x_label_area_size(40)
-                .y_label_area_size(50)
+                .x_label_area_size(50)
+                .y_label_area_size(64)
                 .build_cartesian_2d(lo..hi, lo..hi)
                 .map_err(plot_error)?;
             chart
@@ -200,7 +241,8 @@ pub fn heatmaps(run: &DirectionRun, angles: &[f64], path: &Path) -> Result<()> {
                 .y_labels(7)
                 .x_label_formatter(&|v| format!("{v:.0}"))
                 .y_label_formatter(&|v| format!("{v:.0}"))
-                .label_style((FONT, 14))
+                .label_style((FONT, TICKS))
+                .axis_desc_style((FONT, AXES))
                 .draw()
                 .map_err(plot_error)?;
             chart
@@ -212,33 +254,46 @@ pub fn heatmaps(run: &DirectionRun, angles: &[f64], path: &Path) -> Result<()> {
                     )
                 }))
                 .map_err(plot_error)?;
-            // Colour bar: the metric from 0 to the panel's largest value.
-            colour_bar(&bar, 0.0, vmax, label)?;
+            // Colour bar: the metric from 0 to this panel's largest value (panels differ by
+            // orders of magnitude: one shared scale would leave some of them one colour).
+            colour_bar(
+                &bar,
+                0.0,
+                vmax,
+                &format!("colour: {label}, this panel's own scale"),
+            )?;
         }
         Ok(())
     })
 }
 
-/// Draws a vertical Viridis colour bar from `lo` to `hi` labelled `label` on `area`.
+/// Draws a vertical Viridis colour bar from `lo` to `hi` on `area`, with `label` written above
+/// it (not beside it, where it would read as the neighbouring plot's axis) and the values on its
+/// right.
 fn colour_bar(
     area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
     lo: f64,
     hi: f64,
     label: &str,
 ) -> Result<()> {
+    let width = area.dim_in_pixel().0 - 10;
+    // A unit stays with its name: "area\u{a0}(m²)".
+    let lines = picture::wrap(area, &label.replace(" (", "\u{a0}("), TICKS, width)?;
+    for (k, line) in lines.iter().enumerate() {
+        text(area, line, (4, 14 + 22 * k as i32), TICKS, HPos::Left, VPos::Top)?;
+    }
     let mut cb = ChartBuilder::on(area)
-        .margin_top(40)
-        .margin_bottom(52)
-        .margin_right(8)
-        .y_label_area_size(70)
+        .margin_top(30 + 22 * lines.len() as u32)
+        .margin_bottom(60)
+        .margin_left(8)
+        .right_y_label_area_size(80)
         .build_cartesian_2d(0f64..1f64, lo..hi)
         .map_err(plot_error)?;
     cb.configure_mesh()
         .disable_mesh()
         .disable_x_axis()
-        .y_desc(label)
         .y_labels(8)
-        .label_style((FONT, 13))
+        .label_style((FONT, TICKS))
         .draw()
         .map_err(plot_error)?;
     let n = 200;
@@ -308,17 +363,19 @@ pub fn sweep(
         let (ylo, yhi) = (if vlo >= 0.0 { 0.0 } else { vlo - pad }, vhi + pad);
         return render(path, (1200, 800), |root| {
             let mut chart = ChartBuilder::on(root)
-                .caption(format!("{title}: {label} against {}", columns[0]), (FONT, 26))
+                .caption(format!("{title}: {label} against {}", columns[0]), (FONT, TITLE))
                 .margin(20)
-                .x_label_area_size(50)
-                .y_label_area_size(80)
+                .margin_right(40)
+                .x_label_area_size(60)
+                .y_label_area_size(100)
                 .build_cartesian_2d(xlo..xhi, ylo..yhi)
                 .map_err(plot_error)?;
             chart
                 .configure_mesh()
                 .x_desc(column_label(&columns[0]))
                 .y_desc(label)
-                .label_style((FONT, 16))
+                .label_style((FONT, TICKS))
+                .axis_desc_style((FONT, AXES))
                 .draw()
                 .map_err(plot_error)?;
             let mut sorted: Vec<(f64, Option<f64>)> = points.iter().map(|p| (p.0[0], p.1)).collect();
@@ -349,12 +406,12 @@ pub fn sweep(
     let (xe, ye) = (cell_edges(&xv), cell_edges(&yv));
     let find = |v: &[f64], x: f64| v.binary_search_by(|a| a.total_cmp(&x)).unwrap_or(0);
     render(path, (1300, 1000), |root| {
-        let (map, bar) = root.split_horizontally(1160);
+        let (map, bar) = root.split_horizontally(1110);
         let mut chart = ChartBuilder::on(&map)
-            .caption(format!("{title}: {label}"), (FONT, 26))
+            .caption(format!("{title}: {label}"), (FONT, TITLE))
             .margin(20)
-            .x_label_area_size(50)
-            .y_label_area_size(70)
+            .x_label_area_size(60)
+            .y_label_area_size(84)
             .build_cartesian_2d(xe[0]..xe[xv.len()], ye[0]..ye[yv.len()])
             .map_err(plot_error)?;
         chart
@@ -362,7 +419,8 @@ pub fn sweep(
             .disable_mesh()
             .x_desc(column_label(&columns[0]))
             .y_desc(column_label(&columns[1]))
-            .label_style((FONT, 16))
+            .label_style((FONT, TICKS))
+            .axis_desc_style((FONT, AXES))
             .draw()
             .map_err(plot_error)?;
         chart
@@ -375,6 +433,6 @@ pub fn sweep(
                 Rectangle::new([(xe[i], ye[j]), (xe[i + 1], ye[j + 1])], colour.filled())
             }))
             .map_err(plot_error)?;
-        colour_bar(&bar, vlo, vhi, label)
+        colour_bar(&bar, vlo, vhi, &format!("colour: {label}; grey: nothing visible"))
     })
 }

@@ -1,19 +1,24 @@
-//! Masks as pictures and arrays: a PNG with sonar 2's image as a person looks at it (an FLS as a
-//! fan in Cartesian coordinates with range rings and bearing lines; an SSS as a range strip per
-//! feature) beside the raw layout (range bins × beams), each feature in its own colour; and NPY
-//! arrays of the raw masks or counts.
+//! Masks as pictures and arrays: a PNG with sonar 2's image as a person looks at it, by the
+//! picture convention of [`crate::report`] (near range at the bottom, port on the left) — an FLS
+//! as a fan seen from above with range rings and bearing lines beside its raw layout (range bins
+//! × beams), an SSS as one vertical range strip per feature and their union — each feature in
+//! its own colour; and NPY arrays of the raw masks or counts (row 0 = `range_min`, beam 0 =
+//! starboard-most).
 #![expect(
     clippy::cast_possible_truncation,
-    reason = "pixel coordinates, palette indices and colours of images a few thousand pixels wide"
+    clippy::cast_possible_wrap,
+    reason = "pixel coordinates and palette indices of images a few thousand pixels wide"
 )]
 
 use std::path::Path;
 
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, VPos};
 
-use crate::error::{Error, Result};
-use crate::report::figures::{FONT, fonts};
-use crate::report::{self, write_atomic};
+use crate::error::Result;
+use crate::report;
+use crate::report::picture::{self, Area, Canvas, Fan, LARGE, MEDIUM, Pooled, Rect, SMALL, plot_error, text};
+use crate::report::write_atomic;
 use sonarproj::geometry::sonar::SonarKind;
 use sonarproj::masks::Mask;
 use sonarproj::occupancy::Layout;
@@ -39,248 +44,241 @@ pub fn colour(k: usize) -> RGBColor {
     RGBColor(r, g, b)
 }
 
-/// Returns the blended colour of the features whose masks hold pixel `(i, j)`, or `None`.
-fn blend(masks: &[Mask], i: usize, j: usize) -> Option<(u8, u8, u8)> {
-    let (mut s, mut n) = ([0u32; 3], 0u32);
-    for (k, m) in masks.iter().enumerate() {
-        if m.occupancy.get(i, j) {
-            let (r, g, b) = PALETTE[k % PALETTE.len()];
-            s = [s[0] + u32::from(r), s[1] + u32::from(g), s[2] + u32::from(b)];
-            n += 1;
-        }
-    }
-    (n > 0).then(|| ((s[0] / n) as u8, (s[1] / n) as u8, (s[2] / n) as u8))
+/// Returns the `(r, g, b)` of feature `k`.
+fn rgb(k: usize) -> (u8, u8, u8) {
+    PALETTE[k % PALETTE.len()]
 }
 
-fn plot_error(e: impl std::fmt::Display) -> Error {
-    Error::Figure(e.to_string())
-}
+/// Width (px) of a mask picture of an FLS target.
+const FLS_WIDTH: u32 = 1500;
 
 /// Writes the mask picture of `masks` in `layout` to `path` (PNG), whole or not at all;
-/// `title` heads it and `labels` name the features in the legend.
+/// `title` heads it and `labels` name the features. Near range is at the bottom and port on
+/// the left (the convention of [`crate::report`]): for an FLS target the fan seen from above
+/// beside the raw layout (beam 0, starboard-most, at the right); for an SSS target one
+/// vertical strip per feature and their union.
 ///
 /// # Errors
-/// [`Error::Figure`] or [`Error::WriteOutput`].
+/// [`crate::Error::Figure`] or [`crate::Error::WriteOutput`].
 pub fn write_png(path: &Path, layout: &Layout, masks: &[Mask], title: &str, labels: &[String]) -> Result<()> {
-    fonts();
-    let (w, h) = (1500u32, 900u32);
-    let mut rgb = vec![255u8; (w * h * 3) as usize];
-    let put = |rgb: &mut [u8], x: u32, y: u32, c: (u8, u8, u8)| {
-        let k = ((y * w + x) * 3) as usize;
-        rgb[k..k + 3].copy_from_slice(&[c.0, c.1, c.2]);
+    let layers: Vec<(Pooled, (u8, u8, u8))> = masks
+        .iter()
+        .enumerate()
+        .map(|(k, m)| (Pooled::new(&m.occupancy), rgb(k)))
+        .collect();
+    let canvas = match layout.kind {
+        SonarKind::Fls => fls_picture(layout, &layers, title, labels)?,
+        SonarKind::Sss => sss_picture(layout, masks, &layers, title, labels)?,
     };
-    let empty = (235u8, 235u8, 235u8);
-    // Left: the person's view, 900 × 760 below the title; right: the raw layout, 500 × 760.
-    let (fan_x, fan_y, fan_w, fan_h) = (50u32, 90u32, 820u32, 760u32);
-    let (raw_x, raw_y, raw_w, raw_h) = (960u32, 90u32, 440u32, 760u32);
-    // An SSS target: one strip of range bins per feature, and the union.
-    let strip = (fan_h / (masks.len() as u32 + 1)).clamp(4, 60);
-    let rows = layout.range_bins;
-    let beams = layout.beams();
-    // Raw layout (FLS): range bin 0 at the bottom, beam 0 on the left.
-    let raw = layout.kind == SonarKind::Fls;
-    for y in (0..raw_h).filter(|_| raw) {
-        let i = ((raw_h - 1 - y) as usize * rows / raw_h as usize).min(rows - 1);
-        for x in 0..raw_w {
-            let j = (x as usize * beams / raw_w as usize).min(beams - 1);
-            put(
-                &mut rgb,
-                raw_x + x,
-                raw_y + y,
-                blend(masks, i, j).unwrap_or(empty),
-            );
+    canvas.write(path)
+}
+
+/// Draws the legend (a swatch and a label per feature) in rows from `(x, y)` within `width`
+/// px; returns the y under it.
+fn legend_rows(area: &Area<'_>, labels: &[String], (x, y): (i32, i32), width: i32) -> Result<i32> {
+    let (mut lx, mut ly) = (x, y);
+    for (k, l) in labels.iter().enumerate() {
+        let w = picture::text_width(area, l, SMALL)? as i32 + 44;
+        if lx > x && lx + w > x + width {
+            (lx, ly) = (x, ly + 26);
         }
-    }
-    let r_max = layout.range_max;
-    let ha = layout.half_azimuth;
-    // The fan (FLS): x = r sin(az) to the right, y = r cos(az) up, sonar at the bottom centre
-    // (or at the centre for apertures over 180°).
-    let fan_geometry = match layout.kind {
-        SonarKind::Fls => {
-            let half_width = r_max * ha.min(std::f64::consts::FRAC_PI_2).sin();
-            let y_low = (r_max * ha.cos()).min(0.0);
-            let scale = (f64::from(fan_w) / (2.0 * half_width)).min(f64::from(fan_h) / (r_max - y_low));
-            let ox = f64::from(fan_x) + f64::from(fan_w) / 2.0;
-            let oy = f64::from(fan_y) + f64::from(fan_h) + y_low * scale;
-            for y in fan_y..fan_y + fan_h {
-                for x in fan_x..fan_x + fan_w {
-                    let (px, py) = (
-                        (f64::from(x) + 0.5 - ox) / scale,
-                        (oy - f64::from(y) - 0.5) / scale,
-                    );
-                    let (r, az) = (px.hypot(py), px.atan2(py));
-                    if r < layout.range_min || r > r_max || az.abs() > ha {
-                        continue;
-                    }
-                    let c = blend(masks, layout.range_bin(r), layout.beam(az)).unwrap_or(empty);
-                    put(&mut rgb, x, y, c);
-                }
-            }
-            Some((ox, oy, scale))
-        }
-        // An SSS: its raw layout is the picture, one strip of range bins per feature (range
-        // increasing to the right, as a waterfall row), the union last.
-        SonarKind::Sss => {
-            let width = raw_x + raw_w - fan_x;
-            for k in 0..=masks.len() {
-                let y0 = fan_y + k as u32 * strip;
-                for x in 0..width {
-                    let i = (x as usize * rows / width as usize).min(rows - 1);
-                    let c = match masks.get(k) {
-                        Some(m) => m.occupancy.get(i, 0).then_some(PALETTE[k % PALETTE.len()]),
-                        None => blend(masks, i, 0),
-                    };
-                    for y in y0..y0 + strip.saturating_sub(2) {
-                        put(&mut rgb, fan_x + x, y, c.unwrap_or(empty));
-                    }
-                }
-            }
-            None
-        }
-    };
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
-        let text = |s: &str, size: u32, at: (i32, i32)| {
-            root.draw(&Text::new(
-                s.to_string(),
-                at,
-                (FONT, size).into_font().color(&BLACK),
-            ))
-            .map_err(plot_error)
-        };
-        text(title, 26, (50, 20))?;
-        let mut legend_x = 50;
-        for (k, l) in labels.iter().enumerate().take(12) {
-            root.draw(&Rectangle::new(
-                [(legend_x, 58), (legend_x + 14, 72)],
-                colour(k).filled(),
-            ))
-            .map_err(plot_error)?;
-            text(l, 15, (legend_x + 20, 56))?;
-            legend_x += 30 + 8 * l.len() as i32;
-        }
-        let grey = RGBColor(90, 90, 90);
-        match fan_geometry {
-            Some((ox, oy, scale)) => {
-                let at = |r: f64, az: f64| {
-                    (
-                        (ox + r * az.sin() * scale) as i32,
-                        (oy - r * az.cos() * scale) as i32,
-                    )
-                };
-                // Range rings at "nice" steps, bearing lines every 15° (30° beyond 180°).
-                let step = nice_step(r_max / 5.0);
-                let mut r = step;
-                while r <= r_max + 1e-9 {
-                    let pts: Vec<(i32, i32)> = (0..=200)
-                        .map(|k| at(r, -ha + 2.0 * ha * k as f64 / 200.0))
-                        .collect();
-                    root.draw(&PathElement::new(pts, grey.stroke_width(1)))
-                        .map_err(plot_error)?;
-                    let (x, y) = at(r, ha.min(std::f64::consts::FRAC_PI_2));
-                    text(&format!("{r} m"), 14, (x + 4, y - 8))?;
-                    r += step;
-                }
-                let every = if ha > std::f64::consts::FRAC_PI_2 {
-                    30.0
-                } else {
-                    15.0
-                };
-                let mut b = -(ha.to_degrees() / every).floor() * every;
-                while b <= ha.to_degrees() + 1e-9 {
-                    let (x, y) = at(r_max, b.to_radians());
-                    root.draw(&PathElement::new(
-                        vec![at(layout.range_min, b.to_radians()), (x, y)],
-                        grey.stroke_width(1),
-                    ))
-                    .map_err(plot_error)?;
-                    text(&format!("{b:.0}°"), 14, (x - 12, y - 20))?;
-                    b += every;
-                }
-                text(
-                    "fan view: azimuth 0 up, positive to the right; range rings labelled",
-                    15,
-                    (fan_x as i32, (fan_y + fan_h + 18) as i32),
-                )?;
-            }
-            None => {
-                // Range ticks under the strips.
-                let n = masks.len() as u32 + 1;
-                let (y, width) = ((fan_y + n * strip + 4) as i32, f64::from(raw_x + raw_w - fan_x));
-                let x_of = |r: f64| {
-                    fan_x as i32 + ((r - layout.range_min) / (r_max - layout.range_min) * width) as i32
-                };
-                let step = nice_step((r_max - layout.range_min) / 8.0);
-                let mut r = (layout.range_min / step).ceil() * step;
-                while r <= r_max + 1e-9 {
-                    root.draw(&PathElement::new(
-                        vec![(x_of(r), y), (x_of(r), y + 6)],
-                        grey.stroke_width(1),
-                    ))
-                    .map_err(plot_error)?;
-                    text(&format!("{r} m"), 14, (x_of(r) - 10, y + 8))?;
-                    r += step;
-                }
-                text(
-                    &format!(
-                        "{rows} range bins from {} to {r_max} m, range increasing to the right; one strip per feature, their union last",
-                        layout.range_min
-                    ),
-                    15,
-                    (fan_x as i32, y + 30),
-                )?;
-                root.present().map_err(plot_error)?;
-            }
-        }
-        if !raw {
-            drop(root);
-            return write_rgb(path, w, h, &rgb);
-        }
-        text(
-            &format!("raw layout: {rows} range bins (row 0 at the bottom) × {beams} beams (beam 0 left)"),
-            15,
-            (raw_x as i32 - 40, (raw_y + raw_h + 18) as i32),
-        )?;
-        root.draw(&Rectangle::new(
-            [
-                (raw_x as i32 - 1, raw_y as i32 - 1),
-                ((raw_x + raw_w) as i32, (raw_y + raw_h) as i32),
-            ],
-            grey.stroke_width(1),
+        area.draw(&Rectangle::new(
+            [(lx, ly + 2), (lx + 16, ly + 18)],
+            colour(k).filled(),
         ))
         .map_err(plot_error)?;
-        root.present().map_err(plot_error)?;
+        text(area, l, (lx + 22, ly + 10), SMALL, HPos::Left, VPos::Center)?;
+        lx += w;
     }
-    write_rgb(path, w, h, &rgb)
+    Ok(ly + 26)
 }
 
-/// Writes `rgb` (`w × h`, 8-bit RGB) to `path` as PNG, whole or not at all.
-fn write_rgb(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
-    write_atomic(path, |out| {
-        let mut enc = png::Encoder::new(out, w, h);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut writer = enc.write_header().map_err(plot_error)?;
-        writer.write_image_data(rgb).map_err(plot_error)?;
-        writer.finish().map_err(plot_error)
-    })
+/// The mask picture of an FLS target: the fan and the raw layout.
+fn fls_picture(
+    layout: &Layout,
+    layers: &[(Pooled, (u8, u8, u8))],
+    title: &str,
+    labels: &[String],
+) -> Result<Canvas> {
+    // Measure the legend first (it may take several rows) on a scratch canvas.
+    let mut scratch = Canvas::new(FLS_WIDTH, 200);
+    let mut legend_bottom = 0;
+    scratch.draw(|a| {
+        legend_bottom = legend_rows(a, labels, (40, 56), FLS_WIDTH as i32 - 80)?;
+        Ok(())
+    })?;
+    // Room above the fan for the bearing labels.
+    let top = legend_bottom as u32 + 44;
+    let (scale, fw, fh) = Fan::fit(layout, 800, 720);
+    let fan_rect = Rect {
+        x: 60 + (800 - fw) / 2,
+        y: top,
+        w: fw,
+        h: fh,
+    };
+    let raw = Rect {
+        x: 1000,
+        y: top,
+        w: 440,
+        h: fh.clamp(480, 720),
+    };
+    let bottom = fan_rect.bottom().max(raw.bottom());
+    let mut canvas = Canvas::new(FLS_WIDTH, bottom + 160);
+    let fan = Fan::in_box(layout, fan_rect, scale);
+    let fan_extents = fan.paint(&mut canvas, fan_rect, layout, layers);
+    let raw_extents = picture::paint_raw(&mut canvas, raw, layers, 0..layout.range_bins, layout.beams());
+    let colours: Vec<(u8, u8, u8)> = layers.iter().map(|l| l.1).collect();
+    canvas.draw(|a| {
+        text(a, title, (40, 16), LARGE, HPos::Left, VPos::Top)?;
+        legend_rows(a, labels, (40, 56), FLS_WIDTH as i32 - 80)?;
+        fan.annotate(a, fan_rect, layout)?;
+        picture::circle_small(a, &fan_extents, &colours)?;
+        picture::frame(a, raw)?;
+        text(
+            a,
+            "raw layout (range bin × beam)",
+            (raw.x as i32 + raw.w as i32 / 2, raw.y as i32 - 10),
+            MEDIUM,
+            HPos::Center,
+            VPos::Bottom,
+        )?;
+        picture::range_axis(a, raw, layout.range_min, layout.range_max)?;
+        picture::beam_axis(a, raw, layout)?;
+        picture::circle_small(a, &raw_extents, &colours)?;
+        let y = bottom as i32 + 74;
+        let sonar_at = if layout.half_azimuth > std::f64::consts::FRAC_PI_2 {
+            "the sonar at the centre"
+        } else {
+            "the sonar at the bottom"
+        };
+        text(
+            a,
+            &format!(
+                "Fan seen from above: {sonar_at}, azimuth 0 up, port (+azimuth) on the left, starboard on the right."
+            ),
+            (40, y),
+            SMALL,
+            HPos::Left,
+            VPos::Top,
+        )?;
+        text(
+            a,
+            &format!(
+                "Raw layout: range bin 0 ({} m) at the bottom; beam 0 (starboard-most) at the right, so the columns are the NPY's mirrored.",
+                layout.range_min
+            ),
+            (40, y + 26),
+            SMALL,
+            HPos::Left,
+            VPos::Top,
+        )?;
+        text(
+            a,
+            "Light grey: the field of view, empty. One colour per feature, mixed where masks overlap; masks of a few pixels are circled.",
+            (40, y + 52),
+            SMALL,
+            HPos::Left,
+            VPos::Top,
+        )
+    })?;
+    Ok(canvas)
 }
 
-/// Returns 1, 2 or 5 times a power of ten, the first at least `x`.
-fn nice_step(x: f64) -> f64 {
-    let p = 10f64.powf(x.log10().floor());
-    [1.0, 2.0, 5.0, 10.0]
+/// The mask picture of an SSS target: one vertical range strip per feature and their union,
+/// near range at the bottom, over the whole range and zoomed on the masks, with the legend and
+/// notes beside them.
+fn sss_picture(
+    layout: &Layout,
+    masks: &[Mask],
+    layers: &[(Pooled, (u8, u8, u8))],
+    title: &str,
+    labels: &[String],
+) -> Result<Canvas> {
+    let n = masks.len();
+    let pitch = (300 / (n as u32 + 1)).clamp(4, 90);
+    let mut groups: Vec<std::ops::Range<usize>> = (0..n).map(|k| k..k + 1).collect();
+    groups.push(0..n);
+    let mut names: Vec<String> = (1..=n).map(|k| k.to_string()).collect();
+    names.push("all".to_string());
+    let rows_of = |m: &Mask| {
+        let mut it = m.occupancy.pixels().map(|(i, _)| i);
+        let first = it.next()?;
+        Some((first, it.last().unwrap_or(first)))
+    };
+    let extents: Vec<Option<(usize, usize)>> = masks.iter().map(rows_of).collect();
+    let occupied = extents
         .iter()
-        .map(|m| m * p)
-        .find(|s| *s >= x)
-        .unwrap_or(10.0 * p)
+        .flatten()
+        .fold(None, |acc: Option<(usize, usize)>, &(a, b)| {
+            Some(acc.map_or((a, b), |(x, y)| (x.min(a), y.max(b))))
+        });
+    let (top, strip_h) = (110u32, 600u32);
+    let mut strips = picture::Strips::new(layout, groups, names, (20, top, strip_h, pitch), occupied);
+    let side_x = strips.right + 50;
+    let (w, h) = ((side_x + 380).max(760), top + strip_h + 80);
+    let mut canvas = Canvas::new(w, h);
+    strips.paint(&mut canvas, layers, layout.range_bins);
+    canvas.draw(|a| {
+        text(a, title, (40, 16), LARGE, HPos::Left, VPos::Top)?;
+        strips.annotate(a, layout)?;
+        text(
+            a,
+            "one strip per feature, their union (all) last",
+            (120, (top + strip_h) as i32 + 40),
+            SMALL,
+            HPos::Left,
+            VPos::Top,
+        )?;
+        // Beside the strips: the features, where each mask lies, and the convention.
+        let (x, mut y) = (side_x as i32, top as i32 - 30);
+        text(a, "features, and where their masks lie", (x, y), MEDIUM, HPos::Left, VPos::Top)?;
+        y += 34;
+        let shown = n.min(14);
+        for (k, e) in extents.iter().enumerate().take(shown) {
+            let extent = match e {
+                Some((i0, i1)) => format!(
+                    "{:.2}–{:.2} m",
+                    layout.range_edge(*i0),
+                    layout.range_edge(i1 + 1)
+                ),
+                None => "not seen".to_string(),
+            };
+            a.draw(&Rectangle::new([(x, y + 2), (x + 16, y + 18)], colour(k).filled()))
+                .map_err(plot_error)?;
+            let label = labels.get(k).map_or_else(|| (k + 1).to_string(), Clone::clone);
+            text(a, &format!("{label}  ->  {extent}"), (x + 24, y + 10), SMALL, HPos::Left, VPos::Center)?;
+            y += 28;
+        }
+        if n > shown {
+            text(a, &format!("and {} more", n - shown), (x, y), SMALL, HPos::Left, VPos::Top)?;
+            y += 28;
+        }
+        y += 16;
+        let notes = [
+            format!(
+                "Near range at the bottom: {} range bins from {}\u{a0}m to {}\u{a0}m.",
+                layout.range_bins, layout.range_min, layout.range_max
+            ),
+            "A sidescan sonar has one beam: a strip has range only, no port or starboard axis, and its width means nothing. (A port and a starboard channel are two sonars.)".to_string(),
+            "Light grey: range bins, empty. One colour per feature, mixed where masks overlap; masks a few pixels thin are marked by triangles.".to_string(),
+        ];
+        for note in notes {
+            for line in picture::wrap(a, &note, SMALL, w - side_x - 20)? {
+                text(a, &line, (x, y), SMALL, HPos::Left, VPos::Top)?;
+                y += 24;
+            }
+            y += 8;
+        }
+        Ok(())
+    })?;
+    Ok(canvas)
 }
 
 /// Writes the masks as NPY to `path`: shape `[feature, range_bin, beam]` for an FLS target or
 /// `[feature, range_bin]` for an SSS target; `uint8` 0/1, or `uint32` counts with `counts`.
 ///
 /// # Errors
-/// [`Error::WriteOutput`].
+/// [`crate::Error::WriteOutput`].
 pub fn write_npy(path: &Path, layout: &Layout, masks: &[Mask], counts: bool) -> Result<()> {
     let mut shape = vec![masks.len() as u64, layout.range_bins as u64];
     if layout.kind == SonarKind::Fls {
@@ -301,4 +299,92 @@ pub fn write_npy(path: &Path, layout: &Layout, masks: &[Mask], counts: bool) -> 
             )
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report::picture::testing::{Picture, assert_side};
+    use sonarproj::Sonar;
+    use sonarproj::occupancy::Occupancy;
+
+    /// Returns a mask of `layout` holding a 3 × 3 block (one bin for an SSS) around range `r`
+    /// (m) and azimuth `az` (deg).
+    fn mask_at(layout: &Layout, r: f64, az: f64) -> Mask {
+        let mut occupancy = Occupancy::new(layout.range_bins, layout.beams());
+        let (i, j) = (layout.range_bin(r), layout.beam(az.to_radians()));
+        for i in i - 1..=i + 1 {
+            for j in j.saturating_sub(1)..=(j + 1).min(layout.beams() - 1) {
+                occupancy.set(i, j);
+            }
+        }
+        Mask {
+            occupancy,
+            counts: None,
+            radius: 0.0,
+            noise_radius: 0.0,
+            cells: 1,
+        }
+    }
+
+    /// Writes the picture of `masks` and reads it back.
+    fn drawn(layout: &Layout, masks: &[Mask]) -> Picture {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.png");
+        let labels: Vec<String> = (1..=masks.len()).map(|k| k.to_string()).collect();
+        write_png(&path, layout, masks, "test", &labels).unwrap();
+        Picture::read(&path)
+    }
+
+    #[test]
+    fn fls_picture_puts_port_left_and_near_range_low_in_fan_and_raw_panel() {
+        let layout = Layout::of(&Sonar::preset("holoocean-imaging").unwrap());
+        // +azimuth is +y, port; 2 m of 10 is near, 8 m far.
+        for (r, az, port, near) in [
+            (2.0, 30.0, true, true),
+            (8.0, -30.0, false, false),
+            (8.0, 40.0, true, false),
+        ] {
+            let pic = drawn(&layout, &[mask_at(&layout, r, az)]);
+            let panels = pic.panels();
+            assert_eq!(panels.len(), 2, "the fan and the raw layout: {panels:?}");
+            for (p, name) in panels.iter().zip(["fan", "raw layout"]) {
+                assert_side(
+                    &pic,
+                    *p,
+                    Some(port),
+                    near,
+                    &format!("{name}, feature at {r} m, {az}°"),
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn sss_picture_puts_near_range_low_in_every_strip() {
+        let layout = Layout::of(&Sonar::preset("holoocean-sidescan").unwrap());
+        for (r, near) in [(5.0, true), (30.0, false)] {
+            let pic = drawn(&layout, &[mask_at(&layout, r, 0.0)]);
+            let panels = pic.panels();
+            // Whole range: the feature's strip and the union; then the same zoomed.
+            assert_eq!(panels.len(), 4, "{panels:?}");
+            for p in &panels[..2] {
+                assert_side(&pic, *p, None, near, &format!("strip, feature at {r} m"));
+            }
+        }
+    }
+
+    #[test]
+    fn sss_picture_is_not_mostly_blank() {
+        let layout = Layout::of(&Sonar::preset("holoocean-sidescan").unwrap());
+        let masks = [mask_at(&layout, 5.0, 0.0), mask_at(&layout, 20.0, 0.0)];
+        let pic = drawn(&layout, &masks);
+        let panels = pic.panels();
+        let area: usize = panels.iter().map(|p| (p.x1 - p.x0 + 1) * (p.y1 - p.y0 + 1)).sum();
+        assert!(
+            area * 5 >= pic.w * pic.h,
+            "the strips take {area} of {} pixels",
+            pic.w * pic.h
+        );
+    }
 }

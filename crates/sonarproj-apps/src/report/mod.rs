@@ -1,10 +1,35 @@
 //! Reports: files written whole or not at all (`atomic`: a temporary file, then a rename),
-//! output directories, occupancy as PNG and NPY.
+//! output directories, occupancy and masks as PNG and NPY, the figures.
+//!
+//! # The picture convention
+//!
+//! Every picture of sonar data drawn for people — the fan of an FLS, a raw-layout panel, a
+//! sidescan strip, the occupancy PNG of `project` — shows **near range at the bottom and port
+//! on the left**, and says so in words: "port" and "starboard" are written on it (a sidescan
+//! strip, one beam wide, says that it has no port–starboard axis).
+//!
+//! - A fan is seen from above: the sonar at the bottom, azimuth 0 straight up, positive azimuth
+//!   (+y, port) to the left; bearing lines carry their signed azimuths.
+//! - A raw-layout panel (range bins × beams) puts range bin 0 (`range_min`) at the bottom and the
+//!   last beam (port-most) on the left, so beam 0 (starboard-most) is at the right; its beam axis
+//!   is labelled with beam indices and its ends with "beam N-1 (port, +A/2)" and "beam 0
+//!   (starboard, -A/2)". Its columns are the NPY's mirrored.
+//! - A sidescan strip is vertical, range increasing upwards.
+//! - A screen pixel shows every bin or pixel it covers (a mask one bin thin is never lost),
+//!   and masks of a few pixels are circled or pointed at.
+//!
+//! NPY files keep their documented layout: row 0 is `range_min`, column 0 is beam 0, the
+//! starboard-most (`-aperture/2`); `project --flip-range`/`--flip-beams` flip the NPY only and
+//! are refused with a PNG.
+//!
+//! Figures (paper, sweep) keep legends and colour-bar labels outside the data area, and say when
+//! a panel's colour scale is its own.
 
 mod atomic;
 pub mod figures;
 pub mod mask_image;
 pub mod occupancy_image;
+mod picture;
 
 use std::io::Write;
 use std::path::Path;

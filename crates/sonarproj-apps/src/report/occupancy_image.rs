@@ -1,25 +1,35 @@
 //! Occupancy buffers as files: PNG for a person, NPY for numpy.
 //!
-//! Orientation (README: Conventions): row 0 is `range_min`, column 0 is beam 0 at `-aperture/2` (starboard,
-//! since +azimuth is toward +y, port). `flip_range` puts `range_max` in row 0 (near range at the
-//! bottom of a picture, as most sonar viewers draw it); `flip_beams` puts the port-most beam in
-//! column 0.
+//! The NPY keeps the layout of README: Conventions: row 0 is `range_min`, column 0 is beam 0 at
+//! `-aperture/2` (starboard, since +azimuth is toward +y, port); `flip_range` puts `range_max` in
+//! row 0 and `flip_beams` puts the port-most beam in column 0.
+//!
+//! The PNG is a small labelled picture by the picture convention of [`crate::report`], whatever
+//! the orientation asked for the NPY: near range at the bottom, port on the left. An FLS is drawn
+//! as its raw layout (range axis in metres, beam axis with beam 0, starboard-most, at the right);
+//! an SSS as a vertical range strip.
 #![expect(
     clippy::cast_possible_truncation,
+    clippy::cast_possible_wrap,
     reason = "image sides are a sonar's range bins and beams, bounded by the sonar limits"
 )]
 
 use std::io::Write;
 use std::path::Path;
 
+use plotters::style::text_anchor::{HPos, VPos};
+
 use crate::error::{Error, Result};
+use crate::report::picture::{self, Canvas, MEDIUM, Pooled, Rect, SMALL, text};
 use crate::report::write_atomic;
-use sonarproj::occupancy::Occupancy;
+use sonarproj::geometry::sonar::SonarKind;
+use sonarproj::occupancy::{Layout, Occupancy};
 
-/// Width in pixels of the strip a PNG of an SSS (one beam) is drawn as.
-pub const SSS_STRIP_WIDTH: usize = 32;
+/// The colour of occupied pixels in the PNG.
+pub const OCCUPIED: (u8, u8, u8) = (31, 119, 180);
 
-/// Which way the axes of a written occupancy buffer run.
+/// Which way the axes of a written NPY occupancy buffer run (the PNG always follows the picture
+/// convention).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Orientation {
     /// Row 0 is `range_max` instead of `range_min`.
@@ -31,7 +41,7 @@ pub struct Orientation {
 /// The file formats an occupancy buffer can be written in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
-    /// 8-bit grayscale PNG.
+    /// A labelled RGB picture.
     Png,
     /// NumPy `uint8` array.
     Npy,
@@ -58,40 +68,130 @@ pub fn check_extension(path: &Path) -> Result<Format> {
     }
 }
 
-/// Writes `occ` to `path` as PNG or NPY, chosen by the extension, whole or not at all.
+/// Writes `occ` (drawn in `layout`) to `path` as PNG or NPY, chosen by the extension, whole or
+/// not at all. `orientation` applies to the NPY only; the PNG, headed by `title`, always shows
+/// near range at the bottom and port on the left.
 ///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] for another extension; [`Error::WriteOutput`] on I/O failure.
-pub fn write(path: &Path, occ: &Occupancy, orientation: Orientation) -> Result<()> {
+/// [`sonarproj::Error::InvalidValue`] for another extension; [`Error::Figure`] or
+/// [`Error::WriteOutput`] on failure.
+pub fn write(
+    path: &Path,
+    occ: &Occupancy,
+    layout: &Layout,
+    title: &str,
+    orientation: Orientation,
+) -> Result<()> {
     match check_extension(path)? {
-        Format::Png => write_atomic(path, |w| write_png(w, occ, orientation, path)),
+        Format::Png => picture_of(occ, layout, title)?.write(path),
         Format::Npy => write_atomic(path, |w| write_npy(w, occ, orientation, path)),
     }
 }
 
-/// Writes an 8-bit grayscale PNG: occupied 255, empty 0; `range_bins` rows × `beams` columns
-/// (an SSS as a strip [`SSS_STRIP_WIDTH`] pixels wide).
-fn write_png(w: &mut dyn Write, occ: &Occupancy, o: Orientation, path: &Path) -> Result<()> {
-    let bytes = occ.to_bytes(o.flip_range, o.flip_beams);
-    let (width, data): (usize, Vec<u8>) = if occ.beams == 1 {
-        let strip = bytes
-            .iter()
-            .flat_map(|&b| std::iter::repeat_n(b * 255, SSS_STRIP_WIDTH))
-            .collect();
-        (SSS_STRIP_WIDTH, strip)
-    } else {
-        (occ.beams, bytes.iter().map(|&b| b * 255).collect())
+/// Returns the labelled picture of `occ`: for an FLS its raw layout, near range at the bottom
+/// and beam 0 (starboard-most) at the right, with a range axis and a beam axis; for an SSS a
+/// vertical range strip with a range axis.
+fn picture_of(occ: &Occupancy, layout: &Layout, title: &str) -> Result<Canvas> {
+    let layers = [(Pooled::new(occ), OCCUPIED)];
+    let occupied = format!(
+        "Blue: occupied ({} of {}); light grey: empty",
+        occ.count(),
+        layout.pixels()
+    );
+    if layout.kind == SonarKind::Sss {
+        let mut rows = occ.pixels().map(|(i, _)| i);
+        let extent = rows.next().map(|first| (first, rows.last().unwrap_or(first)));
+        let (top, h) = (96u32, 480u32);
+        let mut strips = picture::Strips::new(
+            layout,
+            std::iter::once(0..1).collect(),
+            vec![String::new()],
+            (0, top, h, 80),
+            extent,
+        );
+        let x = strips.right + 40;
+        let (w, canvas_h) = (x + 340, top + h + 40);
+        let mut canvas = Canvas::new(w, canvas_h);
+        strips.paint(&mut canvas, &layers, occ.range_bins);
+        canvas.draw(|a| {
+            title_lines(a, title, w)?;
+            strips.annotate(a, layout)?;
+            let notes = [
+                format!(
+                    "Sidescan range strip: near range at the bottom; {} range bins from {}\u{a0}m to {}\u{a0}m.",
+                    layout.range_bins, layout.range_min, layout.range_max
+                ),
+                match extent {
+                    Some((i0, i1)) => format!(
+                        "Occupied: {:.2}–{:.2} m.",
+                        layout.range_edge(i0),
+                        layout.range_edge(i1 + 1)
+                    ),
+                    None => "Nothing occupied.".to_string(),
+                },
+                "One beam: the strip has no port or starboard axis, and its width means nothing.".to_string(),
+                format!("{occupied}; a few bins thin are marked by triangles."),
+            ];
+            notes_at(a, &notes, (x as i32, top as i32), w - x - 20)
+        })?;
+        return Ok(canvas);
+    }
+    let (pw, ph) = (
+        (occ.beams as u32).clamp(360, 600),
+        (occ.range_bins as u32).clamp(400, 600),
+    );
+    let plot = Rect {
+        x: 110,
+        y: 96,
+        w: pw,
+        h: ph,
     };
-    let err = |e: &dyn std::fmt::Display| Error::WriteOutput {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    };
-    let mut enc = png::Encoder::new(w, width as u32, occ.range_bins as u32);
-    enc.set_color(png::ColorType::Grayscale);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut writer = enc.write_header().map_err(|e| err(&e))?;
-    writer.write_image_data(&data).map_err(|e| err(&e))?;
-    writer.finish().map_err(|e| err(&e))?;
+    let (w, h) = ((plot.right() + 60).max(660), plot.bottom() + 140);
+    let mut canvas = Canvas::new(w, h);
+    let extents = picture::paint_raw(&mut canvas, plot, &layers, 0..occ.range_bins, occ.beams);
+    canvas.draw(|a| {
+        title_lines(a, title, w)?;
+        text(
+            a,
+            "raw layout (range bin × beam)",
+            (plot.x as i32 + plot.w as i32 / 2, plot.y as i32 - 10),
+            MEDIUM,
+            HPos::Center,
+            VPos::Bottom,
+        )?;
+        picture::frame(a, plot)?;
+        picture::range_axis(a, plot, layout.range_min, layout.range_max)?;
+        picture::beam_axis(a, plot, layout)?;
+        picture::circle_small(a, &extents, &[OCCUPIED])?;
+        let notes = [
+            "Near range at the bottom, port on the left: beam 0 (starboard-most, the NPY's column 0) at the right."
+                .to_string(),
+            format!("{occupied}; a few pixels are circled."),
+        ];
+        notes_at(a, &notes, (20, plot.bottom() as i32 + 62), w - 40)
+    })?;
+    Ok(canvas)
+}
+
+/// Draws `title` at the top in up to two lines.
+fn title_lines(a: &picture::Area<'_>, title: &str, w: u32) -> Result<()> {
+    let mut y = 14;
+    for line in picture::wrap(a, title, MEDIUM, w - 40)?.iter().take(2) {
+        text(a, line, (20, y), MEDIUM, HPos::Left, VPos::Top)?;
+        y += 26;
+    }
+    Ok(())
+}
+
+/// Draws `notes` from `(x, y)` down, each wrapped to `width` px.
+fn notes_at(a: &picture::Area<'_>, notes: &[String], (x, mut y): (i32, i32), width: u32) -> Result<()> {
+    for note in notes {
+        for line in picture::wrap(a, note, SMALL, width)? {
+            text(a, &line, (x, y), SMALL, HPos::Left, VPos::Top)?;
+            y += 24;
+        }
+        y += 8;
+    }
     Ok(())
 }
 
@@ -104,4 +204,101 @@ fn write_npy(w: &mut dyn Write, occ: &Occupancy, o: Orientation, path: &Path) ->
         vec![occ.range_bins as u64, occ.beams as u64]
     };
     crate::report::write_npy(w, &shape, occ.to_bytes(o.flip_range, o.flip_beams), path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report::picture::testing::{Picture, assert_side};
+    use sonarproj::Sonar;
+
+    /// Returns the occupancy of `layout` with the pixel at range `r` (m), azimuth `az` (deg).
+    fn one_pixel(layout: &Layout, r: f64, az: f64) -> Occupancy {
+        let mut occ = Occupancy::new(layout.range_bins, layout.beams());
+        occ.set(layout.range_bin(r), layout.beam(az.to_radians()));
+        occ
+    }
+
+    #[test]
+    fn png_puts_port_left_and_near_range_low_whatever_the_npy_orientation() {
+        let layout = Layout::of(&Sonar::preset("paper-fls").unwrap());
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("o.png");
+        for (r, az, port, near) in [(2.0, 20.0, true, true), (8.0, -20.0, false, false)] {
+            for flip in [false, true] {
+                let o = Orientation {
+                    flip_range: flip,
+                    flip_beams: flip,
+                };
+                write(&path, &one_pixel(&layout, r, az), &layout, "test", o).unwrap();
+                let pic = Picture::read(&path);
+                let panels = pic.panels();
+                assert_eq!(panels.len(), 1, "{panels:?}");
+                assert_side(
+                    &pic,
+                    panels[0],
+                    Some(port),
+                    near,
+                    &format!("{r} m, {az}°, flips {flip}"),
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn sss_png_is_a_vertical_strip_with_near_range_low() {
+        let layout = Layout::of(&Sonar::preset("paper-sss").unwrap());
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("o.png");
+        for (r, near) in [(3.0, true), (27.0, false)] {
+            write(
+                &path,
+                &one_pixel(&layout, r, 0.0),
+                &layout,
+                "test",
+                Orientation::default(),
+            )
+            .unwrap();
+            let pic = Picture::read(&path);
+            let panels = pic.panels();
+            assert!(!panels.is_empty());
+            let p = panels[0];
+            assert!(p.y1 - p.y0 > 3 * (p.x1 - p.x0), "a vertical strip: {p:?}");
+            assert_side(&pic, p, None, near, &format!("{r} m"));
+        }
+    }
+
+    #[test]
+    fn npy_keeps_its_layout_and_flips() {
+        let layout = Layout::of(&Sonar::preset("paper-fls").unwrap());
+        let (rows, beams) = (layout.range_bins, layout.beams());
+        let occ = one_pixel(&layout, 2.0, 20.0);
+        let (i, j) = (layout.range_bin(2.0), layout.beam(20f64.to_radians()));
+        // Port (+azimuth) is in the upper half of the beams: column 0 is starboard.
+        assert!(j > beams / 2);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("o.npy");
+        for (flip_range, flip_beams, want) in [
+            (false, false, (i, j)),
+            (true, false, (rows - 1 - i, j)),
+            (false, true, (i, beams - 1 - j)),
+            (true, true, (rows - 1 - i, beams - 1 - j)),
+        ] {
+            let o = Orientation {
+                flip_range,
+                flip_beams,
+            };
+            write(&path, &occ, &layout, "test", o).unwrap();
+            let bytes = std::fs::read(&path).unwrap();
+            let npy = npyz::NpyFile::new(bytes.as_slice()).unwrap();
+            assert_eq!(npy.shape(), &[rows as u64, beams as u64]);
+            let data: Vec<u8> = npy.into_vec().unwrap();
+            let set: Vec<usize> = (0..data.len()).filter(|&k| data[k] == 1).collect();
+            assert_eq!(
+                set,
+                vec![want.0 * beams + want.1],
+                "flips {flip_range} {flip_beams}"
+            );
+        }
+    }
 }
