@@ -14,7 +14,7 @@ their code; it asks sonarproj for what their script computes:
 We print the count of visible samples, their ranges (min, max, span) and the SSS range bins they
 fall in, and draw their plot (plus a zoom, since at 30 m full scale the 0.87 m span is a dot).
 
-Run:  /tmp/pyenv/bin/python examples/python/example_fl2ss.py [--out DIR] [--backend auto|cpu|cpu-fast|gpu]
+Run:  python examples/python/example_fl2ss.py [--out DIR] [--backend auto|cpu|cpu-fast|gpu]
 """
 
 from __future__ import annotations

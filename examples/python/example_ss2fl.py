@@ -16,7 +16,7 @@ We print the visible sample count, the range and azimuth extents of the projecti
 the occupied pixels and the projection area (sonarproj's `occupied_measure`, m²), and draw their
 plot from the occupied pixels, plus a zoom.
 
-Run:  /tmp/pyenv/bin/python examples/python/example_ss2fl.py [--out DIR] [--backend auto|cpu|cpu-fast|gpu]
+Run:  python examples/python/example_ss2fl.py [--out DIR] [--backend auto|cpu|cpu-fast|gpu]
 """
 
 from __future__ import annotations

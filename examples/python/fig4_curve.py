@@ -7,7 +7,7 @@ sidescan for f = 0.1 .. 0.9, one rotation angle swept 0..180° in 1° steps (the
 arc sampled every 0.1° as the published code. That is 9 x 181 = 1629 poses, run by
 `sonarproj.sweep` from a small sweep TOML written into the output directory.
 
-Run:  /tmp/pyenv/bin/python examples/python/fig4_curve.py [--out DIR] [--angle roll|pitch|yaw]
+Run:  python examples/python/fig4_curve.py [--out DIR] [--angle roll|pitch|yaw]
           [--backend auto|cpu|cpu-fast|gpu]
 """
 

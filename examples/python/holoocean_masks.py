@@ -14,7 +14,7 @@ same layout, so they overlay the frame index for index.
 The picture is the raw layout as a person reads it: near range at the bottom, port on the left
 (the columns are flipped for drawing only, since column 0 is starboard).
 
-Run:  /tmp/pyenv/bin/python examples/python/holoocean_masks.py [--out DIR] [--backend auto|cpu|gpu]
+Run:  python examples/python/holoocean_masks.py [--out DIR] [--backend auto|cpu|gpu]
 """
 
 from __future__ import annotations
