@@ -540,7 +540,7 @@ function update3d(r) {
   geom.setAttribute("position", new THREE.Float32BufferAttribute(pos, 3));
   geom.setAttribute("color", new THREE.Float32BufferAttribute(colours, 3));
   add(new THREE.Points(geom, new THREE.PointsMaterial({ size: 3, sizeAttenuation: false, vertexColors: true })));
-  const s1 = r.from, f = readSceneSafe();
+  const f = readSceneSafe();
   if (f) {
     const e = f.feature.elevation * Math.PI / 180, a = f.feature.azimuth * Math.PI / 180;
     const p = [f.feature.range * Math.cos(e) * Math.cos(a), f.feature.range * Math.cos(e) * Math.sin(a), f.feature.range * Math.sin(e)];
@@ -554,7 +554,7 @@ function update3d(r) {
     rg.setAttribute("position", new THREE.Float32BufferAttribute(rp, 3));
     add(new THREE.Points(rg, new THREE.PointsMaterial({ size: 8, sizeAttenuation: false, color: COLOURS.rec })));
   }
-  if (!state.fitted) fit(r, s1);
+  if (!state.fitted) fit(r);
   three.renderer.render(scene, three.camera);
 }
 

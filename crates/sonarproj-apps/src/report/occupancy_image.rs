@@ -209,7 +209,6 @@ fn write_npy(w: &mut dyn Write, occ: &Occupancy, o: Orientation, path: &Path) ->
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::report::picture::testing::{Picture, assert_side};
     use sonarproj::Sonar;
 
     /// Returns the occupancy of `layout` with the pixel at range `r` (m), azimuth `az` (deg).
@@ -217,55 +216,6 @@ mod tests {
         let mut occ = Occupancy::new(layout.range_bins, layout.beams());
         occ.set(layout.range_bin(r), layout.beam(az.to_radians()));
         occ
-    }
-
-    #[test]
-    fn png_puts_port_left_and_near_range_low_whatever_the_npy_orientation() {
-        let layout = Layout::of(&Sonar::preset("paper-fls").unwrap());
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("o.png");
-        for (r, az, port, near) in [(2.0, 20.0, true, true), (8.0, -20.0, false, false)] {
-            for flip in [false, true] {
-                let o = Orientation {
-                    flip_range: flip,
-                    flip_beams: flip,
-                };
-                write(&path, &one_pixel(&layout, r, az), &layout, "test", o).unwrap();
-                let pic = Picture::read(&path);
-                let panels = pic.panels();
-                assert_eq!(panels.len(), 1, "{panels:?}");
-                assert_side(
-                    &pic,
-                    panels[0],
-                    Some(port),
-                    near,
-                    &format!("{r} m, {az}°, flips {flip}"),
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn sss_png_is_a_vertical_strip_with_near_range_low() {
-        let layout = Layout::of(&Sonar::preset("paper-sss").unwrap());
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("o.png");
-        for (r, near) in [(3.0, true), (27.0, false)] {
-            write(
-                &path,
-                &one_pixel(&layout, r, 0.0),
-                &layout,
-                "test",
-                Orientation::default(),
-            )
-            .unwrap();
-            let pic = Picture::read(&path);
-            let panels = pic.panels();
-            assert!(!panels.is_empty());
-            let p = panels[0];
-            assert!(p.y1 - p.y0 > 3 * (p.x1 - p.x0), "a vertical strip: {p:?}");
-            assert_side(&pic, p, None, near, &format!("{r} m"));
-        }
     }
 
     #[test]

@@ -131,8 +131,9 @@ pub fn command(scene: &Scene, first: &Choice, second: &Choice, pose: &RelativePo
     out
 }
 
-/// Returns `s` as a TOML basic string.
-fn toml_string(s: &str) -> String {
+/// Returns `s` in double quotes with `"`, `\\` and control characters escaped (`\\uXXXX`): a
+/// TOML basic string and a Python string literal alike.
+fn quoted(s: &str) -> String {
     let mut out = String::from("\"");
     for ch in s.chars() {
         match ch {
@@ -153,8 +154,8 @@ fn toml_string(s: &str) -> String {
 #[must_use]
 pub fn sweep_toml(scene: &Scene, first: &Choice, second: &Choice) -> String {
     let name = |c: &Choice| match &c.path {
-        None => toml_string(&c.label),
-        Some(p) => toml_string(&p.to_string_lossy()),
+        None => quoted(&c.label),
+        Some(p) => quoted(&p.to_string_lossy()),
     };
     let f = scene.feature;
     let r = scene.rotation;
@@ -194,23 +195,6 @@ pub fn sweep_toml(scene: &Scene, first: &Choice, second: &Choice) -> String {
     out
 }
 
-/// Returns `s` as a Python string literal.
-fn python_string(s: &str) -> String {
-    let mut out = String::from("\"");
-    for ch in s.chars() {
-        match ch {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if c.is_control() => {
-                let _ = write!(out, "\\u{:04x}", u32::from(c));
-            }
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
-}
-
 /// Returns `v` as a Python float literal (`inf`/`nan` cannot occur: scenes are checked).
 fn py(v: f64) -> String {
     let s = format!("{v}");
@@ -226,11 +210,8 @@ fn py(v: f64) -> String {
 #[must_use]
 pub fn python(scene: &Scene, first: &Choice, second: &Choice) -> String {
     let sonar = |c: &Choice| match &c.path {
-        None => format!("sonarproj.Sonar.preset({})", python_string(&c.label)),
-        Some(p) => format!(
-            "sonarproj.Sonar.from_toml({})",
-            python_string(&p.to_string_lossy())
-        ),
+        None => format!("sonarproj.Sonar.preset({})", quoted(&c.label)),
+        Some(p) => format!("sonarproj.Sonar.from_toml({})", quoted(&p.to_string_lossy())),
     };
     let f = scene.feature;
     let r = scene.rotation;

@@ -434,7 +434,7 @@ impl Viewer {
                 "runs": run_lengths(occupancy),
             },
             "mask": mask,
-            "samples": samples(source, target, &measurement, &plan, &pose),
+            "samples": samples(target, &measurement, &plan, &pose, base_azimuth(source, &measurement)),
             "truth_second": [tr, taz.to_degrees(), tel.to_degrees()],
             "pose": {
                 "rotation": r.transpose().to_cols_array_2d(),
@@ -467,30 +467,19 @@ fn sonar_json(label: &str, s: &Sonar) -> Value {
     })
 }
 
-/// Returns up to [`MAX_SHOWN_SAMPLES`] points of the sampled arc or surface, evenly thinned
-/// along each angle, in sonar 1's frame (m, rounded to 0.1 mm), with whether sonar 2 sees each.
-fn samples(
-    source: &Sonar,
-    target: &Sonar,
-    m: &Measurement,
-    plan: &SamplingPlan,
-    pose: &RelativePose,
-) -> Value {
+/// Returns up to [`MAX_SHOWN_SAMPLES`] points of the sampled arc or surface, thinned by one
+/// stride along each angle, in sonar 1's frame (m, rounded to 0.1 mm), with whether sonar 2 sees each.
+fn samples(target: &Sonar, m: &Measurement, plan: &SamplingPlan, pose: &RelativePose, base: f64) -> Value {
     let layout = Layout::of(target);
     let (n_az, n_el) = (plan.azimuths.len(), plan.elevations.len());
     let mut stride = 1;
     while n_az.div_ceil(stride) * n_el.div_ceil(stride) > MAX_SHOWN_SAMPLES {
         stride += 1;
     }
-    let (az_stride, el_stride) = match source.kind {
-        SonarKind::Fls => (1, n_el.div_ceil(MAX_SHOWN_SAMPLES).max(1)),
-        SonarKind::Sss => (stride, stride),
-    };
-    let base = base_azimuth(source, m);
     let round = |v: f64| (v * 1e4).round() / 1e4;
     let (mut points, mut visible) = (Vec::new(), Vec::new());
-    for el in plan.elevations.iter().step_by(el_stride) {
-        for az in plan.azimuths.iter().step_by(az_stride) {
+    for el in plan.elevations.iter().step_by(stride) {
+        for az in plan.azimuths.iter().step_by(stride) {
             let p1 = sph_to_cart(m.range, base + az, *el);
             let (r, a, e) = cart_to_sph(pose.apply(p1));
             points.extend([round(p1.x), round(p1.y), round(p1.z)]);
