@@ -4,6 +4,8 @@
 
 use std::collections::HashMap;
 
+use rayon::prelude::*;
+
 use crate::error::Result;
 use crate::geometry::pose::RelativePose;
 use crate::geometry::sonar::Sonar;
@@ -51,10 +53,9 @@ pub struct PreparedBatch<'a> {
     pub(crate) layout: Layout,
     /// The distinct sampling plans.
     pub(crate) plans: Vec<SamplingPlan>,
-    /// For each item, the index of its plan in `plans`.
-    pub(crate) plan_of: Vec<usize>,
-    /// For each item, the azimuth (rad) its plan's azimuth offsets are added to.
-    pub(crate) base_azimuth: Vec<f64>,
+    /// For each item, the index of its plan in `plans` (4 bytes an item: a million-pose batch
+    /// touches few pages).
+    plan_of: Vec<u32>,
 }
 
 impl PreparedBatch<'_> {
@@ -76,13 +77,22 @@ impl PreparedBatch<'_> {
     /// When `k` is not an item index of the batch.
     #[must_use]
     pub fn plan(&self, k: usize) -> &SamplingPlan {
-        &self.plans[self.plan_of[k]]
+        &self.plans[self.plan_index(k)]
+    }
+
+    /// Returns the index in [`PreparedBatch::plans`] of item `k`'s plan.
+    ///
+    /// # Panics
+    /// When `k` is not an item index of the batch.
+    #[must_use]
+    pub fn plan_index(&self, k: usize) -> usize {
+        self.plan_of[k] as usize
     }
 
     /// Returns the samples drawn over all items.
     #[must_use]
     pub fn total_samples(&self) -> usize {
-        self.plan_of.iter().map(|&p| self.plans[p].total()).sum()
+        self.plan_of.iter().map(|&p| self.plans[p as usize].total()).sum()
     }
 
     /// Returns the distinct sampling plans (items with equal sample counts share one).
@@ -97,7 +107,7 @@ impl PreparedBatch<'_> {
     /// When `k` is not an item index of the batch.
     #[must_use]
     pub fn base_azimuth(&self, k: usize) -> f64 {
-        self.base_azimuth[k]
+        base_azimuth(&self.batch.source, &self.batch.items[k].measurement)
     }
 }
 
@@ -170,30 +180,60 @@ impl Batch {
     /// and item `k`'s errors name it), or a plan that would draw too many samples.
     pub fn prepare(&self) -> Result<PreparedBatch<'_>> {
         let checker = self.checker()?;
-        let mut plans = Vec::new();
-        let mut index: HashMap<(usize, usize), usize> = HashMap::new();
-        let mut plan_of = Vec::with_capacity(self.items.len());
-        let mut base = Vec::with_capacity(self.items.len());
-        // Plans are drawn once per distinct sample count, not once per item.
-        for (k, item) in self.items.iter().enumerate() {
+        // Every item checked on all cores; on a failure, the first failing item (in order) is
+        // the one named, as a check item by item would find.
+        let check = |k: usize, item: &BatchItem| -> Result<(usize, usize)> {
             // An invalid item is named; a plan too large is the sampling's fault, not the item's.
             checker
                 .validate(item)
                 .map_err(|e| e.in_context(&format!("item {k}")))?;
-            let key = checker.counts(item)?;
-            let k = *index.entry(key).or_insert_with(|| {
-                plans.push(SamplingPlan::with_counts(&self.source, key.0, key.1));
-                plans.len() - 1
-            });
-            plan_of.push(k);
-            base.push(base_azimuth(&self.source, &item.measurement));
-        }
+            checker.counts(item)
+        };
+        // Sample counts packed in one word (each is at most MAX_SAMPLES_PER_POSE < 2^32).
+        let pack = |(n_az, n_el): (usize, usize)| (n_az as u64) << 32 | n_el as u64;
+        let keys = match self
+            .items
+            .par_iter()
+            .enumerate()
+            .map(|(k, item)| check(k, item).map(pack))
+            .collect::<Result<Vec<u64>>>()
+        {
+            Ok(keys) => keys,
+            Err(_) => {
+                let first = self
+                    .items
+                    .iter()
+                    .enumerate()
+                    .find_map(|(k, item)| check(k, item).err());
+                return Err(first.expect("an item failed its check"));
+            }
+        };
+        // Plans are drawn once per distinct sample count, not once per item (neighbouring items
+        // mostly share one: the last is tried before the map).
+        let mut plans = Vec::new();
+        let mut index: HashMap<u64, u32> = HashMap::new();
+        let mut last: Option<(u64, u32)> = None;
+        let plan_of = keys
+            .into_iter()
+            .map(|key| {
+                let k = match last {
+                    Some((l, k)) if l == key => k,
+                    _ => *index.entry(key).or_insert_with(|| {
+                        #[expect(clippy::cast_possible_truncation, reason = "unpacking `pack`")]
+                        let (n_az, n_el) = ((key >> 32) as usize, key as u32 as usize);
+                        plans.push(SamplingPlan::with_counts(&self.source, n_az, n_el));
+                        u32::try_from(plans.len() - 1).expect("fewer plans than items")
+                    }),
+                };
+                last = Some((key, k));
+                k
+            })
+            .collect();
         Ok(PreparedBatch {
             batch: self,
             layout: Layout::of(&self.target),
             plans,
             plan_of,
-            base_azimuth: base,
         })
     }
 }

@@ -33,16 +33,38 @@ use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::{Layout, Occupancy};
 use crate::projection::{Output, PreparedBatch, Projection};
 
-/// Samples per culling block (consecutive in the plan's order, azimuth index fastest).
+/// Samples per culling block of the splat shader (consecutive in the plan's order, azimuth
+/// index fastest).
 pub const BLOCK: usize = 16;
+
+/// Samples per culling block of this path (two AVX-512 vectors, four AVX2 ones).
+const LANES: usize = 16;
 
 /// Most beam edges walked from the previous sample's beam before an `atan2` guess is taken.
 const WALK: usize = 4;
 
-/// Relative tolerance on the azimuth key `y / x`: samples whose key lies within it of the pose's
-/// smallest (largest) key get an exact `atan2` for the azimuth extremes; the others' azimuths are
-/// larger (smaller) by far more than `atan2`'s rounding, so they cannot be an extreme.
+/// Bound on `|approx_atan2(y, x) − atan2(y, x)|` (rad): the fitted polynomial's 4.2e-12
+/// (`scripts/fit_atan.py`) and the roundings of its evaluation, with margin; a unit test holds the
+/// function to it against libm.
+const ATAN_ERROR: f64 = 1e-11;
+
+/// Relative tolerance on the azimuth key `y / x` (sonar 2 an SSS): samples whose key lies within
+/// it of the pose's smallest (largest) key get an exact `atan2` for the azimuth extremes; the
+/// others' azimuths are larger (smaller) by far more than `atan2`'s rounding, so they cannot be
+/// an extreme.
 const KEY_TOLERANCE: f64 = 1e-12;
+
+/// `atan t ≈ t · P(t²)` on `|t| ≤ tan(π/8)`: `P`'s coefficients, `t²`'s power 0 first
+/// (`python scripts/fit_atan.py`).
+const ATAN_POLY: [f64; 7] = [
+    0.999999999848201,
+    -0.33333329991221494,
+    0.19999786271792946,
+    -0.14279648396545372,
+    0.11021714819692073,
+    -0.08368934777722066,
+    0.04551281871436571,
+];
 
 /// Relative slack added to every culling radius: the roundings of `M u + t` and of the clip tests
 /// are below 1e-15 of `range + |t| + range_max`; a block is culled only when it clears a bound by
@@ -64,7 +86,9 @@ struct Geometry<'a> {
     sin_cos_half_el: (f64, f64),
     /// `1 / Δ`: the range bin guess multiplies (the edge tests then settle it).
     inv_range_bin: f64,
-    /// `(range_min + iΔ)²`, `i = 0..=range_bins`.
+    /// `(range_min + iΔ)²`, `i = 0..=range_bins`: the plain loop's bins (tests), which the lane
+    /// stage computes in place.
+    #[cfg(test)]
     range_edges_sq: Vec<f64>,
     /// Half of each beam's width `Δa_j / 2` and each row's `r_{i+1}² − r_i²`: their product is
     /// [`Layout::pixel_measure`], bit for bit.
@@ -74,6 +98,14 @@ struct Geometry<'a> {
     beam_edges_cs: Vec<(f64, f64)>,
     /// `beams / aperture` when the beams are uniform.
     inv_beam_width: Option<f64>,
+    /// The lane stage's beam guess: `(az − e_0) · beams / aperture`, NaN unless the beams are
+    /// uniform, and the distance (in beams) from a beam edge below which a guess is not trusted.
+    guess_origin: f64,
+    guess_scale: f64,
+    guess_slack: f64,
+    /// The last range bin and the beam count, as the lane stage's integers.
+    last_bin: i32,
+    beams: i32,
 }
 
 impl<'a> Geometry<'a> {
@@ -91,6 +123,7 @@ impl<'a> Geometry<'a> {
             cos2_half_el: elevation.map_or(0.0, |e| e.1),
             sin_cos_half_el: (layout.half_elevation.sin(), layout.half_elevation.cos()),
             inv_range_bin: 1.0 / layout.range_bin_width,
+            #[cfg(test)]
             range_edges_sq: layout.range_edges_sq(),
             half_beam_widths: layout
                 .beam_edges
@@ -105,6 +138,11 @@ impl<'a> Geometry<'a> {
                 .collect(),
             beam_edges_cs: layout.beam_edges.iter().map(|a| (a.cos(), a.sin())).collect(),
             inv_beam_width: layout.uniform_beam_width().map(|w| 1.0 / w),
+            guess_origin: layout.beam_edges[0],
+            guess_scale: layout.uniform_beam_width().map_or(f64::NAN, |w| 1.0 / w),
+            guess_slack: guess_slack(layout),
+            last_bin: i32::try_from(layout.range_bins - 1).expect("range bins are limited to 2^20"),
+            beams: i32::try_from(layout.beams()).expect("beams are limited to 2^16"),
         }
     }
 
@@ -119,41 +157,41 @@ impl<'a> Geometry<'a> {
                 | ((p.x * p.x + p.y * p.y) * self.sin2_half_el >= p.z * p.z * self.cos2_half_el))
     }
 
-    /// Returns where the ball of `radius` around `c` lies: wholly outside the field of view,
-    /// wholly inside it, or across a bound. Each clip bound is a 1-Lipschitz function of the
-    /// point (the range; the azimuth half-planes' signed distances; the elevation cone's
-    /// `|z| cos e − ρ sin e`, as `p ↦ (|z|, ρ)` is 1-Lipschitz), so its value at `c` moves by at
-    /// most `radius` over the ball. The splat shader's `block_side`.
-    fn ball_side(&self, c: DVec3, radius: f64) -> Side {
+    /// Returns whether the ball of `radius` around `c` lies wholly outside the field of view
+    /// and whether wholly inside it (else across a bound). Each clip bound is a 1-Lipschitz
+    /// function of the point (the range; the azimuth half-planes' signed distances; the
+    /// elevation cone's `|z| cos e − ρ sin e`, as `p ↦ (|z|, ρ)` is 1-Lipschitz), so its value at
+    /// `c` moves by at most `radius` over the ball. The splat shader's `block_side`; branch-free,
+    /// so that it vectorises over blocks.
+    #[inline(always)]
+    fn ball_side(&self, c: [f64; 3], radius: f64) -> (bool, bool) {
         let l = self.layout;
-        let d = c.length();
+        let [x, y, z] = c;
+        let d = (x * x + y * y + z * z).sqrt();
         // Azimuth: the wedge is {x sin h − y cos h ≥ 0} ∩ {x sin h + y cos h ≥ 0} for h ≤ 90°,
         // their union beyond; both normals are unit vectors.
-        let upper = c.x * self.sin_half_az - c.y * self.cos_half_az;
-        let lower = c.x * self.sin_half_az + c.y * self.cos_half_az;
-        let (az_out, az_in) = if self.cos_half_az >= 0.0 {
-            (upper.min(lower) < -radius, upper.min(lower) > radius)
+        let upper = x * self.sin_half_az - y * self.cos_half_az;
+        let lower = x * self.sin_half_az + y * self.cos_half_az;
+        let wedge = if self.cos_half_az >= 0.0 {
+            upper.min(lower)
         } else {
-            (upper.max(lower) < -radius, upper.max(lower) > radius)
+            upper.max(lower)
         };
+        let (az_out, az_in) = (wedge < -radius, wedge > radius);
         // Elevation: |z| cos e − ρ sin e > 0 outside.
         let (s, co) = self.sin_cos_half_el;
-        let cone = c.z.abs() * co - (c.x * c.x + c.y * c.y).sqrt() * s;
-        let (el_out, el_in) = if self.clip_elevation {
-            (cone > radius, cone < -radius)
-        } else {
-            (false, true)
-        };
-        if d - radius > l.range_max || d + radius < l.range_min || az_out || el_out {
-            Side::Outside
-        } else if d - radius > 0.0 && d - radius > l.range_min && d + radius < l.range_max && az_in && el_in {
-            Side::Inside
-        } else {
-            Side::Across
-        }
+        let cone = z.abs() * co - (x * x + y * y).sqrt() * s;
+        let el_out = self.clip_elevation & (cone > radius);
+        let el_in = !self.clip_elevation | (cone < -radius);
+        let outside = (d - radius > l.range_max) | (d + radius < l.range_min) | az_out | el_out;
+        let inside =
+            (d - radius > 0.0) & (d - radius > l.range_min) & (d + radius < l.range_max) & az_in & el_in;
+        (outside, inside & !outside)
     }
 
-    /// Returns the range bin: a first guess, then the side of the guessed bin's squared edges.
+    /// Returns the range bin: a first guess, then the side of the guessed bin's squared edges
+    /// (the plain loop's; the lane stage computes the same edges in place).
+    #[cfg(test)]
     #[expect(
         clippy::cast_possible_truncation,
         reason = "a saturating float-to-index conversion, clamped to the table right after"
@@ -231,22 +269,12 @@ impl<'a> Geometry<'a> {
     }
 }
 
-/// Where a block's ball lies with respect to sonar 2's field of view.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Side {
-    /// Wholly outside: no sample of the block is visible.
-    Outside,
-    /// Wholly inside: every sample of the block is visible.
-    Inside,
-    /// Across a bound: each sample is clipped.
-    Across,
-}
-
-/// A visible sample of the pose being drawn: its point, squared range and azimuth key.
+/// A visible sample of the pose being drawn, for the exact azimuth extremes: its `x`, `y` and
+/// azimuth key (see [`Lanes::key`]).
 #[derive(Clone, Copy, Default)]
 struct Seen {
-    p: DVec3,
-    r2: f64,
+    x: f64,
+    y: f64,
     key: f64,
 }
 
@@ -255,7 +283,7 @@ struct Seen {
 /// the culling balls of this path and of the splat shader.
 #[must_use]
 pub fn block_balls(azimuths: &[f64], elevations: &[f64]) -> Vec<(DVec3, f64)> {
-    balls(&unit_directions(azimuths, elevations))
+    balls(&unit_directions(azimuths, elevations), BLOCK)
 }
 
 /// Returns the unit directions of the plan with these azimuth offsets and elevations (rad),
@@ -273,11 +301,11 @@ fn unit_directions(azimuths: &[f64], elevations: &[f64]) -> Vec<DVec3> {
         .collect()
 }
 
-/// Returns, per block of [`BLOCK`] of `units`, the centre (their mean) and radius of a ball
+/// Returns, per block of `size` of `units`, the centre (their mean) and radius of a ball
 /// holding them.
-fn balls(units: &[DVec3]) -> Vec<(DVec3, f64)> {
+fn balls(units: &[DVec3], size: usize) -> Vec<(DVec3, f64)> {
     units
-        .chunks(BLOCK)
+        .chunks(size)
         .map(|b| {
             let centre = b.iter().sum::<DVec3>() / b.len() as f64;
             let radius = b.iter().map(|u| (*u - centre).length()).fold(0.0, f64::max);
@@ -286,105 +314,305 @@ fn balls(units: &[DVec3]) -> Vec<(DVec3, f64)> {
         .collect()
 }
 
-/// A plan's unit directions (azimuth index fastest) and, per block of [`BLOCK`] of them, the
+/// A plan's unit directions (azimuth index fastest) and, per block of [`LANES`] of them, the
 /// centre and radius of a ball holding them.
 struct Directions {
     units: Vec<DVec3>,
-    blocks: Vec<(DVec3, f64)>,
     /// The same units block by block in structure-of-arrays form, for the clip loop.
     lanes: Vec<BlockUnits>,
+    /// The balls, [`BALLS`] blocks at a time in structure-of-arrays form (the last chunk padded
+    /// with copies of the last ball).
+    ball_chunks: Vec<BallChunk>,
+}
+
+/// Blocks whose balls are tested together.
+const BALLS: usize = 8;
+
+/// [`BALLS`] blocks' balls: centres and radii.
+#[derive(Clone)]
+struct BallChunk {
+    x: [f64; BALLS],
+    y: [f64; BALLS],
+    z: [f64; BALLS],
+    r: [f64; BALLS],
 }
 
 /// The unit directions of one block, one array per coordinate; lanes past `len` repeat the last
 /// unit and are never kept.
 #[derive(Clone)]
 struct BlockUnits {
-    x: [f64; BLOCK],
-    y: [f64; BLOCK],
-    z: [f64; BLOCK],
+    x: [f64; LANES],
+    y: [f64; LANES],
+    z: [f64; LANES],
     len: usize,
 }
 
-/// One block after the transform and clip: the points, squared ranges, azimuth keys and which
-/// lanes are visible.
-struct BlockPoints {
-    x: [f64; BLOCK],
-    y: [f64; BLOCK],
-    z: [f64; BLOCK],
-    r2: [f64; BLOCK],
-    key: [f64; BLOCK],
-    keep: [bool; BLOCK],
+/// One block after the lane stage ([`draw_lanes`]), and the running extremes of the pose.
+struct Lanes {
+    /// The points in sonar 2's frame.
+    x: [f64; LANES],
+    y: [f64; LANES],
+    z: [f64; LANES],
+    /// An azimuth key, ordered as the azimuth: sonar 2 an FLS, the approximate azimuth
+    /// ([`approx_atan2`]); an SSS, `y / x`, NaN where `x ≤ 0` (such samples always get an exact
+    /// `atan2`).
+    key: [f64; LANES],
+    /// The pixel `i · beams + j`, its beam `j` guessed from the approximate azimuth.
+    pixel: [i32; LANES],
+    /// Whether the beam guess is sure (far enough from the beam's edges).
+    sure: [bool; LANES],
+    /// Whether the sample is visible.
+    keep: [bool; LANES],
+    /// Per lane, over the visible samples of the pose so far: range and key extremes.
+    range_min: [f64; LANES],
+    range_max: [f64; LANES],
+    key_min: [f64; LANES],
+    key_max: [f64; LANES],
 }
 
-impl Default for BlockPoints {
+impl Default for Lanes {
     fn default() -> Self {
-        let zero = [0.0; BLOCK];
-        BlockPoints {
+        let zero = [0.0; LANES];
+        Lanes {
             x: zero,
             y: zero,
             z: zero,
-            r2: zero,
             key: zero,
-            keep: [false; BLOCK],
+            pixel: [0; LANES],
+            sure: [false; LANES],
+            keep: [false; LANES],
+            range_min: [f64::INFINITY; LANES],
+            range_max: [f64::NEG_INFINITY; LANES],
+            key_min: [f64::INFINITY; LANES],
+            key_max: [f64::NEG_INFINITY; LANES],
         }
     }
 }
 
-/// Transforms and clips the lanes of `u` into `out`: `p = M u + t` in the operation order of
-/// glam's `DMat3 * DVec3` and `length_squared`, the clip of [`Geometry::in_view`] (skipped when
-/// `inside`), the key `y / x` (NaN where `x ≤ 0`). Branch-free over the lanes, so it vectorises;
-/// `m` is `M`'s columns then `t`.
+impl Lanes {
+    /// Empties the running extremes for the next pose.
+    fn start_pose(&mut self) {
+        self.range_min = [f64::INFINITY; LANES];
+        self.range_max = [f64::NEG_INFINITY; LANES];
+        self.key_min = [f64::INFINITY; LANES];
+        self.key_max = [f64::NEG_INFINITY; LANES];
+    }
+
+    /// Returns the pose's `(range_min, range_max, key_min, key_max)` over its visible samples
+    /// (halving the lanes each step, so that it vectorises; neither a range nor a key is NaN or
+    /// a signed zero that the order of a fold could tell apart, where it matters).
+    #[inline(always)]
+    fn extremes(&self) -> (f64, f64, f64, f64) {
+        fn fold(v: &[f64; LANES], f: fn(f64, f64) -> f64) -> f64 {
+            let mut v = *v;
+            let mut n = LANES;
+            while n > 1 {
+                n /= 2;
+                for k in 0..n {
+                    v[k] = f(v[k], v[k + n]);
+                }
+            }
+            v[0]
+        }
+        (
+            fold(&self.range_min, f64::min),
+            fold(&self.range_max, f64::max),
+            fold(&self.key_min, f64::min),
+            fold(&self.key_max, f64::max),
+        )
+    }
+}
+
+/// Returns `atan2(y, x)` within [`ATAN_ERROR`] (NaN where `x = y = 0`), branch-free so that it
+/// vectorises: the angle of `min(|x|, |y|) / max(|x|, |y|)` in `[0, π/4]` (folded about π/8 so the
+/// polynomial sees `|t| ≤ tan(π/8)`), then placed in its octant.
 #[inline(always)]
-fn clip_lanes(geo: &Geometry<'_>, m: &[f64; 12], u: &BlockUnits, inside: bool, out: &mut BlockPoints) {
-    for k in 0..BLOCK {
+fn approx_atan2(y: f64, x: f64) -> f64 {
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, SQRT_2};
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = (ax.min(ay), ax.max(ay));
+    // atan(lo / hi) = π/4 + atan((lo − hi) / (lo + hi)).
+    let fold = lo > (SQRT_2 - 1.0) * hi; // tan(π/8) = √2 − 1
+    let t = if fold { (lo - hi) / (lo + hi) } else { lo / hi };
+    let s = t * t;
+    let mut p = ATAN_POLY[6];
+    for c in ATAN_POLY[..6].iter().rev() {
+        p = p * s + c;
+    }
+    let a = p * t + if fold { FRAC_PI_4 } else { 0.0 };
+    let a = if ay > ax { FRAC_PI_2 - a } else { a };
+    let a = if x < 0.0 { PI - a } else { a };
+    a.copysign(y)
+}
+
+/// Returns the distance (in beams) from a beam edge within which the lane stage's beam guess is
+/// settled by the edge tests instead: the azimuth's error [`ATAN_ERROR`] in beams, the beams'
+/// departure from uniform (each width within 1e-12 of the mean: [`Layout::uniform_beam_width`])
+/// summed over the beams, and the roundings of the guess and the edge tests (below 1e-15 rad and
+/// 1e-15 beams a beam), doubled, plus 1e-9.
+fn guess_slack(layout: &Layout) -> f64 {
+    let beams = layout.beams() as f64;
+    let scale = layout.uniform_beam_width().map_or(0.0, |w| 1.0 / w);
+    2.0 * ((ATAN_ERROR + 1e-15) * scale + beams * (1e-12 + 1e-15)) + 1e-9
+}
+
+/// Returns, for the [`BALLS`] blocks of `chunk`, bit masks of those whose balls (moved by the
+/// pose: `m` is `M`'s columns then `t`; radii scaled by `range`, widened by `slack` and a
+/// relative 1e-12) lie wholly outside and wholly inside the field of view
+/// ([`Geometry::ball_side`]), tested together so that it vectorises.
+#[inline(always)]
+fn ball_sides(geo: &Geometry<'_>, m: &[f64; 12], chunk: &BallChunk, range: f64, slack: f64) -> (u32, u32) {
+    let mut out = [false; BALLS];
+    let mut ins = [false; BALLS];
+    for k in 0..BALLS {
+        let (ux, uy, uz) = (chunk.x[k], chunk.y[k], chunk.z[k]);
+        let c = [
+            m[0] * ux + m[3] * uy + m[6] * uz + m[9],
+            m[1] * ux + m[4] * uy + m[7] * uz + m[10],
+            m[2] * ux + m[5] * uy + m[8] * uz + m[11],
+        ];
+        (out[k], ins[k]) = geo.ball_side(c, range * chunk.r[k] * (1.0 + 1e-12) + slack);
+    }
+    let mask = |v: [bool; BALLS]| v.iter().enumerate().fold(0, |m, (k, &b)| m | u32::from(b) << k);
+    (mask(out), mask(ins))
+}
+
+/// The lane stage of one block, branch-free over the lanes so that it vectorises: `p = M u + t`
+/// in the operation order of glam's `DMat3 * DVec3` and `length_squared`; the clip of
+/// [`Geometry::in_view`] (skipped when `inside`); the range bin of [`Geometry::range_bin`], its
+/// edges computed as [`Layout::range_edge`] does; the azimuth key; for an FLS the beam guessed
+/// from the approximate azimuth, sure when farther than `guess_slack` from the beam's edges (the
+/// edge tests then find the same beam); the running extremes over visible lanes (lanes past the
+/// block's length repeat its last unit, so they change none). Returns the visible lanes as a bit
+/// mask. `m` is `M`'s columns then `t`.
+#[inline(always)]
+fn draw_lanes<const FLS: bool>(
+    geo: &Geometry<'_>,
+    m: &[f64; 12],
+    u: &BlockUnits,
+    inside: bool,
+    out: &mut Lanes,
+) -> u32 {
+    let l = geo.layout;
+    let last_bin = geo.last_bin;
+    let beams = geo.beams;
+    for k in 0..LANES {
         let (ux, uy, uz) = (u.x[k], u.y[k], u.z[k]);
         let x = m[0] * ux + m[3] * uy + m[6] * uz + m[9];
         let y = m[1] * ux + m[4] * uy + m[7] * uz + m[10];
         let z = m[2] * ux + m[5] * uy + m[8] * uz + m[11];
         let r2 = x * x + y * y + z * z;
+        let keep = inside | geo.in_view(DVec3::new(x, y, z), r2);
+        // Range bin: the guess, then the guessed bin's squared edges.
+        let r = r2.sqrt();
+        let i = to_index(
+            ((r - l.range_min) * geo.inv_range_bin)
+                .max(0.0)
+                .min(f64::from(last_bin)),
+        );
+        let lower = l.range_min + f64::from(i) * l.range_bin_width;
+        let upper = l.range_min + f64::from(i + 1) * l.range_bin_width;
+        let down = (i > 0) & (r2 < lower * lower);
+        let up = !down & (i < last_bin) & (r2 >= upper * upper);
+        let i = i - i32::from(down) + i32::from(up);
+        let key = if FLS {
+            // The beam guess (NaN without uniform beams: never sure).
+            let az = approx_atan2(y, x);
+            let g = (az - geo.guess_origin) * geo.guess_scale;
+            let j = to_index(g.max(0.0).min(f64::from(beams - 1)));
+            let frac = g - f64::from(j);
+            out.sure[k] = (frac > geo.guess_slack) & (frac < 1.0 - geo.guess_slack);
+            out.pixel[k] = i * beams + j;
+            az
+        } else {
+            out.pixel[k] = i;
+            let q = y / x;
+            if x > 0.0 { q } else { f64::NAN }
+        };
         out.x[k] = x;
         out.y[k] = y;
         out.z[k] = z;
-        out.r2[k] = r2;
-        let q = y / x;
-        out.key[k] = if x > 0.0 { q } else { f64::NAN };
-        out.keep[k] = inside | geo.in_view(DVec3::new(x, y, z), r2);
+        out.key[k] = key;
+        out.keep[k] = keep;
+        let (r_in, key_in) = if keep { (r, key) } else { (f64::NAN, f64::NAN) };
+        out.range_min[k] = out.range_min[k].min(r_in);
+        out.range_max[k] = out.range_max[k].max(r_in);
+        out.key_min[k] = out.key_min[k].min(key_in);
+        out.key_max[k] = out.key_max[k].max(key_in);
     }
+    // Eight flags (bytes 0 or 1) at a time gathered into a byte by one multiplication: byte
+    // `i` times byte `7 − i` of the constant lands on bit `56 + i`, no two terms on one bit.
+    const { assert!(LANES.is_multiple_of(8) && LANES <= 32) };
+    let mut mask = 0;
+    for k in (0..LANES).step_by(8) {
+        let flags = u64::from_le_bytes(std::array::from_fn(|b| u8::from(out.keep[k + b])));
+        mask |= u32::try_from(flags.wrapping_mul(0x0102_0408_1020_4080) >> 56).unwrap_or(0) << k;
+    }
+    mask
 }
 
-/// [`clip_lanes`] compiled for AVX2 (four f64 lanes a vector): the same IEEE operations, so the
-/// same bits.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn clip_lanes_avx2(geo: &Geometry<'_>, m: &[f64; 12], u: &BlockUnits, inside: bool, out: &mut BlockPoints) {
-    clip_lanes(geo, m, u, inside, out);
+/// Returns `v` as an index: `v` is finite and within `0..=i32::MAX` (clamped by the caller),
+/// so the conversion is exact truncation; unlike `as`, it vectorises.
+#[inline(always)]
+fn to_index(v: f64) -> i32 {
+    debug_assert!((0.0..=f64::from(i32::MAX)).contains(&v));
+    // SAFETY: the callers clamp `v` to `[0, n]` with `n < 2^31` by `max` and `min`, which map
+    // NaN to the bound, so `v` is finite and representable after truncation.
+    unsafe { v.to_int_unchecked::<i32>() }
 }
 
-/// Runs [`clip_lanes`], in its AVX2 build where the processor has AVX2 (`avx2` says so).
-fn clip_block(
-    geo: &Geometry<'_>,
-    m: &[f64; 12],
-    u: &BlockUnits,
-    inside: bool,
-    out: &mut BlockPoints,
-    avx2: bool,
-) {
+/// Which build of the lane stage runs: baseline x86-64, AVX2, AVX-512.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Isa {
+    Baseline,
     #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` is `is_x86_feature_detected!("avx2")`, so the processor runs AVX2.
-        unsafe { clip_lanes_avx2(geo, m, u, inside, out) };
-        return;
+    Avx2,
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+}
+
+impl Isa {
+    /// Returns the widest build this processor runs (detected at run time: the binary itself
+    /// targets baseline x86-64).
+    fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx512f")
+                && is_x86_feature_detected!("avx512dq")
+                && is_x86_feature_detected!("avx512vl")
+            {
+                return Isa::Avx512;
+            }
+            if is_x86_feature_detected!("avx2") {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Baseline
     }
-    let _ = avx2;
-    clip_lanes(geo, m, u, inside, out);
+
+    /// Returns every build this processor runs (tests compare them).
+    #[cfg(test)]
+    fn available() -> Vec<Self> {
+        let mut all = vec![Isa::Baseline];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx2") {
+                all.push(Isa::Avx2);
+            }
+            if Isa::detect() == Isa::Avx512 {
+                all.push(Isa::Avx512);
+            }
+        }
+        all
+    }
 }
 
 impl Directions {
     fn of(azimuths: &[f64], elevations: &[f64]) -> Self {
         let units = unit_directions(azimuths, elevations);
-        let blocks = balls(&units);
+        let blocks = balls(&units, LANES);
         let lanes = units
-            .chunks(BLOCK)
+            .chunks(LANES)
             .map(|b| {
                 let at = |k: usize| b[k.min(b.len() - 1)];
                 BlockUnits {
@@ -395,7 +623,23 @@ impl Directions {
                 }
             })
             .collect();
-        Directions { units, blocks, lanes }
+        let ball_chunks = blocks
+            .chunks(BALLS)
+            .map(|b| {
+                let at = |k: usize| b[k.min(b.len() - 1)];
+                BallChunk {
+                    x: std::array::from_fn(|k| at(k).0.x),
+                    y: std::array::from_fn(|k| at(k).0.y),
+                    z: std::array::from_fn(|k| at(k).0.z),
+                    r: std::array::from_fn(|k| at(k).1),
+                }
+            })
+            .collect();
+        Directions {
+            units,
+            lanes,
+            ball_chunks,
+        }
     }
 }
 
@@ -407,8 +651,10 @@ struct Scratch {
     summary: Vec<u64>,
     /// The visible samples of the pose being drawn.
     seen: Vec<Seen>,
-    /// The block being clipped.
-    points: Box<BlockPoints>,
+    /// The block being drawn, and the pose's running extremes.
+    lanes: Box<Lanes>,
+    /// The last base azimuth's bits and its rotation `Rz` (neighbouring items mostly share it).
+    rz: Option<(u64, DMat3)>,
 }
 
 impl Scratch {
@@ -419,8 +665,113 @@ impl Scratch {
             occ,
             summary,
             seen: Vec::new(),
-            points: Box::default(),
+            lanes: Box::default(),
+            rz: None,
         }
+    }
+
+    /// Returns `Rz(azimuth)`, computed only when the azimuth differs from the last one's bits.
+    fn rotation_z(&mut self, azimuth: f64) -> DMat3 {
+        match self.rz {
+            Some((bits, rz)) if bits == azimuth.to_bits() => rz,
+            _ => {
+                let rz = DMat3::from_rotation_z(azimuth);
+                self.rz = Some((azimuth.to_bits(), rz));
+                rz
+            }
+        }
+    }
+
+    /// Draws one pose: `m` is `M = R · Rz(base azimuth) · range` and `t` the translation,
+    /// `slack` the culling slack. Returns the visible count and the extremes, the pixels set in
+    /// the occupancy buffer.
+    #[inline(always)]
+    fn draw_pose<const FLS: bool>(
+        &mut self,
+        geo: &Geometry<'_>,
+        dirs: &Directions,
+        (m, t, range, slack): PoseArgs,
+    ) -> (u64, Extremes) {
+        let Scratch {
+            occ,
+            summary,
+            seen,
+            lanes,
+            ..
+        } = self;
+        seen.clear();
+        lanes.start_pose();
+        let columns = [m.x_axis, m.y_axis, m.z_axis, t].map(|c| c.to_array());
+        let columns: [f64; 12] = std::array::from_fn(|k| columns[k / 3][k % 3]);
+        #[expect(clippy::cast_sign_loss, reason = "beams are at least 1")]
+        let beams = geo.beams as usize;
+        let mut beam = 0;
+        let (mut word, mut bits) = (0, 0);
+        let (mut outside, mut inside) = (0, 0);
+        for (b, units) in dirs.lanes.iter().enumerate() {
+            if b % BALLS == 0 {
+                (outside, inside) = ball_sides(geo, &columns, &dirs.ball_chunks[b / BALLS], range, slack);
+            }
+            if outside & (1 << (b % BALLS)) != 0 {
+                continue;
+            }
+            let inside = inside & (1 << (b % BALLS)) != 0;
+            let mut visible = draw_lanes::<FLS>(geo, &columns, units, inside, lanes);
+            visible &= (1 << units.len) - 1;
+            while visible != 0 {
+                let k = visible.trailing_zeros() as usize;
+                visible &= visible - 1;
+                #[expect(clippy::cast_sign_loss, reason = "pixels are clamped to 0..")]
+                let mut pixel = lanes.pixel[k] as usize;
+                let (x, y) = (lanes.x[k], lanes.y[k]);
+                if FLS && !lanes.sure[k] {
+                    // The edge tests, walked from the guess (uniform beams) or the previous
+                    // sample's beam, else from an exact atan2.
+                    let p = DVec3::new(x, y, lanes.z[k]);
+                    let (i, guess) = (pixel / beams, pixel % beams);
+                    let from = if geo.inv_beam_width.is_some() { guess } else { beam };
+                    beam = geo.beam_near(p, from).unwrap_or_else(|| geo.beam(p, y.atan2(x)));
+                    pixel = i * beams + beam;
+                }
+                // Bits of one word gather in a register while the samples stay in it.
+                if pixel / 32 != word {
+                    set(occ, summary, word, bits);
+                    (word, bits) = (pixel / 32, 0);
+                }
+                bits |= 1 << (pixel % 32);
+                seen.push(Seen {
+                    x,
+                    y,
+                    key: lanes.key[k],
+                });
+            }
+        }
+        set(occ, summary, word, bits);
+        // The extremes: ranges folded over the lanes; exact azimuths for the samples that may
+        // be an extreme, in sample order (the fold then equals the fold over every sample: the
+        // others' azimuths are strictly inside).
+        let (range_min, range_max, key_min, key_max) = lanes.extremes();
+        let mut extremes = Extremes {
+            range_min,
+            range_max,
+            ..Extremes::default()
+        };
+        let (low, high) = if FLS {
+            // Approximate azimuths: an exact azimuth lies within ATAN_ERROR of its guess.
+            (key_min + 3.0 * ATAN_ERROR, key_max - 3.0 * ATAN_ERROR)
+        } else {
+            // y / x orders azimuths in (−90°, 90°), far beyond atan2's rounding.
+            (
+                key_min + KEY_TOLERANCE * key_min.abs(),
+                key_max - KEY_TOLERANCE * key_max.abs(),
+            )
+        };
+        for s in seen.iter() {
+            if !(s.key > low && s.key < high) {
+                extremes.add_azimuth(s.y.atan2(s.x));
+            }
+        }
+        (seen.len() as u64, extremes)
     }
 
     /// Returns `(occupied, occupied_measure)` (the reduce shader's work, over the touched words
@@ -462,32 +813,71 @@ impl Scratch {
     }
 }
 
-/// Sets pixel `(i, j)` of `occ`, marking its word in `summary`.
-fn set(occ: &mut Occupancy, summary: &mut [u64], i: usize, j: usize) {
-    let k = i * occ.beams + j;
-    let w = k / 32;
-    occ.words[w] |= 1 << (k % 32);
-    summary[w / 64] |= 1 << (w % 64);
+/// The arguments of [`Scratch::draw_pose`]: `(M, t, range, slack)`.
+type PoseArgs = (DMat3, DVec3, f64, f64);
+
+/// [`Scratch::draw_pose`] compiled for AVX2 (four f64 lanes a vector): the same IEEE operations
+/// (Rust never fuses a multiply and an add), so the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn draw_pose_avx2<const FLS: bool>(
+    s: &mut Scratch,
+    geo: &Geometry<'_>,
+    dirs: &Directions,
+    pose: PoseArgs,
+) -> (u64, Extremes) {
+    s.draw_pose::<FLS>(geo, dirs, pose)
+}
+
+/// [`Scratch::draw_pose`] compiled for AVX-512 (eight f64 lanes a vector), the same bits again.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+fn draw_pose_avx512<const FLS: bool>(
+    s: &mut Scratch,
+    geo: &Geometry<'_>,
+    dirs: &Directions,
+    pose: PoseArgs,
+) -> (u64, Extremes) {
+    s.draw_pose::<FLS>(geo, dirs, pose)
+}
+
+/// Runs [`Scratch::draw_pose`] in the build `isa` names (which this processor runs:
+/// [`Isa::detect`]).
+fn draw_pose<const FLS: bool>(
+    isa: Isa,
+    s: &mut Scratch,
+    geo: &Geometry<'_>,
+    dirs: &Directions,
+    pose: PoseArgs,
+) -> (u64, Extremes) {
+    match isa {
+        Isa::Baseline => s.draw_pose::<FLS>(geo, dirs, pose),
+        // SAFETY: `isa` came from `Isa::detect` or `Isa::available`, which saw the processor run
+        // these instructions.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => unsafe { draw_pose_avx2::<FLS>(s, geo, dirs, pose) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { draw_pose_avx512::<FLS>(s, geo, dirs, pose) },
+    }
+}
+
+/// Sets `bits` in word `w` of `occ`, marking the word in `summary` (when any bit is set).
+fn set(occ: &mut Occupancy, summary: &mut [u64], w: usize, bits: u32) {
+    if bits != 0 {
+        occ.words[w] |= bits;
+        summary[w / 64] |= 1 << (w % 64);
+    }
 }
 
 /// Returns the projections of every item of `prepared` on all cores; with
 /// [`Output::WithOccupancy`] each carries its occupancy buffer.
 #[must_use]
 pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> {
-    project_with(prepared, output == Output::WithOccupancy, has_avx2())
+    project_with(prepared, output == Output::WithOccupancy, Isa::detect())
 }
 
-/// Returns whether the processor runs AVX2 (detected at run time: the binary itself targets
-/// baseline x86-64).
-fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    return is_x86_feature_detected!("avx2");
-    #[cfg(not(target_arch = "x86_64"))]
-    return false;
-}
-
-/// [`project`], with the AVX2 build of the clip loop or without it (tests run both).
-fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, avx2: bool) -> Vec<Projection> {
+/// [`project`], with the lane stage built for `isa` (tests run every build).
+fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, isa: Isa) -> Vec<Projection> {
     let layout = &prepared.layout;
     let geo = Geometry::new(layout);
     let directions: Vec<Directions> = prepared
@@ -503,70 +893,16 @@ fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, avx2: bool) 
         .map_init(
             || Scratch::new(layout),
             |scratch, (n, item)| {
-                let dirs = &directions[prepared.plan_of[n]];
+                let dirs = &directions[prepared.plan_index(n)];
                 let range = item.measurement.range;
-                let m = item.pose.rotation * DMat3::from_rotation_z(prepared.base_azimuth[n]) * range;
+                let m = item.pose.rotation * scratch.rotation_z(prepared.base_azimuth(n)) * range;
                 let t = item.pose.translation;
                 let slack = CULL_SLACK * (range + t.length() + layout.range_max);
-                // Pass 1, block by block: clip; keep the visible samples and their azimuth keys.
-                let Scratch {
-                    occ,
-                    summary,
-                    seen,
-                    points,
-                } = &mut *scratch;
-                seen.clear();
-                let (mut key_min, mut key_max) = (f64::INFINITY, f64::NEG_INFINITY);
-                let columns = [m.x_axis, m.y_axis, m.z_axis, t].map(|c| c.to_array());
-                let columns: [f64; 12] = std::array::from_fn(|k| columns[k / 3][k % 3]);
-                for (units, &(centre, radius)) in dirs.lanes.iter().zip(&dirs.blocks) {
-                    let side = geo.ball_side(m * centre + t, range * radius * (1.0 + 1e-12) + slack);
-                    if side == Side::Outside {
-                        continue;
-                    }
-                    clip_block(&geo, &columns, units, side == Side::Inside, points, avx2);
-                    for k in 0..units.len {
-                        if points.keep[k] {
-                            // y / x orders azimuths in (−90°, 90°); elsewhere the key is NaN and
-                            // the sample always gets an exact atan2.
-                            let key = points.key[k];
-                            key_min = key_min.min(key);
-                            key_max = key_max.max(key);
-                            let p = DVec3::new(points.x[k], points.y[k], points.z[k]);
-                            seen.push(Seen {
-                                p,
-                                r2: points.r2[k],
-                                key,
-                            });
-                        }
-                    }
-                }
-                // Pass 2, in sample order: bins, range extremes, and exact azimuths for the
-                // samples that may be an azimuth extreme (the fold then equals the fold over
-                // every sample: the others are strictly inside).
-                let low = key_min + KEY_TOLERANCE * key_min.abs();
-                let high = key_max - KEY_TOLERANCE * key_max.abs();
-                let mut extremes = Extremes::default();
-                let mut beam = 0;
-                for s in seen.iter() {
-                    let r = s.r2.sqrt();
-                    let exact = !(s.key > low && s.key < high);
-                    let az = if exact { s.p.y.atan2(s.p.x) } else { f64::NAN };
-                    beam = if geo.layout.beams() == 1 {
-                        0
-                    } else if exact {
-                        geo.beam(s.p, az)
-                    } else {
-                        geo.beam_near(s.p, beam)
-                            .unwrap_or_else(|| geo.beam(s.p, s.p.y.atan2(s.p.x)))
-                    };
-                    set(occ, summary, geo.range_bin(r, s.r2), beam);
-                    extremes.add_range(r);
-                    if exact {
-                        extremes.add_azimuth(az);
-                    }
-                }
-                let visible = seen.len() as u64;
+                let pose = (m, t, range, slack);
+                let (visible, extremes) = match layout.kind {
+                    SonarKind::Fls => draw_pose::<true>(isa, scratch, &geo, dirs, pose),
+                    SonarKind::Sss => draw_pose::<false>(isa, scratch, &geo, dirs, pose),
+                };
                 let (occupied, measure, occupancy) = scratch.reduce(&geo, keep_occupancy);
                 Projection {
                     metrics: Metrics::new(visible, dirs.units.len() as u64, extremes, occupied, measure),
@@ -603,7 +939,7 @@ mod tests {
                 let plan = prepared.plan(n);
                 let dirs = Directions::of(&plan.azimuths, &plan.elevations);
                 let m = item.pose.rotation
-                    * DMat3::from_rotation_z(prepared.base_azimuth[n])
+                    * DMat3::from_rotation_z(prepared.base_azimuth(n))
                     * item.measurement.range;
                 let mut occ = Occupancy::new(layout.range_bins, layout.beams());
                 let (mut visible, mut extremes) = (0, Extremes::default());
@@ -626,6 +962,43 @@ mod tests {
                 (metrics, occ)
             })
             .collect()
+    }
+
+    /// The azimuth guess keeps within `ATAN_ERROR` of libm's `atan2` in every octant, near the
+    /// axes and diagonals, over many magnitudes; NaN only at the origin.
+    #[test]
+    fn approx_atan2_is_within_its_bound() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut worst: f64 = 0.0;
+        let mut check = |y: f64, x: f64| {
+            let (a, e) = (approx_atan2(y, x), y.atan2(x));
+            assert!((a - e).abs() <= ATAN_ERROR, "atan2({y}, {x}): {a} against {e}");
+            worst = worst.max((a - e).abs());
+        };
+        for _ in 0..1_000_000 {
+            let a = (rng.random::<f64>() - 0.5) * std::f64::consts::TAU;
+            let r = 10f64.powf(rng.random::<f64>() * 8.0 - 4.0);
+            check(r * a.sin(), r * a.cos());
+        }
+        for k in 0..=64 {
+            let a = f64::from(k) * std::f64::consts::FRAC_PI_8 / 8.0 - std::f64::consts::PI;
+            for d in [-1e-9, -1e-15, 0.0, 1e-15, 1e-9] {
+                check((a + d).sin(), (a + d).cos());
+            }
+        }
+        for (y, x) in [
+            (0.0, 1.0),
+            (-0.0, 1.0),
+            (1.0, 0.0),
+            (1.0, -0.0),
+            (-1.0, 0.0),
+            (0.0, -1.0),
+        ] {
+            check(y, x);
+        }
+        // Not merely within the bound by luck: the polynomial is fitted to 4.2e-12.
+        assert!(worst > 1e-13 && worst < 6e-12, "worst error {worst}");
+        assert!(approx_atan2(0.0, 0.0).is_nan() && approx_atan2(-0.0, -0.0).is_nan());
     }
 
     /// Culling, walking beams, exact `atan2` only for extreme candidates, the sparse reduce and
@@ -697,10 +1070,14 @@ mod tests {
                     };
                     let prepared = batch.prepare().unwrap();
                     let plain = project_plainly(&prepared);
-                    // Both builds of the clip loop (the AVX2 one only where the processor has it).
-                    let fast = project_with(&prepared, true, false);
-                    if has_avx2() {
-                        assert_eq!(project_with(&prepared, true, true), fast, "{from} -> {to}: AVX2");
+                    // Every build of the lane stage this processor runs gives the same bits.
+                    let fast = project_with(&prepared, true, Isa::Baseline);
+                    for isa in Isa::available() {
+                        assert_eq!(
+                            project_with(&prepared, true, isa),
+                            fast,
+                            "{from} -> {to}: {isa:?}"
+                        );
                     }
                     let mut seen = 0;
                     for (k, (f, (metrics, occ))) in fast.iter().zip(&plain).enumerate() {

@@ -253,7 +253,7 @@ impl GpuBackend {
             let n = end - start;
 
             // Direction table of the plans this chunk uses (kept when the same plans repeat).
-            let mut used: Vec<usize> = prepared.plan_of[start..end].to_vec();
+            let mut used: Vec<usize> = (start..end).map(|k| prepared.plan_index(k)).collect();
             used.sort_unstable();
             used.dedup();
             if directions.as_ref().is_none_or(|d| d.plans != used) {
@@ -276,7 +276,7 @@ impl GpuBackend {
             let mut max_samples = 1u64;
             let pose_data: Vec<PoseGpu> = (start..end)
                 .map(|k| {
-                    let plan_index = prepared.plan_of[k];
+                    let plan_index = prepared.plan_index(k);
                     let plan = &prepared.plans[plan_index];
                     max_samples = max_samples.max(plan.total() as u64);
                     let [az_off, el_off] = offsets[&plan_index];
@@ -284,7 +284,7 @@ impl GpuBackend {
                         &items[k].pose.rotation,
                         items[k].pose.translation.to_array(),
                         items[k].measurement.range,
-                        prepared.base_azimuth[k],
+                        prepared.base_azimuth(k),
                         [
                             az_off,
                             plan.azimuths.len() as u32,

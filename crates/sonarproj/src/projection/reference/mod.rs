@@ -26,7 +26,7 @@ pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> 
             let splat = splat::splat(
                 layout,
                 plan,
-                prepared.base_azimuth[n],
+                prepared.base_azimuth(n),
                 item.measurement.range,
                 &item.pose,
                 &mut occupancy,
