@@ -237,3 +237,53 @@ impl Batch {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::pose::Rotation;
+
+    /// Items are checked on all cores, yet the error names the first invalid item, as a check
+    /// item by item would; plans are shared by items with equal sample counts, in any order.
+    #[test]
+    fn prepare_names_the_first_invalid_item_and_shares_plans() {
+        let (fls, sss) = (
+            Sonar::preset("paper-fls").unwrap(),
+            Sonar::preset("paper-sss").unwrap(),
+        );
+        let item = |range: f64| BatchItem {
+            measurement: Measurement { range, azimuth: 0.0 },
+            pose: RelativePose::new(
+                Rotation::RollPitchYaw {
+                    roll: 0.0,
+                    pitch: 0.0,
+                    yaw: 0.0,
+                },
+                [1.0, 0.0, 0.0],
+            )
+            .unwrap(),
+        };
+        let mut batch = Batch {
+            source: fls,
+            target: sss,
+            sampling: Sampling::Auto,
+            items: (0..5000).map(|k| item(1.0 + f64::from(k % 7))).collect(),
+        };
+        let prepared = batch.prepare().unwrap();
+        // Auto sampling counts depend on the range: 7 ranges, 7 plans, each item on its own.
+        assert_eq!(prepared.plans().len(), 7);
+        for k in [0, 1, 6, 7, 4999] {
+            assert_eq!(prepared.plan(k), prepared.plan(k % 7), "item {k}");
+            assert_ne!(
+                prepared.plan_index(k),
+                prepared.plan_index((k + 1) % 7),
+                "item {k}"
+            );
+        }
+        for bad in [4100, 2500, 3000] {
+            batch.items[bad].measurement.range = f64::NAN;
+        }
+        let err = batch.prepare().unwrap_err().to_string();
+        assert!(err.contains("item 2500") && !err.contains("item 3000"), "{err}");
+    }
+}
