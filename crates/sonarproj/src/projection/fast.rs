@@ -1,26 +1,30 @@
 //! The fast CPU path: the GPU's algorithm (`shaders/splat.wgsl`, `shaders/reduce.wgsl`) in f64
 //! on every core (rayon), so a machine without a GPU is still fast. Unit directions are computed
 //! once per plan, a sample costs `M u + t` and trigonometry-free clip and bin decisions; only
-//! visible samples take a square root and an `atan2`. The reference stays the checker:
-//! `tests/agreement.rs` holds this path to the same envelope as the GPU.
+//! the samples that may be an azimuth extreme take a libm `atan2`. The reference stays the
+//! checker: `tests/agreement.rs` holds this path to the same envelope as the GPU.
 //!
 //! What makes it fast changes no result (a unit test holds it to the plain sample-by-sample
-//! loop, bit for bit):
+//! loop, bit for bit, in every build the processor runs):
 //!
 //! - **Blocks that cannot be seen are skipped.** A plan's samples are cut into blocks of
-//!   [`BLOCK`] consecutive samples; each block's unit directions lie in a ball (centre `c`,
+//!   [`LANES`] consecutive samples; each block's unit directions lie in a ball (centre `c`,
 //!   radius `ρ`, computed once per plan). The pose maps it to the ball `M c + t`, radius
 //!   `range · ρ` (a rotation keeps distances), and a block whose ball lies wholly outside sonar 2's
 //!   field of view, by more than a slack far above every rounding, is not visited: each clip
 //!   bound is a 1-Lipschitz function of the point (range; the azimuth half-planes; the elevation
 //!   cone's `|z| cos e − ρ sin e`), so its value at the centre less the radius bounds it over the
 //!   ball. Every skipped sample is one the per-sample test would have rejected; a block wholly
-//!   inside skips the clip tests.
-//! - **Lanes.** A visited block is transformed and clipped over its lanes in structure-of-arrays
-//!   form, branch-free, in the same IEEE operations as the scalar code; an AVX2 build of that loop
-//!   is chosen at run time.
-//! - **Few `atan2`.** Beams are found by walking from the previous sample's beam; an exact
-//!   `atan2` is taken only for the samples that may be an azimuth extreme of the pose.
+//!   inside skips the clip tests. Eight blocks' balls are tested together.
+//! - **One lane stage.** A visited block is transformed, clipped and binned over its lanes in
+//!   structure-of-arrays form, branch-free, in the same IEEE operations as the scalar code: the
+//!   range bin from a guess and the squared edges around it, the beam from an azimuth guessed by
+//!   a polynomial `atan2` (within 1e-11 rad) and kept only when it lies farther from the beam's
+//!   edges than that error (else the edge tests decide, as the plain loop does). The whole pose
+//!   loop is built for baseline x86-64, AVX2 and AVX-512, and the widest the processor runs is
+//!   chosen at run time (the binary itself targets baseline x86-64).
+//! - **Few `atan2`.** An exact `atan2` is taken only for the samples whose azimuth key (the
+//!   guessed azimuth, or `y / x` for a sidescan) lies within its error of the pose's extremes.
 //! - **Occupancy is reused and counted sparsely.** Each thread keeps one occupancy buffer and a
 //!   one-bit-per-word summary of it; counting, the area sum (in row-major order, as the plain loop
 //!   sums it) and clearing visit the touched words only.
@@ -531,14 +535,20 @@ fn draw_lanes<const FLS: bool>(
         };
         out.x[k] = x;
         out.y[k] = y;
-        out.z[k] = z;
+        if FLS {
+            out.z[k] = z;
+        }
         out.key[k] = key;
         out.keep[k] = keep;
+        // A compare and a select (NaN, for a lane not kept, never wins): ranges are positive
+        // and keys only set thresholds, so which of equal values is kept does not matter.
         let (r_in, key_in) = if keep { (r, key) } else { (f64::NAN, f64::NAN) };
-        out.range_min[k] = out.range_min[k].min(r_in);
-        out.range_max[k] = out.range_max[k].max(r_in);
-        out.key_min[k] = out.key_min[k].min(key_in);
-        out.key_max[k] = out.key_max[k].max(key_in);
+        let lo = |a: f64, b: f64| if b < a { b } else { a };
+        let hi = |a: f64, b: f64| if b > a { b } else { a };
+        out.range_min[k] = lo(out.range_min[k], r_in);
+        out.range_max[k] = hi(out.range_max[k], r_in);
+        out.key_min[k] = lo(out.key_min[k], key_in);
+        out.key_max[k] = hi(out.key_max[k], key_in);
     }
     // Eight flags (bytes 0 or 1) at a time gathered into a byte by one multiplication: byte
     // `i` times byte `7 − i` of the constant lands on bit `56 + i`, no two terms on one bit.
