@@ -8,7 +8,7 @@
 //! loop, bit for bit, in every build the processor runs):
 //!
 //! - **Blocks that cannot be seen are skipped.** A plan's samples are cut into blocks of
-//!   [`LANES`] consecutive samples; each block's unit directions lie in a ball (centre `c`,
+//!   16 consecutive samples; each block's unit directions lie in a ball (centre `c`,
 //!   radius `ρ`, computed once per plan). The pose maps it to the ball `M c + t`, radius
 //!   `range · ρ` (a rotation keeps distances), and a block whose ball lies wholly outside sonar 2's
 //!   field of view, by more than a slack far above every rounding, is not visited: each clip
