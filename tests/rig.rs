@@ -144,6 +144,53 @@ fn a_sidescan_pair_looks_to_both_sides() {
     assert!(sidescan_pair(&common::preset("paper-fls"), 10.0, DVec3::ZERO, DVec3::ZERO).is_err());
 }
 
+/// Each channel's thin elevation aperture lies along the track and its fan across it: a point
+/// 1 m ahead of a point on the boresight (10 m out) is 5.7° out of the fan's plane, far outside
+/// the 0.3° aperture; points in the vehicle's cross-track plane, 40° above and below the
+/// boresight, lie in the fan's plane (elevation 0) at azimuth ±40°, inside the 130° fan.
+#[test]
+fn a_sidescan_fan_lies_across_the_track() {
+    let channel = common::preset("paper-sss");
+    let pair = sidescan_pair(
+        &channel,
+        30.0,
+        DVec3::new(0.2, 0.1, 0.0),
+        DVec3::new(0.2, -0.1, 0.0),
+    )
+    .unwrap();
+    // Elevation and azimuth (deg) of a sonar-frame point, written out here.
+    let angles = |p: DVec3| {
+        let el = (p.z / p.length()).asin().to_degrees();
+        (el, p.y.atan2(p.x).to_degrees())
+    };
+    for (side, (_, mount)) in [("port", &pair.port), ("starboard", &pair.starboard)] {
+        let o = mount.to_common(DVec3::ZERO);
+        let boresight = mount.to_common(DVec3::X) - o;
+        let on_axis = o + 10.0 * boresight;
+        let (el, _) = angles(mount.to_sonar(on_axis + DVec3::X));
+        assert!(
+            (el.abs() - 0.1f64.atan().to_degrees()).abs() < 1e-9,
+            "{side}: ahead at elevation {el}"
+        );
+        assert!(
+            el.abs() > channel.elevation_aperture / 2.0,
+            "{side}: a point ahead is in view"
+        );
+        for tilt in [-40.0f64, 40.0] {
+            // Turn the boresight by `tilt` within the cross-track (y–z) plane.
+            let (c, s) = (tilt.to_radians().cos(), tilt.to_radians().sin());
+            let b = DVec3::new(
+                0.0,
+                boresight.y * c - boresight.z * s,
+                boresight.y * s + boresight.z * c,
+            );
+            let (el, az) = angles(mount.to_sonar(o + 10.0 * b));
+            assert!(el.abs() < 1e-9, "{side} {tilt}: elevation {el}");
+            assert!((az.abs() - 40.0).abs() < 1e-9, "{side} {tilt}: azimuth {az}");
+        }
+    }
+}
+
 /// A driver's beam table becomes edges at the midpoints; a point at a centre's azimuth lies in
 /// that beam.
 #[test]

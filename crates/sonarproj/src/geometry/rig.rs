@@ -152,9 +152,10 @@ pub fn relative_pose(first: &Mount, second: &Mount) -> Result<RelativePose> {
 /// The two channels of a sidescan: each an SSS sonar with its mount in the vehicle frame.
 #[derive(Clone, Debug)]
 pub struct SidescanPair {
-    /// The port channel (looking to +y of the vehicle, tilted down).
+    /// The port channel (looking to +y of the vehicle, tilted down; its fan across the track).
     pub port: (Sonar, Mount),
-    /// The starboard channel (looking to −y of the vehicle, tilted down).
+    /// The starboard channel (looking to −y of the vehicle, tilted down; its fan across the
+    /// track).
     pub starboard: (Sonar, Mount),
 }
 
@@ -162,6 +163,10 @@ pub struct SidescanPair {
 /// mounted at `port_position` and `starboard_position` (m, vehicle frame, FLU) with their
 /// boresights `depression` degrees below the horizontal, square to the track: the port
 /// boresight is `(0, cos d, −sin d)` in the vehicle frame, the starboard one `(0, −cos d, −sin d)`.
+/// Each channel's thin elevation aperture lies along the track (its +z is the vehicle's +x) and
+/// its wide azimuth fan across it, in the vehicle's y–z plane: the fan spans `d ± A/2` below the
+/// horizontal to each side. (The port channel's +y points up and out, the starboard one's down
+/// and in: mirror images; a sidescan measures no azimuth, so only the fan's plane matters.)
 ///
 /// # Errors
 /// [`Error::InvalidValue`] when `channel` is not a valid SSS or a value is not finite.
@@ -187,11 +192,13 @@ pub fn sidescan_pair(
     Ok(SidescanPair {
         port: (
             named("port"),
-            Mount::from_rpy_deg(0.0, depression, 90.0, port_position)?,
+            // Roll first: the fan (local y) goes across the track, the thin axis (local z)
+            // along it; then the depression and the turn to the side.
+            Mount::from_rpy_deg(90.0, depression, 90.0, port_position)?,
         ),
         starboard: (
             named("starboard"),
-            Mount::from_rpy_deg(0.0, depression, -90.0, starboard_position)?,
+            Mount::from_rpy_deg(-90.0, depression, -90.0, starboard_position)?,
         ),
     })
 }
