@@ -9,6 +9,7 @@ mod common;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sonarproj::Output;
+use sonarproj::gpu::shaders::Precision;
 use sonarproj::projection::gpu::{GpuBackend, SplatOptions};
 use sonarproj::projection::{envelope, fast, reference};
 use sonarproj::{
@@ -116,20 +117,28 @@ fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usi
         );
         checked.push(("gpu", culled));
     }
-    let envelopes: Vec<_> = (0..poses)
-        .map(|k| {
-            let item = &batch.items[k];
-            let plan = prepared.plan(k);
-            envelope::bounds(
-                prepared.layout(),
-                plan,
-                prepared.base_azimuth(k),
-                item.measurement.range,
-                &item.pose,
-            )
-        })
-        .collect();
-    let near: u64 = envelopes.iter().map(|b| b.near_edge).sum();
+    // The envelopes at an input tolerance: f64 decisions (the CPU paths, a GPU with f64) or a
+    // GPU deciding in double-f32, which some drivers leave at f32 precision.
+    let envelopes_at = |input_tolerance: f64| -> Vec<_> {
+        (0..poses)
+            .map(|k| {
+                let item = &batch.items[k];
+                envelope::bounds_with(
+                    prepared.layout(),
+                    prepared.plan(k),
+                    prepared.base_azimuth(k),
+                    item.measurement.range,
+                    &item.pose,
+                    input_tolerance,
+                )
+            })
+            .collect()
+    };
+    let envelopes = envelopes_at(envelope::INPUT_TOLERANCE);
+    let gpu_envelopes = common::gpu().map(|g| match g.context().precision {
+        Precision::F64 => envelopes.clone(),
+        Precision::DoubleF32 => envelopes_at(envelope::DOUBLE_F32_TOLERANCE),
+    });
     let visible: u64 = reference.iter().map(|c| c.metrics.visible).sum();
     // The reference lies in its own envelope (a check of the envelope).
     for (k, (c, b)) in reference.iter().zip(&envelopes).enumerate() {
@@ -137,16 +146,24 @@ fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usi
             .unwrap_or_else(|e| panic!("pose {k}: reference outside its envelope: {e}"));
     }
     for (name, results) in &checked {
+        let envelopes = if *name == "gpu" {
+            gpu_envelopes.as_ref().expect("a GPU")
+        } else {
+            &envelopes
+        };
+        let near: u64 = envelopes.iter().map(|b| b.near_edge).sum();
         let mut differing = 0;
-        for (k, ((c, g), b)) in reference.iter().zip(results).zip(&envelopes).enumerate() {
+        for (k, ((c, g), b)) in reference.iter().zip(results).zip(envelopes).enumerate() {
             let item = &batch.items[k];
             common::check_within_bounds(prepared.layout(), b, g).unwrap_or_else(|e| {
                 panic!("pose {k} ({item:?}): {name} outside the envelope: {e}\ncpu {c:?}\n{name} {g:?}")
             });
             assert_eq!(c.metrics.total, g.metrics.total);
             let diff = common::differing_pixels(c.occupancy.as_ref().unwrap(), g.occupancy.as_ref().unwrap());
+            // A sample near a bin edge that lands on the other side changes two pixels (the
+            // one it left, the one it entered), one near a clip bound changes one.
             assert!(
-                diff <= b.near_edge,
+                diff <= 2 * b.near_edge,
                 "pose {k}: {name}: {diff} pixels differ, {} samples near an edge",
                 b.near_edge
             );

@@ -2,7 +2,7 @@
 //!
 //! Every sample is given a tolerance of [`RELATIVE_TOLERANCE`] × its range in sonar 2 (plus
 //! [`INPUT_TOLERANCE`] × (`range + |t|`), for the pose and directions reaching the GPU as f32
-//! hi + lo pairs): an interval of ranges, and the matching intervals of azimuth (divided by the
+//! hi + lo pairs; [`DOUBLE_F32_TOLERANCE`] for a GPU deciding in double-f32): an interval of ranges, and the matching intervals of azimuth (divided by the
 //! distance from sonar 2's z axis) and elevation (divided by the range). The GPU transforms and
 //! decides in f64 (or double-f32), far inside this, and reports ranges and azimuths rounded to
 //! f32 (1e-7 relative). A sample whose intervals straddle a clip bound or a bin edge may land
@@ -12,6 +12,7 @@
 //! intervals for every metric. A correct GPU result lies inside all of them.
 
 use crate::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
+use crate::gpu::shaders::Precision;
 use crate::occupancy::{Layout, Occupancy};
 use crate::sampling::SamplingPlan;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -22,6 +23,23 @@ pub const RELATIVE_TOLERANCE: f64 = 1e-5;
 /// Relative size (against `range + |t|`, the magnitudes the transform adds) of the rounding of
 /// the pose and directions to f32 hi + lo pairs (about 48 bits, so 1e-14), with a wide margin.
 pub const INPUT_TOLERANCE: f64 = 1e-9;
+
+/// The same for a GPU deciding in double-f32 ([`Precision::DoubleF32`]): where the driver keeps
+/// f32 arithmetic exact and fuses `fma` it is as precise as [`INPUT_TOLERANCE`] says, but
+/// drivers that do not (lavapipe, and the NVIDIA driver measured on an H100) leave it f32: each of
+/// the eight roundings of a coordinate (`u` from the plan's angles, three products and sums
+/// with the pose) errs by up to 2⁻²⁴ ≈ 6e-8 of `range + |t|`, so 5e-7 in all; doubled.
+pub const DOUBLE_F32_TOLERANCE: f64 = 1e-6;
+
+/// Returns the input tolerance ([`INPUT_TOLERANCE`] or [`DOUBLE_F32_TOLERANCE`]) of results
+/// decided at `precision`.
+#[must_use]
+pub fn input_tolerance(precision: Precision) -> f64 {
+    match precision {
+        Precision::F64 => INPUT_TOLERANCE,
+        Precision::DoubleF32 => DOUBLE_F32_TOLERANCE,
+    }
+}
 
 /// The envelope a correct f32 projection of one pose lies in.
 #[derive(Clone, Debug)]
@@ -46,7 +64,8 @@ pub struct Bounds {
     pub azimuth_max: (f64, f64),
 }
 
-/// Returns the envelope of one pose: see the module documentation.
+/// Returns the envelope of one pose for results decided in f64 (the CPU paths, a GPU with f64):
+/// see the module documentation.
 #[must_use]
 pub fn bounds(
     layout: &Layout,
@@ -54,6 +73,20 @@ pub fn bounds(
     base_azimuth: f64,
     range: f64,
     pose: &RelativePose,
+) -> Bounds {
+    bounds_with(layout, plan, base_azimuth, range, pose, INPUT_TOLERANCE)
+}
+
+/// Returns the envelope of one pose with `input_tolerance` (relative to `range + |t|`) in place
+/// of [`INPUT_TOLERANCE`]: [`input_tolerance`] gives it for a GPU's precision.
+#[must_use]
+pub fn bounds_with(
+    layout: &Layout,
+    plan: &SamplingPlan,
+    base_azimuth: f64,
+    range: f64,
+    pose: &RelativePose,
+    input_tolerance: f64,
 ) -> Bounds {
     let mut b = Bounds {
         visible_min: 0,
@@ -66,7 +99,7 @@ pub fn bounds(
         azimuth_min: (f64::INFINITY, f64::INFINITY),
         azimuth_max: (f64::NEG_INFINITY, f64::NEG_INFINITY),
     };
-    let input_tol = INPUT_TOLERANCE * (range + pose.translation.length());
+    let input_tol = input_tolerance * (range + pose.translation.length());
     let full_azimuth = layout.half_azimuth >= PI;
     let full_elevation = layout.half_elevation >= FRAC_PI_2;
     for &el in &plan.elevations {
