@@ -37,6 +37,8 @@ cargo build --release "${checks[@]}" --examples
 # link libpython.
 cargo test --release "${checks[@]}" --workspace --exclude sonarproj-py --all-targets "$@"
 cargo test --release "${checks[@]}" --workspace --exclude sonarproj-py --doc "$@"
+# The GPU's double-f32 path (that of GPUs without f64), forced on lavapipe, against its envelope.
+SONARPROJ_GPU_PRECISION=df cargo test --release "${checks[@]}" --test agreement "$@"
 
 # Python: the package built as an abi3 manylinux wheel from the same target directory (the
 # dependencies built above are reused), installed into a fresh virtual environment, then its
