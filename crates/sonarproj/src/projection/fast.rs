@@ -250,7 +250,7 @@ impl<'a> Geometry<'a> {
     }
 
     /// Returns the beam of `p` found by walking at most [`WALK`] edges from beam `from` (the
-    /// previous sample's), or `None` when it lies farther. The edge tests are those of
+    /// lane stage's guess, or the previous sample's beam), or `None` when it lies farther. The edge tests are those of
     /// [`Geometry::beam`], so both give the same beam. The side test `sin(az − e) ≥ 0` is right
     /// only within half a turn of the edge, which every edge is when the aperture is at most 180°;
     /// wider sonars (an edge may lie behind the point) always take `None`.
@@ -322,7 +322,7 @@ fn balls(units: &[DVec3], size: usize) -> Vec<(DVec3, f64)> {
 /// centre and radius of a ball holding them.
 struct Directions {
     units: Vec<DVec3>,
-    /// The same units block by block in structure-of-arrays form, for the clip loop.
+    /// The same units block by block in structure-of-arrays form, for the lane stage.
     lanes: Vec<BlockUnits>,
     /// The balls, [`BALLS`] blocks at a time in structure-of-arrays form (the last chunk padded
     /// with copies of the last ball).
@@ -1011,10 +1011,12 @@ mod tests {
         assert!(approx_atan2(0.0, 0.0).is_nan() && approx_atan2(-0.0, -0.0).is_nan());
     }
 
-    /// Culling, walking beams, exact `atan2` only for extreme candidates, the sparse reduce and
-    /// the AVX2 build of the clip loop change no bit of any result: the fast path against the plain loop on random placements
-    /// (features anywhere in sonar 1's view, placed anywhere in sonar 2's, random rotations)
-    /// for every preset pair, in both sampling modes.
+    /// Culling, the lane stage's guessed bins and beams, exact `atan2` only for extreme
+    /// candidates, the sparse reduce and every build of the pose loop (baseline, AVX2, AVX-512,
+    /// as the processor runs them) change no bit of any result: the fast path against the plain
+    /// loop on random placements (features anywhere in sonar 1's view, placed anywhere in sonar
+    /// 2's, random rotations) for every preset pair, a 360° sonar and one with non-uniform
+    /// beams, in both sampling modes.
     #[test]
     fn culling_changes_no_result() {
         let mut rng = ChaCha8Rng::seed_from_u64(9);
