@@ -284,7 +284,7 @@ struct Seen {
 
 /// Returns, per block of [`BLOCK`] consecutive samples of the plan with these azimuth offsets
 /// and elevations (rad), the centre and radius of a ball holding the block's unit directions:
-/// the culling balls of this path and of the splat shader.
+/// the splat shader's culling balls (this path cuts its own, also of 16 samples).
 #[must_use]
 pub fn block_balls(azimuths: &[f64], elevations: &[f64]) -> Vec<(DVec3, f64)> {
     balls(&unit_directions(azimuths, elevations), BLOCK)
