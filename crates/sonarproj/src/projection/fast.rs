@@ -102,10 +102,9 @@ struct Geometry<'a> {
     beam_edges_cs: Vec<(f64, f64)>,
     /// `beams / aperture` when the beams are uniform.
     inv_beam_width: Option<f64>,
-    /// The lane stage's beam guess: `(az − e_0) · beams / aperture`, NaN unless the beams are
-    /// uniform, and the distance (in beams) from a beam edge below which a guess is not trusted.
+    /// The lane stage's beam guess `(az − e_0) · inv_beam_width` (uniform beams only): `e_0`, and
+    /// the distance (in beams) from a beam edge below which a guess is not trusted.
     guess_origin: f64,
-    guess_scale: f64,
     guess_slack: f64,
     /// The last range bin and the beam count, as the lane stage's integers.
     last_bin: i32,
@@ -116,6 +115,7 @@ impl<'a> Geometry<'a> {
     fn new(layout: &'a Layout) -> Self {
         let (sin_half_az, cos_half_az) = layout.azimuth_clip();
         let elevation = layout.elevation_clip();
+        let inv_beam_width = layout.uniform_beam_width().map(|w| 1.0 / w);
         Geometry {
             layout,
             range_min_sq: layout.range_min * layout.range_min,
@@ -141,10 +141,9 @@ impl<'a> Geometry<'a> {
                 })
                 .collect(),
             beam_edges_cs: layout.beam_edges.iter().map(|a| (a.cos(), a.sin())).collect(),
-            inv_beam_width: layout.uniform_beam_width().map(|w| 1.0 / w),
+            inv_beam_width,
             guess_origin: layout.beam_edges[0],
-            guess_scale: layout.uniform_beam_width().map_or(f64::NAN, |w| 1.0 / w),
-            guess_slack: guess_slack(layout),
+            guess_slack: guess_slack(layout.beams(), inv_beam_width),
             last_bin: i32::try_from(layout.range_bins - 1).expect("range bins are limited to 2^20"),
             beams: i32::try_from(layout.beams()).expect("beams are limited to 2^16"),
         }
@@ -454,10 +453,9 @@ fn approx_atan2(y: f64, x: f64) -> f64 {
 /// departure from uniform (each width within 1e-12 of the mean: [`Layout::uniform_beam_width`])
 /// summed over the beams, and the roundings of the guess and the edge tests (below 1e-15 rad and
 /// 1e-15 beams a beam), doubled, plus 1e-9.
-fn guess_slack(layout: &Layout) -> f64 {
-    let beams = layout.beams() as f64;
-    let scale = layout.uniform_beam_width().map_or(0.0, |w| 1.0 / w);
-    2.0 * ((ATAN_ERROR + 1e-15) * scale + beams * (1e-12 + 1e-15)) + 1e-9
+fn guess_slack(beams: usize, inv_beam_width: Option<f64>) -> f64 {
+    let scale = inv_beam_width.unwrap_or(0.0);
+    2.0 * ((ATAN_ERROR + 1e-15) * scale + beams as f64 * (1e-12 + 1e-15)) + 1e-9
 }
 
 /// Returns, for the [`BALLS`] blocks of `chunk`, bit masks of those whose balls (moved by the
@@ -500,6 +498,8 @@ fn draw_lanes<const FLS: bool>(
     let l = geo.layout;
     let last_bin = geo.last_bin;
     let beams = geo.beams;
+    // NaN without uniform beams: no guess is ever sure.
+    let guess_scale = geo.inv_beam_width.unwrap_or(f64::NAN);
     for k in 0..LANES {
         let (ux, uy, uz) = (u.x[k], u.y[k], u.z[k]);
         let x = m[0] * ux + m[3] * uy + m[6] * uz + m[9];
@@ -522,7 +522,7 @@ fn draw_lanes<const FLS: bool>(
         let key = if FLS {
             // The beam guess (NaN without uniform beams: never sure).
             let az = approx_atan2(y, x);
-            let g = (az - geo.guess_origin) * geo.guess_scale;
+            let g = (az - geo.guess_origin) * guess_scale;
             let j = to_index(g.max(0.0).min(f64::from(beams - 1)));
             let frac = g - f64::from(j);
             out.sure[k] = (frac > geo.guess_slack) & (frac < 1.0 - geo.guess_slack);
