@@ -12,6 +12,7 @@ pub mod types;
 use std::collections::HashMap;
 
 use glam::DMat3;
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::geometry::SonarKind;
@@ -253,9 +254,15 @@ impl GpuBackend {
             let n = end - start;
 
             // Direction table of the plans this chunk uses (kept when the same plans repeat).
-            let mut used: Vec<usize> = (start..end).map(|k| prepared.plan_index(k)).collect();
-            used.sort_unstable();
-            used.dedup();
+            let mut in_chunk = vec![false; prepared.plans.len()];
+            for k in start..end {
+                in_chunk[prepared.plan_index(k)] = true;
+            }
+            let used: Vec<usize> = (0..prepared.plans.len()).filter(|&p| in_chunk[p]).collect();
+            let max_samples = used
+                .iter()
+                .map(|&p| prepared.plans[p].total() as u64)
+                .fold(1, u64::max);
             if directions.as_ref().is_none_or(|d| d.plans != used) {
                 let (table, offsets) = direction_table(prepared, &used);
                 let bytes: &[u8] = bytemuck::cast_slice(&table);
@@ -273,12 +280,13 @@ impl GpuBackend {
                 ..
             } = directions.as_ref().expect("set above");
 
-            let mut max_samples = 1u64;
+            // Packed and, below, unpacked on all cores: serial, these loops took 80–180 ns a
+            // pose here (BENCHMARKS.md), a large share of a fast GPU's time on short arcs.
             let pose_data: Vec<PoseGpu> = (start..end)
+                .into_par_iter()
                 .map(|k| {
                     let plan_index = prepared.plan_index(k);
                     let plan = &prepared.plans[plan_index];
-                    max_samples = max_samples.max(plan.total() as u64);
                     let [az_off, el_off] = offsets[&plan_index];
                     pose_gpu(
                         &items[k].pose.rotation,
@@ -335,7 +343,7 @@ impl GpuBackend {
                 Some(staging) => Some(read(&self.ctx, staging, used_bits)?),
                 None => None,
             };
-            for (c, k) in (start..end).enumerate() {
+            out.par_extend((start..end).into_par_iter().enumerate().map(|(c, k)| {
                 let m = &raw[c * METRIC_STRIDE..(c + 1) * METRIC_STRIDE];
                 let total = prepared.plan(k).total() as u64;
                 let extremes = Extremes {
@@ -354,8 +362,8 @@ impl GpuBackend {
                     let words_of = &b[c * words..(c + 1) * words];
                     Occupancy::from_words(layout.range_bins, layout.beams(), words_of.to_vec())
                 });
-                out.push(Projection { metrics, occupancy });
-            }
+                Projection { metrics, occupancy }
+            }));
         }
         Ok(out)
     }
