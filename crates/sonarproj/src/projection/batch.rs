@@ -53,9 +53,18 @@ pub struct PreparedBatch<'a> {
     pub(crate) layout: Layout,
     /// The distinct sampling plans.
     pub(crate) plans: Vec<SamplingPlan>,
-    /// For each item, the index of its plan in `plans` (4 bytes an item: a million-pose batch
-    /// touches few pages).
-    plan_of: Vec<u32>,
+    /// Which plan each item has.
+    plan_of: PlanOf,
+}
+
+/// Which plan of [`PreparedBatch::plans`] each item has.
+#[derive(Clone, Debug)]
+enum PlanOf {
+    /// Every item the first (step sampling: the counts do not depend on the item).
+    First,
+    /// For each item, the index of its plan (4 bytes an item: a million-pose batch touches
+    /// few pages).
+    Each(Vec<u32>),
 }
 
 impl PreparedBatch<'_> {
@@ -86,13 +95,29 @@ impl PreparedBatch<'_> {
     /// When `k` is not an item index of the batch.
     #[must_use]
     pub fn plan_index(&self, k: usize) -> usize {
-        self.plan_of[k] as usize
+        match &self.plan_of {
+            PlanOf::First => {
+                assert!(
+                    k < self.batch.items.len(),
+                    "item {k} of {}",
+                    self.batch.items.len()
+                );
+                0
+            }
+            PlanOf::Each(plan_of) => plan_of[k] as usize,
+        }
     }
 
     /// Returns the samples drawn over all items.
     #[must_use]
     pub fn total_samples(&self) -> usize {
-        self.plan_of.iter().map(|&p| self.plans[p as usize].total()).sum()
+        match &self.plan_of {
+            PlanOf::First => self
+                .plans
+                .first()
+                .map_or(0, |p| p.total() * self.batch.items.len()),
+            PlanOf::Each(plan_of) => plan_of.iter().map(|&p| self.plans[p as usize].total()).sum(),
+        }
     }
 
     /// Returns the distinct sampling plans (items with equal sample counts share one).
@@ -189,24 +214,45 @@ impl Batch {
                 .map_err(|e| e.in_context(&format!("item {k}")))?;
             checker.counts(item)
         };
+        // The first failing item (in order) is named, as a check item by item would find.
+        let first_error = || {
+            let first = self
+                .items
+                .iter()
+                .enumerate()
+                .find_map(|(k, item)| check(k, item).err());
+            first.expect("an item failed its check")
+        };
+        if let Sampling::Step(_) = checker.sampling {
+            // Step sampling counts do not depend on the item: counted once (with the first
+            // item's check), every item then validated on all cores, nothing kept per item.
+            let plans = match self.items.first() {
+                None => Vec::new(),
+                Some(item) => {
+                    let (n_az, n_el) = check(0, item)?;
+                    vec![SamplingPlan::with_counts(&self.source, n_az, n_el)]
+                }
+            };
+            if !self.items.par_iter().all(|item| checker.validate(item).is_ok()) {
+                return Err(first_error());
+            }
+            return Ok(PreparedBatch {
+                batch: self,
+                layout: Layout::of(&self.target),
+                plans,
+                plan_of: PlanOf::First,
+            });
+        }
         // Sample counts packed in one word (each is at most MAX_SAMPLES_PER_POSE < 2^32).
         let pack = |(n_az, n_el): (usize, usize)| (n_az as u64) << 32 | n_el as u64;
-        let keys = match self
+        let Ok(keys) = self
             .items
             .par_iter()
             .enumerate()
             .map(|(k, item)| check(k, item).map(pack))
             .collect::<Result<Vec<u64>>>()
-        {
-            Ok(keys) => keys,
-            Err(_) => {
-                let first = self
-                    .items
-                    .iter()
-                    .enumerate()
-                    .find_map(|(k, item)| check(k, item).err());
-                return Err(first.expect("an item failed its check"));
-            }
+        else {
+            return Err(first_error());
         };
         // Plans are drawn once per distinct sample count, not once per item (neighbouring items
         // mostly share one: the last is tried before the map).
@@ -233,7 +279,7 @@ impl Batch {
             batch: self,
             layout: Layout::of(&self.target),
             plans,
-            plan_of,
+            plan_of: PlanOf::Each(plan_of),
         })
     }
 }
@@ -285,5 +331,65 @@ mod tests {
         }
         let err = batch.prepare().unwrap_err().to_string();
         assert!(err.contains("item 2500") && !err.contains("item 3000"), "{err}");
+    }
+
+    /// Step sampling counts once and keeps nothing per item, with the same answers: every
+    /// item has the one plan, the error names the first invalid item, and a plan too large is
+    /// refused as the sampling's fault unless item 0 is invalid (a check item by item meets that
+    /// first).
+    #[test]
+    fn step_sampling_shares_one_plan_and_names_the_first_invalid_item() {
+        let (fls, sss) = (
+            Sonar::preset("paper-fls").unwrap(),
+            Sonar::preset("paper-sss").unwrap(),
+        );
+        let item = BatchItem {
+            measurement: Measurement {
+                range: 5.0,
+                azimuth: 10.0,
+            },
+            pose: RelativePose::new(
+                Rotation::RollPitchYaw {
+                    roll: 0.0,
+                    pitch: 0.0,
+                    yaw: 0.0,
+                },
+                [1.0, 0.0, 0.0],
+            )
+            .unwrap(),
+        };
+        let mut batch = Batch {
+            source: fls,
+            target: sss,
+            sampling: Sampling::Step(0.5),
+            items: vec![item; 3000],
+        };
+        let prepared = batch.prepare().unwrap();
+        assert_eq!(prepared.plans().len(), 1);
+        // 12° in 0.5° steps: 24 steps, even, so 25 samples.
+        assert_eq!(prepared.plan(2999).total(), 25);
+        assert_eq!(prepared.total_samples(), 3000 * 25);
+        assert!((0..3000).all(|k| prepared.plan_index(k) == 0));
+        let empty = Batch {
+            items: Vec::new(),
+            ..batch.clone()
+        };
+        let prepared = empty.prepare().unwrap();
+        assert_eq!((prepared.plans().len(), prepared.total_samples()), (0, 0));
+
+        for bad in [2000, 700, 2500] {
+            batch.items[bad].measurement.azimuth = 90.0;
+        }
+        let err = batch.prepare().unwrap_err().to_string();
+        assert!(err.contains("item 700") && err.contains("azimuth"), "{err}");
+
+        // A step too fine for the per-pose limit: the sampling is named, not an item...
+        batch.sampling = Sampling::Step(1e-9);
+        let err = batch.prepare().unwrap_err().to_string();
+        assert!(err.contains("sampling") && !err.contains("item"), "{err}");
+        // ... unless item 0 is itself invalid.
+        batch.items[0].measurement.range = f64::NAN;
+        let err = batch.prepare().unwrap_err().to_string();
+        assert!(err.contains("item 0") && err.contains("range"), "{err}");
     }
 }
