@@ -3,9 +3,11 @@
 //! The GPU group is left out when no adapter exists.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use rayon::prelude::*;
 use sonarproj::gpu::GpuContext;
+use sonarproj::metrics::{Extremes, Metrics};
 use sonarproj::projection::gpu::GpuBackend;
-use sonarproj::projection::{fast, reference};
+use sonarproj::projection::{Projection, fast, reference};
 use sonarproj::{Output, Sonar};
 use sonarproj_apps::bench;
 
@@ -59,6 +61,28 @@ fn prepare(c: &mut Criterion) {
     group.finish();
 }
 
+/// What returning results costs, whatever computes them: 1 000 000 `Projection`s (metrics only,
+/// trivial values) collected on all cores into a fresh vector, as every backend's `project`
+/// returns them (the bench's fls→sss batch is 1 000 000 poses).
+fn results(c: &mut Criterion) {
+    let mut group = c.benchmark_group("results x1000000");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(1_000_000));
+    // Dropped outside the timing (freeing the vector is the caller's business).
+    group.bench_function("collect", |bench| {
+        bench.iter_with_large_drop(|| {
+            (0..1_000_000u64)
+                .into_par_iter()
+                .map(|k| Projection {
+                    metrics: Metrics::new(k % 7, 121, Extremes::default(), k % 5, 0.1),
+                    occupancy: None,
+                })
+                .collect::<Vec<_>>()
+        })
+    });
+    group.finish();
+}
+
 /// One small call after another on one GPU backend (a live mask or a robot's query loop): with
 /// the buffers it keeps between calls, and with them freed before each call as every call did
 /// before they were kept.
@@ -86,6 +110,6 @@ criterion_group! {
     name = benches;
     // No HTML plots: plotters is built with only our embedded font, which criterion does not load.
     config = Criterion::default().without_plots();
-    targets = projection, prepare, small_calls
+    targets = projection, prepare, results, small_calls
 }
 criterion_main!(benches);
