@@ -289,16 +289,11 @@ mod tests {
     use super::*;
     use crate::geometry::pose::Rotation;
 
-    /// Items are checked on all cores, yet the error names the first invalid item, as a check
-    /// item by item would; plans are shared by items with equal sample counts, in any order.
-    #[test]
-    fn prepare_names_the_first_invalid_item_and_shares_plans() {
-        let (fls, sss) = (
-            Sonar::preset("paper-fls").unwrap(),
-            Sonar::preset("paper-sss").unwrap(),
-        );
-        let item = |range: f64| BatchItem {
-            measurement: Measurement { range, azimuth: 0.0 },
+    /// Returns an item measuring `(range, azimuth)` (m, deg), its pose unrotated and shifted 1 m
+    /// along x.
+    fn item(range: f64, azimuth: f64) -> BatchItem {
+        BatchItem {
+            measurement: Measurement { range, azimuth },
             pose: RelativePose::new(
                 Rotation::RollPitchYaw {
                     roll: 0.0,
@@ -308,13 +303,25 @@ mod tests {
                 [1.0, 0.0, 0.0],
             )
             .unwrap(),
-        };
-        let mut batch = Batch {
-            source: fls,
-            target: sss,
-            sampling: Sampling::Auto,
-            items: (0..5000).map(|k| item(1.0 + f64::from(k % 7))).collect(),
-        };
+        }
+    }
+
+    /// Returns a paper-fls → paper-sss batch of `items`.
+    fn fls_to_sss(sampling: Sampling, items: Vec<BatchItem>) -> Batch {
+        Batch {
+            source: Sonar::preset("paper-fls").unwrap(),
+            target: Sonar::preset("paper-sss").unwrap(),
+            sampling,
+            items,
+        }
+    }
+
+    /// Items are checked on all cores, yet the error names the first invalid item, as a check
+    /// item by item would; plans are shared by items with equal sample counts, in any order.
+    #[test]
+    fn prepare_names_the_first_invalid_item_and_shares_plans() {
+        let items = (0..5000).map(|k| item(1.0 + f64::from(k % 7), 0.0)).collect();
+        let mut batch = fls_to_sss(Sampling::Auto, items);
         let prepared = batch.prepare().unwrap();
         // Auto sampling counts depend on the range: 7 ranges, 7 plans, each item on its own.
         assert_eq!(prepared.plans().len(), 7);
@@ -339,31 +346,7 @@ mod tests {
     /// first).
     #[test]
     fn step_sampling_shares_one_plan_and_names_the_first_invalid_item() {
-        let (fls, sss) = (
-            Sonar::preset("paper-fls").unwrap(),
-            Sonar::preset("paper-sss").unwrap(),
-        );
-        let item = BatchItem {
-            measurement: Measurement {
-                range: 5.0,
-                azimuth: 10.0,
-            },
-            pose: RelativePose::new(
-                Rotation::RollPitchYaw {
-                    roll: 0.0,
-                    pitch: 0.0,
-                    yaw: 0.0,
-                },
-                [1.0, 0.0, 0.0],
-            )
-            .unwrap(),
-        };
-        let mut batch = Batch {
-            source: fls,
-            target: sss,
-            sampling: Sampling::Step(0.5),
-            items: vec![item; 3000],
-        };
+        let mut batch = fls_to_sss(Sampling::Step(0.5), vec![item(5.0, 10.0); 3000]);
         let prepared = batch.prepare().unwrap();
         assert_eq!(prepared.plans().len(), 1);
         // 12° in 0.5° steps: 24 steps, even, so 25 samples.
