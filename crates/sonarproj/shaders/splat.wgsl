@@ -13,7 +13,9 @@
 @group(0) @binding(2) var<storage, read> range_edges_sq: array<vec2<f32>>;
 @group(0) @binding(3) var<storage, read> poses: array<Pose>;
 // (cos hi, sin hi, cos lo, sin lo) of the plans' azimuth offsets and elevations; after each
-// plan's elevations, one culling ball per block of BLOCK samples (centre xyz, radius w, f32)
+// plan's elevations, one culling ball per block of BLOCK samples (centre xyz, radius w, f32),
+// then per block the largest distance of its units from its chord (first unit to last), four an
+// entry
 @group(0) @binding(4) var<storage, read> directions: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> bits: array<atomic<u32>>;
 @group(0) @binding(6) var<storage, read_write> metrics: array<atomic<u32>>;
@@ -150,6 +152,63 @@ fn block_side(pose: Pose, ball: vec4<f32>) -> u32 {
     return ACROSS;
 }
 
+// Returns p moved by the pose (its hi parts).
+fn moved(pose: Pose, p: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(
+        dot(pose.hi0.xyz, p) + pose.hi0.w,
+        dot(pose.hi1.xyz, p) + pose.hi1.w,
+        dot(pose.hi2.xyz, p) + pose.hi2.w,
+    );
+}
+
+// Per end of a chord: beyond the upper and the lower azimuth half-plane, the pair of them,
+// above and below the elevation sheet, each by more than margin.
+struct Beyond {
+    upper: bool,
+    lower: bool,
+    both: bool,
+    above: bool,
+    below: bool,
+}
+
+fn beyond(p: vec3<f32>, margin: f32) -> Beyond {
+    let upper = p.x * params.sin_half_az.x - p.y * params.cos_half_az.x;
+    let lower = p.x * params.sin_half_az.x + p.y * params.cos_half_az.x;
+    let rho = length(p.xy) * sqrt(params.sin2_half_el.x);
+    let z = p.z * sqrt(params.cos2_half_el.x);
+    return Beyond((upper < -margin), (lower < -margin), (max(upper, lower) < -margin),
+        (z - rho > margin), (-z - rho > margin));
+}
+
+// Returns the unit direction of sample k of the pose's plan in f32 from the hi parts (within
+// 4e-7 of the f64 unit; the reaches are widened by that).
+fn unit_f32(pose: Pose, k: u32) -> vec3<f32> {
+    let a = directions[pose.plan.x + k % pose.plan.y];
+    let e = directions[pose.plan.z + k / pose.plan.y];
+    return vec3<f32>(e.x * a.x, e.x * a.y, e.y);
+}
+
+// Returns whether every unit within reach of the chord from sample first's unit to sample last's,
+// once the pose moves it, lies outside sonar 2's field of view (range bounds aside: block_side has
+// them). Twin of projection::fast's Geometry::chord_outside: the outside is a union of parts on
+// each of which a concave, 1-Lipschitz function is positive (past an azimuth half-plane, or both
+// for apertures over 180 deg; above the elevation sheet, z cos e - rho sin e; below it), and a
+// concave function on a segment is at least its smaller value at the ends. In f32 with
+// block_side's slack.
+fn chord_outside(pose: Pose, first: u32, last: u32, reach: f32) -> bool {
+    let range = length(pose.hi0.xyz);
+    let t = length(vec3<f32>(pose.hi0.w, pose.hi1.w, pose.hi2.w));
+    let margin = range * reach * 1.00001 + 1e-5 * (range + t + params.range_max);
+    let a = beyond(moved(pose, unit_f32(pose, first)), margin);
+    let b = beyond(moved(pose, unit_f32(pose, last)), margin);
+    var azimuth = (a.upper && b.upper) || (a.lower && b.lower);
+    if params.cos_half_az.x < 0.0 {
+        azimuth = a.both && b.both;
+    }
+    let elevation = params.clip_elevation != 0u && ((a.above && b.above) || (a.below && b.below));
+    return azimuth || elevation;
+}
+
 // Returns row . u + row.w, the row given as hi + lo pairs.
 fn row_dot(hi: vec4<f32>, lo: vec4<f32>, ux: Real, uy: Real, uz: Real) -> Real {
     var s = r_mul(real(vec2<f32>(hi.x, lo.x)), ux);
@@ -231,7 +290,16 @@ fn main(
                 var block = OUTSIDE;
                 let b = base / BLOCK + lid;
                 if b * BLOCK < n {
-                    block = block_side(pose, directions[pose.plan.z + pose.plan.w + b]);
+                    let balls = pose.plan.z + pose.plan.w;
+                    block = block_side(pose, directions[balls + b]);
+                    // A ball across a bound: the block's chord may still lie wholly outside.
+                    if block == ACROSS {
+                        let reach = directions[balls + (n + BLOCK - 1u) / BLOCK + b / 4u][b % 4u];
+                        let last = min(b * BLOCK + BLOCK, n) - 1u;
+                        if chord_outside(pose, b * BLOCK, last, reach) {
+                            block = OUTSIDE;
+                        }
+                    }
                 }
                 wg_side[lid] = block;
             }

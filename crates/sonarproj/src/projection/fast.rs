@@ -15,7 +15,11 @@
 //!   bound is a 1-Lipschitz function of the point (range; the azimuth half-planes; the elevation
 //!   cone's `|z| cos e − ρ sin e`), so its value at the centre less the radius bounds it over the
 //!   ball. Every skipped sample is one the per-sample test would have rejected; a block wholly
-//!   inside skips the clip tests. Eight blocks' balls are tested together.
+//!   inside skips the clip tests. Eight blocks' balls are tested together. A ball can be far
+//!   wider than a thin field of view (a sidescan's sheet) while its block's samples, on an arc,
+//!   stay close to the chord between its first and last: when a ball lies across a bound, the
+//!   chord (widened by the samples' largest distance from it) is tested against the convex parts
+//!   of the outside, and a block whose chord lies wholly in one is skipped too.
 //! - **One lane stage.** A visited block is transformed, clipped and binned over its lanes in
 //!   structure-of-arrays form, branch-free, in the same IEEE operations as the scalar code: the
 //!   range bin from a guess and the squared edges around it, the beam from an azimuth guessed by
@@ -192,6 +196,41 @@ impl<'a> Geometry<'a> {
         (outside, inside & !outside)
     }
 
+    /// Returns whether every point within `margin` of the segment `[a, b]` lies outside the
+    /// field of view, without the range bounds (the ball test has them). The outside is a union
+    /// of parts on each of which a concave, 1-Lipschitz function is positive: past one azimuth
+    /// half-plane (its signed distance; for apertures over 180° both, the larger of the two),
+    /// above the elevation sheet (`z cos e − ρ sin e`, concave as `ρ` is convex) or below it
+    /// (`−z cos e − ρ sin e`). A concave function on a segment is at least the smaller of its
+    /// values at the ends, so both ends beyond `margin` in one part put every point within
+    /// `margin` of the segment in it. The splat shader's `chord_outside`; branch-free, so that
+    /// it vectorises over blocks.
+    #[inline(always)]
+    fn chord_outside(&self, a: [f64; 3], b: [f64; 3], margin: f64) -> bool {
+        let (s, co) = self.sin_cos_half_el;
+        // Per end: beyond the upper and the lower half-plane, the pair of them, above, below.
+        let beyond = |[x, y, z]: [f64; 3]| {
+            let upper = x * self.sin_half_az - y * self.cos_half_az;
+            let lower = x * self.sin_half_az + y * self.cos_half_az;
+            let rho = (x * x + y * y).sqrt() * s;
+            [
+                upper < -margin,
+                lower < -margin,
+                upper.max(lower) < -margin,
+                z * co - rho > margin,
+                -z * co - rho > margin,
+            ]
+        };
+        let (ea, eb) = (beyond(a), beyond(b));
+        let both = |k: usize| ea[k] & eb[k];
+        let azimuth = if self.cos_half_az >= 0.0 {
+            both(0) | both(1)
+        } else {
+            both(2)
+        };
+        azimuth | (self.clip_elevation & (both(3) | both(4)))
+    }
+
     /// Returns the range bin: a first guess, then the side of the guessed bin's squared edges
     /// (the plain loop's; the lane stage computes the same edges in place).
     #[cfg(test)]
@@ -289,6 +328,17 @@ pub fn block_balls(azimuths: &[f64], elevations: &[f64]) -> Vec<(DVec3, f64)> {
     balls(&unit_directions(azimuths, elevations), BLOCK)
 }
 
+/// Returns, per block of [`BLOCK`] consecutive samples of the plan with these azimuth offsets
+/// and elevations (rad), the largest distance of its unit directions from its chord (the
+/// segment from its first unit direction to its last): the splat shader's culling chords.
+#[must_use]
+pub fn block_reaches(azimuths: &[f64], elevations: &[f64]) -> Vec<f64> {
+    chords(&unit_directions(azimuths, elevations), BLOCK)
+        .into_iter()
+        .map(|(_, _, reach)| reach)
+        .collect()
+}
+
 /// Returns the unit directions of the plan with these azimuth offsets and elevations (rad),
 /// azimuth index fastest.
 fn unit_directions(azimuths: &[f64], elevations: &[f64]) -> Vec<DVec3> {
@@ -338,6 +388,11 @@ struct BallChunk {
     y: [f64; BALLS],
     z: [f64; BALLS],
     r: [f64; BALLS],
+    /// The blocks' chords: their first and last units (`x`, `y`, `z` arrays) and how far the
+    /// blocks' units lie from them.
+    first: [[f64; BALLS]; 3],
+    last: [[f64; BALLS]; 3],
+    reach: [f64; BALLS],
 }
 
 /// The unit directions of one block, one array per coordinate; lanes past `len` repeat the last
@@ -458,10 +513,41 @@ fn guess_slack(beams: usize, inv_beam_width: Option<f64>) -> f64 {
     2.0 * ((ATAN_ERROR + 1e-15) * scale + beams as f64 * (1e-12 + 1e-15)) + 1e-9
 }
 
+/// Returns the distance from `p` to the segment `[a, b]`.
+fn distance_to_segment(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    let s = if len2 > 0.0 {
+        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - (a + s * ab)).length()
+}
+
+/// Returns, per block of `size` of `units`, its chord (first and last unit) and the largest
+/// distance of its units from the chord: a block of a plan's arc (one azimuth, or one elevation
+/// row) lies within its sagitta of the chord, far closer than to its ball's centre.
+fn chords(units: &[DVec3], size: usize) -> Vec<(DVec3, DVec3, f64)> {
+    units
+        .chunks(size)
+        .map(|b| {
+            let (first, last) = (b[0], b[b.len() - 1]);
+            let reach = b
+                .iter()
+                .map(|u| distance_to_segment(*u, first, last))
+                .fold(0.0, f64::max);
+            (first, last, reach)
+        })
+        .collect()
+}
+
 /// Returns, for the [`BALLS`] blocks of `chunk`, bit masks of those whose balls (moved by the
 /// pose: `m` is `M`'s columns then `t`; radii scaled by `range`, widened by `slack` and a
 /// relative 1e-12) lie wholly outside and wholly inside the field of view
-/// ([`Geometry::ball_side`]), tested together so that it vectorises.
+/// ([`Geometry::ball_side`]), tested together so that it vectorises; when some ball lies across
+/// a bound, the blocks' chords widened the same way ([`Geometry::chord_outside`]) may show more
+/// blocks wholly outside.
 #[inline(always)]
 fn ball_sides(geo: &Geometry<'_>, m: &[f64; 12], chunk: &BallChunk, range: f64, slack: f64) -> (u32, u32) {
     let mut out = [false; BALLS];
@@ -476,7 +562,28 @@ fn ball_sides(geo: &Geometry<'_>, m: &[f64; 12], chunk: &BallChunk, range: f64, 
         (out[k], ins[k]) = geo.ball_side(c, range * chunk.r[k] * (1.0 + 1e-12) + slack);
     }
     let mask = |v: [bool; BALLS]| v.iter().enumerate().fold(0, |m, (k, &b)| m | u32::from(b) << k);
-    (mask(out), mask(ins))
+    let (out, ins) = (mask(out), mask(ins));
+    if out | ins == (1 << BALLS) - 1 {
+        return (out, ins);
+    }
+    // A ball lies across a bound: its block's chord, moved by the pose (a rotation and the
+    // scale `range`, so distances scale by `range`), may still show the block outside — as for
+    // a thin sheet, whose bounds a block's ball straddles while its arc stays on one side.
+    let mut far = [false; BALLS];
+    for (k, far) in far.iter_mut().enumerate() {
+        let moved = |e: &[[f64; BALLS]; 3]| {
+            let (ux, uy, uz) = (e[0][k], e[1][k], e[2][k]);
+            [
+                m[0] * ux + m[3] * uy + m[6] * uz + m[9],
+                m[1] * ux + m[4] * uy + m[7] * uz + m[10],
+                m[2] * ux + m[5] * uy + m[8] * uz + m[11],
+            ]
+        };
+        let margin = range * chunk.reach[k] * (1.0 + 1e-12) + slack;
+        *far = geo.chord_outside(moved(&chunk.first), moved(&chunk.last), margin);
+    }
+    let far = mask(far);
+    (out | far, ins & !far)
 }
 
 /// The lane stage of one block, branch-free over the lanes so that it vectorises: `p = M u + t`
@@ -633,15 +740,21 @@ impl Directions {
                 }
             })
             .collect();
+        let chords = chords(&units, LANES);
         let ball_chunks = blocks
             .chunks(BALLS)
-            .map(|b| {
+            .zip(chords.chunks(BALLS))
+            .map(|(b, c)| {
                 let at = |k: usize| b[k.min(b.len() - 1)];
+                let ch = |k: usize| c[k.min(c.len() - 1)];
                 BallChunk {
                     x: std::array::from_fn(|k| at(k).0.x),
                     y: std::array::from_fn(|k| at(k).0.y),
                     z: std::array::from_fn(|k| at(k).0.z),
                     r: std::array::from_fn(|k| at(k).1),
+                    first: std::array::from_fn(|i| std::array::from_fn(|k| ch(k).0[i])),
+                    last: std::array::from_fn(|i| std::array::from_fn(|k| ch(k).1[i])),
+                    reach: std::array::from_fn(|k| ch(k).2),
                 }
             })
             .collect();
@@ -659,7 +772,8 @@ impl Directions {
 struct Scratch {
     occ: Occupancy,
     summary: Vec<u64>,
-    /// The visible samples of the pose being drawn.
+    /// The visible samples of the pose being drawn (as many slots as the longest plan drawn
+    /// so far has samples).
     seen: Vec<Seen>,
     /// The block being drawn, and the pose's running extremes.
     lanes: Box<Lanes>,
@@ -709,7 +823,12 @@ impl Scratch {
             lanes,
             ..
         } = self;
-        seen.clear();
+        // Room for every sample of the plan, made before the pose loop: a push that may grow
+        // the vector would be a call there, around which the loop's constants leave registers.
+        if seen.len() < dirs.units.len() {
+            seen.resize(dirs.units.len(), Seen::default());
+        }
+        let mut n_seen = 0;
         lanes.start_pose();
         let columns = [m.x_axis, m.y_axis, m.z_axis, t].map(|c| c.to_array());
         let columns: [f64; 12] = std::array::from_fn(|k| columns[k / 3][k % 3]);
@@ -749,11 +868,12 @@ impl Scratch {
                     (word, bits) = (pixel / 32, 0);
                 }
                 bits |= 1 << (pixel % 32);
-                seen.push(Seen {
+                seen[n_seen] = Seen {
                     x,
                     y,
                     key: lanes.key[k],
-                });
+                };
+                n_seen += 1;
             }
         }
         set(occ, summary, word, bits);
@@ -776,12 +896,12 @@ impl Scratch {
                 key_max - KEY_TOLERANCE * key_max.abs(),
             )
         };
-        for s in seen.iter() {
+        for s in &seen[..n_seen] {
             if !(s.key > low && s.key < high) {
                 extremes.add_azimuth(s.y.atan2(s.x));
             }
         }
-        (seen.len() as u64, extremes)
+        (n_seen as u64, extremes)
     }
 
     /// Returns `(occupied, occupied_measure)` (the reduce shader's work, over the touched words
@@ -1009,6 +1129,94 @@ mod tests {
         // Not merely within the bound by luck: the polynomial is fitted to 4.2e-12.
         assert!(worst > 1e-13 && worst < 6e-12, "worst error {worst}");
         assert!(approx_atan2(0.0, 0.0).is_nan() && approx_atan2(-0.0, -0.0).is_nan());
+    }
+
+    /// A block the chord test skips has no visible sample (the plain test, sample by sample),
+    /// and the chord test skips blocks the balls keep — most of them where a sidescan's thin
+    /// sheet is the bound — on random placements of a feature in sonar 2's view (its arc then
+    /// crosses the bounds). `ball_sides` returns the balls' decisions with the chords' added.
+    #[test]
+    fn chords_skip_only_blocks_without_a_visible_sample() {
+        let mut rng = ChaCha8Rng::seed_from_u64(21);
+        for (from, to, least) in [
+            ("paper-fls", "paper-sss", 0.15),
+            ("oculus-m750d", "paper-sss", 0.25),
+            ("paper-sss", "paper-fls", 0.1),
+            ("paper-fls", "paper-fls", 0.05),
+        ] {
+            let (s1, s2) = (Sonar::preset(from).unwrap(), Sonar::preset(to).unwrap());
+            let layout = Layout::of(&s2);
+            let geo = Geometry::new(&layout);
+            let (mut across, mut chord_only) = (0, 0);
+            for _ in 0..300 {
+                let point = |s: &Sonar, rng: &mut ChaCha8Rng| {
+                    let r = s.range_min + rng.random::<f64>() * (s.range_max - s.range_min);
+                    let a = (rng.random::<f64>() - 0.5) * s.azimuth_aperture;
+                    let e = (rng.random::<f64>() - 0.5) * s.elevation_aperture;
+                    [r, a, e]
+                };
+                let (f, place) = (point(&s1, &mut rng), point(&s2, &mut rng));
+                let rot = Rotation::RollPitchYaw {
+                    roll: rng.random::<f64>() * 360.0 - 180.0,
+                    pitch: rng.random::<f64>() * 180.0 - 90.0,
+                    yaw: rng.random::<f64>() * 360.0 - 180.0,
+                };
+                let item = BatchItem {
+                    measurement: Measurement::of(&s1, f[0], f[1]).unwrap(),
+                    pose: RelativePose::placement(rot, f, place).unwrap(),
+                };
+                let batch = Batch {
+                    source: s1.clone(),
+                    target: s2.clone(),
+                    sampling: Sampling::Step(0.1),
+                    items: vec![item],
+                };
+                let prepared = batch.prepare().unwrap();
+                let plan = prepared.plan(0);
+                let dirs = Directions::of(&plan.azimuths, &plan.elevations);
+                let range = item.measurement.range;
+                let m = item.pose.rotation * DMat3::from_rotation_z(prepared.base_azimuth(0)) * range;
+                let t = item.pose.translation;
+                let slack = CULL_SLACK * (range + t.length() + layout.range_max);
+                let columns = [m.x_axis, m.y_axis, m.z_axis, t].map(|c| c.to_array());
+                let columns: [f64; 12] = std::array::from_fn(|k| columns[k / 3][k % 3]);
+                let balls = balls(&dirs.units, LANES);
+                let chords = chords(&dirs.units, LANES);
+                for (b, units) in dirs.units.chunks(LANES).enumerate() {
+                    let (centre, radius) = balls[b];
+                    let (first, last, reach) = chords[b];
+                    let widen = |r: f64| range * r * (1.0 + 1e-12) + slack;
+                    let (ball_out, ball_in) = geo.ball_side((m * centre + t).to_array(), widen(radius));
+                    let chord_out = geo.chord_outside(
+                        (m * first + t).to_array(),
+                        (m * last + t).to_array(),
+                        widen(reach),
+                    );
+                    let (out, ins) = ball_sides(&geo, &columns, &dirs.ball_chunks[b / BALLS], range, slack);
+                    let bit = 1 << (b % BALLS);
+                    assert_eq!(out & bit != 0, ball_out | chord_out, "{from} -> {to} block {b}");
+                    assert_eq!(ins & bit != 0, ball_in & !chord_out, "{from} -> {to} block {b}");
+                    if chord_out {
+                        for u in units {
+                            let p = m * *u + t;
+                            assert!(
+                                !geo.in_view(p, p.length_squared()),
+                                "{from} -> {to}: block {b} skipped by its chord holds a visible sample"
+                            );
+                        }
+                    }
+                    if !ball_out && !ball_in {
+                        across += 1;
+                        chord_only += usize::from(chord_out);
+                    }
+                }
+            }
+            let share = chord_only as f64 / across as f64;
+            assert!(
+                across > 0 && share >= least,
+                "{from} -> {to}: the chords skip {chord_only} of {across} blocks the balls keep"
+            );
+        }
     }
 
     /// Culling, the lane stage's guessed bins and beams, exact `atan2` only for extreme

@@ -380,8 +380,9 @@ struct Directions {
 /// Returns the direction table of the plans in `used` — azimuths then elevations of each, each
 /// entry `(cos hi, sin hi, cos lo, sin lo)` in double-f32, then the plan's culling balls
 /// (`fast::block_balls`: centre xyz, radius w, in f32 with the radius rounded up past the
-/// centre's rounding) right after its elevations — and per plan the offsets of its azimuth and
-/// elevation entries.
+/// centre's rounding) right after its elevations, then its blocks' reaches from their chords
+/// (`fast::block_reaches`, four an entry, rounded up past the shader's roundings of the chord's
+/// ends) — and per plan the offsets of its azimuth and elevation entries.
 fn direction_table(
     prepared: &PreparedBatch<'_>,
     used: &[usize],
@@ -411,6 +412,15 @@ fn direction_table(
                         ((r + 2e-7) * (1.0 + 1e-6)) as f32,
                     ]
                 }),
+        );
+        // Then the blocks' reaches, four an entry: block b's at el_off + n_el + blocks + b / 4,
+        // component b % 4. The shader computes the chord's ends in f32 from the hi parts, within
+        // 4e-7 of the units; the reach grows by that and rounds up.
+        let reaches = fast::block_reaches(&plan.azimuths, &plan.elevations);
+        table.extend(
+            reaches.chunks(4).map(|r| {
+                std::array::from_fn(|k| r.get(k).map_or(0.0, |r| ((r + 4e-7) * (1.0 + 1e-6)) as f32))
+            }),
         );
         offsets.insert(p, [az_off, el_off]);
     }
