@@ -321,22 +321,18 @@ struct Seen {
 }
 
 /// Returns, per block of [`BLOCK`] consecutive samples of the plan with these azimuth offsets
-/// and elevations (rad), the centre and radius of a ball holding the block's unit directions:
-/// the splat shader's culling balls (this path cuts its own, also of 16 samples).
+/// and elevations (rad), the centre and radius of a ball holding the block's unit directions,
+/// and the largest distance of those from the block's chord (the segment from its first unit
+/// direction to its last): the splat shader's culling balls and chords (this path cuts its own
+/// blocks, also of 16 samples).
 #[must_use]
-pub fn block_balls(azimuths: &[f64], elevations: &[f64]) -> Vec<(DVec3, f64)> {
-    balls(&unit_directions(azimuths, elevations), BLOCK)
-}
-
-/// Returns, per block of [`BLOCK`] consecutive samples of the plan with these azimuth offsets
-/// and elevations (rad), the largest distance of its unit directions from its chord (the
-/// segment from its first unit direction to its last): the splat shader's culling chords.
-#[must_use]
-pub fn block_reaches(azimuths: &[f64], elevations: &[f64]) -> Vec<f64> {
-    chords(&unit_directions(azimuths, elevations), BLOCK)
+pub fn block_bounds(azimuths: &[f64], elevations: &[f64]) -> (Vec<(DVec3, f64)>, Vec<f64>) {
+    let units = unit_directions(azimuths, elevations);
+    let reaches = chords(&units, BLOCK)
         .into_iter()
         .map(|(_, _, reach)| reach)
-        .collect()
+        .collect();
+    (balls(&units, BLOCK), reaches)
 }
 
 /// Returns the unit directions of the plan with these azimuth offsets and elevations (rad),
@@ -542,6 +538,30 @@ fn chords(units: &[DVec3], size: usize) -> Vec<(DVec3, DVec3, f64)> {
         .collect()
 }
 
+/// Returns `M u + t` (`m` is `M`'s columns then `t`) in the operation order of glam's
+/// `DMat3 * DVec3`.
+#[inline(always)]
+fn moved(m: &[f64; 12], [ux, uy, uz]: [f64; 3]) -> [f64; 3] {
+    [
+        m[0] * ux + m[3] * uy + m[6] * uz + m[9],
+        m[1] * ux + m[4] * uy + m[7] * uz + m[10],
+        m[2] * ux + m[5] * uy + m[8] * uz + m[11],
+    ]
+}
+
+/// Returns `M` (scaled by the range) and `t` as [`moved`] and the lane stage take them: `M`'s
+/// columns then `t`.
+fn pose_columns(m: DMat3, t: DVec3) -> [f64; 12] {
+    let columns = [m.x_axis, m.y_axis, m.z_axis, t].map(|c| c.to_array());
+    std::array::from_fn(|k| columns[k / 3][k % 3])
+}
+
+/// Returns the culling slack of a pose with this range and translation into `layout`: far above
+/// the roundings of `M u + t` and of the clip tests ([`CULL_SLACK`]).
+fn cull_slack(range: f64, t: DVec3, layout: &Layout) -> f64 {
+    CULL_SLACK * (range + t.length() + layout.range_max)
+}
+
 /// Returns, for the [`BALLS`] blocks of `chunk`, bit masks of those whose balls (moved by the
 /// pose: `m` is `M`'s columns then `t`; radii scaled by `range`, widened by `slack` and a
 /// relative 1e-12) lie wholly outside and wholly inside the field of view
@@ -553,12 +573,7 @@ fn ball_sides(geo: &Geometry<'_>, m: &[f64; 12], chunk: &BallChunk, range: f64, 
     let mut out = [false; BALLS];
     let mut ins = [false; BALLS];
     for k in 0..BALLS {
-        let (ux, uy, uz) = (chunk.x[k], chunk.y[k], chunk.z[k]);
-        let c = [
-            m[0] * ux + m[3] * uy + m[6] * uz + m[9],
-            m[1] * ux + m[4] * uy + m[7] * uz + m[10],
-            m[2] * ux + m[5] * uy + m[8] * uz + m[11],
-        ];
+        let c = moved(m, [chunk.x[k], chunk.y[k], chunk.z[k]]);
         (out[k], ins[k]) = geo.ball_side(c, range * chunk.r[k] * (1.0 + 1e-12) + slack);
     }
     let mask = |v: [bool; BALLS]| v.iter().enumerate().fold(0, |m, (k, &b)| m | u32::from(b) << k);
@@ -571,16 +586,9 @@ fn ball_sides(geo: &Geometry<'_>, m: &[f64; 12], chunk: &BallChunk, range: f64, 
     // a thin sheet, whose bounds a block's ball straddles while its arc stays on one side.
     let mut far = [false; BALLS];
     for (k, far) in far.iter_mut().enumerate() {
-        let moved = |e: &[[f64; BALLS]; 3]| {
-            let (ux, uy, uz) = (e[0][k], e[1][k], e[2][k]);
-            [
-                m[0] * ux + m[3] * uy + m[6] * uz + m[9],
-                m[1] * ux + m[4] * uy + m[7] * uz + m[10],
-                m[2] * ux + m[5] * uy + m[8] * uz + m[11],
-            ]
-        };
+        let end = |e: &[[f64; BALLS]; 3]| moved(m, [e[0][k], e[1][k], e[2][k]]);
         let margin = range * chunk.reach[k] * (1.0 + 1e-12) + slack;
-        *far = geo.chord_outside(moved(&chunk.first), moved(&chunk.last), margin);
+        *far = geo.chord_outside(end(&chunk.first), end(&chunk.last), margin);
     }
     let far = mask(far);
     (out | far, ins & !far)
@@ -830,8 +838,7 @@ impl Scratch {
         }
         let mut n_seen = 0;
         lanes.start_pose();
-        let columns = [m.x_axis, m.y_axis, m.z_axis, t].map(|c| c.to_array());
-        let columns: [f64; 12] = std::array::from_fn(|k| columns[k / 3][k % 3]);
+        let columns = pose_columns(m, t);
         #[expect(clippy::cast_sign_loss, reason = "beams are at least 1")]
         let beams = geo.beams as usize;
         let mut beam = 0;
@@ -1027,8 +1034,7 @@ fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, isa: Isa) ->
                 let range = item.measurement.range;
                 let m = item.pose.rotation * scratch.rotation_z(prepared.base_azimuth(n)) * range;
                 let t = item.pose.translation;
-                let slack = CULL_SLACK * (range + t.length() + layout.range_max);
-                let pose = (m, t, range, slack);
+                let pose = (m, t, range, cull_slack(range, t, layout));
                 let (visible, extremes) = match layout.kind {
                     SonarKind::Fls => draw_pose::<true>(isa, scratch, &geo, dirs, pose),
                     SonarKind::Sss => draw_pose::<false>(isa, scratch, &geo, dirs, pose),
@@ -1094,6 +1100,27 @@ mod tests {
             .collect()
     }
 
+    /// Returns a feature anywhere in sonar 1's view, placed anywhere in sonar 2's view with a
+    /// random rotation.
+    fn random_item(s1: &Sonar, s2: &Sonar, rng: &mut ChaCha8Rng) -> BatchItem {
+        let mut point = |s: &Sonar| {
+            let r = s.range_min + rng.random::<f64>() * (s.range_max - s.range_min);
+            let a = (rng.random::<f64>() - 0.5) * s.azimuth_aperture;
+            let e = (rng.random::<f64>() - 0.5) * s.elevation_aperture;
+            [r, a, e]
+        };
+        let (f, place) = (point(s1), point(s2));
+        let rot = Rotation::RollPitchYaw {
+            roll: rng.random::<f64>() * 360.0 - 180.0,
+            pitch: rng.random::<f64>() * 180.0 - 90.0,
+            yaw: rng.random::<f64>() * 360.0 - 180.0,
+        };
+        BatchItem {
+            measurement: Measurement::of(s1, f[0], f[1]).unwrap(),
+            pose: RelativePose::placement(rot, f, place).unwrap(),
+        }
+    }
+
     /// The azimuth guess keeps within `ATAN_ERROR` of libm's `atan2` in every octant, near the
     /// axes and diagonals, over many magnitudes; NaN only at the origin.
     #[test]
@@ -1149,22 +1176,7 @@ mod tests {
             let geo = Geometry::new(&layout);
             let (mut across, mut chord_only) = (0, 0);
             for _ in 0..300 {
-                let point = |s: &Sonar, rng: &mut ChaCha8Rng| {
-                    let r = s.range_min + rng.random::<f64>() * (s.range_max - s.range_min);
-                    let a = (rng.random::<f64>() - 0.5) * s.azimuth_aperture;
-                    let e = (rng.random::<f64>() - 0.5) * s.elevation_aperture;
-                    [r, a, e]
-                };
-                let (f, place) = (point(&s1, &mut rng), point(&s2, &mut rng));
-                let rot = Rotation::RollPitchYaw {
-                    roll: rng.random::<f64>() * 360.0 - 180.0,
-                    pitch: rng.random::<f64>() * 180.0 - 90.0,
-                    yaw: rng.random::<f64>() * 360.0 - 180.0,
-                };
-                let item = BatchItem {
-                    measurement: Measurement::of(&s1, f[0], f[1]).unwrap(),
-                    pose: RelativePose::placement(rot, f, place).unwrap(),
-                };
+                let item = random_item(&s1, &s2, &mut rng);
                 let batch = Batch {
                     source: s1.clone(),
                     target: s2.clone(),
@@ -1177,9 +1189,8 @@ mod tests {
                 let range = item.measurement.range;
                 let m = item.pose.rotation * DMat3::from_rotation_z(prepared.base_azimuth(0)) * range;
                 let t = item.pose.translation;
-                let slack = CULL_SLACK * (range + t.length() + layout.range_max);
-                let columns = [m.x_axis, m.y_axis, m.z_axis, t].map(|c| c.to_array());
-                let columns: [f64; 12] = std::array::from_fn(|k| columns[k / 3][k % 3]);
+                let slack = cull_slack(range, t, &layout);
+                let columns = pose_columns(m, t);
                 let balls = balls(&dirs.units, LANES);
                 let chords = chords(&dirs.units, LANES);
                 for (b, units) in dirs.units.chunks(LANES).enumerate() {
@@ -1261,27 +1272,7 @@ mod tests {
                 let (from, to) = (&s1.name, &s2.name);
                 let (s1, s2) = (s1.clone(), s2.clone());
                 for sampling in [Sampling::Step(0.5), Sampling::Auto] {
-                    let point = |s: &Sonar, rng: &mut ChaCha8Rng| {
-                        let r = s.range_min + rng.random::<f64>() * (s.range_max - s.range_min);
-                        let a = (rng.random::<f64>() - 0.5) * s.azimuth_aperture;
-                        let e = (rng.random::<f64>() - 0.5) * s.elevation_aperture;
-                        [r, a, e]
-                    };
-                    let items = (0..40)
-                        .map(|_| {
-                            let f = point(&s1, &mut rng);
-                            let place = point(&s2, &mut rng);
-                            let rot = Rotation::RollPitchYaw {
-                                roll: rng.random::<f64>() * 360.0 - 180.0,
-                                pitch: rng.random::<f64>() * 180.0 - 90.0,
-                                yaw: rng.random::<f64>() * 360.0 - 180.0,
-                            };
-                            BatchItem {
-                                measurement: Measurement::of(&s1, f[0], f[1]).unwrap(),
-                                pose: RelativePose::placement(rot, f, place).unwrap(),
-                            }
-                        })
-                        .collect();
+                    let items = (0..40).map(|_| random_item(&s1, &s2, &mut rng)).collect();
                     let batch = Batch {
                         source: s1.clone(),
                         target: s2.clone(),

@@ -379,9 +379,9 @@ struct Directions {
 
 /// Returns the direction table of the plans in `used` — azimuths then elevations of each, each
 /// entry `(cos hi, sin hi, cos lo, sin lo)` in double-f32, then the plan's culling balls
-/// (`fast::block_balls`: centre xyz, radius w, in f32 with the radius rounded up past the
+/// (`fast::block_bounds`: centre xyz, radius w, in f32 with the radius rounded up past the
 /// centre's rounding) right after its elevations, then its blocks' reaches from their chords
-/// (`fast::block_reaches`, four an entry, rounded up past the shader's roundings of the chord's
+/// (`fast::block_bounds`, four an entry, rounded up past the shader's roundings of the chord's
 /// ends) — and per plan the offsets of its azimuth and elevation entries.
 fn direction_table(
     prepared: &PreparedBatch<'_>,
@@ -401,22 +401,18 @@ fn direction_table(
         table.extend(plan.elevations.iter().map(entry));
         // The shader finds block b of this plan at el_off + n_el + b. Rounding the centre to f32
         // moves it by at most √3 · 2⁻²⁴ < 2e-7; the radius grows by that and rounds up.
-        table.extend(
-            fast::block_balls(&plan.azimuths, &plan.elevations)
-                .into_iter()
-                .map(|(c, r)| {
-                    [
-                        c.x as f32,
-                        c.y as f32,
-                        c.z as f32,
-                        ((r + 2e-7) * (1.0 + 1e-6)) as f32,
-                    ]
-                }),
-        );
+        let (balls, reaches) = fast::block_bounds(&plan.azimuths, &plan.elevations);
+        table.extend(balls.into_iter().map(|(c, r)| {
+            [
+                c.x as f32,
+                c.y as f32,
+                c.z as f32,
+                ((r + 2e-7) * (1.0 + 1e-6)) as f32,
+            ]
+        }));
         // Then the blocks' reaches, four an entry: block b's at el_off + n_el + blocks + b / 4,
         // component b % 4. The shader computes the chord's ends in f32 from the hi parts, within
         // 4e-7 of the units; the reach grows by that and rounds up.
-        let reaches = fast::block_reaches(&plan.azimuths, &plan.elevations);
         table.extend(
             reaches.chunks(4).map(|r| {
                 std::array::from_fn(|k| r.get(k).map_or(0.0, |r| ((r + 4e-7) * (1.0 + 1e-6)) as f32))
