@@ -27,6 +27,14 @@
 //!   edges than that error (else the edge tests decide, as the plain loop does). The whole pose
 //!   loop is built for baseline x86-64, AVX2 and AVX-512, and the widest the processor runs is
 //!   chosen at run time (the binary itself targets baseline x86-64).
+//! - **Sidescan bins by runs.** When sonar 2 is a sidescan and no two consecutive samples of the
+//!   plan lie a range bin apart once moved (an arc sampled finer than the bins, as automatic
+//!   sampling always is), consecutive samples' bins are equal or adjacent, so a run of
+//!   consecutive visible samples covers exactly the bins between its nearest and farthest
+//!   sample. A pose whose visible samples form one run (an arc crossing the sheet once) takes no
+//!   range bin per sample: the lane stage keeps only the squared range's extremes, and the bins
+//!   are those of its two ends; a pose with several runs bins each visible sample. (This path
+//!   only: the splat shader bins every visible sample.)
 //! - **Few `atan2`.** An exact `atan2` is taken only for the samples whose azimuth key (the
 //!   guessed azimuth, or `y / x` for a sidescan) lies within its error of the pose's extremes.
 //! - **Occupancy is reused and counted sparsely.** Each thread keeps one occupancy buffer and a
@@ -369,6 +377,8 @@ struct Directions {
     units: Vec<DVec3>,
     /// The same units block by block in structure-of-arrays form, for the lane stage.
     lanes: Vec<BlockUnits>,
+    /// The largest distance between consecutive units (0 for a single sample).
+    max_step: f64,
     /// The balls, [`BALLS`] blocks at a time in structure-of-arrays form (the last chunk padded
     /// with copies of the last ball).
     ball_chunks: Vec<BallChunk>,
@@ -417,7 +427,11 @@ struct Lanes {
     sure: [bool; LANES],
     /// Whether the sample is visible.
     keep: [bool; LANES],
-    /// Per lane, over the visible samples of the pose so far: range and key extremes.
+}
+
+/// Per lane, over the visible samples of the pose so far: range (or squared range) and key
+/// extremes.
+struct Running {
     range_min: [f64; LANES],
     range_max: [f64; LANES],
     key_min: [f64; LANES],
@@ -435,6 +449,13 @@ impl Default for Lanes {
             pixel: [0; LANES],
             sure: [false; LANES],
             keep: [false; LANES],
+        }
+    }
+}
+
+impl Default for Running {
+    fn default() -> Self {
+        Running {
             range_min: [f64::INFINITY; LANES],
             range_max: [f64::NEG_INFINITY; LANES],
             key_min: [f64::INFINITY; LANES],
@@ -443,7 +464,7 @@ impl Default for Lanes {
     }
 }
 
-impl Lanes {
+impl Running {
     /// Empties the running extremes for the next pose.
     fn start_pose(&mut self) {
         self.range_min = [f64::INFINITY; LANES];
@@ -609,9 +630,8 @@ fn draw_lanes<const FLS: bool>(
     u: &BlockUnits,
     inside: bool,
     out: &mut Lanes,
+    run: &mut Running,
 ) -> u32 {
-    let l = geo.layout;
-    let last_bin = geo.last_bin;
     let beams = geo.beams;
     // NaN without uniform beams: no guess is ever sure.
     let guess_scale = geo.inv_beam_width.unwrap_or(f64::NAN);
@@ -624,16 +644,7 @@ fn draw_lanes<const FLS: bool>(
         let keep = inside | geo.in_view(DVec3::new(x, y, z), r2);
         // Range bin: the guess, then the guessed bin's squared edges.
         let r = r2.sqrt();
-        let i = to_index(
-            ((r - l.range_min) * geo.inv_range_bin)
-                .max(0.0)
-                .min(f64::from(last_bin)),
-        );
-        let lower = l.range_min + f64::from(i) * l.range_bin_width;
-        let upper = l.range_min + f64::from(i + 1) * l.range_bin_width;
-        let down = (i > 0) & (r2 < lower * lower);
-        let up = !down & (i < last_bin) & (r2 >= upper * upper);
-        let i = i - i32::from(down) + i32::from(up);
+        let i = range_bin(geo, r, r2);
         let key = if FLS {
             // The beam guess (NaN without uniform beams: never sure).
             let az = approx_atan2(y, x);
@@ -660,10 +671,10 @@ fn draw_lanes<const FLS: bool>(
         let (r_in, key_in) = if keep { (r, key) } else { (f64::NAN, f64::NAN) };
         let lo = |a: f64, b: f64| if b < a { b } else { a };
         let hi = |a: f64, b: f64| if b > a { b } else { a };
-        out.range_min[k] = lo(out.range_min[k], r_in);
-        out.range_max[k] = hi(out.range_max[k], r_in);
-        out.key_min[k] = lo(out.key_min[k], key_in);
-        out.key_max[k] = hi(out.key_max[k], key_in);
+        run.range_min[k] = lo(run.range_min[k], r_in);
+        run.range_max[k] = hi(run.range_max[k], r_in);
+        run.key_min[k] = lo(run.key_min[k], key_in);
+        run.key_max[k] = hi(run.key_max[k], key_in);
     }
     // Eight flags (bytes 0 or 1) at a time gathered into a byte by one multiplication: byte
     // `i` times byte `7 − i` of the constant lands on bit `56 + i`, no two terms on one bit.
@@ -674,6 +685,87 @@ fn draw_lanes<const FLS: bool>(
         mask |= u32::try_from(flags.wrapping_mul(0x0102_0408_1020_4080) >> 56).unwrap_or(0) << k;
     }
     mask
+}
+
+/// Returns the range bin of a point at range `r` (squared `r2`): a guess, then the guessed
+/// bin's squared edges, computed as [`Layout::range_edge`] does (the lane stage's, and the
+/// runs' ends in [`Scratch::draw_runs`]: one function, so both give the same bin).
+#[inline(always)]
+fn range_bin(geo: &Geometry<'_>, r: f64, r2: f64) -> i32 {
+    let l = geo.layout;
+    let last_bin = geo.last_bin;
+    let i = to_index(
+        ((r - l.range_min) * geo.inv_range_bin)
+            .max(0.0)
+            .min(f64::from(last_bin)),
+    );
+    let lower = l.range_min + f64::from(i) * l.range_bin_width;
+    let upper = l.range_min + f64::from(i + 1) * l.range_bin_width;
+    let down = (i > 0) & (r2 < lower * lower);
+    let up = !down & (i < last_bin) & (r2 >= upper * upper);
+    i - i32::from(down) + i32::from(up)
+}
+
+/// The lane stage of one block of a pose drawn by runs ([`Scratch::draw_runs`], sonar 2 an
+/// SSS): `p = M u + t`, its squared range, the clip (skipped when `inside`) and the azimuth key
+/// `y / x` as [`draw_lanes`] computes them, stored at block `b` of `out`; the running extremes
+/// of the squared range (the range's are their square roots: `sqrt` is monotone and correctly
+/// rounded) and of the key. No range bin. Returns the visible lanes as a bit mask.
+#[inline(always)]
+fn draw_lanes_runs(
+    geo: &Geometry<'_>,
+    m: &[f64; 12],
+    u: &BlockUnits,
+    inside: bool,
+    out: &mut RunLanes,
+    b: usize,
+    run: &mut Running,
+) -> u32 {
+    let (xs, ys, keys, r2s) = (
+        &mut out.x[b * LANES..][..LANES],
+        &mut out.y[b * LANES..][..LANES],
+        &mut out.key[b * LANES..][..LANES],
+        &mut out.r2[b * LANES..][..LANES],
+    );
+    let mut keep = [false; LANES];
+    for k in 0..LANES {
+        let (ux, uy, uz) = (u.x[k], u.y[k], u.z[k]);
+        let x = m[0] * ux + m[3] * uy + m[6] * uz + m[9];
+        let y = m[1] * ux + m[4] * uy + m[7] * uz + m[10];
+        let z = m[2] * ux + m[5] * uy + m[8] * uz + m[11];
+        let r2 = x * x + y * y + z * z;
+        keep[k] = inside | geo.in_view(DVec3::new(x, y, z), r2);
+        let q = y / x;
+        let key = if x > 0.0 { q } else { f64::NAN };
+        xs[k] = x;
+        ys[k] = y;
+        keys[k] = key;
+        r2s[k] = r2;
+        let (r_in, key_in) = if keep[k] { (r2, key) } else { (f64::NAN, f64::NAN) };
+        let lo = |a: f64, b: f64| if b < a { b } else { a };
+        let hi = |a: f64, b: f64| if b > a { b } else { a };
+        run.range_min[k] = lo(run.range_min[k], r_in);
+        run.range_max[k] = hi(run.range_max[k], r_in);
+        run.key_min[k] = lo(run.key_min[k], key_in);
+        run.key_max[k] = hi(run.key_max[k], key_in);
+    }
+    let mut mask = 0;
+    for k in (0..LANES).step_by(8) {
+        let flags = u64::from_le_bytes(std::array::from_fn(|b| u8::from(keep[k + b])));
+        mask |= u32::try_from(flags.wrapping_mul(0x0102_0408_1020_4080) >> 56).unwrap_or(0) << k;
+    }
+    mask
+}
+
+/// The lane stage's results for every block of a pose drawn by runs, one array per quantity
+/// (block `b`'s lanes at `b · LANES..`), and each block's visible lanes (0 when culled).
+#[derive(Default)]
+struct RunLanes {
+    x: Vec<f64>,
+    y: Vec<f64>,
+    key: Vec<f64>,
+    r2: Vec<f64>,
+    visible: Vec<u32>,
 }
 
 /// Returns `v` as an index: `v` is finite and within `0..=i32::MAX` (clamped by the caller),
@@ -766,9 +858,14 @@ impl Directions {
                 }
             })
             .collect();
+        let max_step = units
+            .windows(2)
+            .map(|w| (w[1] - w[0]).length())
+            .fold(0.0, f64::max);
         Directions {
             units,
             lanes,
+            max_step,
             ball_chunks,
         }
     }
@@ -783,8 +880,15 @@ struct Scratch {
     /// The visible samples of the pose being drawn (as many slots as the longest plan drawn
     /// so far has samples).
     seen: Vec<Seen>,
-    /// The block being drawn, and the pose's running extremes.
+    /// The block being drawn.
     lanes: Box<Lanes>,
+    /// The pose's running extremes.
+    running: Box<Running>,
+    /// The blocks of a pose drawn by runs.
+    runs: RunLanes,
+    /// The bins `lo..=hi` a pose drawn as one run covers, not yet set in `occ`: counted without
+    /// touching it unless the occupancy is kept.
+    span: Option<(usize, usize)>,
     /// The last base azimuth's bits and its rotation `Rz` (neighbouring items mostly share it).
     rz: Option<(u64, DMat3)>,
 }
@@ -798,6 +902,9 @@ impl Scratch {
             summary,
             seen: Vec::new(),
             lanes: Box::default(),
+            running: Box::default(),
+            runs: RunLanes::default(),
+            span: None,
             rz: None,
         }
     }
@@ -824,11 +931,15 @@ impl Scratch {
         dirs: &Directions,
         (m, t, range, slack): PoseArgs,
     ) -> (u64, Extremes) {
+        if !FLS && range * dirs.max_step * (1.0 + 1e-12) + slack < geo.layout.range_bin_width {
+            return self.draw_runs(geo, dirs, (m, t, range, slack));
+        }
         let Scratch {
             occ,
             summary,
             seen,
             lanes,
+            running,
             ..
         } = self;
         // Room for every sample of the plan, made before the pose loop: a push that may grow
@@ -837,7 +948,7 @@ impl Scratch {
             seen.resize(dirs.units.len(), Seen::default());
         }
         let mut n_seen = 0;
-        lanes.start_pose();
+        running.start_pose();
         let columns = pose_columns(m, t);
         #[expect(clippy::cast_sign_loss, reason = "beams are at least 1")]
         let beams = geo.beams as usize;
@@ -852,7 +963,7 @@ impl Scratch {
                 continue;
             }
             let inside = inside & (1 << (b % BALLS)) != 0;
-            let mut visible = draw_lanes::<FLS>(geo, &columns, units, inside, lanes);
+            let mut visible = draw_lanes::<FLS>(geo, &columns, units, inside, lanes, running);
             visible &= (1 << units.len) - 1;
             while visible != 0 {
                 let k = visible.trailing_zeros() as usize;
@@ -887,7 +998,7 @@ impl Scratch {
         // The extremes: ranges folded over the lanes; exact azimuths for the samples that may
         // be an extreme, in sample order (the fold then equals the fold over every sample: the
         // others' azimuths are strictly inside).
-        let (range_min, range_max, key_min, key_max) = lanes.extremes();
+        let (range_min, range_max, key_min, key_max) = running.extremes();
         let mut extremes = Extremes {
             range_min,
             range_max,
@@ -911,11 +1022,132 @@ impl Scratch {
         (n_seen as u64, extremes)
     }
 
+    /// Draws one pose into an SSS whose range bins are wider than the step from any sample of
+    /// the plan to the next (moved by the pose, a step keeps its length `range · |u' − u|`; the
+    /// caller checks it with the culling slack as margin). Two consecutive samples' ranges then
+    /// differ by less than a bin, so their bins are equal or adjacent, and a run of consecutive
+    /// visible samples covers exactly the bins from its nearest sample's to its farthest's. When
+    /// the visible samples form one run (an arc crossing the sonar's sheet once), the bins are
+    /// those of the two ends of the range; otherwise each visible sample's bin is taken. The same
+    /// results as [`Scratch::draw_pose`].
+    #[inline(always)]
+    fn draw_runs(
+        &mut self,
+        geo: &Geometry<'_>,
+        dirs: &Directions,
+        (m, t, range, slack): PoseArgs,
+    ) -> (u64, Extremes) {
+        let Scratch {
+            occ,
+            summary,
+            running,
+            runs,
+            span,
+            ..
+        } = self;
+        let blocks = dirs.lanes.len();
+        if runs.visible.len() < blocks {
+            for v in [&mut runs.x, &mut runs.y, &mut runs.key, &mut runs.r2] {
+                v.resize(blocks * LANES, 0.0);
+            }
+            runs.visible.resize(blocks, 0);
+        }
+        running.start_pose();
+        let columns = pose_columns(m, t);
+        let (mut outside, mut inside) = (0, 0);
+        let (mut n_seen, mut first, mut last) = (0, usize::MAX, 0);
+        for (b, units) in dirs.lanes.iter().enumerate() {
+            if b % BALLS == 0 {
+                (outside, inside) = ball_sides(geo, &columns, &dirs.ball_chunks[b / BALLS], range, slack);
+            }
+            if outside & (1 << (b % BALLS)) != 0 {
+                runs.visible[b] = 0;
+                continue;
+            }
+            let inside = inside & (1 << (b % BALLS)) != 0;
+            let visible =
+                draw_lanes_runs(geo, &columns, units, inside, runs, b, running) & ((1 << units.len) - 1);
+            runs.visible[b] = visible;
+            n_seen += visible.count_ones() as usize;
+            if visible != 0 {
+                first = first.min(b * LANES + visible.trailing_zeros() as usize);
+                last = b * LANES + 31 - visible.leading_zeros() as usize;
+            }
+        }
+        if n_seen == 0 {
+            return (0, Extremes::default());
+        }
+        let (r2_min, r2_max, key_min, key_max) = running.extremes();
+        let mut extremes = Extremes {
+            range_min: r2_min.sqrt(),
+            range_max: r2_max.sqrt(),
+            ..Extremes::default()
+        };
+        if last - first + 1 == n_seen {
+            // One run: every bin from the nearest sample's to the farthest's.
+            let lo = range_bin(geo, extremes.range_min, r2_min);
+            let hi = range_bin(geo, extremes.range_max, r2_max);
+            #[expect(clippy::cast_sign_loss, reason = "bins are clamped to 0..")]
+            let bins = (lo as usize, hi as usize);
+            *span = Some(bins);
+        } else {
+            let (mut word, mut bits) = (usize::MAX, 0);
+            for (b, &visible) in runs.visible[..blocks].iter().enumerate() {
+                let mut visible = visible;
+                while visible != 0 {
+                    let k = b * LANES + visible.trailing_zeros() as usize;
+                    visible &= visible - 1;
+                    let r2 = runs.r2[k];
+                    #[expect(clippy::cast_sign_loss, reason = "bins are clamped to 0..")]
+                    let pixel = range_bin(geo, r2.sqrt(), r2) as usize;
+                    if pixel / 32 != word {
+                        if word != usize::MAX {
+                            set(occ, summary, word, bits);
+                        }
+                        (word, bits) = (pixel / 32, 0);
+                    }
+                    bits |= 1 << (pixel % 32);
+                }
+            }
+            set(occ, summary, word, bits);
+        }
+        // Exact azimuths for the samples that may be an extreme, in sample order.
+        let (low, high) = (
+            key_min + KEY_TOLERANCE * key_min.abs(),
+            key_max - KEY_TOLERANCE * key_max.abs(),
+        );
+        for (b, &visible) in runs.visible[..blocks].iter().enumerate() {
+            if visible == 0 {
+                continue;
+            }
+            let keys = &runs.key[b * LANES..][..LANES];
+            let mut near = 0u32;
+            for (k, &key) in keys.iter().enumerate() {
+                near |= u32::from(!((key > low) & (key < high))) << k;
+            }
+            near &= visible;
+            while near != 0 {
+                let k = b * LANES + near.trailing_zeros() as usize;
+                near &= near - 1;
+                extremes.add_azimuth(runs.y[k].atan2(runs.x[k]));
+            }
+        }
+        (n_seen as u64, extremes)
+    }
+
     /// Returns `(occupied, occupied_measure)` (the reduce shader's work, over the touched words
     /// in row-major order, so the area sums in the order of the plain loop) and the occupancy
     /// when asked for, leaving the buffer empty.
     fn reduce(&mut self, geo: &Geometry<'_>, keep: bool) -> (u64, f64, Option<Occupancy>) {
         let layout = geo.layout;
+        if let Some((lo, hi)) = self.span.take() {
+            if keep {
+                set_span(&mut self.occ, &mut self.summary, lo, hi);
+            } else {
+                let occupied = (hi - lo + 1) as u64;
+                return (occupied, occupied as f64 * layout.range_bin_width, None);
+            }
+        }
         let beams = layout.beams();
         let kept = keep.then(|| self.occ.clone());
         let (mut occupied, mut area) = (0, 0.0);
@@ -995,6 +1227,15 @@ fn draw_pose<const FLS: bool>(
         Isa::Avx2 => unsafe { draw_pose_avx2::<FLS>(s, geo, dirs, pose) },
         #[cfg(target_arch = "x86_64")]
         Isa::Avx512 => unsafe { draw_pose_avx512::<FLS>(s, geo, dirs, pose) },
+    }
+}
+
+/// Sets the bits of pixels `lo..=hi` in `occ`, marking their words in `summary`.
+fn set_span(occ: &mut Occupancy, summary: &mut [u64], lo: usize, hi: usize) {
+    for w in lo / 32..=hi / 32 {
+        let from = if w == lo / 32 { lo % 32 } else { 0 };
+        let to = if w == hi / 32 { hi % 32 } else { 31 };
+        set(occ, summary, w, (u32::MAX >> (31 - to)) & (u32::MAX << from));
     }
 }
 
@@ -1121,6 +1362,93 @@ mod tests {
         }
     }
 
+    /// Returns an imaging sonar that sees everything: 360° of beams (edges behind a point), and
+    /// arcs of 180° (which cross a sidescan's sheet twice).
+    fn omni() -> Sonar {
+        Sonar::from_toml_str(
+            "omni",
+            "kind = 'fls'\nrange_min = 0\nrange_max = 12\nazimuth_aperture = 360\n\
+             elevation_aperture = 180\nrange_bins = 600\nbeams = 720\n",
+        )
+        .unwrap()
+    }
+
+    /// Poses drawn by runs (an arc into a sidescan, sampled finer than its range bins, as
+    /// automatic sampling always is) give the plain loop's results in every build, with and
+    /// without the occupancy, whether
+    /// their visible samples form one run (bins from the range's two ends) or several (each
+    /// sample's bin); both occur, and every pose here is drawn by runs.
+    #[test]
+    fn runs_change_no_result() {
+        let mut rng = ChaCha8Rng::seed_from_u64(33);
+        let sss = Sonar::preset("paper-sss").unwrap();
+        let layout = Layout::of(&sss);
+        let (mut one, mut several) = (0, 0);
+        for s1 in [
+            Sonar::preset("paper-fls").unwrap(),
+            Sonar::preset("oculus-m750d").unwrap(),
+            omni(),
+        ] {
+            let items = (0..300).map(|_| random_item(&s1, &sss, &mut rng)).collect();
+            let batch = Batch {
+                source: s1.clone(),
+                target: sss.clone(),
+                sampling: Sampling::Auto,
+                items,
+            };
+            let prepared = batch.prepare().unwrap();
+            let plain = project_plainly(&prepared);
+            let fast = project_with(&prepared, true, Isa::Baseline);
+            for isa in Isa::available() {
+                assert_eq!(project_with(&prepared, true, isa), fast, "{}: {isa:?}", s1.name);
+                // Without the occupancy, one run's bins are counted, not set.
+                let lean = project_with(&prepared, false, isa);
+                assert!(
+                    lean.iter()
+                        .zip(&fast)
+                        .all(|(l, f)| l.metrics == f.metrics && l.occupancy.is_none()),
+                    "{}: {isa:?} without the occupancy",
+                    s1.name
+                );
+            }
+            for (n, (f, (metrics, occ))) in fast.iter().zip(&plain).enumerate() {
+                assert_eq!(&f.metrics, metrics, "{} item {n}", s1.name);
+                assert_eq!(f.occupancy.as_ref(), Some(occ), "{} item {n}", s1.name);
+                // Drawn by runs, and with how many.
+                let item = &batch.items[n];
+                let plan = prepared.plan(n);
+                let dirs = Directions::of(&plan.azimuths, &plan.elevations);
+                let range = item.measurement.range;
+                let t = item.pose.translation;
+                let slack = cull_slack(range, t, &layout);
+                assert!(
+                    range * dirs.max_step * (1.0 + 1e-12) + slack < layout.range_bin_width,
+                    "{} item {n} is not drawn by runs",
+                    s1.name
+                );
+                let m = item.pose.rotation * DMat3::from_rotation_z(prepared.base_azimuth(n)) * range;
+                let geo = Geometry::new(&layout);
+                let seen: Vec<usize> = (0..dirs.units.len())
+                    .filter(|&k| {
+                        let p = m * dirs.units[k] + t;
+                        geo.in_view(p, p.length_squared())
+                    })
+                    .collect();
+                if let (Some(first), Some(last)) = (seen.first(), seen.last()) {
+                    if last - first + 1 == seen.len() {
+                        one += 1;
+                    } else {
+                        several += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            one > 300 && several > 50,
+            "one run {one} times, several {several}"
+        );
+    }
+
     /// The azimuth guess keeps within `ATAN_ERROR` of libm's `atan2` in every octant, near the
     /// axes and diagonals, over many magnitudes; NaN only at the origin.
     #[test]
@@ -1239,18 +1567,11 @@ mod tests {
     #[test]
     fn culling_changes_no_result() {
         let mut rng = ChaCha8Rng::seed_from_u64(9);
-        // The presets, a sonar that sees everything (edges behind a point: 360° of beams) and
-        // one with non-uniform beams.
+        // The presets, a sonar that sees everything ([`omni`]) and one with non-uniform beams.
         let mut sonars: Vec<Sonar> = Sonar::preset_names()
             .into_iter()
             .map(|n| Sonar::preset(n).unwrap())
             .collect();
-        let omni = Sonar::from_toml_str(
-            "omni",
-            "kind = 'fls'\nrange_min = 0\nrange_max = 12\nazimuth_aperture = 360\n\
-             elevation_aperture = 180\nrange_bins = 600\nbeams = 720\n",
-        )
-        .unwrap();
         let centres: Vec<String> = (0..64)
             .map(|k| {
                 let u = -1.0 + 2.0 * (k as f64 + 0.5) / 64.0;
@@ -1266,7 +1587,7 @@ mod tests {
             ),
         )
         .unwrap();
-        sonars.extend([omni, nonuniform]);
+        sonars.extend([omni(), nonuniform]);
         for s1 in &sonars {
             for s2 in &sonars {
                 let (from, to) = (&s1.name, &s2.name);
