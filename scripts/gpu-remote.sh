@@ -10,8 +10,9 @@
 # `prepare` needs cargo and apt-get (for the Vulkan loader packages, unpacked there with dpkg -x).
 # `run` needs only the NVIDIA driver on the remote machine; it also works on lavapipe here, for a
 # dry run (`GPU_REMOTE_ICD=` picks the ICD file; by default the NVIDIA one when it exists).
-# Variants: the splat stage runs with and without block culling (SONARPROJ_GPU_CULL=0), and in
-# double-f32 instead of f64 (SONARPROJ_GPU_PRECISION=df, what GPUs without f64 run); `run`
+# Variants: the splat stage runs with and without block culling (SONARPROJ_GPU_CULL=0), with and
+# without its f32 filter (SONARPROJ_GPU_FILTER=0), and in double-f32 instead of f64
+# (SONARPROJ_GPU_PRECISION=df, what GPUs without f64 run); `run`
 # takes extra `sonarproj bench` arguments from GPU_REMOTE_BENCH (default
 # `--scale 200`), and GPU_SCENES for the mask test's scene count.
 set -euo pipefail
@@ -83,14 +84,19 @@ run() {
     # shellcheck disable=SC2086
     step bench-projection-nocull env SONARPROJ_GPU_CULL=0 "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
     # shellcheck disable=SC2086
+    step bench-projection-nofilter env SONARPROJ_GPU_FILTER=0 "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
+    # shellcheck disable=SC2086
     step bench-projection-df env SONARPROJ_GPU_PRECISION=df "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
+    # shellcheck disable=SC2086
+    step bench-projection-df-nofilter env SONARPROJ_GPU_PRECISION=df SONARPROJ_GPU_FILTER=0 "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
     step test-agreement-df env SONARPROJ_GPU_PRECISION=df "$bin/agreement"
     step bench-masks "$bin/sonarproj" bench masks
     step paper-gpu "$bin/sonarproj" paper --backend gpu --out "$bundle/paper-gpu"
     step paper-cpu "$bin/sonarproj" paper --backend cpu-fast --out "$bundle/paper-cpu"
     step criterion-projection "$bin/projection-bench" --bench
     grep -h "paper:" "$logs"/paper-*.log >>"$logs/summary.txt" || true
-    grep -h -- "->" "$logs"/bench-projection*.log >>"$logs/summary.txt" || true
+    # With the file names: which variant each row is.
+    grep -- "->" "$logs"/bench-projection*.log >>"$logs/summary.txt" || true
     cp "$logs/summary.txt" "$out/summary.txt"
     tar -C "$bundle" -czf "$out/logs.tar.gz" logs
     return $status

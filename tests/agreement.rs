@@ -94,10 +94,18 @@ fn omni_fls() -> Sonar {
 /// Runs `poses` random configurations on the reference and checks every result of the fast
 /// CPU path and (where an adapter exists; always in CI) the GPU against the reference's envelope.
 fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usize) {
+    let items = random_items(seed, &source, &target, poses);
+    agree_on(items, source, target, sampling);
+}
+
+/// Checks every result of the fast CPU path and (where an adapter exists; always in CI) every
+/// variant of the GPU's splat stage on `items` against the reference's envelope.
+fn agree_on(items: Vec<BatchItem>, source: Sonar, target: Sonar, sampling: Sampling) {
     source.validate().unwrap();
     target.validate().unwrap();
+    let poses = items.len();
     let batch = Batch {
-        items: random_items(seed, &source, &target, poses),
+        items,
         source,
         target,
         sampling,
@@ -106,16 +114,27 @@ fn agree(seed: u64, source: Sonar, target: Sonar, sampling: Sampling, poses: usi
     let reference = reference::project(&prepared, Output::WithOccupancy);
     let mut checked = vec![("cpu-fast", fast::project(&prepared, Output::WithOccupancy))];
     if let Some(gpu) = common::gpu() {
-        let culled = gpu.project(&prepared, Output::WithOccupancy).unwrap();
-        // Culling skips samples and clip tests, never changes a decision: the splat stage
-        // without it gives the very same bits.
-        let plain = GpuBackend::with_options(gpu.context().clone(), SplatOptions { cull: false });
-        assert_eq!(
-            plain.project(&prepared, Output::WithOccupancy).unwrap(),
-            culled,
-            "GPU with and without culling"
-        );
-        checked.push(("gpu", culled));
+        let results = gpu.project(&prepared, Output::WithOccupancy).unwrap();
+        // Culling skips samples and clip tests, the f32 filter decides samples in f32 that Real
+        // would decide the same way: neither changes a decision, so every variant of the splat
+        // stage gives the very same bits.
+        for cull in [false, true] {
+            for filter in [false, true] {
+                let options = SplatOptions { cull, filter };
+                if options == gpu.options() {
+                    continue;
+                }
+                let variant = GpuBackend::with_options(gpu.context().clone(), options);
+                assert_eq!(
+                    variant.project(&prepared, Output::WithOccupancy).unwrap(),
+                    results,
+                    "GPU, {} against {}",
+                    options.describe(),
+                    gpu.options().describe()
+                );
+            }
+        }
+        checked.push(("gpu", results));
     }
     // The envelopes at an input tolerance: f64 decisions (the CPU paths, a GPU with f64) or a
     // GPU deciding in double-f32, which some drivers leave at f32 precision.
@@ -280,6 +299,94 @@ fn auto_sampling_of_surfaces() {
         Sampling::Auto,
         10,
     );
+}
+
+/// Returns `n` items that each put one sample of `source`'s plan (step sampling at `step`
+/// degrees) on a clip bound or a bin or beam edge of `target`, as exactly as f64 places it: a
+/// random sample of the plan is the feature, placed under a random rotation at a point of
+/// sonar 2 on a random one of its azimuth and elevation bounds, range bounds, range-bin edges
+/// and (FLS) beam edges. Random poses almost never put a sample within f32 precision of a clip
+/// bound; these do, so a decision that f32 gets wrong there shows.
+fn items_on_bounds(seed: u64, source: &Sonar, target: &Sonar, step: f64, n: usize) -> Vec<BatchItem> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (ha, he) = (target.azimuth_aperture / 2.0, target.elevation_aperture / 2.0);
+    let width = (target.range_max - target.range_min) / f64::from(target.range_bins);
+    let beam_edges: Vec<f64> = match &target.beams {
+        BeamLayout::Uniform { count } => (1..*count)
+            .map(|j| -ha + f64::from(j) * target.azimuth_aperture / f64::from(*count))
+            .collect(),
+        BeamLayout::Edges(edges) => edges[1..edges.len() - 1].to_vec(),
+    };
+    (0..n)
+        .map(|_| {
+            let [range, azimuth, _] = point_in(&mut rng, source);
+            let measurement = Measurement::of(source, range, azimuth).unwrap();
+            let one = Batch {
+                items: vec![BatchItem {
+                    measurement,
+                    pose: RelativePose::new(
+                        Rotation::RollPitchYaw {
+                            roll: 0.0,
+                            pitch: 0.0,
+                            yaw: 0.0,
+                        },
+                        [0.0; 3],
+                    )
+                    .unwrap(),
+                }],
+                source: source.clone(),
+                target: target.clone(),
+                sampling: Sampling::Step(step),
+            };
+            let plan = one.prepare().unwrap();
+            let (az_offsets, elevations) = (&plan.plan(0).azimuths, &plan.plan(0).elevations);
+            let az = plan.base_azimuth(0) + az_offsets[rng.random_range(0..az_offsets.len())];
+            let el = elevations[rng.random_range(0..elevations.len())];
+            let feature = [measurement.range, az.to_degrees(), el.to_degrees()];
+            // The place in sonar 2: inside, then one coordinate moved onto a bound or an edge.
+            let [mut r, mut a, mut e] = point_in(&mut rng, target);
+            match rng.random_range(0..5) {
+                0 => a = if rng.random() { ha } else { -ha },
+                1 => e = if rng.random() { he } else { -he },
+                2 => {
+                    r = if rng.random() {
+                        target.range_max
+                    } else {
+                        target.range_min.max(0.05)
+                    }
+                }
+                3 => r = target.range_min + f64::from(rng.random_range(1..target.range_bins)) * width,
+                _ if !beam_edges.is_empty() => a = beam_edges[rng.random_range(0..beam_edges.len())],
+                _ => a = if rng.random() { ha } else { -ha },
+            }
+            let rotation = Rotation::RollPitchYaw {
+                roll: rng.random_range(-180.0..180.0),
+                pitch: rng.random_range(-180.0..180.0),
+                yaw: rng.random_range(-180.0..180.0),
+            };
+            BatchItem {
+                measurement,
+                pose: RelativePose::placement(rotation, feature, [r, a, e]).unwrap(),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn samples_on_bounds_and_edges() {
+    for (seed, source, target) in [
+        (21, common::preset("paper-fls"), common::preset("paper-sss")),
+        (22, common::preset("paper-sss"), common::preset("paper-fls")),
+        (
+            23,
+            common::preset("oculus-m1200d-hf"),
+            common::preset("holoocean-imaging"),
+        ),
+        (24, common::preset("holoocean-sidescan"), nonuniform_fls()),
+    ] {
+        let items = items_on_bounds(seed, &source, &target, 0.1, 300);
+        agree_on(items, source, target, Sampling::Step(0.1));
+    }
 }
 
 #[test]

@@ -2,7 +2,9 @@
 // block culling included; the reference src/projection/reference/splat.rs stays plain).
 // The transform and every decision use Real (f64, or double-f32 where the adapter has no f64:
 // shared/real_*.wgsl), so a sample lands where the f64 reference puts it unless it lies within
-// about 1e-12 (relative) of a bound or edge.
+// about 1e-12 (relative) of a bound or edge. With FILTER, f32 takes the decisions it cannot get
+// wrong (those far from every bound and edge) and Real the rest: the same bits, fewer Real
+// operations (this stage only: on a CPU, f64 costs at most twice f32).
 // Dispatch (tiles, poses, 1): workgroup (x, y) handles samples x*64 + l, stepping by tiles*64,
 // of pose y. Each visible sample sets its pixel's bit with atomicOr; the workgroup then folds its
 // visible count and range/azimuth extremes into the pose's metric slots.
@@ -28,8 +30,15 @@ const OUTSIDE: u32 = 0u;
 const ACROSS: u32 = 1u;
 const INSIDE: u32 = 2u;
 const BLOCKS_PER_STEP: u32 = WORKGROUP / BLOCK;
-// Pipeline constant (gpu::SplatOptions): false draws every sample with every clip test.
+// Pipeline constants (gpu::SplatOptions). CULL false draws every sample with every clip test;
+// FILTER false decides every sample in Real, true first in f32 where it can (view_f32).
 override CULL: bool = true;
+override FILTER: bool = true;
+// What the f32 decisions return: a sample outside the view, inside it, or left to Real (which
+// a bin or beam decision returns too).
+const HIDDEN: u32 = 0u;
+const VISIBLE: u32 = 1u;
+const UNSURE: u32 = 0xffffffffu;
 
 var<workgroup> wg_side: array<u32, BLOCKS_PER_STEP>;
 
@@ -58,13 +67,11 @@ fn at_or_above(x: Real, y: Real, e: BeamEdge) -> bool {
     return r_ge(r_mul(y, real(e.cos_angle)), r_mul(x, real(e.sin_angle)));
 }
 
-// Returns the beam of the point (x, y) (inside the aperture) at azimuth az (f32): a first guess,
-// then the exact side of the guessed beam's edges.
-fn beam_of(x: Real, y: Real, az: f32) -> u32 {
+// Returns the first guess of the beam at azimuth az (f32, inside the aperture; more than one
+// beam): direct for uniform beams, else a binary search of the edges' f32 angles. Within a beam
+// of the right one.
+fn beam_guess(az: f32) -> i32 {
     let beams = i32(params.beams);
-    if beams == 1 {
-        return 0u;
-    }
     var j: i32;
     if params.beams_uniform != 0u {
         j = i32(floor((az + params.half_az) * params.inv_beam_width));
@@ -81,7 +88,17 @@ fn beam_of(x: Real, y: Real, az: f32) -> u32 {
         }
         j = lo;
     }
-    j = clamp(j, 0, beams - 1);
+    return clamp(j, 0, beams - 1);
+}
+
+// Returns the beam of the point (x, y) (inside the aperture) at azimuth az (f32): a first guess,
+// then the exact side of the guessed beam's edges.
+fn beam_of(x: Real, y: Real, az: f32) -> u32 {
+    let beams = i32(params.beams);
+    if beams == 1 {
+        return 0u;
+    }
+    var j = beam_guess(az);
     if j > 0 && !at_or_above(x, y, beam_edges[j]) {
         j -= 1;
     } else if j < beams - 1 && at_or_above(x, y, beam_edges[j + 1]) {
@@ -121,14 +138,8 @@ fn in_view(x: Real, y: Real, z: Real, r2: Real) -> bool {
 // f32 roundings here, so a culled sample is one the Real test rejects and a sample of an INSIDE
 // block one it keeps.
 fn block_side(pose: Pose, ball: vec4<f32>) -> u32 {
-    let c = vec3<f32>(
-        dot(pose.hi0.xyz, ball.xyz) + pose.hi0.w,
-        dot(pose.hi1.xyz, ball.xyz) + pose.hi1.w,
-        dot(pose.hi2.xyz, ball.xyz) + pose.hi2.w,
-    );
-    let range = length(pose.hi0.xyz);
-    let t = length(vec3<f32>(pose.hi0.w, pose.hi1.w, pose.hi2.w));
-    let radius = range * ball.w * 1.00001 + 1e-5 * (range + t + params.range_max);
+    let c = moved(pose, ball.xyz);
+    let radius = length(pose.hi0.xyz) * ball.w * 1.00001 + f32_slack(pose);
     let d = length(c);
     // azimuth: the two half-planes' signed distances, intersected for h <= 90 deg, else united
     let upper = c.x * params.sin_half_az.x - c.y * params.cos_half_az.x;
@@ -150,6 +161,18 @@ fn block_side(pose: Pose, ball: vec4<f32>) -> u32 {
         return INSIDE;
     }
     return ACROSS;
+}
+
+// Returns the slack of the pose's f32 decisions (block_side, chord_outside, view_f32,
+// range_bin_f32, beam_f32): 1e-5 * (range + |t| + range_max). A point moved in f32 (moved, from
+// the f32 unit) lies within 4e-6 * (range + |t|) of the Real one: the unit within 4e-7, each
+// entry of M and t within 2^-24 of its value, and four roundings of the dot product, each within
+// 2^-24 of |M| |u| + |t|. A clip or edge function evaluated there in f32 adds a few roundings of
+// |p| <= range + |t|; a double-f32 Real left at f32 precision by its driver, 1e-6 * (range + |t|).
+fn f32_slack(pose: Pose) -> f32 {
+    let range = length(pose.hi0.xyz);
+    let t = length(vec3<f32>(pose.hi0.w, pose.hi1.w, pose.hi2.w));
+    return 1e-5 * (range + t + params.range_max);
 }
 
 // Returns p moved by the pose (its hi parts).
@@ -196,9 +219,7 @@ fn unit_f32(pose: Pose, k: u32) -> vec3<f32> {
 // concave function on a segment is at least its smaller value at the ends. In f32 with
 // block_side's slack.
 fn chord_outside(pose: Pose, first: u32, last: u32, reach: f32) -> bool {
-    let range = length(pose.hi0.xyz);
-    let t = length(vec3<f32>(pose.hi0.w, pose.hi1.w, pose.hi2.w));
-    let margin = range * reach * 1.00001 + 1e-5 * (range + t + params.range_max);
+    let margin = length(pose.hi0.xyz) * reach * 1.00001 + f32_slack(pose);
     let a = beyond(moved(pose, unit_f32(pose, first)), margin);
     let b = beyond(moved(pose, unit_f32(pose, last)), margin);
     var azimuth = (a.upper && b.upper) || (a.lower && b.lower);
@@ -207,6 +228,66 @@ fn chord_outside(pose: Pose, first: u32, last: u32, reach: f32) -> bool {
     }
     let elevation = params.clip_elevation != 0u && ((a.above && b.above) || (a.below && b.below));
     return azimuth || elevation;
+}
+
+// The f32 decisions of a sample (FILTER): p is the sample moved in f32 (from the hi parts),
+// within f32_slack of the Real point, and every bound and edge is a 1-Lipschitz function of the
+// point (range; x sin h - |y| cos h; |z| cos e - rho sin e; y cos a - x sin a for a beam edge at
+// angle a). So where f32 finds p farther than the slack from a bound or an edge, the Real point
+// lies on the same side of it, and f32 decides as Real would, in far fewer operations on GPUs
+// with slow f64 or in double-f32. Where it does not, the Real decisions of draw decide.
+
+// Returns HIDDEN when p lies outside sonar 2's field of view by more than slack (beyond some
+// bound), VISIBLE when it lies inside by more than slack from every bound, else UNSURE.
+fn view_f32(p: vec3<f32>, r: f32, slack: f32) -> u32 {
+    let az = p.x * params.sin_half_az.x - abs(p.y) * params.cos_half_az.x;
+    var el = -3.0e38;
+    if params.clip_elevation != 0u {
+        el = abs(p.z) * sqrt(params.cos2_half_el.x) - length(p.xy) * sqrt(params.sin2_half_el.x);
+    }
+    if r < params.range_min - slack || r > params.range_max + slack || az < -slack || el > slack {
+        return HIDDEN;
+    }
+    if r > params.range_min + slack && r < params.range_max - slack && az > slack && el < -slack {
+        return VISIBLE;
+    }
+    return UNSURE;
+}
+
+// Returns the range bin of a sample in view at f32 range r, or UNSURE when r lies within slack
+// of the bin's inner edges (in bin units; the outer edges of the first and last bins are the
+// range bounds, which the view decides).
+fn range_bin_f32(r: f32, slack: f32) -> u32 {
+    let u = (r - params.range_min) * params.inv_range_bin;
+    let last = i32(params.range_bins) - 1;
+    let i = clamp(i32(floor(u)), 0, last);
+    let margin = slack * params.inv_range_bin;
+    if (i > 0 && u - f32(i) <= margin) || (i < last && f32(i + 1) - u <= margin) {
+        return UNSURE;
+    }
+    return u32(i);
+}
+
+// Returns the beam of a sample in view at p, guessed from its reported azimuth az, or UNSURE
+// when p lies within slack of the guessed beam's inner edges.
+fn beam_f32(p: vec3<f32>, az: f32, slack: f32) -> u32 {
+    if params.beams == 1u {
+        return 0u;
+    }
+    let j = beam_guess(az);
+    if j > 0 {
+        let e = beam_edges[j];
+        if p.y * e.cos_angle.x - p.x * e.sin_angle.x <= slack {
+            return UNSURE;
+        }
+    }
+    if j < i32(params.beams) - 1 {
+        let e = beam_edges[j + 1];
+        if p.y * e.cos_angle.x - p.x * e.sin_angle.x >= -slack {
+            return UNSURE;
+        }
+    }
+    return u32(j);
 }
 
 // Returns row . u + row.w, the row given as hi + lo pairs.
@@ -225,11 +306,27 @@ struct Drawn {
 }
 
 // Draws sample k of the pose: transform, clip (unless its block lies wholly inside), bins, and
-// the pixel's bit in the pose's bitset.
-fn draw(pose: Pose, k: u32, inside: bool, base_word: u32) -> Drawn {
+// the pixel's bit in the pose's bitset. With FILTER, f32 decides first where it can (view_f32,
+// range_bin_f32, beam_f32, with the pose's f32_slack): a hidden sample costs no Real operation,
+// a decided one only the Real point its reported range and azimuth come from.
+fn draw(pose: Pose, k: u32, inside: bool, base_word: u32, slack: f32) -> Drawn {
     let n_az = pose.plan.y;
     let a = directions[pose.plan.x + k % n_az];
     let e = directions[pose.plan.z + k / n_az];
+    var view = UNSURE;
+    var bin = UNSURE;
+    var p = vec3<f32>(0.0);
+    if FILTER {
+        p = moved(pose, vec3<f32>(e.x * a.x, e.x * a.y, e.y));
+        let r = length(p);
+        if !inside {
+            view = view_f32(p, r, slack);
+            if view == HIDDEN {
+                return Drawn(false, 0.0, 0.0);
+            }
+        }
+        bin = range_bin_f32(r, slack);
+    }
     // unit direction (cos el cos az, cos el sin az, sin el)
     let ce = real(e.xz);
     let ux = r_mul(ce, real(a.xz));
@@ -240,13 +337,23 @@ fn draw(pose: Pose, k: u32, inside: bool, base_word: u32) -> Drawn {
     let y = row_dot(pose.hi1, pose.lo1, ux, uy, uz);
     let z = row_dot(pose.hi2, pose.lo2, ux, uy, uz);
     let r2 = r_add(r_add(r_mul(x, x), r_mul(y, y)), r_mul(z, z));
-    if !inside && !in_view(x, y, z, r2) {
+    if !inside && view != VISIBLE && !in_view(x, y, z, r2) {
         return Drawn(false, 0.0, 0.0);
     }
     // reported values: f32 from the rounded point
     let r = sqrt(r_f32(r2));
     let az = atan2(r_f32(y), r_f32(x));
-    let pixel = range_bin(r, r2) * params.beams + beam_of(x, y, az);
+    if bin == UNSURE {
+        bin = range_bin(r, r2);
+    }
+    var beam = UNSURE;
+    if FILTER {
+        beam = beam_f32(p, az, slack);
+    }
+    if beam == UNSURE {
+        beam = beam_of(x, y, az);
+    }
+    let pixel = bin * params.beams + beam;
     let word = base_word + (pixel >> 5u);
     let mask = 1u << (pixel & 31u);
     if (atomicLoad(&bits[word]) & mask) == 0u {
@@ -275,6 +382,7 @@ fn main(
     // A workgroup past the chunk's poses draws nothing.
     let n = select(0u, pose.plan.y * pose.plan.w, pose_index < params.pose_count);
     let base_word = pose_index * params.words_per_pose;
+    let slack = f32_slack(pose);
 
     var visible = 0u;
     var r_min = 3.0e38;
@@ -308,7 +416,7 @@ fn main(
         }
         let k = base + lid;
         if k < n && side != OUTSIDE {
-            let s = draw(pose, k, side == INSIDE, base_word);
+            let s = draw(pose, k, side == INSIDE, base_word, slack);
             if s.seen {
                 visible += 1u;
                 r_min = min(r_min, s.r);

@@ -34,7 +34,8 @@
 //!   sample. A pose whose visible samples form one run (an arc crossing the sheet once) takes no
 //!   range bin per sample: the lane stage keeps only the squared range's extremes, and the bins
 //!   are those of its two ends; a pose with several runs bins each visible sample. (This path
-//!   only: the splat shader bins every visible sample.)
+//!   only: the splat shader bins every visible sample, which costs the GPU little of the
+//!   fls→sss row, whose time goes per pose: BENCHMARKS.md.)
 //! - **Few `atan2`.** An exact `atan2` is taken only for the samples whose azimuth key (the
 //!   guessed azimuth, or `y / x` for a sidescan) lies within its error of the pose's extremes.
 //! - **Occupancy is reused and counted sparsely.** Each thread keeps one occupancy buffer and a

@@ -64,26 +64,47 @@ pub struct SplatOptions {
     /// Skip blocks of samples whose ball lies wholly outside sonar 2's view, and the clip tests
     /// of those wholly inside (the fast CPU path always does). Results are the same either way.
     pub cull: bool,
+    /// Decide each sample in f32 first, with a slack far above the f32 roundings, and in `Real`
+    /// (f64 or double-f32) only the samples f32 leaves undecided (near a clip bound or a bin or
+    /// beam edge); a hidden sample then takes no `Real` operation, a visible one only its
+    /// `Real` point (the reported range and azimuth). Results are the same either way.
+    pub filter: bool,
 }
 
 impl SplatOptions {
-    /// Returns the options for `ctx`'s adapter: culling on a hardware GPU, off on a software
-    /// adapter such as lavapipe (measured 15–25 % slower there with culling: BENCHMARKS.md);
-    /// the environment variable `SONARPROJ_GPU_CULL` (`0` or `1`) overrides it, so one build
-    /// measures both variants.
+    /// Returns the options for `ctx`'s adapter: culling and the f32 filter on a hardware GPU,
+    /// where `Real` arithmetic costs many f32 operations (f64 on consumer GPUs, double-f32), and
+    /// neither on a software adapter such as lavapipe, measured slower there with each
+    /// (BENCHMARKS.md). The environment variables `SONARPROJ_GPU_CULL` and
+    /// `SONARPROJ_GPU_FILTER` (`0` or `1`) override them, so one build measures every variant.
+    #[must_use]
     pub fn for_adapter(ctx: &GpuContext) -> Self {
-        let cull = match std::env::var("SONARPROJ_GPU_CULL").as_deref().map(str::trim) {
-            Ok("0") => false,
-            Ok("1") => true,
-            _ => !ctx.is_software(),
-        };
-        SplatOptions { cull }
+        let hardware = !ctx.is_software();
+        SplatOptions {
+            cull: flag("SONARPROJ_GPU_CULL").unwrap_or(hardware),
+            filter: flag("SONARPROJ_GPU_FILTER").unwrap_or(hardware),
+        }
     }
 
-    /// Returns a short description: `culling` or `no culling`.
+    /// Returns a short description, such as `culling, f32 filter`.
     #[must_use]
-    pub fn describe(&self) -> &'static str {
-        if self.cull { "culling" } else { "no culling" }
+    pub fn describe(&self) -> String {
+        let cull = if self.cull { "culling" } else { "no culling" };
+        let filter = if self.filter {
+            "f32 filter"
+        } else {
+            "no f32 filter"
+        };
+        format!("{cull}, {filter}")
+    }
+}
+
+/// Returns the value of the environment variable `name` when it is `0` (false) or `1` (true).
+fn flag(name: &str) -> Option<bool> {
+    match std::env::var(name).as_deref().map(str::trim) {
+        Ok("0") => Some(false),
+        Ok("1") => Some(true),
+        _ => None,
     }
 }
 
@@ -117,7 +138,10 @@ impl GpuBackend {
             "splat",
             &shaders::splat(ctx.precision),
             &SPLAT_BINDINGS,
-            &[("CULL", f64::from(u8::from(options.cull)))],
+            &[
+                ("CULL", f64::from(u8::from(options.cull))),
+                ("FILTER", f64::from(u8::from(options.filter))),
+            ],
         );
         let reduce = Stage::new(&ctx.device, "reduce", &shaders::reduce(), &REDUCE_BINDINGS);
         GpuBackend {
