@@ -11,7 +11,8 @@
 # `run` needs only the NVIDIA driver on the remote machine; it also works on lavapipe here, for a
 # dry run (`GPU_REMOTE_ICD=` picks the ICD file; by default the NVIDIA one when it exists).
 # Variants: the splat stage runs with and without block culling (SONARPROJ_GPU_CULL=0), with and
-# without its f32 filter (SONARPROJ_GPU_FILTER=0), and in double-f32 instead of f64
+# without its f32 filter (SONARPROJ_GPU_FILTER=0), with workgroups of 32, 128 and 256 threads
+# besides 64 (SONARPROJ_GPU_WORKGROUP), and in double-f32 instead of f64
 # (SONARPROJ_GPU_PRECISION=df, what GPUs without f64 run); `run`
 # takes extra `sonarproj bench` arguments from GPU_REMOTE_BENCH (default
 # `--scale 200`), and GPU_SCENES for the mask test's scene count.
@@ -85,6 +86,10 @@ run() {
     step bench-projection-nocull env SONARPROJ_GPU_CULL=0 "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
     # shellcheck disable=SC2086
     step bench-projection-nofilter env SONARPROJ_GPU_FILTER=0 "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
+    for w in 32 128 256; do
+        # shellcheck disable=SC2086
+        step "bench-projection-wg$w" env SONARPROJ_GPU_WORKGROUP=$w "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
+    done
     # shellcheck disable=SC2086
     step bench-projection-df env SONARPROJ_GPU_PRECISION=df "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
     # shellcheck disable=SC2086

@@ -10,7 +10,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sonarproj::Output;
 use sonarproj::gpu::shaders::Precision;
-use sonarproj::projection::gpu::{GpuBackend, SplatOptions};
+use sonarproj::projection::gpu::{GpuBackend, SPLAT_WORKGROUPS, SplatOptions};
 use sonarproj::projection::{envelope, fast, reference};
 use sonarproj::{
     Batch, BatchItem, BeamLayout, Measurement, RelativePose, Rotation, Sampling, Sonar, SonarKind,
@@ -118,13 +118,18 @@ fn agree_on(items: Vec<BatchItem>, source: Sonar, target: Sonar, sampling: Sampl
         // Culling skips samples and clip tests, the f32 filter decides samples in f32 that Real
         // would decide the same way: neither changes a decision, so every variant of the splat
         // stage gives the very same bits.
+        let workgroup = gpu.options().workgroup;
         for cull in [false, true] {
             for filter in [false, true] {
-                let options = SplatOptions { cull, filter };
+                let options = SplatOptions {
+                    cull,
+                    filter,
+                    workgroup,
+                };
                 if options == gpu.options() {
                     continue;
                 }
-                let variant = GpuBackend::with_options(gpu.context().clone(), options);
+                let variant = GpuBackend::with_options(gpu.context().clone(), options).unwrap();
                 assert_eq!(
                     variant.project(&prepared, Output::WithOccupancy).unwrap(),
                     results,
@@ -404,6 +409,50 @@ fn results_do_not_depend_on_the_chunk_size() {
     let gpu = gpu.with_max_chunk_poses(7);
     let chunked = gpu.project(&prepared, Output::WithOccupancy).unwrap();
     assert_eq!(whole, chunked);
+}
+
+/// Every workgroup size of the splat stage, with and without culling (whose block decisions a
+/// workgroup shares), gives the same bits; a size outside the list is an error naming it.
+#[test]
+fn results_do_not_depend_on_the_workgroup_size() {
+    let Some(gpu) = common::gpu() else { return };
+    let pairs = [
+        (14, common::preset("paper-fls"), common::preset("paper-sss")),
+        (15, common::preset("paper-sss"), common::preset("paper-fls")),
+    ];
+    for (seed, source, target) in pairs {
+        let batch = Batch {
+            items: random_items(seed, &source, &target, 200),
+            source,
+            target,
+            sampling: Sampling::Step(0.1),
+        };
+        let prepared = batch.prepare().unwrap();
+        let want = gpu.project(&prepared, Output::WithOccupancy).unwrap();
+        for workgroup in SPLAT_WORKGROUPS {
+            for cull in [false, true] {
+                let options = SplatOptions {
+                    workgroup,
+                    cull,
+                    ..gpu.options()
+                };
+                let variant = GpuBackend::with_options(gpu.context().clone(), options).unwrap();
+                let got = variant.project(&prepared, Output::WithOccupancy).unwrap();
+                assert_eq!(got.len(), want.len());
+                for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+                    assert_eq!(g, w, "pose {k}, {}", options.describe());
+                }
+            }
+        }
+    }
+    let bad = SplatOptions {
+        workgroup: 100,
+        ..gpu.options()
+    };
+    let err = GpuBackend::with_options(gpu.context().clone(), bad)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("splat workgroup") && err.contains("100"), "{err}");
 }
 
 /// One backend kept across calls of different sizes and targets (its buffers reused, grown and

@@ -5,9 +5,9 @@
 // about 1e-12 (relative) of a bound or edge. With FILTER, f32 takes the decisions it cannot get
 // wrong (those far from every bound and edge) and Real the rest: the same bits, fewer Real
 // operations (this stage only: on a CPU, f64 costs at most twice f32).
-// Dispatch (tiles, poses, 1): workgroup (x, y) handles samples x*64 + l, stepping by tiles*64,
-// of pose y. Each visible sample sets its pixel's bit with atomicOr; the workgroup then folds its
-// visible count and range/azimuth extremes into the pose's metric slots.
+// Dispatch (tiles, poses, 1): workgroup (x, y) handles samples x*WORKGROUP + l, stepping by
+// tiles*WORKGROUP, of pose y. Each visible sample sets its pixel's bit with atomicOr; the workgroup
+// then folds its visible count and range/azimuth extremes into the pose's metric slots.
 
 @group(0) @binding(0) var<uniform> params: TargetParams;
 @group(0) @binding(1) var<storage, read> beam_edges: array<BeamEdge>;
@@ -22,18 +22,19 @@
 @group(0) @binding(5) var<storage, read_write> bits: array<atomic<u32>>;
 @group(0) @binding(6) var<storage, read_write> metrics: array<atomic<u32>>;
 
-const WORKGROUP: u32 = 64u;
 // Samples per culling block (consecutive in the plan's order): projection::fast::BLOCK.
 const BLOCK: u32 = 16u;
 // Where a block's ball lies: projection::fast's Side.
 const OUTSIDE: u32 = 0u;
 const ACROSS: u32 = 1u;
 const INSIDE: u32 = 2u;
-const BLOCKS_PER_STEP: u32 = WORKGROUP / BLOCK;
-// Pipeline constants (gpu::SplatOptions). CULL false draws every sample with every clip test;
-// FILTER false decides every sample in Real, true first in f32 where it can (view_f32).
+// Pipeline constants (gpu::SplatOptions). WORKGROUP: threads a workgroup, a multiple of BLOCK.
+// CULL false draws every sample with every clip test; FILTER false decides every sample in
+// Real, true first in f32 where it can (view_f32).
+override WORKGROUP: u32 = 64u;
 override CULL: bool = true;
 override FILTER: bool = true;
+override BLOCKS_PER_STEP: u32 = WORKGROUP / BLOCK;
 // What the f32 decisions return: a sample outside the view, inside it, or left to Real (which
 // a bin or beam decision returns too).
 const HIDDEN: u32 = 0u;
@@ -362,7 +363,7 @@ fn draw(pose: Pose, k: u32, inside: bool, base_word: u32, slack: f32) -> Drawn {
     return Drawn(true, r, az);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn main(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,

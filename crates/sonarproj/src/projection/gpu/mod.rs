@@ -46,9 +46,12 @@ pub const REDUCE_BINDINGS: [Binding; 5] = [
     Binding::ReadWrite,
 ];
 
-/// Threads per workgroup of the splat stage (WGSL `@workgroup_size` in splat.wgsl; checked in
-/// tests/shaders.rs).
-pub const SPLAT_WORKGROUP: u64 = 64;
+/// Threads per workgroup of the splat stage by default (the WGSL `override WORKGROUP` in
+/// splat.wgsl; checked in tests/shaders.rs).
+pub const SPLAT_WORKGROUP: u32 = 64;
+/// The splat stage's workgroup sizes [`SplatOptions::workgroup`] may take: multiples of the
+/// culling block (16 samples) that every adapter runs (at least 256 threads a workgroup).
+pub const SPLAT_WORKGROUPS: [u32; 4] = [32, 64, 128, 256];
 /// Threads per workgroup of the reduce stage (WGSL `@workgroup_size` in reduce.wgsl; checked in
 /// tests/shaders.rs): one workgroup per pose, whatever its size.
 pub const REDUCE_WORKGROUP: u64 = 64;
@@ -69,24 +72,35 @@ pub struct SplatOptions {
     /// beam edge); a hidden sample then takes no `Real` operation, a visible one only its
     /// `Real` point (the reported range and azimuth). Results are the same either way.
     pub filter: bool,
+    /// Threads a workgroup, one of [`SPLAT_WORKGROUPS`]: a workgroup takes this many
+    /// consecutive samples of a pose at a time. Results are the same whatever it is.
+    pub workgroup: u32,
 }
 
 impl SplatOptions {
     /// Returns the options for `ctx`'s adapter: culling and the f32 filter on a hardware GPU,
     /// where `Real` arithmetic costs many f32 operations (f64 on consumer GPUs, double-f32), and
     /// neither on a software adapter such as lavapipe, measured slower there with each
-    /// (BENCHMARKS.md). The environment variables `SONARPROJ_GPU_CULL` and
-    /// `SONARPROJ_GPU_FILTER` (`0` or `1`) override them, so one build measures every variant.
+    /// (BENCHMARKS.md); workgroups of [`SPLAT_WORKGROUP`] threads. The environment variables
+    /// `SONARPROJ_GPU_CULL` and `SONARPROJ_GPU_FILTER` (`0` or `1`) and
+    /// `SONARPROJ_GPU_WORKGROUP` (one of [`SPLAT_WORKGROUPS`]) override them, so one build
+    /// measures every variant; other values are ignored ([`SplatOptions::describe`], which
+    /// `sonarproj devices` and `bench` print, says what runs).
     #[must_use]
     pub fn for_adapter(ctx: &GpuContext) -> Self {
         let hardware = !ctx.is_software();
+        let workgroup = std::env::var("SONARPROJ_GPU_WORKGROUP")
+            .ok()
+            .and_then(|v| v.trim().parse().ok())
+            .filter(|w| SPLAT_WORKGROUPS.contains(w));
         SplatOptions {
             cull: flag("SONARPROJ_GPU_CULL").unwrap_or(hardware),
             filter: flag("SONARPROJ_GPU_FILTER").unwrap_or(hardware),
+            workgroup: workgroup.unwrap_or(SPLAT_WORKGROUP),
         }
     }
 
-    /// Returns a short description, such as `culling, f32 filter`.
+    /// Returns a short description, such as `culling, f32 filter, 64 threads a workgroup`.
     #[must_use]
     pub fn describe(&self) -> String {
         let cull = if self.cull { "culling" } else { "no culling" };
@@ -95,7 +109,24 @@ impl SplatOptions {
         } else {
             "no f32 filter"
         };
-        format!("{cull}, {filter}")
+        format!("{cull}, {filter}, {} threads a workgroup", self.workgroup)
+    }
+
+    /// Returns `Ok(())` when the options can be built.
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] naming the workgroup size when it is not one of
+    /// [`SPLAT_WORKGROUPS`].
+    pub fn validate(&self) -> Result<()> {
+        if SPLAT_WORKGROUPS.contains(&self.workgroup) {
+            Ok(())
+        } else {
+            Err(Error::invalid(
+                "splat workgroup",
+                self.workgroup,
+                "32, 64, 128 or 256 threads",
+            ))
+        }
     }
 }
 
@@ -127,12 +158,20 @@ impl GpuBackend {
     #[must_use]
     pub fn new(ctx: GpuContext) -> Self {
         let options = SplatOptions::for_adapter(&ctx);
-        Self::with_options(ctx, options)
+        Self::build(ctx, options)
     }
 
     /// Returns the backend on `ctx`, building its pipelines with `options`.
-    #[must_use]
-    pub fn with_options(ctx: GpuContext, options: SplatOptions) -> Self {
+    ///
+    /// # Errors
+    /// As [`SplatOptions::validate`].
+    pub fn with_options(ctx: GpuContext, options: SplatOptions) -> Result<Self> {
+        options.validate()?;
+        Ok(Self::build(ctx, options))
+    }
+
+    /// Returns the backend on `ctx` with valid `options`.
+    fn build(ctx: GpuContext, options: SplatOptions) -> Self {
         let splat = Stage::with_constants(
             &ctx.device,
             "splat",
@@ -141,6 +180,7 @@ impl GpuBackend {
             &[
                 ("CULL", f64::from(u8::from(options.cull))),
                 ("FILTER", f64::from(u8::from(options.filter))),
+                ("WORKGROUP", f64::from(options.workgroup)),
             ],
         );
         let reduce = Stage::new(&ctx.device, "reduce", &shaders::reduce(), &REDUCE_BINDINGS);
@@ -340,7 +380,9 @@ impl GpuBackend {
             let reduce_group = self
                 .reduce
                 .bind(device, &[&params, &edges, &weights, &bits, &metrics]);
-            let tiles = max_samples.div_ceil(SPLAT_WORKGROUP).clamp(1, MAX_TILES) as u32;
+            let tiles = max_samples
+                .div_ceil(u64::from(self.options.workgroup))
+                .clamp(1, MAX_TILES) as u32;
             let used_bits = n as u64 * bits_per_pose_bytes;
             let used_metrics = (n * METRIC_STRIDE * 4) as u64;
 
