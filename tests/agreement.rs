@@ -309,8 +309,9 @@ fn auto_sampling_of_surfaces() {
 /// Returns `n` items that each put one sample of `source`'s plan (step sampling at `step`
 /// degrees) on a clip bound or a bin or beam edge of `target`, as exactly as f64 places it: a
 /// random sample of the plan is the feature, placed under a random rotation at a point of
-/// sonar 2 on a random one of its azimuth and elevation bounds, range bounds, range-bin edges
-/// and (FLS) beam edges. Random poses almost never put a sample within f32 precision of a clip
+/// sonar 2 on a random one of its azimuth and elevation bounds (the ±180° seam of a full
+/// circle, the poles of a 180° elevation aperture), range bounds, range-bin edges and (FLS)
+/// beam edges. Random poses almost never put a sample within f32 precision of a clip
 /// bound; these do, so a decision that f32 gets wrong there shows.
 fn items_on_bounds(seed: u64, source: &Sonar, target: &Sonar, step: f64, n: usize) -> Vec<BatchItem> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -353,13 +354,9 @@ fn items_on_bounds(seed: u64, source: &Sonar, target: &Sonar, step: f64, n: usiz
             match rng.random_range(0..5) {
                 0 => a = if rng.random() { ha } else { -ha },
                 1 => e = if rng.random() { he } else { -he },
-                2 => {
-                    r = if rng.random() {
-                        target.range_max
-                    } else {
-                        target.range_min.max(0.05)
-                    }
-                }
+                // (A range_min of 0 is no bound: a point at the origin is never seen.)
+                2 if target.range_min > 0.0 && rng.random() => r = target.range_min,
+                2 => r = target.range_max,
                 3 => r = target.range_min + f64::from(rng.random_range(1..target.range_bins)) * width,
                 _ if !beam_edges.is_empty() => a = beam_edges[rng.random_range(0..beam_edges.len())],
                 _ => a = if rng.random() { ha } else { -ha },
@@ -388,6 +385,9 @@ fn samples_on_bounds_and_edges() {
             common::preset("holoocean-imaging"),
         ),
         (24, common::preset("holoocean-sidescan"), nonuniform_fls()),
+        // The full circle (its ±180° seam), range_min 0 and no elevation clip.
+        (25, common::preset("oculus-m750d"), omni_fls()),
+        (26, common::preset("paper-sss"), omni_fls()),
     ] {
         let items = items_on_bounds(seed, &source, &target, 0.1, 300);
         agree_on(items, source, target, Sampling::Step(0.1));
@@ -412,36 +412,67 @@ fn results_do_not_depend_on_the_chunk_size() {
 }
 
 /// Every workgroup size of the splat stage, with and without culling (whose block decisions a
-/// workgroup shares), gives the same bits; a size outside the list is an error naming it.
+/// workgroup shares) and the f32 filter, gives the same bits, also where the workgroups step
+/// through a long plan; a size outside the list is an error naming it.
 #[test]
 fn results_do_not_depend_on_the_workgroup_size() {
     let Some(gpu) = common::gpu() else { return };
     let pairs = [
-        (14, common::preset("paper-fls"), common::preset("paper-sss")),
-        (15, common::preset("paper-sss"), common::preset("paper-fls")),
+        (
+            14,
+            common::preset("paper-fls"),
+            common::preset("paper-sss"),
+            Sampling::Step(0.1),
+            200,
+        ),
+        (
+            15,
+            common::preset("paper-sss"),
+            common::preset("paper-fls"),
+            Sampling::Step(0.1),
+            200,
+        ),
+        // Plans of more samples than the most workgroups a pose gets (1024) hold threads: the
+        // workgroups step through the plan.
+        (
+            16,
+            common::preset("paper-sss"),
+            common::preset("paper-fls"),
+            Sampling::Step(0.01),
+            3,
+        ),
     ];
-    for (seed, source, target) in pairs {
+    for (seed, source, target, sampling, poses) in pairs {
         let batch = Batch {
-            items: random_items(seed, &source, &target, 200),
+            items: random_items(seed, &source, &target, poses),
             source,
             target,
-            sampling: Sampling::Step(0.1),
+            sampling,
         };
         let prepared = batch.prepare().unwrap();
+        if sampling == Sampling::Step(0.01) {
+            let samples = prepared.plan(0).total();
+            assert!(
+                samples > 1024 * 256,
+                "{samples} samples do not make the workgroups step"
+            );
+        }
         let want = gpu.project(&prepared, Output::WithOccupancy).unwrap();
-        for workgroup in SPLAT_WORKGROUPS {
-            for cull in [false, true] {
-                let options = SplatOptions {
-                    workgroup,
-                    cull,
-                    ..gpu.options()
-                };
-                let variant = GpuBackend::with_options(gpu.context().clone(), options).unwrap();
-                let got = variant.project(&prepared, Output::WithOccupancy).unwrap();
-                assert_eq!(got.len(), want.len());
-                for (k, (g, w)) in got.iter().zip(&want).enumerate() {
-                    assert_eq!(g, w, "pose {k}, {}", options.describe());
-                }
+        let variants = SPLAT_WORKGROUPS
+            .into_iter()
+            .flat_map(|w| [(w, false), (w, true)])
+            .flat_map(|(w, c)| [(w, c, false), (w, c, true)]);
+        for (workgroup, cull, filter) in variants {
+            let options = SplatOptions {
+                workgroup,
+                cull,
+                filter,
+            };
+            let variant = GpuBackend::with_options(gpu.context().clone(), options).unwrap();
+            let got = variant.project(&prepared, Output::WithOccupancy).unwrap();
+            assert_eq!(got.len(), want.len());
+            for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+                assert_eq!(g, w, "pose {k}, {}", options.describe());
             }
         }
     }

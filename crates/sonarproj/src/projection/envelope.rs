@@ -1,14 +1,16 @@
 //! How far the GPU may honestly differ from the f64 reference (README: How the GPU is checked).
 //!
 //! Every sample is given a tolerance of [`RELATIVE_TOLERANCE`] × its range in sonar 2 (plus
-//! [`INPUT_TOLERANCE`] × (`range + |t|`), for the pose and directions reaching the GPU as f32
-//! hi + lo pairs; [`DOUBLE_F32_TOLERANCE`] for a GPU deciding in double-f32): an interval of ranges, and the matching intervals of azimuth (divided by the
-//! distance from sonar 2's z axis) and elevation (divided by the range). The GPU transforms and
-//! decides in f64 (or double-f32), far inside this, and reports ranges and azimuths rounded to
+//! [`INPUT_TOLERANCE`] × (`range + |t|`), for the pose and directions reaching the GPU as f32 hi +
+//! lo pairs; [`DOUBLE_F32_TOLERANCE`] for a GPU deciding in double-f32): an interval of ranges,
+//! and the matching intervals of azimuth (divided by the distance from sonar 2's z axis; an
+//! azimuth interval reaching ±π wraps, so such a sample, near a full circle's seam or the z axis,
+//! may be reported anywhere from −π to π) and elevation (divided by the range). The GPU transforms
+//! and decides in f64 (or double-f32), far inside this, and reports ranges and azimuths rounded to
 //! f32 (1e-7 relative). A sample whose intervals straddle a clip bound or a bin edge may land
 //! either way; all other samples must land exactly where the reference puts them. This module
-//! returns, for one pose, the *certain* occupancy (pixels set by samples far from every edge),
-//! the *possible* occupancy (every pixel a sample could reach within its tolerance), and matching
+//! returns, for one pose, the *certain* occupancy (pixels set by samples far from every edge), the
+//! *possible* occupancy (every pixel a sample could reach within its tolerance), and matching
 //! intervals for every metric. A correct GPU result lies inside all of them.
 
 use crate::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
@@ -124,18 +126,27 @@ pub fn bounds_with(
             let bins =
                 layout.range_bin(r_lo.max(layout.range_min))..=layout.range_bin(r_hi.min(layout.range_max));
             let beams = candidate_beams(layout, az, d_az);
+            // Reported azimuths lie in [−π, π]: an interval reaching ±π wraps (a sample near the
+            // seam of a full circle, or near the z axis), and the sample may be reported
+            // anywhere from −π to π (within its tolerance, which covers an f32 π) as far as the
+            // extremes go.
+            let (az_lo, az_hi) = if az - d_az <= -PI || az + d_az >= PI {
+                (-PI - d_az, PI + d_az)
+            } else {
+                (az - d_az, az + d_az)
+            };
             if certainly_in {
                 b.visible_min += 1;
                 b.range_min.1 = b.range_min.1.min(r_hi);
                 b.range_max.0 = b.range_max.0.max(r_lo);
-                b.azimuth_min.1 = b.azimuth_min.1.min(az + d_az);
-                b.azimuth_max.0 = b.azimuth_max.0.max(az - d_az);
+                b.azimuth_min.1 = b.azimuth_min.1.min(az_hi);
+                b.azimuth_max.0 = b.azimuth_max.0.max(az_lo);
             }
             b.visible_max += 1;
             b.range_min.0 = b.range_min.0.min(r_lo);
             b.range_max.1 = b.range_max.1.max(r_hi);
-            b.azimuth_min.0 = b.azimuth_min.0.min(az - d_az);
-            b.azimuth_max.1 = b.azimuth_max.1.max(az + d_az);
+            b.azimuth_min.0 = b.azimuth_min.0.min(az_lo);
+            b.azimuth_max.1 = b.azimuth_max.1.max(az_hi);
             let single = bins.start() == bins.end() && beams.len() == 1;
             if certainly_in && single {
                 b.certain.set(*bins.start(), beams[0]);
