@@ -135,12 +135,12 @@ fn in_view(x: Real, y: Real, z: Real, r2: Real) -> bool {
 // moves it: wholly outside sonar 2's field of view, wholly inside, or across a bound. Twin of
 // projection::fast's Geometry::ball_side: each clip bound is a 1-Lipschitz function of the point, so
 // its value at the centre moves by at most the radius over the ball. Decided in f32 from the
-// pose's hi parts, with a slack of 1e-5 * (range + |t| + range_max), over a hundred times the
-// f32 roundings here, so a culled sample is one the Real test rejects and a sample of an INSIDE
-// block one it keeps.
-fn block_side(pose: Pose, ball: vec4<f32>) -> u32 {
+// pose's hi parts, with slack the pose's f32_slack (1e-5 * (range + |t| + range_max), over a
+// hundred times the f32 roundings here), so a culled sample is one the Real test rejects and a
+// sample of an INSIDE block one it keeps.
+fn block_side(pose: Pose, ball: vec4<f32>, slack: f32) -> u32 {
     let c = moved(pose, ball.xyz);
-    let radius = length(pose.hi0.xyz) * ball.w * 1.00001 + f32_slack(pose);
+    let radius = length(pose.hi0.xyz) * ball.w * 1.00001 + slack;
     let d = length(c);
     // azimuth: the two half-planes' signed distances, intersected for h <= 90 deg, else united
     let upper = c.x * params.sin_half_az.x - c.y * params.cos_half_az.x;
@@ -219,8 +219,8 @@ fn unit_f32(pose: Pose, k: u32) -> vec3<f32> {
 // for apertures over 180 deg; above the elevation sheet, z cos e - rho sin e; below it), and a
 // concave function on a segment is at least its smaller value at the ends. In f32 with
 // block_side's slack.
-fn chord_outside(pose: Pose, first: u32, last: u32, reach: f32) -> bool {
-    let margin = length(pose.hi0.xyz) * reach * 1.00001 + f32_slack(pose);
+fn chord_outside(pose: Pose, first: u32, last: u32, reach: f32, slack: f32) -> bool {
+    let margin = length(pose.hi0.xyz) * reach * 1.00001 + slack;
     let a = beyond(moved(pose, unit_f32(pose, first)), margin);
     let b = beyond(moved(pose, unit_f32(pose, last)), margin);
     var azimuth = (a.upper && b.upper) || (a.lower && b.lower);
@@ -400,12 +400,12 @@ fn main(
                 let b = base / BLOCK + lid;
                 if b * BLOCK < n {
                     let balls = pose.plan.z + pose.plan.w;
-                    block = block_side(pose, directions[balls + b]);
+                    block = block_side(pose, directions[balls + b], slack);
                     // A ball across a bound: the block's chord may still lie wholly outside.
                     if block == ACROSS {
                         let reach = directions[balls + (n + BLOCK - 1u) / BLOCK + b / 4u][b % 4u];
                         let last = min(b * BLOCK + BLOCK, n) - 1u;
-                        if chord_outside(pose, b * BLOCK, last, reach) {
+                        if chord_outside(pose, b * BLOCK, last, reach, slack) {
                             block = OUTSIDE;
                         }
                     }
