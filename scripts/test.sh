@@ -29,7 +29,7 @@ export NODEVICE_SELECT=1
 # 25 % faster). The examples are built as programs first (`cargo test` builds them only as test
 # harnesses), for tests/examples.rs to run; doctests last.
 checks=()
-for p in sonarproj sonarproj-apps sonarproj-cli sonarproj-py; do
+for p in sonarproj sonarproj-apps sonarproj-cli sonarproj-py sonarproj-testkit; do
     checks+=(--config "profile.release.package.$p.overflow-checks=true")
 done
 cargo build --release "${checks[@]}" --examples

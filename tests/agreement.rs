@@ -4,7 +4,7 @@
 //! (README: How the GPU is checked: bin-exact except samples within 1e-5 relative of a clip bound or bin edge), and
 //! the number of pixels where the two differ never above the number of such samples.
 
-mod common;
+use sonarproj_testkit as common;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

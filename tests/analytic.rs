@@ -2,7 +2,7 @@
 //! None of the samples here sits near a bin edge or clip bound, so counts are exact on both;
 //! ranges and angles from the GPU carry f32 rounding, allowed at 1e-5 relative (README: How the GPU is checked).
 
-mod common;
+use sonarproj_testkit as common;
 
 use sonarproj::Output;
 use sonarproj::{

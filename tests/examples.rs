@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-mod common;
+use sonarproj_testkit as common;
 
 /// Returns the path of the built example `name`, next to this test binary's `deps/` folder.
 fn example(name: &str) -> PathBuf {

@@ -9,7 +9,7 @@ use sonarproj::geometry::pose::{cart_to_sph, sph_to_cart};
 use sonarproj::recovery::{DEFAULT_CURVE_STEP, Flag, Observation, Recovery, Sigmas, recover};
 use sonarproj::{RelativePose, Rotation, Sonar, SonarKind};
 
-mod common;
+use sonarproj_testkit as common;
 
 /// A random scene: a pose and a point seen by both sonars (true point, `[r, az, el]` in each).
 struct Scene {

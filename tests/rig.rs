@@ -5,7 +5,7 @@ use glam::{DQuat, DVec3};
 use sonarproj::rig::{Mount, relative_pose, sidescan_pair};
 use sonarproj::{BeamLayout, Rotation};
 
-mod common;
+use sonarproj_testkit as common;
 
 /// Returns `Ry(θ)ᵀ v` for θ in degrees, written out by hand.
 fn ry_t(deg: f64, v: DVec3) -> DVec3 {

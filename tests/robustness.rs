@@ -3,7 +3,7 @@
 //! panics or aborts. A value that passes validation must also run: projections on both CPU
 //! backends, masks and recovery are carried out whenever a constructor accepted their inputs.
 
-mod common;
+use sonarproj_testkit as common;
 
 use glam::{DMat3, DVec3};
 use proptest::prelude::*;

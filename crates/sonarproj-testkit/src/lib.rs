@@ -1,26 +1,49 @@
-//! Helpers shared by the integration tests.
-#![allow(dead_code, reason = "each test binary uses a different subset")]
+//! Helpers shared by the integration tests of the workspace's crates: presets, the one GPU
+//! context of a test binary, the envelope check of a GPU result, the built `sonarproj` binary
+//! (run from the repository's root, as a user runs it), and PNG pictures read by the picture
+//! convention. Test code only: never a dependency of a shipped crate.
 
 use sonarproj::Sonar;
 use sonarproj::gpu::GpuContext;
 use sonarproj::projection::gpu::GpuBackend;
 
 /// Returns the preset `name` (a test names only presets that exist).
-pub(crate) fn preset(name: &str) -> Sonar {
+#[must_use]
+pub fn preset(name: &str) -> Sonar {
     Sonar::preset(name).unwrap_or_else(|| panic!("no preset {name:?}"))
 }
 
-/// Returns a command running the built `sonarproj` binary, quiet about Mesa's device-select
-/// layer on headless machines.
-pub(crate) fn sonarproj() -> assert_cmd::Command {
+/// Returns the repository's root (where the README's commands run; `data/` is there): the
+/// nearest folder at or above the current one that holds `crates/sonarproj-cli` (cargo runs a
+/// test in its package's folder; `scripts/gpu-remote.sh` runs the test binaries from the root of
+/// a copy elsewhere), else the root this crate was built in.
+#[must_use]
+pub fn repository() -> std::path::PathBuf {
+    let here = std::env::current_dir().unwrap_or_default();
+    here.ancestors()
+        .find(|d| d.join("crates/sonarproj-cli").is_dir() && d.join("Cargo.toml").is_file())
+        .map_or_else(
+            || std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../.."),
+            std::path::Path::to_path_buf,
+        )
+}
+
+/// Returns a command running the built `sonarproj` binary in the repository's root, quiet
+/// about Mesa's device-select layer on headless machines.
+///
+/// # Panics
+/// When the binary is not built.
+#[must_use]
+pub fn sonarproj() -> assert_cmd::Command {
     let mut c = assert_cmd::Command::cargo_bin("sonarproj").expect("the sonarproj binary");
-    c.env("NODEVICE_SELECT", "1");
+    c.env("NODEVICE_SELECT", "1").current_dir(repository());
     c
 }
 
 /// Returns the `--backend` values to try: `cpu` (the CPU backend a test wants) always, `gpu`
 /// where an adapter exists (always in CI, where [`gpu`] fails loudly without one).
-pub(crate) fn cli_backends(cpu: &'static str) -> Vec<&'static str> {
+#[must_use]
+pub fn cli_backends(cpu: &'static str) -> Vec<&'static str> {
     let mut b = vec![cpu];
     if gpu().is_some() {
         b.push("gpu");
@@ -34,7 +57,8 @@ pub(crate) fn cli_backends(cpu: &'static str) -> Vec<&'static str> {
 /// the process when they ran in parallel, and instances created after others were dropped found
 /// no driver.) Without an adapter it panics when `CI=true` (GPU tests must run in CI, on
 /// lavapipe) and otherwise returns `None` after saying that the test is skipped.
-pub(crate) fn gpu_context() -> Option<GpuContext> {
+#[must_use]
+pub fn gpu_context() -> Option<GpuContext> {
     static CONTEXT: std::sync::OnceLock<Result<GpuContext, String>> = std::sync::OnceLock::new();
     match CONTEXT.get_or_init(|| GpuContext::new().map_err(|e| e.to_string())) {
         Ok(ctx) => Some(ctx.clone()),
@@ -42,14 +66,23 @@ pub(crate) fn gpu_context() -> Option<GpuContext> {
             if std::env::var("CI").is_ok_and(|v| v == "true" || v == "1") {
                 panic!("CI=true but no GPU adapter: {e}. Install lavapipe (mesa-vulkan-drivers).");
             }
-            eprintln!("SKIPPED (no GPU adapter outside CI): {e}");
+            say_skipped(e);
             None
         }
     }
 }
 
+/// Writes `skipped: no adapter` and the test's name straight to stderr, where the test harness
+/// does not capture it: a GPU test without an adapter passes, and says so.
+fn say_skipped(why: &str) {
+    use std::io::Write;
+    let test = std::thread::current().name().unwrap_or("a GPU test").to_string();
+    let _ = writeln!(std::io::stderr(), "skipped: no adapter ({test}): {why}");
+}
+
 /// Returns a GPU backend on the shared context of [`gpu_context`].
-pub(crate) fn gpu() -> Option<GpuBackend> {
+#[must_use]
+pub fn gpu() -> Option<GpuBackend> {
     gpu_context().map(GpuBackend::new)
 }
 
@@ -61,11 +94,11 @@ use sonarproj::projection::envelope::Bounds;
 /// Relative error allowed on the GPU's FLS occupied measure: it sums pixel areas in f32, at most
 /// about (rows per thread + log2 64) roundings of 2^-24 each, well under 1e-5 for every layout
 /// here. The SSS measure is computed in f64 from the exact count and gets no allowance.
-pub(crate) const F32_AREA_SUM_RELATIVE: f64 = 1e-5;
+pub const F32_AREA_SUM_RELATIVE: f64 = 1e-5;
 
 /// Returns `Ok` when `p` (a GPU result with its occupancy) lies inside the envelope `b` computed
 /// by the CPU reference for the same pose, else a message saying which check failed.
-pub(crate) fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Result<(), String> {
+pub fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Result<(), String> {
     let m = &p.metrics;
     let occ = p.occupancy.as_ref().ok_or("no occupancy read back")?;
     if !(b.visible_min..=b.visible_max).contains(&m.visible) {
@@ -121,7 +154,8 @@ pub(crate) fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -
 }
 
 /// Returns the number of pixels set in exactly one of `a` and `b`.
-pub(crate) fn differing_pixels(a: &sonarproj::Occupancy, b: &sonarproj::Occupancy) -> u64 {
+#[must_use]
+pub fn differing_pixels(a: &sonarproj::Occupancy, b: &sonarproj::Occupancy) -> u64 {
     a.words
         .iter()
         .zip(&b.words)
@@ -132,7 +166,8 @@ pub(crate) fn differing_pixels(a: &sonarproj::Occupancy, b: &sonarproj::Occupanc
 /// Returns the property tests' configuration: 256 cases from a fixed seed, so a run is
 /// repeatable and CI sees the same cases; `PROPTEST_RNG_SEED=N` explores others (failures found
 /// so far are replayed first from the test's `.proptest-regressions` file).
-pub(crate) fn proptest_config() -> proptest::test_runner::Config {
+#[must_use]
+pub fn proptest_config() -> proptest::test_runner::Config {
     use proptest::test_runner::{Config, RngSeed};
     let default = Config::default();
     let rng_seed = match default.rng_seed {
@@ -150,18 +185,24 @@ pub(crate) fn proptest_config() -> proptest::test_runner::Config {
 /// `report` module's documentation): the panels of sonar data are the areas of its light grey
 /// (235, 235, 235, the field of view where nothing is occupied); masks and occupied pixels are
 /// coloured.
-pub(crate) struct Picture {
+pub struct Picture {
+    /// Width (px).
     pub w: usize,
+    /// Height (px).
     pub h: usize,
     rgb: Vec<u8>,
 }
 
 /// A panel's bounding box in a [`Picture`], inclusive.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Panel {
+pub struct Panel {
+    /// Leftmost column.
     pub x0: usize,
+    /// Rightmost column.
     pub x1: usize,
+    /// Top row.
     pub y0: usize,
+    /// Bottom row.
     pub y1: usize,
 }
 
@@ -170,7 +211,8 @@ const EMPTY: [u8; 3] = [235, 235, 235];
 
 impl Picture {
     /// Decodes the PNG at `path`, which must be 8-bit RGB.
-    pub(crate) fn read(path: &std::path::Path) -> Self {
+    #[must_use]
+    pub fn read(path: &std::path::Path) -> Self {
         let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
         let mut reader = png::Decoder::new(file).read_info().unwrap();
         let mut rgb = vec![0; reader.output_buffer_size().unwrap()];
@@ -193,7 +235,8 @@ impl Picture {
     /// Returns the panels, left to right: runs of columns holding 20 light grey pixels in a row
     /// (runs a few columns apart, as split by a bearing line, are one panel), each with the rows
     /// holding 8 of its light grey pixels side by side (anti-aliased text is not a panel).
-    pub(crate) fn panels(&self) -> Vec<Panel> {
+    #[must_use]
+    pub fn panels(&self) -> Vec<Panel> {
         let longest = |cells: &mut dyn Iterator<Item = [u8; 3]>| {
             let (mut best, mut run) = (0, 0);
             for c in cells {
@@ -229,7 +272,8 @@ impl Picture {
 
     /// Returns the coloured pixels (channels at least 60 apart: not white, grey or black text)
     /// inside `p`.
-    pub(crate) fn coloured(&self, p: Panel) -> Vec<(usize, usize)> {
+    #[must_use]
+    pub fn coloured(&self, p: Panel) -> Vec<(usize, usize)> {
         let mut out = Vec::new();
         for y in p.y0..=p.y1 {
             for x in p.x0..=p.x1 {
@@ -245,7 +289,7 @@ impl Picture {
     /// Asserts that panel `p` holds coloured pixels, all in its left half (`port`: `Some(true)`)
     /// or its right half (`Some(false)`; `None`: not checked), and all in its lower half
     /// (`near`) or its upper half.
-    pub(crate) fn assert_side(&self, p: Panel, port: Option<bool>, near: bool, what: &str) {
+    pub fn assert_side(&self, p: Panel, port: Option<bool>, near: bool, what: &str) {
         let px = self.coloured(p);
         assert!(!px.is_empty(), "{what}: nothing coloured in panel {p:?}");
         let (cx, cy) = ((p.x0 + p.x1) / 2, (p.y0 + p.y1) / 2);

@@ -4,7 +4,7 @@
 //! layout, sidescan strips) and the occupancy picture, drawn from hand-made occupancies at known
 //! ranges and azimuths. The command line's pictures are checked the same way in `tests/cli.rs`.
 
-mod common;
+use sonarproj_testkit as common;
 
 use common::Picture;
 use sonarproj::Sonar;

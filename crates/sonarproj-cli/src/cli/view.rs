@@ -52,32 +52,32 @@ const ASSETS: [Asset; 6] = [
     (
         "/",
         "text/html; charset=utf-8",
-        include_bytes!("../../web/viewer/index.html"),
+        include_bytes!("../../../../web/viewer/index.html"),
     ),
     (
         "/app.js",
         "text/javascript; charset=utf-8",
-        include_bytes!("../../web/viewer/app.js"),
+        include_bytes!("../../../../web/viewer/app.js"),
     ),
     (
         "/style.css",
         "text/css; charset=utf-8",
-        include_bytes!("../../web/viewer/style.css"),
+        include_bytes!("../../../../web/viewer/style.css"),
     ),
     (
         "/vendor/three/three.module.min.js",
         "text/javascript; charset=utf-8",
-        include_bytes!("../../web/viewer/vendor/three/three.module.min.js"),
+        include_bytes!("../../../../web/viewer/vendor/three/three.module.min.js"),
     ),
     (
         "/vendor/three/three.core.min.js",
         "text/javascript; charset=utf-8",
-        include_bytes!("../../web/viewer/vendor/three/three.core.min.js"),
+        include_bytes!("../../../../web/viewer/vendor/three/three.core.min.js"),
     ),
     (
         "/vendor/three/OrbitControls.js",
         "text/javascript; charset=utf-8",
-        include_bytes!("../../web/viewer/vendor/three/OrbitControls.js"),
+        include_bytes!("../../../../web/viewer/vendor/three/OrbitControls.js"),
     ),
 ];
 

@@ -5,7 +5,7 @@
 //! case takes milliseconds and a few MiB; a case slower than 100 ms is reported on stderr
 //! (`cargo test --release --test parsers -- --nocapture`), never failed on time.
 
-mod common;
+use sonarproj_testkit as common;
 
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -255,9 +255,9 @@ fn parsers_accept_what_the_readme_shows() {
     assert!(feature(&fls, 0, "5,10").is_ok());
     let line = r#"{"pose": {"pitch": 90, "translation": [15, 0, 0]}, "features": [[5, 10]]}"#;
     assert_eq!(parse_mask_line(&fls, line).unwrap().features.len(), 1);
-    let csv = std::fs::read("data/example-poses.csv").unwrap();
+    let csv = std::fs::read(common::repository().join("data/example-poses.csv")).unwrap();
     assert!(!read_batch_csv(csv.as_slice(), &fls).unwrap().items.is_empty());
-    assert!(SweepConfig::load(Path::new("data/example-sweep.toml")).is_ok());
+    assert!(SweepConfig::load(&common::repository().join("data/example-sweep.toml")).is_ok());
     assert!(
         Sonar::from_toml_str(
             "ok.toml",

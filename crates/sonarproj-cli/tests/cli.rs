@@ -1,7 +1,7 @@
 //! The command line from the outside: `project`, `batch`, `devices`, and bad input (exit status
 //! 2, a message naming the field and value, no output file left behind).
 
-mod common;
+use sonarproj_testkit as common;
 
 use serde_json::Value;
 use sonarproj::metrics::METRIC_NAMES;
@@ -935,6 +935,7 @@ fn bench_times_every_backend_on_the_same_batches() {
 /// Runs the binary with `args` and stdout on `out`; returns the exit code and stderr.
 fn run_with_stdout(args: &[&str], out: std::process::Stdio) -> (Option<i32>, String) {
     let output = std::process::Command::new(assert_cmd::cargo::cargo_bin("sonarproj"))
+        .current_dir(common::repository())
         .args(args)
         .env("NODEVICE_SELECT", "1")
         .stdout(out)

@@ -1,7 +1,7 @@
 //! Reliability from the outside: what the binary does with special output files, symlinks, bad
 //! output paths, bad lines in a stream and bad rows in long CSV inputs (README: Reliability).
 
-mod common;
+use sonarproj_testkit as common;
 
 use std::io::Read;
 
@@ -298,6 +298,7 @@ fn a_bad_batch_row_stops_the_batch_after_the_rows_before_it() {
 fn endless_stdin(args: &[&str], head: &[u8], filler: &[u8]) -> (Option<i32>, String, usize) {
     use std::io::Write;
     let mut child = Command::new(env!("CARGO_BIN_EXE_sonarproj"))
+        .current_dir(common::repository())
         .args(args)
         .stdin(std::process::Stdio::piped())
         .stdout(std::process::Stdio::null())
@@ -399,7 +400,7 @@ fn a_bad_recover_row_stops_after_the_rows_before_it() {
 #[test]
 fn a_refused_run_leaves_nothing_that_blocks_the_corrected_one() {
     let dir = tempfile::tempdir().unwrap();
-    let example = std::fs::read_to_string("data/example-sweep.toml").unwrap();
+    let example = std::fs::read_to_string(common::repository().join("data/example-sweep.toml")).unwrap();
     assert!(
         example.contains("step = 0.1 "),
         "the example sweep's step line changed"
@@ -493,6 +494,7 @@ fn a_signal_during_a_write_removes_the_temporary() {
         let dir = tempfile::tempdir().unwrap();
         let output = dir.path().join("out.csv");
         let mut child = Command::new(env!("CARGO_BIN_EXE_sonarproj"))
+            .current_dir(common::repository())
             .args(["batch", "--from", "paper-fls", "--to", "paper-sss", "--step", "2"])
             .args(["--backend", "cpu-fast", "--input", "-", "--output"])
             .arg(&output)

@@ -2,7 +2,7 @@
 //! interruption and resumption, or on sharding and merging (byte for byte); grids enumerate the
 //! poses they describe; bad sweep files and mismatched re-runs are refused naming the key.
 
-mod common;
+use sonarproj_testkit as common;
 
 use std::path::{Path, PathBuf};
 
@@ -190,6 +190,7 @@ fn a_killed_sweep_resumes_to_the_same_file() {
     let chunks = || std::fs::read_dir(&state).map_or(0, |d| d.count());
     for at_least in [3, 10] {
         let mut child = std::process::Command::new(&bin)
+            .current_dir(common::repository())
             .env("NODEVICE_SELECT", "1")
             .args([
                 "sweep",

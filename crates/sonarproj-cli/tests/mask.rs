@@ -1,0 +1,209 @@
+//! The `mask` command: its JSON, PNG and NPY describe the library's masks, its pictures follow the
+//! picture convention, its stream answers every line, and bad input names the option.
+
+use serde_json::Value;
+use sonarproj::masks::{Counts, MaskEngine, run_lengths};
+use sonarproj::{Measurement, RelativePose, Rotation, Sonar};
+use sonarproj_testkit::{Picture, sonarproj};
+
+const PAIR: [&str; 4] = ["--from", "holoocean-sidescan", "--to", "holoocean-imaging"];
+/// The CPU engine, which [`library`] uses too: on a hardware GPU `auto` draws on the GPU,
+/// whose masks hold the CPU's but may be a pixel wider (its f32 slack), so comparing the
+/// two bit for bit needs the same engine on both sides.
+const CPU: [&str; 2] = ["--backend", "cpu"];
+const POSE: [&str; 6] = ["--pitch", "5", "--yaw", "10", "--translation", "0.3,0.2,-0.1"];
+
+/// Returns the library's masks for the same pose and features as the CLI calls below.
+fn library(features: &[f64]) -> Vec<sonarproj::Occupancy> {
+    let engine = MaskEngine::new(
+        Sonar::preset("holoocean-sidescan").unwrap(),
+        Sonar::preset("holoocean-imaging").unwrap(),
+    )
+    .unwrap();
+    let pose = RelativePose::new(
+        Rotation::RollPitchYaw {
+            roll: 0.0,
+            pitch: 5.0,
+            yaw: 10.0,
+        },
+        [0.3, 0.2, -0.1],
+    )
+    .unwrap();
+    let ms: Vec<Measurement> = features
+        .iter()
+        .map(|&r| Measurement {
+            range: r,
+            azimuth: 0.0,
+        })
+        .collect();
+    engine
+        .masks(&pose, &ms, None, Counts::Skip)
+        .unwrap()
+        .masks
+        .into_iter()
+        .map(|m| m.occupancy)
+        .collect()
+}
+
+#[test]
+fn json_png_and_npy_describe_the_same_masks() {
+    let dir = tempfile::tempdir().unwrap();
+    let (png, npy) = (dir.path().join("m.png"), dir.path().join("m.npy"));
+    let out = sonarproj()
+        .arg("mask")
+        .args(PAIR)
+        .args(CPU)
+        .args(POSE)
+        .args(["--feature", "4", "--feature", "7.5", "--json", "--out"])
+        .arg(&png)
+        .arg("--npy")
+        .arg(&npy)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let v: Value = serde_json::from_slice(&out).unwrap();
+    let want = library(&[4.0, 7.5]);
+    let f = v["features"].as_array().unwrap();
+    assert_eq!(f.len(), 2);
+    for (k, occ) in want.iter().enumerate() {
+        assert_eq!(f[k]["occupied"].as_u64().unwrap(), occ.count());
+        assert!(occ.count() > 0, "feature {k} should be seen in this pose");
+        let b = &f[k]["bounding_box"];
+        // The sidescan feature at range R lies near range R in the imaging sonar here.
+        let r = [4.0, 7.5][k];
+        assert!(
+            b["range_min"].as_f64().unwrap() < r && b["range_max"].as_f64().unwrap() > r - 0.5,
+            "{b}"
+        );
+    }
+    let bytes = std::fs::read(&npy).unwrap();
+    let arr = npyz::NpyFile::new(bytes.as_slice()).unwrap();
+    assert_eq!(arr.shape(), &[2, 512, 512]);
+    let data: Vec<u8> = arr.into_vec().unwrap();
+    for (k, occ) in want.iter().enumerate() {
+        assert_eq!(
+            &data[k * 512 * 512..(k + 1) * 512 * 512],
+            occ.to_bytes(false, false).as_slice()
+        );
+    }
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+}
+
+/// Runs `mask` from `sonar` to itself with no motion for `features`, writing the PNG to
+/// `png`, and reads it back.
+fn picture_in_place(sonar: &str, features: &[&str], png: &std::path::Path) -> Picture {
+    let mut cmd = sonarproj();
+    cmd.args(["mask", "--from", sonar, "--to", sonar, "--translation", "0,0,0"])
+        .args(CPU);
+    for f in features {
+        cmd.args(["--feature", f]);
+    }
+    cmd.arg("--out").arg(png).assert().success();
+    Picture::read(png)
+}
+
+#[test]
+fn png_shows_port_on_the_left_and_near_range_at_the_bottom() {
+    // Sonar 2 is sonar 1: each feature's mask lies where the feature is. +azimuth is +y,
+    // port; holoocean-imaging reaches 10 m (±60°), so 2 m is near and 8 m far.
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("m.png");
+    for (feature, port, near) in [
+        ("2,30", true, true),
+        ("8,-30", false, false),
+        ("8,40", true, false),
+        ("3,-45", false, true),
+    ] {
+        let pic = picture_in_place("holoocean-imaging", &[feature], &png);
+        let panels = pic.panels();
+        assert_eq!(panels.len(), 2, "the fan and the raw layout: {panels:?}");
+        for (p, name) in panels.iter().zip(["fan", "raw layout"]) {
+            pic.assert_side(*p, Some(port), near, &format!("{name}, feature {feature}"));
+        }
+    }
+    // A sidescan target: vertical strips (the feature's, then the union), near range low.
+    for (feature, near) in [("5", true), ("30", false)] {
+        let pic = picture_in_place("holoocean-sidescan", &[feature], &png);
+        let panels = pic.panels();
+        assert!(panels.len() >= 2, "{panels:?}");
+        for p in &panels[..2] {
+            assert!(p.y1 - p.y0 > 3 * (p.x1 - p.x0), "vertical: {p:?}");
+            pic.assert_side(*p, None, near, &format!("strip, feature {feature}"));
+        }
+    }
+}
+
+#[test]
+fn the_stream_answers_every_line_and_names_bad_ones() {
+    let input = [
+        r#"{"pose": {"pitch": 5, "yaw": 10, "translation": [0.3, 0.2, -0.1]}, "features": [[4], [7.5]]}"#,
+        r#"{"pose": {"pitch": 5, "yaw": 10, "translation": [0.3, 0.2, -0.1]}, "features": [[400]]}"#,
+        r#"{"pose": {"pitch": 5, "yaw": 10, "translation": [0.3, 0.2, -0.1]}, "features": [[4]], "sigma": {"rotation": 0.5, "range": 0.05, "coverage": 0.95}}"#,
+        r#"{"pose": {"pitch": 5}, "features": [[4]]}"#,
+    ]
+    .join("\n");
+    let assert = sonarproj()
+        .arg("mask")
+        .args(PAIR)
+        .args(CPU)
+        .arg("--stream")
+        .write_stdin(input)
+        .assert()
+        .code(2);
+    let out = String::from_utf8(assert.get_output().stdout.clone()).unwrap();
+    let lines: Vec<Value> = out.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 4);
+    let want = library(&[4.0, 7.5]);
+    for (k, occ) in want.iter().enumerate() {
+        let runs: Vec<[u64; 2]> = serde_json::from_value(lines[0]["features"][k]["runs"].clone()).unwrap();
+        assert_eq!(runs, run_lengths(occ));
+    }
+    assert!(lines[0]["elapsed_ms"].as_f64().unwrap() >= 0.0);
+    assert!(
+        lines[1]["error"].as_str().unwrap().contains("features[0]"),
+        "{}",
+        lines[1]
+    );
+    // Widened: a superset of the plain mask.
+    let widened = lines[2]["features"][0]["occupied"].as_u64().unwrap();
+    assert!(widened > want[0].count(), "{widened} vs {}", want[0].count());
+    assert!(
+        lines[3]["error"].as_str().unwrap().contains("translation"),
+        "{}",
+        lines[3]
+    );
+    assert_eq!(lines[3]["line"], 4);
+}
+
+#[test]
+fn bad_mask_input_names_the_option() {
+    for (args, needle) in [
+        (vec!["--feature", "50"], "--feature 1"),
+        (vec!["--feature", "5", "--feature", "5,1,2"], "--feature 2"),
+        (vec!["--feature", "5", "--sigma-rotation", "-1"], "sigma roll"),
+        (
+            vec!["--feature", "5", "--sigma-range", "0.1", "--coverage", "1"],
+            "coverage",
+        ),
+        (vec!["--feature", "5", "--out", "x.jpg"], "--out"),
+        // Without any sigma the coverage means nothing, but a bad one is still refused.
+        (vec!["--feature", "5", "--coverage", "NaN"], "--coverage"),
+        (vec!["--feature", "5", "--coverage", "inf"], "--coverage"),
+        (vec!["--feature", "5", "--coverage", "0"], "--coverage"),
+        (vec!["--feature", "5", "--coverage", "1.5"], "--coverage"),
+        // A sidescan measures no azimuth: one given is refused, not dropped.
+        (vec!["--feature", "4,5"], "a sidescan measures no azimuth"),
+    ] {
+        let assert = sonarproj()
+            .arg("mask")
+            .args(PAIR)
+            .args(POSE)
+            .args(&args)
+            .assert()
+            .code(2);
+        let err = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+        assert!(err.contains(needle), "{args:?}: expected {needle:?} in {err}");
+    }
+}
