@@ -1,149 +1,136 @@
-//! The paper's figures as PNG (plotters, drawn in memory, fonts embedded): per direction a 2×3
-//! grid of line plots (scenarios 1–6: metric against the swept angle, one curve per distance
-//! fraction, one legend for all panels above them) and a 1×3 row of heatmaps (scenarios 7–9,
-//! each with its own colour scale, said on its colour bar); and the sweep figure.
+//! Figures as PNG (plotters, drawn in memory, fonts embedded), from neutral data — series,
+//! grids of cells, labels — so that this module knows nothing of what they show: a grid of line
+//! plots with one legend above the panels ([`line_grid`]), a row of heatmaps each with its own
+//! colour scale, said on its colour bar ([`heatmaps`]), and a sweep's line or heatmap
+//! ([`sweep`]). The paper and the sweep build their titles and data and call these.
 #![expect(
     clippy::cast_possible_truncation,
     reason = "pixel coordinates, palette indices and colours of images a few thousand pixels wide"
 )]
 
 use std::path::Path;
-use std::sync::Once;
 
 use plotters::prelude::*;
 use plotters::style::colors::colormaps::ViridisRGB;
 
 use plotters::style::text_anchor::{HPos, VPos};
 
-use crate::error::{Error, Result};
-use crate::paper::{DirectionRun, FRACTIONS, swept};
-use crate::report::picture::{self, text};
-use crate::report::write_atomic;
+use crate::error::Result;
+use crate::report::style::{AXES, CAPTION, Canvas, FONT, TICKS, TITLE, plot_error, text, text_width, wrap};
 
-/// Names of the swept angles by index.
-const ANGLE_NAMES: [&str; 3] = ["roll", "pitch", "yaw"];
-/// The font family the figures use (registered from embedded bytes).
-pub(crate) const FONT: &str = "sans-serif";
-/// Font sizes (px) of the figures: tick labels, axis titles, panel captions, figure titles.
-const TICKS: u32 = 17;
-/// Font size (px) of axis titles.
-const AXES: u32 = 19;
-/// Font size (px) of panel captions.
-const CAPTION: u32 = 21;
-/// Font size (px) of figure titles.
-const TITLE: u32 = 28;
-
-/// Registers the embedded font once (plotters' ab_glyph backend has no system fonts).
-pub(crate) fn fonts() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        // The bytes are a valid TTF shipped by the crate; failure would be a packaging bug.
-        let _ = plotters::style::register_font(FONT, FontStyle::Normal, epaint_default_fonts::UBUNTU_LIGHT);
-    });
+/// A grid of line plots sharing one legend: every panel has one curve per legend entry, in the
+/// legend's order and colours.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LineGrid {
+    /// The figure's title.
+    pub title: String,
+    /// `(rows, columns)` of panels.
+    pub shape: (usize, usize),
+    /// The y axis label of every panel.
+    pub y_label: String,
+    /// The words before the legend's entries.
+    pub legend_lead: String,
+    /// The legend's entries, one per curve of each panel.
+    pub legend: Vec<String>,
+    /// The panels, row by row.
+    pub panels: Vec<LinePanel>,
 }
 
-/// Returns a figure error (a failure of this program, exit status 1).
-fn plot_error(e: impl std::fmt::Display) -> Error {
-    Error::Figure(e.to_string())
+/// One panel of a [`LineGrid`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinePanel {
+    /// The caption above the panel.
+    pub caption: String,
+    /// The x axis label.
+    pub x_label: String,
+    /// The x axis range.
+    pub x_range: (f64, f64),
+    /// The curves, `(x, y)` points each, in the legend's order.
+    pub curves: Vec<Vec<(f64, f64)>>,
 }
 
-/// Draws `draw` on a `w × h` canvas and writes it to `path` as PNG, whole or not at all.
+/// A row of heatmaps over square cells of one size, each panel with its own colour scale from 0
+/// to its largest value.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeatmapRow {
+    /// The figure's title.
+    pub title: String,
+    /// The cells' side (in axis units): cells are centred on their coordinates.
+    pub step: f64,
+    /// The range of cell centres on both axes.
+    pub axis_range: (f64, f64),
+    /// The colour bar's label.
+    pub colour_label: String,
+    /// The panels, left to right.
+    pub panels: Vec<HeatmapPanel>,
+}
+
+/// One panel of a [`HeatmapRow`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeatmapPanel {
+    /// The caption above the panel.
+    pub caption: String,
+    /// The x axis label.
+    pub x_label: String,
+    /// The y axis label.
+    pub y_label: String,
+    /// The cells: `(x, y, value)`.
+    pub cells: Vec<(f64, f64, f64)>,
+}
+
+/// Draws `draw` on a white `w × h` canvas and writes it to `path` as PNG, whole or not at all.
 fn render(
     path: &Path,
     (w, h): (u32, u32),
     draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> Result<()>,
 ) -> Result<()> {
-    fonts();
-    let mut rgb = vec![0u8; (w * h * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(plot_error)?;
-        draw(&root)?;
-        root.present().map_err(plot_error)?;
-    }
-    write_atomic(path, |out| {
-        let mut enc = png::Encoder::new(out, w, h);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut writer = enc.write_header().map_err(plot_error)?;
-        writer.write_image_data(&rgb).map_err(plot_error)?;
-        writer.finish().map_err(plot_error)
-    })
+    let mut canvas = Canvas::new(w, h);
+    canvas.draw(draw)?;
+    canvas.write(path)
 }
 
-/// Returns the distances text of scenario `s` (which sonar's distance is the fraction).
-fn distances_text(s: u8) -> &'static str {
-    match s {
-        1..=3 => "sonar 1 at 0.5 r_max, sonar 2 at f r_max",
-        4..=6 => "sonar 1 at f r_max, sonar 2 at 0.5 r_max",
-        _ => "both at 0.5 r_max",
-    }
-}
-
-/// Writes the 2×3 grid of scenarios 1–6 to `path`.
+/// Writes the grid of line plots `grid` to `path`.
 ///
 /// # Errors
-/// [`Error::Figure`] or [`Error::WriteOutput`].
-pub fn line_grid(run: &DirectionRun, path: &Path) -> Result<()> {
-    let label = run.direction.metric_label();
-    let title = match run.direction {
-        crate::paper::Direction::FlsToSss => "paper-fls to paper-sss: range span",
-        crate::paper::Direction::SssToFls => "paper-sss to paper-fls: projection area",
-    };
+/// [`crate::Error::Figure`] or [`crate::Error::WriteOutput`].
+pub fn line_grid(grid: &LineGrid, path: &Path) -> Result<()> {
     render(path, (1800, 1160), |root| {
         let (top, body) = root.split_vertically(96);
         let (head, key) = top.split_vertically(50);
-        head.titled(title, (FONT, TITLE)).map_err(plot_error)?;
-        legend_row(&key)?;
-        for (k, panel) in body.split_evenly((2, 3)).iter().enumerate() {
-            let s = k as u8 + 1;
-            let axis = swept(s)[0];
-            let curves: Vec<(f64, Vec<(f64, f64)>)> = FRACTIONS
+        head.titled(&grid.title, (FONT, TITLE)).map_err(plot_error)?;
+        legend_row(&key, &grid.legend_lead, &grid.legend)?;
+        for (panel, data) in body.split_evenly(grid.shape).iter().zip(&grid.panels) {
+            let ymax = data
+                .curves
                 .iter()
-                .map(|&f| {
-                    let pts = run
-                        .poses
-                        .iter()
-                        .zip(&run.results)
-                        .filter(|(p, _)| p.scenario == s && p.fraction == Some(f))
-                        .map(|(p, r)| (p.angles[axis], run.direction.metric(&r.metrics)))
-                        .collect();
-                    (f, pts)
-                })
-                .collect();
-            let ymax = curves
-                .iter()
-                .flat_map(|c| c.1.iter().map(|p| p.1))
+                .flat_map(|c| c.iter().map(|p| p.1))
                 .fold(0.0f64, f64::max)
                 .max(1e-12)
                 * 1.05;
+            let (x0, x1) = data.x_range;
             let mut chart = ChartBuilder::on(panel)
-                .caption(
-                    format!(
-                        "Scenario {s}: {} swept ({})",
-                        ANGLE_NAMES[axis],
-                        distances_text(s)
-                    ),
-                    (FONT, CAPTION),
-                )
+                .caption(&data.caption, (FONT, CAPTION))
                 .margin(12)
                 .x_label_area_size(50)
                 .y_label_area_size(90)
-                .build_cartesian_2d(0f64..180f64, 0f64..ymax)
+                .build_cartesian_2d(x0..x1, 0f64..ymax)
                 .map_err(plot_error)?;
             chart
                 .configure_mesh()
-                .x_desc(format!("{} (deg)", ANGLE_NAMES[axis]))
-                .y_desc(label)
+                .x_desc(&data.x_label)
+                .y_desc(&grid.y_label)
                 .x_labels(10)
                 .x_label_formatter(&|v| format!("{v:.0}"))
                 .label_style((FONT, TICKS))
                 .axis_desc_style((FONT, AXES))
                 .draw()
                 .map_err(plot_error)?;
-            for (i, (_, pts)) in curves.into_iter().enumerate() {
+            for (i, pts) in data.curves.iter().enumerate() {
                 chart
-                    .draw_series(LineSeries::new(pts, fraction_colour(i).stroke_width(2)))
+                    .draw_series(LineSeries::new(
+                        pts.iter().copied(),
+                        series_colour(i, grid.legend.len()).stroke_width(2),
+                    ))
                     .map_err(plot_error)?;
             }
         }
@@ -151,82 +138,52 @@ pub fn line_grid(run: &DirectionRun, path: &Path) -> Result<()> {
     })
 }
 
-/// Returns the colour of the curve of distance fraction number `i`.
-fn fraction_colour(i: usize) -> RGBColor {
-    ViridisRGB::get_color_normalized(i as f32, 0.0, (FRACTIONS.len() - 1) as f32)
+/// Returns the colour of curve `i` of `n`: Viridis, evenly spread.
+fn series_colour(i: usize, n: usize) -> RGBColor {
+    ViridisRGB::get_color_normalized(i as f32, 0.0, (n - 1) as f32)
 }
 
-/// Draws the one legend of the line grid, centred on `area`: a line sample and `f = …` per
-/// distance fraction.
-fn legend_row(area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> Result<()> {
-    let lead = "distance fraction f (same in every panel):";
+/// Draws one legend centred on `area`: `lead`, then a line sample and its label per entry.
+fn legend_row(
+    area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    lead: &str,
+    labels: &[String],
+) -> Result<()> {
     let item = 110;
-    let lead_w = picture::text_width(area, lead, AXES)? as i32;
-    let total = lead_w + 16 + item * FRACTIONS.len() as i32;
+    let lead_w = text_width(area, lead, AXES)? as i32;
+    let total = lead_w + 16 + item * labels.len() as i32;
     let (w, h) = area.dim_in_pixel();
     let (mut x, y) = ((w as i32 - total) / 2, h as i32 / 2);
     text(area, lead, (x, y), AXES, HPos::Left, VPos::Center)?;
     x += lead_w + 16;
-    for (i, f) in FRACTIONS.iter().enumerate() {
+    for (i, label) in labels.iter().enumerate() {
         area.draw(&PathElement::new(
             vec![(x, y), (x + 28, y)],
-            fraction_colour(i).stroke_width(4),
+            series_colour(i, labels.len()).stroke_width(4),
         ))
         .map_err(plot_error)?;
-        text(
-            area,
-            &format!("{f:.1}"),
-            (x + 34, y),
-            AXES,
-            HPos::Left,
-            VPos::Center,
-        )?;
+        text(area, label, (x + 34, y), AXES, HPos::Left, VPos::Center)?;
         x += item;
     }
     Ok(())
 }
 
-/// Writes the 1×3 row of heatmaps of scenarios 7–9 to `path`.
+/// Writes the row of heatmaps `row` to `path`.
 ///
 /// # Errors
-/// [`Error::Figure`] or [`Error::WriteOutput`].
-pub fn heatmaps(run: &DirectionRun, angles: &[f64], path: &Path) -> Result<()> {
-    let label = run.direction.metric_label();
-    let title = match run.direction {
-        crate::paper::Direction::FlsToSss => {
-            "paper-fls to paper-sss: range span, both features at 0.5 r_max (each panel its own colour scale)"
-        }
-        crate::paper::Direction::SssToFls => {
-            "paper-sss to paper-fls: projection area, both features at 0.5 r_max (each panel its own colour scale)"
-        }
-    };
-    let step = if angles.len() > 1 {
-        angles[1] - angles[0]
-    } else {
-        1.0
-    };
+/// [`crate::Error::Figure`] or [`crate::Error::WriteOutput`].
+pub fn heatmaps(row: &HeatmapRow, path: &Path) -> Result<()> {
+    let step = row.step;
     render(path, (2010, 700), |root| {
         let (top, body) = root.split_vertically(56);
-        top.titled(title, (FONT, TITLE)).map_err(plot_error)?;
-        for (k, panel) in body.split_evenly((1, 3)).iter().enumerate() {
-            let s = 7 + k as u8;
-            let [ax, ay] = [swept(s)[0], swept(s)[1]];
-            let cells: Vec<(f64, f64, f64)> = run
-                .poses
-                .iter()
-                .zip(&run.results)
-                .filter(|(p, _)| p.scenario == s)
-                .map(|(p, r)| (p.angles[ax], p.angles[ay], run.direction.metric(&r.metrics)))
-                .collect();
-            let vmax = cells.iter().map(|c| c.2).fold(0.0f64, f64::max).max(1e-12);
+        top.titled(&row.title, (FONT, TITLE)).map_err(plot_error)?;
+        for (panel, data) in body.split_evenly((1, row.panels.len())).iter().zip(&row.panels) {
+            let vmax = data.cells.iter().map(|c| c.2).fold(0.0f64, f64::max).max(1e-12);
             let (map, bar) = panel.split_horizontally(panel.dim_in_pixel().0 as i32 - 170);
-            let lo = -step / 2.0;
-            let hi = 180.0 + step / 2.0;
+            let lo = row.axis_range.0 - step / 2.0;
+            let hi = row.axis_range.1 + step / 2.0;
             let mut chart = ChartBuilder::on(&map)
-                .caption(
-                    format!("Scenario {s}: {} × {}", ANGLE_NAMES[ax], ANGLE_NAMES[ay]),
-                    (FONT, CAPTION),
-                )
+                .caption(&data.caption, (FONT, CAPTION))
                 .margin(12)
                 .x_label_area_size(50)
                 .y_label_area_size(64)
@@ -235,8 +192,8 @@ pub fn heatmaps(run: &DirectionRun, angles: &[f64], path: &Path) -> Result<()> {
             chart
                 .configure_mesh()
                 .disable_mesh()
-                .x_desc(format!("{} (deg)", ANGLE_NAMES[ax]))
-                .y_desc(format!("{} (deg)", ANGLE_NAMES[ay]))
+                .x_desc(&data.x_label)
+                .y_desc(&data.y_label)
                 .x_labels(7)
                 .y_labels(7)
                 .x_label_formatter(&|v| format!("{v:.0}"))
@@ -246,7 +203,7 @@ pub fn heatmaps(run: &DirectionRun, angles: &[f64], path: &Path) -> Result<()> {
                 .draw()
                 .map_err(plot_error)?;
             chart
-                .draw_series(cells.iter().map(|&(x, y, v)| {
+                .draw_series(data.cells.iter().map(|&(x, y, v)| {
                     let c = ViridisRGB::get_color_normalized(v as f32, 0.0, vmax as f32);
                     Rectangle::new(
                         [(x - step / 2.0, y - step / 2.0), (x + step / 2.0, y + step / 2.0)],
@@ -254,14 +211,9 @@ pub fn heatmaps(run: &DirectionRun, angles: &[f64], path: &Path) -> Result<()> {
                     )
                 }))
                 .map_err(plot_error)?;
-            // Colour bar: the metric from 0 to this panel's largest value (panels differ by
-            // orders of magnitude: one shared scale would leave some of them one colour).
-            colour_bar(
-                &bar,
-                0.0,
-                vmax,
-                &format!("colour: {label}, this panel's own scale"),
-            )?;
+            // Colour bar: the value from 0 to this panel's largest (panels may differ by orders
+            // of magnitude: one shared scale would leave some of them one colour).
+            colour_bar(&bar, 0.0, vmax, &row.colour_label)?;
         }
         Ok(())
     })
@@ -278,7 +230,7 @@ fn colour_bar(
 ) -> Result<()> {
     let width = area.dim_in_pixel().0 - 10;
     // A unit stays with its name: "area\u{a0}(m²)".
-    let lines = picture::wrap(area, &label.replace(" (", "\u{a0}("), TICKS, width)?;
+    let lines = wrap(area, &label.replace(" (", "\u{a0}("), TICKS, width)?;
     for (k, line) in lines.iter().enumerate() {
         text(area, line, (4, 14 + 22 * k as i32), TICKS, HPos::Left, VPos::Top)?;
     }
@@ -305,15 +257,6 @@ fn colour_bar(
     }))
     .map_err(plot_error)?;
     Ok(())
-}
-
-/// Returns the axis label of sweep column `c`, with its unit.
-fn column_label(c: &str) -> String {
-    let unit = match c {
-        "range" | "place_range" | "tx" | "ty" | "tz" => "m",
-        _ => "deg",
-    };
-    format!("{c} ({unit})")
 }
 
 /// Returns `(lo, hi)` of `v`, widened so that the range is never empty.
@@ -343,27 +286,28 @@ fn cell_edges(values: &[f64]) -> Vec<f64> {
     e
 }
 
-/// Writes a sweep's figure to `path`: the metric (`label`) against one varying column (a line,
-/// broken where nothing was visible) or two (a heatmap with a colour bar; grey where nothing was
-/// visible). `points` are `(column values, metric)` per pose.
+/// Writes a sweep's figure to `path`, captioned `caption`: the metric (`label`) against one
+/// varying quantity (a line, broken where nothing was visible) or two (a heatmap with a colour
+/// bar; grey where nothing was visible), whose axis labels are `axes`. `points` are
+/// `(coordinates, metric)` per pose.
 ///
 /// # Errors
 /// [`Error::Figure`] or [`Error::WriteOutput`].
 pub fn sweep(
     path: &Path,
-    title: &str,
-    columns: &[String],
+    caption: &str,
+    axes: &[String],
     label: &str,
     points: &[(Vec<f64>, Option<f64>)],
 ) -> Result<()> {
     let (vlo, vhi) = extent(points.iter().filter_map(|p| p.1));
-    if columns.len() == 1 {
+    if axes.len() == 1 {
         let (xlo, xhi) = extent(points.iter().map(|p| p.0[0]));
         let pad = 0.05 * (vhi - vlo);
         let (ylo, yhi) = (if vlo >= 0.0 { 0.0 } else { vlo - pad }, vhi + pad);
         return render(path, (1200, 800), |root| {
             let mut chart = ChartBuilder::on(root)
-                .caption(format!("{title}: {label} against {}", columns[0]), (FONT, TITLE))
+                .caption(caption, (FONT, TITLE))
                 .margin(20)
                 .margin_right(40)
                 .x_label_area_size(60)
@@ -372,7 +316,7 @@ pub fn sweep(
                 .map_err(plot_error)?;
             chart
                 .configure_mesh()
-                .x_desc(column_label(&columns[0]))
+                .x_desc(&axes[0])
                 .y_desc(label)
                 .label_style((FONT, TICKS))
                 .axis_desc_style((FONT, AXES))
@@ -408,7 +352,7 @@ pub fn sweep(
     render(path, (1300, 1000), |root| {
         let (map, bar) = root.split_horizontally(1110);
         let mut chart = ChartBuilder::on(&map)
-            .caption(format!("{title}: {label}"), (FONT, TITLE))
+            .caption(caption, (FONT, TITLE))
             .margin(20)
             .x_label_area_size(60)
             .y_label_area_size(84)
@@ -417,8 +361,8 @@ pub fn sweep(
         chart
             .configure_mesh()
             .disable_mesh()
-            .x_desc(column_label(&columns[0]))
-            .y_desc(column_label(&columns[1]))
+            .x_desc(&axes[0])
+            .y_desc(&axes[1])
             .label_style((FONT, TICKS))
             .axis_desc_style((FONT, AXES))
             .draw()

@@ -17,7 +17,8 @@ use plotters::style::text_anchor::{HPos, VPos};
 
 use crate::error::Result;
 use crate::report;
-use crate::report::picture::{self, Area, Canvas, Fan, LARGE, MEDIUM, Pooled, Rect, SMALL, plot_error, text};
+use crate::report::picture::{self, Fan, Pooled, Rect};
+use crate::report::style::{Area, Canvas, LARGE, MEDIUM, SMALL, plot_error, text, text_width, wrap};
 use crate::report::write_atomic;
 use sonarproj::geometry::sonar::SonarKind;
 use sonarproj::masks::Mask;
@@ -78,7 +79,7 @@ pub fn write_png(path: &Path, layout: &Layout, masks: &[Mask], title: &str, labe
 fn legend_rows(area: &Area<'_>, labels: &[String], (x, y): (i32, i32), width: i32) -> Result<i32> {
     let (mut lx, mut ly) = (x, y);
     for (k, l) in labels.iter().enumerate() {
-        let w = picture::text_width(area, l, SMALL)? as i32 + 44;
+        let w = text_width(area, l, SMALL)? as i32 + 44;
         if lx > x && lx + w > x + width {
             (lx, ly) = (x, ly + 26);
         }
@@ -263,7 +264,7 @@ fn sss_picture(
             "Light grey: range bins, empty. One colour per feature, mixed where masks overlap; masks a few pixels thin are marked by triangles.".to_string(),
         ];
         for note in notes {
-            for line in picture::wrap(a, &note, SMALL, w - side_x - 20)? {
+            for line in wrap(a, &note, SMALL, w - side_x - 20)? {
                 text(a, &line, (x, y), SMALL, HPos::Left, VPos::Top)?;
                 y += 24;
             }

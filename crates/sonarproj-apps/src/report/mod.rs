@@ -30,6 +30,7 @@ pub mod figures;
 pub mod mask_image;
 pub mod occupancy_image;
 mod picture;
+mod style;
 
 use std::io::Write;
 use std::path::Path;

@@ -20,7 +20,8 @@ use std::path::Path;
 use plotters::style::text_anchor::{HPos, VPos};
 
 use crate::error::{Error, Result};
-use crate::report::picture::{self, Canvas, MEDIUM, Pooled, Rect, SMALL, text};
+use crate::report::picture::{self, Pooled, Rect};
+use crate::report::style::{Area, Canvas, MEDIUM, SMALL, text, wrap};
 use crate::report::write_atomic;
 use sonarproj::geometry::sonar::SonarKind;
 use sonarproj::occupancy::{Layout, Occupancy};
@@ -174,9 +175,9 @@ fn picture_of(occ: &Occupancy, layout: &Layout, title: &str) -> Result<Canvas> {
 }
 
 /// Draws `title` at the top in up to two lines.
-fn title_lines(a: &picture::Area<'_>, title: &str, w: u32) -> Result<()> {
+fn title_lines(a: &Area<'_>, title: &str, w: u32) -> Result<()> {
     let mut y = 14;
-    for line in picture::wrap(a, title, MEDIUM, w - 40)?.iter().take(2) {
+    for line in wrap(a, title, MEDIUM, w - 40)?.iter().take(2) {
         text(a, line, (20, y), MEDIUM, HPos::Left, VPos::Top)?;
         y += 26;
     }
@@ -184,9 +185,9 @@ fn title_lines(a: &picture::Area<'_>, title: &str, w: u32) -> Result<()> {
 }
 
 /// Draws `notes` from `(x, y)` down, each wrapped to `width` px.
-fn notes_at(a: &picture::Area<'_>, notes: &[String], (x, mut y): (i32, i32), width: u32) -> Result<()> {
+fn notes_at(a: &Area<'_>, notes: &[String], (x, mut y): (i32, i32), width: u32) -> Result<()> {
     for note in notes {
-        for line in picture::wrap(a, note, SMALL, width)? {
+        for line in wrap(a, note, SMALL, width)? {
             text(a, &line, (x, y), SMALL, HPos::Left, VPos::Top)?;
             y += 24;
         }

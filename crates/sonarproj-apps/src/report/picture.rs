@@ -12,37 +12,15 @@
     reason = "pixel coordinates, bin indices and colours of images a few thousand pixels wide"
 )]
 
-use std::path::Path;
-
-use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
+use plotters::style::text_anchor::{HPos, VPos};
 
-use crate::error::{Error, Result};
-use crate::report::figures::FONT;
-use crate::report::write_atomic;
+use crate::error::Result;
+use crate::report::style::{Area, Canvas, EMPTY, GREY, MEDIUM, SMALL, plot_error, text, text_up};
 use sonarproj::occupancy::{Layout, Occupancy};
 
-/// The colour of the field of view where nothing is occupied.
-pub(crate) const EMPTY: (u8, u8, u8) = (235, 235, 235);
-/// The colour of axes, rings and bearing lines.
-pub(crate) const GREY: RGBColor = RGBColor(90, 90, 90);
-/// Font sizes (px): notes and tick labels; headings.
-pub(crate) const SMALL: u32 = 17;
-/// Font size (px) of the words "port" and "starboard" and of panel headings.
-pub(crate) const MEDIUM: u32 = 20;
-/// Font size (px) of a picture's title.
-pub(crate) const LARGE: u32 = 26;
 /// A layer whose painted extent is smaller than this (px) both ways is circled.
 const SMALL_EXTENT: u32 = 8;
-
-/// A drawing area over a canvas.
-pub(crate) type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
-
-/// Returns a figure error (a failure of this program, exit status 1).
-pub(crate) fn plot_error(e: impl std::fmt::Display) -> Error {
-    Error::Figure(e.to_string())
-}
 
 /// A rectangle of screen pixels: left, top, width, height.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -74,50 +52,6 @@ pub(crate) fn grow(e: &mut Option<Extent>, x: u32, y: u32) {
         None => (x, y, x, y),
         Some((x0, y0, x1, y1)) => (x0.min(x), y0.min(y), x1.max(x), y1.max(y)),
     });
-}
-
-/// An RGB canvas, white.
-pub(crate) struct Canvas {
-    pub w: u32,
-    pub h: u32,
-    pub rgb: Vec<u8>,
-}
-
-impl Canvas {
-    /// Returns a white `w × h` canvas.
-    pub(crate) fn new(w: u32, h: u32) -> Self {
-        Canvas {
-            w,
-            h,
-            rgb: vec![255; (w as usize) * (h as usize) * 3],
-        }
-    }
-
-    /// Paints pixel `(x, y)` with `c`.
-    pub(crate) fn put(&mut self, x: u32, y: u32, c: (u8, u8, u8)) {
-        let k = ((y as usize) * (self.w as usize) + x as usize) * 3;
-        self.rgb[k..k + 3].copy_from_slice(&[c.0, c.1, c.2]);
-    }
-
-    /// Draws on the canvas with `draw` (text, lines), then presents it.
-    pub(crate) fn draw(&mut self, draw: impl FnOnce(&Area<'_>) -> Result<()>) -> Result<()> {
-        crate::report::figures::fonts();
-        let root = BitMapBackend::with_buffer(&mut self.rgb, (self.w, self.h)).into_drawing_area();
-        draw(&root)?;
-        root.present().map_err(plot_error)
-    }
-
-    /// Writes the canvas to `path` as an 8-bit RGB PNG, whole or not at all.
-    pub(crate) fn write(&self, path: &Path) -> Result<()> {
-        write_atomic(path, |out| {
-            let mut enc = png::Encoder::new(out, self.w, self.h);
-            enc.set_color(png::ColorType::Rgb);
-            enc.set_depth(png::BitDepth::Eight);
-            let mut writer = enc.write_header().map_err(plot_error)?;
-            writer.write_image_data(&self.rgb).map_err(plot_error)?;
-            writer.finish().map_err(plot_error)
-        })
-    }
 }
 
 /// An occupancy with a summed-area table: whether any pixel of a block is occupied, at once.
@@ -503,28 +437,6 @@ impl Strips {
     }
 }
 
-/// Draws `s` at `at` in `size` px, anchored by `h` and `v`.
-pub(crate) fn text(area: &Area<'_>, s: &str, at: (i32, i32), size: u32, h: HPos, v: VPos) -> Result<()> {
-    let style = TextStyle::from((FONT, size).into_font())
-        .color(&BLACK)
-        .pos(Pos::new(h, v));
-    area.draw_text(s, &style, at).map_err(plot_error)
-}
-
-/// Draws `s` at `at` in `size` px, rotated to read upwards, centred on `at`.
-pub(crate) fn text_up(area: &Area<'_>, s: &str, at: (i32, i32), size: u32) -> Result<()> {
-    let style = TextStyle::from((FONT, size).into_font().transform(FontTransform::Rotate270))
-        .color(&BLACK)
-        .pos(Pos::new(HPos::Center, VPos::Center));
-    area.draw_text(s, &style, at).map_err(plot_error)
-}
-
-/// Returns the width (px) of `s` in `size` px.
-pub(crate) fn text_width(area: &Area<'_>, s: &str, size: u32) -> Result<u32> {
-    let style = TextStyle::from((FONT, size).into_font());
-    Ok(area.estimate_text_size(s, &style).map_err(plot_error)?.0)
-}
-
 /// Draws the outline of `rect`.
 pub(crate) fn frame(area: &Area<'_>, rect: Rect) -> Result<()> {
     area.draw(&Rectangle::new(
@@ -576,29 +488,6 @@ pub(crate) fn point_at_thin(
         }
     }
     Ok(())
-}
-
-/// Returns `s` broken into lines no wider than `width` px in `size` px, at spaces (a no-break
-/// space holds a number to its unit).
-pub(crate) fn wrap(area: &Area<'_>, s: &str, size: u32, width: u32) -> Result<Vec<String>> {
-    let mut lines: Vec<String> = Vec::new();
-    let mut line = String::new();
-    for word in s.split(' ').filter(|w| !w.is_empty()) {
-        let longer = if line.is_empty() {
-            word.to_string()
-        } else {
-            format!("{line} {word}")
-        };
-        if !line.is_empty() && text_width(area, &longer, size)? > width {
-            lines.push(std::mem::replace(&mut line, word.to_string()));
-        } else {
-            line = longer;
-        }
-    }
-    if !line.is_empty() {
-        lines.push(line);
-    }
-    Ok(lines)
 }
 
 /// Draws the range axis left of `rect`: ticks labelled in metres from `r0` at the bottom (near

@@ -539,6 +539,20 @@ fn figure(dir: &Path, d: &Descriptor) -> Result<Option<PathBuf>> {
         points.push((coords, num(m)));
     }
     let path = dir.join(format!("sweep-{}.png", d.metric));
-    figures::sweep(&path, &d.title, &d.varying, &d.metric_label, &points)?;
+    let caption = match d.varying.as_slice() {
+        [x] => format!("{}: {} against {x}", d.title, d.metric_label),
+        _ => format!("{}: {}", d.title, d.metric_label),
+    };
+    let axes: Vec<String> = d.varying.iter().map(|c| column_label(c)).collect();
+    figures::sweep(&path, &caption, &axes, &d.metric_label, &points)?;
     Ok(Some(path))
+}
+
+/// Returns the axis label of sweep column `c`, with its unit.
+fn column_label(c: &str) -> String {
+    let unit = match c {
+        "range" | "place_range" | "tx" | "ty" | "tz" => "m",
+        _ => "deg",
+    };
+    format!("{c} ({unit})")
 }

@@ -1,0 +1,176 @@
+//! The paper's four qualitative findings, checked against the numbers of both directions, and
+//! `findings.md`.
+
+use std::fmt::Write as _;
+
+use super::{Direction, DirectionRun, NEAR_FRACTION};
+use sonarproj::sampling::Sampling;
+
+/// Returns the `q`-quantile (0–1) of `v` (nearest rank).
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "a count of angle steps or a quantile index, finite and bounded by the checked input"
+)]
+fn quantile(v: &[f64], q: f64) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[((s.len() - 1) as f64 * q).round() as usize]
+}
+
+/// The verdict on one of the paper's qualitative findings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Finding {
+    /// The finding in the paper's words (README: The paper's simulations).
+    pub claim: &'static str,
+    /// Whether the numbers bear it out.
+    pub holds: bool,
+    /// The numbers that show it, in Markdown.
+    pub evidence: String,
+}
+
+/// Returns the paper's four findings (README: The paper's simulations) checked against `runs` (both directions, with 0°, 90° and
+/// 180° among the angles and every fraction).
+pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
+    let get = |d: Direction| {
+        runs.iter()
+            .find(|r| r.direction == d)
+            .expect("both directions run")
+    };
+    let (fs, sf) = (get(Direction::FlsToSss), get(Direction::SssToFls));
+    let mut out = Vec::new();
+
+    // 1. fls→sss spans short with all angles 0 or 180°: corners of the (roll, pitch) grid.
+    let grid = fs.values(7, None);
+    let (p10, p90) = (quantile(&grid, 0.1), quantile(&grid, 0.9));
+    let corners: Vec<(f64, f64, f64)> = [(0.0, 0.0), (0.0, 180.0), (180.0, 0.0), (180.0, 180.0)]
+        .iter()
+        .filter_map(|&(r, p)| fs.at(7, None, [r, p, 0.0]).map(|v| (r, p, v)))
+        .collect();
+    let mut ev = format!(
+        "Scenario 7 (roll × pitch, yaw 0): 10th percentile of the span over the grid {p10:.4} m, \
+         90th {p90:.4} m.\n\n| roll | pitch | span (m) |\n|---|---|---|\n"
+    );
+    for (r, p, v) in &corners {
+        let _ = writeln!(ev, "| {r} | {p} | {v:.6} |");
+    }
+    out.push(Finding {
+        claim: "fls→sss: range spans are short when all angles are 0 or 180°",
+        holds: !corners.is_empty() && corners.iter().all(|c| c.2 <= p10),
+        evidence: ev,
+    });
+
+    // 2. fls→sss spans long for roll 0/180° with pitch 90°.
+    let long: Vec<(f64, f64)> = [0.0, 180.0]
+        .iter()
+        .filter_map(|&r| fs.at(7, None, [r, 90.0, 0.0]).map(|v| (r, v)))
+        .collect();
+    let max = grid.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut ev = format!(
+        "Scenario 7 (roll × pitch): largest span over the grid {max:.4} m, 90th percentile \
+         {p90:.4} m.\n\n| roll | pitch | span (m) |\n|---|---|---|\n"
+    );
+    for (r, v) in &long {
+        let _ = writeln!(ev, "| {r} | 90 | {v:.6} |");
+    }
+    out.push(Finding {
+        claim: "fls→sss: range spans are long for roll 0° or 180° with pitch 90°",
+        holds: long.len() == 2 && long.iter().all(|l| l.1 >= p90),
+        evidence: ev,
+    });
+
+    // 3. sss→fls areas smallest for roll 90° with pitch and yaw at 0 or 180°.
+    let rp = sf.values(7, None);
+    let yr = sf.values(9, None);
+    let (rp10, yr10) = (quantile(&rp, 0.1), quantile(&yr, 0.1));
+    let mut ev = format!(
+        "10th percentile of the area: scenario 7 (roll × pitch) {rp10:.6} m², scenario 9 \
+         (yaw × roll) {yr10:.6} m².\n\n| scenario | roll | pitch | yaw | area (m²) |\n|---|---|---|---|---|\n"
+    );
+    let mut all_small = true;
+    let mut seen = 0;
+    for (s, angles, p10) in [
+        (7, [90.0, 0.0, 0.0], rp10),
+        (7, [90.0, 180.0, 0.0], rp10),
+        (9, [90.0, 0.0, 0.0], yr10),
+        (9, [90.0, 0.0, 180.0], yr10),
+    ] {
+        if let Some(v) = sf.at(s, None, angles) {
+            seen += 1;
+            all_small &= v <= p10;
+            let _ = writeln!(
+                ev,
+                "| {s} | {} | {} | {} | {v:.6} |",
+                angles[0], angles[1], angles[2]
+            );
+        }
+    }
+    out.push(Finding {
+        claim: "sss→fls: projection areas are smallest for roll 90° with pitch and yaw at 0 or 180°",
+        holds: seen == 4 && all_small,
+        evidence: ev,
+    });
+
+    // 4. Both shrink when the feature is near the minimum range of both sonars: scenario 7's
+    // grid with both features at NEAR_FRACTION of r_max against the same grid at 0.5 r_max.
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let mut ev = format!(
+        "Mean over scenario 7's roll × pitch grid with both features at {NEAR_FRACTION} of their \
+         sonar's maximum range, against the same grid at 0.5 (scenario 7 itself):\n\n\
+         | direction | mean, both near | mean, both at 0.5 |\n|---|---|---|\n"
+    );
+    let mut shrinks = true;
+    for run in [fs, sf] {
+        let near: Vec<f64> = run
+            .near_both
+            .iter()
+            .map(|r| run.direction.metric(&r.metrics))
+            .collect();
+        let (near, half) = (mean(&near), mean(&run.values(7, None)));
+        shrinks &= near < half;
+        let _ = writeln!(ev, "| {} | {near:.6} | {half:.6} |", run.direction.stem());
+    }
+    ev.push_str(
+        "\nWith one feature distance moved at a time (scenarios 1–3 move it in sonar 2, 4–6 in \
+         sonar 1), the mean over the swept angle at f = 0.1 and f = 0.9:\n\n\
+         | direction | scenario | mean at f = 0.1 | mean at f = 0.9 |\n|---|---|---|---|\n",
+    );
+    for run in [fs, sf] {
+        for s in 1..=6u8 {
+            let (lo, hi) = (mean(&run.values(s, Some(0.1))), mean(&run.values(s, Some(0.9))));
+            let _ = writeln!(ev, "| {} | {s} | {lo:.6} | {hi:.6} |", run.direction.stem());
+        }
+    }
+    out.push(Finding {
+        claim: "both metrics shrink when the feature is near the minimum range of both sonars",
+        holds: shrinks,
+        evidence: ev,
+    });
+    out
+}
+
+/// Returns `findings.md`: each finding, whether the numbers bear it out, and the numbers.
+#[must_use]
+pub fn findings_markdown(findings: &[Finding], angle_step: f64, sampling: Sampling) -> String {
+    let mut md = String::from("# The paper's qualitative findings, checked\n\n");
+    let sampling = match sampling {
+        Sampling::Step(s) => format!("step sampling {s}°"),
+        Sampling::Auto => "auto sampling".into(),
+    };
+    let _ = writeln!(
+        md,
+        "Computed by `sonarproj paper` at an angle step of {angle_step}° with {sampling}. \
+         \"Short\" means at or below the 10th percentile of the scenario's grid, \"long\" at or \
+         above the 90th, \"smallest\" at or below the 10th percentile.\n"
+    );
+    for f in findings {
+        let _ = writeln!(
+            md,
+            "## {}\n\n**{}**\n\n{}",
+            f.claim,
+            if f.holds { "Borne out." } else { "Not borne out." },
+            f.evidence
+        );
+    }
+    md
+}
+
