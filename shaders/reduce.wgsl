@@ -1,5 +1,5 @@
 // Stage 2: one pose's bitset becomes its occupied count and occupied measure.
-// CPU twin: the reduce step of src/projection/fast.rs (counts and, for an FLS, per-row areas summed in
+// CPU twin: the reduce step of src/projection/fast/scratch.rs (counts and, for an FLS, per-row areas summed in
 // row order); the plain reference is src/projection/reference/reduce.rs. Dispatch (poses, 1, 1): workgroup x
 // reduces pose x; each thread
 // takes words (SSS) or range rows (FLS) l, l + 64, ... and the workgroup sums their results.
@@ -79,6 +79,6 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     if lid == 0u && pose_index < params.pose_count {
         let m = pose_index * METRIC_STRIDE;
         metrics[m + METRIC_OCCUPIED] = partial_count[0];
-        metrics[m + METRIC_MEASURE] = bitcast<u32>(partial_measure[0]);
+        metrics[m + METRIC_OCCUPIED_MEASURE] = bitcast<u32>(partial_measure[0]);
     }
 }

@@ -36,6 +36,7 @@
 //! # Ok::<(), sonarproj::Error>(())
 //! ```
 
+pub mod clip;
 pub mod error;
 pub mod geometry;
 pub mod gpu;

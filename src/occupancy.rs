@@ -1,5 +1,5 @@
 //! Sonar 2's data layout (range bins, beams: README: Conventions) and the occupancy bitset drawn
-//! in it.
+//! in it. Which bin and beam a point falls in, and whether it is in view, is [`crate::clip`]'s.
 
 use crate::geometry::{Sonar, SonarKind};
 
@@ -50,86 +50,6 @@ impl Layout {
     #[must_use]
     pub fn pixels(&self) -> usize {
         self.range_bins * self.beams()
-    }
-
-    /// Returns true when `(r, az, el)` (m, rad, rad) lies in the field of view: README: Conventions, bounds
-    /// inclusive, the origin outside.
-    #[must_use]
-    pub fn inside(&self, r: f64, az: f64, el: f64) -> bool {
-        r > 0.0
-            && r >= self.range_min
-            && r <= self.range_max
-            && az.abs() <= self.half_azimuth
-            && el.abs() <= self.half_elevation
-    }
-
-    /// Returns the lower edge (m) of range bin `i`; `i = range_bins` gives `range_max`.
-    #[must_use]
-    pub fn range_edge(&self, i: usize) -> f64 {
-        if i >= self.range_bins {
-            self.range_max
-        } else {
-            self.range_min + i as f64 * self.range_bin_width
-        }
-    }
-
-    /// Returns the range bin of `r` (m): bin `i` covers `[edge(i), edge(i+1))`, the last one also
-    /// takes `range_max`. `r` must lie in `[range_min, range_max]`.
-    #[expect(
-        clippy::cast_possible_truncation,
-        reason = "a saturating float-to-index conversion, clamped to the table right after"
-    )]
-    #[must_use]
-    pub fn range_bin(&self, r: f64) -> usize {
-        let i = ((r - self.range_min) / self.range_bin_width).floor();
-        (i.max(0.0) as usize).min(self.range_bins - 1)
-    }
-
-    /// Returns the beam of `az` (rad): beam `j` covers `[e_j, e_{j+1})`, the last one also takes
-    /// `+half_azimuth`. `az` must lie in the aperture.
-    #[must_use]
-    pub fn beam(&self, az: f64) -> usize {
-        let j = self.beam_edges.partition_point(|&e| e <= az);
-        j.saturating_sub(1).min(self.beams() - 1)
-    }
-
-    /// Returns `(sin h, cos h)` for the trigonometry-free azimuth clip `x sin h − |y| cos h ≥ 0`
-    /// (⇔ `|az| ≤ h` for `h` in `(0, π]`); exactly `(0, −1)` for the full circle.
-    #[must_use]
-    pub fn azimuth_clip(&self) -> (f64, f64) {
-        let h = self.half_azimuth;
-        if h >= std::f64::consts::PI {
-            (0.0, -1.0)
-        } else {
-            (h.sin(), h.cos())
-        }
-    }
-
-    /// Returns `(sin² e, cos² e)` for the elevation clip `z² cos² e ≤ (x² + y²) sin² e`
-    /// (⇔ `|el| ≤ e`), or `None` for a 180° aperture, which clips nothing.
-    #[must_use]
-    pub fn elevation_clip(&self) -> Option<(f64, f64)> {
-        let e = self.half_elevation;
-        (e < std::f64::consts::FRAC_PI_2).then(|| (e.sin().powi(2), e.cos().powi(2)))
-    }
-
-    /// Returns the beam width (rad) when the beams split the aperture uniformly (to 1e-12
-    /// relative), else `None`.
-    #[must_use]
-    pub fn uniform_beam_width(&self) -> Option<f64> {
-        let width = 2.0 * self.half_azimuth / self.beams() as f64;
-        self.beam_edges
-            .windows(2)
-            .all(|w| ((w[1] - w[0]) - width).abs() <= 1e-12 * width)
-            .then_some(width)
-    }
-
-    /// Returns the squared range-bin edges `(range_min + iΔ)²`, `i = 0..=range_bins`.
-    #[must_use]
-    pub fn range_edges_sq(&self) -> Vec<f64> {
-        (0..=self.range_bins)
-            .map(|i| self.range_edge(i).powi(2))
-            .collect()
     }
 
     /// Returns the measure of pixel `(i, j)`: the bin width (m) for an SSS; for an FLS the true
@@ -249,18 +169,6 @@ impl Occupancy {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn bins_follow_spec_edges() {
-        let l = Layout::of(&Sonar::preset("paper-sss").unwrap());
-        assert_eq!(l.range_bin(0.1), 0);
-        assert_eq!(l.range_bin(0.1 + 0.015), 1);
-        assert_eq!(l.range_bin(30.0), 2989, "range_max goes to the last bin");
-        let f = Layout::of(&Sonar::preset("paper-fls").unwrap());
-        assert_eq!(f.beam(-(30f64).to_radians()), 0);
-        assert_eq!(f.beam(0.0), 256, "0 is the lower edge of beam 256");
-        assert_eq!(f.beam((30f64).to_radians()), 511, "+A/2 goes to the last beam");
-    }
 
     #[test]
     fn pixel_areas_sum_to_the_fan() {

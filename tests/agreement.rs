@@ -9,7 +9,7 @@ use sonarproj_testkit as common;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sonarproj::Output;
-use sonarproj::gpu::shaders::Precision;
+use sonarproj::gpu::Precision;
 use sonarproj::projection::gpu::{GpuBackend, SPLAT_WORKGROUPS, SplatOptions};
 use sonarproj::projection::{envelope, fast, reference};
 use sonarproj::{

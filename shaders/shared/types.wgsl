@@ -1,5 +1,5 @@
-// Structs shared by every stage. Keep in sync with src/gpu/types.rs (sizes asserted there and
-// checked against naga's layout in tests/shaders.rs).
+// Structs shared by the projection stages. Keep in sync with src/projection/gpu/types.rs (sizes
+// asserted there and checked against naga's layout in src/gpu/shaders.rs's tests).
 
 // Sonar 2: field of view and data layout, precomputed in f64 on the CPU. vec2<f32> fields hold
 // a value as hi + lo (about 48 significant bits), read through real() (shared/real_*.wgsl).
@@ -57,16 +57,10 @@ struct BeamEdge {
     _pad: vec2<f32>,
 }
 
-// Per-pose metric slots, 8 u32 each. Minima are stored as the bitwise NOT of the order key so
-// that every slot starts at 0 and only atomicMax is needed.
-const METRIC_STRIDE: u32 = 8u;
-const METRIC_VISIBLE: u32 = 0u;
-const METRIC_OCCUPIED: u32 = 1u;
-const METRIC_RANGE_MIN_NOT: u32 = 2u;
-const METRIC_RANGE_MAX: u32 = 3u;
-const METRIC_AZIMUTH_MIN_NOT: u32 = 4u;
-const METRIC_AZIMUTH_MAX: u32 = 5u;
-const METRIC_MEASURE: u32 = 6u;
+// Per-pose metric slots (METRIC_STRIDE u32 each, METRIC_<NAME> for each metric the GPU reduces,
+// _NOT for minima) are generated from the metric table (src/metrics.rs) and put before this file
+// (src/gpu/shaders.rs). Minima are stored as the bitwise NOT of the order key so that every slot
+// starts at 0 and only atomicMax is needed.
 
 // Returns a u32 whose unsigned order is the order of the f32 x.
 fn order_key(x: f32) -> u32 {

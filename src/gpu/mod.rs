@@ -3,14 +3,15 @@
 //! ([`shaders`]), buffers kept between calls (`pool`) and reading buffers back.
 
 pub mod context;
-pub mod pipeline;
+pub(crate) mod pipeline;
 pub(crate) mod pool;
-pub mod shaders;
+pub(crate) mod shaders;
 
 use std::sync::mpsc;
 
 use crate::error::{Error, Result};
 pub use context::GpuContext;
+pub use shaders::Precision;
 
 /// Returns the first `size` bytes of the mappable `buffer` as u32s, waiting for the GPU of `ctx`.
 pub(crate) fn read(ctx: &GpuContext, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u32>> {

@@ -22,7 +22,7 @@ fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntr
 
 /// The kind of each binding of a stage, in binding order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Binding {
+pub(crate) enum Binding {
     /// `var<uniform>`.
     Uniform,
     /// `var<storage, read>`.
@@ -33,24 +33,24 @@ pub enum Binding {
 
 /// A compute pipeline with its bind-group layout.
 #[derive(Debug)]
-pub struct Stage {
+pub(crate) struct Stage {
     /// The pipeline.
-    pub pipeline: wgpu::ComputePipeline,
+    pub(crate) pipeline: wgpu::ComputePipeline,
     /// Layout of its one bind group.
-    pub layout: wgpu::BindGroupLayout,
+    pub(crate) layout: wgpu::BindGroupLayout,
 }
 
 impl Stage {
     /// Returns the pipeline of WGSL `source` (entry point `main`) with `bindings` in group 0.
     #[must_use]
-    pub fn new(device: &wgpu::Device, name: &str, source: &str, bindings: &[Binding]) -> Self {
+    pub(crate) fn new(device: &wgpu::Device, name: &str, source: &str, bindings: &[Binding]) -> Self {
         Self::with_constants(device, name, source, bindings, &[])
     }
 
     /// Returns the pipeline as [`Stage::new`], with the WGSL `override` constants set to
     /// `constants` (name, value).
     #[must_use]
-    pub fn with_constants(
+    pub(crate) fn with_constants(
         device: &wgpu::Device,
         name: &str,
         source: &str,
@@ -98,7 +98,7 @@ impl Stage {
 
     /// Returns a bind group of `buffers`, in binding order.
     #[must_use]
-    pub fn bind(&self, device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+    pub(crate) fn bind(&self, device: &wgpu::Device, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
         let entries: Vec<_> = buffers
             .iter()
             .enumerate()

@@ -1,8 +1,19 @@
-//! WGSL sources of the stages, each prefixed with the shared structs and, for the splat stage,
-//! the `Real` arithmetic the adapter supports (WGSL has no includes).
+//! WGSL sources of the stages (WGSL has no includes): the projection stages are prefixed with the
+//! metric slots, generated here from the metric table, and the shared structs; the splat stage
+//! also with the `Real` arithmetic the adapter supports and the decisions of
+//! `shaders/shared/clip.wgsl`. The WGSL lives in the package (`shaders/`), so `cargo package`
+//! ships it.
+
+use std::fmt::Write as _;
+
+use crate::metrics::{METRICS, Reduce};
+use crate::projection::gpu::types::METRIC_STRIDE;
 
 /// The shared structs and helpers (`shaders/shared/types.wgsl`).
-pub const SHARED: &str = include_str!("../../shaders/shared/types.wgsl");
+const SHARED: &str = include_str!("../../shaders/shared/types.wgsl");
+
+/// The splat stage's decisions (`shaders/shared/clip.wgsl`, twin of `src/clip.rs`).
+const CLIP: &str = include_str!("../../shaders/shared/clip.wgsl");
 
 /// How the splat stage computes the transform and its decisions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -16,8 +27,7 @@ pub enum Precision {
 
 impl Precision {
     /// Returns the `Real` prelude of this precision (`shaders/shared/real_*.wgsl`).
-    #[must_use]
-    pub fn prelude(self) -> &'static str {
+    pub(crate) fn prelude(self) -> &'static str {
         match self {
             Precision::F64 => include_str!("../../shaders/shared/real_f64.wgsl"),
             Precision::DoubleF32 => include_str!("../../shaders/shared/real_df.wgsl"),
@@ -34,35 +44,67 @@ impl Precision {
     }
 }
 
-/// Returns the full source of the splat stage (`shaders/splat.wgsl`) at `precision`.
-#[must_use]
-pub fn splat(precision: Precision) -> String {
+/// Returns the WGSL name of `metric`'s slot: `METRIC_` and its name in capitals, with `_NOT` for
+/// a minimum (stored as the bitwise NOT of its order key).
+fn slot_name(name: &str, reduce: Reduce) -> String {
+    let not = if reduce == Reduce::Min { "_NOT" } else { "" };
+    format!("METRIC_{}{not}", name.to_uppercase())
+}
+
+/// Returns the WGSL constants of the per-pose metric record: `METRIC_STRIDE` and one slot per
+/// metric the GPU reduces, from the metric table ([`METRICS`]).
+pub(crate) fn metric_slots() -> String {
+    let mut out = format!("const METRIC_STRIDE: u32 = {METRIC_STRIDE}u;\n");
+    for m in METRICS.iter() {
+        if let Some(slot) = m.gpu_slot {
+            let _ = writeln!(out, "const {}: u32 = {slot}u;", slot_name(m.name, m.reduce));
+        }
+    }
+    out
+}
+
+/// Returns the WGSL constants of the splat stage's decisions, from the Rust ones: the f32 slack
+/// and widening ([`crate::clip::F32_SLACK`], [`crate::clip::F32_WIDEN`]) and the culling block
+/// ([`crate::projection::culling::BLOCK`]).
+pub(crate) fn clip_constants() -> String {
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "the shader's f32 constants are the Rust values rounded to f32"
+    )]
+    let f32_of = |v: f64| v as f32;
     format!(
-        "{SHARED}\n{}\n{}",
+        "const F32_SLACK: f32 = {:e};\nconst F32_WIDEN: f32 = {:e};\nconst BLOCK: u32 = {}u;\n",
+        f32_of(crate::clip::F32_SLACK),
+        f32_of(crate::clip::F32_WIDEN),
+        crate::projection::culling::BLOCK
+    )
+}
+
+/// Returns the full source of the splat stage (`shaders/splat.wgsl`) at `precision`.
+pub(crate) fn splat(precision: Precision) -> String {
+    format!(
+        "{}{}\n{SHARED}\n{}\n{CLIP}\n{}",
+        metric_slots(),
+        clip_constants(),
         precision.prelude(),
         include_str!("../../shaders/splat.wgsl")
     )
 }
 
 /// Returns the full source of the reduce stage (`shaders/reduce.wgsl`).
-#[must_use]
-pub fn reduce() -> String {
-    format!("{SHARED}\n{}", include_str!("../../shaders/reduce.wgsl"))
+pub(crate) fn reduce() -> String {
+    format!(
+        "{}\n{SHARED}\n{}",
+        metric_slots(),
+        include_str!("../../shaders/reduce.wgsl")
+    )
 }
 
 /// Returns the full source of the mask stage (`shaders/mask.wgsl`, self-contained).
-#[must_use]
-pub fn mask() -> &'static str {
+pub(crate) fn mask() -> &'static str {
     include_str!("../../shaders/mask.wgsl")
 }
 
-/// Returns every stage and variant as `(name, full source, needs f64)`.
-#[must_use]
-pub fn all() -> Vec<(&'static str, String, bool)> {
-    vec![
-        ("splat (f64)", splat(Precision::F64), true),
-        ("splat (double-f32)", splat(Precision::DoubleF32), false),
-        ("reduce", reduce(), false),
-        ("mask", mask().to_string(), false),
-    ]
-}
+#[cfg(test)]
+#[path = "shader_tests.rs"]
+mod tests;

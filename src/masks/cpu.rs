@@ -1,6 +1,7 @@
 //! Drawing a mask on the CPU in f64: the twin of `shaders/mask.wgsl` (same cells, same blocks,
 //! same balls; the GPU adds a rounding slack and finds beams without trigonometry).
 
+use crate::clip::MASK_F64_SLACK;
 use glam::DVec3;
 
 use crate::geometry::{RelativePose, SonarKind, sph_to_cart};
@@ -28,8 +29,8 @@ pub(crate) fn draw(view: &View, pose: &RelativePose, plan: &Plan, counts: bool) 
     } = plan;
     let (r, noise_radius) = (*r, *noise_radius);
     let l = &view.layout;
-    // Slack for the rounding of q = R p + t and |q| in f64 (relative 1e-12 of the distances).
-    let slack = 1e-12 * (r + pose.translation.length() + l.range_max) + 1e-12;
+    // Slack for the rounding of q = R p + t and |q| in f64 (MASK_F64_SLACK of the distances).
+    let slack = MASK_F64_SLACK * (r + pose.translation.length() + l.range_max) + MASK_F64_SLACK;
     let radius = radius + slack;
     let (na, ne) = (cells.azimuths.len(), cells.elevations.len());
     let mut occ = Occupancy::new(l.range_bins, l.beams());

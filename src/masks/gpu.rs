@@ -9,6 +9,7 @@
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose (the slack covers it) and counts are bounded by the device limits checked before packing"
 )]
 
+use crate::clip::{MASK_F32_FLOOR, MASK_F32_SLACK};
 use std::collections::HashMap;
 
 use bytemuck::{Pod, Zeroable};
@@ -27,67 +28,67 @@ use super::plan::{BLOCK, Plan};
 /// `MaskParams` there.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct MaskParams {
+pub(crate) struct MaskParams {
     /// Sonar 2's near range (m).
-    pub range_min: f32,
+    pub(crate) range_min: f32,
     /// Sonar 2's far range (m).
-    pub range_max: f32,
+    pub(crate) range_max: f32,
     /// `range_bins / (range_max - range_min)` (1/m).
-    pub inv_range_bin: f32,
+    pub(crate) inv_range_bin: f32,
     /// Sonar 2's range bins.
-    pub range_bins: u32,
+    pub(crate) range_bins: u32,
     /// Sonar 2's beams (1 for a sidescan).
-    pub beams: u32,
+    pub(crate) beams: u32,
     /// 32-bit words of one mask's bitset.
-    pub words_per_mask: u32,
+    pub(crate) words_per_mask: u32,
     /// Padding (zero).
-    pub _pad0: u32,
+    pub(crate) _pad0: u32,
     /// 1 for an FLS target (beams), 0 for an SSS (range bins only).
-    pub fls: u32,
+    pub(crate) fls: u32,
     /// tan of half the elevation aperture; < 0 when the aperture is 180° (no test).
-    pub tan_half_el: f32,
+    pub(crate) tan_half_el: f32,
     /// tan of half the azimuth aperture (< 90°: checked on the CPU).
-    pub tan_half_az: f32,
+    pub(crate) tan_half_az: f32,
     /// cos of half the azimuth aperture: the edge search holds while `radius < ρ cos(half_az)`.
-    pub cos_half_az: f32,
+    pub(crate) cos_half_az: f32,
     /// Padding (zero).
-    pub _pad: f32,
+    pub(crate) _pad: f32,
 }
 
 /// One mask to draw (members as documented in shaders/mask.wgsl). Keep in sync with `MaskJob`
 /// there.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct MaskJob {
+pub(crate) struct MaskJob {
     /// Rows of the rotation `R` (sonar 1 → sonar 2) with the translation `t` in `.w` (m).
-    pub rows: [[f32; 4]; 3],
+    pub(crate) rows: [[f32; 4]; 3],
     /// The measured range of the set being masked (m).
-    pub range: f32,
+    pub(crate) range: f32,
     /// The ball radius of one cell: cell, noise and rounding slack (m).
-    pub radius: f32,
+    pub(crate) radius: f32,
     /// Cells along the azimuth.
-    pub az_count: u32,
+    pub(crate) az_count: u32,
     /// Cells along the elevation.
-    pub el_count: u32,
+    pub(crate) el_count: u32,
     /// Where the job's azimuth directions start in the direction table.
-    pub az_offset: u32,
+    pub(crate) az_offset: u32,
     /// Where the job's elevation directions start in the direction table.
-    pub el_offset: u32,
+    pub(crate) el_offset: u32,
     /// Where the job's kept blocks start in the block list.
-    pub block_offset: u32,
+    pub(crate) block_offset: u32,
     /// How many blocks the job keeps.
-    pub block_count: u32,
+    pub(crate) block_count: u32,
 }
 
 /// Byte sizes of the shared structs (checked against naga's layout in tests/shaders.rs).
-pub const MASK_PARAMS_SIZE: usize = 48;
+pub(crate) const MASK_PARAMS_SIZE: usize = 48;
 /// See [`MASK_PARAMS_SIZE`].
-pub const MASK_JOB_SIZE: usize = 80;
+pub(crate) const MASK_JOB_SIZE: usize = 80;
 const _: () = assert!(size_of::<MaskParams>() == MASK_PARAMS_SIZE);
 const _: () = assert!(size_of::<MaskJob>() == MASK_JOB_SIZE);
 
 /// Bindings of `shaders/mask.wgsl`: params, edges, jobs, dirs, blocks, bits.
-pub const MASK_BINDINGS: [Binding; 6] = [
+pub(crate) const MASK_BINDINGS: [Binding; 6] = [
     Binding::Uniform,
     Binding::Read,
     Binding::Read,
@@ -98,31 +99,28 @@ pub const MASK_BINDINGS: [Binding; 6] = [
 
 /// Threads per workgroup of the mask stage (WGSL `@workgroup_size` in mask.wgsl; checked in
 /// tests/shaders.rs).
-pub const MASK_WORKGROUP: u64 = 64;
+pub(crate) const MASK_WORKGROUP: u64 = 64;
 /// The most workgroups along x (cells are strided beyond).
 const MAX_TILES: u64 = 1024;
-/// The relative size of the f32 rounding slack (about 17 f32 ulps of the largest distance).
-const F32_SLACK: f64 = 2e-6;
-
 /// One mask for the GPU to draw: the pose, the plan, and the blocks that survived the cull.
 pub(crate) struct Job {
     /// The pose.
-    pub pose: RelativePose,
+    pub(crate) pose: RelativePose,
     /// The cells and radius.
-    pub plan: Plan,
+    pub(crate) plan: Plan,
     /// First cells of the blocks to visit ([`super::MaskEngine`]'s `blocks`).
-    pub blocks: Vec<(usize, usize)>,
+    pub(crate) blocks: Vec<(usize, usize)>,
 }
 
 /// Returns the radius (m) added to every ball on the GPU to cover the f32 rounding of a set at
-/// range `r` under `pose` in `layout`.
+/// range `r` under `pose` in `layout` ([`MASK_F32_SLACK`], [`MASK_F32_FLOOR`]).
 pub(crate) fn slack(r: f64, pose: &RelativePose, layout: &Layout) -> f64 {
-    F32_SLACK * (r + pose.translation.length() + layout.range_max) + 1e-6
+    MASK_F32_SLACK * (r + pose.translation.length() + layout.range_max) + MASK_F32_FLOOR
 }
 
 /// Returns the full source of the mask stage.
 #[must_use]
-pub fn source() -> &'static str {
+pub(crate) fn source() -> &'static str {
     shaders::mask()
 }
 
@@ -136,7 +134,7 @@ struct Buffers {
 }
 
 /// The mask pipeline on one GPU, for one sonar 2.
-pub struct GpuMasks {
+pub(crate) struct GpuMasks {
     ctx: GpuContext,
     stage: Stage,
     params: MaskParams,
@@ -158,7 +156,7 @@ impl GpuMasks {
     ///
     /// # Errors
     /// [`Error::InvalidValue`] for an azimuth aperture of 180° or more.
-    pub fn new(ctx: GpuContext, layout: &Layout) -> Result<GpuMasks> {
+    pub(crate) fn new(ctx: GpuContext, layout: &Layout) -> Result<GpuMasks> {
         let ha = layout.half_azimuth;
         if ha >= std::f64::consts::FRAC_PI_2 {
             return Err(Error::invalid(
@@ -215,7 +213,7 @@ impl GpuMasks {
     }
 
     /// Returns the adapter's description.
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         format!("{} (f32 with rounding slack)", context::describe(&self.ctx.info))
     }
 

@@ -27,9 +27,9 @@
 //! the engine that picks between them.
 
 mod cpu;
-pub mod gpu;
+pub(crate) mod gpu;
 pub mod noise;
-pub mod plan;
+pub(crate) mod plan;
 pub mod summary;
 
 use rayon::prelude::*;
@@ -37,12 +37,12 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::geometry::{RelativePose, Sonar};
 use crate::gpu::GpuContext;
+pub use crate::limits::MAX_CELLS;
 use crate::occupancy::{Layout, Occupancy};
 use crate::projection::{BackendChoice, Device};
 use crate::sampling::Measurement;
 use gpu::{GpuMasks, Job, slack};
 pub use noise::Noise;
-pub use plan::MAX_CELLS;
 use plan::{Plan, View};
 pub use summary::{BoundingBox, bounding_box, run_lengths};
 

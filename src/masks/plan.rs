@@ -6,6 +6,7 @@ use glam::DVec3;
 
 use crate::error::{Error, Result};
 use crate::geometry::{RelativePose, Sonar, SonarKind, sph_to_cart};
+use crate::limits::MAX_CELLS;
 use crate::occupancy::Layout;
 use crate::sampling::Measurement;
 
@@ -14,7 +15,6 @@ use super::noise::Noise;
 /// Cells per block side (blocks are culled as a whole before their cells are visited). Keep in
 /// sync with BLOCK in shaders/mask.wgsl.
 pub(crate) const BLOCK: usize = 8;
-pub use crate::limits::MAX_CELLS;
 
 /// What one mask is drawn from: the cells of the set, their ball radius and the noise part of it.
 pub(crate) struct Plan {

@@ -19,19 +19,7 @@ use crate::occupancy::{Layout, Occupancy};
 use crate::sampling::SamplingPlan;
 use std::f64::consts::{FRAC_PI_2, PI};
 
-/// Relative size (against the sample's range in sonar 2) of the neighbourhood of a bound or edge
-/// within which the GPU and the reference may disagree.
-pub const RELATIVE_TOLERANCE: f64 = 1e-5;
-/// Relative size (against `range + |t|`, the magnitudes the transform adds) of the rounding of
-/// the pose and directions to f32 hi + lo pairs (about 48 bits, so 1e-14), with a wide margin.
-pub const INPUT_TOLERANCE: f64 = 1e-9;
-
-/// The same for a GPU deciding in double-f32 ([`Precision::DoubleF32`]): where the driver keeps
-/// f32 arithmetic exact and fuses `fma` it is as precise as [`INPUT_TOLERANCE`] says, but
-/// drivers that do not leave it f32 (lavapipe; the H100's driver gave the same 2e-6 m errors): each of
-/// the eight roundings of a coordinate (`u` from the plan's angles, three products and sums
-/// with the pose) errs by up to 2⁻²⁴ ≈ 6e-8 of `range + |t|`, so 5e-7 in all; doubled.
-pub const DOUBLE_F32_TOLERANCE: f64 = 1e-6;
+pub use crate::clip::{DOUBLE_F32_TOLERANCE, INPUT_TOLERANCE, RELATIVE_TOLERANCE};
 
 /// Returns the input tolerance ([`INPUT_TOLERANCE`] or [`DOUBLE_F32_TOLERANCE`]) of results
 /// decided at `precision`.

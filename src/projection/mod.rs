@@ -9,6 +9,7 @@
 
 pub mod backend;
 pub mod batch;
+pub(crate) mod culling;
 pub mod envelope;
 pub mod fast;
 pub mod gpu;

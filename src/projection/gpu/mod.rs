@@ -7,13 +7,14 @@
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose and counts are bounded by the device limits checked before packing"
 )]
 
-pub mod types;
+pub(crate) mod types;
 
 use std::collections::HashMap;
 
 use glam::DMat3;
 use rayon::prelude::*;
 
+use crate::clip::{F32_CENTRE_ERROR, F32_ROUND_UP, F32_UNIT_ERROR};
 use crate::error::{Error, Result};
 use crate::geometry::SonarKind;
 use crate::gpu::pipeline::{Binding, Stage};
@@ -21,13 +22,13 @@ use crate::gpu::pool::{BufferPool, SharedPool};
 use crate::gpu::{GpuContext, read, shaders};
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::Occupancy;
-use crate::projection::fast;
+use crate::projection::culling;
 use crate::projection::{Output, PreparedBatch, Projection};
 use types::*;
 
 /// Bindings of `shaders/splat.wgsl`: params, beam_edges, range_edges_sq, poses, directions,
 /// bits, metrics.
-pub const SPLAT_BINDINGS: [Binding; 7] = [
+pub(crate) const SPLAT_BINDINGS: [Binding; 7] = [
     Binding::Uniform,
     Binding::Read,
     Binding::Read,
@@ -38,7 +39,7 @@ pub const SPLAT_BINDINGS: [Binding; 7] = [
 ];
 
 /// Bindings of `shaders/reduce.wgsl`: params, beam_edges, row_weights, bits, metrics.
-pub const REDUCE_BINDINGS: [Binding; 5] = [
+pub(crate) const REDUCE_BINDINGS: [Binding; 5] = [
     Binding::Uniform,
     Binding::Read,
     Binding::Read,
@@ -48,13 +49,10 @@ pub const REDUCE_BINDINGS: [Binding; 5] = [
 
 /// Threads per workgroup of the splat stage by default (the WGSL `override WORKGROUP` in
 /// splat.wgsl; checked in tests/shaders.rs).
-pub const SPLAT_WORKGROUP: u32 = 64;
+pub(crate) const SPLAT_WORKGROUP: u32 = 64;
 /// The splat stage's workgroup sizes [`SplatOptions::workgroup`] may take: multiples of the
 /// culling block (16 samples) that every adapter runs (at least 256 threads a workgroup).
 pub const SPLAT_WORKGROUPS: [u32; 4] = [32, 64, 128, 256];
-/// Threads per workgroup of the reduce stage (WGSL `@workgroup_size` in reduce.wgsl; checked in
-/// tests/shaders.rs): one workgroup per pose, whatever its size.
-pub const REDUCE_WORKGROUP: u64 = 64;
 /// Most workgroups one pose's samples are spread over in the splat stage.
 const MAX_TILES: u64 = 1024;
 /// Most bytes of bitsets one chunk may hold (also capped by the device's binding size).
@@ -421,7 +419,7 @@ impl GpuBackend {
                 let occupied = u64::from(m[METRIC_OCCUPIED]);
                 let measure = match layout.kind {
                     SonarKind::Sss => occupied as f64 * layout.range_bin_width,
-                    SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_MEASURE])),
+                    SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_OCCUPIED_MEASURE])),
                 };
                 let metrics = Metrics::new(u64::from(m[METRIC_VISIBLE]), total, extremes, occupied, measure);
                 let occupancy = raw_bits.as_ref().map(|b| {
@@ -445,9 +443,9 @@ struct Directions {
 
 /// Returns the direction table of the plans in `used` — azimuths then elevations of each, each
 /// entry `(cos hi, sin hi, cos lo, sin lo)` in double-f32, then the plan's culling balls
-/// (`fast::block_bounds`: centre xyz, radius w, in f32 with the radius rounded up past the
+/// (`culling::block_bounds`: centre xyz, radius w, in f32 with the radius rounded up past the
 /// centre's rounding) right after its elevations, then its blocks' reaches from their chords
-/// (`fast::block_bounds`, four an entry, rounded up past the shader's roundings of the chord's
+/// (`culling::block_bounds`, four an entry, rounded up past the shader's roundings of the chord's
 /// ends) — and per plan the offsets of its azimuth and elevation entries.
 fn direction_table(
     prepared: &PreparedBatch<'_>,
@@ -466,24 +464,25 @@ fn direction_table(
         let el_off = table.len() as u32;
         table.extend(plan.elevations.iter().map(entry));
         // The shader finds block b of this plan at el_off + n_el + b. Rounding the centre to f32
-        // moves it by at most √3 · 2⁻²⁴ < 2e-7; the radius grows by that and rounds up.
-        let (balls, reaches) = fast::block_bounds(&plan.azimuths, &plan.elevations);
+        // moves it by at most F32_CENTRE_ERROR; the radius grows by that and rounds up.
+        let (balls, reaches) = culling::block_bounds(&plan.azimuths, &plan.elevations);
         table.extend(balls.into_iter().map(|(c, r)| {
             [
                 c.x as f32,
                 c.y as f32,
                 c.z as f32,
-                ((r + 2e-7) * (1.0 + 1e-6)) as f32,
+                ((r + F32_CENTRE_ERROR) * (1.0 + F32_ROUND_UP)) as f32,
             ]
         }));
         // Then the blocks' reaches, four an entry: block b's at el_off + n_el + blocks + b / 4,
         // component b % 4. The shader computes the chord's ends in f32 from the hi parts, within
-        // 4e-7 of the units; the reach grows by that and rounds up.
-        table.extend(
-            reaches.chunks(4).map(|r| {
-                std::array::from_fn(|k| r.get(k).map_or(0.0, |r| ((r + 4e-7) * (1.0 + 1e-6)) as f32))
-            }),
-        );
+        // F32_UNIT_ERROR of the units; the reach grows by that and rounds up.
+        table.extend(reaches.chunks(4).map(|r| {
+            std::array::from_fn(|k| {
+                r.get(k)
+                    .map_or(0.0, |r| ((r + F32_UNIT_ERROR) * (1.0 + F32_ROUND_UP)) as f32)
+            })
+        }));
         offsets.insert(p, [az_off, el_off]);
     }
     (table, offsets)

@@ -1,5 +1,5 @@
-//! GPU-side structs. Keep in sync with `shaders/shared/types.wgsl` (sizes asserted here and
-//! checked against naga's layout of the WGSL in `tests/shaders.rs`).
+//! GPU-side structs, internal to the engine. Keep in sync with `shaders/shared/types.wgsl` (sizes
+//! asserted here and checked against naga's layout of the WGSL in `src/gpu/shader_tests.rs`).
 #![expect(
     clippy::cast_possible_truncation,
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose and counts are bounded by the device limits checked before packing"
@@ -15,43 +15,43 @@ use crate::occupancy::Layout;
 /// double-f32 `(hi, lo)`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct TargetParams {
+pub(crate) struct TargetParams {
     /// Minimum range (m).
-    pub range_min: f32,
+    pub(crate) range_min: f32,
     /// Maximum range (m).
-    pub range_max: f32,
+    pub(crate) range_max: f32,
     /// `range_bins / (range_max − range_min)`.
-    pub inv_range_bin: f32,
+    pub(crate) inv_range_bin: f32,
     /// Half the azimuth aperture (rad).
-    pub half_az: f32,
+    pub(crate) half_az: f32,
     /// `beams / aperture` (1/rad).
-    pub inv_beam_width: f32,
+    pub(crate) inv_beam_width: f32,
     /// Number of range bins.
-    pub range_bins: u32,
+    pub(crate) range_bins: u32,
     /// Number of beams (1 for an SSS).
-    pub beams: u32,
+    pub(crate) beams: u32,
     /// 1 for uniform beams, 0 for explicit edges.
-    pub beams_uniform: u32,
+    pub(crate) beams_uniform: u32,
     /// u32 words of one pose's bitset.
-    pub words_per_pose: u32,
+    pub(crate) words_per_pose: u32,
     /// Poses in this chunk.
-    pub pose_count: u32,
+    pub(crate) pose_count: u32,
     /// 1 when the GPU sums the occupied area (FLS); 0 for an SSS (measure = count × Δ on the CPU).
-    pub measure_area: u32,
+    pub(crate) measure_area: u32,
     /// 0 when the elevation aperture is 180° (nothing to clip), else 1.
-    pub clip_elevation: u32,
+    pub(crate) clip_elevation: u32,
     /// `range_min²`.
-    pub range_min_sq: [f32; 2],
+    pub(crate) range_min_sq: [f32; 2],
     /// `range_max²`.
-    pub range_max_sq: [f32; 2],
+    pub(crate) range_max_sq: [f32; 2],
     /// `sin(h)`, h half the azimuth aperture; exactly 0 when `h = π`.
-    pub sin_half_az: [f32; 2],
+    pub(crate) sin_half_az: [f32; 2],
     /// `cos(h)`; exactly −1 when `h = π`.
-    pub cos_half_az: [f32; 2],
+    pub(crate) cos_half_az: [f32; 2],
     /// `sin²` of half the elevation aperture.
-    pub sin2_half_el: [f32; 2],
+    pub(crate) sin2_half_el: [f32; 2],
     /// `cos²` of half the elevation aperture.
-    pub cos2_half_el: [f32; 2],
+    pub(crate) cos2_half_el: [f32; 2],
 }
 const _: () = assert!(std::mem::size_of::<TargetParams>() == 96);
 
@@ -60,19 +60,19 @@ const _: () = assert!(std::mem::size_of::<TargetParams>() == 96);
 /// `(azimuth offset, n_az, elevation offset, n_el)` into the direction table.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct PoseGpu {
+pub(crate) struct PoseGpu {
     /// High parts of the rows of M, translation in the 4th component.
-    pub hi: [[f32; 4]; 3],
+    pub(crate) hi: [[f32; 4]; 3],
     /// Low parts: `value − hi`, rounded to f32.
-    pub lo: [[f32; 4]; 3],
+    pub(crate) lo: [[f32; 4]; 3],
     /// Offsets and counts of the plan's azimuth and elevation entries.
-    pub plan: [u32; 4],
+    pub(crate) plan: [u32; 4],
 }
 const _: () = assert!(std::mem::size_of::<PoseGpu>() == 112);
 
 /// Returns `v` as double-f32 `(hi, lo)`: `hi = f32(v)`, `lo = f32(v − hi)`.
 #[must_use]
-pub fn split(v: f64) -> (f32, f32) {
+pub(crate) fn split(v: f64) -> (f32, f32) {
     let hi = v as f32;
     (hi, (v - f64::from(hi)) as f32)
 }
@@ -81,22 +81,22 @@ pub fn split(v: f64) -> (f32, f32) {
 /// cos and sin as double-f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub struct BeamEdgeGpu {
+pub(crate) struct BeamEdgeGpu {
     /// Angle (rad).
-    pub angle: f32,
+    pub(crate) angle: f32,
     /// Width (rad) of the beam whose lower edge this is; 0 for the last edge.
-    pub width: f32,
+    pub(crate) width: f32,
     /// cos(angle), double-f32.
-    pub cos_angle: [f32; 2],
+    pub(crate) cos_angle: [f32; 2],
     /// sin(angle), double-f32.
-    pub sin_angle: [f32; 2],
+    pub(crate) sin_angle: [f32; 2],
     /// Padding to a 16-byte stride.
-    pub _pad: [f32; 2],
+    pub(crate) _pad: [f32; 2],
 }
 const _: () = assert!(std::mem::size_of::<BeamEdgeGpu>() == 32);
 
 /// u32 slots per pose in the metrics buffer (WGSL `METRIC_STRIDE`).
-pub const METRIC_STRIDE: usize = 8;
+pub(crate) const METRIC_STRIDE: usize = 8;
 /// Returns the GPU slot the metric table gives `metric` (a compile-time check that it has one).
 const fn slot(metric: Metric) -> usize {
     match metric.gpu_slot() {
@@ -105,23 +105,23 @@ const fn slot(metric: Metric) -> usize {
     }
 }
 /// Slot of the visible count.
-pub const METRIC_VISIBLE: usize = slot(Metric::Visible);
+pub(crate) const METRIC_VISIBLE: usize = slot(Metric::Visible);
 /// Slot of the occupied count.
-pub const METRIC_OCCUPIED: usize = slot(Metric::Occupied);
+pub(crate) const METRIC_OCCUPIED: usize = slot(Metric::Occupied);
 /// Slot of NOT the order key of the smallest range.
-pub const METRIC_RANGE_MIN_NOT: usize = slot(Metric::RangeMin);
+pub(crate) const METRIC_RANGE_MIN_NOT: usize = slot(Metric::RangeMin);
 /// Slot of the order key of the largest range.
-pub const METRIC_RANGE_MAX: usize = slot(Metric::RangeMax);
+pub(crate) const METRIC_RANGE_MAX: usize = slot(Metric::RangeMax);
 /// Slot of NOT the order key of the smallest azimuth.
-pub const METRIC_AZIMUTH_MIN_NOT: usize = slot(Metric::AzimuthMin);
+pub(crate) const METRIC_AZIMUTH_MIN_NOT: usize = slot(Metric::AzimuthMin);
 /// Slot of the order key of the largest azimuth.
-pub const METRIC_AZIMUTH_MAX: usize = slot(Metric::AzimuthMax);
+pub(crate) const METRIC_AZIMUTH_MAX: usize = slot(Metric::AzimuthMax);
 /// Slot of the f32 bits of the FLS occupied measure.
-pub const METRIC_MEASURE: usize = slot(Metric::OccupiedMeasure);
+pub(crate) const METRIC_OCCUPIED_MEASURE: usize = slot(Metric::OccupiedMeasure);
 
 /// Returns the f32 whose order key (WGSL `order_key`) is `key`.
 #[must_use]
-pub fn from_order_key(key: u32) -> f32 {
+pub(crate) fn from_order_key(key: u32) -> f32 {
     if key & 0x8000_0000 != 0 {
         f32::from_bits(key & 0x7fff_ffff)
     } else {
@@ -131,7 +131,7 @@ pub fn from_order_key(key: u32) -> f32 {
 
 /// Returns the u32 words of one pose's bitset for `layout`.
 #[must_use]
-pub fn words_per_pose(layout: &Layout) -> usize {
+pub(crate) fn words_per_pose(layout: &Layout) -> usize {
     layout.pixels().div_ceil(32)
 }
 
@@ -144,7 +144,7 @@ fn df(v: f64) -> [f32; 2] {
 impl TargetParams {
     /// Returns the parameters of `layout` for a chunk of `pose_count` poses.
     #[must_use]
-    pub fn new(layout: &Layout, pose_count: u32) -> Self {
+    pub(crate) fn new(layout: &Layout, pose_count: u32) -> Self {
         let (sin_half_az, cos_half_az) = layout.azimuth_clip();
         let elevation = layout.elevation_clip();
         let width = layout.uniform_beam_width();
@@ -174,7 +174,7 @@ impl TargetParams {
 
 /// Returns the beam edges of `layout` for the GPU.
 #[must_use]
-pub fn beam_edges(layout: &Layout) -> Vec<BeamEdgeGpu> {
+pub(crate) fn beam_edges(layout: &Layout) -> Vec<BeamEdgeGpu> {
     let e = &layout.beam_edges;
     (0..e.len())
         .map(|k| BeamEdgeGpu {
@@ -193,7 +193,7 @@ pub fn beam_edges(layout: &Layout) -> Vec<BeamEdgeGpu> {
 
 /// Returns the squared range-bin edges `(range_min + iΔ)²`, `i = 0..=range_bins`, double-f32.
 #[must_use]
-pub fn range_edges_sq(layout: &Layout) -> Vec<[f32; 2]> {
+pub(crate) fn range_edges_sq(layout: &Layout) -> Vec<[f32; 2]> {
     (0..=layout.range_bins)
         .map(|i| df(layout.range_edge(i).powi(2)))
         .collect()
@@ -202,7 +202,7 @@ pub fn range_edges_sq(layout: &Layout) -> Vec<[f32; 2]> {
 /// Returns the per-row weights `(r_{i+1}² − r_i²)/2` of a layout: a pixel's area is its beam
 /// width times its row's weight.
 #[must_use]
-pub fn row_weights(layout: &Layout) -> Vec<f32> {
+pub(crate) fn row_weights(layout: &Layout) -> Vec<f32> {
     (0..layout.range_bins)
         .map(|i| {
             let (a, b) = (layout.range_edge(i), layout.range_edge(i + 1));

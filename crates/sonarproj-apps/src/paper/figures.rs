@@ -26,10 +26,7 @@ fn metric_title(direction: Direction) -> &'static str {
 }
 
 /// Returns scenarios 1–6 of `run` as a 2×3 grid of line plots over 0–180°.
-#[expect(
-    clippy::cast_possible_truncation,
-    reason = "a panel index below six"
-)]
+#[expect(clippy::cast_possible_truncation, reason = "a panel index below six")]
 pub(super) fn lines(run: &DirectionRun) -> LineGrid {
     let panels = (0..6)
         .map(|k| {
@@ -100,10 +97,7 @@ pub(super) fn heatmaps(run: &DirectionRun, angles: &[f64]) -> HeatmapRow {
         ),
         step,
         axis_range: (0.0, 180.0),
-        colour_label: format!(
-            "colour: {}, this panel's own scale",
-            run.direction.metric_label()
-        ),
+        colour_label: format!("colour: {}, this panel's own scale", run.direction.metric_label()),
         panels,
     }
 }

@@ -173,4 +173,3 @@ pub fn findings_markdown(findings: &[Finding], angle_step: f64, sampling: Sampli
     }
     md
 }
-

@@ -1,9 +1,25 @@
-//! The WGSL stages parse and validate, and the structs and constants they share with Rust have
-//! the same sizes and values on both sides (the "keep in sync" comments, checked).
+//! The WGSL stages parse and validate, and the structs, constants, bindings and workgroup sizes
+//! they share with Rust are the same on both sides (the "keep in sync" comments, checked).
+#![expect(
+    clippy::cast_possible_truncation,
+    reason = "WGSL constants are small integers or f32 values, read back as f64"
+)]
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
-use sonarproj::gpu::shaders;
-use sonarproj::projection::gpu::types;
+
+use crate::gpu::pipeline::Binding;
+use crate::gpu::shaders::{self, Precision};
+use crate::projection::gpu::types;
+
+/// Returns every stage and variant as `(name, full source, needs f64)`.
+fn all() -> Vec<(&'static str, String, bool)> {
+    vec![
+        ("splat (f64)", shaders::splat(Precision::F64), true),
+        ("splat (double-f32)", shaders::splat(Precision::DoubleF32), false),
+        ("reduce", shaders::reduce(), false),
+        ("mask", shaders::mask().to_string(), false),
+    ]
+}
 
 fn module(source: &str, name: &str) -> naga::Module {
     let module = naga::front::wgsl::parse_str(source)
@@ -16,7 +32,7 @@ fn module(source: &str, name: &str) -> naga::Module {
 
 #[test]
 fn every_stage_parses_and_validates() {
-    for (name, source, needs_f64) in shaders::all() {
+    for (name, source, needs_f64) in all() {
         module(&source, name);
         if !needs_f64 {
             // Without the f64 capability too: adapters that lack it run this variant.
@@ -30,7 +46,7 @@ fn every_stage_parses_and_validates() {
 
 #[test]
 fn shared_structs_have_the_rust_sizes() {
-    let m = module(&shaders::splat(shaders::Precision::F64), "splat");
+    let m = module(&shaders::splat(Precision::F64), "splat");
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(m.to_ctx()).unwrap();
     let size_of = |name: &str| {
@@ -70,7 +86,7 @@ fn wgsl_members(m: &naga::Module, name: &str) -> Vec<(String, usize)> {
 fn shared_struct_members_sit_at_the_rust_offsets() {
     use std::mem::offset_of;
     use types::{BeamEdgeGpu, PoseGpu, TargetParams};
-    let m = module(&shaders::splat(shaders::Precision::F64), "splat");
+    let m = module(&shaders::splat(Precision::F64), "splat");
     let target = [
         ("range_min", offset_of!(TargetParams, range_min)),
         ("range_max", offset_of!(TargetParams, range_max)),
@@ -124,37 +140,78 @@ fn shared_struct_members_sit_at_the_rust_offsets() {
     }
 }
 
+/// Returns the value of the WGSL constant `name` of `m` (a u32 or f32 literal, as f64).
+fn constant(m: &naga::Module, name: &str) -> f64 {
+    let c = m
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no const {name} in the WGSL"))
+        .1;
+    match m.global_expressions[c.init] {
+        naga::Expression::Literal(naga::Literal::U32(v)) => f64::from(v),
+        naga::Expression::Literal(naga::Literal::F32(v)) => f64::from(v),
+        ref e => panic!("{name} is not a u32 or f32 literal: {e:?}"),
+    }
+}
+
+/// The metric slots the stages use are generated from the metric table: each has the slot the
+/// Rust side decodes, and the stages name no slot the table does not give.
 #[test]
 fn metric_slots_match() {
-    let m = module(&shaders::splat(shaders::Precision::F64), "splat");
-    let value = |name: &str| -> usize {
-        let c = m
-            .constants
-            .iter()
-            .find(|(_, c)| c.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("no const {name} in the WGSL"))
-            .1;
-        match m.global_expressions[c.init] {
-            naga::Expression::Literal(naga::Literal::U32(v)) => v as usize,
-            ref e => panic!("{name} is not a u32 literal: {e:?}"),
-        }
-    };
-    assert_eq!(value("METRIC_STRIDE"), types::METRIC_STRIDE);
-    assert_eq!(value("METRIC_VISIBLE"), types::METRIC_VISIBLE);
-    assert_eq!(value("METRIC_OCCUPIED"), types::METRIC_OCCUPIED);
-    assert_eq!(value("METRIC_RANGE_MIN_NOT"), types::METRIC_RANGE_MIN_NOT);
-    assert_eq!(value("METRIC_RANGE_MAX"), types::METRIC_RANGE_MAX);
-    assert_eq!(value("METRIC_AZIMUTH_MIN_NOT"), types::METRIC_AZIMUTH_MIN_NOT);
-    assert_eq!(value("METRIC_AZIMUTH_MAX"), types::METRIC_AZIMUTH_MAX);
-    assert_eq!(value("METRIC_MEASURE"), types::METRIC_MEASURE);
-    // The culling blocks of the shader are those of its CPU twin (the direction table holds
-    // one ball per cpu_fast block).
-    assert_eq!(value("BLOCK"), sonarproj::projection::fast::BLOCK);
+    for (name, source) in [
+        ("splat", shaders::splat(Precision::F64)),
+        ("reduce", shaders::reduce()),
+    ] {
+        let m = module(&source, name);
+        let value = |c: &str| constant(&m, c) as usize;
+        assert_eq!(value("METRIC_STRIDE"), types::METRIC_STRIDE);
+        assert_eq!(value("METRIC_VISIBLE"), types::METRIC_VISIBLE);
+        assert_eq!(value("METRIC_OCCUPIED"), types::METRIC_OCCUPIED);
+        assert_eq!(value("METRIC_RANGE_MIN_NOT"), types::METRIC_RANGE_MIN_NOT);
+        assert_eq!(value("METRIC_RANGE_MAX"), types::METRIC_RANGE_MAX);
+        assert_eq!(value("METRIC_AZIMUTH_MIN_NOT"), types::METRIC_AZIMUTH_MIN_NOT);
+        assert_eq!(value("METRIC_AZIMUTH_MAX"), types::METRIC_AZIMUTH_MAX);
+        assert_eq!(value("METRIC_OCCUPIED_MEASURE"), types::METRIC_OCCUPIED_MEASURE);
+    }
+    // Nothing but the generated prefix defines a slot.
+    for file in [
+        include_str!("../../shaders/shared/types.wgsl"),
+        include_str!("../../shaders/splat.wgsl"),
+        include_str!("../../shaders/reduce.wgsl"),
+    ] {
+        assert!(!file.contains("const METRIC_"), "a hand-written metric slot");
+    }
+}
+
+/// The constants the splat stage's decisions share with Rust: the culling block and the
+/// tolerances of `shaders/shared/clip.wgsl` are `src/clip.rs`'s.
+#[test]
+fn clip_constants_match() {
+    let m = module(&shaders::splat(Precision::F64), "splat");
+    assert_eq!(constant(&m, "BLOCK") as usize, crate::projection::culling::BLOCK);
+    // f32 literals: the Rust values rounded to f32.
+    assert_eq!(
+        constant(&m, "F32_SLACK"),
+        f64::from(crate::clip::F32_SLACK as f32)
+    );
+    assert_eq!(
+        constant(&m, "F32_WIDEN"),
+        f64::from(crate::clip::F32_WIDEN as f32)
+    );
+    // Generated, never hand-written.
+    let clip = include_str!("../../shaders/shared/clip.wgsl");
+    for name in ["F32_SLACK", "F32_WIDEN", "BLOCK"] {
+        assert!(
+            !clip.contains(&format!("const {name}:")),
+            "{name} written by hand"
+        );
+    }
 }
 
 #[test]
 fn mask_structs_match_the_rust_layout() {
-    use sonarproj::masks::gpu::{MASK_JOB_SIZE, MASK_PARAMS_SIZE, MaskJob, MaskParams, source};
+    use crate::masks::gpu::{MASK_JOB_SIZE, MASK_PARAMS_SIZE, MaskJob, MaskParams, source};
     use std::mem::offset_of;
     let m = module(source(), "mask");
     let mut layouter = naga::proc::Layouter::default();
@@ -204,8 +261,7 @@ fn mask_structs_match_the_rust_layout() {
 
 /// Returns the kinds of `module`'s group-0 bindings in binding order, and the x size of the
 /// `main` entry point's workgroup.
-fn interface(module: &naga::Module) -> (Vec<sonarproj::gpu::pipeline::Binding>, u32) {
-    use sonarproj::gpu::pipeline::Binding;
+fn interface(module: &naga::Module) -> (Vec<Binding>, u32) {
     let mut bindings: Vec<(u32, Binding)> = module
         .global_variables
         .iter()
@@ -260,10 +316,12 @@ fn interface(module: &naga::Module) -> (Vec<sonarproj::gpu::pipeline::Binding>, 
 /// computed with, are the WGSL's (they were kept in sync by comments only).
 #[test]
 fn binding_tables_and_workgroup_sizes_match_the_wgsl() {
-    use sonarproj::masks::gpu::{MASK_BINDINGS, MASK_WORKGROUP, source};
-    use sonarproj::projection::gpu::{REDUCE_BINDINGS, SPLAT_BINDINGS};
-    use sonarproj::projection::gpu::{REDUCE_WORKGROUP, SPLAT_WORKGROUP};
-    for precision in [shaders::Precision::F64, shaders::Precision::DoubleF32] {
+    use crate::masks::gpu::{MASK_BINDINGS, MASK_WORKGROUP, source};
+    use crate::projection::gpu::{REDUCE_BINDINGS, SPLAT_BINDINGS, SPLAT_WORKGROUP};
+    // The reduce stage runs one workgroup per pose whatever its size: its 64 threads are the
+    // WGSL's own, said here so that a change is seen.
+    const REDUCE_WORKGROUP: u64 = 64;
+    for precision in [Precision::F64, Precision::DoubleF32] {
         let (b, w) = interface(&module(&shaders::splat(precision), "splat"));
         assert_eq!(b, SPLAT_BINDINGS, "splat.wgsl bindings");
         assert_eq!(w, SPLAT_WORKGROUP, "splat.wgsl workgroup size");

@@ -1,0 +1,400 @@
+//! One clip and one error model: whether a point lies in sonar 2's field of view, which range bin
+//! and beam it falls in, and every tolerance the engine's decisions and checks use, each with its
+//! derivation. The WGSL twin is `shaders/shared/clip.wgsl` (the splat stage's decisions and its
+//! f32 slack); read the two side by side.
+//!
+//! There are two kinds of decision, both here:
+//!
+//! - **The definition** ([`Layout::inside`], [`Layout::range_bin`], [`Layout::beam`]): from a
+//!   point's range, azimuth and elevation, with trigonometry, as the conventions state them —
+//!   bounds inclusive, bin `i` covering `[edge(i), edge(i + 1))`, the last bin and beam also
+//!   taking the upper bound. The reference (`projection::reference`) decides so.
+//! - **The same decisions without trigonometry** ([`Clip`]): from the Cartesian point in sonar 2,
+//!   `r²` against `range_min²` and `range_max²`, `x sin h − |y| cos h ≥ 0` for the azimuth,
+//!   `z² cos² e ≤ (x² + y²) sin² e` for the elevation, a first guess of the range bin then `r²`
+//!   against the guessed bin's squared edges, a first guess of the beam then the side of the
+//!   guessed beam's edges by a cross product. The fast CPU path and the splat shader decide so;
+//!   they differ from the definition only for points within a rounding of a bound or an edge,
+//!   which the envelope ([`RELATIVE_TOLERANCE`]) allows.
+//!
+//! The masks test balls, not points, against the field of view (`masks::plan::View::may_meet`,
+//! twin of `may_meet_view` in `shaders/mask.wgsl`); their slacks are here too.
+
+use glam::DVec3;
+
+use crate::occupancy::Layout;
+
+// ---------------------------------------------------------------------------------------------
+// Tolerances. Each says what it is relative to and why it is large enough. The splat shader's
+// F32_SLACK and F32_WIDEN are generated from these (gpu::shaders), never written in WGSL.
+// ---------------------------------------------------------------------------------------------
+
+/// Relative size (against the sample's range in sonar 2) of the neighbourhood of a bound or edge
+/// within which a GPU result and the reference may disagree: the envelope of "How the GPU is
+/// checked". The GPU reports ranges and azimuths rounded to f32 (about 6e-8 relative) and
+/// decides in f64 or double-f32, far inside it.
+pub const RELATIVE_TOLERANCE: f64 = 1e-5;
+
+/// Relative size (against `range + |t|`, the magnitudes the transform adds) of the rounding of
+/// the pose and directions to f32 hi + lo pairs on their way to the GPU: about 48 bits, so
+/// 1e-14, taken with a wide margin.
+pub const INPUT_TOLERANCE: f64 = 1e-9;
+
+/// [`INPUT_TOLERANCE`] for a GPU deciding in double-f32: where the driver keeps f32 arithmetic
+/// exact and fuses `fma` it is as precise as that, but drivers that do not (lavapipe; the H100's
+/// driver gave the same 2e-6 m errors) leave it f32: each of the eight roundings of a coordinate
+/// (`u` from the plan's angles, three products and sums with the pose) errs by up to
+/// 2⁻²⁴ ≈ 6e-8 of `range + |t|`, so 5e-7 in all; doubled.
+pub const DOUBLE_F32_TOLERANCE: f64 = 1e-6;
+
+/// Relative slack of the fast CPU path's block culling, against `range + |t| + range_max`: the
+/// roundings of `M u + t` in f64 and of the clip functions are below 1e-15 of that sum, so a block
+/// is culled only when it clears a bound by a million times them.
+pub(crate) const CULL_SLACK: f64 = 1e-9;
+
+/// Relative slack of the splat shader's f32 decisions (block culling and the f32 filter), against
+/// `range + |t| + range_max` (WGSL `F32_SLACK`, in `f32_slack`). A point moved in f32 from the
+/// pose's hi parts and the f32 unit lies within `4e-6 · (range + |t|)` of the `Real` one: the unit
+/// within 4e-7 ([`F32_UNIT_ERROR`]), each entry of `M` and `t` within 2⁻²⁴ of its value, and four
+/// roundings of the dot product, each within 2⁻²⁴ of `|M| |u| + |t|`. A clip or edge function
+/// evaluated there in f32 adds a few roundings of `|p| ≤ range + |t|`; a double-f32 `Real` left
+/// at f32 precision by its driver, [`DOUBLE_F32_TOLERANCE`]. 1e-5 is more than twice their sum.
+pub(crate) const F32_SLACK: f64 = 1e-5;
+
+/// Relative widening of an f32 ball radius or chord reach in the splat shader (WGSL
+/// `F32_WIDEN`): `length(M row)` and the product with the radius round by a few 2⁻²⁴ ≈ 6e-8.
+pub(crate) const F32_WIDEN: f64 = 1e-5;
+
+/// How far the f32 centre of a culling ball may lie from its f64 centre once rounded: √3 · 2⁻²⁴
+/// of a unit vector's coordinates, below 2e-7; the direction table's radii grow by it.
+pub(crate) const F32_CENTRE_ERROR: f64 = 2e-7;
+
+/// How far a unit direction the shader builds in f32 from the hi parts of the direction table
+/// (`unit_f32`) may lie from the f64 one: a product and three roundings, below 4e-7; the
+/// direction table's chord reaches grow by it.
+pub(crate) const F32_UNIT_ERROR: f64 = 4e-7;
+
+/// Relative rounding-up of every radius and reach stored in f32 in the direction table, so the
+/// stored value is never below the f64 one.
+pub(crate) const F32_ROUND_UP: f64 = 1e-6;
+
+/// Relative widening of a culling radius in f64 (fast path): the radius, the range and their
+/// product round by a few 2⁻⁵³.
+pub(crate) const F64_WIDEN: f64 = 1e-12;
+
+/// Relative slack of a mask's ball in the GPU's f32 drawing (`shaders/mask.wgsl`), against
+/// `r + |t| + range_max`: about 17 f32 ulps of the largest distance, which bounds every rounding
+/// of the shader's transform, length and bin arithmetic; with [`MASK_F32_FLOOR`] (m) for distances
+/// near zero. A GPU mask so holds the CPU mask of the same scene.
+pub(crate) const MASK_F32_SLACK: f64 = 2e-6;
+
+/// The absolute floor (m) of a mask's f32 slack.
+pub(crate) const MASK_F32_FLOOR: f64 = 1e-6;
+
+/// Relative slack of a mask's ball in the CPU's f64 drawing, against `r + |t| + range_max`, and
+/// its absolute floor (m): the roundings of `q = R p + t` and `|q|` in f64 are below 1e-15 of the
+/// distances.
+pub(crate) const MASK_F64_SLACK: f64 = 1e-12;
+
+/// How far from an even split a sonar's beam widths may be (relative to the mean width) for the
+/// beams to count as uniform, so that a beam is first guessed by one multiplication.
+pub(crate) const UNIFORM_BEAMS: f64 = 1e-12;
+
+/// Bound on `|approx_atan2(y, x) − atan2(y, x)|` (rad) of the fast path's polynomial `atan2`: the
+/// fitted polynomial's 4.2e-12 (`scripts/fit_atan.py`) and the roundings of its evaluation, with
+/// margin; a unit test holds the function to it against libm.
+pub(crate) const ATAN_ERROR: f64 = 1e-11;
+
+/// Relative tolerance of the fast path's azimuth key `y / x` (sonar 2 an SSS): samples whose key
+/// lies within it of the pose's smallest (largest) key get an exact `atan2` for the azimuth
+/// extremes; the others' azimuths are larger (smaller) by far more than `atan2`'s rounding.
+pub(crate) const KEY_TOLERANCE: f64 = 1e-12;
+
+/// Returns the fast path's culling slack (m) of a pose of this range and translation into
+/// `layout` ([`CULL_SLACK`]).
+pub(crate) fn cull_slack(range: f64, t: DVec3, layout: &Layout) -> f64 {
+    CULL_SLACK * (range + t.length() + layout.range_max)
+}
+
+// ---------------------------------------------------------------------------------------------
+// The definition: decisions from range, azimuth and elevation.
+// ---------------------------------------------------------------------------------------------
+
+impl Layout {
+    /// Returns true when `(r, az, el)` (m, rad, rad) lies in the field of view: bounds
+    /// inclusive, the origin outside.
+    #[must_use]
+    pub fn inside(&self, r: f64, az: f64, el: f64) -> bool {
+        r > 0.0
+            && r >= self.range_min
+            && r <= self.range_max
+            && az.abs() <= self.half_azimuth
+            && el.abs() <= self.half_elevation
+    }
+
+    /// Returns the lower edge (m) of range bin `i`; `i = range_bins` gives `range_max`.
+    #[must_use]
+    pub fn range_edge(&self, i: usize) -> f64 {
+        if i >= self.range_bins {
+            self.range_max
+        } else {
+            self.range_min + i as f64 * self.range_bin_width
+        }
+    }
+
+    /// Returns the range bin of `r` (m): bin `i` covers `[edge(i), edge(i+1))`, the last one also
+    /// takes `range_max`. `r` must lie in `[range_min, range_max]`.
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "a saturating float-to-index conversion, clamped to the table right after"
+    )]
+    #[must_use]
+    pub fn range_bin(&self, r: f64) -> usize {
+        let i = ((r - self.range_min) / self.range_bin_width).floor();
+        (i.max(0.0) as usize).min(self.range_bins - 1)
+    }
+
+    /// Returns the beam of `az` (rad): beam `j` covers `[e_j, e_{j+1})`, the last one also takes
+    /// `+half_azimuth`. `az` must lie in the aperture.
+    #[must_use]
+    pub fn beam(&self, az: f64) -> usize {
+        let j = self.beam_edges.partition_point(|&e| e <= az);
+        j.saturating_sub(1).min(self.beams() - 1)
+    }
+
+    /// Returns `(sin h, cos h)` for the trigonometry-free azimuth clip `x sin h − |y| cos h ≥ 0`
+    /// (⇔ `|az| ≤ h` for `h` in `(0, π]`); exactly `(0, −1)` for the full circle.
+    #[must_use]
+    pub fn azimuth_clip(&self) -> (f64, f64) {
+        let h = self.half_azimuth;
+        if h >= std::f64::consts::PI {
+            (0.0, -1.0)
+        } else {
+            (h.sin(), h.cos())
+        }
+    }
+
+    /// Returns `(sin² e, cos² e)` for the elevation clip `z² cos² e ≤ (x² + y²) sin² e`
+    /// (⇔ `|el| ≤ e`), or `None` for a 180° aperture, which clips nothing.
+    #[must_use]
+    pub fn elevation_clip(&self) -> Option<(f64, f64)> {
+        let e = self.half_elevation;
+        (e < std::f64::consts::FRAC_PI_2).then(|| (e.sin().powi(2), e.cos().powi(2)))
+    }
+
+    /// Returns the beam width (rad) when the beams split the aperture uniformly (each width
+    /// within [`UNIFORM_BEAMS`] of the mean), else `None`.
+    #[must_use]
+    pub fn uniform_beam_width(&self) -> Option<f64> {
+        let width = 2.0 * self.half_azimuth / self.beams() as f64;
+        self.beam_edges
+            .windows(2)
+            .all(|w| ((w[1] - w[0]) - width).abs() <= UNIFORM_BEAMS * width)
+            .then_some(width)
+    }
+
+    /// Returns the squared range-bin edges `(range_min + iΔ)²`, `i = 0..=range_bins`.
+    #[must_use]
+    pub fn range_edges_sq(&self) -> Vec<f64> {
+        (0..=self.range_bins)
+            .map(|i| self.range_edge(i).powi(2))
+            .collect()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The same decisions without trigonometry, from the Cartesian point: the fast CPU path's, twin of
+// the splat shader's (shaders/shared/clip.wgsl: in_view, range_bin, at_or_above, beam_of).
+// ---------------------------------------------------------------------------------------------
+
+/// Most beam edges [`Clip::beam_near`] walks from a starting beam.
+const WALK: usize = 4;
+
+/// Sonar 2's field of view and layout as the trigonometry-free decisions use them: the f64 twin
+/// of the splat shader's `TargetParams`.
+pub(crate) struct Clip<'a> {
+    pub layout: &'a Layout,
+    pub range_min_sq: f64,
+    pub range_max_sq: f64,
+    pub sin_half_az: f64,
+    pub cos_half_az: f64,
+    pub clip_elevation: bool,
+    pub sin2_half_el: f64,
+    pub cos2_half_el: f64,
+    /// `(sin e, cos e)` of the half elevation aperture, for the culling cone.
+    pub sin_cos_half_el: (f64, f64),
+    /// `1 / Δ`: the range bin guess multiplies (the edge tests then settle it).
+    pub inv_range_bin: f64,
+    /// `(cos, sin)` of each beam edge.
+    pub beam_edges_cs: Vec<(f64, f64)>,
+    /// `beams / aperture` when the beams are uniform.
+    pub inv_beam_width: Option<f64>,
+    /// The last range bin and the beam count, as integers of the fast path's lanes.
+    pub last_bin: i32,
+    pub beams: i32,
+}
+
+impl<'a> Clip<'a> {
+    /// Returns the decisions' constants for `layout`.
+    pub(crate) fn new(layout: &'a Layout) -> Self {
+        let (sin_half_az, cos_half_az) = layout.azimuth_clip();
+        let elevation = layout.elevation_clip();
+        Clip {
+            layout,
+            range_min_sq: layout.range_min * layout.range_min,
+            range_max_sq: layout.range_max * layout.range_max,
+            sin_half_az,
+            cos_half_az,
+            clip_elevation: elevation.is_some(),
+            sin2_half_el: elevation.map_or(1.0, |e| e.0),
+            cos2_half_el: elevation.map_or(0.0, |e| e.1),
+            sin_cos_half_el: (layout.half_elevation.sin(), layout.half_elevation.cos()),
+            inv_range_bin: 1.0 / layout.range_bin_width,
+            beam_edges_cs: layout.beam_edges.iter().map(|a| (a.cos(), a.sin())).collect(),
+            inv_beam_width: layout.uniform_beam_width().map(|w| 1.0 / w),
+            last_bin: i32::try_from(layout.range_bins - 1).expect("range bins are limited to 2^20"),
+            beams: i32::try_from(layout.beams()).expect("beams are limited to 2^16"),
+        }
+    }
+
+    /// Returns whether `p` (squared range `r2`) is in view: the splat shader's `in_view`.
+    /// Every test is evaluated (`&`, not `&&`): no branch to mispredict per sample.
+    #[inline(always)]
+    pub(crate) fn in_view(&self, p: DVec3, r2: f64) -> bool {
+        (r2 > 0.0)
+            & (r2 >= self.range_min_sq)
+            & (r2 <= self.range_max_sq)
+            & (p.x * self.sin_half_az >= p.y.abs() * self.cos_half_az)
+            & (!self.clip_elevation
+                | ((p.x * p.x + p.y * p.y) * self.sin2_half_el >= p.z * p.z * self.cos2_half_el))
+    }
+
+    /// Returns the range bin of a point at range `r` (squared `r2`): a guess, then the guessed
+    /// bin's squared edges, computed as [`Layout::range_edge`] does (so equal to the squared
+    /// edges of [`Layout::range_edges_sq`], the splat shader's table). The one range-bin decision
+    /// of the fast path (lanes, runs, the plain loop of its tests) and, in `Real`, of the shader's
+    /// `range_bin`.
+    #[inline(always)]
+    pub(crate) fn range_bin(&self, r: f64, r2: f64) -> i32 {
+        let l = self.layout;
+        let last_bin = self.last_bin;
+        let i = to_index(
+            ((r - l.range_min) * self.inv_range_bin)
+                .max(0.0)
+                .min(f64::from(last_bin)),
+        );
+        let lower = l.range_min + f64::from(i) * l.range_bin_width;
+        let upper = l.range_min + f64::from(i + 1) * l.range_bin_width;
+        let down = (i > 0) & (r2 < lower * lower);
+        let up = !down & (i < last_bin) & (r2 >= upper * upper);
+        i - i32::from(down) + i32::from(up)
+    }
+
+    /// Returns whether `p` lies at or above (counter-clockwise of) beam edge `k`:
+    /// `sin(az − e) · ρ = y cos e − x sin e ≥ 0`, valid within a quarter turn of the edge (the
+    /// shader's `at_or_above`).
+    #[inline(always)]
+    pub(crate) fn at_or_above(&self, p: DVec3, k: usize) -> bool {
+        let (c, s) = self.beam_edges_cs[k];
+        p.y * c - p.x * s >= 0.0
+    }
+
+    /// Returns the beam of `p` at azimuth `az`: a first guess, then the side of the guessed
+    /// beam's edges (the shader's `beam_of`).
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "a saturating float-to-index conversion, clamped to the table right after"
+    )]
+    pub(crate) fn beam(&self, p: DVec3, az: f64) -> usize {
+        let beams = self.layout.beams();
+        if beams == 1 {
+            return 0;
+        }
+        let guess = match self.inv_beam_width {
+            Some(inv) => ((az + self.layout.half_azimuth) * inv).max(0.0) as usize,
+            None => self
+                .layout
+                .beam_edges
+                .partition_point(|&e| e <= az)
+                .saturating_sub(1),
+        };
+        let mut j = guess.min(beams - 1);
+        if j > 0 && !self.at_or_above(p, j) {
+            j -= 1;
+        } else if j < beams - 1 && self.at_or_above(p, j + 1) {
+            j += 1;
+        }
+        j
+    }
+
+    /// Returns the beam of `p` found by walking at most [`WALK`] edges from beam `from` (the fast
+    /// path's guess, or the previous sample's beam), or `None` when it lies farther. The edge
+    /// tests are those of [`Clip::beam`], so both give the same beam. The side test
+    /// `sin(az − e) ≥ 0` is right only within half a turn of the edge, which every edge is when
+    /// the aperture is at most 180°; wider sonars (an edge may lie behind the point) always take
+    /// `None`.
+    pub(crate) fn beam_near(&self, p: DVec3, from: usize) -> Option<usize> {
+        if self.layout.half_azimuth > std::f64::consts::FRAC_PI_2 {
+            return None;
+        }
+        let last = self.layout.beams() - 1;
+        let mut j = from.min(last);
+        for _ in 0..WALK {
+            if j > 0 && !self.at_or_above(p, j) {
+                j -= 1;
+            } else if j < last && self.at_or_above(p, j + 1) {
+                j += 1;
+            } else {
+                return Some(j);
+            }
+        }
+        None
+    }
+}
+
+/// Returns `v` as an index: `v` is finite and within `0..=i32::MAX` (clamped by the caller), so
+/// the conversion is exact truncation; unlike `as`, it vectorises.
+#[inline(always)]
+pub(crate) fn to_index(v: f64) -> i32 {
+    debug_assert!((0.0..=f64::from(i32::MAX)).contains(&v));
+    // SAFETY: the callers clamp `v` to `[0, n]` with `n < 2^31` by `max` and `min`, which map
+    // NaN to the bound, so `v` is finite and representable after truncation.
+    unsafe { v.to_int_unchecked::<i32>() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Sonar;
+
+    #[test]
+    fn bins_follow_the_conventions_edges() {
+        let l = Layout::of(&Sonar::preset("paper-sss").unwrap());
+        assert_eq!(l.range_bin(0.1), 0);
+        assert_eq!(l.range_bin(0.1 + 0.015), 1);
+        assert_eq!(l.range_bin(30.0), 2989, "range_max goes to the last bin");
+        let f = Layout::of(&Sonar::preset("paper-fls").unwrap());
+        assert_eq!(f.beam(-(30f64).to_radians()), 0);
+        assert_eq!(f.beam(0.0), 256, "0 is the lower edge of beam 256");
+        assert_eq!(f.beam((30f64).to_radians()), 511, "+A/2 goes to the last beam");
+    }
+
+    /// The trigonometry-free range bin is the definition's wherever a point is not within a
+    /// rounding of an edge: at bin centres, and a millionth of a bin inside each edge.
+    #[test]
+    fn the_two_range_bins_agree_away_from_edges() {
+        for name in ["paper-sss", "paper-fls", "oculus-m750d"] {
+            let l = Layout::of(&Sonar::preset(name).unwrap());
+            let clip = Clip::new(&l);
+            for i in 0..l.range_bins {
+                let (lo, hi) = (l.range_edge(i), l.range_edge(i + 1));
+                let inset = 1e-6 * l.range_bin_width;
+                for r in [lo + inset, (lo + hi) / 2.0, hi - inset] {
+                    let fast = usize::try_from(clip.range_bin(r, r * r)).unwrap();
+                    assert_eq!(fast, l.range_bin(r), "{name}: r = {r} in bin {i}");
+                    assert_eq!(fast, i, "{name}: r = {r}");
+                }
+            }
+        }
+    }
+}

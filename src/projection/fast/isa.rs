@@ -1,0 +1,99 @@
+//! Which build of the pose loop runs: baseline x86-64, AVX2 or AVX-512, the widest the processor
+//! runs, detected at run time (the binary itself targets baseline x86-64). Every build gives the
+//! same bits: Rust never fuses a multiply and an add.
+
+use super::scratch::Scratch;
+use super::tables::Directions;
+use super::{Geometry, PoseArgs};
+use crate::metrics::Extremes;
+
+/// Which build of the lane stage runs: baseline x86-64, AVX2, AVX-512.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Isa {
+    Baseline,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+}
+
+impl Isa {
+    /// Returns the widest build this processor runs (detected at run time: the binary itself
+    /// targets baseline x86-64).
+    pub(super) fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx512f")
+                && is_x86_feature_detected!("avx512dq")
+                && is_x86_feature_detected!("avx512vl")
+            {
+                return Isa::Avx512;
+            }
+            if is_x86_feature_detected!("avx2") {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Baseline
+    }
+
+    /// Returns every build this processor runs (tests compare them).
+    #[cfg(test)]
+    pub(super) fn available() -> Vec<Self> {
+        let mut all = vec![Isa::Baseline];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx2") {
+                all.push(Isa::Avx2);
+            }
+            if Isa::detect() == Isa::Avx512 {
+                all.push(Isa::Avx512);
+            }
+        }
+        all
+    }
+}
+
+/// [`Scratch::draw_pose`] compiled for AVX2 (four f64 lanes a vector): the same IEEE operations
+/// (Rust never fuses a multiply and an add), so the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn draw_pose_avx2<const FLS: bool>(
+    s: &mut Scratch,
+    geo: &Geometry<'_>,
+    dirs: &Directions,
+    pose: PoseArgs,
+) -> (u64, Extremes) {
+    s.draw_pose::<FLS>(geo, dirs, pose)
+}
+
+/// [`Scratch::draw_pose`] compiled for AVX-512 (eight f64 lanes a vector), the same bits again.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+fn draw_pose_avx512<const FLS: bool>(
+    s: &mut Scratch,
+    geo: &Geometry<'_>,
+    dirs: &Directions,
+    pose: PoseArgs,
+) -> (u64, Extremes) {
+    s.draw_pose::<FLS>(geo, dirs, pose)
+}
+
+/// Runs [`Scratch::draw_pose`] in the build `isa` names (which this processor runs:
+/// [`Isa::detect`]).
+pub(super) fn draw_pose<const FLS: bool>(
+    isa: Isa,
+    s: &mut Scratch,
+    geo: &Geometry<'_>,
+    dirs: &Directions,
+    pose: PoseArgs,
+) -> (u64, Extremes) {
+    match isa {
+        Isa::Baseline => s.draw_pose::<FLS>(geo, dirs, pose),
+        // SAFETY: `isa` came from `Isa::detect` or `Isa::available`, which saw the processor run
+        // these instructions.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => unsafe { draw_pose_avx2::<FLS>(s, geo, dirs, pose) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { draw_pose_avx512::<FLS>(s, geo, dirs, pose) },
+    }
+}

@@ -1,0 +1,164 @@
+//! The fast CPU path: the GPU's algorithm (`shaders/splat.wgsl`, `shaders/reduce.wgsl`) in f64
+//! on every core (rayon), so a machine without a GPU is still fast. Unit directions are computed
+//! once per plan, a sample costs `M u + t` and trigonometry-free clip and bin decisions; only
+//! the samples that may be an azimuth extreme take a libm `atan2`. The reference stays the
+//! checker: `tests/agreement.rs` holds this path to the same envelope as the GPU.
+//!
+//! What makes it fast changes no result (a unit test holds it to the plain sample-by-sample
+//! loop, bit for bit, in every build the processor runs):
+//!
+//! - **Blocks that cannot be seen are skipped.** A plan's samples are cut into blocks of
+//!   16 consecutive samples; each block's unit directions lie in a ball (centre `c`,
+//!   radius `ρ`, computed once per plan). The pose maps it to the ball `M c + t`, radius
+//!   `range · ρ` (a rotation keeps distances), and a block whose ball lies wholly outside sonar 2's
+//!   field of view, by more than a slack far above every rounding, is not visited: each clip
+//!   bound is a 1-Lipschitz function of the point (range; the azimuth half-planes; the elevation
+//!   cone's `|z| cos e − ρ sin e`), so its value at the centre less the radius bounds it over the
+//!   ball. Every skipped sample is one the per-sample test would have rejected; a block wholly
+//!   inside skips the clip tests. Eight blocks' balls are tested together. A ball can be far
+//!   wider than a thin field of view (a sidescan's sheet) while its block's samples, on an arc,
+//!   stay close to the chord between its first and last: when a ball lies across a bound, the
+//!   chord (widened by the samples' largest distance from it) is tested against the convex parts
+//!   of the outside, and a block whose chord lies wholly in one is skipped too.
+//! - **One lane stage.** A visited block is transformed, clipped and binned over its lanes in
+//!   structure-of-arrays form, branch-free, in the same IEEE operations as the scalar code: the
+//!   range bin from a guess and the squared edges around it, the beam from an azimuth guessed by
+//!   a polynomial `atan2` (within 1e-11 rad) and kept only when it lies farther from the beam's
+//!   edges than that error (else the edge tests decide, as the plain loop does). The whole pose
+//!   loop is built for baseline x86-64, AVX2 and AVX-512, and the widest the processor runs is
+//!   chosen at run time (the binary itself targets baseline x86-64).
+//! - **Sidescan bins by runs.** When sonar 2 is a sidescan and no two consecutive samples of the
+//!   plan lie a range bin apart once moved (an arc sampled finer than the bins, as automatic
+//!   sampling always is), consecutive samples' bins are equal or adjacent, so a run of
+//!   consecutive visible samples covers exactly the bins between its nearest and farthest
+//!   sample. A pose whose visible samples form one run (an arc crossing the sheet once) takes no
+//!   range bin per sample: the lane stage keeps only the squared range's extremes, and the bins
+//!   are those of its two ends; a pose with several runs bins each visible sample. (This path
+//!   only: the splat shader bins every visible sample, which costs the GPU little of the
+//!   fls→sss row, whose time goes per pose: BENCHMARKS.md.)
+//! - **Few `atan2`.** An exact `atan2` is taken only for the samples whose azimuth key (the
+//!   guessed azimuth, or `y / x` for a sidescan) lies within its error of the pose's extremes.
+//! - **Occupancy is reused and counted sparsely.** Each thread keeps one occupancy buffer and a
+//!   one-bit-per-word summary of it; counting, the area sum (in row-major order, as the plain loop
+//!   sums it) and clearing visit the touched words only.
+//!
+//! The decisions are [`crate::clip`]'s, the culling geometry [`crate::projection::culling`]'s;
+//! here are the per-plan tables (`tables`), the lane stage (`lanes`), drawing a pose (`pose`),
+//! the reduce stage and a thread's state (`scratch`) and the choice of instruction set (`isa`).
+
+mod isa;
+mod lanes;
+mod pose;
+mod scratch;
+mod tables;
+#[cfg(test)]
+mod tests;
+
+use glam::{DMat3, DVec3};
+use rayon::prelude::*;
+
+use crate::clip::{Clip, cull_slack};
+use crate::geometry::sonar::SonarKind;
+use crate::metrics::Metrics;
+use crate::occupancy::Layout;
+use crate::projection::{Output, PreparedBatch, Projection};
+use isa::Isa;
+use scratch::Scratch;
+use tables::Directions;
+
+/// Samples per block of this path (two AVX-512 vectors, four AVX2 ones).
+const LANES: usize = 16;
+
+/// Blocks whose balls are tested together.
+const BALLS: usize = 8;
+
+/// The arguments of [`Scratch::draw_pose`]: `(M, t, range, slack)`.
+type PoseArgs = (DMat3, DVec3, f64, f64);
+
+/// Sonar 2 as the fast path draws into it: the trigonometry-free decisions ([`Clip`], which
+/// this dereferences to) and what the lane stage and the reduce stage add to them.
+struct Geometry<'a> {
+    clip: Clip<'a>,
+    /// Half of each beam's width `Δa_j / 2` and each row's `r_{i+1}² − r_i²`: their product is
+    /// [`Layout::pixel_measure`], bit for bit.
+    half_beam_widths: Vec<f64>,
+    row_areas: Vec<f64>,
+    /// The lane stage's beam guess `(az − e_0) · inv_beam_width` (uniform beams only): `e_0`, and
+    /// the distance (in beams) from a beam edge below which a guess is not trusted.
+    guess_origin: f64,
+    guess_slack: f64,
+}
+
+impl<'a> Geometry<'a> {
+    fn new(layout: &'a Layout) -> Self {
+        let clip = Clip::new(layout);
+        let guess_slack = lanes::guess_slack(layout.beams(), clip.inv_beam_width);
+        Geometry {
+            clip,
+            half_beam_widths: layout
+                .beam_edges
+                .windows(2)
+                .map(|e| (e[1] - e[0]) / 2.0)
+                .collect(),
+            row_areas: (0..layout.range_bins)
+                .map(|i| {
+                    let (r0, r1) = (layout.range_edge(i), layout.range_edge(i + 1));
+                    r1 * r1 - r0 * r0
+                })
+                .collect(),
+            guess_origin: layout.beam_edges[0],
+            guess_slack,
+        }
+    }
+}
+
+impl<'a> std::ops::Deref for Geometry<'a> {
+    type Target = Clip<'a>;
+
+    fn deref(&self) -> &Clip<'a> {
+        &self.clip
+    }
+}
+
+/// Returns the projections of every item of `prepared` on all cores; with
+/// [`Output::WithOccupancy`] each carries its occupancy buffer.
+#[must_use]
+pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> {
+    project_with(prepared, output == Output::WithOccupancy, Isa::detect())
+}
+
+/// [`project`], with the lane stage built for `isa` (tests run every build).
+fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, isa: Isa) -> Vec<Projection> {
+    let layout = &prepared.layout;
+    let geo = Geometry::new(layout);
+    let directions: Vec<Directions> = prepared
+        .plans
+        .iter()
+        .map(|plan| Directions::of(&plan.azimuths, &plan.elevations))
+        .collect();
+    prepared
+        .batch
+        .items
+        .par_iter()
+        .enumerate()
+        .map_init(
+            || Scratch::new(layout),
+            |scratch, (n, item)| {
+                let dirs = &directions[prepared.plan_index(n)];
+                let range = item.measurement.range;
+                let m = item.pose.rotation * scratch.rotation_z(prepared.base_azimuth(n)) * range;
+                let t = item.pose.translation;
+                let pose = (m, t, range, cull_slack(range, t, layout));
+                let (visible, extremes) = match layout.kind {
+                    SonarKind::Fls => isa::draw_pose::<true>(isa, scratch, &geo, dirs, pose),
+                    SonarKind::Sss => isa::draw_pose::<false>(isa, scratch, &geo, dirs, pose),
+                };
+                let (occupied, measure, occupancy) = scratch.reduce(&geo, keep_occupancy);
+                Projection {
+                    metrics: Metrics::new(visible, dirs.units.len() as u64, extremes, occupied, measure),
+                    occupancy,
+                }
+            },
+        )
+        .collect()
+}

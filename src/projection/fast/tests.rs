@@ -1,0 +1,345 @@
+//! The fast path against the plain sample-by-sample loop: bit for bit, in every build the
+//! processor runs, with runs and culling; the polynomial `atan2` within its bound.
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::isa::Isa;
+use super::lanes::approx_atan2;
+use super::tables::{Directions, ball_sides, pose_columns};
+use super::*;
+use crate::clip::ATAN_ERROR;
+use crate::geometry::pose::{RelativePose, Rotation};
+use crate::geometry::sonar::Sonar;
+use crate::metrics::Extremes;
+use crate::occupancy::Occupancy;
+use crate::projection::culling::{ball_side, balls, chord_outside, chords};
+use crate::projection::{Batch, BatchItem};
+use crate::sampling::{Measurement, Sampling};
+
+/// Returns the projections drawn sample by sample with every clip test: no culling, no
+/// walking beams, no sparse reduce, `atan2` for every visible sample. The fast path must give
+/// exactly these results.
+fn project_plainly(prepared: &PreparedBatch<'_>) -> Vec<(Metrics, Occupancy)> {
+    let layout = &prepared.layout;
+    let geo = Geometry::new(layout);
+    prepared
+        .batch
+        .items
+        .iter()
+        .enumerate()
+        .map(|(n, item)| {
+            let plan = prepared.plan(n);
+            let dirs = Directions::of(&plan.azimuths, &plan.elevations);
+            let m = item.pose.rotation
+                * DMat3::from_rotation_z(prepared.base_azimuth(n))
+                * item.measurement.range;
+            let mut occ = Occupancy::new(layout.range_bins, layout.beams());
+            let (mut visible, mut extremes) = (0, Extremes::default());
+            for u in &dirs.units {
+                let p = m * *u + item.pose.translation;
+                let r2 = p.length_squared();
+                if geo.in_view(p, r2) {
+                    let (r, az) = (r2.sqrt(), p.y.atan2(p.x));
+                    let bin = usize::try_from(geo.range_bin(r, r2)).expect("a bin index");
+                    occ.set(bin, geo.beam(p, az));
+                    visible += 1;
+                    extremes.add(r, az);
+                }
+            }
+            let occupied = occ.count();
+            let measure = match layout.kind {
+                SonarKind::Sss => occupied as f64 * layout.range_bin_width,
+                SonarKind::Fls => occ.pixels().map(|(i, j)| layout.pixel_measure(i, j)).sum(),
+            };
+            let metrics = Metrics::new(visible, dirs.units.len() as u64, extremes, occupied, measure);
+            (metrics, occ)
+        })
+        .collect()
+}
+
+/// Returns a feature anywhere in sonar 1's view, placed anywhere in sonar 2's view with a
+/// random rotation.
+fn random_item(s1: &Sonar, s2: &Sonar, rng: &mut ChaCha8Rng) -> BatchItem {
+    let mut point = |s: &Sonar| {
+        let r = s.range_min + rng.random::<f64>() * (s.range_max - s.range_min);
+        let a = (rng.random::<f64>() - 0.5) * s.azimuth_aperture;
+        let e = (rng.random::<f64>() - 0.5) * s.elevation_aperture;
+        [r, a, e]
+    };
+    let (f, place) = (point(s1), point(s2));
+    let rot = Rotation::RollPitchYaw {
+        roll: rng.random::<f64>() * 360.0 - 180.0,
+        pitch: rng.random::<f64>() * 180.0 - 90.0,
+        yaw: rng.random::<f64>() * 360.0 - 180.0,
+    };
+    BatchItem {
+        measurement: Measurement::of(s1, f[0], f[1]).unwrap(),
+        pose: RelativePose::placement(rot, f, place).unwrap(),
+    }
+}
+
+/// Returns an imaging sonar that sees everything: 360° of beams (edges behind a point), and
+/// arcs of 180° (which cross a sidescan's sheet twice).
+fn omni() -> Sonar {
+    Sonar::from_toml_str(
+        "omni",
+        "kind = 'fls'\nrange_min = 0\nrange_max = 12\nazimuth_aperture = 360\n\
+         elevation_aperture = 180\nrange_bins = 600\nbeams = 720\n",
+    )
+    .unwrap()
+}
+
+/// Poses drawn by runs (an arc into a sidescan, sampled finer than its range bins, as
+/// automatic sampling always is) give the plain loop's results in every build, with and
+/// without the occupancy, whether
+/// their visible samples form one run (bins from the range's two ends) or several (each
+/// sample's bin); both occur, and every pose here is drawn by runs.
+#[test]
+fn runs_change_no_result() {
+    let mut rng = ChaCha8Rng::seed_from_u64(33);
+    let sss = Sonar::preset("paper-sss").unwrap();
+    let layout = Layout::of(&sss);
+    let (mut one, mut several) = (0, 0);
+    for s1 in [
+        Sonar::preset("paper-fls").unwrap(),
+        Sonar::preset("oculus-m750d").unwrap(),
+        omni(),
+    ] {
+        let items = (0..300).map(|_| random_item(&s1, &sss, &mut rng)).collect();
+        let batch = Batch {
+            source: s1.clone(),
+            target: sss.clone(),
+            sampling: Sampling::Auto,
+            items,
+        };
+        let prepared = batch.prepare().unwrap();
+        let plain = project_plainly(&prepared);
+        let fast = project_with(&prepared, true, Isa::Baseline);
+        for isa in Isa::available() {
+            assert_eq!(project_with(&prepared, true, isa), fast, "{}: {isa:?}", s1.name);
+            // Without the occupancy, one run's bins are counted, not set.
+            let lean = project_with(&prepared, false, isa);
+            assert!(
+                lean.iter()
+                    .zip(&fast)
+                    .all(|(l, f)| l.metrics == f.metrics && l.occupancy.is_none()),
+                "{}: {isa:?} without the occupancy",
+                s1.name
+            );
+        }
+        for (n, (f, (metrics, occ))) in fast.iter().zip(&plain).enumerate() {
+            assert_eq!(&f.metrics, metrics, "{} item {n}", s1.name);
+            assert_eq!(f.occupancy.as_ref(), Some(occ), "{} item {n}", s1.name);
+            // Drawn by runs, and with how many.
+            let item = &batch.items[n];
+            let plan = prepared.plan(n);
+            let dirs = Directions::of(&plan.azimuths, &plan.elevations);
+            let range = item.measurement.range;
+            let t = item.pose.translation;
+            let slack = cull_slack(range, t, &layout);
+            assert!(
+                range * dirs.max_step * (1.0 + crate::clip::F64_WIDEN) + slack < layout.range_bin_width,
+                "{} item {n} is not drawn by runs",
+                s1.name
+            );
+            let m = item.pose.rotation * DMat3::from_rotation_z(prepared.base_azimuth(n)) * range;
+            let geo = Geometry::new(&layout);
+            let seen: Vec<usize> = (0..dirs.units.len())
+                .filter(|&k| {
+                    let p = m * dirs.units[k] + t;
+                    geo.in_view(p, p.length_squared())
+                })
+                .collect();
+            if let (Some(first), Some(last)) = (seen.first(), seen.last()) {
+                if last - first + 1 == seen.len() {
+                    one += 1;
+                } else {
+                    several += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        one > 300 && several > 50,
+        "one run {one} times, several {several}"
+    );
+}
+
+/// The azimuth guess keeps within `ATAN_ERROR` of libm's `atan2` in every octant, near the
+/// axes and diagonals, over many magnitudes; NaN only at the origin.
+#[test]
+fn approx_atan2_is_within_its_bound() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut worst: f64 = 0.0;
+    let mut check = |y: f64, x: f64| {
+        let (a, e) = (approx_atan2(y, x), y.atan2(x));
+        assert!((a - e).abs() <= ATAN_ERROR, "atan2({y}, {x}): {a} against {e}");
+        worst = worst.max((a - e).abs());
+    };
+    for _ in 0..1_000_000 {
+        let a = (rng.random::<f64>() - 0.5) * std::f64::consts::TAU;
+        let r = 10f64.powf(rng.random::<f64>() * 8.0 - 4.0);
+        check(r * a.sin(), r * a.cos());
+    }
+    for k in 0..=64 {
+        let a = f64::from(k) * std::f64::consts::FRAC_PI_8 / 8.0 - std::f64::consts::PI;
+        for d in [-1e-9, -1e-15, 0.0, 1e-15, 1e-9] {
+            check((a + d).sin(), (a + d).cos());
+        }
+    }
+    for (y, x) in [
+        (0.0, 1.0),
+        (-0.0, 1.0),
+        (1.0, 0.0),
+        (1.0, -0.0),
+        (-1.0, 0.0),
+        (0.0, -1.0),
+    ] {
+        check(y, x);
+    }
+    // Not merely within the bound by luck: the polynomial is fitted to 4.2e-12.
+    assert!(worst > 1e-13 && worst < 6e-12, "worst error {worst}");
+    assert!(approx_atan2(0.0, 0.0).is_nan() && approx_atan2(-0.0, -0.0).is_nan());
+}
+
+/// A block the chord test skips has no visible sample (the plain test, sample by sample),
+/// and the chord test skips blocks the balls keep — most of them where a sidescan's thin
+/// sheet is the bound — on random placements of a feature in sonar 2's view (its arc then
+/// crosses the bounds). `ball_sides` returns the balls' decisions with the chords' added.
+#[test]
+fn chords_skip_only_blocks_without_a_visible_sample() {
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    for (from, to, least) in [
+        ("paper-fls", "paper-sss", 0.15),
+        ("oculus-m750d", "paper-sss", 0.25),
+        ("paper-sss", "paper-fls", 0.1),
+        ("paper-fls", "paper-fls", 0.05),
+    ] {
+        let (s1, s2) = (Sonar::preset(from).unwrap(), Sonar::preset(to).unwrap());
+        let layout = Layout::of(&s2);
+        let geo = Geometry::new(&layout);
+        let (mut across, mut chord_only) = (0, 0);
+        for _ in 0..300 {
+            let item = random_item(&s1, &s2, &mut rng);
+            let batch = Batch {
+                source: s1.clone(),
+                target: s2.clone(),
+                sampling: Sampling::Step(0.1),
+                items: vec![item],
+            };
+            let prepared = batch.prepare().unwrap();
+            let plan = prepared.plan(0);
+            let dirs = Directions::of(&plan.azimuths, &plan.elevations);
+            let range = item.measurement.range;
+            let m = item.pose.rotation * DMat3::from_rotation_z(prepared.base_azimuth(0)) * range;
+            let t = item.pose.translation;
+            let slack = cull_slack(range, t, &layout);
+            let columns = pose_columns(m, t);
+            let balls = balls(&dirs.units, LANES);
+            let chords = chords(&dirs.units, LANES);
+            for (b, units) in dirs.units.chunks(LANES).enumerate() {
+                let (centre, radius) = balls[b];
+                let (first, last, reach) = chords[b];
+                let widen = |r: f64| range * r * (1.0 + crate::clip::F64_WIDEN) + slack;
+                let (ball_out, ball_in) = ball_side(&geo, (m * centre + t).to_array(), widen(radius));
+                let chord_out = chord_outside(
+                    &geo,
+                    (m * first + t).to_array(),
+                    (m * last + t).to_array(),
+                    widen(reach),
+                );
+                let (out, ins) = ball_sides(&geo, &columns, &dirs.ball_chunks[b / BALLS], range, slack);
+                let bit = 1 << (b % BALLS);
+                assert_eq!(out & bit != 0, ball_out | chord_out, "{from} -> {to} block {b}");
+                assert_eq!(ins & bit != 0, ball_in & !chord_out, "{from} -> {to} block {b}");
+                if chord_out {
+                    for u in units {
+                        let p = m * *u + t;
+                        assert!(
+                            !geo.in_view(p, p.length_squared()),
+                            "{from} -> {to}: block {b} skipped by its chord holds a visible sample"
+                        );
+                    }
+                }
+                if !ball_out && !ball_in {
+                    across += 1;
+                    chord_only += usize::from(chord_out);
+                }
+            }
+        }
+        let share = chord_only as f64 / across as f64;
+        assert!(
+            across > 0 && share >= least,
+            "{from} -> {to}: the chords skip {chord_only} of {across} blocks the balls keep"
+        );
+    }
+}
+
+/// Culling, the lane stage's guessed bins and beams, exact `atan2` only for extreme
+/// candidates, the sparse reduce and every build of the pose loop (baseline, AVX2, AVX-512,
+/// as the processor runs them) change no bit of any result: the fast path against the plain
+/// loop on random placements (features anywhere in sonar 1's view, placed anywhere in sonar
+/// 2's, random rotations) for every preset pair, a 360° sonar and one with non-uniform
+/// beams, in both sampling modes.
+#[test]
+fn culling_changes_no_result() {
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    // The presets, a sonar that sees everything ([`omni`]) and one with non-uniform beams.
+    let mut sonars: Vec<Sonar> = Sonar::preset_names()
+        .into_iter()
+        .map(|n| Sonar::preset(n).unwrap())
+        .collect();
+    let centres: Vec<String> = (0..64)
+        .map(|k| {
+            let u = -1.0 + 2.0 * (k as f64 + 0.5) / 64.0;
+            format!("{}", 40.0 * (u + 0.3 * u * u * u) / 1.3)
+        })
+        .collect();
+    let nonuniform = Sonar::from_toml_str(
+        "nonuniform",
+        &format!(
+            "kind = 'fls'\nrange_min = 0.5\nrange_max = 20\nazimuth_aperture = 90\n\
+             elevation_aperture = 20\nrange_bins = 390\nbeam_centres = [{}]\n",
+            centres.join(", ")
+        ),
+    )
+    .unwrap();
+    sonars.extend([omni(), nonuniform]);
+    for s1 in &sonars {
+        for s2 in &sonars {
+            let (from, to) = (&s1.name, &s2.name);
+            let (s1, s2) = (s1.clone(), s2.clone());
+            for sampling in [Sampling::Step(0.5), Sampling::Auto] {
+                let items = (0..40).map(|_| random_item(&s1, &s2, &mut rng)).collect();
+                let batch = Batch {
+                    source: s1.clone(),
+                    target: s2.clone(),
+                    sampling,
+                    items,
+                };
+                let prepared = batch.prepare().unwrap();
+                let plain = project_plainly(&prepared);
+                // Every build of the lane stage this processor runs gives the same bits.
+                let fast = project_with(&prepared, true, Isa::Baseline);
+                for isa in Isa::available() {
+                    assert_eq!(
+                        project_with(&prepared, true, isa),
+                        fast,
+                        "{from} -> {to}: {isa:?}"
+                    );
+                }
+                let mut seen = 0;
+                for (k, (f, (metrics, occ))) in fast.iter().zip(&plain).enumerate() {
+                    assert_eq!(&f.metrics, metrics, "{from} -> {to} {sampling:?} item {k}");
+                    assert_eq!(f.occupancy.as_ref(), Some(occ), "{from} -> {to} item {k}");
+                    seen += usize::from(metrics.visible > 0);
+                }
+                assert!(
+                    seen > 0,
+                    "{from} -> {to}: no item saw anything, the test proves nothing"
+                );
+            }
+        }
+    }
+}
