@@ -12,7 +12,9 @@ use sonarproj::{Output, Sonar};
 use sonarproj_apps::bench;
 
 fn projection(c: &mut Criterion) {
-    let gpu = GpuContext::new().ok().map(GpuBackend::new);
+    let gpu = GpuContext::open(&sonarproj_testkit::gpu_options())
+        .ok()
+        .and_then(|ctx| GpuBackend::new(ctx).ok());
     for (from, to, n) in bench::STANDARD {
         let b = bench::batch(&Sonar::preset(from).unwrap(), &Sonar::preset(to).unwrap(), n).unwrap();
         let prepared = b.prepare().unwrap();
@@ -87,8 +89,10 @@ fn results(c: &mut Criterion) {
 /// the buffers it keeps between calls, and with them freed before each call as every call did
 /// before they were kept.
 fn small_calls(c: &mut Criterion) {
-    let Ok(ctx) = GpuContext::new() else { return };
-    let gpu = GpuBackend::new(ctx);
+    let Ok(ctx) = GpuContext::open(&sonarproj_testkit::gpu_options()) else {
+        return;
+    };
+    let Ok(gpu) = GpuBackend::new(ctx) else { return };
     let (from, to) = ("paper-sss", "paper-fls");
     let b = bench::batch(&Sonar::preset(from).unwrap(), &Sonar::preset(to).unwrap(), 4).unwrap();
     let prepared = b.prepare().unwrap();

@@ -3,7 +3,9 @@
 //!
 //! Run: `cargo run --release --example project_every_backend`
 
-use sonarproj::{Backend, Batch, BatchItem, Measurement, Output, RelativePose, Rotation, Sampling, Sonar};
+use sonarproj::{
+    Backend, Batch, BatchItem, GpuOptions, Measurement, Output, RelativePose, Rotation, Sampling, Sonar,
+};
 
 fn main() -> Result<(), sonarproj::Error> {
     // The paper's pair: a feature seen by the FLS, looked for in the sidescan.
@@ -30,7 +32,8 @@ fn main() -> Result<(), sonarproj::Error> {
     };
 
     let mut backends = vec![Backend::Cpu, Backend::CpuFast];
-    match Backend::gpu() {
+    // The GPU the engine picks (GpuOptions names an adapter, a precision, a variant).
+    match Backend::gpu(&GpuOptions::default()) {
         Ok(gpu) => backends.push(gpu),
         Err(e) => println!("no GPU backend here ({e})"),
     }

@@ -112,6 +112,7 @@ pub(crate) const KEY_TOLERANCE: f64 = 1e-12;
 
 /// Returns the fast path's culling slack (m) of a pose of this range and translation into
 /// `layout` ([`CULL_SLACK`]).
+#[inline]
 pub(crate) fn cull_slack(range: f64, t: DVec3, layout: &Layout) -> f64 {
     CULL_SLACK * (range + t.length() + layout.range_max)
 }
@@ -305,6 +306,7 @@ impl<'a> Clip<'a> {
         clippy::cast_possible_truncation,
         reason = "a saturating float-to-index conversion, clamped to the table right after"
     )]
+    #[inline]
     pub(crate) fn beam(&self, p: DVec3, az: f64) -> usize {
         let beams = self.layout.beams();
         if beams == 1 {
@@ -333,6 +335,7 @@ impl<'a> Clip<'a> {
     /// `sin(az − e) ≥ 0` is right only within half a turn of the edge, which every edge is when
     /// the aperture is at most 180°; wider sonars (an edge may lie behind the point) always take
     /// `None`.
+    #[inline]
     pub(crate) fn beam_near(&self, p: DVec3, from: usize) -> Option<usize> {
         if self.layout.half_azimuth > std::f64::consts::FRAC_PI_2 {
             return None;

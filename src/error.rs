@@ -62,9 +62,16 @@ pub enum Error {
         /// Extra words on what was tried.
         hint: String,
     },
-    /// The GPU failed while running (device lost, mapping failed, out of memory).
-    #[error("GPU failure: {0}")]
-    Gpu(String),
+    /// The GPU failed: a device that cannot be made, a shader or pipeline the driver refuses, a
+    /// device lost, a mapping that failed, memory that ran out.
+    #[error("GPU failure: {message}")]
+    Gpu {
+        /// What failed, with the cause's own words.
+        message: String,
+        /// The cause (wgpu's error), when there is one.
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync + 'static>>,
+    },
 }
 
 impl Error {
@@ -102,6 +109,23 @@ impl Error {
         Error::Input {
             field: field.into(),
             message: message.into(),
+        }
+    }
+
+    /// Returns an [`Error::Gpu`]: `what` failed because of `cause`, which stays its source.
+    pub fn gpu(what: &str, cause: impl std::error::Error + Send + Sync + 'static) -> Self {
+        Error::Gpu {
+            message: format!("{what}: {cause}"),
+            source: Some(Box::new(cause)),
+        }
+    }
+
+    /// Returns an [`Error::Gpu`] without an underlying error (a limit of the device, said in
+    /// `message`).
+    pub fn gpu_limit(message: impl Into<String>) -> Self {
+        Error::Gpu {
+            message: message.into(),
+            source: None,
         }
     }
 

@@ -50,6 +50,7 @@ pub mod sampling;
 
 pub use error::{Error, Result};
 pub use geometry::{BeamLayout, RelativePose, Rotation, Sonar, SonarKind, rig};
+pub use gpu::GpuOptions;
 pub use masks::{Counts, MaskEngine};
 pub use metrics::{Metric, Metrics};
 pub use occupancy::{Layout, Occupancy};

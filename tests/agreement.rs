@@ -8,13 +8,13 @@ use sonarproj_testkit as common;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sonarproj::Output;
 use sonarproj::gpu::Precision;
 use sonarproj::projection::gpu::{GpuBackend, SPLAT_WORKGROUPS, SplatOptions};
-use sonarproj::projection::{envelope, fast, reference};
+use sonarproj::projection::{PreparedBatch, envelope, fast, reference};
 use sonarproj::{
     Batch, BatchItem, BeamLayout, Measurement, RelativePose, Rotation, Sampling, Sonar, SonarKind,
 };
+use sonarproj::{Output, Projection};
 
 const POSES: usize = 1000;
 
@@ -492,7 +492,7 @@ fn results_do_not_depend_on_the_workgroup_size() {
 #[test]
 fn kept_buffers_do_not_change_results() {
     let Some(ctx) = common::gpu_context() else { return };
-    let kept = GpuBackend::new(ctx.clone());
+    let kept = GpuBackend::new(ctx.clone()).unwrap();
     let batch = |seed, source: &str, target: &str, n| {
         let (source, target) = (common::preset(source), common::preset(target));
         Batch {
@@ -512,7 +512,10 @@ fn kept_buffers_do_not_change_results() {
     let mut sizes = Vec::new();
     for (k, (batch, output)) in calls.iter().enumerate() {
         let prepared = batch.prepare().unwrap();
-        let fresh = GpuBackend::new(ctx.clone()).project(&prepared, *output).unwrap();
+        let fresh = GpuBackend::new(ctx.clone())
+            .unwrap()
+            .project(&prepared, *output)
+            .unwrap();
         let reused = kept.project(&prepared, *output).unwrap();
         assert_eq!(reused, fresh, "call {k}");
         sizes.push(kept.kept_bytes());
@@ -523,9 +526,11 @@ fn kept_buffers_do_not_change_results() {
     assert_eq!(kept.kept_bytes(), 0);
 }
 
+/// The checker the GPU is held to can fail: a result with a certain pixel dropped, a visible
+/// count past the envelope or a range past its interval is refused. Run on the fast CPU path
+/// everywhere, and on the GPU where there is one.
 #[test]
 fn the_envelope_check_catches_wrong_results() {
-    let Some(gpu) = common::gpu() else { return };
     let (source, target) = (common::preset("paper-sss"), common::preset("paper-fls"));
     let batch = Batch {
         items: random_items(14, &source, &target, 1),
@@ -534,7 +539,24 @@ fn the_envelope_check_catches_wrong_results() {
         sampling: Sampling::Step(0.1),
     };
     let prepared = batch.prepare().unwrap();
-    let good = gpu.project(&prepared, Output::WithOccupancy).unwrap().remove(0);
+    let mut results = vec![(
+        "cpu-fast",
+        fast::project(&prepared, Output::WithOccupancy).remove(0),
+    )];
+    if let Some(gpu) = common::gpu() {
+        results.push((
+            "gpu",
+            gpu.project(&prepared, Output::WithOccupancy).unwrap().remove(0),
+        ));
+    }
+    for (name, good) in results {
+        catches_wrong_results(&prepared, &batch, &good, name);
+    }
+}
+
+/// Asserts that `good` (`name`'s result for the one item of `batch`) passes the envelope check
+/// and that three ways of spoiling it do not.
+fn catches_wrong_results(prepared: &PreparedBatch<'_>, batch: &Batch, good: &Projection, name: &str) {
     let item = &batch.items[0];
     let b = envelope::bounds(
         prepared.layout(),
@@ -543,8 +565,11 @@ fn the_envelope_check_catches_wrong_results() {
         item.measurement.range,
         &item.pose,
     );
-    common::check_within_bounds(prepared.layout(), &b, &good).unwrap();
-    assert!(good.metrics.visible > 0);
+    common::check_within_bounds(prepared.layout(), &b, good).unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert!(
+        good.metrics.visible > 0,
+        "{name}: nothing visible, the test proves nothing"
+    );
 
     let mut dropped = good.clone();
     let (i, j) = b.certain.pixels().next().expect("a certain pixel");
@@ -552,13 +577,57 @@ fn the_envelope_check_catches_wrong_results() {
     let k = i * occ.beams + j;
     occ.words[k / 32] &= !(1 << (k % 32));
     dropped.metrics.occupied -= 1;
-    assert!(common::check_within_bounds(prepared.layout(), &b, &dropped).is_err());
+    assert!(
+        common::check_within_bounds(prepared.layout(), &b, &dropped).is_err(),
+        "{name}: dropped"
+    );
 
     let mut counted = good.clone();
     counted.metrics.visible = b.visible_max + 1;
-    assert!(common::check_within_bounds(prepared.layout(), &b, &counted).is_err());
+    assert!(
+        common::check_within_bounds(prepared.layout(), &b, &counted).is_err(),
+        "{name}: counted"
+    );
 
     let mut far = good.clone();
     far.metrics.range_max = Some(b.range_max.1 + 1e-4);
-    assert!(common::check_within_bounds(prepared.layout(), &b, &far).is_err());
+    assert!(
+        common::check_within_bounds(prepared.layout(), &b, &far).is_err(),
+        "{name}: far"
+    );
+}
+
+/// A process opens one GPU context per set of options and shares it: asking again, from any
+/// thread, opens nothing new (on NVIDIA's driver, instances created and dropped by threads at
+/// once crashed the process). Other options open another, once.
+#[test]
+fn one_context_per_process_and_options() {
+    use sonarproj::gpu::{GpuContext, GpuOptions};
+    let Some(first) = common::gpu_context() else {
+        return;
+    };
+    let options = first.options.clone();
+    let before = GpuContext::opened();
+    let threads: Vec<_> = (0..4)
+        .map(|_| {
+            let options = options.clone();
+            std::thread::spawn(move || GpuContext::open(&options).unwrap().info.name)
+        })
+        .collect();
+    for t in threads {
+        assert_eq!(t.join().unwrap(), first.info.name);
+    }
+    assert_eq!(
+        GpuContext::opened(),
+        before,
+        "a second context for the same options"
+    );
+    let other = GpuOptions {
+        workgroup: Some(128),
+        ..options
+    };
+    for _ in 0..3 {
+        assert_eq!(GpuContext::open(&other).unwrap().options, other);
+    }
+    assert_eq!(GpuContext::opened(), before + 1);
 }

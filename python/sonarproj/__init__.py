@@ -60,6 +60,7 @@ __all__ = [
     "Pose",
     "Sonar",
     "batch",
+    "configure_gpu",
     "masks",
     "paper",
     "presets",
@@ -156,6 +157,57 @@ def _backend(value: Any) -> str:
             f'backend: expected "auto", "gpu", "cpu-fast" or "cpu", got {value!r}'
         )
     return value
+
+
+def configure_gpu(
+    *,
+    adapter: Optional[str] = None,
+    precision: Optional[str] = None,
+    cull: Optional[bool] = None,
+    filter: Optional[bool] = None,
+    workgroup: Optional[int] = None,
+    backends: Optional[Sequence[str]] = None,
+) -> str:
+    """Sets how the GPU is opened and the projection's splat stage built, for every backend and
+    mask engine opened from now on (those opened before are forgotten and opened again on their
+    next use). Every argument left ``None`` takes the engine's choice; results do not depend on
+    ``cull``, ``filter`` or ``workgroup``.
+
+    * ``adapter``: part of the adapter's name (case-insensitive), e.g. ``"H100"``; default the
+      high-performance adapter.
+    * ``precision``: ``"f64"`` or ``"double-f32"`` (the arithmetic of GPUs without f64, measured
+      on one that has it); default f64 where the adapter has it.
+    * ``cull``, ``filter``: the splat stage's block culling and f32 filter; default on for a
+      hardware GPU, off for a software one such as lavapipe.
+    * ``workgroup``: threads a workgroup of the splat stage, 32, 64, 128 or 256; default 64.
+    * ``backends``: the wgpu backends to look on, e.g. ``["vulkan"]``; default Vulkan, Metal and
+      DX12.
+
+    Returns a short description of the options set. Raises :class:`InputError` naming the
+    argument when a value is not allowed.
+
+    >>> sonarproj.configure_gpu(workgroup=128)
+    '128 threads a workgroup'
+    """
+    if adapter is not None and not isinstance(adapter, str):
+        raise InputError(f"adapter: expected a string or None, got {adapter!r}")
+    if precision is not None and precision not in ("f64", "double-f32"):
+        raise InputError(f'precision: expected "f64", "double-f32" or None, got {precision!r}')
+    for name, value in (("cull", cull), ("filter", filter)):
+        if value is not None and not isinstance(value, bool):
+            raise InputError(f"{name}: expected True, False or None, got {value!r}")
+    if workgroup is not None and (isinstance(workgroup, bool) or not isinstance(workgroup, (int, np.integer))):
+        raise InputError(f"workgroup: expected 32, 64, 128, 256 or None, got {workgroup!r}")
+    if workgroup is not None and int(workgroup) not in (32, 64, 128, 256):
+        raise InputError(f"workgroup: expected 32, 64, 128, 256 or None, got {workgroup!r}")
+    names: Optional[list[str]] = None
+    if backends is not None:
+        if isinstance(backends, str) or not all(isinstance(b, str) for b in backends):
+            raise InputError(f'backends: expected a list of names such as ["vulkan"], got {backends!r}')
+        names = list(backends)
+    return _native.configure_gpu(
+        names, adapter, precision, cull, filter, None if workgroup is None else int(workgroup)
+    )
 
 
 def _step(value: Any) -> Optional[float]:

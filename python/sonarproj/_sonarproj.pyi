@@ -13,6 +13,14 @@ DEFAULT_CHUNK_POSES: int
 class InputError(ValueError):
     """Bad input: the message names the parameter, the value and what is allowed."""
 
+def configure_gpu(
+    backends: Optional[list[str]],
+    adapter: Optional[str],
+    precision: Optional[str],
+    cull: Optional[bool],
+    filter: Optional[bool],
+    workgroup: Optional[int],
+) -> str: ...
 def presets() -> list[str]:
     """Returns the names of the preset sonars."""
 

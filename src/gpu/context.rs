@@ -1,7 +1,12 @@
 //! The wgpu instance, adapter, device and queue. Kept apart from the work so tests and callers
-//! can bring their own device.
+//! can bring their own device. A process opens one context per set of [`GpuOptions`] and shares
+//! it ([`GpuContext::open`]): instances created and dropped by many threads at once crashed
+//! NVIDIA's Vulkan driver.
+
+use std::sync::{Mutex, PoisonError};
 
 use crate::error::{Error, Result};
+use crate::gpu::options::GpuOptions;
 use crate::gpu::shaders::Precision;
 
 /// Timeout for one wait on the GPU; lavapipe can be slow on big batches.
@@ -20,25 +25,22 @@ pub struct GpuContext {
     pub limits: wgpu::Limits,
     /// The arithmetic of the splat stage: f64 where the adapter has it.
     pub precision: Precision,
+    /// The options the context was opened with; the splat stage's variant follows them.
+    pub options: GpuOptions,
 }
 
-/// Returns a wgpu instance over the backends named in `WGPU_BACKEND` (default: the primary ones,
-/// Vulkan, Metal, DX12).
-#[must_use]
-pub fn instance() -> wgpu::Instance {
-    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle().with_env();
-    if wgpu::Backends::from_env().is_none() {
-        desc.backends = wgpu::Backends::PRIMARY;
-    }
+/// Returns a wgpu instance over `backends`.
+fn instance(backends: wgpu::Backends) -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+    desc.backends = backends;
     wgpu::Instance::new(desc)
 }
 
-/// Returns what every adapter wgpu sees says of itself.
+/// Returns what every adapter wgpu sees on the backends of `options` says of itself.
 #[must_use]
-pub fn list_adapters() -> Vec<wgpu::AdapterInfo> {
-    let inst = instance();
-    let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
-    pollster::block_on(inst.enumerate_adapters(backends))
+pub fn list_adapters(options: &GpuOptions) -> Vec<wgpu::AdapterInfo> {
+    let backends = options.backends();
+    pollster::block_on(instance(backends).enumerate_adapters(backends))
         .iter()
         .map(|a| a.get_info())
         .collect()
@@ -54,6 +56,9 @@ pub fn describe(info: &wgpu::AdapterInfo) -> String {
     .replace(" )", ")")
 }
 
+/// The contexts this process has opened, with the options they were opened for.
+static OPENED: Mutex<Vec<GpuContext>> = Mutex::new(Vec::new());
+
 impl GpuContext {
     /// Returns whether the adapter is a software one (lavapipe, llvmpipe, WARP): it runs on the
     /// CPU's cores.
@@ -62,18 +67,40 @@ impl GpuContext {
         self.info.device_type == wgpu::DeviceType::Cpu
     }
 
-    /// Returns a context on the adapter `auto` picks: `WGPU_ADAPTER_NAME` when set, else the
-    /// high-performance adapter of the enabled backends (a software one such as lavapipe counts).
+    /// Returns the process's context for `options`: opened on the first call (the adapter
+    /// `options.adapter` names, else the high-performance adapter of the backends, a software one
+    /// such as lavapipe included) and shared by every later call with the same options, as an
+    /// application shares its device.
     ///
     /// # Errors
-    /// [`Error::NoAdapter`] when no adapter exists; [`Error::Gpu`] when the device cannot be made;
-    /// [`Error::InvalidValue`] when `WGPU_ADAPTER_NAME` names no adapter.
-    pub fn new() -> Result<Self> {
-        let inst = instance();
-        let adapter = match std::env::var("WGPU_ADAPTER_NAME") {
-            // wgpu's own helper for this variable panics when nothing matches.
-            Ok(wanted) => {
-                let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+    /// As [`GpuOptions::validate`]; [`Error::NoAdapter`] when no adapter exists;
+    /// [`Error::InvalidValue`] when `options.adapter` names none (the message lists those there
+    /// are); [`Error::Gpu`] when the device cannot be made.
+    pub fn open(options: &GpuOptions) -> Result<Self> {
+        options.validate()?;
+        let mut opened = OPENED.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(ctx) = opened.iter().find(|c| &c.options == options) {
+            return Ok(ctx.clone());
+        }
+        let ctx = Self::open_new(options)?;
+        opened.push(ctx.clone());
+        Ok(ctx)
+    }
+
+    /// Returns how many contexts this process has opened with [`GpuContext::open`]: one per set
+    /// of options asked for, however often and from however many threads.
+    #[must_use]
+    pub fn opened() -> usize {
+        OPENED.lock().unwrap_or_else(PoisonError::into_inner).len()
+    }
+
+    /// Returns a new context for `options` (validated).
+    fn open_new(options: &GpuOptions) -> Result<Self> {
+        let backends = options.backends();
+        let inst = instance(backends);
+        let adapter = match &options.adapter {
+            // wgpu's own helper for choosing by name panics when nothing matches.
+            Some(wanted) => {
                 let adapters = pollster::block_on(inst.enumerate_adapters(backends));
                 let lower = wanted.to_lowercase();
                 let found = adapters
@@ -85,7 +112,7 @@ impl GpuContext {
                         let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
                         let excerpt: String = wanted.chars().take(80).collect();
                         return Err(Error::invalid(
-                            "WGPU_ADAPTER_NAME",
+                            "GPU adapter",
                             format!("{excerpt:?}"),
                             if names.is_empty() {
                                 "the name of an adapter, but wgpu sees none".to_string()
@@ -96,24 +123,25 @@ impl GpuContext {
                     }
                 }
             }
-            Err(_) => pollster::block_on(inst.request_adapter(&wgpu::RequestAdapterOptions {
-                power_preference: wgpu::PowerPreference::from_env().unwrap_or_default(),
+            None => pollster::block_on(inst.request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
                 ..Default::default()
             }))
             .map_err(|e| Error::NoAdapter {
                 hint: format!(": {e}"),
             })?,
         };
-        Self::from_adapter(&adapter)
+        Self::from_adapter(&adapter, options)
     }
 
-    /// Returns a context on `adapter`, asking for the larger buffer limits it offers; the splat
-    /// stage computes in f64 where the adapter has it, unless the environment variable
-    /// `SONARPROJ_GPU_PRECISION` is `df` (double-f32, for measuring that path).
+    /// Returns a new context on `adapter` (not shared), asking for the larger buffer limits it
+    /// offers; the splat stage computes in f64 where the adapter has it, unless
+    /// `options.precision` asks for double-f32.
     ///
     /// # Errors
+    /// [`Error::InvalidValue`] when `options.precision` asks for f64 on an adapter without it;
     /// [`Error::Gpu`] when the device cannot be made.
-    pub fn from_adapter(adapter: &wgpu::Adapter) -> Result<Self> {
+    pub fn from_adapter(adapter: &wgpu::Adapter, options: &GpuOptions) -> Result<Self> {
         let offered = adapter.limits();
         let mut limits = wgpu::Limits::default();
         // Ask for up to 1 GiB bindings where the adapter has them; chunks are sized from these.
@@ -122,10 +150,20 @@ impl GpuContext {
         limits.max_storage_buffers_per_shader_stage = limits
             .max_storage_buffers_per_shader_stage
             .min(offered.max_storage_buffers_per_shader_stage);
-        // SONARPROJ_GPU_PRECISION=df measures the double-f32 path (what GPUs without f64 run)
-        // on a GPU that has f64.
-        let force_df = std::env::var("SONARPROJ_GPU_PRECISION").is_ok_and(|v| v.trim() == "df");
-        let f64_ok = adapter.features().contains(wgpu::Features::SHADER_F64) && !force_df;
+        let has_f64 = adapter.features().contains(wgpu::Features::SHADER_F64);
+        let precision = match options.precision {
+            None if has_f64 => Precision::F64,
+            None | Some(Precision::DoubleF32) => Precision::DoubleF32,
+            Some(Precision::F64) if has_f64 => Precision::F64,
+            Some(Precision::F64) => {
+                return Err(Error::invalid(
+                    "GPU precision",
+                    "f64",
+                    format!("double-f32: {} has no f64 in shaders", adapter.get_info().name),
+                ));
+            }
+        };
+        let f64_ok = precision == Precision::F64;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("sonarproj"),
             required_limits: limits.clone(),
@@ -136,17 +174,14 @@ impl GpuContext {
             },
             ..Default::default()
         }))
-        .map_err(|e| Error::Gpu(format!("cannot create a device: {e}")))?;
+        .map_err(|e| Error::gpu("cannot create a device", e))?;
         Ok(GpuContext {
             device,
             queue,
             info: adapter.get_info(),
             limits,
-            precision: if f64_ok {
-                Precision::F64
-            } else {
-                Precision::DoubleF32
-            },
+            precision,
+            options: options.clone(),
         })
     }
 }

@@ -1,8 +1,9 @@
 //! The GPU plumbing shared by the projection and the mask pipelines: the device
-//! ([`GpuContext`]), compute stages and their binding tables ([`pipeline`]), the WGSL sources
+//! ([`GpuContext`], opened once per process for the [`GpuOptions`] the fronts give), compute stages and their binding tables ([`pipeline`]), the WGSL sources
 //! ([`shaders`]), buffers kept between calls (`pool`) and reading buffers back.
 
 pub mod context;
+pub mod options;
 pub(crate) mod pipeline;
 pub(crate) mod pool;
 pub(crate) mod shaders;
@@ -11,6 +12,7 @@ use std::sync::mpsc;
 
 use crate::error::{Error, Result};
 pub use context::GpuContext;
+pub use options::GpuOptions;
 pub use shaders::Precision;
 
 /// Returns the first `size` bytes of the mappable `buffer` as u32s, waiting for the GPU of `ctx`.
@@ -25,14 +27,14 @@ pub(crate) fn read(ctx: &GpuContext, buffer: &wgpu::Buffer, size: u64) -> Result
             submission_index: None,
             timeout: Some(context::WAIT_TIMEOUT),
         })
-        .map_err(|e| Error::Gpu(format!("waiting for the GPU: {e}")))?;
+        .map_err(|e| Error::gpu("waiting for the GPU", e))?;
     rx.recv()
-        .map_err(|e| Error::Gpu(format!("readback never answered: {e}")))?
-        .map_err(|e| Error::Gpu(format!("cannot map the readback buffer: {e}")))?;
+        .map_err(|e| Error::gpu("readback never answered", e))?
+        .map_err(|e| Error::gpu("cannot map the readback buffer", e))?;
     let data = {
         let view = slice
             .get_mapped_range()
-            .map_err(|e| Error::Gpu(format!("cannot read the readback buffer: {e}")))?;
+            .map_err(|e| Error::gpu("cannot read the readback buffer", e))?;
         bytemuck::cast_slice::<u8, u32>(&view).to_vec()
     };
     buffer.unmap();

@@ -6,6 +6,8 @@
 
 use std::borrow::Cow;
 
+use crate::error::{Error, Result};
+
 /// Returns a bind-group layout entry for a compute-visible buffer at `binding`.
 fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -42,21 +44,33 @@ pub(crate) struct Stage {
 
 impl Stage {
     /// Returns the pipeline of WGSL `source` (entry point `main`) with `bindings` in group 0.
-    #[must_use]
-    pub(crate) fn new(device: &wgpu::Device, name: &str, source: &str, bindings: &[Binding]) -> Self {
+    ///
+    /// # Errors
+    /// As [`Stage::with_constants`].
+    pub(crate) fn new(device: &wgpu::Device, name: &str, source: &str, bindings: &[Binding]) -> Result<Self> {
         Self::with_constants(device, name, source, bindings, &[])
     }
 
     /// Returns the pipeline as [`Stage::new`], with the WGSL `override` constants set to
-    /// `constants` (name, value).
-    #[must_use]
+    /// `constants` (name, value). The shader module and the pipeline are made inside error
+    /// scopes, so a driver's refusal is an error with wgpu's as its source, not a panic.
+    ///
+    /// # Errors
+    /// [`Error::Gpu`] when the device refuses the shader or the pipeline (validation, an internal
+    /// error of the driver, memory).
     pub(crate) fn with_constants(
         device: &wgpu::Device,
         name: &str,
         source: &str,
         bindings: &[Binding],
         constants: &[(&str, f64)],
-    ) -> Self {
+    ) -> Result<Self> {
+        let scopes = [
+            wgpu::ErrorFilter::Validation,
+            wgpu::ErrorFilter::Internal,
+            wgpu::ErrorFilter::OutOfMemory,
+        ]
+        .map(|f| device.push_error_scope(f));
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(name),
             source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(source)),
@@ -93,7 +107,13 @@ impl Stage {
             },
             cache: None,
         });
-        Stage { pipeline, layout }
+        // Popped innermost first, as scopes nest.
+        for scope in scopes.into_iter().rev() {
+            if let Some(e) = pollster::block_on(scope.pop()) {
+                return Err(Error::gpu(&format!("building the {name} stage"), e));
+            }
+        }
+        Ok(Stage { pipeline, layout })
     }
 
     /// Returns a bind group of `buffers`, in binding order.
@@ -112,5 +132,53 @@ impl Stage {
             layout: &self.layout,
             entries: &entries,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::{GpuContext, GpuOptions};
+
+    /// Returns a GPU context, or `None` outside CI when no adapter exists (in CI, where the
+    /// GPU tests must run on lavapipe, a missing adapter fails the test).
+    fn context() -> Option<GpuContext> {
+        match GpuContext::open(&GpuOptions::default()) {
+            Ok(ctx) => Some(ctx),
+            Err(e) if std::env::var("CI").is_ok_and(|v| v == "true" || v == "1") => {
+                panic!("CI=true but no GPU adapter: {e}")
+            }
+            Err(e) => {
+                use std::io::Write;
+                let _ = writeln!(std::io::stderr(), "skipped: no adapter: {e}");
+                None
+            }
+        }
+    }
+
+    /// A shader the device refuses, or a pipeline whose bindings do not match it, is an
+    /// `Error::Gpu` with wgpu's error as its source, not a panic.
+    #[test]
+    fn a_refused_stage_is_an_error_with_its_cause() {
+        let Some(ctx) = context() else { return };
+        let cases = [
+            ("not WGSL at all", "fn main( {", vec![Binding::Uniform]),
+            (
+                "a binding the table does not have",
+                "@group(0) @binding(0) var<storage, read_write> out: array<u32>;\n\
+                 @compute @workgroup_size(1) fn main() { out[0] = 1u; }",
+                vec![Binding::Uniform],
+            ),
+        ];
+        for (what, source, bindings) in cases {
+            let e = Stage::new(&ctx.device, "broken", source, &bindings).unwrap_err();
+            assert!(matches!(e, Error::Gpu { .. }), "{what}: {e}");
+            assert!(e.to_string().contains("building the broken stage"), "{what}: {e}");
+            assert!(std::error::Error::source(&e).is_some(), "{what}: no source");
+        }
+        // And a good one builds.
+        let ok = "@group(0) @binding(0) var<storage, read_write> out: array<u32>;\n\
+                  @compute @workgroup_size(1) fn main() { out[0] = 1u; }";
+        assert!(Stage::new(&ctx.device, "fine", ok, &[Binding::ReadWrite]).is_ok());
     }
 }

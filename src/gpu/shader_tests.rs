@@ -316,8 +316,9 @@ fn interface(module: &naga::Module) -> (Vec<Binding>, u32) {
 /// computed with, are the WGSL's (they were kept in sync by comments only).
 #[test]
 fn binding_tables_and_workgroup_sizes_match_the_wgsl() {
+    use crate::gpu::options::SPLAT_WORKGROUP;
     use crate::masks::gpu::{MASK_BINDINGS, MASK_WORKGROUP, source};
-    use crate::projection::gpu::{REDUCE_BINDINGS, SPLAT_BINDINGS, SPLAT_WORKGROUP};
+    use crate::projection::gpu::{REDUCE_BINDINGS, SPLAT_BINDINGS};
     // The reduce stage runs one workgroup per pose whatever its size: its 64 threads are the
     // WGSL's own, said here so that a change is seen.
     const REDUCE_WORKGROUP: u64 = 64;

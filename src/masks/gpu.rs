@@ -166,7 +166,7 @@ impl GpuMasks {
             ));
         }
         let device = &ctx.device;
-        let stage = Stage::new(device, "mask", source(), &MASK_BINDINGS);
+        let stage = Stage::new(device, "mask", source(), &MASK_BINDINGS)?;
         let he = layout.half_elevation;
         let params = MaskParams {
             range_min: layout.range_min as f32,

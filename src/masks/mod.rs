@@ -36,7 +36,7 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::geometry::{RelativePose, Sonar};
-use crate::gpu::GpuContext;
+use crate::gpu::{GpuContext, GpuOptions};
 pub use crate::limits::MAX_CELLS;
 use crate::occupancy::{Layout, Occupancy};
 use crate::projection::{BackendChoice, Device};
@@ -156,8 +156,8 @@ impl MaskEngine {
         Ok(engine)
     }
 
-    /// Returns the engine `choice` asks for and, when `auto` fell back to the CPU, a one-line
-    /// notice saying so. `cpu` and `cpu-fast` are the same engine for masks (f64, every core);
+    /// Returns the engine `choice` asks for (a GPU opened with `gpu`) and, when `auto` fell back
+    /// to the CPU, a one-line notice saying so. `cpu` and `cpu-fast` are the same engine for masks (f64, every core);
     /// `auto` takes a hardware GPU, and the CPU when `counts` are wanted (drawn there only).
     ///
     /// # Errors
@@ -168,11 +168,12 @@ impl MaskEngine {
         target: Sonar,
         choice: BackendChoice,
         counts: Counts,
+        gpu: &GpuOptions,
     ) -> Result<(MaskEngine, Option<String>)> {
         if counts == Counts::Draw && choice == BackendChoice::Auto {
             return Ok((MaskEngine::new(source, target)?, None));
         }
-        match choice.device()? {
+        match choice.device(gpu)? {
             Device::Cpu(notice) => Ok((MaskEngine::new(source, target)?, notice)),
             Device::Gpu(ctx) if choice == BackendChoice::Gpu => {
                 Ok((MaskEngine::on_gpu(source, target, *ctx)?, None))

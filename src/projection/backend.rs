@@ -1,7 +1,7 @@
 //! One interface over the two backends, so every caller (CLI, tests, benches) can run either.
 
 use crate::error::{Error, Result};
-use crate::gpu::{GpuContext, context};
+use crate::gpu::{GpuContext, GpuOptions, context};
 use crate::projection::gpu::GpuBackend;
 use crate::projection::{Batch, Projection, fast, reference};
 
@@ -34,17 +34,20 @@ impl BackendChoice {
     /// Returns the device this choice runs on: the one selection policy of projections and
     /// masks. `auto` takes a hardware GPU adapter and otherwise the CPU, saying why: a software
     /// adapter (lavapipe, llvmpipe, WARP) runs on the same cores as the CPU path and measured
-    /// several times slower than it (BENCHMARKS.md).
+    /// several times slower than it (BENCHMARKS.md). A GPU is the process's one context for
+    /// `gpu` ([`GpuContext::open`]); the CPU choices never look at `gpu`.
     ///
     /// # Errors
-    /// [`Error::NoAdapter`] or [`Error::Gpu`] when `Gpu` was chosen and cannot be had.
-    pub fn device(self) -> Result<Device> {
+    /// [`Error::NoAdapter`], [`Error::InvalidValue`] (an option) or [`Error::Gpu`] when `Gpu`
+    /// was chosen and cannot be had; an invalid option also with `Auto`.
+    pub fn device(self, gpu: &GpuOptions) -> Result<Device> {
         match self {
             BackendChoice::Cpu | BackendChoice::CpuFast => Ok(Device::Cpu(None)),
-            BackendChoice::Gpu => Ok(Device::Gpu(Box::new(GpuContext::new()?))),
+            BackendChoice::Gpu => Ok(Device::Gpu(Box::new(GpuContext::open(gpu)?))),
             BackendChoice::Auto => {
+                gpu.validate()?;
                 let cpu = |why: String| Ok(Device::Cpu(Some(format!("note: {why}"))));
-                match GpuContext::new() {
+                match GpuContext::open(gpu) {
                     Ok(ctx) if ctx.is_software() => cpu(format!(
                         "the only GPU adapter is a software one ({}), slower than the CPU path; \
                          running on the CPU (all cores; choosing the GPU backend uses the adapter \
@@ -85,32 +88,34 @@ pub enum Backend {
 }
 
 impl Backend {
-    /// Returns the backend for `choice` and, when `auto` fell back to the CPU, a one-line notice
-    /// saying why.
+    /// Returns the backend for `choice` (a GPU opened with `gpu`) and, when `auto` fell back to
+    /// the CPU, a one-line notice saying why.
     ///
     /// # Errors
-    /// [`Error::NoAdapter`] or [`Error::Gpu`] when `gpu` was asked for and cannot be had.
-    pub fn select(choice: BackendChoice) -> Result<(Backend, Option<String>)> {
-        let backend = match choice.device()? {
-            Device::Gpu(ctx) => Backend::on(*ctx),
+    /// As [`BackendChoice::device`]; [`Error::Gpu`] when the device refuses a stage.
+    pub fn select(choice: BackendChoice, gpu: &GpuOptions) -> Result<(Backend, Option<String>)> {
+        let backend = match choice.device(gpu)? {
+            Device::Gpu(ctx) => Backend::on(*ctx)?,
             Device::Cpu(_) if choice == BackendChoice::Cpu => Backend::Cpu,
             Device::Cpu(notice) => return Ok((Backend::CpuFast, notice)),
         };
         Ok((backend, None))
     }
 
-    /// Returns the GPU backend on the adapter `auto` would pick.
+    /// Returns the GPU backend on the process's context for `gpu`.
     ///
     /// # Errors
-    /// [`Error::NoAdapter`] or [`Error::Gpu`].
-    pub fn gpu() -> Result<Backend> {
-        Ok(Backend::on(GpuContext::new()?))
+    /// As [`GpuContext::open`] and [`GpuBackend::new`].
+    pub fn gpu(gpu: &GpuOptions) -> Result<Backend> {
+        Backend::on(GpuContext::open(gpu)?)
     }
 
     /// Returns the GPU backend on `ctx`, a device it may share with a mask engine.
-    #[must_use]
-    pub fn on(ctx: GpuContext) -> Backend {
-        Backend::Gpu(Box::new(GpuBackend::new(ctx)))
+    ///
+    /// # Errors
+    /// As [`GpuBackend::new`].
+    pub fn on(ctx: GpuContext) -> Result<Backend> {
+        Ok(Backend::Gpu(Box::new(GpuBackend::new(ctx)?)))
     }
 
     /// Returns `"cpu"`, `"cpu-fast"` or `"gpu"`.
@@ -159,6 +164,32 @@ impl Backend {
             Backend::Cpu => Ok(reference::project(&prepared, output)),
             Backend::CpuFast => Ok(fast::project(&prepared, output)),
             Backend::Gpu(g) => g.project(&prepared, output),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A bad option is an input error naming it, for `gpu` and for `auto` alike (which falls
+    /// back to the CPU only when no usable GPU exists, not on bad input), before any adapter is
+    /// looked for; the CPU choices never look at the options.
+    #[test]
+    fn bad_gpu_options_are_input_errors() {
+        let bad = GpuOptions {
+            workgroup: Some(100),
+            ..GpuOptions::default()
+        };
+        for choice in [BackendChoice::Gpu, BackendChoice::Auto] {
+            let e = choice.device(&bad).unwrap_err();
+            assert!(
+                e.is_input() && e.to_string().contains("workgroup"),
+                "{choice:?}: {e}"
+            );
+        }
+        for choice in [BackendChoice::Cpu, BackendChoice::CpuFast] {
+            assert!(matches!(choice.device(&bad), Ok(Device::Cpu(None))));
         }
     }
 }

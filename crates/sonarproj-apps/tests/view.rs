@@ -6,12 +6,17 @@
 use std::path::Path;
 
 use serde_json::Value;
-use sonarproj::{Backend, BackendChoice, Batch, BatchItem, Measurement, Output, Sampling, Sonar};
+use sonarproj::{Backend, BackendChoice, Batch, BatchItem, GpuOptions, Measurement, Output, Sampling, Sonar};
 use sonarproj_apps::sweep::config::SweepConfig;
 use sonarproj_apps::view::{Choice, MAX_REQUEST_BYTES, Scene, Viewer};
 
 fn viewer() -> Viewer {
-    Viewer::new(Vec::new(), Backend::Cpu, BackendChoice::Cpu)
+    Viewer::new(
+        Vec::new(),
+        Backend::Cpu,
+        BackendChoice::Cpu,
+        GpuOptions::default(),
+    )
 }
 
 fn scene(json: &str) -> Scene {
@@ -182,7 +187,7 @@ fn the_sweep_file_it_offers_gives_back_the_same_pose() {
     .unwrap();
     let own = Choice::resolve(file.to_str().unwrap()).unwrap();
     let label = own.label.clone();
-    let mut v = Viewer::new(vec![own], Backend::Cpu, BackendChoice::Cpu);
+    let mut v = Viewer::new(vec![own], Backend::Cpu, BackendChoice::Cpu, GpuOptions::default());
     for text in SCENES {
         let mut s = scene(text);
         if s.from == "paper-fls" {

@@ -1104,3 +1104,40 @@ fn project_json_keys_are_the_metric_table() {
     assert_eq!(json["metrics"]["visible"], json["metrics"]["total"]);
     assert!(json["metrics"]["range_min"].as_f64().unwrap() < 15.0);
 }
+
+/// The GPU's environment variables are read by the command line and checked there: a value
+/// outside the allowed ones is bad input (exit status 2) naming the variable and the value, for
+/// `--backend gpu` and `auto`; the CPU backends never open a GPU and do not read them.
+#[test]
+fn bad_gpu_variables_are_bad_input() {
+    for (var, value) in [
+        ("SONARPROJ_GPU_CULL", "yes"),
+        ("SONARPROJ_GPU_FILTER", "2"),
+        ("SONARPROJ_GPU_WORKGROUP", "48"),
+        ("SONARPROJ_GPU_PRECISION", "f16"),
+        ("WGPU_BACKEND", "vulkun"),
+        ("WGPU_ADAPTER_NAME", " "),
+    ] {
+        for backend in ["gpu", "auto"] {
+            let out = common::sonarproj()
+                .args(one_projection())
+                .args(["--backend", backend])
+                .env(var, value)
+                .assert()
+                .code(2)
+                .get_output()
+                .clone();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert!(
+                stderr.contains(var) && stderr.contains(&format!("{:?}", value.trim())),
+                "{var}={value} --backend {backend}: {stderr}"
+            );
+        }
+        common::sonarproj()
+            .args(one_projection())
+            .args(["--backend", "cpu-fast"])
+            .env(var, value)
+            .assert()
+            .success();
+    }
+}

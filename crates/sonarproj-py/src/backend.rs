@@ -1,10 +1,12 @@
 //! Backends chosen by name and kept for the life of the process, so a GPU device is opened once
-//! and its buffers are reused between calls.
+//! and its buffers are reused between calls; the GPU options they are opened with
+//! (`sonarproj.configure_gpu`, keyword arguments: the engine reads no environment variable).
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
 
-use pyo3::PyResult;
+use pyo3::prelude::*;
+use sonarproj::gpu::{GpuOptions, Precision};
 use sonarproj::{Backend, BackendChoice};
 
 use crate::errors;
@@ -21,6 +23,82 @@ const NAMES: [(&str, BackendChoice); 4] = [
 type Opened = HashMap<&'static str, (Arc<Backend>, Option<String>)>;
 
 static OPENED: Mutex<Option<Opened>> = Mutex::new(None);
+
+/// The GPU options every backend and mask engine of this process is opened with.
+static OPTIONS: Mutex<Option<GpuOptions>> = Mutex::new(None);
+
+/// Returns the GPU options set by [`configure_gpu`] (the engine's defaults until then).
+pub(crate) fn options() -> GpuOptions {
+    OPTIONS
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .clone()
+        .unwrap_or_default()
+}
+
+/// Sets the GPU options of the backends and mask engines opened from now on, and forgets those
+/// opened before (the next call opens them again with these). Arguments are checked by the
+/// Python package; each bad one raises `InputError` naming it.
+#[pyfunction]
+#[pyo3(signature = (backends, adapter, precision, cull, filter, workgroup))]
+pub(crate) fn configure_gpu(
+    backends: Option<Vec<String>>,
+    adapter: Option<String>,
+    precision: Option<String>,
+    cull: Option<bool>,
+    filter: Option<bool>,
+    workgroup: Option<u32>,
+) -> PyResult<String> {
+    let backends = match backends {
+        None => None,
+        Some(names) => {
+            let mut all = wgpu::Backends::empty();
+            for n in &names {
+                let one = wgpu::Backends::from_comma_list(n);
+                if one.is_empty() || n.contains(',') {
+                    return Err(errors::input(
+                        "backends",
+                        format!("{n:?} is not a backend; use \"vulkan\", \"metal\", \"dx12\" or \"gl\""),
+                    ));
+                }
+                all |= one;
+            }
+            Some(all)
+        }
+    };
+    let precision = match precision.as_deref() {
+        None => None,
+        Some("f64") => Some(Precision::F64),
+        Some("double-f32") => Some(Precision::DoubleF32),
+        Some(p) => {
+            return Err(errors::input(
+                "precision",
+                format!("{p:?} is not a precision; use \"f64\", \"double-f32\" or None"),
+            ));
+        }
+    };
+    let options = GpuOptions {
+        backends,
+        adapter,
+        precision,
+        cull,
+        filter,
+        workgroup,
+    };
+    options.validate().map_err(|e| {
+        let text = e.to_string();
+        let name = if text.contains("workgroup") {
+            "workgroup"
+        } else {
+            "adapter"
+        };
+        errors::input(name, text)
+    })?;
+    let described = options.describe();
+    *OPTIONS.lock().unwrap_or_else(PoisonError::into_inner) = Some(options);
+    *OPENED.lock().unwrap_or_else(PoisonError::into_inner) = None;
+    Ok(described)
+}
 
 /// Returns the choice named `name`.
 pub(crate) fn choice(name: &str) -> PyResult<BackendChoice> {
@@ -50,7 +128,7 @@ pub(crate) fn get(name: &str) -> PyResult<(Arc<Backend>, Option<String>)> {
     if let Some((b, notice)) = map.get(key) {
         return Ok((Arc::clone(b), notice.clone()));
     }
-    let (backend, notice) = Backend::select(c).map_err(errors::engine)?;
+    let (backend, notice) = Backend::select(c, &options()).map_err(errors::engine)?;
     let backend = Arc::new(backend);
     map.insert(key, (Arc::clone(&backend), notice.clone()));
     Ok((backend, notice))

@@ -26,6 +26,7 @@ fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<masks::PyMaskEngine>()?;
     m.add_class::<masks::PyMaskSet>()?;
     m.add_function(wrap_pyfunction!(sonar::presets, m)?)?;
+    m.add_function(wrap_pyfunction!(backend::configure_gpu, m)?)?;
     m.add_function(wrap_pyfunction!(batch::batch_columns, m)?)?;
     m.add_function(wrap_pyfunction!(batch::bench_rust_batch, m)?)?;
     m.add_function(wrap_pyfunction!(batch::project_one, m)?)?;

@@ -177,7 +177,7 @@ impl PyMaskEngine {
         let want = if counts { Counts::Draw } else { Counts::Skip };
         let (source, target) = (first.inner.clone(), second.inner.clone());
         let (engine, notice) = py
-            .detach(|| MaskEngine::select(source, target, choice, want))
+            .detach(|| MaskEngine::select(source, target, choice, want, &backend::options()))
             .map_err(errors::engine)?;
         Ok(PyMaskEngine { engine, notice })
     }

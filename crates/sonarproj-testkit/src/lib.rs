@@ -4,7 +4,7 @@
 //! convention. Test code only: never a dependency of a shipped crate.
 
 use sonarproj::Sonar;
-use sonarproj::gpu::GpuContext;
+use sonarproj::gpu::{GpuContext, GpuOptions, Precision};
 use sonarproj::projection::gpu::GpuBackend;
 
 /// Returns the preset `name` (a test names only presets that exist).
@@ -51,6 +51,22 @@ pub fn cli_backends(cpu: &'static str) -> Vec<&'static str> {
     b
 }
 
+/// Returns the GPU options of the test run, read from the environment as the command line reads
+/// them: `WGPU_BACKEND` (the backends; `scripts/test.sh` sets `vulkan`), `WGPU_ADAPTER_NAME`,
+/// and `SONARPROJ_GPU_PRECISION=df` (the agreement tests once more in double-f32).
+#[must_use]
+pub fn gpu_options() -> GpuOptions {
+    let var = |n: &str| std::env::var(n).ok().filter(|v| !v.trim().is_empty());
+    GpuOptions {
+        backends: var("WGPU_BACKEND").map(|v| wgpu::Backends::from_comma_list(&v)),
+        adapter: var("WGPU_ADAPTER_NAME"),
+        precision: var("SONARPROJ_GPU_PRECISION")
+            .filter(|v| v.trim() == "df")
+            .map(|_| Precision::DoubleF32),
+        ..GpuOptions::default()
+    }
+}
+
 /// Returns the test binary's one GPU context on the adapter `auto` would use, created by the
 /// first test that asks and shared by all, as an application shares its device. (On an H100
 /// with NVIDIA's Vulkan driver, tests that each created and dropped their own instance crashed
@@ -60,7 +76,7 @@ pub fn cli_backends(cpu: &'static str) -> Vec<&'static str> {
 #[must_use]
 pub fn gpu_context() -> Option<GpuContext> {
     static CONTEXT: std::sync::OnceLock<Result<GpuContext, String>> = std::sync::OnceLock::new();
-    match CONTEXT.get_or_init(|| GpuContext::new().map_err(|e| e.to_string())) {
+    match CONTEXT.get_or_init(|| GpuContext::open(&gpu_options()).map_err(|e| e.to_string())) {
         Ok(ctx) => Some(ctx.clone()),
         Err(e) => {
             if std::env::var("CI").is_ok_and(|v| v == "true" || v == "1") {
@@ -73,17 +89,29 @@ pub fn gpu_context() -> Option<GpuContext> {
 }
 
 /// Writes `skipped: no adapter` and the test's name straight to stderr, where the test harness
-/// does not capture it: a GPU test without an adapter passes, and says so.
+/// does not capture it (a GPU test without an adapter passes, and says so), once per test; the
+/// reason once per test binary.
 fn say_skipped(why: &str) {
     use std::io::Write;
+    static SAID: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
     let test = std::thread::current().name().unwrap_or("a GPU test").to_string();
-    let _ = writeln!(std::io::stderr(), "skipped: no adapter ({test}): {why}");
+    let mut said = SAID.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if said.contains(&test) {
+        return;
+    }
+    let reason = if said.is_empty() {
+        format!(": {why}")
+    } else {
+        String::new()
+    };
+    said.push(test.clone());
+    let _ = writeln!(std::io::stderr(), "skipped: no adapter ({test}){reason}");
 }
 
 /// Returns a GPU backend on the shared context of [`gpu_context`].
 #[must_use]
 pub fn gpu() -> Option<GpuBackend> {
-    gpu_context().map(GpuBackend::new)
+    gpu_context().map(|ctx| GpuBackend::new(ctx).expect("the GPU builds the projection stages"))
 }
 
 use sonarproj::Projection;

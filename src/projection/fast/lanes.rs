@@ -75,6 +75,7 @@ impl Default for Running {
 
 impl Running {
     /// Empties the running extremes for the next pose.
+    #[inline(always)]
     pub(super) fn start_pose(&mut self) {
         self.range_min = [f64::INFINITY; LANES];
         self.range_max = [f64::NEG_INFINITY; LANES];

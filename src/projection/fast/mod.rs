@@ -115,6 +115,7 @@ impl<'a> Geometry<'a> {
 impl<'a> std::ops::Deref for Geometry<'a> {
     type Target = Clip<'a>;
 
+    #[inline(always)]
     fn deref(&self) -> &Clip<'a> {
         &self.clip
     }

@@ -57,6 +57,7 @@ impl Scratch {
     }
 
     /// Returns `Rz(azimuth)`, computed only when the azimuth differs from the last one's bits.
+    #[inline]
     pub(super) fn rotation_z(&mut self, azimuth: f64) -> DMat3 {
         match self.rz {
             Some((bits, rz)) if bits == azimuth.to_bits() => rz,
@@ -71,6 +72,7 @@ impl Scratch {
     /// Returns `(occupied, occupied_measure)` (the reduce shader's work, over the touched words
     /// in row-major order, so the area sums in the order of the plain loop) and the occupancy
     /// when asked for, leaving the buffer empty.
+    #[inline]
     pub(super) fn reduce(&mut self, geo: &Geometry<'_>, keep: bool) -> (u64, f64, Option<Occupancy>) {
         let layout = geo.layout;
         if let Some((lo, hi)) = self.span.take() {
@@ -116,6 +118,7 @@ impl Scratch {
 }
 
 /// Sets the bits of pixels `lo..=hi` in `occ`, marking their words in `summary`.
+#[inline(always)]
 pub(super) fn set_span(occ: &mut Occupancy, summary: &mut [u64], lo: usize, hi: usize) {
     for w in lo / 32..=hi / 32 {
         let from = if w == lo / 32 { lo % 32 } else { 0 };
@@ -125,6 +128,7 @@ pub(super) fn set_span(occ: &mut Occupancy, summary: &mut [u64], lo: usize, hi: 
 }
 
 /// Sets `bits` in word `w` of `occ`, marking the word in `summary` (when any bit is set).
+#[inline(always)]
 pub(super) fn set(occ: &mut Occupancy, summary: &mut [u64], w: usize, bits: u32) {
     if bits != 0 {
         occ.words[w] |= bits;

@@ -106,6 +106,7 @@ pub(super) fn moved(m: &[f64; 12], [ux, uy, uz]: [f64; 3]) -> [f64; 3] {
 
 /// Returns `M` (scaled by the range) and `t` as [`moved`] and the lane stage take them: `M`'s
 /// columns then `t`.
+#[inline]
 pub(super) fn pose_columns(m: DMat3, t: DVec3) -> [f64; 12] {
     let columns = [m.x_axis, m.y_axis, m.z_axis, t].map(|c| c.to_array());
     std::array::from_fn(|k| columns[k / 3][k % 3])

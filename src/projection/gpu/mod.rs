@@ -17,6 +17,8 @@ use rayon::prelude::*;
 use crate::clip::{F32_CENTRE_ERROR, F32_ROUND_UP, F32_UNIT_ERROR};
 use crate::error::{Error, Result};
 use crate::geometry::SonarKind;
+use crate::gpu::options::SPLAT_WORKGROUP;
+pub use crate::gpu::options::SPLAT_WORKGROUPS;
 use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::{BufferPool, SharedPool};
 use crate::gpu::{GpuContext, read, shaders};
@@ -47,12 +49,6 @@ pub(crate) const REDUCE_BINDINGS: [Binding; 5] = [
     Binding::ReadWrite,
 ];
 
-/// Threads per workgroup of the splat stage by default (the WGSL `override WORKGROUP` in
-/// splat.wgsl; checked in tests/shaders.rs).
-pub(crate) const SPLAT_WORKGROUP: u32 = 64;
-/// The splat stage's workgroup sizes [`SplatOptions::workgroup`] may take: multiples of the
-/// culling block (16 samples) that every adapter runs (at least 256 threads a workgroup).
-pub const SPLAT_WORKGROUPS: [u32; 4] = [32, 64, 128, 256];
 /// Most workgroups one pose's samples are spread over in the splat stage.
 const MAX_TILES: u64 = 1024;
 /// Most bytes of bitsets one chunk may hold (also capped by the device's binding size).
@@ -76,25 +72,19 @@ pub struct SplatOptions {
 }
 
 impl SplatOptions {
-    /// Returns the options for `ctx`'s adapter: culling and the f32 filter on a hardware GPU,
-    /// where `Real` arithmetic costs many f32 operations (f64 on consumer GPUs, double-f32), and
+    /// Returns the variant `ctx`'s options ask for ([`GpuContext::options`]), with the engine's
+    /// choice where they leave one open: culling and the f32 filter on a hardware GPU, where
+    /// `Real` arithmetic costs many f32 operations (f64 on consumer GPUs, double-f32), and
     /// neither on a software adapter such as lavapipe, measured slower there with each
-    /// (BENCHMARKS.md); workgroups of [`SPLAT_WORKGROUP`] threads. The environment variables
-    /// `SONARPROJ_GPU_CULL` and `SONARPROJ_GPU_FILTER` (`0` or `1`) and
-    /// `SONARPROJ_GPU_WORKGROUP` (one of [`SPLAT_WORKGROUPS`]) override them, so one build
-    /// measures every variant; other values are ignored ([`SplatOptions::describe`], which
-    /// `sonarproj devices` and `bench` print, says what runs).
+    /// (BENCHMARKS.md); workgroups of [`SPLAT_WORKGROUP`] threads.
     #[must_use]
     pub fn for_adapter(ctx: &GpuContext) -> Self {
         let hardware = !ctx.is_software();
-        let workgroup = std::env::var("SONARPROJ_GPU_WORKGROUP")
-            .ok()
-            .and_then(|v| v.trim().parse().ok())
-            .filter(|w| SPLAT_WORKGROUPS.contains(w));
+        let o = &ctx.options;
         SplatOptions {
-            cull: flag("SONARPROJ_GPU_CULL").unwrap_or(hardware),
-            filter: flag("SONARPROJ_GPU_FILTER").unwrap_or(hardware),
-            workgroup: workgroup.unwrap_or(SPLAT_WORKGROUP),
+            cull: o.cull.unwrap_or(hardware),
+            filter: o.filter.unwrap_or(hardware),
+            workgroup: o.workgroup.unwrap_or(SPLAT_WORKGROUP),
         }
     }
 
@@ -128,15 +118,6 @@ impl SplatOptions {
     }
 }
 
-/// Returns the value of the environment variable `name` when it is `0` (false) or `1` (true).
-fn flag(name: &str) -> Option<bool> {
-    match std::env::var(name).as_deref().map(str::trim) {
-        Ok("0") => Some(false),
-        Ok("1") => Some(true),
-        _ => None,
-    }
-}
-
 /// The GPU backend: a device and the two pipelines, built once, and the chunk buffers, kept
 /// between calls and grown to the largest batch seen ([`GpuBackend::kept_bytes`] says how much
 /// GPU memory that is, [`GpuBackend::release_buffers`] frees it). Calls from several threads at
@@ -153,23 +134,25 @@ pub struct GpuBackend {
 
 impl GpuBackend {
     /// Returns the backend on `ctx`, building its pipelines with [`SplatOptions::for_adapter`].
-    #[must_use]
-    pub fn new(ctx: GpuContext) -> Self {
+    ///
+    /// # Errors
+    /// [`Error::Gpu`] when the device refuses a stage's shader or pipeline.
+    pub fn new(ctx: GpuContext) -> Result<Self> {
         let options = SplatOptions::for_adapter(&ctx);
-        Self::build(ctx, options)
+        Self::with_options(ctx, options)
     }
 
     /// Returns the backend on `ctx`, building its pipelines with `options`.
     ///
     /// # Errors
-    /// As [`SplatOptions::validate`].
+    /// As [`SplatOptions::validate`]; [`Error::Gpu`] when the device refuses a stage.
     pub fn with_options(ctx: GpuContext, options: SplatOptions) -> Result<Self> {
         options.validate()?;
-        Ok(Self::build(ctx, options))
+        Self::build(ctx, options)
     }
 
     /// Returns the backend on `ctx` with valid `options`.
-    fn build(ctx: GpuContext, options: SplatOptions) -> Self {
+    fn build(ctx: GpuContext, options: SplatOptions) -> Result<Self> {
         let splat = Stage::with_constants(
             &ctx.device,
             "splat",
@@ -180,16 +163,16 @@ impl GpuBackend {
                 ("FILTER", f64::from(u8::from(options.filter))),
                 ("WORKGROUP", f64::from(options.workgroup)),
             ],
-        );
-        let reduce = Stage::new(&ctx.device, "reduce", &shaders::reduce(), &REDUCE_BINDINGS);
-        GpuBackend {
+        )?;
+        let reduce = Stage::new(&ctx.device, "reduce", &shaders::reduce(), &REDUCE_BINDINGS)?;
+        Ok(GpuBackend {
             ctx,
             splat,
             reduce,
             options,
             max_chunk_poses: None,
             pool: SharedPool::default(),
-        }
+        })
     }
 
     /// Returns the device context.
@@ -263,7 +246,7 @@ impl GpuBackend {
         let words = words_per_pose(layout);
         let bits_per_pose_bytes = (words as u64 * 4).max(4);
         if bits_per_pose_bytes > self.ctx.limits.max_storage_buffer_binding_size {
-            return Err(Error::Gpu(format!(
+            return Err(Error::gpu_limit(format!(
                 "one occupancy buffer ({bits_per_pose_bytes} bytes) exceeds this device's \
                  largest storage binding ({} bytes); the CPU backends have no such limit",
                 self.ctx.limits.max_storage_buffer_binding_size

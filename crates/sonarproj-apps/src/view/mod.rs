@@ -13,6 +13,7 @@ use std::time::Instant;
 use serde::Deserialize;
 use serde_json::{Value, json};
 use sonarproj::geometry::{cart_to_sph, sph_to_cart};
+use sonarproj::gpu::GpuOptions;
 use sonarproj::masks::{Counts, MaskEngine, Noise, run_lengths};
 use sonarproj::recovery::{DEFAULT_CURVE_STEP, Observation, Sigmas, recover};
 use sonarproj::sampling::{SamplingPlan, base_azimuth};
@@ -264,6 +265,7 @@ pub struct Viewer {
     choices: Vec<Choice>,
     backend: Backend,
     choice: BackendChoice,
+    gpu: GpuOptions,
     engines: HashMap<(String, String), MaskEngine>,
 }
 
@@ -278,9 +280,10 @@ impl std::fmt::Debug for Viewer {
 
 impl Viewer {
     /// Returns a viewer offering every preset and `extra` (files named on the command line),
-    /// projecting with `backend` (opened by the caller, as `choice`).
+    /// projecting with `backend` (opened by the caller, as `choice` with the GPU options `gpu`,
+    /// which the mask engines it opens use too).
     #[must_use]
-    pub fn new(extra: Vec<Choice>, backend: Backend, choice: BackendChoice) -> Viewer {
+    pub fn new(extra: Vec<Choice>, backend: Backend, choice: BackendChoice, gpu: GpuOptions) -> Viewer {
         let mut choices: Vec<Choice> = Sonar::preset_names()
             .into_iter()
             .filter_map(|n| Choice::resolve(n).ok())
@@ -294,6 +297,7 @@ impl Viewer {
             choices,
             backend,
             choice,
+            gpu,
             engines: HashMap::new(),
         }
     }
@@ -370,8 +374,13 @@ impl Viewer {
             Some(n) => {
                 let key = (first.label.clone(), second.label.clone());
                 if !self.engines.contains_key(&key) {
-                    let (engine, _) =
-                        MaskEngine::select(source.clone(), target.clone(), self.choice, Counts::Skip)?;
+                    let (engine, _) = MaskEngine::select(
+                        source.clone(),
+                        target.clone(),
+                        self.choice,
+                        Counts::Skip,
+                        &self.gpu,
+                    )?;
                     self.engines.insert(key.clone(), engine);
                 }
                 let m = self.engines[&key].mask(&pose, &measurement, Some(n), Counts::Skip)?;

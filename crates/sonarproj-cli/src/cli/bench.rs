@@ -51,7 +51,7 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
     if !a.no_reference {
         backends.push(Backend::Cpu);
     }
-    match Backend::select(BackendChoice::Gpu) {
+    match super::gpu_env::select(BackendChoice::Gpu) {
         Ok((gpu, _)) => backends.insert(0, gpu),
         Err(e) => outln!("GPU: not measured ({e})")?,
     }
@@ -109,7 +109,8 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
 /// [`bench::MASK_CASES`], on the GPU (when an adapter exists) and the CPU engine.
 fn masks(runs: u32) -> Result<()> {
     let runs = runs.max(20);
-    let gpu = match GpuContext::new() {
+    let options = super::gpu_env::gpu_options()?;
+    let gpu = match GpuContext::open(&options) {
         Ok(ctx) if ctx.is_software() => {
             outln!("gpu-sw {}", sonarproj::gpu::context::describe(&ctx.info))?;
             outln!("{SOFTWARE_NOTE}")?;
@@ -148,7 +149,7 @@ fn masks(runs: u32) -> Result<()> {
         if let Some(label) = gpu {
             engines.push((
                 label,
-                MaskEngine::on_gpu(s1.clone(), s2.clone(), GpuContext::new()?)?,
+                MaskEngine::on_gpu(s1.clone(), s2.clone(), GpuContext::open(&options)?)?,
             ));
         }
         engines.push(("cpu", MaskEngine::new(s1.clone(), s2.clone())?));

@@ -134,7 +134,7 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
     let source = Sonar::resolve(&a.from)?;
     let target = Sonar::resolve(&a.to)?;
     let counts = if a.counts { Counts::Draw } else { Counts::Skip };
-    let (engine, notice) = MaskEngine::select(source, target, a.backend.into(), counts)?;
+    let (engine, notice) = super::gpu_env::select_masks(source, target, a.backend.into(), counts)?;
     if let Some(n) = notice {
         eprintln!("{n}");
     }

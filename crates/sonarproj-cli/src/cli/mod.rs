@@ -14,6 +14,7 @@ macro_rules! outln {
 mod batch;
 mod bench;
 mod devices;
+mod gpu_env;
 mod mask;
 mod paper;
 mod pose_args;
@@ -127,7 +128,7 @@ impl PairArgs {
 
     /// Returns the backend, printing the one-line notice when `auto` fell back to the CPU.
     fn backend(&self) -> Result<Backend> {
-        let (backend, notice) = Backend::select(self.backend.into())?;
+        let (backend, notice) = gpu_env::select(self.backend.into())?;
         if let Some(n) = notice {
             eprintln!("{n}");
         }

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use super::BackendArg;
-use sonarproj::{Backend, Sampling};
+use sonarproj::Sampling;
 use sonarproj_apps::Result;
 use sonarproj_apps::paper::{self, angles};
 use sonarproj_apps::report::check_output_dir;
@@ -36,7 +36,7 @@ pub(super) fn run(a: PaperArgs) -> Result<()> {
     // A file where the directory should be is refused before any work; the directory itself is
     // created once the results exist, so a refused run leaves nothing behind.
     check_output_dir(&a.out, "--out")?;
-    let (backend, notice) = Backend::select(a.backend.into())?;
+    let (backend, notice) = super::gpu_env::select(a.backend.into())?;
     if let Some(n) = notice {
         eprintln!("{n}");
     }

@@ -7,7 +7,6 @@ use std::time::Instant;
 
 use super::BackendArg;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use sonarproj::Backend;
 use sonarproj_apps::Result;
 use sonarproj_apps::sweep::run::DEFAULT_CHUNK_POSES;
 use sonarproj_apps::sweep::{self, Event, Options, Shard, SweepConfig};
@@ -55,7 +54,7 @@ pub(super) fn run(a: SweepArgs) -> Result<()> {
         chunk_poses: a.chunk_poses,
         max_chunks: a.max_chunks,
     };
-    let (backend, notice) = Backend::select(a.backend.into())?;
+    let (backend, notice) = super::gpu_env::select(a.backend.into())?;
     if let Some(n) = notice {
         eprintln!("{n}");
     }

@@ -12,7 +12,7 @@ use std::io::Read;
 use std::net::{IpAddr, SocketAddr};
 
 use serde_json::json;
-use sonarproj::{Backend, BackendChoice};
+use sonarproj::BackendChoice;
 use sonarproj_apps::view::{Choice, MAX_REQUEST_BYTES, Scene, Viewer};
 use sonarproj_apps::{Error, Result};
 use tiny_http::{Header, Method, Request, Response, Server};
@@ -91,12 +91,13 @@ pub(super) fn run(a: ViewArgs) -> Result<()> {
     let first = Choice::resolve(&a.from).map_err(|e| e.in_context("--from"))?;
     let second = Choice::resolve(&a.to).map_err(|e| e.in_context("--to"))?;
     let choice: BackendChoice = a.backend.into();
-    let (backend, notice) = Backend::select(choice)?;
+    let gpu = super::gpu_env::options_for(choice)?;
+    let (backend, notice) = super::gpu_env::select(choice)?;
     if let Some(n) = notice {
         eprintln!("{n}");
     }
     let initial = json!({ "from": first.label, "to": second.label });
-    let mut viewer = Viewer::new(vec![first, second], backend, choice);
+    let mut viewer = Viewer::new(vec![first, second], backend, choice, gpu);
 
     let server = Server::http(SocketAddr::new(a.bind, a.port))
         .map_err(|e| Error::Serve(format!("cannot listen on {}:{}: {e}", a.bind, a.port)))?;

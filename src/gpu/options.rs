@@ -1,0 +1,126 @@
+//! How the GPU is opened and the splat stage built, as a value the fronts build and pass in: the
+//! command line from its environment variables, Python from keyword arguments, a Rust caller by
+//! hand. The engine itself reads no environment variable.
+
+use crate::error::{Error, Result};
+use crate::gpu::shaders::Precision;
+
+/// The splat stage's workgroup sizes [`GpuOptions::workgroup`] may take: multiples of the culling
+/// block (16 samples) that every adapter runs (at least 256 threads a workgroup).
+pub const SPLAT_WORKGROUPS: [u32; 4] = [32, 64, 128, 256];
+
+/// Threads per workgroup of the splat stage by default (the WGSL `override WORKGROUP` in
+/// splat.wgsl; checked in the shader tests).
+pub const SPLAT_WORKGROUP: u32 = 64;
+
+/// The options of the GPU: which adapter, which arithmetic, which variant of the splat stage.
+/// Every field left `None` takes the engine's choice; [`GpuOptions::default`] leaves them all.
+/// Results do not depend on `cull`, `filter` or `workgroup` (tested); `precision` changes only
+/// the last bits of the GPU's f32 output, within the envelope of "How the GPU is checked".
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct GpuOptions {
+    /// The wgpu backends adapters are looked for on; `None`: the primary ones (Vulkan, Metal,
+    /// DX12). Empty: none (every GPU request then finds no adapter).
+    pub backends: Option<wgpu::Backends>,
+    /// Part of the adapter's name, case-insensitive; `None`: the high-performance adapter of the
+    /// backends (a software one such as lavapipe counts).
+    pub adapter: Option<String>,
+    /// The splat stage's arithmetic; `None`: f64 where the adapter has it, else double-f32.
+    /// `Some(DoubleF32)` measures the path of GPUs without f64 on one that has it.
+    pub precision: Option<Precision>,
+    /// Block culling in the splat stage; `None`: on for a hardware adapter, off for a software
+    /// one (measured slower there).
+    pub cull: Option<bool>,
+    /// The splat stage's f32 filter (each sample decided in f32 first, in f64 or double-f32 only
+    /// near a bound or an edge); `None`: on for a hardware adapter, off for a software one.
+    pub filter: Option<bool>,
+    /// Threads a workgroup of the splat stage, one of [`SPLAT_WORKGROUPS`]; `None`:
+    /// [`SPLAT_WORKGROUP`].
+    pub workgroup: Option<u32>,
+}
+
+impl GpuOptions {
+    /// Returns `Ok(())` when every option given is allowed.
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] naming `workgroup` when it is not one of [`SPLAT_WORKGROUPS`], or
+    /// `adapter` when it is empty.
+    pub fn validate(&self) -> Result<()> {
+        if let Some(w) = self.workgroup {
+            if !SPLAT_WORKGROUPS.contains(&w) {
+                return Err(Error::invalid("GPU workgroup", w, "32, 64, 128 or 256 threads"));
+            }
+        }
+        if self.adapter.as_deref().is_some_and(|a| a.trim().is_empty()) {
+            return Err(Error::invalid(
+                "GPU adapter",
+                "\"\"",
+                "part of an adapter's name (`sonarproj devices` lists them)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Returns the backends adapters are looked for on.
+    #[must_use]
+    pub fn backends(&self) -> wgpu::Backends {
+        self.backends.unwrap_or(wgpu::Backends::PRIMARY)
+    }
+
+    /// Returns a short description of the options given, such as `adapter "H100", double-f32`,
+    /// or `defaults`.
+    #[must_use]
+    pub fn describe(&self) -> String {
+        let mut parts = Vec::new();
+        if let Some(b) = self.backends {
+            parts.push(format!("backends {b:?}"));
+        }
+        if let Some(a) = &self.adapter {
+            parts.push(format!("adapter {a:?}"));
+        }
+        if let Some(p) = self.precision {
+            parts.push(p.name().to_string());
+        }
+        for (name, v) in [("culling", self.cull), ("f32 filter", self.filter)] {
+            if let Some(on) = v {
+                parts.push(format!("{name} {}", if on { "on" } else { "off" }));
+            }
+        }
+        if let Some(w) = self.workgroup {
+            parts.push(format!("{w} threads a workgroup"));
+        }
+        if parts.is_empty() {
+            "defaults".to_string()
+        } else {
+            parts.join(", ")
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_options_are_named() {
+        let bad = GpuOptions {
+            workgroup: Some(48),
+            ..GpuOptions::default()
+        };
+        let e = bad.validate().unwrap_err().to_string();
+        assert!(e.contains("workgroup") && e.contains("48"), "{e}");
+        let bad = GpuOptions {
+            adapter: Some(" ".into()),
+            ..GpuOptions::default()
+        };
+        assert!(bad.validate().unwrap_err().to_string().contains("adapter"));
+        for w in SPLAT_WORKGROUPS {
+            let ok = GpuOptions {
+                workgroup: Some(w),
+                ..GpuOptions::default()
+            };
+            assert!(ok.validate().is_ok());
+        }
+        assert_eq!(GpuOptions::default().describe(), "defaults");
+    }
+}
