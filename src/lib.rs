@@ -47,6 +47,8 @@ pub mod occupancy;
 pub mod projection;
 pub mod recovery;
 pub mod sampling;
+#[doc(hidden)]
+pub mod test_support;
 
 pub use error::{Error, Result};
 pub use geometry::{BeamLayout, RelativePose, Rotation, Sonar, SonarKind, rig};

@@ -1,0 +1,29 @@
+//! What the integration tests reach of the engine's internals, and nothing a user should call:
+//! hidden from the documentation, not part of the API, free to change.
+
+use crate::error::Result;
+use crate::gpu::GpuContext;
+use crate::gpu::pipeline::{Binding, Stage};
+
+/// Builds a compute stage named `name` of WGSL `source` (entry point `main`) on `ctx`'s device,
+/// with group 0's bindings of the kinds `bindings` names (`"uniform"`, `"read"`,
+/// `"read_write"`), and drops it: what every pipeline of the engine goes through.
+///
+/// # Errors
+/// As the engine's stages: [`crate::Error::Gpu`] when the device refuses the shader or pipeline.
+///
+/// # Panics
+/// On a binding kind other than the three.
+#[doc(hidden)]
+pub fn build_stage(ctx: &GpuContext, name: &str, source: &str, bindings: &[&str]) -> Result<()> {
+    let kinds: Vec<Binding> = bindings
+        .iter()
+        .map(|b| match *b {
+            "uniform" => Binding::Uniform,
+            "read" => Binding::Read,
+            "read_write" => Binding::ReadWrite,
+            other => panic!("no binding kind {other:?}"),
+        })
+        .collect();
+    Stage::new(&ctx.device, name, source, &kinds).map(drop)
+}
