@@ -277,3 +277,36 @@ def test_the_gpu_path_is_reachable_from_python():
         g = on_gpu.masks(pose, [4.0, 7.5]).masks
         c = on_cpu.masks(pose, [4.0, 7.5]).masks
         assert c.sum() > 100 and ((g >= c).all())
+
+
+@pytest.mark.parametrize("kwargs,words", [
+    ({"workgroup": 48}, ["workgroup", "48"]),
+    ({"workgroup": True}, ["workgroup", "True"]),
+    ({"workgroup": 64.0}, ["workgroup", "64.0"]),
+    ({"cull": 1}, ["cull", "1"]),
+    ({"filter": "yes"}, ["filter", "yes"]),
+    ({"precision": "f16"}, ["precision", "f16"]),
+    ({"adapter": 3}, ["adapter", "3"]),
+    ({"adapter": "  "}, ["adapter"]),
+    ({"backends": "vulkan"}, ["backends", "vulkan"]),
+    ({"backends": ["vulkun"]}, ["backends", "vulkun"]),
+])
+def test_bad_gpu_options_name_the_argument(kwargs, words):
+    with pytest.raises(InputError) as e:
+        sonarproj.configure_gpu(**kwargs)
+    message = str(e.value)
+    assert message.startswith(next(iter(kwargs))), message
+    for w in words:
+        assert w in message, (w, message)
+
+
+def test_gpu_options_are_set_and_said():
+    try:
+        said = sonarproj.configure_gpu(workgroup=128, cull=False, precision="double-f32")
+        assert said == "double-f32, culling off, 128 threads a workgroup"
+        # The CPU backends do not depend on them; a GPU opened now follows them.
+        m = sonarproj.project("paper-fls", "paper-sss", Pose.placement(feature=(5, 0, 0), place=(15, 0, 0)),
+                              (5, 0), step=1, backend="cpu-fast")
+        assert m["visible"] > 0
+    finally:
+        assert sonarproj.configure_gpu() == "defaults"

@@ -3,6 +3,7 @@
 //! rigs ([`rig`]: poses the way vehicles describe their mounts).
 
 pub mod pose;
+mod presets;
 pub mod rig;
 pub mod sonar;
 

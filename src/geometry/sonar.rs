@@ -1,5 +1,6 @@
 //! Sonars: kind, field of view and data layout (README: Sonars), the presets, and sonar TOML files.
 
+use super::presets;
 use std::path::Path;
 
 use serde::Deserialize;
@@ -66,100 +67,6 @@ pub struct Sonar {
 
 pub use crate::limits::{MAX_BEAMS, MAX_PIXELS, MAX_RANGE, MAX_RANGE_BINS};
 
-/// One row of the preset table: name, kind, range, apertures, range bins, beams, source.
-type PresetRow = (
-    &'static str,
-    SonarKind,
-    f64,
-    f64,
-    f64,
-    f64,
-    u32,
-    u32,
-    &'static str,
-);
-
-/// The presets (README: Sonars). Sources are kept beside each row.
-const PRESETS: &[PresetRow] = &[
-    // Paper Table I; layout ours: 1 cm range bins, 512 beams.
-    (
-        "paper-fls",
-        SonarKind::Fls,
-        0.1,
-        10.0,
-        60.0,
-        12.0,
-        990,
-        512,
-        "paper Table I",
-    ),
-    // Paper Table I; 1 cm range bins.
-    (
-        "paper-sss",
-        SonarKind::Sss,
-        0.1,
-        30.0,
-        130.0,
-        0.3,
-        2990,
-        1,
-        "paper Table I",
-    ),
-    // Blueprint Subsea Oculus M750d data sheet, 750 kHz mode: 0.1-120 m, 130° x 20°, 512 beams.
-    // The maker's beams are not uniform and its image height follows the range setting; we
-    // use 512 uniform beams and 10 cm range bins. Give beam_edges in a sonar file to match a unit.
-    (
-        "oculus-m750d",
-        SonarKind::Fls,
-        0.1,
-        120.0,
-        130.0,
-        20.0,
-        1199,
-        512,
-        "Blueprint Subsea M750d sheet, 750 kHz",
-    ),
-    // Blueprint Subsea Oculus M1200d data sheet, 2.1 MHz mode: 0.1-30 m, 60° x 12°, 512 beams;
-    // 1 cm range bins (ours).
-    (
-        "oculus-m1200d-hf",
-        SonarKind::Fls,
-        0.1,
-        30.0,
-        60.0,
-        12.0,
-        2990,
-        512,
-        "Blueprint Subsea M1200d sheet, 2.1 MHz",
-    ),
-    // HoloOcean ImagingSonar defaults: RangeMin 0.1, RangeMax 10, Azimuth 120, Elevation 20,
-    // RangeBins 512, AzimuthBins 512.
-    (
-        "holoocean-imaging",
-        SonarKind::Fls,
-        0.1,
-        10.0,
-        120.0,
-        20.0,
-        512,
-        512,
-        "HoloOcean ImagingSonar defaults",
-    ),
-    // HoloOcean SidescanSonar defaults: RangeMin 0.5, RangeMax 35, Azimuth 170, Elevation 0.25,
-    // RangeBins 2000.
-    (
-        "holoocean-sidescan",
-        SonarKind::Sss,
-        0.5,
-        35.0,
-        170.0,
-        0.25,
-        2000,
-        1,
-        "HoloOcean SidescanSonar defaults",
-    ),
-];
-
 /// The keys of a sonar TOML file.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -179,13 +86,13 @@ impl Sonar {
     /// Returns the names of all presets, in table order.
     #[must_use]
     pub fn preset_names() -> Vec<&'static str> {
-        PRESETS.iter().map(|p| p.0).collect()
+        presets::PRESETS.iter().map(|p| p.0).collect()
     }
 
     /// Returns the preset called `name`, or `None`.
     #[must_use]
     pub fn preset(name: &str) -> Option<Sonar> {
-        PRESETS.iter().find(|p| p.0 == name).map(
+        presets::PRESETS.iter().find(|p| p.0 == name).map(
             |&(name, kind, range_min, range_max, az, el, range_bins, beams, _source)| Sonar {
                 name: name.to_string(),
                 kind,
@@ -202,7 +109,7 @@ impl Sonar {
     /// Returns the source of a preset's numbers (maker's sheet, paper, simulator), or `None`.
     #[must_use]
     pub fn preset_source(name: &str) -> Option<&'static str> {
-        PRESETS.iter().find(|p| p.0 == name).map(|p| p.8)
+        presets::PRESETS.iter().find(|p| p.0 == name).map(|p| p.8)
     }
 
     /// Returns the sonar named by `spec`: a preset name, or else a path to a sonar TOML file.

@@ -40,6 +40,25 @@ pub fn sonarproj() -> assert_cmd::Command {
     c
 }
 
+/// Runs the binary with `args` (and `stdin`), expects exit status 2 (bad input) and a stderr
+/// that contains each of `needles` and no panic.
+///
+/// # Panics
+/// When any of that does not hold.
+pub fn rejects(args: &[&str], stdin: Option<&str>, needles: &[&str]) {
+    let mut cmd = sonarproj();
+    cmd.args(args);
+    if let Some(s) = stdin {
+        cmd.write_stdin(s);
+    }
+    let out = cmd.assert().code(2).get_output().clone();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "stderr lacks {n:?}: {err}");
+    }
+}
+
 /// Returns the `--backend` values to try: `cpu` (the CPU backend a test wants) always, `gpu`
 /// where an adapter exists (always in CI, where [`gpu`] fails loudly without one).
 #[must_use]

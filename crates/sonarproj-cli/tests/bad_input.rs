@@ -1,0 +1,525 @@
+//! Bad input and failures from the outside: bad input exits with status 2 and a message naming
+//! the field (or flag, or variable) and the value, leaving no output file behind; a failure of the
+//! machine (no GPU, a closed pipe, a full disk) exits with 1 and says so; never a panic.
+
+use sonarproj_testkit as common;
+
+use serde_json::Value;
+
+fn json(out: &[u8]) -> Value {
+    serde_json::from_slice(out).unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(out)))
+}
+
+const PROJECT: [&str; 5] = ["project", "--from", "paper-fls", "--to", "paper-sss"];
+
+/// Returns `sonarproj project --from paper-fls --to paper-sss` followed by `extra`.
+fn p<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    [&PROJECT[..], extra].concat()
+}
+
+#[test]
+fn bad_project_input_exits_2_naming_field_and_value() {
+    // (arguments after `project --from paper-fls --to paper-sss`, what stderr must say)
+    let cases: &[(&[&str], &[&str])] = &[
+        (
+            &["--range", "11", "--place-range", "5"],
+            &["feature range = 11", "[0.1, 10]"],
+        ),
+        (&["--range", "-1", "--place-range", "5"], &["feature range = -1"]),
+        (
+            &["--range", "5", "--azimuth", "31", "--place-range", "5"],
+            &["feature azimuth = 31", "[-30, 30]"],
+        ),
+        (
+            &["--range", "5", "--elevation", "7", "--place-range", "5"],
+            &["feature elevation = 7"],
+        ),
+        (
+            &["--range", "NaN", "--place-range", "5"],
+            &["feature range = NaN", "finite"],
+        ),
+        (
+            &["--range", "5", "--place-range", "5", "--step", "0"],
+            &["step = 0"],
+        ),
+        (
+            &["--range", "5", "--place-range", "5", "--step", "-1"],
+            &["step = -1"],
+        ),
+        (&["--range", "5", "--place-range", "-2"], &["place range = -2"]),
+        (
+            &["--range", "5", "--place-range", "5", "--roll", "inf"],
+            &["roll = inf"],
+        ),
+        (
+            &[
+                "--range",
+                "5",
+                "--place-range",
+                "5",
+                "--matrix",
+                "1,0,0,0,1,0,0,0.5,1",
+            ],
+            &["orthonormal"],
+        ),
+        (
+            &[
+                "--range",
+                "5",
+                "--place-range",
+                "5",
+                "--matrix",
+                "1,0,0,0,1,0,0,0,-1",
+            ],
+            &["determinant"],
+        ),
+        (
+            &["--range", "5", "--place-range", "5", "--matrix", "1,0,0"],
+            &["--matrix", "9 comma-separated"],
+        ),
+        (
+            &["--range", "5", "--place-range", "5", "--quaternion", "1,1,0,0"],
+            &["unit quaternion"],
+        ),
+        (
+            &["--range", "5", "--translation", "1,x,3"],
+            &["--translation", "\"x\""],
+        ),
+        (&["--range", "5"], &["--place-range"]),
+        (
+            &["--range", "5", "--place-range", "5", "--translation", "1,2,3"],
+            &["cannot be used with"],
+        ),
+        (
+            &["--range", "5", "--place-range", "5", "--occupancy", "x.bmp"],
+            &["--occupancy", ".png or .npy"],
+        ),
+    ];
+    for (args, needles) in cases {
+        common::rejects(&p(args), None, needles);
+    }
+    let unknown = [
+        "project",
+        "--from",
+        "paper-fls",
+        "--to",
+        "sonar-x",
+        "--range",
+        "5",
+        "--place-range",
+        "5",
+    ];
+    common::rejects(&unknown, None, &["unknown sonar \"sonar-x\"", "paper-sss"]);
+}
+
+#[test]
+fn bad_sonar_files_exit_2_naming_file_key_and_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        (
+            "range_min = -1\nrange_max = 5\nazimuth_aperture = 30\nelevation_aperture = 10",
+            "range_min = -1",
+        ),
+        (
+            "range_min = 6\nrange_max = 5\nazimuth_aperture = 30\nelevation_aperture = 10",
+            "range_max = 5",
+        ),
+        (
+            "range_min = 1\nrange_max = 5\nazimuth_aperture = 400\nelevation_aperture = 10",
+            "azimuth_aperture = 400",
+        ),
+        (
+            "range_min = 1\nrange_max = 5\nazimuth_aperture = 30\nelevation_aperture = 0",
+            "elevation_aperture = 0",
+        ),
+        (
+            "range_min = 1\nrange_max = 5\nazimuth_aperture = 30\nelevation_aperture = 190",
+            "elevation_aperture = 190",
+        ),
+        (
+            "range_min = 1\nrange_max = 5\nazimuth_aperture = 30\nelevation_aperture = 10\ncolour = 'red'",
+            "colour",
+        ),
+        (
+            "range_min = 1\nrange_max = 5\nazimuth_aperture = 30",
+            "elevation_aperture",
+        ),
+    ];
+    for (k, (body, needle)) in cases.iter().enumerate() {
+        let path = dir.path().join(format!("s{k}.toml"));
+        std::fs::write(
+            &path,
+            format!("kind = 'fls'\nrange_bins = 10\nbeams = 16\n{body}\n"),
+        )
+        .unwrap();
+        let path = path.to_str().unwrap();
+        common::rejects(
+            &[
+                "project",
+                "--from",
+                path,
+                "--to",
+                "paper-sss",
+                "--range",
+                "2",
+                "--place-range",
+                "5",
+            ],
+            None,
+            &[needle, path],
+        );
+    }
+}
+
+#[test]
+fn bad_batch_input_exits_2_naming_the_row_and_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("out.csv");
+    let out = output.to_str().unwrap();
+    let args = [
+        "batch",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--step",
+        "0.5",
+        "--output",
+        out,
+        "--backend",
+        "cpu",
+    ];
+    let header = "range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz\n";
+    let good = "5,0,0,0,0,0,1,0,0\n";
+    let cases: [(String, &[&str]); 10] = [
+        (String::new(), &["empty input"]),
+        (header.to_string(), &["no rows"]),
+        (
+            format!("{header}{good}{good}5,0,0,0,0,0,1,0,abc\n"),
+            &["row 3", "line 4", "column tz", "\"abc\""],
+        ),
+        (
+            format!("{header}{good}50,0,0,0,0,0,1,0,0\n"),
+            &["row 2", "feature range = 50"],
+        ),
+        (
+            format!("{header}{good}5,40,0,0,0,0,1,0,0\n"),
+            &["row 2", "feature azimuth = 40"],
+        ),
+        (format!("{header}5,0,0,nan,0,0,1,0,0\n"), &["row 1", "roll = NaN"]),
+        (format!("{header}5,0,0,0,0\n"), &["row 1"]),
+        (
+            "range,azimuth,elevation,roll,pitch,yaw\n5,0,0,0,0,0\n".to_string(),
+            &["missing translation"],
+        ),
+        (
+            "range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz,bogus\n".to_string(),
+            &["unknown column \"bogus\""],
+        ),
+        (
+            "range,azimuth,roll,pitch,yaw,tx,ty,tz\n".to_string(),
+            &["missing column \"elevation\""],
+        ),
+    ];
+    for (input, needles) in cases {
+        common::rejects(&args, Some(&input), needles);
+        assert!(!output.exists(), "a failed batch left {out} behind");
+    }
+    let both = "range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz,place_range,place_azimuth,place_elevation\n";
+    common::rejects(&args, Some(both), &["not both"]);
+    // Nothing half-written either: no temporary files remain in the directory.
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn gpu_backend_without_adapter_is_a_failure_not_bad_input() {
+    // An empty backend list leaves wgpu with no adapter: --backend gpu exits 1, auto falls back.
+    let args = [
+        "project",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--range",
+        "5",
+        "--place-range",
+        "15",
+        "--step",
+        "1",
+    ];
+    let out = common::sonarproj()
+        .env("WGPU_BACKEND", "none")
+        .args(args)
+        .args(["--backend", "gpu"])
+        .assert()
+        .code(1)
+        .get_output()
+        .clone();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no GPU adapter"));
+    let out = common::sonarproj()
+        .env("WGPU_BACKEND", "none")
+        .args(args)
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "one-line notice: {err}");
+    assert!(err.contains("CPU"), "{err}");
+    assert_eq!(json(&out.stdout)["backend"], "cpu-fast");
+}
+
+#[test]
+fn bad_recover_input_exits_2() {
+    let base = [
+        "recover",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--translation",
+        "1,0,0",
+    ];
+    let cases: &[(&[&str], &[&str])] = &[
+        (&["--first", "5", "--second", "5"], &["first azimuth", "FLS"]),
+        (
+            &["--first", "5,0", "--second", "5,3"],
+            &["second azimuth = 3", "SSS"],
+        ),
+        (&["--first", "50,0", "--second", "5"], &["first range = 50"]),
+        (&["--first", "5,x", "--second", "5"], &["--first", "\"x\""]),
+        (
+            &["--first", "5,0", "--second", "5", "--sigma-range", "-1"],
+            &["sigma range = -1"],
+        ),
+        (
+            &["--first", "5,0", "--second", "5", "--curve-step", "0"],
+            &["curve step = 0"],
+        ),
+    ];
+    for (args, needles) in cases {
+        common::rejects(&[&base[..], args].concat(), None, needles);
+    }
+    let batch = [
+        "recover",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--input",
+        "-",
+    ];
+    common::rejects(
+        &batch,
+        Some("first_range,second_range\n"),
+        &["missing column \"roll\""],
+    );
+    common::rejects(
+        &batch,
+        Some(
+            "first_range,first_azimuth,second_range,roll,pitch,yaw,tx,ty,tz\n5,0,5,0,0,0,1,0,0\n5,0,99,0,0,0,1,0,0\n",
+        ),
+        &["row 2", "second range = 99"],
+    );
+}
+
+#[test]
+fn bad_paper_input_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    common::rejects(
+        &["paper", "--out", out, "--angle-step", "0"],
+        None,
+        &["--angle-step = 0"],
+    );
+    common::rejects(&["paper", "--out", out, "--step", "-1"], None, &["step = -1"]);
+    let batch = [
+        "batch",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--step",
+        "-0.5",
+    ];
+    common::rejects(
+        &batch,
+        Some("range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz\n5,0,0,0,0,0,1,0,0\n"),
+        &["step = -0.5"],
+    );
+}
+
+/// Runs the binary with `args` and stdout on `out`; returns the exit code and stderr.
+fn run_with_stdout(args: &[&str], out: std::process::Stdio) -> (Option<i32>, String) {
+    let output = std::process::Command::new(assert_cmd::cargo::cargo_bin("sonarproj"))
+        .current_dir(common::repository())
+        .args(args)
+        .env("NODEVICE_SELECT", "1")
+        .stdout(out)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    (
+        output.status.code(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+/// Returns the arguments of one small projection.
+fn one_projection() -> Vec<&'static str> {
+    p(&["--range", "5", "--place-range", "15"])
+}
+
+/// A closed pipe or a full disk on stdout is a failure with a message (exit status 1), never a
+/// panic (exit status 101).
+#[test]
+fn output_errors_are_reported_not_panics() {
+    let commands = [
+        vec!["devices"],
+        one_projection(),
+        vec!["bench", "masks", "--runs", "1"],
+    ];
+    for args in &commands {
+        // A pipe whose reading end is already closed: every write fails with EPIPE.
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let (code, stderr) = run_with_stdout(args, writer.into());
+        assert_eq!(code, Some(1), "{args:?} into a closed pipe: {stderr}");
+        assert!(stderr.contains("cannot write stdout"), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        if std::path::Path::new("/dev/full").exists() {
+            let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+            let (code, stderr) = run_with_stdout(args, full.into());
+            assert_eq!(code, Some(1), "{args:?} into /dev/full: {stderr}");
+            assert!(stderr.contains("No space left"), "{args:?}: {stderr}");
+        }
+    }
+}
+
+/// `WGPU_ADAPTER_NAME` naming no adapter is bad input (exit status 2, the variable and value
+/// named), not wgpu's panic; `auto` falls back to the CPU with a notice, `devices` says so.
+#[test]
+fn an_adapter_name_that_matches_nothing_is_bad_input() {
+    let wanted = "no-such-adapter-xyz";
+    let mut gpu = one_projection();
+    gpu.extend(["--backend", "gpu"]);
+    let out = common::sonarproj()
+        .args(&gpu)
+        .env("WGPU_ADAPTER_NAME", wanted)
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("WGPU_ADAPTER_NAME") && stderr.contains(wanted),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let out = common::sonarproj()
+        .args(one_projection())
+        .env("WGPU_ADAPTER_NAME", wanted)
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("WGPU_ADAPTER_NAME"));
+    let out = common::sonarproj()
+        .arg("devices")
+        .env("WGPU_ADAPTER_NAME", wanted)
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    assert!(String::from_utf8_lossy(&out.stdout).contains(wanted));
+}
+
+/// Sizes taken from the input are bounded before anything is allocated: each of these used to
+/// abort allocating terabytes; now each is bad input (exit 2) naming the key and the limit.
+#[test]
+fn sizes_from_the_input_are_bounded_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = dir.path().join("fine.toml");
+    std::fs::write(
+        &sweep,
+        "from = \"paper-fls\"\nto = \"paper-sss\"\n[feature]\nrange = 5\n\
+         [place]\nrange = { start = 0, stop = 180, step = 1e-9 }\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let (sweep, out) = (sweep.to_str().unwrap(), out.to_str().unwrap());
+    let cases: [(Vec<&str>, &[&str]); 4] = [
+        (
+            vec!["paper", "--out", out, "--angle-step", "1e-9"],
+            &["--angle-step = 0.000000001", "[0.01, 180]"],
+        ),
+        (
+            vec!["sweep", "--config", sweep, "--out", out],
+            &["place.range.step", "at most 1000000 per axis"],
+        ),
+        (
+            vec![
+                "sweep",
+                "--config",
+                "data/example-sweep.toml",
+                "--out",
+                out,
+                "--shard",
+                "1/1099511627776",
+            ],
+            &["--shard", "at most 100000"],
+        ),
+        (vec!["bench", "--runs", "1000000000"], &["--runs", "1..=10000"]),
+    ];
+    for (args, words) in cases {
+        let output = common::sonarproj()
+            .args(&args)
+            .env("WGPU_BACKEND", "metal")
+            .assert()
+            .code(2)
+            .get_output()
+            .clone();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        for w in words {
+            assert!(stderr.contains(w), "{args:?}: {w:?} not in {stderr}");
+        }
+        assert!(!std::path::Path::new(out).join("sweep.csv").exists());
+    }
+}
+
+/// The GPU's environment variables are read by the command line and checked there: a value
+/// outside the allowed ones is bad input (exit status 2) naming the variable and the value, for
+/// `--backend gpu` and `auto`; the CPU backends never open a GPU and do not read them.
+#[test]
+fn bad_gpu_variables_are_bad_input() {
+    for (var, value) in [
+        ("SONARPROJ_GPU_CULL", "yes"),
+        ("SONARPROJ_GPU_FILTER", "2"),
+        ("SONARPROJ_GPU_WORKGROUP", "48"),
+        ("SONARPROJ_GPU_PRECISION", "f16"),
+        ("WGPU_BACKEND", "vulkun"),
+        ("WGPU_ADAPTER_NAME", " "),
+    ] {
+        for backend in ["gpu", "auto"] {
+            let out = common::sonarproj()
+                .args(one_projection())
+                .args(["--backend", backend])
+                .env(var, value)
+                .assert()
+                .code(2)
+                .get_output()
+                .clone();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert!(
+                stderr.contains(var) && stderr.contains(&format!("{:?}", value.trim())),
+                "{var}={value} --backend {backend}: {stderr}"
+            );
+        }
+        common::sonarproj()
+            .args(one_projection())
+            .args(["--backend", "cpu-fast"])
+            .env(var, value)
+            .assert()
+            .success();
+    }
+}
