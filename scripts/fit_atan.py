@@ -1,5 +1,5 @@
 """Fits the polynomial behind the fast CPU path's azimuth guess (`approx_atan2` in
-crates/sonarproj/src/projection/fast.rs) and prints its coefficients and worst error.
+src/projection/fast/lanes.rs) and prints its coefficients and worst error.
 
 atan(t) ~ t * P(t^2) on |t| <= tan(pi/8), P of degree 6, by least squares weighted by t
 (the error of atan, not of P) on 4000 Chebyshev nodes. The Rust unit test
