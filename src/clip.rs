@@ -9,7 +9,7 @@
 //!   point's range, azimuth and elevation, with trigonometry, as the conventions state them —
 //!   bounds inclusive, bin `i` covering `[edge(i), edge(i + 1))`, the last bin and beam also
 //!   taking the upper bound. The reference (`projection::reference`) decides so.
-//! - **The same decisions without trigonometry** ([`Clip`]): from the Cartesian point in sonar 2,
+//! - **The same decisions without trigonometry** (`Clip`): from the Cartesian point in sonar 2,
 //!   `r²` against `range_min²` and `range_max²`, `x sin h − |y| cos h ≥ 0` for the azimuth,
 //!   `z² cos² e ≤ (x² + y²) sin² e` for the elevation, a first guess of the range bin then `r²`
 //!   against the guessed bin's squared edges, a first guess of the beam then the side of the
@@ -184,7 +184,7 @@ impl Layout {
     }
 
     /// Returns the beam width (rad) when the beams split the aperture uniformly (each width
-    /// within [`UNIFORM_BEAMS`] of the mean), else `None`.
+    /// within `clip::UNIFORM_BEAMS`, 1e-12 of the mean), else `None`.
     #[must_use]
     pub fn uniform_beam_width(&self) -> Option<f64> {
         let width = 2.0 * self.half_azimuth / self.beams() as f64;

@@ -1,6 +1,6 @@
 //! The GPU plumbing shared by the projection and the mask pipelines: the device
-//! ([`GpuContext`], opened once per process for the [`GpuOptions`] the fronts give), compute stages and their binding tables ([`pipeline`]), the WGSL sources
-//! ([`shaders`]), buffers kept between calls (`pool`) and reading buffers back.
+//! ([`GpuContext`], opened once per process for the [`GpuOptions`] the fronts give), compute stages and their binding tables (`pipeline`), the WGSL sources
+//! (`shaders`), buffers kept between calls (`pool`) and reading buffers back.
 
 pub mod context;
 pub mod options;

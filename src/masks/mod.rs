@@ -22,7 +22,7 @@
 //! `coverage`: see [`Noise::radius`].
 
 //!
-//! Modules: [`plan`] (cells, blocks, the view test), `cpu` (drawing in f64), [`gpu`] (drawing with
+//! Modules: `plan` (cells, blocks, the view test), `cpu` (drawing in f64), `gpu` (drawing with
 //! `shaders/mask.wgsl`), [`noise`], [`summary`] (bounding box, run lengths); this module holds
 //! the engine that picks between them.
 

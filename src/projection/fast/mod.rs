@@ -42,7 +42,7 @@
 //!   one-bit-per-word summary of it; counting, the area sum (in row-major order, as the plain loop
 //!   sums it) and clearing visit the touched words only.
 //!
-//! The decisions are [`crate::clip`]'s, the culling geometry [`crate::projection::culling`]'s;
+//! The decisions are [`crate::clip`]'s, the culling geometry `projection::culling`'s;
 //! here are the per-plan tables (`tables`), the lane stage (`lanes`), drawing a pose (`pose`),
 //! the reduce stage and a thread's state (`scratch`) and the choice of instruction set (`isa`).
 

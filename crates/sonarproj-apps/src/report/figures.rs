@@ -292,7 +292,7 @@ fn cell_edges(values: &[f64]) -> Vec<f64> {
 /// `(coordinates, metric)` per pose.
 ///
 /// # Errors
-/// [`Error::Figure`] or [`Error::WriteOutput`].
+/// [`crate::Error::Figure`] or [`crate::Error::WriteOutput`].
 pub fn sweep(
     path: &Path,
     caption: &str,
