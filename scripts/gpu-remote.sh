@@ -25,7 +25,8 @@ prepare() {
     cargo build --release
     # The GPU test and bench binaries, as cargo names them (hash suffixes included).
     cargo test --release --no-run --message-format=json \
-        --test agreement --test masks --test cli --bench projection --bench masks 2>/dev/null |
+        --test agreement --test masks --test gpu_errors --test cli --test bad_input --test mask \
+        --test sweep --bench projection --bench masks 2>/dev/null |
         python3 -c '
 import json, sys
 for line in sys.stdin:
@@ -79,7 +80,11 @@ run() {
     step devices "$bin/sonarproj" devices
     step test-agreement "$bin/agreement"
     step test-masks "$bin/masks"
+    step test-gpu-errors "$bin/gpu_errors"
     step test-cli "$bin/cli"
+    step test-bad-input "$bin/bad_input"
+    step test-mask-cli "$bin/mask"
+    step test-sweep "$bin/sweep"
     # shellcheck disable=SC2086
     step bench-projection "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
     # shellcheck disable=SC2086

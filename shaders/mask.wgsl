@@ -4,7 +4,7 @@
 // trigonometry by the side of each beam edge the ball lies on.
 //
 // Structs: keep in sync with src/masks/gpu.rs (sizes asserted there, layout checked in
-// tests/shaders.rs).
+// src/gpu/shader_tests.rs).
 
 struct MaskParams {
     range_min: f32,
@@ -54,10 +54,11 @@ struct MaskJob {
 @group(0) @binding(5) var<storage, read_write> bits: array<atomic<u32>>;
 
 const WORKGROUP: u32 = 64u;
-const BLOCK: u32 = 8u;
+// BLOCK, the cells per block side (masks::plan::BLOCK), is generated and put before this file
+// (src/gpu/shaders.rs).
 
-// Returns false only when no point within r of q lies in sonar 2's field of view
-// (MaskEngine::may_meet_view).
+// Returns false only when no point within r of q lies in sonar 2's field of view: the twin of
+// clip::View::may_meet (src/clip.rs).
 fn may_meet_view(q: vec3<f32>, d: f32, r: f32) -> bool {
     if d - r > params.range_max || d + r < params.range_min {
         return false;

@@ -17,11 +17,13 @@
 //!   they differ from the definition only for points within a rounding of a bound or an edge,
 //!   which the envelope ([`RELATIVE_TOLERANCE`]) allows.
 //!
-//! The masks test balls, not points, against the field of view (`masks::plan::View::may_meet`,
-//! twin of `may_meet_view` in `shaders/mask.wgsl`); their slacks are here too.
+//! The masks test balls, not points, against the field of view (`View::may_meet`: false only
+//! when no point of the ball can be in view), twin of `may_meet_view` in `shaders/mask.wgsl`;
+//! their slacks are here too.
 
 use glam::DVec3;
 
+use crate::geometry::Sonar;
 use crate::occupancy::Layout;
 
 // ---------------------------------------------------------------------------------------------
@@ -95,6 +97,24 @@ pub(crate) const MASK_F32_FLOOR: f64 = 1e-6;
 /// its absolute floor (m): the roundings of `q = R p + t` and `|q|` in f64 are below 1e-15 of the
 /// distances.
 pub(crate) const MASK_F64_SLACK: f64 = 1e-12;
+
+/// Angular slack (rad) of the masks' beam spread `asin(radius / ρ)` in f64: the roundings of
+/// `atan2` and `asin`, a few 1e-16.
+pub(crate) const MASK_ANGLE_SLACK: f64 = 1e-12;
+
+/// How close (rad) to 90° a half aperture may come and still bound the masks' ball test by its
+/// tangent; nearer, the bound is dropped (the tangent would overflow or lose all precision).
+pub(crate) const RIGHT_ANGLE_SLACK: f64 = 1e-9;
+
+/// How far (relative to the aperture) a sonar's first and last beam edges may lie from
+/// `∓aperture / 2`: edges written in a file as decimals of the aperture's half.
+pub(crate) const APERTURE_ENDS: f64 = 1e-9;
+
+/// A few roundings of an f64 computation, relative to its magnitude (2⁻⁵³ ≈ 1.1e-16 each).
+pub(crate) const F64_ROUNDINGS: f64 = 1e-15;
+
+/// The floor (in beams) of the fast path's beam-guess slack.
+pub(crate) const GUESS_SLACK_FLOOR: f64 = 1e-9;
 
 /// How far from an even split a sonar's beam widths may be (relative to the mean width) for the
 /// beams to count as uniform, so that a beam is first guessed by one multiplication.
@@ -184,7 +204,7 @@ impl Layout {
     }
 
     /// Returns the beam width (rad) when the beams split the aperture uniformly (each width
-    /// within `clip::UNIFORM_BEAMS`, 1e-12 of the mean), else `None`.
+    /// within 1e-12 of the mean: `clip::UNIFORM_BEAMS`), else `None`.
     #[must_use]
     pub fn uniform_beam_width(&self) -> Option<f64> {
         let width = 2.0 * self.half_azimuth / self.beams() as f64;
@@ -352,6 +372,51 @@ impl<'a> Clip<'a> {
             }
         }
         None
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Balls instead of points: the masks' test, twin of may_meet_view in shaders/mask.wgsl.
+// ---------------------------------------------------------------------------------------------
+
+/// Sonar 2's field of view as the balls of a mask are tested against it.
+#[derive(Debug)]
+pub(crate) struct View {
+    /// Sonar 2's layout.
+    pub(crate) layout: Layout,
+    /// `tan` of the half elevation aperture, `None` at 90° or more (no bound).
+    tan_elevation: Option<f64>,
+    /// `tan` of the half azimuth aperture, `None` at 90° or more (no bound).
+    tan_azimuth: Option<f64>,
+}
+
+impl View {
+    /// Returns the view of sonar 2 (`target`, validated).
+    pub(crate) fn of(target: &Sonar) -> View {
+        let layout = Layout::of(target);
+        let tan = |h: f64| (h < std::f64::consts::FRAC_PI_2 - RIGHT_ANGLE_SLACK).then(|| h.tan());
+        View {
+            tan_elevation: tan(layout.half_elevation),
+            tan_azimuth: tan(layout.half_azimuth),
+            layout,
+        }
+    }
+
+    /// Returns false only when no point within `radius` of `q` lies in sonar 2's field of view.
+    pub(crate) fn may_meet(&self, q: DVec3, radius: f64) -> bool {
+        let l = &self.layout;
+        let d = q.length();
+        if d - radius > l.range_max || d + radius < l.range_min {
+            return false;
+        }
+        let rho = q.x.hypot(q.y);
+        let outside_elevation = self
+            .tan_elevation
+            .is_some_and(|t| q.z.abs() > t * (rho + radius) + radius);
+        let outside_azimuth = self
+            .tan_azimuth
+            .is_some_and(|t| q.x + radius < 0.0 || q.y.abs() > t * (q.x + radius) + radius);
+        !(outside_elevation || outside_azimuth)
     }
 }
 

@@ -597,12 +597,13 @@ fn catches_wrong_results(prepared: &PreparedBatch<'_>, batch: &Batch, good: &Pro
     );
 }
 
-/// A process opens one GPU context per set of options and shares it: asking again, from any
-/// thread, opens nothing new (on NVIDIA's driver, instances created and dropped by threads at
-/// once crashed the process). Other options open another, once.
+/// A process opens one GPU context per device asked for (backends, adapter, precision) and shares
+/// it: asking again, from any thread, or for another variant of the splat stage, opens nothing new
+/// (on NVIDIA's driver, instances created and dropped by threads at once crashed the process);
+/// the context returned carries the options asked for. Another precision opens another, once.
 #[test]
-fn one_context_per_process_and_options() {
-    use sonarproj::gpu::{GpuContext, GpuOptions};
+fn one_context_per_process_and_device() {
+    use sonarproj::gpu::{GpuContext, GpuOptions, Precision};
     let Some(first) = common::gpu_context() else {
         return;
     };
@@ -617,13 +618,20 @@ fn one_context_per_process_and_options() {
     for t in threads {
         assert_eq!(t.join().unwrap(), first.info.name);
     }
-    assert_eq!(
-        GpuContext::opened(),
-        before,
-        "a second context for the same options"
-    );
-    let other = GpuOptions {
+    let variant = GpuOptions {
         workgroup: Some(128),
+        cull: Some(true),
+        ..options.clone()
+    };
+    let ctx = GpuContext::open(&variant).unwrap();
+    assert_eq!(ctx.options, variant, "the caller's options");
+    assert_eq!(GpuBackend::new(ctx).unwrap().options().workgroup, 128);
+    assert_eq!(GpuContext::opened(), before, "a second device for the same one");
+    let other = GpuOptions {
+        precision: match options.precision {
+            Some(Precision::DoubleF32) => None,
+            _ => Some(Precision::DoubleF32),
+        },
         ..options
     };
     for _ in 0..3 {

@@ -191,15 +191,16 @@ def configure_gpu(
     """
     if adapter is not None and not isinstance(adapter, str):
         raise InputError(f"adapter: expected a string or None, got {adapter!r}")
-    if precision is not None and precision not in ("f64", "double-f32"):
+    if precision is not None and not isinstance(precision, str):
         raise InputError(f'precision: expected "f64", "double-f32" or None, got {precision!r}')
     for name, value in (("cull", cull), ("filter", filter)):
         if value is not None and not isinstance(value, bool):
             raise InputError(f"{name}: expected True, False or None, got {value!r}")
-    if workgroup is not None and (isinstance(workgroup, bool) or not isinstance(workgroup, (int, np.integer))):
-        raise InputError(f"workgroup: expected 32, 64, 128, 256 or None, got {workgroup!r}")
-    if workgroup is not None and int(workgroup) not in (32, 64, 128, 256):
-        raise InputError(f"workgroup: expected 32, 64, 128, 256 or None, got {workgroup!r}")
+    sizes = _native.SPLAT_WORKGROUPS
+    if workgroup is not None and (
+        isinstance(workgroup, bool) or not isinstance(workgroup, (int, np.integer)) or int(workgroup) not in sizes
+    ):
+        raise InputError(f"workgroup: expected one of {', '.join(map(str, sizes))} or None, got {workgroup!r}")
     names: Optional[list[str]] = None
     if backends is not None:
         if isinstance(backends, str) or not all(isinstance(b, str) for b in backends):

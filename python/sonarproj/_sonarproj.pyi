@@ -8,6 +8,7 @@ import numpy.typing as npt
 
 __version__: str
 METRIC_COLUMNS: list[str]
+SPLAT_WORKGROUPS: list[int]
 DEFAULT_CHUNK_POSES: int
 
 class InputError(ValueError):

@@ -1,10 +1,11 @@
 //! The preset sonars (README: Sonars): the paper's pair, makers' data sheets and simulators'
-//! defaults, each row with its source. [`crate::Sonar::preset`] reads them.
+//! defaults, each row with its source, and the constructors that read them
+//! ([`Sonar::preset`], [`Sonar::preset_names`], [`Sonar::preset_source`]).
 
-use super::sonar::SonarKind;
+use super::sonar::{BeamLayout, Sonar, SonarKind};
 
 /// One row of the preset table: name, kind, range, apertures, range bins, beams, source.
-pub(super) type PresetRow = (
+type PresetRow = (
     &'static str,
     SonarKind,
     f64,
@@ -17,7 +18,7 @@ pub(super) type PresetRow = (
 );
 
 /// The presets (README: Sonars). Sources are kept beside each row.
-pub(super) const PRESETS: &[PresetRow] = &[
+const PRESETS: &[PresetRow] = &[
     // Paper Table I; layout ours: 1 cm range bins, 512 beams.
     (
         "paper-fls",
@@ -96,3 +97,34 @@ pub(super) const PRESETS: &[PresetRow] = &[
         "HoloOcean SidescanSonar defaults",
     ),
 ];
+
+impl Sonar {
+    /// Returns the names of all presets, in table order.
+    #[must_use]
+    pub fn preset_names() -> Vec<&'static str> {
+        PRESETS.iter().map(|p| p.0).collect()
+    }
+
+    /// Returns the preset called `name`, or `None`.
+    #[must_use]
+    pub fn preset(name: &str) -> Option<Sonar> {
+        PRESETS.iter().find(|p| p.0 == name).map(
+            |&(name, kind, range_min, range_max, az, el, range_bins, beams, _source)| Sonar {
+                name: name.to_string(),
+                kind,
+                range_min,
+                range_max,
+                azimuth_aperture: az,
+                elevation_aperture: el,
+                range_bins,
+                beams: BeamLayout::Uniform { count: beams },
+            },
+        )
+    }
+
+    /// Returns the source of a preset's numbers (maker's sheet, paper, simulator), or `None`.
+    #[must_use]
+    pub fn preset_source(name: &str) -> Option<&'static str> {
+        PRESETS.iter().find(|p| p.0 == name).map(|p| p.8)
+    }
+}

@@ -1,6 +1,5 @@
 //! Sonars: kind, field of view and data layout (README: Sonars), the presets, and sonar TOML files.
 
-use super::presets;
 use std::path::Path;
 
 use serde::Deserialize;
@@ -83,35 +82,6 @@ struct SonarFile {
 }
 
 impl Sonar {
-    /// Returns the names of all presets, in table order.
-    #[must_use]
-    pub fn preset_names() -> Vec<&'static str> {
-        presets::PRESETS.iter().map(|p| p.0).collect()
-    }
-
-    /// Returns the preset called `name`, or `None`.
-    #[must_use]
-    pub fn preset(name: &str) -> Option<Sonar> {
-        presets::PRESETS.iter().find(|p| p.0 == name).map(
-            |&(name, kind, range_min, range_max, az, el, range_bins, beams, _source)| Sonar {
-                name: name.to_string(),
-                kind,
-                range_min,
-                range_max,
-                azimuth_aperture: az,
-                elevation_aperture: el,
-                range_bins,
-                beams: BeamLayout::Uniform { count: beams },
-            },
-        )
-    }
-
-    /// Returns the source of a preset's numbers (maker's sheet, paper, simulator), or `None`.
-    #[must_use]
-    pub fn preset_source(name: &str) -> Option<&'static str> {
-        presets::PRESETS.iter().find(|p| p.0 == name).map(|p| p.8)
-    }
-
     /// Returns the sonar named by `spec`: a preset name, or else a path to a sonar TOML file.
     ///
     /// # Errors
@@ -487,7 +457,7 @@ fn check_edges(ctx: &str, aperture: f64, edges: &[f64]) -> Result<()> {
         finite(&format!("{field}[{i}]"), e)?;
     }
     let h = aperture / 2.0;
-    let tol = 1e-9 * aperture;
+    let tol = crate::clip::APERTURE_ENDS * aperture;
     if (edges[0] + h).abs() > tol || (edges[edges.len() - 1] - h).abs() > tol {
         return Err(Error::invalid(
             field,

@@ -1,7 +1,7 @@
 //! The wgpu instance, adapter, device and queue. Kept apart from the work so tests and callers
-//! can bring their own device. A process opens one context per set of [`GpuOptions`] and shares
-//! it ([`GpuContext::open`]): instances created and dropped by many threads at once crashed
-//! NVIDIA's Vulkan driver.
+//! can bring their own device. A process opens one context per device its [`GpuOptions`] ask for
+//! and shares it ([`GpuContext::open`]): instances created and dropped by many threads at once
+//! crashed NVIDIA's Vulkan driver.
 
 use std::sync::{Mutex, PoisonError};
 
@@ -69,8 +69,10 @@ impl GpuContext {
 
     /// Returns the process's context for `options`: opened on the first call (the adapter
     /// `options.adapter` names, else the high-performance adapter of the backends, a software one
-    /// such as lavapipe included) and shared by every later call with the same options, as an
-    /// application shares its device.
+    /// such as lavapipe included) and shared by every later call that asks for the same device
+    /// (the same backends, adapter and precision), as an application shares its device. The
+    /// context returned carries the caller's `options`, so the splat stage a backend builds on it
+    /// follows them.
     ///
     /// # Errors
     /// As [`GpuOptions::validate`]; [`Error::NoAdapter`] when no adapter exists;
@@ -79,16 +81,23 @@ impl GpuContext {
     pub fn open(options: &GpuOptions) -> Result<Self> {
         options.validate()?;
         let mut opened = OPENED.lock().unwrap_or_else(PoisonError::into_inner);
-        if let Some(ctx) = opened.iter().find(|c| &c.options == options) {
-            return Ok(ctx.clone());
+        let same_device = |o: &GpuOptions| {
+            (o.backends, &o.adapter, o.precision) == (options.backends, &options.adapter, options.precision)
+        };
+        if let Some(ctx) = opened.iter().find(|c| same_device(&c.options)) {
+            return Ok(GpuContext {
+                options: options.clone(),
+                ..ctx.clone()
+            });
         }
         let ctx = Self::open_new(options)?;
         opened.push(ctx.clone());
         Ok(ctx)
     }
 
-    /// Returns how many contexts this process has opened with [`GpuContext::open`]: one per set
-    /// of options asked for, however often and from however many threads.
+    /// Returns how many contexts this process has opened with [`GpuContext::open`]: one per
+    /// device asked for (backends, adapter, precision), however often, from however many threads
+    /// and with whichever variant of the splat stage.
     #[must_use]
     pub fn opened() -> usize {
         OPENED.lock().unwrap_or_else(PoisonError::into_inner).len()

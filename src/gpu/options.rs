@@ -39,6 +39,30 @@ pub struct GpuOptions {
     pub workgroup: Option<u32>,
 }
 
+/// Returns the allowed workgroup sizes in words: `32, 64, 128 or 256`.
+#[must_use]
+pub fn workgroups_text() -> String {
+    let names: Vec<String> = SPLAT_WORKGROUPS.iter().map(u32::to_string).collect();
+    let (last, rest) = names.split_last().expect("sizes");
+    format!("{} or {last}", rest.join(", "))
+}
+
+/// Returns `Ok(())` when `workgroup` is one of [`SPLAT_WORKGROUPS`].
+///
+/// # Errors
+/// [`Error::InvalidValue`] naming the GPU workgroup otherwise.
+pub fn check_workgroup(workgroup: u32) -> Result<()> {
+    if SPLAT_WORKGROUPS.contains(&workgroup) {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            "GPU workgroup",
+            workgroup,
+            format!("{} threads", workgroups_text()),
+        ))
+    }
+}
+
 impl GpuOptions {
     /// Returns `Ok(())` when every option given is allowed.
     ///
@@ -47,9 +71,7 @@ impl GpuOptions {
     /// `adapter` when it is empty.
     pub fn validate(&self) -> Result<()> {
         if let Some(w) = self.workgroup {
-            if !SPLAT_WORKGROUPS.contains(&w) {
-                return Err(Error::invalid("GPU workgroup", w, "32, 64, 128 or 256 threads"));
-            }
+            check_workgroup(w)?;
         }
         if self.adapter.as_deref().is_some_and(|a| a.trim().is_empty()) {
             return Err(Error::invalid(

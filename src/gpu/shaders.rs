@@ -42,6 +42,17 @@ impl Precision {
             Precision::DoubleF32 => "double-f32",
         }
     }
+
+    /// Returns the precision `text` names: `f64`, or `double-f32` (also `df`); `None` for any
+    /// other text. The one spelling every front accepts.
+    #[must_use]
+    pub fn parse(text: &str) -> Option<Precision> {
+        match text.trim() {
+            "f64" => Some(Precision::F64),
+            "double-f32" | "df" => Some(Precision::DoubleF32),
+            _ => None,
+        }
+    }
 }
 
 /// Returns the WGSL name of `metric`'s slot: `METRIC_` and its name in capitals, with `_NOT` for
@@ -100,9 +111,14 @@ pub(crate) fn reduce() -> String {
     )
 }
 
-/// Returns the full source of the mask stage (`shaders/mask.wgsl`, self-contained).
-pub(crate) fn mask() -> &'static str {
-    include_str!("../../shaders/mask.wgsl")
+/// Returns the full source of the mask stage (`shaders/mask.wgsl`, with its block size generated
+/// from [`crate::masks::plan::BLOCK`]).
+pub(crate) fn mask() -> String {
+    format!(
+        "const BLOCK: u32 = {}u;\n{}",
+        crate::masks::plan::BLOCK,
+        include_str!("../../shaders/mask.wgsl")
+    )
 }
 
 #[cfg(test)]

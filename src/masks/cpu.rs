@@ -1,13 +1,14 @@
 //! Drawing a mask on the CPU in f64: the twin of `shaders/mask.wgsl` (same cells, same blocks,
 //! same balls; the GPU adds a rounding slack and finds beams without trigonometry).
 
-use crate::clip::MASK_F64_SLACK;
+use crate::clip::{MASK_ANGLE_SLACK, MASK_F64_SLACK};
 use glam::DVec3;
 
 use crate::geometry::{RelativePose, SonarKind, sph_to_cart};
 use crate::occupancy::Occupancy;
 
-use super::plan::{BLOCK, Plan, View};
+use super::plan::{BLOCK, Plan};
+use crate::clip::View;
 
 /// One mask drawn on the CPU.
 pub(crate) struct Drawn {
@@ -74,7 +75,7 @@ fn mark(view: &View, q: DVec3, radius: f64, occ: &mut Occupancy, counts: Option<
         } else {
             let az = q.y.atan2(q.x);
             // Slack for the rounding of atan2 and asin.
-            let spread = (radius / rho).asin() + 1e-12;
+            let spread = (radius / rho).asin() + MASK_ANGLE_SLACK;
             let h = l.half_azimuth;
             // The interval az ± spread, and its parts wrapped past ±π.
             let pi2 = std::f64::consts::TAU;

@@ -9,7 +9,7 @@
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose (the slack covers it) and counts are bounded by the device limits checked before packing"
 )]
 
-use crate::clip::{MASK_F32_FLOOR, MASK_F32_SLACK};
+use crate::clip::{MASK_F32_FLOOR, MASK_F32_SLACK, RIGHT_ANGLE_SLACK};
 use std::collections::HashMap;
 
 use bytemuck::{Pod, Zeroable};
@@ -80,7 +80,7 @@ pub(crate) struct MaskJob {
     pub(crate) block_count: u32,
 }
 
-/// Byte sizes of the shared structs (checked against naga's layout in tests/shaders.rs).
+/// Byte sizes of the shared structs (checked against naga's layout in src/gpu/shader_tests.rs).
 pub(crate) const MASK_PARAMS_SIZE: usize = 48;
 /// See [`MASK_PARAMS_SIZE`].
 pub(crate) const MASK_JOB_SIZE: usize = 80;
@@ -98,7 +98,7 @@ pub(crate) const MASK_BINDINGS: [Binding; 6] = [
 ];
 
 /// Threads per workgroup of the mask stage (WGSL `@workgroup_size` in mask.wgsl; checked in
-/// tests/shaders.rs).
+/// src/gpu/shader_tests.rs).
 pub(crate) const MASK_WORKGROUP: u64 = 64;
 /// The most workgroups along x (cells are strided beyond).
 const MAX_TILES: u64 = 1024;
@@ -120,7 +120,7 @@ pub(crate) fn slack(r: f64, pose: &RelativePose, layout: &Layout) -> f64 {
 
 /// Returns the full source of the mask stage.
 #[must_use]
-pub(crate) fn source() -> &'static str {
+pub(crate) fn source() -> String {
     shaders::mask()
 }
 
@@ -166,7 +166,7 @@ impl GpuMasks {
             ));
         }
         let device = &ctx.device;
-        let stage = Stage::new(device, "mask", source(), &MASK_BINDINGS)?;
+        let stage = Stage::new(device, "mask", &source(), &MASK_BINDINGS)?;
         let he = layout.half_elevation;
         let params = MaskParams {
             range_min: layout.range_min as f32,
@@ -177,7 +177,7 @@ impl GpuMasks {
             words_per_mask: layout.pixels().div_ceil(32) as u32,
             _pad0: 0,
             fls: u32::from(layout.kind == SonarKind::Fls),
-            tan_half_el: if he < std::f64::consts::FRAC_PI_2 - 1e-9 {
+            tan_half_el: if he < std::f64::consts::FRAC_PI_2 - RIGHT_ANGLE_SLACK {
                 he.tan() as f32
             } else {
                 -1.0

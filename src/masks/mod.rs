@@ -34,6 +34,7 @@ pub mod summary;
 
 use rayon::prelude::*;
 
+use crate::clip::View;
 use crate::error::{Error, Result};
 use crate::geometry::{RelativePose, Sonar};
 use crate::gpu::{GpuContext, GpuOptions};
@@ -43,7 +44,7 @@ use crate::projection::{BackendChoice, Device};
 use crate::sampling::Measurement;
 use gpu::{GpuMasks, Job, slack};
 pub use noise::Noise;
-use plan::{Plan, View};
+use plan::Plan;
 pub use summary::{BoundingBox, bounding_box, run_lengths};
 
 /// One feature's mask in sonar 2's layout.

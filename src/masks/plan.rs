@@ -1,8 +1,8 @@
 //! What a mask is drawn from, shared by the CPU and GPU drawings: the cells that tile the
 //! back-projected set and their ball radius (`Plan`), and the test that a ball may meet
-//! sonar 2's field of view (`View`), applied to blocks of cells before their cells are visited.
+//! sonar 2's field of view (`crate::clip::View`), applied to blocks of cells before their cells are visited.
 
-use glam::DVec3;
+use crate::clip::View;
 
 use crate::error::{Error, Result};
 use crate::geometry::{RelativePose, Sonar, SonarKind, sph_to_cart};
@@ -12,8 +12,8 @@ use crate::sampling::Measurement;
 
 use super::noise::Noise;
 
-/// Cells per block side (blocks are culled as a whole before their cells are visited). Keep in
-/// sync with BLOCK in shaders/mask.wgsl.
+/// Cells per block side (blocks are culled as a whole before their cells are visited); the mask
+/// stage's WGSL `BLOCK` is generated from it (`gpu::shaders::mask`).
 pub(crate) const BLOCK: usize = 8;
 
 /// What one mask is drawn from: the cells of the set, their ball radius and the noise part of it.
@@ -45,29 +45,7 @@ impl Cells {
     }
 }
 
-/// Sonar 2's field of view as the balls of a mask are tested against it.
-#[derive(Debug)]
-pub(crate) struct View {
-    /// Sonar 2's layout.
-    pub layout: Layout,
-    /// `tan` of the half elevation aperture, `None` at 90° or more (no bound).
-    tan_elevation: Option<f64>,
-    /// `tan` of the half azimuth aperture, `None` at 90° or more (no bound).
-    tan_azimuth: Option<f64>,
-}
-
 impl View {
-    /// Returns the view of sonar 2 (`target`, validated).
-    pub(crate) fn of(target: &Sonar) -> View {
-        let layout = Layout::of(target);
-        let tan = |h: f64| (h < std::f64::consts::FRAC_PI_2 - 1e-9).then(|| h.tan());
-        View {
-            tan_elevation: tan(layout.half_elevation),
-            tan_azimuth: tan(layout.half_azimuth),
-            layout,
-        }
-    }
-
     /// Returns the first cells `(azimuth, elevation)` of the blocks of `BLOCK × BLOCK` cells whose
     /// ball (around the block's middle point, covering all its cells, grown by `extra`) may meet
     /// sonar 2's field of view under `pose`: the only cells worth visiting.
@@ -99,23 +77,6 @@ impl View {
             }
         }
         out
-    }
-
-    /// Returns false only when no point within `radius` of `q` lies in sonar 2's field of view.
-    pub(crate) fn may_meet(&self, q: DVec3, radius: f64) -> bool {
-        let l = &self.layout;
-        let d = q.length();
-        if d - radius > l.range_max || d + radius < l.range_min {
-            return false;
-        }
-        let rho = q.x.hypot(q.y);
-        let outside_elevation = self
-            .tan_elevation
-            .is_some_and(|t| q.z.abs() > t * (rho + radius) + radius);
-        let outside_azimuth = self
-            .tan_azimuth
-            .is_some_and(|t| q.x + radius < 0.0 || q.y.abs() > t * (q.x + radius) + radius);
-        !(outside_elevation || outside_azimuth)
     }
 }
 

@@ -1,4 +1,5 @@
-//! One interface over the two backends, so every caller (CLI, tests, benches) can run either.
+//! One interface over the three backends, so every caller (CLI, Python, tests, benches) can run
+//! any of them, and the one policy that picks where a choice runs.
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions, context};

@@ -6,6 +6,7 @@
 
 pub mod bench;
 pub mod error;
+pub mod gpu_env;
 pub mod io;
 pub mod paper;
 pub mod report;

@@ -2,7 +2,8 @@
 //! left — checked on the decoded PNG's pixels (the light grey of the empty field of view marks
 //! each panel; coloured pixels are masks and occupied bins): the mask picture (fan and raw
 //! layout, sidescan strips) and the occupancy picture, drawn from hand-made occupancies at known
-//! ranges and azimuths. The command line's pictures are checked the same way in `tests/cli.rs`.
+//! ranges and azimuths. The command line's pictures are checked the same way in
+//! `crates/sonarproj-cli/tests/cli.rs` and `mask.rs`.
 
 use sonarproj_testkit as common;
 

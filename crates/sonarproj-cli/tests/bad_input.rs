@@ -4,11 +4,7 @@
 
 use sonarproj_testkit as common;
 
-use serde_json::Value;
-
-fn json(out: &[u8]) -> Value {
-    serde_json::from_slice(out).unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(out)))
-}
+use common::json;
 
 const PROJECT: [&str; 5] = ["project", "--from", "paper-fls", "--to", "paper-sss"];
 
@@ -521,5 +517,23 @@ fn bad_gpu_variables_are_bad_input() {
             .env(var, value)
             .assert()
             .success();
+    }
+    // `bench` measures the GPU only where one is usable, but a bad variable is still bad input.
+    for bench in [
+        &["bench", "--runs", "1"][..],
+        &["bench", "masks", "--runs", "1"][..],
+    ] {
+        let out = common::sonarproj()
+            .args(bench)
+            .env("SONARPROJ_GPU_WORKGROUP", "48")
+            .assert()
+            .code(2)
+            .get_output()
+            .clone();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            stderr.contains("SONARPROJ_GPU_WORKGROUP") && stderr.contains("48"),
+            "{bench:?}: {stderr}"
+        );
     }
 }

@@ -3,12 +3,9 @@
 
 use sonarproj_testkit as common;
 
+use common::json;
 use serde_json::Value;
 use sonarproj::metrics::METRIC_NAMES;
-
-fn json(out: &[u8]) -> Value {
-    serde_json::from_slice(out).unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(out)))
-}
 
 #[test]
 fn project_prints_metrics_as_json() {

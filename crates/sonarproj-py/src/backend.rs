@@ -68,14 +68,12 @@ pub(crate) fn configure_gpu(
     };
     let precision = match precision.as_deref() {
         None => None,
-        Some("f64") => Some(Precision::F64),
-        Some("double-f32") => Some(Precision::DoubleF32),
-        Some(p) => {
-            return Err(errors::input(
+        Some(p) => Some(Precision::parse(p).ok_or_else(|| {
+            errors::input(
                 "precision",
                 format!("{p:?} is not a precision; use \"f64\", \"double-f32\" or None"),
-            ));
-        }
+            )
+        })?),
     };
     let options = GpuOptions {
         backends,

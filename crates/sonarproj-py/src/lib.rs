@@ -36,6 +36,10 @@ fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(apps::paper_run, m)?)?;
     m.add("METRIC_COLUMNS", sonarproj_apps::io::METRIC_COLUMNS.to_vec())?;
     m.add(
+        "SPLAT_WORKGROUPS",
+        sonarproj::gpu::options::SPLAT_WORKGROUPS.to_vec(),
+    )?;
+    m.add(
         "DEFAULT_CHUNK_POSES",
         sonarproj_apps::sweep::run::DEFAULT_CHUNK_POSES,
     )?;

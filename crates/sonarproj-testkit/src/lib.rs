@@ -4,7 +4,7 @@
 //! convention. Test code only: never a dependency of a shipped crate.
 
 use sonarproj::Sonar;
-use sonarproj::gpu::{GpuContext, GpuOptions, Precision};
+use sonarproj::gpu::{GpuContext, GpuOptions};
 use sonarproj::projection::gpu::GpuBackend;
 
 /// Returns the preset `name` (a test names only presets that exist).
@@ -71,19 +71,24 @@ pub fn cli_backends(cpu: &'static str) -> Vec<&'static str> {
 }
 
 /// Returns the GPU options of the test run, read from the environment as the command line reads
-/// them: `WGPU_BACKEND` (the backends; `scripts/test.sh` sets `vulkan`), `WGPU_ADAPTER_NAME`,
-/// and `SONARPROJ_GPU_PRECISION=df` (the agreement tests once more in double-f32).
+/// them ([`sonarproj_apps::gpu_env`]): `WGPU_BACKEND` (`scripts/test.sh` sets `vulkan`),
+/// `SONARPROJ_GPU_PRECISION=df` (the agreement tests once more in double-f32), and the others.
+///
+/// # Panics
+/// When a variable holds a value it does not allow: a test run must not quietly ignore it.
 #[must_use]
 pub fn gpu_options() -> GpuOptions {
-    let var = |n: &str| std::env::var(n).ok().filter(|v| !v.trim().is_empty());
-    GpuOptions {
-        backends: var("WGPU_BACKEND").map(|v| wgpu::Backends::from_comma_list(&v)),
-        adapter: var("WGPU_ADAPTER_NAME"),
-        precision: var("SONARPROJ_GPU_PRECISION")
-            .filter(|v| v.trim() == "df")
-            .map(|_| Precision::DoubleF32),
-        ..GpuOptions::default()
-    }
+    sonarproj_apps::gpu_env::gpu_options(|name| std::env::var(name).ok())
+        .unwrap_or_else(|e| panic!("the test run's GPU variables: {e}"))
+}
+
+/// Returns `out` (a command's stdout) parsed as JSON.
+///
+/// # Panics
+/// When it is not JSON, showing it.
+#[must_use]
+pub fn json(out: &[u8]) -> serde_json::Value {
+    serde_json::from_slice(out).unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(out)))
 }
 
 /// Returns the test binary's one GPU context on the adapter `auto` would use, created by the

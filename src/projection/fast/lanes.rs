@@ -6,7 +6,7 @@ use glam::DVec3;
 
 use super::tables::BlockUnits;
 use super::{Geometry, LANES};
-use crate::clip::{ATAN_ERROR, to_index};
+use crate::clip::{ATAN_ERROR, F64_ROUNDINGS, GUESS_SLACK_FLOOR, UNIFORM_BEAMS, to_index};
 
 /// `atan t ≈ t · P(t²)` on `|t| ≤ tan(π/8)`: `P`'s coefficients, `t²`'s power 0 first
 /// (`python scripts/fit_atan.py`).
@@ -132,12 +132,14 @@ pub(super) fn approx_atan2(y: f64, x: f64) -> f64 {
 
 /// Returns the distance (in beams) from a beam edge within which the lane stage's beam guess is
 /// settled by the edge tests instead: the azimuth's error [`ATAN_ERROR`] in beams, the beams'
-/// departure from uniform (each width within 1e-12 of the mean: [`crate::occupancy::Layout::uniform_beam_width`])
-/// summed over the beams, and the roundings of the guess and the edge tests (below 1e-15 rad and
-/// 1e-15 beams a beam), doubled, plus 1e-9.
+/// departure from uniform (each width within [`UNIFORM_BEAMS`] of the mean:
+/// [`crate::occupancy::Layout::uniform_beam_width`]) summed over the beams, and the roundings of
+/// the guess and the edge tests (below [`F64_ROUNDINGS`] rad and beams a beam), doubled, plus
+/// [`GUESS_SLACK_FLOOR`].
 pub(super) fn guess_slack(beams: usize, inv_beam_width: Option<f64>) -> f64 {
     let scale = inv_beam_width.unwrap_or(0.0);
-    2.0 * ((ATAN_ERROR + 1e-15) * scale + beams as f64 * (1e-12 + 1e-15)) + 1e-9
+    2.0 * ((ATAN_ERROR + F64_ROUNDINGS) * scale + beams as f64 * (UNIFORM_BEAMS + F64_ROUNDINGS))
+        + GUESS_SLACK_FLOOR
 }
 
 /// The lane stage of one block, branch-free over the lanes so that it vectorises: `p = M u + t`

@@ -106,15 +106,7 @@ impl SplatOptions {
     /// [`Error::InvalidValue`] naming the workgroup size when it is not one of
     /// [`SPLAT_WORKGROUPS`].
     pub fn validate(&self) -> Result<()> {
-        if SPLAT_WORKGROUPS.contains(&self.workgroup) {
-            Ok(())
-        } else {
-            Err(Error::invalid(
-                "splat workgroup",
-                self.workgroup,
-                "32, 64, 128 or 256 threads",
-            ))
-        }
+        crate::gpu::options::check_workgroup(self.workgroup)
     }
 }
 

@@ -53,6 +53,8 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
     }
     match super::gpu_env::select(BackendChoice::Gpu) {
         Ok((gpu, _)) => backends.insert(0, gpu),
+        // A bad GPU variable or an adapter name that matches none: the user's input.
+        Err(e) if e.is_input() => return Err(e),
         Err(e) => outln!("GPU: not measured ({e})")?,
     }
     for b in &backends {
@@ -110,7 +112,7 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
 fn masks(runs: u32) -> Result<()> {
     let runs = runs.max(20);
     let options = super::gpu_env::gpu_options()?;
-    let gpu = match GpuContext::open(&options) {
+    let gpu = match GpuContext::open(&options).map_err(super::gpu_env::name_variable) {
         Ok(ctx) if ctx.is_software() => {
             outln!("gpu-sw {}", sonarproj::gpu::context::describe(&ctx.info))?;
             outln!("{SOFTWARE_NOTE}")?;
@@ -120,6 +122,7 @@ fn masks(runs: u32) -> Result<()> {
             outln!("gpu   {}", sonarproj::gpu::context::describe(&ctx.info))?;
             Some("gpu")
         }
+        Err(e) if e.is_input() => return Err(e),
         Err(e) => {
             outln!("GPU: not measured ({e})")?;
             None
