@@ -483,7 +483,7 @@ fn results_do_not_depend_on_the_workgroup_size() {
     let err = GpuBackend::with_options(gpu.context().clone(), bad)
         .unwrap_err()
         .to_string();
-    assert!(err.contains("splat workgroup") && err.contains("100"), "{err}");
+    assert!(err.contains("GPU workgroup") && err.contains("100"), "{err}");
 }
 
 /// One backend kept across calls of different sizes and targets (its buffers reused, grown and
