@@ -5,7 +5,7 @@
 
 use std::sync::{Mutex, PoisonError};
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, excerpt};
 use crate::gpu::options::GpuOptions;
 use crate::gpu::shaders::Precision;
 
@@ -119,10 +119,9 @@ impl GpuContext {
                     Some(k) => adapters.into_iter().nth(k).expect("found above"),
                     None => {
                         let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
-                        let excerpt: String = wanted.chars().take(80).collect();
                         return Err(Error::invalid(
                             "GPU adapter",
-                            format!("{excerpt:?}"),
+                            excerpt(wanted),
                             if names.is_empty() {
                                 "the name of an adapter, but wgpu sees none".to_string()
                             } else {

@@ -12,6 +12,7 @@
 //! | `SONARPROJ_GPU_FILTER` | `0`, `1` | [`GpuOptions::filter`] |
 //! | `SONARPROJ_GPU_WORKGROUP` | `32`, `64`, `128`, `256` | [`GpuOptions::workgroup`] |
 
+use sonarproj::error::excerpt;
 use sonarproj::gpu::options::{SPLAT_WORKGROUPS, workgroups_text};
 use sonarproj::gpu::{GpuOptions, Precision};
 
@@ -44,8 +45,7 @@ pub fn gpu_options(lookup: impl Fn(&str) -> Option<String>) -> Result<GpuOptions
             .filter(|v| !v.is_empty())
     };
     let bad = |name: &str, value: &str, allowed: String| -> crate::Error {
-        let shown: String = value.chars().take(80).collect();
-        sonarproj::Error::invalid(name, format!("{shown:?}"), allowed).into()
+        sonarproj::Error::invalid(name, excerpt(value), allowed).into()
     };
     let flag = |name: &str| -> Result<Option<bool>> {
         match var(name).as_deref() {
