@@ -76,7 +76,7 @@ fn results(c: &mut Criterion) {
             (0..1_000_000u64)
                 .into_par_iter()
                 .map(|k| Projection {
-                    metrics: Metrics::new(k % 7, 121, Extremes::default(), k % 5, 0.1),
+                    metrics: Metrics::new(k % 7, 121, Extremes::default(), (k % 5, 0.1), None),
                     occupancy: None,
                 })
                 .collect::<Vec<_>>()

@@ -25,6 +25,7 @@ fn main() -> Result<(), sonarproj::Error> {
         source: fls,
         target: sss,
         sampling: Sampling::Step(0.1),
+        area_grid: sonarproj::PAPER_AREA_GRID,
         items: vec![BatchItem {
             measurement: feature,
             pose,

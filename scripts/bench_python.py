@@ -50,7 +50,7 @@ def main() -> None:
         return time.perf_counter() - t
 
     def rust_call() -> float:
-        return _sonarproj.bench_rust_batch(s1, s2, ordered, True, a.step, a.backend)
+        return _sonarproj.bench_rust_batch(s1, s2, list(cols), ordered, a.step, a.backend)
 
     python_call(), rust_call()  # warm-up: backend opened, pages touched
     py, rs = [], []

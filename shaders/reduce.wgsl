@@ -1,4 +1,5 @@
-// Stage 2: one pose's bitset becomes its occupied count and occupied measure.
+// Stage 2: one pose's bitset becomes its occupied count and occupied measure, and its
+// projection-area cells (FLS) their count.
 // CPU twin: the reduce step of src/projection/fast/scratch.rs (counts and, for an FLS, per-row areas summed in
 // row order); the plain reference is src/projection/reference/reduce.rs. Dispatch (poses, 1, 1): workgroup x
 // reduces pose x; each thread
@@ -15,6 +16,7 @@ const WORKGROUP: u32 = 64u;
 
 var<workgroup> partial_count: array<u32, 64>;
 var<workgroup> partial_measure: array<f32, 64>;
+var<workgroup> partial_cells: array<u32, 64>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
@@ -27,7 +29,7 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
     let valid = pose_index < params.pose_count;
     if params.measure_area == 0u {
         // SSS: the count is all; the CPU derives the measure from it exactly.
-        let words = select(0u, params.words_per_pose, valid);
+        let words = select(0u, params.pixel_words, valid);
         for (var w = lid; w < words; w += WORKGROUP) {
             count += countOneBits(bits[base_word + w]);
         }
@@ -66,13 +68,20 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
             measure += row_width * row_weights[i];
         }
     }
+    var cells = 0u;
+    let cell_words = select(0u, params.cell_words, valid);
+    for (var w = lid; w < cell_words; w += WORKGROUP) {
+        cells += countOneBits(bits[base_word + params.pixel_words + w]);
+    }
     partial_count[lid] = count;
     partial_measure[lid] = measure;
+    partial_cells[lid] = cells;
     workgroupBarrier();
     for (var stride = WORKGROUP / 2u; stride > 0u; stride >>= 1u) {
         if lid < stride {
             partial_count[lid] += partial_count[lid + stride];
             partial_measure[lid] += partial_measure[lid + stride];
+            partial_cells[lid] += partial_cells[lid + stride];
         }
         workgroupBarrier();
     }
@@ -80,5 +89,6 @@ fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) 
         let m = pose_index * METRIC_STRIDE;
         metrics[m + METRIC_OCCUPIED] = partial_count[0];
         metrics[m + METRIC_OCCUPIED_MEASURE] = bitcast<u32>(partial_measure[0]);
+        metrics[m + METRIC_PROJECTION_AREA] = partial_cells[0];
     }
 }

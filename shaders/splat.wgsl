@@ -116,7 +116,31 @@ fn draw(pose: Pose, k: u32, inside: bool, base_word: u32, slack: f32) -> Drawn {
     if (atomicLoad(&bits[word]) & mask) == 0u {
         atomicOr(&bits[word], mask);
     }
+    if params.cell_words != 0u {
+        set_cell(r, r_f32(x), r_f32(y), base_word);
+    }
     return Drawn(true, r, az);
+}
+
+// Sets the projection-area cell of a visible sample at range r (f32) whose point has x, y
+// (rounded to f32): its image point (x, y) scaled to length r, (r, 0) on the z axis, in f32
+// (within clip.rs's CELL_SLACK of the f64 cell decision; CPU twin AreaGrid::flat_cell).
+fn set_cell(r: f32, x: f32, y: f32, base_word: u32) {
+    let rho = sqrt(x * x + y * y);
+    var cx = r;
+    var cy = 0.0;
+    if rho > 0.0 {
+        cx = r * (x / rho);
+        cy = r * (y / rho);
+    }
+    let i = u32(clamp(floor((cx - params.grid_x0) * params.inv_cell), 0.0, f32(params.grid_nx - 1u)));
+    let j = u32(clamp(floor((cy - params.grid_y0) * params.inv_cell), 0.0, f32(params.grid_ny - 1u)));
+    let cell = i * params.grid_ny + j;
+    let word = base_word + params.pixel_words + (cell >> 5u);
+    let mask = 1u << (cell & 31u);
+    if (atomicLoad(&bits[word]) & mask) == 0u {
+        atomicOr(&bits[word], mask);
+    }
 }
 
 @compute @workgroup_size(WORKGROUP)

@@ -49,6 +49,15 @@ pub const INPUT_TOLERANCE: f64 = 1e-9;
 /// 2⁻²⁴ ≈ 6e-8 of `range + |t|`, so 5e-7 in all; doubled.
 pub const DOUBLE_F32_TOLERANCE: f64 = 1e-6;
 
+/// Relative size (against sonar 2's `range_max`) of the extra neighbourhood of a projection-area
+/// cell edge within which a GPU's cell may differ from the reference's, beyond the sample's own
+/// [`RELATIVE_TOLERANCE`]: the splat shader places a sample in its cell in f32 (WGSL `set_cell`)
+/// from its f32 range and point, `x0 + r · x / √(x² + y²)`: the scaled point errs by a few ulps
+/// of `r` (under 4e-7 · r), `x − x0` by an ulp of `range_max` (6e-8), `× 1/cell` by an ulp of the
+/// index (6e-8 · 2 range_max) and `x0` itself by an ulp (6e-8 · range_max): under 6e-7 ·
+/// `range_max` in all, taken as 1e-6.
+pub const CELL_SLACK: f64 = 1e-6;
+
 /// Relative slack of the fast CPU path's block culling, against `range + |t| + range_max`: the
 /// roundings of `M u + t` in f64 and of the clip functions are below 1e-15 of that sum, so a block
 /// is culled only when it clears a bound by a million times them.

@@ -27,6 +27,7 @@
 //!     source: fls,
 //!     target: sss,
 //!     sampling: Sampling::Step(0.1),
+//!     area_grid: sonarproj::PAPER_AREA_GRID,
 //!     items: vec![BatchItem { measurement: feature, pose }],
 //! };
 //! let metrics = Backend::CpuFast.project(&batch, Output::MetricsOnly)?[0].metrics;
@@ -41,6 +42,7 @@ pub mod error;
 pub mod geometry;
 pub mod gpu;
 pub mod limits;
+pub mod local_precision;
 pub mod masks;
 pub mod metrics;
 pub mod occupancy;
@@ -51,10 +53,14 @@ pub mod sampling;
 pub mod test_support;
 
 pub use error::{Error, Result};
+
+/// The engine's version (its crate version): results of one version with equal inputs and
+/// backend settings are equal.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 pub use geometry::{BeamLayout, RelativePose, Rotation, Sonar, SonarKind, rig};
 pub use gpu::GpuOptions;
 pub use masks::{Counts, MaskEngine};
 pub use metrics::{Metric, Metrics};
-pub use occupancy::{Layout, Occupancy};
+pub use occupancy::{AreaGrid, Layout, Occupancy, PAPER_AREA_GRID};
 pub use projection::{Backend, BackendChoice, Batch, BatchItem, Output, Projection};
 pub use sampling::{Measurement, Sampling, SamplingPlan};

@@ -15,6 +15,8 @@ pub const MAX_BEAMS: u32 = 1 << 16;
 pub const MAX_PIXELS: u64 = 1 << 26;
 /// The most samples one pose may draw.
 pub const MAX_SAMPLES_PER_POSE: u64 = 1 << 26;
+/// The most cells of the projection-area grid over sonar 2's image (8 MiB of bits a pose).
+pub const MAX_AREA_CELLS: u64 = 1 << 26;
 /// The most cells one mask may visit.
 pub const MAX_CELLS: u64 = 1 << 26;
 /// The most points returned along an SSS + SSS recovery curve (the spacing grows past it).
@@ -50,6 +52,7 @@ const _: () = {
     assert!(MAX_RANGE_BINS as u64 * MAX_BEAMS as u64 >= MAX_PIXELS);
     assert!(MAX_SAMPLES_PER_POSE <= u32::MAX as u64);
     assert!(MAX_CELLS <= u32::MAX as u64);
+    assert!(MAX_AREA_CELLS / 8 <= 8 << 20);
     assert!(MAX_POSES < 1 << 53);
     assert!(MAX_AXIS_VALUES * MAX_AXIS_VALUES <= MAX_POSES);
 };

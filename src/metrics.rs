@@ -30,8 +30,10 @@ pub enum Metric {
     AzimuthMax,
     /// Occupied bins or pixels.
     Occupied,
-    /// Occupied length (SSS) or area (FLS).
+    /// Occupied length (SSS) or area (FLS) at sonar 2's own resolution.
     OccupiedMeasure,
+    /// The paper's projection area (FLS target): cells of a Cartesian grid holding a sample.
+    ProjectionArea,
 }
 
 /// How a metric is reduced over a projection's samples.
@@ -47,6 +49,8 @@ pub enum Reduce {
     Max,
     /// Computed from other metrics.
     Derived,
+    /// Counted over the cells of a grid the visible samples fall in.
+    Cells,
     /// Summed over the occupied bins or pixels (the reduce stage).
     Occupancy,
 }
@@ -60,8 +64,9 @@ pub struct MetricInfo {
     pub name: &'static str,
     /// Its unit when sonar 2 is a sidescan (SSS) and when it is an imaging sonar (FLS).
     pub unit: [&'static str; 2],
-    /// Its figure axis label for an SSS and an FLS sonar 2; `None` for a metric no figure draws.
-    pub label: Option<[&'static str; 2]>,
+    /// Its figure axis label for an SSS and an FLS sonar 2; `None` where no figure draws it (a
+    /// bookkeeping count, or a metric that sonar 2's kind leaves empty).
+    pub label: [Option<&'static str>; 2],
     /// How it is reduced over the samples.
     pub reduce: Reduce,
     /// The u32 slot of the GPU's per-pose metric record that holds it (WGSL `METRIC_*` in
@@ -70,12 +75,12 @@ pub struct MetricInfo {
 }
 
 /// The metric table: every metric once, in output order.
-pub const METRICS: [MetricInfo; 9] = [
+pub const METRICS: [MetricInfo; 10] = [
     MetricInfo {
         metric: Metric::Visible,
         name: "visible",
         unit: ["samples", "samples"],
-        label: Some(["visible samples", "visible samples"]),
+        label: [Some("visible samples"), Some("visible samples")],
         reduce: Reduce::Count,
         gpu_slot: Some(0),
     },
@@ -83,7 +88,7 @@ pub const METRICS: [MetricInfo; 9] = [
         metric: Metric::Total,
         name: "total",
         unit: ["samples", "samples"],
-        label: None,
+        label: [None, None],
         reduce: Reduce::Plan,
         gpu_slot: None,
     },
@@ -91,7 +96,7 @@ pub const METRICS: [MetricInfo; 9] = [
         metric: Metric::RangeMin,
         name: "range_min",
         unit: ["m", "m"],
-        label: Some(["minimum range (m)", "minimum range (m)"]),
+        label: [Some("minimum range (m)"), Some("minimum range (m)")],
         reduce: Reduce::Min,
         gpu_slot: Some(2),
     },
@@ -99,7 +104,7 @@ pub const METRICS: [MetricInfo; 9] = [
         metric: Metric::RangeMax,
         name: "range_max",
         unit: ["m", "m"],
-        label: Some(["maximum range (m)", "maximum range (m)"]),
+        label: [Some("maximum range (m)"), Some("maximum range (m)")],
         reduce: Reduce::Max,
         gpu_slot: Some(3),
     },
@@ -107,7 +112,7 @@ pub const METRICS: [MetricInfo; 9] = [
         metric: Metric::Span,
         name: "span",
         unit: ["m", "m"],
-        label: Some(["range span (m)", "range span (m)"]),
+        label: [Some("range span (m)"), Some("range span (m)")],
         reduce: Reduce::Derived,
         gpu_slot: None,
     },
@@ -115,7 +120,7 @@ pub const METRICS: [MetricInfo; 9] = [
         metric: Metric::AzimuthMin,
         name: "azimuth_min",
         unit: ["deg", "deg"],
-        label: Some(["minimum azimuth (deg)", "minimum azimuth (deg)"]),
+        label: [Some("minimum azimuth (deg)"), Some("minimum azimuth (deg)")],
         reduce: Reduce::Min,
         gpu_slot: Some(4),
     },
@@ -123,7 +128,7 @@ pub const METRICS: [MetricInfo; 9] = [
         metric: Metric::AzimuthMax,
         name: "azimuth_max",
         unit: ["deg", "deg"],
-        label: Some(["maximum azimuth (deg)", "maximum azimuth (deg)"]),
+        label: [Some("maximum azimuth (deg)"), Some("maximum azimuth (deg)")],
         reduce: Reduce::Max,
         gpu_slot: Some(5),
     },
@@ -131,7 +136,7 @@ pub const METRICS: [MetricInfo; 9] = [
         metric: Metric::Occupied,
         name: "occupied",
         unit: ["bins", "pixels"],
-        label: Some(["occupied range bins", "occupied pixels"]),
+        label: [Some("occupied range bins"), Some("occupied pixels")],
         reduce: Reduce::Occupancy,
         gpu_slot: Some(1),
     },
@@ -139,10 +144,19 @@ pub const METRICS: [MetricInfo; 9] = [
         metric: Metric::OccupiedMeasure,
         name: "occupied_measure",
         unit: ["m", "m²"],
-        label: Some(["occupied length (m)", "projection area (m²)"]),
+        label: [Some("occupied length (m)"), Some("occupied area (m²)")],
         reduce: Reduce::Occupancy,
         // The FLS area sum; an SSS length is `occupied × bin width`, computed after readback.
         gpu_slot: Some(6),
+    },
+    MetricInfo {
+        metric: Metric::ProjectionArea,
+        name: "projection_area",
+        unit: ["", "m²"],
+        label: [None, Some("projection area (m²)")],
+        reduce: Reduce::Cells,
+        // The cell count; the area is `count × cell²`, computed after readback.
+        gpu_slot: Some(7),
     },
 ];
 
@@ -191,10 +205,7 @@ impl Metric {
     /// figure draws.
     #[must_use]
     pub const fn label(self, kind: SonarKind) -> Option<&'static str> {
-        match self.info().label {
-            Some(l) => Some(l[kind_index(kind)]),
-            None => None,
-        }
+        self.info().label[kind_index(kind)]
     }
 
     /// Returns this metric's GPU slot (see [`MetricInfo::gpu_slot`]).
@@ -212,19 +223,20 @@ const fn kind_index(kind: SonarKind) -> usize {
     }
 }
 
-/// One metric's value: a count, a number, or an extreme that is `None` when nothing is visible.
+/// One metric's value: a count, a number, or a number that may be absent (`None`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Value {
     /// A count.
     Count(u64),
     /// A number.
     Real(f64),
-    /// An extreme, `None` when nothing is visible.
-    Extreme(Option<f64>),
+    /// A number that may be absent: an extreme when nothing is visible, or a metric that sonar
+    /// 2's kind leaves empty.
+    Optional(Option<f64>),
 }
 
 impl Value {
-    /// Returns the value as a number, `None` for an extreme of nothing.
+    /// Returns the value as a number, `None` for an absent one.
     #[expect(
         clippy::cast_precision_loss,
         reason = "counts are sample and pixel counts, far below 2^53"
@@ -234,7 +246,7 @@ impl Value {
         match self {
             Value::Count(n) => Some(n as f64),
             Value::Real(v) => Some(v),
-            Value::Extreme(v) => v,
+            Value::Optional(v) => v,
         }
     }
 }
@@ -244,7 +256,7 @@ impl Serialize for Value {
         match *self {
             Value::Count(n) => s.serialize_u64(n),
             Value::Real(v) => s.serialize_f64(v),
-            Value::Extreme(v) => v.serialize(s),
+            Value::Optional(v) => v.serialize(s),
         }
     }
 }
@@ -271,8 +283,13 @@ pub struct Metrics {
     pub azimuth_max: Option<f64>,
     /// Number of occupied bins (SSS) or pixels (FLS).
     pub occupied: u64,
-    /// Occupied bins × bin width (m, SSS) or summed true area of occupied pixels (m², FLS).
+    /// Occupied bins × bin width (m, SSS) or summed true area of occupied pixels (m², FLS): the
+    /// occupied measure at sonar 2's own resolution.
     pub occupied_measure: f64,
+    /// The paper's projection area (m², FLS target): the cells of the layout's
+    /// [`AreaGrid`](crate::occupancy::AreaGrid) holding a visible sample, times the cell's area;
+    /// `None` for an SSS target.
+    pub projection_area: Option<f64>,
 }
 
 /// Running extremes of the visible samples' range and azimuth (m, rad).
@@ -320,10 +337,17 @@ impl Extremes {
 }
 
 impl Metrics {
-    /// Returns the metrics from the sample counts, the extremes (m, rad) and the occupancy
-    /// summary; extremes are `None` and the span 0 when nothing is visible.
+    /// Returns the metrics from the sample counts, the extremes (m, rad), the occupancy summary
+    /// and the projection area (m², `None` for an SSS target); extremes are `None` and the span
+    /// 0 when nothing is visible.
     #[must_use]
-    pub fn new(visible: u64, total: u64, ex: Extremes, occupied: u64, measure: f64) -> Self {
+    pub fn new(
+        visible: u64,
+        total: u64,
+        ex: Extremes,
+        (occupied, measure): (u64, f64),
+        projection_area: Option<f64>,
+    ) -> Self {
         let seen = visible > 0;
         let some = |v: f64| seen.then_some(v);
         Metrics {
@@ -336,6 +360,7 @@ impl Metrics {
             azimuth_max: some(ex.azimuth_max.to_degrees()),
             occupied,
             occupied_measure: measure,
+            projection_area,
         }
     }
 }
@@ -347,13 +372,14 @@ impl Metrics {
         match metric {
             Metric::Visible => Value::Count(self.visible),
             Metric::Total => Value::Count(self.total),
-            Metric::RangeMin => Value::Extreme(self.range_min),
-            Metric::RangeMax => Value::Extreme(self.range_max),
+            Metric::RangeMin => Value::Optional(self.range_min),
+            Metric::RangeMax => Value::Optional(self.range_max),
             Metric::Span => Value::Real(self.span),
-            Metric::AzimuthMin => Value::Extreme(self.azimuth_min),
-            Metric::AzimuthMax => Value::Extreme(self.azimuth_max),
+            Metric::AzimuthMin => Value::Optional(self.azimuth_min),
+            Metric::AzimuthMax => Value::Optional(self.azimuth_max),
             Metric::Occupied => Value::Count(self.occupied),
             Metric::OccupiedMeasure => Value::Real(self.occupied_measure),
+            Metric::ProjectionArea => Value::Optional(self.projection_area),
         }
     }
 }

@@ -1,7 +1,12 @@
 //! Sonar 2's data layout (range bins, beams: README: Conventions) and the occupancy bitset drawn
 //! in it. Which bin and beam a point falls in, and whether it is in view, is [`crate::clip`]'s.
 
+use crate::error::{Error, Result, finite};
 use crate::geometry::{Sonar, SonarKind};
+use crate::limits::MAX_AREA_CELLS;
+
+/// The cell size (m) of the paper's projection-area grid: the authors' `area_spacing`.
+pub const PAPER_AREA_GRID: f64 = 0.08;
 
 /// The geometry of sonar 2's data: field of view, range bins, beam edges, all in radians/metres.
 #[derive(Clone, Debug, PartialEq)]
@@ -22,6 +27,147 @@ pub struct Layout {
     pub half_azimuth: f64,
     /// Half the elevation aperture (rad).
     pub half_elevation: f64,
+    /// The Cartesian grid the projection area is counted in (an FLS only, once a batch sets it:
+    /// [`Layout::with_area_grid`]).
+    pub area_grid: Option<AreaGrid>,
+}
+
+/// The Cartesian grid over an FLS image plane that the paper's projection area is counted in:
+/// square cells of side `cell` from `(x0, y0)`, `x` forward and `y` to starboard of the sonar
+/// after the elevation is dropped (`x = r cos az`, `y = r sin az`). The projection area is the
+/// number of cells holding a visible sample times `cell²`.
+///
+/// The grid is the authors' (`np.arange(x0, x1, cell)` along each axis): for an azimuth
+/// aperture `A` up to 180°, `x` from `range_min · cos(A/2)` to `range_max` and `y` from
+/// `−range_max · sin(A/2)` to `range_max · sin(A/2)`; wider apertures cover the full disc
+/// (`±range_max` on both axes). A point's cell is `floor((x − x0) / cell)` along each axis,
+/// clamped into the grid (only a point exactly on the far edge needs it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AreaGrid {
+    /// The side of a cell (m).
+    pub cell: f64,
+    /// The grid's near corner (m).
+    pub x0: f64,
+    /// The grid's port corner (m).
+    pub y0: f64,
+    /// Cells along `x`.
+    pub nx: usize,
+    /// Cells along `y`.
+    pub ny: usize,
+}
+
+impl AreaGrid {
+    /// Returns the grid of side `cell` (m) over the image of an FLS `layout`; `None` for an SSS.
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] naming `area_grid` when `cell` is not finite and positive, or
+    /// the grid would have more than [`MAX_AREA_CELLS`] cells.
+    pub fn over(layout: &Layout, cell: f64) -> Result<Option<AreaGrid>> {
+        finite("area_grid", cell)?;
+        if cell <= 0.0 {
+            return Err(Error::invalid("area_grid", cell, "must be > 0 m"));
+        }
+        if layout.kind == SonarKind::Sss {
+            return Ok(None);
+        }
+        let h = layout.half_azimuth;
+        let (x0, x1, half_y) = if h <= std::f64::consts::FRAC_PI_2 {
+            (
+                layout.range_min * h.cos(),
+                layout.range_max,
+                layout.range_max * h.sin(),
+            )
+        } else {
+            (-layout.range_max, layout.range_max, layout.range_max)
+        };
+        let count = |lo: f64, hi: f64| ((hi - lo) / cell).ceil().max(1.0);
+        let (nx, ny) = (count(x0, x1), count(-half_y, half_y));
+        #[expect(clippy::cast_precision_loss, reason = "a limit far below 2^53")]
+        if nx * ny > MAX_AREA_CELLS as f64 {
+            // The smallest allowed cell, rounded up to two significant digits.
+            let least = ((x1 - x0) * 2.0 * half_y / MAX_AREA_CELLS as f64).sqrt() * 1.001;
+            let magnitude = least.log10().floor() - 1.0;
+            let unit = 10f64.powf(magnitude);
+            #[expect(
+                clippy::cast_possible_truncation,
+                clippy::cast_sign_loss,
+                reason = "a small digit count"
+            )]
+            let digits = (-magnitude).max(0.0) as usize;
+            return Err(Error::invalid(
+                "area_grid",
+                cell,
+                format!(
+                    "gives {:.0} cells over sonar 2's image, more than {MAX_AREA_CELLS}: use at least {:.digits$} m",
+                    nx * ny,
+                    (least / unit).ceil() * unit
+                ),
+            ));
+        }
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "counts checked positive and below MAX_AREA_CELLS"
+        )]
+        Ok(Some(AreaGrid {
+            cell,
+            x0,
+            y0: -half_y,
+            nx: nx as usize,
+            ny: ny as usize,
+        }))
+    }
+
+    /// Returns the number of cells.
+    #[must_use]
+    pub fn cells(&self) -> usize {
+        self.nx * self.ny
+    }
+
+    /// Returns the cell `(i along x, j along y)` holding the image point `(x, y)` (m):
+    /// `floor((x − x0) / cell)` along each axis, clamped into the grid.
+    #[inline]
+    #[must_use]
+    pub fn cell_of(&self, x: f64, y: f64) -> (usize, usize) {
+        // Truncation is floor for the non-negative values `max` leaves (NaN becomes 0).
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "non-negative, saturating, then clamped into 0..n"
+        )]
+        let index = |v: f64, origin: f64, n: usize| (((v - origin) / self.cell).max(0.0) as usize).min(n - 1);
+        (index(x, self.x0, self.nx), index(y, self.y0, self.ny))
+    }
+
+    /// Returns the flat index `i · ny + j` of the cell holding the point `(x, y, z)` of sonar 2's
+    /// frame at range `r = |(x, y, z)|` without trigonometry: its image point is `(x, y)` scaled
+    /// to length `r` (`(r, 0)` on the z axis, where `atan2` gives azimuth 0), which is
+    /// `(r cos az, r sin az)` up to rounding.
+    #[inline]
+    #[must_use]
+    pub fn flat_cell(&self, x: f64, y: f64, r: f64) -> usize {
+        let rho2 = x * x + y * y;
+        let (ix, iy) = if rho2 > 0.0 {
+            let k = r / rho2.sqrt();
+            self.cell_of(k * x, k * y)
+        } else {
+            self.cell_of(r, 0.0)
+        };
+        ix * self.ny + iy
+    }
+
+    /// Returns the area (m²) of `cells` cells.
+    #[expect(clippy::cast_precision_loss, reason = "cell counts far below 2^53")]
+    #[must_use]
+    pub fn area(&self, cells: u64) -> f64 {
+        cells as f64 * self.cell * self.cell
+    }
+
+    /// Returns an empty bitset of the grid's cells (`nx` rows of `ny`).
+    #[must_use]
+    pub fn bitset(&self) -> Occupancy {
+        Occupancy::new(self.nx, self.ny)
+    }
 }
 
 impl Layout {
@@ -37,7 +183,25 @@ impl Layout {
             beam_edges: sonar.beam_edges_rad(),
             half_azimuth: sonar.half_azimuth(),
             half_elevation: sonar.half_elevation(),
+            area_grid: None,
         }
+    }
+
+    /// Returns the layout with the projection-area grid of side `cell` (m) (an FLS only; see
+    /// [`AreaGrid`]).
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] naming `area_grid`: see [`AreaGrid::over`].
+    pub fn with_area_grid(mut self, cell: f64) -> Result<Self> {
+        self.area_grid = AreaGrid::over(&self, cell)?;
+        Ok(self)
+    }
+
+    /// Returns an empty bitset of the projection-area grid's cells (0 × 0 without a grid).
+    #[must_use]
+    pub fn cell_bitset(&self) -> Occupancy {
+        self.area_grid
+            .map_or_else(|| Occupancy::new(0, 0), |g| g.bitset())
     }
 
     /// Returns the number of beams (1 for an SSS).

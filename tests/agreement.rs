@@ -109,6 +109,7 @@ fn agree_on(items: Vec<BatchItem>, source: Sonar, target: Sonar, sampling: Sampl
         source,
         target,
         sampling,
+        area_grid: sonarproj::PAPER_AREA_GRID,
     };
     let prepared = batch.prepare().unwrap();
     let reference = reference::project(&prepared, Output::WithOccupancy);
@@ -343,6 +344,7 @@ fn items_on_bounds(seed: u64, source: &Sonar, target: &Sonar, step: f64, n: usiz
                 source: source.clone(),
                 target: target.clone(),
                 sampling: Sampling::Step(step),
+                area_grid: sonarproj::PAPER_AREA_GRID,
             };
             let plan = one.prepare().unwrap();
             let (az_offsets, elevations) = (&plan.plan(0).azimuths, &plan.plan(0).elevations);
@@ -403,6 +405,7 @@ fn results_do_not_depend_on_the_chunk_size() {
         source,
         target,
         sampling: Sampling::Step(0.2),
+        area_grid: sonarproj::PAPER_AREA_GRID,
     };
     let prepared = batch.prepare().unwrap();
     let whole = gpu.project(&prepared, Output::WithOccupancy).unwrap();
@@ -448,6 +451,7 @@ fn results_do_not_depend_on_the_workgroup_size() {
             source,
             target,
             sampling,
+            area_grid: sonarproj::PAPER_AREA_GRID,
         };
         let prepared = batch.prepare().unwrap();
         if sampling == Sampling::Step(0.01) {
@@ -500,6 +504,7 @@ fn kept_buffers_do_not_change_results() {
             source,
             target,
             sampling: Sampling::Step(0.2),
+            area_grid: sonarproj::PAPER_AREA_GRID,
         }
     };
     let calls = [
@@ -527,7 +532,8 @@ fn kept_buffers_do_not_change_results() {
 }
 
 /// The checker the GPU is held to can fail: a result with a certain pixel dropped, a visible
-/// count past the envelope or a range past its interval is refused. Run on the fast CPU path
+/// count past the envelope, a range past its interval or a projection area outside its cells'
+/// interval is refused. Run on the fast CPU path
 /// everywhere, and on the GPU where there is one.
 #[test]
 fn the_envelope_check_catches_wrong_results() {
@@ -537,6 +543,7 @@ fn the_envelope_check_catches_wrong_results() {
         source,
         target,
         sampling: Sampling::Step(0.1),
+        area_grid: sonarproj::PAPER_AREA_GRID,
     };
     let prepared = batch.prepare().unwrap();
     let mut results = vec![(
@@ -595,6 +602,21 @@ fn catches_wrong_results(prepared: &PreparedBatch<'_>, batch: &Batch, good: &Pro
         common::check_within_bounds(prepared.layout(), &b, &far).is_err(),
         "{name}: far"
     );
+
+    // A projection area one cell short of the certain cells, or one past the possible ones.
+    let grid = prepared.layout().area_grid.expect("an FLS target has a grid");
+    let (lo, hi) = b
+        .projection_area(prepared.layout())
+        .expect("an FLS target has an area");
+    assert!(lo > 0.0, "{name}: no certain cell, the test proves nothing");
+    for (what, area) in [("short", lo - grid.area(1)), ("wide", hi + grid.area(1))] {
+        let mut wrong = good.clone();
+        wrong.metrics.projection_area = Some(area);
+        assert!(
+            common::check_within_bounds(prepared.layout(), &b, &wrong).is_err(),
+            "{name}: area {what}"
+        );
+    }
 }
 
 /// A process opens one GPU context per device asked for (backends, adapter, precision) and shares

@@ -21,6 +21,7 @@ fn run_all(
         source: source.clone(),
         target: target.clone(),
         sampling: Sampling::Step(0.1),
+        area_grid: sonarproj::PAPER_AREA_GRID,
         items: vec![BatchItem {
             measurement: Measurement::of(source, range, az).unwrap(),
             pose,

@@ -192,6 +192,7 @@ proptest! {
             source: source.clone(),
             target,
             sampling,
+            area_grid: sonarproj::PAPER_AREA_GRID,
             items: vec![BatchItem { measurement: Measurement { range, azimuth }, pose }],
         };
         // The one-item check of a streaming reader agrees with preparing the batch.

@@ -13,8 +13,10 @@ their code; it asks sonarproj for what their script computes:
   the FLS's fan seen from above (it prints nothing).
 
 We print the visible sample count, the range and azimuth extents of the projection in the FLS,
-the occupied pixels and the projection area (sonarproj's `occupied_measure`, m²), and draw their
-plot from the occupied pixels, plus a zoom.
+the occupied pixels, the projection area as their script sets it up (sonarproj's
+`projection_area`: visible samples counted in 0.08 m squares, 37 cells = 0.2368 m²) and the
+occupied area at the FLS's own resolution (`occupied_measure`), and draw their plot from the
+occupied pixels, plus a zoom.
 
 Run:  python examples/python/example_ss2fl.py [--out DIR] [--backend auto|cpu|cpu-fast|gpu]
 """
@@ -66,10 +68,11 @@ CONFIG = {
 # range/azimuth points), their SSS none either. sonarproj's Sonar needs range bins (and beams for
 # an FLS); we choose the paper presets' layouts: FLS 990 range bins (1 cm) x 512 beams
 # (60°/512 = 0.117°), SSS 2990 bins (1 cm; it is sonar 1 here, so its layout plays no part).
-# The FLS layout decides `occupied` and the area `occupied_measure`, not the visible count or the
-# extents. Their script also sets up a 0.08 m Cartesian grid ("area_spacing", squares of
-# 0.0064 m²) for approximating the projection area but never uses it; the area we print is the
-# summed true area of the occupied FLS pixels (README Conventions: "the paper's projection area").
+# The FLS layout decides `occupied` and `occupied_measure` (the summed true areas of the occupied
+# polar pixels), not the visible count, the extents or the projection area. Their script sets up
+# a 0.08 m Cartesian grid over the FLS image ("area_spacing", squares of 0.0064 m², from
+# x0 = fl_min_range cos(A/2), y0 = -fl_max_range sin(A/2)) for the projection area: sonarproj's
+# `projection_area` counts the visible samples in that grid (`area_grid=0.08`, the default).
 # The config's FLS elevation aperture is 10°, where the `paper-fls` preset has 12°.
 FLS_RANGE_BINS, FLS_BEAMS = 990, 512
 SSS_RANGE_BINS = 2990
@@ -163,14 +166,17 @@ def main() -> None:
           f"(span {m['span']:.6f} m)")
     print(f"  FLS azimuth             : {m['azimuth_min']:.4f} .. {m['azimuth_max']:.4f} deg")
     print(f"  occupied FLS pixels     : {m['occupied']} of {occ.size}")
-    print(f"  projection area         : {m['occupied_measure']:.6f} m² (summed pixel areas)")
+    print(f"  projection area         : {m['projection_area']:.6f} m² "
+          f"({round(m['projection_area'] / 0.0064)} cells of 0.08 m, the authors' grid)")
+    print(f"  occupied area           : {m['occupied_measure']:.6f} m² (summed FLS pixel areas)")
 
     # With step 0.1° the samples land about 15 m * 0.1° = 2.6 cm apart, farther than the 1 cm
-    # pixels, so the area above counts one pixel per sample. sonarproj's automatic sampling is
+    # pixels, so the occupied area above counts one pixel per sample. sonarproj's automatic sampling is
     # dense enough to leave no hole, which gives the area of the projected curve itself.
     auto = sonarproj.project(sss, fls, pose, c["feat_range"], occupancy=True, backend=args.backend)
     print(f"  auto sampling           : {auto['visible']} of {auto['total']} samples visible, "
-          f"{auto['occupied']} pixels, area {auto['occupied_measure']:.6f} m²")
+          f"{auto['occupied']} pixels, occupied area {auto['occupied_measure']:.6f} m², "
+          f"projection area {auto['projection_area']:.6f} m²")
 
     # Their plot: the fan from above (forward up) with the visible points; ours from the
     # occupied pixels' centres. Port (+azimuth, +y) is drawn on the left as seen from above.
@@ -198,7 +204,7 @@ def main() -> None:
     zoom.set_xlabel("← port      lateral (m)      starboard →")
     zoom.set_ylabel("forward (m)")
     zoom.set_title(f"zoom: range {m['range_min']:.2f}–{m['range_max']:.2f} m, "
-                   f"area {m['occupied_measure']:.4f} m²", fontsize=10)
+                   f"projection area {m['projection_area']:.4f} m²", fontsize=10)
     zoom.grid(alpha=0.3)
     png = os.path.join(args.out, "example_ss2fl.png")
     fig.savefig(png, dpi=110)

@@ -51,6 +51,7 @@ from ._sonarproj import (
 )
 
 __all__ = [
+    "PAPER_AREA_GRID",
     "BackendNotice",
     "InputError",
     "MaskEngine",
@@ -62,6 +63,7 @@ __all__ = [
     "batch",
     "configure_gpu",
     "masks",
+    "merge",
     "paper",
     "presets",
     "project",
@@ -74,9 +76,8 @@ __all__ = [
 SonarLike = Union[Sonar, str, "os.PathLike[str]"]
 """A :class:`Sonar`, a preset name (see :func:`presets`), or the path of a sonar TOML file."""
 
-REQUIRED_COLUMNS = ("range", "azimuth", "elevation", "roll", "pitch", "yaw")
-PLACE_COLUMNS = ("place_range", "place_azimuth", "place_elevation")
-TRANSLATION_COLUMNS = ("tx", "ty", "tz")
+PAPER_AREA_GRID = 0.08
+"""The cell side (m) of the paper's projection-area grid: the default `area_grid`."""
 SIGMA_KEYS = ("roll", "pitch", "yaw", "tx", "ty", "tz", "range", "azimuth")
 
 
@@ -248,23 +249,34 @@ def batch(
     poses: Mapping[str, Any],
     *,
     step: Optional[float] = None,
+    area_grid: float = PAPER_AREA_GRID,
+    sigma_range: Optional[float] = None,
     backend: str = "auto",
 ) -> dict[str, np.ndarray]:
     """Returns the metrics of many projections of features of sonar `first` into sonar `second`.
 
-    `poses` is a mapping (a dict of 1-D arrays, or a pandas DataFrame) with exactly the columns
-    of the command line's ``batch`` input: ``range, azimuth, elevation`` (the feature's true
-    point in `first`: m, deg, deg), ``roll, pitch, yaw`` (deg, the paper's convention) and
-    either ``place_range, place_azimuth, place_elevation`` (m, deg, deg: where the true point
-    appears in `second`) or ``tx, ty, tz`` (m). `step` is the sampling step (deg) of the arc or
-    surface as in the published code (e.g. 0.1); None chooses it from `second`'s resolution.
-    `backend` is ``"auto"`` (GPU on a hardware adapter, else every CPU core, with a
+    `poses` is a mapping (a dict of 1-D arrays, or a pandas DataFrame) with the columns of the
+    command line's ``batch`` input: ``range`` (and ``azimuth`` for an imaging `first`: the
+    measurement, m and deg); the rotation ``R`` of ``p2 = R p1 + t`` as ``roll, pitch, yaw``
+    (deg, the paper's convention), a unit quaternion ``qw, qx, qy, qz`` (scalar first) or the
+    matrix ``r11 … r33`` (row-major); and either ``place_range, place_azimuth,
+    place_elevation`` (where the true point appears in `second`: m, deg, deg; then ``azimuth``
+    and ``elevation``, the feature's true point in `first`, are required) or ``tx, ty, tz``
+    (m; ``elevation`` optional). `step` is the sampling step (deg) of the arc or surface as in
+    the published code (e.g. 0.1); None chooses it from `second`'s resolution. `area_grid` is
+    the cell side (m) of the grid ``projection_area`` counts (the paper's 0.08 m).
+    `sigma_range` is the range error (m) ``sigma_elevation`` is computed for (None: the bin
+    width over √12 of the sonar whose range pins the elevation). `backend`
+    is ``"auto"`` (GPU on a hardware adapter, else every CPU core, with a
     :class:`BackendNotice`), ``"gpu"``, ``"cpu-fast"`` or ``"cpu"`` (the f64 reference).
 
     Returns a dict of 1-D arrays named as the command line's metric columns (``visible, total,
-    range_min, range_max, span, azimuth_min, azimuth_max, occupied, occupied_measure``):
-    counts as int64, the rest float64 in m, deg, and m (sidescan) or m² (imaging) for
-    ``occupied_measure``; NaN where the command line leaves a cell empty (nothing visible).
+    range_min, range_max, span, azimuth_min, azimuth_max, occupied, occupied_measure,
+    projection_area, range_per_elevation, sigma_elevation``): counts as int64, the rest
+    float64 in m, deg, and m (sidescan) or m² (imaging) for ``occupied_measure``, m² for
+    ``projection_area``, m/deg and deg for the local precision at the feature's true point;
+    NaN where the command line leaves a cell empty (nothing visible; ``projection_area`` for a
+    sidescan `second`; the local precision without the true point, or for two sidescans).
     The numbers are those of ``sonarproj batch`` for the same inputs, bit for bit on the CPU
     backends. Runs without the GIL; Ctrl-C stops it between chunks of 65 536 poses.
 
@@ -272,32 +284,23 @@ def batch(
     """
     s1, s2 = _sonar("first", first), _sonar("second", second)
     names, get = _columns_of("poses", poses)
-    allowed = set(REQUIRED_COLUMNS + PLACE_COLUMNS + TRANSLATION_COLUMNS)
-    unknown = [n for n in names if n not in allowed]
-    if unknown:
-        raise InputError(
-            f"poses: unknown column(s) {', '.join(unknown)}; the columns are "
-            f"{','.join(REQUIRED_COLUMNS)} and either {','.join(PLACE_COLUMNS)} or {','.join(TRANSLATION_COLUMNS)}"
-        )
-    _require("poses", names, REQUIRED_COLUMNS)
-    place = [n for n in PLACE_COLUMNS if n in names]
-    trans = [n for n in TRANSLATION_COLUMNS if n in names]
-    if place and trans:
-        raise InputError(
-            f"poses: give either {','.join(PLACE_COLUMNS)} or {','.join(TRANSLATION_COLUMNS)}, not both"
-        )
-    if not place and not trans:
-        raise InputError(
-            f"poses: missing translation: give {','.join(PLACE_COLUMNS)} or {','.join(TRANSLATION_COLUMNS)}"
-        )
-    extra = PLACE_COLUMNS if place else TRANSLATION_COLUMNS
-    _require("poses", names, extra)
-    cols = _same_length_columns("poses", REQUIRED_COLUMNS + extra, get)
+    cols = _same_length_columns("poses", names, get)
     result, notice = _native.batch_columns(
-        s1, s2, cols, bool(place), _step(step), _backend(backend)
+        s1,
+        s2,
+        names,
+        cols,
+        _step(step),
+        _area_grid(area_grid),
+        _number("sigma_range", sigma_range, optional=True),
+        _backend(backend),
     )
     _warn(notice)
     return result
+
+
+def _area_grid(value: Any) -> float:
+    return _number("area_grid", value) or 0.0
 
 
 def _feature(parameter: str, source: Sonar, feature: Any) -> tuple[float, float]:
@@ -322,14 +325,19 @@ def project(
     pose: Pose,
     feature: Any,
     *,
+    elevation: Optional[float] = None,
     step: Optional[float] = None,
+    area_grid: float = PAPER_AREA_GRID,
+    sigma_range: Optional[float] = None,
     occupancy: bool = False,
     backend: str = "auto",
 ) -> dict[str, Any]:
     """Returns the projection of one feature of sonar `first` into sonar `second` under `pose`.
 
     `feature` is what `first` measured: ``(range, azimuth)`` (m, deg) for an imaging sonar, the
-    range (m) for a sidescan. `pose` is a :class:`Pose` (``p2 = R p1 + t``). `step` and
+    range (m) for a sidescan. `pose` is a :class:`Pose` (``p2 = R p1 + t``). `elevation`
+    (deg), when given, completes the feature's true point (with azimuth 0 for a sidescan) for
+    ``range_per_elevation`` and ``sigma_elevation``. `step`, `area_grid`, `sigma_range` and
     `backend` as in :func:`batch`.
 
     Returns a dict with the metrics (the names of :func:`batch`'s columns, as Python numbers;
@@ -342,7 +350,17 @@ def project(
     p = _pose("pose", pose)
     r, az = _feature("feature", s1, feature)
     result, notice = _native.project_one(
-        s1, s2, p, r, az, _step(step), bool(occupancy), _backend(backend)
+        s1,
+        s2,
+        p,
+        r,
+        az,
+        _number("elevation", elevation, optional=True),
+        _step(step),
+        _area_grid(area_grid),
+        _number("sigma_range", sigma_range, optional=True),
+        bool(occupancy),
+        _backend(backend),
     )
     _warn(notice)
     return result
@@ -560,15 +578,16 @@ def recover(
 def recover_many(
     first: SonarLike,
     second: SonarLike,
-    pose: Pose,
+    pose: Union[Pose, Sequence[Pose]],
     correspondences: Mapping[str, Any],
     *,
     sigma_range: Optional[float] = None,
     sigma_azimuth: Optional[float] = None,
 ) -> dict[str, Any]:
-    """Returns the recovery of many correspondences under one pose, vectorised.
+    """Returns the recovery of many correspondences, vectorised.
 
-    `correspondences` is a mapping of 1-D arrays: ``first_range``, ``second_range`` (m), and
+    `pose` is one :class:`Pose` for every correspondence, or a sequence of poses, one per
+    correspondence (a robot that moved between them). `correspondences` is a mapping of 1-D arrays: ``first_range``, ``second_range`` (m), and
     ``first_azimuth`` / ``second_azimuth`` (deg) for the imaging sonars among the two.
 
     Returns a dict of arrays, one value per correspondence: ``candidates`` (int64), the best
@@ -579,7 +598,12 @@ def recover_many(
     best point — ``curve_length`` (m, two sidescans) and ``flags`` (a list of ';'-joined names).
     """
     s1, s2 = _sonar("first", first), _sonar("second", second)
-    p = _pose("pose", pose)
+    if isinstance(pose, Pose):
+        poses = [pose]
+    elif isinstance(pose, Sequence) and not isinstance(pose, (str, bytes)):
+        poses = [_pose(f"pose[{i}]", p) for i, p in enumerate(pose)]
+    else:
+        poses = [_pose("pose", pose)]
     names, get = _columns_of("correspondences", correspondences)
     wanted = ["first_range", "second_range"]
     if s1.kind == "fls":
@@ -604,7 +628,7 @@ def recover_many(
     return _native.recover_columns(
         s1,
         s2,
-        p,
+        poses,
         ordered,
         _number("sigma_range", sigma_range, optional=True),
         _number("sigma_azimuth", sigma_azimuth, optional=True),
@@ -657,6 +681,19 @@ def sweep(
     )
     _warn(notice)
     return result
+
+
+def merge(out_dir: Union[str, "os.PathLike[str]"]) -> dict[str, Optional[str]]:
+    """Joins the finished shards of a sweep in `out_dir` (run with ``shard="K/N"``) into
+    ``sweep.csv``, byte for byte the file one run would have written, and draws the figure, as
+    ``sonarproj merge``. Refused with InputError, writing nothing, when a shard is missing or
+    damaged, or when the shards were computed with different settings (backend, GPU adapter,
+    precision or options, engine version: the message names the setting and both values).
+
+    Returns a dict: ``file`` (the CSV) and ``figure`` (None when the sweep draws none).
+    """
+    file, figure = _native.sweep_merge(os.fspath(out_dir))
+    return {"file": os.fspath(file), "figure": None if figure is None else os.fspath(figure)}
 
 
 def paper(

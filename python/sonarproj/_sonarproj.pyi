@@ -195,16 +195,18 @@ class _MaskEngine:
 def batch_columns(
     first: Sonar,
     second: Sonar,
+    names: list[str],
     columns: list[npt.NDArray[np.float64]],
-    placement: bool,
     step: Optional[float],
+    area_grid: float,
+    sigma_range: Optional[float],
     backend_name: str,
 ) -> tuple[dict[str, npt.NDArray[Any]], Optional[str]]: ...
 def bench_rust_batch(
     first: Sonar,
     second: Sonar,
+    names: list[str],
     columns: list[npt.NDArray[np.float64]],
-    placement: bool,
     step: Optional[float],
     backend_name: str,
 ) -> float: ...
@@ -214,7 +216,10 @@ def project_one(
     pose: Pose,
     range: float,
     azimuth: float,
+    elevation: Optional[float],
     step: Optional[float],
+    area_grid: float,
+    sigma_range: Optional[float],
     occupancy: bool,
     backend_name: str,
 ) -> tuple[dict[str, Any], Optional[str]]: ...
@@ -231,7 +236,7 @@ def recover_one(
 def recover_columns(
     first: Sonar,
     second: Sonar,
-    pose: Pose,
+    poses: list[Pose],
     columns: list[npt.NDArray[np.float64]],
     sigma_range: Optional[float],
     sigma_azimuth: Optional[float],
@@ -245,6 +250,7 @@ def sweep_run(
     backend_name: str,
     progress: Optional[Callable[[int, int], None]],
 ) -> tuple[dict[str, Any], Optional[str]]: ...
+def sweep_merge(out_dir: str) -> tuple[str, Optional[str]]: ...
 def paper_run(
     out_dir: str, angle_step: float, step: float, backend_name: str
 ) -> tuple[dict[str, Any], Optional[str]]: ...

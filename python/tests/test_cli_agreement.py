@@ -5,6 +5,7 @@ files byte for byte."""
 import csv
 import json
 import math
+import pathlib
 
 import numpy as np
 import pytest
@@ -134,8 +135,10 @@ def test_project_equals_the_command_line(tmp_path, cli, first, second, feature, 
         pose = sonarproj.Pose(roll=20, yaw=-5, t=(0.5, -1, 0.25))
     np.testing.assert_array_equal(pose.rotation, np.array(out["pose"]["rotation"]))
     np.testing.assert_array_equal(pose.translation, np.array(out["pose"]["translation"]))
+    # The command line's placement knows the true point (elevation 0); a translation does not.
+    elevation = 0 if "--place-range" in pose_args else None
     got = sonarproj.project(first, second, pose, feature if len(feature) == 2 else feature[0],
-                            step=0.1, occupancy=True, backend="cpu")
+                            elevation=elevation, step=0.1, occupancy=True, backend="cpu")
     for name in sonarproj.METRIC_COLUMNS:
         expected = out["metrics"][name]
         assert same([got[name]], [math.nan if expected is None else expected]), name
@@ -247,3 +250,107 @@ def test_paper_writes_what_the_command_line_writes(tmp_path, cli):
         assert (tmp_path / "cli" / name).read_bytes() == (tmp_path / "py" / name).read_bytes(), name
     assert len(got["findings"]) == 4 and all("claim" in f and "holds" in f for f in got["findings"])
     assert got["poses"] > 0
+
+
+def _quaternion_of_rpy(roll, pitch, yaw):
+    """(w, x, y, z) of R = (Rz Ry Rx)ᵀ = Rx(−roll) Ry(−pitch) Rz(−yaw), from half angles."""
+    def q(axis, a):
+        h = np.radians(-a) / 2
+        out = np.zeros((len(a), 4))
+        out[:, 0] = np.cos(h)
+        out[:, axis] = np.sin(h)
+        return out
+
+    def mul(a, b):
+        w1, x1, y1, z1 = a.T
+        w2, x2, y2, z2 = b.T
+        return np.stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+                         w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                         w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                         w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2], axis=1)
+
+    return mul(mul(q(1, roll), q(2, pitch)), q(3, yaw))
+
+
+def test_batch_takes_quaternion_and_matrix_columns_and_equals_the_command_line(tmp_path, cli):
+    rng = np.random.default_rng(3)
+    cols = random_columns("paper-fls", "paper-fls", 80, rng, placement=True)
+    by_rpy = sonarproj.batch("paper-fls", "paper-fls", cols, step=0.1, backend="cpu")
+    quat = _quaternion_of_rpy(cols["roll"], cols["pitch"], cols["yaw"])
+    q_cols = {k: v for k, v in cols.items() if k not in ("roll", "pitch", "yaw")}
+    q_cols.update(qw=quat[:, 0], qx=quat[:, 1], qy=quat[:, 2], qz=quat[:, 3])
+    by_quat = sonarproj.batch("paper-fls", "paper-fls", q_cols, step=0.1, backend="cpu")
+    matrices = np.stack([sonarproj.Pose(roll=r, pitch=p, yaw=y).rotation
+                         for r, p, y in zip(cols["roll"], cols["pitch"], cols["yaw"])])
+    m_cols = {k: v for k, v in cols.items() if k not in ("roll", "pitch", "yaw")}
+    for i in range(3):
+        for j in range(3):
+            m_cols[f"r{i + 1}{j + 1}"] = matrices[:, i, j]
+    by_matrix = sonarproj.batch("paper-fls", "paper-fls", m_cols, step=0.1, backend="cpu")
+    assert (by_rpy["visible"] > 0).sum() > 20
+    for got in (by_quat, by_matrix):
+        np.testing.assert_array_equal(got["visible"], by_rpy["visible"])
+        np.testing.assert_allclose(got["span"], by_rpy["span"], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(got["sigma_elevation"], by_rpy["sigma_elevation"], rtol=1e-6)
+    # The command line reads the same columns to the same bits.
+    write_csv(tmp_path / "q.csv", q_cols)
+    cli("batch", "--from", "paper-fls", "--to", "paper-fls", "--step", "0.1", "--backend", "cpu",
+        "--input", tmp_path / "q.csv", "--output", tmp_path / "q-out.csv")
+    expected = read_metric_csv(tmp_path / "q-out.csv")
+    for name in sonarproj.METRIC_COLUMNS:
+        assert same(by_quat[name], expected[name]), name
+    # A quaternion off unit norm names the row.
+    bad = dict(q_cols)
+    bad["qw"] = bad["qw"].copy()
+    bad["qw"][5] += 0.01
+    with pytest.raises(sonarproj.InputError, match="row 5.*quaternion"):
+        sonarproj.batch("paper-fls", "paper-fls", bad, step=0.1, backend="cpu")
+    with pytest.raises(sonarproj.InputError, match="give one rotation"):
+        sonarproj.batch("paper-fls", "paper-fls", {**q_cols, "roll": cols["roll"], "pitch": cols["pitch"],
+                                                   "yaw": cols["yaw"]}, step=0.1)
+
+
+def test_projection_area_and_local_precision_reach_python():
+    pose = sonarproj.Pose.placement((15, 0, 0), (5, 0, 0), roll=45, pitch=0, yaw=45)
+    m = sonarproj.project("paper-sss", "paper-fls", pose, 15, elevation=0, step=0.1, backend="cpu")
+    assert m["projection_area"] == pytest.approx(44 * 0.0064, abs=1e-12)
+    assert m["sigma_elevation"] == pytest.approx(
+        0.01 / math.sqrt(12) / abs(m["range_per_elevation"]), rel=1e-12)
+    coarse = sonarproj.project("paper-sss", "paper-fls", pose, 15, step=0.1, area_grid=0.5, backend="cpu")
+    assert coarse["projection_area"] % 0.25 == pytest.approx(0, abs=1e-12)
+    assert math.isnan(coarse["sigma_elevation"])  # no elevation given: no true point
+    with pytest.raises(sonarproj.InputError, match="area_grid"):
+        sonarproj.project("paper-sss", "paper-fls", pose, 15, area_grid=0, backend="cpu")
+    with pytest.raises(sonarproj.InputError, match="sigma_range"):
+        sonarproj.project("paper-sss", "paper-fls", pose, 15, elevation=0, sigma_range=-1, backend="cpu")
+
+
+def test_recover_many_takes_one_pose_per_row():
+    poses = [sonarproj.Pose(roll=0, pitch=80 + k, yaw=0, t=(0.2, 0.1, 0.5)) for k in range(4)]
+    fr, fa = np.array([5.0, 6.0, 7.0, 8.0]), np.zeros(4)
+    sr = np.array([np.linalg.norm(p.apply([r, 0.0, 0.0])) for p, r in zip(poses, fr)])
+    many = sonarproj.recover_many("paper-fls", "paper-sss", poses,
+                                  {"first_range": fr, "first_azimuth": fa, "second_range": sr})
+    for k, p in enumerate(poses):
+        one = sonarproj.recover("paper-fls", "paper-sss", p, (fr[k], fa[k]), sr[k])
+        assert many["elevation_first"][k] == one["candidates"][0]["first"][2]
+    with pytest.raises(sonarproj.InputError, match="pose"):
+        sonarproj.recover_many("paper-fls", "paper-sss", poses[:3],
+                               {"first_range": fr, "first_azimuth": fa, "second_range": sr})
+
+
+def test_merge_refuses_shards_of_different_backends(tmp_path):
+    config = tmp_path / "sweep.toml"
+    config.write_text('from = "paper-fls"\nto = "paper-sss"\nstep = 0.5\n'
+                      "[feature]\nrange = 5\n[place]\nrange = [5, 15]\n[rotation]\npitch = [0, 45, 90]\n")
+    out = tmp_path / "out"
+    sonarproj.sweep(config, out, shard="1/2", backend="cpu")
+    sonarproj.sweep(config, out, shard="2/2", backend="cpu-fast")
+    with pytest.raises(sonarproj.InputError, match="backend"):
+        sonarproj.merge(out)
+    assert not (out / "sweep.csv").exists()
+    (out / "shard-2-of-2.csv").unlink()
+    sonarproj.sweep(config, out, shard="2/2", backend="cpu")
+    merged = sonarproj.merge(out)
+    one = sonarproj.sweep(config, tmp_path / "one", backend="cpu")
+    assert pathlib.Path(merged["file"]).read_bytes() == pathlib.Path(one["file"]).read_bytes()

@@ -32,6 +32,17 @@ struct TargetParams {
     // elevation clip: z^2 cos^2(e) <= (x^2 + y^2) sin^2(e)  <=>  |el| <= e < 90 deg
     sin2_half_el: vec2<f32>,
     cos2_half_el: vec2<f32>,
+    // the projection-area grid (FLS): corner (m), 1 / cell (1/m), cells along x and y
+    grid_x0: f32,
+    grid_y0: f32,
+    inv_cell: f32,
+    grid_nx: u32,
+    grid_ny: u32,
+    // a pose's bitset: pixel_words words of pixels, then cell_words words of grid cells (0
+    // without a grid: an SSS)
+    pixel_words: u32,
+    cell_words: u32,
+    _pad: u32,
 }
 
 // One pose of a chunk: rows of M = range * R * Rz(base azimuth) with the translation in .w, as

@@ -106,6 +106,14 @@ fn shared_struct_members_sit_at_the_rust_offsets() {
         ("cos_half_az", offset_of!(TargetParams, cos_half_az)),
         ("sin2_half_el", offset_of!(TargetParams, sin2_half_el)),
         ("cos2_half_el", offset_of!(TargetParams, cos2_half_el)),
+        ("grid_x0", offset_of!(TargetParams, grid_x0)),
+        ("grid_y0", offset_of!(TargetParams, grid_y0)),
+        ("inv_cell", offset_of!(TargetParams, inv_cell)),
+        ("grid_nx", offset_of!(TargetParams, grid_nx)),
+        ("grid_ny", offset_of!(TargetParams, grid_ny)),
+        ("pixel_words", offset_of!(TargetParams, pixel_words)),
+        ("cell_words", offset_of!(TargetParams, cell_words)),
+        ("_pad", offset_of!(TargetParams, _pad)),
     ];
     let row = 16;
     let hi = offset_of!(PoseGpu, hi);

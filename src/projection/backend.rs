@@ -154,6 +154,25 @@ impl Backend {
         }
     }
 
+    /// Returns what of this backend decides its numbers, as `(name, value)` pairs: the backend,
+    /// and for a GPU its adapter (name, API, driver), the splat stage's precision and its
+    /// options. Results with equal settings (and equal inputs) are equal; the fast CPU path's
+    /// do not depend on its thread count.
+    #[must_use]
+    pub fn settings(&self) -> Vec<(&'static str, String)> {
+        let mut out = vec![("backend", self.name().to_string())];
+        if let Backend::Gpu(g) = self {
+            let info = &g.context().info;
+            out.push((
+                "adapter",
+                format!("{} ({:?}, driver {})", info.name, info.backend, info.driver),
+            ));
+            out.push(("precision", g.context().precision.name().to_string()));
+            out.push(("gpu options", g.options().describe()));
+        }
+        out
+    }
+
     /// Returns the projections of every item of `batch`, in order; with
     /// [`Output::WithOccupancy`] each carries its occupancy buffer.
     ///

@@ -31,6 +31,9 @@ pub struct Batch {
     pub target: Sonar,
     /// How the back-projected sets are sampled.
     pub sampling: Sampling,
+    /// The cell side (m) of the grid the projection area is counted in (FLS target; the paper's
+    /// is [`PAPER_AREA_GRID`](crate::PAPER_AREA_GRID)): see [`AreaGrid`](crate::occupancy::AreaGrid).
+    pub area_grid: f64,
     /// The projections, in order.
     pub items: Vec<BatchItem>,
 }
@@ -183,11 +186,13 @@ impl Batch {
     /// (once, however many items are checked).
     ///
     /// # Errors
-    /// [`Error::InvalidValue`](crate::Error::InvalidValue) for an invalid sonar or sampling.
+    /// [`Error::InvalidValue`](crate::Error::InvalidValue) for an invalid sonar, sampling or
+    /// area grid.
     pub fn checker(&self) -> Result<ItemChecker<'_>> {
         self.source.validate().map_err(|e| e.in_context("sonar 1"))?;
         self.target.validate().map_err(|e| e.in_context("sonar 2"))?;
         let sampling = self.sampling.validated()?;
+        crate::occupancy::AreaGrid::over(&Layout::of(&self.target), self.area_grid)?;
         Ok(ItemChecker {
             batch: self,
             sampling,
@@ -205,6 +210,7 @@ impl Batch {
     /// and item `k`'s errors name it), or a plan that would draw too many samples.
     pub fn prepare(&self) -> Result<PreparedBatch<'_>> {
         let checker = self.checker()?;
+        let layout = Layout::of(&self.target).with_area_grid(self.area_grid)?;
         // Every item checked on all cores; on a failure, the first failing item (in order) is
         // the one named, as a check item by item would find.
         let check = |k: usize, item: &BatchItem| -> Result<(usize, usize)> {
@@ -238,7 +244,7 @@ impl Batch {
             }
             return Ok(PreparedBatch {
                 batch: self,
-                layout: Layout::of(&self.target),
+                layout: layout.clone(),
                 plans,
                 plan_of: PlanOf::First,
             });
@@ -277,7 +283,7 @@ impl Batch {
             .collect();
         Ok(PreparedBatch {
             batch: self,
-            layout: Layout::of(&self.target),
+            layout,
             plans,
             plan_of: PlanOf::Each(plan_of),
         })
@@ -312,6 +318,7 @@ mod tests {
             source: Sonar::preset("paper-fls").unwrap(),
             target: Sonar::preset("paper-sss").unwrap(),
             sampling,
+            area_grid: crate::PAPER_AREA_GRID,
             items,
         }
     }

@@ -19,7 +19,7 @@ use crate::occupancy::{Layout, Occupancy};
 use crate::sampling::SamplingPlan;
 use std::f64::consts::{FRAC_PI_2, PI};
 
-pub use crate::clip::{DOUBLE_F32_TOLERANCE, INPUT_TOLERANCE, RELATIVE_TOLERANCE};
+pub use crate::clip::{CELL_SLACK, DOUBLE_F32_TOLERANCE, INPUT_TOLERANCE, RELATIVE_TOLERANCE};
 
 /// Returns the input tolerance ([`INPUT_TOLERANCE`] or [`DOUBLE_F32_TOLERANCE`]) of results
 /// decided at `precision`.
@@ -52,6 +52,11 @@ pub struct Bounds {
     pub azimuth_min: (f64, f64),
     /// Interval of the largest visible azimuth (deg).
     pub azimuth_max: (f64, f64),
+    /// Projection-area cells set by samples far from every cell edge and clip bound: a correct
+    /// result counts at least these (empty without an area grid).
+    pub cells_certain: Occupancy,
+    /// Projection-area cells any sample could reach: a correct result counts no more.
+    pub cells_possible: Occupancy,
 }
 
 /// Returns the envelope of one pose for results decided in f64 (the CPU paths, a GPU with f64):
@@ -88,6 +93,8 @@ pub fn bounds_with(
         range_max: (f64::NEG_INFINITY, f64::NEG_INFINITY),
         azimuth_min: (f64::INFINITY, f64::INFINITY),
         azimuth_max: (f64::NEG_INFINITY, f64::NEG_INFINITY),
+        cells_certain: layout.cell_bitset(),
+        cells_possible: layout.cell_bitset(),
     };
     let input_tol = input_tolerance * (range + pose.translation.length());
     let full_azimuth = layout.half_azimuth >= PI;
@@ -146,6 +153,22 @@ pub fn bounds_with(
                     b.possible.set(i, j);
                 }
             }
+            if let Some(grid) = &layout.area_grid {
+                // The image point r (cos az, sin az) moves by at most tol along the range and
+                // r · d_az across it, plus the GPU's f32 cell arithmetic (CELL_SLACK).
+                let e = tol + r * d_az + CELL_SLACK * layout.range_max;
+                let (x, y) = (r * az.cos(), r * az.sin());
+                let (i0, j0) = grid.cell_of(x - e, y - e);
+                let (i1, j1) = grid.cell_of(x + e, y + e);
+                if certainly_in && i0 == i1 && j0 == j1 {
+                    b.cells_certain.set(i0, j0);
+                }
+                for i in i0..=i1 {
+                    for j in j0..=j1 {
+                        b.cells_possible.set(i, j);
+                    }
+                }
+            }
         }
     }
     for v in [&mut b.azimuth_min, &mut b.azimuth_max] {
@@ -189,5 +212,16 @@ impl Bounds {
     pub fn measure(&self, layout: &Layout) -> (f64, f64) {
         let sum = |o: &Occupancy| o.pixels().map(|(i, j)| layout.pixel_measure(i, j)).sum();
         (sum(&self.certain), sum(&self.possible))
+    }
+
+    /// Returns the interval `(certain, possible)` of the projection area (m²) under `layout`;
+    /// `None` without an area grid.
+    #[must_use]
+    pub fn projection_area(&self, layout: &Layout) -> Option<(f64, f64)> {
+        let grid = layout.area_grid?;
+        Some((
+            grid.area(self.cells_certain.count()),
+            grid.area(self.cells_possible.count()),
+        ))
     }
 }

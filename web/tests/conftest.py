@@ -107,7 +107,7 @@ class Page:
     """The viewer's page in a browser: set fields, wait for the engine's answer, read back."""
 
     METRICS = ["visible", "total", "range_min", "range_max", "span", "azimuth_min", "azimuth_max",
-               "occupied", "occupied_measure"]
+               "occupied", "occupied_measure", "projection_area", "range_per_elevation", "sigma_elevation"]
 
     def __init__(self, driver, url):
         self.d = driver

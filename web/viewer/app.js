@@ -10,7 +10,8 @@ const COLOURS = {
   s1: 0x1f77b4, s2: 0xff7f0e, seen: 0xd62728, unseen: 0xa0a4ab, truth: 0x111111, rec: 0x2ca02c,
 };
 const METRICS = ["visible", "total", "range_min", "range_max", "span", "azimuth_min",
-  "azimuth_max", "occupied", "occupied_measure"];
+  "azimuth_max", "occupied", "occupied_measure", "projection_area", "range_per_elevation",
+  "sigma_elevation"];
 
 const $ = (id) => document.getElementById(id);
 const state = { sonars: new Map(), last: null, copy: "command", fitted: false };

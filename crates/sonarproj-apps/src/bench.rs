@@ -42,6 +42,7 @@ pub fn batch(source: &Sonar, target: &Sonar, n: usize) -> Result<Batch> {
         source: source.clone(),
         target: target.clone(),
         sampling: Sampling::Step(0.1),
+        area_grid: sonarproj::PAPER_AREA_GRID,
         items,
     })
 }

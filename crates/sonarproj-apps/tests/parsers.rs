@@ -163,10 +163,11 @@ proptest! {
             source: fls,
             target: sss,
             sampling: sonarproj::Sampling::Step(3.0),
+            area_grid: sonarproj::PAPER_AREA_GRID,
             items: Vec::new(),
         };
         slowest.time(|| {
-            let _ = project_csv(text.as_bytes(), std::io::sink(), &pair, |b| {
+            let _ = project_csv(text.as_bytes(), std::io::sink(), &pair, None, |b| {
                 Ok(sonarproj::Backend::CpuFast.project(b, sonarproj::Output::MetricsOnly)?)
             });
         });

@@ -45,6 +45,7 @@ fn a_scene_shows_the_engines_metrics_occupancy_and_visible_samples() {
             source: from,
             target: to,
             sampling: s.step.map_or(Sampling::Auto, Sampling::Step),
+            area_grid: sonarproj::PAPER_AREA_GRID,
             items: vec![BatchItem {
                 measurement,
                 pose: s.pose().unwrap(),
@@ -55,7 +56,19 @@ fn a_scene_shows_the_engines_metrics_occupancy_and_visible_samples() {
             .unwrap()
             .pop()
             .unwrap();
-        assert_eq!(out["metrics"], serde_json::to_value(p.metrics).unwrap(), "{text}");
+        // The metric table's values, then the local precision at the true point.
+        let mut expected = serde_json::to_value(p.metrics).unwrap();
+        let f = s.feature;
+        let local = sonarproj::local_precision::local_precision(
+            &batch.source,
+            &batch.target,
+            [f.range, f.azimuth, f.elevation],
+            &batch.items[0].pose,
+            sonarproj::local_precision::default_sigma_range(&batch.source, &batch.target),
+        );
+        expected["range_per_elevation"] = serde_json::json!(local.range_per_elevation);
+        expected["sigma_elevation"] = serde_json::json!(local.sigma_elevation);
+        assert_eq!(out["metrics"], expected, "{text}");
         assert!(
             p.metrics.visible > 0,
             "{text}: a scene where sonar 2 sees something"
@@ -198,7 +211,8 @@ fn the_sweep_file_it_offers_gives_back_the_same_pose() {
         let config =
             SweepConfig::parse("view.toml", toml, Path::new("/")).unwrap_or_else(|e| panic!("{toml}\n{e}"));
         assert_eq!(config.count().unwrap(), 1);
-        let (items, _) = config.items(0..1).unwrap();
+        let (rows, _) = config.items(0..1).unwrap();
+        let items: Vec<_> = rows.iter().map(|r| r.item).collect();
         let pose = s.pose().unwrap();
         assert_eq!(items[0].pose.rotation, pose.rotation, "{toml}");
         assert_eq!(items[0].pose.translation, pose.translation, "{toml}");

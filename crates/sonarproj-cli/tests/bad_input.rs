@@ -42,6 +42,14 @@ fn bad_project_input_exits_2_naming_field_and_value() {
             &["--range", "5", "--place-range", "5", "--step", "-1"],
             &["step = -1"],
         ),
+        (
+            &["--range", "5", "--place-range", "5", "--area-grid", "0"],
+            &["area_grid = 0", "> 0 m"],
+        ),
+        (
+            &["--range", "5", "--place-range", "5", "--sigma-range", "-0.1"],
+            &["sigma_range = -0.1", "> 0 m"],
+        ),
         (&["--range", "5", "--place-range", "-2"], &["place range = -2"]),
         (
             &["--range", "5", "--place-range", "5", "--roll", "inf"],
@@ -168,6 +176,34 @@ fn bad_sonar_files_exit_2_naming_file_key_and_value() {
 }
 
 #[test]
+fn an_area_grid_too_fine_for_the_image_names_the_smallest_cell() {
+    let args = [
+        "project",
+        "--from",
+        "paper-sss",
+        "--to",
+        "oculus-m750d",
+        "--range",
+        "5",
+        "--place-range",
+        "5",
+        "--area-grid",
+        "0.01",
+        "--backend",
+        "cpu",
+    ];
+    common::rejects(
+        &args,
+        None,
+        &[
+            "area_grid = 0.01",
+            "cells over sonar 2's image",
+            "use at least 0.020 m",
+        ],
+    );
+}
+
+#[test]
 fn bad_batch_input_exits_2_naming_the_row_and_leaves_no_file() {
     let dir = tempfile::tempdir().unwrap();
     let output = dir.path().join("out.csv");
@@ -187,7 +223,7 @@ fn bad_batch_input_exits_2_naming_the_row_and_leaves_no_file() {
     ];
     let header = "range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz\n";
     let good = "5,0,0,0,0,0,1,0,0\n";
-    let cases: [(String, &[&str]); 10] = [
+    let cases: [(String, &[&str]); 13] = [
         (String::new(), &["empty input"]),
         (header.to_string(), &["no rows"]),
         (
@@ -212,9 +248,26 @@ fn bad_batch_input_exits_2_naming_the_row_and_leaves_no_file() {
             "range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz,bogus\n".to_string(),
             &["unknown column \"bogus\""],
         ),
+        // With tx,ty,tz the true point's elevation is optional; a placement needs it.
         (
-            "range,azimuth,roll,pitch,yaw,tx,ty,tz\n".to_string(),
-            &["missing column \"elevation\""],
+            "range,azimuth,roll,pitch,yaw,place_range,place_azimuth,place_elevation\n".to_string(),
+            &[
+                "missing column(s) elevation",
+                "a placement needs the feature's true point",
+            ],
+        ),
+        (
+            "range,azimuth,qw,qx,qy,qz,tx,ty,tz\n5,0,1,0,0,0,1,0,0\n5,0,1,0,0.01,0,1,0,0\n".to_string(),
+            &["row 2", "quaternion", "norm within 0.000001 of 1"],
+        ),
+        (
+            "range,azimuth,r11,r12,r13,r21,r22,r23,r31,r32,r33,tx,ty,tz\n5,0,1,0,0,0,1,0,0,0,-1,1,0,0\n"
+                .to_string(),
+            &["row 1", "matrix", "determinant +1"],
+        ),
+        (
+            "range,azimuth,roll,pitch,yaw,qw,qx,qy,qz,tx,ty,tz\n".to_string(),
+            &["give one rotation, not roll,pitch,yaw and qw,qx,qy,qz"],
         ),
     ];
     for (input, needles) in cases {

@@ -6,6 +6,7 @@ use sonarproj_testkit as common;
 use common::json;
 use serde_json::Value;
 use sonarproj::metrics::METRIC_NAMES;
+use sonarproj_apps::io::METRIC_COLUMNS;
 
 #[test]
 fn project_prints_metrics_as_json() {
@@ -309,12 +310,13 @@ fn batch_reads_poses_and_writes_metrics() {
         let text = String::from_utf8(out).unwrap();
         let mut rdr = csv::Reader::from_reader(text.as_bytes());
         let header: Vec<String> = rdr.headers().unwrap().iter().map(String::from).collect();
-        assert_eq!(header.len(), 9 + METRIC_NAMES.len());
+        assert_eq!(header.len(), 9 + METRIC_COLUMNS.len());
         assert_eq!(
             header[9..],
-            METRIC_NAMES,
-            "metric columns: the metric table's names, in order"
+            METRIC_COLUMNS,
+            "metric columns: the metric table's names, in order, then the local precision"
         );
+        assert_eq!(header[9..9 + METRIC_NAMES.len()], METRIC_NAMES);
         let rows: Vec<csv::StringRecord> = rdr.records().map(Result::unwrap).collect();
         assert_eq!(rows.len(), 3);
         assert_eq!(&rows[0][9], "121", "{backend}: pitch 90 keeps the whole arc");
@@ -601,8 +603,8 @@ fn project_json_keys_are_the_metric_table() {
         .map(String::as_str)
         .collect();
     assert_eq!(
-        keys, METRIC_NAMES,
-        "JSON keys: the metric table's names, in order"
+        keys, METRIC_COLUMNS,
+        "JSON keys: the metric table's names, in order, then the local precision"
     );
     // Values are read through the table as the struct holds them: pitch 90° keeps the whole arc.
     assert!(json["metrics"]["visible"].as_u64().unwrap() > 100);

@@ -231,7 +231,7 @@ fn shards_merge_into_the_file_one_run_writes() {
     let dir = tempfile::tempdir().unwrap();
     for (name, text, png) in [
         ("2d", GRID_2D, "sweep-span.png"),
-        ("1d", GRID_1D, "sweep-occupied_measure.png"),
+        ("1d", GRID_1D, "sweep-projection_area.png"),
     ] {
         let cfg = file(dir.path(), &format!("{name}.toml"), text);
         let one = dir.path().join(format!("{name}-one"));
@@ -514,4 +514,58 @@ fn merge_refuses_foreign_or_damaged_shards_naming_them() {
     refused("no record", "missing");
     // Whole again: merges.
     common::sonarproj().arg("merge").arg(&out).assert().success();
+}
+
+#[test]
+fn merge_refuses_shards_computed_with_different_settings() {
+    use predicates::prelude::*;
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = file(dir.path(), "2d.toml", GRID_2D);
+    let out = dir.path().join("o");
+    sweep(
+        &cfg,
+        &out,
+        &["--backend", "cpu", "--shard", "1/2"],
+        "shard-1-of-2.csv",
+    );
+    sweep(
+        &cfg,
+        &out,
+        &["--backend", "cpu-fast", "--shard", "2/2"],
+        "shard-2-of-2.csv",
+    );
+    common::sonarproj()
+        .arg("merge")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(
+            predicates::str::contains("backend")
+                .and(predicates::str::contains("\"cpu-fast\" in shard 2 of 2"))
+                .and(predicates::str::contains("\"cpu\" in shard 1")),
+        );
+    assert!(!out.join("sweep.csv").exists(), "merge wrote sweep.csv");
+    // Shard 2 recomputed on the same backend as shard 1 (a finished part is kept, so its file
+    // is removed first): merges into the file one run writes.
+    std::fs::remove_file(out.join("shard-2-of-2.csv")).unwrap();
+    sweep(
+        &cfg,
+        &out,
+        &["--backend", "cpu", "--shard", "2/2"],
+        "shard-2-of-2.csv",
+    );
+    common::sonarproj().arg("merge").arg(&out).assert().success();
+    let one = dir.path().join("one");
+    let whole = sweep(&cfg, &one, &["--backend", "cpu"], "sweep.csv");
+    assert!(std::fs::read(out.join("sweep.csv")).unwrap() == whole);
+    // A shard without its record of settings is refused, naming it.
+    std::fs::remove_file(out.join("sweep.csv")).unwrap();
+    std::fs::remove_file(out.join("shard-2-of-2.run.json")).unwrap();
+    common::sonarproj()
+        .arg("merge")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("shard-2-of-2.run.json"));
+    assert!(!out.join("sweep.csv").exists());
 }

@@ -93,6 +93,16 @@ pub(crate) fn sweep_run<'py>(
     Ok((d, notice))
 }
 
+/// Joins the finished shards in `out_dir` into its `sweep.csv` (and draws the figure), as
+/// `sonarproj merge` does: refused, writing nothing, when a shard is missing or damaged or the
+/// shards were computed with different settings. Returns the CSV's and the figure's paths.
+#[pyfunction]
+#[pyo3(signature = (out_dir))]
+pub(crate) fn sweep_merge(py: Python<'_>, out_dir: PathBuf) -> PyResult<(PathBuf, Option<PathBuf>)> {
+    py.detach(|| sweep::merge(&out_dir))
+        .map_err(|e| errors::apps_renamed(e, &[("DIR", "out_dir")]))
+}
+
 /// Runs the paper's simulations and writes their CSV, figures and findings into `out_dir`;
 /// returns the findings and the notice of the backend's selection.
 #[pyfunction]

@@ -3,7 +3,9 @@
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use sonarproj::local_precision::LocalPrecision;
 use sonarproj::metrics::{METRICS, Metric, Metrics, Value};
+use sonarproj_apps::io::batch::LOCAL_COLUMNS;
 
 use crate::errors;
 
@@ -46,9 +48,14 @@ pub(crate) fn slices<'a>(
     Ok((slices, len))
 }
 
-/// Returns a dict of metric arrays, named as the command line's metric columns, from `metrics`:
-/// counts as int64, numbers as float64 with NaN where nothing was visible.
-pub(crate) fn metric_dict<'py>(py: Python<'py>, metrics: &[Metrics]) -> PyResult<Bound<'py, PyDict>> {
+/// Returns a dict of metric arrays, named as the command line's metric columns, from `metrics`
+/// and the local precision `locals` of the same rows: counts as int64, numbers as float64 with
+/// NaN where nothing was visible or there is no value.
+pub(crate) fn metric_dict<'py>(
+    py: Python<'py>,
+    metrics: &[Metrics],
+    locals: &[LocalPrecision],
+) -> PyResult<Bound<'py, PyDict>> {
     let dict = PyDict::new(py);
     for info in METRICS {
         match info.metric {
@@ -68,12 +75,18 @@ pub(crate) fn metric_dict<'py>(py: Python<'py>, metrics: &[Metrics]) -> PyResult
                     .map(|m| match m.get(info.metric) {
                         Value::Count(n) => n as f64,
                         Value::Real(x) => x,
-                        Value::Extreme(x) => x.unwrap_or(f64::NAN),
+                        Value::Optional(x) => x.unwrap_or(f64::NAN),
                     })
                     .collect();
                 dict.set_item(info.name, v.into_pyarray(py))?;
             }
         }
     }
+    let column = |f: fn(&LocalPrecision) -> Option<f64>| -> Vec<f64> {
+        locals.iter().map(|l| f(l).unwrap_or(f64::NAN)).collect()
+    };
+    let [slope, sigma] = LOCAL_COLUMNS;
+    dict.set_item(slope, column(|l| l.range_per_elevation).into_pyarray(py))?;
+    dict.set_item(sigma, column(|l| l.sigma_elevation).into_pyarray(py))?;
     Ok(dict)
 }

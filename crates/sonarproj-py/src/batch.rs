@@ -6,9 +6,11 @@ use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use sonarproj::local_precision::{LocalPrecision, resolve_sigma_range};
 use sonarproj::metrics::Metrics;
 use sonarproj::{Backend, Batch, BatchItem, Measurement, Output, Sampling, SonarKind};
-use sonarproj_apps::io::batch::batch_item;
+use sonarproj_apps::io::batch::{PoseRow, local_of};
+use sonarproj_apps::io::pose_columns::{PoseColumns, allowed_columns, expected_columns};
 
 use crate::arrays::{metric_dict, slices};
 use crate::pose::PyPose;
@@ -19,31 +21,6 @@ use crate::{backend, errors};
 /// chunks (about a second of work at 0.1° sampling on two cores).
 const CHUNK_POSES: usize = 65_536;
 
-/// The columns `batch_columns` takes, in order: the feature's true point, the rotation, then
-/// the placement or the translation.
-const PLACE_NAMES: [&str; 9] = [
-    "range",
-    "azimuth",
-    "elevation",
-    "roll",
-    "pitch",
-    "yaw",
-    "place_range",
-    "place_azimuth",
-    "place_elevation",
-];
-const TRANSLATION_NAMES: [&str; 9] = [
-    "range",
-    "azimuth",
-    "elevation",
-    "roll",
-    "pitch",
-    "yaw",
-    "tx",
-    "ty",
-    "tz",
-];
-
 /// Returns the sampling of `step` (deg; `None`: auto), checked.
 pub(crate) fn sampling(step: Option<f64>) -> PyResult<Sampling> {
     step.map_or(Sampling::Auto, Sampling::Step)
@@ -51,104 +28,146 @@ pub(crate) fn sampling(step: Option<f64>) -> PyResult<Sampling> {
         .map_err(|e| errors::engine(e.in_context("step")))
 }
 
-/// Returns the items of rows `rows` of `cols`, each checked: errors name the row (0-based).
+/// Returns the items of rows `rows` of `cols` (in `columns`' order), each checked: errors name
+/// the row (0-based).
 fn items(
     source: &sonarproj::Sonar,
+    columns: &PoseColumns,
     cols: &[&[f64]],
-    placement: bool,
     rows: std::ops::Range<usize>,
     checker: &sonarproj::projection::ItemChecker<'_>,
-) -> sonarproj::Result<Vec<BatchItem>> {
+) -> sonarproj::Result<Vec<PoseRow>> {
+    let mut values = vec![0.0; cols.len()];
     rows.map(|k| {
-        let v = |c: usize| cols[c][k];
-        let item = batch_item(
-            source,
-            [v(0), v(1), v(2)],
-            [v(3), v(4), v(5)],
-            placement,
-            [v(6), v(7), v(8)],
-        )
-        .and_then(|item| checker.check(&item).map(|_| item));
-        item.map_err(|e| e.in_context(&format!("poses row {k}")))
+        for (v, c) in values.iter_mut().zip(cols) {
+            *v = c[k];
+        }
+        let item = columns
+            .item(source, &values)
+            .and_then(|item| checker.check(&item).map(|_| item));
+        let item = item.map_err(|e| e.in_context(&format!("poses row {k}")))?;
+        Ok(PoseRow {
+            item,
+            true_point: columns.true_point(&values),
+        })
     })
     .collect()
 }
 
-/// Returns the column slices of `columns` (the nine of `PLACE_NAMES` when `placement`, else of
-/// `TRANSLATION_NAMES`), their length, and the pair they are projected between: the sonars and
-/// the sampling of `step`, no items yet.
+/// Returns the pose table's reading (its columns `names`, checked against sonar 1), the column
+/// slices in the order it reads them, their length, and the pair they are projected between:
+/// the sonars, the sampling of `step` and the area grid, no items yet.
 fn columns_and_pair<'a>(
     first: &PySonar,
     second: &PySonar,
+    names: &[String],
     columns: &'a [PyReadonlyArray1<'_, f64>],
-    placement: bool,
     step: Option<f64>,
-) -> PyResult<(Vec<&'a [f64]>, usize, Batch)> {
-    let names = if placement { PLACE_NAMES } else { TRANSLATION_NAMES };
-    let (cols, len) = slices(&names, columns)?;
+    area_grid: f64,
+) -> PyResult<(PoseColumns, Vec<&'a [f64]>, usize, Batch)> {
+    let allowed = allowed_columns();
+    if let Some(unknown) = names.iter().find(|n| !allowed.contains(&n.as_str())) {
+        return Err(errors::input(
+            "poses",
+            format!(
+                "unknown column {unknown:?}; the columns are {}",
+                expected_columns()
+            ),
+        ));
+    }
+    let given: Vec<&str> = names.iter().map(String::as_str).collect();
+    let reading = PoseColumns::of(&given, first.inner.kind).map_err(|m| errors::input("poses", m))?;
+    let (all, len) = slices(&given, columns)?;
+    let cols = reading
+        .columns()
+        .iter()
+        .map(|c| {
+            all[given
+                .iter()
+                .position(|n| n == c)
+                .expect("a column the reading found")]
+        })
+        .collect();
     let pair = Batch {
         source: first.inner.clone(),
         target: second.inner.clone(),
         sampling: sampling(step)?,
+        area_grid,
         items: Vec::new(),
     };
-    Ok((cols, len, pair))
+    pair.checker().map_err(errors::engine)?;
+    Ok((reading, cols, len, pair))
 }
 
 /// Returns the metrics of every row of `columns` (see `columns_and_pair`), as a dict of arrays
 /// named as the command line's metric columns, and the notice of the backend's selection.
 #[pyfunction]
-#[pyo3(signature = (first, second, columns, placement, step, backend_name))]
+#[pyo3(signature = (first, second, names, columns, step, area_grid, sigma_range, backend_name))]
+#[expect(clippy::too_many_arguments, reason = "the Python function's parameters")]
 pub(crate) fn batch_columns<'py>(
     py: Python<'py>,
     first: &PySonar,
     second: &PySonar,
+    names: Vec<String>,
     columns: Vec<PyReadonlyArray1<'py, f64>>,
-    placement: bool,
     step: Option<f64>,
+    area_grid: f64,
+    sigma_range: Option<f64>,
     backend_name: &str,
 ) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
-    let (cols, len, pair) = columns_and_pair(first, second, &columns, placement, step)?;
+    let (reading, cols, len, pair) = columns_and_pair(first, second, &names, &columns, step, area_grid)?;
     let checker = pair.checker().map_err(errors::engine)?;
+    let sigma = resolve_sigma_range(&pair.source, &pair.target, sigma_range).map_err(errors::engine)?;
     let (backend, notice) = backend::get(backend_name)?;
     let mut chunk = pair.clone();
     let mut metrics: Vec<Metrics> = Vec::with_capacity(len);
+    let mut locals: Vec<LocalPrecision> = Vec::with_capacity(len);
     let mut start = 0;
     while start < len {
         let end = (start + CHUNK_POSES).min(len);
-        let results = py.detach(|| -> sonarproj::Result<Vec<Metrics>> {
-            chunk.items = items(&pair.source, &cols, placement, start..end, &checker)?;
+        let results = py.detach(|| -> sonarproj::Result<()> {
+            let rows = items(&pair.source, &reading, &cols, start..end, &checker)?;
+            chunk.items = rows.iter().map(|r| r.item).collect();
             let projected = backend.project(&chunk, Output::MetricsOnly)?;
-            Ok(projected.into_iter().map(|p| p.metrics).collect())
+            metrics.extend(projected.into_iter().map(|p| p.metrics));
+            locals.extend(
+                rows.iter()
+                    .map(|r| local_of(&chunk, &r.item, r.true_point, sigma)),
+            );
+            Ok(())
         });
-        metrics.extend(results.map_err(errors::engine)?);
+        results.map_err(errors::engine)?;
         py.check_signals()?;
         start = end;
     }
-    Ok((metric_dict(py, &metrics)?, notice))
+    Ok((metric_dict(py, &metrics, &locals)?, notice))
 }
 
 /// Returns the seconds the Rust library takes for the batch `batch_columns` would compute
 /// (the pair checked, items built from the columns and checked, projected in one call, metrics
 /// collected), for the benchmark comparing the Python call with the library.
 #[pyfunction]
-#[pyo3(signature = (first, second, columns, placement, step, backend_name))]
+#[pyo3(signature = (first, second, names, columns, step, backend_name))]
 pub(crate) fn bench_rust_batch<'py>(
     py: Python<'py>,
     first: &PySonar,
     second: &PySonar,
+    names: Vec<String>,
     columns: Vec<PyReadonlyArray1<'py, f64>>,
-    placement: bool,
     step: Option<f64>,
     backend_name: &str,
 ) -> PyResult<f64> {
-    let (cols, len, pair) = columns_and_pair(first, second, &columns, placement, step)?;
+    let (reading, cols, len, pair) =
+        columns_and_pair(first, second, &names, &columns, step, sonarproj::PAPER_AREA_GRID)?;
     let (backend, _) = backend::get(backend_name)?;
     py.detach(|| -> sonarproj::Result<f64> {
         let start = Instant::now();
         let checker = pair.checker()?;
         let batch = Batch {
-            items: items(&pair.source, &cols, placement, 0..len, &checker)?,
+            items: items(&pair.source, &reading, &cols, 0..len, &checker)?
+                .into_iter()
+                .map(|r| r.item)
+                .collect(),
             ..pair.clone()
         };
         let metrics: Vec<Metrics> = backend
@@ -166,7 +185,7 @@ pub(crate) fn bench_rust_batch<'py>(
 /// layout when `occupancy`), the sampling plan's sizes, the device, and the notice of the
 /// backend's selection.
 #[pyfunction]
-#[pyo3(signature = (first, second, pose, range, azimuth, step, occupancy, backend_name))]
+#[pyo3(signature = (first, second, pose, range, azimuth, elevation, step, area_grid, sigma_range, occupancy, backend_name))]
 #[expect(clippy::too_many_arguments, reason = "the Python function's parameters")]
 pub(crate) fn project_one<'py>(
     py: Python<'py>,
@@ -175,7 +194,10 @@ pub(crate) fn project_one<'py>(
     pose: &PyPose,
     range: f64,
     azimuth: f64,
+    elevation: Option<f64>,
     step: Option<f64>,
+    area_grid: f64,
+    sigma_range: Option<f64>,
     occupancy: bool,
     backend_name: &str,
 ) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
@@ -185,6 +207,7 @@ pub(crate) fn project_one<'py>(
         source: first.inner.clone(),
         target: second.inner.clone(),
         sampling: sampling(step)?,
+        area_grid,
         items: vec![BatchItem {
             measurement,
             pose: pose.inner,
@@ -202,7 +225,20 @@ pub(crate) fn project_one<'py>(
         .map_err(errors::engine)?;
     let projection = result.pop().expect("one item in, one result out");
     let dict = PyDict::new(py);
-    for (k, v) in metric_dict(py, &[projection.metrics])?.iter() {
+    if let Some(el) = elevation {
+        first
+            .inner
+            .check_point("feature", range, azimuth, el)
+            .map_err(errors::engine)?;
+    }
+    let sigma = resolve_sigma_range(&batch.source, &batch.target, sigma_range).map_err(errors::engine)?;
+    let local = local_of(
+        &batch,
+        &batch.items[0],
+        elevation.map(|el| [range, azimuth, el]),
+        sigma,
+    );
+    for (k, v) in metric_dict(py, &[projection.metrics], &[local])?.iter() {
         let first = v.get_item(0)?;
         dict.set_item(k, first.call_method0("item")?)?;
     }

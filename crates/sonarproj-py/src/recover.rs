@@ -9,6 +9,7 @@ use crate::arrays::slices;
 use crate::errors;
 use crate::pose::PyPose;
 use crate::sonar::PySonar;
+use sonarproj::RelativePose;
 
 /// Returns the observation of `range` and `azimuth` (NaN: none, for a sidescan).
 fn observation(range: f64, azimuth: f64) -> Observation {
@@ -58,19 +59,31 @@ pub(crate) fn recover_one(
 const NAMES: [&str; 4] = ["first_range", "first_azimuth", "second_range", "second_azimuth"];
 
 /// Returns, per correspondence of the columns, the number of candidates and the best one
-/// (NaN where there is none), the curve length (sidescan pairs) and the flags.
+/// (NaN where there is none), the curve length (sidescan pairs) and the flags. `poses` holds one
+/// pose for every correspondence, or one per correspondence.
 #[pyfunction]
-#[pyo3(signature = (first, second, pose, columns, sigma_range, sigma_azimuth))]
+#[pyo3(signature = (first, second, poses, columns, sigma_range, sigma_azimuth))]
 pub(crate) fn recover_columns<'py>(
     py: Python<'py>,
     first: &PySonar,
     second: &PySonar,
-    pose: &PyPose,
+    poses: Vec<PyRef<'py, PyPose>>,
     columns: Vec<PyReadonlyArray1<'py, f64>>,
     sigma_range: Option<f64>,
     sigma_azimuth: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (cols, len) = slices(&NAMES, &columns)?;
+    let poses: Vec<RelativePose> = poses.iter().map(|p| p.inner).collect();
+    if poses.len() != 1 && poses.len() != len {
+        return Err(errors::input(
+            "pose",
+            format!(
+                "{} poses given for {len} correspondences: give one pose, or one per correspondence",
+                poses.len()
+            ),
+        ));
+    }
+    let pose_of = |k: usize| &poses[if poses.len() == 1 { 0 } else { k }];
     let s = sigmas(sigma_range, sigma_azimuth);
     let results: Vec<Recovery> = py
         .detach(|| {
@@ -79,7 +92,7 @@ pub(crate) fn recover_columns<'py>(
                     recovery::recover(
                         &first.inner,
                         &second.inner,
-                        &pose.inner,
+                        pose_of(k),
                         observation(cols[0][k], cols[1][k]),
                         observation(cols[2][k], cols[3][k]),
                         s,

@@ -187,6 +187,14 @@ pub fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Resul
     if m.occupied_measure < lo * (1.0 - slack) || m.occupied_measure > hi * (1.0 + slack) {
         return Err(format!("measure {} outside [{lo}, {hi}]", m.occupied_measure));
     }
+    // Both areas are a cell count times the same cell², so they compare exactly.
+    match (b.projection_area(layout), m.projection_area) {
+        (None, None) => {}
+        (Some((lo, hi)), Some(a)) if (lo..=hi).contains(&a) => {}
+        (interval, area) => {
+            return Err(format!("projection_area {area:?} outside {interval:?}"));
+        }
+    }
     if m.visible > 0 {
         let inside = |name: &str, v: Option<f64>, (lo, hi): (f64, f64)| -> Result<(), String> {
             let v = v.ok_or(format!("{name} missing"))?;

@@ -36,6 +36,9 @@ pub(super) struct Lanes {
     pub(super) sure: [bool; LANES],
     /// Whether the sample is visible.
     pub(super) keep: [bool; LANES],
+    /// The projection-area cell `i · ny + j` (an FLS target with a grid): the operations of
+    /// [`crate::occupancy::AreaGrid::flat_cell`], so the same cell.
+    pub(super) cell: [i32; LANES],
 }
 
 /// Per lane, over the visible samples of the pose so far: range (or squared range) and key
@@ -58,6 +61,7 @@ impl Default for Lanes {
             pixel: [0; LANES],
             sure: [false; LANES],
             keep: [false; LANES],
+            cell: [0; LANES],
         }
     }
 }
@@ -159,6 +163,7 @@ pub(super) fn draw_lanes<const FLS: bool>(
     run: &mut Running,
 ) -> u32 {
     let beams = geo.beams;
+    let cells = if FLS { geo.cells } else { None };
     // NaN without uniform beams: no guess is ever sure.
     let guess_scale = geo.inv_beam_width.unwrap_or(f64::NAN);
     for k in 0..LANES {
@@ -179,6 +184,15 @@ pub(super) fn draw_lanes<const FLS: bool>(
             let frac = g - f64::from(j);
             out.sure[k] = (frac > geo.guess_slack) & (frac < 1.0 - geo.guess_slack);
             out.pixel[k] = i * beams + j;
+            if let Some(g) = cells {
+                // (x, y) scaled to length r; (r, 0) on the z axis.
+                let rho2 = x * x + y * y;
+                let s = r / rho2.sqrt();
+                let (u, v) = if rho2 > 0.0 { (s * x, s * y) } else { (r, 0.0) };
+                let ci = to_index(((u - g.x0) / g.cell).max(0.0).min(g.last_i));
+                let cj = to_index(((v - g.y0) / g.cell).max(0.0).min(g.last_j));
+                out.cell[k] = ci * g.ny + cj;
+            }
             az
         } else {
             out.pixel[k] = i;

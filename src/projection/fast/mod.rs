@@ -87,6 +87,20 @@ struct Geometry<'a> {
     /// the distance (in beams) from a beam edge below which a guess is not trusted.
     guess_origin: f64,
     guess_slack: f64,
+    /// The projection-area grid as the lane stage reads it (an FLS target).
+    cells: Option<CellGrid>,
+}
+
+/// The projection-area grid for the lane stage: [`crate::occupancy::AreaGrid`]'s corner and
+/// cell, its largest indices as floats (for the clamp) and its row length.
+#[derive(Clone, Copy)]
+struct CellGrid {
+    x0: f64,
+    y0: f64,
+    cell: f64,
+    last_i: f64,
+    last_j: f64,
+    ny: i32,
 }
 
 impl<'a> Geometry<'a> {
@@ -108,6 +122,20 @@ impl<'a> Geometry<'a> {
                 .collect(),
             guess_origin: layout.beam_edges[0],
             guess_slack,
+            #[expect(
+                clippy::cast_precision_loss,
+                clippy::cast_possible_truncation,
+                clippy::cast_possible_wrap,
+                reason = "cell counts below MAX_AREA_CELLS (2^26)"
+            )]
+            cells: layout.area_grid.map(|g| CellGrid {
+                x0: g.x0,
+                y0: g.y0,
+                cell: g.cell,
+                last_i: (g.nx - 1) as f64,
+                last_j: (g.ny - 1) as f64,
+                ny: g.ny as i32,
+            }),
         }
     }
 }
@@ -155,8 +183,10 @@ fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, isa: Isa) ->
                     SonarKind::Sss => isa::draw_pose::<false>(isa, scratch, &geo, dirs, pose),
                 };
                 let (occupied, measure, occupancy) = scratch.reduce(&geo, keep_occupancy);
+                let area = scratch.reduce_cells(&geo);
+                let total = dirs.units.len() as u64;
                 Projection {
-                    metrics: Metrics::new(visible, dirs.units.len() as u64, extremes, occupied, measure),
+                    metrics: Metrics::new(visible, total, extremes, (occupied, measure), area),
                     occupancy,
                 }
             },

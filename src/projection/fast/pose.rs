@@ -32,8 +32,13 @@ impl Scratch {
             seen,
             lanes,
             running,
+            cells,
+            cell_summary,
             ..
         } = self;
+        let grid = FLS && geo.cells.is_some();
+        // The last cell set: neighbouring samples mostly share one.
+        let mut last_cell = usize::MAX;
         // Room for every sample of the plan, made before the pose loop: a push that may grow
         // the vector would be a call there, around which the loop's constants leave registers.
         if seen.len() < dirs.units.len() {
@@ -78,6 +83,14 @@ impl Scratch {
                     (word, bits) = (pixel / 32, 0);
                 }
                 bits |= 1 << (pixel % 32);
+                if grid {
+                    #[expect(clippy::cast_sign_loss, reason = "cells are clamped to 0..")]
+                    let c = lanes.cell[k] as usize;
+                    if c != last_cell {
+                        set(cells, cell_summary, c / 32, 1 << (c % 32));
+                        last_cell = c;
+                    }
+                }
                 seen[n_seen] = Seen {
                     x,
                     y,

@@ -37,6 +37,9 @@ pub(super) struct Scratch {
     pub(super) span: Option<(usize, usize)>,
     /// The last base azimuth's bits and its rotation `Rz` (neighbouring items mostly share it).
     pub(super) rz: Option<(u64, DMat3)>,
+    /// The projection-area cells of the pose being drawn (an FLS target), and their summary.
+    pub(super) cells: Occupancy,
+    pub(super) cell_summary: Vec<u64>,
 }
 
 impl Scratch {
@@ -44,7 +47,11 @@ impl Scratch {
     pub(super) fn new(layout: &crate::occupancy::Layout) -> Self {
         let occ = Occupancy::new(layout.range_bins, layout.beams());
         let summary = vec![0; occ.words.len().div_ceil(64)];
+        let cells = layout.cell_bitset();
+        let cell_summary = vec![0; cells.words.len().div_ceil(64)];
         Scratch {
+            cells,
+            cell_summary,
             occ,
             summary,
             seen: Vec::new(),
@@ -114,6 +121,25 @@ impl Scratch {
             SonarKind::Fls => area,
         };
         (occupied, measure, kept)
+    }
+}
+
+impl Scratch {
+    /// Returns the projection area (m²) of the cells drawn (`None` without an area grid: an SSS
+    /// target), leaving the cells empty: the count over the touched words.
+    #[inline]
+    pub(super) fn reduce_cells(&mut self, geo: &Geometry<'_>) -> Option<f64> {
+        let grid = geo.layout.area_grid?;
+        let mut count = 0;
+        for (s, summary) in self.cell_summary.iter_mut().enumerate() {
+            let mut touched = std::mem::take(summary);
+            while touched != 0 {
+                let w = 64 * s + touched.trailing_zeros() as usize;
+                touched &= touched - 1;
+                count += u64::from(std::mem::take(&mut self.cells.words[w]).count_ones());
+            }
+        }
+        Some(grid.area(count))
     }
 }
 

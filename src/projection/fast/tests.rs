@@ -35,6 +35,7 @@ fn project_plainly(prepared: &PreparedBatch<'_>) -> Vec<(Metrics, Occupancy)> {
                 * DMat3::from_rotation_z(prepared.base_azimuth(n))
                 * item.measurement.range;
             let mut occ = Occupancy::new(layout.range_bins, layout.beams());
+            let mut cells = layout.cell_bitset();
             let (mut visible, mut extremes) = (0, Extremes::default());
             for u in &dirs.units {
                 let p = m * *u + item.pose.translation;
@@ -43,6 +44,10 @@ fn project_plainly(prepared: &PreparedBatch<'_>) -> Vec<(Metrics, Occupancy)> {
                     let (r, az) = (r2.sqrt(), p.y.atan2(p.x));
                     let bin = usize::try_from(geo.range_bin(r, r2)).expect("a bin index");
                     occ.set(bin, geo.beam(p, az));
+                    if let Some(grid) = &layout.area_grid {
+                        let c = grid.flat_cell(p.x, p.y, r);
+                        cells.set(c / grid.ny, c % grid.ny);
+                    }
                     visible += 1;
                     extremes.add(r, az);
                 }
@@ -52,7 +57,9 @@ fn project_plainly(prepared: &PreparedBatch<'_>) -> Vec<(Metrics, Occupancy)> {
                 SonarKind::Sss => occupied as f64 * layout.range_bin_width,
                 SonarKind::Fls => occ.pixels().map(|(i, j)| layout.pixel_measure(i, j)).sum(),
             };
-            let metrics = Metrics::new(visible, dirs.units.len() as u64, extremes, occupied, measure);
+            let area = layout.area_grid.map(|g| g.area(cells.count()));
+            let total = dirs.units.len() as u64;
+            let metrics = Metrics::new(visible, total, extremes, (occupied, measure), area);
             (metrics, occ)
         })
         .collect()
@@ -111,6 +118,7 @@ fn runs_change_no_result() {
             source: s1.clone(),
             target: sss.clone(),
             sampling: Sampling::Auto,
+            area_grid: crate::PAPER_AREA_GRID,
             items,
         };
         let prepared = batch.prepare().unwrap();
@@ -226,6 +234,7 @@ fn chords_skip_only_blocks_without_a_visible_sample() {
                 source: s1.clone(),
                 target: s2.clone(),
                 sampling: Sampling::Step(0.1),
+                area_grid: crate::PAPER_AREA_GRID,
                 items: vec![item],
             };
             let prepared = batch.prepare().unwrap();
@@ -316,6 +325,7 @@ fn culling_changes_no_result() {
                     source: s1.clone(),
                     target: s2.clone(),
                     sampling,
+                    area_grid: crate::PAPER_AREA_GRID,
                     items,
                 };
                 let prepared = batch.prepare().unwrap();

@@ -236,6 +236,7 @@ impl GpuBackend {
         let layout = &prepared.layout;
         let items = &prepared.batch.items;
         let words = words_per_pose(layout);
+        let pixel_words = types::pixel_words(layout);
         let bits_per_pose_bytes = (words as u64 * 4).max(4);
         if bits_per_pose_bytes > self.ctx.limits.max_storage_buffer_binding_size {
             return Err(Error::gpu_limit(format!(
@@ -396,9 +397,13 @@ impl GpuBackend {
                     SonarKind::Sss => occupied as f64 * layout.range_bin_width,
                     SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_OCCUPIED_MEASURE])),
                 };
-                let metrics = Metrics::new(u64::from(m[METRIC_VISIBLE]), total, extremes, occupied, measure);
+                let area = layout
+                    .area_grid
+                    .map(|g| g.area(u64::from(m[METRIC_PROJECTION_AREA])));
+                let visible = u64::from(m[METRIC_VISIBLE]);
+                let metrics = Metrics::new(visible, total, extremes, (occupied, measure), area);
                 let occupancy = raw_bits.as_ref().map(|b| {
-                    let words_of = &b[c * words..(c + 1) * words];
+                    let words_of = &b[c * words..][..pixel_words];
                     Occupancy::from_words(layout.range_bins, layout.beams(), words_of.to_vec())
                 });
                 Projection { metrics, occupancy }

@@ -52,8 +52,21 @@ pub(crate) struct TargetParams {
     pub(crate) sin2_half_el: [f32; 2],
     /// `cos²` of half the elevation aperture.
     pub(crate) cos2_half_el: [f32; 2],
+    /// The projection-area grid's corner `x0`, `y0` (m) and `1 / cell` (1/m).
+    pub(crate) grid_x0: f32,
+    pub(crate) grid_y0: f32,
+    pub(crate) inv_cell: f32,
+    /// Cells along x and along y.
+    pub(crate) grid_nx: u32,
+    pub(crate) grid_ny: u32,
+    /// Words of a pose's bitset before its cells: the pixels' words.
+    pub(crate) pixel_words: u32,
+    /// Words of a pose's cells (0 without an area grid: an SSS target).
+    pub(crate) cell_words: u32,
+    /// Padding to a 16-byte size.
+    pub(crate) _pad: u32,
 }
-const _: () = assert!(std::mem::size_of::<TargetParams>() == 96);
+const _: () = assert!(std::mem::size_of::<TargetParams>() == 128);
 
 /// One pose of a chunk (WGSL `Pose`): rows of `M = range · R · Rz(base azimuth)` with the
 /// translation in `w`, as double-f32 (`hi + lo`), and the plan
@@ -118,6 +131,8 @@ pub(crate) const METRIC_AZIMUTH_MIN_NOT: usize = slot(Metric::AzimuthMin);
 pub(crate) const METRIC_AZIMUTH_MAX: usize = slot(Metric::AzimuthMax);
 /// Slot of the f32 bits of the FLS occupied measure.
 pub(crate) const METRIC_OCCUPIED_MEASURE: usize = slot(Metric::OccupiedMeasure);
+/// Slot of the count of projection-area cells.
+pub(crate) const METRIC_PROJECTION_AREA: usize = slot(Metric::ProjectionArea);
 
 /// Returns the f32 whose order key (WGSL `order_key`) is `key`.
 #[must_use]
@@ -129,10 +144,23 @@ pub(crate) fn from_order_key(key: u32) -> f32 {
     }
 }
 
-/// Returns the u32 words of one pose's bitset for `layout`.
+/// Returns the u32 words of one pose's bitset for `layout`: its pixels' words, then (an FLS with
+/// an area grid) its projection-area cells' words.
 #[must_use]
 pub(crate) fn words_per_pose(layout: &Layout) -> usize {
+    pixel_words(layout) + cell_words(layout)
+}
+
+/// Returns the u32 words of one pose's pixels.
+#[must_use]
+pub(crate) fn pixel_words(layout: &Layout) -> usize {
     layout.pixels().div_ceil(32)
+}
+
+/// Returns the u32 words of one pose's projection-area cells (0 without an area grid).
+#[must_use]
+pub(crate) fn cell_words(layout: &Layout) -> usize {
+    layout.area_grid.map_or(0, |g| g.cells().div_ceil(32))
 }
 
 /// Returns `v` as a double-f32 pair.
@@ -168,6 +196,14 @@ impl TargetParams {
             cos_half_az: df(cos_half_az),
             sin2_half_el: df(elevation.map_or(1.0, |e| e.0)),
             cos2_half_el: df(elevation.map_or(0.0, |e| e.1)),
+            grid_x0: layout.area_grid.map_or(0.0, |g| g.x0 as f32),
+            grid_y0: layout.area_grid.map_or(0.0, |g| g.y0 as f32),
+            inv_cell: layout.area_grid.map_or(0.0, |g| (1.0 / g.cell) as f32),
+            grid_nx: layout.area_grid.map_or(0, |g| g.nx as u32),
+            grid_ny: layout.area_grid.map_or(0, |g| g.ny as u32),
+            pixel_words: pixel_words(layout) as u32,
+            cell_words: cell_words(layout) as u32,
+            _pad: 0,
         }
     }
 }

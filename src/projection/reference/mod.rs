@@ -23,6 +23,7 @@ pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> 
         .map(|(n, item)| {
             let plan = prepared.plan(n);
             let mut occupancy = Occupancy::new(layout.range_bins, layout.beams());
+            let mut cells = layout.cell_bitset();
             let splat = splat::splat(
                 layout,
                 plan,
@@ -30,16 +31,12 @@ pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> 
                 item.measurement.range,
                 &item.pose,
                 &mut occupancy,
+                &mut cells,
             );
-            let (occupied, measure) = reduce::reduce(layout, &occupancy);
+            let occupied = reduce::reduce(layout, &occupancy);
+            let area = reduce::projection_area(layout, &cells);
             Projection {
-                metrics: Metrics::new(
-                    splat.visible,
-                    plan.total() as u64,
-                    splat.extremes,
-                    occupied,
-                    measure,
-                ),
+                metrics: Metrics::new(splat.visible, plan.total() as u64, splat.extremes, occupied, area),
                 occupancy: keep_occupancy.then_some(occupancy),
             }
         })

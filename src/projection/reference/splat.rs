@@ -3,8 +3,8 @@
 //! clipped to its field of view and set in the occupancy buffer. The GPU's `shaders/splat.wgsl`
 //! and its CPU twin `projection::fast` run a faster algorithm that tests hold to this one.
 //! Arguments: sonar 2's layout, the plan (sample directions), the feature's base azimuth and
-//! range, the pose, and the occupancy it writes; it returns what the shader accumulates in
-//! `metrics` (visible count, extremes).
+//! range, the pose, and the occupancy and projection-area cells it writes; it returns what the
+//! shader accumulates in `metrics` (visible count, extremes).
 
 use crate::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
 use crate::metrics::Extremes;
@@ -21,7 +21,9 @@ pub struct SplatResult {
 }
 
 /// Splats the samples of `plan` (measured at `range`, azimuths offset by `base_azimuth`) through
-/// `pose` into `occupancy`, and returns the visible count and the extremes.
+/// `pose` into `occupancy` (and, for a layout with an area grid, each visible sample's grid cell
+/// at `x = r cos az`, `y = r sin az` into `cells`), and returns the visible count and the
+/// extremes.
 pub fn splat(
     layout: &Layout,
     plan: &SamplingPlan,
@@ -29,6 +31,7 @@ pub fn splat(
     range: f64,
     pose: &RelativePose,
     occupancy: &mut Occupancy,
+    cells: &mut Occupancy,
 ) -> SplatResult {
     let mut visible = 0;
     let mut extremes = Extremes::default();
@@ -41,6 +44,10 @@ pub fn splat(
             }
             visible += 1;
             occupancy.set(layout.range_bin(r), layout.beam(az));
+            if let Some(grid) = &layout.area_grid {
+                let (i, j) = grid.cell_of(r * az.cos(), r * az.sin());
+                cells.set(i, j);
+            }
             extremes.add(r, az);
         }
     }

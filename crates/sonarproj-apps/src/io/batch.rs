@@ -1,9 +1,10 @@
 //! Batch CSV files: poses in, metrics out, streamed.
 //!
-//! Input header (any order): `range,azimuth,elevation,roll,pitch,yaw` and either
-//! `place_range,place_azimuth,place_elevation` or `tx,ty,tz`. The feature's true point in sonar 1
-//! is `sph(range, azimuth, elevation)` (m, deg, deg); its measurement is `(range, azimuth)` for an
-//! FLS, `range` for an SSS. Output: the input columns as given, then [`METRIC_COLUMNS`].
+//! Input header (any order): a pose table's columns ([`crate::io::pose_columns`]: the feature,
+//! a rotation as roll/pitch/yaw, a quaternion or a matrix, and a placement or a translation).
+//! The feature's true point in sonar 1 is `sph(range, azimuth, elevation)` (m, deg, deg); its
+//! measurement is `(range, azimuth)` for an FLS, `range` for an SSS. Output: the input columns
+//! as given, then [`METRIC_COLUMNS`].
 //!
 //! [`project_csv`] reads, projects and writes [`CHUNK_ROWS`] rows at a time, so a batch of any
 //! length runs in bounded memory; it stops at the first bad row, after writing the rows before it.
@@ -12,21 +13,30 @@ use std::io::{Read, Write};
 
 use crate::error::Result;
 use crate::io::field;
+use crate::io::pose_columns::{PoseColumns, allowed_columns, expected_columns};
 use crate::io::table::{CsvOut, Row, TableReader, header_error, row_error};
-use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::Sonar;
+use sonarproj::local_precision::{LocalPrecision, local_precision, resolve_sigma_range};
 use sonarproj::metrics::{METRIC_NAMES, METRICS, Metrics, Value};
 use sonarproj::projection::{Batch, BatchItem, Projection};
-use sonarproj::sampling::Measurement;
 
-/// Columns every input row must have.
-pub const REQUIRED_COLUMNS: [&str; 6] = ["range", "azimuth", "elevation", "roll", "pitch", "yaw"];
-/// Placement columns (one way to give the translation).
-pub const PLACE_COLUMNS: [&str; 3] = ["place_range", "place_azimuth", "place_elevation"];
-/// Translation columns (the other way).
-pub const TRANSLATION_COLUMNS: [&str; 3] = ["tx", "ty", "tz"];
-/// The metric columns appended to every output row: the metric table's names, in its order.
-pub const METRIC_COLUMNS: [&str; METRICS.len()] = METRIC_NAMES;
+pub use crate::io::pose_columns::{PLACE_COLUMNS, TRANSLATION_COLUMNS};
+/// The local precision columns ([`sonarproj::local_precision`]): empty where the row does not
+/// give the feature's true point, or two sidescans have no elevation to pin.
+pub const LOCAL_COLUMNS: [&str; 2] = ["range_per_elevation", "sigma_elevation"];
+/// The result columns appended to every output row: the metric table's names in its order, then
+/// [`LOCAL_COLUMNS`].
+pub const METRIC_COLUMNS: [&str; METRICS.len() + 2] = {
+    let mut out = [""; METRICS.len() + 2];
+    let mut i = 0;
+    while i < METRICS.len() {
+        out[i] = METRIC_NAMES[i];
+        i += 1;
+    }
+    out[METRICS.len()] = LOCAL_COLUMNS[0];
+    out[METRICS.len() + 1] = LOCAL_COLUMNS[1];
+    out
+};
 /// Rows read, projected and written at a time by [`project_csv`] (a few MiB of rows in memory,
 /// enough poses to keep a GPU busy).
 pub const CHUNK_ROWS: usize = 16_384;
@@ -36,7 +46,7 @@ pub const CHUNK_ROWS: usize = 16_384;
 pub struct BatchReader<'s, R: Read> {
     table: TableReader<R>,
     source: &'s Sonar,
-    placement: bool,
+    columns: PoseColumns,
 }
 
 impl<'s, R: Read> BatchReader<'s, R> {
@@ -47,50 +57,20 @@ impl<'s, R: Read> BatchReader<'s, R> {
     /// [`Error::Csv`](crate::Error::Csv) for missing, unknown or duplicate columns or an empty
     /// input.
     pub fn new(reader: R, source: &'s Sonar) -> Result<Self> {
-        let allowed: Vec<&str> = REQUIRED_COLUMNS
-            .iter()
-            .chain(&PLACE_COLUMNS)
-            .chain(&TRANSLATION_COLUMNS)
-            .copied()
-            .collect();
-        let expected = format!(
-            "{} and either {} or {}",
-            REQUIRED_COLUMNS.join(","),
-            PLACE_COLUMNS.join(","),
-            TRANSLATION_COLUMNS.join(",")
-        );
-        let table = TableReader::new(reader, &allowed, &expected)?;
-        table.require(&REQUIRED_COLUMNS)?;
-        let count = |cols: &[&str]| cols.iter().filter(|c| table.has(c)).count();
-        let placement = match (count(&PLACE_COLUMNS), count(&TRANSLATION_COLUMNS)) {
-            (0, 0) => {
-                return Err(header_error(format!(
-                    "missing translation: give {} or {}",
-                    PLACE_COLUMNS.join(","),
-                    TRANSLATION_COLUMNS.join(",")
-                )));
-            }
-            (p, t) if p > 0 && t > 0 => {
-                return Err(header_error(format!(
-                    "give either {} or {}, not both",
-                    PLACE_COLUMNS.join(","),
-                    TRANSLATION_COLUMNS.join(",")
-                )));
-            }
-            (p, _) if p > 0 => {
-                table.require(&PLACE_COLUMNS)?;
-                true
-            }
-            _ => {
-                table.require(&TRANSLATION_COLUMNS)?;
-                false
-            }
-        };
+        let table = TableReader::new(reader, &allowed_columns(), &expected_columns())?;
+        let names: Vec<&str> = table.headers().iter().map(String::as_str).collect();
+        let columns = PoseColumns::of(&names, source.kind).map_err(header_error)?;
         Ok(BatchReader {
             table,
             source,
-            placement,
+            columns,
         })
+    }
+
+    /// Returns how the table gives its poses.
+    #[must_use]
+    pub fn columns(&self) -> &PoseColumns {
+        &self.columns
     }
 
     /// Returns the header as given.
@@ -104,68 +84,30 @@ impl<'s, R: Read> BatchReader<'s, R> {
     /// # Errors
     /// [`Error::Csv`](crate::Error::Csv) naming the row (1-based, with its line) for a bad
     /// number, a wrong field count, an invalid pose or a feature outside sonar 1's field of view.
-    pub fn next_item(&mut self) -> Result<Option<(Row, BatchItem)>> {
-        let (source, placement) = (self.source, self.placement);
-        self.table
-            .next_parsed(|table, fields| item(table, source, placement, fields))
+    pub fn next_item(&mut self) -> Result<Option<(Row, PoseRow)>> {
+        let (source, columns) = (self.source, &self.columns);
+        self.table.next_parsed(|table, fields| {
+            let values = columns
+                .columns()
+                .iter()
+                .map(|c| table.number(fields, c))
+                .collect::<Result<Vec<f64>>>()?;
+            Ok(PoseRow {
+                item: columns.item(source, &values)?,
+                true_point: columns.true_point(&values),
+            })
+        })
     }
 }
 
-/// Returns the projection that the row `fields` of `table` asks for, checked against sonar 1
-/// (`source`); `placement` says whether the translation is given as a placement.
-fn item<R: Read>(
-    table: &TableReader<R>,
-    source: &Sonar,
-    placement: bool,
-    fields: &[String],
-) -> Result<BatchItem> {
-    let get = |c: &str| table.number(fields, c);
-    let feature = [get("range")?, get("azimuth")?, get("elevation")?];
-    let rpy = [get("roll")?, get("pitch")?, get("yaw")?];
-    let translation = if placement {
-        [
-            get("place_range")?,
-            get("place_azimuth")?,
-            get("place_elevation")?,
-        ]
-    } else {
-        [get("tx")?, get("ty")?, get("tz")?]
-    };
-    Ok(batch_item(source, feature, rpy, placement, translation)?)
-}
-
-/// Returns the projection one batch row asks for, checked against sonar 1 (`source`): the
-/// feature's true point `feature` = `[range, azimuth, elevation]` (m, deg, deg), the rotation
-/// `rpy` = `[roll, pitch, yaw]` (deg), and `translation`: `[place_range, place_azimuth,
-/// place_elevation]` when `placement`, else `[tx, ty, tz]` (m). The CSV reader and the Python
-/// package's column arrays both build their items here.
-///
-/// # Errors
-/// [`sonarproj::Error::InvalidValue`] for a feature outside sonar 1's field of view or an
-/// invalid pose.
-pub fn batch_item(
-    source: &Sonar,
-    feature: [f64; 3],
-    rpy: [f64; 3],
-    placement: bool,
-    translation: [f64; 3],
-) -> sonarproj::Result<BatchItem> {
-    let [range, azimuth, elevation] = feature;
-    source.check_point("feature", range, azimuth, elevation)?;
-    let rotation = Rotation::RollPitchYaw {
-        roll: rpy[0],
-        pitch: rpy[1],
-        yaw: rpy[2],
-    };
-    let pose = if placement {
-        RelativePose::placement(rotation, feature, translation)?
-    } else {
-        RelativePose::new(rotation, translation)?
-    };
-    Ok(BatchItem {
-        measurement: Measurement::of(source, range, azimuth)?,
-        pose,
-    })
+/// One row of a pose table: the projection it asks for and the feature's true point (m, deg,
+/// deg) when the row gives it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoseRow {
+    /// The measurement and pose.
+    pub item: BatchItem,
+    /// The feature's true point in sonar 1.
+    pub true_point: Option<[f64; 3]>,
 }
 
 /// A batch CSV read whole (a sweep's pose list): the rows as given and the projections they ask
@@ -178,6 +120,8 @@ pub struct BatchInput {
     pub rows: Vec<Vec<String>>,
     /// Each row as a measurement and pose.
     pub items: Vec<BatchItem>,
+    /// Each row's feature true point in sonar 1 (m, deg, deg), when the table gives it.
+    pub true_points: Vec<Option<[f64; 3]>>,
 }
 
 /// Returns the whole batch read from CSV `reader`, each row checked against sonar 1 (`source`).
@@ -188,10 +132,11 @@ pub struct BatchInput {
 /// for an input without rows.
 pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
     let mut input = BatchReader::new(reader, source)?;
-    let (mut rows, mut items) = (Vec::new(), Vec::new());
-    while let Some((row, item)) = input.next_item()? {
+    let (mut rows, mut items, mut true_points) = (Vec::new(), Vec::new(), Vec::new());
+    while let Some((row, pose)) = input.next_item()? {
         rows.push(row.fields);
-        items.push(item);
+        items.push(pose.item);
+        true_points.push(pose.true_point);
     }
     if rows.is_empty() {
         return Err(no_rows());
@@ -200,6 +145,7 @@ pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
         headers: input.headers().to_vec(),
         rows,
         items,
+        true_points,
     })
 }
 
@@ -224,10 +170,12 @@ pub fn project_csv(
     input: impl Read,
     output: impl Write,
     pair: &Batch,
+    sigma_range: Option<f64>,
     mut project: impl FnMut(&Batch) -> Result<Vec<Projection>>,
 ) -> Result<usize> {
     // The sonars and sampling are checked once; each row then only for itself.
     let checker = pair.checker()?;
+    let sigma = resolve_sigma_range(&pair.source, &pair.target, sigma_range)?;
     let mut reader = BatchReader::new(input, &pair.source)?;
     let headers = reader.headers().to_vec();
     let mut out = CsvOut::new(output, &headers, &METRIC_COLUMNS);
@@ -235,17 +183,19 @@ pub fn project_csv(
         source: pair.source.clone(),
         target: pair.target.clone(),
         sampling: pair.sampling,
+        area_grid: pair.area_grid,
         items: Vec::with_capacity(CHUNK_ROWS),
     };
-    let mut fields: Vec<Vec<String>> = Vec::with_capacity(CHUNK_ROWS);
+    let mut fields: Vec<(Vec<String>, Option<[f64; 3]>)> = Vec::with_capacity(CHUNK_ROWS);
     let mut total = 0;
-    let mut flush = |chunk: &mut Batch, fields: &mut Vec<Vec<String>>| -> Result<()> {
+    let mut flush = |chunk: &mut Batch, fields: &mut Vec<(Vec<String>, Option<[f64; 3]>)>| -> Result<()> {
         if chunk.items.is_empty() {
             return Ok(());
         }
         let results = project(chunk)?;
-        for (f, p) in fields.iter().zip(&results) {
-            out.row(f, &metric_fields(&p.metrics))?;
+        for (((f, true_point), p), item) in fields.iter().zip(&results).zip(&chunk.items) {
+            let local = local_of(chunk, item, *true_point, sigma);
+            out.row(f, &metric_fields(&p.metrics, &local))?;
         }
         out.flush()?;
         chunk.items.clear();
@@ -254,16 +204,16 @@ pub fn project_csv(
     };
     let stop = loop {
         let next = reader.next_item().and_then(|next| match next {
-            Some((row, item)) => match checker.check(&item) {
-                Ok(_) => Ok(Some((row, item))),
+            Some((row, pose)) => match checker.check(&pose.item) {
+                Ok(_) => Ok(Some((row, pose))),
                 Err(e) => Err(row_error(row.number, row.line, e.into())),
             },
             None => Ok(None),
         });
         match next {
-            Ok(Some((row, item))) => {
-                chunk.items.push(item);
-                fields.push(row.fields);
+            Ok(Some((row, pose))) => {
+                chunk.items.push(pose.item);
+                fields.push((row.fields, pose.true_point));
                 total += 1;
                 if chunk.items.len() == CHUNK_ROWS {
                     flush(&mut chunk, &mut fields)?;
@@ -281,17 +231,27 @@ pub fn project_csv(
     }
 }
 
-/// Returns the metric fields of one projection, in [`METRIC_COLUMNS`] order: numbers in their
-/// shortest exact form (every digit of the f64; f32 results keep their f32 value), empty where
-/// nothing is visible.
+/// Returns the local precision of `item` of `pair` at the feature's `true_point` (empty without
+/// it) for a range error `sigma` (m).
 #[must_use]
-pub fn metric_fields(m: &Metrics) -> Vec<String> {
+pub fn local_of(pair: &Batch, item: &BatchItem, true_point: Option<[f64; 3]>, sigma: f64) -> LocalPrecision {
+    true_point.map_or_else(LocalPrecision::default, |point| {
+        local_precision(&pair.source, &pair.target, point, &item.pose, sigma)
+    })
+}
+
+/// Returns the result fields of one projection, in [`METRIC_COLUMNS`] order: the metrics, then
+/// the local precision `local`; numbers in their shortest exact form (every digit of the f64;
+/// f32 results keep their f32 value), empty where nothing is visible or there is no value.
+#[must_use]
+pub fn metric_fields(m: &Metrics, local: &LocalPrecision) -> Vec<String> {
     METRICS
         .iter()
         .map(|info| match m.get(info.metric) {
             Value::Count(n) => n.to_string(),
             Value::Real(v) => v.to_string(),
-            Value::Extreme(v) => field(v),
+            Value::Optional(v) => field(v),
         })
+        .chain([field(local.range_per_elevation), field(local.sigma_elevation)])
         .collect()
 }

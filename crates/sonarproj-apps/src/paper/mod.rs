@@ -59,12 +59,12 @@ impl Direction {
     }
 
     /// Returns the metric the paper plots for this direction: the range span for an SSS target,
-    /// the projection area for an FLS target.
+    /// the projection area (the authors' 0.08 m grid) for an FLS target.
     #[must_use]
     pub fn plotted(self) -> (Metric, SonarKind) {
         match self {
             Direction::FlsToSss => (Metric::Span, SonarKind::Sss),
-            Direction::SssToFls => (Metric::OccupiedMeasure, SonarKind::Fls),
+            Direction::SssToFls => (Metric::ProjectionArea, SonarKind::Fls),
         }
     }
 
@@ -228,6 +228,7 @@ fn batch_at(
         source: s1,
         target: s2,
         sampling,
+        area_grid: sonarproj::PAPER_AREA_GRID,
         items,
     })
 }
@@ -316,10 +317,12 @@ pub fn write(
     angle_step: f64,
     sampling: Sampling,
 ) -> Result<Vec<Finding>> {
+    use crate::io::batch::local_of;
     use crate::io::table::write_rows;
     use crate::io::{METRIC_COLUMNS, metric_fields};
     use crate::report::{self, output_dir, write_atomic};
     use rayon::prelude::*;
+    use sonarproj::local_precision::default_sigma_range;
 
     let swept = angles(angle_step)?;
     output_dir(out, field)?;
@@ -330,14 +333,25 @@ pub fn write(
     runs.par_iter().try_for_each(|run| -> Result<()> {
         let stem = run.direction.stem();
         let write_csv = || {
-            let rows = run.poses.iter().zip(&run.results).map(|(p, r)| {
-                let mut fields = vec![
-                    p.scenario.to_string(),
-                    p.fraction.map(|f| f.to_string()).unwrap_or_default(),
-                ];
-                fields.extend(p.angles.iter().map(f64::to_string));
-                (fields, metric_fields(&r.metrics))
-            });
+            // The poses again (cheap beside their projections), for the local precision at each
+            // feature's true point: `(d1, 0, 0)`, the measurement at azimuth 0, elevation 0.
+            let pair = batch(run.direction, &run.poses, sampling)?;
+            let sigma = default_sigma_range(&pair.source, &pair.target);
+            let rows = run
+                .poses
+                .iter()
+                .zip(&run.results)
+                .zip(&pair.items)
+                .map(|((p, r), item)| {
+                    let mut fields = vec![
+                        p.scenario.to_string(),
+                        p.fraction.map(|f| f.to_string()).unwrap_or_default(),
+                    ];
+                    fields.extend(p.angles.iter().map(f64::to_string));
+                    let point = [item.measurement.range, 0.0, 0.0];
+                    let local = local_of(&pair, item, Some(point), sigma);
+                    (fields, metric_fields(&r.metrics, &local))
+                });
             let csv = out.join(format!("{stem}.csv"));
             write_atomic(&csv, |w| write_rows(w, &header, &METRIC_COLUMNS, rows))
         };

@@ -7,7 +7,9 @@
 //! to = "paper-sss"            # sonar 2
 //! step = 0.1                  # sampling step (deg); leave out for auto sampling
 //! metric = "span"             # metric drawn in the figure (default: span for an SSS target,
-//!                             # occupied_measure for an FLS target)
+//!                             # projection_area for an FLS target)
+//! area_grid = 0.08            # cell side (m) of the projection-area grid (default: the paper's)
+//! sigma_range = 0.003         # range error (m) of sigma_elevation (default: a bin width / √12)
 //!
 //! [feature]                   # the feature's true point in sonar 1 (m, deg, deg)
 //! range = { start = 10, stop = 50, step = 10 }
@@ -31,6 +33,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::io::batch::PoseRow;
 use crate::io::{BatchInput, read_batch_csv};
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::{Sonar, SonarKind};
@@ -77,6 +80,11 @@ pub struct SweepConfig {
     pub target: Sonar,
     /// The sampling rule.
     pub sampling: Sampling,
+    /// The cell side (m) of the projection-area grid (FLS target).
+    pub area_grid: f64,
+    /// The range error (m) `sigma_elevation` is computed for (`None`: the default of
+    /// [`sonarproj::local_precision::default_sigma_range`]).
+    pub sigma_range: Option<f64>,
     /// The metric the figure draws (one with a figure label in the metric table).
     pub metric: Metric,
     /// The poses.
@@ -254,11 +262,13 @@ impl SweepConfig {
             path: PathBuf::from(file),
             message: sonarproj::error::parser_message(&e.to_string()),
         })?;
-        const TOP: [&str; 9] = [
+        const TOP: [&str; 11] = [
             "from",
             "to",
             "step",
             "metric",
+            "area_grid",
+            "sigma_range",
             "feature",
             "place",
             "translation",
@@ -304,10 +314,30 @@ impl SweepConfig {
                 Sampling::Step(s[0])
             }
         };
+        let area_grid = match top.get("area_grid") {
+            None => sonarproj::PAPER_AREA_GRID,
+            Some(v) => {
+                let g = axis_values(file, "area_grid", v)?;
+                if g.len() != 1 || g[0] <= 0.0 {
+                    return Err(key_error(file, "area_grid", v, "must be one number > 0 (m)"));
+                }
+                g[0]
+            }
+        };
+        let sigma_range = match top.get("sigma_range") {
+            None => None,
+            Some(v) => {
+                let g = axis_values(file, "sigma_range", v)?;
+                if g.len() != 1 || g[0] <= 0.0 {
+                    return Err(key_error(file, "sigma_range", v, "must be one number > 0 (m)"));
+                }
+                Some(g[0])
+            }
+        };
         let metric = match string("metric")? {
             None => match target.kind {
                 SonarKind::Sss => Metric::Span,
-                SonarKind::Fls => Metric::OccupiedMeasure,
+                SonarKind::Fls => Metric::ProjectionArea,
             },
             Some(m) => Metric::from_name(m)
                 .filter(|m| m.label(target.kind).is_some())
@@ -355,6 +385,8 @@ impl SweepConfig {
             source,
             target,
             sampling,
+            area_grid,
+            sigma_range,
             metric,
             poses,
         };
@@ -375,6 +407,7 @@ impl SweepConfig {
             source: self.source.clone(),
             target: self.target.clone(),
             sampling: self.sampling,
+            area_grid: self.area_grid,
             items: Vec::new(),
         };
         let checker = pair.checker()?;
@@ -517,8 +550,9 @@ impl SweepConfig {
         }
     }
 
-    /// Returns the poses with indices in `range` as batch items with their leading output fields
-    /// (index and pose columns).
+    /// Returns the poses with indices in `range`: each as a batch item with the feature's true
+    /// point (when the list gives it; a grid always does) and its leading output fields (index
+    /// and pose columns).
     ///
     /// # Errors
     /// Invalid poses (a rotation that is not one; none for grids of finite angles).
@@ -526,38 +560,47 @@ impl SweepConfig {
         clippy::cast_possible_truncation,
         reason = "grid sizes are checked against MAX_POSES before they are used as indices"
     )]
-    pub fn items(&self, range: std::ops::Range<u64>) -> Result<(Vec<BatchItem>, Vec<Vec<String>>)> {
+    pub fn items(&self, range: std::ops::Range<u64>) -> Result<(Vec<PoseRow>, Vec<Vec<String>>)> {
         // In parallel: formatting the fields costs as much as projecting some batches.
         let pairs = range
             .into_par_iter()
             .map(|i| {
                 let mut row = vec![i.to_string()];
-                let item = match &self.poses {
+                let pose = match &self.poses {
                     Poses::List(l) => {
                         row.extend(l.rows[i as usize].iter().cloned());
-                        l.items[i as usize]
+                        PoseRow {
+                            item: l.items[i as usize],
+                            true_point: l.true_points[i as usize],
+                        }
                     }
                     Poses::Grid(g) => {
                         let v = g.values(i);
                         row.extend(v.iter().map(f64::to_string));
-                        g.item(&self.source, v)?
+                        PoseRow {
+                            true_point: Some([v[0], v[1], v[2]]),
+                            item: g.item(&self.source, v)?,
+                        }
                     }
                 };
-                Ok((item, row))
+                Ok((pose, row))
             })
             .collect::<Result<Vec<_>>>()?;
         Ok(pairs.into_iter().unzip())
     }
 
-    /// Returns a fingerprint of everything that decides the output (sonars, sampling, poses):
+    /// Returns a fingerprint of everything in the file that decides the output (sonars,
+    /// sampling, area grid, range error, poses):
     /// FNV-1a over their full debug form, so a resumed or merged sweep can tell its own parts.
     #[must_use]
     pub fn fingerprint(&self) -> String {
         let text = format!(
-            "{:?}|{:?}|{:?}|{}|{:?}",
+            "{:?}|{:?}|{:?}|{:?}|{:?}|{}|{:?}",
             self.source,
             self.target,
             self.sampling,
+            self.area_grid,
+            self.sigma_range,
             self.metric.name(),
             match &self.poses {
                 Poses::Grid(g) => format!("{g:?}"),

@@ -24,11 +24,13 @@ use rayon::prelude::*;
 use sonarproj::projection::Backend;
 
 use crate::error::{Error, Result};
+use crate::io::batch::{PoseRow, local_of};
 use crate::io::table::write_rows;
 use crate::io::{METRIC_COLUMNS, metric_fields};
 use crate::report::{figures, output_dir, remove_stale_temporaries};
 use crate::sweep::SweepConfig;
 use crate::sweep::parts::{self, write_json};
+use sonarproj::local_precision::resolve_sigma_range;
 use sonarproj::projection::{Batch, Projection};
 
 /// The default number of poses per chunk.
@@ -120,7 +122,47 @@ struct Manifest {
     fingerprint: String,
     chunk_poses: u64,
     shard: Option<Shard>,
-    backend: String,
+    settings: Settings,
+}
+
+/// What decides a run's numbers besides the sweep file (whose fingerprint the parts carry): the
+/// engine's version and the backend's settings ([`Backend::settings`]), by name. Written beside
+/// each shard (`shard-K-of-N.run.json`), so that `merge` joins only shards computed alike.
+pub type Settings = std::collections::BTreeMap<String, String>;
+
+/// Returns the settings of a run on `backend`.
+#[must_use]
+pub fn settings(backend: &Backend) -> Settings {
+    let mut out: Settings = backend
+        .settings()
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+    out.insert("engine version".into(), sonarproj::VERSION.into());
+    out
+}
+
+/// Returns the first setting (in name order) whose values differ between `a` and `b`, with both
+/// values (`(none)` where one lacks it).
+fn first_difference(a: &Settings, b: &Settings) -> Option<(String, String, String)> {
+    let none = || "(none)".to_string();
+    a.keys()
+        .chain(b.keys())
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .find(|k| a.get(*k) != b.get(*k))
+        .map(|k| {
+            (
+                k.clone(),
+                a.get(k).cloned().unwrap_or_else(none),
+                b.get(k).cloned().unwrap_or_else(none),
+            )
+        })
+}
+
+/// Returns the path of the settings record of part `file` (`NAME.csv` → `NAME.run.json`).
+fn settings_path(file: &Path) -> PathBuf {
+    file.with_extension("run.json")
 }
 
 /// How to run a sweep.
@@ -291,7 +333,7 @@ pub fn run(
         fingerprint: desc.fingerprint.clone(),
         chunk_poses: opts.chunk_poses,
         shard: opts.shard,
-        backend: backend.name().to_string(),
+        settings: settings(backend),
     };
     let manifest_path = state.join("manifest.json");
     match read_json::<Manifest>(&manifest_path)? {
@@ -300,14 +342,22 @@ pub fn run(
         Some(old) => {
             let (field, was, now) = if old.chunk_poses != manifest.chunk_poses {
                 (
-                    "--chunk-poses",
+                    "--chunk-poses".to_string(),
                     old.chunk_poses.to_string(),
                     manifest.chunk_poses.to_string(),
                 )
-            } else if old.backend != manifest.backend {
-                ("--backend", old.backend, manifest.backend)
+            } else if let Some((name, was, now)) = first_difference(&old.settings, &manifest.settings) {
+                (
+                    if name == "backend" {
+                        "--backend".to_string()
+                    } else {
+                        name
+                    },
+                    was,
+                    now,
+                )
             } else {
-                ("--config", "another sweep".into(), "this one".into())
+                ("--config".to_string(), "another sweep".into(), "this one".into())
             };
             return Err(Error::invalid(
                 field,
@@ -331,6 +381,7 @@ pub fn run(
         rows: r.end - r.start,
     };
     let header = config.columns();
+    let sigma = resolve_sigma_range(&config.source, &config.target, config.sigma_range)?;
     let mut done = 0;
     let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
     for (c, r) in chunks.iter().enumerate() {
@@ -352,15 +403,16 @@ pub fn run(
             {
                 return Ok(outcome);
             }
-            let (items, fields) = config.items(r.clone())?;
+            let (poses, fields) = config.items(r.clone())?;
             let batch = Batch {
                 source: config.source.clone(),
                 target: config.target.clone(),
                 sampling: config.sampling,
-                items,
+                area_grid: config.area_grid,
+                items: poses.iter().map(|p| p.item).collect(),
             };
             let results = backend.project(&batch, Output::MetricsOnly)?;
-            let body = csv_rows(&fields, &results, &path)?;
+            let body = csv_rows(&batch, &poses, &fields, &results, sigma, &path)?;
             parts::write(&path, expected(r), |w| {
                 write_rows(
                     &mut *w,
@@ -378,6 +430,8 @@ pub fn run(
         }
     }
     let chunk_files: Vec<PathBuf> = (0..chunks.len()).map(chunk_path).collect();
+    // The settings first: a result never stands without them.
+    write_json(&settings_path(&file), &manifest.settings)?;
     parts::join(&chunk_files, &desc.columns, &file, whole)?;
     std::fs::remove_dir_all(&state).map_err(|e| Error::write_output(&state, e))?;
     if opts.shard.is_none() {
@@ -387,19 +441,28 @@ pub fn run(
     Ok(outcome)
 }
 
-/// Returns the CSV rows (no header) of `fields` followed by the metrics of `results`, formatted
-/// in parallel blocks (the same bytes as one writer would produce: each record is formatted on
-/// its own).
-fn csv_rows(fields: &[Vec<String>], results: &[Projection], path: &Path) -> Result<Vec<u8>> {
+/// Returns the CSV rows (no header) of `fields` followed by the metrics of `results` and the
+/// local precision of `poses` of `batch` (range error `sigma`), formatted in parallel blocks (the
+/// same bytes as one writer would produce: each record is formatted on its own).
+fn csv_rows(
+    batch: &Batch,
+    poses: &[PoseRow],
+    fields: &[Vec<String>],
+    results: &[Projection],
+    sigma: f64,
+    path: &Path,
+) -> Result<Vec<u8>> {
     let blocks: Vec<Vec<u8>> = fields
         .par_chunks(4096)
         .zip(results.par_chunks(4096))
-        .map(|(f, r)| {
+        .zip(poses.par_chunks(4096))
+        .map(|((f, r), poses)| {
             let mut w = csv::WriterBuilder::new()
                 .has_headers(false)
                 .from_writer(Vec::new());
-            for (fields, p) in f.iter().zip(r) {
-                let metrics = metric_fields(&p.metrics);
+            for ((fields, p), pose) in f.iter().zip(r).zip(poses) {
+                let local = local_of(batch, &pose.item, pose.true_point, sigma);
+                let metrics = metric_fields(&p.metrics, &local);
                 w.write_record(fields.iter().chain(metrics.iter()))
                     .map_err(|e| Error::write_output(path, e))?;
             }
@@ -495,6 +558,34 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
                         "{reason}; nothing merged (run `sweep --shard {k}/{n}` again to recompute this shard)"
                     ),
                 });
+            }
+        }
+    }
+    // Every shard computed alike: the same engine and backend settings as shard 1, else nothing
+    // is written.
+    let mut first: Option<Settings> = None;
+    for (k, file) in files.iter().enumerate() {
+        let path = settings_path(file);
+        let record: Settings = read_json(&path)?.ok_or_else(|| Error::Csv {
+            context: file.display().to_string(),
+            message: format!(
+                "has no record of how it was computed ({} is missing); nothing merged (run `sweep --shard {}/{n}` again)",
+                path.display(),
+                k + 1
+            ),
+        })?;
+        match &first {
+            None => first = Some(record),
+            Some(one) => {
+                if let Some((name, a, b)) = first_difference(one, &record) {
+                    return Err(Error::invalid(
+                        name.clone(),
+                        format!("{b:?} in shard {} of {n}", k + 1),
+                        format!(
+                            "differs from {a:?} in shard 1: shards computed with different {name} would merge into a table no single run writes; nothing merged (recompute one set alike)"
+                        ),
+                    ));
+                }
             }
         }
     }

@@ -14,6 +14,7 @@ use serde::Deserialize;
 use serde_json::{Value, json};
 use sonarproj::geometry::{cart_to_sph, sph_to_cart};
 use sonarproj::gpu::GpuOptions;
+use sonarproj::local_precision::{default_sigma_range, local_precision};
 use sonarproj::masks::{Counts, MaskEngine, Noise, run_lengths};
 use sonarproj::recovery::{DEFAULT_CURVE_STEP, Observation, Sigmas, recover};
 use sonarproj::sampling::{SamplingPlan, base_azimuth};
@@ -361,6 +362,7 @@ impl Viewer {
             source: source.clone(),
             target: target.clone(),
             sampling,
+            area_grid: sonarproj::PAPER_AREA_GRID,
             items: vec![BatchItem { measurement, pose }],
         };
         let result = self
@@ -431,12 +433,24 @@ impl Viewer {
         let (tr, taz, tel) = cart_to_sph(truth);
         let (backend, device) = self.device();
         let r = pose.rotation;
+        // The metrics as `project` prints them: the table's, then the local precision at the
+        // feature's true point (the default range error).
+        let local = local_precision(
+            source,
+            target,
+            [f.range, f.azimuth, f.elevation],
+            &pose,
+            default_sigma_range(source, target),
+        );
+        let mut metrics = serde_json::to_value(result.metrics).expect("plain values");
+        metrics["range_per_elevation"] = json!(local.range_per_elevation);
+        metrics["sigma_elevation"] = json!(local.sigma_elevation);
         Ok(json!({
             "from": sonar_json(&first.label, source),
             "to": sonar_json(&second.label, target),
             "backend": backend,
             "device": device,
-            "metrics": result.metrics,
+            "metrics": metrics,
             "occupancy": {
                 "range_bins": occupancy.range_bins,
                 "beams": occupancy.beams,

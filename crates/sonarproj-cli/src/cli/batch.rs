@@ -1,6 +1,6 @@
 //! `sonarproj batch`: a CSV of poses in, a CSV of metrics out.
 
-use sonarproj::{Backend, Batch, Output};
+use sonarproj::{Backend, Output};
 use sonarproj_apps::Result;
 use sonarproj_apps::io::project_csv;
 
@@ -12,12 +12,16 @@ use super::{PairArgs, open_input, write_output};
 pub(super) struct BatchArgs {
     #[command(flatten)]
     pair: PairArgs,
-    /// Input CSV ('-' for stdin). Columns (any order): range,azimuth,elevation,roll,pitch,yaw and
-    /// either place_range,place_azimuth,place_elevation or tx,ty,tz.
+    /// Input CSV ('-' for stdin). Columns (any order): range (and azimuth for an FLS sonar 1);
+    /// the rotation as roll,pitch,yaw (deg), qw,qx,qy,qz (unit quaternion, scalar first) or
+    /// r11,r12,...,r33 (the matrix R of p2 = R p1 + t, row-major); and either
+    /// place_range,place_azimuth,place_elevation (with the feature's true point azimuth,elevation)
+    /// or tx,ty,tz (elevation optional).
     #[arg(long, value_name = "FILE", default_value = "-")]
     input: String,
-    /// Output CSV ('-' for stdout): the input columns, then
-    /// visible,total,range_min,range_max,span,azimuth_min,azimuth_max,occupied,occupied_measure.
+    /// Output CSV ('-' for stdout): the input columns, then visible,total,range_min,range_max,
+    /// span,azimuth_min,azimuth_max,occupied,occupied_measure,projection_area,
+    /// range_per_elevation,sigma_elevation.
     /// A file is written whole or not at all; on stdout, rows go out as they are computed, and
     /// a bad input row stops the command (exit status 2) after the rows before it.
     #[arg(long, value_name = "FILE", default_value = "-")]
@@ -27,17 +31,11 @@ pub(super) struct BatchArgs {
 /// Runs `sonarproj batch`: rows are read, projected and written a chunk at a time; the device is
 /// opened when the first chunk is ready (a bad header or first row never waits for it).
 pub(super) fn run(a: BatchArgs) -> Result<()> {
-    let (source, target, sampling) = a.pair.resolve()?;
+    let pair = a.pair.resolve()?;
     let input = open_input(&a.input)?;
-    let pair = Batch {
-        source,
-        target,
-        sampling,
-        items: Vec::new(),
-    };
     let mut backend: Option<Backend> = None;
     write_output(&a.output, |w| {
-        project_csv(input, w, &pair, |chunk| {
+        project_csv(input, w, &pair, a.pair.sigma_range, |chunk| {
             let backend = match &mut backend {
                 Some(b) => b,
                 None => backend.insert(a.pair.backend()?),

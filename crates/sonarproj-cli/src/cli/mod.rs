@@ -28,7 +28,8 @@ use clap::{Parser, Subcommand};
 use std::io::{Read, Write};
 use std::path::PathBuf;
 
-use sonarproj::{Backend, BackendChoice, Sampling, Sonar};
+use sonarproj::local_precision::resolve_sigma_range;
+use sonarproj::{Backend, BackendChoice, Batch, Sampling, Sonar};
 use sonarproj_apps::Error;
 use sonarproj_apps::Result;
 use sonarproj_apps::report::write_atomic;
@@ -108,22 +109,39 @@ pub(crate) struct PairArgs {
     /// neighbouring samples land less than half a bin and half a beam apart in sonar 2.
     #[arg(long, value_name = "DEG")]
     step: Option<f64>,
+    /// Cell side (m) of the Cartesian grid over an FLS sonar 2's image that `projection_area`
+    /// counts (the paper's: 0.08 m).
+    #[arg(long, value_name = "M", default_value_t = sonarproj::PAPER_AREA_GRID)]
+    area_grid: f64,
+    /// Range error σ (m) that sigma_elevation is computed for. Default: the bin width of the
+    /// sonar whose range pins the elevation (sonar 2 for an FLS sonar 1, else sonar 1) over √12.
+    #[arg(long, value_name = "M")]
+    sigma_range: Option<f64>,
     /// Where to compute: auto picks a hardware GPU when one exists, else the fast CPU path.
     #[arg(long, value_enum, default_value = "auto")]
     backend: BackendArg,
 }
 
 impl PairArgs {
-    /// Returns sonar 1, sonar 2 and the sampling, checked.
-    fn resolve(&self) -> Result<(Sonar, Sonar, Sampling)> {
+    /// Returns the batch of sonar 1, sonar 2, the sampling and the area grid, checked, with no
+    /// items yet.
+    fn resolve(&self) -> Result<Batch> {
         let source = Sonar::resolve(&self.from)?;
         let target = Sonar::resolve(&self.to)?;
         let sampling = match self.step {
             Some(s) => Sampling::Step(s),
             None => Sampling::Auto,
-        }
-        .validated()?;
-        Ok((source, target, sampling))
+        };
+        let pair = Batch {
+            source,
+            target,
+            sampling,
+            area_grid: self.area_grid,
+            items: Vec::new(),
+        };
+        pair.checker()?;
+        resolve_sigma_range(&pair.source, &pair.target, self.sigma_range)?;
+        Ok(pair)
     }
 
     /// Returns the backend, printing the one-line notice when `auto` fell back to the CPU.

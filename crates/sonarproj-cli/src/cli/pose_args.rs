@@ -70,6 +70,11 @@ impl PoseArgs {
         })
     }
 
+    /// Returns whether the pose is a placement (`--place-*`).
+    pub(super) fn is_placement(&self) -> bool {
+        self.place_range.is_some()
+    }
+
     /// Returns the pose; `feature` is the true point in sonar 1 `[range, azimuth, elevation]`
     /// (m, deg, deg), used by the placement.
     pub(super) fn pose(&self, feature: [f64; 3]) -> Result<RelativePose> {

@@ -4,9 +4,10 @@ use sonarproj::Output;
 use std::path::PathBuf;
 
 use serde_json::json;
+use sonarproj::local_precision::{LocalPrecision, local_precision, resolve_sigma_range};
 use sonarproj::occupancy::Layout;
 use sonarproj::sampling::SamplingPlan;
-use sonarproj::{Batch, BatchItem, Measurement, Sampling};
+use sonarproj::{BatchItem, Measurement, Sampling};
 use sonarproj_apps::report::occupancy_image::{self, Format, Orientation};
 use sonarproj_apps::{Error, Result};
 
@@ -25,9 +26,11 @@ pub(super) struct ProjectArgs {
     /// Azimuth (deg) of the feature in sonar 1 (measured by an FLS; used by the placement).
     #[arg(long, value_name = "DEG", default_value_t = 0.0)]
     azimuth: f64,
-    /// Elevation (deg) of the feature's true point in sonar 1 (used by the placement only).
-    #[arg(long, value_name = "DEG", default_value_t = 0.0)]
-    elevation: f64,
+    /// Elevation (deg) of the feature's true point in sonar 1: used by the placement, and for
+    /// range_per_elevation and sigma_elevation (default 0 with a placement; without one, those
+    /// two are empty unless it is given).
+    #[arg(long, value_name = "DEG")]
+    elevation: Option<f64>,
     #[command(flatten)]
     pose: PoseArgs,
     /// Also write the occupancy buffer: FILE.png, a labelled picture for a person (near range at
@@ -49,11 +52,16 @@ pub(super) struct ProjectArgs {
 
 /// Runs `sonarproj project`.
 pub(super) fn run(a: ProjectArgs) -> Result<()> {
-    let (source, target, sampling) = a.pair.resolve()?;
-    source.check_point("feature", a.range, a.azimuth, a.elevation)?;
-    let measurement = Measurement::of(&source, a.range, a.azimuth)?;
-    let pose = a.pose.pose([a.range, a.azimuth, a.elevation])?;
-    let plan = SamplingPlan::new(&source, &target, &measurement, sampling)?;
+    let mut batch = a.pair.resolve()?;
+    // The true point is known with a placement (elevation 0 unless given) or a given elevation.
+    let elevation = a.elevation.unwrap_or(0.0);
+    let true_point =
+        (a.pose.is_placement() || a.elevation.is_some()).then_some([a.range, a.azimuth, elevation]);
+    let (source, target, sampling) = (&batch.source, &batch.target, batch.sampling);
+    source.check_point("feature", a.range, a.azimuth, elevation)?;
+    let measurement = Measurement::of(source, a.range, a.azimuth)?;
+    let pose = a.pose.pose([a.range, a.azimuth, elevation])?;
+    let plan = SamplingPlan::new(source, target, &measurement, sampling)?;
     let png = match &a.occupancy {
         Some(path) => occupancy_image::check_extension(path)? == Format::Png,
         None => false,
@@ -72,12 +80,7 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
         }
     }
     let backend = a.pair.backend()?;
-    let batch = Batch {
-        source,
-        target,
-        sampling,
-        items: vec![BatchItem { measurement, pose }],
-    };
+    batch.items.push(BatchItem { measurement, pose });
     let result = backend
         .project(
             &batch,
@@ -101,6 +104,13 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
         occupancy_image::write(path, occ, &Layout::of(&batch.target), &title, orientation)?;
     }
     let rows = pose.rotation.transpose().to_cols_array_2d();
+    let sigma = resolve_sigma_range(&batch.source, &batch.target, a.pair.sigma_range)?;
+    let local = true_point.map_or_else(LocalPrecision::default, |point| {
+        local_precision(&batch.source, &batch.target, point, &pose, sigma)
+    });
+    let mut metrics = serde_json::to_value(result.metrics).expect("plain JSON values");
+    metrics["range_per_elevation"] = json!(local.range_per_elevation);
+    metrics["sigma_elevation"] = json!(local.sigma_elevation);
     let out = json!({
         "from": batch.source.name,
         "to": batch.target.name,
@@ -120,7 +130,7 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
             "azimuth_samples": plan.azimuths.len(),
             "elevation_samples": plan.elevations.len(),
         },
-        "metrics": result.metrics,
+        "metrics": metrics,
         "occupancy_file": a.occupancy,
     });
     outln!(
