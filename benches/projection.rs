@@ -78,6 +78,7 @@ fn results(c: &mut Criterion) {
                 .map(|k| Projection {
                     metrics: Metrics::new(k % 7, 121, Extremes::default(), (k % 5, 0.1), None),
                     occupancy: None,
+                    cells: None,
                 })
                 .collect::<Vec<_>>()
         })

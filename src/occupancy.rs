@@ -82,6 +82,18 @@ impl AreaGrid {
         };
         let count = |lo: f64, hi: f64| ((hi - lo) / cell).ceil().max(1.0);
         let (nx, ny) = (count(x0, x1), count(-half_y, half_y));
+        // The GPU computes a cell's index along an axis in f32, exact below 2^24.
+        let axis_limit = f64::from(1u32 << 24);
+        if nx.max(ny) > axis_limit {
+            return Err(Error::invalid(
+                "area_grid",
+                cell,
+                format!(
+                    "gives {:.0} cells along one axis of sonar 2's image, more than 2^24",
+                    nx.max(ny)
+                ),
+            ));
+        }
         #[expect(clippy::cast_precision_loss, reason = "a limit far below 2^53")]
         if nx * ny > MAX_AREA_CELLS as f64 {
             // The smallest allowed cell, rounded up to two significant digits.

@@ -617,6 +617,21 @@ fn catches_wrong_results(prepared: &PreparedBatch<'_>, batch: &Batch, good: &Pro
             "{name}: area {what}"
         );
     }
+    // One cell moved where no sample can be: the same count, the wrong place.
+    let mut moved = good.clone();
+    let cells = moved.cells.as_mut().expect("cells read back with the occupancy");
+    let (i, j) = b.cells_certain.pixels().next().expect("a certain cell");
+    let far = (0..grid.nx)
+        .flat_map(|a| (0..grid.ny).map(move |c| (a, c)))
+        .find(|&(a, c)| !b.cells_possible.get(a, c))
+        .expect("a cell out of reach");
+    let k = i * cells.beams + j;
+    cells.words[k / 32] &= !(1 << (k % 32));
+    cells.set(far.0, far.1);
+    assert!(
+        common::check_within_bounds(prepared.layout(), &b, &moved).is_err(),
+        "{name}: cell moved"
+    );
 }
 
 /// A process opens one GPU context per device asked for (backends, adapter, precision) and shares

@@ -45,6 +45,10 @@ pub struct Projection {
     pub metrics: Metrics,
     /// The occupancy buffer, when it was asked for.
     pub occupancy: Option<Occupancy>,
+    /// The projection-area cells (an FLS target: the layout's
+    /// [`AreaGrid`](crate::occupancy::AreaGrid), `nx` rows of `ny`), when the occupancy was asked
+    /// for.
+    pub cells: Option<Occupancy>,
 }
 
 /// A batch made ready for a backend: sonar 2's layout and the distinct sampling plans.

@@ -545,8 +545,21 @@ fn merge_refuses_shards_computed_with_different_settings() {
                 .and(predicates::str::contains("\"cpu\" in shard 1")),
         );
     assert!(!out.join("sweep.csv").exists(), "merge wrote sweep.csv");
-    // Shard 2 recomputed on the same backend as shard 1 (a finished part is kept, so its file
-    // is removed first): merges into the file one run writes.
+    // A finished shard is not passed off as another backend's: re-running it so is refused.
+    common::sonarproj()
+        .args(["sweep", "--backend", "cpu", "--shard", "2/2", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(
+            predicates::str::contains("--backend").and(predicates::str::contains(
+                "was finished with backend \"cpu-fast\"",
+            )),
+        );
+    // Shard 2 recomputed on the same backend as shard 1 (its file removed first): merges into
+    // the file one run writes.
     std::fs::remove_file(out.join("shard-2-of-2.csv")).unwrap();
     sweep(
         &cfg,
@@ -568,4 +581,16 @@ fn merge_refuses_shards_computed_with_different_settings() {
         .code(2)
         .stderr(predicates::str::contains("shard-2-of-2.run.json"));
     assert!(!out.join("sweep.csv").exists());
+    // Re-running that shard says what to do instead of pretending it is whole.
+    common::sonarproj()
+        .args(["sweep", "--backend", "cpu", "--shard", "2/2", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(
+            predicates::str::contains("no record of how it was computed")
+                .and(predicates::str::contains("remove it")),
+        );
 }

@@ -187,12 +187,29 @@ pub fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Resul
     if m.occupied_measure < lo * (1.0 - slack) || m.occupied_measure > hi * (1.0 + slack) {
         return Err(format!("measure {} outside [{lo}, {hi}]", m.occupied_measure));
     }
-    // Both areas are a cell count times the same cell², so they compare exactly.
+    // Both areas are a cell count times the same cell², so they compare exactly; the cells
+    // themselves lie between the certain and the possible ones, and the area counts them.
     match (b.projection_area(layout), m.projection_area) {
         (None, None) => {}
         (Some((lo, hi)), Some(a)) if (lo..=hi).contains(&a) => {}
         (interval, area) => {
             return Err(format!("projection_area {area:?} outside {interval:?}"));
+        }
+    }
+    if let Some(grid) = layout.area_grid {
+        let cells = p.cells.as_ref().ok_or("no cells read back")?;
+        if !b.cells_certain.is_subset_of(cells) {
+            return Err("certain projection-area cells not set".into());
+        }
+        if !cells.is_subset_of(&b.cells_possible) {
+            return Err("projection-area cells set that no sample can reach".into());
+        }
+        if m.projection_area != Some(grid.area(cells.count())) {
+            return Err(format!(
+                "projection_area {:?} but {} cells set",
+                m.projection_area,
+                cells.count()
+            ));
         }
     }
     if m.visible > 0 {

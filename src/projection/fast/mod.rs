@@ -183,11 +183,12 @@ fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, isa: Isa) ->
                     SonarKind::Sss => isa::draw_pose::<false>(isa, scratch, &geo, dirs, pose),
                 };
                 let (occupied, measure, occupancy) = scratch.reduce(&geo, keep_occupancy);
-                let area = scratch.reduce_cells(&geo);
+                let (area, cells) = scratch.reduce_cells(&geo, keep_occupancy);
                 let total = dirs.units.len() as u64;
                 Projection {
                     metrics: Metrics::new(visible, total, extremes, (occupied, measure), area),
                     occupancy,
+                    cells,
                 }
             },
         )

@@ -126,10 +126,18 @@ impl Scratch {
 
 impl Scratch {
     /// Returns the projection area (m²) of the cells drawn (`None` without an area grid: an SSS
-    /// target), leaving the cells empty: the count over the touched words.
+    /// target) and the cells when asked for, leaving the cells empty: the count over the
+    /// touched words.
     #[inline]
-    pub(super) fn reduce_cells(&mut self, geo: &Geometry<'_>) -> Option<f64> {
-        let grid = geo.layout.area_grid?;
+    pub(super) fn reduce_cells(
+        &mut self,
+        geo: &Geometry<'_>,
+        keep: bool,
+    ) -> (Option<f64>, Option<Occupancy>) {
+        let Some(grid) = geo.layout.area_grid else {
+            return (None, None);
+        };
+        let kept = keep.then(|| self.cells.clone());
         let mut count = 0;
         for (s, summary) in self.cell_summary.iter_mut().enumerate() {
             let mut touched = std::mem::take(summary);
@@ -139,7 +147,7 @@ impl Scratch {
                 count += u64::from(std::mem::take(&mut self.cells.words[w]).count_ones());
             }
         }
-        Some(grid.area(count))
+        (Some(grid.area(count)), kept)
     }
 }
 

@@ -406,7 +406,15 @@ impl GpuBackend {
                     let words_of = &b[c * words..][..pixel_words];
                     Occupancy::from_words(layout.range_bins, layout.beams(), words_of.to_vec())
                 });
-                Projection { metrics, occupancy }
+                let cells = raw_bits.as_ref().zip(layout.area_grid).map(|(b, g)| {
+                    let words_of = &b[c * words + pixel_words..(c + 1) * words];
+                    Occupancy::from_words(g.nx, g.ny, words_of.to_vec())
+                });
+                Projection {
+                    metrics,
+                    occupancy,
+                    cells,
+                }
             }));
         }
         Ok(out)

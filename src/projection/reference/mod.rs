@@ -38,6 +38,7 @@ pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> 
             Projection {
                 metrics: Metrics::new(splat.visible, plan.total() as u64, splat.extremes, occupied, area),
                 occupancy: keep_occupancy.then_some(occupancy),
+                cells: (keep_occupancy && layout.area_grid.is_some()).then_some(cells),
             }
         })
         .collect()

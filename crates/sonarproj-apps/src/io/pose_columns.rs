@@ -212,11 +212,14 @@ impl PoseColumns {
     }
 
     /// Returns the feature's true point `[range, azimuth, elevation]` (m, deg, deg) of a row
-    /// whose values `v` are in [`PoseColumns::columns`] order, when the table gives it (both
-    /// `azimuth` and `elevation` present).
+    /// whose values `v` are in [`PoseColumns::columns`] order, when the table gives its
+    /// `elevation` (a sidescan sonar 1 without `azimuth` has its true point at azimuth 0, as
+    /// [`PoseColumns::item`] places it).
     #[must_use]
     pub fn true_point(&self, v: &[f64]) -> Option<[f64; 3]> {
-        (self.azimuth && self.elevation).then(|| [v[0], v[1], v[2]])
+        let azimuth = if self.azimuth { v[1] } else { 0.0 };
+        self.elevation
+            .then(|| [v[0], azimuth, v[usize::from(self.azimuth) + 1]])
     }
 
     /// Returns the projection one row asks for, checked against sonar 1 (`source`); `v` holds

@@ -303,8 +303,42 @@ pub fn run(
         rows: poses,
     };
     match parts::check(&file, whole) {
-        // Finished earlier (the result is written only once every chunk is).
+        // Finished earlier (the result is written only once every chunk is), with these
+        // settings: a part computed otherwise, or without a record of how (a shard must have
+        // one to be merged), is not passed off as this run's.
         parts::Status::Good => {
+            let record = settings_path(&file);
+            let now = settings(backend);
+            match read_json::<Settings>(&record)? {
+                Some(was) => {
+                    if let Some((name, a, b)) = first_difference(&was, &now) {
+                        return Err(Error::invalid(
+                            if name == "backend" {
+                                "--backend".to_string()
+                            } else {
+                                name.clone()
+                            },
+                            b,
+                            format!(
+                                "{} was finished with {name} {a:?}; run with the same settings, or remove it to compute it again",
+                                file.display()
+                            ),
+                        ));
+                    }
+                }
+                None if opts.shard.is_some() => {
+                    return Err(Error::invalid(
+                        "--shard",
+                        stem.clone(),
+                        format!(
+                            "{} is finished but has no record of how it was computed ({} is missing): remove it to compute it again",
+                            file.display(),
+                            record.display()
+                        ),
+                    ));
+                }
+                None => {}
+            }
             outcome.resumed = poses;
             outcome.file = Some(file);
             // Finished: nothing left to stop.
@@ -569,7 +603,7 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
         let record: Settings = read_json(&path)?.ok_or_else(|| Error::Csv {
             context: file.display().to_string(),
             message: format!(
-                "has no record of how it was computed ({} is missing); nothing merged (run `sweep --shard {}/{n}` again)",
+                "has no record of how it was computed ({} is missing); nothing merged (remove it and run `sweep --shard {}/{n}` again)",
                 path.display(),
                 k + 1
             ),
