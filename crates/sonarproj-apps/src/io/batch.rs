@@ -47,6 +47,8 @@ pub struct BatchReader<'s, R: Read> {
     table: TableReader<R>,
     source: &'s Sonar,
     columns: PoseColumns,
+    /// The columns a row is read from, in [`PoseColumns::columns`] order (taken once).
+    read: Vec<&'static str>,
 }
 
 impl<'s, R: Read> BatchReader<'s, R> {
@@ -63,6 +65,7 @@ impl<'s, R: Read> BatchReader<'s, R> {
         Ok(BatchReader {
             table,
             source,
+            read: columns.columns(),
             columns,
         })
     }
@@ -85,10 +88,9 @@ impl<'s, R: Read> BatchReader<'s, R> {
     /// [`Error::Csv`](crate::Error::Csv) naming the row (1-based, with its line) for a bad
     /// number, a wrong field count, an invalid pose or a feature outside sonar 1's field of view.
     pub fn next_item(&mut self) -> Result<Option<(Row, PoseRow)>> {
-        let (source, columns) = (self.source, &self.columns);
+        let (source, columns, read) = (self.source, &self.columns, &self.read);
         self.table.next_parsed(|table, fields| {
-            let values = columns
-                .columns()
+            let values = read
                 .iter()
                 .map(|c| table.number(fields, c))
                 .collect::<Result<Vec<f64>>>()?;
@@ -238,6 +240,17 @@ pub fn local_of(pair: &Batch, item: &BatchItem, true_point: Option<[f64; 3]>, si
     true_point.map_or_else(LocalPrecision::default, |point| {
         local_precision(&pair.source, &pair.target, point, &item.pose, sigma)
     })
+}
+
+/// Returns the result columns of one projection as a JSON object (`project`'s and the viewer's
+/// `metrics`): the metric table's keys, then the local precision's; `null` where a CSV cell is
+/// empty.
+#[must_use]
+pub fn metrics_json(m: &Metrics, local: &LocalPrecision) -> serde_json::Value {
+    let mut out = serde_json::to_value(m).expect("plain numbers");
+    out[LOCAL_COLUMNS[0]] = serde_json::json!(local.range_per_elevation);
+    out[LOCAL_COLUMNS[1]] = serde_json::json!(local.sigma_elevation);
+    out
 }
 
 /// Returns the result fields of one projection, in [`METRIC_COLUMNS`] order: the metrics, then

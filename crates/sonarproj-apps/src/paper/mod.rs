@@ -10,8 +10,10 @@ pub use findings::{Finding, findings, findings_markdown};
 use sonarproj::Output;
 
 use crate::error::{Error, Result, finite};
+use crate::io::batch::local_of;
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::{Sonar, SonarKind};
+use sonarproj::local_precision::{LocalPrecision, default_sigma_range};
 use sonarproj::metrics::{Metric, Metrics};
 use sonarproj::projection::Backend;
 use sonarproj::projection::{Batch, BatchItem, Projection};
@@ -242,6 +244,9 @@ pub struct DirectionRun {
     pub poses: Vec<ScenarioPose>,
     /// Their projections, in the same order.
     pub results: Vec<Projection>,
+    /// The local precision at each feature's true point (`(d1, 0, 0)` in sonar 1), for the
+    /// default range error, in the same order.
+    pub local: Vec<LocalPrecision>,
     /// Scenario 7's grid again with both features at [`NEAR_FRACTION`] of their sonar's
     /// maximum range (for the finding about the minimum range; not one of the paper's nine).
     pub near_both: Vec<Projection>,
@@ -260,7 +265,14 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
     Direction::both()
         .into_iter()
         .map(|direction| {
-            let results = backend.project(&batch(direction, &poses, sampling)?, Output::MetricsOnly)?;
+            let pair = batch(direction, &poses, sampling)?;
+            let results = backend.project(&pair, Output::MetricsOnly)?;
+            let sigma = default_sigma_range(&pair.source, &pair.target);
+            let local = pair
+                .items
+                .iter()
+                .map(|item| local_of(&pair, item, Some([item.measurement.range, 0.0, 0.0]), sigma))
+                .collect();
             let (s1, s2) = direction.sonars();
             let near = (NEAR_FRACTION * s1.range_max, NEAR_FRACTION * s2.range_max);
             let near_both = backend.project(
@@ -271,6 +283,7 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
                 direction,
                 poses: poses.clone(),
                 results,
+                local,
                 near_both,
             })
         })
@@ -317,12 +330,10 @@ pub fn write(
     angle_step: f64,
     sampling: Sampling,
 ) -> Result<Vec<Finding>> {
-    use crate::io::batch::local_of;
     use crate::io::table::write_rows;
     use crate::io::{METRIC_COLUMNS, metric_fields};
     use crate::report::{self, output_dir, write_atomic};
     use rayon::prelude::*;
-    use sonarproj::local_precision::default_sigma_range;
 
     let swept = angles(angle_step)?;
     output_dir(out, field)?;
@@ -333,24 +344,18 @@ pub fn write(
     runs.par_iter().try_for_each(|run| -> Result<()> {
         let stem = run.direction.stem();
         let write_csv = || {
-            // The poses again (cheap beside their projections), for the local precision at each
-            // feature's true point: `(d1, 0, 0)`, the measurement at azimuth 0, elevation 0.
-            let pair = batch(run.direction, &run.poses, sampling)?;
-            let sigma = default_sigma_range(&pair.source, &pair.target);
             let rows = run
                 .poses
                 .iter()
                 .zip(&run.results)
-                .zip(&pair.items)
-                .map(|((p, r), item)| {
+                .zip(&run.local)
+                .map(|((p, r), local)| {
                     let mut fields = vec![
                         p.scenario.to_string(),
                         p.fraction.map(|f| f.to_string()).unwrap_or_default(),
                     ];
                     fields.extend(p.angles.iter().map(f64::to_string));
-                    let point = [item.measurement.range, 0.0, 0.0];
-                    let local = local_of(&pair, item, Some(point), sigma);
-                    (fields, metric_fields(&r.metrics, &local))
+                    (fields, metric_fields(&r.metrics, local))
                 });
             let csv = out.join(format!("{stem}.csv"));
             write_atomic(&csv, |w| write_rows(w, &header, &METRIC_COLUMNS, rows))

@@ -298,42 +298,25 @@ impl SweepConfig {
             resolve_sonar(spec, base)
         };
         let (source, target) = (sonar("from")?, sonar("to")?);
+        // A key holding one positive number (in `unit`), `None` when left out.
+        let positive = |key: &str, unit: &str| -> Result<Option<f64>> {
+            let Some(v) = top.get(key) else { return Ok(None) };
+            match axis_values(file, key, v)?.as_slice() {
+                [x] if *x > 0.0 => Ok(Some(*x)),
+                _ => Err(key_error(
+                    file,
+                    key,
+                    v,
+                    format!("must be one number > 0 ({unit})"),
+                )),
+            }
+        };
         let sampling = match top.get("step") {
-            None => Sampling::Auto,
             Some(toml::Value::String(s)) if s == "auto" => Sampling::Auto,
-            Some(v) => {
-                let s = axis_values(file, "step", v)?;
-                if s.len() != 1 || s[0] <= 0.0 {
-                    return Err(key_error(
-                        file,
-                        "step",
-                        v,
-                        "must be one number > 0 (deg) or \"auto\"",
-                    ));
-                }
-                Sampling::Step(s[0])
-            }
+            _ => positive("step", "deg, or \"auto\"")?.map_or(Sampling::Auto, Sampling::Step),
         };
-        let area_grid = match top.get("area_grid") {
-            None => sonarproj::PAPER_AREA_GRID,
-            Some(v) => {
-                let g = axis_values(file, "area_grid", v)?;
-                if g.len() != 1 || g[0] <= 0.0 {
-                    return Err(key_error(file, "area_grid", v, "must be one number > 0 (m)"));
-                }
-                g[0]
-            }
-        };
-        let sigma_range = match top.get("sigma_range") {
-            None => None,
-            Some(v) => {
-                let g = axis_values(file, "sigma_range", v)?;
-                if g.len() != 1 || g[0] <= 0.0 {
-                    return Err(key_error(file, "sigma_range", v, "must be one number > 0 (m)"));
-                }
-                Some(g[0])
-            }
-        };
+        let area_grid = positive("area_grid", "m")?.unwrap_or(sonarproj::PAPER_AREA_GRID);
+        let sigma_range = positive("sigma_range", "m")?;
         let metric = match string("metric")? {
             None => match target.kind {
                 SonarKind::Sss => Metric::Span,

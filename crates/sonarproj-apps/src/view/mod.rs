@@ -24,6 +24,7 @@ use sonarproj::{
 };
 
 use crate::error::{Error, Result};
+use crate::io::batch::metrics_json;
 
 /// The most sample points a scene returns for the 3-D view (the metrics count all of them).
 pub const MAX_SHOWN_SAMPLES: usize = 8192;
@@ -442,15 +443,12 @@ impl Viewer {
             &pose,
             default_sigma_range(source, target),
         );
-        let mut metrics = serde_json::to_value(result.metrics).expect("plain values");
-        metrics["range_per_elevation"] = json!(local.range_per_elevation);
-        metrics["sigma_elevation"] = json!(local.sigma_elevation);
         Ok(json!({
             "from": sonar_json(&first.label, source),
             "to": sonar_json(&second.label, target),
             "backend": backend,
             "device": device,
-            "metrics": metrics,
+            "metrics": metrics_json(&result.metrics, &local),
             "occupancy": {
                 "range_bins": occupancy.range_bins,
                 "beams": occupancy.beams,

@@ -8,6 +8,7 @@ use sonarproj::local_precision::{LocalPrecision, local_precision, resolve_sigma_
 use sonarproj::occupancy::Layout;
 use sonarproj::sampling::SamplingPlan;
 use sonarproj::{BatchItem, Measurement, Sampling};
+use sonarproj_apps::io::batch::metrics_json;
 use sonarproj_apps::report::occupancy_image::{self, Format, Orientation};
 use sonarproj_apps::{Error, Result};
 
@@ -108,9 +109,6 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
     let local = true_point.map_or_else(LocalPrecision::default, |point| {
         local_precision(&batch.source, &batch.target, point, &pose, sigma)
     });
-    let mut metrics = serde_json::to_value(result.metrics).expect("plain JSON values");
-    metrics["range_per_elevation"] = json!(local.range_per_elevation);
-    metrics["sigma_elevation"] = json!(local.sigma_elevation);
     let out = json!({
         "from": batch.source.name,
         "to": batch.target.name,
@@ -130,7 +128,7 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
             "azimuth_samples": plan.azimuths.len(),
             "elevation_samples": plan.elevations.len(),
         },
-        "metrics": metrics,
+        "metrics": metrics_json(&result.metrics, &local),
         "occupancy_file": a.occupancy,
     });
     outln!(
