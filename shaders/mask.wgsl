@@ -15,8 +15,9 @@ struct MaskParams {
     beams: u32,
     words_per_mask: u32,
     _pad0: u32,
-    // 1 for an FLS target (beams), 0 for an SSS (range bins only)
-    fls: u32,
+    // 1 when sonar 2 has more than one beam (an FLS, or a two-sided sidescan), 0 for range
+    // bins only
+    beamed: u32,
     // tan of half the elevation aperture; < 0 when the aperture is 180 deg (no test)
     tan_half_el: f32,
     // tan of half the azimuth aperture (< 90 deg: checked on the CPU)
@@ -146,7 +147,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         let i1 = min(u32(max(floor((hi - params.range_min) * params.inv_range_bin), 0.0)), last_bin);
         var j0 = 0u;
         var j1 = 0u;
-        if params.fls == 1u {
+        if params.beamed == 1u {
             j1 = params.beams - 1u;
             let rho = length(q.xy);
             if r < rho * params.cos_half_az {

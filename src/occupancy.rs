@@ -216,10 +216,92 @@ impl Layout {
             .map_or_else(|| Occupancy::new(0, 0), |g| g.bitset())
     }
 
-    /// Returns the number of beams (1 for an SSS).
+    /// Returns the number of beams (1 for an SSS, 2 for a two-sided one).
     #[must_use]
     pub fn beams(&self) -> usize {
         self.beam_edges.len() - 1
+    }
+
+    /// Returns whether this is a two-sided sidescan's layout (an SSS with a starboard beam 0
+    /// and a port beam 1; see [`Sonar::two_sided`]): its data is one row of both sides, not
+    /// `[range_bin][beam]`.
+    #[must_use]
+    pub fn two_sided(&self) -> bool {
+        self.kind == SonarKind::Sss && self.beams() == 2
+    }
+
+    /// Returns the shape of the sonar's data, `(rows, columns)`: `(range_bins, beams)`, or
+    /// `(2 × range_bins, 1)` for a two-sided sidescan's row.
+    #[must_use]
+    pub fn data_shape(&self) -> (usize, usize) {
+        if self.two_sided() {
+            (2 * self.range_bins, 1)
+        } else {
+            (self.range_bins, self.beams())
+        }
+    }
+
+    /// Returns the index in the sonar's data of range bin `i`, beam `j`: `i · beams + j`, or for
+    /// a two-sided sidescan `range_bins − 1 − i` to port (`j = 1`, far to near) and
+    /// `range_bins + i` to starboard (`j = 0`, near to far).
+    #[must_use]
+    pub fn data_index(&self, i: usize, j: usize) -> usize {
+        if self.two_sided() {
+            if j == 1 {
+                self.range_bins - 1 - i
+            } else {
+                self.range_bins + i
+            }
+        } else {
+            i * self.beams() + j
+        }
+    }
+
+    /// Returns the range bin and beam `(i, j)` of index `k` of the sonar's data: the inverse of
+    /// [`Layout::data_index`].
+    #[must_use]
+    pub fn pixel_of_data(&self, k: usize) -> (usize, usize) {
+        if self.two_sided() {
+            if k < self.range_bins {
+                (self.range_bins - 1 - k, 1)
+            } else {
+                (k - self.range_bins, 0)
+            }
+        } else {
+            (k / self.beams(), k % self.beams())
+        }
+    }
+
+    /// Returns `occ`, drawn `[range_bin][beam]` in this layout, in the order of the sonar's
+    /// data ([`Layout::data_shape`], [`Layout::data_index`]): unchanged except for a two-sided
+    /// sidescan, whose two columns become one row of `2 × range_bins` bins. Every occupancy
+    /// and mask the engine hands out has passed through here.
+    #[must_use]
+    pub fn to_data_order(&self, occ: Occupancy) -> Occupancy {
+        if !self.two_sided() {
+            return occ;
+        }
+        let (rows, cols) = self.data_shape();
+        let mut out = Occupancy::new(rows, cols);
+        for (i, j) in occ.pixels() {
+            out.set(self.data_index(i, j), 0);
+        }
+        out
+    }
+
+    /// Returns per-pixel `counts`, `[range_bin][beam]` in this layout, in the order of the
+    /// sonar's data (as [`Layout::to_data_order`]).
+    #[must_use]
+    pub fn counts_to_data_order(&self, counts: Vec<u32>) -> Vec<u32> {
+        if !self.two_sided() {
+            return counts;
+        }
+        let mut out = vec![0; counts.len()];
+        for (k, &c) in counts.iter().enumerate() {
+            let (i, j) = (k / 2, k % 2);
+            out[self.data_index(i, j)] = c;
+        }
+        out
     }
 
     /// Returns the number of bins (SSS) or pixels (FLS): `range_bins × beams`.

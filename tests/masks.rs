@@ -39,9 +39,11 @@ fn cart(r: f64, az: f64, el: f64) -> DVec3 {
     DVec3::new(r * el.cos() * az.cos(), r * el.cos() * az.sin(), r * el.sin())
 }
 
-/// Returns the bin or pixel `(i, j)` of the point `p` in sonar `s`, written here from the
-/// sonar's definition (README: Conventions), not taken from the library: bins `[edge_i, edge_i+1)` with the
-/// last one closed, beams likewise.
+/// Returns the bin or pixel `(row, column)` of the point `p` in sonar `s`'s data, written here
+/// from the sonar's definition (README: Conventions), not taken from the library: bins
+/// `[edge_i, edge_i+1)` with the last one closed, beams likewise; a two-sided sidescan's row
+/// holds port bin `i` at `range_bins − 1 − i` (azimuth ≥ 0) and starboard bin `i` at
+/// `range_bins + i`.
 #[expect(
     clippy::cast_possible_truncation,
     reason = "a saturating float-to-index conversion, clamped to the table right after"
@@ -51,6 +53,10 @@ fn true_pixel(s: &Sonar, p: DVec3) -> (usize, usize) {
     let w = (s.range_max - s.range_min) / f64::from(s.range_bins);
     let i = (((r - s.range_min) / w).floor().max(0.0) as usize).min(s.range_bins as usize - 1);
     let j = match (&s.kind, &s.beams) {
+        (SonarKind::Sss, BeamLayout::Uniform { count: 2 }) => {
+            let n = s.range_bins as usize;
+            return (if p.y.atan2(p.x) >= 0.0 { n - 1 - i } else { n + i }, 0);
+        }
         (SonarKind::Sss, _) => 0,
         (SonarKind::Fls, BeamLayout::Uniform { count }) => {
             let az = p.y.atan2(p.x).to_degrees();

@@ -109,7 +109,7 @@ def pixel_of(fls: sonarproj.Sonar, r: float, az: float) -> tuple[int, int]:
 
 def main() -> None:
     args = parse_args()
-    sss = sonarproj.Sonar.preset("holoocean-sidescan")  # 0.5-35 m, 170° x 0.25°, 2000 bins
+    sss = sonarproj.Sonar.preset("holoocean-sidescan")  # 0.5-35 m, 170° x 0.25°, 2 x 1000 bins
     fls = sonarproj.Sonar.preset("holoocean-imaging")   # 0.1-10 m, 120° x 20°, 512 x 512
     pose = sonarproj.Pose(ROLL, PITCH, YAW, t=T)
 

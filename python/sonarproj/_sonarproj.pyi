@@ -29,11 +29,14 @@ class Sonar:
     """A sonar: kind ("fls" imaging or "sss" sidescan), field of view and data layout.
 
     ``Sonar(kind, range_min, range_max, azimuth_aperture, elevation_aperture, range_bins,
-    beams=None, beam_edges=None, beam_centres=None, name=None)``: ranges in m (``0 <= range_min
-    < range_max <= 10000``), full apertures in deg (azimuth in (0, 360], elevation in (0, 180]),
-    and for an imaging sonar exactly one of ``beams`` (uniform count), ``beam_edges`` (deg,
-    beams + 1 increasing values from -aperture/2 to +aperture/2) or ``beam_centres`` (deg; the
-    edges are the midpoints). A sidescan has one beam and takes none of them.
+    beams=None, beam_edges=None, beam_centres=None, name=None, sides=None)``: ranges in m
+    (``0 <= range_min < range_max <= 10000``), full apertures in deg (azimuth in (0, 360],
+    elevation in (0, 180]), and for an imaging sonar exactly one of ``beams`` (uniform count),
+    ``beam_edges`` (deg, beams + 1 increasing values from -aperture/2 to +aperture/2) or
+    ``beam_centres`` (deg; the edges are the midpoints). A sidescan takes none of them; its
+    ``sides`` is 1 (default) or 2: one fan over port and starboard whose data is one row of
+    ``2 * range_bins`` values, port far to near then starboard near to far (HoloOcean's
+    SidescanSonar, whose ``RangeBins`` is ``2 * range_bins``).
     """
 
     def __init__(
@@ -48,6 +51,7 @@ class Sonar:
         beam_edges: Optional[Sequence[float]] = None,
         beam_centres: Optional[Sequence[float]] = None,
         name: Optional[str] = None,
+        sides: Optional[int] = None,
     ) -> None: ...
     @staticmethod
     def preset(name: str) -> Sonar:
@@ -76,13 +80,17 @@ class Sonar:
     def range_bins(self) -> int: ...
     @property
     def beams(self) -> int:
-        """Number of beams (1 for a sidescan)."""
+        """Number of beams (1 for a sidescan; 2 for a two-sided one: starboard, port)."""
+    @property
+    def sides(self) -> int:
+        """2 for a two-sided sidescan (one row of port and starboard), else 1."""
     @property
     def beam_edges(self) -> npt.NDArray[np.float64]:
         """Beam edges (deg), from -aperture/2 (starboard) to +aperture/2 (port)."""
     @property
     def shape(self) -> tuple[int, ...]:
-        """``(range_bins, beams)`` for an imaging sonar, ``(range_bins,)`` for a sidescan."""
+        """``(range_bins, beams)`` for an imaging sonar, ``(range_bins,)`` for a sidescan,
+        ``(2 * range_bins,)`` for a two-sided one."""
 
 class Pose:
     """The pose of sonar 2 relative to sonar 1: ``p2 = R p1 + t``.

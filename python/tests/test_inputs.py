@@ -60,6 +60,8 @@ def batch(cols, **kw):
     (lambda: Sonar("fls", 0.1, 10, 60, 12, 100), ["beams"]),
     (lambda: Sonar("sss", 0.1, 10, 60, 12, 100, beams=4), ["beams", "sidescan"]),
     (lambda: Sonar("radar", 0.1, 10, 60, 12, 100), ["kind", "radar"]),
+    (lambda: Sonar("sss", 0.5, 35, 170, 0.25, 1000, sides=3), ["sides", "3"]),
+    (lambda: Sonar("fls", 0.1, 10, 60, 12, 100, beams=8, sides=2), ["sides", "sidescan"]),
     (lambda: Sonar("fls", 0.1, 10, 60, 12, -3, beams=8), ["range_bins", "-3"]),
     (lambda: Sonar("fls", 5, 1, 60, 12, 100, beams=8), ["range_max", "1"]),
     (lambda: Sonar("fls", 0.1, 10, 400, 12, 100, beams=8), ["azimuth_aperture", "400"]),
@@ -203,6 +205,34 @@ def test_sidescan_masks_are_range_bins():
     assert [x.masks.shape[0] for x in sets] == [1, 2]
     assert sets[1].counts.dtype == np.uint32 and sets[1].counts.shape == sets[1].masks.shape
     assert ((sets[1].counts > 0) == (sets[1].masks > 0)).all()
+
+
+def holoocean_index(r, az):
+    """HoloOcean's SidescanSonar.cpp, restated: bin X = (int)((r - RangeMin) / RangeRes), then
+    port (azimuth > 0) RangeBins/2 - X/2 - 1, starboard RangeBins/2 + X/2 (defaults 0.5-35 m,
+    RangeBins 2000)."""
+    x = int((r - 0.5) / ((35.0 - 0.5) / 2000))
+    return 1000 - x // 2 - 1 if az > 0 else 1000 + x // 2
+
+
+@pytest.mark.parametrize("azimuth", [40.0, -40.0])
+def test_a_two_sided_sidescan_is_holooceans_row(azimuth):
+    hs = Sonar.preset("holoocean-sidescan")
+    assert (hs.sides, hs.beams, hs.range_bins, hs.shape) == (2, 2, 1000, (2000,))
+    assert Sonar("sss", 0.5, 35, 170, 0.25, 1000, sides=2, name="holoocean-sidescan") == hs
+    assert "sides=2" in repr(hs) and Sonar.preset("paper-sss").sides == 1
+    # A one-sample source (an elevation aperture far below the step) puts one point in the row.
+    point = Sonar("fls", 0.1, 60, 120, 1e-6, 100, beams=10)
+    pose = Pose.placement((5.0, 0.0, 0.0), (12.34, azimuth, 0.05), roll=30, pitch=10, yaw=-20)
+    for backend in ("cpu", "cpu-fast"):
+        out = sonarproj.project(point, hs, pose, (5.0, 0.0), step=1.0, occupancy=True, backend=backend)
+        assert out["occupancy"].shape == (2000,)
+        assert np.nonzero(out["occupancy"])[0].tolist() == [holoocean_index(12.34, azimuth)], backend
+    # A mask holds the true point's index, in the same row.
+    m = sonarproj.masks(point, hs, pose, [[5.0, 0.0]], backend="cpu")
+    assert m.masks.shape == (1, 2000) and m.masks[0, holoocean_index(12.34, azimuth)] == 1
+    box = m.boxes[0]
+    assert box["azimuth_min"] <= azimuth <= box["azimuth_max"]
 
 
 def test_batch_releases_the_gil():

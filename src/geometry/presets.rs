@@ -84,7 +84,10 @@ const PRESETS: &[PresetRow] = &[
         "HoloOcean ImagingSonar defaults",
     ),
     // HoloOcean SidescanSonar defaults: RangeMin 0.5, RangeMax 35, Azimuth 170, Elevation 0.25,
-    // RangeBins 2000.
+    // RangeBins 2000. Its one fan covers both sides and its frame is one row of RangeBins
+    // values, port far→near then starboard near→far, each side RangeBins / 2 bins over the
+    // whole range (SidescanSonar.cpp: bin X = (r − RangeMin) / RangeRes, port index
+    // RangeBins/2 − X/2 − 1, starboard RangeBins/2 + X/2): two sides of 1000 bins.
     (
         "holoocean-sidescan",
         SonarKind::Sss,
@@ -92,9 +95,9 @@ const PRESETS: &[PresetRow] = &[
         35.0,
         170.0,
         0.25,
-        2000,
-        1,
-        "HoloOcean SidescanSonar defaults",
+        1000,
+        2,
+        "HoloOcean SidescanSonar defaults (two-sided: 2 x 1000 bins)",
     ),
 ];
 

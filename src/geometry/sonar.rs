@@ -30,7 +30,9 @@ impl SonarKind {
 /// How the azimuth aperture of an FLS image is split into beams.
 #[derive(Clone, Debug, PartialEq)]
 pub enum BeamLayout {
-    /// `count` beams of equal width over the aperture (an SSS has one).
+    /// `count` beams of equal width over the aperture. An SSS has one, or two for a two-sided
+    /// sidescan (one fan over port and starboard, its data one row of both sides: see
+    /// [`Sonar::two_sided`]).
     Uniform {
         /// Number of beams.
         count: u32,
@@ -60,7 +62,8 @@ pub struct Sonar {
     pub elevation_aperture: f64,
     /// Number of uniform range bins over `[range_min, range_max]`.
     pub range_bins: u32,
-    /// Beams of the FLS image; `Uniform { count: 1 }` for an SSS.
+    /// Beams of the FLS image; for an SSS `Uniform { count: 1 }`, or `Uniform { count: 2 }` for
+    /// a two-sided sidescan (starboard then port: [`Sonar::two_sided`]).
     pub beams: BeamLayout,
 }
 
@@ -79,6 +82,7 @@ struct SonarFile {
     beams: Option<u32>,
     beam_edges: Option<Vec<f64>>,
     beam_centres: Option<Vec<f64>>,
+    sides: Option<u32>,
 }
 
 impl Sonar {
@@ -111,7 +115,8 @@ impl Sonar {
     ///
     /// Keys: `kind` (`"fls"`/`"sss"`), `range_min`, `range_max` (m), `azimuth_aperture`,
     /// `elevation_aperture` (deg), `range_bins`, and for an FLS one of `beams` (uniform),
-    /// `beam_edges` or `beam_centres` (deg).
+    /// `beam_edges` or `beam_centres` (deg); for an SSS optionally `sides` (1, or 2 for a
+    /// two-sided sidescan: [`Sonar::two_sided`]).
     ///
     /// # Errors
     /// [`Error::ReadInput`], [`Error::SonarFile`] (syntax, unknown or missing keys) or
@@ -156,11 +161,27 @@ impl Sonar {
             ));
         }
         let beams = match (file.kind, file.beams, file.beam_edges, file.beam_centres) {
-            (SonarKind::Sss, None | Some(1), None, None) => BeamLayout::Uniform { count: 1 },
+            (SonarKind::Sss, None | Some(1), None, None) => match file.sides {
+                None | Some(1) => BeamLayout::Uniform { count: 1 },
+                Some(2) => BeamLayout::Uniform { count: 2 },
+                Some(n) => {
+                    return Err(Error::invalid(
+                        format!("{ctx}: sides"),
+                        n,
+                        "must be 1 (one side) or 2 (port and starboard in one row, as HoloOcean's SidescanSonar)",
+                    ));
+                }
+            },
             (SonarKind::Sss, _, _, _) => {
                 return Err(Error::input(
                     format!("{ctx}: beams"),
-                    "an SSS has no beams; leave beams, beam_edges and beam_centres out",
+                    "an SSS has no beams; leave beams, beam_edges and beam_centres out (sides = 2 for a two-sided sidescan)",
+                ));
+            }
+            (SonarKind::Fls, ..) if file.sides.is_some() => {
+                return Err(Error::input(
+                    format!("{ctx}: sides"),
+                    "only a sidescan (kind = \"sss\") has sides; leave it out for an FLS",
                 ));
             }
             (SonarKind::Fls, Some(n), None, None) => BeamLayout::Uniform { count: n },
@@ -323,8 +344,12 @@ impl Sonar {
         }
         match &self.beams {
             BeamLayout::Uniform { count } => {
-                if self.kind == SonarKind::Sss && *count != 1 {
-                    return Err(Error::invalid(f("beams"), count, "an SSS has exactly 1 beam"));
+                if self.kind == SonarKind::Sss && !matches!(*count, 1 | 2) {
+                    return Err(Error::invalid(
+                        f("sides"),
+                        count,
+                        "an SSS has 1 side, or 2 for a two-sided sidescan",
+                    ));
                 }
                 if *count == 0 || *count > MAX_BEAMS {
                     return Err(Error::invalid(
@@ -352,8 +377,20 @@ impl Sonar {
         Ok(())
     }
 
-    /// Returns the number of beams (1 for an SSS; 0 for an invalid sonar with fewer than two
-    /// beam edges).
+    /// Returns whether this is a two-sided sidescan: an SSS whose one fan covers port and
+    /// starboard (`Uniform { count: 2 }`) and whose data is one row of both sides, as
+    /// HoloOcean's `SidescanSonar` returns it. Each side has `range_bins` bins over
+    /// `[range_min, range_max]`; a point with azimuth `>= 0` (toward +y) is to port, below 0
+    /// to starboard. The row holds `2 × range_bins` values: port from far to near, then
+    /// starboard from near to far — index `range_bins − 1 − i` for port bin `i`,
+    /// `range_bins + i` for starboard bin `i` (HoloOcean's `RangeBins` is `2 × range_bins`).
+    #[must_use]
+    pub fn two_sided(&self) -> bool {
+        self.kind == SonarKind::Sss && self.beams == (BeamLayout::Uniform { count: 2 })
+    }
+
+    /// Returns the number of beams (1 for an SSS, 2 for a two-sided one; 0 for an invalid
+    /// sonar with fewer than two beam edges).
     #[must_use]
     pub fn beam_count(&self) -> u32 {
         match &self.beams {

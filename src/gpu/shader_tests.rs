@@ -246,7 +246,7 @@ fn mask_structs_match_the_rust_layout() {
         ("beams", offset_of!(MaskParams, beams)),
         ("words_per_mask", offset_of!(MaskParams, words_per_mask)),
         ("_pad0", offset_of!(MaskParams, _pad0)),
-        ("fls", offset_of!(MaskParams, fls)),
+        ("beamed", offset_of!(MaskParams, beamed)),
         ("tan_half_el", offset_of!(MaskParams, tan_half_el)),
         ("tan_half_az", offset_of!(MaskParams, tan_half_az)),
         ("cos_half_az", offset_of!(MaskParams, cos_half_az)),

@@ -4,7 +4,7 @@
 use crate::clip::{MASK_ANGLE_SLACK, MASK_F64_SLACK};
 use glam::DVec3;
 
-use crate::geometry::{RelativePose, SonarKind, sph_to_cart};
+use crate::geometry::{RelativePose, sph_to_cart};
 use crate::occupancy::Occupancy;
 
 use super::plan::{BLOCK, Plan};
@@ -64,7 +64,7 @@ fn mark(view: &View, q: DVec3, radius: f64, occ: &mut Occupancy, counts: Option<
     let beams = l.beams();
     let mut spans = [(0usize, 0usize); 3];
     let mut n = 0;
-    if l.kind == SonarKind::Sss {
+    if l.beams() == 1 {
         spans[0] = (0, 0);
         n = 1;
     } else {

@@ -16,7 +16,7 @@ use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
 use crate::error::{Error, Result};
-use crate::geometry::{RelativePose, SonarKind};
+use crate::geometry::RelativePose;
 use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::SharedPool;
 use crate::gpu::{GpuContext, context, read, shaders};
@@ -37,14 +37,15 @@ pub(crate) struct MaskParams {
     pub(crate) inv_range_bin: f32,
     /// Sonar 2's range bins.
     pub(crate) range_bins: u32,
-    /// Sonar 2's beams (1 for a sidescan).
+    /// Sonar 2's beams (1 for a sidescan, 2 for a two-sided one).
     pub(crate) beams: u32,
     /// 32-bit words of one mask's bitset.
     pub(crate) words_per_mask: u32,
     /// Padding (zero).
     pub(crate) _pad0: u32,
-    /// 1 for an FLS target (beams), 0 for an SSS (range bins only).
-    pub(crate) fls: u32,
+    /// 1 when sonar 2 has more than one beam (an FLS, or a two-sided sidescan), 0 for range
+    /// bins only.
+    pub(crate) beamed: u32,
     /// tan of half the elevation aperture; < 0 when the aperture is 180° (no test).
     pub(crate) tan_half_el: f32,
     /// tan of half the azimuth aperture (< 90°: checked on the CPU).
@@ -176,7 +177,7 @@ impl GpuMasks {
             beams: layout.beams() as u32,
             words_per_mask: layout.pixels().div_ceil(32) as u32,
             _pad0: 0,
-            fls: u32::from(layout.kind == SonarKind::Fls),
+            beamed: u32::from(layout.beams() > 1),
             tan_half_el: if he < std::f64::consts::FRAC_PI_2 - RIGHT_ANGLE_SLACK {
                 he.tan() as f32
             } else {

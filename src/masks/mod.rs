@@ -50,10 +50,11 @@ pub use summary::{BoundingBox, bounding_box, run_lengths};
 /// One feature's mask in sonar 2's layout.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mask {
-    /// The bins or pixels where the feature can be.
+    /// The bins or pixels where the feature can be, in the order of the sonar's data
+    /// ([`Layout::to_data_order`]: one row of both sides for a two-sided sidescan).
     pub occupancy: Occupancy,
     /// Per bin or pixel, how many cells of the back-projected set may fall there (a prior for a
-    /// matcher), row-major; only when asked for.
+    /// matcher), in the order of the sonar's data; only when asked for.
     pub counts: Option<Vec<u32>>,
     /// The ball radius used (m): half a cell's diagonal plus the noise radius.
     pub radius: f64,
@@ -64,13 +65,14 @@ pub struct Mask {
 }
 
 impl Mask {
-    /// Returns the masks the GPU drew for `jobs` (`drawn`, one occupancy per job, in order).
-    fn of_gpu(drawn: Vec<Occupancy>, jobs: &[Job]) -> Vec<Mask> {
+    /// Returns the masks the GPU drew in `layout` for `jobs` (`drawn`, one occupancy per job, in
+    /// order), in the order of the sonar's data.
+    fn of_gpu(layout: &Layout, drawn: Vec<Occupancy>, jobs: &[Job]) -> Vec<Mask> {
         drawn
             .into_iter()
             .zip(jobs)
             .map(|(occupancy, Job { plan, .. })| Mask {
-                occupancy,
+                occupancy: layout.to_data_order(occupancy),
                 counts: None,
                 radius: plan.radius,
                 noise_radius: plan.noise_radius,
@@ -250,7 +252,7 @@ impl MaskEngine {
                 })
                 .collect::<Result<Vec<_>>>()?;
             let drawn = gpu.draw(&self.view.layout, &jobs)?;
-            return Ok(self.with_union(Mask::of_gpu(drawn, &jobs)));
+            return Ok(self.with_union(Mask::of_gpu(&self.view.layout, drawn, &jobs)));
         }
         let masks = features
             .par_iter()
@@ -281,7 +283,7 @@ impl MaskEngine {
                 })
                 .collect::<Result<Vec<_>>>()?;
             let drawn = gpu.draw(&self.view.layout, &jobs)?;
-            return Ok(Mask::of_gpu(drawn, &jobs));
+            return Ok(Mask::of_gpu(&self.view.layout, drawn, &jobs));
         }
         scenes
             .par_iter()
@@ -299,7 +301,8 @@ impl MaskEngine {
 
     /// Returns `masks` with their union.
     fn with_union(&self, masks: Vec<Mask>) -> MaskSet {
-        let mut union = Occupancy::new(self.view.layout.range_bins, self.view.layout.beams());
+        let (rows, columns) = self.view.layout.data_shape();
+        let mut union = Occupancy::new(rows, columns);
         for m in &masks {
             for (u, w) in union.words.iter_mut().zip(&m.occupancy.words) {
                 *u |= w;
@@ -322,9 +325,10 @@ impl MaskEngine {
         pose.validate()?;
         let plan = plan::plan(&self.source, &self.view.layout, m, noise)?;
         let drawn = cpu::draw(&self.view, pose, &plan, counts == Counts::Draw);
+        let layout = &self.view.layout;
         Ok(Mask {
-            occupancy: drawn.occupancy,
-            counts: drawn.counts,
+            occupancy: layout.to_data_order(drawn.occupancy),
+            counts: drawn.counts.map(|c| layout.counts_to_data_order(c)),
             radius: drawn.radius,
             noise_radius: plan.noise_radius,
             cells: plan.cells.count(),

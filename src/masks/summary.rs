@@ -17,11 +17,15 @@ pub struct BoundingBox {
     pub azimuth_max: f64,
 }
 
-/// Returns the bounding box of `occ` in `layout`, or `None` when it is empty.
+/// Returns the bounding box of `occ` (in the order of the sonar's data, as masks are) in
+/// `layout`, or `None` when it is empty. A two-sided sidescan's box spans the sides it touches:
+/// azimuth from `−A/2` (starboard) or 0 (port only) to 0 (starboard only) or `+A/2`.
 #[must_use]
 pub fn bounding_box(layout: &Layout, occ: &Occupancy) -> Option<BoundingBox> {
     let mut b: Option<(usize, usize, usize, usize)> = None;
-    for (i, j) in occ.pixels() {
+    let data_columns = occ.beams;
+    for (row, column) in occ.pixels() {
+        let (i, j) = layout.pixel_of_data(row * data_columns + column);
         b = Some(match b {
             None => (i, i, j, j),
             Some((i0, i1, j0, j1)) => (i0.min(i), i1.max(i), j0.min(j), j1.max(j)),

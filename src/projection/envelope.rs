@@ -40,7 +40,8 @@ pub struct Bounds {
     pub visible_max: u64,
     /// Samples within tolerance of a clip bound or bin edge.
     pub near_edge: u64,
-    /// Pixels set by samples far from every edge: a correct result sets all of them.
+    /// Pixels set by samples far from every edge: a correct result sets all of them (in the
+    /// order of the sonar's data, as the backends' occupancy).
     pub certain: Occupancy,
     /// Pixels any sample could reach: a correct result sets none outside.
     pub possible: Occupancy,
@@ -174,7 +175,12 @@ pub fn bounds_with(
     for v in [&mut b.azimuth_min, &mut b.azimuth_max] {
         *v = (v.0.to_degrees(), v.1.to_degrees());
     }
-    b
+    // In the order of the sonar's data, as every backend hands its occupancy out.
+    Bounds {
+        certain: layout.to_data_order(b.certain),
+        possible: layout.to_data_order(b.possible),
+        ..b
+    }
 }
 
 /// Returns the beams a sample at azimuth `az` ± `d_az` (rad) can fall in, wrapping around ±π

@@ -183,6 +183,29 @@ def test_the_sidescan_strip_puts_near_range_at_the_bottom(page, cli, tmp_path):
     assert np.mean(ys) > drawn["top"] + drawn["height"] * 0.7, "6 m of 30 m is near the bottom"
 
 
+def test_a_two_sided_sidescan_is_drawn_as_a_port_strip_left_of_a_starboard_strip(page, cli, tmp_path):
+    # holoocean-sidescan's data is one row: port far to near, then starboard near to far.
+    for azimuth, port in ((-20, False), (20, True)):
+        scene = (("paper-fls", "holoocean-sidescan"), (5, 10, 0), (0, 90, 0), (8, azimuth, 0), None)
+        set_scene(page, *scene)
+        _, occ = project(cli, tmp_path, *scene, occupancy=True)
+        sonar = page.answer()["to"]
+        n = sonar["range_bins"]
+        assert occ.shape == (2 * n,) and sonar["beams"] == 2
+        row = np.nonzero(occ)[0]
+        assert len(row) > 0 and ((row < n).all() if port else (row >= n).all()), row
+        bins = n - 1 - row if port else row - n
+        drawn = page.d.execute_script("return window.sonarprojDrawn")
+        assert drawn["view"] == "strip" and drawn["sides"] == 2
+        xs, ys = red_pixels(page)
+        assert len(xs) > 0
+        middle = drawn["left"] + drawn["width"] / 2
+        assert (np.mean(xs) < middle) == port, ("port strip on the left", np.mean(xs), middle)
+        rh = drawn["height"] / n
+        y_expected = drawn["top"] + drawn["height"] - (np.mean(bins) + 0.5) * rh
+        assert abs(np.mean(ys) - y_expected) < 2
+
+
 def test_the_screenshots_are_not_blank_and_the_3d_view_shows_the_seen_samples(page):
     set_scene(page, ("paper-fls", "paper-sss"), (5, 0, 0), (0, 90, 0), (15, 0, 0))
     for element_id in ("data-canvas", "three-canvas"):

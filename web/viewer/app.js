@@ -444,25 +444,43 @@ function drawStrip(ctx, canvas, r) {
   const p = { l: 150, r: 150, t: 30, b: 56 };
   p.w = canvas.width - p.l - p.r;
   p.h = canvas.height - p.t - p.b;
-  const rh = p.h / s.range_bins;
+  const n = s.range_bins;
+  const rh = p.h / n;
+  // A two-sided sidescan's data is one row: port far to near (index n - 1 - bin), then
+  // starboard near to far (n + bin); it is drawn as a port strip left of a starboard strip.
+  const twoSided = s.beams === 2;
+  const gap = twoSided ? 24 : 0;
+  const sw = twoSided ? (p.w - gap) / 2 : p.w;
+  const strips = twoSided ? [p.l, p.l + sw + gap] : [p.l];
   ctx.fillStyle = "#e8eef7";
-  ctx.fillRect(p.l, p.t, p.w, p.h);
+  for (const x of strips) ctx.fillRect(x, p.t, sw, p.h);
+  // Paints range bins [b0, b1) of strip x.
+  const bins = (x, b0, b1) => snapRect(ctx, x, p.t + p.h - b1 * rh, sw, (b1 - b0) * rh);
   const paint = (runs, fill) => {
     ctx.fillStyle = fill;
     for (const [start, len] of runs) {
-      snapRect(ctx, p.l, p.t + p.h - (start + len) * rh, p.w, len * rh);
+      const end = start + len;
+      if (!twoSided) { bins(p.l, start, end); continue; }
+      if (start < n) bins(strips[0], n - Math.min(end, n), n - start);
+      if (end > n) bins(strips[1], Math.max(start, n) - n, end - n);
     }
   };
   if (r.mask) paint(r.mask.runs, "#fdd0a2");
   paint(r.occupancy.runs, "#d62728");
   ctx.strokeStyle = "#9aa8bd";
-  ctx.strokeRect(p.l, p.t, p.w, p.h);
-  window.sonarprojDrawn = { view: "strip", left: p.l, top: p.t, width: p.w, height: p.h };
+  for (const x of strips) ctx.strokeRect(x, p.t, sw, p.h);
+  window.sonarprojDrawn = { view: "strip", left: p.l, top: p.t, width: p.w, height: p.h, sides: strips.length };
   rangeAxis(ctx, s, p, "range (near range at the bottom)");
   ctx.fillStyle = "#374151";
   ctx.textAlign = "center";
-  ctx.fillText("one sidescan channel: range bins only", p.l + p.w / 2, p.t + p.h + 18);
-  ctx.fillText("(port and starboard are separate channels)", p.l + p.w / 2, p.t + p.h + 34);
+  if (twoSided) {
+    ctx.fillText("port", strips[0] + sw / 2, p.t + p.h + 18);
+    ctx.fillText("starboard", strips[1] + sw / 2, p.t + p.h + 18);
+    ctx.fillText("a two-sided sidescan: each side's range bins", p.l + p.w / 2, p.t + p.h + 34);
+  } else {
+    ctx.fillText("one sidescan channel: range bins only", p.l + p.w / 2, p.t + p.h + 18);
+    ctx.fillText("(port and starboard are separate channels)", p.l + p.w / 2, p.t + p.h + 34);
+  }
   ctx.font = "bold 14px system-ui, sans-serif";
   ctx.textAlign = "left";
   ctx.fillText("◀ port", 8, canvas.height - 8);

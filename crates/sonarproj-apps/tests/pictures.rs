@@ -14,18 +14,26 @@ use sonarproj::occupancy::{Layout, Occupancy};
 use sonarproj_apps::report::mask_image;
 use sonarproj_apps::report::occupancy_image::{self, Orientation};
 
-/// Returns a mask of `layout` holding a 3 × 3 block (one bin for an SSS) around range `r`
-/// (m) and azimuth `az` (deg).
+/// Returns a mask of `layout` holding a 3 × 3 block (three bins for an SSS, on one side of a
+/// two-sided one) around range `r` (m) and azimuth `az` (deg), in the order of the sonar's data
+/// as the engine hands masks out.
 fn mask_at(layout: &Layout, r: f64, az: f64) -> Mask {
     let mut occupancy = Occupancy::new(layout.range_bins, layout.beams());
     let (i, j) = (layout.range_bin(r), layout.beam(az.to_radians()));
+    let side = |j: usize| {
+        if layout.two_sided() {
+            j..=j
+        } else {
+            j.saturating_sub(1)..=(j + 1).min(layout.beams() - 1)
+        }
+    };
     for i in i - 1..=i + 1 {
-        for j in j.saturating_sub(1)..=(j + 1).min(layout.beams() - 1) {
+        for j in side(j) {
             occupancy.set(i, j);
         }
     }
     Mask {
-        occupancy,
+        occupancy: layout.to_data_order(occupancy),
         counts: None,
         radius: 0.0,
         noise_radius: 0.0,
@@ -62,8 +70,8 @@ fn fls_picture_puts_port_left_and_near_range_low_in_fan_and_raw_panel() {
 
 #[test]
 fn sss_picture_puts_near_range_low_in_every_strip() {
-    let layout = Layout::of(&Sonar::preset("holoocean-sidescan").unwrap());
-    for (r, near) in [(5.0, true), (30.0, false)] {
+    let layout = Layout::of(&Sonar::preset("paper-sss").unwrap());
+    for (r, near) in [(5.0, true), (28.0, false)] {
         let pic = drawn(&layout, &[mask_at(&layout, r, 0.0)]);
         let panels = pic.panels();
         // Whole range: the feature's strip and the union; then the same zoomed.
@@ -75,8 +83,43 @@ fn sss_picture_puts_near_range_low_in_every_strip() {
 }
 
 #[test]
-fn sss_picture_is_not_mostly_blank() {
+fn two_sided_sidescan_picture_puts_port_strips_left_and_near_range_low() {
     let layout = Layout::of(&Sonar::preset("holoocean-sidescan").unwrap());
+    for (r, az, port, near) in [(5.0, 40.0, true, true), (30.0, -40.0, false, false)] {
+        let pic = drawn(&layout, &[mask_at(&layout, r, az)]);
+        let panels = pic.panels();
+        // Whole range: the feature's port strip and the port union, then the same to
+        // starboard; then all four zoomed.
+        assert_eq!(panels.len(), 8, "{panels:?}");
+        let (seen, empty) = if port { (0..2, 2..4) } else { (2..4, 0..2) };
+        for p in &panels[seen] {
+            pic.assert_side(*p, None, near, &format!("strip, feature at {r} m, {az}°"));
+        }
+        for p in &panels[empty] {
+            assert!(
+                pic.coloured(*p).is_empty(),
+                "the other side's strip {p:?} is coloured"
+            );
+        }
+    }
+    // The occupancy picture: a port strip left of a starboard strip.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("o.png");
+    let occ = mask_at(&layout, 20.0, -60.0).occupancy;
+    occupancy_image::write(&path, &occ, &layout, "test", Orientation::default()).unwrap();
+    let pic = Picture::read(&path);
+    let panels = pic.panels();
+    assert!(panels.len() >= 2, "{panels:?}");
+    assert!(
+        pic.coloured(panels[0]).is_empty(),
+        "port strip coloured for a starboard point"
+    );
+    pic.assert_side(panels[1], None, false, "starboard strip, 20 m of 35");
+}
+
+#[test]
+fn sss_picture_is_not_mostly_blank() {
+    let layout = Layout::of(&Sonar::preset("paper-sss").unwrap());
     let masks = [mask_at(&layout, 5.0, 0.0), mask_at(&layout, 20.0, 0.0)];
     let pic = drawn(&layout, &masks);
     let panels = pic.panels();

@@ -99,7 +99,7 @@ impl PyMaskEngine {
             .map_err(errors::engine)?;
         let layout = self.engine.layout();
         let kind = self.engine.target().kind;
-        let (rows, beams) = (layout.range_bins, layout.beams());
+        let (rows, beams) = layout.data_shape();
         let boxes = set
             .masks
             .iter()

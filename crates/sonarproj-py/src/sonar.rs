@@ -11,12 +11,14 @@ use crate::errors;
 /// A sonar: kind, field of view (metres, degrees) and data layout.
 ///
 /// `Sonar(kind, range_min, range_max, azimuth_aperture, elevation_aperture, range_bins,
-/// beams=None, beam_edges=None, beam_centres=None, name=None)`: `kind` "fls" (imaging) or "sss"
-/// (sidescan); ranges in m (`0 <= range_min < range_max <= 10000`); full apertures in degrees
-/// (azimuth in (0, 360], elevation in (0, 180]); `range_bins` uniform bins; for an imaging sonar
-/// exactly one of `beams` (a count of equal beams), `beam_edges` (deg, beams + 1 increasing
-/// values from -aperture/2, starboard, to +aperture/2, port) or `beam_centres` (deg; edges at
-/// the midpoints). Also `Sonar.preset(name)` and `Sonar.from_toml(path)`.
+/// beams=None, beam_edges=None, beam_centres=None, name=None, sides=None)`: `kind` "fls"
+/// (imaging) or "sss" (sidescan); ranges in m (`0 <= range_min < range_max <= 10000`); full
+/// apertures in degrees (azimuth in (0, 360], elevation in (0, 180]); `range_bins` uniform bins
+/// (per side for a two-sided sidescan); for an imaging sonar exactly one of `beams` (a count of
+/// equal beams), `beam_edges` (deg, beams + 1 increasing values from -aperture/2, starboard, to
+/// +aperture/2, port) or `beam_centres` (deg; edges at the midpoints); for a sidescan `sides`
+/// 1 (default) or 2 (one row of both sides, as HoloOcean's SidescanSonar). Also
+/// `Sonar.preset(name)` and `Sonar.from_toml(path)`.
 #[pyclass(name = "Sonar", module = "sonarproj", frozen)]
 #[derive(Clone, Debug)]
 pub(crate) struct PySonar {
@@ -38,7 +40,7 @@ fn count(field: &str, v: i64) -> PyResult<u32> {
 impl PySonar {
     /// Returns a sonar from its fields (see the Python docstring of `sonarproj.Sonar`).
     #[new]
-    #[pyo3(signature = (kind, range_min, range_max, azimuth_aperture, elevation_aperture, range_bins, beams=None, beam_edges=None, beam_centres=None, name=None))]
+    #[pyo3(signature = (kind, range_min, range_max, azimuth_aperture, elevation_aperture, range_bins, beams=None, beam_edges=None, beam_centres=None, name=None, sides=None))]
     #[expect(clippy::too_many_arguments, reason = "the sonar's fields, as Python keywords")]
     fn new(
         kind: &str,
@@ -51,6 +53,7 @@ impl PySonar {
         beam_edges: Option<Vec<f64>>,
         beam_centres: Option<Vec<f64>>,
         name: Option<String>,
+        sides: Option<i64>,
     ) -> PyResult<Self> {
         let kind = match kind {
             "fls" => SonarKind::Fls,
@@ -84,12 +87,27 @@ impl PySonar {
                 "an fls needs its beams: give beams (a count), beam_edges or beam_centres (deg)",
             ));
         }
+        let sides = match (kind, sides) {
+            (_, None) => 1,
+            (SonarKind::Sss, Some(n @ (1 | 2))) => n,
+            (SonarKind::Sss, Some(n)) => {
+                return Err(errors::input(
+                    "sides",
+                    format!("{n} is not 1 or 2: a sidescan has one side, or two in one row (HoloOcean's)"),
+                ));
+            }
+            (SonarKind::Fls, Some(_)) => {
+                return Err(errors::input("sides", "only a sidescan (kind \"sss\") has sides"));
+            }
+        };
         let layout = match (beams, beam_edges) {
             (Some(n), _) => BeamLayout::Uniform {
                 count: count("beams", n)?,
             },
             (None, Some(edges)) => BeamLayout::Edges(edges),
-            (None, None) => BeamLayout::Uniform { count: 1 },
+            (None, None) => BeamLayout::Uniform {
+                count: count("sides", sides)?,
+            },
         };
         let sonar = Sonar {
             name: name.unwrap_or_else(|| format!("custom-{}", kind.name())),
@@ -197,20 +215,28 @@ impl PySonar {
     }
 
     /// The shape of the sonar's data as numpy holds it: `(range_bins, beams)` for an FLS,
-    /// `(range_bins,)` for an SSS.
+    /// `(range_bins,)` for an SSS, `(2 * range_bins,)` for a two-sided one (port far to near,
+    /// then starboard near to far).
     #[getter]
     fn shape<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
         let bins = self.inner.range_bins as usize;
         match self.inner.kind {
             SonarKind::Fls => pyo3::types::PyTuple::new(py, [bins, self.inner.beam_count() as usize]),
-            SonarKind::Sss => pyo3::types::PyTuple::new(py, [bins]),
+            SonarKind::Sss => pyo3::types::PyTuple::new(py, [bins * self.inner.beam_count() as usize]),
         }
+    }
+
+    /// 2 for a two-sided sidescan (one row of port and starboard), 1 for any other sonar.
+    #[getter]
+    fn sides(&self) -> u32 {
+        if self.inner.two_sided() { 2 } else { 1 }
     }
 
     fn __repr__(&self) -> String {
         let s = &self.inner;
         let beams = match s.kind {
             SonarKind::Fls => format!(", beams={}", s.beam_count()),
+            SonarKind::Sss if s.two_sided() => ", sides=2".to_string(),
             SonarKind::Sss => String::new(),
         };
         format!(

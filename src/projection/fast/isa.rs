@@ -57,30 +57,30 @@ impl Isa {
 /// (Rust never fuses a multiply and an add), so the same bits.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn draw_pose_avx2<const FLS: bool>(
+fn draw_pose_avx2<const BEAMS: bool>(
     s: &mut Scratch,
     geo: &Geometry<'_>,
     dirs: &Directions,
     pose: PoseArgs,
 ) -> (u64, Extremes) {
-    s.draw_pose::<FLS>(geo, dirs, pose)
+    s.draw_pose::<BEAMS>(geo, dirs, pose)
 }
 
 /// [`Scratch::draw_pose`] compiled for AVX-512 (eight f64 lanes a vector), the same bits again.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
-fn draw_pose_avx512<const FLS: bool>(
+fn draw_pose_avx512<const BEAMS: bool>(
     s: &mut Scratch,
     geo: &Geometry<'_>,
     dirs: &Directions,
     pose: PoseArgs,
 ) -> (u64, Extremes) {
-    s.draw_pose::<FLS>(geo, dirs, pose)
+    s.draw_pose::<BEAMS>(geo, dirs, pose)
 }
 
 /// Runs [`Scratch::draw_pose`] in the build `isa` names (which this processor runs:
 /// [`Isa::detect`]).
-pub(super) fn draw_pose<const FLS: bool>(
+pub(super) fn draw_pose<const BEAMS: bool>(
     isa: Isa,
     s: &mut Scratch,
     geo: &Geometry<'_>,
@@ -88,12 +88,12 @@ pub(super) fn draw_pose<const FLS: bool>(
     pose: PoseArgs,
 ) -> (u64, Extremes) {
     match isa {
-        Isa::Baseline => s.draw_pose::<FLS>(geo, dirs, pose),
+        Isa::Baseline => s.draw_pose::<BEAMS>(geo, dirs, pose),
         // SAFETY: `isa` came from `Isa::detect` or `Isa::available`, which saw the processor run
         // these instructions.
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { draw_pose_avx2::<FLS>(s, geo, dirs, pose) },
+        Isa::Avx2 => unsafe { draw_pose_avx2::<BEAMS>(s, geo, dirs, pose) },
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { draw_pose_avx512::<FLS>(s, geo, dirs, pose) },
+        Isa::Avx512 => unsafe { draw_pose_avx512::<BEAMS>(s, geo, dirs, pose) },
     }
 }

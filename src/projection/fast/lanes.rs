@@ -26,7 +26,7 @@ pub(super) struct Lanes {
     pub(super) x: [f64; LANES],
     pub(super) y: [f64; LANES],
     pub(super) z: [f64; LANES],
-    /// An azimuth key, ordered as the azimuth: sonar 2 an FLS, the approximate azimuth
+    /// An azimuth key, ordered as the azimuth: sonar 2 with beams, the approximate azimuth
     /// ([`approx_atan2`]); an SSS, `y / x`, NaN where `x ≤ 0` (such samples always get an exact
     /// `atan2`).
     pub(super) key: [f64; LANES],
@@ -148,13 +148,13 @@ pub(super) fn guess_slack(beams: usize, inv_beam_width: Option<f64>) -> f64 {
 
 /// The lane stage of one block, branch-free over the lanes so that it vectorises: `p = M u + t`
 /// in the operation order of glam's `DMat3 * DVec3` and `length_squared`; the clip of
-/// [`crate::clip::Clip::in_view`] (skipped when `inside`); the range bin of [`crate::clip::Clip::range_bin`]; the azimuth key; for an FLS the beam guessed
+/// [`crate::clip::Clip::in_view`] (skipped when `inside`); the range bin of [`crate::clip::Clip::range_bin`]; the azimuth key; with beams (`BEAMS`) the beam guessed
 /// from the approximate azimuth, sure when farther than `guess_slack` from the beam's edges (the
 /// edge tests then find the same beam); the running extremes over visible lanes (lanes past the
 /// block's length repeat its last unit, so they change none). Returns the visible lanes as a bit
 /// mask. `m` is `M`'s columns then `t`.
 #[inline(always)]
-pub(super) fn draw_lanes<const FLS: bool>(
+pub(super) fn draw_lanes<const BEAMS: bool>(
     geo: &Geometry<'_>,
     m: &[f64; 12],
     u: &BlockUnits,
@@ -163,7 +163,7 @@ pub(super) fn draw_lanes<const FLS: bool>(
     run: &mut Running,
 ) -> u32 {
     let beams = geo.beams;
-    let cells = if FLS { geo.cells } else { None };
+    let cells = if BEAMS { geo.cells } else { None };
     // NaN without uniform beams: no guess is ever sure.
     let guess_scale = geo.inv_beam_width.unwrap_or(f64::NAN);
     for k in 0..LANES {
@@ -176,7 +176,7 @@ pub(super) fn draw_lanes<const FLS: bool>(
         // Range bin: the guess, then the guessed bin's squared edges.
         let r = r2.sqrt();
         let i = geo.range_bin(r, r2);
-        let key = if FLS {
+        let key = if BEAMS {
             // The beam guess (NaN without uniform beams: never sure).
             let az = approx_atan2(y, x);
             let g = (az - geo.guess_origin) * guess_scale;
@@ -201,7 +201,7 @@ pub(super) fn draw_lanes<const FLS: bool>(
         };
         out.x[k] = x;
         out.y[k] = y;
-        if FLS {
+        if BEAMS {
             out.z[k] = z;
         }
         out.key[k] = key;

@@ -178,16 +178,19 @@ fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, isa: Isa) ->
                 let m = item.pose.rotation * scratch.rotation_z(prepared.base_azimuth(n)) * range;
                 let t = item.pose.translation;
                 let pose = (m, t, range, cull_slack(range, t, layout));
-                let (visible, extremes) = match layout.kind {
-                    SonarKind::Fls => isa::draw_pose::<true>(isa, scratch, &geo, dirs, pose),
-                    SonarKind::Sss => isa::draw_pose::<false>(isa, scratch, &geo, dirs, pose),
+                // A sidescan's one beam by runs of range bins; beams (an FLS, or a two-sided
+                // sidescan's two sides) sample by sample.
+                let (visible, extremes) = if layout.beams() > 1 || layout.kind == SonarKind::Fls {
+                    isa::draw_pose::<true>(isa, scratch, &geo, dirs, pose)
+                } else {
+                    isa::draw_pose::<false>(isa, scratch, &geo, dirs, pose)
                 };
                 let (occupied, measure, occupancy) = scratch.reduce(&geo, keep_occupancy);
                 let (area, cells) = scratch.reduce_cells(&geo, keep_occupancy);
                 let total = dirs.units.len() as u64;
                 Projection {
                     metrics: Metrics::new(visible, total, extremes, (occupied, measure), area),
-                    occupancy,
+                    occupancy: occupancy.map(|o| layout.to_data_order(o)),
                     cells,
                 }
             },

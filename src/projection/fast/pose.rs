@@ -15,15 +15,16 @@ use crate::metrics::Extremes;
 impl Scratch {
     /// Draws one pose: `m` is `M = R · Rz(base azimuth) · range` and `t` the translation,
     /// `slack` the culling slack. Returns the visible count and the extremes, the pixels set in
-    /// the occupancy buffer.
+    /// the occupancy buffer. `BEAMS`: sonar 2 has beams to find (an FLS, or a two-sided
+    /// sidescan); without, a sidescan's range bins may be drawn by runs.
     #[inline(always)]
-    pub(super) fn draw_pose<const FLS: bool>(
+    pub(super) fn draw_pose<const BEAMS: bool>(
         &mut self,
         geo: &Geometry<'_>,
         dirs: &Directions,
         (m, t, range, slack): PoseArgs,
     ) -> (u64, Extremes) {
-        if !FLS && range * dirs.max_step * (1.0 + F64_WIDEN) + slack < geo.layout.range_bin_width {
+        if !BEAMS && range * dirs.max_step * (1.0 + F64_WIDEN) + slack < geo.layout.range_bin_width {
             return self.draw_runs(geo, dirs, (m, t, range, slack));
         }
         let Scratch {
@@ -36,7 +37,7 @@ impl Scratch {
             cell_summary,
             ..
         } = self;
-        let grid = FLS && geo.cells.is_some();
+        let grid = BEAMS && geo.cells.is_some();
         // The last cell set: neighbouring samples mostly share one.
         let mut last_cell = usize::MAX;
         // Room for every sample of the plan, made before the pose loop: a push that may grow
@@ -60,7 +61,7 @@ impl Scratch {
                 continue;
             }
             let inside = inside & (1 << (b % BALLS)) != 0;
-            let mut visible = draw_lanes::<FLS>(geo, &columns, units, inside, lanes, running);
+            let mut visible = draw_lanes::<BEAMS>(geo, &columns, units, inside, lanes, running);
             visible &= (1 << units.len) - 1;
             while visible != 0 {
                 let k = visible.trailing_zeros() as usize;
@@ -68,7 +69,7 @@ impl Scratch {
                 #[expect(clippy::cast_sign_loss, reason = "pixels are clamped to 0..")]
                 let mut pixel = lanes.pixel[k] as usize;
                 let (x, y) = (lanes.x[k], lanes.y[k]);
-                if FLS && !lanes.sure[k] {
+                if BEAMS && !lanes.sure[k] {
                     // The edge tests, walked from the guess (uniform beams) or the previous
                     // sample's beam, else from an exact atan2.
                     let p = DVec3::new(x, y, lanes.z[k]);
@@ -109,7 +110,7 @@ impl Scratch {
             range_max,
             ..Extremes::default()
         };
-        let (low, high) = if FLS {
+        let (low, high) = if BEAMS {
             // Approximate azimuths: an exact azimuth lies within ATAN_ERROR of its guess.
             (key_min + 3.0 * ATAN_ERROR, key_max - 3.0 * ATAN_ERROR)
         } else {

@@ -60,7 +60,7 @@ fn project_plainly(prepared: &PreparedBatch<'_>) -> Vec<(Metrics, Occupancy)> {
             let area = layout.area_grid.map(|g| g.area(cells.count()));
             let total = dirs.units.len() as u64;
             let metrics = Metrics::new(visible, total, extremes, (occupied, measure), area);
-            (metrics, occ)
+            (metrics, layout.to_data_order(occ))
         })
         .collect()
 }

@@ -404,7 +404,11 @@ impl GpuBackend {
                 let metrics = Metrics::new(visible, total, extremes, (occupied, measure), area);
                 let occupancy = raw_bits.as_ref().map(|b| {
                     let words_of = &b[c * words..][..pixel_words];
-                    Occupancy::from_words(layout.range_bins, layout.beams(), words_of.to_vec())
+                    layout.to_data_order(Occupancy::from_words(
+                        layout.range_bins,
+                        layout.beams(),
+                        words_of.to_vec(),
+                    ))
                 });
                 let cells = raw_bits.as_ref().zip(layout.area_grid).map(|(b, g)| {
                     let words_of = &b[c * words + pixel_words..(c + 1) * words];

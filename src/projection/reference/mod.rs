@@ -37,7 +37,7 @@ pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> 
             let area = reduce::projection_area(layout, &cells);
             Projection {
                 metrics: Metrics::new(splat.visible, plan.total() as u64, splat.extremes, occupied, area),
-                occupancy: keep_occupancy.then_some(occupancy),
+                occupancy: keep_occupancy.then(|| layout.to_data_order(occupancy)),
                 cells: (keep_occupancy && layout.area_grid.is_some()).then_some(cells),
             }
         })

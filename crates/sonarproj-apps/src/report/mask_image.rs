@@ -22,7 +22,7 @@ use crate::report::style::{Area, Canvas, LARGE, MEDIUM, SMALL, plot_error, text,
 use crate::report::write_atomic;
 use sonarproj::geometry::sonar::SonarKind;
 use sonarproj::masks::Mask;
-use sonarproj::occupancy::Layout;
+use sonarproj::occupancy::{Layout, Occupancy};
 
 /// Feature colours (Tableau 10), cycled.
 const PALETTE: [(u8, u8, u8); 10] = [
@@ -62,14 +62,16 @@ const FLS_WIDTH: u32 = 1500;
 /// # Errors
 /// [`crate::Error::Figure`] or [`crate::Error::WriteOutput`].
 pub fn write_png(path: &Path, layout: &Layout, masks: &[Mask], title: &str, labels: &[String]) -> Result<()> {
-    let layers: Vec<(Pooled, (u8, u8, u8))> = masks
-        .iter()
-        .enumerate()
-        .map(|(k, m)| (Pooled::new(&m.occupancy), rgb(k)))
-        .collect();
     let canvas = match layout.kind {
-        SonarKind::Fls => fls_picture(layout, &layers, title, labels)?,
-        SonarKind::Sss => sss_picture(layout, masks, &layers, title, labels)?,
+        SonarKind::Fls => {
+            let layers: Vec<(Pooled, (u8, u8, u8))> = masks
+                .iter()
+                .enumerate()
+                .map(|(k, m)| (Pooled::new(&m.occupancy), rgb(k)))
+                .collect();
+            fls_picture(layout, &layers, title, labels)?
+        }
+        SonarKind::Sss => sss_picture(layout, masks, title, labels)?,
     };
     canvas.write(path)
 }
@@ -185,28 +187,47 @@ fn fls_picture(
     Ok(canvas)
 }
 
-/// The mask picture of an SSS target: one vertical range strip per feature and their union,
-/// near range at the bottom, over the whole range and zoomed on the masks, with the legend and
-/// notes beside them.
-fn sss_picture(
-    layout: &Layout,
-    masks: &[Mask],
-    layers: &[(Pooled, (u8, u8, u8))],
-    title: &str,
-    labels: &[String],
-) -> Result<Canvas> {
+/// The mask picture of an SSS target: one vertical range strip per feature and their union
+/// (for a two-sided sidescan, the port strips then the starboard strips), near range at the
+/// bottom, over the whole range and zoomed on the masks, with the legend and notes beside them.
+fn sss_picture(layout: &Layout, masks: &[Mask], title: &str, labels: &[String]) -> Result<Canvas> {
     let n = masks.len();
-    let pitch = (300 / (n as u32 + 1)).clamp(4, 90);
-    let mut groups: Vec<std::ops::Range<usize>> = (0..n).map(|k| k..k + 1).collect();
-    groups.push(0..n);
-    let mut names: Vec<String> = (1..=n).map(|k| k.to_string()).collect();
-    names.push("all".to_string());
-    let rows_of = |m: &Mask| {
-        let mut it = m.occupancy.pixels().map(|(i, _)| i);
-        let first = it.next()?;
-        Some((first, it.last().unwrap_or(first)))
-    };
-    let extents: Vec<Option<(usize, usize)>> = masks.iter().map(rows_of).collect();
+    // Per mask its strips in range order: one, or port and starboard.
+    let sides: Vec<Vec<(&str, Occupancy)>> = masks
+        .iter()
+        .map(|m| picture::sidescan_strips(layout, &m.occupancy))
+        .collect();
+    let side_names: Vec<&str> = picture::sidescan_strips(layout, &Occupancy::new(0, 1))
+        .iter()
+        .map(|s| s.0)
+        .collect();
+    let two = side_names.len();
+    // Layers side by side: side s of feature k is layer s · n + k.
+    let layers: Vec<(Pooled, (u8, u8, u8))> = (0..two)
+        .flat_map(|s| {
+            sides
+                .iter()
+                .enumerate()
+                .map(move |(k, m)| (Pooled::new(&m[s].1), rgb(k)))
+        })
+        .collect();
+    let pitch = (300 / (two * (n + 1)) as u32).clamp(4, 90);
+    let mut groups: Vec<std::ops::Range<usize>> = Vec::new();
+    let mut names: Vec<String> = Vec::new();
+    for (s, side) in side_names.iter().enumerate() {
+        groups.extend((0..n).map(|k| s * n + k..s * n + k + 1));
+        groups.push(s * n..(s + 1) * n);
+        names.extend((1..=n).map(|k| k.to_string()));
+        names.push(if side.is_empty() {
+            "all".to_string()
+        } else {
+            format!("all {side}")
+        });
+    }
+    let extents: Vec<Option<(usize, usize)>> = sides
+        .iter()
+        .map(|m| picture::strips_extent(m.iter().map(|s| &s.1)))
+        .collect();
     let occupied = extents
         .iter()
         .flatten()
@@ -218,13 +239,17 @@ fn sss_picture(
     let side_x = strips.right + 50;
     let (w, h) = ((side_x + 380).max(760), top + strip_h + 80);
     let mut canvas = Canvas::new(w, h);
-    strips.paint(&mut canvas, layers, layout.range_bins);
+    strips.paint(&mut canvas, &layers, layout.range_bins);
     canvas.draw(|a| {
         text(a, title, (40, 16), LARGE, HPos::Left, VPos::Top)?;
         strips.annotate(a, layout)?;
         text(
             a,
-            "one strip per feature, their union (all) last",
+            if two == 2 {
+                "port: one strip per feature and their union (all), then the same to starboard"
+            } else {
+                "one strip per feature, their union (all) last"
+            },
             (120, (top + strip_h) as i32 + 40),
             SMALL,
             HPos::Left,
@@ -257,10 +282,17 @@ fn sss_picture(
         y += 16;
         let notes = [
             format!(
-                "Near range at the bottom: {} range bins from {}\u{a0}m to {}\u{a0}m.",
-                layout.range_bins, layout.range_min, layout.range_max
+                "Near range at the bottom: {} range bins{} from {}\u{a0}m to {}\u{a0}m.",
+                layout.range_bins,
+                if two == 2 { " a side" } else { "" },
+                layout.range_min,
+                layout.range_max
             ),
-            "A sidescan sonar has one beam: a strip has range only, no port or starboard axis, and its width means nothing. (A port and a starboard channel are two sonars.)".to_string(),
+            if two == 2 {
+                "A two-sided sidescan: each side's strips have range only, and a strip's width means nothing; the port strips are on the left.".to_string()
+            } else {
+                "A sidescan sonar has one beam: a strip has range only, no port or starboard axis, and its width means nothing. (A port and a starboard channel are two sonars.)".to_string()
+            },
             "Light grey: range bins, empty. One colour per feature, mixed where masks overlap; masks a few pixels thin are marked by triangles.".to_string(),
         ];
         for note in notes {
@@ -276,14 +308,17 @@ fn sss_picture(
 }
 
 /// Writes the masks as NPY to `path`: shape `[feature, range_bin, beam]` for an FLS target or
-/// `[feature, range_bin]` for an SSS target; `uint8` 0/1, or `uint32` counts with `counts`.
+/// `[feature, range_bin]` for an SSS target (`[feature, 2 × range_bins]` for a two-sided one,
+/// port far to near then starboard near to far); `uint8` 0/1, or `uint32` counts with
+/// `counts`.
 ///
 /// # Errors
 /// [`crate::Error::WriteOutput`].
 pub fn write_npy(path: &Path, layout: &Layout, masks: &[Mask], counts: bool) -> Result<()> {
-    let mut shape = vec![masks.len() as u64, layout.range_bins as u64];
+    let (rows, columns) = layout.data_shape();
+    let mut shape = vec![masks.len() as u64, rows as u64];
     if layout.kind == SonarKind::Fls {
-        shape.push(layout.beams() as u64);
+        shape.push(columns as u64);
     }
     write_atomic(path, |w| {
         if counts {

@@ -100,27 +100,31 @@ fn picture_of(occ: &Occupancy, layout: &Layout, title: &str) -> Result<Canvas> {
         layout.pixels()
     );
     if layout.kind == SonarKind::Sss {
-        let mut rows = occ.pixels().map(|(i, _)| i);
-        let extent = rows.next().map(|first| (first, rows.last().unwrap_or(first)));
+        let sides = picture::sidescan_strips(layout, occ);
+        let extent = picture::strips_extent(sides.iter().map(|s| &s.1));
+        let layers: Vec<_> = sides.iter().map(|s| (Pooled::new(&s.1), OCCUPIED)).collect();
         let (top, h) = (96u32, 480u32);
         let mut strips = picture::Strips::new(
             layout,
-            std::iter::once(0..1).collect(),
-            vec![String::new()],
+            (0..sides.len()).map(|k| k..k + 1).collect(),
+            sides.iter().map(|s| s.0.to_string()).collect(),
             (0, top, h, 80),
             extent,
         );
         let x = strips.right + 40;
         let (w, canvas_h) = (x + 340, top + h + 40);
         let mut canvas = Canvas::new(w, canvas_h);
-        strips.paint(&mut canvas, &layers, occ.range_bins);
+        strips.paint(&mut canvas, &layers, layout.range_bins);
         canvas.draw(|a| {
             title_lines(a, title, w)?;
             strips.annotate(a, layout)?;
             let notes = [
                 format!(
-                    "Sidescan range strip: near range at the bottom; {} range bins from {}\u{a0}m to {}\u{a0}m.",
-                    layout.range_bins, layout.range_min, layout.range_max
+                    "Sidescan range strip: near range at the bottom; {} range bins{} from {}\u{a0}m to {}\u{a0}m.",
+                    layout.range_bins,
+                    if layout.two_sided() { " a side" } else { "" },
+                    layout.range_min,
+                    layout.range_max
                 ),
                 match extent {
                     Some((i0, i1)) => format!(
@@ -130,7 +134,11 @@ fn picture_of(occ: &Occupancy, layout: &Layout, title: &str) -> Result<Canvas> {
                     ),
                     None => "Nothing occupied.".to_string(),
                 },
-                "One beam: the strip has no port or starboard axis, and its width means nothing.".to_string(),
+                if layout.two_sided() {
+                    "Two sides: the port strip left, the starboard strip right; a strip's width means nothing.".to_string()
+                } else {
+                    "One beam: the strip has no port or starboard axis, and its width means nothing.".to_string()
+                },
                 format!("{occupied}; a few bins thin are marked by triangles."),
             ];
             notes_at(a, &notes, (x as i32, top as i32), w - x - 20)

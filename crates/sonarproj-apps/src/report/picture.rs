@@ -19,6 +19,38 @@ use crate::error::Result;
 use crate::report::style::{Area, Canvas, EMPTY, GREY, MEDIUM, SMALL, plot_error, text, text_up};
 use sonarproj::occupancy::{Layout, Occupancy};
 
+/// Returns the strips of a sidescan's `occ` (in the order of its data) in range order, near
+/// range first, each named: one unnamed strip, or for a two-sided sidescan its port strip then
+/// its starboard strip (port on the left).
+pub(crate) fn sidescan_strips(layout: &Layout, occ: &Occupancy) -> Vec<(&'static str, Occupancy)> {
+    if !layout.two_sided() {
+        return vec![("", occ.clone())];
+    }
+    let mut sides = [
+        ("port", Occupancy::new(layout.range_bins, 1)),
+        ("starboard", Occupancy::new(layout.range_bins, 1)),
+    ];
+    for (row, column) in occ.pixels() {
+        let (i, beam) = layout.pixel_of_data(row * occ.beams + column);
+        sides[1 - beam].1.set(i, 0);
+    }
+    sides.into()
+}
+
+/// Returns the first and last set range bin of any of `strips` (range order, one column).
+pub(crate) fn strips_extent<'a>(strips: impl IntoIterator<Item = &'a Occupancy>) -> Option<(usize, usize)> {
+    strips
+        .into_iter()
+        .flat_map(|o| {
+            let mut rows = o.pixels().map(|(i, _)| i);
+            let first = rows.next();
+            first.map(|f| (f, rows.last().unwrap_or(f)))
+        })
+        .fold(None, |acc: Option<(usize, usize)>, (a, b)| {
+            Some(acc.map_or((a, b), |(x, y)| (x.min(a), y.max(b))))
+        })
+}
+
 /// A layer whose painted extent is smaller than this (px) both ways is circled.
 const SMALL_EXTENT: u32 = 8;
 
