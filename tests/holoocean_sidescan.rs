@@ -271,4 +271,19 @@ fn sides_are_checked() {
                elevation_aperture = 20\nrange_bins = 100\nbeams = 16\nsides = 2";
     let e = Sonar::from_toml_str("fls", fls).unwrap_err().to_string();
     assert!(e.contains("sides"), "{e}");
+    let e = Sonar::from_toml_str("both", &toml("sides = 2\nbeams = 1"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("beams") && e.contains("sides"), "{e}");
+}
+
+#[test]
+fn a_sidescan_pair_takes_one_sided_channels() {
+    let two = Sonar::preset("holoocean-sidescan").unwrap();
+    let e = sonarproj::rig::sidescan_pair(&two, 30.0, glam::DVec3::ZERO, glam::DVec3::ZERO)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("sides") && e.contains("one-sided"), "{e}");
+    let one = Sonar::preset("paper-sss").unwrap();
+    assert!(sonarproj::rig::sidescan_pair(&one, 30.0, glam::DVec3::ZERO, glam::DVec3::ZERO).is_ok());
 }

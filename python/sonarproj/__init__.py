@@ -19,7 +19,9 @@ yaw, sigmas of angles). Conventions:
   ``R = (Rz(yaw) Ry(pitch) Rx(roll))^T``.
 * Data layouts, as numpy holds them: an imaging sonar's image is ``(range_bins, beams)`` with
   row 0 at ``range_min`` and column 0 the starboard-most beam; a sidescan ping is
-  ``(range_bins,)``. These are the layouts of the command line's NPY files.
+  ``(range_bins,)``, and a two-sided sidescan's (``Sonar.sides == 2``, HoloOcean's) one row of
+  ``2 * range_bins``: port far to near, then starboard near to far. These are the layouts of
+  the command line's NPY files (``Sonar.shape``).
 
 >>> import sonarproj
 >>> pose = sonarproj.Pose.placement(feature=(5, 10, 0), place=(15, 0, 0), pitch=90)
@@ -30,18 +32,26 @@ True
 
 from __future__ import annotations
 
-import json
-import os
-import warnings
+import json as _json
+import os as _os
+import warnings as _warnings
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
 
-import numpy as np
+import numpy as _np
 
-from . import _sonarproj as _native
+# Mesa's Vulkan device-select layer connects to a Wayland display to order the GPUs and prints
+# "error: XDG_RUNTIME_DIR is invalid or not set" where there is none (a headless machine, a
+# container); the engine chooses its adapter itself, so the layer is switched off there, as the
+# command line does, unless the user set NODEVICE_SELECT.
+if "XDG_RUNTIME_DIR" not in _os.environ and "NODEVICE_SELECT" not in _os.environ:
+    _os.environ["NODEVICE_SELECT"] = "1"
+
+from . import _sonarproj as _native  # noqa: E402
 from ._sonarproj import (
     DEFAULT_CHUNK_POSES,
     METRIC_COLUMNS,
     InputError,
+    InputTypeError,
     MaskSet,
     Mount,
     Pose,
@@ -54,6 +64,7 @@ __all__ = [
     "PAPER_AREA_GRID",
     "BackendNotice",
     "InputError",
+    "InputTypeError",
     "MaskEngine",
     "MaskSet",
     "METRIC_COLUMNS",
@@ -73,12 +84,14 @@ __all__ = [
     "__version__",
 ]
 
-SonarLike = Union[Sonar, str, "os.PathLike[str]"]
+SonarLike = Union[Sonar, str, "_os.PathLike[str]"]
 """A :class:`Sonar`, a preset name (see :func:`presets`), or the path of a sonar TOML file."""
 
 PAPER_AREA_GRID = 0.08
 """The cell side (m) of the paper's projection-area grid: the default `area_grid`."""
-SIGMA_KEYS = ("roll", "pitch", "yaw", "tx", "ty", "tz", "range", "azimuth")
+_SIGMA_KEYS = ("roll", "pitch", "yaw", "tx", "ty", "tz", "range", "azimuth")
+_PLAUSIBLE_ROTATION_SIGMA_DEG = 20.0
+"""Above this 1-σ rotation (deg), a covariance is probably in deg² rather than rad²: warned."""
 
 
 class BackendNotice(UserWarning):
@@ -93,18 +106,18 @@ def _warn(notice: Optional[str]) -> None:
     """Warns `notice` once per process (the backends are opened once and kept)."""
     if notice and notice not in _warned:
         _warned.add(notice)
-        warnings.warn(notice.removeprefix("note: "), BackendNotice, stacklevel=3)
+        _warnings.warn(notice.removeprefix("note: "), BackendNotice, stacklevel=3)
 
 
 def _sonar(parameter: str, value: Any) -> Sonar:
     """Returns the sonar `value` names, or raises InputError naming `parameter`."""
     if isinstance(value, Sonar):
         return value
-    if isinstance(value, (str, os.PathLike)):
-        text = os.fspath(value)
+    if isinstance(value, (str, _os.PathLike)):
+        text = _os.fspath(value)
         if isinstance(value, str) and text in presets():
             return Sonar.preset(text)
-        if os.path.isfile(text):
+        if _os.path.isfile(text):
             return Sonar.from_toml(text)
         raise InputError(
             f"{parameter}: {text!r} is neither a preset ({', '.join(presets())}) nor a sonar TOML file"
@@ -127,25 +140,32 @@ def _number(parameter: str, value: Any, *, optional: bool = False) -> Optional[f
     """Returns `value` as a float, or raises InputError naming `parameter`."""
     if value is None and optional:
         return None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise InputError(f"{parameter}: expected a number, got {value!r} ({type(value).__name__})")
+    if isinstance(value, (bool, _np.bool_)) or not isinstance(value, (int, float, _np.integer, _np.floating)):
+        raise InputTypeError(f"{parameter}: expected a number, got {value!r} ({type(value).__name__})")
     return float(value)
 
 
-def _real_array(parameter: str, value: Any) -> np.ndarray:
+def _flag(parameter: str, value: Any) -> bool:
+    """Returns `value`, which must be True or False, or raises InputTypeError naming `parameter`."""
+    if isinstance(value, (bool, _np.bool_)):
+        return bool(value)
+    raise InputTypeError(f"{parameter}: expected True or False, got {value!r} ({type(value).__name__})")
+
+
+def _real_array(parameter: str, value: Any) -> _np.ndarray:
     """Returns `value` as a float64 array, refusing non-numeric, boolean and complex dtypes."""
     try:
-        a = np.asarray(value)
+        a = _np.asarray(value)
     except Exception as e:  # ragged sequences and the like
         raise InputError(f"{parameter}: not an array of numbers ({e})") from None
     if a.dtype.kind not in "fiu":
         raise InputError(
             f"{parameter}: dtype {a.dtype} is not a real number type; give float or integer values"
         )
-    return np.ascontiguousarray(a, dtype=np.float64)
+    return _np.ascontiguousarray(a, dtype=_np.float64)
 
 
-def _column(parameter: str, value: Any) -> np.ndarray:
+def _column(parameter: str, value: Any) -> _np.ndarray:
     a = _real_array(parameter, value)
     if a.ndim != 1:
         raise InputError(f"{parameter}: must be a 1-D array, got shape {a.shape}")
@@ -199,7 +219,7 @@ def configure_gpu(
             raise InputError(f"{name}: expected True, False or None, got {value!r}")
     sizes = _native.SPLAT_WORKGROUPS
     if workgroup is not None and (
-        isinstance(workgroup, bool) or not isinstance(workgroup, (int, np.integer)) or int(workgroup) not in sizes
+        isinstance(workgroup, bool) or not isinstance(workgroup, (int, _np.integer)) or int(workgroup) not in sizes
     ):
         raise InputError(f"workgroup: expected one of {', '.join(map(str, sizes))} or None, got {workgroup!r}")
     names: Optional[list[str]] = None
@@ -227,7 +247,7 @@ def _columns_of(parameter: str, table: Any) -> tuple[list[str], Callable[[str], 
     )
 
 
-def _same_length_columns(parameter: str, order: Sequence[str], get: Callable[[str], Any]) -> list[np.ndarray]:
+def _same_length_columns(parameter: str, order: Sequence[str], get: Callable[[str], Any]) -> list[_np.ndarray]:
     """Returns the columns `order` of a table as 1-D float64 arrays of one length."""
     cols = [_column(f"{parameter}[{n!r}]", get(n)) for n in order]
     if len({len(c) for c in cols}) > 1:
@@ -252,7 +272,7 @@ def batch(
     area_grid: float = PAPER_AREA_GRID,
     sigma_range: Optional[float] = None,
     backend: str = "auto",
-) -> dict[str, np.ndarray]:
+) -> dict[str, _np.ndarray]:
     """Returns the metrics of many projections of features of sonar `first` into sonar `second`.
 
     `poses` is a mapping (a dict of 1-D arrays, or a pandas DataFrame) with the columns of the
@@ -344,7 +364,7 @@ def project(
     NaN where nothing is visible), ``device``, and with ``occupancy=True`` the key
     ``"occupancy"``: a uint8 0/1 array in `second`'s layout, ``(range_bins, beams)`` for an
     imaging sonar (row 0 = range_min, column 0 = the starboard-most beam) or ``(range_bins,)``
-    for a sidescan, as the command line's NPY files.
+    for a sidescan (``(2 * range_bins,)`` for a two-sided one), as the command line's NPY files.
     """
     s1, s2 = _sonar("first", first), _sonar("second", second)
     p = _pose("pose", pose)
@@ -359,7 +379,7 @@ def project(
         _step(step),
         _area_grid(area_grid),
         _number("sigma_range", sigma_range, optional=True),
-        bool(occupancy),
+        _flag("occupancy", occupancy),
         _backend(backend),
     )
     _warn(notice)
@@ -371,18 +391,18 @@ def _sigma(sigma: Any, covariance: Any) -> Optional[list[float]]:
     (deg)] of `sigma` and `covariance`, or None when neither is given."""
     if sigma is None and covariance is None:
         return None
-    values = dict.fromkeys(SIGMA_KEYS, 0.0)
+    values = dict.fromkeys(_SIGMA_KEYS, 0.0)
     if sigma is not None:
         if not isinstance(sigma, Mapping):
             raise InputError(
-                f"sigma: expected a dict with keys among {', '.join(SIGMA_KEYS)}, got {type(sigma).__name__}"
+                f"sigma: expected a dict with keys among {', '.join(_SIGMA_KEYS)}, got {type(sigma).__name__}"
             )
         for k, v in sigma.items():
             if k not in values:
-                raise InputError(f"sigma: unknown key {k!r}; the keys are {', '.join(SIGMA_KEYS)}")
+                raise InputError(f"sigma: unknown key {k!r}; the keys are {', '.join(_SIGMA_KEYS)}")
             values[k] = _number(f"sigma[{k!r}]", v)
     if covariance is not None:
-        if sigma is not None and any(k in sigma for k in SIGMA_KEYS[:6]):
+        if sigma is not None and any(k in sigma for k in _SIGMA_KEYS[:6]):
             raise InputError(
                 "covariance: give the pose's uncertainty once: a covariance, or sigmas of "
                 "roll/pitch/yaw/tx/ty/tz, not both (sigma may still give range and azimuth)"
@@ -392,23 +412,32 @@ def _sigma(sigma: Any, covariance: Any) -> Optional[list[float]]:
             raise InputError(
                 f"covariance: must be a 6x6 array (x, y, z, roll, pitch, yaw; m² and rad²), got shape {c.shape}"
             )
-        if not np.all(np.isfinite(c)):
+        if not _np.all(_np.isfinite(c)):
             raise InputError("covariance: holds values that are not finite")
-        scale = max(float(np.max(np.abs(c))), 1e-300)
-        if float(np.max(np.abs(c - c.T))) > 1e-9 * scale:
+        scale = max(float(_np.max(_np.abs(c))), 1e-300)
+        if float(_np.max(_np.abs(c - c.T))) > 1e-9 * scale:
             raise InputError("covariance: is not symmetric")
         for name, block, unit in (("translation", c[:3, :3], "m²"), ("rotation", c[3:, 3:], "rad²")):
-            lam = np.linalg.eigvalsh(block)
+            lam = _np.linalg.eigvalsh(block)
             if lam[0] < -1e-9 * scale:
                 raise InputError(
                     f"covariance: its {name} block has a negative eigenvalue ({lam[0]:.3g} {unit}): not a covariance"
                 )
         # Conservative per-axis bounds: each axis gets the standard deviation along the block's
         # worst direction, sqrt of its largest eigenvalue.
-        st = float(np.sqrt(max(np.linalg.eigvalsh(c[:3, :3])[-1], 0.0)))
-        sr = float(np.degrees(np.sqrt(max(np.linalg.eigvalsh(c[3:, 3:])[-1], 0.0))))
+        st = float(_np.sqrt(max(_np.linalg.eigvalsh(c[:3, :3])[-1], 0.0)))
+        sr = float(_np.degrees(_np.sqrt(max(_np.linalg.eigvalsh(c[3:, 3:])[-1], 0.0))))
+        if sr > _PLAUSIBLE_ROTATION_SIGMA_DEG:
+            largest = float(_np.max(_np.diag(c)[3:]))
+            _warnings.warn(
+                f"covariance: a rotation variance of {largest:.4g} rad² is a standard deviation of "
+                f"{sr:.3g}°, more than any pose estimate holds: is the covariance in deg² instead of "
+                f"rad²? (In deg² that variance would be {_np.sqrt(largest):.3g}°.) It is used as given.",
+                UserWarning,
+                stacklevel=3,
+            )
         values.update(roll=sr, pitch=sr, yaw=sr, tx=st, ty=st, tz=st)
-    return [values[k] for k in SIGMA_KEYS]
+    return [values[k] for k in _SIGMA_KEYS]
 
 
 def _features(parameter: str, source: Sonar, features: Any) -> tuple[list[float], Optional[list[float]]]:
@@ -447,8 +476,18 @@ class MaskEngine:
     def __init__(self, first: SonarLike, second: SonarLike, *, backend: str = "auto", counts: bool = False):
         self.first = _sonar("first", first)
         self.second = _sonar("second", second)
-        self._engine = _native._MaskEngine(self.first, self.second, _backend(backend), bool(counts))
+        self._backend = _backend(backend)
+        self._counts = _flag("counts", counts)
+        self._engine = _native._MaskEngine(self.first, self.second, self._backend, self._counts)
         _warn(self._engine.notice)
+
+    def __repr__(self) -> str:
+        """The call that makes this engine, and where it draws."""
+        def sonar(s: Sonar) -> str:
+            return repr(s.name) if s.name in presets() and Sonar.preset(s.name) == s else repr(s)
+
+        counts = ", counts=True" if self._counts else ""
+        return f"MaskEngine({sonar(self.first)}, {sonar(self.second)}, backend={self._backend!r}{counts})"
 
     @property
     def device(self) -> str:
@@ -475,8 +514,9 @@ class MaskEngine:
         conservatively by the largest eigenvalue of its translation and rotation blocks. The
         masks are widened so the true pixel lies inside with probability at least `coverage`.
 
-        Returns a :class:`MaskSet`: ``masks`` (uint8, ``(n, range_bins, beams)`` or
-        ``(n, range_bins)``, row 0 = range_min, column 0 = the starboard-most beam), ``union``,
+        Returns a :class:`MaskSet`: ``masks`` (uint8, ``(n, range_bins, beams)``, ``(n,
+        range_bins)`` or for a two-sided sidescan ``(n, 2 * range_bins)``; row 0 = range_min,
+        column 0 = the starboard-most beam), ``union``,
         ``boxes`` (per feature a dict of range_min, range_max in m and azimuth_min,
         azimuth_max in deg, or None), ``counts`` (uint32 like ``masks``, with ``counts=True``),
         ``radius``, ``noise_radius`` and ``device``.
@@ -484,7 +524,7 @@ class MaskEngine:
         p = _pose("pose", pose)
         ranges, azimuths = _features("features", self.first, features)
         return self._engine.masks(
-            p, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage), bool(counts)
+            p, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage), _flag("counts", counts)
         )
 
     def masks_of_pings(
@@ -509,7 +549,7 @@ class MaskEngine:
         fs = [_features(f"features[{k}]", self.first, f) for k, f in enumerate(features)]
         azimuths = None if self.first.kind == "sss" else [f[1] for f in fs]
         return self._engine.masks_of_pings(
-            ps, [f[0] for f in fs], azimuths, _sigma(sigma, covariance), _coverage(coverage), bool(counts)
+            ps, [f[0] for f in fs], azimuths, _sigma(sigma, covariance), _coverage(coverage), _flag("counts", counts)
         )
 
 
@@ -572,7 +612,7 @@ def recover(
         _number("sigma_azimuth", sigma_azimuth, optional=True),
         _number("curve_step", curve_step),
     )
-    return json.loads(text)
+    return _json.loads(text)
 
 
 def recover_many(
@@ -618,7 +658,7 @@ def recover_many(
         )
     _require("correspondences", names, wanted)
     cols = dict(zip(wanted, _same_length_columns("correspondences", wanted, get)))
-    nan = np.full(len(cols["first_range"]), np.nan)
+    nan = _np.full(len(cols["first_range"]), _np.nan)
     ordered = [
         cols["first_range"],
         cols.get("first_azimuth", nan),
@@ -638,14 +678,14 @@ def recover_many(
 def _count(parameter: str, value: Any, *, optional: bool = False) -> Optional[int]:
     if value is None and optional:
         return None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 1:
+    if isinstance(value, (bool, _np.bool_)) or not isinstance(value, (int, _np.integer)) or value < 1:
         raise InputError(f"{parameter}: expected a whole number >= 1, got {value!r}")
     return int(value)
 
 
 def sweep(
-    config: Union[str, "os.PathLike[str]"],
-    out_dir: Union[str, "os.PathLike[str]"],
+    config: Union[str, "_os.PathLike[str]"],
+    out_dir: Union[str, "_os.PathLike[str]"],
     *,
     shard: Optional[str] = None,
     chunk_poses: int = DEFAULT_CHUNK_POSES,
@@ -671,8 +711,8 @@ def sweep(
     if shard is not None and not isinstance(shard, str):
         raise InputError(f'shard: expected "K/N", e.g. "1/4", got {shard!r}')
     result, notice = _native.sweep_run(
-        os.fspath(config),
-        os.fspath(out_dir),
+        _os.fspath(config),
+        _os.fspath(out_dir),
         shard,
         _count("chunk_poses", chunk_poses),
         _count("max_chunks", max_chunks, optional=True),
@@ -683,7 +723,7 @@ def sweep(
     return result
 
 
-def merge(out_dir: Union[str, "os.PathLike[str]"]) -> dict[str, Optional[str]]:
+def merge(out_dir: Union[str, "_os.PathLike[str]"]) -> dict[str, Optional[str]]:
     """Joins the finished shards of a sweep in `out_dir` (run with ``shard="K/N"``) into
     ``sweep.csv``, byte for byte the file one run would have written, and draws the figure, as
     ``sonarproj merge``. Refused with InputError, writing nothing, when a shard is missing or
@@ -692,12 +732,12 @@ def merge(out_dir: Union[str, "os.PathLike[str]"]) -> dict[str, Optional[str]]:
 
     Returns a dict: ``file`` (the CSV) and ``figure`` (None when the sweep draws none).
     """
-    file, figure = _native.sweep_merge(os.fspath(out_dir))
-    return {"file": os.fspath(file), "figure": None if figure is None else os.fspath(figure)}
+    file, figure = _native.sweep_merge(_os.fspath(out_dir))
+    return {"file": _os.fspath(file), "figure": None if figure is None else _os.fspath(figure)}
 
 
 def paper(
-    out_dir: Union[str, "os.PathLike[str]"],
+    out_dir: Union[str, "_os.PathLike[str]"],
     *,
     angle_step: float = 1.0,
     step: float = 0.1,
@@ -712,7 +752,12 @@ def paper(
     ``poses``, ``seconds`` (compute time), ``device``, ``out_dir``.
     """
     result, notice = _native.paper_run(
-        os.fspath(out_dir), _number("angle_step", angle_step), _number("step", step), _backend(backend)
+        _os.fspath(out_dir), _number("angle_step", angle_step), _number("step", step), _backend(backend)
     )
     _warn(notice)
     return result
+
+
+def __dir__() -> list[str]:
+    """The public API only (PEP 562): what ``__all__`` names."""
+    return sorted(__all__)

@@ -14,6 +14,10 @@ DEFAULT_CHUNK_POSES: int
 class InputError(ValueError):
     """Bad input: the message names the parameter, the value and what is allowed."""
 
+class InputTypeError(InputError, TypeError):
+    """Bad input of the wrong type (a bool or a string where a number goes, complex values):
+    an InputError that is also a TypeError; the message names the parameter."""
+
 def configure_gpu(
     backends: Optional[list[str]],
     adapter: Optional[str],
@@ -130,8 +134,9 @@ class Pose:
     @property
     def translation(self) -> npt.NDArray[np.float64]:
         """t (m)."""
-    def apply(self, p: Sequence[float]) -> list[float]:
-        """Returns R p + t: a point (m) of sonar 1's frame in sonar 2's frame."""
+    def apply(self, p: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """Returns R p + t for points p (m) of sonar 1's frame, shape (3,) or (n, 3) of real
+        numbers: the points in sonar 2's frame, same shape (float64)."""
 
 class Mount:
     """Where a sonar is mounted in a common frame (x forward, y left, z up):
@@ -162,7 +167,8 @@ class MaskSet:
     starboard-most beam)."""
 
     masks: npt.NDArray[np.uint8]
-    """0/1, ``(features, range_bins, beams)`` or ``(features, range_bins)``."""
+    """0/1, ``(features, range_bins, beams)`` or ``(features, range_bins)`` (``(features,
+    2 * range_bins)``, the row, for a two-sided sidescan)."""
     union: npt.NDArray[np.uint8]
     """0/1: every bin or pixel any feature may occupy."""
     counts: Optional[npt.NDArray[np.uint32]]

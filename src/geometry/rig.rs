@@ -57,10 +57,14 @@ impl Mount {
                 format!("must be a unit quaternion, norm within {QUATERNION_NORM_TOLERANCE} of 1"),
             ));
         }
-        Ok(Mount {
-            rotation: rotation.normalize(),
-            position,
-        })
+        // A quaternion already of norm 1 to a few ulp (one this constructor made) is kept as
+        // it is, so a mount rebuilt from its own rotation is the same mount, bit for bit.
+        let rotation = if (n - 1.0).abs() <= 4.0 * f64::EPSILON {
+            rotation
+        } else {
+            rotation.normalize()
+        };
+        Ok(Mount { rotation, position })
     }
 
     /// Returns the mount of a URDF joint `<origin xyz="…" rpy="…">` with the angles in degrees:
@@ -182,6 +186,13 @@ pub fn sidescan_pair(
             format!("sonar {:?}: kind", channel.name),
             channel.kind.name(),
             "a sidescan pair needs an SSS channel",
+        ));
+    }
+    if channel.two_sided() {
+        return Err(Error::invalid(
+            format!("sonar {:?}: sides", channel.name),
+            2,
+            "a channel is one side: give a one-sided SSS (each channel of the pair is one)",
         ));
     }
     finite_named(|| "depression".into(), depression)?;

@@ -69,6 +69,35 @@ pub struct Sonar {
 
 pub use crate::limits::{MAX_BEAMS, MAX_PIXELS, MAX_RANGE, MAX_RANGE_BINS};
 
+/// The largest sonar file read (bytes): a sonar file is a few hundred bytes, one with
+/// [`MAX_BEAMS`] beam edges about 1.5 MB.
+pub const MAX_SONAR_FILE_BYTES: u64 = 4 << 20;
+
+/// Returns the UTF-8 text of the regular file at `path`, refusing a device, a FIFO or anything
+/// longer than `limit` bytes before reading more than that.
+fn read_small_text(path: &Path, limit: u64) -> Result<String> {
+    use std::io::Read;
+    let fail = |source: std::io::Error| Error::ReadInput {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = std::fs::File::open(path).map_err(fail)?;
+    let meta = file.metadata().map_err(fail)?;
+    if !meta.is_file() {
+        return Err(fail(std::io::Error::other(
+            "not a regular file (a device, a FIFO or a directory); give a sonar TOML file",
+        )));
+    }
+    let mut bytes = Vec::new();
+    file.take(limit + 1).read_to_end(&mut bytes).map_err(fail)?;
+    if bytes.len() as u64 > limit {
+        return Err(fail(std::io::Error::other(format!(
+            "longer than {limit} bytes: not a sonar file (a sonar file is a few hundred bytes)"
+        ))));
+    }
+    String::from_utf8(bytes).map_err(|e| fail(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
+}
+
 /// The keys of a sonar TOML file.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -122,10 +151,7 @@ impl Sonar {
     /// [`Error::ReadInput`], [`Error::SonarFile`] (syntax, unknown or missing keys) or
     /// [`Error::InvalidValue`] naming the file and the key.
     pub fn from_toml_file(path: &Path) -> Result<Sonar> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::ReadInput {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = read_small_text(path, MAX_SONAR_FILE_BYTES)?;
         let name = path.display().to_string();
         Sonar::from_toml_str(&name, &text).map_err(|e| match e {
             Error::SonarFile { message, .. } => Error::SonarFile {
@@ -161,6 +187,12 @@ impl Sonar {
             ));
         }
         let beams = match (file.kind, file.beams, file.beam_edges, file.beam_centres) {
+            (SonarKind::Sss, Some(_), _, _) if file.sides.is_some() => {
+                return Err(Error::input(
+                    format!("{ctx}: beams"),
+                    "give sides (1 or 2) for a sidescan, not beams",
+                ));
+            }
             (SonarKind::Sss, None | Some(1), None, None) => match file.sides {
                 None | Some(1) => BeamLayout::Uniform { count: 1 },
                 Some(2) => BeamLayout::Uniform { count: 2 },
@@ -413,6 +445,24 @@ impl Sonar {
                 e
             }
             BeamLayout::Edges(edges) => edges.iter().map(|d| d.to_radians()).collect(),
+        }
+    }
+
+    /// Returns the beam edges in degrees, increasing, `beam_count() + 1` values from exactly
+    /// `-azimuth_aperture/2` to exactly `+azimuth_aperture/2` (the given edges for
+    /// [`BeamLayout::Edges`]).
+    #[must_use]
+    pub fn beam_edges_deg(&self) -> Vec<f64> {
+        let h = self.azimuth_aperture / 2.0;
+        match &self.beams {
+            BeamLayout::Uniform { count } => {
+                let n = *count as usize;
+                let w = self.azimuth_aperture / n as f64;
+                let mut e: Vec<f64> = (0..=n).map(|j| -h + j as f64 * w).collect();
+                e[n] = h;
+                e
+            }
+            BeamLayout::Edges(edges) => edges.clone(),
         }
     }
 

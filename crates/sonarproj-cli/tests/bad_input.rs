@@ -176,6 +176,38 @@ fn bad_sonar_files_exit_2_naming_file_key_and_value() {
 }
 
 #[test]
+fn flips_of_a_two_sided_sidescan_row_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let npy = dir.path().join("o.npy");
+    let npy = npy.to_str().unwrap();
+    for flag in ["--flip-range", "--flip-beams"] {
+        common::rejects(
+            &[
+                "project",
+                "--from",
+                "paper-fls",
+                "--to",
+                "holoocean-sidescan",
+                "--range",
+                "5",
+                "--azimuth",
+                "0",
+                "--pitch",
+                "90",
+                "--place-range",
+                "12",
+                "--occupancy",
+                npy,
+                flag,
+            ],
+            None,
+            &[flag, "two-sided", "one row"],
+        );
+    }
+    assert!(!std::path::Path::new(npy).exists(), "nothing written");
+}
+
+#[test]
 fn an_area_grid_too_fine_for_the_image_names_the_smallest_cell() {
     let args = [
         "project",

@@ -117,7 +117,7 @@ pub(crate) fn paper_run<'py>(
     let sampling = Sampling::Step(step)
         .validated()
         .map_err(|e| errors::engine(e.in_context("step")))?;
-    paper::angles(angle_step).map_err(|e| error(e.in_context("angle_step")))?;
+    paper::angles(angle_step).map_err(|e| errors::apps_renamed(e, &[("--angle-step", "angle_step")]))?;
     check_output_dir(&out_dir, "out_dir").map_err(error)?;
     let (backend, notice) = backend::get(backend_name)?;
     let start = Instant::now();

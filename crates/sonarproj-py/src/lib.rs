@@ -15,11 +15,13 @@ mod masks;
 mod pose;
 mod recover;
 mod sonar;
+mod values;
 
 /// Registers the module's classes, functions and exception.
 #[pymodule]
 fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("InputError", m.py().get_type::<errors::InputError>())?;
+    m.add("InputTypeError", values::input_type_error(m.py())?)?;
     m.add_class::<sonar::PySonar>()?;
     m.add_class::<pose::PyPose>()?;
     m.add_class::<pose::PyMount>()?;

@@ -40,6 +40,30 @@ pub(crate) struct PyMaskSet {
     device: String,
 }
 
+#[pymethods]
+impl PyMaskSet {
+    /// Returns what the set holds: its features, the masks' shape, the union's size and the
+    /// device that drew it.
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        use numpy::PyUntypedArrayMethods;
+        let masks = self.masks.bind(py);
+        let shape: Vec<String> = masks.shape().iter().map(ToString::to_string).collect();
+        let union = self.union.bind(py).call_method0("sum")?.extract::<u64>()?;
+        Ok(format!(
+            "<MaskSet: {} feature{}, masks ({}) uint8, {union} bins or pixels in the union, counts {}, drawn on {}>",
+            self.radius.len(),
+            if self.radius.len() == 1 { "" } else { "s" },
+            shape.join(", "),
+            if self.counts.is_some() {
+                "drawn"
+            } else {
+                "not drawn"
+            },
+            self.device
+        ))
+    }
+}
+
 /// Returns the array of `occs` stacked along a first axis, each in sonar 2's layout.
 fn stack<T: numpy::Element + Copy>(
     kind: SonarKind,

@@ -9,6 +9,7 @@ use sonarproj::geometry::rig::{self, Mount};
 use sonarproj::{RelativePose, Rotation};
 
 use crate::errors;
+use crate::values::arg;
 
 /// The pose of sonar 2 relative to sonar 1: `p2 = R p1 + t` (m).
 ///
@@ -51,7 +52,12 @@ impl PyPose {
     /// Rx(roll))ᵀ`) and translation `t` (m).
     #[new]
     #[pyo3(signature = (roll=0.0, pitch=0.0, yaw=0.0, t=[0.0, 0.0, 0.0]), text_signature = "(roll=0.0, pitch=0.0, yaw=0.0, t=(0.0, 0.0, 0.0))")]
-    fn new(roll: f64, pitch: f64, yaw: f64, t: [f64; 3]) -> PyResult<Self> {
+    fn new(
+        #[pyo3(from_py_with = arg::roll)] roll: f64,
+        #[pyo3(from_py_with = arg::pitch)] pitch: f64,
+        #[pyo3(from_py_with = arg::yaw)] yaw: f64,
+        #[pyo3(from_py_with = arg::t)] t: [f64; 3],
+    ) -> PyResult<Self> {
         let r = Rotation::RollPitchYaw { roll, pitch, yaw };
         Ok(PyPose {
             inner: RelativePose::new(r, t).map_err(errors::engine)?,
@@ -62,7 +68,10 @@ impl PyPose {
     /// order of ROS and scipy) and translation `t` (m).
     #[staticmethod]
     #[pyo3(signature = (quat_xyzw, t=[0.0, 0.0, 0.0]), text_signature = "(quat_xyzw, t=(0.0, 0.0, 0.0))")]
-    fn from_quat_xyzw(quat_xyzw: [f64; 4], t: [f64; 3]) -> PyResult<Self> {
+    fn from_quat_xyzw(
+        #[pyo3(from_py_with = arg::quat_xyzw)] quat_xyzw: [f64; 4],
+        #[pyo3(from_py_with = arg::t)] t: [f64; 3],
+    ) -> PyResult<Self> {
         let r = rotation([0.0; 3], Some(quat_xyzw), None)?;
         Ok(PyPose {
             inner: RelativePose::new(r, t).map_err(errors::engine)?,
@@ -72,7 +81,10 @@ impl PyPose {
     /// Returns the pose with the rotation matrix `matrix` (3×3, row-major) and translation `t`.
     #[staticmethod]
     #[pyo3(signature = (matrix, t=[0.0, 0.0, 0.0]), text_signature = "(matrix, t=(0.0, 0.0, 0.0))")]
-    fn from_matrix(matrix: [[f64; 3]; 3], t: [f64; 3]) -> PyResult<Self> {
+    fn from_matrix(
+        #[pyo3(from_py_with = arg::matrix)] matrix: [[f64; 3]; 3],
+        #[pyo3(from_py_with = arg::t)] t: [f64; 3],
+    ) -> PyResult<Self> {
         Ok(PyPose {
             inner: RelativePose::new(Rotation::Matrix(matrix), t).map_err(errors::engine)?,
         })
@@ -83,13 +95,13 @@ impl PyPose {
     #[staticmethod]
     #[pyo3(signature = (feature, place, roll=0.0, pitch=0.0, yaw=0.0, *, quat_xyzw=None, matrix=None))]
     fn placement(
-        feature: [f64; 3],
-        place: [f64; 3],
-        roll: f64,
-        pitch: f64,
-        yaw: f64,
-        quat_xyzw: Option<[f64; 4]>,
-        matrix: Option<[[f64; 3]; 3]>,
+        #[pyo3(from_py_with = arg::feature)] feature: [f64; 3],
+        #[pyo3(from_py_with = arg::place)] place: [f64; 3],
+        #[pyo3(from_py_with = arg::roll)] roll: f64,
+        #[pyo3(from_py_with = arg::pitch)] pitch: f64,
+        #[pyo3(from_py_with = arg::yaw)] yaw: f64,
+        #[pyo3(from_py_with = arg::opt_quat_xyzw)] quat_xyzw: Option<[f64; 4]>,
+        #[pyo3(from_py_with = arg::opt_matrix)] matrix: Option<[[f64; 3]; 3]>,
     ) -> PyResult<Self> {
         let r = rotation([roll, pitch, yaw], quat_xyzw, matrix)?;
         Ok(PyPose {
@@ -125,9 +137,19 @@ impl PyPose {
         p: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, numpy::PyArrayDyn<f64>>> {
         let numpy_module = py.import("numpy")?;
-        let converted = numpy_module
-            .call_method1("asarray", (p, "float64"))
+        let given = numpy_module
+            .call_method1("asarray", (p,))
             .map_err(|e| errors::input("p", format!("not an array of numbers ({e})")))?;
+        let kind: String = given.getattr("dtype")?.getattr("kind")?.extract()?;
+        if !matches!(kind.as_str(), "f" | "i" | "u") {
+            let dtype = given.getattr("dtype")?.str()?.to_string();
+            return Err(crate::values::wrong_type(
+                py,
+                "p",
+                format!("expected real numbers (float or integer), got dtype {dtype}"),
+            ));
+        }
+        let converted = given.call_method1("astype", ("float64",))?;
         let array = converted
             .cast::<numpy::PyArrayDyn<f64>>()
             .map_err(|e| errors::input("p", e.to_string()))?
@@ -135,9 +157,14 @@ impl PyPose {
         let a = array.as_array();
         let shape = a.shape().to_vec();
         if shape.last() != Some(&3) || shape.len() > 2 {
+            let shape: Vec<String> = shape.iter().map(ToString::to_string).collect();
+            let shape = match shape.as_slice() {
+                [one] => format!("({one},)"),
+                _ => format!("({})", shape.join(", ")),
+            };
             return Err(errors::input(
                 "p",
-                format!("must have shape (3,) or (n, 3), got {shape:?}"),
+                format!("must have shape (3,) or (n, 3), got {shape}"),
             ));
         }
         let flat: Vec<f64> = a.iter().copied().collect();
@@ -150,14 +177,83 @@ impl PyPose {
             .into_pyarray(py))
     }
 
+    /// Returns the call that makes this pose: `Pose.from_matrix(R rows, t=…)`, every number
+    /// to the last digit.
     fn __repr__(&self) -> String {
-        let r = self.inner.rotation.transpose().to_cols_array_2d();
         format!(
-            "Pose(rotation={:?}, translation={:?})",
-            r,
-            self.inner.translation.to_array()
+            "Pose.from_matrix({}, t={})",
+            rows_text(&self.rows()),
+            list_text(&self.inner.translation.to_array())
         )
     }
+
+    /// Poses compare by value: the same rotation matrix and translation, number for number.
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other.cast::<PyPose>().is_ok_and(|o| o.get().inner == self.inner)
+    }
+
+    /// Returns a hash of the rotation and translation, equal for equal poses.
+    fn __hash__(&self) -> u64 {
+        hash_reals(
+            self.rows()
+                .iter()
+                .flatten()
+                .chain(&self.inner.translation.to_array()),
+        )
+    }
+
+    /// Returns this pose: it is immutable.
+    fn __copy__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    /// Returns this pose: it is immutable.
+    fn __deepcopy__(slf: Py<Self>, _memo: &Bound<'_, PyAny>) -> Py<Self> {
+        slf
+    }
+
+    /// Pickles as `Pose.from_matrix(R, t)`, which gives back the same numbers.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Reduced<'py, (Rows, [f64; 3])>> {
+        let make = py.get_type::<PyPose>().getattr("from_matrix")?;
+        Ok((make, (self.rows(), self.inner.translation.to_array())))
+    }
+}
+
+impl PyPose {
+    /// Returns `R`'s rows.
+    fn rows(&self) -> [[f64; 3]; 3] {
+        let t = self.inner.rotation.transpose().to_cols_array_2d();
+        [t[0], t[1], t[2]]
+    }
+}
+
+/// A 3 × 3 matrix's rows.
+type Rows = [[f64; 3]; 3];
+
+/// What `__reduce__` returns: the callable that makes the value again, and its arguments.
+pub(crate) type Reduced<'py, A> = (Bound<'py, PyAny>, A);
+
+/// Returns `values` as a Python list literal, each number to the last digit.
+pub(crate) fn list_text(values: &[f64]) -> String {
+    let parts: Vec<String> = values.iter().map(|v| format!("{v:?}")).collect();
+    format!("[{}]", parts.join(", "))
+}
+
+/// Returns `rows` as a nested Python list literal.
+fn rows_text(rows: &[[f64; 3]; 3]) -> String {
+    let parts: Vec<String> = rows.iter().map(|r| list_text(r)).collect();
+    format!("[{}]", parts.join(", "))
+}
+
+/// Returns a hash of `values` in which `0.0` and `-0.0` (equal numbers) hash alike.
+pub(crate) fn hash_reals<'a>(values: impl IntoIterator<Item = &'a f64>) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for v in values {
+        let v = if *v == 0.0 { 0.0f64 } else { *v };
+        v.to_bits().hash(&mut h);
+    }
+    h.finish()
 }
 
 /// Returns the row-major array of `m`.
@@ -180,7 +276,11 @@ impl PyMount {
     /// `rpy` (deg, fixed axes: Rz(yaw) Ry(pitch) Rx(roll)); no rotation when neither is given.
     #[new]
     #[pyo3(signature = (position, *, quat_xyzw=None, rpy=None))]
-    fn new(position: [f64; 3], quat_xyzw: Option<[f64; 4]>, rpy: Option<[f64; 3]>) -> PyResult<Self> {
+    fn new(
+        #[pyo3(from_py_with = arg::position)] position: [f64; 3],
+        #[pyo3(from_py_with = arg::opt_quat_xyzw)] quat_xyzw: Option<[f64; 4]>,
+        #[pyo3(from_py_with = arg::rpy)] rpy: Option<[f64; 3]>,
+    ) -> PyResult<Self> {
         let p = DVec3::from_array(position);
         let inner = match (quat_xyzw, rpy) {
             (Some(_), Some(_)) => {
@@ -197,7 +297,10 @@ impl PyMount {
     /// Returns the mount given in FRD axes (x forward, y starboard, z down; NED for a world
     /// frame), converted to the common FLU frame.
     #[staticmethod]
-    fn from_frd(position: [f64; 3], quat_xyzw: [f64; 4]) -> PyResult<Self> {
+    fn from_frd(
+        #[pyo3(from_py_with = arg::position)] position: [f64; 3],
+        #[pyo3(from_py_with = arg::quat_xyzw)] quat_xyzw: [f64; 4],
+    ) -> PyResult<Self> {
         let [x, y, z, w] = quat_xyzw;
         Ok(PyMount {
             inner: Mount::from_frd(DQuat::from_xyzw(x, y, z, w), DVec3::from_array(position))
@@ -217,11 +320,51 @@ impl PyMount {
         self.inner.position().to_array()
     }
 
+    /// Returns the call that makes this mount, every number to the last digit.
     fn __repr__(&self) -> String {
         format!(
-            "Mount(position={:?}, quat_xyzw={:?})",
-            self.position(),
-            self.quat_xyzw()
+            "Mount(position={}, quat_xyzw={})",
+            list_text(&self.position()),
+            list_text(&self.quat_xyzw())
         )
+    }
+
+    /// Mounts compare by value: the same quaternion and position, number for number.
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other.cast::<PyMount>().is_ok_and(|o| o.get().inner == self.inner)
+    }
+
+    /// Returns a hash of the quaternion and position, equal for equal mounts.
+    fn __hash__(&self) -> u64 {
+        hash_reals(self.quat_xyzw().iter().chain(&self.position()))
+    }
+
+    /// Returns this mount: it is immutable.
+    fn __copy__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    /// Returns this mount: it is immutable.
+    fn __deepcopy__(slf: Py<Self>, _memo: &Bound<'_, PyAny>) -> Py<Self> {
+        slf
+    }
+
+    /// Pickles as the mount's position and quaternion, which give back the same numbers.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Reduced<'py, ([f64; 3], [f64; 4])>> {
+        let make = py.get_type::<PyMount>().getattr("_from_parts")?;
+        Ok((make, (self.position(), self.quat_xyzw())))
+    }
+
+    /// Returns the mount of `position` and the unit quaternion `quat_xyzw` (for pickling).
+    #[staticmethod]
+    fn _from_parts(
+        #[pyo3(from_py_with = arg::position)] position: [f64; 3],
+        #[pyo3(from_py_with = arg::quat_xyzw)] quat_xyzw: [f64; 4],
+    ) -> PyResult<Self> {
+        let [x, y, z, w] = quat_xyzw;
+        Ok(PyMount {
+            inner: Mount::new(DQuat::from_xyzw(x, y, z, w), DVec3::from_array(position))
+                .map_err(errors::engine)?,
+        })
     }
 }

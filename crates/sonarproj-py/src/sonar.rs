@@ -7,6 +7,8 @@ use pyo3::prelude::*;
 use sonarproj::{BeamLayout, Sonar, SonarKind};
 
 use crate::errors;
+use crate::pose::{hash_reals, list_text};
+use crate::values::arg;
 
 /// A sonar: kind, field of view (metres, degrees) and data layout.
 ///
@@ -25,17 +27,6 @@ pub(crate) struct PySonar {
     pub(crate) inner: Sonar,
 }
 
-/// Returns `v` as a count for `field`, or an `InputError` naming it when it is negative or too
-/// large.
-fn count(field: &str, v: i64) -> PyResult<u32> {
-    u32::try_from(v).map_err(|_| {
-        errors::input(
-            field,
-            format!("{v} is not a count: give an integer from 1 to {}", u32::MAX),
-        )
-    })
-}
-
 #[pymethods]
 impl PySonar {
     /// Returns a sonar from its fields (see the Python docstring of `sonarproj.Sonar`).
@@ -44,16 +35,16 @@ impl PySonar {
     #[expect(clippy::too_many_arguments, reason = "the sonar's fields, as Python keywords")]
     fn new(
         kind: &str,
-        range_min: f64,
-        range_max: f64,
-        azimuth_aperture: f64,
-        elevation_aperture: f64,
-        range_bins: i64,
-        beams: Option<i64>,
-        beam_edges: Option<Vec<f64>>,
-        beam_centres: Option<Vec<f64>>,
+        #[pyo3(from_py_with = arg::range_min)] range_min: f64,
+        #[pyo3(from_py_with = arg::range_max)] range_max: f64,
+        #[pyo3(from_py_with = arg::azimuth_aperture)] azimuth_aperture: f64,
+        #[pyo3(from_py_with = arg::elevation_aperture)] elevation_aperture: f64,
+        #[pyo3(from_py_with = arg::range_bins)] range_bins: u32,
+        #[pyo3(from_py_with = arg::beams)] beams: Option<u32>,
+        #[pyo3(from_py_with = arg::beam_edges)] beam_edges: Option<Vec<f64>>,
+        #[pyo3(from_py_with = arg::beam_centres)] beam_centres: Option<Vec<f64>>,
         name: Option<String>,
-        sides: Option<i64>,
+        #[pyo3(from_py_with = arg::sides)] sides: Option<u32>,
     ) -> PyResult<Self> {
         let kind = match kind {
             "fls" => SonarKind::Fls,
@@ -78,7 +69,7 @@ impl PySonar {
         if kind == SonarKind::Sss && given > 0 {
             return Err(errors::input(
                 "beams",
-                "a sidescan sonar has one beam; give beams, beam_edges or beam_centres for an fls only",
+                "a sidescan has no beams (sides=2 for a two-sided one); give beams, beam_edges or beam_centres for an fls only",
             ));
         }
         if kind == SonarKind::Fls && given == 0 {
@@ -101,13 +92,9 @@ impl PySonar {
             }
         };
         let layout = match (beams, beam_edges) {
-            (Some(n), _) => BeamLayout::Uniform {
-                count: count("beams", n)?,
-            },
+            (Some(n), _) => BeamLayout::Uniform { count: n },
             (None, Some(edges)) => BeamLayout::Edges(edges),
-            (None, None) => BeamLayout::Uniform {
-                count: count("sides", sides)?,
-            },
+            (None, None) => BeamLayout::Uniform { count: sides },
         };
         let sonar = Sonar {
             name: name.unwrap_or_else(|| format!("custom-{}", kind.name())),
@@ -116,7 +103,7 @@ impl PySonar {
             range_max,
             azimuth_aperture,
             elevation_aperture,
-            range_bins: count("range_bins", range_bins)?,
+            range_bins,
             beams: layout,
         };
         let sonar = match beam_centres {
@@ -201,17 +188,7 @@ impl PySonar {
     /// +aperture/2 (port).
     #[getter]
     fn beam_edges<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let edges: Vec<f64> = self
-            .inner
-            .beam_edges_rad()
-            .iter()
-            .map(|e| e.to_degrees())
-            .collect();
-        let edges = match &self.inner.beams {
-            BeamLayout::Edges(given) => given.clone(),
-            BeamLayout::Uniform { .. } => edges,
-        };
-        edges.to_pyarray(py)
+        self.inner.beam_edges_deg().to_pyarray(py)
     }
 
     /// The shape of the sonar's data as numpy holds it: `(range_bins, beams)` for an FLS,
@@ -232,27 +209,103 @@ impl PySonar {
         if self.inner.two_sided() { 2 } else { 1 }
     }
 
-    fn __repr__(&self) -> String {
+    /// Returns the call that makes this sonar, every number to the last digit.
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
         let s = &self.inner;
-        let beams = match s.kind {
-            SonarKind::Fls => format!(", beams={}", s.beam_count()),
-            SonarKind::Sss if s.two_sided() => ", sides=2".to_string(),
-            SonarKind::Sss => String::new(),
+        let layout = match (&s.kind, &s.beams) {
+            (SonarKind::Fls, BeamLayout::Uniform { count }) => format!(", beams={count}"),
+            (_, BeamLayout::Edges(edges)) => format!(", beam_edges={}", list_text(edges)),
+            (SonarKind::Sss, _) if s.two_sided() => ", sides=2".to_string(),
+            (SonarKind::Sss, _) => String::new(),
         };
-        format!(
-            "Sonar(name={:?}, kind={:?}, range_min={}, range_max={}, azimuth_aperture={}, elevation_aperture={}, range_bins={}{beams})",
-            s.name,
+        let name = pyo3::types::PyString::new(py, &s.name).repr()?;
+        Ok(format!(
+            "Sonar({:?}, range_min={:?}, range_max={:?}, azimuth_aperture={:?}, elevation_aperture={:?}, range_bins={}{layout}, name={name})",
             s.kind.name(),
             s.range_min,
             s.range_max,
             s.azimuth_aperture,
             s.elevation_aperture,
             s.range_bins
-        )
+        ))
     }
 
+    /// Sonars compare by value: every field, the name included.
     fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
         other.cast::<PySonar>().is_ok_and(|o| o.get().inner == self.inner)
+    }
+
+    /// Returns a hash of every field, equal for equal sonars.
+    fn __hash__(&self) -> u64 {
+        use std::hash::{Hash, Hasher};
+        let s = &self.inner;
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        (s.name.as_str(), s.kind.name(), s.range_bins).hash(&mut h);
+        let mut numbers = vec![s.range_min, s.range_max, s.azimuth_aperture, s.elevation_aperture];
+        match &s.beams {
+            BeamLayout::Uniform { count } => numbers.push(f64::from(*count)),
+            BeamLayout::Edges(edges) => numbers.extend(edges),
+        }
+        hash_reals(&numbers).hash(&mut h);
+        h.finish()
+    }
+
+    /// Returns this sonar: it is immutable.
+    fn __copy__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    /// Returns this sonar: it is immutable.
+    fn __deepcopy__(slf: Py<Self>, _memo: &Bound<'_, PyAny>) -> Py<Self> {
+        slf
+    }
+
+    /// Pickles as the call of `Sonar(…)` that makes it.
+    #[expect(
+        clippy::type_complexity,
+        reason = "the constructor's arguments, as pickle wants them"
+    )]
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> (
+        Bound<'py, pyo3::types::PyType>,
+        (
+            &'static str,
+            f64,
+            f64,
+            f64,
+            f64,
+            u32,
+            Option<u32>,
+            Option<Vec<f64>>,
+            Option<Vec<f64>>,
+            String,
+            Option<u32>,
+        ),
+    ) {
+        let s = &self.inner;
+        let (beams, edges, sides) = match (&s.kind, &s.beams) {
+            (SonarKind::Fls, BeamLayout::Uniform { count }) => (Some(*count), None, None),
+            (_, BeamLayout::Edges(edges)) => (None, Some(edges.clone()), None),
+            (SonarKind::Sss, BeamLayout::Uniform { count }) => (None, None, Some(*count)),
+        };
+        (
+            py.get_type::<PySonar>(),
+            (
+                s.kind.name(),
+                s.range_min,
+                s.range_max,
+                s.azimuth_aperture,
+                s.elevation_aperture,
+                s.range_bins,
+                beams,
+                edges,
+                None,
+                s.name.clone(),
+                sides,
+            ),
+        )
     }
 }
 

@@ -218,10 +218,10 @@ fn sss_picture(layout: &Layout, masks: &[Mask], title: &str, labels: &[String]) 
         groups.extend((0..n).map(|k| s * n + k..s * n + k + 1));
         groups.push(s * n..(s + 1) * n);
         names.extend((1..=n).map(|k| k.to_string()));
-        names.push(if side.is_empty() {
-            "all".to_string()
-        } else {
-            format!("all {side}")
+        // Short names, so that narrow strips keep their labels apart: "all P", "all S".
+        names.push(match side.chars().next() {
+            Some(c) => format!("all {}", c.to_ascii_uppercase()),
+            None => "all".to_string(),
         });
     }
     let extents: Vec<Option<(usize, usize)>> = sides
@@ -246,7 +246,7 @@ fn sss_picture(layout: &Layout, masks: &[Mask], title: &str, labels: &[String]) 
         text(
             a,
             if two == 2 {
-                "port: one strip per feature and their union (all), then the same to starboard"
+                "port: one strip per feature and their union (all P), then the same to starboard (all S)"
             } else {
                 "one strip per feature, their union (all) last"
             },

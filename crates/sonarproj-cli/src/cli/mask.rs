@@ -59,7 +59,8 @@ pub(super) struct MaskArgs {
     /// per feature and their union. One colour per feature.
     #[arg(long, value_name = "FILE.png")]
     out: Option<PathBuf>,
-    /// Write the masks as NPY: [feature][range_bin][beam] (FLS) or [feature][range_bin] (SSS),
+    /// Write the masks as NPY: [feature][range_bin][beam] (FLS) or [feature][range_bin] (SSS;
+    /// [feature][2 x range_bins], port far to near then starboard near to far, two-sided),
     /// uint8 0/1 (uint32 counts with --counts); range bin 0 is range_min and beam 0 the
     /// starboard-most (-aperture/2), the PNG's raw layout with its columns mirrored.
     #[arg(long, value_name = "FILE.npy")]

@@ -37,8 +37,9 @@ pub(super) struct ProjectArgs {
     /// Also write the occupancy buffer: FILE.png, a labelled picture for a person (near range at
     /// the bottom and port on the left; an FLS as its range × beam layout with beam 0, the
     /// starboard-most, at the right; an SSS as a vertical range strip), or FILE.npy, uint8 0/1
-    /// for numpy ([range_bin, beam] for an FLS, [range_bin] for an SSS; row 0 is range_min and
-    /// column 0 is beam 0 at -aperture/2, starboard, unless flipped).
+    /// for numpy ([range_bin, beam] for an FLS, [range_bin] for an SSS, the row of 2 x range_bins
+    /// for a two-sided one; row 0 is range_min and column 0 is beam 0 at -aperture/2, starboard,
+    /// unless flipped).
     #[arg(long, value_name = "FILE")]
     occupancy: Option<PathBuf>,
     /// NPY only: write range_max in row 0 instead of range_min (refused with a .png, which
@@ -75,6 +76,19 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
                     format!(
                         "applies to a .npy occupancy only; {} is a picture, always drawn with near range at the bottom and port on the left",
                         path.display()
+                    ),
+                ));
+            }
+        }
+    }
+    if target.two_sided() {
+        for (flag, given) in [("--flip-range", a.flip_range), ("--flip-beams", a.flip_beams)] {
+            if given {
+                return Err(Error::input(
+                    flag,
+                    format!(
+                        "sonar 2 ({}) is a two-sided sidescan, whose data is one row (port far to near, then starboard near to far): there is no range axis or beam axis to flip",
+                        target.name
                     ),
                 ));
             }

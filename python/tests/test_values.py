@@ -1,0 +1,171 @@
+"""The package behaves like Python: immutable values compare, hash, copy, pickle and print as
+the call that makes them; only the public API is visible; a bad argument raises an InputError
+whose message starts with the argument's name (an InputTypeError, also a TypeError, for a wrong
+type); and importing and probing the GPU prints nothing on a headless machine."""
+
+import copy
+import os
+import pickle
+import re
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+import sonarproj
+from sonarproj import InputError, InputTypeError, Mount, Pose, Sonar
+
+VALUES = [
+    lambda: Pose(1, 2, 3),
+    lambda: Pose(10.5, -20.25, 33.125, t=(0.1, -0.2, 3.0)),
+    lambda: Pose.from_quat_xyzw((0.1, 0.2, 0.3, 0.9273618495495703), t=(1, 2, 3)),
+    lambda: Pose.placement((5, 10, 1), (15, -3, 0.2), roll=45, yaw=45),
+    lambda: Mount((0.5, -0.1, 0.2), rpy=(10, 20, 30)),
+    lambda: Mount((0, 0, 0), quat_xyzw=(0.0, 0.0, 0.3826834323650898, 0.9238795325112867)),
+    lambda: Sonar.preset("paper-fls"),
+    lambda: Sonar.preset("holoocean-sidescan"),
+    lambda: Sonar("fls", 0.5, 20, 90, 20, 390, beam_edges=[-45, -10, 0, 12.5, 45], name="it's"),
+    lambda: Sonar("sss", 0.1, 30, 130, 0.3, 2990),
+]
+NAMES = {"Pose": Pose, "Mount": Mount, "Sonar": Sonar}
+
+
+@pytest.mark.parametrize("make", VALUES)
+def test_values_compare_hash_copy_pickle_and_print_as_their_call(make):
+    a, b = make(), make()
+    assert a is not b and a == b and hash(a) == hash(b)
+    assert a != object() and a != "x"
+    assert copy.copy(a) == a and copy.deepcopy(a) == a
+    back = pickle.loads(pickle.dumps(a))
+    assert back == a and hash(back) == hash(a) and type(back) is type(a)
+    again = eval(repr(a), dict(NAMES))  # noqa: S307 - the repr is the call that makes it
+    assert again == a, repr(a)
+    assert len({a, b, back, again}) == 1
+
+
+def test_different_values_differ():
+    assert Pose(1, 2, 3) != Pose(1, 2, 4)
+    assert Pose(t=(0, 0, 1)) != Pose()
+    assert Mount((0, 0, 0)) != Mount((0, 0, 1e-9))
+    assert Sonar.preset("paper-fls") != Sonar.preset("paper-sss")
+    # -0.0 and 0.0 are equal numbers: equal poses hash alike.
+    assert Pose(t=(0.0, 0, 0)) == Pose(t=(-0.0, 0, 0))
+    assert hash(Pose(t=(0.0, 0, 0))) == hash(Pose(t=(-0.0, 0, 0)))
+
+
+def test_mask_sets_and_engines_say_what_they_are():
+    engine = sonarproj.MaskEngine("paper-fls", "paper-sss", backend="cpu")
+    assert eval(repr(engine), {"MaskEngine": sonarproj.MaskEngine}).first == engine.first  # noqa: S307
+    assert repr(engine) == "MaskEngine('paper-fls', 'paper-sss', backend='cpu')"
+    custom = Sonar("sss", 0.1, 30, 130, 0.3, 100)
+    assert repr(custom) in repr(sonarproj.MaskEngine("paper-fls", custom, backend="cpu", counts=True))
+    m = engine.masks(Pose(pitch=90), [[5.0, 0.0], [6.0, 10.0]])
+    text = repr(m)
+    assert text.startswith("<MaskSet: 2 features") and "(2, 2990)" in text and "CPU" in text
+
+
+def test_only_the_public_api_is_visible():
+    assert sorted(dir(sonarproj)) == sorted(sonarproj.__all__)
+    for private in ("np", "os", "json", "warnings", "Any", "Optional", "SIGMA_KEYS", "REQUIRED_COLUMNS"):
+        assert private not in dir(sonarproj)
+    # The imports used at run time are underscored (the typing names stay, hidden from dir(),
+    # for the annotations that tools resolve).
+    for private in ("np", "os", "json", "warnings", "SIGMA_KEYS", "REQUIRED_COLUMNS"):
+        assert not hasattr(sonarproj, private), private
+    for name in sonarproj.__all__:
+        assert hasattr(sonarproj, name), name
+
+
+WRONG_TYPES = [
+    (lambda: Pose(roll=True), "roll"),
+    (lambda: Pose(yaw="10"), "yaw"),
+    (lambda: Pose(pitch=1j), "pitch"),
+    (lambda: Pose(t=(0, 0, True)), "t"),
+    (lambda: Pose(t="abc"), "t"),
+    (lambda: Pose.from_quat_xyzw((0, 0, 0, True)), "quat_xyzw"),
+    (lambda: Pose.placement((5, 0, 0), (15, 0, 0), roll=np.bool_(True)), "roll"),
+    (lambda: Mount((0, 0, "1")), "position"),
+    (lambda: Sonar("sss", 0.1, 30, 130, 0.3, 100, sides=True), "sides"),
+    (lambda: Sonar("fls", 0.1, 10, 60, 12, 100, beams=True), "beams"),
+    (lambda: Sonar("fls", 0.1, 10, 60, 12, 100.0, beams=8), "range_bins"),
+    (lambda: Sonar("fls", False, 10, 60, 12, 100, beams=8), "range_min"),
+    (lambda: Sonar("fls", 0.1, 10, 60, 12, 100, beam_edges="abc"), "beam_edges"),
+    (lambda: Pose().apply(np.array([1j, 0, 0])), "p"),
+    (lambda: Pose().apply(["a", "b", "c"]), "p"),
+    (lambda: Pose().apply([True, False, True]), "p"),
+    (lambda: sonarproj.project("paper-fls", "paper-sss", Pose(), (5.0, 0.0), occupancy="no"), "occupancy"),
+    (lambda: sonarproj.masks("paper-fls", "paper-sss", Pose(), [[5.0, 0.0]], counts=1), "counts"),
+    (lambda: sonarproj.MaskEngine("paper-fls", "paper-sss", counts="yes"), "counts"),
+    (lambda: sonarproj.project("paper-fls", "paper-sss", Pose(), (5.0, 0.0), step=True), "step"),
+]
+
+
+@pytest.mark.parametrize("call, name", WRONG_TYPES)
+def test_a_wrong_type_is_a_type_error_naming_the_argument(call, name):
+    with pytest.raises(TypeError) as e:
+        call()
+    assert isinstance(e.value, InputTypeError) and isinstance(e.value, InputError)
+    assert str(e.value).startswith(f"{name}: "), str(e.value)
+
+
+BAD_VALUES = [
+    (lambda: Sonar("fls", 0.1, 10, 60, 12, 100, beams=2**70), "beams", "1180591620717411303424"),
+    (lambda: Sonar("fls", 0.1, 10, 60, 12, -3, beams=8), "range_bins", "-3"),
+    (lambda: Sonar("sss", 0.1, 30, 130, 0.3, 100, sides=3), "sides", "3"),
+    (lambda: Pose.from_matrix(np.eye(4)), "matrix", "(4, 4)"),
+    (lambda: Pose(t=(1, 2)), "t", "(2,)"),
+    (lambda: Pose.from_quat_xyzw((0, 0, 1)), "quat_xyzw", "(3,)"),
+    (lambda: Mount((0, 0, 0), rpy=(1, 2, 3, 4)), "rpy", "(4,)"),
+    (lambda: Pose().apply(np.zeros((2, 4))), "p", "(2, 4)"),
+    (lambda: sonarproj.paper("/tmp/x", angle_step=1000), "angle_step", "1000"),
+]
+
+
+@pytest.mark.parametrize("call, name, value", BAD_VALUES)
+def test_a_bad_value_is_an_input_error_starting_with_the_argument(call, name, value):
+    with pytest.raises(InputError) as e:
+        call()
+    message = str(e.value)
+    assert re.match(rf"{name}\b", message), message
+    assert value in message and "--" not in message, message
+
+
+def test_a_sonar_file_that_is_not_one_is_refused_without_reading_it(tmp_path):
+    with pytest.raises(InputError, match="not a regular file"):
+        Sonar.from_toml("/dev/zero")
+    big = tmp_path / "big.toml"
+    big.write_bytes(b"#" * (5 << 20))
+    with pytest.raises(InputError, match="longer than"):
+        Sonar.from_toml(big)
+
+
+def test_preset_beam_edges_are_the_documented_numbers():
+    s = Sonar.preset("paper-fls")
+    assert s.beam_edges[0] == -30.0 and s.beam_edges[-1] == 30.0
+    assert np.allclose(np.diff(s.beam_edges), 60 / 512, rtol=1e-12)
+
+
+def test_a_covariance_in_degrees_squared_is_warned_about():
+    pose = Pose(pitch=90)
+    cov_deg2 = np.diag([1e-4, 1e-4, 1e-4, 1.0, 1.0, 1.0])  # 1° sigmas written in deg²
+    with pytest.warns(UserWarning, match="deg²"):
+        sonarproj.masks("paper-fls", "paper-sss", pose, [[5.0, 0.0]], covariance=cov_deg2, backend="cpu")
+    cov_rad2 = np.diag([1e-4, 1e-4, 1e-4, *[np.radians(1.0) ** 2] * 3])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        sonarproj.masks("paper-fls", "paper-sss", pose, [[5.0, 0.0]], covariance=cov_rad2, backend="cpu")
+
+
+def test_probing_the_gpu_prints_nothing_on_a_headless_machine():
+    env = {k: v for k, v in os.environ.items() if k not in ("XDG_RUNTIME_DIR", "NODEVICE_SELECT")}
+    code = (
+        "import warnings, sonarproj\n"
+        "warnings.simplefilter('ignore')\n"
+        "sonarproj.MaskEngine('holoocean-sidescan', 'holoocean-imaging')\n"
+        "sonarproj.project('paper-fls', 'paper-sss', sonarproj.Pose(pitch=90), (5.0, 0.0))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == "", done.stderr
