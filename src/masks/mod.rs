@@ -197,7 +197,7 @@ impl MaskEngine {
     pub fn device(&self) -> String {
         match &self.gpu {
             Some(g) => g.describe(),
-            None => format!("CPU, {} threads (f64)", rayon::current_num_threads()),
+            None => crate::projection::cpu_device(),
         }
     }
 

@@ -139,12 +139,13 @@ impl Backend {
         }
     }
 
-    /// Returns a description of the device: the adapter for the GPU.
+    /// Returns a description of the device: the adapter for the GPU, the thread count for the
+    /// fast CPU path ([`cpu_device`]).
     #[must_use]
     pub fn device(&self) -> String {
         match self {
             Backend::Cpu => "CPU reference (f64, one core)".to_string(),
-            Backend::CpuFast => format!("CPU, {} threads (f64)", rayon::current_num_threads()),
+            Backend::CpuFast => cpu_device(),
             Backend::Gpu(g) => format!(
                 "{}, {} transform, {}",
                 context::describe(&g.context().info),
@@ -186,6 +187,14 @@ impl Backend {
             Backend::Gpu(g) => g.project(&prepared, output),
         }
     }
+}
+
+/// Returns the description of the CPU cores the fast path and the CPU mask engine run on:
+/// "CPU, 2 threads (f64)" ("1 thread" on one).
+#[must_use]
+pub fn cpu_device() -> String {
+    let n = rayon::current_num_threads();
+    format!("CPU, {n} thread{} (f64)", if n == 1 { "" } else { "s" })
 }
 
 #[cfg(test)]

@@ -15,5 +15,5 @@ pub mod fast;
 pub mod gpu;
 pub mod reference;
 
-pub use backend::{Backend, BackendChoice, Device, Output};
+pub use backend::{Backend, BackendChoice, Device, Output, cpu_device};
 pub use batch::{Batch, BatchItem, ItemChecker, PreparedBatch, Projection};

@@ -529,7 +529,7 @@ fn sizes_from_the_input_are_bounded_before_allocating() {
     .unwrap();
     let out = dir.path().join("out");
     let (sweep, out) = (sweep.to_str().unwrap(), out.to_str().unwrap());
-    let cases: [(Vec<&str>, &[&str]); 4] = [
+    let cases: [(Vec<&str>, &[&str]); 6] = [
         (
             vec!["paper", "--out", out, "--angle-step", "1e-9"],
             &["--angle-step = 0.000000001", "[0.01, 180]"],
@@ -551,6 +551,14 @@ fn sizes_from_the_input_are_bounded_before_allocating() {
             &["--shard", "at most 100000"],
         ),
         (vec!["bench", "--runs", "1000000000"], &["--runs", "1..=10000"]),
+        (
+            vec!["bench", "--backends", "quantum"],
+            &["--backends", "quantum", "cpu-fast"],
+        ),
+        (
+            vec!["bench", "--backends", "cpu", "--no-reference"],
+            &["--backends", "--no-reference"],
+        ),
     ];
     for (args, words) in cases {
         let output = common::sonarproj()

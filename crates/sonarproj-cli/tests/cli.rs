@@ -536,6 +536,32 @@ fn paper_writes_csv_figures_and_findings() {
 }
 
 #[test]
+fn bench_times_the_backends_asked_for() {
+    let out = common::sonarproj()
+        .args(["bench", "--runs", "1", "--backends", "cpu-fast"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    let rows: Vec<&str> = text.lines().filter(|l| l.contains(" -> ")).collect();
+    assert_eq!(rows.len(), 2, "{text}");
+    assert!(
+        rows.iter()
+            .all(|l| l.split_whitespace().nth(3) == Some("cpu-fast")),
+        "{text}"
+    );
+    assert!(!text.contains(" 1 threads"), "{text}");
+    // A GPU asked for where there is none is an error, not a silent skip.
+    common::sonarproj()
+        .args(["bench", "--runs", "1", "--backends", "gpu"])
+        .env("WGPU_BACKEND", "none")
+        .assert()
+        .failure();
+}
+
+#[test]
 fn bench_times_every_backend_on_the_same_batches() {
     let out = common::sonarproj()
         .args(["bench", "--runs", "1"])

@@ -175,8 +175,9 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
             })
             .collect();
         let title = format!(
-            "{} features of {} in {}{}",
+            "{} feature{} of {} in {}{}",
             features.len(),
+            if features.len() == 1 { "" } else { "s" },
             engine.source().name,
             engine.target().name,
             noise
