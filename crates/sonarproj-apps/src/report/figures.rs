@@ -16,7 +16,9 @@ use plotters::style::colors::colormaps::ViridisRGB;
 use plotters::style::text_anchor::{HPos, VPos};
 
 use crate::error::Result;
-use crate::report::style::{AXES, CAPTION, Canvas, FONT, TICKS, TITLE, plot_error, text, text_width, wrap};
+use crate::report::style::{
+    AXES, Area, CAPTION, Canvas, FONT, TICKS, TITLE, plot_error, text, text_width, wrap,
+};
 
 /// A grid of line plots sharing one legend: every panel has one curve per legend entry, in the
 /// legend's order and colours.
@@ -79,11 +81,7 @@ pub struct HeatmapPanel {
 }
 
 /// Draws `draw` on a white `w × h` canvas and writes it to `path` as PNG, whole or not at all.
-fn render(
-    path: &Path,
-    (w, h): (u32, u32),
-    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> Result<()>,
-) -> Result<()> {
+fn render(path: &Path, (w, h): (u32, u32), draw: impl FnOnce(&Area<'_>) -> Result<()>) -> Result<()> {
     let mut canvas = Canvas::new(w, h);
     canvas.draw(draw)?;
     canvas.write(path)
@@ -144,11 +142,7 @@ fn series_colour(i: usize, n: usize) -> RGBColor {
 }
 
 /// Draws one legend centred on `area`: `lead`, then a line sample and its label per entry.
-fn legend_row(
-    area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
-    lead: &str,
-    labels: &[String],
-) -> Result<()> {
+fn legend_row(area: &Area<'_>, lead: &str, labels: &[String]) -> Result<()> {
     let item = 110;
     let lead_w = text_width(area, lead, AXES)? as i32;
     let total = lead_w + 16 + item * labels.len() as i32;
@@ -222,12 +216,7 @@ pub fn heatmaps(row: &HeatmapRow, path: &Path) -> Result<()> {
 /// Draws a vertical Viridis colour bar from `lo` to `hi` on `area`, with `label` written above
 /// it (not beside it, where it would read as the neighbouring plot's axis) and the values on its
 /// right.
-fn colour_bar(
-    area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
-    lo: f64,
-    hi: f64,
-    label: &str,
-) -> Result<()> {
+fn colour_bar(area: &Area<'_>, lo: f64, hi: f64, label: &str) -> Result<()> {
     let width = area.dim_in_pixel().0 - 10;
     // A unit stays with its name: "area\u{a0}(m²)".
     let lines = wrap(area, &label.replace(" (", "\u{a0}("), TICKS, width)?;

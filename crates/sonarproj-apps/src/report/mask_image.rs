@@ -175,9 +175,14 @@ fn fls_picture(
             HPos::Left,
             VPos::Top,
         )?;
+        let circled = picture::any_circled(&fan_extents) || picture::any_circled(&raw_extents);
         text(
             a,
-            "Light grey: the field of view, empty. One colour per feature, mixed where masks overlap; masks of a few pixels are circled.",
+            if circled {
+                "Light grey: the field of view, empty. One colour per feature, mixed where masks overlap; masks of a few pixels are circled."
+            } else {
+                "Light grey: the field of view, empty. One colour per feature, mixed where masks overlap."
+            },
             (40, y + 52),
             SMALL,
             HPos::Left,

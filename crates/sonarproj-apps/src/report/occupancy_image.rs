@@ -175,7 +175,11 @@ fn picture_of(occ: &Occupancy, layout: &Layout, title: &str) -> Result<Canvas> {
         let notes = [
             "Near range at the bottom, port on the left: beam 0 (starboard-most, the NPY's column 0) at the right."
                 .to_string(),
-            format!("{occupied}; a few pixels are circled."),
+            if picture::any_circled(&extents) {
+                format!("{occupied}; circled: it is only a few pixels across.")
+            } else {
+                format!("{occupied}.")
+            },
         ];
         notes_at(a, &notes, (20, plot.bottom() as i32 + 62), w - 40)
     })?;

@@ -481,6 +481,14 @@ pub(crate) fn frame(area: &Area<'_>, rect: Rect) -> Result<()> {
     .map_err(plot_error)
 }
 
+/// Returns whether [`circle_small`] circles any of `extents`.
+pub(crate) fn any_circled(extents: &[Option<Extent>]) -> bool {
+    extents
+        .iter()
+        .flatten()
+        .any(|&(x0, y0, x1, y1)| x1 - x0 < SMALL_EXTENT && y1 - y0 < SMALL_EXTENT)
+}
+
 /// Circles, in the layer's colour, each layer painted on fewer than a few pixels both ways, so
 /// that a mask of one bin is seen.
 pub(crate) fn circle_small(
