@@ -225,16 +225,47 @@ def test_a_bad_value_shows_the_engines_message_and_nothing_breaks(page, cli):
                "--pitch", "90", "--place-range", "15", check=False)
     assert done.returncode == 2
     message = done.stderr.strip().removeprefix("error: ")
-    assert page.error() == message
+    stale = "document.body.classList.contains('stale')"
+    # The engine's message, then what the greyed views are.
+    assert page.error() == message + " — the views and metrics below are greyed: they show the last good scene."
+    assert page.d.execute_script("return " + stale)
     page.type("feature.range", "5")
     page.type("place.range", "-3")  # a second bad value: the page keeps answering
-    assert page.error() == "place range = -3 is invalid: must be >= 0 m"
+    assert page.error().startswith("place range = -3 is invalid: must be >= 0 m — ")
     page.type("place.range", "15")
     page.type("feature.range", "5")
     assert page.error() is None
+    assert not page.d.execute_script("return " + stale)
     assert page.metrics() == good
     # the browser logs each refused scene (HTTP 400) as a failed load; nothing else
     assert [e for e in page.severe_logs() if "status of 400" not in e["message"]] == []
+
+
+def test_letters_in_a_number_field_say_what_is_allowed_and_keep_the_last_value(page):
+    set_scene(page, ("paper-fls", "paper-sss"), (5, 0, 0), (0, 90, 0), (15, 0, 0))
+    good, updates = page.metrics(), page.updates()
+    field = "f-feature-range"
+    # A number field holding letters reads as empty: what a browser does with "abc".
+    page.type("feature.range", "abc")
+    message = page.error()
+    assert message.startswith("range (feature): not a number; type a number from 0.1 to 10 m"), message
+    assert "the last value, 5, is kept" in message
+    assert page.updates() == updates, "nothing was sent"
+    assert page.metrics() == good
+    # Leaving the field puts the last value back and the page answers again.
+    page._changed(
+        "const s = document.getElementById(arguments[0]); s.dispatchEvent(new Event('change', {bubbles: true}));",
+        field)
+    assert page.d.find_element("id", field).get_attribute("value") == "5"
+    assert page.error() is None and page.metrics() == good
+
+
+def test_a_sidescan_target_has_one_data_view(page):
+    view = "return document.getElementById('layout-view').disabled"
+    set_scene(page, ("paper-fls", "paper-sss"), (5, 0, 0), (0, 90, 0), (15, 0, 0))
+    assert page.d.execute_script(view), "a sidescan's strip is its only view"
+    set_scene(page, ("paper-sss", "paper-fls"), (5, 0, 0), (20, 30, 40), (5, 5, 0))
+    assert not page.d.execute_script(view), "an imaging sonar has the fan and the raw layout"
 
 
 def test_noise_draws_a_widened_mask_holding_the_exact_occupancy(page):

@@ -41,12 +41,28 @@ function buildFields() {
     const unit = document.createElement("span");
     unit.textContent = div.dataset.unit;
     div.append(label, slider, number, unit);
-    slider.addEventListener("input", () => { number.value = slider.value; changed(); });
+    const f = { slider, number, div, last: "" };
+    slider.addEventListener("input", () => { number.value = slider.value; f.last = slider.value; changed(); });
     number.addEventListener("input", () => {
-      if (number.value !== "" && Number.isFinite(Number(number.value))) slider.value = number.value;
-      changed();
+      if (number.value !== "" && Number.isFinite(Number(number.value)) && !number.validity.badInput) {
+        slider.value = number.value;
+        f.last = number.value;
+        changed();
+      } else {
+        // Not a number (a browser empties a number field that holds letters): say what is
+        // allowed and keep the last value, which comes back when the field is left.
+        showError(`${div.dataset.label} (${key.split(".")[0]}): not a number; type a number ` +
+          `from ${+Number(slider.min).toPrecision(6)} to ${+Number(slider.max).toPrecision(6)} ` +
+          `${div.dataset.unit} (the last value, ${f.last}, is kept)`);
+      }
     });
-    fields.set(key, { slider, number, div });
+    number.addEventListener("change", () => {
+      if (number.value === "" || number.validity.badInput || !Number.isFinite(Number(number.value))) {
+        number.value = f.last;
+        changed();
+      }
+    });
+    fields.set(key, f);
   }
 }
 
@@ -62,13 +78,18 @@ function setValue(key, v) {
   const r = Number(Number(v).toPrecision(12));
   f.number.value = String(r);
   f.slider.value = String(r);
+  f.last = String(r);
 }
 
 function value(key) {
-  const text = fields.get(key).number.value.trim();
+  const f = fields.get(key);
+  const text = f.number.value.trim();
   const v = Number(text);
-  if (text === "" || !Number.isFinite(v)) throw new Error(`${key.replace(".", " ")}: "${text}" is not a number`);
-  return v;
+  if (text !== "" && Number.isFinite(v) && !f.number.validity.badInput) return v;
+  // A field being typed into holds no number yet: the scene keeps its last value.
+  const last = Number(f.last);
+  if (f.last !== "" && Number.isFinite(last)) return last;
+  throw new Error(`${key.replace(".", " ")}: "${text}" is not a number`);
 }
 
 function clamp(v, lo, hi) { return Math.min(hi, Math.max(lo, v)); }
@@ -196,8 +217,13 @@ async function send() {
 
 function showError(message) {
   const box = $("error");
+  // What is on screen is the last good scene's until an answer comes: greyed while an error
+  // stands, and said so.
+  document.body.classList.toggle("stale", Boolean(message) && Boolean(state.last));
   if (message) {
-    box.textContent = message;
+    box.textContent = state.last
+      ? `${message} — the views and metrics below are greyed: they show the last good scene.`
+      : message;
     box.hidden = false;
     window.sonarprojStats.errors += 1;
     document.body.dataset.errors = String(window.sonarprojStats.errors);
@@ -282,6 +308,10 @@ function drawData() {
   ctx.clearRect(0, 0, canvas.width, canvas.height);
   if (!r) return;
   ctx.font = "13px system-ui, sans-serif";
+  // A sidescan's data is its range strip: one view, so the choice is switched off.
+  const view = $("layout-view");
+  view.disabled = r.to.kind === "sss";
+  view.title = view.disabled ? "a sidescan's data is one range strip (per side): there is one view" : "";
   if (r.to.kind === "sss") drawStrip(ctx, canvas, r);
   else if ($("layout-view").value === "raw") drawRaw(ctx, canvas, r);
   else drawFan(ctx, canvas, r);
