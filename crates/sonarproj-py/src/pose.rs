@@ -157,11 +157,7 @@ impl PyPose {
         let a = array.as_array();
         let shape = a.shape().to_vec();
         if shape.last() != Some(&3) || shape.len() > 2 {
-            let shape: Vec<String> = shape.iter().map(ToString::to_string).collect();
-            let shape = match shape.as_slice() {
-                [one] => format!("({one},)"),
-                _ => format!("({})", shape.join(", ")),
-            };
+            let shape = crate::values::tuple(&shape);
             return Err(errors::input(
                 "p",
                 format!("must have shape (3,) or (n, 3), got {shape}"),

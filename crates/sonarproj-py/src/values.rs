@@ -173,7 +173,7 @@ pub(crate) fn reals(name: &str, ob: &Bound<'_, PyAny>, shape: &[Option<usize>]) 
 }
 
 /// Returns `shape` written as Python writes a tuple.
-fn tuple(shape: &[usize]) -> String {
+pub(crate) fn tuple(shape: &[usize]) -> String {
     match shape {
         [one] => format!("({one},)"),
         _ => format!(

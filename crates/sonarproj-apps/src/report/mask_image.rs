@@ -202,10 +202,7 @@ fn sss_picture(layout: &Layout, masks: &[Mask], title: &str, labels: &[String]) 
         .iter()
         .map(|m| picture::sidescan_strips(layout, &m.occupancy))
         .collect();
-    let side_names: Vec<&str> = picture::sidescan_strips(layout, &Occupancy::new(0, 1))
-        .iter()
-        .map(|s| s.0)
-        .collect();
+    let side_names = picture::sidescan_sides(layout);
     let two = side_names.len();
     // Layers side by side: side s of feature k is layer s · n + k.
     let layers: Vec<(Pooled, (u8, u8, u8))> = (0..two)

@@ -26,15 +26,25 @@ pub(crate) fn sidescan_strips(layout: &Layout, occ: &Occupancy) -> Vec<(&'static
     if !layout.two_sided() {
         return vec![("", occ.clone())];
     }
-    let mut sides = [
-        ("port", Occupancy::new(layout.range_bins, 1)),
-        ("starboard", Occupancy::new(layout.range_bins, 1)),
-    ];
+    let mut sides: Vec<(&'static str, Occupancy)> = sidescan_sides(layout)
+        .iter()
+        .map(|&name| (name, Occupancy::new(layout.range_bins, 1)))
+        .collect();
     for (row, column) in occ.pixels() {
         let (i, beam) = layout.pixel_of_data(row * occ.beams + column);
         sides[1 - beam].1.set(i, 0);
     }
-    sides.into()
+    sides
+}
+
+/// Returns the names of a sidescan's strips, in [`sidescan_strips`]' order: one unnamed
+/// strip, or "port" then "starboard".
+pub(crate) fn sidescan_sides(layout: &Layout) -> &'static [&'static str] {
+    if layout.two_sided() {
+        &["port", "starboard"]
+    } else {
+        &[""]
+    }
 }
 
 /// Returns the first and last set range bin of any of `strips` (range order, one column).
