@@ -1,5 +1,6 @@
 """Makes the README's pictures in docs/images: the viewer in headless Chromium (two preset
-pairs), a mask picture (`sonarproj mask`) and one of the paper's figures (`sonarproj paper`).
+pairs), a mask picture (`sonarproj mask`) and the paper's figures (`sonarproj paper`, and its smooth
+version's range spans with `--step auto`).
 
 Usage: python scripts/screenshots.py [--out docs/images]
 (needs the release binary, Chromium, chromedriver and selenium, as the test command installs;
@@ -52,7 +53,12 @@ def cli_pictures(out):
         figures = sorted(pathlib.Path(tmp).glob("*.png"))
         for f in figures:
             shutil.copy(f, out / f"paper-{f.name}")
-        return figures
+    with tempfile.TemporaryDirectory() as tmp:
+        # the smooth version, shown beside the reproduction in the README
+        subprocess.run([sonarproj, "paper", "--out", tmp, "--step", "auto"], check=True, capture_output=True)
+        smooth = pathlib.Path(tmp) / "fls-to-sss-lines.png"
+        shutil.copy(smooth, out / "paper-fls-to-sss-lines-smooth.png")
+    return figures + [smooth]
 
 
 def main():

@@ -740,22 +740,32 @@ def paper(
     out_dir: Union[str, "_os.PathLike[str]"],
     *,
     angle_step: float = 1.0,
-    step: float = 0.1,
+    step: Union[float, str] = 0.1,
     backend: str = "auto",
 ) -> dict[str, Any]:
     """Runs the paper's simulations (both directions, nine scenarios, angles every `angle_step`
     deg, arcs and surfaces sampled every `step` deg) with the command line's code (``sonarproj
     paper``) and writes ``fls-to-sss.csv``, ``sss-to-fls.csv``, the figures and ``findings.md``
-    into `out_dir`.
+    into `out_dir`. ``step="auto"`` is the smooth version: arcs every 0.001°, surfaces with auto
+    sampling (the default 0.1° reproduces the published code, staircases included).
 
     Returns a dict: ``findings`` (a list of dicts: ``claim``, ``holds``, ``evidence``),
     ``poses``, ``seconds`` (compute time), ``device``, ``out_dir``.
     """
     result, notice = _native.paper_run(
-        _os.fspath(out_dir), _number("angle_step", angle_step), _number("step", step), _backend(backend)
+        _os.fspath(out_dir), _number("angle_step", angle_step), _paper_step(step), _backend(backend)
     )
     _warn(notice)
     return result
+
+
+def _paper_step(value: Any) -> Optional[float]:
+    """Returns `paper`'s step in degrees, or None for ``"auto"``."""
+    if isinstance(value, str):
+        if value.strip().lower() == "auto":
+            return None
+        raise InputError(f"step: expected a number of degrees or 'auto', got {value!r}")
+    return _number("step", value)
 
 
 def __dir__() -> list[str]:

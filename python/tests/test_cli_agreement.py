@@ -243,9 +243,10 @@ def test_sweep_writes_what_the_command_line_writes(tmp_path, cli, root):
     assert again["computed"] == 0 and again["resumed"] == 14
 
 
-def test_paper_writes_what_the_command_line_writes(tmp_path, cli):
-    cli("paper", "--out", tmp_path / "cli", "--angle-step", "45", "--step", "0.5", "--backend", "cpu-fast")
-    got = sonarproj.paper(tmp_path / "py", angle_step=45, step=0.5, backend="cpu-fast")
+@pytest.mark.parametrize("step", [0.5, "auto"])
+def test_paper_writes_what_the_command_line_writes(tmp_path, cli, step):
+    cli("paper", "--out", tmp_path / "cli", "--angle-step", "45", "--step", str(step), "--backend", "cpu-fast")
+    got = sonarproj.paper(tmp_path / "py", angle_step=45, step=step, backend="cpu-fast")
     for name in ("fls-to-sss.csv", "sss-to-fls.csv", "findings.md"):
         assert (tmp_path / "cli" / name).read_bytes() == (tmp_path / "py" / name).read_bytes(), name
     assert len(got["findings"]) == 4 and all("claim" in f and "holds" in f for f in got["findings"])

@@ -93,6 +93,7 @@ def batch(cols, **kw):
     (lambda: sonarproj.sweep("data/example-sweep.toml", "/tmp/x", shard="3/2"), ["shard", "3/2"]),
     (lambda: sonarproj.paper("/tmp/x", angle_step=0), ["angle_step"]),
     (lambda: sonarproj.paper("/tmp/x", step=-0.1), ["step", "-0.1"]),
+    (lambda: sonarproj.paper("/tmp/x", step="smooth"), ["step", "'auto'", "'smooth'"]),
 ])
 def test_bad_input_raises_a_value_error_naming_it(call, words, root, monkeypatch):
     monkeypatch.chdir(root)

@@ -98,3 +98,46 @@ fn the_papers_findings_hold_at_a_coarse_angle_step() {
     let md = paper::findings_markdown(&findings, 10.0, Sampling::Step(0.1));
     assert_eq!(md.matches("**Borne out.**").count(), 4);
 }
+
+/// Returns the spans of scenario 4 at fraction 0.1 for rolls `30..=67`° sampled as `sampling`
+/// maps for the fls→sss direction, on the fast CPU path.
+fn scenario_4_spans(sampling: Sampling) -> Vec<f64> {
+    let poses: Vec<ScenarioPose> = (30..=67)
+        .map(|roll| ScenarioPose {
+            scenario: 4,
+            fraction: Some(0.1),
+            angles: [f64::from(roll), 0.0, 0.0],
+        })
+        .collect();
+    let direction = Direction::FlsToSss;
+    let pair = paper::batch(direction, &poses, paper::direction_sampling(direction, sampling)).unwrap();
+    Backend::CpuFast
+        .project(&pair, Output::MetricsOnly)
+        .unwrap()
+        .iter()
+        .map(|r| direction.metric(&r.metrics))
+        .collect()
+}
+
+#[test]
+fn the_smooth_version_has_no_staircase() {
+    // Scenario 4, f = 0.1: the FLS arc at 1 m rolls into the sidescan's thin sheet; between 30°
+    // and 67° the part of the arc inside the sheet grows continuously with the roll (at 68° all
+    // of it is inside), so the true span rises strictly. The published 0.1° sampling puts 121
+    // samples on the arc and its span climbs by whole samples: the same value at neighbouring
+    // rolls (the staircase of the paper's figures). The smooth version must rise at every roll.
+    let stairs = scenario_4_spans(Sampling::Step(0.1));
+    let flat = stairs.windows(2).filter(|w| w[1] == w[0]).count();
+    assert!(flat >= 10, "the published sampling's staircase: {stairs:?}");
+    let smooth = scenario_4_spans(Sampling::Auto);
+    assert!(
+        smooth.windows(2).all(|w| w[1] > w[0]),
+        "the smooth version rises at every roll: {smooth:?}"
+    );
+    // Both follow the same curve: the smooth one at or above the staircase (0.1° samples are
+    // among its samples, give or take a rounding) and less than one stair higher.
+    let stair = stairs.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+    for (s, t) in smooth.iter().zip(&stairs) {
+        assert!(*s >= t - 1e-12 && s - t < stair, "{s} vs {t}, stair {stair}");
+    }
+}

@@ -414,6 +414,11 @@ fn bad_paper_input_exits_2() {
         &["--angle-step = 0"],
     );
     common::rejects(&["paper", "--out", out, "--step", "-1"], None, &["step = -1"]);
+    common::rejects(
+        &["paper", "--out", out, "--step", "smooth"],
+        None,
+        &["--step", "in degrees (> 0) or `auto`", "\"smooth\""],
+    );
     let batch = [
         "batch",
         "--from",

@@ -111,10 +111,11 @@ pub(crate) fn paper_run<'py>(
     py: Python<'py>,
     out_dir: PathBuf,
     angle_step: f64,
-    step: f64,
+    step: Option<f64>,
     backend_name: &str,
 ) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
-    let sampling = Sampling::Step(step)
+    let sampling = step
+        .map_or(Sampling::Auto, Sampling::Step)
         .validated()
         .map_err(|e| errors::engine(e.in_context("step")))?;
     paper::angles(angle_step).map_err(|e| errors::apps_renamed(e, &[("--angle-step", "angle_step")]))?;

@@ -25,6 +25,18 @@ fn metric_title(direction: Direction) -> &'static str {
     }
 }
 
+/// Returns how `run`'s arcs or surfaces were sampled, for a title: `arcs every 0.1°`.
+fn sampling_text(run: &DirectionRun) -> String {
+    let set = match run.direction {
+        Direction::FlsToSss => "arcs",
+        Direction::SssToFls => "surfaces",
+    };
+    match run.sampling {
+        sonarproj::Sampling::Step(s) => format!("{set} every {s}°"),
+        sonarproj::Sampling::Auto => format!("{set} with auto sampling"),
+    }
+}
+
 /// Returns scenarios 1–6 of `run` as a 2×3 grid of line plots over 0–180°.
 #[expect(clippy::cast_possible_truncation, reason = "a panel index below six")]
 pub(super) fn lines(run: &DirectionRun) -> LineGrid {
@@ -56,7 +68,7 @@ pub(super) fn lines(run: &DirectionRun) -> LineGrid {
         })
         .collect();
     LineGrid {
-        title: metric_title(run.direction).to_string(),
+        title: format!("{} ({})", metric_title(run.direction), sampling_text(run)),
         shape: (2, 3),
         y_label: run.direction.metric_label().to_string(),
         legend_lead: "distance fraction f (same in every panel):".to_string(),
@@ -92,8 +104,9 @@ pub(super) fn heatmaps(run: &DirectionRun, angles: &[f64]) -> HeatmapRow {
         .collect();
     HeatmapRow {
         title: format!(
-            "{}, both features at 0.5 r_max (each panel its own colour scale)",
-            metric_title(run.direction)
+            "{}, both features at 0.5 r_max ({}; each panel its own colour scale)",
+            metric_title(run.direction),
+            sampling_text(run)
         ),
         step,
         axis_range: (0.0, 180.0),

@@ -154,7 +154,11 @@ pub fn findings_markdown(findings: &[Finding], angle_step: f64, sampling: Sampli
     let mut md = String::from("# The paper's qualitative findings, checked\n\n");
     let sampling = match sampling {
         Sampling::Step(s) => format!("step sampling {s}°"),
-        Sampling::Auto => "auto sampling".into(),
+        Sampling::Auto => format!(
+            "the smooth version's sampling (`--step auto`: FLS arcs every {}°, SSS surfaces with \
+             auto sampling)",
+            super::SMOOTH_ARC_STEP
+        ),
     };
     let _ = writeln!(
         md,

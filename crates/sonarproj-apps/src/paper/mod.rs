@@ -240,6 +240,8 @@ fn batch_at(
 pub struct DirectionRun {
     /// The direction.
     pub direction: Direction,
+    /// The sampling it ran at ([`direction_sampling`] of the one asked for).
+    pub sampling: Sampling,
     /// The poses, in order.
     pub poses: Vec<ScenarioPose>,
     /// Their projections, in the same order.
@@ -255,7 +257,25 @@ pub struct DirectionRun {
 /// The distance fraction taken as "near the minimum range" of both sonars.
 pub const NEAR_FRACTION: f64 = 0.1;
 
-/// Returns both directions run on `backend` at angle step `angle_step` and `sampling`.
+/// The arc step (deg) of `paper --step auto`: a hundred times the published code's density.
+/// A span's steps come from one arc sample at a time entering sonar 2's field of view, so they
+/// shrink with the step; at 0.001° they fall below a pixel of the figures.
+pub const SMOOTH_ARC_STEP: f64 = 0.001;
+
+/// Returns the sampling that `direction` runs at when the command asks for `sampling`: a step
+/// as given; for `auto`, the smooth version: FLS arcs every [`SMOOTH_ARC_STEP`], SSS surfaces
+/// with the engine's auto sampling (the projection area counts 8 cm cells, so its curves keep
+/// the cells' steps; denser samples only fill the cells the surface really crosses).
+#[must_use]
+pub fn direction_sampling(direction: Direction, sampling: Sampling) -> Sampling {
+    match (sampling, direction) {
+        (Sampling::Auto, Direction::FlsToSss) => Sampling::Step(SMOOTH_ARC_STEP),
+        (s, _) => s,
+    }
+}
+
+/// Returns both directions run on `backend` at angle step `angle_step` and `sampling` (as
+/// [`direction_sampling`] maps it per direction).
 ///
 /// # Errors
 /// As [`scenario_poses`] and [`Backend::project`].
@@ -265,6 +285,7 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
     Direction::both()
         .into_iter()
         .map(|direction| {
+            let sampling = direction_sampling(direction, sampling);
             let pair = batch(direction, &poses, sampling)?;
             let results = backend.project(&pair, Output::MetricsOnly)?;
             let sigma = default_sigma_range(&pair.source, &pair.target);
@@ -281,6 +302,7 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
             )?;
             Ok(DirectionRun {
                 direction,
+                sampling,
                 poses: poses.clone(),
                 results,
                 local,

@@ -21,9 +21,11 @@ pub(super) struct PaperArgs {
     /// Step (deg) of the swept angles, 0 to 180.
     #[arg(long, value_name = "DEG", default_value_t = 1.0)]
     angle_step: f64,
-    /// Sampling step (deg) of the arcs and surfaces, as the published code (0.1).
-    #[arg(long, value_name = "DEG", default_value_t = 0.1)]
-    step: f64,
+    /// Sampling step (deg) of the arcs and surfaces: 0.1 as the published code (its curves are
+    /// staircases, as the authors' are), or `auto` for smooth curves (neighbouring samples less
+    /// than half a bin and half a beam apart in sonar 2).
+    #[arg(long, value_name = "DEG|auto", default_value = "0.1", value_parser = parse_step)]
+    step: Sampling,
     /// Where to compute.
     #[arg(long, value_enum, default_value = "auto")]
     backend: BackendArg,
@@ -31,7 +33,7 @@ pub(super) struct PaperArgs {
 
 /// Runs `sonarproj paper`.
 pub(super) fn run(a: PaperArgs) -> Result<()> {
-    let sampling = Sampling::Step(a.step).validated()?;
+    let sampling = a.step.validated()?;
     angles(a.angle_step)?;
     // A file where the directory should be is refused before any work; the directory itself is
     // created once the results exist, so a refused run leaves nothing behind.
@@ -60,4 +62,15 @@ pub(super) fn run(a: PaperArgs) -> Result<()> {
         a.out.display()
     )?;
     Ok(())
+}
+
+/// Returns the sampling that `--step` names: `auto` or a step in degrees.
+fn parse_step(s: &str) -> std::result::Result<Sampling, String> {
+    if s.trim().eq_ignore_ascii_case("auto") {
+        return Ok(Sampling::Auto);
+    }
+    s.trim()
+        .parse::<f64>()
+        .map(Sampling::Step)
+        .map_err(|_| format!("must be a step in degrees (> 0) or `auto`, got {s:?}"))
 }
