@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from conftest import Page, chrome
+from conftest import Page, Server, chrome
 
 RED = (214, 39, 40)  # the page's colour of occupied bins and pixels
 
@@ -215,6 +215,43 @@ def test_the_screenshots_are_not_blank_and_the_3d_view_shows_the_seen_samples(pa
         assert distinct > 20, f"{element_id} is blank ({distinct} colours)"
         red = np.sum((np.abs(image - np.array(RED)) <= 20).all(axis=2))
         assert red > 10, f"{element_id} shows no seen samples / occupied bins"
+
+
+def assert_framed(page, what):
+    """Every drawn vertex is on the 3-D canvas, and the scene fills most of it."""
+    e = page.d.execute_script("return window.sonarprojFraming()")
+    assert e is not None and e["points"] > 100, (what, e)
+    assert -1 <= e["left"] and e["right"] <= 1 and -1 <= e["bottom"] and e["top"] <= 1, (what, "off the canvas", e)
+    fill = max(e["right"] - e["left"], e["top"] - e["bottom"]) / 2
+    assert fill > 0.8, (what, "the scene is small on the canvas", e)
+
+
+@pytest.mark.parametrize("pair", [("oculus-m750d", "holoocean-sidescan"), ("holoocean-sidescan", "oculus-m750d")])
+def test_the_3d_view_is_fitted_to_the_scene_at_load(pair):
+    # Long ranges (120 m and 35 m fields of view around a feature at 5 m) on a page that was
+    # never touched: the first scene is framed whole.
+    server = Server("--backend", "cpu-fast", "--from", pair[0], "--to", pair[1])
+    driver = chrome()
+    try:
+        assert_framed(Page(driver, server.url), pair)
+    finally:
+        driver.quit()
+        server.stop()
+
+
+def test_the_fit_button_frames_the_scene_again(page):
+    set_scene(page, ("paper-sss", "paper-fls"), (5, 0, 0), (20, 30, 40), (5, 5, 0))
+    assert_framed(page, "a new pair")
+    # Moving sonar 2 100 m up keeps the camera (a person is looking); "fit" frames it again.
+    page.mode("translation")
+    for key in ("rotation.roll", "rotation.pitch", "rotation.yaw"):
+        page.slide(key, 0)
+    page.type("translation.z", -100)
+    assert page.error() is None, page.error()
+    e = page.d.execute_script("return window.sonarprojFraming()")
+    assert e["left"] < -1 or e["right"] > 1 or e["bottom"] < -1 or e["top"] > 1, ("still framed?", e)
+    page.d.execute_script("document.getElementById('fit').click()")
+    assert_framed(page, "after fit")
 
 
 def test_a_bad_value_shows_the_engines_message_and_nothing_breaks(page, cli):

@@ -603,29 +603,73 @@ function update3d(r) {
     rg.setAttribute("position", new THREE.Float32BufferAttribute(rp, 3));
     add(new THREE.Points(rg, new THREE.PointsMaterial({ size: 8, sizeAttenuation: false, color: COLOURS.rec })));
   }
-  if (!state.fitted) fit(r);
+  if (!state.fitted) fit();
   three.renderer.render(scene, three.camera);
 }
 
 function readSceneSafe() { try { return readScene(); } catch (e) { return null; } }
 
-function fit(r) {
-  if (!three.ok) return;
+// Calls `each(v)` with every drawn vertex (both fields of view, the sampled set, the truth and the
+// recovered points) in world coordinates; `v` is reused between calls.
+function eachVertex(each) {
+  const v = new three.THREE.Vector3();
+  for (const o of three.dynamic) {
+    o.updateMatrixWorld(true);
+    o.traverse((c) => {
+      const pos = c.geometry && c.geometry.getAttribute("position");
+      if (!pos) return;
+      for (let k = 0; k < pos.count; k++) each(v.fromBufferAttribute(pos, k).applyMatrix4(c.matrixWorld));
+    });
+  }
+}
+
+// Returns the extent of every drawn vertex on the 3-D canvas in normalised device coordinates
+// (−1 to 1 is on the canvas).
+function framing() {
+  const { camera } = three;
+  camera.updateMatrixWorld();
+  const e = { left: Infinity, right: -Infinity, bottom: Infinity, top: -Infinity, points: 0 };
+  eachVertex((v) => {
+    v.project(camera);
+    e.left = Math.min(e.left, v.x); e.right = Math.max(e.right, v.x);
+    e.bottom = Math.min(e.bottom, v.y); e.top = Math.max(e.top, v.y);
+    e.points += 1;
+  });
+  return e;
+}
+window.sonarprojFraming = () => (three.ok ? framing() : null);
+
+// Frames everything drawn: the camera looks from the usual side at the sphere around the drawn
+// vertices, from as far back as that sphere needs, then closes in on what the canvas shows (a
+// few steps, never nearer than the sphere's radius, so that nothing falls behind the camera).
+function fit() {
+  if (!three.ok || !three.dynamic.length) return;
   const { THREE, camera, controls } = three;
-  const box = new THREE.Box3();
-  const pos = r.samples.first;
-  for (let k = 0; k < pos.length; k += 3) box.expandByPoint(new THREE.Vector3(pos[k], pos[k + 1], pos[k + 2]));
-  box.expandByPoint(new THREE.Vector3(0, 0, 0));
-  const R = r.pose.rotation, t = r.pose.translation;
-  const o2 = [0, 1, 2].map((i) => -(R[0][i] * t[0] + R[1][i] * t[1] + R[2][i] * t[2]));
-  box.expandByPoint(new THREE.Vector3(...o2));
-  const centre = box.getCenter(new THREE.Vector3());
-  const size = Math.max(box.getSize(new THREE.Vector3()).length(), 1);
-  controls.target.copy(centre);
-  camera.position.copy(centre).add(new THREE.Vector3(-0.6, -0.9, 0.7).multiplyScalar(size));
-  camera.near = size / 1000;
-  camera.far = size * 100;
+  const points = [];
+  eachVertex((v) => points.push(v.clone()));
+  const sphere = new THREE.Sphere().setFromPoints(points);
+  const radius = Math.max(sphere.radius, 0.5);
+  const tanV = Math.tan(camera.fov * Math.PI / 360), tanH = tanV * camera.aspect;
+  const towards = new THREE.Vector3(-0.6, -0.9, 0.7).normalize();
+  let distance = 1.05 * radius / Math.sin(Math.atan(Math.min(tanV, tanH)));
+  camera.near = radius / 1000;
+  camera.far = distance * 10;
+  controls.target.copy(sphere.center);
+  camera.position.copy(sphere.center).addScaledVector(towards, distance);
+  camera.lookAt(controls.target);
   camera.updateProjectionMatrix();
+  for (let step = 0; step < 4; step++) {
+    const e = framing();
+    const right = new THREE.Vector3().setFromMatrixColumn(camera.matrixWorld, 0);
+    const up = new THREE.Vector3().setFromMatrixColumn(camera.matrixWorld, 1);
+    const shift = right.multiplyScalar((e.left + e.right) / 2 * distance * tanH)
+      .add(up.multiplyScalar((e.bottom + e.top) / 2 * distance * tanV));
+    const half = Math.max(e.right - e.left, e.top - e.bottom) / 2;
+    distance = Math.max(1.01 * radius, distance * half / 0.92);
+    controls.target.add(shift);
+    camera.position.copy(controls.target).addScaledVector(towards, distance);
+    camera.lookAt(controls.target);
+  }
   controls.update();
   state.fitted = true;
 }
@@ -671,7 +715,7 @@ async function start() {
     changed();
   });
   $("layout-view").addEventListener("change", drawData);
-  $("fit").addEventListener("click", () => state.last && fit(state.last));
+  $("fit").addEventListener("click", () => { fit(); three.ok && three.renderer.render(three.scene, three.camera); });
   for (const b of document.querySelectorAll(".tabs button[data-copy]")) {
     b.addEventListener("click", () => {
       state.copy = b.dataset.copy;
