@@ -142,6 +142,123 @@ fn an_empty_or_directory_output_path_is_bad_input() {
         .stderr(predicates::str::contains("is a directory"));
 }
 
+/// Runs `args` in `dir` and checks that it is refused (exit 2) naming `input` as the file it
+/// would have replaced, and that `input` still holds `before`.
+fn refused_as_input(dir: &Path, args: &[&str], input: &str, before: &[u8]) {
+    let out = common::sonarproj()
+        .current_dir(dir)
+        .args(args)
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!("is the input file {input}")) && err.contains("give another output path"),
+        "{args:?}: {err}"
+    );
+    assert_eq!(
+        std::fs::read(dir.join(input)).unwrap(),
+        before,
+        "{args:?} changed {input}"
+    );
+}
+
+#[test]
+fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let poses = std::fs::read(common::repository().join("data/example-poses.csv")).unwrap();
+    std::fs::write(d.join("in.csv"), &poses).unwrap();
+    std::os::unix::fs::symlink("in.csv", d.join("link.csv")).unwrap();
+    let absolute = d.join("in.csv").display().to_string();
+    let batch = [
+        "batch",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--backend",
+        "cpu-fast",
+    ];
+    // The same file by its name, another spelling of the path, a symlink and its absolute path.
+    for out in ["in.csv", "./in.csv", "link.csv", absolute.as_str()] {
+        let args: Vec<&str> = batch
+            .iter()
+            .copied()
+            .chain(["--input", "in.csv", "--output", out])
+            .collect();
+        refused_as_input(d, &args, "in.csv", &poses);
+    }
+    // A sonar file given as sonar 1 or 2 is an input too, whatever its name.
+    let sonar = b"kind = \"fls\"\nrange_min = 0.1\nrange_max = 10\nazimuth_aperture = 60\n\
+                  elevation_aperture = 12\nrange_bins = 100\nbeams = 10\n";
+    std::fs::write(d.join("fls.npy"), sonar).unwrap();
+    let pose = ["--range", "5", "--pitch", "90", "--place-range", "15"];
+    let project: Vec<&str> = ["project", "--from", "fls.npy", "--to", "paper-sss"]
+        .into_iter()
+        .chain(pose)
+        .chain(["--occupancy", "fls.npy"])
+        .collect();
+    refused_as_input(d, &project, "fls.npy", sonar);
+    let mask = [
+        "mask",
+        "--from",
+        "paper-sss",
+        "--to",
+        "fls.npy",
+        "--place-range",
+        "5",
+        "--feature",
+        "5",
+        "--backend",
+        "cpu-fast",
+        "--npy",
+        "fls.npy",
+    ];
+    refused_as_input(d, &mask, "fls.npy", sonar);
+    // recover's batch mode.
+    let pairs = b"first_range,first_azimuth,second_range,roll,pitch,yaw,tx,ty,tz\n5,0,5.5,0,0,0,-10,0,0\n";
+    std::fs::write(d.join("pairs.csv"), pairs).unwrap();
+    let recover = [
+        "recover",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--input",
+        "pairs.csv",
+        "--output",
+        "pairs.csv",
+    ];
+    refused_as_input(d, &recover, "pairs.csv", pairs);
+    // A sweep file inside the output directory, named as the sweep's table.
+    let sweep = std::fs::read(common::repository().join("data/example-sweep.toml")).unwrap();
+    std::fs::create_dir(d.join("out")).unwrap();
+    std::fs::write(d.join("out/sweep.csv"), &sweep).unwrap();
+    refused_as_input(
+        d,
+        &[
+            "sweep",
+            "--config",
+            "out/sweep.csv",
+            "--out",
+            "out",
+            "--backend",
+            "cpu-fast",
+        ],
+        "out/sweep.csv",
+        &sweep,
+    );
+    // A different file is written as usual.
+    let args: Vec<&str> = batch
+        .iter()
+        .copied()
+        .chain(["--input", "in.csv", "--output", "out.csv"])
+        .collect();
+    common::sonarproj().current_dir(d).args(&args).assert().success();
+}
+
 /// Returns the JSON replies of `mask --stream` to `input`, and its exit status.
 fn stream(input: Vec<u8>) -> (Vec<serde_json::Value>, i32) {
     let out = common::sonarproj()

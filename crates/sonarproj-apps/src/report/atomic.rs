@@ -7,7 +7,7 @@
 //! processes left ([`remove_stale_temporaries`]) and never touches one of a live process or of
 //! another host (shards of one sweep may write to one directory from several machines).
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -18,6 +18,51 @@ use crate::error::{Error, Result};
 static LIVE: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
 /// The directories whose stale temporaries this process has already looked for.
 static SWEPT: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
+/// The files this process reads as inputs, by (device, inode), with the path they were given as.
+static INPUTS: Mutex<BTreeMap<(u64, u64), PathBuf>> = Mutex::new(BTreeMap::new());
+
+/// Notes that this process reads the file at `path` (an input CSV, a sonar file, a sweep file):
+/// [`write_atomic`] then refuses to replace it, whatever path or link leads there. Paths that
+/// are not regular files are not noted.
+pub fn note_input(path: &Path) {
+    #[cfg(unix)]
+    if let Ok(m) = std::fs::metadata(path) {
+        use std::os::unix::fs::MetadataExt;
+        if m.is_file()
+            && let Ok(mut inputs) = INPUTS.lock()
+        {
+            inputs.insert((m.dev(), m.ino()), path.to_path_buf());
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+}
+
+/// Returns an error when the regular file at `path` is one that [`note_input`] noted.
+fn refuse_input(path: &Path, m: &std::fs::Metadata) -> Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        let inputs = INPUTS.lock().map_err(|_| Error::WriteOutput {
+            path: path.to_path_buf(),
+            message: "the list of input files is poisoned".into(),
+        })?;
+        if let Some(input) = inputs.get(&(m.dev(), m.ino())) {
+            return Err(Error::invalid(
+                "output path",
+                path.display(),
+                format!(
+                    "is the input file {} (the same file): writing it would destroy what is \
+                     being read; give another output path",
+                    input.display()
+                ),
+            ));
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = (path, m);
+    Ok(())
+}
 
 /// Returns this machine's host name, made safe for a file name (`unknown` when it has none).
 fn host() -> String {
@@ -153,9 +198,12 @@ fn target(path: &Path) -> Result<Target> {
             "is a directory; give a file path",
         )),
         Ok(m) if !m.is_file() || magic => Ok(Target::Through),
-        Ok(_) => Ok(Target::Replace(
-            std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()),
-        )),
+        Ok(m) => {
+            refuse_input(path, &m)?;
+            Ok(Target::Replace(
+                std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()),
+            ))
+        }
         // A link to nothing yet: the file is created where the link points.
         Err(_) if path.is_symlink() => {
             let dest = std::fs::read_link(path).unwrap_or_else(|_| path.to_path_buf());
@@ -174,10 +222,12 @@ fn target(path: &Path) -> Result<Target> {
 /// renamed over `path` only when `fill` succeeded; the first write into a directory removes
 /// the temporaries this host's dead processes left there. A symlink is followed and the file it names is
 /// replaced (the link stays); a special file — a device, FIFO, socket, terminal, or a magic link
-/// such as `/proc/self/fd/1` — is written straight through and never replaced.
+/// such as `/proc/self/fd/1` — is written straight through and never replaced. A file this
+/// process reads as an input ([`note_input`]) is never replaced.
 ///
 /// # Errors
-/// [`Error::WriteOutput`] on I/O failure; an input error for an empty path or a directory; any
+/// [`Error::WriteOutput`] on I/O failure; an input error for an empty path, a directory or an
+/// input file; any
 /// error `fill` returns (a regular file is then not created or changed).
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
     let io_err = |e: &dyn std::fmt::Display| Error::WriteOutput {

@@ -36,7 +36,7 @@ use std::io::Write;
 use std::path::Path;
 
 use crate::error::{Error, Result};
-pub use atomic::{remove_live_temporaries, remove_stale_temporaries, write_atomic};
+pub use atomic::{note_input, remove_live_temporaries, remove_stale_temporaries, write_atomic};
 
 /// Writes `values` to `w` as an NPY array of `shape` (named `path` in errors).
 ///

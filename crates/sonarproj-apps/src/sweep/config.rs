@@ -226,15 +226,19 @@ fn axis(
 /// Returns the sonar `spec` names from a sweep file in `base`: a preset, or a file relative to
 /// the sweep file.
 fn resolve_sonar(spec: &str, base: &Path) -> Result<Sonar> {
-    if Sonar::preset(spec).is_some() || Path::new(spec).is_absolute() {
-        return Ok(Sonar::resolve(spec)?);
-    }
-    let path = base.join(spec);
-    if path.is_file() {
-        Ok(Sonar::from_toml_file(&path)?)
+    let joined = base.join(spec);
+    let sonar = if Sonar::preset(spec).is_some() || Path::new(spec).is_absolute() {
+        Sonar::resolve(spec)?
+    } else if joined.is_file() {
+        crate::report::note_input(&joined);
+        Sonar::from_toml_file(&joined)?
     } else {
-        Ok(Sonar::resolve(spec)?)
+        Sonar::resolve(spec)?
+    };
+    if Sonar::preset(spec).is_none() && Path::new(spec).is_absolute() {
+        crate::report::note_input(Path::new(spec));
     }
+    Ok(sonar)
 }
 
 impl SweepConfig {
@@ -244,6 +248,7 @@ impl SweepConfig {
     /// [`Error::ReadInput`], [`Error::SweepFile`] (TOML syntax) or [`sonarproj::Error::InvalidValue`] naming
     /// the file and the key.
     pub fn load(path: &Path) -> Result<SweepConfig> {
+        crate::report::note_input(path);
         let text = std::fs::read_to_string(path).map_err(|source| Error::ReadInput {
             path: path.to_path_buf(),
             source,

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use serde_json::{Value, json};
 use sonarproj::masks::{Counts, MaskEngine, MaskSet, Noise, bounding_box, run_lengths};
-use sonarproj::{Measurement, Sonar, SonarKind};
+use sonarproj::{Measurement, SonarKind};
 use sonarproj_apps::io::text::{feature, one_or_three, parse_mask_line};
 use sonarproj_apps::io::{BoundedLine, MAX_LINE_BYTES, read_line_bounded};
 use sonarproj_apps::report::mask_image;
@@ -132,8 +132,8 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
     .validated()
     .map_err(|e| Error::from(e).in_context("noise (--sigma-*, --coverage)"))?;
     let noise = any_sigma.then_some(noise);
-    let source = Sonar::resolve(&a.from)?;
-    let target = Sonar::resolve(&a.to)?;
+    let source = super::resolve_sonar(&a.from)?;
+    let target = super::resolve_sonar(&a.to)?;
     let counts = if a.counts { Counts::Draw } else { Counts::Skip };
     let (engine, notice) = super::gpu_env::select_masks(source, target, a.backend.into(), counts)?;
     if let Some(n) = notice {

@@ -126,8 +126,8 @@ impl PairArgs {
     /// Returns the batch of sonar 1, sonar 2, the sampling and the area grid, checked, with no
     /// items yet.
     fn resolve(&self) -> Result<Batch> {
-        let source = Sonar::resolve(&self.from)?;
-        let target = Sonar::resolve(&self.to)?;
+        let source = resolve_sonar(&self.from)?;
+        let target = resolve_sonar(&self.to)?;
         let sampling = match self.step {
             Some(s) => Sampling::Step(s),
             None => Sampling::Auto,
@@ -154,6 +154,19 @@ impl PairArgs {
     }
 }
 
+/// Returns the sonar `spec` names (a preset, or a sonar TOML file, which is noted as an input
+/// that no output of this command may replace).
+///
+/// # Errors
+/// As [`Sonar::resolve`].
+pub(crate) fn resolve_sonar(spec: &str) -> Result<Sonar> {
+    let sonar = Sonar::resolve(spec)?;
+    if Sonar::preset(spec).is_none() {
+        sonarproj_apps::report::note_input(std::path::Path::new(spec));
+    }
+    Ok(sonar)
+}
+
 /// Returns the input `path` ('-' for stdin) opened for reading as a stream.
 ///
 /// # Errors
@@ -163,6 +176,7 @@ fn open_input(path: &str) -> Result<Box<dyn Read>> {
         return Ok(Box::new(std::io::stdin().lock()));
     }
     let path = PathBuf::from(path);
+    sonarproj_apps::report::note_input(&path);
     let file = std::fs::File::open(&path).map_err(|source| Error::ReadInput {
         path: path.clone(),
         source,

@@ -83,8 +83,8 @@ fn observation(which: &str, text: &str) -> Result<Observation> {
 
 /// Runs `sonarproj recover`.
 pub(super) fn run(a: RecoverArgs) -> Result<()> {
-    let s1 = Sonar::resolve(&a.from)?;
-    let s2 = Sonar::resolve(&a.to)?;
+    let s1 = super::resolve_sonar(&a.from)?;
+    let s2 = super::resolve_sonar(&a.to)?;
     if let Some(input) = &a.input {
         return run_batch(&a, &s1, &s2, input);
     }
