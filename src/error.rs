@@ -160,9 +160,17 @@ pub fn excerpt(text: &str) -> String {
     format!("{head:?}{mark}")
 }
 
-/// Returns `value` as an error shows it: whole up to [`MAX_VALUE_CHARS`](crate::limits::MAX_VALUE_CHARS)
-/// characters, else cut there and marked with its length.
+/// Returns `value` as an error shows it: a long number in exponent form (`1e308`), anything else
+/// whole up to [`MAX_VALUE_CHARS`](crate::limits::MAX_VALUE_CHARS) characters, else cut there
+/// and marked with its length.
 fn shortened(value: &str) -> String {
+    // A huge or tiny number formats with all its digits (1e308 has 309): say it as Rust reads it.
+    if value.len() > 24
+        && let Ok(v) = value.parse::<f64>()
+        && v.is_finite()
+    {
+        return format!("{v:e}");
+    }
     let (head, mark) = cut(value, crate::limits::MAX_VALUE_CHARS);
     format!("{head}{mark}")
 }

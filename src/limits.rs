@@ -6,6 +6,11 @@
 /// The longest range a sonar may have (m): 10 km covers every real sonar and keeps every
 /// derived length, area and count far from overflow.
 pub const MAX_RANGE: f64 = 10_000.0;
+/// The largest translation between two sonars, per axis (m): 1 000 km. Two sonars of
+/// [`MAX_RANGE`] share nothing beyond 20 km, and every squared length stays far from overflow.
+pub const MAX_TRANSLATION: f64 = 1_000_000.0;
+/// The largest standard deviation of an angle (deg): half a turn; a wider one means nothing.
+pub const MAX_SIGMA_ANGLE: f64 = 180.0;
 /// The largest number of range bins a sonar may have.
 pub const MAX_RANGE_BINS: u32 = 1 << 20;
 /// The largest number of beams a sonar may have.
@@ -31,6 +36,9 @@ pub const MAX_SHARDS: u64 = 100_000;
 /// The finest angle step of the paper's simulations (deg): 18 001 angles, about 3 million poses
 /// a direction, whose results are held in memory.
 pub const MIN_ANGLE_STEP: f64 = 0.01;
+/// The most bytes of dense masks (one byte a pixel a feature, four more with counts) one call of
+/// the Python package returns: 1 GiB. More features at once take the sparse form (runs).
+pub const MAX_DENSE_MASK_BYTES: u64 = 1 << 30;
 /// The most timed runs of one benchmark measurement.
 pub const MAX_RUNS: u32 = 10_000;
 /// The longest input line (a stream's JSON line) or CSV record read whole (1 MiB): a longer one

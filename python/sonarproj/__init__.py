@@ -503,6 +503,7 @@ class MaskEngine:
         covariance: Any = None,
         coverage: float = 0.99,
         counts: bool = False,
+        dense: bool = True,
     ) -> MaskSet:
         """Returns the masks of one ping's features under `pose`.
 
@@ -520,11 +521,19 @@ class MaskEngine:
         ``boxes`` (per feature a dict of range_min, range_max in m and azimuth_min,
         azimuth_max in deg, or None), ``counts`` (uint32 like ``masks``, with ``counts=True``),
         ``radius``, ``noise_radius`` and ``device``.
+
+        Dense masks take one byte a pixel a feature; more than 1 GiB of them (with counts, five
+        bytes) is refused with :class:`InputError`. ``dense=False`` returns ``runs`` instead of
+        ``masks``: per feature a uint64 ``(k, 2)`` array of ``[start, length]`` runs over one
+        mask's pixels in row-major order (``masks[f].ravel()``); ``MaskSet.mask(f)`` gives one
+        feature's mask as an array either way. The call runs without the GIL, in chunks of
+        features, and Ctrl-C stops it between chunks.
         """
         p = _pose("pose", pose)
         ranges, azimuths = _features("features", self.first, features)
         return self._engine.masks(
-            p, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage), _flag("counts", counts)
+            p, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage), _flag("counts", counts),
+            _flag("dense", dense),
         )
 
     def masks_of_pings(
@@ -536,6 +545,7 @@ class MaskEngine:
         covariance: Any = None,
         coverage: float = 0.99,
         counts: bool = False,
+        dense: bool = True,
     ) -> list[MaskSet]:
         """Returns the masks of a sequence of pings: ``poses[k]`` and ``features[k]`` (as in
         :meth:`masks`) per ping, one :class:`MaskSet` each. Ctrl-C stops it between pings."""
@@ -549,7 +559,8 @@ class MaskEngine:
         fs = [_features(f"features[{k}]", self.first, f) for k, f in enumerate(features)]
         azimuths = None if self.first.kind == "sss" else [f[1] for f in fs]
         return self._engine.masks_of_pings(
-            ps, [f[0] for f in fs], azimuths, _sigma(sigma, covariance), _coverage(coverage), _flag("counts", counts)
+            ps, [f[0] for f in fs], azimuths, _sigma(sigma, covariance), _coverage(coverage), _flag("counts", counts),
+            _flag("dense", dense),
         )
 
 
@@ -563,13 +574,15 @@ def masks(
     covariance: Any = None,
     coverage: float = 0.99,
     counts: bool = False,
+    dense: bool = True,
     backend: str = "auto",
 ) -> MaskSet:
     """Returns the correspondence masks of one ping: where each of `features` (measured by
     `first`) can be in `second`'s data under `pose`. A one-off :class:`MaskEngine`; build one
     and call :meth:`MaskEngine.masks` for a stream of pings. Parameters as there."""
     engine = MaskEngine(first, second, backend=backend, counts=counts)
-    return engine.masks(pose, features, sigma=sigma, covariance=covariance, coverage=coverage, counts=counts)
+    return engine.masks(pose, features, sigma=sigma, covariance=covariance, coverage=coverage, counts=counts,
+                        dense=dense)
 
 
 def _observation(parameter: str, sonar: Sonar, value: Any) -> tuple[float, float]:

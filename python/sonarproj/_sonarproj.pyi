@@ -166,9 +166,12 @@ class MaskSet:
     """The masks of one ping, in sonar 2's layout (row 0 = range_min, column 0 = the
     starboard-most beam)."""
 
-    masks: npt.NDArray[np.uint8]
+    masks: Optional[npt.NDArray[np.uint8]]
     """0/1, ``(features, range_bins, beams)`` or ``(features, range_bins)`` (``(features,
-    2 * range_bins)``, the row, for a two-sided sidescan)."""
+    2 * range_bins)``, the row, for a two-sided sidescan); None with ``dense=False``."""
+    runs: Optional[list[npt.NDArray[np.uint64]]]
+    """With ``dense=False``: per feature ``(k, 2)`` runs ``[start, length]`` over one mask's
+    pixels in row-major order; else None."""
     union: npt.NDArray[np.uint8]
     """0/1: every bin or pixel any feature may occupy."""
     counts: Optional[npt.NDArray[np.uint32]]
@@ -180,6 +183,9 @@ class MaskSet:
     noise_radius: list[float]
     """Per feature, the widening for the sigmas (m), 0 without."""
     device: str
+    def mask(self, k: int) -> npt.NDArray[np.uint8]:
+        """Feature `k`'s mask as a dense 0/1 array in sonar 2's layout (from the runs with
+        ``dense=False``)."""
 
 class _MaskEngine:
     def __init__(self, first: Sonar, second: Sonar, backend: str = "auto", counts: bool = False) -> None: ...
@@ -195,6 +201,7 @@ class _MaskEngine:
         sigma: Optional[list[float]],
         coverage: float,
         counts: bool,
+        dense: bool,
     ) -> MaskSet: ...
     def masks_of_pings(
         self,
@@ -204,6 +211,7 @@ class _MaskEngine:
         sigma: Optional[list[float]],
         coverage: float,
         counts: bool,
+        dense: bool,
     ) -> list[MaskSet]: ...
 
 def batch_columns(

@@ -94,6 +94,11 @@ def batch(cols, **kw):
     (lambda: sonarproj.paper("/tmp/x", angle_step=0), ["angle_step"]),
     (lambda: sonarproj.paper("/tmp/x", step=-0.1), ["step", "-0.1"]),
     (lambda: sonarproj.paper("/tmp/x", step="smooth"), ["step", "'auto'", "'smooth'"]),
+    # Numbers whose derived quantities would overflow: a translation far past any sonar's reach
+    # (the mask used to set every bin), noise whose radius is not finite.
+    (lambda: Pose(t=(1e300, 0, 0)), ["tx", "1e300", "1000000"]),
+    (lambda: Pose.from_quat_xyzw((0, 0, 0, 1), (0, -2e6, 0)), ["ty", "-2000000", "1000000"]),
+    (lambda: sonarproj.masks("paper-sss", "paper-fls", Pose(), [4.0], sigma={"roll": 1e308}), ["sigma roll", "1e308", "180"]),
 ])
 def test_bad_input_raises_a_value_error_naming_it(call, words, root, monkeypatch):
     monkeypatch.chdir(root)

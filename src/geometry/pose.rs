@@ -3,6 +3,7 @@
 use glam::{DMat3, DQuat, DVec3};
 
 use crate::error::{Error, Result, finite, finite_named};
+use crate::limits::MAX_TRANSLATION;
 
 /// Largest deviation from orthonormality (`max |RᵀR − I|`) accepted for a given matrix.
 pub const ORTHONORMAL_TOLERANCE: f64 = 1e-6;
@@ -140,6 +141,25 @@ impl Rotation {
     }
 }
 
+/// Returns `v` when it is a usable translation component (m): finite and at most
+/// [`MAX_TRANSLATION`] in size.
+///
+/// # Errors
+/// [`Error::InvalidValue`] naming `field`.
+fn translation_component(field: &str, v: f64) -> Result<f64> {
+    finite(field, v)?;
+    if v.abs() > MAX_TRANSLATION {
+        return Err(Error::invalid(
+            field,
+            v,
+            format!(
+                "must be within ±{MAX_TRANSLATION} m (two sonars of 10 km range share nothing that far apart)"
+            ),
+        ));
+    }
+    Ok(v)
+}
+
 impl RelativePose {
     /// Returns the pose with rotation `rotation` and translation `t` (m): a `DVec3` or an
     /// `[x, y, z]` array.
@@ -149,7 +169,7 @@ impl RelativePose {
     pub fn new(rotation: Rotation, t: impl Into<DVec3>) -> Result<Self> {
         let t: DVec3 = t.into();
         for (i, c) in ["tx", "ty", "tz"].iter().enumerate() {
-            finite(c, t[i])?;
+            translation_component(c, t[i])?;
         }
         Ok(RelativePose {
             rotation: rotation.to_matrix()?,
@@ -181,11 +201,19 @@ impl RelativePose {
         let p1 = spherical_point("feature", first)?;
         let p2 = spherical_point("place", second)?;
         let translation = p2 - rotation * p1;
-        if !translation.is_finite() {
+        if !(translation.is_finite() && translation.abs().max_element() <= MAX_TRANSLATION) {
+            let (field, value) = if second[0] >= first[0] {
+                ("place range", second[0])
+            } else {
+                ("feature range", first[0])
+            };
             return Err(Error::invalid(
-                "placement",
-                format!("feature range {} m, place range {} m", first[0], second[0]),
-                "ranges too large: the translation overflows",
+                field,
+                value,
+                format!(
+                    "too large: the translation of the placement must be at most \
+                     {MAX_TRANSLATION} m per axis"
+                ),
             ));
         }
         Ok(RelativePose {
@@ -206,6 +234,7 @@ impl RelativePose {
         // slow path below finds and names what is wrong.
         let m = self.rotation;
         if self.translation.is_finite()
+            && self.translation.abs().max_element() <= MAX_TRANSLATION
             && m.is_finite()
             && orthonormal_deviation(m) <= ORTHONORMAL_TOLERANCE
             && m.determinant() >= 0.0
@@ -213,7 +242,7 @@ impl RelativePose {
             return Ok(());
         }
         for (i, c) in ["tx", "ty", "tz"].iter().enumerate() {
-            finite_named(|| format!("pose {c}"), self.translation[i])?;
+            translation_component(&format!("pose {c}"), self.translation[i])?;
         }
         let rows = [0, 1, 2].map(|i| m.row(i).to_array());
         Rotation::Matrix(rows)

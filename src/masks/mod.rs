@@ -192,6 +192,12 @@ impl MaskEngine {
         }
     }
 
+    /// Returns whether masks are drawn on a GPU.
+    #[must_use]
+    pub fn draws_on_gpu(&self) -> bool {
+        self.gpu.is_some()
+    }
+
     /// Returns a description of where masks are drawn.
     #[must_use]
     pub fn device(&self) -> String {

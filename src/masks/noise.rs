@@ -5,6 +5,7 @@ use statrs::distribution::{ChiSquared, ContinuousCDF, Normal};
 
 use crate::error::{Error, Result, finite};
 use crate::geometry::SonarKind;
+use crate::limits::{MAX_RANGE, MAX_SIGMA_ANGLE};
 
 /// Standard deviations of the pose and the measurement, and the probability the widened mask
 /// must reach.
@@ -38,10 +39,16 @@ impl Noise {
             ("sigma range", self.range),
             ("sigma azimuth", self.azimuth),
         ];
-        for (field, v) in named {
+        for (k, (field, v)) in named.into_iter().enumerate() {
             finite(field, v)?;
-            if v < 0.0 {
-                return Err(Error::invalid(field, v, "must be >= 0"));
+            // Angles (deg) up to half a turn, lengths (m) up to the largest sonar range: wider
+            // noise means nothing, and the radius it makes stays finite.
+            let (max, unit) = match k {
+                0..=2 | 7 => (MAX_SIGMA_ANGLE, "deg"),
+                _ => (MAX_RANGE, "m"),
+            };
+            if !(0.0..=max).contains(&v) {
+                return Err(Error::invalid(field, v, format!("must be in [0, {max}] {unit}")));
             }
         }
         finite("coverage", self.coverage)?;

@@ -134,7 +134,7 @@ fn bad_scenes_are_refused_naming_the_field() {
         }
     };
     let base = r#""from":"paper-fls","to":"paper-sss","feature":{"range":5}"#;
-    let cases: [(String, &[&str]); 11] = [
+    let cases: [(String, &[&str]); 15] = [
         (format!("{{{base}}}"), &["pose", "no translation"]),
         (
             format!(r#"{{{base},"place":{{"range":15}},"translation":[0,0,0]}}"#),
@@ -167,6 +167,24 @@ fn bad_scenes_are_refused_naming_the_field() {
         (
             format!(r#"{{{base},"place":{{"range":15}},"sigma":{{"roll":-1}}}}"#),
             &["sigma roll", "-1"],
+        ),
+        // Numbers whose derived quantities would overflow (a mask radius, the true point in
+        // sonar 2) are bad input, not a null in the answer.
+        (
+            format!(r#"{{{base},"place":{{"range":15}},"sigma":{{"roll":1e308}}}}"#),
+            &["sigma roll", "1e308", "[0, 180] deg"],
+        ),
+        (
+            format!(r#"{{{base},"place":{{"range":15}},"sigma":{{"tx":1e308}}}}"#),
+            &["sigma tx", "1e308", "[0, 10000] m"],
+        ),
+        (
+            format!(r#"{{{base},"place":{{"range":1e308}}}}"#),
+            &["place range", "1e308", "at most 1000000 m"],
+        ),
+        (
+            format!(r#"{{{base},"translation":[1e300,0,0]}}"#),
+            &["tx", "1e300", "within ±1000000 m"],
         ),
         (
             format!(r#"{{{base},"place":{{"range":15}},"second":{{"range":99}}}}"#),

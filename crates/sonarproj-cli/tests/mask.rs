@@ -183,6 +183,19 @@ fn bad_mask_input_names_the_option() {
         (vec!["--feature", "50"], "--feature 1"),
         (vec!["--feature", "5", "--feature", "5,1,2"], "--feature 2"),
         (vec!["--feature", "5", "--sigma-rotation", "-1"], "sigma roll"),
+        // Noise so wide that its radius overflows is bad input, not a null radius.
+        (
+            vec!["--feature", "5", "--sigma-rotation", "1e308"],
+            "sigma roll = 1e308",
+        ),
+        (
+            vec!["--feature", "5", "--sigma-translation", "1e308"],
+            "sigma tx = 1e308",
+        ),
+        (
+            vec!["--feature", "5", "--sigma-range", "1e308"],
+            "sigma range = 1e308",
+        ),
         (
             vec!["--feature", "5", "--sigma-range", "0.1", "--coverage", "1"],
             "coverage",

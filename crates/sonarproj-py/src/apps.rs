@@ -58,7 +58,7 @@ pub(crate) fn sweep_run<'py>(
     // The run goes on without the GIL; after each chunk it takes it back to report progress and
     // to look for Ctrl-C, and stops (keeping the finished chunks) when Python raised.
     let mut raised: Option<PyErr> = None;
-    let outcome = py.detach(|| {
+    let outcome = crate::runtime::detach(py, || {
         sweep::run(&config, &backend, &opts, &mut |event| {
             let Event::Progress { done, total } = event else {
                 return ControlFlow::Continue(());
@@ -99,7 +99,7 @@ pub(crate) fn sweep_run<'py>(
 #[pyfunction]
 #[pyo3(signature = (out_dir))]
 pub(crate) fn sweep_merge(py: Python<'_>, out_dir: PathBuf) -> PyResult<(PathBuf, Option<PathBuf>)> {
-    py.detach(|| sweep::merge(&out_dir))
+    crate::runtime::detach(py, || sweep::merge(&out_dir))
         .map_err(|e| errors::apps_renamed(e, &[("DIR", "out_dir")]))
 }
 
@@ -122,13 +122,12 @@ pub(crate) fn paper_run<'py>(
     check_output_dir(&out_dir, "out_dir").map_err(error)?;
     let (backend, notice) = backend::get(backend_name)?;
     let start = Instant::now();
-    let runs = py
-        .detach(|| paper::run(&backend, angle_step, sampling))
-        .map_err(error)?;
+    let runs = crate::runtime::detach(py, || paper::run(&backend, angle_step, sampling)).map_err(error)?;
     let seconds = start.elapsed().as_secs_f64();
-    let findings = py
-        .detach(|| paper::write(&out_dir, "out_dir", &runs, angle_step, sampling))
-        .map_err(error)?;
+    let findings = crate::runtime::detach(py, || {
+        paper::write(&out_dir, "out_dir", &runs, angle_step, sampling)
+    })
+    .map_err(error)?;
     let d = PyDict::new(py);
     let list = findings
         .iter()

@@ -19,8 +19,8 @@ const NAMES: [(&str, BackendChoice); 4] = [
     ("cpu", BackendChoice::Cpu),
 ];
 
-/// Backends opened so far, with the notice their selection gave.
-type Opened = HashMap<&'static str, (Arc<Backend>, Option<String>)>;
+/// Backends opened so far by one process (its id), with the notice their selection gave.
+type Opened = (u32, HashMap<&'static str, (Arc<Backend>, Option<String>)>);
 
 static OPENED: Mutex<Option<Opened>> = Mutex::new(None);
 
@@ -122,7 +122,16 @@ pub(crate) fn get(name: &str) -> PyResult<(Arc<Backend>, Option<String>)> {
         .map(|(n, _)| *n)
         .expect("known");
     let mut opened = OPENED.lock().unwrap_or_else(PoisonError::into_inner);
-    let map = opened.get_or_insert_with(HashMap::new);
+    // A forked child inherits its parent's devices, which it cannot use (nor safely close):
+    // they are left alone and the child opens its own.
+    if opened
+        .as_ref()
+        .is_some_and(|(owner, _)| !crate::runtime::same_process(*owner))
+        && let Some(inherited) = opened.take()
+    {
+        std::mem::forget(inherited);
+    }
+    let (_, map) = opened.get_or_insert_with(|| (std::process::id(), HashMap::new()));
     if let Some((b, notice)) = map.get(key) {
         return Ok((Arc::clone(b), notice.clone()));
     }

@@ -125,7 +125,7 @@ pub(crate) fn batch_columns<'py>(
     let mut start = 0;
     while start < len {
         let end = (start + CHUNK_POSES).min(len);
-        let results = py.detach(|| -> sonarproj::Result<()> {
+        let results = crate::runtime::detach(py, || -> sonarproj::Result<()> {
             let rows = items(&pair.source, &reading, &cols, start..end, &checker)?;
             chunk.items = rows.iter().map(|r| r.item).collect();
             let projected = backend.project(&chunk, Output::MetricsOnly)?;
@@ -160,7 +160,7 @@ pub(crate) fn bench_rust_batch<'py>(
     let (reading, cols, len, pair) =
         columns_and_pair(first, second, &names, &columns, step, sonarproj::PAPER_AREA_GRID)?;
     let (backend, _) = backend::get(backend_name)?;
-    py.detach(|| -> sonarproj::Result<f64> {
+    crate::runtime::detach(py, || -> sonarproj::Result<f64> {
         let start = Instant::now();
         let checker = pair.checker()?;
         let batch = Batch {
@@ -220,9 +220,8 @@ pub(crate) fn project_one<'py>(
         Output::MetricsOnly
     };
     let backend: &Backend = &backend;
-    let mut result = py
-        .detach(|| backend.project(&batch, output))
-        .map_err(errors::engine)?;
+    let mut result =
+        crate::runtime::detach(py, || backend.project(&batch, output)).map_err(errors::engine)?;
     let projection = result.pop().expect("one item in, one result out");
     let dict = PyDict::new(py);
     if let Some(el) = elevation {

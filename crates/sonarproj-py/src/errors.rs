@@ -5,8 +5,10 @@ use pyo3::PyErr;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 
+// Defined in module `sonarproj` (which re-exports it), so that pickle finds it there: an error
+// raised in a multiprocessing worker reaches the parent as itself.
 create_exception!(
-    _sonarproj,
+    sonarproj,
     InputError,
     PyValueError,
     "Bad input: the message names the parameter, the value and what is allowed."

@@ -14,12 +14,20 @@ mod errors;
 mod masks;
 mod pose;
 mod recover;
+mod runtime;
 mod sonar;
 mod values;
 
 /// Registers the module's classes, functions and exception.
 #[pymodule]
 fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // NumPy's C API is looked up here, at import, and not on the first call that makes an
+    // array: rust-numpy panics when that lookup meets a pending Ctrl-C ("Failed to access NumPy
+    // array API capsule: PyErr { KeyboardInterrupt }"); here the module is loaded by then, and
+    // an interrupted import is an ordinary KeyboardInterrupt of the import.
+    let py = m.py();
+    py.import("numpy")?;
+    drop(numpy::PyArray1::<u8>::zeros(py, 0, false));
     m.add("InputError", m.py().get_type::<errors::InputError>())?;
     m.add("InputTypeError", values::input_type_error(m.py())?)?;
     m.add_class::<sonar::PySonar>()?;

@@ -2,12 +2,16 @@
 //! it returns.
 
 use numpy::ndarray::{Array2, Array3, ArrayD, IxDyn};
-use numpy::{IntoPyArray, PyArrayDyn};
+use numpy::{IntoPyArray, PyArray2, PyArrayDyn};
+use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use sonarproj::limits::MAX_DENSE_MASK_BYTES;
+use sonarproj::masks::run_lengths;
 use sonarproj::masks::{Noise, bounding_box};
 use sonarproj::occupancy::Occupancy;
 use sonarproj::{Counts, MaskEngine, Measurement, SonarKind};
+use std::time::Instant;
 
 use crate::pose::PyPose;
 use crate::sonar::PySonar;
@@ -18,13 +22,19 @@ use crate::{backend, errors};
 pub(crate) struct PyMaskEngine {
     engine: MaskEngine,
     notice: Option<String>,
+    /// The process that opened it: a GPU device does not survive a fork.
+    owner: u32,
 }
 
 /// The masks of one ping.
 #[pyclass(name = "MaskSet", module = "sonarproj", frozen, get_all)]
 pub(crate) struct PyMaskSet {
-    /// uint8 0/1, `(features, range_bins, beams)` or `(features, range_bins)`.
-    masks: Py<PyArrayDyn<u8>>,
+    /// uint8 0/1, `(features, range_bins, beams)` or `(features, range_bins)`; None when the
+    /// masks were asked for as runs (`dense=False`).
+    masks: Option<Py<PyArrayDyn<u8>>>,
+    /// With `dense=False`, per feature a uint64 array `(k, 2)` of runs `[start, length]` over
+    /// one mask's pixels in row-major order (`masks[f].ravel()`); else None.
+    runs: Option<Vec<Py<PyArray2<u64>>>>,
     /// uint8 0/1: every bin or pixel any feature may occupy.
     union: Py<PyArrayDyn<u8>>,
     /// uint32 counts like `masks`, or None.
@@ -46,14 +56,18 @@ impl PyMaskSet {
     /// device that drew it.
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
         use numpy::PyUntypedArrayMethods;
-        let masks = self.masks.bind(py);
-        let shape: Vec<String> = masks.shape().iter().map(ToString::to_string).collect();
+        let form = match &self.masks {
+            Some(masks) => {
+                let shape: Vec<String> = masks.bind(py).shape().iter().map(ToString::to_string).collect();
+                format!("masks ({}) uint8", shape.join(", "))
+            }
+            None => "masks as runs".to_string(),
+        };
         let union = self.union.bind(py).call_method0("sum")?.extract::<u64>()?;
         Ok(format!(
-            "<MaskSet: {} feature{}, masks ({}) uint8, {union} bins or pixels in the union, counts {}, drawn on {}>",
+            "<MaskSet: {} feature{}, {form}, {union} bins or pixels in the union, counts {}, drawn on {}>",
             self.radius.len(),
             if self.radius.len() == 1 { "" } else { "s" },
-            shape.join(", "),
             if self.counts.is_some() {
                 "drawn"
             } else {
@@ -62,26 +76,80 @@ impl PyMaskSet {
             self.device
         ))
     }
+
+    /// Returns the mask of feature `k` as a dense uint8 array in sonar 2's layout (from the
+    /// runs when the set holds runs).
+    fn mask<'py>(&self, py: Python<'py>, k: usize) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.radius.len();
+        if k >= n {
+            return Err(errors::input(
+                "k",
+                format!("{k} is not a feature: the set has {n}"),
+            ));
+        }
+        if let Some(masks) = &self.masks {
+            return masks.bind(py).get_item(k);
+        }
+        let union = self.union.bind(py);
+        let zeros = union.call_method1("__mul__", (0u8,))?;
+        let flat = zeros.call_method0("ravel")?;
+        let runs = self.runs.as_ref().expect("runs when there are no dense masks")[k].bind(py);
+        let runs: numpy::PyReadonlyArray2<'_, u64> = runs.extract()?;
+        for run in runs.as_array().rows() {
+            let slice = pyo3::types::PySlice::new(
+                py,
+                isize::try_from(run[0]).unwrap_or(isize::MAX),
+                isize::try_from(run[0] + run[1]).unwrap_or(isize::MAX),
+                1,
+            );
+            flat.set_item(slice, 1u8)?;
+        }
+        Ok(zeros)
+    }
 }
 
-/// Returns the array of `occs` stacked along a first axis, each in sonar 2's layout.
-fn stack<T: numpy::Element + Copy>(
+/// What one chunk of features gave, made without the GIL.
+struct Part {
+    /// Dense bytes of its masks (empty for runs).
+    dense: Vec<u8>,
+    /// Its counts (empty without them).
+    counts: Vec<u32>,
+    /// Its runs (empty when dense).
+    runs: Vec<Vec<[u64; 2]>>,
+    /// Its bounding boxes.
+    boxes: Vec<Option<sonarproj::masks::BoundingBox>>,
+    /// Its union: range bins, beams and words.
+    union: (usize, usize, Vec<u32>),
+    /// Its radii and noise radii.
+    radius: Vec<(f64, f64)>,
+}
+
+/// Returns `flat` (n masks of `rows × beams` values, one after the other) as an array of `n`
+/// masks in sonar 2's layout.
+fn shaped<T: numpy::Element>(
     kind: SonarKind,
+    n: usize,
     rows: usize,
     beams: usize,
-    layers: Vec<Vec<T>>,
+    flat: Vec<T>,
 ) -> ArrayD<T> {
-    let n = layers.len();
-    let flat: Vec<T> = layers.into_iter().flatten().collect();
     match kind {
         SonarKind::Fls => Array3::from_shape_vec((n, rows, beams), flat)
             .expect("one value per pixel")
             .into_dyn(),
-        SonarKind::Sss => Array2::from_shape_vec((n, rows), flat)
+        SonarKind::Sss => Array2::from_shape_vec((n, rows * beams), flat)
             .expect("one value per bin")
             .into_dyn(),
     }
 }
+
+/// The first chunk of a ping's features, the smallest and largest later ones, and the time one
+/// chunk aims at (s): short enough that Ctrl-C is answered at once, long enough that a GPU
+/// gets whole pings (most pings have fewer features than the first chunk).
+const FIRST_CHUNK_FEATURES: usize = 128;
+const MIN_CHUNK_FEATURES: usize = 8;
+const MAX_CHUNK_FEATURES: usize = 8192;
+const CHUNK_SECONDS: f64 = 0.05;
 
 /// Returns `occ` as an array in sonar 2's layout.
 fn layer(kind: SonarKind, occ: &Occupancy) -> ArrayD<u8> {
@@ -108,7 +176,13 @@ impl PyMaskEngine {
             .collect()
     }
 
-    /// Returns the mask set of one ping.
+    /// Returns the mask set of one ping. Features are drawn in chunks without the GIL, sized so
+    /// that one takes about 50 ms; Ctrl-C is looked for between chunks. Dense masks are refused
+    /// up front past [`MAX_DENSE_MASK_BYTES`]; `dense = false` gives runs instead.
+    #[expect(
+        clippy::too_many_lines,
+        reason = "one ping's chunks, gathered and turned into arrays"
+    )]
     fn draw(
         &self,
         py: Python<'_>,
@@ -116,52 +190,167 @@ impl PyMaskEngine {
         features: &[Measurement],
         noise: Option<&Noise>,
         counts: bool,
+        dense: bool,
     ) -> PyResult<PyMaskSet> {
-        let want = if counts { Counts::Draw } else { Counts::Skip };
-        let set = py
-            .detach(|| self.engine.masks(&pose.inner, features, noise, want))
-            .map_err(errors::engine)?;
+        if self.engine.draws_on_gpu() && !crate::runtime::same_process(self.owner) {
+            return Err(PyRuntimeError::new_err(
+                "this MaskEngine's GPU device was opened by the parent of this forked process and \
+                 cannot be used here: make a new MaskEngine in this process",
+            ));
+        }
         let layout = self.engine.layout();
         let kind = self.engine.target().kind;
         let (rows, beams) = layout.data_shape();
-        let boxes = set
-            .masks
-            .iter()
-            .map(|m| {
-                bounding_box(layout, &m.occupancy)
-                    .map(|b| -> PyResult<Py<PyDict>> {
-                        let d = PyDict::new(py);
-                        d.set_item("range_min", b.range_min)?;
-                        d.set_item("range_max", b.range_max)?;
-                        d.set_item("azimuth_min", b.azimuth_min)?;
-                        d.set_item("azimuth_max", b.azimuth_max)?;
-                        Ok(d.unbind())
-                    })
-                    .transpose()
+        let pixels = rows * beams;
+        let n = features.len();
+        if counts && !dense {
+            return Err(errors::input(
+                "counts",
+                "needs dense=True: counts are one number per pixel",
+            ));
+        }
+        if dense {
+            let per_pixel: u64 = if counts { 5 } else { 1 };
+            let bytes = (n as u64).saturating_mul(pixels as u64).saturating_mul(per_pixel);
+            if bytes > MAX_DENSE_MASK_BYTES {
+                return Err(errors::input(
+                    "features",
+                    format!(
+                        "{n} features × {pixels} pixels of dense masks{} make {bytes} bytes, more \
+                         than the {MAX_DENSE_MASK_BYTES} one call returns: pass dense=False for \
+                         per-feature runs, or fewer features per call",
+                        if counts { " with counts" } else { "" }
+                    ),
+                ));
+            }
+        }
+        let want = if counts { Counts::Draw } else { Counts::Skip };
+        let mut dense_bytes: Vec<u8> = Vec::new();
+        let mut all_counts: Vec<u32> = Vec::new();
+        let mut runs: Vec<Vec<[u64; 2]>> = Vec::new();
+        let mut boxes = Vec::with_capacity(n);
+        let mut radius = Vec::with_capacity(n);
+        let mut union: Option<(usize, usize, Vec<u32>)> = None;
+        let (mut start, mut chunk) = (0, FIRST_CHUNK_FEATURES);
+        while start < n || union.is_none() {
+            let end = (start + chunk).min(n);
+            let began = Instant::now();
+            let part = crate::runtime::detach(py, || -> sonarproj::Result<Part> {
+                let set = self
+                    .engine
+                    .masks(&pose.inner, &features[start..end], noise, want)?;
+                let mut part = Part {
+                    dense: Vec::new(),
+                    counts: Vec::new(),
+                    runs: Vec::new(),
+                    boxes: set
+                        .masks
+                        .iter()
+                        .map(|m| bounding_box(layout, &m.occupancy))
+                        .collect(),
+                    union: (set.union.range_bins, set.union.beams, set.union.words),
+                    radius: set.masks.iter().map(|m| (m.radius, m.noise_radius)).collect(),
+                };
+                for m in &set.masks {
+                    if dense {
+                        part.dense.extend(m.occupancy.to_bytes(false, false));
+                    } else {
+                        part.runs.push(run_lengths(&m.occupancy));
+                    }
+                    if counts {
+                        match &m.counts {
+                            Some(c) => part.counts.extend_from_slice(c),
+                            None => part.counts.extend(std::iter::repeat_n(0, pixels)),
+                        }
+                    }
+                }
+                Ok(part)
+            })
+            .map_err(errors::engine)?;
+            if dense_bytes.is_empty() {
+                dense_bytes = part.dense;
+            } else {
+                dense_bytes.extend(part.dense);
+            }
+            all_counts.extend(part.counts);
+            runs.extend(part.runs);
+            boxes.extend(part.boxes);
+            radius.extend(part.radius);
+            match &mut union {
+                None => union = Some(part.union),
+                Some(u) => u.2.iter_mut().zip(&part.union.2).for_each(|(a, b)| *a |= b),
+            }
+            py.check_signals()?;
+            // The next chunk takes about CHUNK_SECONDS at this chunk's pace.
+            let per_feature = began.elapsed().as_secs_f64() / (end - start).max(1) as f64;
+            let fits = CHUNK_SECONDS / per_feature.max(1e-9);
+            chunk = [
+                MIN_CHUNK_FEATURES,
+                16,
+                32,
+                64,
+                128,
+                256,
+                512,
+                1024,
+                2048,
+                4096,
+                MAX_CHUNK_FEATURES,
+            ]
+            .into_iter()
+            .rev()
+            .find(|&c| c as f64 <= fits)
+            .unwrap_or(MIN_CHUNK_FEATURES);
+            start = end;
+        }
+        let (union_rows, union_beams, words) = union.expect("at least one chunk");
+        let union = Occupancy::from_words(union_rows, union_beams, words);
+        let boxes = boxes
+            .into_iter()
+            .map(|b| {
+                b.map(|b| -> PyResult<Py<PyDict>> {
+                    let d = PyDict::new(py);
+                    d.set_item("range_min", b.range_min)?;
+                    d.set_item("range_max", b.range_max)?;
+                    d.set_item("azimuth_min", b.azimuth_min)?;
+                    d.set_item("azimuth_max", b.azimuth_max)?;
+                    Ok(d.unbind())
+                })
+                .transpose()
             })
             .collect::<PyResult<Vec<_>>>()?;
-        let counts = if counts {
-            let layers = set
-                .masks
-                .iter()
-                .map(|m| m.counts.clone().unwrap_or_else(|| vec![0; rows * beams]))
-                .collect();
-            Some(stack(kind, rows, beams, layers).into_pyarray(py).unbind())
+        let counts = counts.then(|| shaped(kind, n, rows, beams, all_counts).into_pyarray(py).unbind());
+        let (masks, runs) = if dense {
+            (
+                Some(
+                    shaped(kind, n, rows, beams, dense_bytes)
+                        .into_pyarray(py)
+                        .unbind(),
+                ),
+                None,
+            )
         } else {
-            None
+            let arrays = runs
+                .into_iter()
+                .map(|r| {
+                    let k = r.len();
+                    let flat: Vec<u64> = r.into_iter().flatten().collect();
+                    Array2::from_shape_vec((k, 2), flat)
+                        .expect("two numbers a run")
+                        .into_pyarray(py)
+                        .unbind()
+                })
+                .collect();
+            (None, Some(arrays))
         };
-        let layers = set
-            .masks
-            .iter()
-            .map(|m| m.occupancy.to_bytes(false, false))
-            .collect();
         Ok(PyMaskSet {
-            masks: stack(kind, rows, beams, layers).into_pyarray(py).unbind(),
-            union: layer(kind, &set.union).into_pyarray(py).unbind(),
+            masks,
+            runs,
+            union: layer(kind, &union).into_pyarray(py).unbind(),
             counts,
             boxes,
-            radius: set.masks.iter().map(|m| m.radius).collect(),
-            noise_radius: set.masks.iter().map(|m| m.noise_radius).collect(),
+            radius: radius.iter().map(|r| r.0).collect(),
+            noise_radius: radius.iter().map(|r| r.1).collect(),
             device: self.engine.device(),
         })
     }
@@ -200,10 +389,15 @@ impl PyMaskEngine {
         let choice = backend::choice(backend)?;
         let want = if counts { Counts::Draw } else { Counts::Skip };
         let (source, target) = (first.inner.clone(), second.inner.clone());
-        let (engine, notice) = py
-            .detach(|| MaskEngine::select(source, target, choice, want, &backend::options()))
-            .map_err(errors::engine)?;
-        Ok(PyMaskEngine { engine, notice })
+        let (engine, notice) = crate::runtime::detach(py, || {
+            MaskEngine::select(source, target, choice, want, &backend::options())
+        })
+        .map_err(errors::engine)?;
+        Ok(PyMaskEngine {
+            engine,
+            notice,
+            owner: std::process::id(),
+        })
     }
 
     /// The notice of the backend's selection (`auto` falling back to the CPU says why), or None.
@@ -220,7 +414,7 @@ impl PyMaskEngine {
 
     /// Returns the masks of one ping: features `ranges` (m) and `azimuths` (deg, or None for a
     /// sidescan sonar 1) under `pose`, widened by `sigma` at `coverage`.
-    #[pyo3(signature = (pose, ranges, azimuths, sigma, coverage, counts))]
+    #[pyo3(signature = (pose, ranges, azimuths, sigma, coverage, counts, dense))]
     #[expect(clippy::too_many_arguments, reason = "the Python method's parameters")]
     fn masks(
         &self,
@@ -231,15 +425,16 @@ impl PyMaskEngine {
         sigma: Option<[f64; 8]>,
         coverage: f64,
         counts: bool,
+        dense: bool,
     ) -> PyResult<PyMaskSet> {
         let noise = noise(sigma, coverage)?;
         let features = self.features(&ranges, azimuths.as_deref())?;
-        self.draw(py, pose, &features, noise.as_ref(), counts)
+        self.draw(py, pose, &features, noise.as_ref(), counts, dense)
     }
 
     /// Returns the masks of many pings, one pose and one set of features each, stopping on
     /// Ctrl-C between pings.
-    #[pyo3(signature = (poses, ranges, azimuths, sigma, coverage, counts))]
+    #[pyo3(signature = (poses, ranges, azimuths, sigma, coverage, counts, dense))]
     #[expect(clippy::too_many_arguments, reason = "the Python method's parameters")]
     fn masks_of_pings(
         &self,
@@ -250,6 +445,7 @@ impl PyMaskEngine {
         sigma: Option<[f64; 8]>,
         coverage: f64,
         counts: bool,
+        dense: bool,
     ) -> PyResult<Vec<PyMaskSet>> {
         let noise = noise(sigma, coverage)?;
         let mut out = Vec::with_capacity(poses.len());
@@ -258,7 +454,7 @@ impl PyMaskEngine {
             let features = self
                 .features(&ranges[k], az)
                 .map_err(|e| errors::input("pings", format!("ping {k}: {}", e.value(py))))?;
-            out.push(self.draw(py, pose, &features, noise.as_ref(), counts)?);
+            out.push(self.draw(py, pose, &features, noise.as_ref(), counts, dense)?);
             py.check_signals()?;
         }
         Ok(out)

@@ -46,6 +46,13 @@ fn rotation(rpy: [f64; 3], quat_xyzw: Option<[f64; 4]>, matrix: Option<[[f64; 3]
     }
 }
 
+/// Returns the Python error of a pose constructor, naming the argument `t` before a translation
+/// component (`t: tx = 1e300 is invalid: …`).
+fn translation_error(e: sonarproj::Error) -> PyErr {
+    let component = matches!(&e, sonarproj::Error::InvalidValue { field, .. } if ["tx", "ty", "tz"].contains(&field.as_str()));
+    errors::engine(if component { e.in_context("t") } else { e })
+}
+
 #[pymethods]
 impl PyPose {
     /// Returns the pose with roll, pitch, yaw (deg; the paper's `R = (Rz(yaw) Ry(pitch)
@@ -60,7 +67,7 @@ impl PyPose {
     ) -> PyResult<Self> {
         let r = Rotation::RollPitchYaw { roll, pitch, yaw };
         Ok(PyPose {
-            inner: RelativePose::new(r, t).map_err(errors::engine)?,
+            inner: RelativePose::new(r, t).map_err(translation_error)?,
         })
     }
 
@@ -74,7 +81,7 @@ impl PyPose {
     ) -> PyResult<Self> {
         let r = rotation([0.0; 3], Some(quat_xyzw), None)?;
         Ok(PyPose {
-            inner: RelativePose::new(r, t).map_err(errors::engine)?,
+            inner: RelativePose::new(r, t).map_err(translation_error)?,
         })
     }
 
@@ -86,7 +93,7 @@ impl PyPose {
         #[pyo3(from_py_with = arg::t)] t: [f64; 3],
     ) -> PyResult<Self> {
         Ok(PyPose {
-            inner: RelativePose::new(Rotation::Matrix(matrix), t).map_err(errors::engine)?,
+            inner: RelativePose::new(Rotation::Matrix(matrix), t).map_err(translation_error)?,
         })
     }
 

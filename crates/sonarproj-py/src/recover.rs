@@ -3,6 +3,7 @@
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use rayon::prelude::*;
 use sonarproj::recovery::{self, Observation, Recovery, Sigmas};
 
 use crate::arrays::slices;
@@ -58,6 +59,9 @@ pub(crate) fn recover_one(
 /// The columns of `recover_columns`' input, in order.
 const NAMES: [&str; 4] = ["first_range", "first_azimuth", "second_range", "second_azimuth"];
 
+/// The rows recovered between two looks for Ctrl-C (a few tens of milliseconds on one core).
+const RECOVER_CHUNK_ROWS: usize = 16_384;
+
 /// Returns, per correspondence of the columns, the number of candidates and the best one
 /// (NaN where there is none), the curve length (sidescan pairs) and the flags. `poses` holds one
 /// pose for every correspondence, or one per correspondence.
@@ -85,9 +89,14 @@ pub(crate) fn recover_columns<'py>(
     }
     let pose_of = |k: usize| &poses[if poses.len() == 1 { 0 } else { k }];
     let s = sigmas(sigma_range, sigma_azimuth);
-    let results: Vec<Recovery> = py
-        .detach(|| {
-            (0..len)
+    // Chunks of rows on all cores without the GIL; Ctrl-C is looked for between chunks.
+    let mut results: Vec<Recovery> = Vec::with_capacity(len);
+    let mut start = 0;
+    while start < len {
+        let end = (start + RECOVER_CHUNK_ROWS).min(len);
+        let part = crate::runtime::detach(py, || {
+            (start..end)
+                .into_par_iter()
                 .map(|k| {
                     recovery::recover(
                         &first.inner,
@@ -100,9 +109,16 @@ pub(crate) fn recover_columns<'py>(
                     )
                     .map_err(|e| e.in_context(&format!("row {k}")))
                 })
+                .collect::<Vec<_>>()
+                // In row order, so the error is the first bad row's whatever the threads did.
+                .into_iter()
                 .collect::<sonarproj::Result<Vec<_>>>()
         })
         .map_err(errors::engine)?;
+        results.extend(part);
+        py.check_signals()?;
+        start = end;
+    }
     let dict = PyDict::new(py);
     let count: Vec<i64> = results
         .iter()

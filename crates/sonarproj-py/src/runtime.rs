@@ -1,0 +1,49 @@
+//! Where the package's work runs: without the GIL, on a thread pool of this process. A process
+//! forked from one that computed inherits the pool's bookkeeping but not its threads (work sent
+//! there would wait forever), so the pool belongs to a process id and a forked child makes its
+//! own on its first call.
+
+use std::sync::{Arc, Mutex, PoisonError};
+
+use pyo3::prelude::*;
+
+/// The pool and the process that made it.
+static POOL: Mutex<Option<(u32, Arc<rayon::ThreadPool>)>> = Mutex::new(None);
+
+/// Returns this process's pool (made on first use, or again after a fork), or `None` when no
+/// thread could be started (the work then runs on rayon's global pool).
+fn pool() -> Option<Arc<rayon::ThreadPool>> {
+    let pid = std::process::id();
+    let mut slot = POOL.lock().unwrap_or_else(PoisonError::into_inner);
+    if let Some((owner, pool)) = slot.as_ref()
+        && *owner == pid
+    {
+        return Some(Arc::clone(pool));
+    }
+    // A parent's pool: its threads do not exist here, and dropping it would wait for them.
+    if let Some(inherited) = slot.take() {
+        std::mem::forget(inherited);
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .thread_name(|i| format!("sonarproj-{i}"))
+        .build()
+        .ok()
+        .map(Arc::new)?;
+    *slot = Some((pid, Arc::clone(&pool)));
+    Some(pool)
+}
+
+/// Returns whether this process is the one that made `owner` (a process id recorded when a
+/// device or engine was opened).
+pub(crate) fn same_process(owner: u32) -> bool {
+    owner == std::process::id()
+}
+
+/// Returns `f()` run without the GIL on this process's pool (every parallel loop inside runs
+/// there too).
+pub(crate) fn detach<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> T {
+    match pool() {
+        Some(pool) => py.detach(|| pool.install(f)),
+        None => py.detach(f),
+    }
+}

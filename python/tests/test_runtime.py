@@ -1,0 +1,156 @@
+"""The package as a Python runtime expects it: errors that pickle, a forked child that computes,
+Ctrl-C answered within a long call, the GIL released while the engine works, and dense masks
+bounded (with runs for pings too big to hold densely)."""
+
+import multiprocessing
+import os
+import pickle
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import sonarproj
+from sonarproj import InputError, InputTypeError, MaskEngine, Pose
+
+COLUMNS = {"range": np.array([5.0, 5.0]), "azimuth": np.array([0.0, 10.0]),
+           "roll": np.zeros(2), "pitch": np.array([90.0, 45.0]), "yaw": np.zeros(2),
+           "tx": np.array([15.0, 12.0]), "ty": np.zeros(2), "tz": np.zeros(2)}
+
+
+def _batch_spans():
+    return sonarproj.batch("paper-fls", "paper-sss", COLUMNS, step=0.5, backend="cpu-fast")["span"].tolist()
+
+
+def _bad_sonar(_):
+    sonarproj.Sonar("fls", 0.1, 10, 60, 12, 100, beams=0)
+
+
+@pytest.mark.parametrize("error", [InputError("beams: 0 is invalid"), InputTypeError("beams: expected a number")])
+def test_errors_pickle_as_themselves(error):
+    back = pickle.loads(pickle.dumps(error))
+    assert type(back) is type(error) and str(back) == str(error)
+    assert type(error).__module__ == "sonarproj"
+
+
+def test_a_workers_error_reaches_the_parent_as_itself():
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        with pytest.raises(InputError, match="beams"):
+            pool.apply_async(_bad_sonar, (0,)).get(timeout=120)
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork is POSIX")
+def test_a_forked_child_computes_after_its_parent_did():
+    # The parent computes first (its thread pool now exists); the child, which inherits the
+    # pool's bookkeeping but none of its threads, must make its own and give the same answer.
+    expected = _batch_spans()
+    with multiprocessing.get_context("fork").Pool(2) as pool:
+        got = [r.get(timeout=120) for r in [pool.apply_async(_batch_spans) for _ in range(3)]]
+    assert got == [expected] * 3
+
+
+def test_ctrl_c_stops_a_long_mask_call_between_chunks(tmp_path):
+    # In a process of its own: SIGINT arrives 0.5 s into a call that would take many minutes
+    # (200 000 sidescan features into an imaging sonar). The call must stop with
+    # KeyboardInterrupt; the 120 s limit only guards against a hang.
+    script = textwrap.dedent("""
+        import os, signal, threading, numpy as np, sonarproj
+        engine = sonarproj.MaskEngine("holoocean-sidescan", "holoocean-imaging", backend="cpu-fast")
+        threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+        try:
+            engine.masks(sonarproj.Pose(pitch=5), np.linspace(2, 30, 200_000), dense=False)
+            print("finished")
+        except KeyboardInterrupt:
+            print("interrupted")
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.stdout.strip() == "interrupted", done.stderr
+    assert "PanicException" not in done.stderr and "Traceback" not in done.stderr, done.stderr
+
+
+def test_recover_many_stops_on_ctrl_c():
+    script = textwrap.dedent("""
+        import os, signal, threading, numpy as np, sonarproj
+        n = 20_000_000
+        cols = {"first_range": np.full(n, 5.0), "first_azimuth": np.zeros(n), "second_range": np.full(n, 15.0)}
+        threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+        try:
+            sonarproj.recover_many("paper-fls", "paper-sss", sonarproj.Pose(pitch=90, t=(15, 0, 0)), cols)
+            print("finished")
+        except KeyboardInterrupt:
+            print("interrupted")
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert done.stdout.strip() == "interrupted", done.stderr
+
+
+def test_another_thread_runs_while_masks_are_drawn():
+    engine = MaskEngine("holoocean-sidescan", "holoocean-imaging", backend="cpu-fast")
+    features = np.linspace(2, 30, 3000)
+    ticks = []
+    stop = threading.Event()
+
+    def tick():
+        while not stop.is_set():
+            ticks.append(1)
+            time.sleep(0.001)
+
+    other = threading.Thread(target=tick)
+    other.start()
+    try:
+        engine.masks(Pose(pitch=5), features[:50])  # warm up
+        ticks.clear()
+        engine.masks(Pose(pitch=5), features)
+        during = len(ticks)
+    finally:
+        stop.set()
+        other.join()
+    # Holding the GIL through the call would leave the other thread no turn at all.
+    assert during >= 20, during
+
+
+def test_dense_masks_past_the_limit_are_refused_before_any_work():
+    engine = MaskEngine("paper-fls", "oculus-m750d", backend="cpu-fast")
+    second = engine.second
+    pixels = second.range_bins * second.beams
+    n = (1 << 30) // pixels + 1
+    features = np.column_stack([np.full(n, 5.0), np.zeros(n)])
+    with pytest.raises(InputError) as e:
+        engine.masks(Pose(pitch=5, t=(1, 0, 0)), features)
+    message = str(e.value)
+    assert message.startswith("features:") and f"{n} features × {pixels} pixels" in message
+    assert "dense=False" in message and str(1 << 30) in message
+    with pytest.raises(InputError, match="counts"):
+        engine.masks(Pose(), features[:2], counts=True, dense=False)
+
+
+@pytest.mark.parametrize("pair", [("holoocean-sidescan", "holoocean-imaging"),
+                                  ("paper-fls", "holoocean-sidescan")])
+def test_runs_are_the_dense_masks(pair):
+    engine = MaskEngine(*pair, backend="cpu-fast")
+    if engine.first.kind == "fls":
+        features = np.array([[4.0, -10.0], [6.0, 0.0], [8.0, 12.0]])
+        pose = Pose(roll=90, t=(0.0, -2.0, 0.0))
+    else:
+        features = np.array([3.0, 5.5, 9.0, 30.0])
+        pose = Pose(pitch=5, yaw=10, t=(0.3, 0.2, -0.1))
+    dense = engine.masks(pose, features, sigma={"range": 0.05})
+    sparse = engine.masks(pose, features, sigma={"range": 0.05}, dense=False)
+    assert sparse.masks is None and dense.runs is None and len(sparse.runs) == len(features)
+    assert dense.masks.sum() > 0
+    for k in range(len(features)):
+        flat = np.zeros(dense.masks[k].size, np.uint8)
+        for start, length in sparse.runs[k]:
+            assert length > 0
+            flat[start:start + length] = 1
+        np.testing.assert_array_equal(flat.reshape(dense.masks[k].shape), dense.masks[k])
+        np.testing.assert_array_equal(sparse.mask(k), dense.masks[k])
+        np.testing.assert_array_equal(dense.mask(k), dense.masks[k])
+    np.testing.assert_array_equal(sparse.union, dense.union)
+    assert sparse.boxes == dense.boxes and sparse.radius == dense.radius
+    with pytest.raises(InputError, match="k"):
+        sparse.mask(len(features))
