@@ -334,6 +334,14 @@ impl Extremes {
         self.azimuth_min = self.azimuth_min.min(az);
         self.azimuth_max = self.azimuth_max.max(az);
     }
+
+    /// Widens the extremes to include `other`'s (a part of the same pose's samples).
+    pub fn merge(&mut self, other: &Extremes) {
+        self.range_min = self.range_min.min(other.range_min);
+        self.range_max = self.range_max.max(other.range_max);
+        self.azimuth_min = self.azimuth_min.min(other.azimuth_min);
+        self.azimuth_max = self.azimuth_max.max(other.azimuth_max);
+    }
 }
 
 impl Metrics {

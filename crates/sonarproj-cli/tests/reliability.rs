@@ -142,6 +142,43 @@ fn an_empty_or_directory_output_path_is_bad_input() {
         .stderr(predicates::str::contains("is a directory"));
 }
 
+#[test]
+fn one_pose_of_the_finest_sampling_runs_in_bounded_memory() {
+    // 66.5 million samples in one pose (the limit is 2^26): tables of the whole plan took 5 GB
+    // and a 2 GB address-space limit aborted the process. Tiles keep it near 100 MB; here it
+    // runs under a 768 MiB limit (two threads, two malloc arenas, so the limit measures the
+    // engine and not the machine's core count).
+    let binary = assert_cmd::cargo::cargo_bin!("sonarproj");
+    let out = Command::new("sh")
+        .args(["-c", "ulimit -v 786432 && exec \"$0\" \"$@\""])
+        .arg(binary)
+        .args([
+            "project",
+            "--from",
+            "holoocean-sidescan",
+            "--to",
+            "oculus-m750d",
+            "--range",
+            "20",
+            "--place-range",
+            "20",
+            "--step",
+            "0.0008",
+            "--backend",
+            "cpu-fast",
+        ])
+        .env("RAYON_NUM_THREADS", "2")
+        .env("MALLOC_ARENA_MAX", "2")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}: {stderr}", out.status);
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let metrics = &json["metrics"];
+    assert!(metrics["total"].as_u64().unwrap() > 60_000_000, "{metrics}");
+    assert!(metrics["visible"].as_u64().unwrap() > 0, "{metrics}");
+}
+
 /// Runs `args` in `dir` and checks that it is refused (exit 2) naming `input` as the file it
 /// would have replaced, and that `input` still holds `before`.
 fn refused_as_input(dir: &Path, args: &[&str], input: &str, before: &[u8]) {

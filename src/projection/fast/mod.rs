@@ -59,7 +59,7 @@ use rayon::prelude::*;
 
 use crate::clip::{Clip, cull_slack};
 use crate::geometry::sonar::SonarKind;
-use crate::metrics::Metrics;
+use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::Layout;
 use crate::projection::{Output, PreparedBatch, Projection};
 use isa::Isa;
@@ -156,44 +156,145 @@ pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> 
     project_with(prepared, output == Output::WithOccupancy, Isa::detect())
 }
 
+/// The most samples whose tables (about 60 bytes a sample) are built at once. A plan with
+/// more is drawn in tiles of this many consecutive samples, its poses a few at a time, so that
+/// one pose of the largest plan (2^26 samples) needs about 130 MB, not 5 GB.
+pub(crate) const TILE_SAMPLES: usize = 1 << 20;
+
 /// [`project`], with the lane stage built for `isa` (tests run every build).
 fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, isa: Isa) -> Vec<Projection> {
+    project_tiled(prepared, keep_occupancy, isa, TILE_SAMPLES)
+}
+
+/// Returns the pose arguments of item `n`: `M = R · Rz(base azimuth) · range`, `t`, the range
+/// and the culling slack.
+fn pose_args(prepared: &PreparedBatch<'_>, scratch: &mut Scratch, n: usize) -> PoseArgs {
+    let item = &prepared.batch.items[n];
+    let range = item.measurement.range;
+    let m = item.pose.rotation * scratch.rotation_z(prepared.base_azimuth(n)) * range;
+    let t = item.pose.translation;
+    (m, t, range, cull_slack(range, t, &prepared.layout))
+}
+
+/// Draws one pose (or one tile of it) into `scratch`: a sidescan's one beam by runs of range
+/// bins; beams (an FLS, or a two-sided sidescan's two sides) sample by sample.
+fn draw(
+    isa: Isa,
+    scratch: &mut Scratch,
+    geo: &Geometry<'_>,
+    dirs: &Directions,
+    pose: PoseArgs,
+) -> (u64, Extremes) {
+    if geo.layout.beams() > 1 || geo.layout.kind == SonarKind::Fls {
+        isa::draw_pose::<true>(isa, scratch, geo, dirs, pose)
+    } else {
+        isa::draw_pose::<false>(isa, scratch, geo, dirs, pose)
+    }
+}
+
+/// Returns the projection of what `scratch` holds: `visible` of `total` samples, `extremes`.
+fn reduced(
+    geo: &Geometry<'_>,
+    scratch: &mut Scratch,
+    keep: bool,
+    visible: u64,
+    total: u64,
+    extremes: Extremes,
+) -> Projection {
+    let (occupied, measure, occupancy) = scratch.reduce(geo, keep);
+    let (area, cells) = scratch.reduce_cells(geo, keep);
+    Projection {
+        metrics: Metrics::new(visible, total, extremes, (occupied, measure), area),
+        occupancy: occupancy.map(|o| geo.layout.to_data_order(o)),
+        cells,
+    }
+}
+
+/// [`project_with`] with tiles of `tile` samples (tests make them small).
+fn project_tiled(
+    prepared: &PreparedBatch<'_>,
+    keep_occupancy: bool,
+    isa: Isa,
+    tile: usize,
+) -> Vec<Projection> {
     let layout = &prepared.layout;
     let geo = Geometry::new(layout);
-    let directions: Vec<Directions> = prepared
-        .plans
-        .iter()
-        .map(|plan| Directions::of(&plan.azimuths, &plan.elevations))
+    let samples = |p: usize| prepared.plans[p].azimuths.len() * prepared.plans[p].elevations.len();
+    // Plans up to a tile: their tables once, shared by their poses, each pose on one thread.
+    let directions: Vec<Option<Directions>> = (0..prepared.plans.len())
+        .map(|p| {
+            let plan = &prepared.plans[p];
+            (samples(p) <= tile).then(|| Directions::of(&plan.azimuths, &plan.elevations))
+        })
         .collect();
-    prepared
+    let mut out: Vec<Option<Projection>> = prepared
         .batch
         .items
         .par_iter()
         .enumerate()
         .map_init(
             || Scratch::new(layout),
-            |scratch, (n, item)| {
-                let dirs = &directions[prepared.plan_index(n)];
-                let range = item.measurement.range;
-                let m = item.pose.rotation * scratch.rotation_z(prepared.base_azimuth(n)) * range;
-                let t = item.pose.translation;
-                let pose = (m, t, range, cull_slack(range, t, layout));
-                // A sidescan's one beam by runs of range bins; beams (an FLS, or a two-sided
-                // sidescan's two sides) sample by sample.
-                let (visible, extremes) = if layout.beams() > 1 || layout.kind == SonarKind::Fls {
-                    isa::draw_pose::<true>(isa, scratch, &geo, dirs, pose)
-                } else {
-                    isa::draw_pose::<false>(isa, scratch, &geo, dirs, pose)
-                };
-                let (occupied, measure, occupancy) = scratch.reduce(&geo, keep_occupancy);
-                let (area, cells) = scratch.reduce_cells(&geo, keep_occupancy);
-                let total = dirs.units.len() as u64;
-                Projection {
-                    metrics: Metrics::new(visible, total, extremes, (occupied, measure), area),
-                    occupancy: occupancy.map(|o| layout.to_data_order(o)),
-                    cells,
-                }
+            |scratch, (n, _)| {
+                let dirs = directions[prepared.plan_index(n)].as_ref()?;
+                let pose = pose_args(prepared, scratch, n);
+                let (visible, extremes) = draw(isa, scratch, &geo, dirs, pose);
+                Some(reduced(
+                    &geo,
+                    scratch,
+                    keep_occupancy,
+                    visible,
+                    dirs.units.len() as u64,
+                    extremes,
+                ))
             },
         )
-        .collect()
+        .collect();
+    // Larger plans: tile by tile, each tile's tables built once for a group of poses drawn on
+    // all cores, every pose keeping its own buffers and running sums until its last tile.
+    let tiled: Vec<usize> = (0..out.len()).filter(|&n| out[n].is_none()).collect();
+    let group = rayon::current_num_threads().max(1);
+    let mut states: Vec<(Scratch, u64, Extremes)> = Vec::new();
+    for same_plan in tiled.chunk_by(|&a, &b| prepared.plan_index(a) == prepared.plan_index(b)) {
+        let plan = &prepared.plans[prepared.plan_index(same_plan[0])];
+        let total = samples(prepared.plan_index(same_plan[0]));
+        for items in same_plan.chunks(group) {
+            states.resize_with(states.len().max(items.len()), || {
+                (Scratch::new(layout), 0, Extremes::default())
+            });
+            let poses: Vec<PoseArgs> = items
+                .iter()
+                .zip(&mut states)
+                .map(|(&n, (scratch, visible, extremes))| {
+                    (*visible, *extremes) = (0, Extremes::default());
+                    pose_args(prepared, scratch, n)
+                })
+                .collect();
+            for start in (0..total).step_by(tile) {
+                let dirs = Directions::of_samples(
+                    &plan.azimuths,
+                    &plan.elevations,
+                    start..(start + tile).min(total),
+                );
+                states[..items.len()].par_iter_mut().zip(&poses).for_each(
+                    |((scratch, visible, extremes), &pose)| {
+                        let (v, e) = draw(isa, scratch, &geo, &dirs, pose);
+                        scratch.settle_span();
+                        *visible += v;
+                        extremes.merge(&e);
+                    },
+                );
+            }
+            for (&n, (scratch, visible, extremes)) in items.iter().zip(&mut states) {
+                out[n] = Some(reduced(
+                    &geo,
+                    scratch,
+                    keep_occupancy,
+                    *visible,
+                    total as u64,
+                    *extremes,
+                ));
+            }
+        }
+    }
+    out.into_iter().map(|p| p.expect("every item drawn")).collect()
 }

@@ -63,6 +63,14 @@ impl Scratch {
         }
     }
 
+    /// Sets the bins of a pose drawn as one run into the occupancy buffer, so that the next
+    /// tile of the same pose adds to them.
+    pub(super) fn settle_span(&mut self) {
+        if let Some((lo, hi)) = self.span.take() {
+            set_span(&mut self.occ, &mut self.summary, lo, hi);
+        }
+    }
+
     /// Returns `Rz(azimuth)`, computed only when the azimuth differs from the last one's bits.
     #[inline]
     pub(super) fn rotation_z(&mut self, azimuth: f64) -> DMat3 {

@@ -48,7 +48,25 @@ pub(super) struct BlockUnits {
 impl Directions {
     /// Returns the tables of the plan with these azimuth offsets and elevations (rad).
     pub(super) fn of(azimuths: &[f64], elevations: &[f64]) -> Self {
-        let units = unit_directions(azimuths, elevations);
+        Directions::from_units(unit_directions(azimuths, elevations))
+    }
+
+    /// Returns the tables of samples `samples` (azimuth index fastest) of the plan with these
+    /// azimuth offsets and elevations (rad): each unit the same bits as in [`Directions::of`].
+    pub(super) fn of_samples(azimuths: &[f64], elevations: &[f64], samples: std::ops::Range<usize>) -> Self {
+        let n = azimuths.len();
+        let units = samples
+            .map(|k| {
+                let (a, e) = (azimuths[k % n], elevations[k / n]);
+                let (ca, sa, ce, se) = (a.cos(), a.sin(), e.cos(), e.sin());
+                DVec3::new(ce * ca, ce * sa, se)
+            })
+            .collect();
+        Directions::from_units(units)
+    }
+
+    /// Returns the tables of `units`.
+    fn from_units(units: Vec<DVec3>) -> Self {
         let blocks = balls(&units, LANES);
         let lanes = units
             .chunks(LANES)
