@@ -33,6 +33,9 @@ pub const MAX_POSES: u64 = 1 << 40;
 pub const MAX_AXIS_VALUES: u64 = 1_000_000;
 /// The most parts a sweep may be cut into.
 pub const MAX_SHARDS: u64 = 100_000;
+/// The most chunk files one sweep run (or shard) is cut into: a larger `--chunk-poses` or more
+/// shards beyond it.
+pub const MAX_CHUNKS: u64 = 1_000_000;
 /// The finest angle step of the paper's simulations (deg): 18 001 angles, about 3 million poses
 /// a direction, whose results are held in memory.
 pub const MIN_ANGLE_STEP: f64 = 0.01;

@@ -364,6 +364,45 @@ fn bad_sweep_files_name_the_key() {
 }
 
 #[test]
+fn more_chunks_than_a_run_keeps_are_refused_up_front() {
+    // 10^12 poses a chunk each once asked for 16 TB of bookkeeping (an abort); the run is
+    // refused before anything is made, saying which --chunk-poses would do.
+    let dir = tempfile::tempdir().unwrap();
+    let huge = GRID_2D
+        .replace("range = { start = 2, stop = 18, step = 2 }", "range = 15")
+        .replace(
+            "roll = { start = 0, stop = 180, step = 3 }",
+            "roll = { start = 0, stop = 99.9999, step = 0.0001 }",
+        )
+        .replace(
+            "pitch = 10",
+            "pitch = { start = 0, stop = 99.9999, step = 0.0001 }",
+        );
+    let config = file(dir.path(), "huge.toml", &huge);
+    let out = dir.path().join("o");
+    common::rejects(
+        &[
+            "sweep",
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--backend",
+            "cpu-fast",
+            "--chunk-poses",
+            "1",
+        ],
+        None,
+        &[
+            "--chunk-poses = 1",
+            "1000000000000 chunk files",
+            "--chunk-poses 1000000 or more",
+        ],
+    );
+    assert!(!out.exists(), "a refused run made its directory");
+}
+
+#[test]
 fn a_directory_of_another_sweep_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("o");

@@ -198,7 +198,12 @@ fn sums(file: &Path) -> std::io::Result<(u64, u32)> {
 /// # Errors
 /// [`Error::Csv`] naming a part that is not what its record says; [`Error::ReadInput`] and
 /// [`Error::WriteOutput`] on I/O failure.
-pub fn join(parts: &[PathBuf], columns: &[String], out: &Path, expected: Expected<'_>) -> Result<()> {
+pub fn join(
+    parts: impl IntoIterator<Item = PathBuf>,
+    columns: &[String],
+    out: &Path,
+    expected: Expected<'_>,
+) -> Result<()> {
     let mut want = Vec::new();
     {
         let mut w = csv::Writer::from_writer(&mut want);
@@ -208,6 +213,7 @@ pub fn join(parts: &[PathBuf], columns: &[String], out: &Path, expected: Expecte
     write(out, expected, |w| {
         w.write_all(&want).map_err(|e| Error::write_output(out, e))?;
         for part in parts {
+            let part = &part;
             let damaged = |message: String| Error::Csv {
                 context: part.display().to_string(),
                 message,

@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use rayon::prelude::*;
+use sonarproj::limits::MAX_CHUNKS;
 use sonarproj::projection::Backend;
 
 use crate::error::{Error, Result};
@@ -264,11 +265,8 @@ fn claim(dir: &Path, d: &Descriptor) -> Result<()> {
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] for a directory holding another sweep or an unfinished run with
-/// other settings; errors of [`Backend::project`] and of writing files.
-#[expect(
-    clippy::cast_possible_truncation,
-    reason = "pose counts and chunk sizes are bounded (MAX_POSES) before this point"
-)]
+/// other settings, or `--chunk-poses` cutting the run into more than [`MAX_CHUNKS`] chunks;
+/// errors of [`Backend::project`] and of writing files.
 pub fn run(
     config: &SweepConfig,
     backend: &Backend,
@@ -281,15 +279,28 @@ pub fn run(
     // Everything is checked before the directory is created: a refused run leaves nothing.
     let dir = &opts.out;
     let desc = descriptor(config)?;
-    output_dir(dir, "--out")?;
-    remove_stale_temporaries(dir);
-    claim(dir, &desc)?;
     let (stem, range) = match opts.shard {
         Some(s) => (s.stem(), s.range(desc.poses)),
         None => ("sweep".to_string(), 0..desc.poses),
     };
-    let file = dir.join(format!("{stem}.csv"));
     let poses = range.end - range.start;
+    // One file a chunk: their number is bounded, and nothing is kept per chunk but its file.
+    let n_chunks = poses.div_ceil(opts.chunk_poses);
+    if n_chunks > MAX_CHUNKS {
+        return Err(Error::invalid(
+            "--chunk-poses",
+            opts.chunk_poses,
+            format!(
+                "cuts this run's {poses} poses into {n_chunks} chunk files, more than the \
+                 {MAX_CHUNKS} one run keeps: use --chunk-poses {} or more (or shards)",
+                poses.div_ceil(MAX_CHUNKS)
+            ),
+        ));
+    }
+    output_dir(dir, "--out")?;
+    remove_stale_temporaries(dir);
+    claim(dir, &desc)?;
+    let file = dir.join(format!("{stem}.csv"));
     let mut outcome = Outcome {
         file: None,
         figure: None,
@@ -404,11 +415,11 @@ pub fn run(
         }
     }
 
-    let chunks: Vec<Range<u64>> = (range.start..range.end)
-        .step_by(opts.chunk_poses as usize)
-        .map(|s| s..(s + opts.chunk_poses).min(range.end))
-        .collect();
-    let chunk_path = |c: usize| state.join(format!("chunk-{c:08}.csv"));
+    let chunk = |c: u64| {
+        let s = range.start + c * opts.chunk_poses;
+        s..(s + opts.chunk_poses).min(range.end)
+    };
+    let chunk_path = |c: u64| state.join(format!("chunk-{c:08}.csv"));
     let expected = |r: &Range<u64>| parts::Expected {
         fingerprint: &desc.fingerprint,
         first: r.start,
@@ -418,7 +429,8 @@ pub fn run(
     let sigma = resolve_sigma_range(&config.source, &config.target, config.sigma_range)?;
     let mut done = 0;
     let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
-    for (c, r) in chunks.iter().enumerate() {
+    for c in 0..n_chunks {
+        let r = &chunk(c);
         let path = chunk_path(c);
         let status = parts::check(&path, expected(r));
         if status == parts::Status::Good {
@@ -463,10 +475,9 @@ pub fn run(
             return Ok(outcome);
         }
     }
-    let chunk_files: Vec<PathBuf> = (0..chunks.len()).map(chunk_path).collect();
     // The settings first: a result never stands without them.
     write_json(&settings_path(&file), &manifest.settings)?;
-    parts::join(&chunk_files, &desc.columns, &file, whole)?;
+    parts::join((0..n_chunks).map(chunk_path), &desc.columns, &file, whole)?;
     std::fs::remove_dir_all(&state).map_err(|e| Error::write_output(&state, e))?;
     if opts.shard.is_none() {
         outcome.figure = figure(dir, &desc)?;
@@ -629,7 +640,7 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
         first: 0,
         rows: desc.poses,
     };
-    parts::join(&files, &desc.columns, &out, whole)?;
+    parts::join(files, &desc.columns, &out, whole)?;
     let fig = figure(dir, &desc)?;
     Ok((out, fig))
 }
