@@ -72,6 +72,10 @@ pub enum Error {
         #[source]
         source: Option<Box<dyn std::error::Error + Send + Sync + 'static>>,
     },
+    /// The work was given up before its end because the caller's `stop` said so
+    /// ([`crate::Backend::project_until`]): a viewer client that went away.
+    #[error("stopped before the end, as asked")]
+    Stopped,
 }
 
 impl Error {

@@ -180,12 +180,34 @@ impl Backend {
     /// # Errors
     /// As [`Batch::prepare`]; [`Error::Gpu`] on device failure.
     pub fn project(&self, batch: &Batch, output: Output) -> Result<Vec<Projection>> {
+        self.project_until(batch, output, &|| false)
+    }
+
+    /// [`Backend::project`], given up once `stop` returns true: the fast CPU path asks it
+    /// before each pose and each tile of a large sampling, the reference and the GPU before and
+    /// after their work.
+    ///
+    /// # Errors
+    /// As [`Backend::project`]; [`Error::Stopped`] when stopped.
+    pub fn project_until(
+        &self,
+        batch: &Batch,
+        output: Output,
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Vec<Projection>> {
         let prepared = batch.prepare()?;
-        match self {
-            Backend::Cpu => Ok(reference::project(&prepared, output)),
-            Backend::CpuFast => Ok(fast::project(&prepared, output)),
-            Backend::Gpu(g) => g.project(&prepared, output),
+        if stop() {
+            return Err(Error::Stopped);
         }
+        let projected = match self {
+            Backend::Cpu => reference::project(&prepared, output),
+            Backend::CpuFast => fast::project_until(&prepared, output, stop).ok_or(Error::Stopped)?,
+            Backend::Gpu(g) => g.project(&prepared, output)?,
+        };
+        if stop() {
+            return Err(Error::Stopped);
+        }
+        Ok(projected)
     }
 }
 

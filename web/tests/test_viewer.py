@@ -10,8 +10,10 @@ import json
 import math
 import os
 import shlex
+import socket
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -409,7 +411,7 @@ def test_the_server_refuses_other_hosts_origins_files_and_oversized_requests(vie
     for path in ("/../Cargo.toml", "/etc/passwd", "/vendor/three/../../Cargo.toml"):
         assert request(viewer, "GET", path)[0] == 404
     status, body = request(viewer, "POST", "/api/scene", " " * (70 * 1024))
-    assert status == 400 and b"at most 65536 bytes" in body
+    assert status == 413 and b"at most 65536 bytes" in body
     status, body = request(viewer, "POST", "/api/scene", "{not json")
     assert status == 400 and b"request" in body
     # the engine's size limits: a sampling step that would need too many samples
@@ -417,3 +419,110 @@ def test_the_server_refuses_other_hosts_origins_files_and_oversized_requests(vie
                        "place": {"range": 5}, "step": 1e-6})
     status, body = request(viewer, "POST", "/api/scene", fine)
     assert status == 400 and b"samples per pose" in body
+
+
+def raw(port, data, timeout=20):
+    """Sends `data` on a new connection and returns everything the server answers until it
+    closes the connection (or b"" when it resets it)."""
+    s = socket.create_connection(("127.0.0.1", port), timeout=timeout)
+    out = b""
+    try:
+        try:
+            s.sendall(data)
+        except (BrokenPipeError, ConnectionResetError):
+            pass  # the server answered and closed before the rest was sent
+        while True:
+            try:
+                chunk = s.recv(65536)
+            except ConnectionResetError:
+                break
+            if not chunk:
+                break
+            out += chunk
+    finally:
+        s.close()
+    return out
+
+
+def status_of(reply):
+    return int(reply.split(b" ", 2)[1]) if reply.startswith(b"HTTP/1.1 ") else None
+
+
+def peak_memory_kib(pid):
+    for line in open(f"/proc/{pid}/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1])
+    raise AssertionError("no VmHWM")
+
+
+def test_a_slow_client_stalls_nobody_else(viewer):
+    host = f"Host: 127.0.0.1:{viewer.port}\r\n"
+    slow = socket.create_connection(("127.0.0.1", viewer.port))
+    try:
+        # Announces 60 000 bytes and sends one: its connection waits, nobody else does.
+        slow.sendall(f"POST /api/scene HTTP/1.1\r\n{host}Content-Length: 60000\r\n\r\n{{".encode())
+        for _ in range(3):
+            status, body = request(viewer, "GET", "/api/init")
+            assert status == 200 and b"sonars" in body
+    finally:
+        slow.close()
+
+
+def test_request_heads_are_bounded_and_doubled_headers_refused(viewer):
+    port = viewer.port
+    host = f"Host: 127.0.0.1:{port}\r\n"
+    close = "Connection: close\r\n"
+    before = peak_memory_kib(viewer.process.pid)
+    # A head that never ends (8 MiB of one header line after another) and 20 000 headers: 431.
+    flood = f"GET / HTTP/1.1\r\n{host}".encode() + (b"X-A: " + b"a" * 65536 + b"\r\n") * 128
+    assert status_of(raw(port, flood)) == 431
+    many = f"GET / HTTP/1.1\r\n{host}" + "".join(f"X-{i}: 1\r\n" for i in range(20000)) + close + "\r\n"
+    assert status_of(raw(port, many.encode())) == 431
+    assert peak_memory_kib(viewer.process.pid) - before < 64 * 1024, "the flood was held in memory"
+    # Two Host headers (ours first) and two different Content-Length headers: 400 (RFC 9112).
+    two_hosts = raw(port, f"GET /api/init HTTP/1.1\r\n{host}Host: evil.example:{port}\r\n{close}\r\n".encode())
+    assert status_of(two_hosts) == 400 and b"more than one Host header" in two_hosts
+    two_lengths = raw(port, f"POST /api/scene HTTP/1.1\r\n{host}Content-Length: 5\r\nContent-Length: 6\r\n{close}\r\n{{}}xxxx".encode())
+    assert status_of(two_lengths) == 400
+    # Error replies are short: a 50 kB path is quoted by its first 80 characters.
+    long_path = raw(port, f"GET /{'a' * 50000} HTTP/1.1\r\n{host}{close}\r\n".encode())
+    assert status_of(long_path) == 404 and len(long_path) < 1024 and b"(50001 bytes)" in long_path
+    # And the server goes on.
+    assert request(viewer, "GET", "/api/init")[0] == 200
+
+
+HEAVY = json.dumps({"from": "holoocean-sidescan", "to": "oculus-m750d", "feature": {"range": 20},
+                    "place": {"range": 20}, "step": 0.0008})  # 66.5 M samples, seconds of work
+LIGHT = json.dumps({"from": "paper-fls", "to": "paper-sss", "feature": {"range": 5}, "place": {"range": 15}})
+
+
+@pytest.fixture()
+def fast_viewer():
+    server = Server("--backend", "cpu-fast")
+    yield server
+    server.stop()
+
+
+def cpu_seconds(pid):
+    fields = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def test_a_heavy_scene_blocks_no_one_and_stops_when_its_client_leaves(fast_viewer):
+    port = fast_viewer.port
+    heavy = socket.create_connection(("127.0.0.1", port))
+    heavy.sendall(f"POST /api/scene HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nContent-Length: {len(HEAVY)}\r\n\r\n{HEAVY}".encode())
+    heavy.setblocking(False)
+    # A light scene is answered while the heavy one is still being computed.
+    status, body = request(fast_viewer, "POST", "/api/scene", LIGHT)
+    assert status == 200 and json.loads(body)["metrics"]["visible"] > 0
+    with pytest.raises(BlockingIOError):
+        heavy.recv(1)  # no answer yet: it is still computing
+    # The heavy scene's client leaves: its work stops at the next tile of samples, where it
+    # would have gone on for several CPU-seconds more.
+    heavy.close()
+    time.sleep(0.5)
+    used = cpu_seconds(fast_viewer.process.pid)
+    time.sleep(2)
+    assert cpu_seconds(fast_viewer.process.pid) - used < 0.5
+    assert peak_memory_kib(fast_viewer.process.pid) < 512 * 1024

@@ -34,7 +34,7 @@ const SCENES: [&str; 5] = [
 
 #[test]
 fn a_scene_shows_the_engines_metrics_occupancy_and_visible_samples() {
-    let mut v = viewer();
+    let v = viewer();
     for text in SCENES {
         let s = scene(text);
         let out = v.scene(&s).expect(text);
@@ -104,7 +104,7 @@ fn a_scene_shows_the_engines_metrics_occupancy_and_visible_samples() {
 
 #[test]
 fn a_large_surface_is_thinned_for_the_3d_view_but_counted_whole() {
-    let mut v = viewer();
+    let v = viewer();
     let s = scene(
         r#"{"from":"paper-sss","to":"paper-fls","feature":{"range":20},"place":{"range":5},"step":0.01}"#,
     );
@@ -122,8 +122,8 @@ fn a_large_surface_is_thinned_for_the_3d_view_but_counted_whole() {
 
 #[test]
 fn bad_scenes_are_refused_naming_the_field() {
-    let mut v = viewer();
-    let refused = |v: &mut Viewer, text: &str, words: &[&str]| {
+    let v = viewer();
+    let refused = |v: &Viewer, text: &str, words: &[&str]| {
         let e = Scene::parse(text.as_bytes())
             .and_then(|s| v.scene(&s))
             .expect_err(text);
@@ -196,13 +196,13 @@ fn bad_scenes_are_refused_naming_the_field() {
         ),
     ];
     for (text, words) in &cases {
-        refused(&mut v, text, words);
+        refused(&v, text, words);
     }
     let huge = format!(
         r#"{{{base},"place":{{"range":15}}}}{}"#,
         " ".repeat(MAX_REQUEST_BYTES)
     );
-    refused(&mut v, &huge, &["request", "at most 65536 bytes"]);
+    refused(&v, &huge, &["request", "at most 65536 bytes"]);
 }
 
 #[test]
@@ -218,7 +218,7 @@ fn the_sweep_file_it_offers_gives_back_the_same_pose() {
     .unwrap();
     let own = Choice::resolve(file.to_str().unwrap()).unwrap();
     let label = own.label.clone();
-    let mut v = Viewer::new(vec![own], Backend::Cpu, BackendChoice::Cpu, GpuOptions::default());
+    let v = Viewer::new(vec![own], Backend::Cpu, BackendChoice::Cpu, GpuOptions::default());
     for text in SCENES {
         let mut s = scene(text);
         if s.from == "paper-fls" {

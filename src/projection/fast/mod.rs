@@ -156,6 +156,23 @@ pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> 
     project_with(prepared, output == Output::WithOccupancy, Isa::detect())
 }
 
+/// [`project`], given up (`None`) once `stop` returns true: it is asked before each pose and
+/// each tile of a large sampling.
+#[must_use]
+pub fn project_until(
+    prepared: &PreparedBatch<'_>,
+    output: Output,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<Vec<Projection>> {
+    project_tiled(
+        prepared,
+        output == Output::WithOccupancy,
+        Isa::detect(),
+        TILE_SAMPLES,
+        stop,
+    )
+}
+
 /// The most samples whose tables (about 60 bytes a sample) are built at once. A plan with
 /// more is drawn in tiles of this many consecutive samples, its poses a few at a time, so that
 /// one pose of the largest plan (2^26 samples) needs about 130 MB, not 5 GB.
@@ -163,7 +180,7 @@ pub(crate) const TILE_SAMPLES: usize = 1 << 20;
 
 /// [`project`], with the lane stage built for `isa` (tests run every build).
 fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, isa: Isa) -> Vec<Projection> {
-    project_tiled(prepared, keep_occupancy, isa, TILE_SAMPLES)
+    project_tiled(prepared, keep_occupancy, isa, TILE_SAMPLES, &|| false).expect("never stopped")
 }
 
 /// Returns the pose arguments of item `n`: `M = R · Rz(base azimuth) · range`, `t`, the range
@@ -210,13 +227,23 @@ fn reduced(
     }
 }
 
-/// [`project_with`] with tiles of `tile` samples (tests make them small).
+/// [`project_with`] with tiles of `tile` samples (tests make them small), given up (`None`)
+/// once `stop` returns true.
 fn project_tiled(
     prepared: &PreparedBatch<'_>,
     keep_occupancy: bool,
     isa: Isa,
     tile: usize,
-) -> Vec<Projection> {
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<Vec<Projection>> {
+    let stopped = std::sync::atomic::AtomicBool::new(false);
+    let halt = || {
+        let now = stopped.load(std::sync::atomic::Ordering::Relaxed) || stop();
+        if now {
+            stopped.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+        now
+    };
     let layout = &prepared.layout;
     let geo = Geometry::new(layout);
     let samples = |p: usize| prepared.plans[p].azimuths.len() * prepared.plans[p].elevations.len();
@@ -236,6 +263,9 @@ fn project_tiled(
             || Scratch::new(layout),
             |scratch, (n, _)| {
                 let dirs = directions[prepared.plan_index(n)].as_ref()?;
+                if halt() {
+                    return None;
+                }
                 let pose = pose_args(prepared, scratch, n);
                 let (visible, extremes) = draw(isa, scratch, &geo, dirs, pose);
                 Some(reduced(
@@ -251,6 +281,9 @@ fn project_tiled(
         .collect();
     // Larger plans: tile by tile, each tile's tables built once for a group of poses drawn on
     // all cores, every pose keeping its own buffers and running sums until its last tile.
+    if halt() {
+        return None;
+    }
     let tiled: Vec<usize> = (0..out.len()).filter(|&n| out[n].is_none()).collect();
     let group = rayon::current_num_threads().max(1);
     let mut states: Vec<(Scratch, u64, Extremes)> = Vec::new();
@@ -270,6 +303,9 @@ fn project_tiled(
                 })
                 .collect();
             for start in (0..total).step_by(tile) {
+                if halt() {
+                    return None;
+                }
                 let dirs = Directions::of_samples(
                     &plan.azimuths,
                     &plan.elevations,
@@ -296,5 +332,5 @@ fn project_tiled(
             }
         }
     }
-    out.into_iter().map(|p| p.expect("every item drawn")).collect()
+    Some(out.into_iter().map(|p| p.expect("every item drawn")).collect())
 }

@@ -8,6 +8,7 @@ pub mod copy_as;
 
 use std::collections::HashMap;
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
 
 use serde::Deserialize;
@@ -268,7 +269,7 @@ pub struct Viewer {
     backend: Backend,
     choice: BackendChoice,
     gpu: GpuOptions,
-    engines: HashMap<(String, String), MaskEngine>,
+    engines: Mutex<HashMap<(String, String), Arc<MaskEngine>>>,
 }
 
 impl std::fmt::Debug for Viewer {
@@ -300,7 +301,7 @@ impl Viewer {
             backend,
             choice,
             gpu,
-            engines: HashMap::new(),
+            engines: Mutex::new(HashMap::new()),
         }
     }
 
@@ -346,7 +347,25 @@ impl Viewer {
     /// Bad input (sonar labels, the feature outside sonar 1's view, the pose, sampling or noise
     /// out of range, a second measurement outside sonar 2's view), each naming the field; and
     /// the backend's failures.
-    pub fn scene(&mut self, scene: &Scene) -> Result<Value> {
+    pub fn scene(&self, scene: &Scene) -> Result<Value> {
+        self.scene_until(scene, &|| false)
+    }
+
+    /// [`Viewer::scene`], given up once `stop` says so: between its stages (projection, mask,
+    /// recovery) and inside the projection as [`Backend::project_until`] does: the server's way
+    /// to drop the work of a client that went away.
+    ///
+    /// # Errors
+    /// As [`Viewer::scene`]; [`sonarproj::Error::Stopped`] when stopped.
+    pub fn scene_until(&self, scene: &Scene, stop: &(dyn Fn() -> bool + Sync)) -> Result<Value> {
+        let check = || {
+            if stop() {
+                Err(Error::from(sonarproj::Error::Stopped))
+            } else {
+                Ok(())
+            }
+        };
+        check()?;
         let started = Instant::now();
         let first = self.choice("from", &scene.from)?.clone();
         let second = self.choice("to", &scene.to)?.clone();
@@ -368,25 +387,40 @@ impl Viewer {
         };
         let result = self
             .backend
-            .project(&batch, Output::WithOccupancy)?
+            .project_until(&batch, Output::WithOccupancy, stop)?
             .pop()
             .expect("one item in, one result out");
         let occupancy = result.occupancy.as_ref().expect("occupancy was asked for");
+        check()?;
 
         let mask = match &noise {
             Some(n) => {
                 let key = (first.label.clone(), second.label.clone());
-                if !self.engines.contains_key(&key) {
-                    let (engine, _) = MaskEngine::select(
-                        source.clone(),
-                        target.clone(),
-                        self.choice,
-                        Counts::Skip,
-                        &self.gpu,
-                    )?;
-                    self.engines.insert(key.clone(), engine);
-                }
-                let m = self.engines[&key].mask(&pose, &measurement, Some(n), Counts::Skip)?;
+                let known = self
+                    .engines
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .get(&key)
+                    .cloned();
+                let engine = match known {
+                    Some(e) => e,
+                    None => {
+                        let (engine, _) = MaskEngine::select(
+                            source.clone(),
+                            target.clone(),
+                            self.choice,
+                            Counts::Skip,
+                            &self.gpu,
+                        )?;
+                        let engine = Arc::new(engine);
+                        self.engines
+                            .lock()
+                            .unwrap_or_else(PoisonError::into_inner)
+                            .insert(key, Arc::clone(&engine));
+                        engine
+                    }
+                };
+                let m = engine.mask(&pose, &measurement, Some(n), Counts::Skip)?;
                 Some(json!({
                     "runs": run_lengths(&m.occupancy),
                     "count": m.occupancy.count(),
@@ -397,6 +431,7 @@ impl Viewer {
             None => None,
         };
 
+        check()?;
         let recovery = match scene.second {
             Some(s) => {
                 let sigmas = scene.sigma.and_then(|g| {

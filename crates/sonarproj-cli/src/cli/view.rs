@@ -3,19 +3,33 @@
 //! `/api/scene`, which the engine computes here ([`sonarproj_apps::view::Viewer`]).
 //!
 //! A local tool, not a web service: it binds loopback unless told otherwise, answers only
-//! requests whose `Host` (and `Origin`, when sent) name this server by an IP address or
-//! `localhost` (so a web page elsewhere cannot reach it through DNS rebinding), reads no file the
-//! browser names (sonar files come from the command line) and reads at most
-//! [`MAX_REQUEST_BYTES`] of a request.
+//! requests whose one `Host` (and `Origin`, when sent) name this server by an IP address or
+//! `localhost` (so a web page elsewhere cannot reach it through DNS rebinding), and reads no file
+//! the browser names (sonar files come from the command line).
+//!
+//! The HTTP is hyper's (HTTP/1 on tokio), which enforces the limits on the request head: at most
+//! [`MAX_HEAD_BYTES`] and [`MAX_HEADERS`] headers (431 past them), the head within
+//! [`HEAD_TIMEOUT`], one `Content-Length` (400 for conflicting ones). Each connection is a task
+//! of its own, so a slow client stalls nobody else; a body is read within [`BODY_TIMEOUT`] and
+//! at most [`MAX_REQUEST_BYTES`] of it (413). Scenes are computed on blocking threads, at most
+//! [`computing`] at once with [`MAX_WAITING`] more queued (503 past them); a client that goes
+//! away before its scene starts, or between its stages, has its work given up. Every error reply
+//! is a short JSON object.
 
-use std::io::Read;
 use std::net::{IpAddr, SocketAddr};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
 
+use http_body_util::{BodyExt, Full, LengthLimitError, Limited};
+use hyper::body::{Bytes, Incoming};
+use hyper::header::{HOST, HeaderValue, ORIGIN};
+use hyper::{Method, Request, Response, StatusCode};
 use serde_json::json;
 use sonarproj::BackendChoice;
 use sonarproj_apps::view::{Choice, MAX_REQUEST_BYTES, Scene, Viewer};
 use sonarproj_apps::{Error, Result};
-use tiny_http::{Header, Method, Request, Response, Server};
+use tokio::sync::Semaphore;
 
 use super::BackendArg;
 
@@ -86,6 +100,36 @@ const CSP: &str = "default-src 'self'; script-src 'self'; style-src 'self' 'unsa
                    img-src 'self' data: blob:; connect-src 'self'; frame-ancestors 'none'; \
                    base-uri 'none'; form-action 'none'";
 
+/// The most bytes of a request's head (request line and headers).
+pub(crate) const MAX_HEAD_BYTES: usize = 64 * 1024;
+/// The most headers of a request.
+pub(crate) const MAX_HEADERS: usize = 64;
+/// The time a client has to send a request's head, and then its body.
+pub(crate) const HEAD_TIMEOUT: Duration = Duration::from_secs(10);
+pub(crate) const BODY_TIMEOUT: Duration = Duration::from_secs(10);
+/// The most connections served at once (more wait to be accepted).
+const MAX_CONNECTIONS: usize = 256;
+/// The most scenes waiting for a computing slot (more are answered 503 at once).
+const MAX_WAITING: usize = 16;
+/// The most characters of a path an error reply quotes.
+const QUOTED_PATH_CHARS: usize = 80;
+
+/// Returns how many scenes are computed at once: the cores, at least two (each scene's
+/// projection uses every core already; more at once would only share them).
+fn computing() -> usize {
+    std::thread::available_parallelism().map_or(2, |n| n.get().clamp(2, 8))
+}
+
+/// What every request's task shares.
+struct Shared {
+    viewer: Viewer,
+    initial: serde_json::Value,
+    port: u16,
+    /// Slots to compute a scene in, and slots to wait for one in.
+    computing: Semaphore,
+    waiting: Semaphore,
+}
+
 /// Runs `sonarproj view` until interrupted.
 pub(super) fn run(a: ViewArgs) -> Result<()> {
     let first = Choice::resolve(&a.from).map_err(|e| e.in_context("--from"))?;
@@ -97,15 +141,26 @@ pub(super) fn run(a: ViewArgs) -> Result<()> {
         eprintln!("{n}");
     }
     let initial = json!({ "from": first.label, "to": second.label });
-    let mut viewer = Viewer::new(vec![first, second], backend, choice, gpu);
+    let viewer = Viewer::new(vec![first, second], backend, choice, gpu);
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_io()
+        .enable_time()
+        .thread_name("sonarproj-view")
+        .build()
+        .map_err(|e| Error::Serve(format!("cannot start the server's runtime: {e}")))?;
+    runtime.block_on(serve(a, viewer, initial))
+}
 
-    let server = Server::http(SocketAddr::new(a.bind, a.port))
+/// Listens and serves until the process is stopped.
+async fn serve(a: ViewArgs, viewer: Viewer, initial: serde_json::Value) -> Result<()> {
+    let listener = tokio::net::TcpListener::bind(SocketAddr::new(a.bind, a.port))
+        .await
         .map_err(|e| Error::Serve(format!("cannot listen on {}:{}: {e}", a.bind, a.port)))?;
-    let port = server
-        .server_addr()
-        .to_ip()
-        .map(|s| s.port())
-        .ok_or_else(|| Error::Serve("not listening on an IP address".into()))?;
+    let port = listener
+        .local_addr()
+        .map_err(|e| Error::Serve(format!("no local address: {e}")))?
+        .port();
     let shown_host = match a.bind {
         IpAddr::V4(v) if v.is_unspecified() => "127.0.0.1".to_string(),
         IpAddr::V6(v) if v.is_unspecified() => "[::1]".to_string(),
@@ -122,14 +177,45 @@ pub(super) fn run(a: ViewArgs) -> Result<()> {
     {
         eprintln!("note: could not open a browser ({e}); open {url} yourself");
     }
-
-    for request in server.incoming_requests() {
-        let reply = answer(&mut viewer, &initial, port, request);
-        if let Err(e) = reply {
-            eprintln!("note: a reply was not sent: {e}");
-        }
+    let shared = Arc::new(Shared {
+        viewer,
+        initial,
+        port,
+        computing: Semaphore::new(computing()),
+        waiting: Semaphore::new(computing() + MAX_WAITING),
+    });
+    let connections = Arc::new(Semaphore::new(MAX_CONNECTIONS));
+    loop {
+        let Ok(permit) = Arc::clone(&connections).acquire_owned().await else {
+            return Ok(());
+        };
+        let (stream, _) = match listener.accept().await {
+            Ok(c) => c,
+            Err(e) => {
+                eprintln!("note: a connection was not accepted: {e}");
+                tokio::time::sleep(Duration::from_millis(50)).await;
+                continue;
+            }
+        };
+        let shared = Arc::clone(&shared);
+        tokio::spawn(async move {
+            let service = hyper::service::service_fn(move |request| {
+                let shared = Arc::clone(&shared);
+                async move { Ok::<_, std::convert::Infallible>(answer(&shared, request).await) }
+            });
+            let mut http = hyper::server::conn::http1::Builder::new();
+            http.timer(hyper_util::rt::TokioTimer::new())
+                .header_read_timeout(HEAD_TIMEOUT)
+                .max_buf_size(MAX_HEAD_BYTES)
+                .max_headers(MAX_HEADERS);
+            // An error here is the client's (it went away, sent a bad head or too slowly):
+            // hyper has answered what could be answered.
+            let _ = http
+                .serve_connection(hyper_util::rt::TokioIo::new(stream), service)
+                .await;
+            drop(permit);
+        });
     }
-    Ok(())
 }
 
 /// Returns true when `host` (a `Host` header value, or an `Origin`'s authority) names this
@@ -149,99 +235,195 @@ fn allowed_host(host: &str, port: u16) -> bool {
     name.eq_ignore_ascii_case("localhost") || name.parse::<IpAddr>().is_ok()
 }
 
-/// Returns why `request` is refused (403), or `None` when its `Host` and `Origin` are ours.
-fn refused(request: &Request, port: u16) -> Option<String> {
-    let header = |name: &'static str| {
-        request
-            .headers()
-            .iter()
-            .find(|h| h.field.equiv(name))
-            .map(|h| h.value.as_str().to_string())
+/// Returns why `request` is refused, with its status (400 for a doubled header, 403 for a
+/// foreign one), or `None` when its one `Host` and its `Origin` are ours.
+fn refused(request: &Request<Incoming>, port: u16) -> Option<(StatusCode, String)> {
+    let one = |name: hyper::header::HeaderName, shown: &str| {
+        let mut all = request.headers().get_all(&name).iter();
+        match (all.next(), all.next()) {
+            (Some(v), None) => Ok(Some(v.to_str().unwrap_or("").to_string())),
+            (None, _) => Ok(None),
+            (Some(_), Some(_)) => Err((StatusCode::BAD_REQUEST, format!("more than one {shown} header"))),
+        }
     };
-    let host = header("Host").unwrap_or_default();
+    let host = match one(HOST, "Host") {
+        Ok(h) => h.unwrap_or_default(),
+        Err(e) => return Some(e),
+    };
     if !allowed_host(&host, port) {
-        return Some(format!(
-            "Host {host:?} is not this viewer (use http://127.0.0.1:{port}/)"
+        return Some((
+            StatusCode::FORBIDDEN,
+            format!(
+                "Host {} is not this viewer (use http://127.0.0.1:{port}/)",
+                quoted(&host)
+            ),
         ));
     }
-    if let Some(origin) = header("Origin") {
-        let ok = origin
-            .strip_prefix("http://")
-            .is_some_and(|o| o.eq_ignore_ascii_case(&host) && allowed_host(o, port));
-        if !ok {
-            return Some(format!("Origin {origin:?} is not this viewer"));
+    match one(ORIGIN, "Origin") {
+        Err(e) => Some(e),
+        Ok(Some(origin)) => {
+            let ok = origin
+                .strip_prefix("http://")
+                .is_some_and(|o| o.eq_ignore_ascii_case(&host) && allowed_host(o, port));
+            (!ok).then(|| {
+                (
+                    StatusCode::FORBIDDEN,
+                    format!("Origin {} is not this viewer", quoted(&origin)),
+                )
+            })
         }
+        Ok(None) => None,
     }
-    None
 }
 
-/// Returns a header; the names and values are fixed ASCII.
-fn header(name: &str, value: &str) -> Header {
-    Header::from_bytes(name.as_bytes(), value.as_bytes()).expect("ASCII header")
+/// Returns `text` quoted for an error reply, cut to [`QUOTED_PATH_CHARS`] characters.
+fn quoted(text: &str) -> String {
+    match text.char_indices().nth(QUOTED_PATH_CHARS) {
+        None => format!("{text:?}"),
+        Some((at, _)) => format!("{:?}… ({} bytes)", &text[..at], text.len()),
+    }
 }
 
 /// Returns `body` as a response with `status` and `content_type`, and the headers every reply
 /// carries (no caching, no sniffing, the page's content security policy).
-fn reply(status: u16, content_type: &str, body: Vec<u8>) -> Response<std::io::Cursor<Vec<u8>>> {
-    Response::from_data(body)
-        .with_status_code(status)
-        .with_header(header("Content-Type", content_type))
-        .with_header(header("Cache-Control", "no-store"))
-        .with_header(header("X-Content-Type-Options", "nosniff"))
-        .with_header(header("Referrer-Policy", "no-referrer"))
-        .with_header(header("Content-Security-Policy", CSP))
+fn reply(status: StatusCode, content_type: &'static str, body: Bytes) -> Response<Full<Bytes>> {
+    let mut r = Response::new(Full::new(body));
+    *r.status_mut() = status;
+    let h = r.headers_mut();
+    for (name, value) in [
+        ("content-type", content_type),
+        ("cache-control", "no-store"),
+        ("x-content-type-options", "nosniff"),
+        ("referrer-policy", "no-referrer"),
+        ("content-security-policy", CSP),
+    ] {
+        h.insert(name, HeaderValue::from_static(value));
+    }
+    r
 }
 
 /// Returns a JSON reply.
-fn json_reply(status: u16, value: &serde_json::Value) -> Response<std::io::Cursor<Vec<u8>>> {
+fn json_reply(status: StatusCode, value: &serde_json::Value) -> Response<Full<Bytes>> {
     reply(
         status,
         "application/json",
-        serde_json::to_vec(value).expect("plain JSON values"),
+        Bytes::from(serde_json::to_vec(value).expect("plain JSON values")),
     )
 }
 
 /// Returns a JSON error reply: `{"error": message, "input": is_input}`.
-fn error_reply(status: u16, message: &str, input: bool) -> Response<std::io::Cursor<Vec<u8>>> {
+fn error_reply(status: StatusCode, message: &str, input: bool) -> Response<Full<Bytes>> {
     json_reply(status, &json!({ "error": message, "input": input }))
 }
 
-/// Answers one request.
-fn answer(
-    viewer: &mut Viewer,
-    initial: &serde_json::Value,
-    port: u16,
-    mut request: Request,
-) -> std::io::Result<()> {
-    if let Some(why) = refused(&request, port) {
-        return request.respond(error_reply(403, &why, true));
+/// Sets its flag when dropped: the request's future was dropped (its client went away) or it
+/// finished; the scene's blocking work then stops at its next stage.
+struct GoneOnDrop(Arc<AtomicBool>);
+
+impl Drop for GoneOnDrop {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Relaxed);
     }
-    let path = request.url().split('?').next().unwrap_or("/").to_string();
-    let path = if path == "/index.html" { "/" } else { &path };
-    let response = match (request.method(), path) {
-        (Method::Get | Method::Head, "/api/init") => {
-            let mut init = viewer.init();
-            init["initial"] = initial.clone();
-            json_reply(200, &init)
+}
+
+/// Answers one request.
+async fn answer(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Full<Bytes>> {
+    if let Some((status, why)) = refused(&request, shared.port) {
+        return error_reply(status, &why, true);
+    }
+    let path = request.uri().path();
+    let path = if path == "/index.html" { "/" } else { path };
+    match (request.method(), path) {
+        (&Method::GET | &Method::HEAD, "/api/init") => {
+            let mut init = shared.viewer.init();
+            init["initial"] = shared.initial.clone();
+            json_reply(StatusCode::OK, &init)
         }
-        (Method::Post, "/api/scene") => {
-            let mut body = Vec::new();
-            let limit = u64::try_from(MAX_REQUEST_BYTES).expect("small") + 1;
-            match request.as_reader().take(limit).read_to_end(&mut body) {
-                Err(e) => error_reply(400, &format!("cannot read the request: {e}"), true),
-                Ok(_) => match Scene::parse(&body).and_then(|s| viewer.scene(&s)) {
-                    Ok(v) => json_reply(200, &v),
-                    Err(e) => error_reply(if e.is_input() { 400 } else { 500 }, &e.to_string(), e.is_input()),
-                },
-            }
-        }
-        (Method::Get | Method::Head, p) => match ASSETS.iter().find(|(name, _, _)| *name == p) {
-            Some((_, kind, bytes)) => reply(200, kind, bytes.to_vec()),
-            None => error_reply(404, &format!("no such page: {p}"), true),
+        (&Method::POST, "/api/scene") => scene(shared, request).await,
+        (&Method::GET | &Method::HEAD, p) => match ASSETS.iter().find(|(name, _, _)| *name == p) {
+            Some((_, kind, bytes)) => reply(StatusCode::OK, kind, Bytes::from_static(bytes)),
+            None => error_reply(
+                StatusCode::NOT_FOUND,
+                &format!("no such page: {}", quoted(p)),
+                true,
+            ),
         },
-        (m, p) => error_reply(405, &format!("{m} {p} is not served"), true),
+        (m, p) => error_reply(
+            StatusCode::METHOD_NOT_ALLOWED,
+            &format!("{m} {} is not served", quoted(p)),
+            true,
+        ),
+    }
+}
+
+/// Answers `POST /api/scene`: reads the body (bounded in size and time), waits for a computing
+/// slot (bounded queue) and computes the scene on a blocking thread.
+async fn scene(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Full<Bytes>> {
+    let body = Limited::new(request.into_body(), MAX_REQUEST_BYTES);
+    let body = match tokio::time::timeout(BODY_TIMEOUT, body.collect()).await {
+        Err(_) => {
+            return error_reply(
+                StatusCode::REQUEST_TIMEOUT,
+                &format!(
+                    "request: the body did not arrive within {} s",
+                    BODY_TIMEOUT.as_secs()
+                ),
+                true,
+            );
+        }
+        Ok(Err(e)) if e.downcast_ref::<LengthLimitError>().is_some() => {
+            return error_reply(
+                StatusCode::PAYLOAD_TOO_LARGE,
+                &format!("request: at most {MAX_REQUEST_BYTES} bytes"),
+                true,
+            );
+        }
+        Ok(Err(e)) => {
+            return error_reply(
+                StatusCode::BAD_REQUEST,
+                &format!("cannot read the request: {e}"),
+                true,
+            );
+        }
+        Ok(Ok(collected)) => collected.to_bytes(),
     };
-    request.respond(response)
+    let scene = match Scene::parse(&body) {
+        Ok(s) => s,
+        Err(e) => return error_reply(StatusCode::BAD_REQUEST, &e.to_string(), true),
+    };
+    let Ok(_waiting) = shared.waiting.try_acquire() else {
+        return error_reply(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "busy: too many scenes are waiting; try again",
+            false,
+        );
+    };
+    let Ok(_computing) = shared.computing.acquire().await else {
+        return error_reply(StatusCode::SERVICE_UNAVAILABLE, "the server is stopping", false);
+    };
+    let gone = Arc::new(AtomicBool::new(false));
+    let _guard = GoneOnDrop(Arc::clone(&gone));
+    let work = Arc::clone(shared);
+    let computed = tokio::task::spawn_blocking(move || {
+        work.viewer.scene_until(&scene, &|| gone.load(Ordering::Relaxed))
+    })
+    .await;
+    match computed {
+        Ok(Ok(v)) => json_reply(StatusCode::OK, &v),
+        Ok(Err(e)) => {
+            let status = if e.is_input() {
+                StatusCode::BAD_REQUEST
+            } else {
+                StatusCode::INTERNAL_SERVER_ERROR
+            };
+            error_reply(status, &e.to_string(), e.is_input())
+        }
+        Err(e) => error_reply(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            &format!("the computation failed: {e}"),
+            false,
+        ),
+    }
 }
 
 #[cfg(test)]
