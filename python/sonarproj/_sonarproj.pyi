@@ -1,7 +1,7 @@
 """Type stubs of the native module. Angles in degrees, distances in metres."""
 
 from os import PathLike
-from typing import Any, Callable, Optional, Sequence, Union
+from typing import Any, Callable, Mapping, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -63,6 +63,15 @@ class Sonar:
     @staticmethod
     def from_toml(path: Union[str, PathLike[str]]) -> Sonar:
         """Returns the sonar described by a sonar TOML file (the command line's format)."""
+    @staticmethod
+    def from_holoocean(
+        sensor: Mapping[str, Any], sensor_type: Optional[str] = None, name: Optional[str] = None
+    ) -> Sonar:
+        """Returns the sonar HoloOcean simulates for a scenario's sensor entry (``{"sensor_type":
+        "ImagingSonar", "configuration": {...}}``), or for a configuration block with
+        `sensor_type` given apart: ``ImagingSonar`` (an FLS of ``(RangeBins, AzimuthBins)``, column
+        0 the starboard-most) or ``SidescanSonar`` (a two-sided sidescan, ``RangeBins / 2`` bins a
+        side). Keys that only shape intensities are ignored; unknown keys are refused."""
     @property
     def name(self) -> str: ...
     @property

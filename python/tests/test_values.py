@@ -169,3 +169,36 @@ def test_probing_the_gpu_prints_nothing_on_a_headless_machine():
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert done.stderr == "", done.stderr
+
+
+def test_a_holoocean_sensor_entry_reads_as_the_frame_it_returns():
+    """A scenario's sensor entries, as HoloOcean's JSON scenarios write them."""
+    imaging = {"sensor_type": "ImagingSonar", "socket": "SonarSocket", "Hz": 2,
+               "configuration": {"Azimuth": 130, "Elevation": 20, "RangeMin": 1, "RangeMax": 40,
+                                 "RangeRes": 0.05, "AzimuthBins": 512, "AddSigma": 0.15,
+                                 "MultiPath": True, "ViewOctree": -10}}
+    s = Sonar.from_holoocean(imaging)
+    assert (s.kind, s.range_min, s.range_max, s.range_bins, s.beams) == ("fls", 1.0, 40.0, 780, 512)
+    assert s.name == "holoocean-ImagingSonar"
+    # Its configuration block alone, with the type given apart.
+    assert Sonar.from_holoocean(imaging["configuration"], sensor_type="ImagingSonar", name="x").range_bins == 780
+    # The defaults are the preset; the sidescan of the example scenarios is the sidescan preset.
+    assert Sonar.from_holoocean({"sensor_type": "ImagingSonar"}).beams == Sonar.preset("holoocean-imaging").beams
+    side = Sonar.from_holoocean({"sensor_type": "SidescanSonar", "configuration": {"RangeBins": 2000}})
+    assert side.sides == 2 and side.range_bins == 1000
+    preset = Sonar.preset("holoocean-sidescan")
+    assert (side.range_min, side.range_max, side.azimuth_aperture) == (preset.range_min, preset.range_max, preset.azimuth_aperture)
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda: Sonar.from_holoocean({"sensor_type": "ImagingSonar", "configuration": {"RangeMAx": 5}}), ["sensor", "RangeMAx", "not a key"]),
+    (lambda: Sonar.from_holoocean({"sensor_type": "ImagingSonar", "configuration": {"RangeMax": True}}), ["RangeMax", "not a bool"]),
+    (lambda: Sonar.from_holoocean({"sensor_type": "SidescanSonar", "configuration": {"RangeBins": 999}}), ["RangeBins = 999", "even"]),
+    (lambda: Sonar.from_holoocean({"sensor_type": "RGBCamera"}), ["sensor_type", "RGBCamera"]),
+    (lambda: Sonar.from_holoocean({"RangeMax": 5}), ["sensor_type", "missing"]),
+])
+def test_a_bad_holoocean_sensor_is_refused_naming_the_key(call, words):
+    with pytest.raises(InputError) as e:
+        call()
+    for w in words:
+        assert w in str(e.value), (w, str(e.value))

@@ -83,8 +83,9 @@ const PRESETS: &[PresetRow] = &[
         512,
         "HoloOcean ImagingSonar defaults",
     ),
-    // HoloOcean SidescanSonar defaults: RangeMin 0.5, RangeMax 35, Azimuth 170, Elevation 0.25,
-    // RangeBins 2000. Its one fan covers both sides and its frame is one row of RangeBins
+    // HoloOcean SidescanSonar as its example scenarios set it: RangeMin 0.5, RangeMax 35 (the
+    // class defaults), Azimuth 170, Elevation 0.25, RangeBins 2000 (the class default is 5 cm
+    // bins, 690 values: `Sonar::from_holoocean` reads any configuration). Its one fan covers both sides and its frame is one row of RangeBins
     // values, port far→near then starboard near→far, each side RangeBins / 2 bins over the
     // whole range (SidescanSonar.cpp: bin X = (r − RangeMin) / RangeRes, port index
     // RangeBins/2 − X/2 − 1, starboard RangeBins/2 + X/2): two sides of 1000 bins.
@@ -97,7 +98,7 @@ const PRESETS: &[PresetRow] = &[
         0.25,
         1000,
         2,
-        "HoloOcean SidescanSonar defaults (two-sided: 2 x 1000 bins)",
+        "HoloOcean SidescanSonar, RangeBins 2000 (two-sided: 2 x 1000 bins)",
     ),
 ];
 

@@ -98,6 +98,53 @@ fn read_small_text(path: &Path, limit: u64) -> Result<String> {
     String::from_utf8(bytes).map_err(|e| fail(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
 }
 
+/// Returns the sonar of a file holding a `[holoocean]` table (a HoloOcean sensor's
+/// `sensor_type` and its configuration keys) and nothing else.
+fn holoocean_file(name: &str, mut table: toml::Table) -> Result<Sonar> {
+    use super::holoocean::HoloValue;
+    let ctx = format!("sonar {name:?}");
+    if let Some(other) = table.keys().find(|k| *k != "holoocean") {
+        return Err(Error::input(
+            format!("{ctx}: {}", crate::error::excerpt(other)),
+            "a file with a [holoocean] table holds nothing else (the table describes the sonar)",
+        ));
+    }
+    let Some(toml::Value::Table(mut sensor)) = table.remove("holoocean") else {
+        return Err(Error::input(
+            format!("{ctx}: holoocean"),
+            "must be a table: [holoocean]",
+        ));
+    };
+    let sensor_type = match sensor.remove("sensor_type") {
+        Some(toml::Value::String(t)) => t,
+        _ => {
+            return Err(Error::input(
+                format!("{ctx}: holoocean.sensor_type"),
+                "missing or not a string: \"ImagingSonar\" or \"SidescanSonar\"",
+            ));
+        }
+    };
+    let config: Vec<(String, HoloValue)> = sensor
+        .into_iter()
+        .map(|(k, v)| {
+            let value = match v {
+                #[expect(
+                    clippy::cast_precision_loss,
+                    reason = "HoloOcean reads JSON numbers as doubles too"
+                )]
+                toml::Value::Integer(i) => HoloValue::Number(i as f64),
+                toml::Value::Float(f) => HoloValue::Number(f),
+                toml::Value::Boolean(_) => HoloValue::Other("bool"),
+                toml::Value::String(_) => HoloValue::Other("string"),
+                toml::Value::Array(_) => HoloValue::Other("list"),
+                _ => HoloValue::Other("table"),
+            };
+            (k, value)
+        })
+        .collect();
+    Sonar::from_holoocean(name, &sensor_type, &config).map_err(|e| e.in_context(&ctx))
+}
+
 /// The keys of a sonar TOML file.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -167,10 +214,15 @@ impl Sonar {
     /// # Errors
     /// As [`Sonar::from_toml_file`].
     pub fn from_toml_str(name: &str, text: &str) -> Result<Sonar> {
-        let file: SonarFile = toml::from_str(text).map_err(|e| Error::SonarFile {
+        let syntax = |e: &dyn std::fmt::Display| Error::SonarFile {
             path: name.into(),
             message: crate::error::parser_message(&e.to_string()),
-        })?;
+        };
+        let table: toml::Table = toml::from_str(text).map_err(|e| syntax(&e))?;
+        if table.contains_key("holoocean") {
+            return holoocean_file(name, table);
+        }
+        let file: SonarFile = SonarFile::deserialize(table).map_err(|e| syntax(&e))?;
         let ctx = format!("sonar {name:?}");
         let given = [
             file.beams.is_some(),

@@ -637,3 +637,59 @@ fn project_json_keys_are_the_metric_table() {
     assert_eq!(json["metrics"]["visible"], json["metrics"]["total"]);
     assert!(json["metrics"]["range_min"].as_f64().unwrap() < 15.0);
 }
+
+#[test]
+fn a_holoocean_sensor_file_is_a_sonar_with_its_frames_shape() {
+    // A sonar file holding a HoloOcean sensor, as its scenario configures it: the occupancy is
+    // HoloOcean's frame, (RangeBins, AzimuthBins) = ((40 − 1) / 0.05, 130 / 0.25).
+    let dir = tempfile::tempdir().unwrap();
+    let sonar = dir.path().join("imaging.toml");
+    std::fs::write(
+        &sonar,
+        "[holoocean]\nsensor_type = \"ImagingSonar\"\nAzimuth = 130\nElevation = 20\nRangeMin = 1\n\
+         RangeMax = 40\nRangeRes = 0.05\nAzimuthRes = 0.25\nAddSigma = 0.15\nMultiPath = true\n",
+    )
+    .unwrap();
+    let npy = dir.path().join("occ.npy");
+    common::sonarproj()
+        .args(["project", "--from", "paper-sss", "--to"])
+        .arg(&sonar)
+        .args([
+            "--range",
+            "15",
+            "--roll",
+            "-30",
+            "--place-range",
+            "5",
+            "--backend",
+            "cpu",
+            "--occupancy",
+        ])
+        .arg(&npy)
+        .assert()
+        .success();
+    let bytes = std::fs::read(&npy).unwrap();
+    let arr = npyz::NpyFile::new(bytes.as_slice()).unwrap();
+    assert_eq!(arr.shape(), &[780, 520]);
+    // A misspelt key is refused naming it, not read as the default.
+    std::fs::write(
+        &sonar,
+        "[holoocean]\nsensor_type = \"ImagingSonar\"\nRangeMAx = 40\n",
+    )
+    .unwrap();
+    common::rejects(
+        &[
+            "project",
+            "--from",
+            "paper-sss",
+            "--to",
+            sonar.to_str().unwrap(),
+            "--range",
+            "15",
+            "--place-range",
+            "5",
+        ],
+        None,
+        &["HoloOcean ImagingSonar: \"RangeMAx\"", "not a key"],
+    );
+}

@@ -136,6 +136,79 @@ impl PySonar {
             .map_err(errors::engine)
     }
 
+    /// Returns the sonar HoloOcean simulates for `sensor`: a scenario's sensor entry (a dict
+    /// with `sensor_type` and, optionally, `configuration`), or a `configuration` block with
+    /// `sensor_type` given apart. Its layout is the frame HoloOcean returns, index for index
+    /// (README: Sonars).
+    #[staticmethod]
+    #[pyo3(signature = (sensor, sensor_type=None, name=None))]
+    fn from_holoocean(
+        sensor: &Bound<'_, pyo3::types::PyDict>,
+        sensor_type: Option<String>,
+        name: Option<String>,
+    ) -> PyResult<Self> {
+        use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
+        use sonarproj::geometry::holoocean::HoloValue;
+        let entry = sensor.contains("sensor_type")? || sensor.contains("configuration")?;
+        let (kind, config) = if entry {
+            if sensor_type.is_some() {
+                return Err(errors::input(
+                    "sensor_type",
+                    "given twice: the sensor entry has its own; leave the argument out",
+                ));
+            }
+            let kind: String = match sensor.get_item("sensor_type")? {
+                Some(t) => t.extract().map_err(|_| {
+                    errors::input(
+                        "sensor",
+                        "sensor[\"sensor_type\"] must be a string, e.g. \"ImagingSonar\"",
+                    )
+                })?,
+                None => {
+                    return Err(errors::input(
+                        "sensor",
+                        "has a configuration but no \"sensor_type\"",
+                    ));
+                }
+            };
+            let config = match sensor.get_item("configuration")? {
+                None => PyDict::new(sensor.py()),
+                Some(c) => c
+                    .cast_into::<PyDict>()
+                    .map_err(|_| errors::input("sensor", "sensor[\"configuration\"] must be a dict"))?,
+            };
+            (kind, config)
+        } else {
+            let Some(kind) = sensor_type else {
+                return Err(errors::input(
+                    "sensor_type",
+                    "missing: give a sensor entry with \"sensor_type\", or sensor_type=\"ImagingSonar\" or \"SidescanSonar\"",
+                ));
+            };
+            (kind, sensor.clone())
+        };
+        let mut pairs = Vec::new();
+        for (k, v) in config.iter() {
+            let key: String = k
+                .extract()
+                .map_err(|_| errors::input("sensor", format!("configuration key {k} is not a string")))?;
+            let value = if v.is_instance_of::<PyBool>() {
+                HoloValue::Other("bool")
+            } else if v.is_instance_of::<PyInt>() || v.is_instance_of::<PyFloat>() {
+                HoloValue::Number(v.extract::<f64>()?)
+            } else if v.is_instance_of::<PyString>() {
+                HoloValue::Other("string")
+            } else {
+                HoloValue::Other("non-number")
+            };
+            pairs.push((key, value));
+        }
+        let name = name.unwrap_or_else(|| format!("holoocean-{kind}"));
+        Sonar::from_holoocean(&name, &kind, &pairs)
+            .map(|inner| PySonar { inner })
+            .map_err(|e| errors::engine(e.in_context("sensor")))
+    }
+
     /// The sonar's name (a preset's name, the file, or the name given).
     #[getter]
     fn name(&self) -> &str {

@@ -1,13 +1,18 @@
-//! HoloOcean's `SidescanSonar` returns one row of `RangeBins` values for both sides: port from
-//! far to near, then starboard from near to far. The `holoocean-sidescan` preset is that row,
-//! bin for bin. These tests hold every backend's occupancy and masks to an independent copy of
-//! the simulator's own indexing (its `SidescanSonar.cpp`, restated below), for points to port
-//! and to starboard.
+//! HoloOcean's frames, index for index. Its `SidescanSonar` returns one row of `RangeBins`
+//! values for both sides: port from far to near, then starboard from near to far; the
+//! `holoocean-sidescan` preset is that row, bin for bin. Its `ImagingSonar` returns
+//! `(RangeBins, AzimuthBins)`, row `X = (int)((r − RangeMin) / RangeRes)`, column
+//! `Y = (int)((az − (−Azimuth/2)) / AzimuthRes)` with its azimuth `atan2(−y_unreal, x)`, positive
+//! to port. These tests hold every backend's occupancy and masks, for presets and for sonars read
+//! from HoloOcean configurations (`Sonar::from_holoocean`), to independent copies of the
+//! simulator's own indexing (its `SidescanSonar.cpp` and `ImagingSonar.cpp`, restated below), for
+//! points to port and to starboard.
 
 use sonarproj_testkit as common;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use sonarproj::geometry::holoocean::HoloValue::Number;
 use sonarproj::masks::{Counts, MaskEngine, bounding_box};
 use sonarproj::projection::{fast, reference};
 use sonarproj::{
@@ -269,4 +274,112 @@ fn a_sidescan_pair_takes_one_sided_channels() {
     assert!(e.contains("sides") && e.contains("one-sided"), "{e}");
     let one = Sonar::preset("paper-sss").unwrap();
     assert!(sonarproj::rig::sidescan_pair(&one, 30.0, glam::DVec3::ZERO, glam::DVec3::ZERO).is_ok());
+}
+
+/// An imaging sonar as a HoloOcean scenario configures one (not the defaults: every number of
+/// the layout differs from them, and the bins come from resolutions).
+const IMAGING: [(&str, f64); 7] = [
+    ("Azimuth", 130.0),
+    ("Elevation", 20.0),
+    ("RangeMin", 1.0),
+    ("RangeMax", 40.0),
+    ("RangeRes", 0.05),
+    ("AzimuthRes", 0.25),
+    ("InitOctreeRange", 50.0),
+];
+
+/// Returns the index HoloOcean's `ImagingSonar` writes a return at range `r` (m) and azimuth
+/// `az` (deg, positive to port) to in its frame of [`IMAGING`]: `X · AzimuthBins + Y`.
+#[expect(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "HoloOcean's own (int) casts of a point inside the sonar's view"
+)]
+fn holoocean_imaging_index(r: f64, az: f64) -> usize {
+    let (range_min, range_res, azimuth, azimuth_res) = (1.0, 0.05, 130.0, 0.25);
+    let azimuth_bins = (azimuth / azimuth_res) as usize;
+    let x = ((r - range_min) / range_res) as usize;
+    let y = ((az - (-azimuth / 2.0)) / azimuth_res) as usize;
+    x * azimuth_bins + y
+}
+
+fn imaging_from_config() -> Sonar {
+    let config: Vec<_> = IMAGING.iter().map(|&(k, v)| (k.to_string(), Number(v))).collect();
+    Sonar::from_holoocean("scenario-imaging", "ImagingSonar", &config).unwrap()
+}
+
+#[test]
+fn an_imaging_sonar_from_its_configuration_puts_points_where_holoocean_does() {
+    let target = imaging_from_config();
+    let layout = Layout::of(&target);
+    assert_eq!(
+        layout.data_shape(),
+        (780, 520),
+        "(RangeBins, AzimuthBins) of HoloOcean's frame"
+    );
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    let mut points = vec![
+        [1.01, 64.9, 0.0],
+        [1.01, -64.9, 0.0],
+        [39.99, 0.1, 5.0],
+        [20.02, -0.1, -5.0],
+    ];
+    while points.len() < 300 {
+        let (r, az): (f64, f64) = (rng.random_range(1.0..40.0), rng.random_range(-65.0..65.0));
+        // Away from bin edges, where the rounding of the placement may decide either way.
+        let (fr, fa) = ((r - 1.0) / 0.05, (az + 65.0) / 0.25);
+        if (fr - fr.round()).abs() > 1e-6 && (fa - fa.round()).abs() > 1e-6 {
+            points.push([r, az, rng.random_range(-9.0..9.0)]);
+        }
+    }
+    let source = point_source();
+    let items: Vec<BatchItem> = points.iter().map(|&p| item_at(&mut rng, &source, p)).collect();
+    let batch = Batch {
+        items,
+        source,
+        target,
+        sampling: Sampling::Step(1.0),
+        area_grid: sonarproj::PAPER_AREA_GRID,
+    };
+    let prepared = batch.prepare().unwrap();
+    let mut runs = vec![
+        ("cpu", reference::project(&prepared, Output::WithOccupancy)),
+        ("cpu-fast", fast::project(&prepared, Output::WithOccupancy)),
+    ];
+    if let Some(gpu) = common::gpu() {
+        runs.push(("gpu", gpu.project(&prepared, Output::WithOccupancy).unwrap()));
+    }
+    for (name, results) in runs {
+        for (p, result) in points.iter().zip(&results) {
+            let occ = result.occupancy.as_ref().unwrap();
+            let set: Vec<usize> = occ.pixels().map(|(i, j)| i * occ.beams + j).collect();
+            assert_eq!(
+                set,
+                vec![holoocean_imaging_index(p[0], p[1])],
+                "{name}: point {p:?}"
+            );
+        }
+    }
+    // Port is the high columns, starboard column 0.
+    assert_eq!(holoocean_imaging_index(1.01, -64.9) % 520, 0);
+    assert_eq!(holoocean_imaging_index(1.01, 64.9) % 520, 519);
+}
+
+#[test]
+fn a_sidescan_from_its_configuration_is_the_preset_row() {
+    let config = [
+        ("RangeMin".to_string(), Number(RANGE_MIN)),
+        ("RangeMax".to_string(), Number(RANGE_MAX)),
+        ("RangeBins".to_string(), Number(RANGE_BINS as f64)),
+    ];
+    let s = Sonar::from_holoocean("scenario-sidescan", "SidescanSonar", &config).unwrap();
+    let preset = Sonar::preset("holoocean-sidescan").unwrap();
+    assert_eq!(Layout::of(&s).data_shape(), (RANGE_BINS, 1));
+    assert_eq!(
+        Sonar {
+            name: preset.name.clone(),
+            ..s
+        },
+        preset
+    );
 }
