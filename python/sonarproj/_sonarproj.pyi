@@ -285,3 +285,21 @@ def sweep_merge(out_dir: str) -> tuple[str, Optional[str]]: ...
 def paper_run(
     out_dir: str, angle_step: float, step: Optional[float], backend_name: str
 ) -> tuple[dict[str, Any], Optional[str]]: ...
+
+
+class OculusPing:
+    """One saved Oculus ping (see :func:`sonarproj.read_oculus`)."""
+
+    sonar: Sonar
+    image: npt.NDArray[Any]
+    """uint8 or uint16, ``(ranges, beams)``: row 0 the nearest range, column 0 the starboard-most beam."""
+    gains: Optional[npt.NDArray[np.uint32]]
+    bearings: list[float]
+    """Degrees, positive to port."""
+    ping_id: int
+    frequency: float
+    range_resolution: float
+    offset: int
+    version: int
+
+def read_oculus(path: str, elevation: Optional[float] = None) -> list[OculusPing]: ...

@@ -294,6 +294,43 @@ impl Sonar {
         Ok(sonar)
     }
 
+    /// Returns the sonar as a sonar TOML file's text, every number exact (Rust's shortest
+    /// round-trip form): [`Sonar::from_toml_str`] reads it back to this sonar.
+    ///
+    /// ```
+    /// use sonarproj::Sonar;
+    /// let s = Sonar::preset("holoocean-sidescan").unwrap();
+    /// let back = Sonar::from_toml_str(&s.name, &s.to_toml())?;
+    /// assert_eq!(back, s);
+    /// # Ok::<(), sonarproj::Error>(())
+    /// ```
+    #[must_use]
+    pub fn to_toml(&self) -> String {
+        use std::fmt::Write;
+        let mut t = format!(
+            "kind = \"{}\"\nrange_min = {:?}\nrange_max = {:?}\nazimuth_aperture = {:?}\n\
+             elevation_aperture = {:?}\nrange_bins = {}\n",
+            self.kind.name(),
+            self.range_min,
+            self.range_max,
+            self.azimuth_aperture,
+            self.elevation_aperture,
+            self.range_bins
+        );
+        match (&self.beams, self.kind) {
+            (BeamLayout::Uniform { count: 2 }, SonarKind::Sss) => t.push_str("sides = 2\n"),
+            (_, SonarKind::Sss) => {}
+            (BeamLayout::Uniform { count }, SonarKind::Fls) => {
+                let _ = writeln!(t, "beams = {count}");
+            }
+            (BeamLayout::Edges(edges), SonarKind::Fls) => {
+                let list: Vec<String> = edges.iter().map(|e| format!("{e:?}")).collect();
+                let _ = writeln!(t, "beam_edges = [{}]", list.join(", "));
+            }
+        }
+        t
+    }
+
     /// Returns the sonar when every field holds (README: Sonars): the way to check a sonar
     /// built by hand.
     ///
@@ -648,6 +685,25 @@ fn edges_from_centres(ctx: &str, aperture: f64, centres: &[f64]) -> Result<Vec<f
 
 #[cfg(test)]
 mod tests {
+    /// Every preset, a sidescan with two sides and an imaging sonar with a driver's uneven
+    /// beams read back from their TOML to themselves, bit for bit.
+    #[test]
+    fn to_toml_reads_back_to_the_same_sonar() {
+        let mut sonars: Vec<Sonar> = Sonar::preset_names()
+            .into_iter()
+            .map(|n| Sonar::preset(n).unwrap())
+            .collect();
+        let uneven = Sonar::preset("holoocean-imaging")
+            .unwrap()
+            .with_beam_centres(&[-59.3, -20.1, -3.7, 0.1, 1.0 / 3.0, 17.77, 58.0], None)
+            .unwrap();
+        sonars.push(uneven);
+        for s in sonars {
+            let back = Sonar::from_toml_str(&s.name, &s.to_toml()).unwrap();
+            assert_eq!(back, s, "{}", s.to_toml());
+        }
+    }
+
     use super::*;
 
     #[test]

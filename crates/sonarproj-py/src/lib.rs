@@ -12,6 +12,7 @@ mod backend;
 mod batch;
 mod errors;
 mod masks;
+mod oculus;
 mod pose;
 mod recover;
 mod runtime;
@@ -35,6 +36,8 @@ fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<pose::PyMount>()?;
     m.add_class::<masks::PyMaskEngine>()?;
     m.add_class::<masks::PyMaskSet>()?;
+    m.add_class::<oculus::PyOculusPing>()?;
+    m.add_function(wrap_pyfunction!(oculus::read_oculus, m)?)?;
     m.add_function(wrap_pyfunction!(sonar::presets, m)?)?;
     m.add_function(wrap_pyfunction!(backend::configure_gpu, m)?)?;
     m.add_function(wrap_pyfunction!(batch::batch_columns, m)?)?;

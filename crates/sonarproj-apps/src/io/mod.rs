@@ -3,6 +3,7 @@
 //! — pose strings, features, mask stream lines (`text`).
 
 pub mod batch;
+pub mod oculus;
 pub mod pose_columns;
 pub mod recover;
 pub mod table;

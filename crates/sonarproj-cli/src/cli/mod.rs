@@ -20,6 +20,7 @@ mod paper;
 mod pose_args;
 mod project;
 mod recover;
+mod sonar;
 mod sweep;
 mod view;
 
@@ -65,6 +66,10 @@ enum Command {
     Bench(bench::BenchArgs),
     /// List the GPU adapters wgpu sees and which one `--backend auto` would use.
     Devices,
+    /// Sonars from what their owners have: `sonar from-oculus PING --out DIR` reads a saved
+    /// Oculus ping into a sonar file and its image.
+    #[command(subcommand)]
+    Sonar(sonar::SonarCommand),
     /// Open the interactive viewer: a local web page (served from this binary on 127.0.0.1)
     /// with sliders for the feature and the pose, the 3-D geometry, sonar 2's data, the metrics
     /// and the scene as a command line, a sweep file or Python.
@@ -225,6 +230,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
         Command::Recover(a) => recover::run(a),
         Command::Bench(a) => bench::run(a),
         Command::Devices => devices::run(),
+        Command::Sonar(c) => sonar::run(c),
         Command::View(a) => view::run(a),
     }
 }

@@ -1,0 +1,109 @@
+//! `sonarproj sonar`: sonars read from what their owners have. `from-oculus` reads a saved
+//! Oculus ping into a sonar file and the ping's image.
+
+use std::path::PathBuf;
+
+use sonarproj_apps::Result;
+use sonarproj_apps::io::oculus::{OculusImage, read_oculus};
+use sonarproj_apps::report::{check_output_dir, output_dir, write_atomic, write_npy};
+
+/// The sub-commands of `sonarproj sonar`.
+#[derive(Debug, clap::Subcommand)]
+pub(super) enum SonarCommand {
+    /// Read a saved Oculus M-series ping (simple ping result, version 1 or 2) into DIR/sonar.toml
+    /// (its exact beams and range lines) and DIR/image.npy (uint8 or uint16, ranges × beams,
+    /// row 0 the nearest range, column 0 the starboard-most beam); --to DIR/sonar.toml then
+    /// works everywhere a sonar file does.
+    FromOculus(FromOculusArgs),
+}
+
+/// Options of `sonarproj sonar from-oculus`.
+#[derive(Debug, clap::Args)]
+pub(super) struct FromOculusArgs {
+    /// The saved ping(s): Oculus network messages back to back.
+    #[arg(value_name = "PING")]
+    file: PathBuf,
+    /// Output directory (created when missing).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Which ping of the file (0 for the first).
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    ping: usize,
+    /// Elevation aperture (deg), for a frequency whose aperture is not known (the units' are:
+    /// 20° at 750 kHz, 1.2 and 3 MHz, 12° at 2.1 MHz).
+    #[arg(long, value_name = "DEG")]
+    elevation: Option<f64>,
+    /// Also write DIR/gains.npy (uint32, one per range line) when the ping carries gains.
+    #[arg(long)]
+    gains: bool,
+}
+
+/// Runs `sonarproj sonar …`.
+pub(super) fn run(c: SonarCommand) -> Result<()> {
+    match c {
+        SonarCommand::FromOculus(a) => from_oculus(a),
+    }
+}
+
+fn from_oculus(a: FromOculusArgs) -> Result<()> {
+    check_output_dir(&a.out, "--out")?;
+    let pings = read_oculus(&a.file, a.elevation)?;
+    let n = pings.len();
+    let Some(p) = pings.into_iter().nth(a.ping) else {
+        return Err(sonarproj_apps::Error::invalid(
+            "--ping",
+            a.ping,
+            format!(
+                "the file holds {n} ping{} (0 to {})",
+                if n == 1 { "" } else { "s" },
+                n - 1
+            ),
+        ));
+    };
+    output_dir(&a.out, "--out")?;
+    let toml = a.out.join("sonar.toml");
+    let header = format!(
+        "# Oculus ping {} of {} (message at byte {}, layout version {}): {} Hz, {} m per range line.\n\
+         # Bearings as the ping gives them (deg, positive to port): the beam centres.\n",
+        p.ping_id,
+        a.file.display(),
+        p.offset,
+        p.version,
+        p.frequency,
+        p.range_resolution
+    );
+    let text = format!("{header}{}", p.sonar.to_toml());
+    write_atomic(&toml, |w| {
+        w.write_all(text.as_bytes())
+            .map_err(|e| sonarproj_apps::Error::write_output(&toml, e))
+    })?;
+    let shape = [u64::from(p.sonar.range_bins), u64::from(p.sonar.beam_count())];
+    let image = a.out.join("image.npy");
+    write_atomic(&image, |w| match &p.image {
+        OculusImage::U8(v) => write_npy(w, &shape, v.iter().copied(), &image),
+        OculusImage::U16(v) => write_npy(w, &shape, v.iter().copied(), &image),
+    })?;
+    if a.gains
+        && let Some(g) = &p.gains
+    {
+        let path = a.out.join("gains.npy");
+        write_atomic(&path, |w| write_npy(w, &[shape[0]], g.iter().copied(), &path))?;
+    }
+    outln!(
+        "ping {} of {n}: {} ranges × {} beams ({}-bit), {:.4}–{:.4} m, beams {:.2}° to {:.2}°; wrote {} and {}",
+        a.ping,
+        shape[0],
+        shape[1],
+        if matches!(p.image, OculusImage::U8(_)) {
+            8
+        } else {
+            16
+        },
+        p.sonar.range_min,
+        p.sonar.range_max,
+        p.bearings_deg.first().copied().unwrap_or(0.0),
+        p.bearings_deg.last().copied().unwrap_or(0.0),
+        toml.display(),
+        image.display()
+    )
+}
