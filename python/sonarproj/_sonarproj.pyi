@@ -64,6 +64,15 @@ class Sonar:
     def from_toml(path: Union[str, PathLike[str]]) -> Sonar:
         """Returns the sonar described by a sonar TOML file (the command line's format)."""
     @staticmethod
+    def from_projected_sonar_image(
+        beam_directions: Any, ranges: Any, elevation_aperture: float, name: Optional[str] = None
+    ) -> tuple[Sonar, npt.NDArray[np.uintp]]:
+        """Returns ``(sonar, columns)`` for a ROS ``marine_acoustic_msgs/ProjectedSonarImage``'s
+        beam table: ``beam_directions`` ((n, 3), the message's frame: X up, Y starboard, Z
+        forward), ``ranges`` (bin centres, m, evenly spaced) and ``elevation_aperture`` (deg, the
+        message's ``ping_info.tx_beamwidths`` in degrees). Beam ``k`` of the sonar is column
+        ``columns[k]`` of the message's image: ``image[:, columns]`` is in this project's layout."""
+    @staticmethod
     def from_holoocean(
         sensor: Mapping[str, Any], sensor_type: Optional[str] = None, name: Optional[str] = None
     ) -> Sonar:

@@ -202,3 +202,21 @@ def test_a_bad_holoocean_sensor_is_refused_naming_the_key(call, words):
         call()
     for w in words:
         assert w in str(e.value), (w, str(e.value))
+
+
+def test_a_projected_sonar_image_beam_table_reads_as_a_sonar_and_its_columns():
+    """ROS ProjectedSonarImage: X up, Y starboard, Z forward. Beams listed port to starboard
+    (as a driver may) come back starboard-first, with the columns that put them there."""
+    az = np.radians([30.0, 10.0, 0.0, -12.0, -30.0])  # port to starboard
+    directions = np.column_stack([np.zeros(5), -np.sin(az), np.cos(az)])
+    ranges = (np.arange(40) + 0.5) * 0.25
+    s, columns = Sonar.from_projected_sonar_image(directions, ranges, 20.0, name="ros")
+    assert list(columns) == [4, 3, 2, 1, 0]
+    assert (s.kind, s.range_min, s.range_max, s.range_bins, s.beams, s.elevation_aperture) == ("fls", 0.0, 10.0, 40, 5, 20.0)
+    edges = s.beam_edges
+    for k, j in enumerate(columns):
+        assert edges[k] < np.degrees(az[j]) < edges[k + 1]
+    with pytest.raises(InputError, match=r"beam_directions\[1\]"):
+        Sonar.from_projected_sonar_image([[0, 0, 1], [0.5, 0, 1], [0, 0.2, 1]], ranges, 20.0)
+    with pytest.raises(InputTypeError, match="ranges"):
+        Sonar.from_projected_sonar_image(directions, "abc", 20.0)

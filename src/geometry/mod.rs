@@ -6,6 +6,7 @@ pub mod holoocean;
 pub mod pose;
 mod presets;
 pub mod rig;
+pub mod ros;
 pub mod sonar;
 
 pub use pose::{RelativePose, Rotation, cart_to_sph, sph_to_cart};

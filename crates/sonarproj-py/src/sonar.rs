@@ -209,6 +209,32 @@ impl PySonar {
             .map_err(|e| errors::engine(e.in_context("sensor")))
     }
 
+    /// Returns `(sonar, columns)` for a ROS `ProjectedSonarImage`'s beam table:
+    /// `beam_directions` (n × 3, the message's frame: X up, Y starboard, Z forward) and `ranges`
+    /// (the centres of evenly spaced bins, m), with `elevation_aperture` (deg); beam `k` of the
+    /// sonar is column `columns[k]` of the message's image.
+    #[staticmethod]
+    #[pyo3(signature = (beam_directions, ranges, elevation_aperture, name=None))]
+    fn from_projected_sonar_image<'py>(
+        py: Python<'py>,
+        beam_directions: &Bound<'py, PyAny>,
+        ranges: &Bound<'py, PyAny>,
+        elevation_aperture: f64,
+        name: Option<String>,
+    ) -> PyResult<(Self, Bound<'py, numpy::PyArray1<usize>>)> {
+        use numpy::IntoPyArray;
+        let dirs: Vec<[f64; 3]> = beam_directions.extract().map_err(|_| {
+            crate::values::wrong_type(py, "beam_directions", "expected an (n, 3) array of numbers")
+        })?;
+        let ranges: Vec<f64> = ranges
+            .extract()
+            .map_err(|_| crate::values::wrong_type(py, "ranges", "expected a 1-D array of numbers"))?;
+        let name = name.unwrap_or_else(|| "ros-projected-sonar-image".to_string());
+        let (inner, columns) = Sonar::from_projected_sonar_image(&name, &dirs, &ranges, elevation_aperture)
+            .map_err(errors::engine)?;
+        Ok((PySonar { inner }, columns.into_pyarray(py)))
+    }
+
     /// The sonar's name (a preset's name, the file, or the name given).
     #[getter]
     fn name(&self) -> &str {
