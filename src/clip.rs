@@ -179,17 +179,57 @@ impl Layout {
         reason = "a saturating float-to-index conversion, clamped to the table right after"
     )]
     #[must_use]
+    #[inline]
     pub fn range_bin(&self, r: f64) -> usize {
-        let i = ((r - self.range_min) / self.range_bin_width).floor();
-        (i.max(0.0) as usize).min(self.range_bins - 1)
+        // The floor of a non-negative quotient is its truncation; NaN and negatives give bin 0.
+        let i = (r - self.range_min) / self.range_bin_width;
+        if i >= 0.0 {
+            (i as usize).min(self.range_bins - 1)
+        } else {
+            0
+        }
     }
 
     /// Returns the beam of `az` (rad): beam `j` covers `[e_j, e_{j+1})`, the last one also takes
     /// `+half_azimuth`. `az` must lie in the aperture.
     #[must_use]
+    #[inline]
     pub fn beam(&self, az: f64) -> usize {
-        let j = self.beam_edges.partition_point(|&e| e <= az);
+        let j = self.edges_at_or_below(az);
         j.saturating_sub(1).min(self.beams() - 1)
+    }
+
+    /// Returns how many beam edges are `<= az`: `beam_edges.partition_point(|&e| e <= az)`,
+    /// found from a guess (the edges' position as if they were uniform) and checked against the
+    /// edges themselves, a binary search only when the guess is more than a few edges off.
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_precision_loss,
+        reason = "a guess clamped to the table, checked against it before it is used"
+    )]
+    #[inline]
+    pub(crate) fn edges_at_or_below(&self, az: f64) -> usize {
+        let e = &self.beam_edges;
+        let n = e.len();
+        let span = e[n - 1] - e[0];
+        // Truncation is the floor for the non-negative guesses kept; NaN and negatives give 0.
+        let x = (az - e[0]) / span * (n - 1) as f64;
+        let mut p = if x >= 0.0 {
+            (x.min(n as f64) as usize + 1).min(n)
+        } else {
+            0
+        };
+        for _ in 0..4 {
+            if p > 0 && e[p - 1] > az {
+                p -= 1;
+            } else if p < n && e[p] <= az {
+                p += 1;
+            } else {
+                return p;
+            }
+        }
+        e.partition_point(|&x| x <= az)
     }
 
     /// Returns `(sin h, cos h)` for the trigonometry-free azimuth clip `x sin h − |y| cos h ≥ 0`
@@ -413,12 +453,17 @@ impl View {
 
     /// Returns false only when no point within `radius` of `q` lies in sonar 2's field of view.
     pub(crate) fn may_meet(&self, q: DVec3, radius: f64) -> bool {
+        self.may_meet_at(q, q.length(), q.x.hypot(q.y), radius)
+    }
+
+    /// [`View::may_meet`] with `q`'s length `d` and its distance `rho` from the z axis
+    /// (`x.hypot(y)`) already computed by the caller, who needs them again.
+    #[inline]
+    pub(crate) fn may_meet_at(&self, q: DVec3, d: f64, rho: f64, radius: f64) -> bool {
         let l = &self.layout;
-        let d = q.length();
         if d - radius > l.range_max || d + radius < l.range_min {
             return false;
         }
-        let rho = q.x.hypot(q.y);
         let outside_elevation = self
             .tan_elevation
             .is_some_and(|t| q.z.abs() > t * (rho + radius) + radius);
@@ -443,6 +488,32 @@ pub(crate) fn to_index(v: f64) -> i32 {
 mod tests {
     use super::*;
     use crate::geometry::Sonar;
+
+    /// The guessed search gives the binary search's answer for every kind of azimuth: on the
+    /// edges, next to them, outside the aperture, NaN, and for uneven beams.
+    #[test]
+    fn beams_from_a_guess_are_the_binary_searchs() {
+        let uneven = Sonar::preset("holoocean-imaging")
+            .unwrap()
+            .with_beam_centres(&[-59.0, -40.0, -39.5, -10.0, 0.0, 0.25, 30.0, 58.0], None)
+            .unwrap();
+        for sonar in [
+            Sonar::preset("paper-fls").unwrap(),
+            Sonar::preset("oculus-m750d").unwrap(),
+            uneven,
+        ] {
+            let l = Layout::of(&sonar);
+            let mut probes: Vec<f64> = vec![f64::NAN, -10.0, 10.0, f64::INFINITY, f64::NEG_INFINITY];
+            for &edge in &l.beam_edges {
+                probes.extend([edge, edge.next_down(), edge.next_up(), edge - 1e-9, edge + 1e-9]);
+            }
+            probes.extend((0..10_000).map(|k| -1.2 + 2.4 * f64::from(k) / 10_000.0));
+            for az in probes {
+                let binary = l.beam_edges.partition_point(|&e| e <= az);
+                assert_eq!(l.edges_at_or_below(az), binary, "{}: az {az}", sonar.name);
+            }
+        }
+    }
 
     #[test]
     fn bins_follow_the_conventions_edges() {

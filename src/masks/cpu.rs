@@ -3,6 +3,8 @@
 
 use crate::clip::{MASK_ANGLE_SLACK, MASK_F64_SLACK};
 use glam::DVec3;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, PoisonError};
 
 use crate::geometry::{RelativePose, sph_to_cart};
 use crate::occupancy::Occupancy;
@@ -20,8 +22,67 @@ pub(crate) struct Drawn {
     pub radius: f64,
 }
 
-/// Returns the mask of `plan` under `pose` in `view`, with per-pixel counts when `counts`.
-pub(crate) fn draw(view: &View, pose: &RelativePose, plan: &Plan, counts: bool) -> Drawn {
+/// The cosines and sines of cell-centre angles, kept between masks and pings: a grid of cells
+/// depends on its count, not on the feature (the cells of `n` over an aperture are the same for
+/// every feature that needs `n`), so pings after the first mostly find theirs here.
+#[derive(Debug, Default)]
+pub(crate) struct TrigTables {
+    tables: Mutex<HashMap<(u64, u64, usize), Arc<Trig>>>,
+}
+
+/// The angles of one axis of cells and their cosines and sines.
+#[derive(Debug)]
+pub(crate) struct Trig {
+    angles: Vec<f64>,
+    cos: Vec<f64>,
+    sin: Vec<f64>,
+}
+
+impl Trig {
+    fn of(angles: &[f64]) -> Trig {
+        let (cos, sin) = angles.iter().map(|a| (a.cos(), a.sin())).unzip();
+        Trig {
+            angles: angles.to_vec(),
+            cos,
+            sin,
+        }
+    }
+}
+
+/// The most angles the tables keep (16 MB); past it they start afresh.
+const MAX_TABLE_ANGLES: usize = 1 << 20;
+
+impl TrigTables {
+    /// Returns the cosines and sines of `angles`: the kept ones when the same angles (every
+    /// bit) were asked for before.
+    fn of(&self, angles: &[f64]) -> Arc<Trig> {
+        if angles.len() < 8 {
+            return Arc::new(Trig::of(angles));
+        }
+        let key = (
+            angles[0].to_bits(),
+            angles[angles.len() - 1].to_bits(),
+            angles.len(),
+        );
+        let tables = || self.tables.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(t) = tables().get(&key)
+            && t.angles == angles
+        {
+            return Arc::clone(t);
+        }
+        let t = Arc::new(Trig::of(angles));
+        let mut kept = tables();
+        if kept.values().map(|t| t.angles.len()).sum::<usize>() + angles.len() > MAX_TABLE_ANGLES {
+            kept.clear();
+        }
+        kept.insert(key, Arc::clone(&t));
+        t
+    }
+}
+
+/// Returns the mask of `plan` under `pose` in `view`, with per-pixel counts when `counts`; the
+/// cells' cosines and sines come from `trig`.
+pub(crate) fn draw(view: &View, trig: &TrigTables, pose: &RelativePose, plan: &Plan, counts: bool) -> Drawn {
     let Plan {
         cells,
         range: r,
@@ -35,12 +96,29 @@ pub(crate) fn draw(view: &View, pose: &RelativePose, plan: &Plan, counts: bool) 
     let radius = radius + slack;
     let (na, ne) = (cells.azimuths.len(), cells.elevations.len());
     let mut occ = Occupancy::new(l.range_bins, l.beams());
+    let inv_width = 1.0 / l.range_bin_width;
     let mut count = counts.then(|| vec![0u32; l.pixels()]);
-    let point = |i: usize, j: usize| pose.apply(sph_to_cart(r, cells.azimuths[i], cells.elevations[j]));
+    // The cells' directions from one cos/sin per azimuth and per elevation (not per cell), kept
+    // between masks: the same products as `sph_to_cart`, so the same bits.
+    let (a, e) = (trig.of(&cells.azimuths), trig.of(&cells.elevations));
+    let (ca, sa, ce, se) = (&a.cos, &a.sin, &e.cos, &e.sin);
+    let point = |i: usize, j: usize| pose.apply(DVec3::new(r * ce[j] * ca[i], r * ce[j] * sa[i], r * se[j]));
+    debug_assert!(
+        na == 0
+            || ne == 0
+            || point(0, 0) == pose.apply(sph_to_cart(r, cells.azimuths[0], cells.elevations[0]))
+    );
     for (bi, bj) in view.blocks(pose, cells, r, noise_radius + slack) {
         for i in bi..(bi + BLOCK).min(na) {
             for j in bj..(bj + BLOCK).min(ne) {
-                mark(view, point(i, j), radius, &mut occ, count.as_deref_mut());
+                mark(
+                    view,
+                    inv_width,
+                    point(i, j),
+                    radius,
+                    &mut occ,
+                    count.as_deref_mut(),
+                );
             }
         }
     }
@@ -53,14 +131,31 @@ pub(crate) fn draw(view: &View, pose: &RelativePose, plan: &Plan, counts: bool) 
 
 /// Marks every bin or pixel that the ball of `radius` around `q` may touch in the field of
 /// view.
-fn mark(view: &View, q: DVec3, radius: f64, occ: &mut Occupancy, counts: Option<&mut [u32]>) {
-    if !view.may_meet(q, radius) {
+#[expect(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "a non-negative bin index, clamped to the table"
+)]
+fn mark(view: &View, inv_width: f64, q: DVec3, radius: f64, occ: &mut Occupancy, counts: Option<&mut [u32]>) {
+    // `sqrt(x² + y²)`, not `hypot` (several times slower; the coordinates are far from
+    // overflow): a rounding apart, which the angle slack of the spread below covers.
+    let (d, rho) = (q.length(), (q.x * q.x + q.y * q.y).sqrt());
+    if !view.may_meet_at(q, d, rho, radius) {
         return;
     }
     let l = &view.layout;
-    let d = q.length();
     let (lo, hi) = ((d - radius).max(l.range_min), (d + radius).min(l.range_max));
-    let (i0, i1) = (l.range_bin(lo), l.range_bin(hi));
+    // Bins by a multiplication with the width's inverse: within a rounding of the division,
+    // which the ball's slack covers.
+    let bin = |r: f64| {
+        let i = (r - l.range_min) * inv_width;
+        if i >= 0.0 {
+            (i as usize).min(l.range_bins - 1)
+        } else {
+            0
+        }
+    };
+    let (i0, i1) = (bin(lo), bin(hi));
     let beams = l.beams();
     let mut spans = [(0usize, 0usize); 3];
     let mut n = 0;
@@ -68,7 +163,6 @@ fn mark(view: &View, q: DVec3, radius: f64, occ: &mut Occupancy, counts: Option<
         spans[0] = (0, 0);
         n = 1;
     } else {
-        let rho = q.x.hypot(q.y);
         if radius >= rho {
             spans[0] = (0, beams - 1);
             n = 1;

@@ -128,6 +128,8 @@ pub struct MaskEngine {
     target: Sonar,
     view: View,
     gpu: Option<Box<GpuMasks>>,
+    /// Cosines and sines of cell grids, kept between pings (the CPU's drawing).
+    trig: cpu::TrigTables,
 }
 
 impl MaskEngine {
@@ -144,6 +146,7 @@ impl MaskEngine {
             source,
             target,
             gpu: None,
+            trig: cpu::TrigTables::default(),
         })
     }
 
@@ -330,7 +333,7 @@ impl MaskEngine {
     ) -> Result<Mask> {
         pose.validate()?;
         let plan = plan::plan(&self.source, &self.view.layout, m, noise)?;
-        let drawn = cpu::draw(&self.view, pose, &plan, counts == Counts::Draw);
+        let drawn = cpu::draw(&self.view, &self.trig, pose, &plan, counts == Counts::Draw);
         let layout = &self.view.layout;
         Ok(Mask {
             occupancy: layout.to_data_order(drawn.occupancy),
