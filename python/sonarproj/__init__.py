@@ -145,7 +145,10 @@ def _number(parameter: str, value: Any, *, optional: bool = False) -> Optional[f
         return None
     if isinstance(value, (bool, _np.bool_)) or not isinstance(value, (int, float, _np.integer, _np.floating)):
         raise InputTypeError(f"{parameter}: expected a number, got {value!r} ({type(value).__name__})")
-    return float(value)
+    try:
+        return float(value)
+    except OverflowError:
+        raise InputError(f"{parameter}: {value} is too large for a float") from None
 
 
 def _flag(parameter: str, value: Any) -> bool:

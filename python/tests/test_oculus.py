@@ -39,7 +39,7 @@ def ping_message(version, bearings_cdeg, rows, sample_bytes, gains, frequency=2.
     body += b"\0" * (image_offset - len(body))
     for r in range(rows):
         if gains:
-            body += struct.pack("<I", 1000 + r)
+            body += struct.pack("<f", 1000.0 + r)  # the row's gain, a float32
         values = [(r * 7 + c) % (256 if sample_bytes == 1 else 65536) for c in range(n)]
         body += struct.pack(f"<{n}{'B' if sample_bytes == 1 else 'H'}", *values)
     assert len(body) == total
@@ -59,7 +59,8 @@ def test_a_ping_reads_as_its_sonar_and_image(tmp_path, version, sample_bytes, ga
     rows, cols = np.indices(p.image.shape)
     np.testing.assert_array_equal(p.image, (rows * 7 + cols) % (256 if sample_bytes == 1 else 65536))
     assert p.bearings == [b / 100 for b in BEARINGS]
-    assert (p.gains is not None) == gains and (not gains or list(p.gains) == list(range(1000, 1011)))
+    assert (p.gains is not None) == gains
+    assert not gains or (p.gains.dtype == np.float32 and list(p.gains) == [1000.0 + r for r in range(11)])
     s = p.sonar
     assert (s.kind, s.range_min, s.range_bins, s.beams, s.elevation_aperture) == ("fls", 0.0, 11, len(BEARINGS), 12.0)
     assert s.range_max == pytest.approx(0.11, abs=1e-15)
@@ -131,4 +132,7 @@ def test_the_command_line_writes_the_same_sonar_and_image(tmp_path, cli):
     done = cli("project", "--from", "paper-sss", "--to", out / "sonar.toml", "--range", "5", "--place-range", "0.05")
     assert '"visible"' in done.stdout
     bad = cli("sonar", "from-oculus", f, "--out", tmp_path / "o2", "--ping", "2", check=False)
-    assert bad.returncode == 2 and "--ping = 2" in bad.stderr and "2 pings" in bad.stderr
+    assert bad.returncode == 2 and "ping = 2" in bad.stderr and "2 pings" in bad.stderr
+    # --gains for a ping without them is refused before anything is written.
+    none = cli("sonar", "from-oculus", f, "--out", tmp_path / "o3", "--ping", "0", "--gains", check=False)
+    assert none.returncode == 2 and "--gains" in none.stderr and not (tmp_path / "o3").exists()

@@ -154,3 +154,31 @@ def test_runs_are_the_dense_masks(pair):
     assert sparse.boxes == dense.boxes and sparse.radius == dense.radius
     with pytest.raises(InputError, match="k"):
         sparse.mask(len(features))
+    np.testing.assert_array_equal(sparse.mask(np.int64(0)), dense.masks[0])
+    for bad in (-1, 2**80):
+        with pytest.raises(InputError, match=f"k: {bad} is not a feature"):
+            sparse.mask(bad)
+    for bad in (True, 0.0, "0"):
+        with pytest.raises(InputTypeError, match="k"):
+            dense.mask(bad)
+
+
+def test_ctrl_c_stops_a_sweep_between_chunks(tmp_path):
+    # The sweep runs on the package's pool; Ctrl-C reaches the calling (main) thread, which
+    # must stop the run at its next chunk, keeping the finished ones.
+    config = tmp_path / "sweep.toml"
+    config.write_text(
+        'from = "paper-sss"\nto = "paper-fls"\nstep = 0.1\n[feature]\nrange = 5\n[place]\nrange = 5\n'
+        "[rotation]\nroll = { start = 0, stop = 179.9, step = 0.1 }\npitch = { start = 0, stop = 10, step = 0.1 }\n")
+    script = textwrap.dedent(f"""
+        import os, signal, threading, sonarproj
+        threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+        try:
+            sonarproj.sweep({str(config)!r}, {str(tmp_path / "out")!r}, backend="cpu-fast", chunk_poses=2000)
+            print("finished")
+        except KeyboardInterrupt:
+            print("interrupted")
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert done.stdout.strip() == "interrupted", done.stderr
+    assert not (tmp_path / "out" / "sweep.csv").exists()

@@ -188,14 +188,19 @@ def test_a_holoocean_sensor_entry_reads_as_the_frame_it_returns():
     assert side.sides == 2 and side.range_bins == 1000
     preset = Sonar.preset("holoocean-sidescan")
     assert (side.range_min, side.range_max, side.azimuth_aperture) == (preset.range_min, preset.range_max, preset.azimuth_aperture)
+    # numpy numbers read as numbers (a configuration built with numpy).
+    s = Sonar.from_holoocean({"sensor_type": "ImagingSonar", "configuration": {"RangeMax": np.float32(40.0), "AzimuthBins": np.int64(256)}})
+    assert (s.range_max, s.beams) == (40.0, 256)
 
 
 @pytest.mark.parametrize("call, words", [
     (lambda: Sonar.from_holoocean({"sensor_type": "ImagingSonar", "configuration": {"RangeMAx": 5}}), ["sensor", "RangeMAx", "not a key"]),
     (lambda: Sonar.from_holoocean({"sensor_type": "ImagingSonar", "configuration": {"RangeMax": True}}), ["RangeMax", "not a bool"]),
-    (lambda: Sonar.from_holoocean({"sensor_type": "SidescanSonar", "configuration": {"RangeBins": 999}}), ["RangeBins = 999", "even"]),
+    (lambda: Sonar.from_holoocean({"sensor_type": "SidescanSonar", "configuration": {"RangeBins": 999}}), ["RangeBins = 999", "odd"]),
     (lambda: Sonar.from_holoocean({"sensor_type": "RGBCamera"}), ["sensor_type", "RGBCamera"]),
     (lambda: Sonar.from_holoocean({"RangeMax": 5}), ["sensor_type", "missing"]),
+    (lambda: Sonar.from_holoocean({"sensor_type": "ImagingSonar", "configuration": {"MultiPath": np.bool_(True), "RangeMax": np.True_}}), ["RangeMax", "not a bool"]),
+    (lambda: Sonar.from_holoocean({"sensor_type": "ImagingSonar", "configuration": {"RangeMax": 10**400}}), ["RangeMax"]),
 ])
 def test_a_bad_holoocean_sensor_is_refused_naming_the_key(call, words):
     with pytest.raises(InputError) as e:

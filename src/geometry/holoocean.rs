@@ -22,6 +22,7 @@
 
 use super::sonar::{BeamLayout, Sonar, SonarKind};
 use crate::error::{Error, Result};
+use crate::limits::{MAX_BEAMS, MAX_RANGE_BINS};
 
 /// One value of a HoloOcean configuration block as its JSON (or a TOML form of it) gives it.
 #[derive(Clone, Debug, PartialEq)]
@@ -56,6 +57,8 @@ const SIDESCAN: (&str, &[&str]) = (
         "RangeMax",
         "RangeBins",
         "RangeRes",
+        "AzimuthBins",
+        "AzimuthRes",
     ],
 );
 const IGNORED: &[&str] = &[
@@ -80,11 +83,15 @@ const IGNORED: &[&str] = &[
     "WaterSoundSpeed",
     "UseApprox",
 ];
-/// Keys the sidescan takes for its shadowing only.
-const SIDESCAN_IGNORED: &[&str] = &["AzimuthBins", "AzimuthRes"];
+/// Keys the sidescan takes beyond the imaging sonar's: none (its azimuth bins decide its side
+/// split, checked).
+const SIDESCAN_IGNORED: &[&str] = &[];
 
-/// The relative tolerance within which a resolution divides its span into whole bins.
+/// How close (in bins) a resolution must divide its span to a whole number of bins.
 const WHOLE_BINS: f64 = 1e-6;
+
+/// The coarsest sidescan azimuth bins (deg) accepted: HoloOcean's side split moves by one.
+const MAX_SIDESCAN_AZIMUTH_RES: f64 = 1.0;
 
 impl Sonar {
     /// Returns the sonar HoloOcean simulates for a sensor of `sensor_type` (`ImagingSonar` or
@@ -158,34 +165,68 @@ impl Sonar {
             ));
         }
         let range_default = if fls { Bins::Count(512) } else { Bins::Res(0.05) };
-        let range_bins = bins(
+        // A sidescan's RangeBins count both sides.
+        let range_max_bins = if fls { MAX_RANGE_BINS } else { 2 * MAX_RANGE_BINS };
+        let (range_bins, range_key) = bins(
             &field,
             &given,
             "RangeBins",
             "RangeRes",
             range_max - range_min,
             range_default,
+            range_max_bins,
         )?;
         let beams = if fls {
-            let n = bins(
+            let (n, _) = bins(
                 &field,
                 &given,
                 "AzimuthBins",
                 "AzimuthRes",
                 azimuth,
                 Bins::Count(512),
+                MAX_BEAMS,
             )?;
             BeamLayout::Uniform { count: n }
         } else {
+            // HoloOcean puts a sidescan return on a side by its azimuth bin: the first bin above
+            // the nadir goes to starboard. With fine bins (its default) that is the nadir itself,
+            // where this project splits; coarse ones would move the split.
+            let (n, key) = bins(
+                &field,
+                &given,
+                "AzimuthBins",
+                "AzimuthRes",
+                azimuth,
+                Bins::Count(u32::MAX),
+                u32::MAX,
+            )?;
+            {
+                let res = azimuth / f64::from(n);
+                if res > MAX_SIDESCAN_AZIMUTH_RES {
+                    return Err(Error::invalid(
+                        field(key),
+                        short(given.get(key).copied().unwrap_or(f64::from(n))),
+                        format!(
+                            "makes azimuth bins of {}°: HoloOcean splits the sides at its first bin above \
+                             the nadir, that far from it, where this project splits at the nadir; give \
+                             bins of {MAX_SIDESCAN_AZIMUTH_RES}° or finer (or leave them to HoloOcean)",
+                            short(res)
+                        ),
+                    ));
+                }
+            }
             BeamLayout::Uniform { count: 2 }
         };
         let range_bins = if fls {
             range_bins
         } else if range_bins % 2 == 1 {
             return Err(Error::invalid(
-                field("RangeBins"),
-                range_bins,
-                "must be even: HoloOcean's sidescan frame gives each side RangeBins / 2 bins",
+                field(range_key),
+                short(given.get(range_key).copied().unwrap_or(f64::from(range_bins))),
+                format!(
+                    "makes {range_bins} range bins, an odd number: HoloOcean's sidescan frame gives each side \
+                     RangeBins / 2 bins"
+                ),
             ));
         } else {
             range_bins / 2
@@ -212,66 +253,77 @@ enum Bins {
     Res(f64),
 }
 
+/// Returns `x` as a message quotes it: whole when short, in exponent form when its digits
+/// would run long (1e300).
+fn short(x: f64) -> String {
+    let plain = format!("{x}");
+    if plain.len() > 20 { format!("{x:e}") } else { plain }
+}
+
 /// Returns the number of bins that `count_key` or `res_key` (never both) give over `span`, or
-/// that `default` gives.
-fn bins(
+/// that `default` gives, at most `max`, and the key that gave it.
+fn bins<'k>(
     field: &dyn Fn(&str) -> String,
     given: &std::collections::BTreeMap<&str, f64>,
-    count_key: &str,
-    res_key: &str,
+    count_key: &'k str,
+    res_key: &'k str,
     span: f64,
     default: Bins,
-) -> Result<u32> {
-    let choice = match (given.get(count_key), given.get(res_key)) {
+    max: u32,
+) -> Result<(u32, &'k str)> {
+    let (choice, key) = match (given.get(count_key), given.get(res_key)) {
         (Some(_), Some(_)) => {
             return Err(Error::input(
                 field(&format!("{count_key}/{res_key}")),
-                "both given; give one (HoloOcean refuses both too)",
+                "both given; give one (HoloOcean's Python client refuses both too)",
             ));
         }
         (Some(&n), None) => {
-            if !(n >= 1.0 && n.fract() == 0.0 && n <= f64::from(u32::MAX)) {
-                return Err(Error::invalid(field(count_key), n, "must be a whole number >= 1"));
+            if !(n >= 1.0 && n.fract() == 0.0 && n <= f64::from(max)) {
+                return Err(Error::invalid(
+                    field(count_key),
+                    short(n),
+                    format!("must be a whole number in [1, {max}]"),
+                ));
             }
             #[expect(
                 clippy::cast_possible_truncation,
                 clippy::cast_sign_loss,
-                reason = "checked: a whole number in [1, u32::MAX]"
+                reason = "checked: a whole number in [1, max]"
             )]
-            Bins::Count(n as u32)
+            (Bins::Count(n as u32), count_key)
         }
         (None, Some(&r)) => {
             if r <= 0.0 {
-                return Err(Error::invalid(field(res_key), r, "must be > 0"));
+                return Err(Error::invalid(field(res_key), short(r), "must be > 0"));
             }
-            Bins::Res(r)
+            (Bins::Res(r), res_key)
         }
-        (None, None) => default,
+        (None, None) => (default, res_key),
     };
     match choice {
-        Bins::Count(n) => Ok(n),
+        Bins::Count(n) => Ok((n, key)),
         Bins::Res(r) => {
             let ratio = span / r;
             let whole = ratio.round();
-            if !(whole >= 1.0
-                && (ratio - whole).abs() <= WHOLE_BINS * ratio.max(1.0)
-                && whole <= f64::from(u32::MAX))
-            {
+            if !(whole >= 1.0 && (ratio - whole).abs() <= WHOLE_BINS && whole <= f64::from(max)) {
                 return Err(Error::invalid(
                     field(res_key),
-                    r,
+                    short(r),
                     format!(
-                        "must divide the span ({span}) into whole bins ({ratio} here): HoloOcean's \
-                         bins would not end where its field of view does; give {count_key} instead"
+                        "must divide the span ({}) into whole bins, at most {max} ({} here): HoloOcean's \
+                         bins would not end where its field of view does; give {count_key} instead",
+                        short(span),
+                        short(ratio)
                     ),
                 ));
             }
             #[expect(
                 clippy::cast_possible_truncation,
                 clippy::cast_sign_loss,
-                reason = "checked: a whole number in [1, u32::MAX]"
+                reason = "checked: a whole number in [1, max]"
             )]
-            Ok(whole as u32)
+            Ok((whole as u32, key))
         }
     }
 }
@@ -332,7 +384,7 @@ mod tests {
             &config(&[
                 ("RangeBins", Number(2000.0)),
                 ("AddSigma", Number(0.1)),
-                ("AzimuthBins", Number(100.0)),
+                ("AzimuthBins", Number(1000.0)),
             ]),
         )
         .unwrap();
@@ -404,7 +456,37 @@ mod tests {
         refused(
             "SidescanSonar",
             &[("RangeBins", Number(999.0))],
-            &["RangeBins = 999", "even"],
+            &["RangeBins = 999", "odd"],
+        );
+        refused(
+            "SidescanSonar",
+            &[("RangeRes", Number(34.5 / 691.0))],
+            &["RangeRes", "691 range bins", "odd"],
+        );
+        refused(
+            "SidescanSonar",
+            &[("AzimuthBins", Number(3.0))],
+            &["AzimuthBins = 3", "splits the sides"],
+        );
+        refused(
+            "ImagingSonar",
+            &[("RangeBins", Number(2f64.powi(40)))],
+            &["RangeBins = 1099511627776", "[1, 1048576]"],
+        );
+        refused(
+            "ImagingSonar",
+            &[("RangeRes", Number(1e-300))],
+            &["RangeRes = 1e-300", "at most 1048576", "(9.9e300 here)"],
+        );
+        // Half a bin off at a million bins is refused too (the tolerance is in bins).
+        refused(
+            "ImagingSonar",
+            &[
+                ("RangeMin", Number(0.0)),
+                ("RangeMax", Number(1000.0)),
+                ("RangeRes", Number(1000.0 / 1_000_000.5)),
+            ],
+            &["RangeRes", "whole bins"],
         );
         refused(
             "SidescanSonar",

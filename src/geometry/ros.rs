@@ -19,6 +19,10 @@ const MAX_OUT_OF_PLANE_DEG: f64 = 0.5;
 /// message's ranges are `float32`: their rounding is far below it).
 const EVEN_SPACING: f64 = 1e-3;
 
+/// The finest range bin (m) a message may give: a micrometre, far below any sonar's, so that a
+/// table of equal ranges is refused rather than read as bins of no width.
+const MIN_RANGE_STEP: f64 = 1e-6;
+
 impl Sonar {
     /// Returns the FLS that a `ProjectedSonarImage`'s `beam_directions` (message frame: X up, Y
     /// starboard, Z forward; any lengths) and `ranges` (m, the centres of evenly spaced bins)
@@ -41,7 +45,8 @@ impl Sonar {
     /// # Errors
     /// [`Error::InvalidValue`] naming `beam_directions[j]` or `ranges[i]`: a direction of zero
     /// length or not finite, a beam out of the fan's plane, azimuths that are not monotonic,
-    /// fewer than two ranges, ranges not evenly spaced or below 0, and every check of
+    /// fewer than two beams or a table not centred on the boresight, fewer than two ranges,
+    /// ranges not evenly spaced, closer than a micrometre or below 0, and every check of
     /// [`Sonar::validate`].
     pub fn from_projected_sonar_image(
         name: &str,
@@ -94,6 +99,8 @@ impl Sonar {
             }
         };
         let centres: Vec<f64> = columns.iter().map(|&j| azimuths[j]).collect();
+        let aperture = super::sonar::aperture_of_beam_centres(&centres)
+            .map_err(|why| Error::invalid("beam_directions", format!("{} beams", centres.len()), why))?;
         let n = ranges.len();
         if n < 2 {
             return Err(Error::invalid(
@@ -104,11 +111,11 @@ impl Sonar {
         }
         #[expect(clippy::cast_precision_loss, reason = "a count of range bins")]
         let step = (ranges[n - 1] - ranges[0]) / (n - 1) as f64;
-        if !(step.is_finite() && step > 0.0) {
+        if !(step.is_finite() && step >= MIN_RANGE_STEP) {
             return Err(Error::invalid(
                 "ranges",
                 format!("{} … {}", ranges[0], ranges[n - 1]),
-                "must increase",
+                format!("must increase, by at least {MIN_RANGE_STEP} m a bin"),
             ));
         }
         for (i, &r) in ranges.iter().enumerate() {
@@ -146,7 +153,7 @@ impl Sonar {
             range_bins,
             beams: BeamLayout::Uniform { count: 1 },
         }
-        .with_beam_centres(&centres, None)
+        .with_beam_centres(&centres, Some(aperture))
         .map_err(|e| e.in_context("ProjectedSonarImage"))?;
         Ok((sonar, columns))
     }
@@ -165,15 +172,15 @@ mod tests {
 
     #[test]
     fn either_order_of_beams_gives_the_sonar_and_its_columns() {
-        let az = [-40.0, -25.0, -5.0, 0.0, 12.0, 40.0];
+        let az = [-40.0, -22.0, -8.0, 0.0, 8.0, 22.0, 40.0];
         let ranges: Vec<f64> = (0..50).map(|i| 0.5 + 0.2 * f64::from(i)).collect();
         let starboard_first: Vec<[f64; 3]> = az.iter().map(|&a| direction(a)).collect();
         let port_first: Vec<[f64; 3]> = az.iter().rev().map(|&a| direction(a)).collect();
         let (a, ca) = Sonar::from_projected_sonar_image("a", &starboard_first, &ranges, 20.0).unwrap();
         let (b, cb) = Sonar::from_projected_sonar_image("a", &port_first, &ranges, 20.0).unwrap();
         assert_eq!(a, b);
-        assert_eq!(ca, (0..6).collect::<Vec<_>>());
-        assert_eq!(cb, (0..6).rev().collect::<Vec<_>>());
+        assert_eq!(ca, (0..7).collect::<Vec<_>>());
+        assert_eq!(cb, (0..7).rev().collect::<Vec<_>>());
         assert!((a.range_min - 0.4).abs() < 1e-12 && (a.range_max - 10.4).abs() < 1e-12);
         let edges = a.beam_edges_deg();
         for (k, want) in az.iter().enumerate() {
@@ -211,5 +218,12 @@ mod tests {
         refused(&fan, &[0.05], &["at least two"]);
         refused(&fan, &[0.05, 0.15, 0.3], &["ranges[1]", "evenly spaced"]);
         refused(&fan, &[0.0, 0.1, 0.2], &["ranges[0]", "half a bin"]);
+        refused(&fan, &[0.05, 0.05, 0.05], &["ranges", "at least 0.000001 m"]);
+        refused(&[direction(0.0)], &ranges, &["beam_directions", "lone beam"]);
+        refused(
+            &[direction(-10.0), direction(0.0), direction(30.0)],
+            &ranges,
+            &["beam_directions", "not centred"],
+        );
     }
 }

@@ -124,6 +124,19 @@ fn holoocean_file(name: &str, mut table: toml::Table) -> Result<Sonar> {
             ));
         }
     };
+    // The configuration's keys in the table itself, or in a [holoocean.configuration] table as a
+    // scenario nests them.
+    if let Some(toml::Value::Table(nested)) = sensor.remove("configuration") {
+        for (k, v) in nested {
+            if sensor.contains_key(&k) {
+                return Err(Error::input(
+                    format!("{ctx}: holoocean.{}", crate::error::excerpt(&k)),
+                    "given twice: in [holoocean] and in [holoocean.configuration]",
+                ));
+            }
+            sensor.insert(k, v);
+        }
+    }
     let config: Vec<(String, HoloValue)> = sensor
         .into_iter()
         .map(|(k, v)| {
@@ -137,7 +150,8 @@ fn holoocean_file(name: &str, mut table: toml::Table) -> Result<Sonar> {
                 toml::Value::Boolean(_) => HoloValue::Other("bool"),
                 toml::Value::String(_) => HoloValue::Other("string"),
                 toml::Value::Array(_) => HoloValue::Other("list"),
-                _ => HoloValue::Other("table"),
+                toml::Value::Datetime(_) => HoloValue::Other("date"),
+                toml::Value::Table(_) => HoloValue::Other("table"),
             };
             (k, value)
         })
@@ -649,6 +663,45 @@ fn check_edges(ctx: &str, aperture: f64, edges: &[f64]) -> Result<()> {
         ));
     }
     Ok(())
+}
+
+/// Returns the azimuth aperture (deg) of a driver's beam table `centres` (deg, increasing):
+/// its outer edges half a spacing beyond the outer beams, which must lie symmetric about the
+/// boresight within a tenth of the mean spacing (this project's sonars are centred on it), and
+/// within 360°. `Err` says what is wrong with the table, for the caller to name it.
+///
+/// # Errors
+/// Fewer than two beams (one beam's width is not in the table), centres not finite or not
+/// increasing, an off-centre table, or one wider than 360°.
+pub fn aperture_of_beam_centres(centres: &[f64]) -> std::result::Result<f64, String> {
+    let n = centres.len();
+    if n < 2 {
+        return Err(format!(
+            "{n} beam{}: a lone beam's width is not in the table",
+            if n == 1 { "" } else { "s" }
+        ));
+    }
+    if let Some(k) = (0..n).find(|&k| !centres[k].is_finite() || k > 0 && centres[k] <= centres[k - 1]) {
+        return Err(format!(
+            "beam {k} ({}°) does not follow the one before in increasing azimuth",
+            centres[k]
+        ));
+    }
+    let low = centres[0] - (centres[1] - centres[0]) / 2.0;
+    let high = centres[n - 1] + (centres[n - 1] - centres[n - 2]) / 2.0;
+    #[expect(clippy::cast_precision_loss, reason = "a beam count")]
+    let spacing = (high - low) / n as f64;
+    if (low + high).abs() > 0.1 * spacing {
+        return Err(format!(
+            "the beams span {low:.3}° to {high:.3}°, not centred on the boresight (this project's \
+             sonars are symmetric about it)"
+        ));
+    }
+    let aperture = 2.0 * low.abs().max(high.abs());
+    if aperture > 360.0 {
+        return Err(format!("the beams span {aperture:.3}°, more than 360°"));
+    }
+    Ok(aperture)
 }
 
 /// Returns beam edges (deg) from beam centres (deg): midpoints between centres, and the aperture

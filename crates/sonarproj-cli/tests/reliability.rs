@@ -610,6 +610,13 @@ fn a_file_given_as_an_output_directory_is_bad_input() {
         .arg(&file)
         .assert()
         .code(2)
+        .stderr(not_a_dir.clone());
+    // A directory to create under that file is bad input too.
+    common::sonarproj()
+        .args(["paper", "--angle-step", "30", "--out"])
+        .arg(file.join("figures/new"))
+        .assert()
+        .code(2)
         .stderr(not_a_dir);
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
 }

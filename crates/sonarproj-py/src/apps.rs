@@ -55,29 +55,30 @@ pub(crate) fn sweep_run<'py>(
     };
     let (backend, notice) = backend::get(backend_name)?;
     let start = Instant::now();
-    // The run goes on without the GIL; after each chunk it takes it back to report progress and
-    // to look for Ctrl-C, and stops (keeping the finished chunks) when Python raised.
+    // The run goes on without the GIL on the pool; after each chunk it takes the GIL back to
+    // report progress, and stops (keeping the finished chunks) when the progress callback raised
+    // or the calling thread saw Ctrl-C.
     let mut raised: Option<PyErr> = None;
-    let outcome = crate::runtime::detach(py, || {
+    let outcome = crate::runtime::detach_watching(py, |stop| {
         sweep::run(&config, &backend, &opts, &mut |event| {
+            if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                return ControlFlow::Break(());
+            }
             let Event::Progress { done, total } = event else {
                 return ControlFlow::Continue(());
             };
-            Python::attach(|py| {
-                let result = py.check_signals().and_then(|()| match &progress {
-                    Some(f) => f.bind(py).call1((done, total)).map(|_| ()),
-                    None => Ok(()),
-                });
-                match result {
-                    Ok(()) => ControlFlow::Continue(()),
-                    Err(e) => {
-                        raised = Some(e);
-                        ControlFlow::Break(())
-                    }
+            let Some(f) = &progress else {
+                return ControlFlow::Continue(());
+            };
+            Python::attach(|py| match f.bind(py).call1((done, total)) {
+                Ok(_) => ControlFlow::Continue(()),
+                Err(e) => {
+                    raised = Some(e);
+                    ControlFlow::Break(())
                 }
             })
         })
-    });
+    })?;
     if let Some(e) = raised {
         return Err(e);
     }

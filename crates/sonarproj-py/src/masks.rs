@@ -79,14 +79,22 @@ impl PyMaskSet {
 
     /// Returns the mask of feature `k` as a dense uint8 array in sonar 2's layout (from the
     /// runs when the set holds runs).
-    fn mask<'py>(&self, py: Python<'py>, k: usize) -> PyResult<Bound<'py, PyAny>> {
+    fn mask<'py>(&self, py: Python<'py>, k: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         let n = self.radius.len();
-        if k >= n {
+        // An index as numpy reads one (int or numpy integer, not a bool), from 0 to n - 1.
+        if k.is_instance_of::<pyo3::types::PyBool>() || !k.hasattr("__index__")? {
+            return Err(crate::values::wrong_type(py, "k", "expected an integer index"));
+        }
+        let index: i128 = k.call_method0("__index__")?.extract().unwrap_or(i128::MAX);
+        let Some(k) = usize::try_from(index).ok().filter(|&k| k < n) else {
             return Err(errors::input(
                 "k",
-                format!("{k} is not a feature: the set has {n}"),
+                format!(
+                    "{index} is not a feature: the set has {n}, from 0 to {}",
+                    n.saturating_sub(1)
+                ),
             ));
-        }
+        };
         if let Some(masks) = &self.masks {
             return masks.bind(py).get_item(k);
         }

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use numpy::IntoPyArray;
 use numpy::ndarray::Array2;
 use pyo3::prelude::*;
-use sonarproj_apps::io::oculus::{OculusImage, read_oculus as read};
+use sonarproj_apps::io::oculus::{OculusImage, Pick, read_oculus as read};
 
 use crate::errors;
 use crate::sonar::PySonar;
@@ -18,7 +18,7 @@ pub(crate) struct PyOculusPing {
     /// uint8 or uint16, `(ranges, beams)`: row 0 the nearest range line, column 0 the
     /// starboard-most beam.
     image: Py<PyAny>,
-    /// uint32 gain per range line, or None.
+    /// float32 gain per range line, or None.
     gains: Option<Py<PyAny>>,
     /// The bearings (deg, positive to port).
     bearings: Vec<f64>,
@@ -56,7 +56,7 @@ pub(crate) fn read_oculus(
     path: PathBuf,
     elevation: Option<f64>,
 ) -> PyResult<Vec<PyOculusPing>> {
-    let pings = crate::runtime::detach(py, || read(&path, elevation)).map_err(errors::apps)?;
+    let pings = crate::runtime::detach(py, || read(&path, elevation, Pick::All)).map_err(errors::apps)?;
     pings
         .into_iter()
         .map(|p| {

@@ -47,3 +47,53 @@ pub(crate) fn detach<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> T
         None => py.detach(f),
     }
 }
+
+/// Returns `work(stop)` run without the GIL on this process's pool, while the calling thread
+/// looks for Ctrl-C every 50 ms: CPython delivers signals to its main thread only, where the
+/// caller is, never to a pool thread. On a signal `stop` is set (the work is to end at its next
+/// chance), the work is waited for, and the signal's exception is returned.
+///
+/// # Errors
+/// The exception of a signal handler (`KeyboardInterrupt` for Ctrl-C).
+pub(crate) fn detach_watching<T: Send>(
+    py: Python<'_>,
+    work: impl FnOnce(&std::sync::atomic::AtomicBool) -> T + Send,
+) -> PyResult<T> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::mpsc;
+    let stop = AtomicBool::new(false);
+    let run = || {
+        let (sent, received) = mpsc::channel();
+        let mut raised = None;
+        let answer = match pool() {
+            Some(pool) => pool.in_place_scope(|scope| {
+                scope.spawn(|_| {
+                    let _ = sent.send(work(&stop));
+                });
+                loop {
+                    match received.recv_timeout(std::time::Duration::from_millis(50)) {
+                        Ok(answer) => break answer,
+                        Err(mpsc::RecvTimeoutError::Timeout) => {
+                            if raised.is_none()
+                                && let Err(e) = Python::attach(|py| py.check_signals())
+                            {
+                                raised = Some(e);
+                                stop.store(true, Ordering::Relaxed);
+                            }
+                        }
+                        Err(mpsc::RecvTimeoutError::Disconnected) => {
+                            unreachable!("the work sends its answer before it ends")
+                        }
+                    }
+                }
+            }),
+            None => work(&stop),
+        };
+        (answer, raised)
+    };
+    let (answer, raised) = py.detach(run);
+    match raised {
+        Some(e) => Err(e),
+        None => Ok(answer),
+    }
+}

@@ -143,11 +143,31 @@ impl PySonar {
     #[staticmethod]
     #[pyo3(signature = (sensor, sensor_type=None, name=None))]
     fn from_holoocean(
-        sensor: &Bound<'_, pyo3::types::PyDict>,
-        sensor_type: Option<String>,
-        name: Option<String>,
+        py: Python<'_>,
+        sensor: &Bound<'_, PyAny>,
+        sensor_type: Option<&Bound<'_, PyAny>>,
+        name: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
+        use pyo3::types::{PyBool, PyDict, PyString};
+        let sensor = sensor.cast::<PyDict>().map_err(|_| {
+            crate::values::wrong_type(
+                py,
+                "sensor",
+                "expected a dict: a scenario's sensor entry or its configuration block",
+            )
+        })?;
+        let text = |arg: Option<&Bound<'_, PyAny>>, what: &str| -> PyResult<Option<String>> {
+            match arg {
+                None => Ok(None),
+                Some(a) if a.is_none() => Ok(None),
+                Some(a) => a
+                    .extract::<String>()
+                    .map(Some)
+                    .map_err(|_| crate::values::wrong_type(py, what, "expected a string or None")),
+            }
+        };
+        let sensor_type = text(sensor_type, "sensor_type")?;
+        let name = text(name, "name")?;
         use sonarproj::geometry::holoocean::HoloValue;
         let entry = sensor.contains("sensor_type")? || sensor.contains("configuration")?;
         let (kind, config) = if entry {
@@ -192,12 +212,20 @@ impl PySonar {
             let key: String = k
                 .extract()
                 .map_err(|_| errors::input("sensor", format!("configuration key {k} is not a string")))?;
-            let value = if v.is_instance_of::<PyBool>() {
+            // Python and numpy numbers alike (anything with __float__ but a bool or a string).
+            // A numpy bool has a dtype of kind "b"; it is refused like a Python bool.
+            let numpy_bool = v
+                .getattr("dtype")
+                .and_then(|d| d.getattr("kind"))
+                .and_then(|k| k.extract::<String>())
+                .is_ok_and(|k| k == "b");
+            let value = if v.is_instance_of::<PyBool>() || numpy_bool {
                 HoloValue::Other("bool")
-            } else if v.is_instance_of::<PyInt>() || v.is_instance_of::<PyFloat>() {
-                HoloValue::Number(v.extract::<f64>()?)
             } else if v.is_instance_of::<PyString>() {
                 HoloValue::Other("string")
+            } else if v.hasattr("__float__")? {
+                // An int too large for a float overflows: it is refused as not finite.
+                HoloValue::Number(v.extract::<f64>().unwrap_or(f64::INFINITY))
             } else {
                 HoloValue::Other("non-number")
             };

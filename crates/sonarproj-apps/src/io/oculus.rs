@@ -15,12 +15,13 @@
 //!   before the image offset: 202 bytes;
 //! - then one i16 bearing per beam in hundredths of a degree, and the image at `imageOffset` from
 //!   the start of the message: `nRanges` rows of `nBeams` samples (8 or 16 bits), each row
-//!   preceded by a u32 gain when the fire message's flag bit 2 asked for gains.
+//!   preceded by a 32-bit float gain when the fire message's flag bit 2 asked for gains.
 //!
 //! The sonar a ping describes is an FLS with the ping's exact beams (edges halfway between the
-//! bearings, the outer ones half a spacing beyond), `nRanges` bins of `rangeResolution` from 0,
-//! and the elevation aperture of its frequency (20° at 750 kHz and 1.2 MHz, 12° at 2.1 MHz, 20°
-//! at 3 MHz: the data sheets; other frequencies need it given). **A positive Oculus bearing is to
+//! bearings, the outer ones half a spacing beyond, which must lie symmetric about the boresight),
+//! `nRanges` bins of `rangeResolution` from 0, and the elevation aperture of its mode (20° at
+//! 750 kHz, 12° at 1.2 MHz on an M750d (its 70° fan) and 20° on the wider units, 12° at 2.1 MHz,
+//! 20° at 3 MHz: the data sheets; other frequencies need it given). **A positive Oculus bearing is to
 //! port**, as in this project's azimuth (the UW-APL `oculus_sonar_driver`, whose test pings these
 //! layouts were checked on, publishes a bearing `b` as the ProjectedSonarImage direction
 //! `(0, −sin b, cos b)`, Y to starboard; other public drivers flip it, and the vendor's header
@@ -56,7 +57,7 @@ pub struct OculusPing {
     /// starboard-most beam.
     pub image: OculusImage,
     /// The gain of each row when the ping carried them.
-    pub gains: Option<Vec<u32>>,
+    pub gains: Option<Vec<f32>>,
     /// The bearings (deg), as the ping gives them (positive to port).
     pub bearings_deg: Vec<f64>,
     /// The message's byte offset in the file, its layout version (1 or 2) and its ping id.
@@ -116,52 +117,173 @@ impl Reader<'_> {
     }
 }
 
-/// Returns the elevation aperture (deg) of an Oculus at `frequency` (Hz), when it is one of the
-/// units' frequencies.
-fn elevation_of(frequency: f64) -> Option<f64> {
+/// Returns the elevation aperture (deg) of an Oculus at `frequency` (Hz) whose beams span
+/// `aperture` (deg), when it is one of the units' modes (Blueprint Subsea's data sheets: M750d
+/// 750 kHz 130° × 20°, 1.2 MHz 70° × 12°; M1200d 1.2 MHz 130° × 20°, 2.1 MHz 60° × 12°; M3000d
+/// 1.2 MHz 130° × 20°, 3 MHz 40° × 20°). At 1.2 MHz the span tells the M750d from the others.
+fn elevation_of(frequency: f64, aperture: f64) -> Option<f64> {
     match frequency {
         f if (0.6e6..0.9e6).contains(&f) => Some(20.0),
-        f if (1.0e6..1.5e6).contains(&f) => Some(20.0),
+        f if (1.0e6..1.5e6).contains(&f) => Some(if aperture < 100.0 { 12.0 } else { 20.0 }),
         f if (1.8e6..2.4e6).contains(&f) => Some(12.0),
         f if (2.8e6..3.2e6).contains(&f) => Some(20.0),
         _ => None,
     }
 }
 
-/// Returns every simple ping result of the Oculus file at `path` (other messages are skipped);
-/// `elevation` (deg) overrides the aperture the frequency gives.
-///
-/// # Errors
-/// [`Error::ReadInput`] when the file cannot be read or is larger than
-/// [`MAX_OCULUS_FILE_BYTES`]; an input error naming the offset and the field for a foreign or
-/// truncated file, an image that is not what its fields say, 24- or 32-bit samples, a frequency
-/// without a known aperture (and no `elevation`), or no ping at all.
-pub fn read_oculus(path: &Path, elevation: Option<f64>) -> Result<Vec<OculusPing>> {
-    let meta = std::fs::metadata(path).map_err(|source| Error::ReadInput {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    if !meta.is_file() || meta.len() > MAX_OCULUS_FILE_BYTES {
-        return Err(Error::ReadInput {
-            path: path.to_path_buf(),
-            source: std::io::Error::other(format!(
-                "not a regular file of at most {MAX_OCULUS_FILE_BYTES} bytes"
-            )),
-        });
-    }
-    crate::report::note_input(path);
-    let bytes = std::fs::read(path).map_err(|source| Error::ReadInput {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    parse_oculus(&path.display().to_string(), &bytes, elevation)
+/// The finest range resolution read (m): a micrometre, far below every unit's millimetres.
+const MIN_RANGE_RESOLUTION: f64 = 1e-6;
+
+/// Which pings of a file to keep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pick {
+    /// Every ping.
+    All,
+    /// Only ping `k` (0 for the first): the messages after it are not read, and the pings
+    /// before it are skipped unparsed.
+    One(usize),
 }
 
-/// [`read_oculus`] of the bytes of a file called `file` in messages.
+/// Returns the simple ping results of the Oculus file at `path` that `pick` asks for (other
+/// messages are skipped); `elevation` (deg) overrides the aperture the frequency gives. The file
+/// is read one message at a time: memory follows the pings kept, not the file.
+///
+/// # Errors
+/// [`Error::ReadInput`] when the file cannot be read, is not a regular file or is larger than
+/// [`MAX_OCULUS_FILE_BYTES`]; an input error naming the offset and the field for a foreign or
+/// truncated file, an image that is not what its fields say, 24- or 32-bit samples, a frequency
+/// without a known aperture (and no `elevation`), a bad `elevation`, or no ping (or no ping
+/// `k`) at all.
+pub fn read_oculus(path: &Path, elevation: Option<f64>, pick: Pick) -> Result<Vec<OculusPing>> {
+    use std::io::Read;
+    let fail = |source| Error::ReadInput {
+        path: path.to_path_buf(),
+        source,
+    };
+    check_elevation(elevation)?;
+    let meta = std::fs::metadata(path).map_err(fail)?;
+    if !meta.is_file() || meta.len() > MAX_OCULUS_FILE_BYTES {
+        return Err(fail(std::io::Error::other(format!(
+            "not a regular file of at most {MAX_OCULUS_FILE_BYTES} bytes"
+        ))));
+    }
+    crate::report::note_input(path);
+    let file_name = format!("{:?}", path.display().to_string());
+    let mut file = std::io::BufReader::new(std::fs::File::open(path).map_err(fail)?);
+    let len = usize::try_from(meta.len()).unwrap_or(usize::MAX);
+    let (mut at, mut seen, mut pings) = (0usize, 0usize, Vec::new());
+    let mut message = Vec::new();
+    while at < len {
+        let mut head = [0u8; HEADER];
+        let got = read_up_to(&mut file, &mut head).map_err(fail)?;
+        let reader = Reader {
+            file: &file_name,
+            bytes: &head[..got],
+            base: at,
+        };
+        let (msg_id, version, payload) = message_header(&reader)?;
+        let total = HEADER + payload;
+        if len - at < total {
+            return Err(reader.bad(
+                10,
+                "payloadSize",
+                format!(
+                    "{payload} bytes, past the end of the file ({} bytes left): truncated",
+                    len - at - got
+                ),
+            ));
+        }
+        let wanted = msg_id == SIMPLE_PING_RESULT && (pick == Pick::All || pick == Pick::One(seen));
+        if wanted {
+            message.clear();
+            message.extend_from_slice(&head);
+            message.resize(total, 0);
+            file.read_exact(&mut message[HEADER..]).map_err(fail)?;
+            let m = Reader {
+                file: &file_name,
+                bytes: &message,
+                base: at,
+            };
+            pings.push(ping(&m, version, elevation)?);
+        } else {
+            std::io::copy(&mut (&mut file).take(payload as u64), &mut std::io::sink()).map_err(fail)?;
+        }
+        if msg_id == SIMPLE_PING_RESULT {
+            if pick == Pick::One(seen) {
+                return Ok(pings);
+            }
+            seen += 1;
+        }
+        at += total;
+    }
+    match pick {
+        Pick::One(k) => Err(Error::invalid(
+            "ping",
+            k,
+            format!(
+                "the file holds {seen} ping{} (0 to {})",
+                if seen == 1 { "" } else { "s" },
+                seen.saturating_sub(1)
+            ),
+        )),
+        Pick::All if pings.is_empty() => Err(no_ping(&file_name, len)),
+        Pick::All => Ok(pings),
+    }
+}
+
+/// Reads as many bytes of `buf` as the file has left; returns how many.
+fn read_up_to(r: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut got = 0;
+    while got < buf.len() {
+        match r.read(&mut buf[got..])? {
+            0 => break,
+            n => got += n,
+        }
+    }
+    Ok(got)
+}
+
+/// Returns a message header's `(msgId, msgVersion, payloadSize)`, checking its id.
+fn message_header(head: &Reader<'_>) -> Result<(u16, u16, usize)> {
+    let id = head.u16(0, "oculusId")?;
+    if id != OCULUS_ID {
+        return Err(head.bad(
+            0,
+            "oculusId",
+            format!("0x{id:04x} is not 0x4f53: not an Oculus message"),
+        ));
+    }
+    Ok((
+        head.u16(6, "msgId")?,
+        head.u16(8, "msgVersion")?,
+        head.u32(10, "payloadSize")? as usize,
+    ))
+}
+
+/// The error of a file without a simple ping result.
+fn no_ping(file: &str, len: usize) -> Error {
+    Error::invalid(
+        format!("Oculus file {file}"),
+        format!("{len} bytes"),
+        "holds no simple ping result (message id 0x23)",
+    )
+}
+
+/// Checks an elevation aperture given for the pings (deg): in (0, 180].
+fn check_elevation(elevation: Option<f64>) -> Result<()> {
+    match elevation {
+        Some(e) if !(e > 0.0 && e <= 180.0) => Err(Error::invalid("elevation", e, "must be in (0, 180] deg")),
+        _ => Ok(()),
+    }
+}
+
+/// Returns every simple ping result in the `bytes` of a file called `file` in messages (other
+/// messages are skipped); `elevation` as [`read_oculus`]'s.
 ///
 /// # Errors
 /// As [`read_oculus`].
 pub fn parse_oculus(file: &str, bytes: &[u8], elevation: Option<f64>) -> Result<Vec<OculusPing>> {
+    check_elevation(elevation)?;
     let mut pings = Vec::new();
     let mut at = 0;
     while at < bytes.len() {
@@ -170,17 +292,7 @@ pub fn parse_oculus(file: &str, bytes: &[u8], elevation: Option<f64>) -> Result<
             bytes: &bytes[at..],
             base: at,
         };
-        let id = head.u16(0, "oculusId")?;
-        if id != OCULUS_ID {
-            return Err(head.bad(
-                0,
-                "oculusId",
-                format!("0x{id:04x} is not 0x4f53: not an Oculus message"),
-            ));
-        }
-        let msg_id = head.u16(6, "msgId")?;
-        let version = head.u16(8, "msgVersion")?;
-        let payload = head.u32(10, "payloadSize")? as usize;
+        let (msg_id, version, payload) = message_header(&head)?;
         let len = HEADER + payload;
         if bytes.len() - at < len {
             return Err(head.bad(
@@ -203,11 +315,7 @@ pub fn parse_oculus(file: &str, bytes: &[u8], elevation: Option<f64>) -> Result<
         at += len;
     }
     if pings.is_empty() {
-        return Err(Error::invalid(
-            format!("Oculus file {file}"),
-            format!("{} bytes", bytes.len()),
-            "holds no simple ping result (message id 0x23)",
-        ));
+        return Err(no_ping(file, bytes.len()));
     }
     Ok(pings)
 }
@@ -260,11 +368,17 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
             format!("{n_ranges} × {n_beams}: an empty image"),
         ));
     }
-    if !(range_resolution.is_finite() && range_resolution > 0.0) {
+    #[expect(clippy::cast_precision_loss, reason = "a u16 count")]
+    let span = n_ranges as f64 * range_resolution;
+    if !(range_resolution >= MIN_RANGE_RESOLUTION && span <= sonarproj::limits::MAX_RANGE) {
         return Err(m.bad(
             after_sos + 1,
             "rangeResolution",
-            format!("{range_resolution} m: must be > 0"),
+            format!(
+                "{range_resolution:e} m: must be at least {MIN_RANGE_RESOLUTION:e} m, and its {n_ranges} \
+                 range lines within {} m",
+                sonarproj::limits::MAX_RANGE
+            ),
         ));
     }
     let bearings_deg = (0..n_beams)
@@ -273,9 +387,8 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
             Ok(f64::from(i16::from_le_bytes(raw)) / 100.0)
         })
         .collect::<Result<Vec<f64>>>()?;
-    if bearings_deg.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(m.bad(fixed, "bearings", "do not increase strictly from beam to beam"));
-    }
+    let aperture = sonarproj::geometry::sonar::aperture_of_beam_centres(&bearings_deg)
+        .map_err(|why| m.bad(fixed, "bearings", why))?;
     let gain = flags & 0x04 != 0;
     let stride = n_beams * sample + if gain { 4 } else { 0 };
     if image_size != n_ranges * stride {
@@ -305,7 +418,7 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
     let (mut u8s, mut u16s) = (Vec::new(), Vec::new());
     for row in rows.chunks_exact(stride) {
         let samples = if let Some(g) = &mut gains {
-            g.push(u32::from_le_bytes(row[..4].try_into().expect("4 bytes")));
+            g.push(f32::from_le_bytes(row[..4].try_into().expect("4 bytes")));
             &row[4..]
         } else {
             row
@@ -321,7 +434,7 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
     } else {
         OculusImage::U16(u16s)
     };
-    let elevation = match elevation.or_else(|| elevation_of(frequency)) {
+    let elevation = match elevation.or_else(|| elevation_of(frequency, aperture)) {
         Some(e) => e,
         None => {
             return Err(m.bad(
@@ -332,8 +445,7 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
         }
     };
     let range_bins = u32::try_from(n_ranges).expect("a u16");
-    #[expect(clippy::cast_precision_loss, reason = "a u16 count")]
-    let range_max = n_ranges as f64 * range_resolution;
+    let range_max = span;
     // Provisional beams for the builder; the ping's own replace them.
     let sonar = Sonar {
         name: format!("oculus-ping-{ping_id}"),
@@ -345,7 +457,7 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
         range_bins,
         beams: BeamLayout::Uniform { count: 1 },
     }
-    .with_beam_centres(&bearings_deg, None)
+    .with_beam_centres(&bearings_deg, Some(aperture))
     .map_err(|e| Error::from(e.in_context(&format!("Oculus file {}: offset {}", m.file, m.base))))?;
     Ok(OculusPing {
         sonar,
@@ -429,7 +541,7 @@ mod tests {
         m.resize(image_offset, 0);
         for r in 0..rows {
             if gain {
-                m.extend_from_slice(&(1000 + u32::try_from(r).unwrap()).to_le_bytes());
+                m.extend_from_slice(&(1000.0f32 + f32::from(u16::try_from(r).unwrap())).to_le_bytes());
             }
             for c in 0..n {
                 let v = r * 7 + c;
@@ -502,6 +614,26 @@ mod tests {
     }
 
     #[test]
+    fn a_file_is_read_a_message_at_a_time_and_ping_k_despite_a_cut_tail() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("pings.raw");
+        let one = message(1, &[-100, 0, 100], 4, 1, false, 750e3);
+        let two = message(2, &[-100, 0, 100], 6, 2, true, 2.1e6);
+        let mut bytes = [one.clone(), two.clone()].concat();
+        bytes.extend_from_slice(&one[..40]); // a recording cut mid-message
+        std::fs::write(&path, &bytes).unwrap();
+        let k1 = read_oculus(&path, None, Pick::One(1)).unwrap();
+        assert_eq!((k1.len(), k1[0].offset, k1[0].version), (1, one.len(), 2));
+        let all = read_oculus(&path, None, Pick::All).unwrap_err().to_string();
+        assert!(all.contains("truncated"), "{all}");
+        let past = read_oculus(&path, None, Pick::One(2)).unwrap_err().to_string();
+        assert!(past.contains("truncated"), "{past}");
+        std::fs::write(&path, [one.clone(), two].concat()).unwrap();
+        let e = read_oculus(&path, None, Pick::One(5)).unwrap_err().to_string();
+        assert!(e.contains("ping = 5") && e.contains("holds 2 pings"), "{e}");
+    }
+
+    #[test]
     fn foreign_truncated_or_inconsistent_files_are_refused_naming_offset_and_field() {
         let good = message(1, &[-100, 0, 100], 4, 1, false, 750e3);
         let refused = |bytes: &[u8], words: &[&str]| {
@@ -533,8 +665,23 @@ mod tests {
         unknown.truncate(0);
         refused(&unknown, &["no simple ping result"]);
         let mut bearings = message(1, &[100, 0, -100], 4, 1, false, 750e3);
-        refused(&bearings, &["bearings", "increase"]);
+        refused(&bearings, &["bearings", "increasing azimuth"]);
         bearings[8..10].copy_from_slice(&3u16.to_le_bytes());
         refused(&bearings, &["msgVersion", "3"]);
+        // One beam, an off-centre fan, a resolution of nothing.
+        refused(&message(1, &[0], 4, 1, false, 750e3), &["bearings", "1 beam"]);
+        refused(
+            &message(1, &[1000, 2000, 3000], 4, 1, false, 750e3),
+            &["bearings", "not centred"],
+        );
+        let mut tiny = good.clone();
+        tiny[98..106].copy_from_slice(&1e-300f64.to_le_bytes());
+        refused(&tiny, &["offset 98: rangeResolution", "1e-300"]);
+        assert!(
+            parse_oculus("t.raw", &good, Some(0.0))
+                .unwrap_err()
+                .to_string()
+                .contains("elevation = 0")
+        );
     }
 }

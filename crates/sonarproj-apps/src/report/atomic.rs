@@ -18,8 +18,20 @@ use crate::error::{Error, Result};
 static LIVE: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
 /// The directories whose stale temporaries this process has already looked for.
 static SWEPT: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
-/// The files this process reads as inputs, by (device, inode), with the path they were given as.
-static INPUTS: Mutex<BTreeMap<(u64, u64), PathBuf>> = Mutex::new(BTreeMap::new());
+/// The files this process reads as inputs, with the path they were given as, by device, inode,
+/// change time and size: a file created later on a freed inode (the input deleted meanwhile)
+/// differs in change time or size and is not mistaken for the input.
+static INPUTS: Mutex<BTreeMap<InputKey, PathBuf>> = Mutex::new(BTreeMap::new());
+
+/// Device, inode, change time (s, ns) and size of a file.
+type InputKey = (u64, u64, i64, i64, u64);
+
+/// Returns the key of the file `m` describes in [`INPUTS`].
+#[cfg(unix)]
+fn input_key(m: &std::fs::Metadata) -> InputKey {
+    use std::os::unix::fs::MetadataExt;
+    (m.dev(), m.ino(), m.ctime(), m.ctime_nsec(), m.size())
+}
 
 /// Notes that this process reads the file at `path` (an input CSV, a sonar file, a sweep file):
 /// [`write_atomic`] then refuses to replace it, whatever path or link leads there. Paths that
@@ -27,11 +39,10 @@ static INPUTS: Mutex<BTreeMap<(u64, u64), PathBuf>> = Mutex::new(BTreeMap::new()
 pub fn note_input(path: &Path) {
     #[cfg(unix)]
     if let Ok(m) = std::fs::metadata(path) {
-        use std::os::unix::fs::MetadataExt;
         if m.is_file()
             && let Ok(mut inputs) = INPUTS.lock()
         {
-            inputs.insert((m.dev(), m.ino()), path.to_path_buf());
+            inputs.insert(input_key(&m), path.to_path_buf());
         }
     }
     #[cfg(not(unix))]
@@ -42,12 +53,11 @@ pub fn note_input(path: &Path) {
 fn refuse_input(path: &Path, m: &std::fs::Metadata) -> Result<()> {
     #[cfg(unix)]
     {
-        use std::os::unix::fs::MetadataExt;
         let inputs = INPUTS.lock().map_err(|_| Error::WriteOutput {
             path: path.to_path_buf(),
             message: "the list of input files is poisoned".into(),
         })?;
-        if let Some(input) = inputs.get(&(m.dev(), m.ino())) {
+        if let Some(input) = inputs.get(&input_key(m)) {
             return Err(Error::invalid(
                 "output path",
                 path.display(),
@@ -215,6 +225,19 @@ fn target(path: &Path) -> Result<Target> {
         }
         Err(_) => Ok(Target::Replace(path.to_path_buf())),
     }
+}
+
+/// Returns `Ok` when [`write_atomic`] could write `path`: not a directory, not an input of this
+/// process; `field` names it in the error. For commands that write several files and check them
+/// all before writing any.
+///
+/// # Errors
+/// As [`write_atomic`]'s checks, naming `field`.
+pub fn check_output_file(path: &Path, field: &str) -> Result<()> {
+    target(path).map(|_| ()).map_err(|e| match e {
+        Error::Engine(e) => Error::Engine(e.in_context(field)),
+        other => other,
+    })
 }
 
 /// Writes `path` whole or not at all: `fill` writes into a temporary file beside it

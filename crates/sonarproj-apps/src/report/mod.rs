@@ -36,7 +36,9 @@ use std::io::Write;
 use std::path::Path;
 
 use crate::error::{Error, Result};
-pub use atomic::{note_input, remove_live_temporaries, remove_stale_temporaries, write_atomic};
+pub use atomic::{
+    check_output_file, note_input, remove_live_temporaries, remove_stale_temporaries, write_atomic,
+};
 
 /// Writes `values` to `w` as an NPY array of `shape` (named `path` in errors).
 ///
@@ -79,7 +81,22 @@ pub fn check_output_dir(path: &Path, field: &str) -> Result<()> {
             path.display(),
             "is a file, not a directory; give a directory (created when missing)",
         )),
-        _ => Ok(()),
+        Ok(_) => Ok(()),
+        Err(_) => {
+            // Missing: it is created with its parents, unless one of them is a file.
+            match path
+                .ancestors()
+                .skip(1)
+                .find(|a| !a.as_os_str().is_empty() && a.exists())
+            {
+                Some(a) if !a.is_dir() => Err(Error::invalid(
+                    field,
+                    path.display(),
+                    format!("cannot be created: {} is a file, not a directory", a.display()),
+                )),
+                _ => Ok(()),
+            }
+        }
     }
 }
 

@@ -4,8 +4,8 @@
 use std::path::PathBuf;
 
 use sonarproj_apps::Result;
-use sonarproj_apps::io::oculus::{OculusImage, read_oculus};
-use sonarproj_apps::report::{check_output_dir, output_dir, write_atomic, write_npy};
+use sonarproj_apps::io::oculus::{OculusImage, Pick, read_oculus};
+use sonarproj_apps::report::{check_output_dir, check_output_file, output_dir, write_atomic, write_npy};
 
 /// The sub-commands of `sonarproj sonar`.
 #[derive(Debug, clap::Subcommand)]
@@ -33,7 +33,7 @@ pub(super) struct FromOculusArgs {
     /// 20° at 750 kHz, 1.2 and 3 MHz, 12° at 2.1 MHz).
     #[arg(long, value_name = "DEG")]
     elevation: Option<f64>,
-    /// Also write DIR/gains.npy (uint32, one per range line) when the ping carries gains.
+    /// Also write DIR/gains.npy (float32, one per range line); the ping must carry gains.
     #[arg(long)]
     gains: bool,
 }
@@ -47,26 +47,40 @@ pub(super) fn run(c: SonarCommand) -> Result<()> {
 
 fn from_oculus(a: FromOculusArgs) -> Result<()> {
     check_output_dir(&a.out, "--out")?;
-    let pings = read_oculus(&a.file, a.elevation)?;
-    let n = pings.len();
-    let Some(p) = pings.into_iter().nth(a.ping) else {
-        return Err(sonarproj_apps::Error::invalid(
-            "--ping",
-            a.ping,
-            format!(
-                "the file holds {n} ping{} (0 to {})",
-                if n == 1 { "" } else { "s" },
-                n - 1
-            ),
-        ));
+    let Some(p) = read_oculus(&a.file, a.elevation, Pick::One(a.ping))?.pop() else {
+        unreachable!("read_oculus returns ping k or an error")
     };
-    output_dir(&a.out, "--out")?;
+    if a.gains && p.gains.is_none() {
+        return Err(sonarproj_apps::Error::invalid(
+            "--gains",
+            format!("ping {}", a.ping),
+            "the ping carries no gains (its fire message did not ask for them)",
+        ));
+    }
     let toml = a.out.join("sonar.toml");
+    let image = a.out.join("image.npy");
+    let gains = a.out.join("gains.npy");
+    // Every output checked before any is written; the sonar file last, so that it never stands
+    // beside an image of another ping.
+    for path in [&image, &toml, &gains] {
+        check_output_file(path, "--out")?;
+    }
+    output_dir(&a.out, "--out")?;
+    let shape = [u64::from(p.sonar.range_bins), u64::from(p.sonar.beam_count())];
+    write_atomic(&image, |w| match &p.image {
+        OculusImage::U8(v) => write_npy(w, &shape, v.iter().copied(), &image),
+        OculusImage::U16(v) => write_npy(w, &shape, v.iter().copied(), &image),
+    })?;
+    if a.gains
+        && let Some(g) = &p.gains
+    {
+        write_atomic(&gains, |w| write_npy(w, &[shape[0]], g.iter().copied(), &gains))?;
+    }
     let header = format!(
-        "# Oculus ping {} of {} (message at byte {}, layout version {}): {} Hz, {} m per range line.\n\
+        "# Oculus ping {} of {:?} (message at byte {}, layout version {}): {} Hz, {} m per range line.\n\
          # Bearings as the ping gives them (deg, positive to port): the beam centres.\n",
         p.ping_id,
-        a.file.display(),
+        a.file.display().to_string(),
         p.offset,
         p.version,
         p.frequency,
@@ -77,20 +91,8 @@ fn from_oculus(a: FromOculusArgs) -> Result<()> {
         w.write_all(text.as_bytes())
             .map_err(|e| sonarproj_apps::Error::write_output(&toml, e))
     })?;
-    let shape = [u64::from(p.sonar.range_bins), u64::from(p.sonar.beam_count())];
-    let image = a.out.join("image.npy");
-    write_atomic(&image, |w| match &p.image {
-        OculusImage::U8(v) => write_npy(w, &shape, v.iter().copied(), &image),
-        OculusImage::U16(v) => write_npy(w, &shape, v.iter().copied(), &image),
-    })?;
-    if a.gains
-        && let Some(g) = &p.gains
-    {
-        let path = a.out.join("gains.npy");
-        write_atomic(&path, |w| write_npy(w, &[shape[0]], g.iter().copied(), &path))?;
-    }
     outln!(
-        "ping {} of {n}: {} ranges × {} beams ({}-bit), {:.4}–{:.4} m, beams {:.2}° to {:.2}°; wrote {} and {}",
+        "ping {}: {} ranges × {} beams ({}-bit), {:.4}–{:.4} m, beams {:.2}° to {:.2}°; wrote {}, {}{}",
         a.ping,
         shape[0],
         shape[1],
@@ -104,6 +106,11 @@ fn from_oculus(a: FromOculusArgs) -> Result<()> {
         p.bearings_deg.first().copied().unwrap_or(0.0),
         p.bearings_deg.last().copied().unwrap_or(0.0),
         toml.display(),
-        image.display()
+        image.display(),
+        if a.gains {
+            format!(", {}", gains.display())
+        } else {
+            String::new()
+        }
     )
 }

@@ -9,12 +9,13 @@
 //!
 //! The HTTP is hyper's (HTTP/1 on tokio), which enforces the limits on the request head: at most
 //! [`MAX_HEAD_BYTES`] and [`MAX_HEADERS`] headers (431 past them), the head within
-//! [`HEAD_TIMEOUT`], one `Content-Length` (400 for conflicting ones). Each connection is a task
+//! [`HEAD_TIMEOUT`] (else the connection is closed), one `Content-Length` (400 for conflicting
+//! ones); a client that stops reading a reply for [`WRITE_TIMEOUT`] is dropped. Each connection is a task
 //! of its own, so a slow client stalls nobody else; a body is read within [`BODY_TIMEOUT`] and
 //! at most [`MAX_REQUEST_BYTES`] of it (413). Scenes are computed on blocking threads, at most
-//! [`computing`] at once with [`MAX_WAITING`] more queued (503 past them); a client that goes
-//! away before its scene starts, or between its stages, has its work given up. Every error reply
-//! is a short JSON object.
+//! [`computing`] at once with [`MAX_WAITING`] more queued (503 past them), each holding its slots
+//! until its work ends; a client that goes away has its work given up at the next stage (on the
+//! fast CPU path, at the next pose or tile of samples). Every error reply is a short JSON object.
 
 use std::net::{IpAddr, SocketAddr};
 use std::sync::Arc;
@@ -107,6 +108,9 @@ pub(crate) const MAX_HEADERS: usize = 64;
 /// The time a client has to send a request's head, and then its body.
 pub(crate) const HEAD_TIMEOUT: Duration = Duration::from_secs(10);
 pub(crate) const BODY_TIMEOUT: Duration = Duration::from_secs(10);
+/// The time a client has to take each part of a reply (a write that waits longer ends the
+/// connection).
+pub(crate) const WRITE_TIMEOUT: Duration = Duration::from_secs(30);
 /// The most connections served at once (more wait to be accepted).
 const MAX_CONNECTIONS: usize = 256;
 /// The most scenes waiting for a computing slot (more are answered 503 at once).
@@ -125,9 +129,10 @@ struct Shared {
     viewer: Viewer,
     initial: serde_json::Value,
     port: u16,
-    /// Slots to compute a scene in, and slots to wait for one in.
-    computing: Semaphore,
-    waiting: Semaphore,
+    /// Slots to compute a scene in, and slots to wait for one in; a scene holds its slots until
+    /// its work has ended, even when its client left before.
+    computing: Arc<Semaphore>,
+    waiting: Arc<Semaphore>,
 }
 
 /// Runs `sonarproj view` until interrupted.
@@ -181,8 +186,8 @@ async fn serve(a: ViewArgs, viewer: Viewer, initial: serde_json::Value) -> Resul
         viewer,
         initial,
         port,
-        computing: Semaphore::new(computing()),
-        waiting: Semaphore::new(computing() + MAX_WAITING),
+        computing: Arc::new(Semaphore::new(computing())),
+        waiting: Arc::new(Semaphore::new(computing() + MAX_WAITING)),
     });
     let connections = Arc::new(Semaphore::new(MAX_CONNECTIONS));
     loop {
@@ -210,8 +215,12 @@ async fn serve(a: ViewArgs, viewer: Viewer, initial: serde_json::Value) -> Resul
                 .max_headers(MAX_HEADERS);
             // An error here is the client's (it went away, sent a bad head or too slowly):
             // hyper has answered what could be answered.
+            // A client that stops reading a reply is dropped after WRITE_TIMEOUT, so that it
+            // cannot hold its connection slot forever.
+            let mut stream = tokio_io_timeout::TimeoutStream::new(stream);
+            stream.set_write_timeout(Some(WRITE_TIMEOUT));
             let _ = http
-                .serve_connection(hyper_util::rt::TokioIo::new(stream), service)
+                .serve_connection(hyper_util::rt::TokioIo::new(Box::pin(stream)), service)
                 .await;
             drop(permit);
         });
@@ -222,10 +231,16 @@ async fn serve(a: ViewArgs, viewer: Viewer, initial: serde_json::Value) -> Resul
 /// server: `localhost` or an IP address, with this server's port. A DNS name other than
 /// `localhost` is refused, which is what stops DNS rebinding.
 fn allowed_host(host: &str, port: u16) -> bool {
-    let Some((name, p)) = host.rsplit_once(':') else {
-        return false;
+    // A browser leaves the default port out: `localhost` or `[::1]` alone mean port 80.
+    let (name, p) = match host.rsplit_once(':') {
+        Some((name, p)) if !p.contains(']') => (name, Some(p)),
+        _ => (host, None),
     };
-    if p.parse::<u16>().ok() != Some(port) {
+    let given = match p {
+        Some(p) => p.parse::<u16>().ok(),
+        None => Some(80),
+    };
+    if given != Some(port) {
         return false;
     }
     let name = name
@@ -391,21 +406,24 @@ async fn scene(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Ful
         Ok(s) => s,
         Err(e) => return error_reply(StatusCode::BAD_REQUEST, &e.to_string(), true),
     };
-    let Ok(_waiting) = shared.waiting.try_acquire() else {
+    let Ok(waiting) = Arc::clone(&shared.waiting).try_acquire_owned() else {
         return error_reply(
             StatusCode::SERVICE_UNAVAILABLE,
             "busy: too many scenes are waiting; try again",
             false,
         );
     };
-    let Ok(_computing) = shared.computing.acquire().await else {
+    let Ok(computing) = Arc::clone(&shared.computing).acquire_owned().await else {
         return error_reply(StatusCode::SERVICE_UNAVAILABLE, "the server is stopping", false);
     };
     let gone = Arc::new(AtomicBool::new(false));
     let _guard = GoneOnDrop(Arc::clone(&gone));
     let work = Arc::clone(shared);
     let computed = tokio::task::spawn_blocking(move || {
-        work.viewer.scene_until(&scene, &|| gone.load(Ordering::Relaxed))
+        let slots = (waiting, computing);
+        let answer = work.viewer.scene_until(&scene, &|| gone.load(Ordering::Relaxed));
+        drop(slots);
+        answer
     })
     .await;
     match computed {
@@ -441,13 +459,16 @@ mod tests {
         ] {
             assert!(allowed_host(ok, 8765), "{ok}");
         }
+        // The default port, left out as browsers do.
+        for ok in ["localhost", "127.0.0.1", "[::1]", "localhost:80"] {
+            assert!(allowed_host(ok, 80), "{ok} on port 80");
+        }
+        assert!(!allowed_host("evil.example", 80) && !allowed_host("localhost", 8765));
         for bad in [
             "127.0.0.1:8766",
             "evil.example:8765",
             "localhost.evil.example:8765",
-            "127.0.0.1",
             "",
-            "[::1]",
             "localhost:",
             "127.0.0.1.nip.io:8765",
         ] {
