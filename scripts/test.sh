@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Runs the whole test suite — Rust, then the Python package's, then the viewer's in a browser —
+# Runs the whole test suite — Rust, then the Python package's, a sweep on a real Slurm cluster,
+# then the viewer's in a browser —
 # with GPU tests on lavapipe (Mesa's Vulkan CPU driver), installing what is missing. Usage: scripts/test.sh [extra cargo
 # test arguments]
 set -euo pipefail
@@ -52,6 +53,8 @@ rm -rf "$venv" "$wheels"
 "$venv/bin/maturin" build --release --quiet "${checks[@]}" -o "$wheels"
 "$venv/bin/pip" install -q --disable-pip-version-check --no-deps "$wheels"/sonarproj-*.whl
 SONARPROJ_BIN="$target_dir/release/sonarproj" "$venv/bin/pytest" -q python/tests
+# The README's Slurm recipe on a real single-node cluster started and stopped by the script.
+bash scripts/test_slurm.sh "$target_dir/release/sonarproj"
 # The viewer (`sonarproj view`) driven in headless Chromium.
 SONARPROJ_BIN="$target_dir/release/sonarproj" "$venv/bin/pytest" -q web/tests
 examples_out="$(mktemp -d)"
