@@ -264,8 +264,9 @@ impl Serialize for Value {
 /// The metrics of one projection (README: Conventions). Ranges in metres, azimuths in degrees.
 ///
 /// Serialised (JSON) as an object whose keys are the [`METRICS`] names in table order, with
-/// `null` for an extreme when nothing is visible.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// `null` for an extreme when nothing is visible. The default is a projection of which nothing
+/// is visible (zeros, and no extremes).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Metrics {
     /// Samples kept by the clip.
     pub visible: u64,

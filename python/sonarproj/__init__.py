@@ -711,11 +711,15 @@ def sweep(
     max_chunks: Optional[int] = None,
     backend: str = "auto",
     progress: Optional[Callable[[int, int], None]] = None,
+    format: str = "csv",
 ) -> dict[str, Any]:
     """Runs the sweep described by the TOML file `config` into the directory `out_dir`, with the
     command line's code (``sonarproj sweep``): ``sweep.csv`` (the grid's columns, then the
     metric columns; angles in deg, distances in m), ``sweep.json`` and, for a grid with one or
-    two varying axes, the figure ``sweep-METRIC.png``.
+    two varying axes, the figure ``sweep-METRIC.png``. ``format="parquet"`` writes
+    ``sweep.parquet`` instead: the same columns typed (integers for the index and counts,
+    floats for the rest, null where the CSV leaves a cell empty), for ``pandas.read_parquet``,
+    polars, pyarrow or DuckDB, and faster to write.
 
     Finished chunks of `chunk_poses` poses stay on disk, so calling it again resumes; Ctrl-C
     (KeyboardInterrupt) stops it between chunks. `shard` ``"K/N"`` runs part K of N;
@@ -725,6 +729,8 @@ def sweep(
     Returns a dict: ``file`` (the CSV, or None when stopped early), ``figure``, ``poses``,
     ``computed``, ``resumed``, ``seconds``, ``device``.
     """
+    if format not in ("csv", "parquet"):
+        raise InputError(f'format: expected "csv" or "parquet", got {format!r}')
     if progress is not None and not callable(progress):
         raise InputError(f"progress: expected a callable (done, total), got {type(progress).__name__}")
     if shard is not None and not isinstance(shard, str):
@@ -737,6 +743,7 @@ def sweep(
         _count("max_chunks", max_chunks, optional=True),
         _backend(backend),
         progress,
+        format,
     )
     _warn(notice)
     return result
@@ -744,12 +751,13 @@ def sweep(
 
 def merge(out_dir: Union[str, "_os.PathLike[str]"]) -> dict[str, Optional[str]]:
     """Joins the finished shards of a sweep in `out_dir` (run with ``shard="K/N"``) into
-    ``sweep.csv``, byte for byte the file one run would have written, and draws the figure, as
+    ``sweep.csv`` (``sweep.parquet`` for Parquet shards), byte for byte the file one run would
+    have written, and draws the figure, as
     ``sonarproj merge``. Refused with InputError, writing nothing, when a shard is missing or
     damaged, or when the shards were computed with different settings (backend, GPU adapter,
     precision or options, engine version: the message names the setting and both values).
 
-    Returns a dict: ``file`` (the CSV) and ``figure`` (None when the sweep draws none).
+    Returns a dict: ``file`` (the table) and ``figure`` (None when the sweep draws none).
     """
     file, figure = _native.sweep_merge(_os.fspath(out_dir))
     return {"file": _os.fspath(file), "figure": None if figure is None else _os.fspath(figure)}

@@ -289,6 +289,7 @@ def sweep_run(
     max_chunks: Optional[int],
     backend_name: str,
     progress: Optional[Callable[[int, int], None]],
+    format: str,
 ) -> tuple[dict[str, Any], Optional[str]]: ...
 def sweep_merge(out_dir: str) -> tuple[str, Optional[str]]: ...
 def paper_run(

@@ -241,6 +241,32 @@ def test_sweep_writes_what_the_command_line_writes(tmp_path, cli, root):
     # A second call resumes: nothing computed again.
     again = sonarproj.sweep(config, tmp_path / "py", backend="cpu-fast", chunk_poses=5)
     assert again["computed"] == 0 and again["resumed"] == 14
+    # Parquet: the command line's bytes, and the CSV's values read by pyarrow (typed columns,
+    # nulls where the CSV is empty).
+    cli("sweep", "--config", config, "--out", tmp_path / "cli-pq", "--backend", "cpu-fast", "--format", "parquet")
+    got = sonarproj.sweep(config, tmp_path / "py-pq", backend="cpu-fast", format="parquet")
+    assert str(got["file"]).endswith("sweep.parquet")
+    assert (tmp_path / "cli-pq" / "sweep.parquet").read_bytes() == (tmp_path / "py-pq" / "sweep.parquet").read_bytes()
+    import pyarrow.parquet as pq  # installed by the test command
+    table = pq.read_table(tmp_path / "py-pq" / "sweep.parquet")
+    with open(tmp_path / "cli" / "sweep.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert table.column_names == list(rows[0].keys()) and table.num_rows == len(rows)
+    assert str(table.schema.field("index").type) == "int64" and str(table.schema.field("visible").type) == "int64"
+    assert str(table.schema.field("span").type) == "double" and not table.schema.field("span").nullable
+    assert table.schema.field("range_min").nullable
+    nulls = 0
+    for name in table.column_names:
+        for k, value in enumerate(table.column(name).to_pylist()):
+            text = rows[k][name]
+            if text == "":
+                assert value is None, (name, k)
+                nulls += 1
+            else:
+                assert value == float(text), (name, k, value, text)
+    assert nulls > 0, "the sweep should have empty cells for nulls to be tested"
+    with pytest.raises(sonarproj.InputError, match="format"):
+        sonarproj.sweep(config, tmp_path / "bad", format="feather")
 
 
 @pytest.mark.parametrize("step", [0.5, "auto"])

@@ -16,8 +16,9 @@ use crate::{backend, errors};
 
 /// The command line's flags named in the applications' messages, and the Python parameters
 /// that stand for them.
-const FLAGS: [(&str, &str); 5] = [
+const FLAGS: [(&str, &str); 6] = [
     ("--out", "out_dir"),
+    ("--format", "format"),
     ("--chunk-poses", "chunk_poses"),
     ("--max-chunks", "max_chunks"),
     ("--shard", "shard"),
@@ -33,7 +34,7 @@ fn error(e: sonarproj_apps::Error) -> PyErr {
 /// was done and the notice of the backend's selection. `progress(done, total)` is called after
 /// each chunk; Ctrl-C stops the run between chunks (finished chunks stay on disk).
 #[pyfunction]
-#[pyo3(signature = (config, out_dir, shard, chunk_poses, max_chunks, backend_name, progress))]
+#[pyo3(signature = (config, out_dir, shard, chunk_poses, max_chunks, backend_name, progress, format))]
 #[expect(clippy::too_many_arguments, reason = "the Python function's parameters")]
 pub(crate) fn sweep_run<'py>(
     py: Python<'py>,
@@ -44,14 +45,17 @@ pub(crate) fn sweep_run<'py>(
     max_chunks: Option<u64>,
     backend_name: &str,
     progress: Option<Py<PyAny>>,
+    format: &str,
 ) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
     let shard = shard.map(Shard::parse).transpose().map_err(error)?;
+    let format = sweep::Format::parse(format, "format").map_err(error)?;
     let config = SweepConfig::load(&config).map_err(error)?;
     let opts = Options {
         out: out_dir,
         shard,
         chunk_poses,
         max_chunks,
+        format,
     };
     let (backend, notice) = backend::get(backend_name)?;
     let start = Instant::now();

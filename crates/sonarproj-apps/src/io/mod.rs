@@ -1,9 +1,10 @@
 //! Input and output formats: CSV projection batches (`batch`) and correspondences to recover
 //! (`recover`), both read through one checked table reader (`table`), and values given as text
-//! — pose strings, features, mask stream lines (`text`).
+//! — pose strings, features, mask stream lines (`text`); sweep tables as Parquet (`parquet`).
 
 pub mod batch;
 pub mod oculus;
+pub mod parquet;
 pub mod pose_columns;
 pub mod recover;
 pub mod table;

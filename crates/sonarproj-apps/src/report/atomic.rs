@@ -38,12 +38,11 @@ fn input_key(m: &std::fs::Metadata) -> InputKey {
 /// are not regular files are not noted.
 pub fn note_input(path: &Path) {
     #[cfg(unix)]
-    if let Ok(m) = std::fs::metadata(path) {
-        if m.is_file()
-            && let Ok(mut inputs) = INPUTS.lock()
-        {
-            inputs.insert(input_key(&m), path.to_path_buf());
-        }
+    if let Ok(m) = std::fs::metadata(path)
+        && m.is_file()
+        && let Ok(mut inputs) = INPUTS.lock()
+    {
+        inputs.insert(input_key(&m), path.to_path_buf());
     }
     #[cfg(not(unix))]
     let _ = path;
@@ -252,7 +251,7 @@ pub fn check_output_file(path: &Path, field: &str) -> Result<()> {
 /// [`Error::WriteOutput`] on I/O failure; an input error for an empty path, a directory or an
 /// input file; any
 /// error `fill` returns (a regular file is then not created or changed).
-pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
+pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut (dyn Write + Send)) -> Result<()>) -> Result<()> {
     let io_err = |e: &dyn std::fmt::Display| Error::WriteOutput {
         path: path.to_path_buf(),
         message: e.to_string(),

@@ -577,6 +577,55 @@ impl SweepConfig {
         Ok(pairs.into_iter().unzip())
     }
 
+    /// Returns the poses with indices in `range` as [`SweepConfig::items`] does, with their pose
+    /// columns as numbers (row after row, the columns of [`SweepConfig::columns`] after
+    /// `index`) instead of text.
+    ///
+    /// # Errors
+    /// As [`SweepConfig::items`]; a list's field that is not a number.
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "grid sizes are checked against MAX_POSES before they are used as indices"
+    )]
+    pub fn items_numeric(&self, range: std::ops::Range<u64>) -> Result<(Vec<PoseRow>, Vec<f64>)> {
+        let rows = range
+            .into_par_iter()
+            .map(|i| match &self.poses {
+                Poses::List(l) => {
+                    let fields = l.rows[i as usize]
+                        .iter()
+                        .map(|t| {
+                            t.trim().parse::<f64>().map_err(|_| {
+                                Error::invalid(format!("poses row {i}"), format!("{t:?}"), "must be a number")
+                            })
+                        })
+                        .collect::<Result<Vec<f64>>>()?;
+                    let pose = PoseRow {
+                        item: l.items[i as usize],
+                        true_point: l.true_points[i as usize],
+                    };
+                    Ok((pose, fields))
+                }
+                Poses::Grid(g) => {
+                    let v = g.values(i);
+                    let fields = v.clone();
+                    let pose = PoseRow {
+                        true_point: Some([v[0], v[1], v[2]]),
+                        item: g.item(&self.source, v)?,
+                    };
+                    Ok((pose, fields))
+                }
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mut poses = Vec::with_capacity(rows.len());
+        let mut values = Vec::new();
+        for (pose, fields) in rows {
+            poses.push(pose);
+            values.extend(fields);
+        }
+        Ok((poses, values))
+    }
+
     /// Returns a fingerprint of everything in the file that decides the output (sonars,
     /// sampling, area grid, range error, poses):
     /// FNV-1a over their full debug form, so a resumed or merged sweep can tell its own parts.

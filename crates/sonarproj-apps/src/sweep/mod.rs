@@ -7,4 +7,4 @@ pub mod parts;
 pub mod run;
 
 pub use config::{Axis, Grid, Poses, SweepConfig};
-pub use run::{Event, Options, Outcome, Shard, merge, run};
+pub use run::{Event, Format, Options, Outcome, Shard, merge, run};

@@ -49,15 +49,26 @@ pub enum Status {
     Damaged(String),
 }
 
-/// Returns the path of the record of part `file` (`NAME.csv` → `NAME.meta.json`).
+/// Returns the path of the record of part `file` (`NAME.csv` → `NAME.meta.json`, `NAME.parquet`
+/// → `NAME.parquet.meta.json`, so the two formats of one part keep their own records).
 #[must_use]
 pub fn record_path(file: &Path) -> PathBuf {
-    file.with_extension("meta.json")
+    beside(file, "meta.json")
+}
+
+/// Returns the path of the file `suffix` beside part `file`: `NAME.suffix` for a CSV part,
+/// `NAME.EXT.suffix` for any other.
+#[must_use]
+pub fn beside(file: &Path, suffix: &str) -> PathBuf {
+    match file.extension().and_then(|e| e.to_str()) {
+        Some("csv") | None => file.with_extension(suffix),
+        Some(ext) => file.with_extension(format!("{ext}.{suffix}")),
+    }
 }
 
 /// A writer that counts and checksums what passes through it.
 struct Summing<'w> {
-    inner: &'w mut dyn Write,
+    inner: &'w mut (dyn Write + Send),
     hasher: crc32fast::Hasher,
     bytes: u64,
 }
@@ -83,7 +94,7 @@ impl Write for Summing<'_> {
 pub fn write(
     file: &Path,
     expected: Expected<'_>,
-    fill: impl FnOnce(&mut dyn Write) -> Result<()>,
+    fill: impl FnOnce(&mut (dyn Write + Send)) -> Result<()>,
 ) -> Result<()> {
     let mut sums = (0u64, 0u32);
     write_atomic(file, |w| {
@@ -257,6 +268,69 @@ pub fn join(
             }
         }
         Ok(())
+    })
+}
+
+/// Writes the Parquet file `out` (with its record for `expected`) from the rows of the Parquet
+/// parts `parts`, in order: each part's size and checksum checked against its record before it is
+/// read and again after, and its columns against `columns` of `kinds`. `out`'s row groups are
+/// cut at the multiples of [`GROUP_ROWS`](crate::io::parquet::GROUP_ROWS) of the pose index, so
+/// the same rows make the same file however they were chunked or sharded; `out` is written whole
+/// or not at all.
+///
+/// # Errors
+/// [`Error::Csv`] naming a part that is not what its record says or not this sweep's table;
+/// [`Error::ReadInput`] and [`Error::WriteOutput`] on I/O failure.
+pub fn join_parquet(
+    parts: impl IntoIterator<Item = PathBuf>,
+    columns: &[String],
+    kinds: &[crate::io::parquet::Kind],
+    out: &Path,
+    expected: Expected<'_>,
+) -> Result<()> {
+    use crate::io::parquet::{Encoding, Kind, TableWriter, read_groups};
+    // Dictionaries for the pose columns (between the index and the metrics, whose values repeat).
+    let metrics = crate::io::METRIC_COLUMNS.len();
+    let dictionary = &columns[1..columns.len().saturating_sub(metrics).max(1)];
+    debug_assert!(kinds[1..=dictionary.len()].iter().all(|k| *k == Kind::Real));
+    write(out, expected, |w| {
+        let encoding = Encoding::Final { dictionary };
+        let mut table = TableWriter::new(w, columns, kinds, expected.first, encoding, out)?;
+        let mut rows = 0u64;
+        for part in parts {
+            let damaged = |message: String| Error::Csv {
+                context: part.display().to_string(),
+                message,
+            };
+            let record = std::fs::read(record_path(&part))
+                .ok()
+                .and_then(|t| serde_json::from_slice::<PartRecord>(&t).ok())
+                .ok_or_else(|| damaged("its record is missing or unreadable".into()))?;
+            let same = |when: &str| match sums(&part) {
+                Ok((bytes, crc)) if bytes == record.bytes && format!("{crc:08x}") == record.crc32 => Ok(()),
+                Ok(_) => Err(damaged(format!(
+                    "its bytes differ from its record (size or checksum) {when} it was read"
+                ))),
+                Err(source) => Err(Error::ReadInput {
+                    path: part.clone(),
+                    source,
+                }),
+            };
+            same("before")?;
+            for group in read_groups(&part, columns, kinds)? {
+                let group = group?;
+                rows += group.rows() as u64;
+                table.push(group)?;
+            }
+            same("after")?;
+        }
+        if rows != expected.rows {
+            return Err(Error::Csv {
+                context: out.display().to_string(),
+                message: format!("its parts hold {rows} rows where {} belong", expected.rows),
+            });
+        }
+        table.finish()
     })
 }
 

@@ -26,6 +26,7 @@ use sonarproj::projection::Backend;
 
 use crate::error::{Error, Result};
 use crate::io::batch::{PoseRow, local_of};
+use crate::io::parquet::{Column, Encoding, Kind, Table, TableWriter, read_groups};
 use crate::io::table::write_rows;
 use crate::io::{METRIC_COLUMNS, metric_fields};
 use crate::report::{figures, output_dir, remove_stale_temporaries};
@@ -121,6 +122,9 @@ pub struct Descriptor {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 struct Manifest {
     fingerprint: String,
+    /// Absent in the manifests of runs from before Parquet: CSV.
+    #[serde(default)]
+    format: Format,
     chunk_poses: u64,
     shard: Option<Shard>,
     settings: Settings,
@@ -161,9 +165,72 @@ fn first_difference(a: &Settings, b: &Settings) -> Option<(String, String, Strin
         })
 }
 
-/// Returns the path of the settings record of part `file` (`NAME.csv` → `NAME.run.json`).
+/// Returns the path of the settings record of part `file` (`NAME.csv` → `NAME.run.json`,
+/// `NAME.parquet` → `NAME.parquet.run.json`).
 fn settings_path(file: &Path) -> PathBuf {
-    file.with_extension("run.json")
+    parts::beside(file, "run.json")
+}
+
+/// The format of a sweep's tables.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Format {
+    /// CSV: one line of text a pose, numbers in their shortest exact form, empty cells where
+    /// nothing is visible.
+    #[default]
+    Csv,
+    /// Parquet: typed columns (integers for the index and counts, doubles for the rest, null
+    /// where the CSV leaves a cell empty), Snappy-compressed, row groups at the multiples of
+    /// [`GROUP_ROWS`](crate::io::parquet::GROUP_ROWS) in the pose index.
+    Parquet,
+}
+
+impl Format {
+    /// Returns the file extension (and the name) of the format: `csv` or `parquet`.
+    #[must_use]
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Csv => "csv",
+            Format::Parquet => "parquet",
+        }
+    }
+
+    /// Returns the format named `text` (`csv` or `parquet`).
+    ///
+    /// # Errors
+    /// [`sonarproj::Error::InvalidValue`] naming `field` for any other name.
+    pub fn parse(text: &str, field: &str) -> Result<Format> {
+        match text {
+            "csv" => Ok(Format::Csv),
+            "parquet" => Ok(Format::Parquet),
+            _ => Err(Error::invalid(
+                field,
+                format!("{text:?}"),
+                "must be \"csv\" or \"parquet\"",
+            )),
+        }
+    }
+}
+
+/// Returns the kinds of a sweep table's `columns` (its descriptor's): the index an integer, the
+/// pose columns numbers, then the metric columns as the metric table types them (counts
+/// integers; extremes, the projection area and the local precision nullable).
+#[must_use]
+pub fn column_kinds(columns: &[String]) -> Vec<Kind> {
+    let metrics = sonarproj::Metrics::default();
+    let metric_kinds = sonarproj::metrics::METRICS
+        .iter()
+        .map(|info| match metrics.get(info.metric) {
+            sonarproj::metrics::Value::Count(_) => Kind::Int,
+            sonarproj::metrics::Value::Real(_) => Kind::Real,
+            sonarproj::metrics::Value::Optional(_) => Kind::Optional,
+        })
+        .chain([Kind::Optional, Kind::Optional]);
+    let poses = columns.len().saturating_sub(1 + METRIC_COLUMNS.len());
+    std::iter::once(Kind::Int)
+        .chain(std::iter::repeat_n(Kind::Real, poses))
+        .chain(metric_kinds)
+        .collect()
 }
 
 /// How to run a sweep.
@@ -177,6 +244,8 @@ pub struct Options {
     pub chunk_poses: u64,
     /// Stop after computing this many chunks (the run stays resumable).
     pub max_chunks: Option<u64>,
+    /// The format of the result, its chunks and shards.
+    pub format: Format,
 }
 
 /// What a call to [`run`] did.
@@ -300,7 +369,8 @@ pub fn run(
     output_dir(dir, "--out")?;
     remove_stale_temporaries(dir);
     claim(dir, &desc)?;
-    let file = dir.join(format!("{stem}.csv"));
+    let ext = opts.format.extension();
+    let file = dir.join(format!("{stem}.{ext}"));
     let mut outcome = Outcome {
         file: None,
         figure: None,
@@ -376,6 +446,7 @@ pub fn run(
     remove_stale_temporaries(&state);
     let manifest = Manifest {
         fingerprint: desc.fingerprint.clone(),
+        format: opts.format,
         chunk_poses: opts.chunk_poses,
         shard: opts.shard,
         settings: settings(backend),
@@ -385,7 +456,13 @@ pub fn run(
         None => write_json(&manifest_path, &manifest)?,
         Some(old) if old == manifest => {}
         Some(old) => {
-            let (field, was, now) = if old.chunk_poses != manifest.chunk_poses {
+            let (field, was, now) = if old.format != manifest.format {
+                (
+                    "--format".to_string(),
+                    old.format.extension().to_string(),
+                    manifest.format.extension().to_string(),
+                )
+            } else if old.chunk_poses != manifest.chunk_poses {
                 (
                     "--chunk-poses".to_string(),
                     old.chunk_poses.to_string(),
@@ -419,13 +496,14 @@ pub fn run(
         let s = range.start + c * opts.chunk_poses;
         s..(s + opts.chunk_poses).min(range.end)
     };
-    let chunk_path = |c: u64| state.join(format!("chunk-{c:08}.csv"));
+    let chunk_path = |c: u64| state.join(format!("chunk-{c:08}.{ext}"));
     let expected = |r: &Range<u64>| parts::Expected {
         fingerprint: &desc.fingerprint,
         first: r.start,
         rows: r.end - r.start,
     };
     let header = config.columns();
+    let kinds = column_kinds(&desc.columns);
     let sigma = resolve_sigma_range(&config.source, &config.target, config.sigma_range)?;
     let mut done = 0;
     let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
@@ -449,25 +527,44 @@ pub fn run(
             {
                 return Ok(outcome);
             }
-            let (poses, fields) = config.items(r.clone())?;
-            let batch = Batch {
-                source: config.source.clone(),
-                target: config.target.clone(),
-                sampling: config.sampling,
-                area_grid: config.area_grid,
-                items: poses.iter().map(|p| p.item).collect(),
-            };
-            let results = backend.project(&batch, Output::MetricsOnly)?;
-            let body = csv_rows(&batch, &poses, &fields, &results, sigma, &path)?;
-            parts::write(&path, expected(r), |w| {
-                write_rows(
-                    &mut *w,
-                    &header,
-                    &METRIC_COLUMNS,
-                    std::iter::empty::<(&[String], Vec<String>)>(),
-                )?;
-                w.write_all(&body).map_err(|e| Error::write_output(&path, e))
-            })?;
+            match opts.format {
+                Format::Csv => {
+                    let (poses, fields) = config.items(r.clone())?;
+                    let batch = chunk_batch(config, &poses);
+                    let results = backend.project(&batch, Output::MetricsOnly)?;
+                    let body = csv_rows(&batch, &poses, &fields, &results, sigma, &path)?;
+                    parts::write(&path, expected(r), |w| {
+                        write_rows(
+                            &mut *w,
+                            &header,
+                            &METRIC_COLUMNS,
+                            std::iter::empty::<(&[String], Vec<String>)>(),
+                        )?;
+                        w.write_all(&body).map_err(|e| Error::write_output(&path, e))
+                    })?;
+                }
+                Format::Parquet => {
+                    let (poses, values) = config.items_numeric(r.clone())?;
+                    let batch = chunk_batch(config, &poses);
+                    let results = backend.project(&batch, Output::MetricsOnly)?;
+                    let table = columns_of(
+                        &desc.columns,
+                        &kinds,
+                        r.start,
+                        &batch,
+                        &poses,
+                        &values,
+                        &results,
+                        sigma,
+                    );
+                    parts::write(&path, expected(r), |w| {
+                        let mut t =
+                            TableWriter::new(w, &desc.columns, &kinds, r.start, Encoding::Scratch, &path)?;
+                        t.push(table)?;
+                        t.finish()
+                    })?;
+                }
+            }
             outcome.computed += r.end - r.start;
         }
         done += r.end - r.start;
@@ -477,13 +574,92 @@ pub fn run(
     }
     // The settings first: a result never stands without them.
     write_json(&settings_path(&file), &manifest.settings)?;
-    parts::join((0..n_chunks).map(chunk_path), &desc.columns, &file, whole)?;
+    match opts.format {
+        Format::Csv => parts::join((0..n_chunks).map(chunk_path), &desc.columns, &file, whole)?,
+        Format::Parquet => {
+            parts::join_parquet((0..n_chunks).map(chunk_path), &desc.columns, &kinds, &file, whole)?
+        }
+    }
     std::fs::remove_dir_all(&state).map_err(|e| Error::write_output(&state, e))?;
     if opts.shard.is_none() {
-        outcome.figure = figure(dir, &desc)?;
+        outcome.figure = figure(&file, opts.format, &desc)?;
     }
     outcome.file = Some(file);
     Ok(outcome)
+}
+
+/// Returns the batch of a chunk's `poses`.
+fn chunk_batch(config: &SweepConfig, poses: &[PoseRow]) -> Batch {
+    Batch {
+        source: config.source.clone(),
+        target: config.target.clone(),
+        sampling: config.sampling,
+        area_grid: config.area_grid,
+        items: poses.iter().map(|p| p.item).collect(),
+    }
+}
+
+/// Returns a chunk's table: the index from `first`, the pose columns `values` (row after row),
+/// the metrics of `results` and the local precision of `poses` (range error `sigma`), in the
+/// sweep's `columns` of `kinds`.
+#[expect(clippy::too_many_arguments, reason = "the parts of one chunk, named")]
+#[expect(
+    clippy::cast_possible_wrap,
+    reason = "pose indices are below 2^40 (MAX_POSES)"
+)]
+fn columns_of(
+    columns: &[String],
+    kinds: &[Kind],
+    first: u64,
+    batch: &Batch,
+    poses: &[PoseRow],
+    values: &[f64],
+    results: &[Projection],
+    sigma: f64,
+) -> Table {
+    let mut table = Table::new(columns, kinds);
+    let n = poses.len();
+    let pose_columns = columns.len() - 1 - METRIC_COLUMNS.len();
+    let locals: Vec<_> = poses
+        .par_iter()
+        .map(|pose| local_of(batch, &pose.item, pose.true_point, sigma))
+        .collect();
+    for (j, column) in table.columns.iter_mut().enumerate() {
+        *column = if j == 0 {
+            Column::Int((0..n as u64).map(|i| (first + i) as i64).collect())
+        } else if j <= pose_columns {
+            Column::Real((0..n).map(|i| values[i * pose_columns + j - 1]).collect())
+        } else if let Some(info) = sonarproj::metrics::METRICS.get(j - 1 - pose_columns) {
+            match kinds[j] {
+                Kind::Int => Column::Int(
+                    results
+                        .iter()
+                        .map(|p| match p.metrics.get(info.metric) {
+                            sonarproj::metrics::Value::Count(c) => i64::try_from(c).unwrap_or(i64::MAX),
+                            _ => unreachable!("the metric table's counts"),
+                        })
+                        .collect(),
+                ),
+                Kind::Real => Column::Real(
+                    results
+                        .iter()
+                        .map(|p| p.metrics.get(info.metric).as_f64().unwrap_or(f64::NAN))
+                        .collect(),
+                ),
+                Kind::Optional => Column::Optional(
+                    results
+                        .iter()
+                        .map(|p| p.metrics.get(info.metric).as_f64())
+                        .collect(),
+                ),
+            }
+        } else if j == columns.len() - 2 {
+            Column::Optional(locals.iter().map(|l| l.range_per_elevation).collect())
+        } else {
+            Column::Optional(locals.iter().map(|l| l.sigma_elevation).collect())
+        };
+    }
+    table
 }
 
 /// Returns the CSV rows (no header) of `fields` followed by the metrics of `results` and the
@@ -531,21 +707,39 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
             "has no sweep.json: not the --out directory of a sharded sweep",
         )
     })?;
-    let mut shards = Vec::new();
+    let mut shards: Vec<(Shard, Format)> = Vec::new();
     let entries = std::fs::read_dir(dir).map_err(|source| Error::ReadInput {
         path: dir.to_path_buf(),
         source,
     })?;
     for e in entries.flatten() {
         let name = e.file_name().to_string_lossy().to_string();
-        if let Some(s) = name
-            .strip_prefix("shard-")
-            .and_then(|s| s.strip_suffix(".csv"))
-            .and_then(|s| Shard::parse(&s.replace("-of-", "/")).ok())
-        {
-            shards.push(s);
+        for format in [Format::Csv, Format::Parquet] {
+            if let Some(s) = name
+                .strip_prefix("shard-")
+                .and_then(|s| s.strip_suffix(&format!(".{}", format.extension())))
+                .and_then(|s| Shard::parse(&s.replace("-of-", "/")).ok())
+            {
+                shards.push((s, format));
+            }
         }
     }
+    let format = match shards
+        .iter()
+        .map(|s| s.1)
+        .collect::<std::collections::BTreeSet<_>>()
+    {
+        f if f.len() == 2 => {
+            return Err(Error::invalid(
+                "DIR",
+                dir.display(),
+                "holds shards as CSV and as Parquet; keep one set (remove the other's shard files)",
+            ));
+        }
+        f => f.first().copied().unwrap_or_default(),
+    };
+    let ext = format.extension();
+    let shards: Vec<Shard> = shards.into_iter().map(|s| s.0).collect();
     let n = match shards
         .iter()
         .map(|s| s.n)
@@ -556,7 +750,7 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
             return Err(Error::invalid(
                 "DIR",
                 dir.display(),
-                "holds no finished shard-K-of-N.csv",
+                "holds no finished shard-K-of-N.csv or shard-K-of-N.parquet",
             ));
         }
         ns => {
@@ -580,7 +774,7 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
     let mut files = Vec::new();
     for k in 1..=n {
         let shard = Shard { k, n };
-        let file = dir.join(format!("{}.csv", shard.stem()));
+        let file = dir.join(format!("{}.{ext}", shard.stem()));
         let r = shard.range(desc.poses);
         let expected = parts::Expected {
             fingerprint: &desc.fingerprint,
@@ -634,28 +828,29 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
             }
         }
     }
-    let out = dir.join("sweep.csv");
+    let out = dir.join(format!("sweep.{ext}"));
     let whole = parts::Expected {
         fingerprint: &desc.fingerprint,
         first: 0,
         rows: desc.poses,
     };
-    parts::join(files, &desc.columns, &out, whole)?;
-    let fig = figure(dir, &desc)?;
+    match format {
+        Format::Csv => parts::join(files, &desc.columns, &out, whole)?,
+        Format::Parquet => {
+            parts::join_parquet(files, &desc.columns, &column_kinds(&desc.columns), &out, whole)?
+        }
+    }
+    let fig = figure(&out, format, &desc)?;
     Ok((out, fig))
 }
 
-/// Draws `DIR/sweep-METRIC.png` from `DIR/sweep.csv` when the grid has one or two varying
-/// axes; returns its path.
-fn figure(dir: &Path, d: &Descriptor) -> Result<Option<PathBuf>> {
+/// Draws `DIR/sweep-METRIC.png` from the result `table` (`DIR/sweep.csv` or `sweep.parquet`)
+/// when the grid has one or two varying axes; returns its path.
+fn figure(table: &Path, format: Format, d: &Descriptor) -> Result<Option<PathBuf>> {
     if d.varying.is_empty() || d.varying.len() > 2 {
         return Ok(None);
     }
-    let csv_path = dir.join("sweep.csv");
-    let mut rdr = csv::Reader::from_path(&csv_path).map_err(|e| Error::Csv {
-        context: csv_path.display().to_string(),
-        message: e.to_string(),
-    })?;
+    let dir = table.parent().unwrap_or(Path::new("."));
     let col = |name: &str| {
         d.columns
             .iter()
@@ -665,14 +860,34 @@ fn figure(dir: &Path, d: &Descriptor) -> Result<Option<PathBuf>> {
     let xs: Vec<usize> = d.varying.iter().map(|v| col(v)).collect();
     let m = col(&d.metric);
     let mut points = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| Error::Csv {
-            context: csv_path.display().to_string(),
-            message: e.to_string(),
-        })?;
-        let num = |i: usize| rec.get(i).and_then(|s| s.parse::<f64>().ok());
-        let coords: Vec<f64> = xs.iter().map(|&i| num(i).unwrap_or(f64::NAN)).collect();
-        points.push((coords, num(m)));
+    match format {
+        Format::Csv => {
+            let mut rdr = csv::Reader::from_path(table).map_err(|e| Error::Csv {
+                context: table.display().to_string(),
+                message: e.to_string(),
+            })?;
+            for rec in rdr.records() {
+                let rec = rec.map_err(|e| Error::Csv {
+                    context: table.display().to_string(),
+                    message: e.to_string(),
+                })?;
+                let num = |i: usize| rec.get(i).and_then(|s| s.parse::<f64>().ok());
+                let coords: Vec<f64> = xs.iter().map(|&i| num(i).unwrap_or(f64::NAN)).collect();
+                points.push((coords, num(m)));
+            }
+        }
+        Format::Parquet => {
+            for group in read_groups(table, &d.columns, &column_kinds(&d.columns))? {
+                let group = group?;
+                for i in 0..group.rows() {
+                    let coords: Vec<f64> = xs
+                        .iter()
+                        .map(|&j| group.columns[j].get(i).unwrap_or(f64::NAN))
+                        .collect();
+                    points.push((coords, group.columns[m].get(i)));
+                }
+            }
+        }
     }
     let path = dir.join(format!("sweep-{}.png", d.metric));
     let caption = match d.varying.as_slice() {

@@ -214,7 +214,7 @@ fn write_output(path: &str, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> 
     if path == "-" {
         fill(&mut std::io::stdout().lock())
     } else {
-        write_atomic(&PathBuf::from(path), fill)
+        write_atomic(&PathBuf::from(path), |w| fill(w))
     }
 }
 

@@ -18,8 +18,9 @@ pub(super) struct SweepArgs {
     /// [translation], [rotation]) or `poses = "FILE.csv"`. See README "Sweeps".
     #[arg(long, value_name = "FILE.toml")]
     config: PathBuf,
-    /// Output directory: sweep.csv (or shard-K-of-N.csv), sweep.json, and sweep-METRIC.png for
-    /// a grid with one or two varying axes. Re-running the same command resumes an interrupted run.
+    /// Output directory: sweep.csv or sweep.parquet (or shard-K-of-N.csv/.parquet), sweep.json,
+    /// and sweep-METRIC.png for a grid with one or two varying axes. Re-running the same command
+    /// resumes an interrupted run.
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Run part K of N independent parts (e.g. a Slurm array task); `sonarproj merge DIR` joins them.
@@ -31,9 +32,22 @@ pub(super) struct SweepArgs {
     /// Compute at most N chunks, then stop (for time-limited jobs; re-run to go on).
     #[arg(long, value_name = "N")]
     max_chunks: Option<u64>,
+    /// The table's format: csv (text, a line a pose) or parquet (typed, compressed columns that
+    /// pandas, polars, pyarrow and DuckDB read; the faster to write).
+    #[arg(long, value_enum, default_value = "csv")]
+    format: FormatArg,
     /// Where to compute.
     #[arg(long, value_enum, default_value = "auto")]
     backend: BackendArg,
+}
+
+/// The values of `--format`.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub(super) enum FormatArg {
+    /// DIR/sweep.csv: one line of text a pose.
+    Csv,
+    /// DIR/sweep.parquet: typed columns, null where the CSV leaves a cell empty.
+    Parquet,
 }
 
 /// Options of `sonarproj merge`.
@@ -53,6 +67,10 @@ pub(super) fn run(a: SweepArgs) -> Result<()> {
         shard,
         chunk_poses: a.chunk_poses,
         max_chunks: a.max_chunks,
+        format: match a.format {
+            FormatArg::Csv => sweep::Format::Csv,
+            FormatArg::Parquet => sweep::Format::Parquet,
+        },
     };
     let (backend, notice) = super::gpu_env::select(a.backend.into())?;
     if let Some(n) = notice {

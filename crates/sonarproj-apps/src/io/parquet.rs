@@ -1,0 +1,510 @@
+//! Sweep tables as Parquet: typed columns (integers for the index and counts, doubles for poses
+//! and metrics, null where the CSV leaves a cell empty), Snappy-compressed pages, row groups cut
+//! at fixed multiples of the pose index, so the same rows make the same bytes however they were
+//! chunked, sharded and merged.
+
+use std::io::Write;
+use std::path::Path;
+use std::sync::Arc;
+
+use parquet::basic::{Compression, Repetition, Type as Physical};
+use parquet::column::reader::ColumnReader;
+use parquet::data_type::{DoubleType, Int64Type};
+use parquet::file::properties::{EnabledStatistics, WriterProperties, WriterVersion};
+use parquet::file::reader::{FileReader, SerializedFileReader};
+use parquet::file::writer::SerializedFileWriter;
+use parquet::schema::types::ColumnPath;
+use parquet::schema::types::Type;
+
+use crate::error::{Error, Result};
+
+/// Rows of a row group: groups start at the multiples of this pose index (about 20 MiB of
+/// columns in memory while one is assembled).
+pub const GROUP_ROWS: u64 = 1 << 17;
+
+/// What a column holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// Whole numbers (the index, counts): `INT64`.
+    Int,
+    /// Numbers: `DOUBLE`.
+    Real,
+    /// Numbers that may be absent: `DOUBLE`, nullable.
+    Optional,
+}
+
+/// One column's values.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Column {
+    /// [`Kind::Int`].
+    Int(Vec<i64>),
+    /// [`Kind::Real`].
+    Real(Vec<f64>),
+    /// [`Kind::Optional`].
+    Optional(Vec<Option<f64>>),
+}
+
+impl Column {
+    /// Returns an empty column of `kind`.
+    #[must_use]
+    pub fn new(kind: Kind) -> Column {
+        match kind {
+            Kind::Int => Column::Int(Vec::new()),
+            Kind::Real => Column::Real(Vec::new()),
+            Kind::Optional => Column::Optional(Vec::new()),
+        }
+    }
+
+    /// Returns the number of values.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        match self {
+            Column::Int(v) => v.len(),
+            Column::Real(v) => v.len(),
+            Column::Optional(v) => v.len(),
+        }
+    }
+
+    /// Returns whether the column has no values.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Returns value `i` as a number (`None` when absent).
+    #[expect(clippy::cast_precision_loss, reason = "indices and counts below 2^53")]
+    #[must_use]
+    pub fn get(&self, i: usize) -> Option<f64> {
+        match self {
+            Column::Int(v) => Some(v[i] as f64),
+            Column::Real(v) => Some(v[i]),
+            Column::Optional(v) => v[i],
+        }
+    }
+
+    /// Moves the first `n` values out into a new column.
+    fn take_front(&mut self, n: usize) -> Column {
+        match self {
+            Column::Int(v) => Column::Int(v.drain(..n).collect()),
+            Column::Real(v) => Column::Real(v.drain(..n).collect()),
+            Column::Optional(v) => Column::Optional(v.drain(..n).collect()),
+        }
+    }
+
+    /// Appends `other`'s values (of the same kind).
+    fn append(&mut self, other: Column) {
+        match (self, other) {
+            (Column::Int(a), Column::Int(b)) => a.extend(b),
+            (Column::Real(a), Column::Real(b)) => a.extend(b),
+            (Column::Optional(a), Column::Optional(b)) => a.extend(b),
+            _ => unreachable!("columns of one schema"),
+        }
+    }
+}
+
+/// Named, typed columns of equal length.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    /// Column names.
+    pub names: Vec<String>,
+    /// The columns, in `names` order.
+    pub columns: Vec<Column>,
+}
+
+impl Table {
+    /// Returns an empty table with columns `names` of `kinds`.
+    #[must_use]
+    pub fn new(names: &[String], kinds: &[Kind]) -> Table {
+        Table {
+            names: names.to_vec(),
+            columns: kinds.iter().map(|&k| Column::new(k)).collect(),
+        }
+    }
+
+    /// Returns the number of rows.
+    #[must_use]
+    pub fn rows(&self) -> usize {
+        self.columns.first().map_or(0, Column::len)
+    }
+
+    /// Returns the column named `name`.
+    #[must_use]
+    pub fn column(&self, name: &str) -> Option<&Column> {
+        self.names
+            .iter()
+            .position(|n| n == name)
+            .map(|i| &self.columns[i])
+    }
+
+    /// Returns the kinds of the columns.
+    #[must_use]
+    pub fn kinds(&self) -> Vec<Kind> {
+        self.columns
+            .iter()
+            .map(|c| match c {
+                Column::Int(_) => Kind::Int,
+                Column::Real(_) => Kind::Real,
+                Column::Optional(_) => Kind::Optional,
+            })
+            .collect()
+    }
+}
+
+/// Returns the Parquet schema of columns `names` of `kinds`.
+fn schema(names: &[String], kinds: &[Kind]) -> Result<Arc<Type>> {
+    let fields = names
+        .iter()
+        .zip(kinds)
+        .map(|(name, kind)| {
+            let (physical, repetition) = match kind {
+                Kind::Int => (Physical::INT64, Repetition::REQUIRED),
+                Kind::Real => (Physical::DOUBLE, Repetition::REQUIRED),
+                Kind::Optional => (Physical::DOUBLE, Repetition::OPTIONAL),
+            };
+            Type::primitive_type_builder(name, physical)
+                .with_repetition(repetition)
+                .build()
+                .map(Arc::new)
+        })
+        .collect::<parquet::errors::Result<Vec<_>>>()
+        .map_err(|e| Error::invalid("columns", format!("{names:?}"), e.to_string()))?;
+    Type::group_type_builder("sweep")
+        .with_fields(fields)
+        .build()
+        .map(Arc::new)
+        .map_err(|e| Error::invalid("columns", format!("{names:?}"), e.to_string()))
+}
+
+/// How a [`TableWriter`] encodes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Encoding<'a> {
+    /// A file to keep: Snappy pages, statistics, and dictionaries for the columns named (the
+    /// pose columns, whose values repeat).
+    Final {
+        /// The columns to dictionary-encode.
+        dictionary: &'a [String],
+    },
+    /// A file read back once by this program (a chunk): plain values, uncompressed, no
+    /// statistics, the cheapest to write and read.
+    Scratch,
+}
+
+/// Writes a table as Parquet row by row group: rows pushed in index order, row groups cut where
+/// the pose index reaches a multiple of [`GROUP_ROWS`].
+pub struct TableWriter<'p, W: Write + Send> {
+    inner: SerializedFileWriter<W>,
+    pending: Table,
+    /// The pose index of the first pending row.
+    next: u64,
+    path: &'p Path,
+}
+
+impl<'p, W: Write + Send> TableWriter<'p, W> {
+    /// Returns a writer of columns `names` of `kinds` into `sink` (the file `path`, for
+    /// messages), whose first row has pose index `first`.
+    ///
+    /// # Errors
+    /// [`Error::WriteOutput`] when the header cannot be written.
+    pub fn new(
+        sink: W,
+        names: &[String],
+        kinds: &[Kind],
+        first: u64,
+        encoding: Encoding<'_>,
+        path: &'p Path,
+    ) -> Result<Self> {
+        let mut props = WriterProperties::builder()
+            .set_writer_version(WriterVersion::PARQUET_1_0)
+            .set_created_by(format!("sonarproj {}", sonarproj::VERSION))
+            .set_dictionary_enabled(false);
+        props = match encoding {
+            Encoding::Final { dictionary } => {
+                props = props.set_compression(Compression::SNAPPY);
+                for name in dictionary {
+                    props = props.set_column_dictionary_enabled(ColumnPath::from(name.as_str()), true);
+                }
+                props
+            }
+            Encoding::Scratch => props
+                .set_compression(Compression::UNCOMPRESSED)
+                .set_statistics_enabled(EnabledStatistics::None),
+        };
+        let props = props.build();
+        let inner = SerializedFileWriter::new(sink, schema(names, kinds)?, Arc::new(props))
+            .map_err(|e| Error::write_output(path, e))?;
+        Ok(TableWriter {
+            inner,
+            pending: Table::new(names, kinds),
+            next: first,
+            path,
+        })
+    }
+
+    /// Adds `rows` (the next rows in index order) and writes every row group they complete.
+    ///
+    /// # Errors
+    /// [`Error::Csv`] when `rows` has other columns; [`Error::WriteOutput`] on I/O failure.
+    pub fn push(&mut self, rows: Table) -> Result<()> {
+        if rows.names != self.pending.names || rows.kinds() != self.pending.kinds() {
+            return Err(Error::Csv {
+                context: self.path.display().to_string(),
+                message: format!(
+                    "a part's columns {:?} differ from this sweep's {:?}: a part of another sweep",
+                    rows.names, self.pending.names
+                ),
+            });
+        }
+        for (a, b) in self.pending.columns.iter_mut().zip(rows.columns) {
+            a.append(b);
+        }
+        loop {
+            #[expect(clippy::cast_possible_truncation, reason = "below GROUP_ROWS")]
+            let to_boundary = (GROUP_ROWS - self.next % GROUP_ROWS) as usize;
+            if self.pending.rows() < to_boundary {
+                return Ok(());
+            }
+            self.write_group(to_boundary)?;
+        }
+    }
+
+    /// Writes the first `n` pending rows as one row group.
+    fn write_group(&mut self, n: usize) -> Result<()> {
+        let err = |e: parquet::errors::ParquetError| Error::write_output(self.path, e);
+        let group: Vec<Column> = self.pending.columns.iter_mut().map(|c| c.take_front(n)).collect();
+        let mut rg = self.inner.next_row_group().map_err(err)?;
+        for column in &group {
+            let mut w = rg
+                .next_column()
+                .map_err(err)?
+                .expect("one column writer a schema column");
+            match column {
+                Column::Int(v) => {
+                    w.typed::<Int64Type>().write_batch(v, None, None).map_err(err)?;
+                }
+                Column::Real(v) => {
+                    w.typed::<DoubleType>().write_batch(v, None, None).map_err(err)?;
+                }
+                Column::Optional(v) => {
+                    let levels: Vec<i16> = v.iter().map(|x| i16::from(x.is_some())).collect();
+                    let values: Vec<f64> = v.iter().flatten().copied().collect();
+                    w.typed::<DoubleType>()
+                        .write_batch(&values, Some(&levels), None)
+                        .map_err(err)?;
+                }
+            }
+            w.close().map_err(err)?;
+        }
+        rg.close().map_err(err)?;
+        self.next += n as u64;
+        Ok(())
+    }
+
+    /// Writes the last row group and the footer.
+    ///
+    /// # Errors
+    /// [`Error::WriteOutput`] on I/O failure.
+    pub fn finish(mut self) -> Result<()> {
+        let n = self.pending.rows();
+        if n > 0 {
+            self.write_group(n)?;
+        }
+        self.inner
+            .close()
+            .map_err(|e| Error::write_output(self.path, e))?;
+        Ok(())
+    }
+}
+
+/// Returns the row groups of the Parquet file `path` one at a time, each as a table, after
+/// checking that its columns are `names` of `kinds`.
+///
+/// # Errors
+/// [`Error::ReadInput`] when the file cannot be opened; [`Error::Csv`] naming the file when it is
+/// not Parquet or has other columns.
+pub fn read_groups<'a>(
+    path: &'a Path,
+    names: &[String],
+    kinds: &[Kind],
+) -> Result<impl Iterator<Item = Result<Table>> + 'a> {
+    let bad = |message: String| Error::Csv {
+        context: path.display().to_string(),
+        message,
+    };
+    let file = std::fs::File::open(path).map_err(|source| Error::ReadInput {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let reader = SerializedFileReader::new(file).map_err(|e| bad(format!("not a Parquet file ({e})")))?;
+    let want = schema(names, kinds)?;
+    let have = reader.metadata().file_metadata().schema();
+    if have.get_fields() != want.get_fields() {
+        let have: Vec<&str> = have.get_fields().iter().map(|f| f.name()).collect();
+        return Err(bad(format!(
+            "its columns {have:?} (or their types) differ from this sweep's {names:?}: a part of another sweep"
+        )));
+    }
+    let (names, kinds) = (names.to_vec(), kinds.to_vec());
+    Ok((0..reader.num_row_groups()).map(move |g| {
+        let bad = |message: String| Error::Csv {
+            context: path.display().to_string(),
+            message,
+        };
+        let group = reader
+            .get_row_group(g)
+            .map_err(|e| bad(format!("row group {g}: {e}")))?;
+        let rows = usize::try_from(group.metadata().num_rows())
+            .map_err(|_| bad(format!("row group {g} has a negative row count")))?;
+        let mut table = Table::new(&names, &kinds);
+        for (j, column) in table.columns.iter_mut().enumerate() {
+            let reader = group
+                .get_column_reader(j)
+                .map_err(|e| bad(format!("row group {g}, column {j}: {e}")))?;
+            *column = read_column(reader, kinds[j], rows)
+                .map_err(|e| bad(format!("row group {g}, column {}: {e}", names[j])))?;
+        }
+        Ok(table)
+    }))
+}
+
+/// Returns the `rows` values of one column chunk.
+fn read_column(reader: ColumnReader, kind: Kind, rows: usize) -> std::result::Result<Column, String> {
+    let short = |n: usize| format!("{n} values where the row group has {rows}");
+    match (reader, kind) {
+        (ColumnReader::Int64ColumnReader(mut r), Kind::Int) => {
+            let mut values = Vec::with_capacity(rows);
+            while values.len() < rows {
+                let (records, _, _) = r
+                    .read_records(rows - values.len(), None, None, &mut values)
+                    .map_err(|e| e.to_string())?;
+                if records == 0 {
+                    return Err(short(values.len()));
+                }
+            }
+            Ok(Column::Int(values))
+        }
+        (ColumnReader::DoubleColumnReader(mut r), Kind::Real) => {
+            let mut values = Vec::with_capacity(rows);
+            while values.len() < rows {
+                let (records, _, _) = r
+                    .read_records(rows - values.len(), None, None, &mut values)
+                    .map_err(|e| e.to_string())?;
+                if records == 0 {
+                    return Err(short(values.len()));
+                }
+            }
+            Ok(Column::Real(values))
+        }
+        (ColumnReader::DoubleColumnReader(mut r), Kind::Optional) => {
+            let (mut values, mut levels) = (Vec::new(), Vec::with_capacity(rows));
+            while levels.len() < rows {
+                let (records, _, _) = r
+                    .read_records(rows - levels.len(), Some(&mut levels), None, &mut values)
+                    .map_err(|e| e.to_string())?;
+                if records == 0 {
+                    return Err(short(levels.len()));
+                }
+            }
+            let mut present = values.into_iter();
+            let column = levels
+                .iter()
+                .map(|&l| if l > 0 { present.next() } else { None })
+                .collect();
+            Ok(Column::Optional(column))
+        }
+        _ => Err("its type differs from the schema's".into()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(first: i64, n: i64) -> Table {
+        let names: Vec<String> = ["index", "roll", "range_min"]
+            .iter()
+            .map(ToString::to_string)
+            .collect();
+        #[expect(clippy::cast_precision_loss, reason = "small test values")]
+        let columns = vec![
+            Column::Int((first..first + n).collect()),
+            Column::Real((first..first + n).map(|i| i as f64 * 0.1).collect()),
+            Column::Optional(
+                (first..first + n)
+                    .map(|i| (i % 3 != 0).then_some(i as f64))
+                    .collect(),
+            ),
+        ];
+        Table { names, columns }
+    }
+
+    /// Writes `parts` (tables in index order, the first starting at `first`) into one file and
+    /// returns its bytes.
+    fn write_parts(parts: &[Table], first: u64) -> Vec<u8> {
+        let t = &parts[0];
+        let mut out = Vec::new();
+        let path = Path::new("test.parquet");
+        let dictionary = [t.names[1].clone()];
+        let encoding = Encoding::Final {
+            dictionary: &dictionary,
+        };
+        let mut w = TableWriter::new(&mut out, &t.names, &t.kinds(), first, encoding, path).unwrap();
+        for p in parts {
+            w.push(p.clone()).unwrap();
+        }
+        w.finish().unwrap();
+        out
+    }
+
+    #[test]
+    #[expect(clippy::cast_possible_truncation, clippy::cast_possible_wrap, reason = "GROUP_ROWS is 2^17")]
+    fn the_same_rows_make_the_same_bytes_however_they_are_cut() {
+        let n = 2 * GROUP_ROWS as i64 + 1000;
+        let whole = write_parts(&[table(0, n)], 0);
+        let cuts = [0, 7, 20_000, GROUP_ROWS as i64, GROUP_ROWS as i64 + 1, n];
+        let parts: Vec<Table> = cuts.windows(2).map(|w| table(w[0], w[1] - w[0])).collect();
+        assert_eq!(write_parts(&parts, 0), whole);
+        // Read back: every value, nulls where they were, groups at the multiples of GROUP_ROWS.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.parquet");
+        std::fs::write(&path, &whole).unwrap();
+        let t = table(0, 1);
+        let groups: Vec<Table> = read_groups(&path, &t.names, &t.kinds())
+            .unwrap()
+            .map(Result::unwrap)
+            .collect();
+        assert_eq!(
+            groups.iter().map(Table::rows).collect::<Vec<_>>(),
+            [GROUP_ROWS as usize, GROUP_ROWS as usize, 1000]
+        );
+        let mut all = Table::new(&t.names, &t.kinds());
+        for g in groups {
+            for (a, b) in all.columns.iter_mut().zip(g.columns) {
+                a.append(b);
+            }
+        }
+        assert_eq!(all, table(0, n));
+    }
+
+    #[test]
+    fn a_file_of_other_columns_or_not_parquet_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.parquet");
+        std::fs::write(&path, write_parts(&[table(0, 10)], 0)).unwrap();
+        let names: Vec<String> = ["index", "pitch", "range_min"]
+            .iter()
+            .map(ToString::to_string)
+            .collect();
+        let kinds = table(0, 1).kinds();
+        let e = read_groups(&path, &names, &kinds).err().unwrap().to_string();
+        assert!(e.contains("another sweep"), "{e}");
+        let real = [Kind::Int, Kind::Real, Kind::Real];
+        let e = read_groups(&path, &table(0, 1).names, &real)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("their types"), "{e}");
+        std::fs::write(&path, b"index,roll\n0,1\n").unwrap();
+        let e = read_groups(&path, &names, &kinds).err().unwrap().to_string();
+        assert!(e.contains("not a Parquet file"), "{e}");
+    }
+}
