@@ -726,8 +726,10 @@ def sweep(
     `max_chunks` stops after that many chunks. `progress(done, total)` is called after each
     chunk.
 
-    Returns a dict: ``file`` (the CSV, or None when stopped early), ``figure``, ``poses``,
-    ``computed``, ``resumed``, ``seconds``, ``device``.
+    Returns a dict: ``file`` (the table, or None when stopped early or when the sweep file's
+    ``[summary]`` says ``rows = false``), ``figure``, ``summary`` (the ``[summary]``'s
+    reductions, the content of ``summary.json``, as a dict; None without one),
+    ``summary_file``, ``poses``, ``computed``, ``resumed``, ``seconds``, ``device``.
     """
     if format not in ("csv", "parquet"):
         raise InputError(f'format: expected "csv" or "parquet", got {format!r}')

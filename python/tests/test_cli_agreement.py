@@ -269,6 +269,26 @@ def test_sweep_writes_what_the_command_line_writes(tmp_path, cli, root):
         sonarproj.sweep(config, tmp_path / "bad", format="feather")
 
 
+def test_sweep_summaries_come_back_as_a_dict(tmp_path, cli):
+    config = tmp_path / "sweep.toml"
+    config.write_text(
+        'from = "paper-fls"\nto = "paper-sss"\nstep = 0.5\n'
+        "[feature]\nrange = 5\n[place]\nrange = [5, 15]\n[rotation]\npitch = { start = 0, stop = 90, step = 15 }\n"
+        '[summary]\ntop = 3\nmarginals = ["pitch"]\nrows = false\n'
+    )
+    cli("sweep", "--config", config, "--out", tmp_path / "cli", "--backend", "cpu-fast")
+    got = sonarproj.sweep(config, tmp_path / "py", backend="cpu-fast", chunk_poses=4)
+    assert got["file"] is None and str(got["summary_file"]).endswith("summary.json")
+    assert (tmp_path / "cli" / "summary.json").read_bytes() == (tmp_path / "py" / "summary.json").read_bytes()
+    summary = got["summary"]
+    assert summary == json.loads((tmp_path / "cli" / "summary.json").read_text())
+    assert summary["poses"] == 14 and summary["metric"] == "span"
+    assert len(summary["smallest"]) == 3 and summary["min"] == summary["smallest"][0]
+    pitch = summary["marginals"][0]
+    assert pitch["axes"] == ["pitch"] and pitch["values"] == [[0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0]]
+    assert sum(pitch["count"]) == summary["with_value"]
+
+
 @pytest.mark.parametrize("step", [0.5, "auto"])
 def test_paper_writes_what_the_command_line_writes(tmp_path, cli, step):
     cli("paper", "--out", tmp_path / "cli", "--angle-step", "45", "--step", str(step), "--backend", "cpu-fast")

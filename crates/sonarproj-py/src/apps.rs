@@ -90,6 +90,17 @@ pub(crate) fn sweep_run<'py>(
     let d = PyDict::new(py);
     d.set_item("file", outcome.file)?;
     d.set_item("figure", outcome.figure)?;
+    // The summaries as a dict (the JSON of summary.json, parsed by Python's json module).
+    let summary = match &outcome.summary {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(format!("{}: {e}", path.display())))?;
+            Some(py.import("json")?.call_method1("loads", (text,))?)
+        }
+        None => None,
+    };
+    d.set_item("summary_file", &outcome.summary)?;
+    d.set_item("summary", summary)?;
     d.set_item("poses", outcome.poses)?;
     d.set_item("computed", outcome.computed)?;
     d.set_item("resumed", outcome.resumed)?;

@@ -456,7 +456,11 @@ mod tests {
     }
 
     #[test]
-    #[expect(clippy::cast_possible_truncation, clippy::cast_possible_wrap, reason = "GROUP_ROWS is 2^17")]
+    #[expect(
+        clippy::cast_possible_truncation,
+        clippy::cast_possible_wrap,
+        reason = "GROUP_ROWS is 2^17"
+    )]
     fn the_same_rows_make_the_same_bytes_however_they_are_cut() {
         let n = 2 * GROUP_ROWS as i64 + 1000;
         let whole = write_parts(&[table(0, n)], 0);

@@ -35,6 +35,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::io::batch::PoseRow;
 use crate::io::{BatchInput, read_batch_csv};
+use crate::sweep::summary::{self, HistogramSpec, SummarySpec};
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::{Sonar, SonarKind};
 use sonarproj::metrics::Metric;
@@ -89,6 +90,145 @@ pub struct SweepConfig {
     pub metric: Metric,
     /// The poses.
     pub poses: Poses,
+    /// The summaries asked for (`[summary]`), if any.
+    pub summary: Option<SummarySpec>,
+}
+
+/// Returns the `[summary]` table `t` of sweep file `file` read (not yet checked against the
+/// grid): `by` a metric of sonar 2's kind (default: the figure's `metric`), `top` (default 10),
+/// `histogram = { min, max, bins }`, `marginals` (axis names, or pairs of them), `rows` (default
+/// true).
+fn summary_spec(file: &str, t: &toml::Table, metric: Metric, target: SonarKind) -> Result<SummarySpec> {
+    const KEYS: [&str; 5] = ["by", "top", "histogram", "marginals", "rows"];
+    let key = |k: &str| format!("summary.{k}");
+    for k in t.keys() {
+        if !KEYS.contains(&k.as_str()) {
+            return Err(key_error(
+                file,
+                &key(k),
+                t[k].clone(),
+                format!("unknown key (allowed: {})", KEYS.join(", ")),
+            ));
+        }
+    }
+    let by = match t.get("by") {
+        None => metric,
+        Some(toml::Value::String(m)) => Metric::from_name(m)
+            .filter(|m| m.label(target).is_some())
+            .ok_or_else(|| {
+                let names: Vec<&str> = Metric::all()
+                    .filter(|m| m.label(target).is_some())
+                    .map(Metric::name)
+                    .collect();
+                key_error(
+                    file,
+                    &key("by"),
+                    format!("{m:?}"),
+                    format!("must be one of {}", names.join(", ")),
+                )
+            })?,
+        Some(other) => return Err(key_error(file, &key("by"), other, "must be a metric's name")),
+    };
+    let count = |k: &str, v: &toml::Value, max: usize| -> Result<usize> {
+        match v {
+            toml::Value::Integer(i) => usize::try_from(*i)
+                .ok()
+                .filter(|&n| n <= max)
+                .ok_or_else(|| key_error(file, &key(k), i, format!("must be 0 to {max}"))),
+            other => Err(key_error(file, &key(k), other, "must be a whole number")),
+        }
+    };
+    let top = t
+        .get("top")
+        .map(|v| count("top", v, summary::MAX_TOP))
+        .transpose()?
+        .unwrap_or(10);
+    let histogram = match t.get("histogram") {
+        None => None,
+        Some(toml::Value::Table(h)) => {
+            for k in h.keys() {
+                if !["min", "max", "bins"].contains(&k.as_str()) {
+                    return Err(key_error(
+                        file,
+                        &key(&format!("histogram.{k}")),
+                        h[k].clone(),
+                        "unknown key (allowed: min, max, bins)",
+                    ));
+                }
+            }
+            let number = |k: &str| -> Result<f64> {
+                match h.get(k) {
+                    Some(toml::Value::Integer(i)) => Ok(*i as f64),
+                    Some(toml::Value::Float(x)) => Ok(*x),
+                    Some(other) => Err(key_error(
+                        file,
+                        &key(&format!("histogram.{k}")),
+                        other,
+                        "must be a number",
+                    )),
+                    None => Err(missing_key(
+                        file,
+                        &key(&format!("histogram.{k}")),
+                        "a histogram needs min, max and bins",
+                    )),
+                }
+            };
+            let bins = match h.get("bins") {
+                Some(v) => count("histogram.bins", v, summary::MAX_HISTOGRAM_BINS)?,
+                None => {
+                    return Err(missing_key(
+                        file,
+                        &key("histogram.bins"),
+                        "a histogram needs min, max and bins",
+                    ));
+                }
+            };
+            Some(HistogramSpec {
+                min: number("min")?,
+                max: number("max")?,
+                bins,
+            })
+        }
+        Some(other) => {
+            return Err(key_error(
+                file,
+                &key("histogram"),
+                other,
+                "must be a table { min, max, bins }",
+            ));
+        }
+    };
+    let shape = "must be a list of axis names or pairs of them, e.g. [\"roll\", [\"roll\", \"pitch\"]]";
+    let marginals = match t.get("marginals") {
+        None => Vec::new(),
+        Some(toml::Value::Array(list)) => list
+            .iter()
+            .map(|m| match m {
+                toml::Value::String(a) => Ok(vec![a.clone()]),
+                toml::Value::Array(pair) => pair
+                    .iter()
+                    .map(|a| match a {
+                        toml::Value::String(a) => Ok(a.clone()),
+                        other => Err(key_error(file, &key("marginals"), other, shape)),
+                    })
+                    .collect(),
+                other => Err(key_error(file, &key("marginals"), other, shape)),
+            })
+            .collect::<Result<_>>()?,
+        Some(other) => return Err(key_error(file, &key("marginals"), other, shape)),
+    };
+    let rows = match t.get("rows") {
+        None => true,
+        Some(toml::Value::Boolean(b)) => *b,
+        Some(other) => return Err(key_error(file, &key("rows"), other, "must be true or false")),
+    };
+    Ok(SummarySpec {
+        by: by.name().to_string(),
+        top,
+        histogram,
+        marginals,
+        rows,
+    })
 }
 
 /// Returns the error for key `key` of sweep file `file`.
@@ -267,7 +407,7 @@ impl SweepConfig {
             path: PathBuf::from(file),
             message: sonarproj::error::parser_message(&e.to_string()),
         })?;
-        const TOP: [&str; 11] = [
+        const TOP: [&str; 12] = [
             "from",
             "to",
             "step",
@@ -279,6 +419,7 @@ impl SweepConfig {
             "translation",
             "rotation",
             "poses",
+            "summary",
         ];
         for k in top.keys() {
             if !TOP.contains(&k.as_str()) {
@@ -369,6 +510,17 @@ impl SweepConfig {
         } else {
             Poses::Grid(Self::grid(file, &top, &source)?)
         };
+        let summary = match top.get("summary") {
+            None => None,
+            Some(toml::Value::Table(t)) => {
+                let grid = match &poses {
+                    Poses::Grid(g) => Some(g),
+                    Poses::List(_) => None,
+                };
+                Some(summary_spec(file, t, metric, target.kind)?.checked(file, grid)?)
+            }
+            Some(other) => return Err(key_error(file, "summary", other, "must be a table: [summary]")),
+        };
         let config = SweepConfig {
             source,
             target,
@@ -377,6 +529,7 @@ impl SweepConfig {
             sigma_range,
             metric,
             poses,
+            summary,
         };
         config.count()?;
         config.check_sampling()?;
@@ -631,7 +784,7 @@ impl SweepConfig {
     /// FNV-1a over their full debug form, so a resumed or merged sweep can tell its own parts.
     #[must_use]
     pub fn fingerprint(&self) -> String {
-        let text = format!(
+        let mut text = format!(
             "{:?}|{:?}|{:?}|{:?}|{:?}|{}|{:?}",
             self.source,
             self.target,
@@ -644,6 +797,10 @@ impl SweepConfig {
                 Poses::List(l) => format!("{:?}{:?}", l.headers, l.rows),
             }
         );
+        // Only when asked for, so the sweeps of files without one keep their fingerprints.
+        if let Some(s) = &self.summary {
+            text.push_str(&format!("|{s:?}"));
+        }
         let mut h: u64 = 0xcbf2_9ce4_8422_2325;
         for b in text.bytes() {
             h ^= u64::from(b);

@@ -163,6 +163,26 @@ fn name(path: &Path) -> String {
     )
 }
 
+/// Returns `Ok` when `bytes` (the content of part `file`, read once) are what its record says
+/// for `expected`; else why not.
+///
+/// # Errors
+/// The reason in words, as [`Status::Damaged`] gives it.
+pub fn check_bytes(file: &Path, bytes: &[u8], expected: Expected<'_>) -> std::result::Result<(), String> {
+    let record = check_record(file, expected)?;
+    if bytes.len() as u64 != record.bytes {
+        return Err(format!(
+            "it has {} bytes where its record says {}",
+            bytes.len(),
+            record.bytes
+        ));
+    }
+    if format!("{:08x}", crc32fast::hash(bytes)) != record.crc32 {
+        return Err("its bytes differ from its record's checksum".into());
+    }
+    Ok(())
+}
+
 /// Returns what part `file` is: good when its record matches `expected` and its bytes the
 /// record; missing when there is no file; damaged (with the reason) otherwise.
 #[must_use]

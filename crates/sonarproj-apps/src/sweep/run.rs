@@ -6,7 +6,10 @@
 //!   and shard writes the same one and refuses a directory holding another sweep's;
 //! - `sweep.csv` (a whole run) or `shard-K-of-N.csv` (one shard): `index`, the pose columns and
 //!   the metrics, one row per pose in index order; beside each, `NAME.meta.json`, the record of
-//!   what it holds ([`super::parts`]: sweep fingerprint, first index, rows, size, CRC-32);
+//!   what it holds ([`super::parts`]: sweep fingerprint, first index, rows, size, CRC-32) — or
+//!   the same table as `sweep.parquet` / `shard-K-of-N.parquet` ([`Format::Parquet`]);
+//! - `summary.json` or `shard-K-of-N.summary.json` when the sweep file has a `[summary]`
+//!   ([`super::summary`]); with `rows = false` it is the only result;
 //! - `sweep-METRIC.png`: the metric against the grid's one or two varying axes (whole runs and
 //!   merges only);
 //! - `.partial-sweep/` or `.partial-shard-K-of-N/` while unfinished: `manifest.json` and one
@@ -32,7 +35,9 @@ use crate::io::{METRIC_COLUMNS, metric_fields};
 use crate::report::{figures, output_dir, remove_stale_temporaries};
 use crate::sweep::SweepConfig;
 use crate::sweep::parts::{self, write_json};
+use crate::sweep::summary::{PartSummary, Summary, SummarySpec};
 use sonarproj::local_precision::resolve_sigma_range;
+use sonarproj::metrics::Metric;
 use sonarproj::projection::{Batch, Projection};
 
 /// The default number of poses per chunk.
@@ -116,6 +121,10 @@ pub struct Descriptor {
     pub metric_label: String,
     /// The figure title.
     pub title: String,
+    /// The summaries asked for (absent when none: the descriptors of sweeps without one are
+    /// unchanged).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub summary: Option<SummarySpec>,
 }
 
 /// The state of an unfinished run, in its `.partial-*` directory.
@@ -255,6 +264,9 @@ pub struct Outcome {
     pub file: Option<PathBuf>,
     /// The figure written, if any.
     pub figure: Option<PathBuf>,
+    /// The summaries' file (`summary.json`, or a shard's), when the sweep asks for them and is
+    /// complete.
+    pub summary: Option<PathBuf>,
     /// Poses of this run or shard.
     pub poses: u64,
     /// Poses computed by this call.
@@ -310,6 +322,7 @@ pub fn descriptor(config: &SweepConfig) -> Result<Descriptor> {
         metric: config.metric.name().to_string(),
         metric_label: config.metric_label().to_string(),
         title: format!("{} to {}", config.source.name, config.target.name),
+        summary: config.summary.clone(),
     })
 }
 
@@ -370,10 +383,33 @@ pub fn run(
     remove_stale_temporaries(dir);
     claim(dir, &desc)?;
     let ext = opts.format.extension();
-    let file = dir.join(format!("{stem}.{ext}"));
+    let spec = config.summary.as_ref();
+    let rows = spec.is_none_or(|s| s.rows);
+    let grid = match &config.poses {
+        crate::sweep::Poses::Grid(g) => Some(g),
+        crate::sweep::Poses::List(_) => None,
+    };
+    // The result: the table, or the summaries alone when no rows are asked for (the settings
+    // record stands beside it).
+    let summary_file = match opts.shard {
+        Some(_) => dir.join(format!("{stem}.summary.json")),
+        None => dir.join("summary.json"),
+    };
+    let file = if rows {
+        dir.join(format!("{stem}.{ext}"))
+    } else {
+        summary_file.clone()
+    };
+    // The result files this run writes: the table, the summaries, or both.
+    let results: Vec<&Path> = match (rows, spec.is_some()) {
+        (true, true) => vec![&file, &summary_file],
+        (false, _) => vec![&summary_file],
+        (true, false) => vec![&file],
+    };
     let mut outcome = Outcome {
         file: None,
         figure: None,
+        summary: None,
         poses,
         computed: 0,
         resumed: 0,
@@ -383,7 +419,8 @@ pub fn run(
         first: range.start,
         rows: poses,
     };
-    match parts::check(&file, whole) {
+    let (checked, status) = first_not_good(&results, whole);
+    match status {
         // Finished earlier (the result is written only once every chunk is), with these
         // settings: a part computed otherwise, or without a record of how (a shard must have
         // one to be merged), is not passed off as this run's.
@@ -421,7 +458,8 @@ pub fn run(
                 None => {}
             }
             outcome.resumed = poses;
-            outcome.file = Some(file);
+            outcome.summary = spec.map(|_| summary_file.clone());
+            outcome.file = rows.then_some(file);
             // Finished: nothing left to stop.
             let _ = events(Event::Progress {
                 done: poses,
@@ -432,7 +470,7 @@ pub fn run(
         parts::Status::Missing => {}
         parts::Status::Damaged(reason) => {
             if events(Event::Recomputing {
-                file: file.clone(),
+                file: checked.to_path_buf(),
                 reason,
             })
             .is_break()
@@ -497,6 +535,18 @@ pub fn run(
         s..(s + opts.chunk_poses).min(range.end)
     };
     let chunk_path = |c: u64| state.join(format!("chunk-{c:08}.{ext}"));
+    let chunk_summary = |c: u64| state.join(format!("chunk-{c:08}.summary.json"));
+    let chunk_files = |c: u64| -> Vec<PathBuf> {
+        let mut out = Vec::with_capacity(2);
+        if rows {
+            out.push(chunk_path(c));
+        }
+        if spec.is_some() {
+            out.push(chunk_summary(c));
+        }
+        out
+    };
+    let by = spec.map(|s| Metric::from_name(&s.by).expect("a checked metric name"));
     let expected = |r: &Range<u64>| parts::Expected {
         fingerprint: &desc.fingerprint,
         first: r.start,
@@ -510,7 +560,11 @@ pub fn run(
     for c in 0..n_chunks {
         let r = &chunk(c);
         let path = chunk_path(c);
-        let status = parts::check(&path, expected(r));
+        let files = chunk_files(c);
+        let (damaged, status) = first_not_good(
+            &files.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
+            expected(r),
+        );
         if status == parts::Status::Good {
             outcome.resumed += r.end - r.start;
         } else {
@@ -520,15 +574,15 @@ pub fn run(
             budget -= 1;
             if let parts::Status::Damaged(reason) = status
                 && events(Event::Recomputing {
-                    file: path.clone(),
+                    file: damaged.to_path_buf(),
                     reason,
                 })
                 .is_break()
             {
                 return Ok(outcome);
             }
-            match opts.format {
-                Format::Csv => {
+            let results = match (rows, opts.format) {
+                (true, Format::Csv) => {
                     let (poses, fields) = config.items(r.clone())?;
                     let batch = chunk_batch(config, &poses);
                     let results = backend.project(&batch, Output::MetricsOnly)?;
@@ -542,28 +596,47 @@ pub fn run(
                         )?;
                         w.write_all(&body).map_err(|e| Error::write_output(&path, e))
                     })?;
+                    results
                 }
-                Format::Parquet => {
+                (_, format) => {
                     let (poses, values) = config.items_numeric(r.clone())?;
                     let batch = chunk_batch(config, &poses);
                     let results = backend.project(&batch, Output::MetricsOnly)?;
-                    let table = columns_of(
-                        &desc.columns,
-                        &kinds,
-                        r.start,
-                        &batch,
-                        &poses,
-                        &values,
-                        &results,
-                        sigma,
-                    );
-                    parts::write(&path, expected(r), |w| {
-                        let mut t =
-                            TableWriter::new(w, &desc.columns, &kinds, r.start, Encoding::Scratch, &path)?;
-                        t.push(table)?;
-                        t.finish()
-                    })?;
+                    if rows {
+                        debug_assert_eq!(format, Format::Parquet);
+                        let table = columns_of(
+                            &desc.columns,
+                            &kinds,
+                            r.start,
+                            &batch,
+                            &poses,
+                            &values,
+                            &results,
+                            sigma,
+                        );
+                        parts::write(&path, expected(r), |w| {
+                            let mut t = TableWriter::new(
+                                w,
+                                &desc.columns,
+                                &kinds,
+                                r.start,
+                                Encoding::Scratch,
+                                &path,
+                            )?;
+                            t.push(table)?;
+                            t.finish()
+                        })?;
+                    }
+                    results
                 }
+            };
+            if let (Some(spec), Some(by)) = (spec, by) {
+                let values: Vec<Option<f64>> = results.iter().map(|p| p.metrics.get(by).as_f64()).collect();
+                let part = spec.summarise(grid, r.start, &values)?.to_part();
+                let sum_path = chunk_summary(c);
+                parts::write(&sum_path, expected(r), |w| {
+                    serde_json::to_writer(&mut *w, &part).map_err(|e| Error::write_output(&sum_path, e))
+                })?;
             }
             outcome.computed += r.end - r.start;
         }
@@ -574,18 +647,101 @@ pub fn run(
     }
     // The settings first: a result never stands without them.
     write_json(&settings_path(&file), &manifest.settings)?;
-    match opts.format {
-        Format::Csv => parts::join((0..n_chunks).map(chunk_path), &desc.columns, &file, whole)?,
-        Format::Parquet => {
-            parts::join_parquet((0..n_chunks).map(chunk_path), &desc.columns, &kinds, &file, whole)?
+    if let Some(spec) = spec {
+        let mut total = spec.empty(grid);
+        for c in 0..n_chunks {
+            let path = chunk_summary(c);
+            let context = path.display().to_string();
+            let part: PartSummary = read_part(&path, expected(&chunk(c)))?;
+            total = spec.combine(&total, &part.into_summary(&context)?, &context)?;
+        }
+        parts::write(&summary_file, whole, |w| {
+            serde_json::to_writer_pretty(&mut *w, &total)
+                .map_err(|e| Error::write_output(&summary_file, e))?;
+            w.write_all(b"\n")
+                .map_err(|e| Error::write_output(&summary_file, e))
+        })?;
+        outcome.summary = Some(summary_file.clone());
+    }
+    if rows {
+        match opts.format {
+            Format::Csv => parts::join((0..n_chunks).map(chunk_path), &desc.columns, &file, whole)?,
+            Format::Parquet => {
+                parts::join_parquet((0..n_chunks).map(chunk_path), &desc.columns, &kinds, &file, whole)?;
+            }
         }
     }
     std::fs::remove_dir_all(&state).map_err(|e| Error::write_output(&state, e))?;
     if opts.shard.is_none() {
-        outcome.figure = figure(&file, opts.format, &desc)?;
+        outcome.figure = if rows {
+            figure(&file, opts.format, &desc)?
+        } else {
+            figure_of_marginal(dir, &desc, &summary_file)?
+        };
     }
-    outcome.file = Some(file);
+    outcome.file = rows.then_some(file);
     Ok(outcome)
+}
+
+/// Returns the first of `files` that is not good for `expected`, with its status; the last
+/// file and [`parts::Status::Good`] when all are.
+fn first_not_good<'f>(files: &[&'f Path], expected: parts::Expected<'_>) -> (&'f Path, parts::Status) {
+    for f in files {
+        let status = parts::check(f, expected);
+        if status != parts::Status::Good {
+            return (f, status);
+        }
+    }
+    (files[files.len() - 1], parts::Status::Good)
+}
+
+/// Returns the JSON part `path`, after checking its bytes against its record for `expected`
+/// (read once: what is checked is what is parsed).
+fn read_part<T: for<'de> Deserialize<'de>>(path: &Path, expected: parts::Expected<'_>) -> Result<T> {
+    let bytes = std::fs::read(path).map_err(|source| Error::ReadInput {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let damaged = |message: String| Error::Csv {
+        context: path.display().to_string(),
+        message,
+    };
+    parts::check_bytes(path, &bytes, expected).map_err(damaged)?;
+    serde_json::from_slice(&bytes).map_err(|e| damaged(format!("not a sweep summary ({e})")))
+}
+
+/// Draws `DIR/sweep-METRIC.png` from the summaries in `summary` when the sweep writes no rows
+/// and a marginal is over exactly the grid's varying axes (each of its cells is one pose: the
+/// figure is the one the table would give); returns its path.
+fn figure_of_marginal(dir: &Path, d: &Descriptor, summary: &Path) -> Result<Option<PathBuf>> {
+    if d.varying.is_empty() || d.varying.len() > 2 {
+        return Ok(None);
+    }
+    let bytes = std::fs::read(summary).map_err(|source| Error::ReadInput {
+        path: summary.to_path_buf(),
+        source,
+    })?;
+    let s: Summary = serde_json::from_slice(&bytes).map_err(|e| Error::Csv {
+        context: summary.display().to_string(),
+        message: e.to_string(),
+    })?;
+    if s.metric != d.metric {
+        return Ok(None);
+    }
+    let Some(m) = s.marginals.iter().find(|m| m.axes == d.varying) else {
+        return Ok(None);
+    };
+    let points: Vec<(Vec<f64>, Option<f64>)> = match m.values.as_slice() {
+        [x] => x.iter().zip(&m.mean).map(|(&x, &v)| (vec![x], v)).collect(),
+        [x, y] => x
+            .iter()
+            .flat_map(|&a| y.iter().map(move |&b| vec![a, b]))
+            .zip(&m.mean)
+            .map(|(c, &v)| (c, v))
+            .collect(),
+        _ => return Ok(None),
+    };
+    draw(dir, d, &points).map(Some)
 }
 
 /// Returns the batch of a chunk's `poses`.
@@ -707,6 +863,13 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
             "has no sweep.json: not the --out directory of a sharded sweep",
         )
     })?;
+    // A shard's result: its table, or its summaries when the sweep writes no rows.
+    let rows = desc.summary.as_ref().is_none_or(|s| s.rows);
+    let suffixes: &[(&str, Format)] = if rows {
+        &[(".csv", Format::Csv), (".parquet", Format::Parquet)]
+    } else {
+        &[(".summary.json", Format::Csv)]
+    };
     let mut shards: Vec<(Shard, Format)> = Vec::new();
     let entries = std::fs::read_dir(dir).map_err(|source| Error::ReadInput {
         path: dir.to_path_buf(),
@@ -714,10 +877,10 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
     })?;
     for e in entries.flatten() {
         let name = e.file_name().to_string_lossy().to_string();
-        for format in [Format::Csv, Format::Parquet] {
+        for &(suffix, format) in suffixes {
             if let Some(s) = name
                 .strip_prefix("shard-")
-                .and_then(|s| s.strip_suffix(&format!(".{}", format.extension())))
+                .and_then(|s| s.strip_suffix(suffix))
                 .and_then(|s| Shard::parse(&s.replace("-of-", "/")).ok())
             {
                 shards.push((s, format));
@@ -739,6 +902,13 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
         f => f.first().copied().unwrap_or_default(),
     };
     let ext = format.extension();
+    let main = |stem: &str| {
+        if rows {
+            dir.join(format!("{stem}.{ext}"))
+        } else {
+            dir.join(format!("{stem}.summary.json"))
+        }
+    };
     let shards: Vec<Shard> = shards.into_iter().map(|s| s.0).collect();
     let n = match shards
         .iter()
@@ -750,7 +920,11 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
             return Err(Error::invalid(
                 "DIR",
                 dir.display(),
-                "holds no finished shard-K-of-N.csv or shard-K-of-N.parquet",
+                if rows {
+                    "holds no finished shard-K-of-N.csv or shard-K-of-N.parquet"
+                } else {
+                    "holds no finished shard-K-of-N.summary.json"
+                },
             ));
         }
         ns => {
@@ -772,17 +946,28 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
     // Every shard must be this sweep's part K, whole: checked against its record before
     // anything is written, and again while it is copied.
     let mut files = Vec::new();
+    let mut summaries = Vec::new();
     for k in 1..=n {
         let shard = Shard { k, n };
-        let file = dir.join(format!("{}.{ext}", shard.stem()));
+        let file = main(&shard.stem());
+        let summary = dir.join(format!("{}.summary.json", shard.stem()));
         let r = shard.range(desc.poses);
         let expected = parts::Expected {
             fingerprint: &desc.fingerprint,
             first: r.start,
             rows: r.end - r.start,
         };
-        match parts::check(&file, expected) {
-            parts::Status::Good => files.push(file),
+        let mut checked: Vec<&Path> = vec![&file];
+        if rows && desc.summary.is_some() {
+            checked.push(&summary);
+        }
+        let (file, status) = first_not_good(&checked, expected);
+        let file = file.to_path_buf();
+        match status {
+            parts::Status::Good => {
+                files.push(main(&shard.stem()));
+                summaries.push((summary, r));
+            }
             parts::Status::Missing => {
                 return Err(Error::invalid(
                     "DIR",
@@ -828,16 +1013,51 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
             }
         }
     }
-    let out = dir.join(format!("sweep.{ext}"));
     let whole = parts::Expected {
         fingerprint: &desc.fingerprint,
         first: 0,
         rows: desc.poses,
     };
+    let summary_file = dir.join("summary.json");
+    if let Some(spec) = &desc.summary {
+        // The shards' summaries combined, each read once and checked against its record.
+        let mut total: Option<Summary> = None;
+        for (path, r) in &summaries {
+            let expected = parts::Expected {
+                fingerprint: &desc.fingerprint,
+                first: r.start,
+                rows: r.end - r.start,
+            };
+            let part: Summary = read_part(path, expected)?;
+            let context = path.display().to_string();
+            total = Some(match total {
+                None if part.metric == spec.by => part,
+                None => {
+                    return Err(Error::Csv {
+                        context,
+                        message: format!("summarises {:?}, not this sweep's {:?}", part.metric, spec.by),
+                    });
+                }
+                Some(t) => spec.combine(&t, &part, &context)?,
+            });
+        }
+        let total = total.expect("at least one shard");
+        parts::write(&summary_file, whole, |w| {
+            serde_json::to_writer_pretty(&mut *w, &total)
+                .map_err(|e| Error::write_output(&summary_file, e))?;
+            w.write_all(b"\n")
+                .map_err(|e| Error::write_output(&summary_file, e))
+        })?;
+    }
+    if !rows {
+        let fig = figure_of_marginal(dir, &desc, &summary_file)?;
+        return Ok((summary_file, fig));
+    }
+    let out = dir.join(format!("sweep.{ext}"));
     match format {
         Format::Csv => parts::join(files, &desc.columns, &out, whole)?,
         Format::Parquet => {
-            parts::join_parquet(files, &desc.columns, &column_kinds(&desc.columns), &out, whole)?
+            parts::join_parquet(files, &desc.columns, &column_kinds(&desc.columns), &out, whole)?;
         }
     }
     let fig = figure(&out, format, &desc)?;
@@ -889,14 +1109,20 @@ fn figure(table: &Path, format: Format, d: &Descriptor) -> Result<Option<PathBuf
             }
         }
     }
+    draw(dir, d, &points).map(Some)
+}
+
+/// Draws `DIR/sweep-METRIC.png` of `points` (the varying axes' values, the metric); returns its
+/// path.
+fn draw(dir: &Path, d: &Descriptor, points: &[(Vec<f64>, Option<f64>)]) -> Result<PathBuf> {
     let path = dir.join(format!("sweep-{}.png", d.metric));
     let caption = match d.varying.as_slice() {
         [x] => format!("{}: {} against {x}", d.title, d.metric_label),
         _ => format!("{}: {}", d.title, d.metric_label),
     };
     let axes: Vec<String> = d.varying.iter().map(|c| column_label(c)).collect();
-    figures::sweep(&path, &caption, &axes, &d.metric_label, &points)?;
-    Ok(Some(path))
+    figures::sweep(&path, &caption, &axes, &d.metric_label, points)?;
+    Ok(path)
 }
 
 /// Returns the axis label of sweep column `c`, with its unit.

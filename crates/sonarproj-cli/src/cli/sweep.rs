@@ -113,19 +113,24 @@ pub(super) fn run(a: SweepArgs) -> Result<()> {
         Some(s) => format!("shard {}/{} ({} poses)", s.k, s.n, outcome.poses),
         None => format!("{} poses", outcome.poses),
     };
-    match &outcome.file {
-        Some(file) => {
+    let wrote: Vec<String> = [&outcome.file, &outcome.summary, &outcome.figure]
+        .into_iter()
+        .flatten()
+        .map(|f| f.display().to_string())
+        .collect();
+    match wrote.split_last() {
+        Some((last, rest)) => {
             let rate = outcome.computed as f64 / secs.max(1e-9);
+            let files = if rest.is_empty() {
+                last.clone()
+            } else {
+                format!("{} and {last}", rest.join(", "))
+            };
             outln!(
-                "sweep: {what} on {}: {} computed in {secs:.2} s ({rate:.0} poses/s), {} from earlier runs; wrote {}{}",
+                "sweep: {what} on {}: {} computed in {secs:.2} s ({rate:.0} poses/s), {} from earlier runs; wrote {files}",
                 backend.device(),
                 outcome.computed,
                 outcome.resumed,
-                file.display(),
-                outcome
-                    .figure
-                    .map(|f| format!(" and {}", f.display()))
-                    .unwrap_or_default()
             )?;
         }
         None => outln!(
