@@ -564,7 +564,7 @@ impl SweepConfig {
             Poses::Grid(g) if g.axes.iter().all(|a| !a.values.is_empty()) => {
                 let mut v: Vec<f64> = g.axes.iter().map(|a| a.values[0]).collect();
                 v[0] = g.axes[0].values.iter().copied().fold(f64::MIN, f64::max);
-                checker.check(&g.item(&self.source, v)?)?;
+                checker.check(&g.item(&self.source, &v)?)?;
             }
             Poses::Grid(_) => {}
         }
@@ -720,7 +720,7 @@ impl SweepConfig {
                         row.extend(v.iter().map(f64::to_string));
                         PoseRow {
                             true_point: Some([v[0], v[1], v[2]]),
-                            item: g.item(&self.source, v)?,
+                            item: g.item(&self.source, &v)?,
                         }
                     }
                 };
@@ -741,41 +741,38 @@ impl SweepConfig {
         reason = "grid sizes are checked against MAX_POSES before they are used as indices"
     )]
     pub fn items_numeric(&self, range: std::ops::Range<u64>) -> Result<(Vec<PoseRow>, Vec<f64>)> {
-        let rows = range
-            .into_par_iter()
-            .map(|i| match &self.poses {
-                Poses::List(l) => {
-                    let fields = l.rows[i as usize]
-                        .iter()
-                        .map(|t| {
-                            t.trim().parse::<f64>().map_err(|_| {
+        let n = (range.end - range.start) as usize;
+        let width = self.columns().len() - 1;
+        // Each pose's numbers written in place, its item built from them: nothing is allocated
+        // per pose (this runs for every pose of a sweep).
+        let mut values = vec![0.0; n * width];
+        let poses = values
+            .par_chunks_mut(width.max(1))
+            .enumerate()
+            .map(|(k, v)| {
+                let i = range.start + k as u64;
+                match &self.poses {
+                    Poses::List(l) => {
+                        for (out, t) in v.iter_mut().zip(&l.rows[i as usize]) {
+                            *out = t.trim().parse::<f64>().map_err(|_| {
                                 Error::invalid(format!("poses row {i}"), format!("{t:?}"), "must be a number")
-                            })
+                            })?;
+                        }
+                        Ok(PoseRow {
+                            item: l.items[i as usize],
+                            true_point: l.true_points[i as usize],
                         })
-                        .collect::<Result<Vec<f64>>>()?;
-                    let pose = PoseRow {
-                        item: l.items[i as usize],
-                        true_point: l.true_points[i as usize],
-                    };
-                    Ok((pose, fields))
-                }
-                Poses::Grid(g) => {
-                    let v = g.values(i);
-                    let fields = v.clone();
-                    let pose = PoseRow {
-                        true_point: Some([v[0], v[1], v[2]]),
-                        item: g.item(&self.source, v)?,
-                    };
-                    Ok((pose, fields))
+                    }
+                    Poses::Grid(g) => {
+                        g.values_into(i, v);
+                        Ok(PoseRow {
+                            true_point: Some([v[0], v[1], v[2]]),
+                            item: g.item(&self.source, v)?,
+                        })
+                    }
                 }
             })
             .collect::<Result<Vec<_>>>()?;
-        let mut poses = Vec::with_capacity(rows.len());
-        let mut values = Vec::new();
-        for (pose, fields) in rows {
-            poses.push(pose);
-            values.extend(fields);
-        }
         Ok((poses, values))
     }
 
@@ -824,18 +821,27 @@ impl Grid {
         reason = "grid sizes are checked against MAX_POSES before they are used as indices"
     )]
     #[must_use]
-    pub fn values(&self, mut i: u64) -> Vec<f64> {
+    pub fn values(&self, i: u64) -> Vec<f64> {
         let mut out = vec![0.0; self.axes.len()];
+        self.values_into(i, &mut out);
+        out
+    }
+
+    /// Writes the axis values of pose `i` into `out` (one per axis), as [`Grid::values`].
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "grid sizes are checked against MAX_POSES before they are used as indices"
+    )]
+    pub fn values_into(&self, mut i: u64, out: &mut [f64]) {
         for (k, a) in self.axes.iter().enumerate().rev() {
             let n = a.values.len() as u64;
             out[k] = a.values[(i % n) as usize];
             i /= n;
         }
-        out
     }
 
     /// Returns the batch item of axis values `v` (in [`Grid::axes`] order).
-    fn item(&self, source: &Sonar, v: Vec<f64>) -> Result<BatchItem> {
+    fn item(&self, source: &Sonar, v: &[f64]) -> Result<BatchItem> {
         let rotation = Rotation::RollPitchYaw {
             roll: v[6],
             pitch: v[7],

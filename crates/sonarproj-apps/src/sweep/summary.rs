@@ -91,9 +91,9 @@ pub struct Marginal {
     pub mean: Vec<Option<f64>>,
     /// Per cell: the largest value.
     pub max: Vec<Option<f64>>,
-    /// Per cell: the exact sum, in units of 2^-[`FIXED_BITS`], as decimal text (what combines
-    /// exactly; `mean` is derived from it).
-    pub sum: Vec<String>,
+    /// Per cell: the exact sum, in units of 2^-[`FIXED_BITS`] (what combines exactly; `mean` is
+    /// derived from it).
+    pub sum: Vec<i128>,
 }
 
 /// The summaries of a sweep, or of a part of it (a chunk, a shard): what `summary.json` holds.
@@ -130,7 +130,7 @@ pub struct PartSummary {
 }
 
 /// One marginal cell of a part: (cell, count, min, max, exact sum).
-pub type Cell = (usize, u64, f64, f64, String);
+pub type Cell = (usize, u64, f64, f64, i128);
 
 impl Summary {
     /// Returns this summary with its marginals' cells listed sparsely, for a part on disk.
@@ -148,7 +148,7 @@ impl Summary {
                             m.count[c],
                             m.min[c].unwrap_or(f64::NAN),
                             m.max[c].unwrap_or(f64::NAN),
-                            m.sum[c].clone(),
+                            m.sum[c],
                         )
                     })
                     .collect(),
@@ -184,18 +184,15 @@ impl PartSummary {
             m.min = vec![None; n];
             m.mean = vec![None; n];
             m.max = vec![None; n];
-            m.sum = vec!["0".into(); n];
+            m.sum = vec![0; n];
             for (c, count, min, max, sum) in cells {
                 if c >= n || count == 0 {
                     return Err(bad("a marginal's cell is outside it or empty"));
                 }
-                let exact: i128 = sum
-                    .parse()
-                    .map_err(|_| bad("a marginal's sum is not an integer"))?;
                 m.count[c] = count;
                 m.min[c] = Some(min);
                 m.max[c] = Some(max);
-                m.mean[c] = mean_of(exact, count);
+                m.mean[c] = mean_of(sum, count);
                 m.sum[c] = sum;
             }
         }
@@ -347,7 +344,7 @@ impl SummarySpec {
                     min: vec![None; cells],
                     mean: vec![None; cells],
                     max: vec![None; cells],
-                    sum: vec!["0".into(); cells],
+                    sum: vec![0; cells],
                 }
             })
             .collect();
@@ -453,8 +450,8 @@ impl SummarySpec {
                     m.min[cell] = Some(m.min[cell].map_or(r.value, |x| x.min(r.value)));
                     m.max[cell] = Some(m.max[cell].map_or(r.value, |x| x.max(r.value)));
                 }
-                m.sum = sums.iter().map(ToString::to_string).collect();
                 m.mean = sums.iter().zip(&m.count).map(|(&s, &n)| mean_of(s, n)).collect();
+                m.sum = sums;
             }
         }
         Ok(s)
@@ -509,16 +506,7 @@ impl SummarySpec {
         };
         let mut marginals = Vec::with_capacity(a.marginals.len());
         for (x, y) in a.marginals.iter().zip(&b.marginals) {
-            let parse = |t: &String| {
-                t.parse::<i128>()
-                    .map_err(|_| bad("a marginal's sum is not an integer"))
-            };
-            let sums = x
-                .sum
-                .iter()
-                .zip(&y.sum)
-                .map(|(p, q)| Ok(parse(p)? + parse(q)?))
-                .collect::<Result<Vec<i128>>>()?;
+            let sums: Vec<i128> = x.sum.iter().zip(&y.sum).map(|(p, q)| p + q).collect();
             let count: Vec<u64> = x.count.iter().zip(&y.count).map(|(p, q)| p + q).collect();
             let both = |p: &Option<f64>, q: &Option<f64>, f: fn(f64, f64) -> f64| match (p, q) {
                 (Some(p), Some(q)) => Some(f(*p, *q)),
@@ -540,7 +528,7 @@ impl SummarySpec {
                     .map(|(p, q)| both(p, q, f64::max))
                     .collect(),
                 mean: sums.iter().zip(&count).map(|(&s, &n)| mean_of(s, n)).collect(),
-                sum: sums.iter().map(ToString::to_string).collect(),
+                sum: sums.clone(),
                 count,
             });
         }
