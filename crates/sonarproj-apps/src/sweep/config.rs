@@ -816,10 +816,6 @@ impl SweepConfig {
 
 impl Grid {
     /// Returns the axis values of pose `i` (mixed radix, the last axis fastest).
-    #[expect(
-        clippy::cast_possible_truncation,
-        reason = "grid sizes are checked against MAX_POSES before they are used as indices"
-    )]
     #[must_use]
     pub fn values(&self, i: u64) -> Vec<f64> {
         let mut out = vec![0.0; self.axes.len()];
