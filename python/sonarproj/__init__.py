@@ -704,7 +704,7 @@ def _count(parameter: str, value: Any, *, optional: bool = False) -> Optional[in
 
 def sweep(
     config: Union[str, "_os.PathLike[str]"],
-    out_dir: Union[str, "_os.PathLike[str]"],
+    out_dir: Optional[Union[str, "_os.PathLike[str]"]] = None,
     *,
     shard: Optional[str] = None,
     chunk_poses: int = DEFAULT_CHUNK_POSES,
@@ -730,6 +730,13 @@ def sweep(
     ``[summary]`` says ``rows = false``), ``figure``, ``summary`` (the ``[summary]``'s
     reductions, the content of ``summary.json``, as a dict; None without one),
     ``summary_file``, ``poses``, ``computed``, ``resumed``, ``seconds``, ``device``.
+
+    Without `out_dir` the sweep runs in memory and writes nothing: the dict's ``columns`` maps
+    each column of the table to a numpy array (int64 for the index and counts, float64 for the
+    rest, NaN where the CSV leaves a cell empty; ``pandas.DataFrame(result["columns"])`` is the
+    table), or is None with ``rows = false``; ``summary`` is as above. Tables over 1 GiB are
+    refused (give `out_dir`, or ask for summaries only); `max_chunks` and `format` need
+    `out_dir`.
     """
     if format not in ("csv", "parquet"):
         raise InputError(f'format: expected "csv" or "parquet", got {format!r}')
@@ -737,6 +744,16 @@ def sweep(
         raise InputError(f"progress: expected a callable (done, total), got {type(progress).__name__}")
     if shard is not None and not isinstance(shard, str):
         raise InputError(f'shard: expected "K/N", e.g. "1/4", got {shard!r}')
+    if out_dir is None:
+        if max_chunks is not None:
+            raise InputError("max_chunks: needs out_dir (a sweep in memory keeps nothing to resume)")
+        if format != "csv":
+            raise InputError(f"format: {format!r} needs out_dir (a sweep in memory returns its columns)")
+        result, notice = _native.sweep_memory(
+            _os.fspath(config), shard, _count("chunk_poses", chunk_poses), _backend(backend), progress
+        )
+        _warn(notice)
+        return result
     result, notice = _native.sweep_run(
         _os.fspath(config),
         _os.fspath(out_dir),

@@ -291,6 +291,13 @@ def sweep_run(
     progress: Optional[Callable[[int, int], None]],
     format: str,
 ) -> tuple[dict[str, Any], Optional[str]]: ...
+def sweep_memory(
+    config: str,
+    shard: Optional[str],
+    chunk_poses: int,
+    backend_name: str,
+    progress: Optional[Callable[[int, int], None]],
+) -> tuple[dict[str, Any], Optional[str]]: ...
 def sweep_merge(out_dir: str) -> tuple[str, Optional[str]]: ...
 def paper_run(
     out_dir: str, angle_step: float, step: Optional[float], backend_name: str

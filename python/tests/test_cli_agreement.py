@@ -269,6 +269,44 @@ def test_sweep_writes_what_the_command_line_writes(tmp_path, cli, root):
         sonarproj.sweep(config, tmp_path / "bad", format="feather")
 
 
+def test_a_sweep_in_memory_returns_the_tables_columns(tmp_path, cli):
+    config = tmp_path / "sweep.toml"
+    config.write_text(
+        'from = "paper-sss"\nto = "paper-fls"\nstep = 1\n'
+        "[feature]\nrange = 5\n[place]\nrange = [5, 8]\n[rotation]\nroll = [0, 90]\nyaw = { start = 0, stop = 180, step = 30 }\n"
+        '[summary]\ntop = 2\nmarginals = ["yaw"]\n'
+    )
+    cli("sweep", "--config", config, "--out", tmp_path / "cli", "--backend", "cpu-fast")
+    calls = []
+    got = sonarproj.sweep(config, backend="cpu-fast", chunk_poses=5, progress=lambda d, t: calls.append((d, t)))
+    assert not any(tmp_path.glob("*/summary.json")) or (tmp_path / "cli" / "summary.json").exists()
+    assert got["poses"] == 28 and calls[-1] == (28, 28) and len(calls) == 6
+    with open(tmp_path / "cli" / "sweep.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    columns = got["columns"]
+    assert list(columns) == list(rows[0].keys())
+    assert columns["index"].dtype == np.int64 and columns["visible"].dtype == np.int64
+    assert columns["projection_area"].dtype == np.float64
+    nan = 0
+    for name, array in columns.items():
+        assert len(array) == len(rows)
+        for k, row in enumerate(rows):
+            if row[name] == "":
+                assert math.isnan(array[k]), (name, k)
+                nan += 1
+            else:
+                assert array[k] == float(row[name]), (name, k)
+    assert nan > 0, "the sweep should have empty cells for NaN to be tested"
+    assert got["summary"] == json.loads((tmp_path / "cli" / "summary.json").read_text())
+    # Part of it, and the refusals of what needs a directory.
+    half = sonarproj.sweep(config, shard="2/2", backend="cpu-fast")
+    np.testing.assert_array_equal(half["columns"]["index"], np.arange(14, 28))
+    with pytest.raises(sonarproj.InputError, match="max_chunks"):
+        sonarproj.sweep(config, max_chunks=1)
+    with pytest.raises(sonarproj.InputError, match="format"):
+        sonarproj.sweep(config, format="parquet")
+
+
 def test_sweep_summaries_come_back_as_a_dict(tmp_path, cli):
     config = tmp_path / "sweep.toml"
     config.write_text(

@@ -109,6 +109,87 @@ pub(crate) fn sweep_run<'py>(
     Ok((d, notice))
 }
 
+/// Runs the sweep of the TOML file `config` (or one shard of it) in memory, writing nothing;
+/// returns its columns (numpy arrays; NaN where the CSV leaves a cell empty), its summaries (a
+/// dict, or None), and the notice of the backend's selection. Ctrl-C or a raising `progress`
+/// stops it between chunks.
+#[pyfunction]
+#[pyo3(signature = (config, shard, chunk_poses, backend_name, progress))]
+pub(crate) fn sweep_memory<'py>(
+    py: Python<'py>,
+    config: PathBuf,
+    shard: Option<&str>,
+    chunk_poses: u64,
+    backend_name: &str,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
+    use numpy::IntoPyArray;
+    use sonarproj_apps::io::parquet::Column;
+    let shard = shard.map(Shard::parse).transpose().map_err(error)?;
+    let config = SweepConfig::load(&config).map_err(error)?;
+    let (backend, notice) = backend::get(backend_name)?;
+    let start = Instant::now();
+    let mut raised: Option<PyErr> = None;
+    let result = crate::runtime::detach_watching(py, |stop| {
+        sweep::run_in_memory(&config, &backend, shard, chunk_poses, &mut |event| {
+            if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                return ControlFlow::Break(());
+            }
+            let (Event::Progress { done, total }, Some(f)) = (event, &progress) else {
+                return ControlFlow::Continue(());
+            };
+            Python::attach(|py| match f.bind(py).call1((done, total)) {
+                Ok(_) => ControlFlow::Continue(()),
+                Err(e) => {
+                    raised = Some(e);
+                    ControlFlow::Break(())
+                }
+            })
+        })
+    })?;
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    let Some(result) = result
+        .map_err(|e| errors::apps_renamed(e, &[("--out", "out_dir"), ("--chunk-poses", "chunk_poses")]))?
+    else {
+        return Err(pyo3::exceptions::PyKeyboardInterrupt::new_err("sweep stopped"));
+    };
+    let d = PyDict::new(py);
+    let columns = PyDict::new(py);
+    if let Some(table) = result.table {
+        for (name, column) in table.names.iter().zip(table.columns) {
+            match column {
+                Column::Int(v) => columns.set_item(name, v.into_pyarray(py))?,
+                Column::Real(v) => columns.set_item(name, v.into_pyarray(py))?,
+                Column::Optional(v) => columns.set_item(
+                    name,
+                    v.into_iter()
+                        .map(|x| x.unwrap_or(f64::NAN))
+                        .collect::<Vec<f64>>()
+                        .into_pyarray(py),
+                )?,
+            }
+        }
+        d.set_item("columns", columns)?;
+    } else {
+        d.set_item("columns", py.None())?;
+    }
+    let summary = match &result.summary {
+        Some(s) => {
+            let text = serde_json::to_string(s)
+                .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+            Some(py.import("json")?.call_method1("loads", (text,))?)
+        }
+        None => None,
+    };
+    d.set_item("summary", summary)?;
+    d.set_item("poses", result.poses)?;
+    d.set_item("seconds", start.elapsed().as_secs_f64())?;
+    d.set_item("device", backend.device())?;
+    Ok((d, notice))
+}
+
 /// Joins the finished shards in `out_dir` into its `sweep.csv` (and draws the figure), as
 /// `sonarproj merge` does: refused, writing nothing, when a shard is missing or damaged or the
 /// shards were computed with different settings. Returns the CSV's and the figure's paths.

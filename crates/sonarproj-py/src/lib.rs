@@ -46,6 +46,7 @@ fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(recover::recover_one, m)?)?;
     m.add_function(wrap_pyfunction!(recover::recover_columns, m)?)?;
     m.add_function(wrap_pyfunction!(apps::sweep_run, m)?)?;
+    m.add_function(wrap_pyfunction!(apps::sweep_memory, m)?)?;
     m.add_function(wrap_pyfunction!(apps::sweep_merge, m)?)?;
     m.add_function(wrap_pyfunction!(apps::paper_run, m)?)?;
     m.add("METRIC_COLUMNS", sonarproj_apps::io::METRIC_COLUMNS.to_vec())?;

@@ -136,6 +136,23 @@ impl Table {
             .map(|i| &self.columns[i])
     }
 
+    /// Appends `other`'s rows (a table of the same columns).
+    ///
+    /// # Errors
+    /// [`Error::Csv`] when `other`'s columns or their kinds differ.
+    pub fn append(&mut self, other: Table) -> Result<()> {
+        if other.names != self.names || other.kinds() != self.kinds() {
+            return Err(Error::Csv {
+                context: "table".into(),
+                message: format!("columns {:?} differ from {:?}", other.names, self.names),
+            });
+        }
+        for (a, b) in self.columns.iter_mut().zip(other.columns) {
+            a.append(b);
+        }
+        Ok(())
+    }
+
     /// Returns the kinds of the columns.
     #[must_use]
     pub fn kinds(&self) -> Vec<Kind> {
