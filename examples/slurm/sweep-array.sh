@@ -20,7 +20,17 @@ config=$1 out=$2 shards=$3
 shift 3
 : "${SLURM_ARRAY_TASK_ID:?submit with sbatch --array=1-T (one task per shard or fewer)}"
 case "$shards" in '' | *[!0-9]*) echo "SHARDS must be a whole number, got '$shards'" >&2; exit 2 ;; esac
+shards=$((10#$shards)) # decimal, whatever leading zeros
+if [ "$shards" -lt 1 ]; then
+    echo "SHARDS must be at least 1, got $shards" >&2
+    exit 2
+fi
 tasks=$SLURM_ARRAY_TASK_COUNT
+# The arithmetic below needs a contiguous array (1-T, not 1-T:2 or 1,5,9).
+if [ $((SLURM_ARRAY_TASK_MAX - SLURM_ARRAY_TASK_MIN + 1)) -ne "$tasks" ]; then
+    echo "the array must be contiguous (--array=1-T); this one has $tasks tasks from $SLURM_ARRAY_TASK_MIN to $SLURM_ARRAY_TASK_MAX" >&2
+    exit 2
+fi
 task=$((SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN))
 for ((k = task + 1; k <= shards; k += tasks)); do
     "${SONARPROJ:-sonarproj}" sweep --config "$config" --out "$out" --shard "$k/$shards" "$@"

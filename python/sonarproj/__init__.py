@@ -776,10 +776,13 @@ def merge(out_dir: Union[str, "_os.PathLike[str]"]) -> dict[str, Optional[str]]:
     damaged, or when the shards were computed with different settings (backend, GPU adapter,
     precision or options, engine version: the message names the setting and both values).
 
-    Returns a dict: ``file`` (the table) and ``figure`` (None when the sweep draws none).
+    Returns a dict: ``file`` (the table; None when the sweep writes no rows), ``summary``
+    (``summary.json``, when the sweep file has a ``[summary]``) and ``figure`` (None when the
+    sweep draws none).
     """
-    file, figure = _native.sweep_merge(_os.fspath(out_dir))
-    return {"file": _os.fspath(file), "figure": None if figure is None else _os.fspath(figure)}
+    file, summary, figure = _native.sweep_merge(_os.fspath(out_dir))
+    path = lambda p: None if p is None else _os.fspath(p)  # noqa: E731
+    return {"file": path(file), "summary": path(summary), "figure": path(figure)}
 
 
 def paper(

@@ -999,3 +999,83 @@ fn summaries_alone_are_the_same_however_the_run_is_cut() {
             predicates::str::contains("summary.marginals").and(predicates::str::contains("not a grid axis")),
         );
 }
+
+#[test]
+fn summaries_refuse_what_does_not_hold_together() {
+    use predicates::prelude::*;
+    let dir = tempfile::tempdir().unwrap();
+    let alone = file(dir.path(), "alone.toml", &grid_with_summary(false));
+    // Shards merged under a sweep.json whose [summary] was edited (top 4 -> 6): refused naming
+    // the shard, nothing written.
+    let out = dir.path().join("edited");
+    for k in 1..=2 {
+        let shard = format!("{k}/2");
+        sweep(&alone, &out, &["--backend", "cpu-fast", "--shard", &shard], &format!("shard-{k}-of-2.summary.json"));
+    }
+    let desc = out.join("sweep.json");
+    let text = std::fs::read_to_string(&desc).unwrap();
+    assert!(text.contains("\"top\": 4"));
+    std::fs::write(&desc, text.replace("\"top\": 4", "\"top\": 6")).unwrap();
+    common::sonarproj()
+        .arg("merge")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("shard-1-of-2.summary.json").and(predicates::str::contains("top = 6")));
+    assert!(!out.join("summary.json").exists());
+    // A shard's summary missing: named.
+    std::fs::write(&desc, text).unwrap();
+    std::fs::remove_file(out.join("shard-2-of-2.summary.json")).unwrap();
+    common::sonarproj()
+        .arg("merge")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("lacks shards [2]"));
+    // A histogram whose width overflows is bad input before anything runs.
+    let wide = file(
+        dir.path(),
+        "wide.toml",
+        &format!("{GRID_2D}[summary]\nhistogram = {{ min = -1e308, max = 1e308, bins = 2 }}\n"),
+    );
+    common::sonarproj()
+        .args(["sweep", "--config"])
+        .arg(&wide)
+        .arg("--out")
+        .arg(dir.path().join("wide"))
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("summary.histogram").and(predicates::str::contains("non-zero width")));
+    // summary.json taken by a directory: refused before the table is written.
+    let rows = file(dir.path(), "rows.toml", &grid_with_summary(true));
+    let taken = dir.path().join("taken");
+    std::fs::create_dir_all(taken.join("summary.json")).unwrap();
+    common::sonarproj()
+        .args(["sweep", "--config"])
+        .arg(&rows)
+        .arg("--out")
+        .arg(&taken)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("summary.json"));
+    assert!(!taken.join("sweep.csv").exists());
+}
+
+#[cfg(unix)]
+#[test]
+fn a_table_written_into_a_device_draws_no_figure_and_does_not_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = file(dir.path(), "2d.toml", GRID_2D);
+    let out = dir.path().join("o");
+    std::fs::create_dir(&out).unwrap();
+    std::os::unix::fs::symlink("/dev/null", out.join("sweep.csv")).unwrap();
+    common::sonarproj()
+        .args(["sweep", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .args(["--backend", "cpu-fast"])
+        .assert()
+        .success();
+    assert!(!out.join("sweep-span.png").exists());
+}

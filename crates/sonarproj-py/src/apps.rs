@@ -192,11 +192,16 @@ pub(crate) fn sweep_memory<'py>(
 
 /// Joins the finished shards in `out_dir` into its `sweep.csv` (and draws the figure), as
 /// `sonarproj merge` does: refused, writing nothing, when a shard is missing or damaged or the
-/// shards were computed with different settings. Returns the CSV's and the figure's paths.
+/// shards were computed with different settings. Returns the table's, the summaries' and the
+/// figure's paths (each None when not written).
 #[pyfunction]
 #[pyo3(signature = (out_dir))]
-pub(crate) fn sweep_merge(py: Python<'_>, out_dir: PathBuf) -> PyResult<(PathBuf, Option<PathBuf>)> {
+pub(crate) fn sweep_merge(
+    py: Python<'_>,
+    out_dir: PathBuf,
+) -> PyResult<(Option<PathBuf>, Option<PathBuf>, Option<PathBuf>)> {
     crate::runtime::detach(py, || sweep::merge(&out_dir))
+        .map(|m| (m.file, m.summary, m.figure))
         .map_err(|e| errors::apps_renamed(e, &[("DIR", "out_dir")]))
 }
 

@@ -129,18 +129,18 @@ fn summary_spec(file: &str, t: &toml::Table, metric: Metric, target: SonarKind) 
             })?,
         Some(other) => return Err(key_error(file, &key("by"), other, "must be a metric's name")),
     };
-    let count = |k: &str, v: &toml::Value, max: usize| -> Result<usize> {
+    let count = |k: &str, v: &toml::Value, min: usize, max: usize| -> Result<usize> {
         match v {
             toml::Value::Integer(i) => usize::try_from(*i)
                 .ok()
-                .filter(|&n| n <= max)
-                .ok_or_else(|| key_error(file, &key(k), i, format!("must be 0 to {max}"))),
+                .filter(|&n| (min..=max).contains(&n))
+                .ok_or_else(|| key_error(file, &key(k), i, format!("must be {min} to {max}"))),
             other => Err(key_error(file, &key(k), other, "must be a whole number")),
         }
     };
     let top = t
         .get("top")
-        .map(|v| count("top", v, summary::MAX_TOP))
+        .map(|v| count("top", v, 0, summary::MAX_TOP))
         .transpose()?
         .unwrap_or(10);
     let histogram = match t.get("histogram") {
@@ -174,7 +174,7 @@ fn summary_spec(file: &str, t: &toml::Table, metric: Metric, target: SonarKind) 
                 }
             };
             let bins = match h.get("bins") {
-                Some(v) => count("histogram.bins", v, summary::MAX_HISTOGRAM_BINS)?,
+                Some(v) => count("histogram.bins", v, 1, summary::MAX_HISTOGRAM_BINS)?,
                 None => {
                     return Err(missing_key(
                         file,

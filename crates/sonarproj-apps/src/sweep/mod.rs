@@ -8,4 +8,4 @@ pub mod run;
 pub mod summary;
 
 pub use config::{Axis, Grid, Poses, SweepConfig};
-pub use run::{Event, Format, InMemory, Options, Outcome, Shard, merge, run, run_in_memory};
+pub use run::{Event, Format, InMemory, Merged, Options, Outcome, Shard, merge, run, run_in_memory};

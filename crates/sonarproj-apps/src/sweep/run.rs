@@ -32,7 +32,7 @@ use crate::io::batch::{PoseRow, local_of};
 use crate::io::parquet::{Column, Encoding, Kind, Table, TableWriter, read_groups};
 use crate::io::table::write_rows;
 use crate::io::{METRIC_COLUMNS, metric_fields};
-use crate::report::{figures, output_dir, remove_stale_temporaries};
+use crate::report::{check_output_file, figures, output_dir, remove_stale_temporaries};
 use crate::sweep::SweepConfig;
 use crate::sweep::parts::{self, write_json};
 use crate::sweep::summary::{PartSummary, Summary, SummarySpec};
@@ -406,6 +406,10 @@ pub fn run(
         (false, _) => vec![&summary_file],
         (true, false) => vec![&file],
     };
+    // Every result file can be written (not a directory, say) before anything is computed.
+    for f in &results {
+        check_output_file(f, "--out")?;
+    }
     let mut outcome = Outcome {
         file: None,
         figure: None,
@@ -648,12 +652,16 @@ pub fn run(
     // The settings first: a result never stands without them.
     write_json(&settings_path(&file), &manifest.settings)?;
     if let Some(spec) = spec {
-        let mut total = spec.empty(grid);
+        let template = spec.empty(grid);
+        let mut total = template.clone();
         for c in 0..n_chunks {
             let path = chunk_summary(c);
             let context = path.display().to_string();
-            let part: PartSummary = read_part(&path, expected(&chunk(c)))?;
-            total = spec.combine(&total, &part.into_summary(&context)?, &context)?;
+            let r = chunk(c);
+            let part: PartSummary = read_part(&path, expected(&r))?;
+            let part = part.into_summary(&template, &context)?;
+            spec.check(&part, r.start, r.end - r.start, &context)?;
+            total = spec.combine(&total, &part, &context)?;
         }
         parts::write(&summary_file, whole, |w| {
             serde_json::to_writer_pretty(&mut *w, &total)
@@ -957,7 +965,7 @@ fn csv_rows(
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `DIR` when there is no sweep there, parts of different
 /// counts, or a missing part; [`Error::Csv`] for a part with the wrong header or row count.
-pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
+pub fn merge(dir: &Path) -> Result<Merged> {
     let desc: Descriptor = read_json(&dir.join("sweep.json"))?.ok_or_else(|| {
         Error::invalid(
             "DIR",
@@ -1074,7 +1082,11 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
                 return Err(Error::invalid(
                     "DIR",
                     dir.display(),
-                    format!("lost shard {k} of {n} while merging"),
+                    format!(
+                        "lacks {} (shard {k} of {n}): run `sweep --shard {k}/{n}` again",
+                        file.file_name()
+                            .map_or_else(String::new, |f| f.to_string_lossy().into_owned())
+                    ),
                 ));
             }
             parts::Status::Damaged(reason) => {
@@ -1121,6 +1133,13 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
         rows: desc.poses,
     };
     let summary_file = dir.join("summary.json");
+    // Both results can be written before either is.
+    if desc.summary.is_some() {
+        check_output_file(&summary_file, "DIR")?;
+    }
+    if rows {
+        check_output_file(&dir.join(format!("sweep.{ext}")), "DIR")?;
+    }
     if let Some(spec) = &desc.summary {
         // The shards' summaries combined, each read once and checked against its record.
         let mut total: Option<Summary> = None;
@@ -1132,6 +1151,7 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
             };
             let part: Summary = read_part(path, expected)?;
             let context = path.display().to_string();
+            spec.check(&part, r.start, r.end - r.start, &context)?;
             total = Some(match total {
                 None if part.metric == spec.by => part,
                 None => {
@@ -1151,9 +1171,14 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
                 .map_err(|e| Error::write_output(&summary_file, e))
         })?;
     }
+    let summary = desc.summary.as_ref().map(|_| summary_file.clone());
     if !rows {
-        let fig = figure_of_marginal(dir, &desc, &summary_file)?;
-        return Ok((summary_file, fig));
+        let figure = figure_of_marginal(dir, &desc, &summary_file)?;
+        return Ok(Merged {
+            file: None,
+            summary,
+            figure,
+        });
     }
     let out = dir.join(format!("sweep.{ext}"));
     match format {
@@ -1162,8 +1187,23 @@ pub fn merge(dir: &Path) -> Result<(PathBuf, Option<PathBuf>)> {
             parts::join_parquet(files, &desc.columns, &column_kinds(&desc.columns), &out, whole)?;
         }
     }
-    let fig = figure(&out, format, &desc)?;
-    Ok((out, fig))
+    let figure = figure(&out, format, &desc)?;
+    Ok(Merged {
+        file: Some(out),
+        summary,
+        figure,
+    })
+}
+
+/// What [`merge`] wrote.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Merged {
+    /// The table (`sweep.csv` or `sweep.parquet`), unless the sweep writes no rows.
+    pub file: Option<PathBuf>,
+    /// `summary.json`, when the sweep has a `[summary]`.
+    pub summary: Option<PathBuf>,
+    /// The figure, when the sweep draws one.
+    pub figure: Option<PathBuf>,
 }
 
 /// Draws `DIR/sweep-METRIC.png` from the result `table` (`DIR/sweep.csv` or `sweep.parquet`)
@@ -1210,6 +1250,10 @@ fn figure(table: &Path, format: Format, d: &Descriptor) -> Result<Option<PathBuf
                 }
             }
         }
+    }
+    if points.is_empty() {
+        // A table that reads back empty (written through a link to a device): nothing to draw.
+        return Ok(None);
     }
     draw(dir, d, &points).map(Some)
 }

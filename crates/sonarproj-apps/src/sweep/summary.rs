@@ -120,7 +120,7 @@ pub struct Summary {
 }
 
 /// A part's summary as kept on disk between chunks: the marginals' cells listed only where a
-/// pose fell (a chunk touches few of a large marginal's cells).
+/// pose fell (a chunk touches few of a large marginal's cells), without the axes' values.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PartSummary {
     /// The summary, its marginals without cells.
@@ -153,6 +153,7 @@ impl Summary {
                     })
                     .collect(),
             );
+            m.values.clear();
             m.count.clear();
             m.min.clear();
             m.mean.clear();
@@ -164,12 +165,13 @@ impl Summary {
 }
 
 impl PartSummary {
-    /// Returns the summary this part holds, its marginals dense again.
+    /// Returns the summary this part holds, its marginals dense again with the axis values of
+    /// `template` (the empty summary of the sweep: a part does not repeat them).
     ///
     /// # Errors
     /// [`Error::Csv`] naming `context` for a cell outside its marginal or a sum that is not an
     /// integer.
-    pub fn into_summary(self, context: &str) -> Result<Summary> {
+    pub fn into_summary(self, template: &Summary, context: &str) -> Result<Summary> {
         let bad = |message: &str| Error::Csv {
             context: context.to_string(),
             message: message.to_string(),
@@ -178,7 +180,16 @@ impl PartSummary {
         if self.cells.len() != summary.marginals.len() {
             return Err(bad("its marginals and their cells differ in number"));
         }
-        for (m, cells) in summary.marginals.iter_mut().zip(self.cells) {
+        if template.marginals.len() != summary.marginals.len() {
+            return Err(bad("its marginals are not the [summary]'s"));
+        }
+        for ((m, cells), t) in summary
+            .marginals
+            .iter_mut()
+            .zip(self.cells)
+            .zip(&template.marginals)
+        {
+            m.values.clone_from(&t.values);
             let n = m.values.iter().map(Vec::len).product();
             m.count = vec![0; n];
             m.min = vec![None; n];
@@ -223,6 +234,14 @@ fn mean_of(sum: i128, count: u64) -> Option<f64> {
     })
 }
 
+/// Returns the edges of histogram `h`: `bins + 1` of them, from `min` to `max`.
+fn edges(h: &HistogramSpec) -> Vec<f64> {
+    #[expect(clippy::cast_precision_loss, reason = "bin counts are small")]
+    (0..=h.bins)
+        .map(|k| h.min + (h.max - h.min) * (k as f64 / h.bins as f64))
+        .collect()
+}
+
 /// Orders ranked poses by value, then index.
 fn ascending(a: &Ranked, b: &Ranked) -> std::cmp::Ordering {
     a.value.total_cmp(&b.value).then(a.index.cmp(&b.index))
@@ -261,6 +280,14 @@ impl SummarySpec {
                     key("histogram.bins"),
                     h.bins,
                     format!("must be 1 to {MAX_HISTOGRAM_BINS}"),
+                ));
+            }
+            // The width must be a finite number, and every bin wider than nothing.
+            if !(h.max - h.min).is_finite() || edges(&h).windows(2).any(|w| w[1] <= w[0]) {
+                return Err(Error::invalid(
+                    key("histogram"),
+                    format!("{{ min = {}, max = {}, bins = {} }}", h.min, h.max, h.bins),
+                    "its bins must have a finite, non-zero width: max - min finite and above min's precision",
                 ));
             }
         }
@@ -312,17 +339,11 @@ impl SummarySpec {
     /// Returns the empty summary of this spec over `grid`.
     #[must_use]
     pub fn empty(&self, grid: Option<&Grid>) -> Summary {
-        let histogram = self.histogram.map(|h| {
-            #[expect(clippy::cast_precision_loss, reason = "bin counts are small")]
-            let edges = (0..=h.bins)
-                .map(|k| h.min + (h.max - h.min) * (k as f64 / h.bins as f64))
-                .collect();
-            Histogram {
-                edges,
-                counts: vec![0; h.bins],
-                below: 0,
-                above: 0,
-            }
+        let histogram = self.histogram.map(|h| Histogram {
+            edges: edges(&h),
+            counts: vec![0; h.bins],
+            below: 0,
+            above: 0,
         });
         let marginals = self
             .marginals
@@ -457,6 +478,97 @@ impl SummarySpec {
         Ok(s)
     }
 
+    /// Returns `Ok` when `s`, read from a part on disk, is a summary of this spec over `rows`
+    /// poses from index `first`: its metric, its counts adding up, its lists as long as `top`
+    /// allows and within the part's indices, its histogram's edges and its marginals' axes and
+    /// cells as the spec makes them.
+    ///
+    /// # Errors
+    /// [`Error::Csv`] naming `context` and what does not hold.
+    pub fn check(&self, s: &Summary, first: u64, rows: u64, context: &str) -> Result<()> {
+        let fail = |what: String| {
+            Err(Error::Csv {
+                context: context.to_string(),
+                message: format!("its summary does not hold together: {what}"),
+            })
+        };
+        let end = first.saturating_add(rows);
+        let inside = |r: &Ranked| (first..end).contains(&r.index) && !r.value.is_nan();
+        if s.metric != self.by {
+            return fail(format!(
+                "it summarises {:?}, this sweep's [summary] {:?}",
+                s.metric, self.by
+            ));
+        }
+        if s.poses != rows || s.with_value > rows {
+            return fail(format!(
+                "{} poses ({} with a value) where the part holds {rows}",
+                s.poses, s.with_value
+            ));
+        }
+        let ranked = usize::try_from(s.with_value).unwrap_or(usize::MAX).min(self.top);
+        if s.smallest.len() != ranked || s.largest.len() != ranked {
+            return fail(format!(
+                "{} smallest and {} largest where top = {} and {} poses have a value",
+                s.smallest.len(),
+                s.largest.len(),
+                self.top,
+                s.with_value
+            ));
+        }
+        if !s
+            .smallest
+            .iter()
+            .chain(&s.largest)
+            .chain(&s.min)
+            .chain(&s.max)
+            .all(inside)
+            || s.min.is_some() != (s.with_value > 0)
+            || s.max.is_some() != (s.with_value > 0)
+        {
+            return fail(format!(
+                "a ranked pose outside poses {first} to {}",
+                end.saturating_sub(1)
+            ));
+        }
+        match (&s.histogram, &self.histogram) {
+            (None, None) => {}
+            (Some(h), Some(spec)) => {
+                let total = h
+                    .counts
+                    .iter()
+                    .chain([&h.below, &h.above])
+                    .try_fold(0u64, |t, c| t.checked_add(*c));
+                if h.edges != edges(spec) || h.counts.len() != spec.bins || total != Some(s.with_value) {
+                    return fail("its histogram is not the [summary]'s, or does not count its poses".into());
+                }
+            }
+            _ => return fail("a histogram where the [summary] has none, or none where it has one".into()),
+        }
+        if s.marginals.len() != self.marginals.len() {
+            return fail(format!(
+                "{} marginals where the [summary] has {}",
+                s.marginals.len(),
+                self.marginals.len()
+            ));
+        }
+        for (m, axes) in s.marginals.iter().zip(&self.marginals) {
+            let cells: usize = m.values.iter().map(Vec::len).product();
+            let lens = [m.count.len(), m.min.len(), m.mean.len(), m.max.len(), m.sum.len()];
+            let total = m.count.iter().try_fold(0u64, |t, c| t.checked_add(*c));
+            if m.axes != *axes
+                || m.values.len() != axes.len()
+                || lens.iter().any(|&l| l != cells)
+                || total != Some(s.with_value)
+            {
+                return fail(format!(
+                    "its marginal over {axes:?} is not the [summary]'s, or does not count its poses"
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Returns `a` and `b` (summaries of this spec over disjoint poses) combined: the summary of
     /// all their poses, the same whichever order they come in.
     ///
@@ -471,12 +583,22 @@ impl SummarySpec {
         let shape = |s: &Summary| {
             (
                 s.metric.clone(),
-                s.histogram.as_ref().map(|h| h.edges.clone()),
+                s.histogram.as_ref().map(|h| (h.edges.clone(), h.counts.len())),
                 s.marginals
                     .iter()
-                    .map(|m| (m.axes.clone(), m.values.clone()))
+                    .map(|m| {
+                        let lens = [m.count.len(), m.min.len(), m.mean.len(), m.max.len(), m.sum.len()];
+                        (m.axes.clone(), m.values.clone(), lens)
+                    })
                     .collect::<Vec<_>>(),
             )
+        };
+        let add = |p: u64, q: u64| p.checked_add(q).ok_or_else(|| bad("a count overflows"));
+        let adds = |p: &[u64], q: &[u64]| {
+            p.iter()
+                .zip(q)
+                .map(|(p, q)| add(*p, *q))
+                .collect::<Result<Vec<u64>>>()
         };
         if shape(a) != shape(b) || a.metric != self.by {
             return Err(bad(
@@ -498,16 +620,21 @@ impl SummarySpec {
         let histogram = match (&a.histogram, &b.histogram) {
             (Some(x), Some(y)) => Some(Histogram {
                 edges: x.edges.clone(),
-                counts: x.counts.iter().zip(&y.counts).map(|(p, q)| p + q).collect(),
-                below: x.below + y.below,
-                above: x.above + y.above,
+                counts: adds(&x.counts, &y.counts)?,
+                below: add(x.below, y.below)?,
+                above: add(x.above, y.above)?,
             }),
             _ => None,
         };
         let mut marginals = Vec::with_capacity(a.marginals.len());
         for (x, y) in a.marginals.iter().zip(&b.marginals) {
-            let sums: Vec<i128> = x.sum.iter().zip(&y.sum).map(|(p, q)| p + q).collect();
-            let count: Vec<u64> = x.count.iter().zip(&y.count).map(|(p, q)| p + q).collect();
+            let sums = x
+                .sum
+                .iter()
+                .zip(&y.sum)
+                .map(|(p, q)| p.checked_add(*q).ok_or_else(|| bad("a marginal's sum overflows")))
+                .collect::<Result<Vec<i128>>>()?;
+            let count = adds(&x.count, &y.count)?;
             let both = |p: &Option<f64>, q: &Option<f64>, f: fn(f64, f64) -> f64| match (p, q) {
                 (Some(p), Some(q)) => Some(f(*p, *q)),
                 (p, q) => p.or(*q),
@@ -534,8 +661,8 @@ impl SummarySpec {
         }
         Ok(Summary {
             metric: a.metric.clone(),
-            poses: a.poses + b.poses,
-            with_value: a.with_value + b.with_value,
+            poses: add(a.poses, b.poses)?,
+            with_value: add(a.with_value, b.with_value)?,
             min: pick(a.min, b.min, ascending),
             max: pick(a.max, b.max, descending),
             smallest: merge(&a.smallest, &b.smallest, ascending),
@@ -656,10 +783,12 @@ mod tests {
                         .unwrap()
                         .to_part();
                     let text = serde_json::to_string(&part).unwrap();
-                    serde_json::from_str::<PartSummary>(&text)
+                    let s = serde_json::from_str::<PartSummary>(&text)
                         .unwrap()
-                        .into_summary("t")
-                        .unwrap()
+                        .into_summary(&spec.empty(Some(&g)), "t")
+                        .unwrap();
+                    spec.check(&s, w[0] as u64, (w[1] - w[0]) as u64, "t").unwrap();
+                    s
                 })
                 .collect();
             let forward = parts[1..]
@@ -678,6 +807,57 @@ mod tests {
                 serde_json::to_string(&whole).unwrap()
             );
         }
+    }
+
+    #[test]
+    fn a_part_that_does_not_hold_together_is_refused() {
+        let g = grid();
+        let spec = spec();
+        let good = spec.summarise(Some(&g), 4, &values()[4..8]).unwrap();
+        spec.check(&good, 4, 4, "t").unwrap();
+        let refused = |s: &Summary, words: &str| {
+            let e = spec.check(s, 4, 4, "t").unwrap_err().to_string();
+            assert!(e.contains(words), "{e}");
+        };
+        refused(
+            &Summary {
+                poses: 5,
+                ..good.clone()
+            },
+            "5 poses",
+        );
+        refused(
+            &Summary {
+                smallest: good.smallest[..1].to_vec(),
+                ..good.clone()
+            },
+            "1 smallest",
+        );
+        let mut moved = good.clone();
+        moved.largest[0].index = 99;
+        refused(&moved, "outside poses 4 to 7");
+        let mut cut = good.clone();
+        cut.histogram.as_mut().unwrap().counts.pop();
+        refused(&cut, "histogram");
+        let mut wrapped = good.clone();
+        wrapped.marginals[0].count[0] = u64::MAX;
+        refused(&wrapped, "marginal over [\"roll\"]");
+        refused(
+            &Summary {
+                metric: "area".into(),
+                ..good.clone()
+            },
+            "summarises \"area\"",
+        );
+        // Counts that overflow when combined are an error, not a wrap.
+        let mut big = good.clone();
+        big.with_value = u64::MAX;
+        assert!(
+            spec.combine(&big, &good, "t")
+                .unwrap_err()
+                .to_string()
+                .contains("overflows")
+        );
     }
 
     #[test]
@@ -700,6 +880,17 @@ mod tests {
             ..spec()
         };
         assert!(e(flat).contains("min < max"));
+        for (min, max, bins) in [
+            (-1e308, 1e308, 2),
+            (1.0, 1.000_000_000_000_000_2, 1000),
+            (0.0, 5e-324, 100),
+        ] {
+            let h = SummarySpec {
+                histogram: Some(HistogramSpec { min, max, bins }),
+                ..spec()
+            };
+            assert!(e(h).contains("non-zero width"), "{min} {max} {bins}");
+        }
         let yaw = SummarySpec {
             marginals: vec![vec!["yaw".into()]],
             ..spec()

@@ -144,13 +144,16 @@ pub(super) fn run(a: SweepArgs) -> Result<()> {
 
 /// Runs `sonarproj merge`.
 pub(super) fn merge(a: MergeArgs) -> Result<()> {
-    let (file, figure) = sweep::merge(&a.dir)?;
-    outln!(
-        "merge: wrote {}{}",
-        file.display(),
-        figure
-            .map(|f| format!(" and {}", f.display()))
-            .unwrap_or_default()
-    )?;
+    let merged = sweep::merge(&a.dir)?;
+    let wrote: Vec<String> = [&merged.file, &merged.summary, &merged.figure]
+        .into_iter()
+        .flatten()
+        .map(|f| f.display().to_string())
+        .collect();
+    let files = match wrote.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+        _ => wrote.join(""),
+    };
+    outln!("merge: wrote {files}")?;
     Ok(())
 }
