@@ -1010,7 +1010,12 @@ fn summaries_refuse_what_does_not_hold_together() {
     let out = dir.path().join("edited");
     for k in 1..=2 {
         let shard = format!("{k}/2");
-        sweep(&alone, &out, &["--backend", "cpu-fast", "--shard", &shard], &format!("shard-{k}-of-2.summary.json"));
+        sweep(
+            &alone,
+            &out,
+            &["--backend", "cpu-fast", "--shard", &shard],
+            &format!("shard-{k}-of-2.summary.json"),
+        );
     }
     let desc = out.join("sweep.json");
     let text = std::fs::read_to_string(&desc).unwrap();
@@ -1021,7 +1026,9 @@ fn summaries_refuse_what_does_not_hold_together() {
         .arg(&out)
         .assert()
         .code(2)
-        .stderr(predicates::str::contains("shard-1-of-2.summary.json").and(predicates::str::contains("top = 6")));
+        .stderr(
+            predicates::str::contains("shard-1-of-2.summary.json").and(predicates::str::contains("top = 6")),
+        );
     assert!(!out.join("summary.json").exists());
     // A shard's summary missing: named.
     std::fs::write(&desc, text).unwrap();
@@ -1045,7 +1052,9 @@ fn summaries_refuse_what_does_not_hold_together() {
         .arg(dir.path().join("wide"))
         .assert()
         .code(2)
-        .stderr(predicates::str::contains("summary.histogram").and(predicates::str::contains("non-zero width")));
+        .stderr(
+            predicates::str::contains("summary.histogram").and(predicates::str::contains("non-zero width")),
+        );
     // summary.json taken by a directory: refused before the table is written.
     let rows = file(dir.path(), "rows.toml", &grid_with_summary(true));
     let taken = dir.path().join("taken");
