@@ -3,8 +3,8 @@
 # N may exceed the cluster's MaxArraySize (Debian's default is 1001) and a `%` throttle limits how
 # many run at once. Every shard resumes where an earlier try stopped; merge when all are done.
 #
-#   jobid=$(sbatch --parsable --array=1-8%4 examples/slurm/sweep-array.sh sweep.toml out 32)
-#   sbatch --dependency=afterok:$jobid --wrap "sonarproj merge out"
+#   jobid=$(sbatch --parsable --array=1-8%4 examples/slurm/sweep-array.sh sweep.toml out 32 --backend cpu-fast)
+#   sbatch --dependency=afterok:$jobid --kill-on-invalid-dep=yes --wrap "sonarproj merge out"
 #
 # Arguments: the sweep file, the output directory (on a file system every node shares), the
 # number of shards N, then any further `sonarproj sweep` options (e.g. --backend cpu-fast).

@@ -724,7 +724,7 @@ def sweep(
     Finished chunks of `chunk_poses` poses stay on disk, so calling it again resumes; Ctrl-C
     (KeyboardInterrupt) stops it between chunks. `shard` ``"K/N"`` runs part K of N;
     `max_chunks` stops after that many chunks. `progress(done, total)` is called after each
-    chunk.
+    chunk. `backend` picks where to compute: "auto", "gpu", "cpu-fast" or "cpu".
 
     Returns a dict: ``file`` (the table, or None when stopped early or when the sweep file's
     ``[summary]`` says ``rows = false``), ``figure``, ``summary`` (the ``[summary]``'s

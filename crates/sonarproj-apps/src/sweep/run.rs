@@ -273,6 +273,8 @@ pub struct Outcome {
     pub computed: u64,
     /// Poses found finished by an earlier call.
     pub resumed: u64,
+    /// Whether the result was there, whole, from an earlier call: nothing was written.
+    pub finished_before: bool,
 }
 
 /// What [`run`] reports while it works.
@@ -417,6 +419,7 @@ pub fn run(
         poses,
         computed: 0,
         resumed: 0,
+        finished_before: false,
     };
     let whole = parts::Expected {
         fingerprint: &desc.fingerprint,
@@ -462,6 +465,7 @@ pub fn run(
                 None => {}
             }
             outcome.resumed = poses;
+            outcome.finished_before = true;
             outcome.summary = spec.map(|_| summary_file.clone());
             outcome.file = rows.then_some(file);
             // Finished: nothing left to stop.

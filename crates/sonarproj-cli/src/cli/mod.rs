@@ -52,7 +52,8 @@ enum Command {
     /// Run the paper's simulations (README): CSV, figures and the findings, checked.
     Paper(paper::PaperArgs),
     /// Run a sweep file (grids of rotations, distances and placements, or pose lists) in
-    /// resumable chunks, optionally as one shard of N; write CSV and a figure.
+    /// resumable chunks, optionally as one shard of N; write the table (CSV or Parquet), the
+    /// summaries a [summary] asks for, and a figure.
     Sweep(sweep::SweepArgs),
     /// Join the shards of a sweep (`sweep --shard K/N`) into the file one run would have written.
     Merge(sweep::MergeArgs),

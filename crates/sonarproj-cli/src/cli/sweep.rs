@@ -18,9 +18,9 @@ pub(super) struct SweepArgs {
     /// [translation], [rotation]) or `poses = "FILE.csv"`. See README "Sweeps".
     #[arg(long, value_name = "FILE.toml")]
     config: PathBuf,
-    /// Output directory: sweep.csv or sweep.parquet (or shard-K-of-N.csv/.parquet), sweep.json,
-    /// and sweep-METRIC.png for a grid with one or two varying axes. Re-running the same command
-    /// resumes an interrupted run.
+    /// Output directory: sweep.csv or sweep.parquet (or shard-K-of-N.csv/.parquet), summary.json
+    /// when the sweep file has a [summary], sweep.json, and sweep-METRIC.png for a grid with one
+    /// or two varying axes. Re-running the same command resumes an interrupted run.
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Run part K of N independent parts (e.g. a Slurm array task); `sonarproj merge DIR` joins them.
@@ -126,12 +126,17 @@ pub(super) fn run(a: SweepArgs) -> Result<()> {
             } else {
                 format!("{} and {last}", rest.join(", "))
             };
-            outln!(
-                "sweep: {what} on {}: {} computed in {secs:.2} s ({rate:.0} poses/s), {} from earlier runs; wrote {files}",
-                backend.device(),
-                outcome.computed,
-                outcome.resumed,
-            )?;
+            if outcome.finished_before {
+                // Finished by an earlier run: nothing was written now.
+                outln!("sweep: {what}: already finished, nothing computed; {files} unchanged")?;
+            } else {
+                outln!(
+                    "sweep: {what} on {}: {} computed in {secs:.2} s ({rate:.0} poses/s), {} from earlier runs; wrote {files}",
+                    backend.device(),
+                    outcome.computed,
+                    outcome.resumed,
+                )?;
+            }
         }
         None => outln!(
             "sweep: {what}: stopped after --max-chunks with {} of {} poses done; re-run the same command to go on",
