@@ -131,7 +131,11 @@ fn an_interrupted_sweep_resumes_to_the_same_files() {
         .stdout(predicates::str::contains("150 of 549 poses done"));
     assert!(!out.join("sweep.csv").exists());
     let chunks = std::fs::read_dir(out.join(".partial-sweep")).unwrap().count();
-    assert_eq!(chunks, 3 * 2 + 1, "three chunks, their records and the manifest");
+    assert_eq!(
+        chunks,
+        3 * 2 + 2,
+        "three chunks, their records, the manifest and the lock"
+    );
     // A different chunk size cannot resume this run.
     common::sonarproj()
         .args(["sweep", "--config"])
@@ -1087,4 +1091,43 @@ fn a_table_written_into_a_device_draws_no_figure_and_does_not_panic() {
         .assert()
         .success();
     assert!(!out.join("sweep-span.png").exists());
+}
+
+/// A second run into the state of a run still working (here: its lock held by `flock(1)`)
+/// stops at once, exit 1, saying so, and leaves the state as it was.
+#[cfg(unix)]
+#[test]
+fn a_second_run_into_a_working_state_stops_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = file(dir.path(), "2d.toml", GRID_2D);
+    let out = dir.path().join("o");
+    let state = out.join(".partial-shard-1-of-2");
+    std::fs::create_dir_all(&state).unwrap();
+    let bin = assert_cmd::cargo::cargo_bin("sonarproj");
+    let status = std::process::Command::new("flock")
+        .arg(state.join("lock"))
+        .arg(&bin)
+        .args(["sweep", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .args(["--backend", "cpu-fast", "--shard", "1/2"])
+        .env("NODEVICE_SELECT", "1")
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .expect("flock(1) from util-linux");
+    assert_eq!(status.status.code(), Some(1), "{status:?}");
+    let stderr = String::from_utf8_lossy(&status.stderr);
+    assert!(stderr.contains("another run of this sweep"), "{stderr}");
+    assert!(!out.join("shard-1-of-2.csv").exists());
+    // With the lock free, the same command runs.
+    common::sonarproj()
+        .args(["sweep", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .args(["--backend", "cpu-fast", "--shard", "1/2"])
+        .assert()
+        .success()
+        .stdout(predicates::str::contains("shard-1-of-2.csv"));
 }

@@ -489,6 +489,9 @@ pub fn run(
     }
     let state = dir.join(format!(".partial-{stem}"));
     std::fs::create_dir_all(&state).map_err(|e| Error::write_output(&state, e))?;
+    // One run at a time in a run's state: a second (the same shard submitted twice, a job
+    // requeued while the first still runs) stops here instead of racing over its chunks.
+    let _lock = lock_state(&state)?;
     remove_stale_temporaries(&state);
     let manifest = Manifest {
         fingerprint: desc.fingerprint.clone(),
@@ -795,6 +798,39 @@ pub fn run_in_memory(
         summary,
         poses,
     }))
+}
+
+/// Returns the lock of the run state `state` (an open file, its lock released when it is
+/// dropped).
+///
+/// # Errors
+/// [`Error::WriteOutput`] when another process holds it, or it cannot be made.
+fn lock_state(state: &Path) -> Result<Option<std::fs::File>> {
+    #[cfg(unix)]
+    {
+        let path = state.join("lock");
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .map_err(|e| Error::write_output(&path, e))?;
+        match rustix::fs::flock(&file, rustix::fs::FlockOperation::NonBlockingLockExclusive) {
+            Ok(()) => Ok(Some(file)),
+            Err(e) if e == rustix::io::Errno::WOULDBLOCK => Err(Error::WriteOutput {
+                path: state.to_path_buf(),
+                message: "another run of this sweep (or shard) is working in it; wait for it to finish, \
+                          or run this one into another --out"
+                    .into(),
+            }),
+            Err(e) => Err(Error::write_output(&path, e)),
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = state;
+        Ok(None)
+    }
 }
 
 /// Returns the first of `files` that is not good for `expected`, with its status; the last
