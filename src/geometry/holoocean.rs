@@ -33,34 +33,21 @@ pub enum HoloValue {
     Other(&'static str),
 }
 
-/// The sensor types read, with the keys that shape their geometry and those that only shape
-/// the simulated intensities (accepted, ignored).
-const IMAGING: (&str, &[&str]) = (
-    "ImagingSonar",
-    &[
-        "Azimuth",
-        "Elevation",
-        "RangeMin",
-        "RangeMax",
-        "RangeBins",
-        "RangeRes",
-        "AzimuthBins",
-        "AzimuthRes",
-    ],
-);
-const SIDESCAN: (&str, &[&str]) = (
-    "SidescanSonar",
-    &[
-        "Azimuth",
-        "Elevation",
-        "RangeMin",
-        "RangeMax",
-        "RangeBins",
-        "RangeRes",
-        "AzimuthBins",
-        "AzimuthRes",
-    ],
-);
+/// The keys that shape the geometry of both sensor types.
+const GEOMETRY: &[&str] = &[
+    "Azimuth",
+    "Elevation",
+    "RangeMin",
+    "RangeMax",
+    "RangeBins",
+    "RangeRes",
+    "AzimuthBins",
+    "AzimuthRes",
+];
+/// The sensor types read, with the keys that shape their geometry; the keys that only shape the
+/// simulated intensities are below (accepted, ignored).
+const IMAGING: (&str, &[&str]) = ("ImagingSonar", GEOMETRY);
+const SIDESCAN: (&str, &[&str]) = ("SidescanSonar", GEOMETRY);
 const IGNORED: &[&str] = &[
     "AddSigma",
     "AddCov",

@@ -30,6 +30,29 @@ fn error(e: sonarproj_apps::Error) -> PyErr {
     errors::apps_renamed(e, &FLAGS)
 }
 
+/// Answers a sweep's `event`: stop once the calling thread saw Ctrl-C (`stop`) or `progress`
+/// raised (kept in `raised`); else call `progress(done, total)` with the GIL on a progress event.
+fn on_event(
+    event: Event,
+    stop: &std::sync::atomic::AtomicBool,
+    progress: Option<&Py<PyAny>>,
+    raised: &mut Option<PyErr>,
+) -> ControlFlow<()> {
+    if stop.load(std::sync::atomic::Ordering::Relaxed) {
+        return ControlFlow::Break(());
+    }
+    let (Event::Progress { done, total }, Some(f)) = (event, progress) else {
+        return ControlFlow::Continue(());
+    };
+    Python::attach(|py| match f.bind(py).call1((done, total)) {
+        Ok(_) => ControlFlow::Continue(()),
+        Err(e) => {
+            *raised = Some(e);
+            ControlFlow::Break(())
+        }
+    })
+}
+
 /// Runs the sweep of the TOML file `config` into `out_dir` (resuming a run there); returns what
 /// was done and the notice of the backend's selection. `progress(done, total)` is called after
 /// each chunk; Ctrl-C stops the run between chunks (finished chunks stay on disk).
@@ -65,22 +88,7 @@ pub(crate) fn sweep_run<'py>(
     let mut raised: Option<PyErr> = None;
     let outcome = crate::runtime::detach_watching(py, |stop| {
         sweep::run(&config, &backend, &opts, &mut |event| {
-            if stop.load(std::sync::atomic::Ordering::Relaxed) {
-                return ControlFlow::Break(());
-            }
-            let Event::Progress { done, total } = event else {
-                return ControlFlow::Continue(());
-            };
-            let Some(f) = &progress else {
-                return ControlFlow::Continue(());
-            };
-            Python::attach(|py| match f.bind(py).call1((done, total)) {
-                Ok(_) => ControlFlow::Continue(()),
-                Err(e) => {
-                    raised = Some(e);
-                    ControlFlow::Break(())
-                }
-            })
+            on_event(event, stop, progress.as_ref(), &mut raised)
         })
     })?;
     if let Some(e) = raised {
@@ -132,19 +140,7 @@ pub(crate) fn sweep_memory<'py>(
     let mut raised: Option<PyErr> = None;
     let result = crate::runtime::detach_watching(py, |stop| {
         sweep::run_in_memory(&config, &backend, shard, chunk_poses, &mut |event| {
-            if stop.load(std::sync::atomic::Ordering::Relaxed) {
-                return ControlFlow::Break(());
-            }
-            let (Event::Progress { done, total }, Some(f)) = (event, &progress) else {
-                return ControlFlow::Continue(());
-            };
-            Python::attach(|py| match f.bind(py).call1((done, total)) {
-                Ok(_) => ControlFlow::Continue(()),
-                Err(e) => {
-                    raised = Some(e);
-                    ControlFlow::Break(())
-                }
-            })
+            on_event(event, stop, progress.as_ref(), &mut raised)
         })
     })?;
     if let Some(e) = raised {

@@ -383,34 +383,29 @@ pub fn read_groups<'a>(
     }))
 }
 
+/// Returns the `rows` values of a required column chunk of any physical type.
+fn read_required<T: parquet::data_type::DataType>(
+    mut r: parquet::column::reader::ColumnReaderImpl<T>,
+    rows: usize,
+) -> std::result::Result<Vec<T::T>, String> {
+    let mut values = Vec::with_capacity(rows);
+    while values.len() < rows {
+        let (records, _, _) = r
+            .read_records(rows - values.len(), None, None, &mut values)
+            .map_err(|e| e.to_string())?;
+        if records == 0 {
+            return Err(format!("{} values where the row group has {rows}", values.len()));
+        }
+    }
+    Ok(values)
+}
+
 /// Returns the `rows` values of one column chunk.
 fn read_column(reader: ColumnReader, kind: Kind, rows: usize) -> std::result::Result<Column, String> {
     let short = |n: usize| format!("{n} values where the row group has {rows}");
     match (reader, kind) {
-        (ColumnReader::Int64ColumnReader(mut r), Kind::Int) => {
-            let mut values = Vec::with_capacity(rows);
-            while values.len() < rows {
-                let (records, _, _) = r
-                    .read_records(rows - values.len(), None, None, &mut values)
-                    .map_err(|e| e.to_string())?;
-                if records == 0 {
-                    return Err(short(values.len()));
-                }
-            }
-            Ok(Column::Int(values))
-        }
-        (ColumnReader::DoubleColumnReader(mut r), Kind::Real) => {
-            let mut values = Vec::with_capacity(rows);
-            while values.len() < rows {
-                let (records, _, _) = r
-                    .read_records(rows - values.len(), None, None, &mut values)
-                    .map_err(|e| e.to_string())?;
-                if records == 0 {
-                    return Err(short(values.len()));
-                }
-            }
-            Ok(Column::Real(values))
-        }
+        (ColumnReader::Int64ColumnReader(r), Kind::Int) => read_required(r, rows).map(Column::Int),
+        (ColumnReader::DoubleColumnReader(r), Kind::Real) => read_required(r, rows).map(Column::Real),
         (ColumnReader::DoubleColumnReader(mut r), Kind::Optional) => {
             let (mut values, mut levels) = (Vec::new(), Vec::with_capacity(rows));
             while levels.len() < rows {

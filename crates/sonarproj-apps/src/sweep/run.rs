@@ -670,12 +670,7 @@ pub fn run(
             spec.check(&part, r.start, r.end - r.start, &context)?;
             total = spec.combine(&total, &part, &context)?;
         }
-        parts::write(&summary_file, whole, |w| {
-            serde_json::to_writer_pretty(&mut *w, &total)
-                .map_err(|e| Error::write_output(&summary_file, e))?;
-            w.write_all(b"\n")
-                .map_err(|e| Error::write_output(&summary_file, e))
-        })?;
+        write_summary(&summary_file, whole, &total)?;
         outcome.summary = Some(summary_file.clone());
     }
     if rows {
@@ -831,6 +826,14 @@ fn lock_state(state: &Path) -> Result<Option<std::fs::File>> {
         let _ = state;
         Ok(None)
     }
+}
+
+/// Writes the summaries `total` to `path` as pretty JSON, with its record for `expected`.
+fn write_summary(path: &Path, expected: parts::Expected<'_>, total: &Summary) -> Result<()> {
+    parts::write(path, expected, |w| {
+        serde_json::to_writer_pretty(&mut *w, total).map_err(|e| Error::write_output(path, e))?;
+        w.write_all(b"\n").map_err(|e| Error::write_output(path, e))
+    })
 }
 
 /// Returns the first of `files` that is not good for `expected`, with its status; the last
@@ -1204,12 +1207,7 @@ pub fn merge(dir: &Path) -> Result<Merged> {
             });
         }
         let total = total.expect("at least one shard");
-        parts::write(&summary_file, whole, |w| {
-            serde_json::to_writer_pretty(&mut *w, &total)
-                .map_err(|e| Error::write_output(&summary_file, e))?;
-            w.write_all(b"\n")
-                .map_err(|e| Error::write_output(&summary_file, e))
-        })?;
+        write_summary(&summary_file, whole, &total)?;
     }
     let summary = desc.summary.as_ref().map(|_| summary_file.clone());
     if !rows {

@@ -113,19 +113,9 @@ pub(super) fn run(a: SweepArgs) -> Result<()> {
         Some(s) => format!("shard {}/{} ({} poses)", s.k, s.n, outcome.poses),
         None => format!("{} poses", outcome.poses),
     };
-    let wrote: Vec<String> = [&outcome.file, &outcome.summary, &outcome.figure]
-        .into_iter()
-        .flatten()
-        .map(|f| f.display().to_string())
-        .collect();
-    match wrote.split_last() {
-        Some((last, rest)) => {
+    match listed(&[&outcome.file, &outcome.summary, &outcome.figure]) {
+        Some(files) => {
             let rate = outcome.computed as f64 / secs.max(1e-9);
-            let files = if rest.is_empty() {
-                last.clone()
-            } else {
-                format!("{} and {last}", rest.join(", "))
-            };
             if outcome.finished_before {
                 // Finished by an earlier run: nothing was written now.
                 outln!("sweep: {what}: already finished, nothing computed; {files} unchanged")?;
@@ -150,15 +140,23 @@ pub(super) fn run(a: SweepArgs) -> Result<()> {
 /// Runs `sonarproj merge`.
 pub(super) fn merge(a: MergeArgs) -> Result<()> {
     let merged = sweep::merge(&a.dir)?;
-    let wrote: Vec<String> = [&merged.file, &merged.summary, &merged.figure]
-        .into_iter()
-        .flatten()
-        .map(|f| f.display().to_string())
-        .collect();
-    let files = match wrote.split_last() {
-        Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
-        _ => wrote.join(""),
-    };
+    let files = listed(&[&merged.file, &merged.summary, &merged.figure]).unwrap_or_default();
     outln!("merge: wrote {files}")?;
     Ok(())
+}
+
+/// Returns the paths of `files` that are there, as a list in words ("a, b and c"); `None` when
+/// none is.
+fn listed(files: &[&Option<PathBuf>]) -> Option<String> {
+    let names: Vec<String> = files
+        .iter()
+        .filter_map(|f| f.as_ref())
+        .map(|f| f.display().to_string())
+        .collect();
+    let (last, rest) = names.split_last()?;
+    Some(if rest.is_empty() {
+        last.clone()
+    } else {
+        format!("{} and {last}", rest.join(", "))
+    })
 }
