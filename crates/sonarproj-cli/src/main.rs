@@ -3,6 +3,12 @@
 
 mod cli;
 
+/// mimalloc keeps the pages it frees for the next allocation: a sweep allocates and frees its
+/// chunk buffers many times, and glibc's returning them to the system and faulting them in again
+/// cost a third of a sweep's time (BENCHMARKS.md).
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use std::process::ExitCode;
 
 use clap::Parser;

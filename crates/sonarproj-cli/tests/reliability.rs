@@ -146,8 +146,8 @@ fn an_empty_or_directory_output_path_is_bad_input() {
 fn one_pose_of_the_finest_sampling_runs_in_bounded_memory() {
     // 66.5 million samples in one pose (the limit is 2^26): tables of the whole plan took 5 GB
     // and a 2 GB address-space limit aborted the process. Tiles keep it near 100 MB; here it
-    // runs under a 768 MiB limit (two threads, two malloc arenas, so the limit measures the
-    // engine and not the machine's core count).
+    // runs under a 768 MiB limit (two threads, so the limit measures the engine and not the
+    // machine's core count; the arena variable matters only under glibc's allocator).
     let binary = assert_cmd::cargo::cargo_bin!("sonarproj");
     let out = Command::new("sh")
         .args(["-c", "ulimit -v 786432 && exec \"$0\" \"$@\""])
