@@ -796,10 +796,10 @@ pub fn run_in_memory(
 }
 
 /// Returns the lock of the run state `state` (an open file, its lock released when it is
-/// dropped).
+/// dropped), or `None` where the file system has no locks.
 ///
 /// # Errors
-/// [`Error::WriteOutput`] when another process holds it, or it cannot be made.
+/// [`Error::WriteOutput`] when another process holds it, or the lock file cannot be made.
 fn lock_state(state: &Path) -> Result<Option<std::fs::File>> {
     #[cfg(unix)]
     {
@@ -818,7 +818,9 @@ fn lock_state(state: &Path) -> Result<Option<std::fs::File>> {
                           or run this one into another --out"
                     .into(),
             }),
-            Err(e) => Err(Error::write_output(&path, e)),
+            // A file system without locks (Lustre mounted without `flock`, some NFS setups):
+            // the run goes on unlocked, as it did before locks.
+            Err(_) => Ok(None),
         }
     }
     #[cfg(not(unix))]
