@@ -4,7 +4,8 @@
 #
 #   scripts/gpu-remote.sh prepare   # here: build, strip and pack everything into .gpu/ (< 64 MiB)
 #   scripts/gpu-remote.sh run       # there, from the repository root, with .gpu/ copied along:
-#                                   # Vulkan loader, NVIDIA ICD, GPU tests, benches, paper;
+#                                   # Vulkan loader, NVIDIA ICD, GPU tests, benches, paper,
+#                                   # 1 M-pose sweeps (Parquet, summaries) on GPU and CPU;
 #                                   # summary.txt and logs.tar.gz into $OUT (or .gpu/out)
 #
 # `prepare` needs cargo and apt-get (for the Vulkan loader packages, unpacked there with dpkg -x).
@@ -104,6 +105,18 @@ run() {
     step paper-gpu "$bin/sonarproj" paper --backend gpu --out "$bundle/paper-gpu"
     step paper-cpu "$bin/sonarproj" paper --backend cpu-fast --out "$bundle/paper-cpu"
     step criterion-projection "$bin/projection-bench" --bench
+    # Sweeps (the sweep issue's targets): 1 M fls→sss poses to Parquet, and as summaries only,
+    # on the GPU and on the CPU cores of the same machine.
+    local summaries="$bundle/bench-sweep-1m-summary.toml"
+    { cat data/bench-sweep-1m.toml
+      printf '[summary]\nhistogram = { min = 0, max = 1.2, bins = 120 }\nmarginals = [["roll", "pitch"], "yaw"]\nrows = false\n'
+    } >"$summaries"
+    for b in gpu cpu-fast; do
+        rm -rf "$bundle/sweep-$b" "$bundle/sweep-sum-$b"
+        step "sweep-parquet-$b" "$bin/sonarproj" sweep --config data/bench-sweep-1m.toml --out "$bundle/sweep-$b" --backend "$b" --format parquet
+        step "sweep-summary-$b" "$bin/sonarproj" sweep --config "$summaries" --out "$bundle/sweep-sum-$b" --backend "$b"
+    done
+    grep -h "sweep:" "$logs"/sweep-*.log >>"$logs/summary.txt" || true
     grep -h "paper:" "$logs"/paper-*.log >>"$logs/summary.txt" || true
     # With the file names: which variant each row is.
     grep -- "->" "$logs"/bench-projection*.log >>"$logs/summary.txt" || true
