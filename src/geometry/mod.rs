@@ -2,6 +2,7 @@
 //! relative poses ([`pose`]: rotations, `p2 = R p1 + t`, placement, spherical ↔ Cartesian) and
 //! rigs ([`rig`]: poses the way vehicles describe their mounts).
 
+mod beam_table;
 pub mod holoocean;
 pub mod pose;
 mod presets;

@@ -35,7 +35,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::io::batch::PoseRow;
 use crate::io::{BatchInput, read_batch_csv};
-use crate::sweep::summary::{self, HistogramSpec, SummarySpec};
+use crate::sweep::summary::{self, SummarySpec};
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::{Sonar, SonarKind};
 use sonarproj::metrics::Metric;
@@ -94,150 +94,18 @@ pub struct SweepConfig {
     pub summary: Option<SummarySpec>,
 }
 
-/// Returns the `[summary]` table `t` of sweep file `file` read (not yet checked against the
-/// grid): `by` a metric of sonar 2's kind (default: the figure's `metric`), `top` (default 10),
-/// `histogram = { min, max, bins }`, `marginals` (axis names, or pairs of them), `rows` (default
-/// true).
-fn summary_spec(file: &str, t: &toml::Table, metric: Metric, target: SonarKind) -> Result<SummarySpec> {
-    const KEYS: [&str; 5] = ["by", "top", "histogram", "marginals", "rows"];
-    let key = |k: &str| format!("summary.{k}");
-    for k in t.keys() {
-        if !KEYS.contains(&k.as_str()) {
-            return Err(key_error(
-                file,
-                &key(k),
-                t[k].clone(),
-                format!("unknown key (allowed: {})", KEYS.join(", ")),
-            ));
-        }
-    }
-    let by = match t.get("by") {
-        None => metric,
-        Some(toml::Value::String(m)) => Metric::from_name(m)
-            .filter(|m| m.label(target).is_some())
-            .ok_or_else(|| {
-                let names: Vec<&str> = Metric::all()
-                    .filter(|m| m.label(target).is_some())
-                    .map(Metric::name)
-                    .collect();
-                key_error(
-                    file,
-                    &key("by"),
-                    format!("{m:?}"),
-                    format!("must be one of {}", names.join(", ")),
-                )
-            })?,
-        Some(other) => return Err(key_error(file, &key("by"), other, "must be a metric's name")),
-    };
-    let count = |k: &str, v: &toml::Value, min: usize, max: usize| -> Result<usize> {
-        match v {
-            toml::Value::Integer(i) => usize::try_from(*i)
-                .ok()
-                .filter(|&n| (min..=max).contains(&n))
-                .ok_or_else(|| key_error(file, &key(k), i, format!("must be {min} to {max}"))),
-            other => Err(key_error(file, &key(k), other, "must be a whole number")),
-        }
-    };
-    let top = t
-        .get("top")
-        .map(|v| count("top", v, 0, summary::MAX_TOP))
-        .transpose()?
-        .unwrap_or(10);
-    let histogram = match t.get("histogram") {
-        None => None,
-        Some(toml::Value::Table(h)) => {
-            for k in h.keys() {
-                if !["min", "max", "bins"].contains(&k.as_str()) {
-                    return Err(key_error(
-                        file,
-                        &key(&format!("histogram.{k}")),
-                        h[k].clone(),
-                        "unknown key (allowed: min, max, bins)",
-                    ));
-                }
-            }
-            let number = |k: &str| -> Result<f64> {
-                match h.get(k) {
-                    Some(toml::Value::Integer(i)) => Ok(*i as f64),
-                    Some(toml::Value::Float(x)) => Ok(*x),
-                    Some(other) => Err(key_error(
-                        file,
-                        &key(&format!("histogram.{k}")),
-                        other,
-                        "must be a number",
-                    )),
-                    None => Err(missing_key(
-                        file,
-                        &key(&format!("histogram.{k}")),
-                        "a histogram needs min, max and bins",
-                    )),
-                }
-            };
-            let bins = match h.get("bins") {
-                Some(v) => count("histogram.bins", v, 1, summary::MAX_HISTOGRAM_BINS)?,
-                None => {
-                    return Err(missing_key(
-                        file,
-                        &key("histogram.bins"),
-                        "a histogram needs min, max and bins",
-                    ));
-                }
-            };
-            Some(HistogramSpec {
-                min: number("min")?,
-                max: number("max")?,
-                bins,
-            })
-        }
-        Some(other) => {
-            return Err(key_error(
-                file,
-                &key("histogram"),
-                other,
-                "must be a table { min, max, bins }",
-            ));
-        }
-    };
-    let shape = "must be a list of axis names or pairs of them, e.g. [\"roll\", [\"roll\", \"pitch\"]]";
-    let marginals = match t.get("marginals") {
-        None => Vec::new(),
-        Some(toml::Value::Array(list)) => list
-            .iter()
-            .map(|m| match m {
-                toml::Value::String(a) => Ok(vec![a.clone()]),
-                toml::Value::Array(pair) => pair
-                    .iter()
-                    .map(|a| match a {
-                        toml::Value::String(a) => Ok(a.clone()),
-                        other => Err(key_error(file, &key("marginals"), other, shape)),
-                    })
-                    .collect(),
-                other => Err(key_error(file, &key("marginals"), other, shape)),
-            })
-            .collect::<Result<_>>()?,
-        Some(other) => return Err(key_error(file, &key("marginals"), other, shape)),
-    };
-    let rows = match t.get("rows") {
-        None => true,
-        Some(toml::Value::Boolean(b)) => *b,
-        Some(other) => return Err(key_error(file, &key("rows"), other, "must be true or false")),
-    };
-    Ok(SummarySpec {
-        by: by.name().to_string(),
-        top,
-        histogram,
-        marginals,
-        rows,
-    })
-}
-
 /// Returns the error for key `key` of sweep file `file`.
-fn key_error(file: &str, key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Error {
+pub(crate) fn key_error(
+    file: &str,
+    key: &str,
+    value: impl std::fmt::Display,
+    allowed: impl Into<String>,
+) -> Error {
     Error::invalid(format!("sweep file {file:?}: {key}"), value, allowed)
 }
 
 /// Returns the error of sweep file `file` for the missing key `key`, which `needed` explains.
-fn missing_key(file: &str, key: &str, needed: &str) -> Error {
+pub(crate) fn missing_key(file: &str, key: &str, needed: &str) -> Error {
     Error::input(
         format!("sweep file {file:?}: {key}"),
         format!("missing; {needed}"),
@@ -517,7 +385,7 @@ impl SweepConfig {
                     Poses::Grid(g) => Some(g),
                     Poses::List(_) => None,
                 };
-                Some(summary_spec(file, t, metric, target.kind)?.checked(file, grid)?)
+                Some(summary::from_toml(file, t, metric, target.kind)?.checked(file, grid)?)
             }
             Some(other) => return Err(key_error(file, "summary", other, "must be a table: [summary]")),
         };

@@ -1,11 +1,24 @@
 //! Sweeps: any sonar pair over grids of rotations, feature distances and placements, or over
-//! explicit pose lists (`config`), run in resumable chunks and shards (`run`), each part on disk checked against its
-//! record (`parts`), reduced to summaries (`summary`).
+//! explicit pose lists (`config`), run in resumable chunks (`run`) and shards (`shard`) whose
+//! tables are CSV or Parquet (`table`), each part on disk checked against its record (`parts`,
+//! `records`), joined by `merge`, reduced to summaries (`summary`), drawn (`figure`), or run in
+//! memory (`in_memory`).
 
 pub mod config;
+mod figure;
+pub mod in_memory;
+pub mod merge;
 pub mod parts;
+pub mod records;
 pub mod run;
+pub mod shard;
 pub mod summary;
+pub mod table;
 
 pub use config::{Axis, Grid, Poses, SweepConfig};
-pub use run::{Event, Format, InMemory, Merged, Options, Outcome, Shard, merge, run, run_in_memory};
+pub use in_memory::{InMemory, MAX_IN_MEMORY_BYTES, run_in_memory};
+pub use merge::{Merged, merge};
+pub use records::{Descriptor, Settings, descriptor, settings};
+pub use run::{DEFAULT_CHUNK_POSES, Event, Options, Outcome, run};
+pub use shard::{MAX_SHARDS, Shard};
+pub use table::{Format, column_kinds};

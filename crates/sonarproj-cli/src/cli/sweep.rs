@@ -8,7 +8,7 @@ use std::time::Instant;
 use super::BackendArg;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use sonarproj_apps::Result;
-use sonarproj_apps::sweep::run::DEFAULT_CHUNK_POSES;
+use sonarproj_apps::sweep::DEFAULT_CHUNK_POSES;
 use sonarproj_apps::sweep::{self, Event, Options, Shard, SweepConfig};
 
 /// Options of `sonarproj sweep`.

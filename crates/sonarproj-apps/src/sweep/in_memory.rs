@@ -1,0 +1,119 @@
+//! A sweep run in memory, writing nothing: the table's columns and the summaries returned.
+
+use std::ops::ControlFlow;
+
+use sonarproj::Output;
+use sonarproj::local_precision::resolve_sigma_range;
+use sonarproj::metrics::Metric;
+use sonarproj::projection::Backend;
+
+use crate::error::{Error, Result};
+use crate::io::parquet::Table;
+use crate::sweep::SweepConfig;
+use crate::sweep::records::*;
+use crate::sweep::run::Event;
+use crate::sweep::shard::Shard;
+use crate::sweep::summary::Summary;
+use crate::sweep::table::*;
+
+/// The most bytes of columns [`run_in_memory`] builds (1 GiB: about 6 million poses of a grid
+/// sweep); a larger sweep runs into a directory, or asks for summaries only.
+pub const MAX_IN_MEMORY_BYTES: u64 = 1 << 30;
+
+/// What [`run_in_memory`] returns.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InMemory {
+    /// The table (every pose's row, the columns of `sweep.csv`), unless the sweep's `[summary]`
+    /// says `rows = false`.
+    pub table: Option<Table>,
+    /// The summaries, when the sweep asks for them.
+    pub summary: Option<Summary>,
+    /// Poses computed.
+    pub poses: u64,
+}
+
+/// Runs `config` (or one shard of it) on `backend` and returns its table's columns and its
+/// summaries, writing nothing: the rows are those `sweep.parquet` holds, the summaries those of
+/// `summary.json`. `events` hears of progress after each chunk of `chunk_poses` poses and may
+/// stop the run (the result is then `None`).
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] naming `--chunk-poses` when 0, and `--out` when the table
+/// would exceed [`MAX_IN_MEMORY_BYTES`]; errors of [`Backend::project`].
+pub fn run_in_memory(
+    config: &SweepConfig,
+    backend: &Backend,
+    shard: Option<Shard>,
+    chunk_poses: u64,
+    events: &mut dyn FnMut(Event) -> ControlFlow<()>,
+) -> Result<Option<InMemory>> {
+    if chunk_poses == 0 {
+        return Err(Error::invalid("--chunk-poses", 0, "must be >= 1"));
+    }
+    let desc = descriptor(config)?;
+    let range = shard.map_or(0..desc.poses, |s| s.range(desc.poses));
+    let poses = range.end - range.start;
+    let spec = config.summary.as_ref();
+    let rows = spec.is_none_or(|s| s.rows);
+    let bytes = poses.saturating_mul(8 * desc.columns.len() as u64);
+    if rows && bytes > MAX_IN_MEMORY_BYTES {
+        return Err(Error::invalid(
+            "--out",
+            "(none)",
+            format!(
+                "is needed: this sweep's {poses} rows would take {} MiB in memory, more than {} MiB; \
+                 give an output directory, or ask for summaries only ([summary] rows = false)",
+                bytes >> 20,
+                MAX_IN_MEMORY_BYTES >> 20
+            ),
+        ));
+    }
+    let grid = match &config.poses {
+        crate::sweep::Poses::Grid(g) => Some(g),
+        crate::sweep::Poses::List(_) => None,
+    };
+    let kinds = column_kinds(&desc.columns);
+    let sigma = resolve_sigma_range(&config.source, &config.target, config.sigma_range)?;
+    let by = spec.map(|s| Metric::from_name(&s.by).expect("a checked metric name"));
+    let mut table = rows.then(|| Table::new(&desc.columns, &kinds));
+    let mut summary = spec.map(|s| s.empty(grid));
+    let mut start = range.start;
+    while start < range.end {
+        let r = start..(start + chunk_poses).min(range.end);
+        let (pose_rows, values) = config.items_numeric(r.clone())?;
+        let batch = chunk_batch(config, &pose_rows);
+        let results = backend.project(&batch, Output::MetricsOnly)?;
+        if let Some(table) = &mut table {
+            let part = columns_of(
+                &desc.columns,
+                &kinds,
+                r.start,
+                &batch,
+                &pose_rows,
+                &values,
+                &results,
+                sigma,
+            );
+            table.append(part)?;
+        }
+        if let (Some(spec), Some(by), Some(total)) = (spec, by, &mut summary) {
+            let values: Vec<Option<f64>> = results.iter().map(|p| p.metrics.get(by).as_f64()).collect();
+            let part = spec.summarise(grid, r.start, &values)?;
+            *total = spec.combine(total, &part, "in memory")?;
+        }
+        start = r.end;
+        if events(Event::Progress {
+            done: start - range.start,
+            total: poses,
+        })
+        .is_break()
+        {
+            return Ok(None);
+        }
+    }
+    Ok(Some(InMemory {
+        table,
+        summary,
+        poses,
+    }))
+}

@@ -1,0 +1,164 @@
+//! What a sweep's directory records besides its tables: the descriptor `sweep.json`, the
+//! settings a part was computed with (`NAME.run.json`), and the checks every run and merge makes
+//! of them and of the parts it reads back.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use sonarproj::projection::Backend;
+
+use crate::error::{Error, Result};
+use crate::io::METRIC_COLUMNS;
+use crate::sweep::SweepConfig;
+use crate::sweep::parts::{self, write_json};
+use crate::sweep::summary::{Summary, SummarySpec};
+
+/// What a sweep is: written to `DIR/sweep.json` by every run and shard.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Descriptor {
+    /// [`SweepConfig::fingerprint`].
+    pub fingerprint: String,
+    /// The number of poses of the whole sweep.
+    pub poses: u64,
+    /// The CSV header.
+    pub columns: Vec<String>,
+    /// The grid columns that vary (a figure is drawn for one or two).
+    pub varying: Vec<String>,
+    /// The metric the figure draws and its axis label.
+    pub metric: String,
+    /// The metric's axis label.
+    pub metric_label: String,
+    /// The figure title.
+    pub title: String,
+    /// The summaries asked for (absent when none: the descriptors of sweeps without one are
+    /// unchanged).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub summary: Option<SummarySpec>,
+}
+
+/// What decides a run's numbers besides the sweep file (whose fingerprint the parts carry): the
+/// engine's version and the backend's settings ([`Backend::settings`]), by name. Written beside
+/// each shard (`shard-K-of-N.run.json`), so that `merge` joins only shards computed alike.
+pub type Settings = std::collections::BTreeMap<String, String>;
+
+/// Returns the settings of a run on `backend`.
+#[must_use]
+pub fn settings(backend: &Backend) -> Settings {
+    let mut out: Settings = backend
+        .settings()
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+    out.insert("engine version".into(), sonarproj::VERSION.into());
+    out
+}
+
+/// Returns the first setting (in name order) whose values differ between `a` and `b`, with both
+/// values (`(none)` where one lacks it).
+pub(crate) fn first_difference(a: &Settings, b: &Settings) -> Option<(String, String, String)> {
+    let none = || "(none)".to_string();
+    a.keys()
+        .chain(b.keys())
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .find(|k| a.get(*k) != b.get(*k))
+        .map(|k| {
+            (
+                k.clone(),
+                a.get(k).cloned().unwrap_or_else(none),
+                b.get(k).cloned().unwrap_or_else(none),
+            )
+        })
+}
+
+/// Returns the path of the settings record of part `file` (`NAME.csv` → `NAME.run.json`,
+/// `NAME.parquet` → `NAME.parquet.run.json`).
+pub(crate) fn settings_path(file: &Path) -> PathBuf {
+    parts::beside(file, "run.json")
+}
+
+/// Returns the JSON in `path`, or `None` when the file does not exist.
+pub(crate) fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Option<T>> {
+    match std::fs::read(path) {
+        Ok(bytes) => serde_json::from_slice(&bytes).map(Some).map_err(|e| Error::Csv {
+            context: path.display().to_string(),
+            message: format!("not a sonarproj sweep file ({e}); remove it or choose another --out"),
+        }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(source) => Err(Error::ReadInput {
+            path: path.to_path_buf(),
+            source,
+        }),
+    }
+}
+
+/// Returns the descriptor of `config`.
+pub fn descriptor(config: &SweepConfig) -> Result<Descriptor> {
+    let mut columns = config.columns();
+    columns.extend(METRIC_COLUMNS.iter().map(|c| c.to_string()));
+    Ok(Descriptor {
+        fingerprint: config.fingerprint(),
+        poses: config.count()?,
+        columns,
+        varying: config.varying(),
+        metric: config.metric.name().to_string(),
+        metric_label: config.metric_label().to_string(),
+        title: format!("{} to {}", config.source.name, config.target.name),
+        summary: config.summary.clone(),
+    })
+}
+
+/// Writes `DIR/sweep.json`, or checks that the one there describes the same sweep.
+pub(crate) fn claim(dir: &Path, d: &Descriptor) -> Result<()> {
+    let path = dir.join("sweep.json");
+    match read_json::<Descriptor>(&path)? {
+        Some(old) if old == *d => Ok(()),
+        Some(_) => Err(Error::invalid(
+            "--out",
+            dir.display(),
+            "holds results of a different sweep (its sweep.json differs); choose another directory or empty this one",
+        )),
+        None => write_json(&path, d),
+    }
+}
+
+/// Writes the summaries `total` to `path` as pretty JSON, with its record for `expected`.
+pub(crate) fn write_summary(path: &Path, expected: parts::Expected<'_>, total: &Summary) -> Result<()> {
+    parts::write(path, expected, |w| {
+        serde_json::to_writer_pretty(&mut *w, total).map_err(|e| Error::write_output(path, e))?;
+        w.write_all(b"\n").map_err(|e| Error::write_output(path, e))
+    })
+}
+
+/// Returns the first of `files` that is not good for `expected`, with its status; the last
+/// file and [`parts::Status::Good`] when all are.
+pub(crate) fn first_not_good<'f>(
+    files: &[&'f Path],
+    expected: parts::Expected<'_>,
+) -> (&'f Path, parts::Status) {
+    for f in files {
+        let status = parts::check(f, expected);
+        if status != parts::Status::Good {
+            return (f, status);
+        }
+    }
+    (files[files.len() - 1], parts::Status::Good)
+}
+
+/// Returns the JSON part `path`, after checking its bytes against its record for `expected`
+/// (read once: what is checked is what is parsed).
+pub(crate) fn read_part<T: for<'de> Deserialize<'de>>(
+    path: &Path,
+    expected: parts::Expected<'_>,
+) -> Result<T> {
+    let bytes = std::fs::read(path).map_err(|source| Error::ReadInput {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let damaged = |message: String| Error::Csv {
+        context: path.display().to_string(),
+        message,
+    };
+    parts::check_bytes(path, &bytes, expected).map_err(damaged)?;
+    serde_json::from_slice(&bytes).map_err(|e| damaged(format!("not a sweep summary ({e})")))
+}

@@ -1,0 +1,226 @@
+//! The summaries against plain counts and sorts, any chunking, and forged parts.
+
+use super::*;
+use crate::sweep::config::Axis;
+
+fn grid() -> Grid {
+    Grid {
+        axes: vec![
+            Axis {
+                column: "roll",
+                values: vec![0.0, 10.0, 20.0],
+            },
+            Axis {
+                column: "pitch",
+                values: vec![0.0, 5.0, 10.0, 15.0],
+            },
+        ],
+        placement: true,
+    }
+}
+
+fn spec() -> SummarySpec {
+    SummarySpec {
+        by: "span".into(),
+        top: 3,
+        histogram: Some(HistogramSpec {
+            min: 0.0,
+            max: 1.0,
+            bins: 4,
+        }),
+        marginals: vec![vec!["roll".into()], vec!["pitch".into(), "roll".into()]],
+        rows: true,
+    }
+}
+
+/// Values of 12 poses with ties, nulls and values off the histogram.
+fn values() -> Vec<Option<f64>> {
+    vec![
+        Some(0.5),
+        None,
+        Some(0.25),
+        Some(0.1),
+        Some(0.25),
+        Some(1.5),
+        Some(-0.2),
+        Some(0.75),
+        Some(1.0),
+        None,
+        Some(0.1),
+        Some(0.3),
+    ]
+}
+
+#[test]
+fn reductions_match_a_plain_count_and_sort() {
+    let g = grid();
+    let s = spec().summarise(Some(&g), 0, &values()).unwrap();
+    assert_eq!((s.poses, s.with_value), (12, 10));
+    assert_eq!(
+        s.min,
+        Some(Ranked {
+            index: 6,
+            value: -0.2
+        })
+    );
+    assert_eq!(s.max, Some(Ranked { index: 5, value: 1.5 }));
+    let idx = |r: &[Ranked]| r.iter().map(|x| x.index).collect::<Vec<_>>();
+    // Ties broken by the lower index: 0.1 at poses 3 and 10, 0.25 at 2 and 4.
+    assert_eq!(idx(&s.smallest), [6, 3, 10]);
+    assert_eq!(idx(&s.largest), [5, 8, 7]);
+    let h = s.histogram.as_ref().unwrap();
+    // Bins [0, .25) [.25, .5) [.5, .75) [.75, 1]: 0.1 0.1 | 0.25 0.25 0.3 | 0.5 | 0.75 1.0.
+    assert_eq!((h.counts.clone(), h.below, h.above), (vec![2, 3, 1, 2], 1, 1));
+    // Roll is pose / 4, pitch pose % 4.
+    let roll = &s.marginals[0];
+    assert_eq!(roll.count, [3, 4, 3]);
+    assert_eq!(roll.min, [Some(0.1), Some(-0.2), Some(0.1)]);
+    assert_eq!(roll.max, [Some(0.5), Some(1.5), Some(1.0)]);
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    assert!((roll.mean[0].unwrap() - mean(&[0.5, 0.25, 0.1])).abs() < 1e-12);
+    // Pitch × roll: the cell of pitch 5°, roll 20° (1 · 3 + 2) is pose 9 (no value).
+    let pr = &s.marginals[1];
+    assert_eq!(pr.values, vec![vec![0.0, 5.0, 10.0, 15.0], vec![0.0, 10.0, 20.0]]);
+    assert_eq!(pr.count[5], 0);
+    assert_eq!(pr.mean[5], None);
+    // Pitch 15°, roll 10°: pose 1 · 4 + 3 = 7.
+    assert_eq!((pr.min[3 * 3 + 1], pr.count[3 * 3 + 1]), (Some(0.75), 1));
+}
+
+#[test]
+fn any_chunking_combines_to_the_same_bits() {
+    let g = grid();
+    let spec = spec();
+    let v = values();
+    let whole = spec.summarise(Some(&g), 0, &v).unwrap();
+    for cuts in [
+        vec![0, 12],
+        vec![0, 1, 12],
+        vec![0, 5, 6, 11, 12],
+        (0..=12).collect(),
+    ] {
+        // Each part through its file's form (sparse cells, JSON text) and back, as on disk.
+        let parts: Vec<Summary> = cuts
+            .windows(2)
+            .map(|w| {
+                let part = spec
+                    .summarise(Some(&g), w[0] as u64, &v[w[0]..w[1]])
+                    .unwrap()
+                    .to_part();
+                let text = serde_json::to_string(&part).unwrap();
+                let s = serde_json::from_str::<PartSummary>(&text)
+                    .unwrap()
+                    .into_summary(&spec.empty(Some(&g)), "t")
+                    .unwrap();
+                spec.check(&s, w[0] as u64, (w[1] - w[0]) as u64, "t").unwrap();
+                s
+            })
+            .collect();
+        let forward = parts[1..]
+            .iter()
+            .fold(parts[0].clone(), |acc, p| spec.combine(&acc, p, "t").unwrap());
+        let backward = parts[..parts.len() - 1]
+            .iter()
+            .rev()
+            .fold(parts[parts.len() - 1].clone(), |acc, p| {
+                spec.combine(p, &acc, "t").unwrap()
+            });
+        assert_eq!(forward, whole, "{cuts:?}");
+        assert_eq!(backward, whole, "{cuts:?}");
+        assert_eq!(
+            serde_json::to_string(&forward).unwrap(),
+            serde_json::to_string(&whole).unwrap()
+        );
+    }
+}
+
+#[test]
+fn a_part_that_does_not_hold_together_is_refused() {
+    let g = grid();
+    let spec = spec();
+    let good = spec.summarise(Some(&g), 4, &values()[4..8]).unwrap();
+    spec.check(&good, 4, 4, "t").unwrap();
+    let refused = |s: &Summary, words: &str| {
+        let e = spec.check(s, 4, 4, "t").unwrap_err().to_string();
+        assert!(e.contains(words), "{e}");
+    };
+    refused(
+        &Summary {
+            poses: 5,
+            ..good.clone()
+        },
+        "5 poses",
+    );
+    refused(
+        &Summary {
+            smallest: good.smallest[..1].to_vec(),
+            ..good.clone()
+        },
+        "1 smallest",
+    );
+    let mut moved = good.clone();
+    moved.largest[0].index = 99;
+    refused(&moved, "outside poses 4 to 7");
+    let mut cut = good.clone();
+    cut.histogram.as_mut().unwrap().counts.pop();
+    refused(&cut, "histogram");
+    let mut wrapped = good.clone();
+    wrapped.marginals[0].count[0] = u64::MAX;
+    refused(&wrapped, "marginal over [\"roll\"]");
+    refused(
+        &Summary {
+            metric: "area".into(),
+            ..good.clone()
+        },
+        "summarises \"area\"",
+    );
+    // Counts that overflow when combined are an error, not a wrap.
+    let mut big = good.clone();
+    big.with_value = u64::MAX;
+    assert!(
+        spec.combine(&big, &good, "t")
+            .unwrap_err()
+            .to_string()
+            .contains("overflows")
+    );
+}
+
+#[test]
+fn bad_specs_name_the_key() {
+    let g = grid();
+    let e = |s: SummarySpec| s.checked("s.toml", Some(&g)).unwrap_err().to_string();
+    assert!(
+        e(SummarySpec {
+            top: MAX_TOP + 1,
+            ..spec()
+        })
+        .contains("summary.top")
+    );
+    let flat = SummarySpec {
+        histogram: Some(HistogramSpec {
+            min: 1.0,
+            max: 1.0,
+            bins: 4,
+        }),
+        ..spec()
+    };
+    assert!(e(flat).contains("min < max"));
+    for (min, max, bins) in [
+        (-1e308, 1e308, 2),
+        (1.0, 1.000_000_000_000_000_2, 1000),
+        (0.0, 5e-324, 100),
+    ] {
+        let h = SummarySpec {
+            histogram: Some(HistogramSpec { min, max, bins }),
+            ..spec()
+        };
+        assert!(e(h).contains("non-zero width"), "{min} {max} {bins}");
+    }
+    let yaw = SummarySpec {
+        marginals: vec![vec!["yaw".into()]],
+        ..spec()
+    };
+    assert!(e(yaw).contains("not a grid axis (the axes: roll, pitch)"));
+    let list = spec().checked("s.toml", None).unwrap_err().to_string();
+    assert!(list.contains("needs a grid"), "{list}");
+}

@@ -1,0 +1,181 @@
+//! A chunk's table: its poses as a batch, its results as CSV rows or typed columns (the
+//! format of `sweep.csv` or `sweep.parquet`).
+
+use std::path::Path;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use sonarproj::projection::{Batch, Projection};
+
+use crate::error::{Error, Result};
+use crate::io::batch::{PoseRow, local_of};
+use crate::io::parquet::{Column, Kind, Table};
+use crate::io::{METRIC_COLUMNS, metric_fields};
+use crate::sweep::SweepConfig;
+
+/// The format of a sweep's tables.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Format {
+    /// CSV: one line of text a pose, numbers in their shortest exact form, empty cells where
+    /// nothing is visible.
+    #[default]
+    Csv,
+    /// Parquet: typed columns (integers for the index and counts, doubles for the rest, null
+    /// where the CSV leaves a cell empty), Snappy-compressed, row groups at the multiples of
+    /// [`GROUP_ROWS`](crate::io::parquet::GROUP_ROWS) in the pose index.
+    Parquet,
+}
+
+impl Format {
+    /// Returns the file extension (and the name) of the format: `csv` or `parquet`.
+    #[must_use]
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Csv => "csv",
+            Format::Parquet => "parquet",
+        }
+    }
+
+    /// Returns the format named `text` (`csv` or `parquet`).
+    ///
+    /// # Errors
+    /// [`sonarproj::Error::InvalidValue`] naming `field` for any other name.
+    pub fn parse(text: &str, field: &str) -> Result<Format> {
+        match text {
+            "csv" => Ok(Format::Csv),
+            "parquet" => Ok(Format::Parquet),
+            _ => Err(Error::invalid(
+                field,
+                format!("{text:?}"),
+                "must be \"csv\" or \"parquet\"",
+            )),
+        }
+    }
+}
+
+/// Returns the kinds of a sweep table's `columns` (its descriptor's): the index an integer, the
+/// pose columns numbers, then the metric columns as the metric table types them (counts
+/// integers; extremes, the projection area and the local precision nullable).
+#[must_use]
+pub fn column_kinds(columns: &[String]) -> Vec<Kind> {
+    let metrics = sonarproj::Metrics::default();
+    let metric_kinds = sonarproj::metrics::METRICS
+        .iter()
+        .map(|info| match metrics.get(info.metric) {
+            sonarproj::metrics::Value::Count(_) => Kind::Int,
+            sonarproj::metrics::Value::Real(_) => Kind::Real,
+            sonarproj::metrics::Value::Optional(_) => Kind::Optional,
+        })
+        .chain([Kind::Optional, Kind::Optional]);
+    let poses = columns.len().saturating_sub(1 + METRIC_COLUMNS.len());
+    std::iter::once(Kind::Int)
+        .chain(std::iter::repeat_n(Kind::Real, poses))
+        .chain(metric_kinds)
+        .collect()
+}
+
+/// Returns the batch of a chunk's `poses`.
+pub(crate) fn chunk_batch(config: &SweepConfig, poses: &[PoseRow]) -> Batch {
+    Batch {
+        source: config.source.clone(),
+        target: config.target.clone(),
+        sampling: config.sampling,
+        area_grid: config.area_grid,
+        items: poses.iter().map(|p| p.item).collect(),
+    }
+}
+
+/// Returns a chunk's table: the index from `first`, the pose columns `values` (row after row),
+/// the metrics of `results` and the local precision of `poses` (range error `sigma`), in the
+/// sweep's `columns` of `kinds`.
+#[expect(clippy::too_many_arguments, reason = "the parts of one chunk, named")]
+#[expect(
+    clippy::cast_possible_wrap,
+    reason = "pose indices are below 2^40 (MAX_POSES)"
+)]
+pub(crate) fn columns_of(
+    columns: &[String],
+    kinds: &[Kind],
+    first: u64,
+    batch: &Batch,
+    poses: &[PoseRow],
+    values: &[f64],
+    results: &[Projection],
+    sigma: f64,
+) -> Table {
+    let mut table = Table::new(columns, kinds);
+    let n = poses.len();
+    let pose_columns = columns.len() - 1 - METRIC_COLUMNS.len();
+    let locals: Vec<_> = poses
+        .par_iter()
+        .map(|pose| local_of(batch, &pose.item, pose.true_point, sigma))
+        .collect();
+    for (j, column) in table.columns.iter_mut().enumerate() {
+        *column = if j == 0 {
+            Column::Int((0..n as u64).map(|i| (first + i) as i64).collect())
+        } else if j <= pose_columns {
+            Column::Real((0..n).map(|i| values[i * pose_columns + j - 1]).collect())
+        } else if let Some(info) = sonarproj::metrics::METRICS.get(j - 1 - pose_columns) {
+            match kinds[j] {
+                Kind::Int => Column::Int(
+                    results
+                        .iter()
+                        .map(|p| match p.metrics.get(info.metric) {
+                            sonarproj::metrics::Value::Count(c) => i64::try_from(c).unwrap_or(i64::MAX),
+                            _ => unreachable!("the metric table's counts"),
+                        })
+                        .collect(),
+                ),
+                Kind::Real => Column::Real(
+                    results
+                        .iter()
+                        .map(|p| p.metrics.get(info.metric).as_f64().unwrap_or(f64::NAN))
+                        .collect(),
+                ),
+                Kind::Optional => Column::Optional(
+                    results
+                        .iter()
+                        .map(|p| p.metrics.get(info.metric).as_f64())
+                        .collect(),
+                ),
+            }
+        } else if j == columns.len() - 2 {
+            Column::Optional(locals.iter().map(|l| l.range_per_elevation).collect())
+        } else {
+            Column::Optional(locals.iter().map(|l| l.sigma_elevation).collect())
+        };
+    }
+    table
+}
+
+/// Returns the CSV rows (no header) of `fields` followed by the metrics of `results` and the
+/// local precision of `poses` of `batch` (range error `sigma`), formatted in parallel blocks (the
+/// same bytes as one writer would produce: each record is formatted on its own).
+pub(crate) fn csv_rows(
+    batch: &Batch,
+    poses: &[PoseRow],
+    fields: &[Vec<String>],
+    results: &[Projection],
+    sigma: f64,
+    path: &Path,
+) -> Result<Vec<u8>> {
+    let blocks: Vec<Vec<u8>> = fields
+        .par_chunks(4096)
+        .zip(results.par_chunks(4096))
+        .zip(poses.par_chunks(4096))
+        .map(|((f, r), poses)| {
+            let mut w = csv::WriterBuilder::new()
+                .has_headers(false)
+                .from_writer(Vec::new());
+            for ((fields, p), pose) in f.iter().zip(r).zip(poses) {
+                let local = local_of(batch, &pose.item, pose.true_point, sigma);
+                let metrics = metric_fields(&p.metrics, &local);
+                w.write_record(fields.iter().chain(metrics.iter()))
+                    .map_err(|e| Error::write_output(path, e))?;
+            }
+            w.into_inner().map_err(|e| Error::write_output(path, e))
+        })
+        .collect::<Result<_>>()?;
+    Ok(blocks.concat())
+}
