@@ -10,11 +10,11 @@ use sonarproj::projection::Backend;
 use crate::error::{Error, Result};
 use crate::io::parquet::Table;
 use crate::sweep::SweepConfig;
-use crate::sweep::records::*;
+use crate::sweep::records::descriptor;
 use crate::sweep::run::Event;
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::Summary;
-use crate::sweep::table::*;
+use crate::sweep::table::{chunk_batch, column_kinds, columns_of};
 
 /// The most bytes of columns [`run_in_memory`] builds (1 GiB: about 6 million poses of a grid
 /// sweep); a larger sweep runs into a directory, or asks for summaries only.

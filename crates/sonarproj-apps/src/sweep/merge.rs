@@ -6,10 +6,13 @@ use crate::error::{Error, Result};
 use crate::report::check_output_file;
 use crate::sweep::figure::{figure, figure_of_marginal};
 use crate::sweep::parts::{self};
-use crate::sweep::records::*;
+use crate::sweep::records::{
+    Descriptor, Settings, first_difference, first_not_good, read_json, read_part, settings_path,
+    write_summary,
+};
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::Summary;
-use crate::sweep::table::*;
+use crate::sweep::table::{Format, column_kinds};
 
 /// Joins the shard files `shard-K-of-N.csv` in `dir` into `dir/sweep.csv` (byte for byte the
 /// file one run would have written) and draws the figure; returns both paths.

@@ -35,10 +35,13 @@ use crate::report::{check_output_file, output_dir, remove_stale_temporaries};
 use crate::sweep::SweepConfig;
 use crate::sweep::figure::{figure, figure_of_marginal};
 use crate::sweep::parts::{self, write_json};
-use crate::sweep::records::*;
+use crate::sweep::records::{
+    Settings, claim, descriptor, first_difference, first_not_good, read_json, read_part, settings,
+    settings_path, write_summary,
+};
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::PartSummary;
-use crate::sweep::table::*;
+use crate::sweep::table::{Format, chunk_batch, column_kinds, columns_of, csv_rows};
 
 /// The default number of poses per chunk.
 pub const DEFAULT_CHUNK_POSES: u64 = 20_000;
