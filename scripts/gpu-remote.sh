@@ -5,7 +5,8 @@
 #   scripts/gpu-remote.sh prepare   # here: build, strip and pack everything into .gpu/ (< 64 MiB)
 #   scripts/gpu-remote.sh run       # there, from the repository root, with .gpu/ copied along:
 #                                   # Vulkan loader, NVIDIA ICD, GPU tests, benches, paper,
-#                                   # 1 M-pose sweeps (Parquet, summaries) on GPU and CPU;
+#                                   # 1 M-pose sweeps (Parquet, summaries) on GPU and CPU,
+#                                   # `bench sweep` on 10 M poses;
 #                                   # summary.txt and logs.tar.gz into $OUT (or .gpu/out)
 #
 # `prepare` needs cargo and apt-get (for the Vulkan loader packages, unpacked there with dpkg -x).
@@ -27,7 +28,7 @@ prepare() {
     # The GPU test and bench binaries, as cargo names them (hash suffixes included).
     cargo test --release --no-run --message-format=json \
         --test agreement --test masks --test gpu_errors --test cli --test bad_input --test mask \
-        --test sweep --bench projection --bench masks 2>/dev/null |
+        --test sweep --test pose_sources --bench projection --bench masks 2>/dev/null |
         python3 -c '
 import json, sys
 for line in sys.stdin:
@@ -86,6 +87,7 @@ run() {
     step test-bad-input "$bin/bad_input"
     step test-mask-cli "$bin/mask"
     step test-sweep "$bin/sweep"
+    step test-pose-sources "$bin/pose_sources"
     # shellcheck disable=SC2086
     step bench-projection "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
     # shellcheck disable=SC2086
@@ -116,7 +118,11 @@ run() {
         step "sweep-parquet-$b" "$bin/sonarproj" sweep --config data/bench-sweep-1m.toml --out "$bundle/sweep-$b" --backend "$b" --format parquet
         step "sweep-summary-$b" "$bin/sonarproj" sweep --config "$summaries" --out "$bundle/sweep-sum-$b" --backend "$b"
     done
+    # The grid decoded on the device against the per-item path, on 10 M poses (1.2 G samples):
+    # the projection's samples/s, the host's cost a pose, the sweeps' multiples of it.
+    step bench-sweep "$bin/sonarproj" bench sweep --backends gpu,cpu-fast --poses 10000000 --runs 3
     grep -h "sweep:" "$logs"/sweep-*.log >>"$logs/summary.txt" || true
+    grep -hE "^(gpu|cpu-fast) " "$logs"/bench-sweep.log >>"$logs/summary.txt" || true
     grep -h "paper:" "$logs"/paper-*.log >>"$logs/summary.txt" || true
     # With the file names: which variant each row is.
     grep -- "->" "$logs"/bench-projection*.log >>"$logs/summary.txt" || true

@@ -1,8 +1,8 @@
 // Stage 2: one pose's bitset becomes its occupied count and occupied measure, and its
 // projection-area cells (FLS) their count.
 // CPU twin: the reduce step of src/projection/fast/scratch.rs (counts and, for an FLS, per-row areas summed in
-// row order); the plain reference is src/projection/reference/reduce.rs. Dispatch (poses, 1, 1): workgroup x
-// reduces pose x; each thread
+// row order); the plain reference is src/projection/reference/reduce.rs. Dispatch (across, rows, 1), across * rows >= poses:
+// workgroup (x, y) reduces pose x + y * across; each thread
 // takes words (SSS) or range rows (FLS) l, l + 64, ... and the workgroup sums their results.
 
 @group(0) @binding(0) var<uniform> params: TargetParams;
@@ -19,8 +19,12 @@ var<workgroup> partial_measure: array<f32, 64>;
 var<workgroup> partial_cells: array<u32, 64>;
 
 @compute @workgroup_size(64)
-fn main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let pose_index = wid.x;
+fn main(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let pose_index = wid.x + wid.y * nwg.x;
     let base_word = pose_index * params.words_per_pose;
     let beams = params.beams;
     var count = 0u;

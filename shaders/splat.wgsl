@@ -6,8 +6,8 @@
 // about 1e-12 (relative) of a bound or edge. With FILTER, f32 takes the decisions it cannot get
 // wrong (those far from every bound and edge) and Real the rest: the same bits, fewer Real
 // operations (this stage only: on a CPU, f64 costs at most twice f32).
-// Dispatch (tiles, poses, 1): workgroup (x, y) handles samples x*WORKGROUP + l, stepping by
-// tiles*WORKGROUP, of pose y. Each visible sample sets its pixel's bit with atomicOr; the workgroup
+// Dispatch (tiles, across, rows), across * rows >= poses: workgroup (x, y, z) handles samples
+// x*WORKGROUP + l, stepping by tiles*WORKGROUP, of pose y + z * across. Each visible sample sets its pixel's bit with atomicOr; the workgroup
 // then folds its visible count and range/azimuth extremes into the pose's metric slots.
 
 @group(0) @binding(0) var<uniform> params: TargetParams;
@@ -158,7 +158,7 @@ fn main(
     }
     workgroupBarrier();
 
-    let pose_index = wid.y;
+    let pose_index = wid.y + wid.z * nwg.y;
     let pose = poses[min(pose_index, params.pose_count - 1u)];
     // A workgroup past the chunk's poses draws nothing.
     let n = select(0u, pose.plan.y * pose.plan.w, pose_index < params.pose_count);

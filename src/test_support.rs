@@ -27,3 +27,24 @@ pub fn build_stage(ctx: &GpuContext, name: &str, source: &str, bindings: &[&str]
         .collect();
     Stage::new(&ctx.device, name, source, &kinds).map(drop)
 }
+
+/// Returns the GPU's projections of poses `range` of `sweep`'s grid, each decoded on the device
+/// by the poses stage, with their occupancy (for the envelope check).
+///
+/// # Errors
+/// As [`crate::Backend::project_columns`].
+///
+/// # Panics
+/// When the sweep's poses are not a grid.
+#[doc(hidden)]
+pub fn gpu_grid_projections(
+    gpu: &crate::projection::gpu::GpuBackend,
+    sweep: &crate::PoseSweep<'_>,
+    range: std::ops::Range<u64>,
+) -> Result<Vec<crate::Projection>> {
+    let crate::PoseSource::Grid(grid) = sweep.poses else {
+        panic!("a grid sweep");
+    };
+    let prepared = sweep.prepare_grid(grid)?;
+    gpu.project_grid_projections(&prepared, range, true)
+}

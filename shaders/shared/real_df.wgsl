@@ -59,3 +59,8 @@ fn r_negative(a: Real) -> bool {
 fn r_f32(a: Real) -> f32 {
     return a.x + a.y;
 }
+
+// Returns a as the pair (hi, lo), normalised (hi is a rounded to f32).
+fn r_pair(a: Real) -> vec2<f32> {
+    return fast_two_sum(a.x, a.y);
+}

@@ -39,3 +39,10 @@ fn r_negative(a: Real) -> bool {
 fn r_f32(a: Real) -> f32 {
     return f32(a);
 }
+
+// Returns a as the pair (hi, lo): hi = a rounded to f32, lo = the rest rounded to f32 (the
+// host's split of an f64).
+fn r_pair(a: Real) -> vec2<f32> {
+    let hi = f32(a);
+    return vec2<f32>(hi, f32(a - f64(hi)));
+}

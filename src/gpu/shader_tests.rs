@@ -17,6 +17,8 @@ fn all() -> Vec<(&'static str, String, bool)> {
         ("splat (f64)", shaders::splat(Precision::F64), true),
         ("splat (double-f32)", shaders::splat(Precision::DoubleF32), false),
         ("reduce", shaders::reduce(), false),
+        ("poses (f64)", shaders::poses(Precision::F64), true),
+        ("poses (double-f32)", shaders::poses(Precision::DoubleF32), false),
         ("mask", shaders::mask(), false),
     ]
 }
@@ -63,6 +65,33 @@ fn shared_structs_have_the_rust_sizes() {
     );
     assert_eq!(size_of("Pose"), std::mem::size_of::<types::PoseGpu>());
     assert_eq!(size_of("BeamEdge"), std::mem::size_of::<types::BeamEdgeGpu>());
+    let m = module(&shaders::poses(Precision::F64), "poses");
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(m.to_ctx()).unwrap();
+    let (h, _) = m
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some("GridParams"))
+        .expect("GridParams in poses.wgsl");
+    assert_eq!(
+        layouter[h].size as usize,
+        std::mem::size_of::<types::GridParams>()
+    );
+    let members = wgsl_members(&m, "GridParams");
+    use std::mem::offset_of;
+    for (name, offset) in [
+        ("first", offset_of!(types::GridParams, first)),
+        ("lens", offset_of!(types::GridParams, lens)),
+        ("offsets", offset_of!(types::GridParams, offsets)),
+        ("count", offset_of!(types::GridParams, count)),
+        ("placement", offset_of!(types::GridParams, placement)),
+        ("fls", offset_of!(types::GridParams, fls)),
+    ] {
+        assert!(
+            members.contains(&(name.to_string(), offset)),
+            "GridParams.{name} at {offset}: {members:?}"
+        );
+    }
 }
 
 /// Returns `(member name, byte offset)` of WGSL struct `name` in `m`.
@@ -330,7 +359,7 @@ fn interface(module: &naga::Module) -> (Vec<Binding>, u32) {
 fn binding_tables_and_workgroup_sizes_match_the_wgsl() {
     use crate::gpu::options::SPLAT_WORKGROUP;
     use crate::masks::gpu::{MASK_BINDINGS, MASK_WORKGROUP, source};
-    use crate::projection::gpu::{REDUCE_BINDINGS, SPLAT_BINDINGS};
+    use crate::projection::gpu::{POSES_BINDINGS, POSES_WORKGROUP, REDUCE_BINDINGS, SPLAT_BINDINGS};
     // The reduce stage runs one workgroup per pose whatever its size: its 64 threads are the
     // WGSL's own, said here so that a change is seen.
     const REDUCE_WORKGROUP: u64 = 64;
@@ -338,6 +367,11 @@ fn binding_tables_and_workgroup_sizes_match_the_wgsl() {
         let (b, w) = interface(&module(&shaders::splat(precision), "splat"));
         assert_eq!(b, SPLAT_BINDINGS, "splat.wgsl bindings");
         assert_eq!(w, SPLAT_WORKGROUP, "splat.wgsl workgroup size");
+    }
+    for precision in [Precision::F64, Precision::DoubleF32] {
+        let (b, w) = interface(&module(&shaders::poses(precision), "poses"));
+        assert_eq!(b, POSES_BINDINGS, "poses.wgsl bindings");
+        assert_eq!(u64::from(w), POSES_WORKGROUP, "poses.wgsl workgroup size");
     }
     let (b, w) = interface(&module(&shaders::reduce(), "reduce"));
     assert_eq!(b, REDUCE_BINDINGS, "reduce.wgsl bindings");

@@ -102,6 +102,16 @@ pub(crate) fn splat(precision: Precision) -> String {
     )
 }
 
+/// Returns the full source of the poses stage of a grid (`shaders/poses.wgsl`) at `precision`.
+pub(crate) fn poses(precision: Precision) -> String {
+    format!(
+        "{}\n{SHARED}\n{}\n{}",
+        metric_slots(),
+        precision.prelude(),
+        include_str!("../../shaders/poses.wgsl")
+    )
+}
+
 /// Returns the full source of the reduce stage (`shaders/reduce.wgsl`).
 pub(crate) fn reduce() -> String {
     format!(

@@ -4,7 +4,7 @@
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions, context};
 use crate::projection::gpu::GpuBackend;
-use crate::projection::{Batch, Projection, fast, reference};
+use crate::projection::{Batch, MetricColumns, PoseSource, PoseSweep, Projection, fast, reference};
 
 /// Which backend a user asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -208,6 +208,68 @@ impl Backend {
             return Err(Error::Stopped);
         }
         Ok(projected)
+    }
+}
+
+/// Poses the per-item backends (the reference, the GPU) take at a time from a pose source in
+/// [`Backend::project_columns`]: their items and results stay small whatever the range.
+const ITEMS_AT_ONCE: u64 = 1 << 16;
+
+impl Backend {
+    /// Returns the metrics of poses `range` of `sweep` into `out` as columns (its rows replaced,
+    /// its memory kept, so a caller going block by block allocates once). A grid's poses are
+    /// decoded from their index where the work runs, with no per-pose object: in the fast CPU
+    /// path's loop (the results of [`Backend::project`] on the same poses' items, bit for bit),
+    /// on the GPU by the poses stage (within the same envelope as its per-item results); the
+    /// reference, and every backend for a list, takes the poses' items 65 536 at a
+    /// time.
+    ///
+    /// # Errors
+    /// As [`Backend::project`]; [`Error::InvalidValue`] for a range past the sweep's poses;
+    /// [`Error::Stopped`] when `stop` returned true (asked as by [`Backend::project_until`]).
+    pub fn project_columns(
+        &self,
+        sweep: &PoseSweep<'_>,
+        range: std::ops::Range<u64>,
+        out: &mut MetricColumns,
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<()> {
+        let n = sweep.poses.len();
+        if range.start > range.end || range.end > n {
+            return Err(Error::invalid(
+                "pose range",
+                format!("{}..{}", range.start, range.end),
+                format!("must lie within the sweep's {n} poses"),
+            ));
+        }
+        if let PoseSource::Grid(grid) = sweep.poses {
+            match self {
+                Backend::CpuFast => {
+                    let prepared = sweep.prepare_grid(grid)?;
+                    return fast::project_grid(&prepared, range, out, stop).ok_or(Error::Stopped);
+                }
+                Backend::Gpu(g) => {
+                    let prepared = sweep.prepare_grid(grid)?;
+                    if stop() {
+                        return Err(Error::Stopped);
+                    }
+                    g.project_grid(&prepared, range, out)?;
+                    return if stop() { Err(Error::Stopped) } else { Ok(()) };
+                }
+                Backend::Cpu => {}
+            }
+        }
+        out.clear();
+        let mut start = range.start;
+        while start < range.end {
+            let end = range.end.min(start + ITEMS_AT_ONCE);
+            let batch = sweep.batch(start..end)?;
+            for p in self.project_until(&batch, Output::MetricsOnly, stop)? {
+                out.push(&p.metrics);
+            }
+            start = end;
+        }
+        Ok(())
     }
 }
 

@@ -9,11 +9,15 @@
 
 pub mod backend;
 pub mod batch;
+pub mod columns;
 pub(crate) mod culling;
 pub mod envelope;
 pub mod fast;
 pub mod gpu;
+pub mod poses;
 pub mod reference;
 
 pub use backend::{Backend, BackendChoice, Device, Output, cpu_device};
 pub use batch::{Batch, BatchItem, ItemChecker, PreparedBatch, Projection};
+pub use columns::{ColumnRef, MetricColumns};
+pub use poses::{PoseGrid, PoseSource, PoseSweep};

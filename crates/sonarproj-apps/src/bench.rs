@@ -137,3 +137,142 @@ pub fn mask_ping(source: &Sonar, target: &Sonar, n: usize) -> Result<(RelativePo
         .collect::<sonarproj::Result<Vec<_>>>()?;
     Ok((pose, features))
 }
+
+/// Returns the sweep `bench sweep` times: fls→sss at 0.1° sampling, the feature 5 m ahead placed
+/// 10 m from the sidescan, roll × pitch 0–99° by 1°, and yaw 0, 1, … degrees, as many values as
+/// make at least `poses` poses (`data/bench-sweep-1m.toml` for a million); with `summaries`, a
+/// `[summary]` of its span (top 10, a histogram of 120 bins, the roll × pitch and the yaw
+/// marginals) and no rows.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] naming `poses` outside `[1, 10^8]`.
+pub fn sweep_config(poses: u64, summaries: bool) -> Result<crate::sweep::SweepConfig> {
+    if !(1..=100_000_000).contains(&poses) {
+        return Err(Error::invalid("poses", poses, "must be in [1, 100000000]"));
+    }
+    let yaws = poses.div_ceil(10_000);
+    let mut text = format!(
+        "from = \"paper-fls\"\nto = \"paper-sss\"\nstep = 0.1\n[feature]\nrange = 5\n[place]\nrange = 10\n\
+         [rotation]\nroll = {{ start = 0, stop = 99, step = 1 }}\npitch = {{ start = 0, stop = 99, step = 1 }}\n\
+         yaw = {{ start = 0, stop = {}, step = 1 }}\n",
+        yaws - 1
+    );
+    if summaries {
+        text.push_str(
+            "[summary]\ntop = 10\nhistogram = { min = 0, max = 1.2, bins = 120 }\nrows = false\n\
+             marginals = [[\"roll\", \"pitch\"], \"yaw\"]\n",
+        );
+    }
+    crate::sweep::SweepConfig::parse("bench sweep", &text, std::path::Path::new("."))
+}
+
+/// One backend's times on the benchmark sweep (medians of the runs).
+#[derive(Clone, Debug)]
+pub struct SweepTiming {
+    /// Poses of the sweep.
+    pub poses: u64,
+    /// Samples drawn.
+    pub samples: u64,
+    /// Projecting the poses into metric columns, the grid decoded where the work runs
+    /// ([`Backend::project_columns`]), block by block: the sweep's own computation.
+    pub decoded: Duration,
+    /// Projecting the same poses as batches of items (built, packed and unpacked by the host:
+    /// the per-item path), block by block.
+    pub per_item: Duration,
+    /// The whole sweep into a directory as Parquet (`sonarproj sweep --format parquet`).
+    pub parquet: Duration,
+    /// The whole sweep with summaries only (`[summary]` with `rows = false`).
+    pub summaries: Duration,
+}
+
+/// Returns the times of the benchmark sweep of about `poses` poses on `backend` ([`sweep_config`]):
+/// the median of `runs` runs of each measure after one warm-up, the sweeps written into a
+/// directory in the system's temporary directory (removed after each run).
+///
+/// # Errors
+/// As [`time`], [`sweep_config`] and [`crate::sweep::run()`]; [`Error::WriteOutput`] when no
+/// temporary directory can be made.
+pub fn time_sweep(backend: &Backend, poses: u64, runs: u32) -> Result<SweepTiming> {
+    use crate::io::parquet::GROUP_ROWS;
+    use crate::sweep::{Format, Options, Poses, run};
+    if !(1..=MAX_RUNS).contains(&runs) {
+        return Err(Error::invalid(
+            "runs",
+            runs,
+            format!("must be in [1, {MAX_RUNS}]"),
+        ));
+    }
+    let rows = sweep_config(poses, false)?;
+    let summaries = sweep_config(poses, true)?;
+    let Poses::Grid(grid) = &rows.poses else {
+        unreachable!("a grid sweep")
+    };
+    let grid = grid.pose_grid(&rows.source)?;
+    let n = grid.len();
+    let sweep = sonarproj::PoseSweep {
+        source: rows.source.clone(),
+        target: rows.target.clone(),
+        sampling: rows.sampling,
+        area_grid: rows.area_grid,
+        poses: sonarproj::PoseSource::Grid(&grid),
+    };
+    let blocks = || (0..n.div_ceil(GROUP_ROWS)).map(move |b| b * GROUP_ROWS..((b + 1) * GROUP_ROWS).min(n));
+    let mut samples = 0;
+    let mut columns = sonarproj::MetricColumns::default();
+    let mut decoded = || -> Result<()> {
+        samples = 0;
+        for r in blocks() {
+            backend.project_columns(&sweep, r, &mut columns, &|| false)?;
+            samples += columns.total.iter().sum::<u64>();
+        }
+        Ok(())
+    };
+    let decoded = median(runs, &mut decoded)?;
+    let per_item = median(runs, &mut || {
+        for r in blocks() {
+            let (pose_rows, _) = rows.items_numeric(r)?;
+            let batch = crate::sweep::table::chunk_batch(&rows, &pose_rows);
+            backend.project(&batch, Output::MetricsOnly)?;
+        }
+        Ok(())
+    })?;
+    let scratch = tempfile::tempdir().map_err(|e| Error::write_output(&std::env::temp_dir(), e))?;
+    let sweep_into = |config: &crate::sweep::SweepConfig| {
+        let out = scratch.path().join("bench-sweep");
+        let opts = Options {
+            out: out.clone(),
+            shard: None,
+            chunk_poses: crate::sweep::DEFAULT_CHUNK_POSES,
+            max_chunks: None,
+            format: Format::Parquet,
+        };
+        let result = run(config, backend, &opts, &mut |_| {
+            std::ops::ControlFlow::Continue(())
+        });
+        let _ = std::fs::remove_dir_all(&out);
+        result.map(drop)
+    };
+    let parquet = median(runs, &mut || sweep_into(&rows))?;
+    let summaries = median(runs, &mut || sweep_into(&summaries))?;
+    Ok(SweepTiming {
+        poses: n,
+        samples,
+        decoded,
+        per_item,
+        parquet,
+        summaries,
+    })
+}
+
+/// Returns the median time of `runs` calls of `f`, after one warm-up call.
+fn median(runs: u32, f: &mut dyn FnMut() -> Result<()>) -> Result<Duration> {
+    f()?;
+    let mut times = (0..runs)
+        .map(|_| {
+            let start = Instant::now();
+            f().map(|()| start.elapsed())
+        })
+        .collect::<Result<Vec<_>>>()?;
+    times.sort();
+    Ok(times[times.len() / 2])
+}

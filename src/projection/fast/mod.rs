@@ -61,7 +61,10 @@ use crate::clip::{Clip, cull_slack};
 use crate::geometry::sonar::SonarKind;
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::Layout;
+use crate::projection::columns::{MetricColumns, MetricSlices};
+use crate::projection::poses::{GridTables, PreparedGrid};
 use crate::projection::{Output, PreparedBatch, Projection};
+use crate::sampling::SamplingPlan;
 use isa::Isa;
 use scratch::Scratch;
 use tables::Directions;
@@ -164,7 +167,7 @@ pub fn project_until(
     output: Output,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Option<Vec<Projection>> {
-    project_tiled(
+    project_tiled_batch(
         prepared,
         output == Output::WithOccupancy,
         Isa::detect(),
@@ -181,17 +184,121 @@ pub(crate) const TILE_SAMPLES: usize = 1 << 20;
 
 /// [`project`], with the lane stage built for `isa` (tests run every build).
 fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, isa: Isa) -> Vec<Projection> {
-    project_tiled(prepared, keep_occupancy, isa, TILE_SAMPLES, &|| false).expect("never stopped")
+    project_tiled_batch(prepared, keep_occupancy, isa, TILE_SAMPLES, &|| false).expect("never stopped")
 }
 
-/// Returns the pose arguments of item `n`: `M = R · Rz(base azimuth) · range`, `t`, the range
-/// and the culling slack.
-fn pose_args(prepared: &PreparedBatch<'_>, scratch: &mut Scratch, n: usize) -> PoseArgs {
-    let item = &prepared.batch.items[n];
-    let range = item.measurement.range;
-    let m = item.pose.rotation * scratch.rotation_z(prepared.base_azimuth(n)) * range;
-    let t = item.pose.translation;
-    (m, t, range, cull_slack(range, t, &prepared.layout))
+/// The poses a projection draws, whatever their source: how many, each one's plan, and each
+/// one's arguments (built from a batch item, or decoded from a grid's index).
+trait PoseTable: Sync {
+    /// Returns the number of poses.
+    fn count(&self) -> usize;
+    /// Returns the index of pose `n`'s plan.
+    fn plan_index(&self, n: usize) -> usize;
+    /// Returns the arguments of pose `n`: `M = R · Rz(base azimuth) · range`, `t`, the range and
+    /// the culling slack.
+    fn pose_args(&self, scratch: &mut Scratch, layout: &Layout, n: usize) -> PoseArgs;
+}
+
+impl PoseTable for PreparedBatch<'_> {
+    fn count(&self) -> usize {
+        self.batch.items.len()
+    }
+
+    fn plan_index(&self, n: usize) -> usize {
+        PreparedBatch::plan_index(self, n)
+    }
+
+    fn pose_args(&self, scratch: &mut Scratch, layout: &Layout, n: usize) -> PoseArgs {
+        let item = &self.batch.items[n];
+        let range = item.measurement.range;
+        let m = item.pose.rotation * scratch.rotation_z(self.base_azimuth(n)) * range;
+        let t = item.pose.translation;
+        (m, t, range, cull_slack(range, t, layout))
+    }
+}
+
+/// Poses `first..first + count` of a grid, decoded from their index.
+struct GridPoses<'a> {
+    tables: GridTables<'a>,
+    first: u64,
+    count: usize,
+    /// The plan of each value of the feature's range axis.
+    plan_of_range: &'a [u32],
+}
+
+impl PoseTable for GridPoses<'_> {
+    fn count(&self) -> usize {
+        self.count
+    }
+
+    fn plan_index(&self, n: usize) -> usize {
+        let range = self.tables.range_index(self.first + n as u64);
+        self.plan_of_range[range] as usize
+    }
+
+    #[inline]
+    fn pose_args(&self, _: &mut Scratch, layout: &Layout, n: usize) -> PoseArgs {
+        let d = self.tables.decode(self.first + n as u64);
+        let m = d.rotation * d.base * d.range;
+        let t = d.translation;
+        (m, t, d.range, cull_slack(d.range, t, layout))
+    }
+}
+
+/// Where a projection's results go: a block of consecutive poses' slots.
+trait Slots: Send {
+    /// Stores pose `k` of the block.
+    fn put(&mut self, k: usize, p: Projection);
+}
+
+impl Slots for &mut [Option<Projection>] {
+    fn put(&mut self, k: usize, p: Projection) {
+        self[k] = Some(p);
+    }
+}
+
+impl Slots for MetricSlices<'_> {
+    fn put(&mut self, k: usize, p: Projection) {
+        self.set(k, &p.metrics);
+    }
+}
+
+/// Poses a thread takes at a time.
+const POSE_BLOCK: usize = 256;
+
+/// Returns the metric columns of poses `range` of `grid` (prepared by [`PreparedGrid`]) into
+/// `out`, its rows replaced (its memory kept), on all cores; `None` once `stop` returns true
+/// (asked before each pose and each tile of a large sampling).
+pub(crate) fn project_grid(
+    prepared: &PreparedGrid<'_>,
+    range: std::ops::Range<u64>,
+    out: &mut MetricColumns,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<()> {
+    let count = usize::try_from(range.end - range.start).expect("a block of poses in memory");
+    let poses = GridPoses {
+        tables: GridTables::new(prepared.grid, &prepared.source),
+        first: range.start,
+        count,
+        plan_of_range: &prepared.plan_of_range,
+    };
+    out.resize(count);
+    let blocks = out.slices(0..count).chunks(POSE_BLOCK);
+    let large = project_tiled(
+        &poses,
+        &prepared.plans,
+        &prepared.layout,
+        blocks,
+        false,
+        Isa::detect(),
+        TILE_SAMPLES,
+        stop,
+    )?;
+    let mut all = out.slices(0..count);
+    for (n, p) in large {
+        all.set(n, &p.metrics);
+    }
+    Some(())
 }
 
 /// Draws one pose (or one tile of it) into `scratch`: a sidescan's one beam by runs of range
@@ -230,13 +337,45 @@ fn reduced(
 
 /// [`project_with`] with tiles of `tile` samples (tests make them small), given up (`None`)
 /// once `stop` returns true.
-fn project_tiled(
+fn project_tiled_batch(
     prepared: &PreparedBatch<'_>,
     keep_occupancy: bool,
     isa: Isa,
     tile: usize,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Option<Vec<Projection>> {
+    let mut out: Vec<Option<Projection>> = vec![None; prepared.count()];
+    let blocks: Vec<&mut [Option<Projection>]> = out.chunks_mut(POSE_BLOCK).collect();
+    let large = project_tiled(
+        prepared,
+        &prepared.plans,
+        &prepared.layout,
+        blocks,
+        keep_occupancy,
+        isa,
+        tile,
+        stop,
+    )?;
+    for (n, p) in large {
+        out[n] = Some(p);
+    }
+    Some(out.into_iter().map(|p| p.expect("every item drawn")).collect())
+}
+
+/// Draws every pose of `poses` into `blocks` (consecutive blocks of [`POSE_BLOCK`] poses),
+/// each on one thread, and returns the projections of the poses whose plan has more than
+/// `tile` samples, drawn tile by tile; `None` once `stop` returns true.
+#[expect(clippy::too_many_arguments, reason = "the parts of one projection, named")]
+fn project_tiled<T: PoseTable, S: Slots>(
+    poses: &T,
+    plans: &[SamplingPlan],
+    layout: &Layout,
+    blocks: Vec<S>,
+    keep_occupancy: bool,
+    isa: Isa,
+    tile: usize,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<Vec<(usize, Projection)>> {
     let stopped = std::sync::atomic::AtomicBool::new(false);
     let halt = || {
         let now = stopped.load(std::sync::atomic::Ordering::Relaxed) || stop();
@@ -245,38 +384,46 @@ fn project_tiled(
         }
         now
     };
-    let layout = &prepared.layout;
     let geo = Geometry::new(layout);
-    let samples = |p: usize| prepared.plans[p].azimuths.len() * prepared.plans[p].elevations.len();
+    let samples = |p: usize| plans[p].azimuths.len() * plans[p].elevations.len();
     // Plans up to a tile: their tables once, shared by their poses, each pose on one thread.
-    let directions: Vec<Option<Directions>> = (0..prepared.plans.len())
+    let directions: Vec<Option<Directions>> = (0..plans.len())
         .map(|p| {
-            let plan = &prepared.plans[p];
+            let plan = &plans[p];
             (samples(p) <= tile).then(|| Directions::of(&plan.azimuths, &plan.elevations))
         })
         .collect();
-    let mut out: Vec<Option<Projection>> = prepared
-        .batch
-        .items
-        .par_iter()
+    let tiled: Vec<Vec<usize>> = blocks
+        .into_par_iter()
         .enumerate()
         .map_init(
             || Scratch::new(layout),
-            |scratch, (n, _)| {
-                let dirs = directions[prepared.plan_index(n)].as_ref()?;
-                if halt() {
-                    return None;
+            |scratch, (b, mut slots)| {
+                let mut tiled = Vec::new();
+                let first = b * POSE_BLOCK;
+                for n in first..(first + POSE_BLOCK).min(poses.count()) {
+                    let Some(dirs) = directions[poses.plan_index(n)].as_ref() else {
+                        tiled.push(n);
+                        continue;
+                    };
+                    if halt() {
+                        return tiled;
+                    }
+                    let pose = poses.pose_args(scratch, layout, n);
+                    let (visible, extremes) = draw(isa, scratch, &geo, dirs, pose);
+                    slots.put(
+                        n - first,
+                        reduced(
+                            &geo,
+                            scratch,
+                            keep_occupancy,
+                            visible,
+                            dirs.units.len() as u64,
+                            extremes,
+                        ),
+                    );
                 }
-                let pose = pose_args(prepared, scratch, n);
-                let (visible, extremes) = draw(isa, scratch, &geo, dirs, pose);
-                Some(reduced(
-                    &geo,
-                    scratch,
-                    keep_occupancy,
-                    visible,
-                    dirs.units.len() as u64,
-                    extremes,
-                ))
+                tiled
             },
         )
         .collect();
@@ -285,22 +432,23 @@ fn project_tiled(
     if halt() {
         return None;
     }
-    let tiled: Vec<usize> = (0..out.len()).filter(|&n| out[n].is_none()).collect();
+    let tiled: Vec<usize> = tiled.concat();
+    let mut out = Vec::with_capacity(tiled.len());
     let group = rayon::current_num_threads().max(1);
     let mut states: Vec<(Scratch, u64, Extremes)> = Vec::new();
-    for same_plan in tiled.chunk_by(|&a, &b| prepared.plan_index(a) == prepared.plan_index(b)) {
-        let plan = &prepared.plans[prepared.plan_index(same_plan[0])];
-        let total = samples(prepared.plan_index(same_plan[0]));
+    for same_plan in tiled.chunk_by(|&a, &b| poses.plan_index(a) == poses.plan_index(b)) {
+        let plan = &plans[poses.plan_index(same_plan[0])];
+        let total = samples(poses.plan_index(same_plan[0]));
         for items in same_plan.chunks(group) {
             states.resize_with(states.len().max(items.len()), || {
                 (Scratch::new(layout), 0, Extremes::default())
             });
-            let poses: Vec<PoseArgs> = items
+            let args: Vec<PoseArgs> = items
                 .iter()
                 .zip(&mut states)
                 .map(|(&n, (scratch, visible, extremes))| {
                     (*visible, *extremes) = (0, Extremes::default());
-                    pose_args(prepared, scratch, n)
+                    poses.pose_args(scratch, layout, n)
                 })
                 .collect();
             for start in (0..total).step_by(tile) {
@@ -312,7 +460,7 @@ fn project_tiled(
                     &plan.elevations,
                     start..(start + tile).min(total),
                 );
-                states[..items.len()].par_iter_mut().zip(&poses).for_each(
+                states[..items.len()].par_iter_mut().zip(&args).for_each(
                     |((scratch, visible, extremes), &pose)| {
                         let (v, e) = draw(isa, scratch, &geo, &dirs, pose);
                         scratch.settle_span();
@@ -322,16 +470,12 @@ fn project_tiled(
                 );
             }
             for (&n, (scratch, visible, extremes)) in items.iter().zip(&mut states) {
-                out[n] = Some(reduced(
-                    &geo,
-                    scratch,
-                    keep_occupancy,
-                    *visible,
-                    total as u64,
-                    *extremes,
+                out.push((
+                    n,
+                    reduced(&geo, scratch, keep_occupancy, *visible, total as u64, *extremes),
                 ));
             }
         }
     }
-    Some(out.into_iter().map(|p| p.expect("every item drawn")).collect())
+    Some(out)
 }

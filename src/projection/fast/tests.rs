@@ -398,10 +398,10 @@ fn tiles_change_no_result() {
             .max()
             .unwrap();
         for keep in [true, false] {
-            let whole = project_tiled(&prepared, keep, Isa::Baseline, usize::MAX, &|| false).unwrap();
+            let whole = project_tiled_batch(&prepared, keep, Isa::Baseline, usize::MAX, &|| false).unwrap();
             for tile in [LANES, 997, 4096, largest - 1] {
                 for isa in Isa::available() {
-                    let tiled = project_tiled(&prepared, keep, isa, tile, &|| false).unwrap();
+                    let tiled = project_tiled_batch(&prepared, keep, isa, tile, &|| false).unwrap();
                     assert_eq!(tiled, whole, "{a} -> {b}: tile {tile}, {isa:?}, occupancy {keep}");
                 }
             }

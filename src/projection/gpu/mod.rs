@@ -23,9 +23,13 @@ use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::{BufferPool, SharedPool};
 use crate::gpu::{GpuContext, read, shaders};
 use crate::metrics::{Extremes, Metrics};
-use crate::occupancy::Occupancy;
+use crate::occupancy::{Layout, Occupancy};
+use crate::projection::columns::MetricColumns;
 use crate::projection::culling;
+use crate::projection::poses::{PoseGrid, PreparedGrid};
 use crate::projection::{Output, PreparedBatch, Projection};
+use crate::sampling::SamplingPlan;
+use bytemuck::Zeroable;
 use types::*;
 
 /// Bindings of `shaders/splat.wgsl`: params, beam_edges, range_edges_sq, poses, directions,
@@ -48,6 +52,13 @@ pub(crate) const REDUCE_BINDINGS: [Binding; 5] = [
     Binding::Read,
     Binding::ReadWrite,
 ];
+
+/// Bindings of `shaders/poses.wgsl`: grid params, grid table, plans, poses.
+pub(crate) const POSES_BINDINGS: [Binding; 4] =
+    [Binding::Uniform, Binding::Read, Binding::Read, Binding::ReadWrite];
+
+/// Threads a workgroup of the poses stage (one pose each).
+pub(crate) const POSES_WORKGROUP: u64 = 64;
 
 /// Most workgroups one pose's samples are spread over in the splat stage.
 const MAX_TILES: u64 = 1024;
@@ -119,6 +130,7 @@ pub struct GpuBackend {
     ctx: GpuContext,
     splat: Stage,
     reduce: Stage,
+    poses: Stage,
     options: SplatOptions,
     max_chunk_poses: Option<usize>,
     pool: SharedPool,
@@ -157,10 +169,17 @@ impl GpuBackend {
             ],
         )?;
         let reduce = Stage::new(&ctx.device, "reduce", &shaders::reduce(), &REDUCE_BINDINGS)?;
+        let poses = Stage::new(
+            &ctx.device,
+            "poses",
+            &shaders::poses(ctx.precision),
+            &POSES_BINDINGS,
+        )?;
         Ok(GpuBackend {
             ctx,
             splat,
             reduce,
+            poses,
             options,
             max_chunk_poses: None,
             pool: SharedPool::default(),
@@ -195,7 +214,10 @@ impl GpuBackend {
             .min(limits.max_storage_buffer_binding_size)
             .min(limits.max_buffer_size);
         let by_memory = (budget / bytes_per_pose).max(1) as usize;
-        let by_dispatch = limits.max_compute_workgroups_per_dimension as usize;
+        // Poses are spread over two dispatch dimensions (splat: y and z; reduce: x and y); the
+        // poses stage takes POSES_WORKGROUP a workgroup along x.
+        let dim = u64::from(limits.max_compute_workgroups_per_dimension);
+        let by_dispatch = usize::try_from((dim * POSES_WORKGROUP).min(dim * dim)).unwrap_or(usize::MAX);
         let mut n = by_memory.min(by_dispatch).min(total.max(1));
         if let Some(cap) = self.max_chunk_poses {
             n = n.min(cap);
@@ -209,7 +231,69 @@ impl GpuBackend {
     /// # Errors
     /// [`Error::Gpu`] when the device fails or a bitset does not fit in one binding.
     pub fn project(&self, prepared: &PreparedBatch<'_>, output: Output) -> Result<Vec<Projection>> {
-        self.pool.with(|pool| self.project_with(pool, prepared, output))
+        let mut out = Vec::with_capacity(prepared.batch.items.len());
+        self.pool.with(|pool| {
+            self.project_with(
+                pool,
+                &Source::Items(prepared),
+                output == Output::WithOccupancy,
+                &mut |_, chunk| out.extend(chunk),
+            )
+        })?;
+        Ok(out)
+    }
+
+    /// Returns the projections of poses `range` of a prepared grid decoded on the device, with
+    /// their occupancy when `keep_occupancy` (what the tests hold to the envelope).
+    ///
+    /// # Errors
+    /// As [`GpuBackend::project_grid`].
+    pub(crate) fn project_grid_projections(
+        &self,
+        prepared: &PreparedGrid<'_>,
+        range: std::ops::Range<u64>,
+        keep_occupancy: bool,
+    ) -> Result<Vec<Projection>> {
+        let count = usize::try_from(range.end - range.start).expect("a block of poses in memory");
+        let source = Source::Grid {
+            prepared,
+            first: range.start,
+            count,
+        };
+        let mut out = Vec::with_capacity(count);
+        self.pool.with(|pool| {
+            self.project_with(pool, &source, keep_occupancy, &mut |_, chunk| out.extend(chunk))
+        })?;
+        Ok(out)
+    }
+
+    /// Returns the metric columns of poses `range` of a prepared grid into `out` (its rows
+    /// replaced): each chunk's poses decoded on the device by the poses stage
+    /// (`shaders/poses.wgsl`) from tables built once in f64, none packed or uploaded by the host.
+    ///
+    /// # Errors
+    /// [`Error::Gpu`] when the device fails or a bitset does not fit in one binding.
+    pub(crate) fn project_grid(
+        &self,
+        prepared: &PreparedGrid<'_>,
+        range: std::ops::Range<u64>,
+        out: &mut MetricColumns,
+    ) -> Result<()> {
+        let count = usize::try_from(range.end - range.start).expect("a block of poses in memory");
+        out.resize(count);
+        let source = Source::Grid {
+            prepared,
+            first: range.start,
+            count,
+        };
+        self.pool.with(|pool| {
+            self.project_with(pool, &source, false, &mut |start, chunk| {
+                let mut rows = out.slices(start..start + chunk.len());
+                for (k, p) in chunk.iter().enumerate() {
+                    rows.set(k, &p.metrics);
+                }
+            })
+        })
     }
 
     /// Returns the bytes of GPU memory the backend keeps between calls (its chunk buffers, grown
@@ -224,17 +308,20 @@ impl GpuBackend {
         self.pool.clear();
     }
 
-    /// [`GpuBackend::project`] with the buffers of `pool`.
+    /// Projects every pose of `source` with the buffers of `pool`, handing each chunk's
+    /// projections (with their occupancy when `keep_occupancy`) to `emit` with the index of its
+    /// first pose.
     fn project_with(
         &self,
         pool: &mut BufferPool,
-        prepared: &PreparedBatch<'_>,
-        output: Output,
-    ) -> Result<Vec<Projection>> {
-        let keep_occupancy = output == Output::WithOccupancy;
+        source: &Source<'_>,
+        keep_occupancy: bool,
+        emit: &mut dyn FnMut(usize, Vec<Projection>),
+    ) -> Result<()> {
         let device = &self.ctx.device;
-        let layout = &prepared.layout;
-        let items = &prepared.batch.items;
+        let layout = source.layout();
+        let plans = source.plans();
+        let total_poses = source.count();
         let words = words_per_pose(layout);
         let pixel_words = types::pixel_words(layout);
         let bits_per_pose_bytes = (words as u64 * 4).max(4);
@@ -245,7 +332,7 @@ impl GpuBackend {
                 self.ctx.limits.max_storage_buffer_binding_size
             )));
         }
-        let chunk = self.chunk_poses(words, items.len());
+        let chunk = self.chunk_poses(words, total_poses);
 
         // Every buffer comes from the pool: the target's tables are rewritten on each call (a few
         // KiB), the chunk buffers are reused whenever the kept ones are large enough.
@@ -262,10 +349,11 @@ impl GpuBackend {
             queue.write_buffer(&buffer, 0, contents);
             buffer
         };
+        let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let params = upload(
             "params",
             bytemuck::bytes_of(&TargetParams::new(layout, chunk as u32)),
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            uniform,
         );
         let edges = upload("beam_edges", bytemuck::cast_slice(&beam_edges(layout)), storage);
         let weights = upload("row_weights", bytemuck::cast_slice(&row_weights(layout)), storage);
@@ -274,6 +362,16 @@ impl GpuBackend {
             bytemuck::cast_slice(&range_edges_sq(layout)),
             storage,
         );
+        // A grid's tables, once per call: its axes' entries, and the uniform its chunks rewrite.
+        let grid_buffers = match source {
+            Source::Items(_) => None,
+            Source::Grid { prepared, .. } => {
+                let (table, offsets) = grid_table(prepared.grid);
+                let table = upload("grid_table", bytemuck::cast_slice(&table), storage);
+                let grid_params = upload("grid_params", bytemuck::bytes_of(&GridParams::zeroed()), uniform);
+                Some((table, grid_params, offsets))
+            }
+        };
         let bits_size = chunk as u64 * bits_per_pose_bytes;
         let metrics_size = (chunk * METRIC_STRIDE * 4) as u64;
         let copy_src = wgpu::BufferUsages::COPY_SRC;
@@ -285,62 +383,114 @@ impl GpuBackend {
         let metrics_staging = empty("metrics_staging", metrics_size, readback);
         let bits_staging = keep_occupancy.then(|| empty("bits_staging", bits_size, readback));
 
-        let mut out = Vec::with_capacity(items.len());
         let mut directions: Option<Directions> = None;
-        for start in (0..items.len()).step_by(chunk) {
-            let end = (start + chunk).min(items.len());
+        let dim = self.ctx.limits.max_compute_workgroups_per_dimension.max(1);
+        for start in (0..total_poses).step_by(chunk) {
+            let end = (start + chunk).min(total_poses);
             let n = end - start;
 
             // Direction table of the plans this chunk uses (kept when the same plans repeat).
-            let mut in_chunk = vec![false; prepared.plans.len()];
-            for k in start..end {
-                in_chunk[prepared.plan_index(k)] = true;
-            }
-            let used: Vec<usize> = (0..prepared.plans.len()).filter(|&p| in_chunk[p]).collect();
-            let max_samples = used
-                .iter()
-                .map(|&p| prepared.plans[p].total() as u64)
-                .fold(1, u64::max);
+            let used = source.plans_used(start..end);
+            let max_samples = used.iter().map(|&p| plans[p].total() as u64).fold(1, u64::max);
             if directions.as_ref().is_none_or(|d| d.plans != used) {
-                let (table, offsets) = direction_table(prepared, &used);
+                let (table, offsets) = direction_table(plans, &used);
                 let bytes: &[u8] = bytemuck::cast_slice(&table);
                 let buffer = pool.get(device, "directions", bytes.len() as u64, limit, storage);
                 queue.write_buffer(&buffer, 0, bytes);
+                // A grid's poses find their plan by their range value.
+                let range_plans = match source {
+                    Source::Items(_) => None,
+                    Source::Grid { prepared, .. } => {
+                        let entries: Vec<[u32; 4]> = prepared
+                            .plan_of_range
+                            .iter()
+                            .map(|&p| {
+                                let p = p as usize;
+                                offsets.get(&p).map_or([0; 4], |&[az, el]| {
+                                    [
+                                        az,
+                                        plans[p].azimuths.len() as u32,
+                                        el,
+                                        plans[p].elevations.len() as u32,
+                                    ]
+                                })
+                            })
+                            .collect();
+                        let bytes: &[u8] = bytemuck::cast_slice(&entries);
+                        let buffer = pool.get(device, "range_plans", bytes.len() as u64, limit, storage);
+                        queue.write_buffer(&buffer, 0, bytes);
+                        Some(buffer)
+                    }
+                };
                 directions = Some(Directions {
                     plans: used,
                     buffer,
                     offsets,
+                    range_plans,
                 });
             }
             let Directions {
                 buffer: dir_buffer,
                 offsets,
+                range_plans,
                 ..
             } = directions.as_ref().expect("set above");
 
-            // Packed and, below, unpacked on all cores: serial, these loops took 80–180 ns a
-            // pose here (BENCHMARKS.md), a large share of a fast GPU's time on short arcs.
-            let pose_data: Vec<PoseGpu> = (start..end)
-                .into_par_iter()
-                .map(|k| {
-                    let plan_index = prepared.plan_index(k);
-                    let plan = &prepared.plans[plan_index];
-                    let [az_off, el_off] = offsets[&plan_index];
-                    pose_gpu(
-                        &items[k].pose.rotation,
-                        items[k].pose.translation.to_array(),
-                        items[k].measurement.range,
-                        prepared.base_azimuth(k),
-                        [
-                            az_off,
-                            plan.azimuths.len() as u32,
-                            el_off,
-                            plan.elevations.len() as u32,
-                        ],
+            // Items: packed and, below, unpacked on all cores (serial, these loops took
+            // 80–180 ns a pose here, BENCHMARKS.md). A grid: the digits of the chunk's first
+            // pose, the poses decoded by the poses stage.
+            let decode = match (source, &grid_buffers, range_plans) {
+                (Source::Items(prepared), _, _) => {
+                    let items = &prepared.batch.items;
+                    let pose_data: Vec<PoseGpu> = (start..end)
+                        .into_par_iter()
+                        .map(|k| {
+                            let plan_index = prepared.plan_index(k);
+                            let plan = &prepared.plans[plan_index];
+                            let [az_off, el_off] = offsets[&plan_index];
+                            pose_gpu(
+                                &items[k].pose.rotation,
+                                items[k].pose.translation.to_array(),
+                                items[k].measurement.range,
+                                prepared.base_azimuth(k),
+                                [
+                                    az_off,
+                                    plan.azimuths.len() as u32,
+                                    el_off,
+                                    plan.elevations.len() as u32,
+                                ],
+                            )
+                        })
+                        .collect();
+                    queue.write_buffer(&poses, 0, bytemuck::cast_slice(&pose_data));
+                    None
+                }
+                (
+                    Source::Grid { prepared, first, .. },
+                    Some((table, grid_params, axis_offsets)),
+                    Some(range_plans),
+                ) => {
+                    let grid = prepared.grid;
+                    let digits = grid.indices(first + start as u64);
+                    let mut g = GridParams {
+                        count: n as u32,
+                        placement: u32::from(grid.placement()),
+                        fls: u32::from(prepared.source.kind == SonarKind::Fls),
+                        ..GridParams::zeroed()
+                    };
+                    for k in 0..9 {
+                        g.first[k] = digits[k] as u32;
+                        g.lens[k] = grid.axes()[k].len() as u32;
+                        g.offsets[k] = axis_offsets[k];
+                    }
+                    queue.write_buffer(grid_params, 0, bytemuck::bytes_of(&g));
+                    Some(
+                        self.poses
+                            .bind(device, &[grid_params, table, range_plans, &poses]),
                     )
-                })
-                .collect();
-            queue.write_buffer(&poses, 0, bytemuck::cast_slice(&pose_data));
+                }
+                _ => unreachable!("a grid has its tables"),
+            };
             queue.write_buffer(
                 &params,
                 0,
@@ -359,18 +509,26 @@ impl GpuBackend {
                 .clamp(1, MAX_TILES) as u32;
             let used_bits = n as u64 * bits_per_pose_bytes;
             let used_metrics = (n * METRIC_STRIDE * 4) as u64;
+            // The chunk's poses over two dimensions of workgroups.
+            let across = (n as u32).min(dim);
+            let rows = (n as u32).div_ceil(across);
 
             let mut enc = device.create_command_encoder(&Default::default());
             enc.clear_buffer(&bits, 0, Some(used_bits));
             enc.clear_buffer(&metrics, 0, Some(used_metrics));
             {
                 let mut pass = enc.begin_compute_pass(&Default::default());
+                if let Some(group) = &decode {
+                    pass.set_pipeline(&self.poses.pipeline);
+                    pass.set_bind_group(0, group, &[]);
+                    pass.dispatch_workgroups((n as u64).div_ceil(POSES_WORKGROUP) as u32, 1, 1);
+                }
                 pass.set_pipeline(&self.splat.pipeline);
                 pass.set_bind_group(0, &splat_group, &[]);
-                pass.dispatch_workgroups(tiles, n as u32, 1);
+                pass.dispatch_workgroups(tiles, across, rows);
                 pass.set_pipeline(&self.reduce.pipeline);
                 pass.set_bind_group(0, &reduce_group, &[]);
-                pass.dispatch_workgroups(n as u32, 1, 1);
+                pass.dispatch_workgroups(across, rows, 1);
             }
             enc.copy_buffer_to_buffer(&metrics, 0, &metrics_staging, 0, used_metrics);
             if let Some(staging) = &bits_staging {
@@ -383,46 +541,137 @@ impl GpuBackend {
                 Some(staging) => Some(read(&self.ctx, staging, used_bits)?),
                 None => None,
             };
-            out.par_extend((start..end).into_par_iter().enumerate().map(|(c, k)| {
-                let m = &raw[c * METRIC_STRIDE..(c + 1) * METRIC_STRIDE];
-                let total = prepared.plan(k).total() as u64;
-                let extremes = Extremes {
-                    range_min: f64::from(from_order_key(!m[METRIC_RANGE_MIN_NOT])),
-                    range_max: f64::from(from_order_key(m[METRIC_RANGE_MAX])),
-                    azimuth_min: f64::from(from_order_key(!m[METRIC_AZIMUTH_MIN_NOT])),
-                    azimuth_max: f64::from(from_order_key(m[METRIC_AZIMUTH_MAX])),
-                };
-                let occupied = u64::from(m[METRIC_OCCUPIED]);
-                let measure = match layout.kind {
-                    SonarKind::Sss => occupied as f64 * layout.range_bin_width,
-                    SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_OCCUPIED_MEASURE])),
-                };
-                let area = layout
-                    .area_grid
-                    .map(|g| g.area(u64::from(m[METRIC_PROJECTION_AREA])));
-                let visible = u64::from(m[METRIC_VISIBLE]);
-                let metrics = Metrics::new(visible, total, extremes, (occupied, measure), area);
-                let occupancy = raw_bits.as_ref().map(|b| {
-                    let words_of = &b[c * words..][..pixel_words];
-                    layout.to_data_order(Occupancy::from_words(
-                        layout.range_bins,
-                        layout.beams(),
-                        words_of.to_vec(),
-                    ))
-                });
-                let cells = raw_bits.as_ref().zip(layout.area_grid).map(|(b, g)| {
-                    let words_of = &b[c * words + pixel_words..(c + 1) * words];
-                    Occupancy::from_words(g.nx, g.ny, words_of.to_vec())
-                });
-                Projection {
-                    metrics,
-                    occupancy,
-                    cells,
-                }
-            }));
+            let projections: Vec<Projection> = (start..end)
+                .into_par_iter()
+                .enumerate()
+                .map(|(c, k)| {
+                    let m = &raw[c * METRIC_STRIDE..(c + 1) * METRIC_STRIDE];
+                    let total = plans[source.plan_index(k)].total() as u64;
+                    let extremes = Extremes {
+                        range_min: f64::from(from_order_key(!m[METRIC_RANGE_MIN_NOT])),
+                        range_max: f64::from(from_order_key(m[METRIC_RANGE_MAX])),
+                        azimuth_min: f64::from(from_order_key(!m[METRIC_AZIMUTH_MIN_NOT])),
+                        azimuth_max: f64::from(from_order_key(m[METRIC_AZIMUTH_MAX])),
+                    };
+                    let occupied = u64::from(m[METRIC_OCCUPIED]);
+                    let measure = match layout.kind {
+                        SonarKind::Sss => occupied as f64 * layout.range_bin_width,
+                        SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_OCCUPIED_MEASURE])),
+                    };
+                    let area = layout
+                        .area_grid
+                        .map(|g| g.area(u64::from(m[METRIC_PROJECTION_AREA])));
+                    let visible = u64::from(m[METRIC_VISIBLE]);
+                    let metrics = Metrics::new(visible, total, extremes, (occupied, measure), area);
+                    let occupancy = raw_bits.as_ref().map(|b| {
+                        let words_of = &b[c * words..][..pixel_words];
+                        layout.to_data_order(Occupancy::from_words(
+                            layout.range_bins,
+                            layout.beams(),
+                            words_of.to_vec(),
+                        ))
+                    });
+                    let cells = raw_bits.as_ref().zip(layout.area_grid).map(|(b, g)| {
+                        let words_of = &b[c * words + pixel_words..(c + 1) * words];
+                        Occupancy::from_words(g.nx, g.ny, words_of.to_vec())
+                    });
+                    Projection {
+                        metrics,
+                        occupancy,
+                        cells,
+                    }
+                })
+                .collect();
+            emit(start, projections);
         }
-        Ok(out)
+        Ok(())
     }
+}
+
+/// Where the poses of a projection come from.
+enum Source<'a> {
+    /// A batch's items, packed by the host.
+    Items(&'a PreparedBatch<'a>),
+    /// Poses `first..first + count` of a grid, decoded on the device.
+    Grid {
+        prepared: &'a PreparedGrid<'a>,
+        first: u64,
+        count: usize,
+    },
+}
+
+impl Source<'_> {
+    fn count(&self) -> usize {
+        match self {
+            Source::Items(p) => p.batch.items.len(),
+            Source::Grid { count, .. } => *count,
+        }
+    }
+
+    fn layout(&self) -> &Layout {
+        match self {
+            Source::Items(p) => &p.layout,
+            Source::Grid { prepared, .. } => &prepared.layout,
+        }
+    }
+
+    fn plans(&self) -> &[SamplingPlan] {
+        match self {
+            Source::Items(p) => &p.plans,
+            Source::Grid { prepared, .. } => &prepared.plans,
+        }
+    }
+
+    /// Returns the index of pose `k`'s plan.
+    fn plan_index(&self, k: usize) -> usize {
+        match self {
+            Source::Items(p) => p.plan_index(k),
+            Source::Grid { prepared, first, .. } => {
+                prepared.plan_of_range[prepared.grid.indices(first + k as u64)[0]] as usize
+            }
+        }
+    }
+
+    /// Returns the plans poses `range` use, in increasing order.
+    fn plans_used(&self, range: std::ops::Range<usize>) -> Vec<usize> {
+        let mut used = vec![false; self.plans().len()];
+        match self {
+            Source::Items(_) => {
+                for k in range {
+                    used[self.plan_index(k)] = true;
+                }
+            }
+            // The range axis is the slowest: the chunk's range values are one span.
+            Source::Grid { prepared, first, .. } => {
+                let range_of = |k: usize| prepared.grid.indices(first + k as u64)[0];
+                for r in range_of(range.start)..=range_of(range.end - 1) {
+                    used[prepared.plan_of_range[r] as usize] = true;
+                }
+            }
+        }
+        (0..used.len()).filter(|&p| used[p]).collect()
+    }
+}
+
+/// Returns a grid's table for the poses stage — per axis value, three double-f32 entries built
+/// in f64: the value, and the cosine and sine of the value in degrees (angles' axes; the
+/// placement's and translation's lengths use the value alone) — and where each axis's entries
+/// start.
+fn grid_table(grid: &PoseGrid) -> (Vec<[f32; 2]>, [u32; 9]) {
+    let pair = |v: f64| {
+        let (hi, lo) = split(v);
+        [hi, lo]
+    };
+    let mut table = Vec::new();
+    let mut offsets = [0; 9];
+    for (k, axis) in grid.axes().iter().enumerate() {
+        offsets[k] = table.len() as u32;
+        for &v in axis {
+            let r = v.to_radians();
+            table.extend([pair(v), pair(r.cos()), pair(r.sin())]);
+        }
+    }
+    (table, offsets)
 }
 
 /// The direction table uploaded for a chunk: which plans it holds, the buffer, and per plan the
@@ -431,6 +680,8 @@ struct Directions {
     plans: Vec<usize>,
     buffer: wgpu::Buffer,
     offsets: HashMap<usize, [u32; 2]>,
+    /// A grid's plan of each range value (its entries' offsets in this table).
+    range_plans: Option<wgpu::Buffer>,
 }
 
 /// Returns the direction table of the plans in `used` — azimuths then elevations of each, each
@@ -439,10 +690,7 @@ struct Directions {
 /// centre's rounding) right after its elevations, then its blocks' reaches from their chords
 /// (`culling::block_bounds`, four an entry, rounded up past the shader's roundings of the chord's
 /// ends) — and per plan the offsets of its azimuth and elevation entries.
-fn direction_table(
-    prepared: &PreparedBatch<'_>,
-    used: &[usize],
-) -> (Vec<[f32; 4]>, HashMap<usize, [u32; 2]>) {
+fn direction_table(plans: &[SamplingPlan], used: &[usize]) -> (Vec<[f32; 4]>, HashMap<usize, [u32; 2]>) {
     let entry = |angle: &f64| {
         let (c, s) = (split(angle.cos()), split(angle.sin()));
         [c.0, s.0, c.1, s.1]
@@ -450,7 +698,7 @@ fn direction_table(
     let mut table = Vec::new();
     let mut offsets = HashMap::new();
     for &p in used {
-        let plan = &prepared.plans[p];
+        let plan = &plans[p];
         let az_off = table.len() as u32;
         table.extend(plan.azimuths.iter().map(entry));
         let el_off = table.len() as u32;

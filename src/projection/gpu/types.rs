@@ -83,6 +83,28 @@ pub(crate) struct PoseGpu {
 }
 const _: () = assert!(std::mem::size_of::<PoseGpu>() == 112);
 
+/// The grid of a chunk's poses as the poses stage decodes it (WGSL `GridParams`,
+/// `shaders/poses.wgsl`): the first pose's digits, the axes' lengths and where each axis's
+/// entries start in the grid table, nine each in three `vec4<u32>`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(crate) struct GridParams {
+    /// The digits of the chunk's first pose (mixed radix, the last axis fastest).
+    pub(crate) first: [u32; 12],
+    /// Values per axis.
+    pub(crate) lens: [u32; 12],
+    /// Where each axis's entries (value, cos, sin: three an axis value) start in the table.
+    pub(crate) offsets: [u32; 12],
+    /// Poses in the chunk.
+    pub(crate) count: u32,
+    /// 1 when the second three axes are a placement, 0 for a translation.
+    pub(crate) placement: u32,
+    /// 1 when sonar 1 is an FLS (the arc is turned by the feature's azimuth).
+    pub(crate) fls: u32,
+    pub(crate) _pad: u32,
+}
+const _: () = assert!(std::mem::size_of::<GridParams>() == 160);
+
 /// Returns `v` as double-f32 `(hi, lo)`: `hi = f32(v)`, `lo = f32(v − hi)`.
 #[must_use]
 pub(crate) fn split(v: f64) -> (f32, f32) {

@@ -9,12 +9,18 @@ use std::sync::Arc;
 
 use parquet::basic::{Compression, Repetition, Type as Physical};
 use parquet::column::reader::ColumnReader;
+use parquet::column::writer::{ColumnCloseResult, get_column_writer, get_typed_column_writer_mut};
 use parquet::data_type::{DoubleType, Int64Type};
-use parquet::file::properties::{EnabledStatistics, WriterProperties, WriterVersion};
+use parquet::file::metadata::ColumnChunkMetaData;
+use parquet::file::properties::{WriterProperties, WriterPropertiesPtr, WriterVersion};
 use parquet::file::reader::{FileReader, SerializedFileReader};
-use parquet::file::writer::SerializedFileWriter;
+use parquet::file::serialized_reader::ReadOptionsBuilder;
+use parquet::file::statistics::Statistics;
+use parquet::file::writer::{SerializedFileWriter, SerializedPageWriter, TrackedWrite};
+use parquet::schema::types::ColumnDescPtr;
 use parquet::schema::types::ColumnPath;
 use parquet::schema::types::Type;
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 
@@ -84,10 +90,22 @@ impl Column {
 
     /// Moves the first `n` values out into a new column.
     fn take_front(&mut self, n: usize) -> Column {
+        if n == self.len() {
+            return std::mem::replace(self, self.empty_like());
+        }
         match self {
             Column::Int(v) => Column::Int(v.drain(..n).collect()),
             Column::Real(v) => Column::Real(v.drain(..n).collect()),
             Column::Optional(v) => Column::Optional(v.drain(..n).collect()),
+        }
+    }
+
+    /// Returns an empty column of this one's kind.
+    fn empty_like(&self) -> Column {
+        match self {
+            Column::Int(_) => Column::Int(Vec::new()),
+            Column::Real(_) => Column::Real(Vec::new()),
+            Column::Optional(_) => Column::Optional(Vec::new()),
         }
     }
 
@@ -192,18 +210,13 @@ fn schema(names: &[String], kinds: &[Kind]) -> Result<Arc<Type>> {
         .map_err(|e| Error::invalid("columns", format!("{names:?}"), e.to_string()))
 }
 
-/// How a [`TableWriter`] encodes.
+/// How a [`TableWriter`] encodes — one way for every file of a sweep (chunks, shards, results),
+/// so that whole row groups are copied between them as they are: Snappy pages, statistics, and
+/// dictionaries for the columns named (the pose columns, whose values repeat).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Encoding<'a> {
-    /// A file to keep: Snappy pages, statistics, and dictionaries for the columns named (the
-    /// pose columns, whose values repeat).
-    Final {
-        /// The columns to dictionary-encode.
-        dictionary: &'a [String],
-    },
-    /// A file read back once by this program (a chunk): plain values, uncompressed, no
-    /// statistics, the cheapest to write and read.
-    Scratch,
+pub struct Encoding<'a> {
+    /// The columns to dictionary-encode.
+    pub dictionary: &'a [String],
 }
 
 /// Writes a table as Parquet row by row group: rows pushed in index order, row groups cut where
@@ -234,18 +247,10 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
             .set_writer_version(WriterVersion::PARQUET_1_0)
             .set_created_by(format!("sonarproj {}", sonarproj::VERSION))
             .set_dictionary_enabled(false);
-        props = match encoding {
-            Encoding::Final { dictionary } => {
-                props = props.set_compression(Compression::SNAPPY);
-                for name in dictionary {
-                    props = props.set_column_dictionary_enabled(ColumnPath::from(name.as_str()), true);
-                }
-                props
-            }
-            Encoding::Scratch => props
-                .set_compression(Compression::UNCOMPRESSED)
-                .set_statistics_enabled(EnabledStatistics::None),
-        };
+        props = props.set_compression(Compression::SNAPPY);
+        for name in encoding.dictionary {
+            props = props.set_column_dictionary_enabled(ColumnPath::from(name.as_str()), true);
+        }
         let props = props.build();
         let inner = SerializedFileWriter::new(sink, schema(names, kinds)?, Arc::new(props))
             .map_err(|e| Error::write_output(path, e))?;
@@ -271,8 +276,13 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
                 ),
             });
         }
-        for (a, b) in self.pending.columns.iter_mut().zip(rows.columns) {
-            a.append(b);
+        if self.pending.rows() == 0 {
+            // Nothing pending: the rows are taken as they are, not copied.
+            self.pending.columns = rows.columns;
+        } else {
+            for (a, b) in self.pending.columns.iter_mut().zip(rows.columns) {
+                a.append(b);
+            }
         }
         loop {
             #[expect(clippy::cast_possible_truncation, reason = "below GROUP_ROWS")]
@@ -284,36 +294,63 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
         }
     }
 
-    /// Writes the first `n` pending rows as one row group.
+    /// Writes the first `n` pending rows as one row group, its columns encoded on all cores
+    /// (each into memory, then spliced into the file in order: the bytes of encoding them one
+    /// after the other).
     fn write_group(&mut self, n: usize) -> Result<()> {
         let err = |e: parquet::errors::ParquetError| Error::write_output(self.path, e);
         let group: Vec<Column> = self.pending.columns.iter_mut().map(|c| c.take_front(n)).collect();
+        let descriptors = self.inner.schema_descr().columns().to_vec();
+        let props = self.inner.properties().clone();
+        let encoded = group
+            .par_iter()
+            .zip(descriptors)
+            .map(|(column, descr)| encode_column(descr, props.clone(), column))
+            .collect::<parquet::errors::Result<Vec<_>>>()
+            .map_err(err)?;
         let mut rg = self.inner.next_row_group().map_err(err)?;
-        for column in &group {
-            let mut w = rg
-                .next_column()
-                .map_err(err)?
-                .expect("one column writer a schema column");
-            match column {
-                Column::Int(v) => {
-                    w.typed::<Int64Type>().write_batch(v, None, None).map_err(err)?;
-                }
-                Column::Real(v) => {
-                    w.typed::<DoubleType>().write_batch(v, None, None).map_err(err)?;
-                }
-                Column::Optional(v) => {
-                    let levels: Vec<i16> = v.iter().map(|x| i16::from(x.is_some())).collect();
-                    let values: Vec<f64> = v.iter().flatten().copied().collect();
-                    w.typed::<DoubleType>()
-                        .write_batch(&values, Some(&levels), None)
-                        .map_err(err)?;
-                }
-            }
-            w.close().map_err(err)?;
+        for (bytes, close) in encoded {
+            rg.append_column(&bytes, close).map_err(err)?;
         }
         rg.close().map_err(err)?;
         self.next += n as u64;
         Ok(())
+    }
+
+    /// Copies row group `g` of `part` (read with its page indexes) into this file as it is,
+    /// without decoding it, when that makes the bytes encoding its rows would: no rows are
+    /// pending, the group starts at a multiple of [`GROUP_ROWS`] in the pose index, and it is
+    /// whole (or `last`, the last rows of this file). Returns whether it was copied (else the
+    /// caller pushes its rows). The part must have been written by a [`TableWriter`] with this
+    /// one's encoding.
+    ///
+    /// # Errors
+    /// [`Error::WriteOutput`] on I/O failure.
+    pub fn copy_group(&mut self, part: &Part, g: usize, last: bool) -> Result<bool> {
+        let err = |e: parquet::errors::ParquetError| Error::write_output(self.path, e);
+        let meta = part.reader.metadata();
+        let group = meta.row_group(g);
+        let rows = u64::try_from(group.num_rows()).unwrap_or(0);
+        let whole = rows == GROUP_ROWS || (last && rows > 0 && rows < GROUP_ROWS);
+        if self.pending.rows() > 0 || !self.next.is_multiple_of(GROUP_ROWS) || !whole {
+            return Ok(false);
+        }
+        let index = meta.page_index();
+        let mut rg = self.inner.next_row_group().map_err(err)?;
+        for (j, column) in group.columns().iter().enumerate() {
+            let close = ColumnCloseResult {
+                bytes_written: u64::try_from(column.compressed_size()).unwrap_or(0),
+                rows_written: rows,
+                metadata: as_written(column).map_err(err)?,
+                bloom_filter: None,
+                column_index: index.and_then(|i| i.column_index(g, j)).cloned(),
+                offset_index: index.and_then(|i| i.offset_index(g, j)).cloned(),
+            };
+            rg.append_column(&part.file, close).map_err(err)?;
+        }
+        rg.close().map_err(err)?;
+        self.next += rows;
+        Ok(true)
     }
 
     /// Writes the last row group and the footer.
@@ -332,6 +369,173 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
     }
 }
 
+/// Returns a column chunk's metadata read back from a file as its writer made it: the reader
+/// marks statistics read from the `min_value`/`max_value` fields as not backwards compatible,
+/// while the writer also fills the deprecated `min`/`max` fields for a signed sort order (every
+/// column here), so they are marked so again.
+fn as_written(column: &ColumnChunkMetaData) -> parquet::errors::Result<ColumnChunkMetaData> {
+    let signed = column.column_descr().sort_order().is_signed();
+    let Some(stats) = column.statistics() else {
+        return Ok(column.clone());
+    };
+    let stats = match stats.clone() {
+        Statistics::Int64(v) => Statistics::Int64(v.with_backwards_compatible_min_max(signed)),
+        Statistics::Double(v) => Statistics::Double(v.with_backwards_compatible_min_max(signed)),
+        other => other,
+    };
+    column.clone().into_builder().set_statistics(stats).build()
+}
+
+/// Returns column `column` encoded alone into memory with `props`: its bytes and what closing
+/// its writer returned (offsets from the start of the bytes).
+fn encode_column(
+    descr: ColumnDescPtr,
+    props: WriterPropertiesPtr,
+    column: &Column,
+) -> parquet::errors::Result<(bytes::Bytes, ColumnCloseResult)> {
+    let mut sink = TrackedWrite::new(Vec::new());
+    let close = {
+        let mut w = get_column_writer(descr, props, Box::new(SerializedPageWriter::new(&mut sink)));
+        match column {
+            Column::Int(v) => {
+                get_typed_column_writer_mut::<Int64Type>(&mut w).write_batch(v, None, None)?;
+            }
+            Column::Real(v) => {
+                get_typed_column_writer_mut::<DoubleType>(&mut w).write_batch(v, None, None)?;
+            }
+            Column::Optional(v) => {
+                let levels: Vec<i16> = v.iter().map(|x| i16::from(x.is_some())).collect();
+                let values: Vec<f64> = v.iter().flatten().copied().collect();
+                get_typed_column_writer_mut::<DoubleType>(&mut w).write_batch(
+                    &values,
+                    Some(&levels),
+                    None,
+                )?;
+            }
+        }
+        w.close()?
+    };
+    Ok((bytes::Bytes::from(sink.into_inner()?), close))
+}
+
+/// A Parquet part opened for [`TableWriter::copy_group`]: the file and its reader (with page
+/// indexes).
+pub struct Part {
+    file: std::fs::File,
+    reader: SerializedFileReader<std::fs::File>,
+}
+
+impl Part {
+    /// Returns the row counts of the part's row groups.
+    #[must_use]
+    pub fn group_rows(&self) -> Vec<u64> {
+        self.reader
+            .metadata()
+            .row_groups()
+            .iter()
+            .map(|g| u64::try_from(g.num_rows()).unwrap_or(0))
+            .collect()
+    }
+
+    /// Returns row group `g` as a table.
+    ///
+    /// # Errors
+    /// [`Error::Csv`] naming the file when the group cannot be read.
+    pub fn group(&self, g: usize, path: &Path, names: &[String], kinds: &[Kind]) -> Result<Table> {
+        read_group(&self.reader, g, path, names, kinds)
+    }
+}
+
+/// Returns Parquet file `path` opened as a [`Part`], after checking that its columns are `names`
+/// of `kinds`.
+///
+/// # Errors
+/// As [`read_groups`].
+pub fn open_part(path: &Path, names: &[String], kinds: &[Kind]) -> Result<Part> {
+    let file = open(path)?;
+    // Every field of the column chunks kept as written (the page encoding statistics as a
+    // list, not the reader's default mask), so a copied group is the bytes encoding it makes.
+    let options = ReadOptionsBuilder::new()
+        .with_page_index()
+        .with_encoding_stats_as_mask(false)
+        .build();
+    let reader = SerializedFileReader::new_with_options(
+        file.try_clone().map_err(|source| Error::ReadInput {
+            path: path.to_path_buf(),
+            source,
+        })?,
+        options,
+    )
+    .map_err(|e| not_parquet(path, &e))?;
+    check_schema(&reader, path, names, kinds)?;
+    Ok(Part { file, reader })
+}
+
+/// Returns `path` opened for reading.
+fn open(path: &Path) -> Result<std::fs::File> {
+    std::fs::File::open(path).map_err(|source| Error::ReadInput {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Returns the error of a file that is not Parquet.
+fn not_parquet(path: &Path, e: &parquet::errors::ParquetError) -> Error {
+    Error::Csv {
+        context: path.display().to_string(),
+        message: format!("not a Parquet file ({e})"),
+    }
+}
+
+/// Returns `Ok` when `reader`'s columns are `names` of `kinds`.
+fn check_schema<R: parquet::file::reader::ChunkReader + 'static>(
+    reader: &SerializedFileReader<R>,
+    path: &Path,
+    names: &[String],
+    kinds: &[Kind],
+) -> Result<()> {
+    let want = schema(names, kinds)?;
+    let have = reader.metadata().file_metadata().schema();
+    if have.get_fields() != want.get_fields() {
+        let have: Vec<&str> = have.get_fields().iter().map(|f| f.name()).collect();
+        return Err(Error::Csv {
+            context: path.display().to_string(),
+            message: format!(
+                "its columns {have:?} (or their types) differ from this sweep's {names:?}: a part of another sweep"
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Returns row group `g` of `reader` (the file `path`) as a table of `names` of `kinds`.
+fn read_group<R: parquet::file::reader::ChunkReader + 'static>(
+    reader: &SerializedFileReader<R>,
+    g: usize,
+    path: &Path,
+    names: &[String],
+    kinds: &[Kind],
+) -> Result<Table> {
+    let bad = |message: String| Error::Csv {
+        context: path.display().to_string(),
+        message,
+    };
+    let group = reader
+        .get_row_group(g)
+        .map_err(|e| bad(format!("row group {g}: {e}")))?;
+    let rows = usize::try_from(group.metadata().num_rows())
+        .map_err(|_| bad(format!("row group {g} has a negative row count")))?;
+    let mut table = Table::new(names, kinds);
+    for (j, column) in table.columns.iter_mut().enumerate() {
+        let reader = group
+            .get_column_reader(j)
+            .map_err(|e| bad(format!("row group {g}, column {j}: {e}")))?;
+        *column = read_column(reader, kinds[j], rows)
+            .map_err(|e| bad(format!("row group {g}, column {}: {e}", names[j])))?;
+    }
+    Ok(table)
+}
+
 /// Returns the row groups of the Parquet file `path` one at a time, each as a table, after
 /// checking that its columns are `names` of `kinds`.
 ///
@@ -343,44 +547,10 @@ pub fn read_groups<'a>(
     names: &[String],
     kinds: &[Kind],
 ) -> Result<impl Iterator<Item = Result<Table>> + 'a> {
-    let bad = |message: String| Error::Csv {
-        context: path.display().to_string(),
-        message,
-    };
-    let file = std::fs::File::open(path).map_err(|source| Error::ReadInput {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let reader = SerializedFileReader::new(file).map_err(|e| bad(format!("not a Parquet file ({e})")))?;
-    let want = schema(names, kinds)?;
-    let have = reader.metadata().file_metadata().schema();
-    if have.get_fields() != want.get_fields() {
-        let have: Vec<&str> = have.get_fields().iter().map(|f| f.name()).collect();
-        return Err(bad(format!(
-            "its columns {have:?} (or their types) differ from this sweep's {names:?}: a part of another sweep"
-        )));
-    }
+    let reader = SerializedFileReader::new(open(path)?).map_err(|e| not_parquet(path, &e))?;
+    check_schema(&reader, path, names, kinds)?;
     let (names, kinds) = (names.to_vec(), kinds.to_vec());
-    Ok((0..reader.num_row_groups()).map(move |g| {
-        let bad = |message: String| Error::Csv {
-            context: path.display().to_string(),
-            message,
-        };
-        let group = reader
-            .get_row_group(g)
-            .map_err(|e| bad(format!("row group {g}: {e}")))?;
-        let rows = usize::try_from(group.metadata().num_rows())
-            .map_err(|_| bad(format!("row group {g} has a negative row count")))?;
-        let mut table = Table::new(&names, &kinds);
-        for (j, column) in table.columns.iter_mut().enumerate() {
-            let reader = group
-                .get_column_reader(j)
-                .map_err(|e| bad(format!("row group {g}, column {j}: {e}")))?;
-            *column = read_column(reader, kinds[j], rows)
-                .map_err(|e| bad(format!("row group {g}, column {}: {e}", names[j])))?;
-        }
-        Ok(table)
-    }))
+    Ok((0..reader.num_row_groups()).map(move |g| read_group(&reader, g, path, &names, &kinds)))
 }
 
 /// Returns the `rows` values of a required column chunk of any physical type.
@@ -456,7 +626,7 @@ mod tests {
         let mut out = Vec::new();
         let path = Path::new("test.parquet");
         let dictionary = [t.names[1].clone()];
-        let encoding = Encoding::Final {
+        let encoding = Encoding {
             dictionary: &dictionary,
         };
         let mut w = TableWriter::new(&mut out, &t.names, &t.kinds(), first, encoding, path).unwrap();
@@ -499,6 +669,60 @@ mod tests {
             }
         }
         assert_eq!(all, table(0, n));
+    }
+
+    /// Whole row groups copied from parts as they are, and the rest decoded and cut again,
+    /// make the bytes of writing the rows at once (a copied group's metadata is the writer's).
+    #[test]
+    #[expect(clippy::cast_possible_wrap, reason = "GROUP_ROWS is 2^17")]
+    fn copied_groups_make_the_bytes_of_encoding_them() {
+        let g = GROUP_ROWS as i64;
+        let n = 2 * g + 1000;
+        let whole = write_parts(&[table(0, n)], 0);
+        let dir = tempfile::tempdir().unwrap();
+        let t = table(0, 1);
+        let dictionary = [t.names[1].clone()];
+        for cuts in [vec![0, g, g + 7, n], vec![0, g, 2 * g, n], vec![0, 5, n]] {
+            let files: Vec<std::path::PathBuf> = cuts
+                .windows(2)
+                .enumerate()
+                .map(|(k, w)| {
+                    let path = dir.path().join(format!("part-{k}.parquet"));
+                    std::fs::write(&path, write_parts(&[table(w[0], w[1] - w[0])], w[0] as u64)).unwrap();
+                    path
+                })
+                .collect();
+            let mut out = Vec::new();
+            let path = Path::new("joined.parquet");
+            let encoding = Encoding {
+                dictionary: &dictionary,
+            };
+            let mut w = TableWriter::new(&mut out, &t.names, &t.kinds(), 0, encoding, path).unwrap();
+            let mut copied = 0;
+            for (k, file) in files.iter().enumerate() {
+                let part = open_part(file, &t.names, &t.kinds()).unwrap();
+                let groups = part.group_rows().len();
+                for group in 0..groups {
+                    let last = k + 1 == files.len() && group + 1 == groups;
+                    if w.copy_group(&part, group, last).unwrap() {
+                        copied += 1;
+                    } else {
+                        w.push(part.group(group, file, &t.names, &t.kinds()).unwrap())
+                            .unwrap();
+                    }
+                }
+            }
+            w.finish().unwrap();
+            assert!(
+                out == whole,
+                "cuts {cuts:?}: {} bytes against {}",
+                out.len(),
+                whole.len()
+            );
+            // The aligned whole groups were copied: the first part's (when it is one group), the
+            // last group.
+            assert!(copied >= 1, "cuts {cuts:?}: nothing copied");
+        }
     }
 
     #[test]

@@ -7,10 +7,8 @@ mod figures;
 mod findings;
 
 pub use findings::{Finding, findings, findings_markdown};
-use sonarproj::Output;
 
 use crate::error::{Error, Result, finite};
-use crate::io::batch::local_of;
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::{Sonar, SonarKind};
 use sonarproj::local_precision::{LocalPrecision, default_sigma_range};
@@ -286,20 +284,11 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
         .into_iter()
         .map(|direction| {
             let sampling = direction_sampling(direction, sampling);
-            let pair = batch(direction, &poses, sampling)?;
-            let results = backend.project(&pair, Output::MetricsOnly)?;
-            let sigma = default_sigma_range(&pair.source, &pair.target);
-            let local = pair
-                .items
-                .iter()
-                .map(|item| local_of(&pair, item, Some([item.measurement.range, 0.0, 0.0]), sigma))
-                .collect();
             let (s1, s2) = direction.sonars();
+            let (results, local) =
+                project_grids(backend, direction, &poses, sampling, |p| distances(p, &s1, &s2))?;
             let near = (NEAR_FRACTION * s1.range_max, NEAR_FRACTION * s2.range_max);
-            let near_both = backend.project(
-                &batch_at(direction, &grid, sampling, |_| near)?,
-                Output::MetricsOnly,
-            )?;
+            let (near_both, _) = project_grids(backend, direction, &grid, sampling, |_| near)?;
             Ok(DirectionRun {
                 direction,
                 sampling,
@@ -310,6 +299,79 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
             })
         })
         .collect()
+}
+
+/// Returns the projections of `poses` for `direction` (with the feature distances `at` gives)
+/// and the local precision at each feature's true point, in the order of `poses`: each run of
+/// poses of one scenario and fraction is a grid — the distances fixed, the swept angles over
+/// their values — projected with its poses decoded where the work runs
+/// ([`Backend::project_columns`]), the batch items of the same poses' results.
+///
+/// # Errors
+/// As [`Backend::project_columns`].
+fn project_grids(
+    backend: &Backend,
+    direction: Direction,
+    poses: &[ScenarioPose],
+    sampling: Sampling,
+    at: impl Fn(&ScenarioPose) -> (f64, f64),
+) -> Result<(Vec<Projection>, Vec<LocalPrecision>)> {
+    let (s1, s2) = direction.sonars();
+    let sigma = default_sigma_range(&s1, &s2);
+    let mut results = Vec::with_capacity(poses.len());
+    let mut local = Vec::with_capacity(poses.len());
+    let mut columns = sonarproj::MetricColumns::default();
+    let (mut rpe, mut sig) = (Vec::new(), Vec::new());
+    let optional = |v: f64| Some(v).filter(|v| !v.is_nan());
+    for run in poses.chunk_by(|a, b| (a.scenario, a.fraction) == (b.scenario, b.fraction)) {
+        let (d1, d2) = at(&run[0]);
+        // Each rotation axis over the values the run takes (sorted), the distances fixed.
+        let rotations: [Vec<f64>; 3] = std::array::from_fn(|k| {
+            let mut v: Vec<f64> = run.iter().map(|p| p.angles[k]).collect();
+            v.sort_by(f64::total_cmp);
+            v.dedup();
+            v
+        });
+        let [roll, pitch, yaw] = rotations.clone();
+        let axes = [
+            vec![d1],
+            vec![0.0],
+            vec![0.0],
+            vec![d2],
+            vec![0.0],
+            vec![0.0],
+            roll,
+            pitch,
+            yaw,
+        ];
+        let grid = sonarproj::PoseGrid::new(axes, true, &s1)?;
+        let sweep = sonarproj::PoseSweep {
+            source: s1.clone(),
+            target: s2.clone(),
+            sampling,
+            area_grid: sonarproj::PAPER_AREA_GRID,
+            poses: sonarproj::PoseSource::Grid(&grid),
+        };
+        backend.project_columns(&sweep, 0..grid.len(), &mut columns, &|| false)?;
+        sweep.local_precision_columns(0..grid.len(), sigma, &mut rpe, &mut sig)?;
+        // A pose's place in the grid (scenario 9 sweeps yaw outside roll, the grid roll first).
+        for p in run {
+            let index = (0..3).fold(0, |i, k| {
+                let values = &rotations[k];
+                i * values.len() + values.partition_point(|&v| v < p.angles[k])
+            });
+            results.push(Projection {
+                metrics: columns.get(index),
+                occupancy: None,
+                cells: None,
+            });
+            local.push(LocalPrecision {
+                range_per_elevation: optional(rpe[index]),
+                sigma_elevation: optional(sig[index]),
+            });
+        }
+    }
+    Ok((results, local))
 }
 
 impl DirectionRun {

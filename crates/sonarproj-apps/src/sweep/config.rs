@@ -36,11 +36,10 @@ use crate::error::{Error, Result};
 use crate::io::batch::PoseRow;
 use crate::io::{BatchInput, read_batch_csv};
 use crate::sweep::summary::{self, SummarySpec};
-use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::{Sonar, SonarKind};
 use sonarproj::metrics::Metric;
-use sonarproj::projection::{Batch, BatchItem};
-use sonarproj::sampling::{Measurement, Sampling};
+use sonarproj::projection::Batch;
+use sonarproj::sampling::Sampling;
 
 pub use sonarproj::limits::{MAX_AXIS_VALUES, MAX_POSES};
 
@@ -510,7 +509,11 @@ impl SweepConfig {
                     .map_err(|e| e.in_context(&format!("sweep file {file:?}: feature.{}", rae[k])))?;
             }
         }
-        Ok(Grid { axes, placement })
+        let grid = Grid { axes, placement };
+        // The engine's checks too (a placement's reach), named in the file's terms.
+        grid.pose_grid(source)
+            .map_err(|e| e.in_context(&format!("sweep file {file:?}")))?;
+        Ok(grid)
     }
 
     /// Returns the number of poses.
@@ -702,23 +705,5 @@ impl Grid {
             out[k] = a.values[(i % n) as usize];
             i /= n;
         }
-    }
-
-    /// Returns the batch item of axis values `v` (in [`Grid::axes`] order).
-    fn item(&self, source: &Sonar, v: &[f64]) -> Result<BatchItem> {
-        let rotation = Rotation::RollPitchYaw {
-            roll: v[6],
-            pitch: v[7],
-            yaw: v[8],
-        };
-        let pose = if self.placement {
-            RelativePose::placement(rotation, [v[0], v[1], v[2]], [v[3], v[4], v[5]])?
-        } else {
-            RelativePose::new(rotation, [v[3], v[4], v[5]])?
-        };
-        Ok(BatchItem {
-            measurement: Measurement::of(source, v[0], v[1])?,
-            pose,
-        })
     }
 }

@@ -2,7 +2,6 @@
 
 use std::ops::ControlFlow;
 
-use sonarproj::Output;
 use sonarproj::local_precision::resolve_sigma_range;
 use sonarproj::metrics::Metric;
 use sonarproj::projection::Backend;
@@ -10,11 +9,12 @@ use sonarproj::projection::Backend;
 use crate::error::{Error, Result};
 use crate::io::parquet::Table;
 use crate::sweep::SweepConfig;
+use crate::sweep::compute::{Work, values};
 use crate::sweep::records::descriptor;
 use crate::sweep::run::Event;
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::Summary;
-use crate::sweep::table::{chunk_batch, column_kinds, columns_of};
+use crate::sweep::table::column_kinds;
 
 /// The most bytes of columns [`run_in_memory`] builds (1 GiB: about 6 million poses of a grid
 /// sweep); a larger sweep runs into a directory, or asks for summaries only.
@@ -77,28 +77,17 @@ pub fn run_in_memory(
     let by = spec.map(|s| Metric::from_name(&s.by).expect("a checked metric name"));
     let mut table = rows.then(|| Table::new(&desc.columns, &kinds));
     let mut summary = spec.map(|s| s.empty(grid));
+    let work = Work::new(config, &desc.columns, &kinds, sigma)?;
+    let mut metrics = sonarproj::MetricColumns::default();
     let mut start = range.start;
     while start < range.end {
         let r = start..(start + chunk_poses).min(range.end);
-        let (pose_rows, values) = config.items_numeric(r.clone())?;
-        let batch = chunk_batch(config, &pose_rows);
-        let results = backend.project(&batch, Output::MetricsOnly)?;
-        if let Some(table) = &mut table {
-            let part = columns_of(
-                &desc.columns,
-                &kinds,
-                r.start,
-                &batch,
-                &pose_rows,
-                &values,
-                &results,
-                sigma,
-            );
+        let part = work.block(backend, r.clone(), rows, &mut metrics, &|| false)?;
+        if let (Some(table), Some(part)) = (&mut table, part) {
             table.append(part)?;
         }
         if let (Some(spec), Some(by), Some(total)) = (spec, by, &mut summary) {
-            let values: Vec<Option<f64>> = results.iter().map(|p| p.metrics.get(by).as_f64()).collect();
-            let part = spec.summarise(grid, r.start, &values)?;
+            let part = spec.summarise(grid, r.start, &values(&metrics, by))?;
             *total = spec.combine(total, &part, "in memory")?;
         }
         start = r.end;

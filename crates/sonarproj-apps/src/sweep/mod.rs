@@ -4,6 +4,7 @@
 //! `records`), joined by `merge`, reduced to summaries (`summary`), drawn (`figure`), or run in
 //! memory (`in_memory`).
 
+mod compute;
 pub mod config;
 mod figure;
 pub mod in_memory;

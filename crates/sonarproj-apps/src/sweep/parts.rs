@@ -308,25 +308,21 @@ pub fn join_parquet(
     out: &Path,
     expected: Expected<'_>,
 ) -> Result<()> {
-    use crate::io::parquet::{Encoding, Kind, TableWriter, read_groups};
-    // Dictionaries for the pose columns (between the index and the metrics, whose values repeat).
-    let metrics = crate::io::METRIC_COLUMNS.len();
-    let dictionary = &columns[1..columns.len().saturating_sub(metrics).max(1)];
-    debug_assert!(kinds[1..=dictionary.len()].iter().all(|k| *k == Kind::Real));
+    use crate::io::parquet::{TableWriter, open_part};
     write(out, expected, |w| {
-        let encoding = Encoding::Final { dictionary };
-        let mut table = TableWriter::new(w, columns, kinds, expected.first, encoding, out)?;
+        let mut table = TableWriter::new(w, columns, kinds, expected.first, final_encoding(columns), out)?;
         let mut rows = 0u64;
-        for part in parts {
+        let parts: Vec<PathBuf> = parts.into_iter().collect();
+        for (p, part) in parts.iter().enumerate() {
             let damaged = |message: String| Error::Csv {
                 context: part.display().to_string(),
                 message,
             };
-            let record = std::fs::read(record_path(&part))
+            let record = std::fs::read(record_path(part))
                 .ok()
                 .and_then(|t| serde_json::from_slice::<PartRecord>(&t).ok())
                 .ok_or_else(|| damaged("its record is missing or unreadable".into()))?;
-            let same = |when: &str| match sums(&part) {
+            let same = |when: &str| match sums(part) {
                 Ok((bytes, crc)) if bytes == record.bytes && format!("{crc:08x}") == record.crc32 => Ok(()),
                 Ok(_) => Err(damaged(format!(
                     "its bytes differ from its record (size or checksum) {when} it was read"
@@ -337,10 +333,16 @@ pub fn join_parquet(
                 }),
             };
             same("before")?;
-            for group in read_groups(&part, columns, kinds)? {
-                let group = group?;
-                rows += group.rows() as u64;
-                table.push(group)?;
+            // Whole row groups are copied as they are (the parts are written with the same
+            // encoding), the others decoded and cut again.
+            let opened = open_part(part, columns, kinds)?;
+            let groups = opened.group_rows();
+            for (g, n) in groups.iter().enumerate() {
+                let last = p + 1 == parts.len() && g + 1 == groups.len();
+                if !table.copy_group(&opened, g, last)? {
+                    table.push(opened.group(g, part, columns, kinds)?)?;
+                }
+                rows += n;
             }
             same("after")?;
         }
@@ -352,6 +354,17 @@ pub fn join_parquet(
         }
         table.finish()
     })
+}
+
+/// Returns how a sweep table of `columns` is encoded, its chunks, shards and result alike (so
+/// whole row groups are copied between them as they are): Snappy pages, statistics, and
+/// dictionaries for the pose columns (between the index and the metrics: their values repeat).
+#[must_use]
+pub fn final_encoding(columns: &[String]) -> crate::io::parquet::Encoding<'_> {
+    let metrics = crate::io::METRIC_COLUMNS.len();
+    crate::io::parquet::Encoding {
+        dictionary: &columns[1..columns.len().saturating_sub(metrics).max(1)],
+    }
 }
 
 /// Removes part `file` and its record, when they exist.

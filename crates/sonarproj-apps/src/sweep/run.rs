@@ -29,22 +29,23 @@ use sonarproj::projection::Backend;
 
 use crate::error::{Error, Result};
 use crate::io::METRIC_COLUMNS;
-use crate::io::parquet::{Encoding, TableWriter};
+use crate::io::parquet::TableWriter;
 use crate::io::table::write_rows;
 use crate::report::{check_output_file, output_dir, remove_stale_temporaries};
 use crate::sweep::SweepConfig;
+use crate::sweep::compute::{Work, values};
 use crate::sweep::figure::{figure, figure_of_marginal};
-use crate::sweep::parts::{self, write_json};
+use crate::sweep::parts::{self, final_encoding, write_json};
 use crate::sweep::records::{
     Settings, claim, descriptor, first_difference, first_not_good, read_json, read_part, settings,
     settings_path, write_summary,
 };
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::PartSummary;
-use crate::sweep::table::{Format, chunk_batch, column_kinds, columns_of, csv_rows};
+use crate::sweep::table::{Format, chunk_batch, column_kinds, csv_rows};
 
 /// The default number of poses per chunk.
-pub const DEFAULT_CHUNK_POSES: u64 = 20_000;
+pub const DEFAULT_CHUNK_POSES: u64 = crate::io::parquet::GROUP_ROWS;
 
 /// The state of an unfinished run, in its `.partial-*` directory.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -140,7 +141,16 @@ pub fn run(
     };
     let poses = range.end - range.start;
     // One file a chunk: their number is bounded, and nothing is kept per chunk but its file.
-    let n_chunks = poses.div_ceil(opts.chunk_poses);
+    // Chunks end at the multiples of --chunk-poses in the pose index (a shard's first and last
+    // may be shorter), so a chunk of a multiple of GROUP_ROWS poses is whole row groups, which
+    // the join copies as they are.
+    let cp = opts.chunk_poses;
+    let first_chunk = range.start / cp;
+    let n_chunks = if poses == 0 {
+        0
+    } else {
+        range.end.div_ceil(cp) - first_chunk
+    };
     if n_chunks > MAX_CHUNKS {
         return Err(Error::invalid(
             "--chunk-poses",
@@ -313,8 +323,8 @@ pub fn run(
     }
 
     let chunk = |c: u64| {
-        let s = range.start + c * opts.chunk_poses;
-        s..(s + opts.chunk_poses).min(range.end)
+        let s = ((first_chunk + c) * cp).max(range.start);
+        s..((first_chunk + c + 1) * cp).min(range.end)
     };
     let chunk_path = |c: u64| state.join(format!("chunk-{c:08}.{ext}"));
     let chunk_summary = |c: u64| state.join(format!("chunk-{c:08}.summary.json"));
@@ -337,6 +347,8 @@ pub fn run(
     let header = config.columns();
     let kinds = column_kinds(&desc.columns);
     let sigma = resolve_sigma_range(&config.source, &config.target, config.sigma_range)?;
+    let work = Work::new(config, &desc.columns, &kinds, sigma)?;
+    let mut metrics = sonarproj::MetricColumns::default();
     let mut done = 0;
     let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
     for c in 0..n_chunks {
@@ -363,7 +375,8 @@ pub fn run(
             {
                 return Ok(outcome);
             }
-            let results = match (rows, opts.format) {
+            // The values the summary reduces, when one is asked for.
+            let values: Option<Vec<Option<f64>>> = match (rows, opts.format) {
                 (true, Format::Csv) => {
                     let (poses, fields) = config.items(r.clone())?;
                     let batch = chunk_batch(config, &poses);
@@ -378,42 +391,28 @@ pub fn run(
                         )?;
                         w.write_all(&body).map_err(|e| Error::write_output(&path, e))
                     })?;
-                    results
+                    by.map(|by| results.iter().map(|p| p.metrics.get(by).as_f64()).collect())
                 }
                 (_, format) => {
-                    let (poses, values) = config.items_numeric(r.clone())?;
-                    let batch = chunk_batch(config, &poses);
-                    let results = backend.project(&batch, Output::MetricsOnly)?;
-                    if rows {
+                    if let Some(table) = work.block(backend, r.clone(), rows, &mut metrics, &|| false)? {
                         debug_assert_eq!(format, Format::Parquet);
-                        let table = columns_of(
-                            &desc.columns,
-                            &kinds,
-                            r.start,
-                            &batch,
-                            &poses,
-                            &values,
-                            &results,
-                            sigma,
-                        );
                         parts::write(&path, expected(r), |w| {
                             let mut t = TableWriter::new(
                                 w,
                                 &desc.columns,
                                 &kinds,
                                 r.start,
-                                Encoding::Scratch,
+                                final_encoding(&desc.columns),
                                 &path,
                             )?;
                             t.push(table)?;
                             t.finish()
                         })?;
                     }
-                    results
+                    by.map(|by| values(&metrics, by))
                 }
             };
-            if let (Some(spec), Some(by)) = (spec, by) {
-                let values: Vec<Option<f64>> = results.iter().map(|p| p.metrics.get(by).as_f64()).collect();
+            if let (Some(spec), Some(values)) = (spec, values) {
                 let part = spec.summarise(grid, r.start, &values)?.to_part();
                 let sum_path = chunk_summary(c);
                 parts::write(&sum_path, expected(r), |w| {

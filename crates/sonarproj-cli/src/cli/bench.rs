@@ -21,6 +21,10 @@ pub(super) enum Subject {
     /// Correspondence-mask latency: one mask, and a ping of 100 features (the mask latency
     /// cases: holoocean-sidescan to holoocean-imaging and back).
     Masks,
+    /// A grid sweep (fls→sss, roll × pitch × yaw, `--poses` of them): its projection with the
+    /// poses decoded where the work runs, the same poses as batches of items, the sweep to
+    /// Parquet, and the sweep with summaries only.
+    Sweep,
 }
 
 /// A backend `sonarproj bench` times.
@@ -63,6 +67,11 @@ pub(super) struct BenchArgs {
     /// reference and a software GPU (lavapipe) take minutes more at that scale.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
     scale: u32,
+    /// Poses of the sweep (sweep only): roll × pitch 0–99° by 1° and as many yaw values as make
+    /// at least this many (at most 10^8). Measured on two cores: the default takes about 15 s
+    /// on cpu-fast; lavapipe takes minutes.
+    #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
+    poses: u64,
 }
 
 /// Runs `sonarproj bench`.
@@ -70,12 +79,14 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
     if a.subject == Subject::Masks {
         return masks(a.runs.max(1));
     }
+    let sweep = a.subject == Subject::Sweep;
     let chosen = !a.backends.is_empty();
     let wanted = |t: Timed| {
         if chosen {
             a.backends.contains(&t)
         } else {
-            t != Timed::Cpu || !a.no_reference
+            // The reference takes hours on a sweep's million poses: only when named.
+            t != Timed::Cpu || !(a.no_reference || sweep)
         }
     };
     let mut backends = Vec::new();
@@ -100,6 +111,9 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
         outln!("{SOFTWARE_NOTE}")?;
     }
     outln!()?;
+    if sweep {
+        return sweep_table(&backends, a.poses, a.runs);
+    }
     outln!(
         "{:28} {:8} {:>8} {:>12} {:>14} {:>14} {:>12}",
         "batch",
@@ -159,6 +173,55 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
         })?;
     }
     bar.finish_and_clear();
+    Ok(())
+}
+
+/// Prints the times of the benchmark sweep on each of `backends`: the projection with the grid
+/// decoded where the work runs, the per-item path's, and the two sweeps, each also as a
+/// multiple of the projection.
+fn sweep_table(backends: &[Backend], poses: u64, runs: u32) -> Result<()> {
+    outln!(
+        "{:9} {:>9} {:>10} {:>12} {:>13} {:>13} {:>12} {:>7} {:>12} {:>7}",
+        "backend",
+        "poses",
+        "samples/s",
+        "project (s)",
+        "per item (s)",
+        "host ns/pose",
+        "parquet (s)",
+        "ratio",
+        "summary (s)",
+        "ratio"
+    )?;
+    for b in backends {
+        let t = bench::time_sweep(b, poses, runs)?;
+        let secs = |d: std::time::Duration| d.as_secs_f64();
+        let ratio = |d| format!("{:.2}x", secs(d) / secs(t.decoded));
+        #[expect(clippy::cast_precision_loss, reason = "pose and sample counts below 2^53")]
+        let (per_pose, rate) = (
+            (secs(t.per_item) - secs(t.decoded)) * 1e9 / t.poses as f64,
+            t.samples as f64 / secs(t.decoded),
+        );
+        outln!(
+            "{:9} {:>9} {:>10.3e} {:>12.3} {:>13.3} {:>13.0} {:>12.3} {:>7} {:>12.3} {:>7}",
+            b.label(),
+            t.poses,
+            rate,
+            secs(t.decoded),
+            secs(t.per_item),
+            per_pose,
+            secs(t.parquet),
+            ratio(t.parquet),
+            secs(t.summaries),
+            ratio(t.summaries)
+        )?;
+    }
+    outln!(
+        "\nproject: the grid decoded where the work runs, metric columns out; per item: the same \
+         poses as batches of items built, packed and unpacked by the host (host ns/pose: the \
+         difference a pose); parquet and summary: whole sweeps into a directory (ratio: their \
+         multiple of project); medians of the runs after one warm-up"
+    )?;
     Ok(())
 }
 

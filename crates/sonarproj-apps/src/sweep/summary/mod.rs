@@ -131,6 +131,21 @@ fn descending(a: &Ranked, b: &Ranked) -> std::cmp::Ordering {
     b.value.total_cmp(&a.value).then(a.index.cmp(&b.index))
 }
 
+/// Returns the first `k` (> 0) of `all` in `order` (a total order), in that order: selected,
+/// then only they sorted.
+fn first_in_order(
+    mut all: Vec<Ranked>,
+    k: usize,
+    order: fn(&Ranked, &Ranked) -> std::cmp::Ordering,
+) -> Vec<Ranked> {
+    if all.len() > k {
+        all.select_nth_unstable_by(k, order);
+        all.truncate(k);
+    }
+    all.sort_by(order);
+    all
+}
+
 impl SummarySpec {
     /// Returns the empty summary of this spec over `grid`.
     #[must_use]
@@ -194,16 +209,19 @@ impl SummarySpec {
                 })
             })
         };
-        s.with_value = present().count() as u64;
-        s.min = present().min_by(ascending);
-        s.max = present().min_by(descending);
+        for r in present() {
+            s.with_value += 1;
+            if s.min.is_none_or(|m| ascending(&r, &m).is_lt()) {
+                s.min = Some(r);
+            }
+            if s.max.is_none_or(|m| descending(&r, &m).is_lt()) {
+                s.max = Some(r);
+            }
+        }
         if self.top > 0 {
-            let mut all: Vec<Ranked> = present().collect();
-            all.sort_by(ascending);
-            s.smallest = all.iter().take(self.top).copied().collect();
-            s.largest = all.iter().rev().copied().collect::<Vec<_>>();
-            s.largest.sort_by(descending);
-            s.largest.truncate(self.top);
+            let all: Vec<Ranked> = present().collect();
+            s.smallest = first_in_order(all.clone(), self.top, ascending);
+            s.largest = first_in_order(all, self.top, descending);
         }
         if let (Some(h), Some(spec)) = (&mut s.histogram, self.histogram) {
             #[expect(clippy::cast_precision_loss, reason = "bin counts are small")]

@@ -1,0 +1,189 @@
+//! One block of a sweep's poses computed: the metrics as columns and, when rows are asked for,
+//! the block's typed table. A grid's poses are decoded by the engine where the work runs
+//! ([`Backend::project_columns`]: no item, no per-pose result object); a list's items are
+//! projected as a batch.
+
+use std::ops::Range;
+
+use rayon::prelude::*;
+use sonarproj::projection::poses::item_of;
+use sonarproj::projection::{Backend, ColumnRef, MetricColumns, PoseGrid, PoseSource, PoseSweep};
+use sonarproj::{Output, Sonar};
+
+use crate::error::Result;
+use crate::io::parquet::{Column, Kind, Table};
+use crate::sweep::config::{Grid, Poses, SweepConfig};
+use crate::sweep::table::{chunk_batch, columns_of};
+
+/// What every block of one sweep shares: the engine's grid (for a grid sweep), the table's
+/// columns and kinds, and the range error of the local precision.
+pub(crate) struct Work<'a> {
+    config: &'a SweepConfig,
+    grid: Option<PoseGrid>,
+    columns: &'a [String],
+    kinds: &'a [Kind],
+    sigma: f64,
+}
+
+/// Returns the values of `metric` in `metrics` (`None` where a pose has none): what a summary
+/// reduces.
+pub(crate) fn values(metrics: &MetricColumns, metric: sonarproj::Metric) -> Vec<Option<f64>> {
+    let c = metrics.column(metric);
+    (0..metrics.len()).map(|k| c.f64(k)).collect()
+}
+
+impl<'a> Work<'a> {
+    /// Returns the work of `config`, whose table has `columns` of `kinds`, local precision for
+    /// range error `sigma`.
+    ///
+    /// # Errors
+    /// As [`PoseGrid::new`] (none for a checked sweep file).
+    pub(crate) fn new(
+        config: &'a SweepConfig,
+        columns: &'a [String],
+        kinds: &'a [Kind],
+        sigma: f64,
+    ) -> Result<Self> {
+        let grid = match &config.poses {
+            Poses::Grid(g) => Some(g.pose_grid(&config.source)?),
+            Poses::List(_) => None,
+        };
+        Ok(Work {
+            config,
+            grid,
+            columns,
+            kinds,
+            sigma,
+        })
+    }
+
+    /// Computes poses `r` on `backend`: their metrics into `metrics` (its rows replaced, its
+    /// memory kept from block to block) and, when `rows`, returns their table; `stop` is asked
+    /// as [`Backend::project_until`] asks it.
+    ///
+    /// # Errors
+    /// As [`Backend::project_columns`] and [`SweepConfig::items_numeric`].
+    pub(crate) fn block(
+        &self,
+        backend: &Backend,
+        r: Range<u64>,
+        rows: bool,
+        metrics: &mut MetricColumns,
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Option<Table>> {
+        let config = self.config;
+        let Some(grid) = &self.grid else {
+            let (poses, values) = config.items_numeric(r.clone())?;
+            let batch = chunk_batch(config, &poses);
+            let results = backend.project_until(&batch, Output::MetricsOnly, stop)?;
+            metrics.clear();
+            for p in &results {
+                metrics.push(&p.metrics);
+            }
+            let table = rows.then(|| {
+                columns_of(
+                    self.columns,
+                    self.kinds,
+                    r.start,
+                    &batch,
+                    &poses,
+                    &values,
+                    &results,
+                    self.sigma,
+                )
+            });
+            return Ok(table);
+        };
+        let sweep = PoseSweep {
+            source: config.source.clone(),
+            target: config.target.clone(),
+            sampling: config.sampling,
+            area_grid: config.area_grid,
+            poses: PoseSource::Grid(grid),
+        };
+        backend.project_columns(&sweep, r.clone(), metrics, stop)?;
+        if !rows {
+            return Ok(None);
+        }
+        let (mut rpe, mut sig) = (Vec::new(), Vec::new());
+        sweep.local_precision_columns(r.clone(), self.sigma, &mut rpe, &mut sig)?;
+        Ok(Some(grid_table(
+            self.columns,
+            self.kinds,
+            grid,
+            r,
+            metrics,
+            rpe,
+            sig,
+        )))
+    }
+}
+
+/// Returns the table of poses `r` of `grid`: the index, the nine axis values, the `metrics`, then
+/// the local precision (`rpe`, `sig`: NaN where none), in the sweep's `columns` of `kinds`.
+#[expect(
+    clippy::cast_possible_wrap,
+    reason = "pose indices are below 2^40 (MAX_POSES) and sample counts below 2^63"
+)]
+fn grid_table(
+    columns: &[String],
+    kinds: &[Kind],
+    grid: &PoseGrid,
+    r: Range<u64>,
+    metrics: &MetricColumns,
+    rpe: Vec<f64>,
+    sig: Vec<f64>,
+) -> Table {
+    let optional =
+        |v: Vec<f64>| Column::Optional(v.into_iter().map(|x| Some(x).filter(|x| !x.is_nan())).collect());
+    let axes = grid.axes();
+    let strides: Vec<u64> = (0..9)
+        .map(|k| axes[k + 1..].iter().map(|a| a.len() as u64).product())
+        .collect();
+    let mut table = Table::new(columns, kinds);
+    let mut locals = [Some(rpe), Some(sig)].into_iter();
+    for (j, column) in table.columns.iter_mut().enumerate() {
+        *column = if j == 0 {
+            Column::Int(r.clone().map(|i| i as i64).collect())
+        } else if j <= 9 {
+            let (a, stride) = (&axes[j - 1], strides[j - 1]);
+            let n = a.len() as u64;
+            #[expect(clippy::cast_possible_truncation, reason = "an axis index")]
+            Column::Real(
+                r.clone()
+                    .into_par_iter()
+                    .map(|i| a[((i / stride) % n) as usize])
+                    .collect(),
+            )
+        } else if let Some(info) = sonarproj::metrics::METRICS.get(j - 10) {
+            match (metrics.column(info.metric), kinds[j]) {
+                (ColumnRef::Count(c), _) => {
+                    Column::Int(c.iter().map(|&v| i64::try_from(v).unwrap_or(i64::MAX)).collect())
+                }
+                (ColumnRef::Real(c), Kind::Real) => Column::Real(c.to_vec()),
+                (ColumnRef::Real(c), _) => optional(c.to_vec()),
+            }
+        } else {
+            optional(locals.next().flatten().expect("two local precision columns"))
+        };
+    }
+    table
+}
+
+impl Grid {
+    /// Returns the engine's grid of these axes, checked against sonar 1 `source`.
+    ///
+    /// # Errors
+    /// As [`PoseGrid::new`].
+    pub fn pose_grid(&self, source: &Sonar) -> Result<PoseGrid> {
+        let axes: [Vec<f64>; 9] = std::array::from_fn(|k| self.axes[k].values.clone());
+        Ok(PoseGrid::new(axes, self.placement, source)?)
+    }
+
+    /// Returns the batch item of axis values `v` (in [`Grid::axes`] order): the engine's
+    /// definition of a grid's pose.
+    pub(crate) fn item(&self, source: &Sonar, v: &[f64]) -> Result<sonarproj::BatchItem> {
+        let v: [f64; 9] = std::array::from_fn(|k| v[k]);
+        Ok(item_of(source, &v, self.placement)?)
+    }
+}

@@ -1,0 +1,253 @@
+//! Pose sources against the per-item path: a grid's poses decoded in the fast path's loop give
+//! the metrics that projecting the same poses' items gives, bit for bit, on every preset pair,
+//! with placements and translations, step and automatic sampling, whatever the range the
+//! poses are asked in; a list gives its items' metrics; every backend's columns are its
+//! `project`'s.
+
+use sonarproj_testkit as common;
+
+use sonarproj::projection::PoseGrid;
+use sonarproj::{Backend, Error, MetricColumns, Output, PoseSource, PoseSweep, Sampling, Sonar};
+
+/// Returns a small grid of `source` → `target` poses: features over sonar 1's view, placed over
+/// sonar 2's (or translated about it), under rotations that see the set from many sides.
+fn grid(source: &Sonar, target: &Sonar, placement: bool) -> PoseGrid {
+    let r1 = (source.range_min.max(0.05), source.range_max);
+    let r2 = (target.range_min.max(0.05), target.range_max);
+    let (ha, he) = (source.azimuth_aperture / 2.0, source.elevation_aperture / 2.0);
+    let axes = [
+        vec![r1.0 + (r1.1 - r1.0) * 0.3, r1.0 + (r1.1 - r1.0) * 0.8],
+        vec![-0.6 * ha, 0.0, 0.9 * ha],
+        vec![0.0, 0.5 * he],
+        if placement {
+            vec![r2.0 + (r2.1 - r2.0) * 0.5]
+        } else {
+            vec![-0.2 * r2.1, 0.1]
+        },
+        if placement {
+            vec![0.0]
+        } else {
+            vec![0.0, 0.3 * r2.1]
+        },
+        if placement { vec![0.0] } else { vec![0.05] },
+        vec![0.0, 37.0, 90.0],
+        vec![-20.0, 0.0, 65.0],
+        vec![0.0, 12.5, 180.0],
+    ];
+    PoseGrid::new(axes, placement, source).unwrap()
+}
+
+fn sweep<'a>(source: &Sonar, target: &Sonar, sampling: Sampling, poses: PoseSource<'a>) -> PoseSweep<'a> {
+    PoseSweep {
+        source: source.clone(),
+        target: target.clone(),
+        sampling,
+        area_grid: sonarproj::PAPER_AREA_GRID,
+        poses,
+    }
+}
+
+/// Returns `backend`'s projections of the sweep's items, as columns.
+fn per_item(backend: &Backend, sweep: &PoseSweep<'_>) -> MetricColumns {
+    let batch = sweep.batch(0..sweep.poses.len()).unwrap();
+    let mut out = MetricColumns::default();
+    for p in backend.project(&batch, Output::MetricsOnly).unwrap() {
+        out.push(&p.metrics);
+    }
+    out
+}
+
+/// Asserts two column sets equal bit for bit (NaN stands for none in both).
+fn same_bits(a: &MetricColumns, b: &MetricColumns, what: &str) {
+    assert_eq!(a.len(), b.len(), "{what}: rows");
+    for k in 0..a.len() {
+        assert_eq!(a.get(k), b.get(k), "{what}: pose {k}");
+    }
+}
+
+#[test]
+fn decoded_grids_match_the_per_item_path_on_every_preset_pair() {
+    let names = Sonar::preset_names();
+    let mut visible = 0;
+    for a in &names {
+        for b in &names {
+            let (source, target) = (Sonar::preset(a).unwrap(), Sonar::preset(b).unwrap());
+            for placement in [true, false] {
+                let g = grid(&source, &target, placement);
+                for sampling in [Sampling::Step(1.0), Sampling::Auto] {
+                    // Automatic sampling of a wide surface draws millions of samples a pose:
+                    // the step alone there, the per-range plans on the arcs.
+                    if sampling == Sampling::Auto && source.kind == sonarproj::SonarKind::Sss {
+                        continue;
+                    }
+                    let s = sweep(&source, &target, sampling, PoseSource::Grid(&g));
+                    let want = per_item(&Backend::CpuFast, &s);
+                    let mut got = MetricColumns::default();
+                    Backend::CpuFast
+                        .project_columns(&s, 0..g.len(), &mut got, &|| false)
+                        .unwrap();
+                    same_bits(
+                        &got,
+                        &want,
+                        &format!("{a} -> {b}, placement {placement}, {sampling:?}"),
+                    );
+                    visible += got.visible.iter().filter(|&&v| v > 0).count();
+                }
+            }
+        }
+    }
+    // The grids see the sets from many sides: most pairs see something.
+    assert!(visible > 1000, "{visible} poses saw anything");
+}
+
+#[test]
+fn columns_do_not_depend_on_the_range_asked() {
+    let (source, target) = (common::preset("paper-fls"), common::preset("paper-sss"));
+    let g = grid(&source, &target, true);
+    let s = sweep(&source, &target, Sampling::Step(0.5), PoseSource::Grid(&g));
+    let mut whole = MetricColumns::default();
+    Backend::CpuFast
+        .project_columns(&s, 0..g.len(), &mut whole, &|| false)
+        .unwrap();
+    // Ranges cut anywhere, into columns reused between calls.
+    let mut part = MetricColumns::default();
+    let mut joined = MetricColumns::default();
+    for r in [0..1, 1..77, 77..300, 300..g.len()] {
+        Backend::CpuFast
+            .project_columns(&s, r.clone(), &mut part, &|| false)
+            .unwrap();
+        assert_eq!(part.len() as u64, r.end - r.start);
+        for k in 0..part.len() {
+            joined.push(&part.get(k));
+        }
+    }
+    same_bits(&joined, &whole, "cut ranges");
+}
+
+#[test]
+fn every_backend_gives_its_own_projections_as_columns() {
+    let (source, target) = (common::preset("paper-sss"), common::preset("paper-fls"));
+    let g = grid(&source, &target, true);
+    let s = sweep(&source, &target, Sampling::Step(1.0), PoseSource::Grid(&g));
+    let batch = s.batch(0..g.len()).unwrap();
+    let list = sweep(
+        &source,
+        &target,
+        Sampling::Step(1.0),
+        PoseSource::List(&batch.items),
+    );
+    let mut backends = vec![Backend::Cpu, Backend::CpuFast];
+    if let Some(gpu) = common::gpu() {
+        backends.push(Backend::Gpu(Box::new(gpu)));
+    }
+    for backend in &backends {
+        let want = per_item(backend, &s);
+        for source in [&s, &list] {
+            let mut got = MetricColumns::default();
+            backend
+                .project_columns(source, 0..g.len(), &mut got, &|| false)
+                .unwrap();
+            same_bits(&got, &want, backend.name());
+        }
+    }
+}
+
+#[test]
+fn bad_ranges_and_stops_are_errors() {
+    let (source, target) = (common::preset("paper-fls"), common::preset("paper-sss"));
+    let g = grid(&source, &target, true);
+    let s = sweep(&source, &target, Sampling::Step(1.0), PoseSource::Grid(&g));
+    let mut out = MetricColumns::default();
+    for backend in [Backend::Cpu, Backend::CpuFast] {
+        let e = backend
+            .project_columns(&s, 0..g.len() + 1, &mut out, &|| false)
+            .unwrap_err();
+        assert!(e.is_input() && e.to_string().contains("pose range"), "{e}");
+        let e = backend
+            .project_columns(&s, 0..g.len(), &mut out, &|| true)
+            .unwrap_err();
+        assert!(matches!(e, Error::Stopped), "{e}");
+    }
+    // A grid checked against one sonar is checked again against the sweep's sonar 1.
+    let narrow = common::preset("paper-sss");
+    let s = sweep(&narrow, &target, Sampling::Step(1.0), PoseSource::Grid(&g));
+    let e = Backend::CpuFast
+        .project_columns(&s, 0..1, &mut out, &|| false)
+        .unwrap_err();
+    assert!(e.is_input() && e.to_string().contains("grid axis"), "{e}");
+}
+
+/// The GPU's device-decoded grids (the poses stage) lie in the reference's envelope on every
+/// preset pair, with their occupancy; their columns are those projections' metrics; and they do
+/// not depend on how the poses are cut into chunks (the digits carried across chunk starts).
+#[test]
+fn device_decoded_grids_lie_in_the_reference_envelope() {
+    use sonarproj::gpu::Precision;
+    use sonarproj::projection::gpu::GpuBackend;
+    use sonarproj::projection::{envelope, reference};
+    let Some(gpu) = common::gpu() else {
+        return;
+    };
+    let tolerance = match gpu.context().precision {
+        Precision::F64 => envelope::INPUT_TOLERANCE,
+        Precision::DoubleF32 => envelope::DOUBLE_F32_TOLERANCE,
+    };
+    let small = GpuBackend::new(gpu.context().clone())
+        .unwrap()
+        .with_max_chunk_poses(7);
+    let names = Sonar::preset_names();
+    let mut visible = 0;
+    for a in &names {
+        for b in &names {
+            let (source, target) = (Sonar::preset(a).unwrap(), Sonar::preset(b).unwrap());
+            for placement in [true, false] {
+                let g = grid(&source, &target, placement);
+                let s = sweep(&source, &target, Sampling::Step(1.0), PoseSource::Grid(&g));
+                let what = format!("{a} -> {b}, placement {placement}");
+                let got = sonarproj::test_support::gpu_grid_projections(&gpu, &s, 0..g.len()).unwrap();
+                let batch = s.batch(0..g.len()).unwrap();
+                let prepared = batch.prepare().unwrap();
+                let want = reference::project(&prepared, Output::WithOccupancy);
+                for (k, (w, p)) in want.iter().zip(&got).enumerate() {
+                    let item = &batch.items[k];
+                    let bounds = envelope::bounds_with(
+                        prepared.layout(),
+                        prepared.plan(k),
+                        prepared.base_azimuth(k),
+                        item.measurement.range,
+                        &item.pose,
+                        tolerance,
+                    );
+                    common::check_within_bounds(prepared.layout(), &bounds, p).unwrap_or_else(|e| {
+                        panic!(
+                            "{what}, pose {k}: {e}\nreference {:?}\ngpu {:?}",
+                            w.metrics, p.metrics
+                        )
+                    });
+                    visible += usize::from(p.metrics.visible > 0);
+                }
+                // The columns are the metrics of the same path, whatever the chunks.
+                for backend in [&gpu, &small] {
+                    let mut columns = MetricColumns::default();
+                    Backend::Gpu(Box::new(GpuBackend::new(backend.context().clone()).unwrap()))
+                        .project_columns(&s, 3..g.len(), &mut columns, &|| false)
+                        .unwrap();
+                    for k in 0..columns.len() {
+                        assert_eq!(columns.get(k), got[k + 3].metrics, "{what}, pose {}", k + 3);
+                    }
+                }
+                let cut = sonarproj::test_support::gpu_grid_projections(&small, &s, 0..g.len()).unwrap();
+                for (k, (p, q)) in got.iter().zip(&cut).enumerate() {
+                    // Compared whole (occupancy too), printed by their metrics.
+                    assert!(
+                        p == q,
+                        "{what}, pose {k}, chunks of 7: {:?} vs {:?}",
+                        p.metrics,
+                        q.metrics
+                    );
+                }
+            }
+        }
+    }
+    assert!(visible > 1000, "{visible} poses saw anything");
+}
