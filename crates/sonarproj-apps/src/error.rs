@@ -23,6 +23,14 @@ pub enum Error {
         /// What the parser said.
         message: String,
     },
+    /// An advise TOML file could not be parsed.
+    #[error("advise file {path}: {message}")]
+    AdviseFile {
+        /// The file.
+        path: PathBuf,
+        /// What the parser said.
+        message: String,
+    },
     /// A CSV input is malformed (header, or one row).
     #[error("{context}: {message}")]
     Csv {
@@ -71,6 +79,7 @@ impl Error {
         match self {
             Error::Engine(e) => e.is_input(),
             Error::SweepFile { .. }
+            | Error::AdviseFile { .. }
             | Error::Csv { .. }
             | Error::ReadInput { .. }
             | Error::BadLines { .. } => true,

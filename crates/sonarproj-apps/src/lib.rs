@@ -4,6 +4,7 @@
 //!
 //! The command line and the Python package are thin fronts on this crate and the engine.
 
+pub mod advise;
 pub mod bench;
 pub mod error;
 pub mod gpu_env;

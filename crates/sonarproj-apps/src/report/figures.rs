@@ -276,9 +276,10 @@ fn cell_edges(values: &[f64]) -> Vec<f64> {
 }
 
 /// Writes a sweep's figure to `path`, captioned `caption`: the metric (`label`) against one
-/// varying quantity (a line, broken where nothing was visible) or two (a heatmap with a colour
-/// bar; grey where nothing was visible), whose axis labels are `axes`. `points` are
-/// `(coordinates, metric)` per pose.
+/// varying quantity (a line, broken where a point has no value) or two (a heatmap with a colour
+/// bar; grey where a point has no value, which the bar's note says is `missing`, such as
+/// "nothing visible"), whose axis labels are `axes`. `points` are `(coordinates, metric)` per
+/// pose.
 ///
 /// # Errors
 /// [`crate::Error::Figure`] or [`crate::Error::WriteOutput`].
@@ -287,6 +288,7 @@ pub fn sweep(
     caption: &str,
     axes: &[String],
     label: &str,
+    missing: &str,
     points: &[(Vec<f64>, Option<f64>)],
 ) -> Result<()> {
     let (vlo, vhi) = extent(points.iter().filter_map(|p| p.1));
@@ -366,6 +368,6 @@ pub fn sweep(
                 Rectangle::new([(xe[i], ye[j]), (xe[i + 1], ye[j + 1])], colour.filled())
             }))
             .map_err(plot_error)?;
-        colour_bar(&bar, vlo, vhi, &format!("colour: {label}; grey: nothing visible"))
+        colour_bar(&bar, vlo, vhi, &format!("colour: {label}; grey: {missing}"))
     })
 }

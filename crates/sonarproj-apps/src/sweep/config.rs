@@ -116,7 +116,7 @@ pub(crate) fn missing_key(file: &str, key: &str, needed: &str) -> Error {
     clippy::cast_possible_truncation,
     reason = "grid sizes are checked against MAX_POSES before they are used as indices"
 )]
-fn axis_values(file: &str, key: &str, v: &toml::Value) -> Result<Vec<f64>> {
+pub(crate) fn axis_values(file: &str, key: &str, v: &toml::Value) -> Result<Vec<f64>> {
     let shape = "must be a number, a list of numbers or { start, stop, step }";
     let number = |v: &toml::Value, k: &str| -> Result<f64> {
         let x = match v {
@@ -232,7 +232,7 @@ fn axis(
 
 /// Returns the sonar `spec` names from a sweep file in `base`: a preset, or a file relative to
 /// the sweep file.
-fn resolve_sonar(spec: &str, base: &Path) -> Result<Sonar> {
+pub(crate) fn resolve_sonar(spec: &str, base: &Path) -> Result<Sonar> {
     let joined = base.join(spec);
     let sonar = if Sonar::preset(spec).is_some() || Path::new(spec).is_absolute() {
         Sonar::resolve(spec)?

@@ -105,7 +105,7 @@ fn draw(dir: &Path, d: &Descriptor, points: &[(Vec<f64>, Option<f64>)]) -> Resul
         _ => format!("{}: {}", d.title, d.metric_label),
     };
     let axes: Vec<String> = d.varying.iter().map(|c| column_label(c)).collect();
-    figures::sweep(&path, &caption, &axes, &d.metric_label, points)?;
+    figures::sweep(&path, &caption, &axes, &d.metric_label, "nothing visible", points)?;
     Ok(path)
 }
 

@@ -11,6 +11,7 @@ macro_rules! outln {
     };
 }
 
+mod advise;
 mod batch;
 mod bench;
 mod devices;
@@ -57,6 +58,9 @@ enum Command {
     Sweep(sweep::SweepArgs),
     /// Join the shards of a sweep (`sweep --shard K/N`) into the file one run would have written.
     Merge(sweep::MergeArgs),
+    /// Rig advisor: score candidate rotations of sonar 2 over the features a rig will see
+    /// (correspondence or recovery), refine the best, and find the best small move from a pose.
+    Advise(advise::AdviseArgs),
     /// Draw correspondence masks: where each feature of sonar 1 can be in sonar 2 (PNG, NPY,
     /// JSON; or --stream JSON lines for a live pipeline).
     Mask(mask::MaskArgs),
@@ -227,6 +231,7 @@ pub(crate) fn run(cli: Cli) -> Result<()> {
         Command::Paper(a) => paper::run(a),
         Command::Sweep(a) => sweep::run(a),
         Command::Merge(a) => sweep::merge(a),
+        Command::Advise(a) => advise::run(a),
         Command::Mask(a) => mask::run(a),
         Command::Recover(a) => recover::run(a),
         Command::Bench(a) => bench::run(a),

@@ -1,0 +1,270 @@
+//! The advisor's files: `best.json` (the ranked poses with their scores, the next-best move),
+//! `candidates.parquet` (every candidate evaluated), `features.csv` (the best pose's features
+//! with the pose, in `batch`'s columns: `batch` gives each one's metric) and `landscape.png`
+//! (the score over two axes).
+
+use std::path::{Path, PathBuf};
+
+use serde_json::json;
+
+use crate::advise::Advice;
+use crate::advise::config::{AdviseConfig, Features, Objective, ROTATION_AXES, Rig};
+use crate::advise::score::{Pool, Score};
+use crate::advise::search::Stage;
+use crate::error::{Error, Result};
+use crate::io::parquet::{Column, Encoding, Kind, Table, TableWriter};
+use crate::report::{check_output_file, output_dir, write_atomic};
+
+/// The files [`write`] wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Written {
+    /// `DIR/best.json`.
+    pub best: PathBuf,
+    /// `DIR/candidates.parquet`.
+    pub candidates: PathBuf,
+    /// `DIR/features.csv`.
+    pub features: PathBuf,
+    /// `DIR/landscape.png`, when two axes vary.
+    pub landscape: Option<PathBuf>,
+}
+
+/// How many ranked poses `best.json` lists.
+pub(crate) const RANKED: usize = 10;
+
+/// The candidates table's columns.
+const COLUMNS: [&str; 19] = [
+    "index",
+    "stage",
+    "roll",
+    "pitch",
+    "yaw",
+    "tx",
+    "ty",
+    "tz",
+    "shared",
+    "features",
+    "metric_mean",
+    "metric_median",
+    "metric_p10",
+    "metric_p90",
+    "sigma_mean",
+    "sigma_median",
+    "sigma_p10",
+    "sigma_p90",
+    "score",
+];
+
+/// Writes the advisor's files into `dir` (created when missing), each whole or not at all.
+///
+/// # Errors
+/// As [`output_dir`] and [`write_atomic`]; [`Error::Figure`] when the landscape cannot be drawn.
+pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Written> {
+    let written = Written {
+        best: dir.join("best.json"),
+        candidates: dir.join("candidates.parquet"),
+        features: dir.join("features.csv"),
+        landscape: config.landscape.map(|_| dir.join("landscape.png")),
+    };
+    for f in [&written.best, &written.candidates, &written.features]
+        .into_iter()
+        .chain(written.landscape.as_ref())
+    {
+        check_output_file(f, "--out")?;
+    }
+    output_dir(dir, "--out")?;
+    write_atomic(&written.best, |w| {
+        serde_json::to_writer_pretty(&mut *w, &best_json(config, advice))
+            .map_err(|e| Error::write_output(&written.best, e))?;
+        w.write_all(b"\n")
+            .map_err(|e| Error::write_output(&written.best, e))
+    })?;
+    write_atomic(&written.candidates, |w| {
+        let names: Vec<String> = COLUMNS.iter().map(ToString::to_string).collect();
+        let kinds: Vec<Kind> = COLUMNS
+            .iter()
+            .map(|c| match *c {
+                "index" | "stage" | "features" => Kind::Int,
+                c if c.starts_with("metric") || c.starts_with("sigma") || c == "score" => Kind::Optional,
+                _ => Kind::Real,
+            })
+            .collect();
+        let mut t = TableWriter::new(
+            w,
+            &names,
+            &kinds,
+            0,
+            Encoding { dictionary: &[] },
+            &written.candidates,
+        )?;
+        t.push(candidates_table(&names, &kinds, advice))?;
+        t.finish()
+    })?;
+    let best = advice.best().copied().unwrap_or(advice.candidates[0].1);
+    write_atomic(&written.features, |w| {
+        let mut out = csv::Writer::from_writer(w);
+        let err = |e: csv::Error| Error::write_output(&written.features, e);
+        out.write_record([
+            "range",
+            "azimuth",
+            "elevation",
+            "roll",
+            "pitch",
+            "yaw",
+            "tx",
+            "ty",
+            "tz",
+        ])
+        .map_err(err)?;
+        // The best pose's own features: those it was scored over.
+        let pose = crate::advise::score::pose_of(config, best.rotation)?;
+        for f in &crate::advise::score::Pool::new(config).select(&pose).features {
+            let row: Vec<String> = f
+                .iter()
+                .chain(&best.rotation)
+                .chain(&best.translation)
+                .map(ToString::to_string)
+                .collect();
+            out.write_record(&row).map_err(err)?;
+        }
+        out.flush().map_err(|e| Error::write_output(&written.features, e))
+    })?;
+    if let (Some(path), Some(axes)) = (&written.landscape, config.landscape) {
+        landscape(config, advice, axes, &best, path)?;
+    }
+    Ok(written)
+}
+
+/// Returns the candidates as a table of [`COLUMNS`].
+#[expect(
+    clippy::cast_possible_wrap,
+    reason = "candidate and feature counts below 2^63"
+)]
+fn candidates_table(names: &[String], kinds: &[Kind], advice: &Advice) -> Table {
+    let mut t = Table::new(names, kinds);
+    let c = &advice.candidates;
+    let real = |f: &dyn Fn(&Score) -> f64| Column::Real(c.iter().map(|(_, s)| f(s)).collect());
+    let optional =
+        |f: &dyn Fn(&Score) -> Option<f64>| Column::Optional(c.iter().map(|(_, s)| f(s)).collect());
+    t.columns = vec![
+        Column::Int((0..c.len() as i64).collect()),
+        Column::Int(c.iter().map(|(stage, _)| stage.code()).collect()),
+        real(&|s| s.rotation[0]),
+        real(&|s| s.rotation[1]),
+        real(&|s| s.rotation[2]),
+        real(&|s| s.translation[0]),
+        real(&|s| s.translation[1]),
+        real(&|s| s.translation[2]),
+        real(&|s| s.shared),
+        Column::Int(c.iter().map(|(_, s)| s.features as i64).collect()),
+        optional(&|s| s.metric.mean),
+        optional(&|s| s.metric.median),
+        optional(&|s| s.metric.p10),
+        optional(&|s| s.metric.p90),
+        optional(&|s| s.sigma.mean),
+        optional(&|s| s.sigma.median),
+        optional(&|s| s.sigma.p10),
+        optional(&|s| s.sigma.p90),
+        optional(&|s| s.score),
+    ];
+    t
+}
+
+/// Returns `best.json`'s contents.
+fn best_json(config: &AdviseConfig, advice: &Advice) -> serde_json::Value {
+    let objective = match config.objective {
+        Objective::Correspondence => {
+            json!({ "name": "correspondence", "minimises": format!("mean {}", advice.metric) })
+        }
+        Objective::Recovery => json!({ "name": "recovery", "minimises": "median sigma_elevation (deg)" }),
+        Objective::Mix {
+            weight,
+            metric_scale,
+            sigma_scale,
+        } => json!({
+            "name": "mix",
+            "minimises": format!("{weight} * mean {} / {metric_scale} + {} * median sigma_elevation / {sigma_scale}", advice.metric, 1.0 - weight),
+            "weight": weight, "metric_scale": metric_scale, "sigma_scale": sigma_scale,
+        }),
+    };
+    let rig = match config.rig {
+        Rig::Origin(o) => json!({ "origin": o }),
+        Rig::Translation(t) => json!({ "translation": t }),
+        Rig::Place { feature, at } => json!({ "place": { "feature": feature, "at": at } }),
+    };
+    let count = |stage: Stage| advice.candidates.iter().filter(|(s, _)| *s == stage).count();
+    json!({
+        "from": config.source.name,
+        "to": config.target.name,
+        "metric": advice.metric,
+        "objective": objective,
+        "min_shared": config.min_shared,
+        "rig": rig,
+        "features": match &config.features {
+            Features::Drawn { count, seed } => json!({
+                "count": count,
+                "seed": seed,
+                "drawn_over": if Pool::new(config).in_target() { "sonar 2's view" } else { "sonar 1's view" },
+            }),
+            Features::Points(p) => json!({ "points": p.len() }),
+        },
+        "candidates": { "cover": count(Stage::Cover), "refine": count(Stage::Refine), "move": count(Stage::Move) },
+        "feasible": advice.ranked.len(),
+        "ranked": advice.ranked.iter().take(RANKED).map(|&i| advice.candidates[i].1).collect::<Vec<_>>(),
+        "next_move": advice.next,
+    })
+}
+
+/// Draws the score over axes `axes` at the best candidate's third angle (the cover's candidates
+/// there; grey where infeasible).
+fn landscape(
+    config: &AdviseConfig,
+    advice: &Advice,
+    axes: [usize; 2],
+    best: &Score,
+    path: &Path,
+) -> Result<()> {
+    let third = 3 - axes[0] - axes[1];
+    // The cover's value of the third axis nearest the best's (refinement may have moved off it).
+    let fixed = config.axes[third]
+        .iter()
+        .copied()
+        .min_by(|a, b| {
+            (a - best.rotation[third])
+                .abs()
+                .total_cmp(&(b - best.rotation[third]).abs())
+        })
+        .unwrap_or(0.0);
+    let points: Vec<(Vec<f64>, Option<f64>)> = advice
+        .candidates
+        .iter()
+        .filter(|(stage, s)| *stage == Stage::Cover && s.rotation[third] == fixed)
+        .map(|(_, s)| (vec![s.rotation[axes[0]], s.rotation[axes[1]]], s.score))
+        .collect();
+    let name = |k: usize| format!("{} (deg)", ROTATION_AXES[k]);
+    let what = match config.objective {
+        Objective::Correspondence => format!("mean {}", advice.metric),
+        Objective::Recovery => "median elevation sigma (deg)".to_string(),
+        Objective::Mix { .. } => "mixed score".to_string(),
+    };
+    let caption = format!(
+        "{} -> {}: {what} at {} {fixed} deg (best {})",
+        config.source.name,
+        config.target.name,
+        ROTATION_AXES[third],
+        best.rotation
+            .iter()
+            .zip(ROTATION_AXES)
+            .map(|(v, n)| format!("{n} {v:.2}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let missing = format!("infeasible (under {} % shared)", 100.0 * config.min_shared);
+    crate::report::figures::sweep(
+        path,
+        &caption,
+        &[name(axes[0]), name(axes[1])],
+        &what,
+        &missing,
+        &points,
+    )
+}

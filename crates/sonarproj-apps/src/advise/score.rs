@@ -1,0 +1,400 @@
+//! Scoring a candidate rotation over the features: which of them both sonars see, their
+//! projection metric and recovery sigma, the statistics of both, and the objective.
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::Serialize;
+use sonarproj::geometry::pose::{RelativePose, Rotation, cart_to_sph, sph_to_cart};
+use sonarproj::geometry::sonar::SonarKind;
+use sonarproj::local_precision::{local_precision, resolve_sigma_range};
+use sonarproj::occupancy::Layout;
+use sonarproj::projection::{Backend, Batch, BatchItem};
+use sonarproj::sampling::Measurement;
+use sonarproj::{Metrics, Output};
+
+use crate::advise::config::{AdviseConfig, Features, Objective, Rig, draw_features};
+use crate::error::Result;
+
+/// Mean, median and 10th/90th percentiles of a set of values (`None` when empty). Percentiles
+/// interpolate linearly between the sorted values (position `q · (n − 1)`, numpy's default); the
+/// mean sums in feature order.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Stats {
+    /// The mean.
+    pub mean: Option<f64>,
+    /// The median.
+    pub median: Option<f64>,
+    /// The 10th percentile.
+    pub p10: Option<f64>,
+    /// The 90th percentile.
+    pub p90: Option<f64>,
+}
+
+impl Stats {
+    /// Returns the statistics of `values` (in feature order).
+    #[must_use]
+    pub fn of(values: &[f64]) -> Stats {
+        if values.is_empty() {
+            return Stats::default();
+        }
+        #[expect(clippy::cast_precision_loss, reason = "feature counts below 2^53")]
+        let mean = values.iter().sum::<f64>() / values.len() as f64;
+        let mut sorted = values.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        #[expect(clippy::cast_precision_loss, reason = "feature counts below 2^53")]
+        let quantile = |q: f64| {
+            let pos = q * (sorted.len() - 1) as f64;
+            #[expect(
+                clippy::cast_possible_truncation,
+                clippy::cast_sign_loss,
+                reason = "within the values"
+            )]
+            let i = pos.floor() as usize;
+            let j = (i + 1).min(sorted.len() - 1);
+            sorted[i] + (pos - i as f64) * (sorted[j] - sorted[i])
+        };
+        Stats {
+            mean: Some(mean),
+            median: Some(quantile(0.5)),
+            p10: Some(quantile(0.1)),
+            p90: Some(quantile(0.9)),
+        }
+    }
+}
+
+/// The score of one candidate rotation.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Score {
+    /// Roll, pitch, yaw (deg).
+    pub rotation: [f64; 3],
+    /// The pose's translation `t` (m).
+    pub translation: [f64; 3],
+    /// The share of the pool's sonar's view the other sonar sees (the kept features over the
+    /// pool's points examined; for given points, those sonar 2 sees over all).
+    pub shared: f64,
+    /// How many features were scored (both sonars see them).
+    pub features: usize,
+    /// The projection metric over the shared features (range span m, or projection area m²).
+    pub metric: Stats,
+    /// The recovery sigma (deg) over the shared features that have one.
+    pub sigma: Stats,
+    /// The objective's value (smaller is better); `None` when the candidate is infeasible (fewer
+    /// shared features than `min_shared` asks, none at all, or no value to score).
+    pub score: Option<f64>,
+}
+
+/// Returns the pose of candidate rotation `rotation` (roll, pitch, yaw in deg) under the rig.
+///
+/// # Errors
+/// As [`RelativePose::new`] and [`RelativePose::placement`].
+pub fn pose_of(config: &AdviseConfig, rotation: [f64; 3]) -> sonarproj::Result<RelativePose> {
+    let r = Rotation::RollPitchYaw {
+        roll: rotation[0],
+        pitch: rotation[1],
+        yaw: rotation[2],
+    };
+    match config.rig {
+        Rig::Translation(t) => RelativePose::new(r, t),
+        Rig::Origin(o) => {
+            let m = r.to_matrix()?;
+            RelativePose::new(r, -(m * DVec3::from_array(o)))
+        }
+        Rig::Place { feature, at } => RelativePose::placement(r, feature, at),
+    }
+}
+
+/// Returns the name of the projection metric the advisor scores for sonar 2's kind.
+#[must_use]
+pub fn metric_name(config: &AdviseConfig) -> &'static str {
+    match config.target.kind {
+        SonarKind::Sss => "span",
+        SonarKind::Fls => "projection_area",
+    }
+}
+
+/// The features a candidate is scored over: a pool of points in one sonar's frame, taken in
+/// order while both sonars see them ([`crate::advise::Features`]).
+pub struct Pool {
+    /// Whether the pool's points are in sonar 2's frame (else sonar 1's).
+    in_target: bool,
+    /// The points the other sonar may see under some candidate, with their place in the draw
+    /// (the others, too far or too near for any translation the rig gives, are left out: they
+    /// would be examined and never kept).
+    points: Vec<(usize, DVec3)>,
+    /// How many shared features to keep.
+    want: usize,
+    /// How many points were drawn (or given).
+    drawn: usize,
+    source: Layout,
+    target: Layout,
+}
+
+/// The most points a drawn pool holds (48 MB): a pool of `count` features draws a hundred times
+/// as many, so a share down to 1 % still finds them all.
+pub const MAX_POOL: usize = 2_000_000;
+
+/// The features one candidate is scored over.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Selection {
+    /// Points of the pool examined.
+    pub examined: usize,
+    /// The shared ones' true points in sonar 1, `[range m, azimuth deg, elevation deg]`.
+    pub features: Vec<[f64; 3]>,
+}
+
+impl Selection {
+    /// Returns the share of the pool's sonar's view the other sonar sees, as the examined points
+    /// estimate it.
+    #[must_use]
+    #[expect(clippy::cast_precision_loss, reason = "pool sizes below 2^53")]
+    pub fn shared(&self) -> f64 {
+        if self.examined == 0 {
+            0.0
+        } else {
+            self.features.len() as f64 / self.examined as f64
+        }
+    }
+}
+
+impl Pool {
+    /// Returns the pool of `config`'s features.
+    #[must_use]
+    pub fn new(config: &AdviseConfig) -> Pool {
+        let cart = |f: &[f64; 3]| sph_to_cart(f[0], f[1].to_radians(), f[2].to_radians());
+        let (in_target, points, want): (bool, Vec<DVec3>, usize) = match &config.features {
+            Features::Points(p) => (false, p.iter().map(cart).collect(), p.len()),
+            Features::Drawn { count, seed } => {
+                let in_target = config.target.elevation_aperture < config.source.elevation_aperture;
+                let sonar = if in_target { &config.target } else { &config.source };
+                let n = count.saturating_mul(100).clamp(*count, MAX_POOL.max(*count));
+                let points = draw_features(sonar, n, *seed).iter().map(cart).collect();
+                (in_target, points, *count)
+            }
+        };
+        // The other sonar's range bounds the distance of a point it sees from its origin, and
+        // the origins are at most `reach` apart whatever the rotation.
+        let reach = match config.rig {
+            Rig::Origin(o) | Rig::Translation(o) => DVec3::from_array(o).length(),
+            Rig::Place { feature, at } => feature[0].abs() + at[0].abs(),
+        };
+        let other = if in_target { &config.source } else { &config.target };
+        let drawn = points.len();
+        let points = points
+            .into_iter()
+            .enumerate()
+            .filter(|(_, p): &(usize, DVec3)| {
+                let d = p.length();
+                d - reach <= other.range_max * (1.0 + 1e-9) && d + reach >= other.range_min * (1.0 - 1e-9)
+            })
+            .collect();
+        Pool {
+            in_target,
+            points,
+            want,
+            drawn,
+            source: Layout::of(&config.source),
+            target: Layout::of(&config.target),
+        }
+    }
+
+    /// Returns whether the pool is drawn over sonar 2's view (else sonar 1's).
+    #[must_use]
+    pub fn in_target(&self) -> bool {
+        self.in_target
+    }
+
+    /// Returns the features of the pool both sonars see under `pose`, in pool order, up to the
+    /// count asked for.
+    #[must_use]
+    pub fn select(&self, pose: &RelativePose) -> Selection {
+        let inverse = pose.rotation.transpose();
+        let mut out = Selection {
+            examined: 0,
+            features: Vec::with_capacity(self.want),
+        };
+        for &(index, p) in &self.points {
+            if out.features.len() == self.want {
+                break;
+            }
+            // Every point of the draw up to this one is examined (those left out of the pool
+            // could not have been kept).
+            out.examined = index + 1;
+            let (p1, other, layout) = if self.in_target {
+                (inverse * (p - pose.translation), p, &self.source)
+            } else {
+                (p, pose.apply(p), &self.target)
+            };
+            // The other sonar sees it; the point in sonar 1 is the feature.
+            let (r, az, el) = cart_to_sph(if self.in_target { p1 } else { other });
+            if !layout.inside(r, az, el) {
+                continue;
+            }
+            let (r1, az1, el1) = cart_to_sph(p1);
+            if self.in_target && !self.source.inside(r1, az1, el1) {
+                continue;
+            }
+            out.features.push([r1, az1.to_degrees(), el1.to_degrees()]);
+        }
+        // Short of the count: the whole draw was examined.
+        if out.features.len() < self.want {
+            out.examined = self.drawn;
+        }
+        out
+    }
+}
+
+/// Scores candidates over the features on a backend.
+pub struct Scorer<'a> {
+    config: &'a AdviseConfig,
+    backend: &'a Backend,
+    sigma_range: f64,
+    pool: Pool,
+}
+
+/// A candidate's points of the pool examined, and its shared features with their measurements.
+type Kept = (usize, Vec<([f64; 3], Measurement)>);
+
+/// Items (feature × candidate) projected in one batch.
+const ITEMS_AT_ONCE: usize = 1 << 16;
+
+impl<'a> Scorer<'a> {
+    /// Returns the scorer of `config`'s features on `backend`.
+    ///
+    /// # Errors
+    /// An invalid sigma range (none for a checked advise file).
+    pub fn new(config: &'a AdviseConfig, backend: &'a Backend) -> Result<Self> {
+        let sigma_range = resolve_sigma_range(&config.source, &config.target, config.sigma_range)?;
+        Ok(Scorer {
+            config,
+            backend,
+            sigma_range,
+            pool: Pool::new(config),
+        })
+    }
+
+    /// Returns the feature pool.
+    #[must_use]
+    pub fn pool(&self) -> &Pool {
+        &self.pool
+    }
+
+    /// Returns the metric the advisor scores, of one projection.
+    fn metric(&self, m: &Metrics) -> f64 {
+        match self.config.target.kind {
+            SonarKind::Sss => m.span,
+            SonarKind::Fls => m.projection_area.unwrap_or(0.0),
+        }
+    }
+
+    /// Returns the scores of `rotations`, in order: the shared features of each projected on
+    /// the backend (many candidates a batch), their metrics and sigmas reduced.
+    ///
+    /// # Errors
+    /// As [`pose_of`] and [`Backend::project`].
+    pub fn score_all(&self, rotations: &[[f64; 3]]) -> Result<Vec<Score>> {
+        let poses = rotations
+            .par_iter()
+            .map(|&r| pose_of(self.config, r))
+            .collect::<sonarproj::Result<Vec<_>>>()?;
+        let mut out = Vec::with_capacity(rotations.len());
+        // Candidates a block at a time (memory stays bounded); their shared features and
+        // measurements (a point on a bound that the measurement's check refuses by a rounding
+        // is left out), one batch of items, then each candidate reduced.
+        let block = (ITEMS_AT_ONCE / self.pool.want.max(1)).clamp(1, 4096);
+        for (b, poses) in poses.chunks(block).enumerate() {
+            let rotations = &rotations[b * block..b * block + poses.len()];
+            let selections: Vec<Kept> = poses
+                .par_iter()
+                .map(|p| {
+                    let sel = self.pool.select(p);
+                    let kept = sel
+                        .features
+                        .iter()
+                        .filter_map(|f| {
+                            Measurement::of(&self.config.source, f[0], f[1])
+                                .ok()
+                                .map(|m| (*f, m))
+                        })
+                        .collect();
+                    (sel.examined, kept)
+                })
+                .collect();
+            let batch = Batch {
+                source: self.config.source.clone(),
+                target: self.config.target.clone(),
+                sampling: self.config.sampling,
+                area_grid: self.config.area_grid,
+                items: poses
+                    .iter()
+                    .zip(&selections)
+                    .flat_map(|(&pose, sel)| {
+                        sel.1
+                            .iter()
+                            .map(move |&(_, measurement)| BatchItem { measurement, pose })
+                    })
+                    .collect(),
+            };
+            let results = self.backend.project(&batch, Output::MetricsOnly)?;
+            let mut starts = Vec::with_capacity(poses.len());
+            let mut at = 0;
+            for sel in &selections {
+                starts.push(at);
+                at += sel.1.len();
+            }
+            out.par_extend((0..poses.len()).into_par_iter().map(|c| {
+                let n = selections[c].1.len();
+                let metrics: Vec<f64> = results[starts[c]..starts[c] + n]
+                    .iter()
+                    .map(|p| self.metric(&p.metrics))
+                    .collect();
+                let features: Vec<[f64; 3]> = selections[c].1.iter().map(|x| x.0).collect();
+                self.reduce(rotations[c], &poses[c], selections[c].0, &features, &metrics)
+            }));
+        }
+        Ok(out)
+    }
+
+    /// Returns the score of candidate `rotation` with pose `pose`, `examined` points of the pool
+    /// examined, the shared `features` (in sonar 1) and their `metrics`.
+    fn reduce(
+        &self,
+        rotation: [f64; 3],
+        pose: &RelativePose,
+        examined: usize,
+        features: &[[f64; 3]],
+        metrics: &[f64],
+    ) -> Score {
+        let c = self.config;
+        let sigmas: Vec<f64> = features
+            .iter()
+            .filter_map(|&f| local_precision(&c.source, &c.target, f, pose, self.sigma_range).sigma_elevation)
+            .collect();
+        let fraction = Selection {
+            examined,
+            features: features.to_vec(),
+        }
+        .shared();
+        let (metric, sigma) = (Stats::of(metrics), Stats::of(&sigmas));
+        let value = match c.objective {
+            Objective::Correspondence => metric.mean,
+            Objective::Recovery => sigma.median,
+            Objective::Mix {
+                weight,
+                metric_scale,
+                sigma_scale,
+            } => metric
+                .mean
+                .zip(sigma.median)
+                .map(|(m, s)| weight * m / metric_scale + (1.0 - weight) * s / sigma_scale),
+        };
+        Score {
+            rotation,
+            translation: pose.translation.to_array(),
+            shared: fraction,
+            features: features.len(),
+            metric,
+            sigma,
+            score: value.filter(|_| !features.is_empty() && fraction >= c.min_shared),
+        }
+    }
+}

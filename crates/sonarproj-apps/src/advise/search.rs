@@ -1,0 +1,214 @@
+//! The search: the cover of the rotations asked for, a pattern search around the best feasible
+//! candidates, and the next-best move from a given pose.
+
+use serde::Serialize;
+
+use crate::advise::score::{Score, Scorer};
+use crate::error::Result;
+
+/// Where a candidate came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Stage {
+    /// The cover: every combination of the axes' values.
+    Cover,
+    /// The pattern search around the best.
+    Refine,
+    /// The next-best move's evaluations (the pose now, its finite differences and its moves).
+    Move,
+}
+
+impl Stage {
+    /// Returns the stage's code in the candidates table: 0 cover, 1 refine, 2 move.
+    #[must_use]
+    pub fn code(self) -> i64 {
+        match self {
+            Stage::Cover => 0,
+            Stage::Refine => 1,
+            Stage::Move => 2,
+        }
+    }
+}
+
+/// Orders scores: feasible ones by value, then the infeasible; ties keep their order.
+#[must_use]
+pub fn better(a: &Score, b: &Score) -> bool {
+    match (a.score, b.score) {
+        (Some(x), Some(y)) => x < y,
+        (Some(_), None) => true,
+        _ => false,
+    }
+}
+
+/// Returns every combination of `axes` (roll, pitch, yaw values), yaw fastest.
+#[must_use]
+pub fn cover(axes: &[Vec<f64>; 3]) -> Vec<[f64; 3]> {
+    let mut out = Vec::with_capacity(axes.iter().map(Vec::len).product());
+    for &r in &axes[0] {
+        for &p in &axes[1] {
+            for &y in &axes[2] {
+                out.push([r, p, y]);
+            }
+        }
+    }
+    out
+}
+
+/// Returns the axes that vary (more than one value) and, per axis, the spacing of its values
+/// (their smallest gap; 0 for a fixed axis).
+#[must_use]
+pub fn free_axes(axes: &[Vec<f64>; 3]) -> ([bool; 3], [f64; 3]) {
+    let mut free = [false; 3];
+    let mut spacing = [0.0; 3];
+    for k in 0..3 {
+        let mut v = axes[k].clone();
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        free[k] = v.len() > 1;
+        spacing[k] = v.windows(2).map(|w| w[1] - w[0]).fold(f64::INFINITY, f64::min);
+        if !free[k] {
+            spacing[k] = 0.0;
+        }
+    }
+    (free, spacing)
+}
+
+/// Refines each of `starts` by pattern search over the free axes: from half the cover's spacing,
+/// the best of the moves of one step along each free axis (both ways) is taken while it lowers
+/// the score, else the step halves, down to `finest`. Returns every candidate evaluated.
+///
+/// # Errors
+/// As [`Scorer::score_all`].
+pub fn refine(
+    scorer: &Scorer<'_>,
+    starts: &[Score],
+    free: [bool; 3],
+    spacing: [f64; 3],
+    finest: f64,
+) -> Result<Vec<Score>> {
+    let mut evaluated = Vec::new();
+    for start in starts {
+        let mut best = *start;
+        let mut step = spacing.map(|s| s / 2.0);
+        // Bounded: each halving or move is one round; a move must lower the score.
+        for _ in 0..400 {
+            if (0..3).all(|k| !free[k] || step[k] < finest) {
+                break;
+            }
+            let mut moves = Vec::new();
+            for k in (0..3).filter(|&k| free[k] && step[k] >= finest) {
+                for sign in [-1.0, 1.0] {
+                    let mut r = best.rotation;
+                    r[k] += sign * step[k];
+                    moves.push(r);
+                }
+            }
+            let scores = scorer.score_all(&moves)?;
+            evaluated.extend_from_slice(&scores);
+            let next = scores.iter().fold(None::<&Score>, |b, s| match b {
+                Some(b) if !better(s, b) => Some(b),
+                _ => Some(s),
+            });
+            match next {
+                Some(n) if better(n, &best) => best = *n,
+                _ => step = step.map(|s| s / 2.0),
+            }
+        }
+    }
+    Ok(evaluated)
+}
+
+/// The next-best move from a pose.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Move {
+    /// The pose now.
+    pub now: Score,
+    /// The objective's partial derivative along each free axis (per deg; central differences
+    /// over `gradient_step`), `None` for a fixed axis or where a neighbour is infeasible.
+    pub gradient: [Option<f64>; 3],
+    /// The finite differences' step (deg).
+    pub gradient_step: f64,
+    /// The largest move on each axis (deg).
+    pub step: f64,
+    /// The best pose within the step (every combination of −step, 0, +step on the free axes, and
+    /// the step down the gradient), when one scores better than now.
+    pub best: Option<Score>,
+    /// `now − best` of the objective: what the move gains (both scored exactly, not predicted).
+    pub gain: Option<f64>,
+}
+
+/// Returns the next-best move from `rotation` over the `free` axes, with moves of up to `step`
+/// and the gradient over `gradient_step`, and every candidate evaluated.
+///
+/// # Errors
+/// As [`Scorer::score_all`].
+pub fn next_move(
+    scorer: &Scorer<'_>,
+    rotation: [f64; 3],
+    free: [bool; 3],
+    step: f64,
+    gradient_step: f64,
+) -> Result<(Move, Vec<Score>)> {
+    let axes: Vec<usize> = (0..3).filter(|&k| free[k]).collect();
+    let mut poses = vec![rotation];
+    for &k in &axes {
+        for sign in [-1.0, 1.0] {
+            let mut r = rotation;
+            r[k] += sign * gradient_step;
+            poses.push(r);
+        }
+    }
+    let first = scorer.score_all(&poses)?;
+    let now = first[0];
+    let mut gradient = [None; 3];
+    for (i, &k) in axes.iter().enumerate() {
+        let (minus, plus) = (first[1 + 2 * i].score, first[2 + 2 * i].score);
+        gradient[k] = minus.zip(plus).map(|(m, p)| (p - m) / (2.0 * gradient_step));
+    }
+    // Every combination of −step, 0, +step on the free axes, but staying; then down the gradient.
+    let mut moves = Vec::new();
+    let combos = 3usize.pow(u32::try_from(axes.len()).expect("three axes at most"));
+    for c in 0..combos {
+        let mut r = rotation;
+        let mut code = c;
+        for &k in &axes {
+            r[k] += [-step, 0.0, step][code % 3];
+            code /= 3;
+        }
+        if r != rotation {
+            moves.push(r);
+        }
+    }
+    let g: Vec<f64> = axes.iter().map(|&k| gradient[k].unwrap_or(0.0)).collect();
+    let norm = g.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if norm > 0.0 {
+        let mut r = rotation;
+        for (i, &k) in axes.iter().enumerate() {
+            r[k] -= step * g[i] / norm;
+        }
+        moves.push(r);
+    }
+    let scored = scorer.score_all(&moves)?;
+    let best = scored
+        .iter()
+        .filter(|s| better(s, &now))
+        .fold(None::<&Score>, |b, s| match b {
+            Some(b) if !better(s, b) => Some(b),
+            _ => Some(s),
+        })
+        .copied();
+    let gain = best.and_then(|b| now.score.zip(b.score).map(|(n, b)| n - b));
+    let mut evaluated = first;
+    evaluated.extend(scored);
+    Ok((
+        Move {
+            now,
+            gradient,
+            gradient_step,
+            step,
+            best,
+            gain,
+        },
+        evaluated,
+    ))
+}

@@ -1,0 +1,209 @@
+//! The rig advisor against what is known: the paper's findings for its central feature found by
+//! the search, a co-located pair of imaging sonars whose best roll follows from the geometry, the
+//! reported score of a pose equal to scoring it by hand through batch items, and the next-best
+//! move's gain that of the moved pose.
+
+use sonarproj::geometry::pose::{RelativePose, Rotation, cart_to_sph, sph_to_cart};
+use sonarproj::occupancy::Layout;
+use sonarproj::projection::{Backend, Batch, BatchItem};
+use sonarproj::sampling::Measurement;
+use sonarproj::{Output, SonarKind};
+use sonarproj_apps::advise::{self, AdviseConfig, Stats};
+
+fn config(text: &str) -> AdviseConfig {
+    AdviseConfig::parse("test.toml", text, std::path::Path::new(".")).unwrap()
+}
+
+/// A grid of roll, pitch (and yaw, `yaw` its values) at 30° steps with the paper's central
+/// feature placed as the paper places it.
+fn paper(from: &str, to: &str, feature: f64, at: f64, yaw: &str) -> AdviseConfig {
+    config(&format!(
+        "from = \"{from}\"\nto = \"{to}\"\nstep = 0.1\nobjective = \"correspondence\"\n\
+         [features]\npoints = [[{feature}, 0, 0]]\n\
+         [rig]\nplace = {{ feature = [{feature}, 0, 0], at = [{at}, 0, 0] }}\n\
+         [search]\nroll = {{ start = 0, stop = 180, step = 30 }}\npitch = {{ start = 0, stop = 180, step = 30 }}\n\
+         yaw = {yaw}\nrefine = 0\n"
+    ))
+}
+
+/// Returns the candidates' scores by rotation.
+fn scores(a: &advise::Advice) -> Vec<([f64; 3], f64)> {
+    a.ranked
+        .iter()
+        .map(|&i| (a.candidates[i].1.rotation, a.candidates[i].1.score.unwrap()))
+        .collect()
+}
+
+#[test]
+fn the_search_finds_the_papers_span_extremes() {
+    // fls -> sss, the feature at half the FLS's range placed at half the SSS's; the paper's
+    // finding as its own check states it (`paper::findings`): spans are short with roll and
+    // pitch at 0 or 180 (at most the 10th percentile of the grid's spans: many poses see only a
+    // sample or two of the arc, so the shortest tie within millimetres) and long at pitch 90
+    // with roll 0 or 180 (at least the 90th; the longest of all is at pitch 90, where roll and
+    // yaw turn about one axis).
+    // Scenario 7's grid (roll × pitch, yaw 0), where the paper checks these two findings.
+    let c = paper("paper-fls", "paper-sss", 5.0, 15.0, "0");
+    let a = advise::advise(&c, &Backend::CpuFast).unwrap();
+    let all = scores(&a);
+    let n = all.len();
+    let values: Vec<f64> = all.iter().map(|x| x.1).collect();
+    let stats = Stats::of(&values);
+    let (p10, p90) = (stats.p10.unwrap(), stats.p90.unwrap());
+    let at = |r: [f64; 3]| all.iter().find(|x| x.0 == r).unwrap().1;
+    for r in [
+        [0.0, 0.0, 0.0],
+        [180.0, 0.0, 0.0],
+        [0.0, 180.0, 0.0],
+        [180.0, 180.0, 0.0],
+    ] {
+        assert!(at(r) <= p10, "{r:?}: {} above the 10th percentile {p10}", at(r));
+    }
+    for r in [[0.0, 90.0, 0.0], [180.0, 90.0, 0.0]] {
+        assert!(at(r) >= p90, "{r:?}: {} below the 90th percentile {p90}", at(r));
+    }
+    let worst = all[n - 1].1;
+    for &(r, s) in &all {
+        if s == worst {
+            assert_eq!(r[1], 90.0, "longest at {r:?}");
+        }
+    }
+    assert!(worst > 100.0 * p10, "longest {worst}, 10th percentile {p10}");
+}
+
+#[test]
+fn the_search_finds_the_papers_smallest_area() {
+    // sss -> fls, the feature at half the SSS's range placed at half the FLS's: the projection
+    // area is smallest at roll 90 with pitch and yaw at 0 or 180 (counted in 8 cm cells, so
+    // other pitches at roll 90 may tie), and never smallest at another roll.
+    let c = paper(
+        "paper-sss",
+        "paper-fls",
+        15.0,
+        5.0,
+        "{ start = 0, stop = 180, step = 30 }",
+    );
+    let a = advise::advise(&c, &Backend::CpuFast).unwrap();
+    let all = scores(&a);
+    let best = all[0].1;
+    for &(r, s) in &all {
+        if s == best {
+            assert!(r[0] == 90.0, "smallest at {r:?}");
+        }
+    }
+    for pitch in [0.0, 180.0] {
+        for yaw in [0.0, 180.0] {
+            let r = [90.0, pitch, yaw];
+            assert_eq!(all.iter().find(|x| x.0 == r).unwrap().1, best, "{r:?}");
+        }
+    }
+}
+
+#[test]
+fn a_colocated_pair_of_imaging_sonars_is_best_unrolled() {
+    // Sonar 2 at sonar 1's origin: a feature's arc (a vertical arc through the origin) stays in
+    // one beam of sonar 2 unrolled, whatever the yaw (a turn about the vertical keeps the arc's
+    // plane through the origin), so its area is one row of cells; rolled, it spreads over beams.
+    let c = config(
+        "from = \"paper-fls\"\nto = \"paper-fls\"\nstep = 0.1\nobjective = \"correspondence\"\nmin_shared = 0.2\n\
+         [features]\ncount = 300\nseed = 7\n[rig]\norigin = [0, 0, 0]\n\
+         [search]\nroll = { start = -90, stop = 90, step = 15 }\nyaw = { start = -20, stop = 20, step = 10 }\n\
+         refine = 2\nrefine_to = 1\n",
+    );
+    let a = advise::advise(&c, &Backend::CpuFast).unwrap();
+    let best = a.best().unwrap();
+    assert!(best.rotation[0].abs() < 1.0, "best at {:?}", best.rotation);
+    // And rolling by 90 deg is far worse.
+    let rolled = a
+        .candidates
+        .iter()
+        .find(|(_, s)| s.rotation == [90.0, 0.0, 0.0])
+        .map(|(_, s)| s)
+        .unwrap();
+    assert!(rolled.score.is_none_or(|r| r > 2.0 * best.score.unwrap()));
+}
+
+#[test]
+fn a_reported_score_is_the_score_of_its_pose_by_hand() {
+    let c = config(
+        &std::fs::read_to_string(sonarproj_testkit::repository().join("data/example-advise.toml")).unwrap(),
+    );
+    let a = advise::advise(&c, &Backend::CpuFast).unwrap();
+    for s in a.ranked.iter().take(3).map(|&i| a.candidates[i].1) {
+        // The pose as features.csv gives it to `batch`: roll, pitch, yaw and t.
+        let rotation = Rotation::RollPitchYaw {
+            roll: s.rotation[0],
+            pitch: s.rotation[1],
+            yaw: s.rotation[2],
+        };
+        let pose = RelativePose::new(rotation, s.translation).unwrap();
+        // Its features: the pool's points both sonars see, in order (what features.csv lists).
+        let selection = advise::score::Pool::new(&c).select(&pose);
+        let shared: Vec<&[f64; 3]> = selection.features.iter().collect();
+        assert!(shared.iter().all(|f| {
+            let (r, az, el) =
+                cart_to_sph(pose.apply(sph_to_cart(f[0], f[1].to_radians(), f[2].to_radians())));
+            Layout::of(&c.target).inside(r, az, el)
+        }));
+        let batch = Batch {
+            source: c.source.clone(),
+            target: c.target.clone(),
+            sampling: c.sampling,
+            area_grid: c.area_grid,
+            items: shared
+                .iter()
+                .map(|f| BatchItem {
+                    measurement: Measurement::of(&c.source, f[0], f[1]).unwrap(),
+                    pose,
+                })
+                .collect(),
+        };
+        let metrics: Vec<f64> = Backend::CpuFast
+            .project(&batch, Output::MetricsOnly)
+            .unwrap()
+            .iter()
+            .map(|p| match c.target.kind {
+                SonarKind::Fls => p.metrics.projection_area.unwrap(),
+                SonarKind::Sss => p.metrics.span,
+            })
+            .collect();
+        assert_eq!(s.features, shared.len());
+        assert_eq!(s.shared, selection.shared());
+        assert_eq!(s.metric, Stats::of(&metrics), "{:?}", s.rotation);
+        assert_eq!(s.score, s.metric.mean);
+    }
+}
+
+#[test]
+fn the_next_move_gains_what_the_moved_pose_scores() {
+    let mut c = config(
+        &std::fs::read_to_string(sonarproj_testkit::repository().join("data/example-advise.toml")).unwrap(),
+    );
+    for from in [[5.0, -2.0, 0.0], [12.0, 0.0, 3.0], [20.0, -10.0, 0.0]] {
+        c.from_pose = Some(advise::FromPose {
+            rotation: from,
+            step: 5.0,
+            gradient_step: 0.5,
+        });
+        let a = advise::advise(&c, &Backend::CpuFast).unwrap();
+        let m = a.next.unwrap();
+        let scorer = advise::Scorer::new(&c, &Backend::CpuFast).unwrap();
+        let now = scorer.score_all(&[from]).unwrap()[0];
+        assert_eq!(m.now, now);
+        if let Some(best) = m.best {
+            let moved = scorer.score_all(&[best.rotation]).unwrap()[0];
+            assert_eq!(moved, best);
+            if let Some(gain) = m.gain {
+                assert!(gain > 0.0);
+                assert_eq!(gain, now.score.unwrap() - moved.score.unwrap());
+            }
+            for k in 0..3 {
+                assert!(
+                    (best.rotation[k] - from[k]).abs() <= 5.0 + 1e-12,
+                    "{from:?} -> {:?}",
+                    best.rotation
+                );
+            }
+        }
+    }
+}

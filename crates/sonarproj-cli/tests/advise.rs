@@ -1,0 +1,181 @@
+//! `sonarproj advise` from the outside: the documented example runs and writes its four files
+//! (best.json naming the best pose, candidates.parquet with every candidate, features.csv that
+//! `batch` reads back to the best pose's score, to the bit); bad advise files exit 2 naming the key
+//! and the value, and leave no output directory behind.
+
+use sonarproj_testkit as common;
+
+const EXAMPLE: &str = "data/example-advise.toml";
+
+#[test]
+fn the_example_writes_its_files_and_batch_recomputes_the_best_score() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("advise");
+    let run = common::sonarproj()
+        .args(["advise", "--config", EXAMPLE, "--backend", "cpu-fast", "--out"])
+        .arg(&out)
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("advise: ") && err.contains("best roll"), "{err}");
+    let best: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("best.json")).unwrap()).unwrap();
+    let top = &best["ranked"][0];
+    assert!(top["score"].as_f64().unwrap() > 0.0, "{best}");
+    assert_eq!(best["metric"], "projection_area");
+    assert!(best["next_move"]["now"]["rotation"].is_array());
+    assert!(std::fs::metadata(out.join("candidates.parquet")).unwrap().len() > 1000);
+    let picture = common::Picture::read(&out.join("landscape.png"));
+    assert!(
+        picture.w >= 800 && picture.h >= 600,
+        "landscape {}x{}",
+        picture.w,
+        picture.h
+    );
+    // features.csv through `batch`: the features both sonars see, their projection areas' mean
+    // is the best pose's score, to the bit (the shared ones: a visible sample at the feature).
+    let metrics = dir.path().join("metrics.csv");
+    common::sonarproj()
+        .args([
+            "batch",
+            "--from",
+            "paper-fls",
+            "--to",
+            "paper-fls",
+            "--step",
+            "0.1",
+            "--backend",
+            "cpu-fast",
+            "--input",
+        ])
+        .arg(out.join("features.csv"))
+        .arg("--output")
+        .arg(&metrics)
+        .assert()
+        .success();
+    let mut rdr = csv::Reader::from_path(&metrics).unwrap();
+    let headers = rdr.headers().unwrap().clone();
+    let col = |name: &str| headers.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = rdr.records().map(Result::unwrap).collect();
+    // The best pose's features, each seen by both sonars (sonar 2's field of view checked here).
+    assert_eq!(rows.len() as u64, top["features"].as_u64().unwrap());
+    assert_eq!(
+        shared_rows(&rows, col("range"), col("azimuth"), col("elevation"), top).len(),
+        rows.len()
+    );
+    let area = col("projection_area");
+    let sum: f64 = rows.iter().map(|row| row[area].parse::<f64>().unwrap()).sum();
+    #[expect(clippy::cast_precision_loss, reason = "a thousand features")]
+    let mean = sum / rows.len() as f64;
+    assert_eq!(top["metric"]["mean"].as_f64().unwrap(), mean, "the score by hand");
+    assert_eq!(top["score"].as_f64().unwrap(), mean);
+}
+
+/// Returns the rows whose true points sonar 2 (paper-fls) sees under `top`'s pose.
+fn shared_rows(
+    rows: &[csv::StringRecord],
+    r: usize,
+    az: usize,
+    el: usize,
+    top: &serde_json::Value,
+) -> Vec<usize> {
+    use sonarproj::geometry::pose::{RelativePose, Rotation, cart_to_sph, sph_to_cart};
+    let rot: Vec<f64> = top["rotation"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let t: Vec<f64> = top["translation"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let pose = RelativePose::new(
+        Rotation::RollPitchYaw {
+            roll: rot[0],
+            pitch: rot[1],
+            yaw: rot[2],
+        },
+        [t[0], t[1], t[2]],
+    )
+    .unwrap();
+    let layout = sonarproj::occupancy::Layout::of(&common::preset("paper-fls"));
+    (0..rows.len())
+        .filter(|&k| {
+            let f = |i: usize| rows[k][i].parse::<f64>().unwrap();
+            let (r2, a2, e2) =
+                cart_to_sph(pose.apply(sph_to_cart(f(r), f(az).to_radians(), f(el).to_radians())));
+            layout.inside(r2, a2, e2)
+        })
+        .collect()
+}
+
+#[test]
+fn bad_advise_files_exit_2_naming_the_key() {
+    let base = "from = \"paper-fls\"\nto = \"paper-fls\"\nstep = 0.1\n[features]\ncount = 10\n[rig]\norigin = [0, 0, 0]\n";
+    let cases: &[(String, &[&str])] = &[
+        (format!("{base}colour = 1\n"), &["colour", "unknown key"]),
+        (
+            base.replace("count = 10", "count = 0"),
+            &["features.count", "[1, 1000000]"],
+        ),
+        (
+            base.replace("count = 10", "points = [[50, 0, 0]]"),
+            &["features.points[0]", "feature range = 50"],
+        ),
+        (
+            format!("objective = \"fast\"\n{base}"),
+            &["objective", "\"fast\""],
+        ),
+        (format!("min_shared = 2\n{base}"), &["min_shared = 2", "[0, 1]"]),
+        (
+            format!("objective = \"mix\"\n{base}"),
+            &["mix", "[mix] with weight"],
+        ),
+        (
+            base.replace("origin = [0, 0, 0]", "origin = [0, 0]"),
+            &["rig.origin", "three finite numbers"],
+        ),
+        (
+            base.replace(
+                "origin = [0, 0, 0]",
+                "origin = [0, 0, 0]\ntranslation = [1, 0, 0]",
+            ),
+            &["rig", "one of origin, translation, place"],
+        ),
+        (
+            format!("{base}[search]\nroll = [0, 10]\nlandscape = [\"roll\", \"yaw\"]\n"),
+            &["search.landscape", "two different axes"],
+        ),
+        (
+            format!("{base}[search]\nrefine = 1.5\n"),
+            &["search.refine = 1.5"],
+        ),
+        (format!("{base}[from_pose]\nstep = 0\n"), &["from_pose.step = 0"]),
+        (
+            base.replace("[rig]\norigin = [0, 0, 0]\n", ""),
+            &["rig", "missing"],
+        ),
+        (
+            "from = \"paper-fls\"\nto = [".to_string(),
+            &["advise file", "expected"],
+        ),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    for (k, (text, needles)) in cases.iter().enumerate() {
+        let file = dir.path().join(format!("bad-{k}.toml"));
+        std::fs::write(&file, text).unwrap();
+        let out = dir.path().join(format!("out-{k}"));
+        let (f, o) = (file.to_str().unwrap(), out.to_str().unwrap());
+        common::rejects(
+            &["advise", "--config", f, "--out", o, "--backend", "cpu"],
+            None,
+            needles,
+        );
+        assert!(!out.exists(), "case {k}: the output directory was created");
+    }
+}
