@@ -73,6 +73,7 @@ __all__ = [
     "OculusPing",
     "Pose",
     "Sonar",
+    "advise",
     "batch",
     "configure_gpu",
     "masks",
@@ -833,6 +834,9 @@ def _paper_step(value: Any) -> Optional[float]:
             return None
         raise InputError(f"step: expected a number of degrees or 'auto', got {value!r}")
     return _number("step", value)
+
+
+from ._advise import advise  # noqa: E402
 
 
 def __dir__() -> list[str]:

@@ -281,6 +281,9 @@ def recover_columns(
     sigma_range: Optional[float],
     sigma_azimuth: Optional[float],
 ) -> dict[str, Any]: ...
+def advise_run(
+    config: str, out_dir: Optional[str], backend_name: str
+) -> tuple[dict[str, Any], Optional[str]]: ...
 def sweep_run(
     config: str,
     out_dir: str,

@@ -6,6 +6,7 @@
 
 use pyo3::prelude::*;
 
+mod advise;
 mod apps;
 mod arrays;
 mod backend;
@@ -45,6 +46,7 @@ fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::project_one, m)?)?;
     m.add_function(wrap_pyfunction!(recover::recover_one, m)?)?;
     m.add_function(wrap_pyfunction!(recover::recover_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(advise::advise_run, m)?)?;
     m.add_function(wrap_pyfunction!(apps::sweep_run, m)?)?;
     m.add_function(wrap_pyfunction!(apps::sweep_memory, m)?)?;
     m.add_function(wrap_pyfunction!(apps::sweep_merge, m)?)?;

@@ -1,0 +1,43 @@
+"""The rig advisor, ``sonarproj.advise`` (README: Rig advisor)."""
+
+from __future__ import annotations
+
+import os as _os
+from typing import Any, Optional, Union
+
+
+def advise(
+    config: Union[str, "_os.PathLike[str]"],
+    out_dir: Optional[Union[str, "_os.PathLike[str]"]] = None,
+    *,
+    backend: str = "auto",
+) -> dict[str, Any]:
+    """Runs the rig advisor of the TOML file `config` (``sonarproj advise``, the same code):
+    candidate rotations of sonar 2 scored over the features both sonars see — correspondence
+    (the mean range span or projection area), recovery (the median elevation sigma) or a mix —
+    the best refined, and from the file's ``[from_pose]`` the best small move. With `out_dir`
+    it also writes ``best.json``, ``candidates.parquet``, ``features.csv`` and
+    ``landscape.png`` there. `backend` picks where to compute: "auto", "gpu", "cpu-fast" or
+    "cpu".
+
+    Returns a dict: ``candidates`` (numpy columns, one row per candidate evaluated: ``stage``
+    — 0 the cover, 1 refinement, 2 the move's evaluations —, ``roll``, ``pitch``, ``yaw``
+    (deg), ``tx``, ``ty``, ``tz`` (m), ``shared``, ``features``, ``metric_mean``,
+    ``metric_median``, ``metric_p10``, ``metric_p90``, ``sigma_mean``, ``sigma_median``,
+    ``sigma_p10``, ``sigma_p90``, ``score``; NaN where there is no value, and for the score of
+    an infeasible candidate), ``ranked`` (the feasible candidates' rows, best first), ``best``
+    (the best candidate as a dict, or None), ``next_move`` (a dict: ``now``, ``gradient``,
+    ``best``, ``gain``; None without ``[from_pose]``), ``metric``, ``files`` (the paths
+    written), ``seconds`` and ``device``.
+    """
+    from . import InputError, _backend, _native, _warn
+
+    if not isinstance(config, (str, _os.PathLike)):
+        raise InputError(f"config: expected the path of an advise TOML file, got {type(config).__name__}")
+    if out_dir is not None and not isinstance(out_dir, (str, _os.PathLike)):
+        raise InputError(f"out_dir: expected a directory path, got {type(out_dir).__name__}")
+    result, notice = _native.advise_run(
+        _os.fspath(config), None if out_dir is None else _os.fspath(out_dir), _backend(backend)
+    )
+    _warn(notice)
+    return result
