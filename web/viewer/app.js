@@ -6,6 +6,8 @@
 // Picture convention (as every picture of sonarproj): near range at the bottom, port on the
 // left; in the raw layout beam 0 (starboard-most) is the rightmost column.
 
+import { setupAdvise } from "/advise.js";
+
 const COLOURS = {
   s1: 0x1f77b4, s2: 0xff7f0e, seen: 0xd62728, unseen: 0xa0a4ab, truth: 0x111111, rec: 0x2ca02c,
 };
@@ -737,6 +739,7 @@ async function start() {
     }
     setTimeout(() => { $("copy-button").textContent = "copy"; }, 1500);
   });
+  setupAdvise({ readScene, setValue, changed, showError });
   changed();
 }
 

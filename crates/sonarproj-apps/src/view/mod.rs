@@ -4,6 +4,7 @@
 //! recovered points, and the same scene as a command line, a sweep file and Python). The HTTP
 //! server of `sonarproj view` is a thin front on [`Viewer::scene`]; the page never names a file.
 
+pub mod advise;
 pub mod copy_as;
 
 use std::collections::HashMap;

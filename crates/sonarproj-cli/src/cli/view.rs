@@ -28,6 +28,7 @@ use hyper::header::{HOST, HeaderValue, ORIGIN};
 use hyper::{Method, Request, Response, StatusCode};
 use serde_json::json;
 use sonarproj::BackendChoice;
+use sonarproj_apps::view::advise::AdviseRequest;
 use sonarproj_apps::view::{Choice, MAX_REQUEST_BYTES, Scene, Viewer};
 use sonarproj_apps::{Error, Result};
 use tokio::sync::Semaphore;
@@ -63,7 +64,7 @@ pub(super) struct ViewArgs {
 type Asset = (&'static str, &'static str, &'static [u8]);
 
 /// The page's files, served from inside the binary.
-const ASSETS: [Asset; 6] = [
+const ASSETS: [Asset; 7] = [
     (
         "/",
         "text/html; charset=utf-8",
@@ -73,6 +74,11 @@ const ASSETS: [Asset; 6] = [
         "/app.js",
         "text/javascript; charset=utf-8",
         include_bytes!("../../../../web/viewer/app.js"),
+    ),
+    (
+        "/advise.js",
+        "text/javascript; charset=utf-8",
+        include_bytes!("../../../../web/viewer/advise.js"),
     ),
     (
         "/style.css",
@@ -355,6 +361,7 @@ async fn answer(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Fu
             json_reply(StatusCode::OK, &init)
         }
         (&Method::POST, "/api/scene") => scene(shared, request).await,
+        (&Method::POST, "/api/advise") => advise(shared, request).await,
         (&Method::GET | &Method::HEAD, p) => match ASSETS.iter().find(|(name, _, _)| *name == p) {
             Some((_, kind, bytes)) => reply(StatusCode::OK, kind, Bytes::from_static(bytes)),
             None => error_reply(
@@ -371,41 +378,69 @@ async fn answer(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Fu
     }
 }
 
+/// Returns the request's body, read within the size and time bounds, or the error reply.
+async fn body_of(request: Request<Incoming>) -> std::result::Result<Bytes, Response<Full<Bytes>>> {
+    let body = Limited::new(request.into_body(), MAX_REQUEST_BYTES);
+    match tokio::time::timeout(BODY_TIMEOUT, body.collect()).await {
+        Err(_) => Err(error_reply(
+            StatusCode::REQUEST_TIMEOUT,
+            &format!(
+                "request: the body did not arrive within {} s",
+                BODY_TIMEOUT.as_secs()
+            ),
+            true,
+        )),
+        Ok(Err(e)) if e.downcast_ref::<LengthLimitError>().is_some() => Err(error_reply(
+            StatusCode::PAYLOAD_TOO_LARGE,
+            &format!("request: at most {MAX_REQUEST_BYTES} bytes"),
+            true,
+        )),
+        Ok(Err(e)) => Err(error_reply(
+            StatusCode::BAD_REQUEST,
+            &format!("cannot read the request: {e}"),
+            true,
+        )),
+        Ok(Ok(collected)) => Ok(collected.to_bytes()),
+    }
+}
+
 /// Answers `POST /api/scene`: reads the body (bounded in size and time), waits for a computing
 /// slot (bounded queue) and computes the scene on a blocking thread.
 async fn scene(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Full<Bytes>> {
-    let body = Limited::new(request.into_body(), MAX_REQUEST_BYTES);
-    let body = match tokio::time::timeout(BODY_TIMEOUT, body.collect()).await {
-        Err(_) => {
-            return error_reply(
-                StatusCode::REQUEST_TIMEOUT,
-                &format!(
-                    "request: the body did not arrive within {} s",
-                    BODY_TIMEOUT.as_secs()
-                ),
-                true,
-            );
-        }
-        Ok(Err(e)) if e.downcast_ref::<LengthLimitError>().is_some() => {
-            return error_reply(
-                StatusCode::PAYLOAD_TOO_LARGE,
-                &format!("request: at most {MAX_REQUEST_BYTES} bytes"),
-                true,
-            );
-        }
-        Ok(Err(e)) => {
-            return error_reply(
-                StatusCode::BAD_REQUEST,
-                &format!("cannot read the request: {e}"),
-                true,
-            );
-        }
-        Ok(Ok(collected)) => collected.to_bytes(),
+    let body = match body_of(request).await {
+        Ok(b) => b,
+        Err(reply) => return reply,
     };
     let scene = match Scene::parse(&body) {
         Ok(s) => s,
         Err(e) => return error_reply(StatusCode::BAD_REQUEST, &e.to_string(), true),
     };
+    compute(shared, move |viewer, gone| {
+        viewer.scene_until(&scene, &|| gone.load(Ordering::Relaxed))
+    })
+    .await
+}
+
+/// Answers `POST /api/advise` (the advise panel) as `scene` answers a scene.
+async fn advise(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Full<Bytes>> {
+    let body = match body_of(request).await {
+        Ok(b) => b,
+        Err(reply) => return reply,
+    };
+    let asked = match AdviseRequest::parse(&body) {
+        Ok(a) => a,
+        Err(e) => return error_reply(StatusCode::BAD_REQUEST, &e.to_string(), true),
+    };
+    compute(shared, move |viewer, _| viewer.advise(&asked)).await
+}
+
+/// Runs `work` on a blocking thread once a computing slot is free (a bounded queue of waiting
+/// requests, then 503), with a flag set when the client goes away; replies with its JSON or its
+/// error (400 for bad input).
+async fn compute(
+    shared: &Arc<Shared>,
+    work: impl FnOnce(&Viewer, &AtomicBool) -> sonarproj_apps::Result<serde_json::Value> + Send + 'static,
+) -> Response<Full<Bytes>> {
     let Ok(waiting) = Arc::clone(&shared.waiting).try_acquire_owned() else {
         return error_reply(
             StatusCode::SERVICE_UNAVAILABLE,
@@ -418,10 +453,10 @@ async fn scene(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Ful
     };
     let gone = Arc::new(AtomicBool::new(false));
     let _guard = GoneOnDrop(Arc::clone(&gone));
-    let work = Arc::clone(shared);
+    let shared = Arc::clone(shared);
     let computed = tokio::task::spawn_blocking(move || {
         let slots = (waiting, computing);
-        let answer = work.viewer.scene_until(&scene, &|| gone.load(Ordering::Relaxed));
+        let answer = work(&shared.viewer, &gone);
         drop(slots);
         answer
     })

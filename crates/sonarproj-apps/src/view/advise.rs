@@ -1,0 +1,209 @@
+//! The viewer's advise panel: the rig advisor's score around the scene's pose over two rotation
+//! axes, and its best small move ([`crate::advise`], the same code as `sonarproj advise`).
+
+use serde::Deserialize;
+use serde_json::{Value, json};
+
+use crate::advise::{self, AdviseConfig, Features, FromPose, Objective, Rig, config::ROTATION_AXES};
+use crate::error::{Error, Result};
+use crate::view::{Scene, Viewer};
+
+/// The most features the panel scores over.
+pub const MAX_PANEL_FEATURES: usize = 2000;
+/// The most values per axis of the panel's grid.
+pub const MAX_PANEL_STEPS: usize = 21;
+
+/// What the page asks the panel for (JSON).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct AdviseRequest {
+    /// The scene: its sonars, sampling, feature and pose (a placement or a translation is the
+    /// rig while sonar 2 turns).
+    pub scene: Scene,
+    /// `correspondence` or `recovery`.
+    #[serde(default = "default_objective")]
+    pub objective: String,
+    /// The two rotation axes of the grid (`roll`, `pitch`, `yaw`).
+    #[serde(default = "default_axes")]
+    pub axes: [String; 2],
+    /// Half the grid's width on each axis (deg).
+    #[serde(default = "default_span")]
+    pub span: f64,
+    /// Values per axis (odd, so the pose now is the centre).
+    #[serde(default = "default_steps")]
+    pub steps: usize,
+    /// Features drawn over the view both sonars share; 0 scores the scene's feature alone.
+    #[serde(default = "default_features")]
+    pub features: usize,
+}
+
+fn default_objective() -> String {
+    "correspondence".into()
+}
+fn default_axes() -> [String; 2] {
+    ["roll".into(), "pitch".into()]
+}
+fn default_span() -> f64 {
+    10.0
+}
+fn default_steps() -> usize {
+    9
+}
+fn default_features() -> usize {
+    200
+}
+
+impl AdviseRequest {
+    /// Returns the request parsed from the JSON `body`.
+    ///
+    /// # Errors
+    /// An input error naming what is malformed.
+    pub fn parse(body: &[u8]) -> Result<AdviseRequest> {
+        if body.len() > crate::view::MAX_REQUEST_BYTES {
+            return Err(Error::invalid(
+                "request",
+                format!("{} bytes", body.len()),
+                format!("at most {} bytes", crate::view::MAX_REQUEST_BYTES),
+            ));
+        }
+        serde_json::from_slice(body).map_err(|e| Error::input("request", e.to_string()))
+    }
+}
+
+impl Viewer {
+    /// Returns the advise panel's answer for `request`: the axes and their values, the score of
+    /// every grid cell (`null` where infeasible), the pose now's score and the best small move,
+    /// as JSON.
+    ///
+    /// # Errors
+    /// Bad input naming the field (objective, axes, span, steps, features; the scene's own);
+    /// the backend's failures.
+    pub fn advise(&self, request: &AdviseRequest) -> Result<Value> {
+        let started = std::time::Instant::now();
+        let scene = &request.scene;
+        let source = self.choice("from", &scene.from)?.sonar.clone();
+        let target = self.choice("to", &scene.to)?.sonar.clone();
+        let f = scene.feature;
+        source.check_point("feature", f.range, f.azimuth, f.elevation)?;
+        scene.pose()?;
+        let objective = match request.objective.as_str() {
+            "correspondence" => Objective::Correspondence,
+            "recovery" => Objective::Recovery,
+            other => {
+                return Err(Error::invalid(
+                    "objective",
+                    format!("{other:?}"),
+                    "must be \"correspondence\" or \"recovery\"",
+                ));
+            }
+        };
+        let axis = |name: &str| {
+            ROTATION_AXES
+                .iter()
+                .position(|a| *a == name)
+                .ok_or_else(|| Error::invalid("axes", format!("{name:?}"), "must name roll, pitch or yaw"))
+        };
+        let axes = [axis(&request.axes[0])?, axis(&request.axes[1])?];
+        if axes[0] == axes[1] {
+            return Err(Error::invalid(
+                "axes",
+                format!("{:?}", request.axes),
+                "must be two different axes",
+            ));
+        }
+        if !(request.span > 0.0 && request.span <= 90.0) {
+            return Err(Error::invalid("span", request.span, "must be in (0, 90] deg"));
+        }
+        if request.steps < 3 || request.steps > MAX_PANEL_STEPS || request.steps % 2 == 0 {
+            return Err(Error::invalid(
+                "steps",
+                request.steps,
+                format!("must be odd, in [3, {MAX_PANEL_STEPS}]"),
+            ));
+        }
+        if request.features > MAX_PANEL_FEATURES {
+            return Err(Error::invalid(
+                "features",
+                request.features,
+                format!("must be in [0, {MAX_PANEL_FEATURES}]"),
+            ));
+        }
+        let now = [scene.rotation.roll, scene.rotation.pitch, scene.rotation.yaw];
+        #[expect(clippy::cast_precision_loss, reason = "at most 21 steps")]
+        let cell = 2.0 * request.span / (request.steps - 1) as f64;
+        let values = |k: usize| -> Vec<f64> {
+            #[expect(clippy::cast_precision_loss, reason = "at most 21 steps")]
+            let v = (0..request.steps)
+                .map(|i| now[k] - request.span + i as f64 * cell)
+                .collect();
+            v
+        };
+        let grid: [Vec<f64>; 3] = std::array::from_fn(|k| {
+            if axes.contains(&k) {
+                values(k)
+            } else {
+                vec![now[k]]
+            }
+        });
+        let rig = match (scene.place, scene.translation) {
+            (Some(p), None) => Rig::Place {
+                feature: [f.range, f.azimuth, f.elevation],
+                at: [p.range, p.azimuth, p.elevation],
+            },
+            (None, Some(t)) => Rig::Translation(t),
+            _ => unreachable!("checked by the scene's pose"),
+        };
+        let config = AdviseConfig {
+            source,
+            target,
+            sampling: scene.sampling()?,
+            area_grid: sonarproj::PAPER_AREA_GRID,
+            sigma_range: None,
+            objective,
+            min_shared: 0.0,
+            features: if request.features == 0 {
+                Features::Points(vec![[f.range, f.azimuth, f.elevation]])
+            } else {
+                Features::Drawn {
+                    count: request.features,
+                    seed: 1,
+                }
+            },
+            rig,
+            axes: grid,
+            refine: 0,
+            refine_to: 0.5,
+            landscape: None,
+            from_pose: Some(FromPose {
+                rotation: now,
+                step: cell,
+                gradient_step: 0.5,
+            }),
+        };
+        let advice = advise::advise(&config, &self.backend)?;
+        // The cover's scores, the first axis outer (its rows), the second inner.
+        let (a, b) = (axes[0], axes[1]);
+        let mut scores = Vec::with_capacity(request.steps * request.steps);
+        for &x in &config.axes[a] {
+            for &y in &config.axes[b] {
+                let s = advice
+                    .candidates
+                    .iter()
+                    .find(|(stage, s)| {
+                        *stage == advise::Stage::Cover && s.rotation[a] == x && s.rotation[b] == y
+                    })
+                    .and_then(|(_, s)| s.score);
+                scores.push(s);
+            }
+        }
+        Ok(json!({
+            "axes": [ROTATION_AXES[a], ROTATION_AXES[b]],
+            "values": [config.axes[a], config.axes[b]],
+            "scores": scores,
+            "metric": advice.metric,
+            "objective": request.objective,
+            "move": advice.next,
+            "compute_ms": started.elapsed().as_secs_f64() * 1e3,
+        }))
+    }
+}
