@@ -114,7 +114,7 @@ impl Viewer {
         if !(request.span > 0.0 && request.span <= 90.0) {
             return Err(Error::invalid("span", request.span, "must be in (0, 90] deg"));
         }
-        if request.steps < 3 || request.steps > MAX_PANEL_STEPS || request.steps % 2 == 0 {
+        if request.steps < 3 || request.steps > MAX_PANEL_STEPS || request.steps.is_multiple_of(2) {
             return Err(Error::invalid(
                 "steps",
                 request.steps,
