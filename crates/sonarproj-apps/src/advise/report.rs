@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 use crate::io::parquet::{Column, Encoding, Kind, Table, TableWriter};
 use crate::report::{check_output_file, output_dir, write_atomic};
 
-/// The files [`write`] wrote.
+/// The files [`write()`] wrote.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Written {
     /// `DIR/best.json`.
