@@ -6,7 +6,7 @@
 #   scripts/gpu-remote.sh run       # there, from the repository root, with .gpu/ copied along:
 #                                   # Vulkan loader, NVIDIA ICD, GPU tests, benches, paper,
 #                                   # 1 M-pose sweeps (Parquet, summaries) on GPU and CPU,
-#                                   # `bench sweep` on 10 M poses;
+#                                   # `bench sweep` on 10 M poses, the advisor's benchmark;
 #                                   # summary.txt and logs.tar.gz into $OUT (or .gpu/out)
 #
 # `prepare` needs cargo and apt-get (for the Vulkan loader packages, unpacked there with dpkg -x).
@@ -121,6 +121,12 @@ run() {
     # The grid decoded on the device against the per-item path, on 10 M poses (1.2 G samples):
     # the projection's samples/s, the host's cost a pose, the sweeps' multiples of it.
     step bench-sweep "$bin/sonarproj" bench sweep --backends gpu,cpu-fast --poses 10000000 --runs 3
+    # The rig advisor's target (10 000 rotations x 1000 features x 121 samples) on both.
+    for b in gpu cpu-fast; do
+        rm -rf "$bundle/advise-$b"
+        step "advise-$b" "$bin/sonarproj" advise --config data/bench-advise.toml --out "$bundle/advise-$b" --backend "$b"
+    done
+    grep -h "advise:" "$logs"/advise-*.log >>"$logs/summary.txt" || true
     grep -h "sweep:" "$logs"/sweep-*.log >>"$logs/summary.txt" || true
     grep -hE "^(gpu|cpu-fast) " "$logs"/bench-sweep.log >>"$logs/summary.txt" || true
     grep -h "paper:" "$logs"/paper-*.log >>"$logs/summary.txt" || true
