@@ -182,16 +182,21 @@ fn the_next_move_gains_what_the_moved_pose_scores() {
     for from in [[5.0, -2.0, 0.0], [12.0, 0.0, 3.0], [20.0, -10.0, 0.0]] {
         c.from_pose = Some(advise::FromPose {
             rotation: from,
+            offset: [0.0; 3],
             step: 5.0,
+            step_m: 0.1,
             gradient_step: 0.5,
+            gradient_step_m: 0.01,
         });
         let a = advise::advise(&c, &Backend::CpuFast).unwrap();
         let m = a.next.unwrap();
         let scorer = advise::Scorer::new(&c, &Backend::CpuFast).unwrap();
-        let now = scorer.score_all(&[from]).unwrap()[0];
+        let now = scorer
+            .score_all(&[[from[0], from[1], from[2], 0.0, 0.0, 0.0]])
+            .unwrap()[0];
         assert_eq!(m.now, now);
         if let Some(best) = m.best {
-            let moved = scorer.score_all(&[best.rotation]).unwrap()[0];
+            let moved = scorer.score_all(&[best.params()]).unwrap()[0];
             assert_eq!(moved, best);
             if let Some(gain) = m.gain {
                 assert!(gain > 0.0);
@@ -206,4 +211,40 @@ fn the_next_move_gains_what_the_moved_pose_scores() {
             }
         }
     }
+}
+
+#[test]
+fn a_taller_baseline_recovers_elevation_more_precisely() {
+    // Two imaging sonars, the second at sonar 1's origin shifted by z: the elevation an FLS loses
+    // moves the other's range by about |z| m per radian (the slope r z / |p - o| at elevation 0),
+    // so the recovery sigma shrinks as the vertical baseline grows; without one (z = 0) the range
+    // does not move and there is no sigma (infeasible). The search over z finds the tallest, and
+    // the move from a short one goes taller.
+    let c = config(
+        "from = \"paper-fls\"\nto = \"paper-fls\"\nstep = 0.1\nobjective = \"recovery\"\n\
+         [features]\ncount = 200\nseed = 3\n[rig]\norigin = [0, 0, 0]\n\
+         [search]\nz = [-1.0, -0.5, 0.0, 0.25, 0.5, 1.0]\nrefine = 0\n\
+         [from_pose]\nz = 0.25\nstep_m = 0.25\n",
+    );
+    let a = advise::advise(&c, &Backend::CpuFast).unwrap();
+    let best = a.best().unwrap();
+    assert_eq!(best.offset[2].abs(), 1.0, "best at {:?}", best.offset);
+    let at = |z: f64| {
+        a.candidates
+            .iter()
+            .find(|(s, x)| *s == advise::Stage::Cover && x.offset[2] == z)
+            .unwrap()
+            .1
+            .score
+    };
+    assert_eq!(at(0.0), None, "no baseline, no recovery");
+    assert!(at(1.0).unwrap() < at(0.5).unwrap() && at(0.5).unwrap() < at(0.25).unwrap());
+    let m = a.next.unwrap();
+    assert_eq!(m.best.unwrap().offset[2], 0.5, "the move goes taller");
+    assert!(m.gain.unwrap() > 0.0);
+    // A placement sets the translation: offsets are refused there.
+    let text = "from = \"paper-fls\"\nto = \"paper-fls\"\n[features]\ncount = 5\n\
+                [rig]\nplace = { feature = [5, 0, 0], at = [5, 0, 0] }\n[search]\nz = [0, 1]\n";
+    let e = AdviseConfig::parse("t.toml", text, std::path::Path::new(".")).unwrap_err();
+    assert!(e.is_input() && e.to_string().contains("search.z"), "{e}");
 }

@@ -63,6 +63,9 @@ pub(crate) fn advise_run<'py>(
     for (k, name) in ["roll", "pitch", "yaw"].iter().enumerate() {
         columns.set_item(name, real(&|s| s.rotation[k]).into_pyarray(py))?;
     }
+    for (k, name) in ["x", "y", "z"].iter().enumerate() {
+        columns.set_item(name, real(&|s| s.offset[k]).into_pyarray(py))?;
+    }
     for (k, name) in ["tx", "ty", "tz"].iter().enumerate() {
         columns.set_item(name, real(&|s| s.translation[k]).into_pyarray(py))?;
     }

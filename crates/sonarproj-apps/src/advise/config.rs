@@ -19,20 +19,21 @@
 //! # translation = [1, 0, 0]     # or the paper's placement: the feature appears at `at` in sonar 2
 //! # place = { feature = [5, 0, 0], at = [15, 0, 0] }
 //!
-//! [search]                      # the rotations covered (roll, pitch, yaw in deg; as a sweep's keys)
-//! roll = { start = -180, stop = 170, step = 10 }
-//! pitch = { start = -90, stop = 90, step = 10 }
+//! [search]                      # the candidates: roll, pitch, yaw (deg; as a sweep's keys) and
+//! roll = { start = -180, stop = 170, step = 10 }   # x, y, z (m), offsets added to the rig's
+//! pitch = { start = -90, stop = 90, step = 10 }    # origin or translation (not a placement)
 //! yaw = 0
+//! # z = [-0.5, 0, 0.5]
 //! refine = 3                    # the best feasible candidates refined by pattern search (0: none)
-//! refine_to = 0.5               # deg: the finest refinement step
+//! refine_to = 0.5               # deg: the finest refinement step (refine_to_m: m, default 0.01)
 //! landscape = ["roll", "pitch"] # the figure's two axes (default: the first two that vary)
 //!
 //! [from_pose]                   # the rig's pose now: its score, gradient and best small move
 //! roll = 10
 //! pitch = 20
 //! yaw = 0
-//! step = 5                      # deg: the largest move on each axis
-//! gradient_step = 0.5           # deg: the finite differences' step
+//! step = 5                      # deg: the largest move on each rotation axis (step_m: m, 0.1)
+//! gradient_step = 0.5           # deg: the finite differences' step (gradient_step_m: m, 0.01)
 //! ```
 
 use std::path::{Path, PathBuf};
@@ -87,10 +88,16 @@ pub enum Rig {
 pub struct FromPose {
     /// Roll, pitch, yaw (deg).
     pub rotation: [f64; 3],
-    /// The largest move on each axis (deg).
+    /// The offset of the rig's origin or translation, x, y, z (m).
+    pub offset: [f64; 3],
+    /// The largest move on each rotation axis (deg).
     pub step: f64,
-    /// The finite differences' step (deg).
+    /// The largest move on each offset axis (m).
+    pub step_m: f64,
+    /// The finite differences' step on the rotation axes (deg).
     pub gradient_step: f64,
+    /// The finite differences' step on the offset axes (m).
+    pub gradient_step_m: f64,
 }
 
 /// The features candidates are scored over.
@@ -132,13 +139,16 @@ pub struct AdviseConfig {
     pub features: Features,
     /// How sonar 2 sits.
     pub rig: Rig,
-    /// The roll, pitch and yaw values covered (deg).
-    pub axes: [Vec<f64>; 3],
+    /// The values covered on each axis of [`AXES`]: roll, pitch, yaw (deg), and the offsets x,
+    /// y, z (m) added to the rig's origin or translation.
+    pub axes: [Vec<f64>; 6],
     /// How many of the best feasible candidates are refined.
     pub refine: usize,
-    /// The finest refinement step (deg).
+    /// The finest refinement step on the rotation axes (deg).
     pub refine_to: f64,
-    /// The figure's two axes (0 roll, 1 pitch, 2 yaw), when two vary.
+    /// The finest refinement step on the offset axes (m).
+    pub refine_to_m: f64,
+    /// The figure's two axes (indices into [`AXES`]), when two vary.
     pub landscape: Option<[usize; 2]>,
     /// The pose a rig has now.
     pub from_pose: Option<FromPose>,
@@ -150,8 +160,15 @@ pub const MAX_FEATURES: usize = 1_000_000;
 /// The most candidate rotations the cover may have.
 pub const MAX_CANDIDATES: u64 = 100_000_000;
 
-/// The names of the rotation axes.
-pub const ROTATION_AXES: [&str; 3] = ["roll", "pitch", "yaw"];
+/// The names of the search's axes: the rotation (deg), then the offsets of the rig's origin or
+/// translation (m).
+pub const AXES: [&str; 6] = ["roll", "pitch", "yaw", "x", "y", "z"];
+
+/// Returns the unit of axis `k` of [`AXES`].
+#[must_use]
+pub fn unit(k: usize) -> &'static str {
+    if k < 3 { "deg" } else { "m" }
+}
 
 fn key_error(file: &str, key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Error {
     Error::invalid(format!("advise file {file:?}: {key}"), value, allowed)
@@ -336,15 +353,44 @@ impl AdviseConfig {
             file,
             "search.",
             search,
-            &["roll", "pitch", "yaw", "refine", "refine_to", "landscape"],
+            &[
+                "roll",
+                "pitch",
+                "yaw",
+                "x",
+                "y",
+                "z",
+                "refine",
+                "refine_to",
+                "refine_to_m",
+                "landscape",
+            ],
         )?;
-        let axes: [Vec<f64>; 3] = {
-            let mut out: [Vec<f64>; 3] = Default::default();
-            for (k, name) in ROTATION_AXES.iter().enumerate() {
+        let axes: [Vec<f64>; 6] = {
+            let mut out: [Vec<f64>; 6] = Default::default();
+            for (k, name) in AXES.iter().enumerate() {
                 out[k] = match search.get(*name) {
                     Some(v) => axis_values(file, &format!("search.{name}"), v)?,
                     None => vec![0.0],
                 };
+                if k >= 3 {
+                    if matches!(rig, Rig::Place { .. }) && out[k] != [0.0] {
+                        return Err(key_error(
+                            file,
+                            &format!("search.{name}"),
+                            search[*name].clone(),
+                            "only with [rig] origin or translation (a placement sets the translation)",
+                        ));
+                    }
+                    if let Some(v) = out[k].iter().find(|v| v.abs() > 1000.0) {
+                        return Err(key_error(
+                            file,
+                            &format!("search.{name}"),
+                            v,
+                            "must be within ±1000 m",
+                        ));
+                    }
+                }
             }
             out
         };
@@ -354,7 +400,7 @@ impl AdviseConfig {
                 file,
                 "search",
                 format!("{candidates} candidates"),
-                format!("at most {MAX_CANDIDATES} rotations a search"),
+                format!("at most {MAX_CANDIDATES} candidates a search"),
             ));
         }
         #[expect(
@@ -381,16 +427,20 @@ impl AdviseConfig {
             180.0,
             " deg",
         )?;
-        let varying: Vec<usize> = (0..3).filter(|&k| axes[k].len() > 1).collect();
+        let refine_to_m = in_range(
+            "search.refine_to_m",
+            number(search, "search.refine_to_m", "refine_to_m")?.unwrap_or(0.01),
+            1e-6,
+            100.0,
+            " m",
+        )?;
+        let varying: Vec<usize> = (0..6).filter(|&k| axes[k].len() > 1).collect();
         let landscape = match search.get("landscape") {
             None => (varying.len() >= 2).then(|| [varying[0], varying[1]]),
             Some(toml::Value::Array(a)) => {
                 let names: Vec<Option<usize>> = a
                     .iter()
-                    .map(|v| {
-                        v.as_str()
-                            .and_then(|s| ROTATION_AXES.iter().position(|n| *n == s))
-                    })
+                    .map(|v| v.as_str().and_then(|s| AXES.iter().position(|n| *n == s)))
                     .collect();
                 match names.as_slice() {
                     [Some(x), Some(y)] if x != y && varying.contains(x) && varying.contains(y) => {
@@ -401,7 +451,7 @@ impl AdviseConfig {
                             file,
                             "search.landscape",
                             search["landscape"].clone(),
-                            "must name two different axes the search varies (roll, pitch, yaw)",
+                            "must name two different axes the search varies (roll, pitch, yaw, x, y, z)",
                         ));
                     }
                 }
@@ -422,36 +472,52 @@ impl AdviseConfig {
                     file,
                     "from_pose.",
                     t,
-                    &["roll", "pitch", "yaw", "step", "gradient_step"],
+                    &[
+                        "roll",
+                        "pitch",
+                        "yaw",
+                        "x",
+                        "y",
+                        "z",
+                        "step",
+                        "step_m",
+                        "gradient_step",
+                        "gradient_step_m",
+                    ],
                 )?;
-                let angle =
-                    |k: &str| -> Result<f64> { Ok(number(t, &format!("from_pose.{k}"), k)?.unwrap_or(0.0)) };
-                let rotation = [angle("roll")?, angle("pitch")?, angle("yaw")?];
-                for (k, v) in rotation.iter().enumerate() {
-                    in_range(
-                        &format!("from_pose.{}", ROTATION_AXES[k]),
-                        *v,
-                        -360.0,
-                        360.0,
-                        " deg",
-                    )?;
+                let get = |k: &str, lo: f64, hi: f64, unit: &str| -> Result<f64> {
+                    let name = format!("from_pose.{k}");
+                    in_range(&name, number(t, &name, k)?.unwrap_or(0.0), lo, hi, unit)
+                };
+                let rotation = [
+                    get("roll", -360.0, 360.0, " deg")?,
+                    get("pitch", -360.0, 360.0, " deg")?,
+                    get("yaw", -360.0, 360.0, " deg")?,
+                ];
+                let offset = [
+                    get("x", -1000.0, 1000.0, " m")?,
+                    get("y", -1000.0, 1000.0, " m")?,
+                    get("z", -1000.0, 1000.0, " m")?,
+                ];
+                if matches!(rig, Rig::Place { .. }) && offset != [0.0; 3] {
+                    return Err(key_error(
+                        file,
+                        "from_pose",
+                        format!("offset {offset:?}"),
+                        "x, y, z only with [rig] origin or translation",
+                    ));
                 }
+                let positive = |k: &str, default: f64, hi: f64, unit: &str| -> Result<f64> {
+                    let name = format!("from_pose.{k}");
+                    in_range(&name, number(t, &name, k)?.unwrap_or(default), 1e-6, hi, unit)
+                };
                 Some(FromPose {
                     rotation,
-                    step: in_range(
-                        "from_pose.step",
-                        number(t, "from_pose.step", "step")?.unwrap_or(5.0),
-                        1e-6,
-                        90.0,
-                        " deg",
-                    )?,
-                    gradient_step: in_range(
-                        "from_pose.gradient_step",
-                        number(t, "from_pose.gradient_step", "gradient_step")?.unwrap_or(0.5),
-                        1e-6,
-                        10.0,
-                        " deg",
-                    )?,
+                    offset,
+                    step: positive("step", 5.0, 90.0, " deg")?,
+                    step_m: positive("step_m", 0.1, 100.0, " m")?,
+                    gradient_step: positive("gradient_step", 0.5, 10.0, " deg")?,
+                    gradient_step_m: positive("gradient_step_m", 0.01, 10.0, " m")?,
                 })
             }
         };
@@ -468,11 +534,12 @@ impl AdviseConfig {
             axes,
             refine,
             refine_to,
+            refine_to_m,
             landscape,
             from_pose,
         };
         // The rig and every candidate make valid poses (a placement too far, say).
-        crate::advise::score::pose_of(&config, [0.0; 3])
+        crate::advise::score::pose_of(&config, [0.0; 6])
             .map_err(|e| Error::invalid(format!("advise file {file:?}: rig"), e, "must give a valid pose"))?;
         Ok(config)
     }

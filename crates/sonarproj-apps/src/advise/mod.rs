@@ -17,7 +17,7 @@ pub mod search;
 
 pub use config::{AdviseConfig, Features, FromPose, Objective, Rig};
 pub use report::{Written, write};
-pub use score::{Score, Scorer, Stats};
+pub use score::{Params, Score, Scorer, Stats};
 pub use search::{Move, Stage};
 
 use sonarproj::projection::Backend;
@@ -66,15 +66,43 @@ pub fn advise(config: &AdviseConfig, backend: &Backend) -> Result<Advice> {
             .take(config.refine)
             .map(|i| candidates[i].1)
             .collect();
-        let refined = search::refine(&scorer, &starts, free, spacing, config.refine_to)?;
+        let finest = std::array::from_fn(|k| {
+            if k < 3 {
+                config.refine_to
+            } else {
+                config.refine_to_m
+            }
+        });
+        let refined = search::refine(&scorer, &starts, free, spacing, finest)?;
         candidates.extend(refined.into_iter().map(|s| (Stage::Refine, s)));
     }
     let next = match config.from_pose {
         None => None,
         Some(p) => {
-            // A search that fixes every axis still moves all three from the pose.
-            let free = if free.iter().any(|&f| f) { free } else { [true; 3] };
-            let (m, evaluated) = search::next_move(&scorer, p.rotation, free, p.step, p.gradient_step)?;
+            // A search that fixes every axis still turns the pose about all three rotation axes
+            // (and moves it along x, y, z for a rig with an origin or translation).
+            let movable = !matches!(config.rig, Rig::Place { .. });
+            let free = if free.iter().any(|&f| f) {
+                free
+            } else {
+                std::array::from_fn(|k| k < 3 || movable)
+            };
+            let from = [
+                p.rotation[0],
+                p.rotation[1],
+                p.rotation[2],
+                p.offset[0],
+                p.offset[1],
+                p.offset[2],
+            ];
+            let per_axis = |deg: f64, m: f64| std::array::from_fn(|k| if k < 3 { deg } else { m });
+            let (m, evaluated) = search::next_move(
+                &scorer,
+                from,
+                free,
+                per_axis(p.step, p.step_m),
+                per_axis(p.gradient_step, p.gradient_step_m),
+            )?;
             candidates.extend(evaluated.into_iter().map(|s| (Stage::Move, s)));
             Some(m)
         }
@@ -100,6 +128,6 @@ fn ranking(candidates: &[(Stage, Score)]) -> Vec<usize> {
             .then(a.cmp(&b))
     });
     let mut seen = std::collections::HashSet::new();
-    order.retain(|&i| seen.insert(candidates[i].1.rotation.map(f64::to_bits)));
+    order.retain(|&i| seen.insert(candidates[i].1.params().map(f64::to_bits)));
     order
 }

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use serde_json::json;
 
 use crate::advise::Advice;
-use crate::advise::config::{AdviseConfig, Features, Objective, ROTATION_AXES, Rig};
+use crate::advise::config::{AXES, AdviseConfig, Features, Objective, Rig, unit};
 use crate::advise::score::{Pool, Score};
 use crate::advise::search::Stage;
 use crate::error::{Error, Result};
@@ -32,12 +32,15 @@ pub struct Written {
 pub(crate) const RANKED: usize = 10;
 
 /// The candidates table's columns.
-const COLUMNS: [&str; 19] = [
+const COLUMNS: [&str; 22] = [
     "index",
     "stage",
     "roll",
     "pitch",
     "yaw",
+    "x",
+    "y",
+    "z",
     "tx",
     "ty",
     "tz",
@@ -116,7 +119,7 @@ pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Writt
         ])
         .map_err(err)?;
         // The best pose's own features: those it was scored over.
-        let pose = crate::advise::score::pose_of(config, best.rotation)?;
+        let pose = crate::advise::score::pose_of(config, best.params())?;
         for f in &crate::advise::score::Pool::new(config).select(&pose).features {
             let row: Vec<String> = f
                 .iter()
@@ -151,6 +154,9 @@ fn candidates_table(names: &[String], kinds: &[Kind], advice: &Advice) -> Table 
         real(&|s| s.rotation[0]),
         real(&|s| s.rotation[1]),
         real(&|s| s.rotation[2]),
+        real(&|s| s.offset[0]),
+        real(&|s| s.offset[1]),
+        real(&|s| s.offset[2]),
         real(&|s| s.translation[0]),
         real(&|s| s.translation[1]),
         real(&|s| s.translation[2]),
@@ -214,8 +220,8 @@ fn best_json(config: &AdviseConfig, advice: &Advice) -> serde_json::Value {
     })
 }
 
-/// Draws the score over axes `axes` at the best candidate's third angle (the cover's candidates
-/// there; grey where infeasible).
+/// Draws the score over axes `axes` (of [`AXES`]) with every other axis at the cover's value
+/// nearest the best candidate's (the cover's candidates there; grey where infeasible).
 fn landscape(
     config: &AdviseConfig,
     advice: &Advice,
@@ -223,38 +229,41 @@ fn landscape(
     best: &Score,
     path: &Path,
 ) -> Result<()> {
-    let third = 3 - axes[0] - axes[1];
-    // The cover's value of the third axis nearest the best's (refinement may have moved off it).
-    let fixed = config.axes[third]
-        .iter()
-        .copied()
-        .min_by(|a, b| {
-            (a - best.rotation[third])
-                .abs()
-                .total_cmp(&(b - best.rotation[third]).abs())
-        })
-        .unwrap_or(0.0);
+    let at = best.params();
+    // Each other axis at the cover's value nearest the best's (refinement may move off it).
+    let fixed: [f64; 6] = std::array::from_fn(|k| {
+        config.axes[k]
+            .iter()
+            .copied()
+            .min_by(|a, b| (a - at[k]).abs().total_cmp(&(b - at[k]).abs()))
+            .unwrap_or(0.0)
+    });
+    let others: Vec<usize> = (0..6).filter(|k| !axes.contains(k)).collect();
     let points: Vec<(Vec<f64>, Option<f64>)> = advice
         .candidates
         .iter()
-        .filter(|(stage, s)| *stage == Stage::Cover && s.rotation[third] == fixed)
-        .map(|(_, s)| (vec![s.rotation[axes[0]], s.rotation[axes[1]]], s.score))
+        .filter(|(stage, s)| *stage == Stage::Cover && others.iter().all(|&k| s.params()[k] == fixed[k]))
+        .map(|(_, s)| (vec![s.params()[axes[0]], s.params()[axes[1]]], s.score))
         .collect();
-    let name = |k: usize| format!("{} (deg)", ROTATION_AXES[k]);
+    let name = |k: usize| format!("{} ({})", AXES[k], unit(k));
     let what = match config.objective {
         Objective::Correspondence => format!("mean {}", advice.metric),
         Objective::Recovery => "median elevation sigma (deg)".to_string(),
         Objective::Mix { .. } => "mixed score".to_string(),
     };
+    let held: Vec<String> = others
+        .iter()
+        .filter(|&&k| config.axes[k].len() > 1 || k < 3)
+        .map(|&k| format!("{} {}", AXES[k], fixed[k]))
+        .collect();
     let caption = format!(
-        "{} -> {}: {what} at {} {fixed} deg (best {})",
+        "{} -> {}: {what} at {} (best {})",
         config.source.name,
         config.target.name,
-        ROTATION_AXES[third],
-        best.rotation
-            .iter()
-            .zip(ROTATION_AXES)
-            .map(|(v, n)| format!("{n} {v:.2}"))
+        held.join(", "),
+        (0..6)
+            .filter(|&k| k < 3 || config.axes[k].len() > 1)
+            .map(|k| format!("{} {:.2}", AXES[k], at[k]))
             .collect::<Vec<_>>()
             .join(", ")
     );

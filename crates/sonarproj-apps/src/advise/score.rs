@@ -62,11 +62,17 @@ impl Stats {
     }
 }
 
-/// The score of one candidate rotation.
+/// A candidate: roll, pitch, yaw (deg) and the offsets x, y, z (m) of the rig's origin or
+/// translation ([`crate::advise::config::AXES`]).
+pub type Params = [f64; 6];
+
+/// The score of one candidate.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Score {
     /// Roll, pitch, yaw (deg).
     pub rotation: [f64; 3],
+    /// The offset of the rig's origin or translation, x, y, z (m).
+    pub offset: [f64; 3],
     /// The pose's translation `t` (m).
     pub translation: [f64; 3],
     /// The share of the pool's sonar's view the other sonar sees (the kept features over the
@@ -83,21 +89,33 @@ pub struct Score {
     pub score: Option<f64>,
 }
 
-/// Returns the pose of candidate rotation `rotation` (roll, pitch, yaw in deg) under the rig.
+impl Score {
+    /// Returns the candidate this is the score of.
+    #[must_use]
+    pub fn params(&self) -> Params {
+        let [r, p, y] = self.rotation;
+        let [x, yy, z] = self.offset;
+        [r, p, y, x, yy, z]
+    }
+}
+
+/// Returns the pose of candidate `c` under the rig: the rotation `c[0..3]` (roll, pitch, yaw in
+/// deg), the rig's origin or translation offset by `c[3..6]` (m).
 ///
 /// # Errors
 /// As [`RelativePose::new`] and [`RelativePose::placement`].
-pub fn pose_of(config: &AdviseConfig, rotation: [f64; 3]) -> sonarproj::Result<RelativePose> {
+pub fn pose_of(config: &AdviseConfig, c: Params) -> sonarproj::Result<RelativePose> {
     let r = Rotation::RollPitchYaw {
-        roll: rotation[0],
-        pitch: rotation[1],
-        yaw: rotation[2],
+        roll: c[0],
+        pitch: c[1],
+        yaw: c[2],
     };
+    let offset = DVec3::new(c[3], c[4], c[5]);
     match config.rig {
-        Rig::Translation(t) => RelativePose::new(r, t),
+        Rig::Translation(t) => RelativePose::new(r, DVec3::from_array(t) + offset),
         Rig::Origin(o) => {
             let m = r.to_matrix()?;
-            RelativePose::new(r, -(m * DVec3::from_array(o)))
+            RelativePose::new(r, -(m * (DVec3::from_array(o) + offset)))
         }
         Rig::Place { feature, at } => RelativePose::placement(r, feature, at),
     }
@@ -174,7 +192,11 @@ impl Pool {
         // The other sonar's range bounds the distance of a point it sees from its origin, and
         // the origins are at most `reach` apart whatever the rotation.
         let reach = match config.rig {
-            Rig::Origin(o) | Rig::Translation(o) => DVec3::from_array(o).length(),
+            // The offsets the search gives the origin or translation, at their largest.
+            Rig::Origin(o) | Rig::Translation(o) => {
+                let far = |k: usize| config.axes[k].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                DVec3::from_array(o).length() + DVec3::new(far(3), far(4), far(5)).length()
+            }
             Rig::Place { feature, at } => feature[0].abs() + at[0].abs(),
         };
         let other = if in_target { &config.source } else { &config.target };
@@ -286,12 +308,12 @@ impl<'a> Scorer<'a> {
         }
     }
 
-    /// Returns the scores of `rotations`, in order: the shared features of each projected on
+    /// Returns the scores of the candidates `rotations`, in order: the shared features of each projected on
     /// the backend (many candidates a batch), their metrics and sigmas reduced.
     ///
     /// # Errors
     /// As [`pose_of`] and [`Backend::project`].
-    pub fn score_all(&self, rotations: &[[f64; 3]]) -> Result<Vec<Score>> {
+    pub fn score_all(&self, rotations: &[Params]) -> Result<Vec<Score>> {
         let poses = rotations
             .par_iter()
             .map(|&r| pose_of(self.config, r))
@@ -354,11 +376,11 @@ impl<'a> Scorer<'a> {
         Ok(out)
     }
 
-    /// Returns the score of candidate `rotation` with pose `pose`, `examined` points of the pool
+    /// Returns the score of candidate `params` with pose `pose`, `examined` points of the pool
     /// examined, the shared `features` (in sonar 1) and their `metrics`.
     fn reduce(
         &self,
-        rotation: [f64; 3],
+        params: Params,
         pose: &RelativePose,
         examined: usize,
         features: &[[f64; 3]],
@@ -388,7 +410,8 @@ impl<'a> Scorer<'a> {
                 .map(|(m, s)| weight * m / metric_scale + (1.0 - weight) * s / sigma_scale),
         };
         Score {
-            rotation,
+            rotation: [params[0], params[1], params[2]],
+            offset: [params[3], params[4], params[5]],
             translation: pose.translation.to_array(),
             shared: fraction,
             features: features.len(),

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use crate::advise::score::{Score, Scorer};
+use crate::advise::score::{Params, Score, Scorer};
 use crate::error::Result;
 
 /// Where a candidate came from.
@@ -40,27 +40,29 @@ pub fn better(a: &Score, b: &Score) -> bool {
     }
 }
 
-/// Returns every combination of `axes` (roll, pitch, yaw values), yaw fastest.
+/// Returns every combination of `axes`' values (roll, pitch, yaw, x, y, z), the last fastest.
 #[must_use]
-pub fn cover(axes: &[Vec<f64>; 3]) -> Vec<[f64; 3]> {
-    let mut out = Vec::with_capacity(axes.iter().map(Vec::len).product());
-    for &r in &axes[0] {
-        for &p in &axes[1] {
-            for &y in &axes[2] {
-                out.push([r, p, y]);
+pub fn cover(axes: &[Vec<f64>; 6]) -> Vec<Params> {
+    let n: usize = axes.iter().map(Vec::len).product();
+    (0..n)
+        .map(|mut i| {
+            let mut c = [0.0; 6];
+            for k in (0..6).rev() {
+                c[k] = axes[k][i % axes[k].len()];
+                i /= axes[k].len();
             }
-        }
-    }
-    out
+            c
+        })
+        .collect()
 }
 
 /// Returns the axes that vary (more than one value) and, per axis, the spacing of its values
 /// (their smallest gap; 0 for a fixed axis).
 #[must_use]
-pub fn free_axes(axes: &[Vec<f64>; 3]) -> ([bool; 3], [f64; 3]) {
-    let mut free = [false; 3];
-    let mut spacing = [0.0; 3];
-    for k in 0..3 {
+pub fn free_axes(axes: &[Vec<f64>; 6]) -> ([bool; 6], [f64; 6]) {
+    let mut free = [false; 6];
+    let mut spacing = [0.0; 6];
+    for k in 0..6 {
         let mut v = axes[k].clone();
         v.sort_by(f64::total_cmp);
         v.dedup();
@@ -82,9 +84,9 @@ pub fn free_axes(axes: &[Vec<f64>; 3]) -> ([bool; 3], [f64; 3]) {
 pub fn refine(
     scorer: &Scorer<'_>,
     starts: &[Score],
-    free: [bool; 3],
-    spacing: [f64; 3],
-    finest: f64,
+    free: [bool; 6],
+    spacing: [f64; 6],
+    finest: [f64; 6],
 ) -> Result<Vec<Score>> {
     let mut evaluated = Vec::new();
     for start in starts {
@@ -92,13 +94,13 @@ pub fn refine(
         let mut step = spacing.map(|s| s / 2.0);
         // Bounded: each halving or move is one round; a move must lower the score.
         for _ in 0..400 {
-            if (0..3).all(|k| !free[k] || step[k] < finest) {
+            if (0..6).all(|k| !free[k] || step[k] < finest[k]) {
                 break;
             }
             let mut moves = Vec::new();
-            for k in (0..3).filter(|&k| free[k] && step[k] >= finest) {
+            for k in (0..6).filter(|&k| free[k] && step[k] >= finest[k]) {
                 for sign in [-1.0, 1.0] {
-                    let mut r = best.rotation;
+                    let mut r = best.params();
                     r[k] += sign * step[k];
                     moves.push(r);
                 }
@@ -123,68 +125,73 @@ pub fn refine(
 pub struct Move {
     /// The pose now.
     pub now: Score,
-    /// The objective's partial derivative along each free axis (per deg; central differences
-    /// over `gradient_step`), `None` for a fixed axis or where a neighbour is infeasible.
-    pub gradient: [Option<f64>; 3],
-    /// The finite differences' step (deg).
-    pub gradient_step: f64,
-    /// The largest move on each axis (deg).
-    pub step: f64,
-    /// The best pose within the step (every combination of −step, 0, +step on the free axes, and
-    /// the step down the gradient), when one scores better than now.
+    /// The objective's partial derivative along each free axis of
+    /// [`AXES`](crate::advise::config::AXES) (per deg, per m; central differences over
+    /// `gradient_step`), `None` for a fixed axis or where a neighbour is infeasible.
+    pub gradient: [Option<f64>; 6],
+    /// The finite differences' step on each axis (deg, m).
+    pub gradient_step: [f64; 6],
+    /// The largest move on each axis (deg, m).
+    pub step: [f64; 6],
+    /// The best pose within the steps (every combination of −step, 0, +step on the free axes,
+    /// and the steps down the gradient), when one scores better than now.
     pub best: Option<Score>,
     /// `now − best` of the objective: what the move gains (both scored exactly, not predicted).
     pub gain: Option<f64>,
 }
 
-/// Returns the next-best move from `rotation` over the `free` axes, with moves of up to `step`
-/// and the gradient over `gradient_step`, and every candidate evaluated.
+/// Returns the next-best move from candidate `from` over the `free` axes, with moves of up to
+/// `step` and the gradient over `gradient_step` (per axis), and every candidate evaluated.
 ///
 /// # Errors
 /// As [`Scorer::score_all`].
 pub fn next_move(
     scorer: &Scorer<'_>,
-    rotation: [f64; 3],
-    free: [bool; 3],
-    step: f64,
-    gradient_step: f64,
+    from: Params,
+    free: [bool; 6],
+    step: [f64; 6],
+    gradient_step: [f64; 6],
 ) -> Result<(Move, Vec<Score>)> {
-    let axes: Vec<usize> = (0..3).filter(|&k| free[k]).collect();
-    let mut poses = vec![rotation];
+    let axes: Vec<usize> = (0..6).filter(|&k| free[k]).collect();
+    let mut poses = vec![from];
     for &k in &axes {
         for sign in [-1.0, 1.0] {
-            let mut r = rotation;
-            r[k] += sign * gradient_step;
+            let mut r = from;
+            r[k] += sign * gradient_step[k];
             poses.push(r);
         }
     }
     let first = scorer.score_all(&poses)?;
     let now = first[0];
-    let mut gradient = [None; 3];
+    let mut gradient = [None; 6];
     for (i, &k) in axes.iter().enumerate() {
         let (minus, plus) = (first[1 + 2 * i].score, first[2 + 2 * i].score);
-        gradient[k] = minus.zip(plus).map(|(m, p)| (p - m) / (2.0 * gradient_step));
+        gradient[k] = minus.zip(plus).map(|(m, p)| (p - m) / (2.0 * gradient_step[k]));
     }
-    // Every combination of −step, 0, +step on the free axes, but staying; then down the gradient.
+    // Every combination of −step, 0, +step on the free axes, but staying; then down the gradient
+    // (each axis in units of its step, so degrees and metres weigh alike).
     let mut moves = Vec::new();
-    let combos = 3usize.pow(u32::try_from(axes.len()).expect("three axes at most"));
+    let combos = 3usize.pow(u32::try_from(axes.len()).expect("six axes at most"));
     for c in 0..combos {
-        let mut r = rotation;
+        let mut r = from;
         let mut code = c;
         for &k in &axes {
-            r[k] += [-step, 0.0, step][code % 3];
+            r[k] += [-step[k], 0.0, step[k]][code % 3];
             code /= 3;
         }
-        if r != rotation {
+        if r != from {
             moves.push(r);
         }
     }
-    let g: Vec<f64> = axes.iter().map(|&k| gradient[k].unwrap_or(0.0)).collect();
+    let g: Vec<f64> = axes
+        .iter()
+        .map(|&k| gradient[k].unwrap_or(0.0) * step[k])
+        .collect();
     let norm = g.iter().map(|v| v * v).sum::<f64>().sqrt();
     if norm > 0.0 {
-        let mut r = rotation;
+        let mut r = from;
         for (i, &k) in axes.iter().enumerate() {
-            r[k] -= step * g[i] / norm;
+            r[k] -= step[k] * g[i] / norm;
         }
         moves.push(r);
     }

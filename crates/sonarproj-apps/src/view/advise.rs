@@ -4,7 +4,7 @@
 use serde::Deserialize;
 use serde_json::{Value, json};
 
-use crate::advise::{self, AdviseConfig, Features, FromPose, Objective, Rig, config::ROTATION_AXES};
+use crate::advise::{self, AdviseConfig, Features, FromPose, Objective, Rig, config::AXES};
 use crate::error::{Error, Result};
 use crate::view::{Scene, Viewer};
 
@@ -98,7 +98,7 @@ impl Viewer {
             }
         };
         let axis = |name: &str| {
-            ROTATION_AXES
+            AXES[..3]
                 .iter()
                 .position(|a| *a == name)
                 .ok_or_else(|| Error::invalid("axes", format!("{name:?}"), "must name roll, pitch or yaw"))
@@ -138,11 +138,13 @@ impl Viewer {
                 .collect();
             v
         };
-        let grid: [Vec<f64>; 3] = std::array::from_fn(|k| {
+        let grid: [Vec<f64>; 6] = std::array::from_fn(|k| {
             if axes.contains(&k) {
                 values(k)
-            } else {
+            } else if k < 3 {
                 vec![now[k]]
+            } else {
+                vec![0.0]
             }
         });
         let rig = match (scene.place, scene.translation) {
@@ -173,11 +175,15 @@ impl Viewer {
             axes: grid,
             refine: 0,
             refine_to: 0.5,
+            refine_to_m: 0.01,
             landscape: None,
             from_pose: Some(FromPose {
                 rotation: now,
+                offset: [0.0; 3],
                 step: cell,
+                step_m: 0.1,
                 gradient_step: 0.5,
+                gradient_step_m: 0.01,
             }),
         };
         let advice = advise::advise(&config, &self.backend)?;
@@ -197,7 +203,7 @@ impl Viewer {
             }
         }
         Ok(json!({
-            "axes": [ROTATION_AXES[a], ROTATION_AXES[b]],
+            "axes": [AXES[a], AXES[b]],
             "values": [config.axes[a], config.axes[b]],
             "scores": scores,
             "metric": advice.metric,

@@ -65,16 +65,24 @@ pub(super) fn run(a: AdviseArgs) -> Result<()> {
         );
         match (&m.best, m.gain) {
             (Some(b), gain) => eprintln!(
-                "advise: {now}: move to roll {:.3}, pitch {:.3}, yaw {:.3} ({})",
+                "advise: {now}: move to roll {:.3}, pitch {:.3}, yaw {:.3}{} ({})",
                 b.rotation[0],
                 b.rotation[1],
                 b.rotation[2],
+                if b.offset == m.now.offset {
+                    String::new()
+                } else {
+                    format!(", offset {:?} m", b.offset)
+                },
                 gain.map_or(
                     "the pose now is infeasible; this one is not".to_string(),
                     |g| format!("gain {g:.6}")
                 )
             ),
-            (None, _) => eprintln!("advise: {now}: no move within {} deg scores better", m.step),
+            (None, _) => eprintln!(
+                "advise: {now}: no move within {} deg ({} m) scores better",
+                m.step[0], m.step[3]
+            ),
         }
     }
     Ok(())
