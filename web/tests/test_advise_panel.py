@@ -71,3 +71,7 @@ def test_bad_panel_input_says_what_is_allowed(page):
     page.wait(lambda: text() not in ("scoring…", "") and not text().startswith("200 features"), "the answer")
     assert "span = 200" in text() and "(0, 90]" in text(), text()
     assert page.d.execute_script("return document.getElementById('advise-apply').disabled")
+    # The browser logs the refused request (400) as an error: that one, and nothing else (read
+    # here, so the browser's log is clean for the tests after this one).
+    logs = page.severe_logs()
+    assert logs and all("/api/advise" in e["message"] and "400" in e["message"] for e in logs), logs
