@@ -248,3 +248,95 @@ fn a_taller_baseline_recovers_elevation_more_precisely() {
     let e = AdviseConfig::parse("t.toml", text, std::path::Path::new(".")).unwrap_err();
     assert!(e.is_input() && e.to_string().contains("search.z"), "{e}");
 }
+
+/// Returns the angle (deg) of the rotation between two roll, pitch, yaw triples.
+fn angle_between(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let m = |r: [f64; 3]| {
+        Rotation::RollPitchYaw {
+            roll: r[0],
+            pitch: r[1],
+            yaw: r[2],
+        }
+        .to_matrix()
+        .unwrap()
+    };
+    let d = m(a).transpose() * m(b);
+    let trace = d.x_axis.x + d.y_axis.y + d.z_axis.z;
+    ((trace - 1.0) / 2.0).clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+#[test]
+fn the_uniform_cover_leaves_no_rotation_far_from_a_candidate() {
+    // Every rotation lies within about the stated spacing of one of the cover's: 300 random
+    // rotations (uniform quaternions) against a 2000-rotation cover, whose spacing (the radius of
+    // a ball holding 1/2000 of the rotations) is 12.1 deg; no cover can do better than that
+    // radius everywhere, a good one stays within 1.5 times it.
+    use rand::{RngExt, SeedableRng};
+    let n = 2000;
+    let cover = advise::search::uniform_rotations(n);
+    let spacing = advise::search::uniform_spacing(n);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let mut worst: f64 = 0.0;
+    for _ in 0..300 {
+        let q = glam::DQuat::from_xyzw(
+            rng.random::<f64>() - 0.5,
+            rng.random::<f64>() - 0.5,
+            rng.random::<f64>() - 0.5,
+            rng.random::<f64>() - 0.5,
+        )
+        .normalize();
+        let (yaw, pitch, roll) = q.to_euler(glam::EulerRot::ZYX);
+        let r = [roll.to_degrees(), pitch.to_degrees(), yaw.to_degrees()];
+        let nearest = cover
+            .iter()
+            .map(|c| angle_between(*c, r))
+            .fold(f64::INFINITY, f64::min);
+        worst = worst.max(nearest);
+    }
+    assert!(
+        worst < 1.5 * spacing,
+        "a rotation {worst} deg from the cover (spacing {spacing})"
+    );
+    // And the cover is not bunched: its candidates' nearest neighbours are not much closer than
+    // the spacing (a grid of roll, pitch, yaw crowds them near pitch 90).
+    let mut closest = f64::INFINITY;
+    for (i, a) in cover.iter().enumerate().take(200) {
+        for b in &cover[i + 1..] {
+            closest = closest.min(angle_between(*a, *b));
+        }
+    }
+    assert!(
+        closest > spacing / 4.0,
+        "two candidates {closest} deg apart (spacing {spacing})"
+    );
+}
+
+#[test]
+fn a_uniform_search_finds_the_colocated_pair_unrolled() {
+    // The co-located imaging sonars again, the rotations now from all of SO(3), refined: the best
+    // comes within 10 % of the exact optimum (unrolled, or upside down: every arc in one beam's
+    // cells, which the pattern search from a 8 deg cover nears but need not hit), far from a
+    // 90 deg roll (several times worse: the previous test).
+    let c = config(
+        "from = \"paper-fls\"\nto = \"paper-fls\"\nstep = 0.1\nobjective = \"correspondence\"\nmin_shared = 0.2\n\
+         [features]\ncount = 300\nseed = 7\n[rig]\norigin = [0, 0, 0]\n\
+         [search]\nuniform = 3000\nrefine = 5\nrefine_to = 0.1\n",
+    );
+    let a = advise::advise(&c, &Backend::CpuFast).unwrap();
+    let best = a.best().unwrap();
+    let grid = config(
+        "from = \"paper-fls\"\nto = \"paper-fls\"\nstep = 0.1\nobjective = \"correspondence\"\nmin_shared = 0.2\n\
+         [features]\ncount = 300\nseed = 7\n[rig]\norigin = [0, 0, 0]\n[search]\nrefine = 0\n",
+    );
+    let identity = advise::advise(&grid, &Backend::CpuFast).unwrap();
+    let at_identity = identity.best().unwrap().score.unwrap();
+    assert!(
+        best.score.unwrap() <= 1.1 * at_identity,
+        "{:?}: {:?} against {at_identity}",
+        best.rotation,
+        best.score
+    );
+    let rolled =
+        angle_between(best.rotation, [90.0, 0.0, 0.0]).min(angle_between(best.rotation, [-90.0, 0.0, 0.0]));
+    assert!(rolled > 45.0, "best {:?}", best.rotation);
+}

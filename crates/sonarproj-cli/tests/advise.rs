@@ -155,6 +155,22 @@ fn bad_advise_files_exit_2_naming_the_key() {
             format!("{base}[search]\nrefine = 1.5\n"),
             &["search.refine = 1.5"],
         ),
+        (
+            format!("{base}[search]\nuniform = 100\nroll = [0, 1]\n"),
+            &["search.roll", "not both"],
+        ),
+        (
+            format!("{base}[search]\nuniform = 1\n"),
+            &["search.uniform = 1", "[2, 10000000]"],
+        ),
+        (
+            format!("{base}[search]\nuniform = 50\nlandscape = [\"x\", \"y\"]\n"),
+            &["search.landscape", "grid"],
+        ),
+        (
+            format!("{base}[search]\nz = [0, 2000]\n"),
+            &["search.z = 2000", "1000 m"],
+        ),
         (format!("{base}[from_pose]\nstep = 0\n"), &["from_pose.step = 0"]),
         (
             base.replace("[rig]\norigin = [0, 0, 0]\n", ""),

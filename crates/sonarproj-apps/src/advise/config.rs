@@ -24,6 +24,7 @@
 //! pitch = { start = -90, stop = 90, step = 10 }    # origin or translation (not a placement)
 //! yaw = 0
 //! # z = [-0.5, 0, 0.5]
+//! # uniform = 10000             # instead of roll, pitch, yaw: rotations spread over all of SO(3)
 //! refine = 3                    # the best feasible candidates refined by pattern search (0: none)
 //! refine_to = 0.5               # deg: the finest refinement step (refine_to_m: m, default 0.01)
 //! landscape = ["roll", "pitch"] # the figure's two axes (default: the first two that vary)
@@ -142,6 +143,9 @@ pub struct AdviseConfig {
     /// The values covered on each axis of [`AXES`]: roll, pitch, yaw (deg), and the offsets x,
     /// y, z (m) added to the rig's origin or translation.
     pub axes: [Vec<f64>; 6],
+    /// Rotations spread uniformly over SO(3) instead of the roll, pitch, yaw grid (its axes are
+    /// then the single value 0): how many.
+    pub uniform: Option<usize>,
     /// How many of the best feasible candidates are refined.
     pub refine: usize,
     /// The finest refinement step on the rotation axes (deg).
@@ -364,8 +368,37 @@ impl AdviseConfig {
                 "refine_to",
                 "refine_to_m",
                 "landscape",
+                "uniform",
             ],
         )?;
+        // A uniform cover of the rotations instead of the roll, pitch and yaw grid.
+        #[expect(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "checked range"
+        )]
+        let uniform = match number(search, "search.uniform", "uniform")? {
+            None => None,
+            Some(v) if v.fract() == 0.0 && (2.0..=1e7).contains(&v) => {
+                if let Some(k) = ["roll", "pitch", "yaw"].iter().find(|k| search.contains_key(**k)) {
+                    return Err(key_error(
+                        file,
+                        &format!("search.{k}"),
+                        search[*k].clone(),
+                        "give the rotations as search.uniform or as roll, pitch, yaw, not both",
+                    ));
+                }
+                Some(v as usize)
+            }
+            Some(v) => {
+                return Err(key_error(
+                    file,
+                    "search.uniform",
+                    v,
+                    "must be a whole number of rotations in [2, 10000000]",
+                ));
+            }
+        };
         let axes: [Vec<f64>; 6] = {
             let mut out: [Vec<f64>; 6] = Default::default();
             for (k, name) in AXES.iter().enumerate() {
@@ -394,7 +427,8 @@ impl AdviseConfig {
             }
             out
         };
-        let candidates = axes.iter().map(|a| a.len() as u64).product::<u64>();
+        let candidates =
+            axes.iter().map(|a| a.len() as u64).product::<u64>() * uniform.map_or(1, |n| n as u64);
         if candidates > MAX_CANDIDATES {
             return Err(key_error(
                 file,
@@ -435,8 +469,16 @@ impl AdviseConfig {
             " m",
         )?;
         let varying: Vec<usize> = (0..6).filter(|&k| axes[k].len() > 1).collect();
+        if uniform.is_some() && search.contains_key("landscape") {
+            return Err(key_error(
+                file,
+                "search.landscape",
+                search["landscape"].clone(),
+                "needs a grid of roll, pitch, yaw (search.uniform scatters the rotations)",
+            ));
+        }
         let landscape = match search.get("landscape") {
-            None => (varying.len() >= 2).then(|| [varying[0], varying[1]]),
+            None => (uniform.is_none() && varying.len() >= 2).then(|| [varying[0], varying[1]]),
             Some(toml::Value::Array(a)) => {
                 let names: Vec<Option<usize>> = a
                     .iter()
@@ -532,6 +574,7 @@ impl AdviseConfig {
             features,
             rig,
             axes,
+            uniform,
             refine,
             refine_to,
             refine_to_m,

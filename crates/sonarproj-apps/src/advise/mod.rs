@@ -53,13 +53,19 @@ impl Advice {
 /// As [`Scorer::score_all`].
 pub fn advise(config: &AdviseConfig, backend: &Backend) -> Result<Advice> {
     let scorer = Scorer::new(config, backend)?;
-    let cover = search::cover(&config.axes);
+    let cover = search::candidates(config);
     let mut candidates: Vec<(Stage, Score)> = scorer
         .score_all(&cover)?
         .into_iter()
         .map(|s| (Stage::Cover, s))
         .collect();
-    let (free, spacing) = search::free_axes(&config.axes);
+    let (mut free, mut spacing) = search::free_axes(&config.axes);
+    if let Some(n) = config.uniform {
+        for k in 0..3 {
+            free[k] = true;
+            spacing[k] = search::uniform_spacing(n);
+        }
+    }
     if config.refine > 0 && free.iter().any(|&f| f) {
         let starts: Vec<Score> = ranking(&candidates)
             .into_iter()

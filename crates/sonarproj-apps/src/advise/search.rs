@@ -40,6 +40,66 @@ pub fn better(a: &Score, b: &Score) -> bool {
     }
 }
 
+/// Returns `n` rotations spread uniformly over SO(3) as roll, pitch, yaw (deg, the paper's
+/// convention): the super-Fibonacci spiral of unit quaternions (M. Alexa, "Super-Fibonacci
+/// Spirals: Fast, Low-Discrepancy Sampling of SO(3)", CVPR 2022) — point `i` at height
+/// `s = (i + ½) / n` on two circles turned by the irrational ratios √2 and ψ (ψ⁴ = ψ + 4) —
+/// each taken as the active rotation `Rz(yaw) Ry(pitch) Rx(roll)` (`R`'s transpose: the inverse
+/// of a uniform rotation is uniform too).
+#[must_use]
+pub fn uniform_rotations(n: usize) -> Vec<[f64; 3]> {
+    use glam::{DQuat, EulerRot};
+    const PSI: f64 = 1.533_751_168_755_204_3;
+    let phi = std::f64::consts::SQRT_2;
+    let tau = std::f64::consts::TAU;
+    #[expect(clippy::cast_precision_loss, reason = "at most 10^7 rotations")]
+    let total = n as f64;
+    (0..n)
+        .map(|i| {
+            #[expect(clippy::cast_precision_loss, reason = "at most 10^7 rotations")]
+            let s = i as f64 + 0.5;
+            let (r, big_r) = ((s / total).sqrt(), (1.0 - s / total).sqrt());
+            let (alpha, beta) = (tau * s / phi, tau * s / PSI);
+            let q = DQuat::from_xyzw(
+                r * alpha.sin(),
+                r * alpha.cos(),
+                big_r * beta.sin(),
+                big_r * beta.cos(),
+            )
+            .normalize();
+            let (yaw, pitch, roll) = q.to_euler(EulerRot::ZYX);
+            [roll.to_degrees(), pitch.to_degrees(), yaw.to_degrees()]
+        })
+        .collect()
+}
+
+/// Returns the spacing (deg) of `n` rotations spread over SO(3): the angle `ρ` of the ball of
+/// rotations around each that holds `1/n` of them all (the rotations within `ρ` of a given one
+/// are a share `(ρ − sin ρ)/π`, about `ρ³/(6π)`), so `ρ = (6π/n)^⅓`. A cover leaves no rotation
+/// much farther than that from one of its candidates (1.3 times it for this spiral).
+#[must_use]
+pub fn uniform_spacing(n: usize) -> f64 {
+    #[expect(clippy::cast_precision_loss, reason = "at most 10^7 rotations")]
+    let per = 6.0 * std::f64::consts::PI / n.max(1) as f64;
+    per.cbrt().to_degrees()
+}
+
+/// Returns the candidates of `config`: the uniform rotations (when asked for) or the roll,
+/// pitch, yaw grid, each with every combination of the offsets.
+#[must_use]
+pub fn candidates(config: &crate::advise::AdviseConfig) -> Vec<Params> {
+    match config.uniform {
+        None => cover(&config.axes),
+        Some(n) => {
+            let offsets = cover(&config.axes);
+            uniform_rotations(n)
+                .into_iter()
+                .flat_map(|r| offsets.iter().map(move |o| [r[0], r[1], r[2], o[3], o[4], o[5]]))
+                .collect()
+        }
+    }
+}
+
 /// Returns every combination of `axes`' values (roll, pitch, yaw, x, y, z), the last fastest.
 #[must_use]
 pub fn cover(axes: &[Vec<f64>; 6]) -> Vec<Params> {

@@ -173,6 +173,7 @@ impl Viewer {
             },
             rig,
             axes: grid,
+            uniform: None,
             refine: 0,
             refine_to: 0.5,
             refine_to_m: 0.01,
