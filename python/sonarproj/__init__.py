@@ -695,120 +695,6 @@ def recover_many(
     )
 
 
-def _count(parameter: str, value: Any, *, optional: bool = False) -> Optional[int]:
-    if value is None and optional:
-        return None
-    if isinstance(value, (bool, _np.bool_)) or not isinstance(value, (int, _np.integer)) or value < 1:
-        raise InputError(f"{parameter}: expected a whole number >= 1, got {value!r}")
-    return int(value)
-
-
-def sweep(
-    config: Union[str, "_os.PathLike[str]"],
-    out_dir: Optional[Union[str, "_os.PathLike[str]"]] = None,
-    *,
-    shard: Optional[str] = None,
-    chunk_poses: int = DEFAULT_CHUNK_POSES,
-    max_chunks: Optional[int] = None,
-    backend: str = "auto",
-    progress: Optional[Callable[[int, int], None]] = None,
-    format: str = "csv",
-) -> dict[str, Any]:
-    """Runs the sweep described by the TOML file `config` into the directory `out_dir`, with the
-    command line's code (``sonarproj sweep``): ``sweep.csv`` (the grid's columns, then the
-    metric columns; angles in deg, distances in m), ``sweep.json`` and, for a grid with one or
-    two varying axes, the figure ``sweep-METRIC.png``. ``format="parquet"`` writes
-    ``sweep.parquet`` instead: the same columns typed (integers for the index and counts,
-    floats for the rest, null where the CSV leaves a cell empty), for ``pandas.read_parquet``,
-    polars, pyarrow or DuckDB, and faster to write.
-
-    Finished chunks of `chunk_poses` poses stay on disk, so calling it again resumes; Ctrl-C
-    (KeyboardInterrupt) stops it between chunks. `shard` ``"K/N"`` runs part K of N;
-    `max_chunks` stops after that many chunks. `progress(done, total)` is called after each
-    chunk. `backend` picks where to compute: "auto", "gpu", "cpu-fast" or "cpu".
-
-    Returns a dict: ``file`` (the table, or None when stopped early or when the sweep file's
-    ``[summary]`` says ``rows = false``), ``figure``, ``summary`` (the ``[summary]``'s
-    reductions, the content of ``summary.json``, as a dict; None without one),
-    ``summary_file``, ``poses``, ``computed``, ``resumed``, ``seconds``, ``device``.
-
-    Without `out_dir` the sweep runs in memory and writes nothing: the dict's ``columns`` maps
-    each column of the table to a numpy array (int64 for the index and counts, float64 for the
-    rest, NaN where the CSV leaves a cell empty; ``pandas.DataFrame(result["columns"])`` is the
-    table), or is None with ``rows = false``; ``summary`` is as above. Tables over 1 GiB are
-    refused (give `out_dir`, or ask for summaries only); `max_chunks` and `format` need
-    `out_dir`.
-    """
-    if format not in ("csv", "parquet"):
-        raise InputError(f'format: expected "csv" or "parquet", got {format!r}')
-    if progress is not None and not callable(progress):
-        raise InputError(f"progress: expected a callable (done, total), got {type(progress).__name__}")
-    if shard is not None and not isinstance(shard, str):
-        raise InputError(f'shard: expected "K/N", e.g. "1/4", got {shard!r}')
-    if out_dir is None:
-        if max_chunks is not None:
-            raise InputError("max_chunks: needs out_dir (a sweep in memory keeps nothing to resume)")
-        if format != "csv":
-            raise InputError(f"format: {format!r} needs out_dir (a sweep in memory returns its columns)")
-        result, notice = _native.sweep_memory(
-            _os.fspath(config), shard, _count("chunk_poses", chunk_poses), _backend(backend), progress
-        )
-        _warn(notice)
-        return result
-    result, notice = _native.sweep_run(
-        _os.fspath(config),
-        _os.fspath(out_dir),
-        shard,
-        _count("chunk_poses", chunk_poses),
-        _count("max_chunks", max_chunks, optional=True),
-        _backend(backend),
-        progress,
-        format,
-    )
-    _warn(notice)
-    return result
-
-
-def merge(out_dir: Union[str, "_os.PathLike[str]"]) -> dict[str, Optional[str]]:
-    """Joins the finished shards of a sweep in `out_dir` (run with ``shard="K/N"``) into
-    ``sweep.csv`` (``sweep.parquet`` for Parquet shards), byte for byte the file one run would
-    have written, and draws the figure, as
-    ``sonarproj merge``. Refused with InputError, writing nothing, when a shard is missing or
-    damaged, or when the shards were computed with different settings (backend, GPU adapter,
-    precision or options, engine version: the message names the setting and both values).
-
-    Returns a dict: ``file`` (the table; None when the sweep writes no rows), ``summary``
-    (``summary.json``, when the sweep file has a ``[summary]``) and ``figure`` (None when the
-    sweep draws none).
-    """
-    file, summary, figure = _native.sweep_merge(_os.fspath(out_dir))
-    path = lambda p: None if p is None else _os.fspath(p)  # noqa: E731
-    return {"file": path(file), "summary": path(summary), "figure": path(figure)}
-
-
-def paper(
-    out_dir: Union[str, "_os.PathLike[str]"],
-    *,
-    angle_step: float = 1.0,
-    step: Union[float, str] = 0.1,
-    backend: str = "auto",
-) -> dict[str, Any]:
-    """Runs the paper's simulations (both directions, nine scenarios, angles every `angle_step`
-    deg, arcs and surfaces sampled every `step` deg) with the command line's code (``sonarproj
-    paper``) and writes ``fls-to-sss.csv``, ``sss-to-fls.csv``, the figures and ``findings.md``
-    into `out_dir`. ``step="auto"`` is the smooth version: arcs every 0.001°, surfaces with auto
-    sampling (the default 0.1° reproduces the published code, staircases included).
-
-    Returns a dict: ``findings`` (a list of dicts: ``claim``, ``holds``, ``evidence``),
-    ``poses``, ``seconds`` (compute time), ``device``, ``out_dir``.
-    """
-    result, notice = _native.paper_run(
-        _os.fspath(out_dir), _number("angle_step", angle_step), _paper_step(step), _backend(backend)
-    )
-    _warn(notice)
-    return result
-
-
 def read_oculus(path: Union[str, "_os.PathLike[str]"], *, elevation: Optional[float] = None) -> list[OculusPing]:
     """Returns the pings of a saved Oculus (Blueprint Subsea M-series) file: its simple ping
     results, version 1 or 2, other messages skipped. Each :class:`OculusPing` has ``.sonar`` (a
@@ -827,16 +713,8 @@ def read_oculus(path: Union[str, "_os.PathLike[str]"], *, elevation: Optional[fl
     return _native.read_oculus(_os.fspath(path), _number("elevation", elevation, optional=True))
 
 
-def _paper_step(value: Any) -> Optional[float]:
-    """Returns `paper`'s step in degrees, or None for ``"auto"``."""
-    if isinstance(value, str):
-        if value.strip().lower() == "auto":
-            return None
-        raise InputError(f"step: expected a number of degrees or 'auto', got {value!r}")
-    return _number("step", value)
-
-
 from ._advise import advise  # noqa: E402
+from ._apps import merge, paper, sweep  # noqa: E402
 
 
 def __dir__() -> list[str]:
