@@ -20,6 +20,7 @@ pub use part::{Cell, PartSummary};
 pub(crate) use spec::from_toml;
 pub use spec::{HistogramSpec, MAX_HISTOGRAM_BINS, MAX_MARGINAL_CELLS, MAX_TOP, SummarySpec};
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
@@ -199,6 +200,24 @@ impl SummarySpec {
     /// # Errors
     /// [`sonarproj::Error::InvalidValue`] for a value too large for the marginals' exact sums.
     pub fn summarise(&self, grid: Option<&Grid>, first: u64, values: &[Option<f64>]) -> Result<Summary> {
+        // Pieces on all cores, combined: the same summary (every reduction is exact and
+        // independent of order), in a fraction of the time.
+        const PIECE: usize = 1 << 14;
+        if values.len() <= 2 * PIECE {
+            return self.summarise_piece(grid, first, values);
+        }
+        let pieces = values
+            .par_chunks(PIECE)
+            .enumerate()
+            .map(|(k, v)| self.summarise_piece(grid, first + (k * PIECE) as u64, v))
+            .collect::<Result<Vec<_>>>()?;
+        let mut pieces = pieces.into_iter();
+        let first = pieces.next().expect("more than one piece");
+        pieces.try_fold(first, |total, part| self.combine(&total, &part, "summary"))
+    }
+
+    /// [`SummarySpec::summarise`] on one thread.
+    fn summarise_piece(&self, grid: Option<&Grid>, first: u64, values: &[Option<f64>]) -> Result<Summary> {
         let mut s = self.empty(grid);
         s.poses = values.len() as u64;
         let present = || {
