@@ -237,7 +237,7 @@ impl GpuBackend {
                 pool,
                 &Source::Items(prepared),
                 output == Output::WithOccupancy,
-                &mut |_, chunk| out.extend(chunk),
+                &mut |u| out.extend(u.projections()),
             )
         })?;
         Ok(out)
@@ -262,7 +262,9 @@ impl GpuBackend {
         };
         let mut out = Vec::with_capacity(count);
         self.pool.with(|pool| {
-            self.project_with(pool, &source, keep_occupancy, &mut |_, chunk| out.extend(chunk))
+            self.project_with(pool, &source, keep_occupancy, &mut |u| {
+                out.extend(u.projections())
+            })
         })?;
         Ok(out)
     }
@@ -287,11 +289,14 @@ impl GpuBackend {
             count,
         };
         self.pool.with(|pool| {
-            self.project_with(pool, &source, false, &mut |start, chunk| {
-                let mut rows = out.slices(start..start + chunk.len());
-                for (k, p) in chunk.iter().enumerate() {
-                    rows.set(k, &p.metrics);
-                }
+            self.project_with(pool, &source, false, &mut |u| {
+                // Straight into the columns, on all cores, no per-pose object.
+                let rows = out.slices(u.start..u.start + u.count).chunks(4096);
+                rows.into_par_iter().enumerate().for_each(|(b, mut rows)| {
+                    for k in 0..rows.len() {
+                        rows.set(k, &u.metrics(b * 4096 + k));
+                    }
+                });
             })
         })
     }
@@ -308,15 +313,14 @@ impl GpuBackend {
         self.pool.clear();
     }
 
-    /// Projects every pose of `source` with the buffers of `pool`, handing each chunk's
-    /// projections (with their occupancy when `keep_occupancy`) to `emit` with the index of its
-    /// first pose.
+    /// Projects every pose of `source` with the buffers of `pool`, handing each chunk's results
+    /// as read back (with the bitsets when `keep_occupancy`) to `emit`.
     fn project_with(
         &self,
         pool: &mut BufferPool,
         source: &Source<'_>,
         keep_occupancy: bool,
-        emit: &mut dyn FnMut(usize, Vec<Projection>),
+        emit: &mut dyn FnMut(&Unpack<'_>),
     ) -> Result<()> {
         let device = &self.ctx.device;
         let layout = source.layout();
@@ -541,50 +545,88 @@ impl GpuBackend {
                 Some(staging) => Some(read(&self.ctx, staging, used_bits)?),
                 None => None,
             };
-            let projections: Vec<Projection> = (start..end)
-                .into_par_iter()
-                .enumerate()
-                .map(|(c, k)| {
-                    let m = &raw[c * METRIC_STRIDE..(c + 1) * METRIC_STRIDE];
-                    let total = plans[source.plan_index(k)].total() as u64;
-                    let extremes = Extremes {
-                        range_min: f64::from(from_order_key(!m[METRIC_RANGE_MIN_NOT])),
-                        range_max: f64::from(from_order_key(m[METRIC_RANGE_MAX])),
-                        azimuth_min: f64::from(from_order_key(!m[METRIC_AZIMUTH_MIN_NOT])),
-                        azimuth_max: f64::from(from_order_key(m[METRIC_AZIMUTH_MAX])),
-                    };
-                    let occupied = u64::from(m[METRIC_OCCUPIED]);
-                    let measure = match layout.kind {
-                        SonarKind::Sss => occupied as f64 * layout.range_bin_width,
-                        SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_OCCUPIED_MEASURE])),
-                    };
-                    let area = layout
-                        .area_grid
-                        .map(|g| g.area(u64::from(m[METRIC_PROJECTION_AREA])));
-                    let visible = u64::from(m[METRIC_VISIBLE]);
-                    let metrics = Metrics::new(visible, total, extremes, (occupied, measure), area);
-                    let occupancy = raw_bits.as_ref().map(|b| {
-                        let words_of = &b[c * words..][..pixel_words];
-                        layout.to_data_order(Occupancy::from_words(
-                            layout.range_bins,
-                            layout.beams(),
-                            words_of.to_vec(),
-                        ))
-                    });
-                    let cells = raw_bits.as_ref().zip(layout.area_grid).map(|(b, g)| {
-                        let words_of = &b[c * words + pixel_words..(c + 1) * words];
-                        Occupancy::from_words(g.nx, g.ny, words_of.to_vec())
-                    });
-                    Projection {
-                        metrics,
-                        occupancy,
-                        cells,
-                    }
-                })
-                .collect();
-            emit(start, projections);
+            emit(&Unpack {
+                source,
+                plans,
+                layout,
+                raw: &raw,
+                raw_bits: raw_bits.as_deref(),
+                words,
+                pixel_words,
+                start,
+                count: n,
+            });
         }
         Ok(())
+    }
+}
+
+/// A chunk's results as read back: what each pose's projection or metrics are made of, on the
+/// host, a pose at a time (in parallel, and for a grid's columns with no per-pose object).
+struct Unpack<'a> {
+    source: &'a Source<'a>,
+    plans: &'a [SamplingPlan],
+    layout: &'a Layout,
+    raw: &'a [u32],
+    raw_bits: Option<&'a [u32]>,
+    words: usize,
+    pixel_words: usize,
+    /// The chunk's first pose and its number of poses.
+    start: usize,
+    count: usize,
+}
+
+impl Unpack<'_> {
+    /// Returns the metrics of the chunk's pose `c`.
+    fn metrics(&self, c: usize) -> Metrics {
+        let (layout, m) = (self.layout, &self.raw[c * METRIC_STRIDE..(c + 1) * METRIC_STRIDE]);
+        let total = self.plans[self.source.plan_index(self.start + c)].total() as u64;
+        let extremes = Extremes {
+            range_min: f64::from(from_order_key(!m[METRIC_RANGE_MIN_NOT])),
+            range_max: f64::from(from_order_key(m[METRIC_RANGE_MAX])),
+            azimuth_min: f64::from(from_order_key(!m[METRIC_AZIMUTH_MIN_NOT])),
+            azimuth_max: f64::from(from_order_key(m[METRIC_AZIMUTH_MAX])),
+        };
+        let occupied = u64::from(m[METRIC_OCCUPIED]);
+        let measure = match layout.kind {
+            SonarKind::Sss => occupied as f64 * layout.range_bin_width,
+            SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_OCCUPIED_MEASURE])),
+        };
+        let area = layout
+            .area_grid
+            .map(|g| g.area(u64::from(m[METRIC_PROJECTION_AREA])));
+        let visible = u64::from(m[METRIC_VISIBLE]);
+        Metrics::new(visible, total, extremes, (occupied, measure), area)
+    }
+
+    /// Returns the projection of the chunk's pose `c`, with its occupancy when it was read back.
+    fn projection(&self, c: usize) -> Projection {
+        let (layout, words, pixel_words) = (self.layout, self.words, self.pixel_words);
+        let occupancy = self.raw_bits.map(|b| {
+            let words_of = &b[c * words..][..pixel_words];
+            layout.to_data_order(Occupancy::from_words(
+                layout.range_bins,
+                layout.beams(),
+                words_of.to_vec(),
+            ))
+        });
+        let cells = self.raw_bits.zip(layout.area_grid).map(|(b, g)| {
+            let words_of = &b[c * words + pixel_words..(c + 1) * words];
+            Occupancy::from_words(g.nx, g.ny, words_of.to_vec())
+        });
+        Projection {
+            metrics: self.metrics(c),
+            occupancy,
+            cells,
+        }
+    }
+
+    /// Returns the chunk's projections, in order, made on all cores.
+    fn projections(&self) -> Vec<Projection> {
+        (0..self.count)
+            .into_par_iter()
+            .map(|c| self.projection(c))
+            .collect()
     }
 }
 
