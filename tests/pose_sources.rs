@@ -192,22 +192,35 @@ fn device_decoded_grids_lie_in_the_reference_envelope() {
         Precision::F64 => envelope::INPUT_TOLERANCE,
         Precision::DoubleF32 => envelope::DOUBLE_F32_TOLERANCE,
     };
-    let small = GpuBackend::new(gpu.context().clone())
-        .unwrap()
-        .with_max_chunk_poses(7);
+    let small = || {
+        GpuBackend::new(gpu.context().clone())
+            .unwrap()
+            .with_max_chunk_poses(7)
+    };
     let names = Sonar::preset_names();
     let mut visible = 0;
     for a in &names {
         for b in &names {
             let (source, target) = (Sonar::preset(a).unwrap(), Sonar::preset(b).unwrap());
-            for placement in [true, false] {
+            // Automatic sampling on the arcs too: a plan per feature range (a table the poses
+            // stage reads by the range's digit).
+            let samplings: &[Sampling] = if source.kind == sonarproj::SonarKind::Fls {
+                &[Sampling::Step(1.0), Sampling::Auto]
+            } else {
+                &[Sampling::Step(1.0)]
+            };
+            for (placement, &sampling) in [true, false]
+                .into_iter()
+                .flat_map(|p| samplings.iter().map(move |s| (p, s)))
+            {
                 let g = grid(&source, &target, placement);
-                let s = sweep(&source, &target, Sampling::Step(1.0), PoseSource::Grid(&g));
-                let what = format!("{a} -> {b}, placement {placement}");
+                let s = sweep(&source, &target, sampling, PoseSource::Grid(&g));
+                let what = format!("{a} -> {b}, placement {placement}, {sampling:?}");
                 let got = sonarproj::test_support::gpu_grid_projections(&gpu, &s, 0..g.len()).unwrap();
                 let batch = s.batch(0..g.len()).unwrap();
                 let prepared = batch.prepare().unwrap();
                 let want = reference::project(&prepared, Output::WithOccupancy);
+                assert_eq!(got.len(), want.len(), "{what}");
                 for (k, (w, p)) in want.iter().zip(&got).enumerate() {
                     let item = &batch.items[k];
                     let bounds = envelope::bounds_with(
@@ -227,16 +240,18 @@ fn device_decoded_grids_lie_in_the_reference_envelope() {
                     visible += usize::from(p.metrics.visible > 0);
                 }
                 // The columns are the metrics of the same path, whatever the chunks.
-                for backend in [&gpu, &small] {
+                for backend in [GpuBackend::new(gpu.context().clone()).unwrap(), small()] {
                     let mut columns = MetricColumns::default();
-                    Backend::Gpu(Box::new(GpuBackend::new(backend.context().clone()).unwrap()))
+                    Backend::Gpu(Box::new(backend))
                         .project_columns(&s, 3..g.len(), &mut columns, &|| false)
                         .unwrap();
+                    assert_eq!(columns.len() as u64, g.len() - 3, "{what}");
                     for k in 0..columns.len() {
                         assert_eq!(columns.get(k), got[k + 3].metrics, "{what}, pose {}", k + 3);
                     }
                 }
-                let cut = sonarproj::test_support::gpu_grid_projections(&small, &s, 0..g.len()).unwrap();
+                let cut = sonarproj::test_support::gpu_grid_projections(&small(), &s, 0..g.len()).unwrap();
+                assert_eq!(cut.len(), got.len(), "{what}");
                 for (k, (p, q)) in got.iter().zip(&cut).enumerate() {
                     // Compared whole (occupancy too), printed by their metrics.
                     assert!(
@@ -250,4 +265,64 @@ fn device_decoded_grids_lie_in_the_reference_envelope() {
         }
     }
     assert!(visible > 1000, "{visible} poses saw anything");
+}
+
+/// A chunk of more than 65 535 poses (the most workgroups one dispatch dimension may have on
+/// most devices) is spread over two dimensions: 70 000 fls->sss poses in one chunk, three samples
+/// each, every one in the reference's envelope.
+#[test]
+fn a_chunk_of_more_poses_than_one_dispatch_dimension_holds() {
+    use sonarproj::gpu::Precision;
+    use sonarproj::projection::{envelope, reference};
+    let Some(gpu) = common::gpu() else {
+        return;
+    };
+    let tolerance = match gpu.context().precision {
+        Precision::F64 => envelope::INPUT_TOLERANCE,
+        Precision::DoubleF32 => envelope::DOUBLE_F32_TOLERANCE,
+    };
+    let (source, target) = (common::preset("paper-fls"), common::preset("paper-sss"));
+    let step = |n: usize, d: f64| (0..n).map(|i| i as f64 * d).collect::<Vec<f64>>();
+    let axes = [
+        vec![5.0],
+        vec![0.0],
+        vec![0.0],
+        vec![10.0],
+        vec![0.0],
+        vec![0.0],
+        step(70, 5.0),
+        step(50, 3.6),
+        step(20, 18.0),
+    ];
+    let g = PoseGrid::new(axes, true, &source).unwrap();
+    assert_eq!(g.len(), 70_000);
+    let s = sweep(&source, &target, Sampling::Step(6.0), PoseSource::Grid(&g));
+    let got = sonarproj::test_support::gpu_grid_projections(&gpu, &s, 0..g.len()).unwrap();
+    let batch = s.batch(0..g.len()).unwrap();
+    let prepared = batch.prepare().unwrap();
+    let want = reference::project(&prepared, Output::MetricsOnly);
+    assert_eq!(got.len(), want.len());
+    let mut seen = 0;
+    for (k, p) in got.iter().enumerate() {
+        let item = &batch.items[k];
+        let bounds = envelope::bounds_with(
+            prepared.layout(),
+            prepared.plan(k),
+            prepared.base_azimuth(k),
+            item.measurement.range,
+            &item.pose,
+            tolerance,
+        );
+        common::check_within_bounds(prepared.layout(), &bounds, p).unwrap_or_else(|e| {
+            panic!(
+                "pose {k}: {e}\nreference {:?}\ngpu {:?}",
+                want[k].metrics, p.metrics
+            )
+        });
+        seen += usize::from(p.metrics.visible > 0);
+    }
+    // Poses past the first dimension's 65 535 were drawn (a pose left undrawn would be empty and
+    // fail its envelope where the reference sees something).
+    assert!(want[65_535..].iter().any(|w| w.metrics.visible > 0));
+    assert!(seen > 10_000, "{seen} poses saw anything");
 }

@@ -340,3 +340,31 @@ fn a_uniform_search_finds_the_colocated_pair_unrolled() {
         angle_between(best.rotation, [90.0, 0.0, 0.0]).min(angle_between(best.rotation, [-90.0, 0.0, 0.0]));
     assert!(rolled > 45.0, "best {:?}", best.rotation);
 }
+
+#[test]
+fn the_pose_now_is_scored_over_the_features_it_sees_far_from_the_search() {
+    // A sidescan's features seen by an imaging sonar 20 m ahead of it (the pose now), while the
+    // search covers it 0.5 m to the side: the draw's points sonar 2 sees from there (20 to 30 m
+    // from the sidescan) are not left out of the pool (its reach counts the pose now and its
+    // moves), so it is scored over them.
+    let c = config(
+        "from = \"paper-sss\"\nto = \"paper-fls\"\nstep = 0.5\nobjective = \"correspondence\"\n\
+         [features]\ncount = 50\nseed = 2\n[rig]\norigin = [0, 0.5, 0]\n\
+         [search]\nroll = [0, 10]\nrefine = 0\n[from_pose]\nx = 20\nstep_m = 0.5\n",
+    );
+    let a = advise::advise(&c, &Backend::CpuFast).unwrap();
+    let now = a.next.unwrap().now;
+    assert_eq!(now.offset, [20.0, 0.0, 0.0]);
+    assert!(
+        now.features > 0,
+        "the pose now scored over {} features",
+        now.features
+    );
+    // The same pose scored with a pool whose reach covers it by the search itself.
+    let mut wide = c.clone();
+    wide.axes[3] = vec![0.0, 20.0];
+    wide.from_pose = None;
+    let scorer = advise::Scorer::new(&wide, &Backend::CpuFast).unwrap();
+    let again = scorer.score_all(&[now.params()]).unwrap()[0];
+    assert_eq!(again, now);
+}

@@ -161,7 +161,7 @@ fn bad_advise_files_exit_2_naming_the_key() {
         ),
         (
             format!("{base}[search]\nuniform = 1\n"),
-            &["search.uniform = 1", "[2, 10000000]"],
+            &["search.uniform = 1", "[2, 1000000]"],
         ),
         (
             format!("{base}[search]\nuniform = 50\nlandscape = [\"x\", \"y\"]\n"),
@@ -170,6 +170,14 @@ fn bad_advise_files_exit_2_naming_the_key() {
         (
             format!("{base}[search]\nz = [0, 2000]\n"),
             &["search.z = 2000", "1000 m"],
+        ),
+        (
+            base.replace("origin = [0, 0, 0]", "origin = [0, \"x\", 0.5]"),
+            &["rig.origin", "three finite numbers"],
+        ),
+        (
+            base.replace("origin = [0, 0, 0]", "origin = [900000, 900000, 0]"),
+            &["rig", "within 1000000 m"],
         ),
         (format!("{base}[from_pose]\nstep = 0\n"), &["from_pose.step = 0"]),
         (

@@ -162,7 +162,7 @@ pub struct AdviseConfig {
 pub const MAX_FEATURES: usize = 1_000_000;
 
 /// The most candidate rotations the cover may have.
-pub const MAX_CANDIDATES: u64 = 100_000_000;
+pub const MAX_CANDIDATES: u64 = 1_000_000;
 
 /// The names of the search's axes: the rotation (deg), then the offsets of the rig's origin or
 /// translation (m).
@@ -379,7 +379,7 @@ impl AdviseConfig {
         )]
         let uniform = match number(search, "search.uniform", "uniform")? {
             None => None,
-            Some(v) if v.fract() == 0.0 && (2.0..=1e7).contains(&v) => {
+            Some(v) if v.fract() == 0.0 && (2.0..=1e6).contains(&v) => {
                 if let Some(k) = ["roll", "pitch", "yaw"].iter().find(|k| search.contains_key(**k)) {
                     return Err(key_error(
                         file,
@@ -395,7 +395,7 @@ impl AdviseConfig {
                     file,
                     "search.uniform",
                     v,
-                    "must be a whole number of rotations in [2, 10000000]",
+                    "must be a whole number of rotations in [2, 1000000]",
                 ));
             }
         };
@@ -427,8 +427,13 @@ impl AdviseConfig {
             }
             out
         };
-        let candidates =
-            axes.iter().map(|a| a.len() as u64).product::<u64>() * uniform.map_or(1, |n| n as u64);
+        // Counted without overflow: every candidate and its score are held at once.
+        let candidates = axes
+            .iter()
+            .map(|a| a.len() as u64)
+            .chain(uniform.map(|n| n as u64))
+            .try_fold(1u64, u64::checked_mul)
+            .unwrap_or(u64::MAX);
         if candidates > MAX_CANDIDATES {
             return Err(key_error(
                 file,
@@ -581,7 +586,22 @@ impl AdviseConfig {
             landscape,
             from_pose,
         };
-        // The rig and every candidate make valid poses (a placement too far, say).
+        // Every candidate's translation stays within the engine's bound: its length is at most
+        // the rig's reach (the origin or translation and the largest offset the search, the
+        // pose now and its moves give it; a placement's two ranges).
+        let reach = crate::advise::score::reach(&config);
+        if reach > sonarproj::limits::MAX_TRANSLATION {
+            return Err(key_error(
+                file,
+                "rig",
+                format!("a translation of up to {reach} m"),
+                format!(
+                    "must keep every candidate's translation within {} m (with the search's offsets)",
+                    sonarproj::limits::MAX_TRANSLATION
+                ),
+            ));
+        }
+        // The rig and a candidate make valid poses (a placement too far, say).
         crate::advise::score::pose_of(&config, [0.0; 6])
             .map_err(|e| Error::invalid(format!("advise file {file:?}: rig"), e, "must give a valid pose"))?;
         Ok(config)
@@ -632,12 +652,13 @@ fn features(file: &str, t: Option<&toml::Table>, source: &Sonar, number: &Number
             list.iter()
                 .enumerate()
                 .map(|(i, p)| {
+                    // Every element a number: a stray string is refused, not skipped.
                     let xyz: Vec<f64> = p
                         .as_array()
-                        .map(|a| {
+                        .and_then(|a| {
                             a.iter()
-                                .filter_map(|v| v.as_float().or(v.as_integer().map(|i| i as f64)))
-                                .collect()
+                                .map(|v| v.as_float().or(v.as_integer().map(|i| i as f64)))
+                                .collect::<Option<Vec<f64>>>()
                         })
                         .unwrap_or_default();
                     let [r, az, el] = xyz.as_slice() else {
@@ -727,12 +748,13 @@ fn rig(file: &str, t: Option<&toml::Table>) -> Result<Rig> {
         ));
     }
     let triple = |name: &str, v: &toml::Value| -> Result<[f64; 3]> {
+        // Every element a number: a stray string is refused, not skipped.
         let xyz: Vec<f64> = v
             .as_array()
-            .map(|a| {
+            .and_then(|a| {
                 a.iter()
-                    .filter_map(|x| x.as_float().or(x.as_integer().map(|i| i as f64)))
-                    .collect()
+                    .map(|x| x.as_float().or(x.as_integer().map(|i| i as f64)))
+                    .collect::<Option<Vec<f64>>>()
             })
             .unwrap_or_default();
         match xyz.as_slice() {

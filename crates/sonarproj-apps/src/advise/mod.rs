@@ -79,7 +79,19 @@ pub fn advise(config: &AdviseConfig, backend: &Backend) -> Result<Advice> {
                 config.refine_to_m
             }
         });
-        let refined = search::refine(&scorer, &starts, free, spacing, finest)?;
+        // Rotations turn freely; the offsets stay within the box the search covers.
+        let bounds = std::array::from_fn(|k| {
+            if k < 3 {
+                (f64::NEG_INFINITY, f64::INFINITY)
+            } else {
+                let a = &config.axes[k];
+                (
+                    a.iter().copied().fold(f64::INFINITY, f64::min),
+                    a.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                )
+            }
+        });
+        let refined = search::refine(&scorer, &starts, free, spacing, finest, bounds)?;
         candidates.extend(refined.into_iter().map(|s| (Stage::Refine, s)));
     }
     let next = match config.from_pose {

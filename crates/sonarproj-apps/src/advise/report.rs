@@ -120,7 +120,8 @@ pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Writt
         .map_err(err)?;
         // The best pose's own features: those it was scored over.
         let pose = crate::advise::score::pose_of(config, best.params())?;
-        for f in &crate::advise::score::Pool::new(config).select(&pose).features {
+        let pool = crate::advise::score::Pool::new(config);
+        for (f, _) in &crate::advise::score::kept(&config.source, &pool, &pose).1 {
             let row: Vec<String> = f
                 .iter()
                 .chain(&best.rotation)

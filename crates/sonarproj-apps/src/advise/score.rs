@@ -121,6 +121,27 @@ pub fn pose_of(config: &AdviseConfig, c: Params) -> sonarproj::Result<RelativePo
     }
 }
 
+/// Returns the largest distance between the two sonars' origins any candidate of `config` can
+/// have (m): for an origin or translation rig its length plus the largest offset the search
+/// (its cover, which refinement does not leave), the pose now and its moves give it; for a
+/// placement, the feature's range plus the place's.
+#[must_use]
+pub fn reach(config: &AdviseConfig) -> f64 {
+    match config.rig {
+        Rig::Origin(o) | Rig::Translation(o) => {
+            let far = |k: usize| {
+                let cover = config.axes[k].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                let moved = config
+                    .from_pose
+                    .map_or(0.0, |p| p.offset[k - 3].abs() + p.step_m.max(p.gradient_step_m));
+                cover.max(moved)
+            };
+            DVec3::from_array(o).length() + DVec3::new(far(3), far(4), far(5)).length()
+        }
+        Rig::Place { feature, at } => feature[0].abs() + at[0].abs(),
+    }
+}
+
 /// Returns the name of the projection metric the advisor scores for sonar 2's kind.
 #[must_use]
 pub fn metric_name(config: &AdviseConfig) -> &'static str {
@@ -191,14 +212,7 @@ impl Pool {
         };
         // The other sonar's range bounds the distance of a point it sees from its origin, and
         // the origins are at most `reach` apart whatever the rotation.
-        let reach = match config.rig {
-            // The offsets the search gives the origin or translation, at their largest.
-            Rig::Origin(o) | Rig::Translation(o) => {
-                let far = |k: usize| config.axes[k].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-                DVec3::from_array(o).length() + DVec3::new(far(3), far(4), far(5)).length()
-            }
-            Rig::Place { feature, at } => feature[0].abs() + at[0].abs(),
-        };
+        let reach = reach(config);
         let other = if in_target { &config.source } else { &config.target };
         let drawn = points.len();
         let points = points
@@ -274,7 +288,21 @@ pub struct Scorer<'a> {
 }
 
 /// A candidate's points of the pool examined, and its shared features with their measurements.
-type Kept = (usize, Vec<([f64; 3], Measurement)>);
+pub type Kept = (usize, Vec<([f64; 3], Measurement)>);
+
+/// Returns the features a candidate with `pose` is scored over: the pool's shared ones with
+/// their measurements by `source` (a point on a bound that the measurement's check refuses by
+/// a rounding is left out), and the pool's points examined.
+#[must_use]
+pub fn kept(source: &sonarproj::Sonar, pool: &Pool, pose: &RelativePose) -> Kept {
+    let sel = pool.select(pose);
+    let kept = sel
+        .features
+        .iter()
+        .filter_map(|f| Measurement::of(source, f[0], f[1]).ok().map(|m| (*f, m)))
+        .collect();
+    (sel.examined, kept)
+}
 
 /// Items (feature × candidate) projected in one batch.
 const ITEMS_AT_ONCE: usize = 1 << 16;
@@ -327,19 +355,7 @@ impl<'a> Scorer<'a> {
             let rotations = &rotations[b * block..b * block + poses.len()];
             let selections: Vec<Kept> = poses
                 .par_iter()
-                .map(|p| {
-                    let sel = self.pool.select(p);
-                    let kept = sel
-                        .features
-                        .iter()
-                        .filter_map(|f| {
-                            Measurement::of(&self.config.source, f[0], f[1])
-                                .ok()
-                                .map(|m| (*f, m))
-                        })
-                        .collect();
-                    (sel.examined, kept)
-                })
+                .map(|p| kept(&self.config.source, &self.pool, p))
                 .collect();
             let batch = Batch {
                 source: self.config.source.clone(),

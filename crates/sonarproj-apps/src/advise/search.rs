@@ -137,7 +137,8 @@ pub fn free_axes(axes: &[Vec<f64>; 6]) -> ([bool; 6], [f64; 6]) {
 
 /// Refines each of `starts` by pattern search over the free axes: from half the cover's spacing,
 /// the best of the moves of one step along each free axis (both ways) is taken while it lowers
-/// the score, else the step halves, down to `finest`. Returns every candidate evaluated.
+/// the score, else the steps halve, each axis down to its `finest`; no move leaves `bounds` (the
+/// offsets stay within the searched box). Returns every candidate evaluated.
 ///
 /// # Errors
 /// As [`Scorer::score_all`].
@@ -147,6 +148,7 @@ pub fn refine(
     free: [bool; 6],
     spacing: [f64; 6],
     finest: [f64; 6],
+    bounds: [(f64, f64); 6],
 ) -> Result<Vec<Score>> {
     let mut evaluated = Vec::new();
     for start in starts {
@@ -162,7 +164,9 @@ pub fn refine(
                 for sign in [-1.0, 1.0] {
                     let mut r = best.params();
                     r[k] += sign * step[k];
-                    moves.push(r);
+                    if (bounds[k].0..=bounds[k].1).contains(&r[k]) {
+                        moves.push(r);
+                    }
                 }
             }
             let scores = scorer.score_all(&moves)?;

@@ -335,6 +335,18 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
         if self.pending.rows() > 0 || !self.next.is_multiple_of(GROUP_ROWS) || !whole {
             return Ok(false);
         }
+        // Only a group this writer's encoding made (compression, statistics) is copied: a part
+        // written otherwise (by an older version, say) is decoded and encoded again.
+        let props = self.inner.properties();
+        let same = group.columns().iter().all(|c| {
+            let path = c.column_path();
+            c.compression() == props.compression(path)
+                && c.statistics().is_some()
+                && c.dictionary_page_offset().is_some() == props.dictionary_enabled(path)
+        });
+        if !same {
+            return Ok(false);
+        }
         let index = meta.page_index();
         let mut rg = self.inner.next_row_group().map_err(err)?;
         for (j, column) in group.columns().iter().enumerate() {
@@ -723,6 +735,56 @@ mod tests {
             // last group.
             assert!(copied >= 1, "cuts {cuts:?}: nothing copied");
         }
+    }
+
+    /// A part written with another encoding (here without the pose column's dictionary) is not
+    /// copied but decoded and encoded again: the joined file is still the bytes of encoding the
+    /// rows at once.
+    #[test]
+    #[expect(clippy::cast_possible_wrap, reason = "GROUP_ROWS is 2^17")]
+    fn a_part_of_another_encoding_is_encoded_again() {
+        let g = GROUP_ROWS as i64;
+        let whole = write_parts(&[table(0, g + 10)], 0);
+        let dir = tempfile::tempdir().unwrap();
+        let t = table(0, 1);
+        let foreign = dir.path().join("foreign.parquet");
+        let mut bytes = Vec::new();
+        let mut w = TableWriter::new(
+            &mut bytes,
+            &t.names,
+            &t.kinds(),
+            0,
+            Encoding { dictionary: &[] },
+            &foreign,
+        )
+        .unwrap();
+        w.push(table(0, g + 10)).unwrap();
+        w.finish().unwrap();
+        std::fs::write(&foreign, &bytes).unwrap();
+        assert_ne!(bytes, whole);
+        let dictionary = [t.names[1].clone()];
+        let mut out = Vec::new();
+        let path = Path::new("joined.parquet");
+        let mut w = TableWriter::new(
+            &mut out,
+            &t.names,
+            &t.kinds(),
+            0,
+            Encoding {
+                dictionary: &dictionary,
+            },
+            path,
+        )
+        .unwrap();
+        let part = open_part(&foreign, &t.names, &t.kinds()).unwrap();
+        for group in 0..part.group_rows().len() {
+            let last = group + 1 == part.group_rows().len();
+            assert!(!w.copy_group(&part, group, last).unwrap(), "group {group} copied");
+            w.push(part.group(group, &foreign, &t.names, &t.kinds()).unwrap())
+                .unwrap();
+        }
+        w.finish().unwrap();
+        assert!(out == whole, "{} bytes against {}", out.len(), whole.len());
     }
 
     #[test]

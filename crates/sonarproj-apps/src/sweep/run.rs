@@ -158,7 +158,7 @@ pub fn run(
             format!(
                 "cuts this run's {poses} poses into {n_chunks} chunk files, more than the \
                  {MAX_CHUNKS} one run keeps: use --chunk-poses {} or more (or shards)",
-                poses.div_ceil(MAX_CHUNKS)
+                poses.div_ceil(MAX_CHUNKS - 1)
             ),
         ));
     }
