@@ -146,19 +146,27 @@ pub fn run(
     // the join copies as they are.
     let cp = opts.chunk_poses;
     let first_chunk = range.start / cp;
-    let n_chunks = if poses == 0 {
-        0
-    } else {
-        range.end.div_ceil(cp) - first_chunk
+    let chunks_of = |cp: u64| {
+        if poses == 0 {
+            0
+        } else {
+            range.end.div_ceil(cp) - range.start / cp
+        }
     };
+    let n_chunks = chunks_of(cp);
     if n_chunks > MAX_CHUNKS {
+        // The smallest chunk size that works: a whole run's, or one more chunk's for a shard
+        // that starts between two multiples (at most a step or two above the whole run's).
+        let mut fits = poses.div_ceil(MAX_CHUNKS);
+        while chunks_of(fits) > MAX_CHUNKS {
+            fits += 1;
+        }
         return Err(Error::invalid(
             "--chunk-poses",
             opts.chunk_poses,
             format!(
                 "cuts this run's {poses} poses into {n_chunks} chunk files, more than the \
-                 {MAX_CHUNKS} one run keeps: use --chunk-poses {} or more (or shards)",
-                poses.div_ceil(MAX_CHUNKS - 1)
+                 {MAX_CHUNKS} one run keeps: use --chunk-poses {fits} or more (or shards)"
             ),
         ));
     }

@@ -68,8 +68,9 @@ pub(super) struct BenchArgs {
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
     scale: u32,
     /// Poses of the sweep (sweep only): roll × pitch 0–99° by 1° and as many yaw values as make
-    /// at least this many (at most 10^8). Measured on two cores: the default takes about 15 s
-    /// on cpu-fast; lavapipe takes minutes.
+    /// at least this many (at most 10^8). Measured on two cores (2-core AMD EPYC): the default
+    /// takes about 6 s on cpu-fast (`time sonarproj bench sweep --backends cpu-fast`); lavapipe
+    /// takes minutes.
     #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     poses: u64,
 }
