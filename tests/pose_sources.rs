@@ -182,15 +182,9 @@ fn bad_ranges_and_stops_are_errors() {
 /// not depend on how the poses are cut into chunks (the digits carried across chunk starts).
 #[test]
 fn device_decoded_grids_lie_in_the_reference_envelope() {
-    use sonarproj::gpu::Precision;
     use sonarproj::projection::gpu::GpuBackend;
-    use sonarproj::projection::{envelope, reference};
     let Some(gpu) = common::gpu() else {
         return;
-    };
-    let tolerance = match gpu.context().precision {
-        Precision::F64 => envelope::INPUT_TOLERANCE,
-        Precision::DoubleF32 => envelope::DOUBLE_F32_TOLERANCE,
     };
     let small = || {
         GpuBackend::new(gpu.context().clone())
@@ -216,29 +210,8 @@ fn device_decoded_grids_lie_in_the_reference_envelope() {
                 let g = grid(&source, &target, placement);
                 let s = sweep(&source, &target, sampling, PoseSource::Grid(&g));
                 let what = format!("{a} -> {b}, placement {placement}, {sampling:?}");
-                let got = sonarproj::test_support::gpu_grid_projections(&gpu, &s, 0..g.len()).unwrap();
-                let batch = s.batch(0..g.len()).unwrap();
-                let prepared = batch.prepare().unwrap();
-                let want = reference::project(&prepared, Output::WithOccupancy);
-                assert_eq!(got.len(), want.len(), "{what}");
-                for (k, (w, p)) in want.iter().zip(&got).enumerate() {
-                    let item = &batch.items[k];
-                    let bounds = envelope::bounds_with(
-                        prepared.layout(),
-                        prepared.plan(k),
-                        prepared.base_azimuth(k),
-                        item.measurement.range,
-                        &item.pose,
-                        tolerance,
-                    );
-                    common::check_within_bounds(prepared.layout(), &bounds, p).unwrap_or_else(|e| {
-                        panic!(
-                            "{what}, pose {k}: {e}\nreference {:?}\ngpu {:?}",
-                            w.metrics, p.metrics
-                        )
-                    });
-                    visible += usize::from(p.metrics.visible > 0);
-                }
+                let (got, _) = device_grid_in_envelope(&gpu, &s, &what, Output::WithOccupancy);
+                visible += got.iter().filter(|p| p.metrics.visible > 0).count();
                 // The columns are the metrics of the same path, whatever the chunks.
                 for backend in [GpuBackend::new(gpu.context().clone()).unwrap(), small()] {
                     let mut columns = MetricColumns::default();
@@ -272,14 +245,8 @@ fn device_decoded_grids_lie_in_the_reference_envelope() {
 /// each, every one in the reference's envelope.
 #[test]
 fn a_chunk_of_more_poses_than_one_dispatch_dimension_holds() {
-    use sonarproj::gpu::Precision;
-    use sonarproj::projection::{envelope, reference};
     let Some(gpu) = common::gpu() else {
         return;
-    };
-    let tolerance = match gpu.context().precision {
-        Precision::F64 => envelope::INPUT_TOLERANCE,
-        Precision::DoubleF32 => envelope::DOUBLE_F32_TOLERANCE,
     };
     let (source, target) = (common::preset("paper-fls"), common::preset("paper-sss"));
     let step = |n: usize, d: f64| (0..n).map(|i| i as f64 * d).collect::<Vec<f64>>();
@@ -297,13 +264,36 @@ fn a_chunk_of_more_poses_than_one_dispatch_dimension_holds() {
     let g = PoseGrid::new(axes, true, &source).unwrap();
     assert_eq!(g.len(), 70_000);
     let s = sweep(&source, &target, Sampling::Step(6.0), PoseSource::Grid(&g));
-    let got = sonarproj::test_support::gpu_grid_projections(&gpu, &s, 0..g.len()).unwrap();
-    let batch = s.batch(0..g.len()).unwrap();
+    let (got, want) = device_grid_in_envelope(&gpu, &s, "70 000 poses", Output::MetricsOnly);
+    let seen = got.iter().filter(|p| p.metrics.visible > 0).count();
+    // Poses past the first dimension's 65 535 were drawn (a pose left undrawn would be empty and
+    // fail its envelope where the reference sees something).
+    assert!(want[65_535..].iter().any(|w| w.metrics.visible > 0));
+    assert!(seen > 10_000, "{seen} poses saw anything");
+}
+
+/// Returns the GPU's device-decoded projections of `s`'s grid (with their occupancy) and the
+/// reference's (with it when `output` asks), after holding every GPU result to the envelope the
+/// reference computes for its pose (at the tolerance of the GPU's precision).
+fn device_grid_in_envelope(
+    gpu: &sonarproj::projection::gpu::GpuBackend,
+    s: &PoseSweep<'_>,
+    what: &str,
+    output: Output,
+) -> (Vec<sonarproj::Projection>, Vec<sonarproj::Projection>) {
+    use sonarproj::gpu::Precision;
+    use sonarproj::projection::{envelope, reference};
+    let tolerance = match gpu.context().precision {
+        Precision::F64 => envelope::INPUT_TOLERANCE,
+        Precision::DoubleF32 => envelope::DOUBLE_F32_TOLERANCE,
+    };
+    let n = s.poses.len();
+    let got = sonarproj::test_support::gpu_grid_projections(gpu, s, 0..n).unwrap();
+    let batch = s.batch(0..n).unwrap();
     let prepared = batch.prepare().unwrap();
-    let want = reference::project(&prepared, Output::MetricsOnly);
-    assert_eq!(got.len(), want.len());
-    let mut seen = 0;
-    for (k, p) in got.iter().enumerate() {
+    let want = reference::project(&prepared, output);
+    assert_eq!(got.len(), want.len(), "{what}");
+    for (k, (w, p)) in want.iter().zip(&got).enumerate() {
         let item = &batch.items[k];
         let bounds = envelope::bounds_with(
             prepared.layout(),
@@ -315,14 +305,10 @@ fn a_chunk_of_more_poses_than_one_dispatch_dimension_holds() {
         );
         common::check_within_bounds(prepared.layout(), &bounds, p).unwrap_or_else(|e| {
             panic!(
-                "pose {k}: {e}\nreference {:?}\ngpu {:?}",
-                want[k].metrics, p.metrics
+                "{what}, pose {k}: {e}\nreference {:?}\ngpu {:?}",
+                w.metrics, p.metrics
             )
         });
-        seen += usize::from(p.metrics.visible > 0);
     }
-    // Poses past the first dimension's 65 535 were drawn (a pose left undrawn would be empty and
-    // fail its envelope where the reference sees something).
-    assert!(want[65_535..].iter().any(|w| w.metrics.visible > 0));
-    assert!(seen > 10_000, "{seen} poses saw anything");
+    (got, want)
 }

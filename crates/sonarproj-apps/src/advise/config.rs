@@ -39,11 +39,10 @@
 
 use std::path::{Path, PathBuf};
 
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use sonarproj::geometry::sonar::Sonar;
 use sonarproj::sampling::Sampling;
 
+use crate::advise::features::Features;
 use crate::error::{Error, Result};
 use crate::sweep::config::{axis_values, resolve_sonar};
 
@@ -101,24 +100,6 @@ pub struct FromPose {
     pub gradient_step_m: f64,
 }
 
-/// The features candidates are scored over.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Features {
-    /// `count` features of the view both sonars share: a seeded sequence of points drawn
-    /// uniformly over the view (as a volume) of the sonar with the thinner elevation aperture
-    /// (sonar 1 on a tie), taken in order while the other sonar sees them, until `count` are
-    /// kept — the same sequence for every candidate, so neighbouring candidates share most of
-    /// their features.
-    Drawn {
-        /// How many to keep.
-        count: usize,
-        /// The draw's seed.
-        seed: u64,
-    },
-    /// Given points of sonar 1, `[range m, azimuth deg, elevation deg]`: those sonar 2 sees.
-    Points(Vec<[f64; 3]>),
-}
-
 /// A parsed, checked advise file.
 #[derive(Clone, Debug)]
 pub struct AdviseConfig {
@@ -158,9 +139,6 @@ pub struct AdviseConfig {
     pub from_pose: Option<FromPose>,
 }
 
-/// The most features an advise file may ask for.
-pub const MAX_FEATURES: usize = 1_000_000;
-
 /// The most candidate rotations the cover may have.
 pub const MAX_CANDIDATES: u64 = 1_000_000;
 
@@ -174,12 +152,17 @@ pub fn unit(k: usize) -> &'static str {
     if k < 3 { "deg" } else { "m" }
 }
 
-fn key_error(file: &str, key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Error {
+pub(super) fn key_error(
+    file: &str,
+    key: &str,
+    value: impl std::fmt::Display,
+    allowed: impl Into<String>,
+) -> Error {
     Error::invalid(format!("advise file {file:?}: {key}"), value, allowed)
 }
 
 /// Returns the keys of `table` that are not in `allowed`, as an error naming the first.
-fn only(file: &str, section: &str, table: &toml::Table, allowed: &[&str]) -> Result<()> {
+pub(super) fn only(file: &str, section: &str, table: &toml::Table, allowed: &[&str]) -> Result<()> {
     match table.keys().find(|k| !allowed.contains(&k.as_str())) {
         Some(k) => Err(key_error(
             file,
@@ -349,7 +332,7 @@ impl AdviseConfig {
         if top.contains_key("mix") && !matches!(objective, Objective::Mix { .. }) {
             return Err(key_error(file, "mix", "given", "only with objective = \"mix\""));
         }
-        let features = features(file, table("features")?, &source, &number)?;
+        let features = crate::advise::features::read(file, table("features")?, &source, &number)?;
         let rig = rig(file, table("rig")?)?;
         let empty = toml::Table::new();
         let search = table("search")?.unwrap_or(&empty);
@@ -372,33 +355,18 @@ impl AdviseConfig {
             ],
         )?;
         // A uniform cover of the rotations instead of the roll, pitch and yaw grid.
-        #[expect(
-            clippy::cast_possible_truncation,
-            clippy::cast_sign_loss,
-            reason = "checked range"
-        )]
-        let uniform = match number(search, "search.uniform", "uniform")? {
-            None => None,
-            Some(v) if v.fract() == 0.0 && (2.0..=1e6).contains(&v) => {
-                if let Some(k) = ["roll", "pitch", "yaw"].iter().find(|k| search.contains_key(**k)) {
-                    return Err(key_error(
-                        file,
-                        &format!("search.{k}"),
-                        search[*k].clone(),
-                        "give the rotations as search.uniform or as roll, pitch, yaw, not both",
-                    ));
-                }
-                Some(v as usize)
-            }
-            Some(v) => {
-                return Err(key_error(
-                    file,
-                    "search.uniform",
-                    v,
-                    "must be a whole number of rotations in [2, 1000000]",
-                ));
-            }
-        };
+        #[expect(clippy::cast_possible_truncation, reason = "at most 10^6")]
+        let uniform = whole(file, &number, search, "search.uniform", 2.0, 1e6)?.map(|n| n as usize);
+        if uniform.is_some()
+            && let Some(k) = ["roll", "pitch", "yaw"].iter().find(|k| search.contains_key(**k))
+        {
+            return Err(key_error(
+                file,
+                &format!("search.{k}"),
+                search[*k].clone(),
+                "give the rotations as search.uniform or as roll, pitch, yaw, not both",
+            ));
+        }
         let axes: [Vec<f64>; 6] = {
             let mut out: [Vec<f64>; 6] = Default::default();
             for (k, name) in AXES.iter().enumerate() {
@@ -442,23 +410,8 @@ impl AdviseConfig {
                 format!("at most {MAX_CANDIDATES} candidates a search"),
             ));
         }
-        #[expect(
-            clippy::cast_possible_truncation,
-            clippy::cast_sign_loss,
-            reason = "checked small"
-        )]
-        let refine = match number(search, "search.refine", "refine")? {
-            None => 3,
-            Some(v) if v.fract() == 0.0 && (0.0..=100.0).contains(&v) => v as usize,
-            Some(v) => {
-                return Err(key_error(
-                    file,
-                    "search.refine",
-                    v,
-                    "must be a whole number in [0, 100]",
-                ));
-            }
-        };
+        #[expect(clippy::cast_possible_truncation, reason = "at most 100")]
+        let refine = whole(file, &number, search, "search.refine", 0.0, 100.0)?.map_or(3, |n| n as usize);
         let refine_to = in_range(
             "search.refine_to",
             number(search, "search.refine_to", "refine_to")?.unwrap_or(0.5),
@@ -609,124 +562,42 @@ impl AdviseConfig {
 }
 
 /// Reads one number: `(table, name in messages, key)`.
-type NumberOf<'a> = dyn Fn(&toml::Table, &str, &str) -> Result<Option<f64>> + 'a;
+pub(super) type NumberOf<'a> = dyn Fn(&toml::Table, &str, &str) -> Result<Option<f64>> + 'a;
 
-/// Returns the features of `[features]`: drawn (a count and a seed) or given as points, each
-/// checked to lie in sonar 1's field of view.
-fn features(file: &str, t: Option<&toml::Table>, source: &Sonar, number: &NumberOf<'_>) -> Result<Features> {
-    let missing = || {
-        Error::input(
-            format!("advise file {file:?}: features"),
-            "missing; required: [features] with count (and seed) or points",
-        )
-    };
-    let t = t.ok_or_else(missing)?;
-    only(file, "features.", t, &["count", "seed", "points"])?;
-    if let Some(points) = t.get("points") {
-        if t.contains_key("count") {
-            return Err(key_error(
-                file,
-                "features.count",
-                t["count"].clone(),
-                "give count or points, not both",
-            ));
-        }
-        let bad = || {
-            key_error(
-                file,
-                "features.points",
-                points.clone(),
-                "must be a list of [range, azimuth, elevation]",
-            )
-        };
-        let list = points.as_array().ok_or_else(bad)?;
-        if list.is_empty() || list.len() > MAX_FEATURES {
-            return Err(key_error(
-                file,
-                "features.points",
-                format!("{} points", list.len()),
-                format!("must have 1 to {MAX_FEATURES}"),
-            ));
-        }
-        return Ok(Features::Points(
-            list.iter()
-                .enumerate()
-                .map(|(i, p)| {
-                    // Every element a number: a stray string is refused, not skipped.
-                    let xyz: Vec<f64> = p
-                        .as_array()
-                        .and_then(|a| {
-                            a.iter()
-                                .map(|v| v.as_float().or(v.as_integer().map(|i| i as f64)))
-                                .collect::<Option<Vec<f64>>>()
-                        })
-                        .unwrap_or_default();
-                    let [r, az, el] = xyz.as_slice() else {
-                        return Err(bad());
-                    };
-                    source
-                        .check_point("feature", *r, *az, *el)
-                        .map_err(|e| e.in_context(&format!("advise file {file:?}: features.points[{i}]")))?;
-                    Ok([*r, *az, *el])
-                })
-                .collect::<Result<_>>()?,
-        ));
+/// Returns the whole number of key `key` in `t` (named `name` in messages) within `[lo, hi]`,
+/// `None` when left out.
+#[expect(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "checked range"
+)]
+pub(super) fn whole(
+    file: &str,
+    number: &NumberOf<'_>,
+    t: &toml::Table,
+    name: &str,
+    lo: f64,
+    hi: f64,
+) -> Result<Option<u64>> {
+    let key = name.rsplit('.').next().unwrap_or(name);
+    match number(t, name, key)? {
+        None => Ok(None),
+        Some(v) if v.fract() == 0.0 && (lo..=hi).contains(&v) => Ok(Some(v as u64)),
+        Some(v) => Err(key_error(
+            file,
+            name,
+            v,
+            format!("must be a whole number in [{lo}, {hi}]"),
+        )),
     }
-    #[expect(
-        clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
-        reason = "checked range"
-    )]
-    let count = match number(t, "features.count", "count")? {
-        Some(v) if v.fract() == 0.0 && (1.0..=MAX_FEATURES as f64).contains(&v) => v as usize,
-        Some(v) => {
-            return Err(key_error(
-                file,
-                "features.count",
-                v,
-                format!("must be a whole number in [1, {MAX_FEATURES}]"),
-            ));
-        }
-        None => return Err(missing()),
-    };
-    #[expect(
-        clippy::cast_possible_truncation,
-        clippy::cast_sign_loss,
-        reason = "checked range"
-    )]
-    let seed = match number(t, "features.seed", "seed")? {
-        None => 1,
-        Some(v) if v.fract() == 0.0 && (0.0..=9.0e15).contains(&v) => v as u64,
-        Some(v) => return Err(key_error(file, "features.seed", v, "must be a whole number >= 0")),
-    };
-    Ok(Features::Drawn { count, seed })
 }
 
-/// Returns `count` points drawn uniformly over `sonar`'s field of view as a volume (seeded),
-/// `[range m, azimuth deg, elevation deg]`:
-/// the range's cube uniform between the bounds' cubes, the azimuth uniform, the elevation's sine
-/// uniform, so every cell of equal volume is as likely.
-#[must_use]
-pub fn draw_features(source: &Sonar, count: usize, seed: u64) -> Vec<[f64; 3]> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let (lo, hi) = (source.range_min.max(1e-3), source.range_max);
-    let (ha, he) = (
-        source.azimuth_aperture / 2.0,
-        (source.elevation_aperture / 2.0).to_radians(),
-    );
-    (0..count)
-        .map(|_| {
-            let u: f64 = rng.random();
-            let r = (lo.powi(3) + u * (hi.powi(3) - lo.powi(3))).cbrt().clamp(lo, hi);
-            let az = ha * (2.0 * rng.random::<f64>() - 1.0);
-            let s = he.sin() * (2.0 * rng.random::<f64>() - 1.0);
-            [
-                r,
-                az,
-                s.asin().to_degrees().clamp(-he.to_degrees(), he.to_degrees()),
-            ]
-        })
-        .collect()
+/// Returns the numbers of TOML array `v`, `None` unless every element is one (a stray string is
+/// refused, not skipped).
+pub(super) fn numbers(v: &toml::Value) -> Option<Vec<f64>> {
+    #[expect(clippy::cast_precision_loss, reason = "TOML integers taken as numbers")]
+    let number = |x: &toml::Value| x.as_float().or(x.as_integer().map(|i| i as f64));
+    v.as_array()?.iter().map(number).collect()
 }
 
 /// Returns the `[rig]`: one of origin, translation, place.
@@ -748,15 +619,7 @@ fn rig(file: &str, t: Option<&toml::Table>) -> Result<Rig> {
         ));
     }
     let triple = |name: &str, v: &toml::Value| -> Result<[f64; 3]> {
-        // Every element a number: a stray string is refused, not skipped.
-        let xyz: Vec<f64> = v
-            .as_array()
-            .and_then(|a| {
-                a.iter()
-                    .map(|x| x.as_float().or(x.as_integer().map(|i| i as f64)))
-                    .collect::<Option<Vec<f64>>>()
-            })
-            .unwrap_or_default();
+        let xyz: Vec<f64> = numbers(v).unwrap_or_default();
         match xyz.as_slice() {
             [a, b, c]
                 if xyz

@@ -11,11 +11,13 @@
 //! recomputed with `sonarproj batch` (`report`).
 
 pub mod config;
+pub mod features;
 mod report;
 pub mod score;
 pub mod search;
 
-pub use config::{AdviseConfig, Features, FromPose, Objective, Rig};
+pub use config::{AdviseConfig, FromPose, Objective, Rig};
+pub use features::Features;
 pub use report::{Written, write};
 pub use score::{Params, Score, Scorer, Stats};
 pub use search::{Move, Stage};

@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 use serde_json::json;
 
 use crate::advise::Advice;
-use crate::advise::config::{AXES, AdviseConfig, Features, Objective, Rig, unit};
+use crate::advise::config::{AXES, AdviseConfig, Objective, Rig, unit};
+use crate::advise::features::Features;
 use crate::advise::score::{Pool, Score};
 use crate::advise::search::Stage;
 use crate::error::{Error, Result};

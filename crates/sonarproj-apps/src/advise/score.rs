@@ -12,7 +12,8 @@ use sonarproj::projection::{Backend, Batch, BatchItem};
 use sonarproj::sampling::Measurement;
 use sonarproj::{Metrics, Output};
 
-use crate::advise::config::{AdviseConfig, Features, Objective, Rig, draw_features};
+use crate::advise::config::{AdviseConfig, Objective, Rig};
+use crate::advise::features::{Features, draw_features};
 use crate::error::Result;
 
 /// Mean, median and 10th/90th percentiles of a set of values (`None` when empty). Percentiles

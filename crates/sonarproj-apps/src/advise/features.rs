@@ -1,0 +1,124 @@
+//! The features an advise file scores candidates over: `[features]` read (a seeded draw's count,
+//! or points of sonar 1) and the draw itself.
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use sonarproj::geometry::sonar::Sonar;
+
+use crate::advise::config::{NumberOf, key_error, numbers, only, whole};
+use crate::error::{Error, Result};
+
+/// The most features an advise file may ask for.
+pub const MAX_FEATURES: usize = 1_000_000;
+
+/// The features candidates are scored over.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Features {
+    /// `count` features of the view both sonars share: a seeded sequence of points drawn
+    /// uniformly over the view (as a volume) of the sonar with the thinner elevation aperture
+    /// (sonar 1 on a tie), taken in order while the other sonar sees them, until `count` are
+    /// kept — the same sequence for every candidate, so neighbouring candidates share most of
+    /// their features.
+    Drawn {
+        /// How many to keep.
+        count: usize,
+        /// The draw's seed.
+        seed: u64,
+    },
+    /// Given points of sonar 1, `[range m, azimuth deg, elevation deg]`: those sonar 2 sees.
+    Points(Vec<[f64; 3]>),
+}
+
+/// Returns the features of `[features]`: drawn (a count and a seed) or given as points, each
+/// checked to lie in sonar 1's field of view.
+pub(super) fn read(
+    file: &str,
+    t: Option<&toml::Table>,
+    source: &Sonar,
+    number: &NumberOf<'_>,
+) -> Result<Features> {
+    let missing = || {
+        Error::input(
+            format!("advise file {file:?}: features"),
+            "missing; required: [features] with count (and seed) or points",
+        )
+    };
+    let t = t.ok_or_else(missing)?;
+    only(file, "features.", t, &["count", "seed", "points"])?;
+    if let Some(points) = t.get("points") {
+        if t.contains_key("count") {
+            return Err(key_error(
+                file,
+                "features.count",
+                t["count"].clone(),
+                "give count or points, not both",
+            ));
+        }
+        let bad = || {
+            key_error(
+                file,
+                "features.points",
+                points.clone(),
+                "must be a list of [range, azimuth, elevation]",
+            )
+        };
+        let list = points.as_array().ok_or_else(bad)?;
+        if list.is_empty() || list.len() > MAX_FEATURES {
+            return Err(key_error(
+                file,
+                "features.points",
+                format!("{} points", list.len()),
+                format!("must have 1 to {MAX_FEATURES}"),
+            ));
+        }
+        return Ok(Features::Points(
+            list.iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    let xyz: Vec<f64> = numbers(p).unwrap_or_default();
+                    let [r, az, el] = xyz.as_slice() else {
+                        return Err(bad());
+                    };
+                    source
+                        .check_point("feature", *r, *az, *el)
+                        .map_err(|e| e.in_context(&format!("advise file {file:?}: features.points[{i}]")))?;
+                    Ok([*r, *az, *el])
+                })
+                .collect::<Result<_>>()?,
+        ));
+    }
+    #[expect(clippy::cast_possible_truncation, reason = "at most MAX_FEATURES")]
+    let count = match whole(file, number, t, "features.count", 1.0, MAX_FEATURES as f64)? {
+        Some(n) => n as usize,
+        None => return Err(missing()),
+    };
+    let seed = whole(file, number, t, "features.seed", 0.0, 9.0e15)?.unwrap_or(1);
+    Ok(Features::Drawn { count, seed })
+}
+
+/// Returns `count` points drawn uniformly over `sonar`'s field of view as a volume (seeded),
+/// `[range m, azimuth deg, elevation deg]`:
+/// the range's cube uniform between the bounds' cubes, the azimuth uniform, the elevation's sine
+/// uniform, so every cell of equal volume is as likely.
+#[must_use]
+pub fn draw_features(source: &Sonar, count: usize, seed: u64) -> Vec<[f64; 3]> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (lo, hi) = (source.range_min.max(1e-3), source.range_max);
+    let (ha, he) = (
+        source.azimuth_aperture / 2.0,
+        (source.elevation_aperture / 2.0).to_radians(),
+    );
+    (0..count)
+        .map(|_| {
+            let u: f64 = rng.random();
+            let r = (lo.powi(3) + u * (hi.powi(3) - lo.powi(3))).cbrt().clamp(lo, hi);
+            let az = ha * (2.0 * rng.random::<f64>() - 1.0);
+            let s = he.sin() * (2.0 * rng.random::<f64>() - 1.0);
+            [
+                r,
+                az,
+                s.asin().to_degrees().clamp(-he.to_degrees(), he.to_degrees()),
+            ]
+        })
+        .collect()
+}
