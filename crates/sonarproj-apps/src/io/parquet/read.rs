@@ -10,7 +10,7 @@ use parquet::file::serialized_reader::ReadOptionsBuilder;
 use super::{Column, Kind, Table, schema};
 use crate::error::{Error, Result};
 
-/// A Parquet part opened for [`TableWriter::copy_group`]: the file and its reader (with page
+/// A Parquet part opened for [`super::TableWriter::copy_group`]: the file and its reader (with page
 /// indexes).
 pub struct Part {
     pub(super) file: std::fs::File,
