@@ -17,7 +17,8 @@
 # besides 64 (SONARPROJ_GPU_WORKGROUP), and in double-f32 instead of f64
 # (SONARPROJ_GPU_PRECISION=df, what GPUs without f64 run); `run`
 # takes extra `sonarproj bench` arguments from GPU_REMOTE_BENCH (default
-# `--scale 200`), and GPU_SCENES for the mask test's scene count.
+# `--scale 200`), GPU_SCENES for the mask test's scene count, and GPU_REMOTE_STEPS a regular
+# expression of the step names to run (all by default), for a lease too short for all of them.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bundle=.gpu
@@ -68,6 +69,10 @@ run() {
     step() {
         local name=$1
         shift
+        # GPU_REMOTE_STEPS (an extended regular expression) runs only the steps it matches.
+        if [ -n "${GPU_REMOTE_STEPS:-}" ] && ! [[ $name =~ ^(${GPU_REMOTE_STEPS})$ ]]; then
+            return 0
+        fi
         echo "== $name: $*" | tee -a "$logs/summary.txt"
         local start=$SECONDS
         if "$@" >"$logs/$name.log" 2>&1; then

@@ -1,62 +1,46 @@
 // Correspondence masks on the GPU: the same cells and balls as src/masks/ (read the two side by
-// side), in f32. Every rounding error is absorbed by a slack the CPU adds to each job's radius
-// (src/masks/gpu.rs), so a mask can only grow, never miss a pixel; beams are found without
-// trigonometry by the side of each beam edge the ball lies on.
+// side), in f32: blocks of cells culled by their ball, then each cell's ball marked. Every
+// rounding error is absorbed by a slack the CPU adds to each job's radii (src/masks/gpu.rs), so
+// a mask can only grow, never miss a pixel; beams are found without trigonometry by the side of
+// each beam edge the ball lies on.
 //
 // Structs: keep in sync with src/masks/gpu.rs (sizes asserted there, layout checked in
 // src/gpu/shader_tests.rs).
 
-struct MaskParams {
-    range_min: f32,
-    range_max: f32,
-    // range_bins / (range_max - range_min)
-    inv_range_bin: f32,
-    range_bins: u32,
-    beams: u32,
-    words_per_mask: u32,
-    _pad0: u32,
-    // 1 when sonar 2 has more than one beam (an FLS, or a two-sided sidescan), 0 for range
-    // bins only
-    beamed: u32,
-    // tan of half the elevation aperture; < 0 when the aperture is 180 deg (no test)
-    tan_half_el: f32,
-    // tan of half the azimuth aperture (< 90 deg: checked on the CPU)
-    tan_half_az: f32,
-    // cos of half the azimuth aperture: the edge search holds while radius < rho cos(half_az)
-    cos_half_az: f32,
-    _pad: f32,
-}
+// MaskParams is shaders/shared/mask_params.wgsl, put before this file (src/gpu/shaders.rs).
 
-// One mask to draw: the rows of R with t in .w, the set's range, the ball radius (cell + noise +
-// rounding slack), the cell tables (offsets into dirs: azimuth cells, then elevation cells) and
-// the blocks of BLOCK x BLOCK cells that survived the CPU's cull (MaskEngine::blocks).
+// One mask to draw: the rows of R with t in .w, the set's range, the ball radius of a cell (cell +
+// noise + rounding slack) and of a block of cells around its middle point (block + noise +
+// rounding slack), the cell tables (offsets into dirs of the azimuth and elevation cells'
+// directions, each table followed by the directions of its blocks' middles, one per block_a
+// azimuths or 64 / block_a elevations) and the block's cells along the azimuth (block_a; 64 /
+// block_a along the elevation: src/masks/gpu.rs, block_shape).
 struct MaskJob {
     row0: vec4<f32>,
     row1: vec4<f32>,
     row2: vec4<f32>,
     range: f32,
     radius: f32,
+    block_radius: f32,
     az_count: u32,
     el_count: u32,
     az_offset: u32,
     el_offset: u32,
-    block_offset: u32,
-    block_count: u32,
+    block_a: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: MaskParams;
 // Beam edges as (cos, sin), beams + 1 of them, increasing angle.
 @group(0) @binding(1) var<storage, read> edges: array<vec2<f32>>;
 @group(0) @binding(2) var<storage, read> jobs: array<MaskJob>;
-// Cell-centre angles as (cos, sin).
+// Cell-centre and block-middle angles as (cos, sin), kept between pings (src/masks/gpu.rs).
 @group(0) @binding(3) var<storage, read> dirs: array<vec2<f32>>;
-// First cells (azimuth, elevation) of the surviving blocks.
-@group(0) @binding(4) var<storage, read> blocks: array<vec2<u32>>;
-@group(0) @binding(5) var<storage, read_write> bits: array<atomic<u32>>;
+// One bitset of words_per_mask words per job, in sonar 2's layout (pixel i * beams + j).
+@group(0) @binding(4) var<storage, read_write> bits: array<atomic<u32>>;
 
-const WORKGROUP: u32 = 64u;
-// BLOCK, the cells per block side (masks::plan::BLOCK), is generated and put before this file
-// (src/gpu/shaders.rs).
+// The workgroup (CELLS threads) is one block of block_a x (CELLS / block_a) cells (BLOCK x BLOCK
+// unless the grid is thin along one axis). CELLS (BLOCK x BLOCK, from masks::plan::BLOCK) is
+// generated and put before this file (src/gpu/shaders.rs).
 
 // Returns false only when no point within r of q lies in sonar 2's field of view: the twin of
 // clip::View::may_meet (src/clip.rs).
@@ -113,29 +97,45 @@ fn set_bits(base: u32, first: u32, last: u32) {
     }
 }
 
+// Returns the point at range `range` in the direction of azimuth `a` and elevation `e` (cos, sin)
+// moved into sonar 2 by the job's pose.
+fn moved(job: MaskJob, a: vec2<f32>, e: vec2<f32>) -> vec3<f32> {
+    let p = job.range * vec3<f32>(e.x * a.x, e.x * a.y, e.y);
+    return vec3<f32>(
+        dot(job.row0.xyz, p) + job.row0.w,
+        dot(job.row1.xyz, p) + job.row1.w,
+        dot(job.row2.xyz, p) + job.row2.w,
+    );
+}
+
+// A workgroup per block of cells (blocks strided by the workgroups along x), a job
+// per workgroup row (y): the block's ball is tested first (every thread computes the same
+// test, so the branch is uniform) and, when it may meet the view, each thread draws one cell.
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let job = jobs[gid.y];
-    let cells = job.block_count * BLOCK * BLOCK;
-    let stride = groups.x * WORKGROUP;
-    let base = gid.y * params.words_per_mask;
+fn main(
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let job = jobs[group.y];
+    let block_e = CELLS / job.block_a;
+    let blocks_a = (job.az_count + job.block_a - 1u) / job.block_a;
+    let blocks = blocks_a * ((job.el_count + block_e - 1u) / block_e);
+    let base = group.y * params.words_per_mask;
     let r = job.radius;
-    for (var c = gid.x; c < cells; c += stride) {
-        let block = blocks[job.block_offset + c / (BLOCK * BLOCK)];
-        let w = c % (BLOCK * BLOCK);
-        let ia = block.x + w % BLOCK;
-        let ie = block.y + w / BLOCK;
+    for (var b = group.x; b < blocks; b += groups.x) {
+        let ba = b % blocks_a;
+        let be = b / blocks_a;
+        let middle = moved(job, dirs[job.az_offset + job.az_count + ba], dirs[job.el_offset + job.el_count + be]);
+        if !may_meet_view(middle, length(middle), job.block_radius) {
+            continue;
+        }
+        let ia = ba * job.block_a + local % job.block_a;
+        let ie = be * block_e + local / job.block_a;
         if ia >= job.az_count || ie >= job.el_count {
             continue;
         }
-        let a = dirs[job.az_offset + ia];
-        let e = dirs[job.el_offset + ie];
-        let p = job.range * vec3<f32>(e.x * a.x, e.x * a.y, e.y);
-        let q = vec3<f32>(
-            dot(job.row0.xyz, p) + job.row0.w,
-            dot(job.row1.xyz, p) + job.row1.w,
-            dot(job.row2.xyz, p) + job.row2.w,
-        );
+        let q = moved(job, dirs[job.az_offset + ia], dirs[job.el_offset + ie]);
         let d = length(q);
         if !may_meet_view(q, d, r) {
             continue;

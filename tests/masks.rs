@@ -6,7 +6,8 @@ use glam::{DMat3, DQuat, DVec3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sonarproj::geometry::sonar::{BeamLayout, SonarKind};
-use sonarproj::masks::{Counts, MaskEngine, Noise};
+use sonarproj::masks::{BoundingBox, Counts, MaskEngine, MaskSet, Noise, bounding_box};
+use sonarproj::occupancy::Occupancy;
 use sonarproj::{Measurement, RelativePose, Sonar};
 
 /// Scenes per preset pair (the masks are checked on at least 10 000).
@@ -383,5 +384,106 @@ mod gpu {
             "GPU masks {:.3} % larger than the CPU's",
             100.0 * extra
         );
+    }
+
+    /// Returns, for `set`, what a summary must say: each mask's pixel count and bounding box
+    /// (walked pixel by pixel on the host by `bounding_box`), and the union as the OR of the
+    /// masks.
+    fn expected(engine: &MaskEngine, set: &MaskSet) -> (Vec<(u64, Option<BoundingBox>)>, Occupancy) {
+        let (rows, columns) = engine.layout().data_shape();
+        let mut union = Occupancy::new(rows, columns);
+        let features = set
+            .masks
+            .iter()
+            .map(|m| {
+                for (u, w) in union.words.iter_mut().zip(&m.occupancy.words) {
+                    *u |= w;
+                }
+                (m.occupancy.count(), bounding_box(engine.layout(), &m.occupancy))
+            })
+            .collect();
+        (features, union)
+    }
+
+    /// A ping's summary (each mask's pixel count and box and the union, reduced on the GPU by
+    /// `shaders/mask_reduce.wgsl` and on the CPU by its twin) is the summary of the same
+    /// engine's masks; and the GPU's holds the CPU engine's: more pixels, every box inside the
+    /// GPU's, the union inside the GPU's. Every preset pair, pings of 1 to 40 features (some
+    /// outside sonar 2's view, whose masks are empty), with and without noise, each ping drawn
+    /// twice (the second finds its cell tables kept on the device).
+    #[test]
+    fn gpu_summaries_are_their_masks_and_hold_the_cpu_summaries() {
+        let Some(ctx) = common::gpu_context() else {
+            return;
+        };
+        let names = Sonar::preset_names();
+        let inside = |inner: &BoundingBox, outer: &BoundingBox| {
+            outer.range_min <= inner.range_min
+                && inner.range_max <= outer.range_max
+                && outer.azimuth_min <= inner.azimuth_min
+                && inner.azimuth_max <= outer.azimuth_max
+        };
+        let (mut pings, mut empty, mut seen) = (0, 0, 0);
+        for (a, from) in names.iter().enumerate() {
+            for (b, to) in names.iter().enumerate() {
+                let (s1, s2) = (Sonar::preset(from).unwrap(), Sonar::preset(to).unwrap());
+                let cpu = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
+                let gpu = MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx.clone()).unwrap();
+                let mut rng = ChaCha8Rng::seed_from_u64(9000 + 10 * a as u64 + b as u64);
+                for ping in 0..4 {
+                    let n = [1, 7, 40, 13][ping];
+                    let scenes: Vec<Scene> = (0..n).map(|_| scene(&mut rng, &s1, &s2)).collect();
+                    let pose = scenes[0].pose;
+                    let features: Vec<Measurement> = scenes.iter().map(|s| s.measurement).collect();
+                    let noise = (ping == 3).then_some(Noise {
+                        rotation: [0.5, 0.5, 1.0],
+                        translation: [0.02; 3],
+                        range: 0.01,
+                        azimuth: 0.1,
+                        coverage: 0.95,
+                    });
+                    let what = format!("{from}->{to} ping {ping}");
+                    let mut summaries = Vec::new();
+                    for engine in [&cpu, &gpu] {
+                        let set = engine
+                            .masks(&pose, &features, noise.as_ref(), Counts::Skip)
+                            .unwrap();
+                        let (want, union) = expected(engine, &set);
+                        for _ in 0..2 {
+                            let summary = engine.summary(&pose, &features, noise.as_ref()).unwrap();
+                            let got: Vec<_> = summary
+                                .features
+                                .iter()
+                                .map(|f| (f.occupied, f.bounding_box))
+                                .collect();
+                            assert_eq!(got, want, "{what} on {}", engine.device());
+                            assert_eq!(summary.union, union, "{what} on {}", engine.device());
+                            assert_eq!(set.union, union, "{what} on {}", engine.device());
+                            summaries.push(summary);
+                        }
+                    }
+                    let (c, g) = (&summaries[0], &summaries[2]);
+                    assert!(
+                        c.union.is_subset_of(&g.union),
+                        "{what}: CPU union pixels missing on the GPU"
+                    );
+                    for (k, (fc, fg)) in c.features.iter().zip(&g.features).enumerate() {
+                        assert!(fc.occupied <= fg.occupied, "{what} feature {k}");
+                        match (&fc.bounding_box, &fg.bounding_box) {
+                            (Some(bc), Some(bg)) => {
+                                assert!(inside(bc, bg), "{what} feature {k}: {bc:?} not in {bg:?}")
+                            }
+                            (Some(bc), None) => panic!("{what} feature {k}: the GPU lost the box {bc:?}"),
+                            (None, _) => empty += 1,
+                        }
+                        seen += usize::from(fc.bounding_box.is_some());
+                    }
+                    pings += 1;
+                }
+            }
+        }
+        eprintln!("{pings} pings: {seen} features seen by sonar 2, {empty} not (on the CPU)");
+        // Both kinds of feature were met (the test covers empty masks and boxes).
+        assert!(seen > 100 && empty > 10, "{seen} seen, {empty} empty");
     }
 }

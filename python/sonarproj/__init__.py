@@ -53,6 +53,7 @@ from ._sonarproj import (
     InputError,
     InputTypeError,
     MaskSet,
+    MaskSummary,
     Mount,
     OculusPing,
     Pose,
@@ -68,6 +69,7 @@ __all__ = [
     "InputTypeError",
     "MaskEngine",
     "MaskSet",
+    "MaskSummary",
     "METRIC_COLUMNS",
     "Mount",
     "OculusPing",
@@ -542,6 +544,24 @@ class MaskEngine:
             p, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage), _flag("counts", counts),
             _flag("dense", dense),
         )
+
+    def summary(
+        self,
+        pose: Pose,
+        features: Any,
+        *,
+        sigma: Optional[Mapping[str, float]] = None,
+        covariance: Any = None,
+        coverage: float = 0.99,
+    ) -> MaskSummary:
+        """Returns one ping's masks reduced to what a matcher looks at first, without their
+        bits: a :class:`MaskSummary` with ``occupied`` (uint64, pixels per feature), ``boxes``,
+        ``union``, ``radius``, ``noise_radius``, ``cells`` and ``device``, the same numbers as
+        :meth:`masks` gives on this engine. On a GPU the masks are reduced there and only the
+        union and 20 bytes a feature are read back. Parameters as in :meth:`masks`."""
+        p = _pose("pose", pose)
+        ranges, azimuths = _features("features", self.first, features)
+        return self._engine.summary(p, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage))
 
     def masks_of_pings(
         self,

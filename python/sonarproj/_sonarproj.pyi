@@ -205,6 +205,24 @@ class MaskSet:
         """Feature `k`'s mask as a dense 0/1 array in sonar 2's layout (from the runs with
         ``dense=False``)."""
 
+class MaskSummary:
+    """One ping's masks reduced (``MaskEngine.summary``): the numbers of :class:`MaskSet`
+    without the masks' bits."""
+
+    occupied: npt.NDArray[np.uint64]
+    """Per feature, the bins or pixels of its mask."""
+    boxes: list[Optional[dict[str, float]]]
+    """Per feature: range_min, range_max (m), azimuth_min, azimuth_max (deg), or None."""
+    union: npt.NDArray[np.uint8]
+    """0/1: every bin or pixel any feature may occupy."""
+    radius: list[float]
+    """Per feature, the ball radius (m) drawn around each cell."""
+    noise_radius: list[float]
+    """Per feature, the widening for the sigmas (m), 0 without."""
+    cells: list[int]
+    """Per feature, the cells its back-projected set was cut into."""
+    device: str
+
 class _MaskEngine:
     def __init__(self, first: Sonar, second: Sonar, backend: str = "auto", counts: bool = False) -> None: ...
     @property
@@ -221,6 +239,14 @@ class _MaskEngine:
         counts: bool,
         dense: bool,
     ) -> MaskSet: ...
+    def summary(
+        self,
+        pose: Pose,
+        ranges: list[float],
+        azimuths: Optional[list[float]],
+        sigma: Optional[list[float]],
+        coverage: float,
+    ) -> MaskSummary: ...
     def masks_of_pings(
         self,
         poses: list[Pose],

@@ -166,6 +166,32 @@ def test_masks_equal_the_command_line(tmp_path, cli):
     np.testing.assert_array_equal(got.union, got.masks.max(axis=0))
 
 
+def test_mask_summaries_are_the_masks_and_the_command_lines(cli):
+    # `mask` printing JSON only reduces the masks (MaskEngine::summary); so does Python's
+    # MaskEngine.summary. Both must say what the masks themselves say, an empty mask included
+    # (35 m is past the imaging sonar's range).
+    done = cli("mask", "--from", "holoocean-sidescan", "--to", "holoocean-imaging", "--backend", "cpu",
+               "--pitch", "5", "--yaw", "10", "--translation", "0.3,0.2,-0.1", "--feature", "4",
+               "--feature", "7.5", "--feature", "35", "--sigma-rotation", "0.5")
+    report = json.loads(done.stdout)
+    pose = sonarproj.Pose(pitch=5, yaw=10, t=(0.3, 0.2, -0.1))
+    engine = sonarproj.MaskEngine("holoocean-sidescan", "holoocean-imaging", backend="cpu")
+    sigma = {"roll": 0.5, "pitch": 0.5, "yaw": 0.5}
+    summary = engine.summary(pose, [4, 7.5, 35], sigma=sigma)
+    masks = engine.masks(pose, [4, 7.5, 35], sigma=sigma)
+    assert summary.occupied.dtype == np.uint64
+    assert list(summary.occupied) == [int(m.sum()) for m in masks.masks] == [
+        f["occupied"] for f in report["features"]]
+    assert summary.occupied[0] > 100 and summary.occupied[2] == 0
+    assert summary.boxes == masks.boxes == [f["bounding_box"] for f in report["features"]]
+    assert summary.boxes[2] is None
+    np.testing.assert_array_equal(summary.union, masks.union)
+    assert int(summary.union.sum()) == report["union_occupied"]
+    assert summary.radius == masks.radius and summary.noise_radius == masks.noise_radius
+    assert summary.cells == [f["cells"] for f in report["features"]]
+    assert "3 features (2 seen by sonar 2)" in repr(summary)
+
+
 @pytest.mark.parametrize("first,second,feature,place,rpy,sigmas", [
     ("paper-fls", "paper-sss", (5.0, 10.0, 3.0), (15.0, 20.0, 0.0), (0, 90, 0), None),
     ("holoocean-imaging", "holoocean-imaging", (5.0, 10.0, 4.0), (5.5, 12.0, -2.0), (5, 3, 20), (0.02, 0.2)),

@@ -313,6 +313,10 @@ def test_the_gpu_path_is_reachable_from_python():
         g = on_gpu.masks(pose, [4.0, 7.5]).masks
         c = on_cpu.masks(pose, [4.0, 7.5]).masks
         assert c.sum() > 100 and ((g >= c).all())
+        # Reduced on the GPU: the counts of the GPU's own masks.
+        s = on_gpu.summary(pose, [4.0, 7.5])
+        assert list(s.occupied) == [int(m.sum()) for m in g]
+        np.testing.assert_array_equal(s.union, g.max(axis=0))
 
 
 @pytest.mark.parametrize("kwargs,words", [

@@ -20,6 +20,7 @@ fn all() -> Vec<(&'static str, String, bool)> {
         ("poses (f64)", shaders::poses(Precision::F64), true),
         ("poses (double-f32)", shaders::poses(Precision::DoubleF32), false),
         ("mask", shaders::mask(), false),
+        ("mask reduce", shaders::mask_reduce(), false),
     ]
 }
 
@@ -236,10 +237,12 @@ fn clip_constants_match() {
         constant(&m, "F32_WIDEN"),
         f64::from(crate::clip::F32_WIDEN as f32)
     );
-    // The mask stage's block is the mask planner's.
+    // The mask stage's block holds the mask planner's BLOCK × BLOCK cells, one per thread.
     let mask = module(&shaders::mask(), "mask");
-    assert_eq!(constant(&mask, "BLOCK") as usize, crate::masks::plan::BLOCK);
-    assert!(!include_str!("../../shaders/mask.wgsl").contains("const BLOCK:"));
+    let block = crate::masks::plan::BLOCK;
+    assert_eq!(constant(&mask, "CELLS") as usize, block * block);
+    assert_eq!(block * block, crate::masks::gpu::MASK_WORKGROUP as usize);
+    assert!(!include_str!("../../shaders/mask.wgsl").contains("const CELLS:"));
     // Generated, never hand-written.
     let clip = include_str!("../../shaders/shared/clip.wgsl");
     for name in ["F32_SLACK", "F32_WIDEN", "BLOCK"] {
@@ -289,12 +292,12 @@ fn mask_structs_match_the_rust_layout() {
         ("row2", offset_of!(MaskJob, rows) + 32),
         ("range", offset_of!(MaskJob, range)),
         ("radius", offset_of!(MaskJob, radius)),
+        ("block_radius", offset_of!(MaskJob, block_radius)),
         ("az_count", offset_of!(MaskJob, az_count)),
         ("el_count", offset_of!(MaskJob, el_count)),
         ("az_offset", offset_of!(MaskJob, az_offset)),
         ("el_offset", offset_of!(MaskJob, el_offset)),
-        ("block_offset", offset_of!(MaskJob, block_offset)),
-        ("block_count", offset_of!(MaskJob, block_count)),
+        ("block_a", offset_of!(MaskJob, block_a)),
     ];
     let want: Vec<(String, usize)> = job.iter().map(|(n, o)| (n.to_string(), *o)).collect();
     assert_eq!(wgsl_members(&m, "MaskJob"), want);
@@ -358,7 +361,9 @@ fn interface(module: &naga::Module) -> (Vec<Binding>, u32) {
 #[test]
 fn binding_tables_and_workgroup_sizes_match_the_wgsl() {
     use crate::gpu::options::SPLAT_WORKGROUP;
-    use crate::masks::gpu::{MASK_BINDINGS, MASK_WORKGROUP, source};
+    use crate::masks::gpu::{
+        MASK_BINDINGS, MASK_REDUCE_BINDINGS, MASK_REDUCE_WORKGROUP, MASK_WORKGROUP, reduce_source, source,
+    };
     use crate::projection::gpu::{POSES_BINDINGS, POSES_WORKGROUP, REDUCE_BINDINGS, SPLAT_BINDINGS};
     // The reduce stage runs one workgroup per pose whatever its size: its 64 threads are the
     // WGSL's own, said here so that a change is seen.
@@ -379,4 +384,11 @@ fn binding_tables_and_workgroup_sizes_match_the_wgsl() {
     let (b, w) = interface(&module(&source(), "mask"));
     assert_eq!(b, MASK_BINDINGS, "mask.wgsl bindings");
     assert_eq!(u64::from(w), MASK_WORKGROUP, "mask.wgsl workgroup size");
+    let (b, w) = interface(&module(&reduce_source(), "mask reduce"));
+    assert_eq!(b, MASK_REDUCE_BINDINGS, "mask_reduce.wgsl bindings");
+    assert_eq!(
+        u64::from(w),
+        MASK_REDUCE_WORKGROUP,
+        "mask_reduce.wgsl workgroup size"
+    );
 }

@@ -121,13 +121,24 @@ pub(crate) fn reduce() -> String {
     )
 }
 
-/// Returns the full source of the mask stage (`shaders/mask.wgsl`, with its block size generated
-/// from [`crate::masks::plan::BLOCK`]).
+/// Sonar 2 as both mask stages see it (`shaders/shared/mask_params.wgsl`).
+const MASK_PARAMS: &str = include_str!("../../shaders/shared/mask_params.wgsl");
+
+/// Returns the full source of the mask stage (`shaders/mask.wgsl`, with its cells per block
+/// generated from [`crate::masks::plan::BLOCK`]).
 pub(crate) fn mask() -> String {
     format!(
-        "const BLOCK: u32 = {}u;\n{}",
-        crate::masks::plan::BLOCK,
+        "const CELLS: u32 = {}u;\n{MASK_PARAMS}\n{}",
+        crate::masks::plan::BLOCK * crate::masks::plan::BLOCK,
         include_str!("../../shaders/mask.wgsl")
+    )
+}
+
+/// Returns the full source of the masks' reduce stage (`shaders/mask_reduce.wgsl`).
+pub(crate) fn mask_reduce() -> String {
+    format!(
+        "{MASK_PARAMS}\n{}",
+        include_str!("../../shaders/mask_reduce.wgsl")
     )
 }
 

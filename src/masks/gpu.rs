@@ -1,7 +1,11 @@
-//! The GPU side of [`super::MaskEngine`]: `shaders/mask.wgsl`, its pipeline and buffers
-//! (built once, grown when a ping needs more), one dispatch per ping, the bitsets read back.
+//! The GPU side of [`super::MaskEngine`]: `shaders/mask.wgsl` (draws every mask, culling its
+//! blocks of cells on the device) and `shaders/mask_reduce.wgsl` (each mask's pixel count and
+//! box, and the ping's union), their pipelines, bind groups and buffers (built once, grown when
+//! a ping needs more) and the cell tables, kept on the device between pings: a ping uploads its
+//! jobs (80 bytes a feature) and reads back the union and five words a feature, and the
+//! bitsets only when they are asked for.
 //!
-//! The shader works in f32. Each job's radius carries a slack that bounds every rounding of
+//! The shaders work in f32. Each job's radii carry a slack that bounds every rounding of
 //! the f32 path (the direction tables and rotation rounded to f32, `R p + t`, `|q|`, the bin
 //! arithmetic and the edge tests), so GPU masks contain the CPU engine's and never miss.
 #![expect(
@@ -11,6 +15,7 @@
 
 use crate::clip::{MASK_F32_FLOOR, MASK_F32_SLACK, RIGHT_ANGLE_SLACK};
 use std::collections::HashMap;
+use std::sync::Mutex;
 
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
@@ -18,11 +23,12 @@ use wgpu::util::DeviceExt;
 use crate::error::{Error, Result};
 use crate::geometry::RelativePose;
 use crate::gpu::pipeline::{Binding, Stage};
-use crate::gpu::pool::SharedPool;
+use crate::gpu::pool::BufferPool;
 use crate::gpu::{GpuContext, context, read, shaders};
 use crate::occupancy::{Layout, Occupancy};
 
 use super::plan::{BLOCK, Plan};
+use super::summary::Reduced;
 
 /// Parameters of sonar 2 (members as documented in shaders/mask.wgsl). Keep in sync with
 /// `MaskParams` there.
@@ -67,18 +73,22 @@ pub(crate) struct MaskJob {
     pub(crate) range: f32,
     /// The ball radius of one cell: cell, noise and rounding slack (m).
     pub(crate) radius: f32,
+    /// The ball radius of a block of `BLOCK × BLOCK` cells around its middle point: block, noise
+    /// and rounding slack (m).
+    pub(crate) block_radius: f32,
     /// Cells along the azimuth.
     pub(crate) az_count: u32,
     /// Cells along the elevation.
     pub(crate) el_count: u32,
-    /// Where the job's azimuth directions start in the direction table.
+    /// Where the job's azimuth directions start in the direction table (its blocks' middles
+    /// follow them).
     pub(crate) az_offset: u32,
-    /// Where the job's elevation directions start in the direction table.
+    /// Where the job's elevation directions start in the direction table (its blocks' middles
+    /// follow them).
     pub(crate) el_offset: u32,
-    /// Where the job's kept blocks start in the block list.
-    pub(crate) block_offset: u32,
-    /// How many blocks the job keeps.
-    pub(crate) block_count: u32,
+    /// Cells of a block along the azimuth (1, 2, 4, 8, 16, 32 or 64; along the elevation
+    /// `64 / block_a`): see [`block_shape`].
+    pub(crate) block_a: u32,
 }
 
 /// Byte sizes of the shared structs (checked against naga's layout in src/gpu/shader_tests.rs).
@@ -88,29 +98,53 @@ pub(crate) const MASK_JOB_SIZE: usize = 80;
 const _: () = assert!(size_of::<MaskParams>() == MASK_PARAMS_SIZE);
 const _: () = assert!(size_of::<MaskJob>() == MASK_JOB_SIZE);
 
-/// Bindings of `shaders/mask.wgsl`: params, edges, jobs, dirs, blocks, bits.
-pub(crate) const MASK_BINDINGS: [Binding; 6] = [
+/// Bindings of `shaders/mask.wgsl`: params, edges, jobs, dirs, bits.
+pub(crate) const MASK_BINDINGS: [Binding; 5] = [
     Binding::Uniform,
-    Binding::Read,
     Binding::Read,
     Binding::Read,
     Binding::Read,
     Binding::ReadWrite,
 ];
 
-/// Threads per workgroup of the mask stage (WGSL `@workgroup_size` in mask.wgsl; checked in
-/// src/gpu/shader_tests.rs).
+/// Bindings of `shaders/mask_reduce.wgsl`: params, bits, summaries, union.
+pub(crate) const MASK_REDUCE_BINDINGS: [Binding; 4] = [
+    Binding::Uniform,
+    Binding::Read,
+    Binding::ReadWrite,
+    Binding::ReadWrite,
+];
+
+/// Threads per workgroup of the mask stage, one per cell of a block (WGSL `@workgroup_size` in
+/// mask.wgsl; checked in src/gpu/shader_tests.rs).
 pub(crate) const MASK_WORKGROUP: u64 = 64;
-/// The most workgroups along x (cells are strided beyond).
-const MAX_TILES: u64 = 1024;
-/// One mask for the GPU to draw: the pose, the plan, and the blocks that survived the cull.
+const _: () = assert!(MASK_WORKGROUP as usize == BLOCK * BLOCK);
+/// Threads per workgroup of the reduce stage (checked in src/gpu/shader_tests.rs).
+pub(crate) const MASK_REDUCE_WORKGROUP: u64 = 64;
+/// Words a mask's summary takes in the reduce stage's output.
+const SUMMARY_WORDS: usize = 5;
+/// The most workgroups along x (blocks, or a mask's words, are strided beyond).
+const MAX_TILES: u64 = 4096;
+/// The most direction-table entries kept between pings (8 MiB); past it the tables start afresh.
+const MAX_TABLE_ENTRIES: usize = 1 << 20;
+
+/// One mask for the GPU to draw: the pose and the plan.
 pub(crate) struct Job {
     /// The pose.
     pub(crate) pose: RelativePose,
     /// The cells and radius.
     pub(crate) plan: Plan,
-    /// First cells of the blocks to visit ([`super::MaskEngine`]'s `blocks`).
-    pub(crate) blocks: Vec<(usize, usize)>,
+}
+
+/// What the GPU returns of a ping: the union and each mask's reduction, and the masks
+/// themselves when they were asked for (all in sonar 2's layout).
+pub(crate) struct Drawn {
+    /// The union of the masks.
+    pub(crate) union: Occupancy,
+    /// Per mask, its pixel count and bounds.
+    pub(crate) reduced: Vec<Reduced>,
+    /// Per mask, its bits (only when asked for).
+    pub(crate) masks: Option<Vec<Occupancy>>,
 }
 
 /// Returns the radius (m) added to every ball on the GPU to cover the f32 rounding of a set at
@@ -125,23 +159,136 @@ pub(crate) fn source() -> String {
     shaders::mask()
 }
 
-/// The buffers of one dispatch, taken from the pool.
-struct Buffers {
-    jobs: wgpu::Buffer,
-    dirs: wgpu::Buffer,
-    blocks: wgpu::Buffer,
-    bits: wgpu::Buffer,
-    staging: wgpu::Buffer,
+/// Returns the full source of the reduce stage.
+#[must_use]
+pub(crate) fn reduce_source() -> String {
+    shaders::mask_reduce()
 }
 
-/// The mask pipeline on one GPU, for one sonar 2.
+/// A table's first and last angle's bits, count and block size.
+type TableKey = (u64, u64, usize, usize);
+
+/// The direction tables of cell grids, kept on the device between pings: a grid of cells
+/// depends on its count (and an arc's azimuth on the feature), not on the pose, so pings after
+/// the first mostly find theirs here. Each table holds its cells' directions, then its blocks'
+/// middles (`ceil(count / block)` for the block's size along that axis).
+#[derive(Default)]
+struct Tables {
+    /// Offset of each table by its first and last angle's bits, count and block size, with its
+    /// angles.
+    index: HashMap<TableKey, (u32, Vec<f64>)>,
+    /// Every entry, as on the device.
+    host: Vec<[f32; 2]>,
+    /// Entries already on the device.
+    uploaded: usize,
+    /// The device's copy.
+    buffer: Option<wgpu::Buffer>,
+}
+
+/// Returns the cells of a GPU block along the azimuth and the elevation for a grid of `na × ne`
+/// cells: 64 cells (a workgroup's threads), `BLOCK × BLOCK` unless the grid is thinner than
+/// `BLOCK` along one axis (an arc is one azimuth; a sidescan's surface a few elevations), where
+/// the block takes the grid's width (rounded up to a power of two) and is longer along the other
+/// axis, so the threads are not left idle. Any shape is as safe: a block's ball covers its cells'.
+pub(crate) fn block_shape(na: usize, ne: usize) -> (usize, usize) {
+    let cells = BLOCK * BLOCK;
+    if na < BLOCK {
+        let a = na.max(1).next_power_of_two();
+        (a, cells / a)
+    } else if ne < BLOCK {
+        let e = ne.max(1).next_power_of_two();
+        (cells / e, e)
+    } else {
+        (BLOCK, BLOCK)
+    }
+}
+
+/// Returns the entries a table of `n` cells in blocks of `block` takes.
+fn table_entries(n: usize, block: usize) -> usize {
+    n + n.div_ceil(block)
+}
+
+impl Tables {
+    /// Returns where the table of `angles` in blocks of `block` starts, adding it when it is
+    /// new.
+    fn offset(&mut self, angles: &[f64], block: usize) -> u32 {
+        let key = (
+            angles.first().map_or(0, |a| a.to_bits()),
+            angles.last().map_or(0, |a| a.to_bits()),
+            angles.len(),
+            block,
+        );
+        if let Some((at, kept)) = self.index.get(&key)
+            && kept == angles
+        {
+            return *at;
+        }
+        let at = self.host.len() as u32;
+        let dir = |a: f64| [a.cos() as f32, a.sin() as f32];
+        self.host.extend(angles.iter().map(|&a| dir(a)));
+        // A block's middle: halfway between its first and last cell's centres, as
+        // `View::blocks` takes it.
+        self.host
+            .extend(angles.chunks(block).map(|b| dir((b[0] + b[b.len() - 1]) / 2.0)));
+        self.index.insert(key, (at, angles.to_vec()));
+        at
+    }
+
+    /// Starts afresh (the device's copy is rewritten as it fills again).
+    fn clear(&mut self) {
+        self.index.clear();
+        self.host.clear();
+        self.uploaded = 0;
+    }
+
+    /// Puts the entries added since the last call on the device, growing its buffer when
+    /// needed; returns whether the buffer is a new one (bind groups that hold it are stale).
+    fn upload(&mut self, ctx: &GpuContext) -> bool {
+        let bytes = (self.host.len().max(2) * 8) as u64;
+        let fits = self.buffer.as_ref().is_some_and(|b| b.size() >= bytes);
+        if !fits {
+            let size = bytes.next_power_of_two().max(4096);
+            self.buffer = Some(ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("mask dirs"),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+            self.uploaded = 0;
+        }
+        if let Some(buffer) = &self.buffer
+            && self.uploaded < self.host.len()
+        {
+            ctx.queue.write_buffer(
+                buffer,
+                (self.uploaded * 8) as u64,
+                bytemuck::cast_slice(&self.host[self.uploaded..]),
+            );
+            self.uploaded = self.host.len();
+        }
+        !fits
+    }
+}
+
+/// What the engine keeps on the device between pings: the tables, the buffers and the bind
+/// groups made of them (made again only when a buffer is).
+#[derive(Default)]
+struct State {
+    tables: Tables,
+    pool: BufferPool,
+    /// The buffers the bind groups were made of, and the groups (draw, reduce).
+    groups: Option<(Vec<wgpu::Buffer>, wgpu::BindGroup, wgpu::BindGroup)>,
+}
+
+/// The mask pipelines on one GPU, for one sonar 2.
 pub(crate) struct GpuMasks {
     ctx: GpuContext,
     stage: Stage,
+    reduce: Stage,
     params: MaskParams,
     params_buffer: wgpu::Buffer,
     edges: wgpu::Buffer,
-    pool: SharedPool,
+    state: Mutex<State>,
 }
 
 impl std::fmt::Debug for GpuMasks {
@@ -153,10 +300,11 @@ impl std::fmt::Debug for GpuMasks {
 }
 
 impl GpuMasks {
-    /// Returns the pipeline for sonar 2's `layout` on `ctx`.
+    /// Returns the pipelines for sonar 2's `layout` on `ctx`.
     ///
     /// # Errors
-    /// [`Error::InvalidValue`] for an azimuth aperture of 180° or more.
+    /// [`Error::InvalidValue`] for an azimuth aperture of 180° or more; [`Error::Gpu`] when the
+    /// device refuses a stage.
     pub(crate) fn new(ctx: GpuContext, layout: &Layout) -> Result<GpuMasks> {
         let ha = layout.half_azimuth;
         if ha >= std::f64::consts::FRAC_PI_2 {
@@ -168,6 +316,7 @@ impl GpuMasks {
         }
         let device = &ctx.device;
         let stage = Stage::new(device, "mask", &source(), &MASK_BINDINGS)?;
+        let reduce = Stage::new(device, "mask reduce", &reduce_source(), &MASK_REDUCE_BINDINGS)?;
         let he = layout.half_elevation;
         let params = MaskParams {
             range_min: layout.range_min as f32,
@@ -197,19 +346,19 @@ impl GpuMasks {
             contents: bytemuck::cast_slice(&edges),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        let params_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("mask params"),
-            size: size_of::<MaskParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
+            contents: bytemuck::bytes_of(&params),
+            usage: wgpu::BufferUsages::UNIFORM,
         });
         Ok(GpuMasks {
             ctx,
             stage,
+            reduce,
             params,
             params_buffer,
             edges,
-            pool: SharedPool::default(),
+            state: Mutex::new(State::default()),
         })
     }
 
@@ -218,167 +367,213 @@ impl GpuMasks {
         format!("{} (f32 with rounding slack)", context::describe(&self.ctx.info))
     }
 
-    /// Returns the masks of `jobs` (a pose and a plan each), in order.
-    ///
-    /// # Errors
-    /// [`Error::Gpu`] on device failure.
-    pub(crate) fn draw(&self, layout: &Layout, jobs: &[Job]) -> Result<Vec<Occupancy>> {
-        let words = u64::from(self.params.words_per_mask);
-        // Jobs per dispatch: the dispatch's y limit and the device's storage binding size for
-        // the bitsets (at most 256 MiB).
-        let limit = self
-            .ctx
+    /// The largest storage binding the stages use (at most 256 MiB).
+    fn binding_limit(&self) -> u64 {
+        self.ctx
             .limits
             .max_storage_buffer_binding_size
             .min(self.ctx.limits.max_buffer_size)
-            .min(256 << 20);
+            .min(256 << 20)
+    }
+
+    /// Returns the union and reductions of the masks of `jobs` (a pose and a plan each), and the
+    /// masks themselves when `masks`, in order and in sonar 2's layout.
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] when one job's cell tables exceed what the device can bind;
+    /// [`Error::Gpu`] on device failure.
+    pub(crate) fn draw(&self, layout: &Layout, jobs: &[Job], masks: bool) -> Result<Drawn> {
+        let words = u64::from(self.params.words_per_mask);
+        let limit = self.binding_limit();
+        let tables_cap = MAX_TABLE_ENTRIES.max((limit / 8) as usize);
+        // Jobs per dispatch: the dispatch's y limit, the bitsets' binding, the tables'.
         let per_dispatch = (65_535u64).min(limit / (words * 4)).max(1) as usize;
-        let max_dirs = (limit / 8) as usize;
-        let mut out = Vec::with_capacity(jobs.len());
-        let (mut start, mut dirs) = (0, 0);
+        let mut drawn = Drawn {
+            union: Occupancy::new(layout.range_bins, layout.beams()),
+            reduced: Vec::with_capacity(jobs.len()),
+            masks: masks.then(|| Vec::with_capacity(jobs.len())),
+        };
+        let mut state = self.state.lock().unwrap_or_else(|poisoned| {
+            let mut state = poisoned.into_inner();
+            *state = State::default();
+            state
+        });
+        let (mut start, mut entries) = (0, 0);
         for (k, job) in jobs.iter().enumerate() {
-            let d = job.plan.cells.azimuths.len() + job.plan.cells.elevations.len() + job.blocks.len();
-            if k > start && (k - start == per_dispatch || dirs + d > max_dirs) {
-                out.extend(self.draw_chunk(layout, &jobs[start..k], limit)?);
-                (start, dirs) = (k, 0);
+            let (na, ne) = (job.plan.cells.azimuths.len(), job.plan.cells.elevations.len());
+            let (ba, be) = block_shape(na, ne);
+            let e = table_entries(na, ba) + table_entries(ne, be);
+            if e > tables_cap {
+                return Err(Error::invalid(
+                    "mask cells",
+                    e,
+                    format!(
+                        "at most {tables_cap} cell directions on this GPU (the CPU mask engine has no such limit)"
+                    ),
+                ));
             }
-            dirs += d;
+            if k > start && (k - start == per_dispatch || entries + e > tables_cap) {
+                self.draw_chunk(&mut state, layout, &jobs[start..k], entries, &mut drawn)?;
+                (start, entries) = (k, 0);
+            }
+            entries += e;
         }
         if start < jobs.len() {
-            out.extend(self.draw_chunk(layout, &jobs[start..], limit)?);
+            self.draw_chunk(&mut state, layout, &jobs[start..], entries, &mut drawn)?;
         }
-        Ok(out)
+        Ok(drawn)
     }
 
-    /// Draws one dispatch's worth of `jobs`; buffers stay within `limit` bytes.
-    fn draw_chunk(&self, layout: &Layout, jobs: &[Job], limit: u64) -> Result<Vec<Occupancy>> {
-        let device = &self.ctx.device;
-        let words = u64::from(self.params.words_per_mask);
-        // Cell tables, shared between jobs with the same angles (an SSS surface's azimuth cells
-        // depend only on their count; an FLS arc's on the measured azimuth).
-        let mut dirs: Vec<[f32; 2]> = Vec::new();
-        let mut tables: HashMap<Vec<u64>, u32> = HashMap::new();
-        let mut table = |angles: &[f64], dirs: &mut Vec<[f32; 2]>| -> u32 {
-            let key: Vec<u64> = angles.iter().map(|a| a.to_bits()).collect();
-            *tables.entry(key).or_insert_with(|| {
-                let at = dirs.len() as u32;
-                dirs.extend(angles.iter().map(|a| [a.cos() as f32, a.sin() as f32]));
-                at
-            })
-        };
-        let mut max_cells = 1u64;
-        let mut blocks: Vec<[u32; 2]> = Vec::new();
+    /// Draws and reduces one dispatch's worth of `jobs` (whose tables take at most `entries`
+    /// new entries) and adds them to `drawn`.
+    fn draw_chunk(
+        &self,
+        state: &mut State,
+        layout: &Layout,
+        jobs: &[Job],
+        entries: usize,
+        drawn: &mut Drawn,
+    ) -> Result<()> {
+        let tables_cap = MAX_TABLE_ENTRIES.max((self.binding_limit() / 8) as usize);
+        if state.tables.host.len() + entries > tables_cap {
+            state.tables.clear();
+        }
+        let mut max_blocks = 1u64;
         let gpu_jobs: Vec<MaskJob> = jobs
             .iter()
-            .map(
-                |Job {
-                     pose,
-                     plan,
-                     blocks: job_blocks,
-                 }| {
-                    let block_offset = blocks.len() as u32;
-                    blocks.extend(job_blocks.iter().map(|&(a, e)| [a as u32, e as u32]));
-                    let az_offset = table(&plan.cells.azimuths, &mut dirs);
-                    let el_offset = table(&plan.cells.elevations, &mut dirs);
-                    let (na, ne) = (
-                        plan.cells.azimuths.len() as u32,
-                        plan.cells.elevations.len() as u32,
-                    );
-                    max_cells = max_cells.max(job_blocks.len() as u64 * (BLOCK * BLOCK) as u64);
-                    let t = pose.translation;
-                    let row = |i: usize| {
-                        let v = pose.rotation.row(i);
-                        [v.x as f32, v.y as f32, v.z as f32, t[i] as f32]
-                    };
-                    MaskJob {
-                        rows: [row(0), row(1), row(2)],
-                        range: plan.range as f32,
-                        radius: (plan.radius + slack(plan.range, pose, layout)) as f32,
-                        az_count: na,
-                        el_count: ne,
-                        az_offset,
-                        el_offset,
-                        block_offset,
-                        block_count: job_blocks.len() as u32,
-                    }
-                },
-            )
+            .map(|Job { pose, plan }| {
+                let cells = &plan.cells;
+                let (na, ne) = (cells.azimuths.len(), cells.elevations.len());
+                let (ba, be) = block_shape(na, ne);
+                max_blocks = max_blocks.max((na.div_ceil(ba) * ne.div_ceil(be)) as u64);
+                let slack = slack(plan.range, pose, layout);
+                // A block's half-extents are those of its cells (fewer at a grid's end, which
+                // this covers), as `View::blocks` measures them.
+                let block_half = (na.min(ba) as f64 * cells.half.0, ne.min(be) as f64 * cells.half.1);
+                let block_radius = plan.range * block_half.0.hypot(block_half.1) + plan.noise_radius + slack;
+                let t = pose.translation;
+                let row = |i: usize| {
+                    let v = pose.rotation.row(i);
+                    [v.x as f32, v.y as f32, v.z as f32, t[i] as f32]
+                };
+                MaskJob {
+                    rows: [row(0), row(1), row(2)],
+                    range: plan.range as f32,
+                    radius: (plan.radius + slack) as f32,
+                    block_radius: block_radius as f32,
+                    az_count: na as u32,
+                    el_count: ne as u32,
+                    az_offset: state.tables.offset(&cells.azimuths, ba),
+                    el_offset: state.tables.offset(&cells.elevations, be),
+                    block_a: ba as u32,
+                }
+            })
             .collect();
-        let n = jobs.len() as u64;
-        self.pool.with(|pool| {
-            let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-            let mut get = |label, size, usage| pool.get(device, label, size, limit, usage);
-            let b = Buffers {
-                jobs: get("mask jobs", n * MASK_JOB_SIZE as u64, storage),
-                dirs: get("mask dirs", dirs.len() as u64 * 8, storage),
-                blocks: get("mask blocks", blocks.len() as u64 * 8, storage),
-                bits: get("mask bits", n * words * 4, storage | wgpu::BufferUsages::COPY_SRC),
-                staging: get(
-                    "mask staging",
-                    n * words * 4,
-                    wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                ),
-            };
-            self.submit(layout, &b, &gpu_jobs, &dirs, &blocks, max_cells)
-        })
-    }
-
-    /// Uploads one dispatch's jobs, cell tables and blocks into `b`, draws them and returns
-    /// their masks.
-    fn submit(
-        &self,
-        layout: &Layout,
-        b: &Buffers,
-        gpu_jobs: &[MaskJob],
-        dirs: &[[f32; 2]],
-        blocks: &[[u32; 2]],
-        max_cells: u64,
-    ) -> Result<Vec<Occupancy>> {
+        let new_tables = state.tables.upload(&self.ctx);
         let device = &self.ctx.device;
-        let words = u64::from(self.params.words_per_mask);
-        let n = gpu_jobs.len() as u64;
-        let params = self.params;
         let queue = &self.ctx.queue;
-        queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&params));
-        queue.write_buffer(&b.jobs, 0, bytemuck::cast_slice(gpu_jobs));
-        if !dirs.is_empty() {
-            queue.write_buffer(&b.dirs, 0, bytemuck::cast_slice(dirs));
-        }
-        if !blocks.is_empty() {
-            queue.write_buffer(&b.blocks, 0, bytemuck::cast_slice(blocks));
-        }
-        let group = self.stage.bind(
+        let words = u64::from(self.params.words_per_mask);
+        let n = jobs.len() as u64;
+        let limit = self.binding_limit();
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let bits_bytes = n * words * 4;
+        let union_bytes = words * 4;
+        let summary_bytes = n * SUMMARY_WORDS as u64 * 4;
+        let read_bytes = union_bytes + summary_bytes + if drawn.masks.is_some() { bits_bytes } else { 0 };
+        let pool = &mut state.pool;
+        let jobs_buffer = pool.get(device, "mask jobs", n * MASK_JOB_SIZE as u64, limit, storage);
+        let bits = pool.get(
             device,
-            &[
-                &self.params_buffer,
-                &self.edges,
-                &b.jobs,
-                &b.dirs,
-                &b.blocks,
-                &b.bits,
-            ],
+            "mask bits",
+            bits_bytes,
+            limit,
+            storage | wgpu::BufferUsages::COPY_SRC,
         );
-        let bytes = n * words * 4;
+        let summaries = pool.get(
+            device,
+            "mask summaries",
+            summary_bytes,
+            limit,
+            storage | wgpu::BufferUsages::COPY_SRC,
+        );
+        let union = pool.get(
+            device,
+            "mask union",
+            union_bytes,
+            limit,
+            storage | wgpu::BufferUsages::COPY_SRC,
+        );
+        let staging = pool.get(
+            device,
+            "mask staging",
+            read_bytes,
+            u64::MAX,
+            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        );
+        let dirs = state.tables.buffer.clone().expect("uploaded above");
+        let held = vec![
+            jobs_buffer.clone(),
+            dirs,
+            bits.clone(),
+            summaries.clone(),
+            union.clone(),
+        ];
+        if new_tables || state.groups.as_ref().is_none_or(|(kept, _, _)| *kept != held) {
+            let draw = self.stage.bind(
+                device,
+                &[&self.params_buffer, &self.edges, &held[0], &held[1], &held[2]],
+            );
+            let reduce = self
+                .reduce
+                .bind(device, &[&self.params_buffer, &held[2], &held[3], &held[4]]);
+            state.groups = Some((held, draw, reduce));
+        }
+        let (_, draw_group, reduce_group) = state.groups.as_ref().expect("made above");
+        queue.write_buffer(&jobs_buffer, 0, bytemuck::cast_slice(&gpu_jobs));
         let mut enc = device.create_command_encoder(&Default::default());
-        enc.clear_buffer(&b.bits, 0, Some(bytes));
+        enc.clear_buffer(&bits, 0, Some(bits_bytes));
+        enc.clear_buffer(&summaries, 0, Some(summary_bytes));
+        enc.clear_buffer(&union, 0, Some(union_bytes));
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
             pass.set_pipeline(&self.stage.pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            let tiles = max_cells.div_ceil(MASK_WORKGROUP).clamp(1, MAX_TILES) as u32;
-            pass.dispatch_workgroups(tiles, n as u32, 1);
+            pass.set_bind_group(0, draw_group, &[]);
+            pass.dispatch_workgroups(max_blocks.min(MAX_TILES) as u32, n as u32, 1);
+            pass.set_pipeline(&self.reduce.pipeline);
+            pass.set_bind_group(0, reduce_group, &[]);
+            let tiles = words.div_ceil(MASK_REDUCE_WORKGROUP).clamp(1, MAX_TILES);
+            pass.dispatch_workgroups(tiles as u32, n as u32, 1);
         }
-        enc.copy_buffer_to_buffer(&b.bits, 0, &b.staging, 0, bytes);
+        enc.copy_buffer_to_buffer(&union, 0, &staging, 0, union_bytes);
+        enc.copy_buffer_to_buffer(&summaries, 0, &staging, union_bytes, summary_bytes);
+        if drawn.masks.is_some() {
+            enc.copy_buffer_to_buffer(&bits, 0, &staging, union_bytes + summary_bytes, bits_bytes);
+        }
         queue.submit([enc.finish()]);
-        let raw = read(&self.ctx, &b.staging, bytes)?;
-        Ok((0..gpu_jobs.len())
-            .map(|k| {
-                Occupancy::from_words(
-                    layout.range_bins,
-                    layout.beams(),
-                    raw[k * words as usize..(k + 1) * words as usize].to_vec(),
-                )
-            })
-            .collect())
+        let raw = read(&self.ctx, &staging, read_bytes).inspect_err(|_| {
+            // A failed readback may leave the staging buffer mapped: start afresh.
+            state.pool = BufferPool::default();
+            state.groups = None;
+        })?;
+        let words = words as usize;
+        for (u, w) in drawn.union.words.iter_mut().zip(&raw[..words]) {
+            *u |= w;
+        }
+        let summaries = &raw[words..words + SUMMARY_WORDS * jobs.len()];
+        drawn
+            .reduced
+            .extend(summaries.chunks(SUMMARY_WORDS).map(|s| Reduced {
+                pixels: u64::from(s[0]),
+                bounds:
+                    (s[0] > 0).then(|| ((!s[1] as usize, s[2] as usize), (!s[3] as usize, s[4] as usize))),
+            }));
+        if let Some(out) = &mut drawn.masks {
+            let bits = &raw[words + SUMMARY_WORDS * jobs.len()..];
+            out.extend(
+                bits.chunks(words)
+                    .map(|w| Occupancy::from_words(layout.range_bins, layout.beams(), w.to_vec())),
+            );
+        }
+        Ok(())
     }
 }

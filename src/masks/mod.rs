@@ -42,10 +42,18 @@ pub use crate::limits::MAX_CELLS;
 use crate::occupancy::{Layout, Occupancy};
 use crate::projection::{BackendChoice, Device};
 use crate::sampling::Measurement;
-use gpu::{GpuMasks, Job, slack};
+use gpu::{GpuMasks, Job};
 pub use noise::Noise;
 use plan::Plan;
-pub use summary::{BoundingBox, bounding_box, run_lengths};
+pub use summary::{BoundingBox, FeatureSummary, PingSummary, bounding_box, run_lengths};
+use summary::{Reduced, mask_reduce};
+
+/// The fewest cells a ping must have for an engine picked by `auto` to draw it on the GPU:
+/// below it the CPU engine answers sooner. Measured on an H200 with 16 CPU cores (`sonarproj
+/// bench masks`): a GPU ping costs at least about 0.09 ms, which the CPU engine spends on about
+/// 1000 cells on one core (one 52-cell imaging-sonar feature: 0.001–0.002 ms on the CPU, 0.09–0.12
+/// ms on the GPU; one 2172-cell sidescan feature: 0.15–0.20 ms on the CPU, 0.10 ms on the GPU).
+pub const GPU_MIN_CELLS: u64 = 1024;
 
 /// One feature's mask in sonar 2's layout.
 #[derive(Clone, Debug, PartialEq)]
@@ -128,6 +136,9 @@ pub struct MaskEngine {
     target: Sonar,
     view: View,
     gpu: Option<Box<GpuMasks>>,
+    /// Pings of fewer cells are drawn on the CPU even with a GPU (0: never; `auto` sets
+    /// [`GPU_MIN_CELLS`]).
+    gpu_min_cells: u64,
     /// Cosines and sines of cell grids, kept between pings (the CPU's drawing).
     trig: cpu::TrigTables,
 }
@@ -146,6 +157,7 @@ impl MaskEngine {
             source,
             target,
             gpu: None,
+            gpu_min_cells: 0,
             trig: cpu::TrigTables::default(),
         })
     }
@@ -164,7 +176,9 @@ impl MaskEngine {
 
     /// Returns the engine `choice` asks for (a GPU opened with `gpu`) and, when `auto` fell back
     /// to the CPU, a one-line notice saying so. `cpu` and `cpu-fast` are the same engine for masks (f64, every core);
-    /// `auto` takes a hardware GPU, and the CPU when `counts` are wanted (drawn there only).
+    /// `auto` takes a hardware GPU, and the CPU when `counts` are wanted (drawn there only); an
+    /// engine `auto` put on a GPU still draws pings of fewer than [`GPU_MIN_CELLS`] cells on the
+    /// CPU, where they are done sooner.
     ///
     /// # Errors
     /// [`Error::NoAdapter`] or [`Error::Gpu`] when `gpu` was asked for and cannot be had; as
@@ -185,7 +199,10 @@ impl MaskEngine {
                 Ok((MaskEngine::on_gpu(source, target, *ctx)?, None))
             }
             Device::Gpu(ctx) => match MaskEngine::on_gpu(source.clone(), target.clone(), *ctx) {
-                Ok(engine) => Ok((engine, None)),
+                Ok(mut engine) => {
+                    engine.gpu_min_cells = GPU_MIN_CELLS;
+                    Ok((engine, None))
+                }
                 // A field of view the GPU engine does not take (180° or wider).
                 Err(e) => {
                     let notice = format!("note: {e}; drawing masks on the CPU");
@@ -243,35 +260,119 @@ impl MaskEngine {
     ) -> Result<MaskSet> {
         pose.validate()?;
         let noise = noise.map(|n| n.validated()).transpose()?;
-        if let Some(gpu) = &self.gpu {
-            if counts == Counts::Draw {
-                return Err(Error::invalid(
-                    "counts",
-                    "on the GPU",
-                    "per-pixel counts are drawn on the CPU only",
-                ));
-            }
-            let jobs = features
-                .iter()
-                .enumerate()
-                .map(|(k, m)| {
-                    let plan = plan::plan(&self.source, &self.view.layout, m, noise.as_ref())
-                        .map_err(|e| e.in_context(&format!("feature {}", k + 1)))?;
-                    Ok(self.gpu_job(*pose, plan))
-                })
-                .collect::<Result<Vec<_>>>()?;
-            let drawn = gpu.draw(&self.view.layout, &jobs)?;
-            return Ok(self.with_union(Mask::of_gpu(&self.view.layout, drawn, &jobs)));
+        if self.gpu.is_some() && counts == Counts::Draw {
+            return Err(Error::invalid(
+                "counts",
+                "on the GPU",
+                "per-pixel counts are drawn on the CPU only",
+            ));
         }
-        let masks = features
+        let plans = self.plans(features, noise.as_ref())?;
+        if let Some(gpu) = self.gpu_for(&plans) {
+            let jobs = Self::jobs(pose, plans);
+            let drawn = gpu.draw(&self.view.layout, &jobs, true)?;
+            let layout = &self.view.layout;
+            return Ok(MaskSet {
+                masks: Mask::of_gpu(layout, drawn.masks.unwrap_or_default(), &jobs),
+                union: layout.to_data_order(drawn.union),
+            });
+        }
+        let masks = plans
             .par_iter()
+            .map(|plan| self.draw_cpu(pose, plan, counts))
+            .collect();
+        Ok(self.with_union(masks))
+    }
+
+    /// Returns the masks of `features` under `pose`, widened for `noise`, reduced to what a
+    /// matcher looks at first: each mask's pixel count and bounding box, and their union. On a
+    /// GPU this is all that is read back (the union and 20 bytes a feature), reduced there
+    /// (`shaders/mask_reduce.wgsl`); the CPU engine reduces its masks the same way. The counts,
+    /// boxes and union are those of [`MaskEngine::masks`] on the same engine.
+    ///
+    /// # Errors
+    /// As [`MaskEngine::masks`].
+    pub fn summary(
+        &self,
+        pose: &RelativePose,
+        features: &[Measurement],
+        noise: Option<&Noise>,
+    ) -> Result<PingSummary> {
+        pose.validate()?;
+        let noise = noise.map(|n| n.validated()).transpose()?;
+        let plans = self.plans(features, noise.as_ref())?;
+        let layout = &self.view.layout;
+        let summary = |reduced: &Reduced, radius: f64, plan: &Plan| FeatureSummary {
+            occupied: reduced.pixels,
+            bounding_box: reduced
+                .bounds
+                .map(|(rows, beams)| BoundingBox::of_bins(layout, rows, beams)),
+            radius,
+            noise_radius: plan.noise_radius,
+            cells: plan.cells.count(),
+        };
+        if let Some(gpu) = self.gpu_for(&plans) {
+            let jobs = Self::jobs(pose, plans);
+            let drawn = gpu.draw(layout, &jobs, false)?;
+            let features = drawn
+                .reduced
+                .iter()
+                .zip(&jobs)
+                .map(|(r, job)| summary(r, job.plan.radius, &job.plan))
+                .collect();
+            return Ok(PingSummary {
+                features,
+                union: layout.to_data_order(drawn.union),
+            });
+        }
+        let drawn: Vec<(cpu::Drawn, Reduced)> = plans
+            .par_iter()
+            .map(|plan| {
+                let d = cpu::draw(&self.view, &self.trig, pose, plan, false);
+                let r = mask_reduce(&d.occupancy.words, layout.beams());
+                (d, r)
+            })
+            .collect();
+        let mut union = Occupancy::new(layout.range_bins, layout.beams());
+        for (d, _) in &drawn {
+            for (u, w) in union.words.iter_mut().zip(&d.occupancy.words) {
+                *u |= w;
+            }
+        }
+        let features = drawn
+            .iter()
+            .zip(&plans)
+            .map(|((d, r), plan)| summary(r, d.radius, plan))
+            .collect();
+        Ok(PingSummary {
+            features,
+            union: layout.to_data_order(union),
+        })
+    }
+
+    /// Returns the plans of `features` under `noise` (errors name the feature).
+    fn plans(&self, features: &[Measurement], noise: Option<&Noise>) -> Result<Vec<Plan>> {
+        features
+            .iter()
             .enumerate()
             .map(|(k, m)| {
-                self.mask(pose, m, noise.as_ref(), counts)
+                plan::plan(&self.source, &self.view.layout, m, noise)
                     .map_err(|e| e.in_context(&format!("feature {}", k + 1)))
             })
-            .collect::<Result<Vec<_>>>()?;
-        Ok(self.with_union(masks))
+            .collect()
+    }
+
+    /// Returns the GPU to draw `plans` on: none for a CPU engine, nor for a ping smaller than
+    /// the engine's `gpu_min_cells`.
+    fn gpu_for(&self, plans: &[Plan]) -> Option<&GpuMasks> {
+        let gpu = self.gpu.as_deref()?;
+        let cells: u64 = plans.iter().map(|p| p.cells.count()).sum();
+        (cells >= self.gpu_min_cells).then_some(gpu)
+    }
+
+    /// Returns the GPU's jobs of `plans` under `pose`.
+    fn jobs(pose: &RelativePose, plans: Vec<Plan>) -> Vec<Job> {
+        plans.into_iter().map(|plan| Job { pose: *pose, plan }).collect()
     }
 
     /// Returns the masks of many scenes at once, each feature with its own pose (for tests and
@@ -288,24 +389,23 @@ impl MaskEngine {
             let jobs = scenes
                 .iter()
                 .map(|(pose, m)| {
-                    Ok(self.gpu_job(*pose, plan::plan(&self.source, &self.view.layout, m, None)?))
+                    Ok(Job {
+                        pose: *pose,
+                        plan: plan::plan(&self.source, &self.view.layout, m, None)?,
+                    })
                 })
                 .collect::<Result<Vec<_>>>()?;
-            let drawn = gpu.draw(&self.view.layout, &jobs)?;
-            return Ok(Mask::of_gpu(&self.view.layout, drawn, &jobs));
+            let drawn = gpu.draw(&self.view.layout, &jobs, true)?;
+            return Ok(Mask::of_gpu(
+                &self.view.layout,
+                drawn.masks.unwrap_or_default(),
+                &jobs,
+            ));
         }
         scenes
             .par_iter()
             .map(|(pose, m)| self.mask(pose, m, None, Counts::Skip))
             .collect()
-    }
-
-    /// Returns the GPU's job for `plan` under `pose`: the blocks culled here, with the GPU's
-    /// rounding slack.
-    fn gpu_job(&self, pose: RelativePose, plan: Plan) -> Job {
-        let extra = plan.noise_radius + slack(plan.range, &pose, &self.view.layout);
-        let blocks = self.view.blocks(&pose, &plan.cells, plan.range, extra);
-        Job { pose, plan, blocks }
     }
 
     /// Returns `masks` with their union.
@@ -333,14 +433,20 @@ impl MaskEngine {
     ) -> Result<Mask> {
         pose.validate()?;
         let plan = plan::plan(&self.source, &self.view.layout, m, noise)?;
-        let drawn = cpu::draw(&self.view, &self.trig, pose, &plan, counts == Counts::Draw);
+        Ok(self.draw_cpu(pose, &plan, counts))
+    }
+
+    /// Returns the mask of `plan` under `pose` drawn on the CPU, in the order of the sonar's
+    /// data.
+    fn draw_cpu(&self, pose: &RelativePose, plan: &Plan, counts: Counts) -> Mask {
+        let drawn = cpu::draw(&self.view, &self.trig, pose, plan, counts == Counts::Draw);
         let layout = &self.view.layout;
-        Ok(Mask {
+        Mask {
             occupancy: layout.to_data_order(drawn.occupancy),
             counts: drawn.counts.map(|c| layout.counts_to_data_order(c)),
             radius: drawn.radius,
             noise_radius: plan.noise_radius,
             cells: plan.cells.count(),
-        })
+        }
     }
 }

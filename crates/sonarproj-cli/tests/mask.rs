@@ -177,6 +177,58 @@ fn the_stream_answers_every_line_and_names_bad_ones() {
     assert_eq!(lines[3]["line"], 4);
 }
 
+/// `--stream --no-runs` answers with the masks' summaries (reduced by `MaskEngine::summary`):
+/// the same counts, boxes and union as the full answer, without the per-feature runs.
+#[test]
+fn the_stream_without_runs_says_the_same_of_each_feature() {
+    let input = [
+        r#"{"pose": {"pitch": 5, "yaw": 10, "translation": [0.3, 0.2, -0.1]}, "features": [[4], [7.5], [35]]}"#,
+        r#"{"pose": {"pitch": 5, "yaw": 10, "translation": [0.3, 0.2, -0.1]}, "features": [[4]], "sigma": {"rotation": 0.5, "range": 0.05, "coverage": 0.95}}"#,
+    ]
+    .join("\n");
+    let answers = |extra: &[&str]| -> Vec<Value> {
+        let assert = sonarproj()
+            .arg("mask")
+            .args(PAIR)
+            .args(CPU)
+            .arg("--stream")
+            .args(extra)
+            .write_stdin(input.clone())
+            .assert()
+            .success();
+        let out = String::from_utf8(assert.get_output().stdout.clone()).unwrap();
+        out.lines().map(|l| serde_json::from_str(l).unwrap()).collect()
+    };
+    let (full, reduced) = (answers(&[]), answers(&["--no-runs"]));
+    assert_eq!(full.len(), 2);
+    for (f, r) in full.iter().zip(&reduced) {
+        assert_eq!(f["union_runs"], r["union_runs"]);
+        assert_eq!(f["union_occupied"], r["union_occupied"]);
+        for (ff, rf) in f["features"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(r["features"].as_array().unwrap())
+        {
+            for key in [
+                "occupied",
+                "bounding_box",
+                "radius",
+                "noise_radius",
+                "cells",
+                "range",
+            ] {
+                assert_eq!(ff[key], rf[key], "{key}");
+            }
+            assert!(ff.get("runs").is_some() && rf.get("runs").is_none());
+        }
+    }
+    // The third feature (35 m) is beyond the imaging sonar: an empty mask, no box.
+    assert_eq!(reduced[0]["features"][2]["occupied"], 0);
+    assert!(reduced[0]["features"][2]["bounding_box"].is_null());
+    assert!(reduced[0]["features"][0]["occupied"].as_u64().unwrap() > 100);
+}
+
 #[test]
 fn bad_mask_input_names_the_option() {
     for (args, needle) in [

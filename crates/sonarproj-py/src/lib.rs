@@ -37,6 +37,7 @@ fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<pose::PyMount>()?;
     m.add_class::<masks::PyMaskEngine>()?;
     m.add_class::<masks::PyMaskSet>()?;
+    m.add_class::<masks::PyMaskSummary>()?;
     m.add_class::<oculus::PyOculusPing>()?;
     m.add_function(wrap_pyfunction!(oculus::read_oculus, m)?)?;
     m.add_function(wrap_pyfunction!(sonar::presets, m)?)?;

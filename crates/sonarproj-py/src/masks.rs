@@ -116,6 +116,52 @@ impl PyMaskSet {
     }
 }
 
+/// A ping's masks reduced: what `MaskEngine.summary` returns (on a GPU, all that is read back).
+#[pyclass(name = "MaskSummary", module = "sonarproj", frozen, get_all)]
+pub(crate) struct PyMaskSummary {
+    /// uint64 `(features,)`: the bins or pixels of each feature's mask.
+    occupied: Py<PyArrayDyn<u64>>,
+    /// Per feature: a dict of range_min, range_max (m), azimuth_min, azimuth_max (deg), or
+    /// None for an empty mask.
+    boxes: Vec<Option<Py<PyDict>>>,
+    /// uint8 0/1: every bin or pixel any feature may occupy.
+    union: Py<PyArrayDyn<u8>>,
+    /// Per feature, the ball radius (m) drawn around each cell.
+    radius: Vec<f64>,
+    /// Per feature, the noise radius (m): 0 without sigmas.
+    noise_radius: Vec<f64>,
+    /// Per feature, the cells its set was cut into.
+    cells: Vec<u64>,
+    /// Where the masks were drawn.
+    device: String,
+}
+
+#[pymethods]
+impl PyMaskSummary {
+    /// Returns what the summary holds: its features, how many sonar 2 sees, the union's size and
+    /// the device.
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let union = self.union.bind(py).call_method0("sum")?.extract::<u64>()?;
+        let seen = self.boxes.iter().filter(|b| b.is_some()).count();
+        Ok(format!(
+            "<MaskSummary: {} feature{} ({seen} seen by sonar 2), {union} bins or pixels in the union, drawn on {}>",
+            self.radius.len(),
+            if self.radius.len() == 1 { "" } else { "s" },
+            self.device
+        ))
+    }
+}
+
+/// Returns `b` as a dict of range_min, range_max (m), azimuth_min, azimuth_max (deg).
+fn box_dict(py: Python<'_>, b: &sonarproj::masks::BoundingBox) -> PyResult<Py<PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("range_min", b.range_min)?;
+    d.set_item("range_max", b.range_max)?;
+    d.set_item("azimuth_min", b.azimuth_min)?;
+    d.set_item("azimuth_max", b.azimuth_max)?;
+    Ok(d.unbind())
+}
+
 /// What one chunk of features gave, made without the GIL.
 struct Part {
     /// Dense bytes of its masks (empty for runs).
@@ -314,18 +360,8 @@ impl PyMaskEngine {
         let (union_rows, union_beams, words) = union.expect("at least one chunk");
         let union = Occupancy::from_words(union_rows, union_beams, words);
         let boxes = boxes
-            .into_iter()
-            .map(|b| {
-                b.map(|b| -> PyResult<Py<PyDict>> {
-                    let d = PyDict::new(py);
-                    d.set_item("range_min", b.range_min)?;
-                    d.set_item("range_max", b.range_max)?;
-                    d.set_item("azimuth_min", b.azimuth_min)?;
-                    d.set_item("azimuth_max", b.azimuth_max)?;
-                    Ok(d.unbind())
-                })
-                .transpose()
-            })
+            .iter()
+            .map(|b| b.as_ref().map(|b| box_dict(py, b)).transpose())
             .collect::<PyResult<Vec<_>>>()?;
         let counts = counts.then(|| shaped(kind, n, rows, beams, all_counts).into_pyarray(py).unbind());
         let (masks, runs) = if dense {
@@ -438,6 +474,48 @@ impl PyMaskEngine {
         let noise = noise(sigma, coverage)?;
         let features = self.features(&ranges, azimuths.as_deref())?;
         self.draw(py, pose, &features, noise.as_ref(), counts, dense)
+    }
+
+    /// Returns the summary of one ping's masks (each mask's pixel count and box, and their
+    /// union), features and noise as in `masks`.
+    #[pyo3(signature = (pose, ranges, azimuths, sigma, coverage))]
+    fn summary(
+        &self,
+        py: Python<'_>,
+        pose: &PyPose,
+        ranges: Vec<f64>,
+        azimuths: Option<Vec<f64>>,
+        sigma: Option<[f64; 8]>,
+        coverage: f64,
+    ) -> PyResult<PyMaskSummary> {
+        if self.engine.draws_on_gpu() && !crate::runtime::same_process(self.owner) {
+            return Err(PyRuntimeError::new_err(
+                "this MaskEngine's GPU device was opened by the parent of this forked process and \
+                 cannot be used here: make a new MaskEngine in this process",
+            ));
+        }
+        let noise = noise(sigma, coverage)?;
+        let features = self.features(&ranges, azimuths.as_deref())?;
+        let summary =
+            crate::runtime::detach(py, || self.engine.summary(&pose.inner, &features, noise.as_ref()))
+                .map_err(errors::engine)?;
+        let kind = self.engine.target().kind;
+        let f = &summary.features;
+        Ok(PyMaskSummary {
+            occupied: ArrayD::from_shape_vec(IxDyn(&[f.len()]), f.iter().map(|s| s.occupied).collect())
+                .expect("one count per feature")
+                .into_pyarray(py)
+                .unbind(),
+            boxes: f
+                .iter()
+                .map(|s| s.bounding_box.as_ref().map(|b| box_dict(py, b)).transpose())
+                .collect::<PyResult<Vec<_>>>()?,
+            union: layer(kind, &summary.union).into_pyarray(py).unbind(),
+            radius: f.iter().map(|s| s.radius).collect(),
+            noise_radius: f.iter().map(|s| s.noise_radius).collect(),
+            cells: f.iter().map(|s| s.cells).collect(),
+            device: self.engine.device(),
+        })
     }
 
     /// Returns the masks of many pings, one pose and one set of features each, stopping on

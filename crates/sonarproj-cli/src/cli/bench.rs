@@ -227,7 +227,8 @@ fn sweep_table(backends: &[Backend], poses: u64, runs: u32) -> Result<()> {
 }
 
 /// Prints the median latency of one mask and of a 100-feature ping for each of
-/// [`bench::MASK_CASES`], on the GPU (when an adapter exists) and the CPU engine.
+/// [`bench::MASK_CASES`], on the GPU (when an adapter exists) and the CPU engine, as whole masks
+/// and as summaries (each mask's count and box, and the union).
 fn masks(runs: u32) -> Result<()> {
     let runs = runs.max(20);
     let options = super::gpu_env::gpu_options()?;
@@ -251,9 +252,10 @@ fn masks(runs: u32) -> Result<()> {
     outln!("median and 90th percentile of {runs} runs after one warm-up")?;
     outln!()?;
     outln!(
-        "{:44} {:6} {:>9} {:>12} {:>10} {:>10} {:>11} {:>9} {:>12}",
+        "{:44} {:6} {:8} {:>9} {:>12} {:>10} {:>10} {:>11} {:>9} {:>12}",
         "case",
         "engine",
+        "output",
         "features",
         "median (ms)",
         "p90 (ms)",
@@ -278,30 +280,44 @@ fn masks(runs: u32) -> Result<()> {
         for (name, engine) in &engines {
             for n in [1, 100] {
                 let (pose, features) = bench::mask_ping(&s1, &s2, n)?;
-                let set = engine.masks(&pose, &features, None, Counts::Skip)?;
-                let cells = set.masks.iter().map(|m| m.cells).sum::<u64>() / n as u64;
-                let seen = set.masks.iter().filter(|m| m.occupancy.count() > 0).count();
-                let pixels = set.masks.iter().map(|m| m.occupancy.count()).sum::<u64>() / n as u64;
-                let mut times = Vec::with_capacity(runs as usize);
-                for _ in 0..runs {
-                    let start = Instant::now();
-                    engine.masks(&pose, &features, None, Counts::Skip)?;
-                    times.push(start.elapsed().as_secs_f64());
+                let summary = engine.summary(&pose, &features, None)?;
+                let cells = summary.features.iter().map(|f| f.cells).sum::<u64>() / n as u64;
+                let seen = summary.features.iter().filter(|f| f.occupied > 0).count();
+                let pixels = summary.features.iter().map(|f| f.occupied).sum::<u64>() / n as u64;
+                // masks: every feature's bits; summary: each mask's pixel count and box, and
+                // the union (on a GPU, all that is read back).
+                for output in ["masks", "summary"] {
+                    let ping = || -> Result<()> {
+                        if output == "masks" {
+                            engine.masks(&pose, &features, None, Counts::Skip)?;
+                        } else {
+                            engine.summary(&pose, &features, None)?;
+                        }
+                        Ok(())
+                    };
+                    ping()?;
+                    let mut times = Vec::with_capacity(runs as usize);
+                    for _ in 0..runs {
+                        let start = Instant::now();
+                        ping()?;
+                        times.push(start.elapsed().as_secs_f64());
+                    }
+                    times.sort_by(f64::total_cmp);
+                    let median = times[times.len() / 2];
+                    outln!(
+                        "{:44} {:6} {:8} {:>9} {:>12.3} {:>10.3} {:>10.1} {:>11} {:>9} {:>12}",
+                        format!("{from} -> {to}"),
+                        name,
+                        output,
+                        n,
+                        median * 1e3,
+                        times[times.len() * 9 / 10] * 1e3,
+                        1.0 / median,
+                        cells,
+                        format!("{seen}/{n}"),
+                        pixels
+                    )?;
                 }
-                times.sort_by(f64::total_cmp);
-                let median = times[times.len() / 2];
-                outln!(
-                    "{:44} {:6} {:>9} {:>12.3} {:>10.3} {:>10.1} {:>11} {:>9} {:>12}",
-                    format!("{from} -> {to}"),
-                    name,
-                    n,
-                    median * 1e3,
-                    times[times.len() * 9 / 10] * 1e3,
-                    1.0 / median,
-                    cells,
-                    format!("{seen}/{n}"),
-                    pixels
-                )?;
             }
         }
     }

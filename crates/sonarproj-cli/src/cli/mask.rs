@@ -6,8 +6,10 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use serde_json::{Value, json};
-use sonarproj::masks::{Counts, MaskEngine, MaskSet, Noise, bounding_box, run_lengths};
-use sonarproj::{Measurement, SonarKind};
+use sonarproj::masks::{
+    Counts, FeatureSummary, MaskEngine, MaskSet, Noise, PingSummary, bounding_box, run_lengths,
+};
+use sonarproj::{Measurement, RelativePose, SonarKind};
 use sonarproj_apps::io::text::{feature, one_or_three, parse_mask_line};
 use sonarproj_apps::io::{BoundedLine, MAX_LINE_BYTES, read_line_bounded};
 use sonarproj_apps::report::mask_image;
@@ -81,6 +83,10 @@ pub(super) struct MaskArgs {
     /// JSON line per input: per-feature run-length masks, counts and timing.
     #[arg(long, conflicts_with_all = ["feature", "out", "npy", "json"])]
     stream: bool,
+    /// With --stream: leave out each feature's run-length mask (its count and bounding box, and
+    /// the union's runs, stay); on a GPU only the union and 20 bytes a feature are read back.
+    #[arg(long, requires = "stream")]
+    no_runs: bool,
 }
 
 /// Returns the per-feature JSON of `set`: occupied count and bounding box, with the run-length
@@ -104,6 +110,26 @@ fn features_json(engine: &MaskEngine, features: &[Measurement], set: &MaskSet, r
                 v["runs"] = json!(run_lengths(&m.occupancy));
             }
             v
+        })
+        .collect()
+}
+
+/// Returns the per-feature JSON of `summary`, as [`features_json`] writes it without runs.
+fn summary_json(engine: &MaskEngine, features: &[Measurement], summary: &PingSummary) -> Vec<Value> {
+    let fls = engine.source().kind == SonarKind::Fls;
+    features
+        .iter()
+        .zip(&summary.features)
+        .map(|(f, s): (_, &FeatureSummary)| {
+            json!({
+                "range": f.range,
+                "azimuth": fls.then_some(f.azimuth),
+                "occupied": s.occupied,
+                "bounding_box": s.bounding_box,
+                "radius": s.radius,
+                "noise_radius": s.noise_radius,
+                "cells": s.cells,
+            })
         })
         .collect()
 }
@@ -140,7 +166,7 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
         eprintln!("{n}");
     }
     if a.stream {
-        return stream(&engine);
+        return stream(&engine, !a.no_runs);
     }
     let features = a
         .feature
@@ -163,6 +189,20 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
         }
     }
     let start = Instant::now();
+    if a.out.is_none() && a.npy.is_none() {
+        // JSON only: the masks' summary is all it prints (on a GPU, all that is read back).
+        let summary = engine.summary(&pose, &features, noise.as_ref())?;
+        let elapsed = start.elapsed().as_secs_f64() * 1e3;
+        let per_feature = summary_json(&engine, &features, &summary);
+        return print_json(
+            &engine,
+            &pose,
+            noise.as_ref(),
+            per_feature,
+            summary.union.count(),
+            elapsed,
+        );
+    }
     let set = engine.masks(&pose, &features, noise.as_ref(), counts)?;
     let elapsed = start.elapsed().as_secs_f64() * 1e3;
     if let Some(path) = &a.out {
@@ -189,31 +229,53 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
     if let Some(path) = &a.npy {
         mask_image::write_npy(path, engine.layout(), &set.masks, a.counts)?;
     }
-    if a.json || (a.out.is_none() && a.npy.is_none()) {
-        let out = json!({
-            "from": engine.source().name,
-            "to": engine.target().name,
-            "pose": {
-                "rotation": pose.rotation.transpose().to_cols_array_2d(),
-                "translation": pose.translation.to_array(),
-            },
-            "noise": noise,
-            "device": engine.device(),
-            "features": features_json(&engine, &features, &set, false),
-            "union_occupied": set.union.count(),
-            "elapsed_ms": elapsed,
-        });
-        outln!(
-            "{}",
-            serde_json::to_string_pretty(&out).expect("plain JSON values")
+    if a.json {
+        let per_feature = features_json(&engine, &features, &set, false);
+        print_json(
+            &engine,
+            &pose,
+            noise.as_ref(),
+            per_feature,
+            set.union.count(),
+            elapsed,
         )?;
     }
     Ok(())
 }
 
+/// Prints the JSON of one `sonarproj mask` run: the sonars, pose, noise and device, the
+/// per-feature entries and the union's size.
+fn print_json(
+    engine: &MaskEngine,
+    pose: &RelativePose,
+    noise: Option<&Noise>,
+    features: Vec<Value>,
+    union_occupied: u64,
+    elapsed: f64,
+) -> Result<()> {
+    let out = json!({
+        "from": engine.source().name,
+        "to": engine.target().name,
+        "pose": {
+            "rotation": pose.rotation.transpose().to_cols_array_2d(),
+            "translation": pose.translation.to_array(),
+        },
+        "noise": noise,
+        "device": engine.device(),
+        "features": features,
+        "union_occupied": union_occupied,
+        "elapsed_ms": elapsed,
+    });
+    outln!(
+        "{}",
+        serde_json::to_string_pretty(&out).expect("plain JSON values")
+    )?;
+    Ok(())
+}
+
 /// Runs the stream mode: a JSON line out for every line in; a bad line gets `{"line", "error"}`
 /// and the stream goes on (exit status 2 at the end if any line was bad).
-fn stream(engine: &MaskEngine) -> Result<()> {
+fn stream(engine: &MaskEngine, runs: bool) -> Result<()> {
     let mut input = std::io::stdin().lock();
     let mut out = std::io::stdout().lock();
     let (mut bad, mut lines) = (0usize, 0usize);
@@ -248,14 +310,23 @@ fn stream(engine: &MaskEngine) -> Result<()> {
         {
             Ok((pose, features, noise)) => {
                 let start = Instant::now();
-                match engine.masks(&pose, &features, noise.as_ref(), Counts::Skip) {
-                    Ok(set) => {
+                let answer = if runs {
+                    engine
+                        .masks(&pose, &features, noise.as_ref(), Counts::Skip)
+                        .map(|set| (features_json(engine, &features, &set, true), set.union))
+                } else {
+                    engine
+                        .summary(&pose, &features, noise.as_ref())
+                        .map(|s| (summary_json(engine, &features, &s), s.union))
+                };
+                match answer {
+                    Ok((per_feature, union)) => {
                         let elapsed = start.elapsed().as_secs_f64() * 1e3;
                         json!({
                             "line": line,
-                            "features": features_json(engine, &features, &set, true),
-                            "union_occupied": set.union.count(),
-                            "union_runs": run_lengths(&set.union),
+                            "features": per_feature,
+                            "union_occupied": union.count(),
+                            "union_runs": run_lengths(&union),
                             "elapsed_ms": elapsed,
                         })
                     }
