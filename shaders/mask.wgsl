@@ -92,7 +92,12 @@ fn set_bits(base: u32, first: u32, last: u32) {
         if n < 32u {
             m = ((1u << n) - 1u) << b;
         }
-        atomicOr(&bits[base + k / 32u], m);
+        // Neighbouring cells mostly mark pixels already marked: a load is cheaper than the
+        // read-modify-write, which only runs when a bit is still missing.
+        let at = base + k / 32u;
+        if (atomicLoad(&bits[at]) & m) != m {
+            atomicOr(&bits[at], m);
+        }
         k += n;
     }
 }
