@@ -126,6 +126,9 @@ run() {
     # The grid decoded on the device against the per-item path, on 10 M poses (1.2 G samples):
     # the projection's samples/s, the host's cost a pose, the sweeps' multiples of it.
     step bench-sweep "$bin/sonarproj" bench sweep --backends gpu,cpu-fast --poses 10000000 --runs 3
+    # The same with 1 M poses a projection call instead of the sweep's chunk of 131 072: what the
+    # per-call cost is (device time against project time).
+    step bench-sweep-block "$bin/sonarproj" bench sweep --backends gpu,cpu-fast --poses 10000000 --runs 3 --block 1048576
     # The rig advisor's target (10 000 rotations x 1000 features x 121 samples) on both.
     for b in gpu cpu-fast; do
         rm -rf "$bundle/advise-$b"
@@ -133,7 +136,7 @@ run() {
     done
     grep -h "advise:" "$logs"/advise-*.log >>"$logs/summary.txt" || true
     grep -h "sweep:" "$logs"/sweep-*.log >>"$logs/summary.txt" || true
-    grep -hE "^(gpu|cpu-fast) " "$logs"/bench-sweep.log >>"$logs/summary.txt" || true
+    grep -hE "^(gpu|cpu-fast) " "$logs"/bench-sweep*.log >>"$logs/summary.txt" || true
     grep -h "paper:" "$logs"/paper-*.log >>"$logs/summary.txt" || true
     # With the file names: which variant each row is.
     grep -- "->" "$logs"/bench-projection*.log >>"$logs/summary.txt" || true

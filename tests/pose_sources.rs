@@ -272,6 +272,56 @@ fn a_chunk_of_more_poses_than_one_dispatch_dimension_holds() {
     assert!(seen > 10_000, "{seen} poses saw anything");
 }
 
+/// The device's own clock times the compute passes (what `bench sweep` reports as device time):
+/// nothing is counted before timing starts, a projection then counts a positive time no longer
+/// than the call took on the host's clock, and stopping keeps the sum (lavapipe has timestamp
+/// queries; an adapter without them reports none).
+#[test]
+fn device_time_is_counted_only_while_asked_and_within_the_call() {
+    let Some(gpu) = common::gpu() else {
+        return;
+    };
+    let gpu = Backend::Gpu(Box::new(gpu));
+    let Backend::Gpu(g) = &gpu else {
+        unreachable!("made above")
+    };
+    let (source, target) = (common::preset("paper-fls"), common::preset("paper-sss"));
+    let grid = grid(&source, &target, true);
+    let s = sweep(&source, &target, Sampling::Step(0.5), PoseSource::Grid(&grid));
+    let mut out = MetricColumns::default();
+    g.time_device(false);
+    gpu.project_columns(&s, 0..grid.len(), &mut out, &|| false)
+        .unwrap();
+    let Some(before) = g.device_time() else {
+        assert!(
+            !g.context()
+                .device
+                .features()
+                .contains(wgpu::Features::TIMESTAMP_QUERY)
+        );
+        return;
+    };
+    g.time_device(true);
+    assert_eq!(
+        g.device_time(),
+        Some(std::time::Duration::ZERO),
+        "{before:?} kept"
+    );
+    let start = std::time::Instant::now();
+    gpu.project_columns(&s, 0..grid.len(), &mut out, &|| false)
+        .unwrap();
+    let wall = start.elapsed();
+    let device = g.device_time().unwrap();
+    g.time_device(false);
+    assert!(
+        device > std::time::Duration::ZERO && device <= wall,
+        "device {device:?}, call {wall:?}"
+    );
+    gpu.project_columns(&s, 0..grid.len(), &mut out, &|| false)
+        .unwrap();
+    assert_eq!(g.device_time(), Some(device), "counted while stopped");
+}
+
 /// Returns the GPU's device-decoded projections of `s`'s grid (with their occupancy) and the
 /// reference's (with it when `output` asks), after holding every GPU result to the envelope the
 /// reference computes for its pose (at the tolerance of the GPU's precision).

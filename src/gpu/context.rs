@@ -175,11 +175,13 @@ impl GpuContext {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("sonarproj"),
             required_limits: limits.clone(),
-            required_features: if f64_ok {
-                wgpu::Features::SHADER_F64
-            } else {
-                wgpu::Features::empty()
-            },
+            // Timestamp queries where the adapter has them: `bench` reports the device's time.
+            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY
+                | if f64_ok {
+                    wgpu::Features::SHADER_F64
+                } else {
+                    wgpu::Features::empty()
+                },
             ..Default::default()
         }))
         .map_err(|e| Error::gpu("cannot create a device", e))?;

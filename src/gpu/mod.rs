@@ -1,12 +1,14 @@
 //! The GPU plumbing shared by the projection and the mask pipelines: the device
 //! ([`GpuContext`], opened once per process for the [`GpuOptions`] the fronts give), compute stages and their binding tables (`pipeline`), the WGSL sources
-//! (`shaders`), buffers kept between calls (`pool`) and reading buffers back.
+//! (`shaders`), buffers kept between calls (`pool`), the device's own time of a pass (`timing`)
+//! and reading buffers back.
 
 pub mod context;
 pub mod options;
 pub(crate) mod pipeline;
 pub(crate) mod pool;
 pub(crate) mod shaders;
+pub(crate) mod timing;
 
 use std::sync::mpsc;
 

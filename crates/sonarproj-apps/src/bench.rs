@@ -183,17 +183,21 @@ pub struct SweepTiming {
     pub parquet: Duration,
     /// The whole sweep with summaries only (`[summary]` with `rows = false`).
     pub summaries: Duration,
+    /// Of `decoded`, the time the GPU's compute passes took on the device's own clock (one
+    /// more run, timed by timestamp queries); `None` on the CPU backends and on adapters
+    /// without timestamp queries.
+    pub device: Option<Duration>,
 }
 
 /// Returns the times of the benchmark sweep of about `poses` poses on `backend` ([`sweep_config`]):
-/// the median of `runs` runs of each measure after one warm-up, the sweeps written into a
-/// directory in the system's temporary directory (removed after each run).
+/// the median of `runs` runs of each measure after one warm-up, the projections made `block`
+/// poses a call (the sweep's own chunk is [`crate::io::parquet::GROUP_ROWS`]), the sweeps
+/// written into a directory in the system's temporary directory (removed after each run).
 ///
 /// # Errors
 /// As [`time`], [`sweep_config`] and [`crate::sweep::run()`]; [`Error::WriteOutput`] when no
 /// temporary directory can be made.
-pub fn time_sweep(backend: &Backend, poses: u64, runs: u32) -> Result<SweepTiming> {
-    use crate::io::parquet::GROUP_ROWS;
+pub fn time_sweep(backend: &Backend, poses: u64, block: u64, runs: u32) -> Result<SweepTiming> {
     use crate::sweep::{Format, Options, Poses, run};
     if !(1..=MAX_RUNS).contains(&runs) {
         return Err(Error::invalid(
@@ -216,7 +220,8 @@ pub fn time_sweep(backend: &Backend, poses: u64, runs: u32) -> Result<SweepTimin
         area_grid: rows.area_grid,
         poses: sonarproj::PoseSource::Grid(&grid),
     };
-    let blocks = || (0..n.div_ceil(GROUP_ROWS)).map(move |b| b * GROUP_ROWS..((b + 1) * GROUP_ROWS).min(n));
+    let block = block.max(1);
+    let blocks = || (0..n.div_ceil(block)).map(move |b| b * block..((b + 1) * block).min(n));
     let mut samples = 0;
     let mut columns = sonarproj::MetricColumns::default();
     let mut decoded = || -> Result<()> {
@@ -227,7 +232,19 @@ pub fn time_sweep(backend: &Backend, poses: u64, runs: u32) -> Result<SweepTimin
         }
         Ok(())
     };
-    let decoded = median(runs, &mut decoded)?;
+    let decoded_time = median(runs, &mut decoded)?;
+    let device = match backend {
+        Backend::Gpu(g) => {
+            g.time_device(true);
+            let run = decoded();
+            let device = g.device_time();
+            g.time_device(false);
+            run?;
+            device
+        }
+        _ => None,
+    };
+    let decoded = decoded_time;
     let per_item = median(runs, &mut || {
         for r in blocks() {
             let (pose_rows, _) = rows.items_numeric(r)?;
@@ -261,6 +278,7 @@ pub fn time_sweep(backend: &Backend, poses: u64, runs: u32) -> Result<SweepTimin
         per_item,
         parquet,
         summaries,
+        device,
     })
 }
 

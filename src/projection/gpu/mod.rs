@@ -7,29 +7,29 @@
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose and counts are bounded by the device limits checked before packing"
 )]
 
+mod tables;
 pub(crate) mod types;
 
 use std::collections::HashMap;
 
-use glam::DMat3;
 use rayon::prelude::*;
 
-use crate::clip::{F32_CENTRE_ERROR, F32_ROUND_UP, F32_UNIT_ERROR};
 use crate::error::{Error, Result};
 use crate::geometry::SonarKind;
 use crate::gpu::options::SPLAT_WORKGROUP;
 pub use crate::gpu::options::SPLAT_WORKGROUPS;
 use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::{BufferPool, SharedPool};
+use crate::gpu::timing::{DeviceClock, PassTimer};
 use crate::gpu::{GpuContext, read, shaders};
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::{Layout, Occupancy};
 use crate::projection::columns::MetricColumns;
-use crate::projection::culling;
-use crate::projection::poses::{PoseGrid, PreparedGrid};
+use crate::projection::poses::PreparedGrid;
 use crate::projection::{Output, PreparedBatch, Projection};
 use crate::sampling::SamplingPlan;
 use bytemuck::Zeroable;
+use tables::{direction_table, grid_table, pose_gpu};
 use types::*;
 
 /// Bindings of `shaders/splat.wgsl`: params, beam_edges, range_edges_sq, poses, directions,
@@ -134,6 +134,7 @@ pub struct GpuBackend {
     options: SplatOptions,
     max_chunk_poses: Option<usize>,
     pool: SharedPool,
+    clock: DeviceClock,
 }
 
 impl GpuBackend {
@@ -183,6 +184,7 @@ impl GpuBackend {
             options,
             max_chunk_poses: None,
             pool: SharedPool::default(),
+            clock: DeviceClock::default(),
         })
     }
 
@@ -190,6 +192,24 @@ impl GpuBackend {
     #[must_use]
     pub fn context(&self) -> &GpuContext {
         &self.ctx
+    }
+
+    /// Starts (clearing the sum) or stops timing this backend's compute passes on the device's
+    /// clock; without timestamp queries on the adapter nothing is timed.
+    pub fn time_device(&self, on: bool) {
+        self.clock.set(on);
+    }
+
+    /// Returns the device time of the compute passes (pose decoding, splat, reduce) since
+    /// [`GpuBackend::time_device`] started timing, or `None` when the adapter has no timestamp
+    /// queries.
+    #[must_use]
+    pub fn device_time(&self) -> Option<std::time::Duration> {
+        self.ctx
+            .device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| self.clock.total())
     }
 
     /// Returns the splat stage's variant.
@@ -389,6 +409,7 @@ impl GpuBackend {
 
         let mut directions: Option<Directions> = None;
         let dim = self.ctx.limits.max_compute_workgroups_per_dimension.max(1);
+        let timer = self.clock.on().then(|| PassTimer::new(&self.ctx)).flatten();
         for start in (0..total_poses).step_by(chunk) {
             let end = (start + chunk).min(total_poses);
             let n = end - start;
@@ -521,7 +542,10 @@ impl GpuBackend {
             enc.clear_buffer(&bits, 0, Some(used_bits));
             enc.clear_buffer(&metrics, 0, Some(used_metrics));
             {
-                let mut pass = enc.begin_compute_pass(&Default::default());
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: None,
+                    timestamp_writes: timer.as_ref().map(PassTimer::writes),
+                });
                 if let Some(group) = &decode {
                     pass.set_pipeline(&self.poses.pipeline);
                     pass.set_bind_group(0, group, &[]);
@@ -538,7 +562,13 @@ impl GpuBackend {
             if let Some(staging) = &bits_staging {
                 enc.copy_buffer_to_buffer(&bits, 0, staging, 0, used_bits);
             }
+            if let Some(t) = &timer {
+                t.resolve(&mut enc);
+            }
             queue.submit([enc.finish()]);
+            if let Some(t) = &timer {
+                self.clock.add(t.elapsed(&self.ctx)?);
+            }
 
             let raw: Vec<u32> = read(&self.ctx, &metrics_staging, used_metrics)?;
             let raw_bits: Option<Vec<u32>> = match &bits_staging {
@@ -695,27 +725,6 @@ impl Source<'_> {
     }
 }
 
-/// Returns a grid's table for the poses stage — per axis value, three double-f32 entries built
-/// in f64: the value, and the cosine and sine of the value in degrees (angles' axes; the
-/// placement's and translation's lengths use the value alone) — and where each axis's entries
-/// start.
-fn grid_table(grid: &PoseGrid) -> (Vec<[f32; 2]>, [u32; 9]) {
-    let pair = |v: f64| {
-        let (hi, lo) = split(v);
-        [hi, lo]
-    };
-    let mut table = Vec::new();
-    let mut offsets = [0; 9];
-    for (k, axis) in grid.axes().iter().enumerate() {
-        offsets[k] = table.len() as u32;
-        for &v in axis {
-            let r = v.to_radians();
-            table.extend([pair(v), pair(r.cos()), pair(r.sin())]);
-        }
-    }
-    (table, offsets)
-}
-
 /// The direction table uploaded for a chunk: which plans it holds, the buffer, and per plan the
 /// offsets of its azimuth and elevation entries.
 struct Directions {
@@ -724,66 +733,4 @@ struct Directions {
     offsets: HashMap<usize, [u32; 2]>,
     /// A grid's plan of each range value (its entries' offsets in this table).
     range_plans: Option<wgpu::Buffer>,
-}
-
-/// Returns the direction table of the plans in `used` — azimuths then elevations of each, each
-/// entry `(cos hi, sin hi, cos lo, sin lo)` in double-f32, then the plan's culling balls
-/// (`culling::block_bounds`: centre xyz, radius w, in f32 with the radius rounded up past the
-/// centre's rounding) right after its elevations, then its blocks' reaches from their chords
-/// (`culling::block_bounds`, four an entry, rounded up past the shader's roundings of the chord's
-/// ends) — and per plan the offsets of its azimuth and elevation entries.
-fn direction_table(plans: &[SamplingPlan], used: &[usize]) -> (Vec<[f32; 4]>, HashMap<usize, [u32; 2]>) {
-    let entry = |angle: &f64| {
-        let (c, s) = (split(angle.cos()), split(angle.sin()));
-        [c.0, s.0, c.1, s.1]
-    };
-    let mut table = Vec::new();
-    let mut offsets = HashMap::new();
-    for &p in used {
-        let plan = &plans[p];
-        let az_off = table.len() as u32;
-        table.extend(plan.azimuths.iter().map(entry));
-        let el_off = table.len() as u32;
-        table.extend(plan.elevations.iter().map(entry));
-        // The shader finds block b of this plan at el_off + n_el + b. Rounding the centre to f32
-        // moves it by at most F32_CENTRE_ERROR; the radius grows by that and rounds up.
-        let (balls, reaches) = culling::block_bounds(&plan.azimuths, &plan.elevations);
-        table.extend(balls.into_iter().map(|(c, r)| {
-            [
-                c.x as f32,
-                c.y as f32,
-                c.z as f32,
-                ((r + F32_CENTRE_ERROR) * (1.0 + F32_ROUND_UP)) as f32,
-            ]
-        }));
-        // Then the blocks' reaches, four an entry: block b's at el_off + n_el + blocks + b / 4,
-        // component b % 4. The shader computes the chord's ends in f32 from the hi parts, within
-        // F32_UNIT_ERROR of the units; the reach grows by that and rounds up.
-        table.extend(reaches.chunks(4).map(|r| {
-            std::array::from_fn(|k| {
-                r.get(k)
-                    .map_or(0.0, |r| ((r + F32_UNIT_ERROR) * (1.0 + F32_ROUND_UP)) as f32)
-            })
-        }));
-        offsets.insert(p, [az_off, el_off]);
-    }
-    (table, offsets)
-}
-
-/// Returns the GPU pose: rows of `range · R · Rz(base_azimuth)` (computed in f64) with the
-/// translation in `w`, split into f32 hi + lo pairs, and the plan.
-fn pose_gpu(r: &DMat3, t: [f64; 3], range: f64, base_azimuth: f64, plan: [u32; 4]) -> PoseGpu {
-    let m = *r * DMat3::from_rotation_z(base_azimuth) * range;
-    let mut pose = PoseGpu {
-        hi: [[0.0; 4]; 3],
-        lo: [[0.0; 4]; 3],
-        plan,
-    };
-    for (i, ti) in t.into_iter().enumerate() {
-        let v = m.row(i);
-        for (j, x) in [v.x, v.y, v.z, ti].into_iter().enumerate() {
-            (pose.hi[i][j], pose.lo[i][j]) = split(x);
-        }
-    }
-    pose
 }

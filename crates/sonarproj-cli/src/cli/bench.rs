@@ -73,6 +73,10 @@ pub(super) struct BenchArgs {
     /// takes minutes.
     #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     poses: u64,
+    /// Poses per projection call in the sweep's "project" and "per item" measures (sweep only;
+    /// default 131072, the sweep's chunk and Parquet row group).
+    #[arg(long, default_value_t = 131_072, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
+    block: u64,
 }
 
 /// Runs `sonarproj bench`.
@@ -113,7 +117,7 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
     }
     outln!()?;
     if sweep {
-        return sweep_table(&backends, a.poses, a.runs);
+        return sweep_table(&backends, a.poses, a.block, a.runs);
     }
     outln!(
         "{:28} {:8} {:>8} {:>12} {:>14} {:>14} {:>12}",
@@ -180,13 +184,14 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
 /// Prints the times of the benchmark sweep on each of `backends`: the projection with the grid
 /// decoded where the work runs, the per-item path's, and the two sweeps, each also as a
 /// multiple of the projection.
-fn sweep_table(backends: &[Backend], poses: u64, runs: u32) -> Result<()> {
+fn sweep_table(backends: &[Backend], poses: u64, block: u64, runs: u32) -> Result<()> {
     outln!(
-        "{:9} {:>9} {:>10} {:>12} {:>13} {:>13} {:>12} {:>7} {:>12} {:>7}",
+        "{:9} {:>9} {:>10} {:>12} {:>11} {:>13} {:>13} {:>12} {:>7} {:>12} {:>7}",
         "backend",
         "poses",
         "samples/s",
         "project (s)",
+        "device (s)",
         "per item (s)",
         "host ns/pose",
         "parquet (s)",
@@ -195,7 +200,7 @@ fn sweep_table(backends: &[Backend], poses: u64, runs: u32) -> Result<()> {
         "ratio"
     )?;
     for b in backends {
-        let t = bench::time_sweep(b, poses, runs)?;
+        let t = bench::time_sweep(b, poses, block, runs)?;
         let secs = |d: std::time::Duration| d.as_secs_f64();
         let ratio = |d| format!("{:.2}x", secs(d) / secs(t.decoded));
         #[expect(clippy::cast_precision_loss, reason = "pose and sample counts below 2^53")]
@@ -204,11 +209,12 @@ fn sweep_table(backends: &[Backend], poses: u64, runs: u32) -> Result<()> {
             t.samples as f64 / secs(t.decoded),
         );
         outln!(
-            "{:9} {:>9} {:>10.3e} {:>12.3} {:>13.3} {:>13.0} {:>12.3} {:>7} {:>12.3} {:>7}",
+            "{:9} {:>9} {:>10.3e} {:>12.3} {:>11} {:>13.3} {:>13.0} {:>12.3} {:>7} {:>12.3} {:>7}",
             b.label(),
             t.poses,
             rate,
             secs(t.decoded),
+            t.device.map_or("-".to_string(), |d| format!("{:.3}", secs(d))),
             secs(t.per_item),
             per_pose,
             secs(t.parquet),
@@ -218,7 +224,8 @@ fn sweep_table(backends: &[Backend], poses: u64, runs: u32) -> Result<()> {
         )?;
     }
     outln!(
-        "\nproject: the grid decoded where the work runs, metric columns out; per item: the same \
+        "\nproject: the grid decoded where the work runs, metric columns out; device: of project, \
+         the GPU's compute passes on its own clock (timestamp queries; - where none); per item: the same \
          poses as batches of items built, packed and unpacked by the host (host ns/pose: the \
          difference a pose); parquet and summary: whole sweeps into a directory (ratio: their \
          multiple of project); medians of the runs after one warm-up"

@@ -1,0 +1,114 @@
+//! GPU time of compute passes, from the device's own clock (timestamp queries, where the adapter
+//! has them): what `bench sweep` reports as device time beside the host's.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Duration;
+
+use crate::error::Result;
+use crate::gpu::{GpuContext, read};
+
+/// Two timestamps around one compute pass: the query set, where they are resolved and where
+/// they are read back.
+pub(crate) struct PassTimer {
+    queries: wgpu::QuerySet,
+    resolved: wgpu::Buffer,
+    staging: wgpu::Buffer,
+}
+
+impl PassTimer {
+    /// Returns a timer on `ctx`, or `None` when its device has no timestamp queries.
+    pub(crate) fn new(ctx: &GpuContext) -> Option<PassTimer> {
+        if !ctx.device.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+            return None;
+        }
+        let buffer = |label, usage| {
+            ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: 16,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        Some(PassTimer {
+            queries: ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("pass timer"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            }),
+            resolved: buffer(
+                "pass timer resolved",
+                wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            ),
+            staging: buffer(
+                "pass timer staging",
+                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            ),
+        })
+    }
+
+    /// Returns the timestamp writes of a pass: one at its beginning, one at its end.
+    pub(crate) fn writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.queries,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: Some(1),
+        }
+    }
+
+    /// Records, after the pass, the copy of its timestamps to where [`PassTimer::elapsed`]
+    /// reads them.
+    pub(crate) fn resolve(&self, enc: &mut wgpu::CommandEncoder) {
+        enc.resolve_query_set(&self.queries, 0..2, &self.resolved, 0);
+        enc.copy_buffer_to_buffer(&self.resolved, 0, &self.staging, 0, 16);
+    }
+
+    /// Returns the time between the pass's two timestamps (after its submission).
+    ///
+    /// # Errors
+    /// [`crate::Error::Gpu`] when the readback fails.
+    pub(crate) fn elapsed(&self, ctx: &GpuContext) -> Result<Duration> {
+        let words = read(ctx, &self.staging, 16)?;
+        let (begin, end) = (
+            u64::from(words[0]) | (u64::from(words[1]) << 32),
+            u64::from(words[2]) | (u64::from(words[3]) << 32),
+        );
+        let ns = end.saturating_sub(begin) as f64 * f64::from(ctx.queue.get_timestamp_period());
+        Ok(Duration::from_secs_f64(ns / 1e9))
+    }
+}
+
+/// The device time a backend's passes took while timing was on, summed.
+#[derive(Debug, Default)]
+pub(crate) struct DeviceClock {
+    on: AtomicBool,
+    ns: AtomicU64,
+}
+
+impl DeviceClock {
+    /// Starts or stops timing; starting clears the sum.
+    pub(crate) fn set(&self, on: bool) {
+        if on {
+            self.ns.store(0, Ordering::Relaxed);
+        }
+        self.on.store(on, Ordering::Relaxed);
+    }
+
+    /// Returns whether passes are to be timed.
+    pub(crate) fn on(&self) -> bool {
+        self.on.load(Ordering::Relaxed)
+    }
+
+    /// Adds one pass's time.
+    #[expect(
+        clippy::cast_possible_truncation,
+        reason = "nanoseconds of a run fit in u64 (584 years)"
+    )]
+    pub(crate) fn add(&self, t: Duration) {
+        self.ns.fetch_add(t.as_nanos() as u64, Ordering::Relaxed);
+    }
+
+    /// Returns the time summed since timing started.
+    pub(crate) fn total(&self) -> Duration {
+        Duration::from_nanos(self.ns.load(Ordering::Relaxed))
+    }
+}

@@ -1,0 +1,99 @@
+//! The tables the GPU stages read, built on the host in f64: a grid's axes for the poses stage,
+//! the sampling plans' directions and culling balls for the splat stage, and a batch item's pose.
+
+use std::collections::HashMap;
+
+use glam::DMat3;
+
+use crate::clip::{F32_CENTRE_ERROR, F32_ROUND_UP, F32_UNIT_ERROR};
+use crate::projection::culling;
+use crate::projection::poses::PoseGrid;
+use crate::sampling::SamplingPlan;
+
+use super::types::{PoseGpu, split};
+
+/// Returns a grid's table for the poses stage — per axis value, three double-f32 entries built
+/// in f64: the value, and the cosine and sine of the value in degrees (angles' axes; the
+/// placement's and translation's lengths use the value alone) — and where each axis's entries
+/// start.
+pub(super) fn grid_table(grid: &PoseGrid) -> (Vec<[f32; 2]>, [u32; 9]) {
+    let pair = |v: f64| {
+        let (hi, lo) = split(v);
+        [hi, lo]
+    };
+    let mut table = Vec::new();
+    let mut offsets = [0; 9];
+    for (k, axis) in grid.axes().iter().enumerate() {
+        offsets[k] = table.len() as u32;
+        for &v in axis {
+            let r = v.to_radians();
+            table.extend([pair(v), pair(r.cos()), pair(r.sin())]);
+        }
+    }
+    (table, offsets)
+}
+
+/// Returns the direction table of the plans in `used` — azimuths then elevations of each, each
+/// entry `(cos hi, sin hi, cos lo, sin lo)` in double-f32, then the plan's culling balls
+/// (`culling::block_bounds`: centre xyz, radius w, in f32 with the radius rounded up past the
+/// centre's rounding) right after its elevations, then its blocks' reaches from their chords
+/// (`culling::block_bounds`, four an entry, rounded up past the shader's roundings of the chord's
+/// ends) — and per plan the offsets of its azimuth and elevation entries.
+pub(super) fn direction_table(
+    plans: &[SamplingPlan],
+    used: &[usize],
+) -> (Vec<[f32; 4]>, HashMap<usize, [u32; 2]>) {
+    let entry = |angle: &f64| {
+        let (c, s) = (split(angle.cos()), split(angle.sin()));
+        [c.0, s.0, c.1, s.1]
+    };
+    let mut table = Vec::new();
+    let mut offsets = HashMap::new();
+    for &p in used {
+        let plan = &plans[p];
+        let az_off = table.len() as u32;
+        table.extend(plan.azimuths.iter().map(entry));
+        let el_off = table.len() as u32;
+        table.extend(plan.elevations.iter().map(entry));
+        // The shader finds block b of this plan at el_off + n_el + b. Rounding the centre to f32
+        // moves it by at most F32_CENTRE_ERROR; the radius grows by that and rounds up.
+        let (balls, reaches) = culling::block_bounds(&plan.azimuths, &plan.elevations);
+        table.extend(balls.into_iter().map(|(c, r)| {
+            [
+                c.x as f32,
+                c.y as f32,
+                c.z as f32,
+                ((r + F32_CENTRE_ERROR) * (1.0 + F32_ROUND_UP)) as f32,
+            ]
+        }));
+        // Then the blocks' reaches, four an entry: block b's at el_off + n_el + blocks + b / 4,
+        // component b % 4. The shader computes the chord's ends in f32 from the hi parts, within
+        // F32_UNIT_ERROR of the units; the reach grows by that and rounds up.
+        table.extend(reaches.chunks(4).map(|r| {
+            std::array::from_fn(|k| {
+                r.get(k)
+                    .map_or(0.0, |r| ((r + F32_UNIT_ERROR) * (1.0 + F32_ROUND_UP)) as f32)
+            })
+        }));
+        offsets.insert(p, [az_off, el_off]);
+    }
+    (table, offsets)
+}
+
+/// Returns the GPU pose: rows of `range · R · Rz(base_azimuth)` (computed in f64) with the
+/// translation in `w`, split into f32 hi + lo pairs, and the plan.
+pub(super) fn pose_gpu(r: &DMat3, t: [f64; 3], range: f64, base_azimuth: f64, plan: [u32; 4]) -> PoseGpu {
+    let m = *r * DMat3::from_rotation_z(base_azimuth) * range;
+    let mut pose = PoseGpu {
+        hi: [[0.0; 4]; 3],
+        lo: [[0.0; 4]; 3],
+        plan,
+    };
+    for (i, ti) in t.into_iter().enumerate() {
+        let v = m.row(i);
+        for (j, x) in [v.x, v.y, v.z, ti].into_iter().enumerate() {
+            (pose.hi[i][j], pose.lo[i][j]) = split(x);
+        }
+    }
+    pose
+}
