@@ -19,6 +19,17 @@ pub use shaders::Precision;
 
 /// Returns the first `size` bytes of the mappable `buffer` as u32s, waiting for the GPU of `ctx`.
 pub(crate) fn read(ctx: &GpuContext, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u32>> {
+    read_with(ctx, buffer, size, <[u32]>::to_vec)
+}
+
+/// Returns what `f` makes of the first `size` bytes of the mappable `buffer` as u32s, read in
+/// place while the buffer is mapped (no copy), waiting for the GPU of `ctx`.
+pub(crate) fn read_with<T>(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    size: u64,
+    f: impl FnOnce(&[u32]) -> T,
+) -> Result<T> {
     let slice = buffer.slice(..size);
     let (tx, rx) = mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |r| {
@@ -33,12 +44,12 @@ pub(crate) fn read(ctx: &GpuContext, buffer: &wgpu::Buffer, size: u64) -> Result
     rx.recv()
         .map_err(|e| Error::gpu("readback never answered", e))?
         .map_err(|e| Error::gpu("cannot map the readback buffer", e))?;
-    let data = {
+    let out = {
         let view = slice
             .get_mapped_range()
             .map_err(|e| Error::gpu("cannot read the readback buffer", e))?;
-        bytemuck::cast_slice::<u8, u32>(&view).to_vec()
+        f(bytemuck::cast_slice::<u8, u32>(&view))
     };
     buffer.unmap();
-    Ok(data)
+    Ok(out)
 }

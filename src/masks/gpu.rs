@@ -24,7 +24,7 @@ use crate::error::{Error, Result};
 use crate::geometry::RelativePose;
 use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::BufferPool;
-use crate::gpu::{GpuContext, context, read, shaders};
+use crate::gpu::{GpuContext, context, read_with, shaders};
 use crate::occupancy::{Layout, Occupancy};
 
 use super::plan::{BLOCK, Plan};
@@ -550,30 +550,36 @@ impl GpuMasks {
             enc.copy_buffer_to_buffer(&bits, 0, &staging, union_bytes + summary_bytes, bits_bytes);
         }
         queue.submit([enc.finish()]);
-        let raw = read(&self.ctx, &staging, read_bytes).inspect_err(|_| {
+        let words = words as usize;
+        // Read where it was mapped: the union, the summaries and the masks go straight into
+        // their own vectors.
+        read_with(&self.ctx, &staging, read_bytes, |raw| {
+            for (u, w) in drawn.union.words.iter_mut().zip(&raw[..words]) {
+                *u |= w;
+            }
+            let summaries = &raw[words..words + SUMMARY_WORDS * jobs.len()];
+            drawn
+                .reduced
+                .extend(
+                    summaries.chunks(SUMMARY_WORDS).map(|s| Reduced {
+                        pixels: u64::from(s[0]),
+                        bounds: (s[0] > 0)
+                            .then(|| ((!s[1] as usize, s[2] as usize), (!s[3] as usize, s[4] as usize))),
+                    }),
+                );
+            if let Some(out) = &mut drawn.masks {
+                let bits = &raw[words + SUMMARY_WORDS * jobs.len()..];
+                out.extend(
+                    bits.chunks(words)
+                        .map(|w| Occupancy::from_words(layout.range_bins, layout.beams(), w.to_vec())),
+                );
+            }
+        })
+        .inspect_err(|_| {
             // A failed readback may leave the staging buffer mapped: start afresh.
             state.pool = BufferPool::default();
             state.groups = None;
         })?;
-        let words = words as usize;
-        for (u, w) in drawn.union.words.iter_mut().zip(&raw[..words]) {
-            *u |= w;
-        }
-        let summaries = &raw[words..words + SUMMARY_WORDS * jobs.len()];
-        drawn
-            .reduced
-            .extend(summaries.chunks(SUMMARY_WORDS).map(|s| Reduced {
-                pixels: u64::from(s[0]),
-                bounds:
-                    (s[0] > 0).then(|| ((!s[1] as usize, s[2] as usize), (!s[3] as usize, s[4] as usize))),
-            }));
-        if let Some(out) = &mut drawn.masks {
-            let bits = &raw[words + SUMMARY_WORDS * jobs.len()..];
-            out.extend(
-                bits.chunks(words)
-                    .map(|w| Occupancy::from_words(layout.range_bins, layout.beams(), w.to_vec())),
-            );
-        }
         Ok(())
     }
 }

@@ -21,7 +21,7 @@ pub use crate::gpu::options::SPLAT_WORKGROUPS;
 use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::{BufferPool, SharedPool};
 use crate::gpu::timing::{DeviceClock, PassTimer};
-use crate::gpu::{GpuContext, read, shaders};
+use crate::gpu::{GpuContext, read, read_with, shaders};
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::{Layout, Occupancy};
 use crate::projection::columns::MetricColumns;
@@ -570,22 +570,25 @@ impl GpuBackend {
                 self.clock.add(t.elapsed(&self.ctx)?);
             }
 
-            let raw: Vec<u32> = read(&self.ctx, &metrics_staging, used_metrics)?;
             let raw_bits: Option<Vec<u32>> = match &bits_staging {
                 Some(staging) => Some(read(&self.ctx, staging, used_bits)?),
                 None => None,
             };
-            emit(&Unpack {
-                source,
-                plans,
-                layout,
-                raw: &raw,
-                raw_bits: raw_bits.as_deref(),
-                words,
-                pixel_words,
-                start,
-                count: n,
-            });
+            // The metrics are unpacked where they were mapped (no copy of the chunk's 32 bytes a
+            // pose first).
+            read_with(&self.ctx, &metrics_staging, used_metrics, |raw| {
+                emit(&Unpack {
+                    source,
+                    plans,
+                    layout,
+                    raw,
+                    raw_bits: raw_bits.as_deref(),
+                    words,
+                    pixel_words,
+                    start,
+                    count: n,
+                });
+            })?;
         }
         Ok(())
     }
