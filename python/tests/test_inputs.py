@@ -270,8 +270,11 @@ def test_ctrl_c_stops_a_long_batch(tmp_path):
     """SIGINT during a long batch raises KeyboardInterrupt between chunks."""
     script = tmp_path / "long.py"
     script.write_text(textwrap.dedent("""
-        import sys
+        import signal, sys
         import numpy as np, sonarproj
+        # Python's own Ctrl-C handler, whatever this process inherited (a shell's background
+        # job starts with SIGINT ignored, and Python then installs none).
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         n = 2_000_000
         cols = {"range": np.full(n, 15.0), "azimuth": np.zeros(n), "elevation": np.zeros(n),
                 "roll": np.zeros(n), "pitch": np.zeros(n), "yaw": np.zeros(n),

@@ -60,6 +60,9 @@ def test_ctrl_c_stops_a_long_mask_call_between_chunks(tmp_path):
     script = textwrap.dedent("""
         import os, signal, threading, numpy as np, sonarproj
         engine = sonarproj.MaskEngine("holoocean-sidescan", "holoocean-imaging", backend="cpu-fast")
+        # Python's own Ctrl-C handler, whatever this process inherited (a shell's background
+        # job starts with SIGINT ignored, and Python then installs none).
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
         try:
             engine.masks(sonarproj.Pose(pitch=5), np.linspace(2, 30, 200_000), dense=False)
@@ -77,6 +80,9 @@ def test_recover_many_stops_on_ctrl_c():
         import os, signal, threading, numpy as np, sonarproj
         n = 20_000_000
         cols = {"first_range": np.full(n, 5.0), "first_azimuth": np.zeros(n), "second_range": np.full(n, 15.0)}
+        # Python's own Ctrl-C handler, whatever this process inherited (a shell's background
+        # job starts with SIGINT ignored, and Python then installs none).
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
         try:
             sonarproj.recover_many("paper-fls", "paper-sss", sonarproj.Pose(pitch=90, t=(15, 0, 0)), cols)
@@ -172,6 +178,9 @@ def test_ctrl_c_stops_a_sweep_between_chunks(tmp_path):
         "[rotation]\nroll = { start = 0, stop = 179.9, step = 0.1 }\npitch = { start = 0, stop = 10, step = 0.1 }\n")
     script = textwrap.dedent(f"""
         import os, signal, threading, sonarproj
+        # Python's own Ctrl-C handler, whatever this process inherited (a shell's background
+        # job starts with SIGINT ignored, and Python then installs none).
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
         try:
             sonarproj.sweep({str(config)!r}, {str(tmp_path / "out")!r}, backend="cpu-fast", chunk_poses=2000)
