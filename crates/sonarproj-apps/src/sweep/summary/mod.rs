@@ -200,26 +200,32 @@ impl SummarySpec {
     /// # Errors
     /// [`sonarproj::Error::InvalidValue`] for a value too large for the marginals' exact sums.
     pub fn summarise(&self, grid: Option<&Grid>, first: u64, values: &[Option<f64>]) -> Result<Summary> {
-        // Pieces on all cores, combined: the same summary (every reduction is exact and
-        // independent of order), in a fraction of the time.
+        // Pieces on all cores, each added to its thread's running summary, the few running
+        // summaries combined: the same summary (every reduction is exact and independent of
+        // order), in a fraction of the time and without a full-size summary a piece.
         const PIECE: usize = 1 << 14;
         if values.len() <= 2 * PIECE {
-            return self.summarise_piece(grid, first, values);
+            let mut s = self.empty(grid);
+            self.add(&mut s, grid, first, values)?;
+            return Ok(s);
         }
-        let pieces = values
+        values
             .par_chunks(PIECE)
             .enumerate()
-            .map(|(k, v)| self.summarise_piece(grid, first + (k * PIECE) as u64, v))
-            .collect::<Result<Vec<_>>>()?;
-        let mut pieces = pieces.into_iter();
-        let first = pieces.next().expect("more than one piece");
-        pieces.try_fold(first, |total, part| self.combine(&total, &part, "summary"))
+            .try_fold(
+                || self.empty(grid),
+                |mut s, (k, v)| {
+                    self.add(&mut s, grid, first + (k * PIECE) as u64, v)?;
+                    Ok(s)
+                },
+            )
+            .try_reduce(|| self.empty(grid), |a, b| self.combine(&a, &b, "summary"))
     }
 
-    /// [`SummarySpec::summarise`] on one thread.
-    fn summarise_piece(&self, grid: Option<&Grid>, first: u64, values: &[Option<f64>]) -> Result<Summary> {
-        let mut s = self.empty(grid);
-        s.poses = values.len() as u64;
+    /// Adds poses `first`, `first + 1`, … with metric `values` (none of them in `s` yet) to the
+    /// summary `s`, on one thread.
+    fn add(&self, s: &mut Summary, grid: Option<&Grid>, first: u64, values: &[Option<f64>]) -> Result<()> {
+        s.poses += values.len() as u64;
         let present = || {
             values.iter().enumerate().filter_map(|(k, v)| {
                 v.filter(|x| !x.is_nan()).map(|value| Ranked {
@@ -238,8 +244,11 @@ impl SummarySpec {
             }
         }
         if self.top > 0 {
-            let all: Vec<Ranked> = present().collect();
-            s.smallest = first_in_order(all.clone(), self.top, ascending);
+            let mut all: Vec<Ranked> = present().collect();
+            let mut smallest = std::mem::take(&mut s.smallest);
+            smallest.extend_from_slice(&all);
+            s.smallest = first_in_order(smallest, self.top, ascending);
+            all.append(&mut s.largest);
             s.largest = first_in_order(all, self.top, descending);
         }
         if let (Some(h), Some(spec)) = (&mut s.histogram, self.histogram) {
@@ -272,7 +281,7 @@ impl SummarySpec {
         if !s.marginals.is_empty() {
             let grid = grid.expect("marginals are checked to need a grid");
             for m in &mut s.marginals {
-                let mut sums = vec![0i128; m.count.len()];
+                let sums = &mut m.sum;
                 let axes: Vec<(u64, u64)> = m
                     .axes
                     .iter()
@@ -304,11 +313,10 @@ impl SummarySpec {
                     m.min[cell] = Some(m.min[cell].map_or(r.value, |x| x.min(r.value)));
                     m.max[cell] = Some(m.max[cell].map_or(r.value, |x| x.max(r.value)));
                 }
-                m.mean = sums.iter().zip(&m.count).map(|(&s, &n)| mean_of(s, n)).collect();
-                m.sum = sums;
+                m.mean = m.sum.iter().zip(&m.count).map(|(&s, &n)| mean_of(s, n)).collect();
             }
         }
-        Ok(s)
+        Ok(())
     }
 
     /// Returns `a` and `b` (summaries of this spec over disjoint poses) combined: the summary of

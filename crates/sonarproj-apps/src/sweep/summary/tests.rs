@@ -225,8 +225,9 @@ fn bad_specs_name_the_key() {
     assert!(list.contains("needs a grid"), "{list}");
 }
 
-/// A long chunk is summarised in pieces on all cores and combined: the same summary, to the
-/// byte, as one pass over it (ties across pieces go to the lower index as in one pass).
+/// A long chunk is summarised in pieces on all cores, each added to its thread's running summary,
+/// and those combined: the same summary, to the byte, as one pass over it (ties across pieces go
+/// to the lower index as in one pass); and so are pieces added one after another to one summary.
 #[test]
 fn pieces_on_all_cores_make_the_summary_of_one_pass() {
     let g = grid();
@@ -237,10 +238,20 @@ fn pieces_on_all_cores_make_the_summary_of_one_pass() {
     let v: Vec<Option<f64>> = (0..100_003)
         .map(|i| base[(i * 7 + i / 13) % base.len()])
         .collect();
-    let whole = spec.summarise_piece(Some(&g), 5, &v).unwrap();
+    let mut whole = spec.empty(Some(&g));
+    spec.add(&mut whole, Some(&g), 5, &v).unwrap();
     let pieces = spec.summarise(Some(&g), 5, &v).unwrap();
     assert_eq!(
         serde_json::to_string(&pieces).unwrap(),
+        serde_json::to_string(&whole).unwrap()
+    );
+    let mut running = spec.empty(Some(&g));
+    for (k, piece) in v.chunks(9_999).enumerate().rev() {
+        spec.add(&mut running, Some(&g), 5 + (k * 9_999) as u64, piece)
+            .unwrap();
+    }
+    assert_eq!(
+        serde_json::to_string(&running).unwrap(),
         serde_json::to_string(&whole).unwrap()
     );
 }
