@@ -29,7 +29,7 @@ use sonarproj::projection::Backend;
 
 use crate::error::{Error, Result};
 use crate::io::METRIC_COLUMNS;
-use crate::io::parquet::TableWriter;
+use crate::io::parquet::{Table, TableWriter};
 use crate::io::table::write_rows;
 use crate::report::{check_output_file, output_dir, remove_stale_temporaries};
 use crate::sweep::SweepConfig;
@@ -359,80 +359,115 @@ pub fn run(
     let mut metrics = sonarproj::MetricColumns::default();
     let mut done = 0;
     let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
-    for c in 0..n_chunks {
-        let r = &chunk(c);
-        let path = chunk_path(c);
-        let files = chunk_files(c);
-        let (damaged, status) = first_not_good(
-            &files.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
-            expected(r),
-        );
-        if status == parts::Status::Good {
-            outcome.resumed += r.end - r.start;
-        } else {
-            if budget == 0 {
-                return Ok(outcome);
+    // Writes chunk `c` (poses `r`): its Parquet table when there is one, and the summary of
+    // its `values` when one is asked for.
+    let write_chunk =
+        |c: u64, r: Range<u64>, table: Option<Table>, values: Option<Vec<Option<f64>>>| -> Result<()> {
+            if let Some(table) = table {
+                let path = chunk_path(c);
+                parts::write(&path, expected(&r), |w| {
+                    let mut t = TableWriter::new(
+                        w,
+                        &desc.columns,
+                        &kinds,
+                        r.start,
+                        final_encoding(&desc.columns),
+                        &path,
+                    )?;
+                    t.push(table)?;
+                    t.finish()
+                })?;
             }
-            budget -= 1;
-            if let parts::Status::Damaged(reason) = status
-                && events(Event::Recomputing {
-                    file: damaged.to_path_buf(),
-                    reason,
-                })
-                .is_break()
-            {
-                return Ok(outcome);
-            }
-            // The values the summary reduces, when one is asked for.
-            let values: Option<Vec<Option<f64>>> = match (rows, opts.format) {
-                (true, Format::Csv) => {
-                    let (poses, fields) = config.items(r.clone())?;
-                    let batch = chunk_batch(config, &poses);
-                    let results = backend.project(&batch, Output::MetricsOnly)?;
-                    let body = csv_rows(&batch, &poses, &fields, &results, sigma, &path)?;
-                    parts::write(&path, expected(r), |w| {
-                        write_rows(
-                            &mut *w,
-                            &header,
-                            &METRIC_COLUMNS,
-                            std::iter::empty::<(&[String], Vec<String>)>(),
-                        )?;
-                        w.write_all(&body).map_err(|e| Error::write_output(&path, e))
-                    })?;
-                    by.map(|by| results.iter().map(|p| p.metrics.get(by).as_f64()).collect())
-                }
-                (_, format) => {
-                    if let Some(table) = work.block(backend, r.clone(), rows, &mut metrics, &|| false)? {
-                        debug_assert_eq!(format, Format::Parquet);
-                        parts::write(&path, expected(r), |w| {
-                            let mut t = TableWriter::new(
-                                w,
-                                &desc.columns,
-                                &kinds,
-                                r.start,
-                                final_encoding(&desc.columns),
-                                &path,
-                            )?;
-                            t.push(table)?;
-                            t.finish()
-                        })?;
-                    }
-                    by.map(|by| values(&metrics, by))
-                }
-            };
             if let (Some(spec), Some(values)) = (spec, values) {
                 let part = spec.summarise(grid, r.start, &values)?.to_part();
                 let sum_path = chunk_summary(c);
-                parts::write(&sum_path, expected(r), |w| {
+                parts::write(&sum_path, expected(&r), |w| {
                     serde_json::to_writer(&mut *w, &part).map_err(|e| Error::write_output(&sum_path, e))
                 })?;
             }
-            outcome.computed += r.end - r.start;
+            Ok(())
+        };
+    // A chunk's files are written on a thread of their own while the next chunk is computed
+    // (its Parquet encoding and summary overlap the next projection); one chunk at most is being
+    // written, and it is finished, its error stopping the run, before the run stops or goes on
+    // to the next write.
+    let stopped = std::thread::scope(|scope| -> Result<bool> {
+        let mut writing: Option<std::thread::ScopedJoinHandle<'_, Result<()>>> = None;
+        let settle = |writing: &mut Option<std::thread::ScopedJoinHandle<'_, Result<()>>>| -> Result<()> {
+            writing.take().map_or(Ok(()), |h| {
+                h.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+            })
+        };
+        for c in 0..n_chunks {
+            let r = &chunk(c);
+            let path = chunk_path(c);
+            let files = chunk_files(c);
+            let (damaged, status) = first_not_good(
+                &files.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
+                expected(r),
+            );
+            if status == parts::Status::Good {
+                outcome.resumed += r.end - r.start;
+            } else {
+                if budget == 0 {
+                    settle(&mut writing)?;
+                    return Ok(true);
+                }
+                budget -= 1;
+                if let parts::Status::Damaged(reason) = status
+                    && events(Event::Recomputing {
+                        file: damaged.to_path_buf(),
+                        reason,
+                    })
+                    .is_break()
+                {
+                    settle(&mut writing)?;
+                    return Ok(true);
+                }
+                // The chunk's table (Parquet) and the values the summary reduces, when one is
+                // asked for; a CSV chunk is written here.
+                let (table, values): (Option<Table>, Option<Vec<Option<f64>>>) = match (rows, opts.format) {
+                    (true, Format::Csv) => {
+                        let (poses, fields) = config.items(r.clone())?;
+                        let batch = chunk_batch(config, &poses);
+                        let results = backend.project(&batch, Output::MetricsOnly)?;
+                        let body = csv_rows(&batch, &poses, &fields, &results, sigma, &path)?;
+                        parts::write(&path, expected(r), |w| {
+                            write_rows(
+                                &mut *w,
+                                &header,
+                                &METRIC_COLUMNS,
+                                std::iter::empty::<(&[String], Vec<String>)>(),
+                            )?;
+                            w.write_all(&body).map_err(|e| Error::write_output(&path, e))
+                        })?;
+                        (
+                            None,
+                            by.map(|by| results.iter().map(|p| p.metrics.get(by).as_f64()).collect()),
+                        )
+                    }
+                    (_, format) => {
+                        let table = work.block(backend, r.clone(), rows, &mut metrics, &|| false)?;
+                        debug_assert!(table.is_none() || format == Format::Parquet);
+                        (table, by.map(|by| values(&metrics, by)))
+                    }
+                };
+                settle(&mut writing)?;
+                let (write_chunk, poses) = (&write_chunk, r.clone());
+                writing = Some(scope.spawn(move || write_chunk(c, poses, table, values)));
+                outcome.computed += r.end - r.start;
+            }
+            done += r.end - r.start;
+            if events(Event::Progress { done, total: poses }).is_break() {
+                settle(&mut writing)?;
+                return Ok(true);
+            }
         }
-        done += r.end - r.start;
-        if events(Event::Progress { done, total: poses }).is_break() {
-            return Ok(outcome);
-        }
+        settle(&mut writing)?;
+        Ok(false)
+    })?;
+    if stopped {
+        return Ok(outcome);
     }
     // The settings first: a result never stands without them.
     write_json(&settings_path(&file), &manifest.settings)?;
