@@ -128,6 +128,19 @@ const MAX_TILES: u64 = 4096;
 /// The most direction-table entries kept between pings (8 MiB); past it the tables start afresh.
 const MAX_TABLE_ENTRIES: usize = 1 << 20;
 
+/// Returns the most workgroups a mask gets along x in the draw and the reduce stage: many on a
+/// hardware GPU (its cores run them at once); few on a software adapter such as lavapipe, which
+/// pays a fixed cost a workgroup on the CPU's cores — there the workgroups stride over the
+/// blocks and words instead (100-feature ping on lavapipe, 2 cores: 29–30 ms with 4096, 13.5–14
+/// ms with one draw workgroup and four reduce workgroups a mask; `bench masks`).
+fn tiles(ctx: &GpuContext) -> (u64, u64) {
+    if ctx.is_software() {
+        (1, 4)
+    } else {
+        (MAX_TILES, MAX_TILES)
+    }
+}
+
 /// One mask for the GPU to draw: the pose and the plan.
 pub(crate) struct Job {
     /// The pose.
@@ -289,6 +302,8 @@ pub(crate) struct GpuMasks {
     params_buffer: wgpu::Buffer,
     edges: wgpu::Buffer,
     state: Mutex<State>,
+    /// The most workgroups a mask of the draw and the reduce stage gets along x.
+    tiles: (u64, u64),
 }
 
 impl std::fmt::Debug for GpuMasks {
@@ -315,6 +330,7 @@ impl GpuMasks {
             ));
         }
         let device = &ctx.device;
+        let tiles = tiles(&ctx);
         let stage = Stage::new(device, "mask", &source(), &MASK_BINDINGS)?;
         let reduce = Stage::new(device, "mask reduce", &reduce_source(), &MASK_REDUCE_BINDINGS)?;
         let he = layout.half_elevation;
@@ -359,6 +375,7 @@ impl GpuMasks {
             params_buffer,
             edges,
             state: Mutex::new(State::default()),
+            tiles,
         })
     }
 
@@ -538,10 +555,10 @@ impl GpuMasks {
             let mut pass = enc.begin_compute_pass(&Default::default());
             pass.set_pipeline(&self.stage.pipeline);
             pass.set_bind_group(0, draw_group, &[]);
-            pass.dispatch_workgroups(max_blocks.min(MAX_TILES) as u32, n as u32, 1);
+            pass.dispatch_workgroups(max_blocks.min(self.tiles.0) as u32, n as u32, 1);
             pass.set_pipeline(&self.reduce.pipeline);
             pass.set_bind_group(0, reduce_group, &[]);
-            let tiles = words.div_ceil(MASK_REDUCE_WORKGROUP).clamp(1, MAX_TILES);
+            let tiles = words.div_ceil(MASK_REDUCE_WORKGROUP).clamp(1, self.tiles.1);
             pass.dispatch_workgroups(tiles as u32, n as u32, 1);
         }
         enc.copy_buffer_to_buffer(&union, 0, &staging, 0, union_bytes);
