@@ -486,4 +486,45 @@ mod gpu {
         // Both kinds of feature were met (the test covers empty masks and boxes).
         assert!(seen > 100 && empty > 10, "{seen} seen, {empty} empty");
     }
+
+    /// Pings drawn with two in flight (`summaries_of_pings`) give each ping's own summary: 70
+    /// pings (two groups of 64 and the rest), some empty, on the GPU and the CPU engine; a bad
+    /// feature is named with its ping.
+    #[test]
+    fn summaries_of_pings_are_each_pings_summary() {
+        let Some(ctx) = common::gpu_context() else {
+            return;
+        };
+        let (s1, s2) = (
+            Sonar::preset("holoocean-sidescan").unwrap(),
+            Sonar::preset("holoocean-imaging").unwrap(),
+        );
+        let mut rng = ChaCha8Rng::seed_from_u64(77);
+        let pings: Vec<(RelativePose, Vec<Measurement>)> = (0..70)
+            .map(|k| {
+                let scenes: Vec<Scene> = (0..k % 6).map(|_| scene(&mut rng, &s1, &s2)).collect();
+                let pose = scene(&mut rng, &s1, &s2).pose;
+                (pose, scenes.iter().map(|s| s.measurement).collect())
+            })
+            .collect();
+        let cpu = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
+        let gpu = MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx).unwrap();
+        for engine in [&cpu, &gpu] {
+            let all = engine.summaries_of_pings(&pings, None).unwrap();
+            assert_eq!(all.len(), pings.len());
+            for (k, (pose, features)) in pings.iter().enumerate() {
+                let one = engine.summary(pose, features, None).unwrap();
+                assert_eq!(all[k], one, "ping {k} on {}", engine.device());
+            }
+            assert!(all.iter().any(|s| s.features.is_empty()));
+            assert!(all.iter().any(|s| s.union.count() > 0));
+            let mut bad = pings[..5].to_vec();
+            bad[2].1.push(Measurement {
+                range: 1e6,
+                azimuth: 0.0,
+            });
+            let e = engine.summaries_of_pings(&bad, None).unwrap_err().to_string();
+            assert!(e.contains("ping 3") && e.contains("feature"), "{e}");
+        }
+    }
 }

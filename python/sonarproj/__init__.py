@@ -563,6 +563,33 @@ class MaskEngine:
         ranges, azimuths = _features("features", self.first, features)
         return self._engine.summary(p, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage))
 
+    def summaries_of_pings(
+        self,
+        poses: Sequence[Pose],
+        features: Sequence[Any],
+        *,
+        sigma: Optional[Mapping[str, float]] = None,
+        covariance: Any = None,
+        coverage: float = 0.99,
+    ) -> list[MaskSummary]:
+        """Returns :meth:`summary` of each ping, ``poses[k]`` with ``features[k]``; on a GPU two
+        pings are in flight (the next uploaded while the one before is drawn). Ctrl-C stops it
+        between groups of 64 pings."""
+        ps, ranges, azimuths = self._pings(poses, features)
+        return self._engine.summaries_of_pings(ps, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage))
+
+    def _pings(self, poses: Sequence[Pose], features: Sequence[Any]) -> tuple[list, list, Optional[list]]:
+        poses = list(poses)
+        features = list(features)
+        if len(poses) != len(features):
+            raise InputError(
+                f"features: {len(features)} pings of features for {len(poses)} poses; give one per pose"
+            )
+        ps = [_pose(f"poses[{k}]", p) for k, p in enumerate(poses)]
+        fs = [_features(f"features[{k}]", self.first, f) for k, f in enumerate(features)]
+        azimuths = None if self.first.kind == "sss" else [f[1] for f in fs]
+        return ps, [f[0] for f in fs], azimuths
+
     def masks_of_pings(
         self,
         poses: Sequence[Pose],
@@ -576,17 +603,9 @@ class MaskEngine:
     ) -> list[MaskSet]:
         """Returns the masks of a sequence of pings: ``poses[k]`` and ``features[k]`` (as in
         :meth:`masks`) per ping, one :class:`MaskSet` each. Ctrl-C stops it between pings."""
-        poses = list(poses)
-        features = list(features)
-        if len(poses) != len(features):
-            raise InputError(
-                f"features: {len(features)} pings of features for {len(poses)} poses; give one per pose"
-            )
-        ps = [_pose(f"poses[{k}]", p) for k, p in enumerate(poses)]
-        fs = [_features(f"features[{k}]", self.first, f) for k, f in enumerate(features)]
-        azimuths = None if self.first.kind == "sss" else [f[1] for f in fs]
+        ps, ranges, azimuths = self._pings(poses, features)
         return self._engine.masks_of_pings(
-            ps, [f[0] for f in fs], azimuths, _sigma(sigma, covariance), _coverage(coverage), _flag("counts", counts),
+            ps, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage), _flag("counts", counts),
             _flag("dense", dense),
         )
 

@@ -247,6 +247,14 @@ class _MaskEngine:
         sigma: Optional[list[float]],
         coverage: float,
     ) -> MaskSummary: ...
+    def summaries_of_pings(
+        self,
+        poses: list[Pose],
+        ranges: list[list[float]],
+        azimuths: Optional[list[list[float]]],
+        sigma: Optional[list[float]],
+        coverage: float,
+    ) -> list[MaskSummary]: ...
     def masks_of_pings(
         self,
         poses: list[Pose],

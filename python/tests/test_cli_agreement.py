@@ -190,6 +190,17 @@ def test_mask_summaries_are_the_masks_and_the_command_lines(cli):
     assert summary.radius == masks.radius and summary.noise_radius == masks.noise_radius
     assert summary.cells == [f["cells"] for f in report["features"]]
     assert "3 features (2 seen by sonar 2)" in repr(summary)
+    # Many pings at once (two in flight on a GPU): each ping's own summary, an empty one too.
+    poses = [pose, sonarproj.Pose(yaw=3), pose]
+    features = [[4, 7.5, 35], [], [6.0]]
+    many = engine.summaries_of_pings(poses, features, sigma=sigma)
+    for s, p, f in zip(many, poses, features):
+        one = engine.summary(p, f, sigma=sigma)
+        assert list(s.occupied) == list(one.occupied) and s.boxes == one.boxes
+        np.testing.assert_array_equal(s.union, one.union)
+    assert list(many[0].occupied) == list(summary.occupied) and len(many[1].occupied) == 0
+    with pytest.raises(sonarproj.InputError, match="2 pings of features for 3 poses"):
+        engine.summaries_of_pings(poses, features[:2])
 
 
 @pytest.mark.parametrize("first,second,feature,place,rpy,sigmas", [

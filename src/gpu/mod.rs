@@ -30,6 +30,18 @@ pub(crate) fn read_with<T>(
     size: u64,
     f: impl FnOnce(&[u32]) -> T,
 ) -> Result<T> {
+    read_after(ctx, buffer, size, None, f)
+}
+
+/// [`read_with`], waiting only for submission `index` (and those before it) when one is given,
+/// so that later submissions can go on running.
+pub(crate) fn read_after<T>(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    size: u64,
+    index: Option<wgpu::SubmissionIndex>,
+    f: impl FnOnce(&[u32]) -> T,
+) -> Result<T> {
     let slice = buffer.slice(..size);
     let (tx, rx) = mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |r| {
@@ -37,7 +49,7 @@ pub(crate) fn read_with<T>(
     });
     ctx.device
         .poll(wgpu::PollType::Wait {
-            submission_index: None,
+            submission_index: index,
             timeout: Some(context::WAIT_TIMEOUT),
         })
         .map_err(|e| Error::gpu("waiting for the GPU", e))?;

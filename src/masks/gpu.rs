@@ -24,7 +24,7 @@ use crate::error::{Error, Result};
 use crate::geometry::RelativePose;
 use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::BufferPool;
-use crate::gpu::{GpuContext, context, read_with, shaders};
+use crate::gpu::{GpuContext, context, read_after, shaders};
 use crate::occupancy::{Layout, Occupancy};
 
 use super::plan::{BLOCK, Plan};
@@ -283,14 +283,43 @@ impl Tables {
     }
 }
 
-/// What the engine keeps on the device between pings: the tables, the buffers and the bind
-/// groups made of them (made again only when a buffer is).
+/// What the engine keeps on the device between pings: the tables, and two slots of buffers and
+/// the bind groups made of them (made again only when a buffer is), so that two dispatches can
+/// be in flight ([`GpuMasks::draw_pings`]).
 #[derive(Default)]
 struct State {
     tables: Tables,
+    slots: [Slot; 2],
+}
+
+/// One dispatch's buffers and bind groups.
+#[derive(Default)]
+struct Slot {
     pool: BufferPool,
     /// The buffers the bind groups were made of, and the groups (draw, reduce).
     groups: Option<(Vec<wgpu::Buffer>, wgpu::BindGroup, wgpu::BindGroup)>,
+}
+
+/// A dispatch submitted and not yet read: its slot, its jobs' count, whether it copied the masks
+/// too, and what to read after which submission.
+struct Pending {
+    slot: usize,
+    jobs: usize,
+    masks: bool,
+    staging: wgpu::Buffer,
+    read_bytes: u64,
+    index: wgpu::SubmissionIndex,
+}
+
+impl Drawn {
+    /// Returns an empty result in `layout`, with room for masks when `masks`.
+    fn empty(layout: &Layout, masks: bool) -> Drawn {
+        Drawn {
+            union: Occupancy::new(layout.range_bins, layout.beams()),
+            reduced: Vec::new(),
+            masks: masks.then(Vec::new),
+        }
+    }
 }
 
 /// The mask pipelines on one GPU, for one sonar 2.
@@ -400,21 +429,63 @@ impl GpuMasks {
     /// [`Error::InvalidValue`] when one job's cell tables exceed what the device can bind;
     /// [`Error::Gpu`] on device failure.
     pub(crate) fn draw(&self, layout: &Layout, jobs: &[Job], masks: bool) -> Result<Drawn> {
-        let words = u64::from(self.params.words_per_mask);
-        let limit = self.binding_limit();
-        let tables_cap = MAX_TABLE_ENTRIES.max((limit / 8) as usize);
-        // Jobs per dispatch: the dispatch's y limit, the bitsets' binding, the tables'.
-        let per_dispatch = (65_535u64).min(limit / (words * 4)).max(1) as usize;
-        let mut drawn = Drawn {
-            union: Occupancy::new(layout.range_bins, layout.beams()),
-            reduced: Vec::with_capacity(jobs.len()),
-            masks: masks.then(|| Vec::with_capacity(jobs.len())),
-        };
+        let mut out = self.draw_pings(layout, &[jobs], masks)?;
+        Ok(out.pop().expect("one ping"))
+    }
+
+    /// Returns [`GpuMasks::draw`] of each ping of `pings`, two dispatches in flight: the next
+    /// ping is planned, uploaded and submitted while the GPU draws the one before, and read back
+    /// after it.
+    ///
+    /// # Errors
+    /// As [`GpuMasks::draw`].
+    pub(crate) fn draw_pings(&self, layout: &Layout, pings: &[&[Job]], masks: bool) -> Result<Vec<Drawn>> {
         let mut state = self.state.lock().unwrap_or_else(|poisoned| {
             let mut state = poisoned.into_inner();
             *state = State::default();
             state
         });
+        let mut dispatches = Vec::new();
+        for (p, jobs) in pings.iter().enumerate() {
+            dispatches.extend(self.dispatches(jobs)?.into_iter().map(|(r, e)| (p, r, e)));
+        }
+        let mut out: Vec<Drawn> = pings.iter().map(|_| Drawn::empty(layout, masks)).collect();
+        let mut in_flight: std::collections::VecDeque<(usize, Pending)> = std::collections::VecDeque::new();
+        let result = (|| -> Result<()> {
+            for (i, (p, r, entries)) in dispatches.into_iter().enumerate() {
+                // The slot this one takes was last used two dispatches ago: read that one first.
+                if in_flight.len() == 2
+                    && let Some((q, pending)) = in_flight.pop_front()
+                {
+                    self.collect(&mut state, pending, layout, &mut out[q])?;
+                }
+                let pending = self.submit(&mut state, i % 2, layout, &pings[p][r], entries, masks)?;
+                in_flight.push_back((p, pending));
+            }
+            while let Some((q, pending)) = in_flight.pop_front() {
+                self.collect(&mut state, pending, layout, &mut out[q])?;
+            }
+            Ok(())
+        })();
+        if result.is_err() {
+            // A failed dispatch or readback may leave a staging buffer mapped: start afresh.
+            *state = State::default();
+        }
+        result.map(|()| out)
+    }
+
+    /// Returns the dispatches `jobs` are drawn in: their ranges of jobs and the table entries
+    /// each may add.
+    ///
+    /// # Errors
+    /// As [`GpuMasks::draw`].
+    fn dispatches(&self, jobs: &[Job]) -> Result<Vec<(std::ops::Range<usize>, usize)>> {
+        let words = u64::from(self.params.words_per_mask);
+        let limit = self.binding_limit();
+        let tables_cap = MAX_TABLE_ENTRIES.max((limit / 8) as usize);
+        // Jobs per dispatch: the dispatch's y limit, the bitsets' binding, the tables'.
+        let per_dispatch = (65_535u64).min(limit / (words * 4)).max(1) as usize;
+        let mut out = Vec::new();
         let (mut start, mut entries) = (0, 0);
         for (k, job) in jobs.iter().enumerate() {
             let (na, ne) = (job.plan.cells.azimuths.len(), job.plan.cells.elevations.len());
@@ -430,27 +501,28 @@ impl GpuMasks {
                 ));
             }
             if k > start && (k - start == per_dispatch || entries + e > tables_cap) {
-                self.draw_chunk(&mut state, layout, &jobs[start..k], entries, &mut drawn)?;
+                out.push((start..k, entries));
                 (start, entries) = (k, 0);
             }
             entries += e;
         }
         if start < jobs.len() {
-            self.draw_chunk(&mut state, layout, &jobs[start..], entries, &mut drawn)?;
+            out.push((start..jobs.len(), entries));
         }
-        Ok(drawn)
+        Ok(out)
     }
 
-    /// Draws and reduces one dispatch's worth of `jobs` (whose tables take at most `entries`
-    /// new entries) and adds them to `drawn`.
-    fn draw_chunk(
+    /// Submits the drawing and reduction of one dispatch's worth of `jobs` (whose tables take at
+    /// most `entries` new entries) in `slot`, the masks copied out too when `masks`.
+    fn submit(
         &self,
         state: &mut State,
+        slot: usize,
         layout: &Layout,
         jobs: &[Job],
         entries: usize,
-        drawn: &mut Drawn,
-    ) -> Result<()> {
+        masks: bool,
+    ) -> Result<Pending> {
         let tables_cap = MAX_TABLE_ENTRIES.max((self.binding_limit() / 8) as usize);
         if state.tables.host.len() + entries > tables_cap {
             state.tables.clear();
@@ -496,8 +568,8 @@ impl GpuMasks {
         let bits_bytes = n * words * 4;
         let union_bytes = words * 4;
         let summary_bytes = n * SUMMARY_WORDS as u64 * 4;
-        let read_bytes = union_bytes + summary_bytes + if drawn.masks.is_some() { bits_bytes } else { 0 };
-        let pool = &mut state.pool;
+        let read_bytes = union_bytes + summary_bytes + if masks { bits_bytes } else { 0 };
+        let pool = &mut state.slots[slot].pool;
         let jobs_buffer = pool.get(device, "mask jobs", n * MASK_JOB_SIZE as u64, limit, storage);
         let bits = pool.get(
             device,
@@ -535,7 +607,8 @@ impl GpuMasks {
             summaries.clone(),
             union.clone(),
         ];
-        if new_tables || state.groups.as_ref().is_none_or(|(kept, _, _)| *kept != held) {
+        let groups = &mut state.slots[slot].groups;
+        if new_tables || groups.as_ref().is_none_or(|(kept, _, _)| *kept != held) {
             let draw = self.stage.bind(
                 device,
                 &[&self.params_buffer, &self.edges, &held[0], &held[1], &held[2]],
@@ -543,9 +616,9 @@ impl GpuMasks {
             let reduce = self
                 .reduce
                 .bind(device, &[&self.params_buffer, &held[2], &held[3], &held[4]]);
-            state.groups = Some((held, draw, reduce));
+            *groups = Some((held, draw, reduce));
         }
-        let (_, draw_group, reduce_group) = state.groups.as_ref().expect("made above");
+        let (_, draw_group, reduce_group) = groups.as_ref().expect("made above");
         queue.write_buffer(&jobs_buffer, 0, bytemuck::cast_slice(&gpu_jobs));
         let mut enc = device.create_command_encoder(&Default::default());
         enc.clear_buffer(&bits, 0, Some(bits_bytes));
@@ -563,18 +636,40 @@ impl GpuMasks {
         }
         enc.copy_buffer_to_buffer(&union, 0, &staging, 0, union_bytes);
         enc.copy_buffer_to_buffer(&summaries, 0, &staging, union_bytes, summary_bytes);
-        if drawn.masks.is_some() {
+        if masks {
             enc.copy_buffer_to_buffer(&bits, 0, &staging, union_bytes + summary_bytes, bits_bytes);
         }
-        queue.submit([enc.finish()]);
-        let words = words as usize;
+        let index = queue.submit([enc.finish()]);
+        Ok(Pending {
+            slot,
+            jobs: jobs.len(),
+            masks,
+            staging,
+            read_bytes,
+            index,
+        })
+    }
+
+    /// Reads back `pending` once its submission is done and adds its union, reductions and
+    /// masks to `drawn`.
+    fn collect(&self, state: &mut State, pending: Pending, layout: &Layout, drawn: &mut Drawn) -> Result<()> {
+        let words = self.params.words_per_mask as usize;
+        let Pending {
+            slot,
+            jobs,
+            masks,
+            staging,
+            read_bytes,
+            index,
+        } = pending;
+        debug_assert!(!masks || drawn.masks.is_some());
         // Read where it was mapped: the union, the summaries and the masks go straight into
         // their own vectors.
-        read_with(&self.ctx, &staging, read_bytes, |raw| {
+        read_after(&self.ctx, &staging, read_bytes, Some(index), |raw| {
             for (u, w) in drawn.union.words.iter_mut().zip(&raw[..words]) {
                 *u |= w;
             }
-            let summaries = &raw[words..words + SUMMARY_WORDS * jobs.len()];
+            let summaries = &raw[words..words + SUMMARY_WORDS * jobs];
             drawn
                 .reduced
                 .extend(
@@ -584,19 +679,14 @@ impl GpuMasks {
                             .then(|| ((!s[1] as usize, s[2] as usize), (!s[3] as usize, s[4] as usize))),
                     }),
                 );
-            if let Some(out) = &mut drawn.masks {
-                let bits = &raw[words + SUMMARY_WORDS * jobs.len()..];
+            if let Some(out) = drawn.masks.as_mut().filter(|_| masks) {
+                let bits = &raw[words + SUMMARY_WORDS * jobs..];
                 out.extend(
                     bits.chunks(words)
                         .map(|w| Occupancy::from_words(layout.range_bins, layout.beams(), w.to_vec())),
                 );
             }
         })
-        .inspect_err(|_| {
-            // A failed readback may leave the staging buffer mapped: start afresh.
-            state.pool = BufferPool::default();
-            state.groups = None;
-        })?;
-        Ok(())
+        .inspect_err(|_| state.slots[slot] = Slot::default())
     }
 }

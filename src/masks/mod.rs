@@ -301,30 +301,96 @@ impl MaskEngine {
         pose.validate()?;
         let noise = noise.map(|n| n.validated()).transpose()?;
         let plans = self.plans(features, noise.as_ref())?;
-        let layout = &self.view.layout;
-        let summary = |reduced: &Reduced, radius: f64, plan: &Plan| FeatureSummary {
+        if let Some(gpu) = self.gpu_for(&plans) {
+            let jobs = Self::jobs(pose, plans);
+            let drawn = gpu.draw(&self.view.layout, &jobs, false)?;
+            return Ok(self.summary_of_gpu(drawn, &jobs));
+        }
+        Ok(self.summary_on_cpu(pose, &plans))
+    }
+
+    /// Returns the summaries of many pings, one pose and one set of features each: each ping's
+    /// [`MaskEngine::summary`]. On a GPU two pings are in flight — the next is planned,
+    /// uploaded and submitted while the GPU draws the one before — in groups of 64 pings.
+    ///
+    /// # Errors
+    /// As [`MaskEngine::masks`], naming the ping.
+    pub fn summaries_of_pings(
+        &self,
+        pings: &[(RelativePose, Vec<Measurement>)],
+        noise: Option<&Noise>,
+    ) -> Result<Vec<PingSummary>> {
+        let noise = noise.map(|n| n.validated()).transpose()?;
+        let mut out = Vec::with_capacity(pings.len());
+        for (g, group) in pings.chunks(64).enumerate() {
+            let mut planned = Vec::with_capacity(group.len());
+            for (k, (pose, features)) in group.iter().enumerate() {
+                let ping = |e: Error| e.in_context(&format!("ping {}", 64 * g + k + 1));
+                pose.validate().map_err(ping)?;
+                planned.push((pose, self.plans(features, noise.as_ref()).map_err(ping)?));
+            }
+            // The pings the GPU takes (all, but those too small under `auto`), as jobs.
+            let on_gpu: Vec<bool> = planned
+                .iter()
+                .map(|(_, plans)| self.gpu_for(plans).is_some())
+                .collect();
+            let jobs: Vec<Vec<Job>> = planned
+                .iter_mut()
+                .zip(&on_gpu)
+                .filter(|(_, gpu)| **gpu)
+                .map(|((pose, plans), _)| Self::jobs(pose, std::mem::take(plans)))
+                .collect();
+            let mut drawn = match self.gpu.as_deref() {
+                Some(gpu) if !jobs.is_empty() => {
+                    let refs: Vec<&[Job]> = jobs.iter().map(Vec::as_slice).collect();
+                    gpu.draw_pings(&self.view.layout, &refs, false)?
+                }
+                _ => Vec::new(),
+            }
+            .into_iter()
+            .zip(&jobs);
+            for ((pose, plans), gpu) in planned.iter().zip(on_gpu) {
+                out.push(if gpu {
+                    let (d, jobs) = drawn.next().expect("one drawing a GPU ping");
+                    self.summary_of_gpu(d, jobs)
+                } else {
+                    self.summary_on_cpu(pose, plans)
+                });
+            }
+        }
+        Ok(out)
+    }
+
+    /// Returns the summary of one feature: its reduced mask with the plan's radius and cells.
+    fn feature_summary(&self, reduced: &Reduced, radius: f64, plan: &Plan) -> FeatureSummary {
+        FeatureSummary {
             occupied: reduced.pixels,
             bounding_box: reduced
                 .bounds
-                .map(|(rows, beams)| BoundingBox::of_bins(layout, rows, beams)),
+                .map(|(rows, beams)| BoundingBox::of_bins(&self.view.layout, rows, beams)),
             radius,
             noise_radius: plan.noise_radius,
             cells: plan.cells.count(),
-        };
-        if let Some(gpu) = self.gpu_for(&plans) {
-            let jobs = Self::jobs(pose, plans);
-            let drawn = gpu.draw(layout, &jobs, false)?;
-            let features = drawn
-                .reduced
-                .iter()
-                .zip(&jobs)
-                .map(|(r, job)| summary(r, job.plan.radius, &job.plan))
-                .collect();
-            return Ok(PingSummary {
-                features,
-                union: layout.to_data_order(drawn.union),
-            });
         }
+    }
+
+    /// Returns the summary of a ping the GPU drew and reduced (`drawn`, of `jobs`).
+    fn summary_of_gpu(&self, drawn: gpu::Drawn, jobs: &[Job]) -> PingSummary {
+        let features = drawn
+            .reduced
+            .iter()
+            .zip(jobs)
+            .map(|(r, job)| self.feature_summary(r, job.plan.radius, &job.plan))
+            .collect();
+        PingSummary {
+            features,
+            union: self.view.layout.to_data_order(drawn.union),
+        }
+    }
+
+    /// Returns the summary of the ping of `plans` under `pose`, drawn and reduced on the CPU.
+    fn summary_on_cpu(&self, pose: &RelativePose, plans: &[Plan]) -> PingSummary {
+        let layout = &self.view.layout;
         let drawn: Vec<(cpu::Drawn, Reduced)> = plans
             .par_iter()
             .map(|plan| {
@@ -341,13 +407,13 @@ impl MaskEngine {
         }
         let features = drawn
             .iter()
-            .zip(&plans)
-            .map(|((d, r), plan)| summary(r, d.radius, plan))
+            .zip(plans)
+            .map(|((d, r), plan)| self.feature_summary(r, d.radius, plan))
             .collect();
-        Ok(PingSummary {
+        PingSummary {
             features,
             union: layout.to_data_order(union),
-        })
+        }
     }
 
     /// Returns the plans of `features` under `noise` (errors name the feature).

@@ -216,6 +216,31 @@ fn layer(kind: SonarKind, occ: &Occupancy) -> ArrayD<u8> {
 }
 
 impl PyMaskEngine {
+    /// Returns `summary` as Python's `MaskSummary`.
+    fn summary_to_py(
+        &self,
+        py: Python<'_>,
+        summary: &sonarproj::masks::PingSummary,
+    ) -> PyResult<PyMaskSummary> {
+        let kind = self.engine.target().kind;
+        let f = &summary.features;
+        Ok(PyMaskSummary {
+            occupied: ArrayD::from_shape_vec(IxDyn(&[f.len()]), f.iter().map(|s| s.occupied).collect())
+                .expect("one count per feature")
+                .into_pyarray(py)
+                .unbind(),
+            boxes: f
+                .iter()
+                .map(|s| s.bounding_box.as_ref().map(|b| box_dict(py, b)).transpose())
+                .collect::<PyResult<Vec<_>>>()?,
+            union: layer(kind, &summary.union).into_pyarray(py).unbind(),
+            radius: f.iter().map(|s| s.radius).collect(),
+            noise_radius: f.iter().map(|s| s.noise_radius).collect(),
+            cells: f.iter().map(|s| s.cells).collect(),
+            device: self.engine.device(),
+        })
+    }
+
     /// Returns the measurements of `ranges` and `azimuths` (deg; `None` for a sidescan), each
     /// checked against sonar 1 and named by its index.
     fn features(&self, ranges: &[f64], azimuths: Option<&[f64]>) -> PyResult<Vec<Measurement>> {
@@ -499,23 +524,47 @@ impl PyMaskEngine {
         let summary =
             crate::runtime::detach(py, || self.engine.summary(&pose.inner, &features, noise.as_ref()))
                 .map_err(errors::engine)?;
-        let kind = self.engine.target().kind;
-        let f = &summary.features;
-        Ok(PyMaskSummary {
-            occupied: ArrayD::from_shape_vec(IxDyn(&[f.len()]), f.iter().map(|s| s.occupied).collect())
-                .expect("one count per feature")
-                .into_pyarray(py)
-                .unbind(),
-            boxes: f
-                .iter()
-                .map(|s| s.bounding_box.as_ref().map(|b| box_dict(py, b)).transpose())
-                .collect::<PyResult<Vec<_>>>()?,
-            union: layer(kind, &summary.union).into_pyarray(py).unbind(),
-            radius: f.iter().map(|s| s.radius).collect(),
-            noise_radius: f.iter().map(|s| s.noise_radius).collect(),
-            cells: f.iter().map(|s| s.cells).collect(),
-            device: self.engine.device(),
-        })
+        self.summary_to_py(py, &summary)
+    }
+
+    /// Returns the summaries of many pings, one pose and one set of features each (two pings in
+    /// flight on a GPU), stopping on Ctrl-C between groups of 64 pings.
+    #[pyo3(signature = (poses, ranges, azimuths, sigma, coverage))]
+    fn summaries_of_pings(
+        &self,
+        py: Python<'_>,
+        poses: Vec<PyRef<'_, PyPose>>,
+        ranges: Vec<Vec<f64>>,
+        azimuths: Option<Vec<Vec<f64>>>,
+        sigma: Option<[f64; 8]>,
+        coverage: f64,
+    ) -> PyResult<Vec<PyMaskSummary>> {
+        if self.engine.draws_on_gpu() && !crate::runtime::same_process(self.owner) {
+            return Err(PyRuntimeError::new_err(
+                "this MaskEngine's GPU device was opened by the parent of this forked process and \
+                 cannot be used here: make a new MaskEngine in this process",
+            ));
+        }
+        let noise = noise(sigma, coverage)?;
+        let mut pings = Vec::with_capacity(poses.len());
+        for (k, pose) in poses.iter().enumerate() {
+            let az = azimuths.as_ref().map(|a| a[k].as_slice());
+            let features = self
+                .features(&ranges[k], az)
+                .map_err(|e| errors::input("pings", format!("ping {k}: {}", e.value(py))))?;
+            pings.push((pose.inner, features));
+        }
+        let mut out = Vec::with_capacity(pings.len());
+        for group in pings.chunks(64) {
+            let summaries =
+                crate::runtime::detach(py, || self.engine.summaries_of_pings(group, noise.as_ref()))
+                    .map_err(errors::engine)?;
+            for s in &summaries {
+                out.push(self.summary_to_py(py, s)?);
+            }
+            py.check_signals()?;
+        }
+        Ok(out)
     }
 
     /// Returns the masks of many pings, one pose and one set of features each, stopping on

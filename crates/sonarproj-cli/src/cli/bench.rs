@@ -233,6 +233,9 @@ fn sweep_table(backends: &[Backend], poses: u64, block: u64, runs: u32) -> Resul
     Ok(())
 }
 
+/// Pings a call in the `pings` rows of `bench masks`.
+const PINGS: usize = 10;
+
 /// Prints the median latency of one mask and of a 100-feature ping for each of
 /// [`bench::MASK_CASES`], on the GPU (when an adapter exists) and the CPU engine, as whole masks
 /// and as summaries (each mask's count and box, and the union).
@@ -292,22 +295,25 @@ fn masks(runs: u32) -> Result<()> {
                 let seen = summary.features.iter().filter(|f| f.occupied > 0).count();
                 let pixels = summary.features.iter().map(|f| f.occupied).sum::<u64>() / n as u64;
                 // masks: every feature's bits; summary: each mask's pixel count and box, and
-                // the union (on a GPU, all that is read back).
-                for output in ["masks", "summary"] {
+                // the union (on a GPU, all that is read back); pings: summaries of ten pings at
+                // once (two in flight on a GPU), the time a ping.
+                let pings = vec![(pose, features.clone()); PINGS];
+                for output in ["masks", "summary", "pings"] {
                     let ping = || -> Result<()> {
-                        if output == "masks" {
-                            engine.masks(&pose, &features, None, Counts::Skip)?;
-                        } else {
-                            engine.summary(&pose, &features, None)?;
+                        match output {
+                            "masks" => drop(engine.masks(&pose, &features, None, Counts::Skip)?),
+                            "summary" => drop(engine.summary(&pose, &features, None)?),
+                            _ => drop(engine.summaries_of_pings(&pings, None)?),
                         }
                         Ok(())
                     };
+                    let per_call = if output == "pings" { PINGS as f64 } else { 1.0 };
                     ping()?;
                     let mut times = Vec::with_capacity(runs as usize);
                     for _ in 0..runs {
                         let start = Instant::now();
                         ping()?;
-                        times.push(start.elapsed().as_secs_f64());
+                        times.push(start.elapsed().as_secs_f64() / per_call);
                     }
                     times.sort_by(f64::total_cmp);
                     let median = times[times.len() / 2];
