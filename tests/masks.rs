@@ -510,7 +510,7 @@ mod gpu {
         let cpu = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
         let gpu = MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx).unwrap();
         for engine in [&cpu, &gpu] {
-            let all = engine.summaries_of_pings(&pings, None).unwrap();
+            let all = engine.summaries_of_pings(&pings, None, &|| false).unwrap();
             assert_eq!(all.len(), pings.len());
             for (k, (pose, features)) in pings.iter().enumerate() {
                 let one = engine.summary(pose, features, None).unwrap();
@@ -523,8 +523,24 @@ mod gpu {
                 range: 1e6,
                 azimuth: 0.0,
             });
-            let e = engine.summaries_of_pings(&bad, None).unwrap_err().to_string();
+            let e = engine
+                .summaries_of_pings(&bad, None, &|| false)
+                .unwrap_err()
+                .to_string();
             assert!(e.contains("ping 3") && e.contains("feature"), "{e}");
+            // Counted over all the pings, not within a group of 64.
+            let mut bad = pings.clone();
+            bad[66].1.push(Measurement {
+                range: 1e6,
+                azimuth: 0.0,
+            });
+            let e = engine
+                .summaries_of_pings(&bad, None, &|| false)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("ping 67"), "{e}");
+            let stopped = engine.summaries_of_pings(&pings, None, &|| true);
+            assert!(matches!(stopped, Err(sonarproj::Error::Stopped)), "{stopped:?}");
         }
     }
 }

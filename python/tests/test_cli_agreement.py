@@ -201,6 +201,9 @@ def test_mask_summaries_are_the_masks_and_the_command_lines(cli):
     assert list(many[0].occupied) == list(summary.occupied) and len(many[1].occupied) == 0
     with pytest.raises(sonarproj.InputError, match="2 pings of features for 3 poses"):
         engine.summaries_of_pings(poses, features[:2])
+    # A bad feature is named with its ping, counted from 1 (the second here).
+    with pytest.raises(sonarproj.InputError, match=r"ping 2 \(counted from 1\)"):
+        engine.summaries_of_pings(poses, [[4.0], [400.0], [5.0]])
 
 
 @pytest.mark.parametrize("first,second,feature,place,rpy,sigmas", [

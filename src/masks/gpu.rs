@@ -482,9 +482,12 @@ impl GpuMasks {
     fn dispatches(&self, jobs: &[Job]) -> Result<Vec<(std::ops::Range<usize>, usize)>> {
         let words = u64::from(self.params.words_per_mask);
         let limit = self.binding_limit();
-        let tables_cap = MAX_TABLE_ENTRIES.max((limit / 8) as usize);
-        // Jobs per dispatch: the dispatch's y limit, the bitsets' binding, the tables'.
-        let per_dispatch = (65_535u64).min(limit / (words * 4)).max(1) as usize;
+        // The most entries the tables' binding holds (one job's must fit; a dispatch's too).
+        let tables_cap = (limit / 8) as usize;
+        // Jobs per dispatch: the dispatch's y limit, and the bitsets and what is read back of
+        // them (union, summaries, bitsets) within one binding.
+        let per_mask = words * 4 + SUMMARY_WORDS as u64 * 4;
+        let per_dispatch = (65_535u64).min(limit.saturating_sub(words * 4) / per_mask).max(1) as usize;
         let mut out = Vec::new();
         let (mut start, mut entries) = (0, 0);
         for (k, job) in jobs.iter().enumerate() {
@@ -523,8 +526,12 @@ impl GpuMasks {
         entries: usize,
         masks: bool,
     ) -> Result<Pending> {
-        let tables_cap = MAX_TABLE_ENTRIES.max((self.binding_limit() / 8) as usize);
-        if state.tables.host.len() + entries > tables_cap {
+        // The tables kept between pings stay within MAX_TABLE_ENTRIES (more only for one
+        // dispatch that needs more, up to its binding): past it they start afresh.
+        let keep = MAX_TABLE_ENTRIES
+            .min((self.binding_limit() / 8) as usize)
+            .max(entries);
+        if state.tables.host.len() + entries > keep {
             state.tables.clear();
         }
         let mut max_blocks = 1u64;
@@ -596,7 +603,7 @@ impl GpuMasks {
             device,
             "mask staging",
             read_bytes,
-            u64::MAX,
+            limit,
             wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         );
         let dirs = state.tables.buffer.clone().expect("uploaded above");

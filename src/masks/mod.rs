@@ -311,18 +311,24 @@ impl MaskEngine {
 
     /// Returns the summaries of many pings, one pose and one set of features each: each ping's
     /// [`MaskEngine::summary`]. On a GPU two pings are in flight — the next is planned,
-    /// uploaded and submitted while the GPU draws the one before — in groups of 64 pings.
+    /// uploaded and submitted while the GPU draws the one before — in groups of 64 pings;
+    /// `stop` is asked before each group.
     ///
     /// # Errors
-    /// As [`MaskEngine::masks`], naming the ping.
+    /// As [`MaskEngine::masks`], naming the ping (counted from 1); [`Error::Stopped`] when
+    /// `stop` said so.
     pub fn summaries_of_pings(
         &self,
         pings: &[(RelativePose, Vec<Measurement>)],
         noise: Option<&Noise>,
+        stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<Vec<PingSummary>> {
         let noise = noise.map(|n| n.validated()).transpose()?;
         let mut out = Vec::with_capacity(pings.len());
         for (g, group) in pings.chunks(64).enumerate() {
+            if stop() {
+                return Err(Error::Stopped);
+            }
             let mut planned = Vec::with_capacity(group.len());
             for (k, (pose, features)) in group.iter().enumerate() {
                 let ping = |e: Error| e.in_context(&format!("ping {}", 64 * g + k + 1));

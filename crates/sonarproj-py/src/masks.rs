@@ -549,22 +549,20 @@ impl PyMaskEngine {
         let mut pings = Vec::with_capacity(poses.len());
         for (k, pose) in poses.iter().enumerate() {
             let az = azimuths.as_ref().map(|a| a[k].as_slice());
-            let features = self
-                .features(&ranges[k], az)
-                .map_err(|e| errors::input("pings", format!("ping {k}: {}", e.value(py))))?;
+            let features = self.features(&ranges[k], az).map_err(|e| {
+                errors::input(
+                    "pings",
+                    format!("ping {} (counted from 1): {}", k + 1, e.value(py)),
+                )
+            })?;
             pings.push((pose.inner, features));
         }
-        let mut out = Vec::with_capacity(pings.len());
-        for group in pings.chunks(64) {
-            let summaries =
-                crate::runtime::detach(py, || self.engine.summaries_of_pings(group, noise.as_ref()))
-                    .map_err(errors::engine)?;
-            for s in &summaries {
-                out.push(self.summary_to_py(py, s)?);
-            }
-            py.check_signals()?;
-        }
-        Ok(out)
+        let summaries = crate::runtime::detach_watching(py, |stop| {
+            let stopped = || stop.load(std::sync::atomic::Ordering::Relaxed);
+            self.engine.summaries_of_pings(&pings, noise.as_ref(), &stopped)
+        })?
+        .map_err(errors::engine)?;
+        summaries.iter().map(|s| self.summary_to_py(py, s)).collect()
     }
 
     /// Returns the masks of many pings, one pose and one set of features each, stopping on
@@ -586,9 +584,12 @@ impl PyMaskEngine {
         let mut out = Vec::with_capacity(poses.len());
         for (k, pose) in poses.iter().enumerate() {
             let az = azimuths.as_ref().map(|a| a[k].as_slice());
-            let features = self
-                .features(&ranges[k], az)
-                .map_err(|e| errors::input("pings", format!("ping {k}: {}", e.value(py))))?;
+            let features = self.features(&ranges[k], az).map_err(|e| {
+                errors::input(
+                    "pings",
+                    format!("ping {} (counted from 1): {}", k + 1, e.value(py)),
+                )
+            })?;
             out.push(self.draw(py, pose, &features, noise.as_ref(), counts, dense)?);
             py.check_signals()?;
         }

@@ -303,7 +303,7 @@ fn masks(runs: u32) -> Result<()> {
                         match output {
                             "masks" => drop(engine.masks(&pose, &features, None, Counts::Skip)?),
                             "summary" => drop(engine.summary(&pose, &features, None)?),
-                            _ => drop(engine.summaries_of_pings(&pings, None)?),
+                            _ => drop(engine.summaries_of_pings(&pings, None, &|| false)?),
                         }
                         Ok(())
                     };

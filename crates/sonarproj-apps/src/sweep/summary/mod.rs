@@ -132,6 +132,17 @@ fn descending(a: &Ranked, b: &Ranked) -> std::cmp::Ordering {
     b.value.total_cmp(&a.value).then(a.index.cmp(&b.index))
 }
 
+/// Returns the lesser of `a` and `b` in IEEE total order (-0 below +0), so that the result does
+/// not depend on which comes first (`f64::min` may return either zero).
+fn least(a: f64, b: f64) -> f64 {
+    if b.total_cmp(&a).is_lt() { b } else { a }
+}
+
+/// Returns the greater of `a` and `b` in IEEE total order (+0 above -0).
+fn greatest(a: f64, b: f64) -> f64 {
+    if b.total_cmp(&a).is_gt() { b } else { a }
+}
+
 /// Returns the first `k` (> 0) of `all` in `order` (a total order), in that order: selected,
 /// then only they sorted.
 fn first_in_order(
@@ -310,8 +321,8 @@ impl SummarySpec {
                     })?;
                     m.count[cell] += 1;
                     sums[cell] += f;
-                    m.min[cell] = Some(m.min[cell].map_or(r.value, |x| x.min(r.value)));
-                    m.max[cell] = Some(m.max[cell].map_or(r.value, |x| x.max(r.value)));
+                    m.min[cell] = Some(m.min[cell].map_or(r.value, |x| least(x, r.value)));
+                    m.max[cell] = Some(m.max[cell].map_or(r.value, |x| greatest(x, r.value)));
                 }
                 m.mean = m.sum.iter().zip(&m.count).map(|(&s, &n)| mean_of(s, n)).collect();
             }
@@ -392,17 +403,12 @@ impl SummarySpec {
             marginals.push(Marginal {
                 axes: x.axes.clone(),
                 values: x.values.clone(),
-                min: x
-                    .min
-                    .iter()
-                    .zip(&y.min)
-                    .map(|(p, q)| both(p, q, f64::min))
-                    .collect(),
+                min: x.min.iter().zip(&y.min).map(|(p, q)| both(p, q, least)).collect(),
                 max: x
                     .max
                     .iter()
                     .zip(&y.max)
-                    .map(|(p, q)| both(p, q, f64::max))
+                    .map(|(p, q)| both(p, q, greatest))
                     .collect(),
                 mean: sums.iter().zip(&count).map(|(&s, &n)| mean_of(s, n)).collect(),
                 sum: sums.clone(),

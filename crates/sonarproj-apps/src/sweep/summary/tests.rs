@@ -255,3 +255,16 @@ fn pieces_on_all_cores_make_the_summary_of_one_pass() {
         serde_json::to_string(&whole).unwrap()
     );
 }
+
+/// The marginals' min and max of +0 and -0 do not depend on which comes first (`f64::min` may
+/// return either), so pieces grouped differently by the thread pool print the same zero.
+#[test]
+fn signed_zeros_pick_the_same_whichever_comes_first() {
+    use super::{greatest, least};
+    for (a, b) in [(0.0, -0.0), (-0.0, 0.0)] {
+        assert_eq!(least(a, b).to_bits(), (-0.0f64).to_bits());
+        assert_eq!(greatest(a, b).to_bits(), 0.0f64.to_bits());
+    }
+    assert_eq!(least(1.0, 2.0), 1.0);
+    assert_eq!(greatest(1.0, 2.0), 2.0);
+}
