@@ -518,27 +518,20 @@ mod gpu {
             }
             assert!(all.iter().any(|s| s.features.is_empty()));
             assert!(all.iter().any(|s| s.union.count() > 0));
-            let mut bad = pings[..5].to_vec();
-            bad[2].1.push(Measurement {
-                range: 1e6,
-                azimuth: 0.0,
-            });
-            let e = engine
-                .summaries_of_pings(&bad, None, &|| false)
-                .unwrap_err()
-                .to_string();
-            assert!(e.contains("ping 3") && e.contains("feature"), "{e}");
-            // Counted over all the pings, not within a group of 64.
-            let mut bad = pings.clone();
-            bad[66].1.push(Measurement {
-                range: 1e6,
-                azimuth: 0.0,
-            });
-            let e = engine
-                .summaries_of_pings(&bad, None, &|| false)
-                .unwrap_err()
-                .to_string();
-            assert!(e.contains("ping 67"), "{e}");
+            // A bad feature named with its ping, counted over all the pings (not within a group
+            // of 64).
+            for k in [2, 66] {
+                let mut bad = pings.clone();
+                bad[k].1.push(Measurement {
+                    range: 1e6,
+                    azimuth: 0.0,
+                });
+                let e = engine
+                    .summaries_of_pings(&bad, None, &|| false)
+                    .unwrap_err()
+                    .to_string();
+                assert!(e.contains(&format!("ping {}: feature", k + 1)), "{e}");
+            }
             let stopped = engine.summaries_of_pings(&pings, None, &|| true);
             assert!(matches!(stopped, Err(sonarproj::Error::Stopped)), "{stopped:?}");
         }

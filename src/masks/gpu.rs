@@ -578,26 +578,12 @@ impl GpuMasks {
         let read_bytes = union_bytes + summary_bytes + if masks { bits_bytes } else { 0 };
         let pool = &mut state.slots[slot].pool;
         let jobs_buffer = pool.get(device, "mask jobs", n * MASK_JOB_SIZE as u64, limit, storage);
-        let bits = pool.get(
-            device,
-            "mask bits",
-            bits_bytes,
-            limit,
-            storage | wgpu::BufferUsages::COPY_SRC,
-        );
-        let summaries = pool.get(
-            device,
-            "mask summaries",
-            summary_bytes,
-            limit,
-            storage | wgpu::BufferUsages::COPY_SRC,
-        );
-        let union = pool.get(
-            device,
-            "mask union",
-            union_bytes,
-            limit,
-            storage | wgpu::BufferUsages::COPY_SRC,
+        let mut output =
+            |label, size| pool.get(device, label, size, limit, storage | wgpu::BufferUsages::COPY_SRC);
+        let (bits, summaries, union) = (
+            output("mask bits", bits_bytes),
+            output("mask summaries", summary_bytes),
+            output("mask union", union_bytes),
         );
         let staging = pool.get(
             device,

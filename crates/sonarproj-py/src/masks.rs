@@ -241,6 +241,36 @@ impl PyMaskEngine {
         })
     }
 
+    /// Returns an error when the engine's GPU device was opened by the parent of this forked
+    /// process (a device does not survive a fork).
+    fn in_this_process(&self) -> PyResult<()> {
+        if self.engine.draws_on_gpu() && !crate::runtime::same_process(self.owner) {
+            return Err(PyRuntimeError::new_err(
+                "this MaskEngine's GPU device was opened by the parent of this forked process and \
+                 cannot be used here: make a new MaskEngine in this process",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Returns the features of ping `k` of many (`ranges[k]`, `azimuths[k]`), an error naming
+    /// the ping counted from 1.
+    fn ping_features(
+        &self,
+        py: Python<'_>,
+        k: usize,
+        ranges: &[Vec<f64>],
+        azimuths: Option<&[Vec<f64>]>,
+    ) -> PyResult<Vec<Measurement>> {
+        self.features(&ranges[k], azimuths.map(|a| a[k].as_slice()))
+            .map_err(|e| {
+                errors::input(
+                    "pings",
+                    format!("ping {} (counted from 1): {}", k + 1, e.value(py)),
+                )
+            })
+    }
+
     /// Returns the measurements of `ranges` and `azimuths` (deg; `None` for a sidescan), each
     /// checked against sonar 1 and named by its index.
     fn features(&self, ranges: &[f64], azimuths: Option<&[f64]>) -> PyResult<Vec<Measurement>> {
@@ -271,12 +301,7 @@ impl PyMaskEngine {
         counts: bool,
         dense: bool,
     ) -> PyResult<PyMaskSet> {
-        if self.engine.draws_on_gpu() && !crate::runtime::same_process(self.owner) {
-            return Err(PyRuntimeError::new_err(
-                "this MaskEngine's GPU device was opened by the parent of this forked process and \
-                 cannot be used here: make a new MaskEngine in this process",
-            ));
-        }
+        self.in_this_process()?;
         let layout = self.engine.layout();
         let kind = self.engine.target().kind;
         let (rows, beams) = layout.data_shape();
@@ -513,12 +538,7 @@ impl PyMaskEngine {
         sigma: Option<[f64; 8]>,
         coverage: f64,
     ) -> PyResult<PyMaskSummary> {
-        if self.engine.draws_on_gpu() && !crate::runtime::same_process(self.owner) {
-            return Err(PyRuntimeError::new_err(
-                "this MaskEngine's GPU device was opened by the parent of this forked process and \
-                 cannot be used here: make a new MaskEngine in this process",
-            ));
-        }
+        self.in_this_process()?;
         let noise = noise(sigma, coverage)?;
         let features = self.features(&ranges, azimuths.as_deref())?;
         let summary =
@@ -539,23 +559,14 @@ impl PyMaskEngine {
         sigma: Option<[f64; 8]>,
         coverage: f64,
     ) -> PyResult<Vec<PyMaskSummary>> {
-        if self.engine.draws_on_gpu() && !crate::runtime::same_process(self.owner) {
-            return Err(PyRuntimeError::new_err(
-                "this MaskEngine's GPU device was opened by the parent of this forked process and \
-                 cannot be used here: make a new MaskEngine in this process",
-            ));
-        }
+        self.in_this_process()?;
         let noise = noise(sigma, coverage)?;
         let mut pings = Vec::with_capacity(poses.len());
         for (k, pose) in poses.iter().enumerate() {
-            let az = azimuths.as_ref().map(|a| a[k].as_slice());
-            let features = self.features(&ranges[k], az).map_err(|e| {
-                errors::input(
-                    "pings",
-                    format!("ping {} (counted from 1): {}", k + 1, e.value(py)),
-                )
-            })?;
-            pings.push((pose.inner, features));
+            pings.push((
+                pose.inner,
+                self.ping_features(py, k, &ranges, azimuths.as_deref())?,
+            ));
         }
         let summaries = crate::runtime::detach_watching(py, |stop| {
             let stopped = || stop.load(std::sync::atomic::Ordering::Relaxed);
@@ -583,13 +594,7 @@ impl PyMaskEngine {
         let noise = noise(sigma, coverage)?;
         let mut out = Vec::with_capacity(poses.len());
         for (k, pose) in poses.iter().enumerate() {
-            let az = azimuths.as_ref().map(|a| a[k].as_slice());
-            let features = self.features(&ranges[k], az).map_err(|e| {
-                errors::input(
-                    "pings",
-                    format!("ping {} (counted from 1): {}", k + 1, e.value(py)),
-                )
-            })?;
+            let features = self.ping_features(py, k, &ranges, azimuths.as_deref())?;
             out.push(self.draw(py, pose, &features, noise.as_ref(), counts, dense)?);
             py.check_signals()?;
         }
