@@ -25,11 +25,17 @@ pub(crate) struct Work<'a> {
     sigma: f64,
 }
 
-/// Returns the values of `metric` in `metrics` (`None` where a pose has none): what a summary
+/// Returns the values of `metric` in `metrics` (NaN where a pose has none): what a summary
 /// reduces.
-pub(crate) fn values(metrics: &MetricColumns, metric: sonarproj::Metric) -> Vec<Option<f64>> {
-    let c = metrics.column(metric);
-    (0..metrics.len()).map(|k| c.f64(k)).collect()
+#[expect(
+    clippy::cast_precision_loss,
+    reason = "counts are below 2^53 (MAX_SAMPLES_PER_POSE)"
+)]
+pub(crate) fn values(metrics: &MetricColumns, metric: sonarproj::Metric) -> Vec<f64> {
+    match metrics.column(metric) {
+        ColumnRef::Real(c) => c.to_vec(),
+        ColumnRef::Count(c) => c.iter().map(|&v| v as f64).collect(),
+    }
 }
 
 impl<'a> Work<'a> {

@@ -87,8 +87,8 @@ pub fn run_in_memory(
             table.append(part)?;
         }
         if let (Some(spec), Some(by), Some(total)) = (spec, by, &mut summary) {
-            let part = spec.summarise(grid, r.start, &values(&metrics, by))?;
-            *total = spec.combine(total, &part, "in memory")?;
+            let part = spec.partial(grid, r.start, &values(&metrics, by))?;
+            spec.merge_into(total, &part, "in memory")?;
         }
         start = r.end;
         if events(Event::Progress {
@@ -99,6 +99,9 @@ pub fn run_in_memory(
         {
             return Ok(None);
         }
+    }
+    if let Some(s) = &mut summary {
+        crate::sweep::summary::fill_means(s);
     }
     Ok(Some(InMemory {
         table,

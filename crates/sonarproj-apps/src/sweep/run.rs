@@ -41,7 +41,7 @@ use crate::sweep::records::{
     settings_path, write_summary,
 };
 use crate::sweep::shard::Shard;
-use crate::sweep::summary::PartSummary;
+use crate::sweep::summary::{PartSummary, Summary, fill_means};
 use crate::sweep::table::{Format, chunk_batch, column_kinds, csv_rows};
 
 /// The default number of poses per chunk.
@@ -359,10 +359,14 @@ pub fn run(
     let mut metrics = sonarproj::MetricColumns::default();
     let mut done = 0;
     let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
+    // The summary of the chunks finished so far (this run's, and earlier runs' read back from
+    // disk), its means derived once at the end.
+    let template = spec.map(|s| s.empty(grid));
+    let mut total = template.clone();
     // Writes chunk `c` (poses `r`): its Parquet table when there is one, and the summary of
-    // its `values` when one is asked for.
+    // its `values` when one is asked for (returned, for the total).
     let write_chunk =
-        |c: u64, r: Range<u64>, table: Option<Table>, values: Option<Vec<Option<f64>>>| -> Result<()> {
+        |c: u64, r: Range<u64>, table: Option<Table>, values: Option<Vec<f64>>| -> Result<Option<Summary>> {
             if let Some(table) = table {
                 let path = chunk_path(c);
                 parts::write(&path, expected(&r), |w| {
@@ -378,25 +382,36 @@ pub fn run(
                     t.finish()
                 })?;
             }
-            if let (Some(spec), Some(values)) = (spec, values) {
-                let part = spec.summarise(grid, r.start, &values)?.to_part();
-                let sum_path = chunk_summary(c);
-                parts::write(&sum_path, expected(&r), |w| {
-                    serde_json::to_writer(&mut *w, &part).map_err(|e| Error::write_output(&sum_path, e))
-                })?;
-            }
-            Ok(())
+            let (Some(spec), Some(values)) = (spec, values) else {
+                return Ok(None);
+            };
+            let summary = spec.partial(grid, r.start, &values)?;
+            let part = summary.to_part();
+            let sum_path = chunk_summary(c);
+            parts::write(&sum_path, expected(&r), |w| {
+                serde_json::to_writer(&mut *w, &part).map_err(|e| Error::write_output(&sum_path, e))
+            })?;
+            Ok(Some(summary))
         };
     // A chunk's files are written on a thread of their own while the next chunk is computed
     // (its Parquet encoding and summary overlap the next projection); one chunk at most is being
     // written, and it is finished, its error stopping the run, before the run stops or goes on
     // to the next write.
     let stopped = std::thread::scope(|scope| -> Result<bool> {
-        let mut writing: Option<std::thread::ScopedJoinHandle<'_, Result<()>>> = None;
-        let settle = |writing: &mut Option<std::thread::ScopedJoinHandle<'_, Result<()>>>| -> Result<()> {
-            writing.take().map_or(Ok(()), |h| {
-                h.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-            })
+        type Writing<'s> = Option<std::thread::ScopedJoinHandle<'s, Result<Option<Summary>>>>;
+        let mut writing: Writing<'_> = None;
+        // Waits for the chunk being written, adding its summary to the total.
+        let settle = |writing: &mut Writing<'_>, total: &mut Option<Summary>| -> Result<()> {
+            let Some(h) = writing.take() else {
+                return Ok(());
+            };
+            let summary = h
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
+            if let (Some(spec), Some(t), Some(s)) = (spec, total, summary) {
+                spec.merge_into(t, &s, "summary")?;
+            }
+            Ok(())
         };
         for c in 0..n_chunks {
             let r = &chunk(c);
@@ -408,9 +423,17 @@ pub fn run(
             );
             if status == parts::Status::Good {
                 outcome.resumed += r.end - r.start;
+                if let (Some(spec), Some(t), Some(template)) = (spec, &mut total, &template) {
+                    let path = chunk_summary(c);
+                    let context = path.display().to_string();
+                    let part: PartSummary = read_part(&path, expected(r))?;
+                    let part = part.into_summary(template, &context)?;
+                    spec.check(&part, r.start, r.end - r.start, &context)?;
+                    spec.merge_into(t, &part, &context)?;
+                }
             } else {
                 if budget == 0 {
-                    settle(&mut writing)?;
+                    settle(&mut writing, &mut total)?;
                     return Ok(true);
                 }
                 budget -= 1;
@@ -421,12 +444,12 @@ pub fn run(
                     })
                     .is_break()
                 {
-                    settle(&mut writing)?;
+                    settle(&mut writing, &mut total)?;
                     return Ok(true);
                 }
                 // The chunk's table (Parquet) and the values the summary reduces, when one is
                 // asked for; a CSV chunk is written here.
-                let (table, values): (Option<Table>, Option<Vec<Option<f64>>>) = match (rows, opts.format) {
+                let (table, values): (Option<Table>, Option<Vec<f64>>) = match (rows, opts.format) {
                     (true, Format::Csv) => {
                         let (poses, fields) = config.items(r.clone())?;
                         let batch = chunk_batch(config, &poses);
@@ -443,7 +466,12 @@ pub fn run(
                         })?;
                         (
                             None,
-                            by.map(|by| results.iter().map(|p| p.metrics.get(by).as_f64()).collect()),
+                            by.map(|by| {
+                                results
+                                    .iter()
+                                    .map(|p| p.metrics.get(by).as_f64().unwrap_or(f64::NAN))
+                                    .collect()
+                            }),
                         )
                     }
                     (_, format) => {
@@ -452,18 +480,18 @@ pub fn run(
                         (table, by.map(|by| values(&metrics, by)))
                     }
                 };
-                settle(&mut writing)?;
+                settle(&mut writing, &mut total)?;
                 let (write_chunk, poses) = (&write_chunk, r.clone());
                 writing = Some(scope.spawn(move || write_chunk(c, poses, table, values)));
                 outcome.computed += r.end - r.start;
             }
             done += r.end - r.start;
             if events(Event::Progress { done, total: poses }).is_break() {
-                settle(&mut writing)?;
+                settle(&mut writing, &mut total)?;
                 return Ok(true);
             }
         }
-        settle(&mut writing)?;
+        settle(&mut writing, &mut total)?;
         Ok(false)
     })?;
     if stopped {
@@ -471,18 +499,8 @@ pub fn run(
     }
     // The settings first: a result never stands without them.
     write_json(&settings_path(&file), &manifest.settings)?;
-    if let Some(spec) = spec {
-        let template = spec.empty(grid);
-        let mut total = template.clone();
-        for c in 0..n_chunks {
-            let path = chunk_summary(c);
-            let context = path.display().to_string();
-            let r = chunk(c);
-            let part: PartSummary = read_part(&path, expected(&r))?;
-            let part = part.into_summary(&template, &context)?;
-            spec.check(&part, r.start, r.end - r.start, &context)?;
-            total = spec.combine(&total, &part, &context)?;
-        }
+    if let Some(mut total) = total {
+        fill_means(&mut total);
         write_summary(&summary_file, whole, &total)?;
         outcome.summary = Some(summary_file.clone());
     }

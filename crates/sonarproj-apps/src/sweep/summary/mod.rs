@@ -99,10 +99,27 @@ pub struct Summary {
     pub marginals: Vec<Marginal>,
 }
 
-/// Returns `value` in fixed point (units of 2^-FIXED_BITS, rounded to nearest), or `None` when
-/// it is too large for the sums to stay exact.
+/// Returns `value` in fixed point (units of 2^-FIXED_BITS, rounded to nearest, halves away from
+/// zero), or `None` when it is too large for the sums to stay exact.
 fn fixed(value: f64) -> Option<i128> {
-    let scaled = (value * f64::from(FIXED_BITS).exp2()).round();
+    let scaled = value * f64::from(FIXED_BITS).exp2();
+    if scaled.abs() < 2f64.powi(62) {
+        // In 64 bits: the truncation and the fraction it leaves are exact here, so this is
+        // `scaled.round()` without a library call.
+        #[expect(clippy::cast_possible_truncation, reason = "bounded just above")]
+        let t = scaled as i64;
+        #[expect(clippy::cast_precision_loss, reason = "t is scaled truncated: a double")]
+        let fraction = scaled - t as f64;
+        let rounded = if fraction >= 0.5 {
+            t + 1
+        } else if fraction <= -0.5 {
+            t - 1
+        } else {
+            t
+        };
+        return Some(i128::from(rounded));
+    }
+    let scaled = scaled.round();
     // |value| < 2^40 keeps 2^40 such terms within i128 (2^40 · 2^80 = 2^120).
     #[expect(clippy::cast_possible_truncation, reason = "bounded just above")]
     (scaled.abs() < 2f64.powi(80)).then_some(scaled as i128)
@@ -115,11 +132,29 @@ fn fixed(value: f64) -> Option<i128> {
 )]
 fn mean_of(sum: i128, count: u64) -> Option<f64> {
     (count > 0).then(|| {
-        // The integer quotient and remainder keep the division exact before one rounding.
-        let count = i128::from(count);
-        let (q, r) = (sum.div_euclid(count), sum.rem_euclid(count));
-        (q as f64 + r as f64 / count as f64) / f64::from(FIXED_BITS).exp2()
+        // The integer quotient and remainder keep the division exact before one rounding; in
+        // 64 bits where the sum fits (the same quotient and remainder, a fraction of the time).
+        let (q, r, n) = match (i64::try_from(sum), i64::try_from(count)) {
+            (Ok(s), Ok(n)) => (
+                i128::from(s.div_euclid(n)),
+                i128::from(s.rem_euclid(n)),
+                i128::from(n),
+            ),
+            _ => {
+                let n = i128::from(count);
+                (sum.div_euclid(n), sum.rem_euclid(n), n)
+            }
+        };
+        (q as f64 + r as f64 / n as f64) / f64::from(FIXED_BITS).exp2()
     })
+}
+
+/// Sets the marginals' means of `s` from their exact sums and counts: the last step of a
+/// summary, after every part is in.
+pub(crate) fn fill_means(s: &mut Summary) {
+    for m in &mut s.marginals {
+        m.mean = m.sum.iter().zip(&m.count).map(|(&s, &n)| mean_of(s, n)).collect();
+    }
 }
 
 /// Orders ranked poses by value, then index.
@@ -156,6 +191,148 @@ fn first_in_order(
     }
     all.sort_by(order);
     all
+}
+
+/// The `k` first poses among those offered — smallest first when `ASCENDING`, else largest
+/// first (ties: lower index first) — kept as they come: a pose behind the `k`-th of the last
+/// trim is not stored.
+struct Best<const ASCENDING: bool> {
+    list: Vec<Ranked>,
+    k: usize,
+    /// The `k`-th after the last trim, when there were `k`.
+    bound: Option<Ranked>,
+}
+
+impl<const ASCENDING: bool> Best<ASCENDING> {
+    /// The order of the list.
+    fn order(a: &Ranked, b: &Ranked) -> std::cmp::Ordering {
+        if ASCENDING {
+            ascending(a, b)
+        } else {
+            descending(a, b)
+        }
+    }
+
+    /// Returns the best `k`, starting from `list` (already the first of their poses).
+    fn new(list: Vec<Ranked>, k: usize) -> Self {
+        let mut best = Best { list, k, bound: None };
+        best.trim();
+        best
+    }
+
+    /// Offers pose `r`.
+    #[inline]
+    fn offer(&mut self, r: Ranked) {
+        if self.k == 0 || self.bound.is_some_and(|b| Self::order(&r, &b).is_ge()) {
+            return;
+        }
+        self.list.push(r);
+        if self.list.len() >= 2 * self.k + 64 {
+            self.trim();
+        }
+    }
+
+    /// Keeps the first `k` only.
+    fn trim(&mut self) {
+        if self.k == 0 {
+            self.list.clear();
+            return;
+        }
+        self.list = first_in_order(std::mem::take(&mut self.list), self.k, Self::order);
+        if self.list.len() == self.k {
+            self.bound = self.list.last().copied();
+        }
+    }
+
+    /// Returns the first `k` offered, in order.
+    fn finish(mut self) -> Vec<Ranked> {
+        self.trim();
+        self.list
+    }
+}
+
+/// A marginal's cell and what has fallen in it since the cell last changed: consecutive poses
+/// often share a cell (a marginal over slow axes), and are added to it once.
+struct Run {
+    cell: usize,
+    count: u64,
+    sum: i128,
+    min: f64,
+    max: f64,
+}
+
+impl Run {
+    /// Adds the run to marginal `m` and starts an empty one in `cell`.
+    fn flush(&mut self, m: &mut Marginal, cell: usize) {
+        if self.count > 0 {
+            let c = self.cell;
+            m.count[c] += self.count;
+            m.sum[c] += self.sum;
+            m.min[c] = Some(m.min[c].map_or(self.min, |x| least(x, self.min)));
+            m.max[c] = Some(m.max[c].map_or(self.max, |x| greatest(x, self.max)));
+        }
+        *self = Run {
+            cell,
+            count: 0,
+            sum: 0,
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+        };
+    }
+
+    /// Adds `value` (`f` in fixed point) to the run.
+    #[inline]
+    fn add(&mut self, value: f64, f: i128) {
+        if self.count == 0 {
+            (self.min, self.max) = (value, value);
+        } else {
+            self.min = least(self.min, value);
+            self.max = greatest(self.max, value);
+        }
+        self.count += 1;
+        self.sum += f;
+    }
+}
+
+/// A marginal's cell over consecutive pose indices, stepped without a division a pose: each of
+/// its axes as an odometer digit `[poses a value lasts, values, weight in the cell, place within
+/// the value, the value]`.
+struct Odometer(Vec<[u64; 5]>);
+
+impl Odometer {
+    /// Returns the odometer of a marginal over `axes` of `grid` at pose `first`.
+    fn new(grid: &Grid, axes: &[String], first: u64) -> Odometer {
+        let mut digits = Vec::with_capacity(axes.len());
+        let mut weight = 1u64;
+        for a in axes.iter().rev() {
+            let k = grid
+                .axes
+                .iter()
+                .position(|x| x.column == a)
+                .expect("checked axis");
+            let stride: u64 = grid.axes[k + 1..].iter().map(|x| x.values.len() as u64).product();
+            let n = grid.axes[k].values.len() as u64;
+            digits.push([stride, n, weight, first % stride, (first / stride) % n]);
+            weight *= n;
+        }
+        Odometer(digits)
+    }
+
+    /// Returns the cell of the current pose and steps to the next.
+    fn next_cell(&mut self) -> usize {
+        let mut cell = 0;
+        for d in &mut self.0 {
+            cell += d[4] * d[2];
+            d[3] += 1;
+            if d[3] == d[0] {
+                d[3] = 0;
+                d[4] = if d[4] + 1 == d[1] { 0 } else { d[4] + 1 };
+            }
+        }
+        #[expect(clippy::cast_possible_truncation, reason = "below the cell count")]
+        let cell = cell as usize;
+        cell
+    }
 }
 
 impl SummarySpec {
@@ -211,6 +388,19 @@ impl SummarySpec {
     /// # Errors
     /// [`sonarproj::Error::InvalidValue`] for a value too large for the marginals' exact sums.
     pub fn summarise(&self, grid: Option<&Grid>, first: u64, values: &[Option<f64>]) -> Result<Summary> {
+        let values: Vec<f64> = values.iter().map(|v| v.unwrap_or(f64::NAN)).collect();
+        let mut s = self.partial(grid, first, &values)?;
+        fill_means(&mut s);
+        Ok(s)
+    }
+
+    /// Returns [`SummarySpec::summarise`]'s summary of `values` (NaN: no value) without its
+    /// marginals' means (what parts keep and [`SummarySpec::merge_into`] adds up; [`fill_means`]
+    /// derives them once at the end).
+    ///
+    /// # Errors
+    /// As [`SummarySpec::summarise`].
+    pub(crate) fn partial(&self, grid: Option<&Grid>, first: u64, values: &[f64]) -> Result<Summary> {
         // Pieces on all cores, each added to its thread's running summary, the few running
         // summaries combined: the same summary (every reduction is exact and independent of
         // order), in a fraction of the time and without a full-size summary a piece.
@@ -230,22 +420,72 @@ impl SummarySpec {
                     Ok(s)
                 },
             )
-            .try_reduce(|| self.empty(grid), |a, b| self.combine(&a, &b, "summary"))
+            .try_reduce(
+                || self.empty(grid),
+                |mut a, b| {
+                    self.merge_into(&mut a, &b, "summary")?;
+                    Ok(a)
+                },
+            )
     }
 
-    /// Adds poses `first`, `first + 1`, … with metric `values` (none of them in `s` yet) to the
-    /// summary `s`, on one thread.
-    fn add(&self, s: &mut Summary, grid: Option<&Grid>, first: u64, values: &[Option<f64>]) -> Result<()> {
+    /// Adds poses `first`, `first + 1`, … with metric `values` (NaN: no value; none of them in
+    /// `s` yet) to the summary `s`, on one thread, in one pass.
+    fn add(&self, s: &mut Summary, grid: Option<&Grid>, first: u64, values: &[f64]) -> Result<()> {
         s.poses += values.len() as u64;
-        let present = || {
-            values.iter().enumerate().filter_map(|(k, v)| {
-                v.filter(|x| !x.is_nan()).map(|value| Ranked {
-                    index: first + k as u64,
-                    value,
-                })
+        let mut odometers: Vec<Odometer> = s
+            .marginals
+            .iter()
+            .map(|m| {
+                Odometer::new(
+                    grid.expect("marginals are checked to need a grid"),
+                    &m.axes,
+                    first,
+                )
             })
-        };
-        for r in present() {
+            .collect();
+        let mut runs: Vec<Run> = (0..s.marginals.len())
+            .map(|_| Run {
+                cell: 0,
+                count: 0,
+                sum: 0,
+                min: 0.0,
+                max: 0.0,
+            })
+            .collect();
+        let mut smallest = Best::<true>::new(std::mem::take(&mut s.smallest), self.top);
+        let mut largest = Best::<false>::new(std::mem::take(&mut s.largest), self.top);
+        #[expect(clippy::cast_precision_loss, reason = "bin counts are small")]
+        let histogram = self.histogram.map(|h| (h, h.bins as f64 / (h.max - h.min)));
+        for (k, &value) in values.iter().enumerate() {
+            let present = !value.is_nan();
+            let f = if present && !runs.is_empty() {
+                fixed(value).ok_or_else(|| {
+                    Error::invalid(
+                        format!("summary of {} at pose {}", self.by, first + k as u64),
+                        value,
+                        "is too large for the marginals' exact sums (at most 2^40)",
+                    )
+                })?
+            } else {
+                0
+            };
+            for ((o, run), m) in odometers.iter_mut().zip(&mut runs).zip(&mut s.marginals) {
+                let cell = o.next_cell();
+                if cell != run.cell {
+                    run.flush(m, cell);
+                }
+                if present {
+                    run.add(value, f);
+                }
+            }
+            if !present {
+                continue;
+            }
+            let r = Ranked {
+                index: first + k as u64,
+                value,
+            };
             s.with_value += 1;
             if s.min.is_none_or(|m| ascending(&r, &m).is_lt()) {
                 s.min = Some(r);
@@ -253,22 +493,12 @@ impl SummarySpec {
             if s.max.is_none_or(|m| descending(&r, &m).is_lt()) {
                 s.max = Some(r);
             }
-        }
-        if self.top > 0 {
-            let mut all: Vec<Ranked> = present().collect();
-            let mut smallest = std::mem::take(&mut s.smallest);
-            smallest.extend_from_slice(&all);
-            s.smallest = first_in_order(smallest, self.top, ascending);
-            all.append(&mut s.largest);
-            s.largest = first_in_order(all, self.top, descending);
-        }
-        if let (Some(h), Some(spec)) = (&mut s.histogram, self.histogram) {
-            #[expect(clippy::cast_precision_loss, reason = "bin counts are small")]
-            let per = spec.bins as f64 / (spec.max - spec.min);
-            for r in present() {
-                if r.value < spec.min {
+            smallest.offer(r);
+            largest.offer(r);
+            if let (Some(h), Some((spec, per))) = (&mut s.histogram, histogram) {
+                if value < spec.min {
                     h.below += 1;
-                } else if r.value > spec.max {
+                } else if value > spec.max {
                     h.above += 1;
                 } else {
                     #[expect(
@@ -276,57 +506,24 @@ impl SummarySpec {
                         clippy::cast_sign_loss,
                         reason = "within the bins"
                     )]
-                    let mut k = ((r.value - spec.min) * per) as usize;
+                    let mut b = ((value - spec.min) * per) as usize;
                     // The bin holds its lower edge: settle the rounding against the edges.
-                    k = k.min(spec.bins - 1);
-                    while k > 0 && r.value < h.edges[k] {
-                        k -= 1;
+                    b = b.min(spec.bins - 1);
+                    while b > 0 && value < h.edges[b] {
+                        b -= 1;
                     }
-                    while k + 1 < spec.bins && r.value >= h.edges[k + 1] {
-                        k += 1;
+                    while b + 1 < spec.bins && value >= h.edges[b + 1] {
+                        b += 1;
                     }
-                    h.counts[k] += 1;
+                    h.counts[b] += 1;
                 }
             }
         }
-        if !s.marginals.is_empty() {
-            let grid = grid.expect("marginals are checked to need a grid");
-            for m in &mut s.marginals {
-                let sums = &mut m.sum;
-                let axes: Vec<(u64, u64)> = m
-                    .axes
-                    .iter()
-                    .map(|a| {
-                        let k = grid
-                            .axes
-                            .iter()
-                            .position(|x| x.column == a)
-                            .expect("checked axis");
-                        let stride: u64 = grid.axes[k + 1..].iter().map(|x| x.values.len() as u64).product();
-                        (stride, grid.axes[k].values.len() as u64)
-                    })
-                    .collect();
-                for r in present() {
-                    #[expect(clippy::cast_possible_truncation, reason = "below the cell count")]
-                    let cell = axes
-                        .iter()
-                        .fold(0u64, |c, &(stride, n)| c * n + (r.index / stride) % n)
-                        as usize;
-                    let f = fixed(r.value).ok_or_else(|| {
-                        Error::invalid(
-                            format!("summary of {} at pose {}", self.by, r.index),
-                            r.value,
-                            "is too large for the marginals' exact sums (at most 2^40)",
-                        )
-                    })?;
-                    m.count[cell] += 1;
-                    sums[cell] += f;
-                    m.min[cell] = Some(m.min[cell].map_or(r.value, |x| least(x, r.value)));
-                    m.max[cell] = Some(m.max[cell].map_or(r.value, |x| greatest(x, r.value)));
-                }
-                m.mean = m.sum.iter().zip(&m.count).map(|(&s, &n)| mean_of(s, n)).collect();
-            }
+        for (run, m) in runs.iter_mut().zip(&mut s.marginals) {
+            run.flush(m, 0);
         }
+        s.smallest = smallest.finish();
+        s.largest = largest.finish();
         Ok(())
     }
 
@@ -337,34 +534,58 @@ impl SummarySpec {
     /// [`Error::Csv`] naming `context` when the two are not summaries of this spec (another
     /// metric, histogram or marginals) or a sum is not a number.
     pub fn combine(&self, a: &Summary, b: &Summary, context: &str) -> Result<Summary> {
+        let mut total = a.clone();
+        self.merge_into(&mut total, b, context)?;
+        fill_means(&mut total);
+        Ok(total)
+    }
+
+    /// Adds `b` to `total` (summaries of this spec over disjoint poses), in place and without
+    /// the marginals' means ([`fill_means`] derives them at the end): what
+    /// [`SummarySpec::combine`] does, at the cost of the cells alone.
+    ///
+    /// # Errors
+    /// As [`SummarySpec::combine`]; `total` is unchanged on error.
+    pub(crate) fn merge_into(&self, total: &mut Summary, b: &Summary, context: &str) -> Result<()> {
         let bad = |message: &str| Error::Csv {
             context: context.to_string(),
             message: message.to_string(),
         };
-        let shape = |s: &Summary| {
-            (
-                s.metric.clone(),
-                s.histogram.as_ref().map(|h| (h.edges.clone(), h.counts.len())),
-                s.marginals
-                    .iter()
-                    .map(|m| {
-                        let lens = [m.count.len(), m.min.len(), m.mean.len(), m.max.len(), m.sum.len()];
-                        (m.axes.clone(), m.values.clone(), lens)
-                    })
-                    .collect::<Vec<_>>(),
-            )
-        };
-        let add = |p: u64, q: u64| p.checked_add(q).ok_or_else(|| bad("a count overflows"));
-        let adds = |p: &[u64], q: &[u64]| {
-            p.iter()
-                .zip(q)
-                .map(|(p, q)| add(*p, *q))
-                .collect::<Result<Vec<u64>>>()
-        };
-        if shape(a) != shape(b) || a.metric != self.by {
+        let a = &*total;
+        let same_shape = a.metric == b.metric
+            && a.histogram.as_ref().map(|h| (&h.edges, h.counts.len()))
+                == b.histogram.as_ref().map(|h| (&h.edges, h.counts.len()))
+            && a.marginals.len() == b.marginals.len()
+            && a.marginals.iter().zip(&b.marginals).all(|(x, y)| {
+                let lens = |m: &Marginal| [m.count.len(), m.min.len(), m.max.len(), m.sum.len()];
+                x.axes == y.axes && x.values == y.values && lens(x) == lens(y)
+            });
+        if !same_shape || a.metric != self.by {
             return Err(bad(
                 "its summary is not of this sweep's [summary] (another metric, histogram or marginals)",
             ));
+        }
+        let add = |p: u64, q: u64| p.checked_add(q).ok_or_else(|| bad("a count overflows"));
+        // Everything that can fail is checked before `total` changes.
+        let poses = add(a.poses, b.poses)?;
+        let with_value = add(a.with_value, b.with_value)?;
+        if let (Some(x), Some(y)) = (&a.histogram, &b.histogram) {
+            for (p, q) in x
+                .counts
+                .iter()
+                .chain([&x.below, &x.above])
+                .zip(y.counts.iter().chain([&y.below, &y.above]))
+            {
+                add(*p, *q)?;
+            }
+        }
+        for (x, y) in a.marginals.iter().zip(&b.marginals) {
+            for (p, q) in x.count.iter().zip(&y.count) {
+                add(*p, *q)?;
+            }
+            if x.sum.iter().zip(&y.sum).any(|(p, q)| p.checked_add(*q).is_none()) {
+                return Err(bad("a marginal's sum overflows"));
+            }
         }
         let pick = |x: Option<Ranked>,
                     y: Option<Ranked>,
@@ -372,59 +593,45 @@ impl SummarySpec {
             (Some(x), Some(y)) => Some(if order(&x, &y).is_le() { x } else { y }),
             (x, y) => x.or(y),
         };
-        let merge = |x: &[Ranked], y: &[Ranked], order: fn(&Ranked, &Ranked) -> std::cmp::Ordering| {
-            let mut all: Vec<Ranked> = x.iter().chain(y).copied().collect();
-            all.sort_by(order);
-            all.truncate(self.top);
-            all
+        let merge = |x: &mut Vec<Ranked>, y: &[Ranked], order: fn(&Ranked, &Ranked) -> std::cmp::Ordering| {
+            x.extend_from_slice(y);
+            x.sort_by(order);
+            x.truncate(self.top);
         };
-        let histogram = match (&a.histogram, &b.histogram) {
-            (Some(x), Some(y)) => Some(Histogram {
-                edges: x.edges.clone(),
-                counts: adds(&x.counts, &y.counts)?,
-                below: add(x.below, y.below)?,
-                above: add(x.above, y.above)?,
-            }),
-            _ => None,
-        };
-        let mut marginals = Vec::with_capacity(a.marginals.len());
-        for (x, y) in a.marginals.iter().zip(&b.marginals) {
-            let sums = x
-                .sum
-                .iter()
-                .zip(&y.sum)
-                .map(|(p, q)| p.checked_add(*q).ok_or_else(|| bad("a marginal's sum overflows")))
-                .collect::<Result<Vec<i128>>>()?;
-            let count = adds(&x.count, &y.count)?;
-            let both = |p: &Option<f64>, q: &Option<f64>, f: fn(f64, f64) -> f64| match (p, q) {
-                (Some(p), Some(q)) => Some(f(*p, *q)),
-                (p, q) => p.or(*q),
-            };
-            marginals.push(Marginal {
-                axes: x.axes.clone(),
-                values: x.values.clone(),
-                min: x.min.iter().zip(&y.min).map(|(p, q)| both(p, q, least)).collect(),
-                max: x
-                    .max
-                    .iter()
-                    .zip(&y.max)
-                    .map(|(p, q)| both(p, q, greatest))
-                    .collect(),
-                mean: sums.iter().zip(&count).map(|(&s, &n)| mean_of(s, n)).collect(),
-                sum: sums.clone(),
-                count,
-            });
+        let total = &mut *total;
+        total.poses = poses;
+        total.with_value = with_value;
+        total.min = pick(total.min, b.min, ascending);
+        total.max = pick(total.max, b.max, descending);
+        merge(&mut total.smallest, &b.smallest, ascending);
+        merge(&mut total.largest, &b.largest, descending);
+        if let (Some(x), Some(y)) = (&mut total.histogram, &b.histogram) {
+            for (p, q) in x.counts.iter_mut().zip(&y.counts) {
+                *p += q;
+            }
+            x.below += y.below;
+            x.above += y.above;
         }
-        Ok(Summary {
-            metric: a.metric.clone(),
-            poses: add(a.poses, b.poses)?,
-            with_value: add(a.with_value, b.with_value)?,
-            min: pick(a.min, b.min, ascending),
-            max: pick(a.max, b.max, descending),
-            smallest: merge(&a.smallest, &b.smallest, ascending),
-            largest: merge(&a.largest, &b.largest, descending),
-            histogram,
-            marginals,
-        })
+        let both = |p: &mut Option<f64>, q: Option<f64>, f: fn(f64, f64) -> f64| {
+            *p = match (*p, q) {
+                (Some(p), Some(q)) => Some(f(p, q)),
+                (p, q) => p.or(q),
+            };
+        };
+        for (x, y) in total.marginals.iter_mut().zip(&b.marginals) {
+            for (p, q) in x.sum.iter_mut().zip(&y.sum) {
+                *p += q;
+            }
+            for (p, q) in x.count.iter_mut().zip(&y.count) {
+                *p += q;
+            }
+            for (p, q) in x.min.iter_mut().zip(&y.min) {
+                both(p, *q, least);
+            }
+            for (p, q) in x.max.iter_mut().zip(&y.max) {
+                both(p, *q, greatest);
+            }
+        }
+        Ok(())
     }
 }

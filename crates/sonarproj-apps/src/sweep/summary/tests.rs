@@ -238,18 +238,21 @@ fn pieces_on_all_cores_make_the_summary_of_one_pass() {
     let v: Vec<Option<f64>> = (0..100_003)
         .map(|i| base[(i * 7 + i / 13) % base.len()])
         .collect();
+    let nan: Vec<f64> = v.iter().map(|x| x.unwrap_or(f64::NAN)).collect();
     let mut whole = spec.empty(Some(&g));
-    spec.add(&mut whole, Some(&g), 5, &v).unwrap();
+    spec.add(&mut whole, Some(&g), 5, &nan).unwrap();
+    super::fill_means(&mut whole);
     let pieces = spec.summarise(Some(&g), 5, &v).unwrap();
     assert_eq!(
         serde_json::to_string(&pieces).unwrap(),
         serde_json::to_string(&whole).unwrap()
     );
     let mut running = spec.empty(Some(&g));
-    for (k, piece) in v.chunks(9_999).enumerate().rev() {
+    for (k, piece) in nan.chunks(9_999).enumerate().rev() {
         spec.add(&mut running, Some(&g), 5 + (k * 9_999) as u64, piece)
             .unwrap();
     }
+    super::fill_means(&mut running);
     assert_eq!(
         serde_json::to_string(&running).unwrap(),
         serde_json::to_string(&whole).unwrap()
@@ -267,4 +270,51 @@ fn signed_zeros_pick_the_same_whichever_comes_first() {
     }
     assert_eq!(least(1.0, 2.0), 1.0);
     assert_eq!(greatest(1.0, 2.0), 2.0);
+}
+
+/// Fixed point rounds as `f64::round` does (halves away from zero) on both of its paths: the
+/// 64-bit one and the 128-bit one above 2^62 units; means divide in 64 bits as in 128.
+#[test]
+fn fixed_point_rounds_as_round_does() {
+    use super::{FIXED_BITS, fixed, mean_of};
+    let unit = f64::from(FIXED_BITS).exp2();
+    let mut cases = vec![
+        0.0,
+        -0.0,
+        1.0,
+        -1.0,
+        1e-13,
+        -1e-13,
+        0.1,
+        -0.7,
+        123.456,
+        -98_765.432,
+    ];
+    for k in [0.5, 1.5, 2.5, 1e6 + 0.5, 0.499_999_999_999_999_94] {
+        cases.push(k / unit);
+        cases.push(-k / unit);
+    }
+    for p in [61, 62, 63, 70, 79] {
+        for x in [2f64.powi(p) / unit, (2f64.powi(p) + 2048.0) / unit] {
+            cases.push(x);
+            cases.push(-x);
+        }
+    }
+    for x in cases {
+        let want = (x * unit).round();
+        #[expect(clippy::cast_possible_truncation, reason = "below 2^80 here")]
+        let want = want as i128;
+        assert_eq!(fixed(x), Some(want), "{x:e}");
+    }
+    assert_eq!(fixed(2f64.powi(41)), None);
+    assert_eq!(fixed(f64::INFINITY), None);
+    // 2^70 / 3 in 128 bits, -7 / 2 and 7 / 2 in 64: quotient and remainder taken the same way.
+    let big = 1i128 << 70;
+    assert_eq!(
+        mean_of(big, 3),
+        Some((big / 3) as f64 / unit + (big % 3) as f64 / 3.0 / unit)
+    );
+    assert_eq!(mean_of(-7, 2), Some(-3.5 / unit));
+    assert_eq!(mean_of(7, 2), Some(3.5 / unit));
+    assert_eq!(mean_of(5, 0), None);
 }
