@@ -80,37 +80,75 @@ pub fn local_precision(
     pose: &RelativePose,
     sigma: f64,
 ) -> LocalPrecision {
-    let r = true_point[0];
-    let [_, az, el] = true_point.map(f64::to_radians);
-    // The arc (centre the arc's sonar origin), the point the other sonar ranges from, in the
-    // arc's frame, and the arc's parameters.
-    let (arc_r, arc_az, arc_el, other) = match (source.kind, target.kind) {
-        (SonarKind::Sss, SonarKind::Sss) => return LocalPrecision::default(),
-        (SonarKind::Fls, _) => {
-            // Sonar 2's origin in sonar 1's frame: −Rᵀ t.
-            let o = -(pose.rotation.transpose() * pose.translation);
-            (r, az, el, o)
+    TruePoint::new(source, target, true_point).at(pose, sigma)
+}
+
+/// A feature's true point with what [`local_precision`] computes from it alone, for many poses
+/// of one feature (a sweep's rotations): the same figures, bit for bit, without the feature's
+/// trigonometry a pose.
+#[derive(Clone, Copy, Debug)]
+pub struct TruePoint {
+    kinds: (SonarKind, SonarKind),
+    /// Range (m).
+    r: f64,
+    /// The point in sonar 1's frame.
+    p: DVec3,
+    /// `∂p/∂el` along the arc (m/rad).
+    dp: DVec3,
+}
+
+impl TruePoint {
+    /// Returns the true point `true_point` = `[range, azimuth, elevation]` (m, deg, deg) of a
+    /// feature measured by `source`, matched in `target`.
+    #[must_use]
+    pub fn new(source: &Sonar, target: &Sonar, true_point: [f64; 3]) -> TruePoint {
+        let r = true_point[0];
+        let [_, az, el] = true_point.map(f64::to_radians);
+        TruePoint {
+            kinds: (source.kind, target.kind),
+            r,
+            p: sph_to_cart(r, az, el),
+            dp: arc_tangent(r, az, el),
         }
-        (SonarKind::Sss, SonarKind::Fls) => {
-            let p2 = pose.apply(sph_to_cart(r, az, el));
-            let (r2, az2, el2) = cart_to_sph(p2);
-            (r2, az2, el2, pose.translation)
-        }
-    };
-    let slope = slope_per_radian(arc_r, arc_az, arc_el, other);
-    let per_degree = slope * PI / 180.0;
-    let sigma_elevation = (slope.abs() > GEOMETRY_TOLERANCE * arc_r).then(|| sigma / per_degree.abs());
-    LocalPrecision {
-        range_per_elevation: Some(per_degree),
-        sigma_elevation,
     }
+
+    /// Returns the local precision of a match with the target placed by `pose`, for a range
+    /// error `sigma` (m): [`local_precision`]'s.
+    #[must_use]
+    pub fn at(&self, pose: &RelativePose, sigma: f64) -> LocalPrecision {
+        // The arc (centre the arc's sonar origin), the point the other sonar ranges from, in the
+        // arc's frame, and the arc's parameters.
+        let (slope, arc_r) = match self.kinds {
+            (SonarKind::Sss, SonarKind::Sss) => return LocalPrecision::default(),
+            (SonarKind::Fls, _) => {
+                // Sonar 2's origin in sonar 1's frame: −Rᵀ t.
+                let o = -(pose.rotation.transpose() * pose.translation);
+                ((self.p - o).normalize_or_zero().dot(self.dp), self.r)
+            }
+            (SonarKind::Sss, SonarKind::Fls) => {
+                let (r2, az2, el2) = cart_to_sph(pose.apply(self.p));
+                (slope_per_radian(r2, az2, el2, pose.translation), r2)
+            }
+        };
+        let per_degree = slope * PI / 180.0;
+        let sigma_elevation = (slope.abs() > GEOMETRY_TOLERANCE * arc_r).then(|| sigma / per_degree.abs());
+        LocalPrecision {
+            range_per_elevation: Some(per_degree),
+            sigma_elevation,
+        }
+    }
+}
+
+/// Returns `∂p/∂el` (m/rad) on the arc `p(el) = sph(r, az, el)` at `el`.
+fn arc_tangent(r: f64, az: f64, el: f64) -> DVec3 {
+    DVec3::new(-r * el.sin() * az.cos(), -r * el.sin() * az.sin(), r * el.cos())
 }
 
 /// Returns `∂|p(el) − o|/∂el` (m/rad) on the arc `p(el) = sph(r, az, el)` at `el`.
 fn slope_per_radian(r: f64, az: f64, el: f64, o: DVec3) -> f64 {
-    let p = sph_to_cart(r, az, el);
-    let dp = DVec3::new(-r * el.sin() * az.cos(), -r * el.sin() * az.sin(), r * el.cos());
-    (p - o).normalize_or_zero().dot(dp)
+    (sph_to_cart(r, az, el) - o)
+        .normalize_or_zero()
+        .dot(arc_tangent(r, az, el))
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::geometry::pose::{RelativePose, Rotation};
 use crate::geometry::sonar::{Sonar, SonarKind};
 use crate::limits::{MAX_AXIS_VALUES, MAX_POSES, MAX_TRANSLATION};
-use crate::local_precision::local_precision;
+use crate::local_precision::TruePoint;
 use crate::occupancy::Layout;
 use crate::projection::{Batch, BatchItem};
 use crate::sampling::{Measurement, Sampling, SamplingPlan};
@@ -345,6 +345,8 @@ impl PoseSweep<'_> {
             .zip(sigma_elevation.par_chunks_mut(1024))
             .enumerate()
             .for_each(|(b, (rpe, sig))| {
+                // The feature's true point, prepared again only where the feature changes.
+                let mut point: Option<([f64; 3], TruePoint)> = None;
                 for (k, (rpe, sig)) in rpe.iter_mut().zip(sig).enumerate() {
                     let i = range.start + (b * 1024 + k) as u64;
                     let d = tables.decode(i);
@@ -353,7 +355,13 @@ impl PoseSweep<'_> {
                         translation: d.translation,
                     };
                     let v = grid.values(i);
-                    let lp = local_precision(&self.source, &self.target, [v[0], v[1], v[2]], &pose, sigma);
+                    let feature = [v[0], v[1], v[2]];
+                    let prepared = match point {
+                        Some((f, p)) if f.map(f64::to_bits) == feature.map(f64::to_bits) => p,
+                        _ => TruePoint::new(&self.source, &self.target, feature),
+                    };
+                    point = Some((feature, prepared));
+                    let lp = prepared.at(&pose, sigma);
                     *rpe = lp.range_per_elevation.unwrap_or(f64::NAN);
                     *sig = lp.sigma_elevation.unwrap_or(f64::NAN);
                 }

@@ -308,52 +308,131 @@ pub fn join_parquet(
     out: &Path,
     expected: Expected<'_>,
 ) -> Result<()> {
-    use crate::io::parquet::{TableWriter, open_part};
     write(out, expected, |w| {
-        let mut table = TableWriter::new(w, columns, kinds, expected.first, final_encoding(columns), out)?;
-        let mut rows = 0u64;
+        let mut join = ParquetJoin::new(w, columns, kinds, out, expected)?;
         let parts: Vec<PathBuf> = parts.into_iter().collect();
         for (p, part) in parts.iter().enumerate() {
-            let damaged = |message: String| Error::Csv {
-                context: part.display().to_string(),
-                message,
-            };
-            let record = std::fs::read(record_path(part))
-                .ok()
-                .and_then(|t| serde_json::from_slice::<PartRecord>(&t).ok())
-                .ok_or_else(|| damaged("its record is missing or unreadable".into()))?;
-            let same = |when: &str| match sums(part) {
-                Ok((bytes, crc)) if bytes == record.bytes && format!("{crc:08x}") == record.crc32 => Ok(()),
-                Ok(_) => Err(damaged(format!(
-                    "its bytes differ from its record (size or checksum) {when} it was read"
-                ))),
-                Err(source) => Err(Error::ReadInput {
-                    path: part.clone(),
-                    source,
-                }),
-            };
-            same("before")?;
-            // Whole row groups are copied as they are (the parts are written with the same
-            // encoding), the others decoded and cut again.
-            let opened = open_part(part, columns, kinds)?;
-            let groups = opened.group_rows();
-            for (g, n) in groups.iter().enumerate() {
-                let last = p + 1 == parts.len() && g + 1 == groups.len();
-                if !table.copy_group(&opened, g, last)? {
-                    table.push(opened.group(g, part, columns, kinds)?)?;
-                }
-                rows += n;
-            }
-            same("after")?;
+            join.add_file(part, p + 1 == parts.len())?;
         }
-        if rows != expected.rows {
+        join.finish()
+    })
+}
+
+/// A Parquet table being joined from parts in index order ([`join_parquet`], or a run joining
+/// its chunks as they finish): whole row groups copied as they are (the parts are written with
+/// the same encoding), the others decoded and cut again.
+pub(crate) struct ParquetJoin<'a, W: Write + Send> {
+    table: crate::io::parquet::TableWriter<'a, W>,
+    columns: &'a [String],
+    kinds: &'a [crate::io::parquet::Kind],
+    out: &'a Path,
+    rows: u64,
+    expected: u64,
+}
+
+impl<'a, W: Write + Send> ParquetJoin<'a, W> {
+    /// Returns a join into `w` (the file `out`) of the table of `columns` of `kinds` that
+    /// `expected` describes.
+    ///
+    /// # Errors
+    /// [`Error::WriteOutput`] when the header cannot be written.
+    pub(crate) fn new(
+        w: W,
+        columns: &'a [String],
+        kinds: &'a [crate::io::parquet::Kind],
+        out: &'a Path,
+        expected: Expected<'_>,
+    ) -> Result<Self> {
+        let table = crate::io::parquet::TableWriter::new(
+            w,
+            columns,
+            kinds,
+            expected.first,
+            final_encoding(columns),
+            out,
+        )?;
+        Ok(ParquetJoin {
+            table,
+            columns,
+            kinds,
+            out,
+            rows: 0,
+            expected: expected.rows,
+        })
+    }
+
+    /// Adds the rows of part `part` (`last`: the last part), its size and checksum checked
+    /// against its record before it is read and again after.
+    ///
+    /// # Errors
+    /// As [`join_parquet`].
+    pub(crate) fn add_file(&mut self, part: &Path, last: bool) -> Result<()> {
+        let damaged = |message: String| Error::Csv {
+            context: part.display().to_string(),
+            message,
+        };
+        let record = std::fs::read(record_path(part))
+            .ok()
+            .and_then(|t| serde_json::from_slice::<PartRecord>(&t).ok())
+            .ok_or_else(|| damaged("its record is missing or unreadable".into()))?;
+        let same = |when: &str| match sums(part) {
+            Ok((bytes, crc)) if bytes == record.bytes && format!("{crc:08x}") == record.crc32 => Ok(()),
+            Ok(_) => Err(damaged(format!(
+                "its bytes differ from its record (size or checksum) {when} it was read"
+            ))),
+            Err(source) => Err(Error::ReadInput {
+                path: part.to_path_buf(),
+                source,
+            }),
+        };
+        same("before")?;
+        let opened = crate::io::parquet::open_part(part, self.columns, self.kinds)?;
+        self.add(&opened, part, last)?;
+        same("after")
+    }
+
+    /// Adds the rows of the Parquet bytes `bytes`, part `part` just written from them (`last`:
+    /// the last part).
+    ///
+    /// # Errors
+    /// As [`join_parquet`].
+    pub(crate) fn add_bytes(&mut self, bytes: bytes::Bytes, part: &Path, last: bool) -> Result<()> {
+        let opened = crate::io::parquet::open_part_bytes(bytes, part, self.columns, self.kinds)?;
+        self.add(&opened, part, last)
+    }
+
+    /// Adds the row groups of `opened` (part `part`).
+    fn add<R: parquet::file::reader::ChunkReader + 'static>(
+        &mut self,
+        opened: &crate::io::parquet::Part<R>,
+        part: &Path,
+        last: bool,
+    ) -> Result<()> {
+        let groups = opened.group_rows();
+        for (g, n) in groups.iter().enumerate() {
+            let last = last && g + 1 == groups.len();
+            if !self.table.copy_group(opened, g, last)? {
+                self.table
+                    .push(opened.group(g, part, self.columns, self.kinds)?)?;
+            }
+            self.rows += n;
+        }
+        Ok(())
+    }
+
+    /// Writes the footer, after checking that the parts held the rows expected.
+    ///
+    /// # Errors
+    /// [`Error::Csv`] when they did not; [`Error::WriteOutput`] on I/O failure.
+    pub(crate) fn finish(self) -> Result<()> {
+        if self.rows != self.expected {
             return Err(Error::Csv {
-                context: out.display().to_string(),
-                message: format!("its parts hold {rows} rows where {} belong", expected.rows),
+                context: self.out.display().to_string(),
+                message: format!("its parts hold {} rows where {} belong", self.rows, self.expected),
             });
         }
-        table.finish()
-    })
+        self.table.finish()
+    }
 }
 
 /// Returns how a sweep table of `columns` is encoded, its chunks, shards and result alike (so

@@ -363,55 +363,90 @@ pub fn run(
     // disk), its means derived once at the end.
     let template = spec.map(|s| s.empty(grid));
     let mut total = template.clone();
-    // Writes chunk `c` (poses `r`): its Parquet table when there is one, and the summary of
-    // its `values` when one is asked for (returned, for the total).
+    // Writes chunk `c` (poses `r`): its Parquet table when there is one (returned encoded, for
+    // the result's join), and the summary of its `values` when one is asked for (returned, for
+    // the total).
     let write_chunk =
-        |c: u64, r: Range<u64>, table: Option<Table>, values: Option<Vec<f64>>| -> Result<Option<Summary>> {
+        |c: u64, r: Range<u64>, table: Option<Table>, values: Option<Vec<f64>>| -> Result<Written> {
+            let mut written = Written::default();
             if let Some(table) = table {
                 let path = chunk_path(c);
+                let mut bytes = Vec::new();
+                let mut t = TableWriter::new(
+                    &mut bytes,
+                    &desc.columns,
+                    &kinds,
+                    r.start,
+                    final_encoding(&desc.columns),
+                    &path,
+                )?;
+                t.push(table)?;
+                t.finish()?;
                 parts::write(&path, expected(&r), |w| {
-                    let mut t = TableWriter::new(
-                        w,
-                        &desc.columns,
-                        &kinds,
-                        r.start,
-                        final_encoding(&desc.columns),
-                        &path,
-                    )?;
-                    t.push(table)?;
-                    t.finish()
+                    w.write_all(&bytes).map_err(|e| Error::write_output(&path, e))
                 })?;
+                written.table = Some(bytes::Bytes::from(bytes));
             }
-            let (Some(spec), Some(values)) = (spec, values) else {
-                return Ok(None);
-            };
-            let summary = spec.partial(grid, r.start, &values)?;
-            let part = summary.to_part();
-            let sum_path = chunk_summary(c);
-            parts::write(&sum_path, expected(&r), |w| {
-                serde_json::to_writer(&mut *w, &part).map_err(|e| Error::write_output(&sum_path, e))
-            })?;
-            Ok(Some(summary))
+            if let (Some(spec), Some(values)) = (spec, values) {
+                let summary = spec.partial(grid, r.start, &values)?;
+                let part = summary.to_part();
+                let sum_path = chunk_summary(c);
+                parts::write(&sum_path, expected(&r), |w| {
+                    serde_json::to_writer(&mut *w, &part).map_err(|e| Error::write_output(&sum_path, e))
+                })?;
+                written.summary = Some(summary);
+            }
+            Ok(written)
         };
+    // Joins the chunks of a Parquet table into the result as they finish, in order, on a thread
+    // of its own: the result's temporary file grows while the run goes on, and is renamed into
+    // place at `Finish` (a run that stops drops the sender, and the temporary file is removed).
+    let join_chunks = |rx: std::sync::mpsc::Receiver<ToJoin>| -> Result<()> {
+        parts::write(&file, whole, |w| {
+            let mut join = parts::ParquetJoin::new(w, &desc.columns, &kinds, &file, whole)?;
+            for message in rx {
+                match message {
+                    ToJoin::Bytes(c, bytes) => join.add_bytes(bytes, &chunk_path(c), c + 1 == n_chunks)?,
+                    ToJoin::File(c) => join.add_file(&chunk_path(c), c + 1 == n_chunks)?,
+                    ToJoin::Finish => return join.finish(),
+                }
+            }
+            Err(sonarproj::Error::Stopped.into())
+        })
+    };
     // A chunk's files are written on a thread of their own while the next chunk is computed
     // (its Parquet encoding and summary overlap the next projection); one chunk at most is being
     // written, and it is finished, its error stopping the run, before the run stops or goes on
     // to the next write.
     let stopped = std::thread::scope(|scope| -> Result<bool> {
-        type Writing<'s> = Option<std::thread::ScopedJoinHandle<'s, Result<Option<Summary>>>>;
+        type Writing<'s> = Option<(u64, std::thread::ScopedJoinHandle<'s, Result<Written>>)>;
         let mut writing: Writing<'_> = None;
-        // Waits for the chunk being written, adding its summary to the total.
-        let settle = |writing: &mut Writing<'_>, total: &mut Option<Summary>| -> Result<()> {
-            let Some(h) = writing.take() else {
+        let mut joiner = (rows && opts.format == Format::Parquet).then(|| {
+            let (tx, rx) = std::sync::mpsc::sync_channel(1);
+            Joiner {
+                tx,
+                handle: scope.spawn(move || join_chunks(rx)),
+            }
+        });
+        // Waits for the chunk being written, adding its summary to the total and its table to
+        // the result's join.
+        let settle = |writing: &mut Writing<'_>,
+                      total: &mut Option<Summary>,
+                      joiner: &mut Option<Joiner<'_>>|
+         -> Result<()> {
+            let Some((c, h)) = writing.take() else {
                 return Ok(());
             };
-            let summary = h
+            let written = h
                 .join()
                 .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
-            if let (Some(spec), Some(t), Some(s)) = (spec, total, summary) {
+            if let (Some(spec), Some(t), Some(s)) = (spec, total, written.summary) {
                 spec.merge_into(t, &s, "summary")?;
             }
-            Ok(())
+            match written.table {
+                Some(bytes) => Joiner::send(joiner, ToJoin::Bytes(c, bytes)),
+                None => Ok(()),
+            }
         };
         for c in 0..n_chunks {
             let r = &chunk(c);
@@ -423,6 +458,10 @@ pub fn run(
             );
             if status == parts::Status::Good {
                 outcome.resumed += r.end - r.start;
+                if joiner.is_some() {
+                    settle(&mut writing, &mut total, &mut joiner)?;
+                    Joiner::send(&mut joiner, ToJoin::File(c))?;
+                }
                 if let (Some(spec), Some(t), Some(template)) = (spec, &mut total, &template) {
                     let path = chunk_summary(c);
                     let context = path.display().to_string();
@@ -433,7 +472,7 @@ pub fn run(
                 }
             } else {
                 if budget == 0 {
-                    settle(&mut writing, &mut total)?;
+                    settle(&mut writing, &mut total, &mut joiner)?;
                     return Ok(true);
                 }
                 budget -= 1;
@@ -444,7 +483,7 @@ pub fn run(
                     })
                     .is_break()
                 {
-                    settle(&mut writing, &mut total)?;
+                    settle(&mut writing, &mut total, &mut joiner)?;
                     return Ok(true);
                 }
                 // The chunk's table (Parquet) and the values the summary reduces, when one is
@@ -480,37 +519,34 @@ pub fn run(
                         (table, by.map(|by| values(&metrics, by)))
                     }
                 };
-                settle(&mut writing, &mut total)?;
+                settle(&mut writing, &mut total, &mut joiner)?;
                 let (write_chunk, poses) = (&write_chunk, r.clone());
-                writing = Some(scope.spawn(move || write_chunk(c, poses, table, values)));
+                writing = Some((c, scope.spawn(move || write_chunk(c, poses, table, values))));
                 outcome.computed += r.end - r.start;
             }
             done += r.end - r.start;
             if events(Event::Progress { done, total: poses }).is_break() {
-                settle(&mut writing, &mut total)?;
+                settle(&mut writing, &mut total, &mut joiner)?;
                 return Ok(true);
             }
         }
-        settle(&mut writing, &mut total)?;
+        settle(&mut writing, &mut total, &mut joiner)?;
+        // The settings first: a result never stands without them.
+        write_json(&settings_path(&file), &manifest.settings)?;
+        if let Some(mut total) = total.take() {
+            fill_means(&mut total);
+            write_summary(&summary_file, whole, &total)?;
+            outcome.summary = Some(summary_file.clone());
+        }
+        if let Some(joiner) = joiner {
+            joiner.finish()?;
+        } else if rows {
+            parts::join((0..n_chunks).map(chunk_path), &desc.columns, &file, whole)?;
+        }
         Ok(false)
     })?;
     if stopped {
         return Ok(outcome);
-    }
-    // The settings first: a result never stands without them.
-    write_json(&settings_path(&file), &manifest.settings)?;
-    if let Some(mut total) = total {
-        fill_means(&mut total);
-        write_summary(&summary_file, whole, &total)?;
-        outcome.summary = Some(summary_file.clone());
-    }
-    if rows {
-        match opts.format {
-            Format::Csv => parts::join((0..n_chunks).map(chunk_path), &desc.columns, &file, whole)?,
-            Format::Parquet => {
-                parts::join_parquet((0..n_chunks).map(chunk_path), &desc.columns, &kinds, &file, whole)?;
-            }
-        }
     }
     std::fs::remove_dir_all(&state).map_err(|e| Error::write_output(&state, e))?;
     if opts.shard.is_none() {
@@ -522,6 +558,65 @@ pub fn run(
     }
     outcome.file = rows.then_some(file);
     Ok(outcome)
+}
+
+/// What writing a chunk gives back: its table encoded (Parquet), its summary.
+#[derive(Default)]
+struct Written {
+    table: Option<bytes::Bytes>,
+    summary: Option<Summary>,
+}
+
+/// A message to the thread joining a run's Parquet chunks into its result.
+enum ToJoin {
+    /// Chunk `c`, just written from these bytes.
+    Bytes(u64, bytes::Bytes),
+    /// Chunk `c`, on disk from an earlier run.
+    File(u64),
+    /// Every chunk is in: the result is finished and renamed into place.
+    Finish,
+}
+
+/// The thread joining a run's Parquet chunks (`join_chunks` in [`run`]), and its channel.
+struct Joiner<'s> {
+    tx: std::sync::mpsc::SyncSender<ToJoin>,
+    handle: std::thread::ScopedJoinHandle<'s, Result<()>>,
+}
+
+impl Joiner<'_> {
+    /// Sends `message` to the joiner, if there is one; when it has stopped on an error, returns
+    /// that error.
+    fn send(joiner: &mut Option<Joiner<'_>>, message: ToJoin) -> Result<()> {
+        let Some(j) = joiner else {
+            return Ok(());
+        };
+        if j.tx.send(message).is_ok() {
+            return Ok(());
+        }
+        let j = joiner.take().expect("a joiner");
+        drop(j.tx);
+        match j
+            .handle
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+        {
+            Err(e) => Err(e),
+            Ok(()) => Err(Error::write_output(
+                Path::new("sweep"),
+                "the join of its chunks ended early",
+            )),
+        }
+    }
+
+    /// Tells the joiner every chunk is in and waits for the result to be written.
+    fn finish(self) -> Result<()> {
+        // A joiner that has stopped on an error has dropped its receiver: its error is returned.
+        let _ = self.tx.send(ToJoin::Finish);
+        drop(self.tx);
+        self.handle
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+    }
 }
 
 /// Returns the lock of the run state `state` (an open file, its lock released when it is

@@ -116,6 +116,14 @@ fn a_parquet_sweep_resumes_redoes_damaged_chunks_and_keeps_its_format() {
         .args(["--max-chunks", "3"])
         .assert()
         .success();
+    // Stopped: no result, and the result's temporary file (joined while the chunks were
+    // computed) is gone.
+    let left: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("sweep.parquet") || n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
     // Resuming as CSV is refused naming --format; the unfinished run is kept.
     common::sonarproj()
         .args(["sweep", "--config"])

@@ -324,7 +324,12 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
     ///
     /// # Errors
     /// [`Error::WriteOutput`] on I/O failure.
-    pub fn copy_group(&mut self, part: &Part, g: usize, last: bool) -> Result<bool> {
+    pub fn copy_group<R: parquet::file::reader::ChunkReader + 'static>(
+        &mut self,
+        part: &Part<R>,
+        g: usize,
+        last: bool,
+    ) -> Result<bool> {
         let err = |e: parquet::errors::ParquetError| Error::write_output(self.path, e);
         let meta = part.reader.metadata();
         let group = meta.row_group(g);
@@ -430,7 +435,7 @@ fn encode_column(
 
 mod read;
 
-pub use read::{Part, open_part, read_groups};
+pub use read::{Part, open_part, open_part_bytes, read_groups};
 
 #[cfg(test)]
 mod tests {

@@ -4,20 +4,20 @@
 use std::path::Path;
 
 use parquet::column::reader::ColumnReader;
-use parquet::file::reader::{FileReader, SerializedFileReader};
+use parquet::file::reader::{ChunkReader, FileReader, SerializedFileReader};
 use parquet::file::serialized_reader::ReadOptionsBuilder;
 
 use super::{Column, Kind, Table, schema};
 use crate::error::{Error, Result};
 
-/// A Parquet part opened for [`super::TableWriter::copy_group`]: the file and its reader (with page
-/// indexes).
-pub struct Part {
-    pub(super) file: std::fs::File,
-    pub(super) reader: SerializedFileReader<std::fs::File>,
+/// A Parquet part opened for [`super::TableWriter::copy_group`]: its bytes (a file, or in
+/// memory) and their reader (with page indexes).
+pub struct Part<R: ChunkReader = std::fs::File> {
+    pub(super) file: R,
+    pub(super) reader: SerializedFileReader<R>,
 }
 
-impl Part {
+impl<R: ChunkReader + 'static> Part<R> {
     /// Returns the row counts of the part's row groups.
     #[must_use]
     pub fn group_rows(&self) -> Vec<u64> {
@@ -45,20 +45,43 @@ impl Part {
 /// As [`read_groups`].
 pub fn open_part(path: &Path, names: &[String], kinds: &[Kind]) -> Result<Part> {
     let file = open(path)?;
+    let reader_file = file.try_clone().map_err(|source| Error::ReadInput {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    part_of(file, reader_file, path, names, kinds)
+}
+
+/// Returns the Parquet bytes `bytes` (part `path`, for messages) opened as a [`Part`], after
+/// checking that its columns are `names` of `kinds`.
+///
+/// # Errors
+/// [`Error::Csv`] naming `path` when the bytes are not Parquet or have other columns.
+pub fn open_part_bytes(
+    bytes: bytes::Bytes,
+    path: &Path,
+    names: &[String],
+    kinds: &[Kind],
+) -> Result<Part<bytes::Bytes>> {
+    part_of(bytes.clone(), bytes, path, names, kinds)
+}
+
+/// Returns the part `file` read through `reader_file` (the same bytes), its columns checked.
+fn part_of<R: ChunkReader + 'static>(
+    file: R,
+    reader_file: R,
+    path: &Path,
+    names: &[String],
+    kinds: &[Kind],
+) -> Result<Part<R>> {
     // Every field of the column chunks kept as written (the page encoding statistics as a
     // list, not the reader's default mask), so a copied group is the bytes encoding it makes.
     let options = ReadOptionsBuilder::new()
         .with_page_index()
         .with_encoding_stats_as_mask(false)
         .build();
-    let reader = SerializedFileReader::new_with_options(
-        file.try_clone().map_err(|source| Error::ReadInput {
-            path: path.to_path_buf(),
-            source,
-        })?,
-        options,
-    )
-    .map_err(|e| not_parquet(path, &e))?;
+    let reader =
+        SerializedFileReader::new_with_options(reader_file, options).map_err(|e| not_parquet(path, &e))?;
     check_schema(&reader, path, names, kinds)?;
     Ok(Part { file, reader })
 }
