@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::report::write_atomic;
+use crate::report::{write_atomic, write_atomic_unsynced};
 
 /// What a part file holds, written beside it.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -96,14 +96,47 @@ pub fn write(
     expected: Expected<'_>,
     fill: impl FnOnce(&mut (dyn Write + Send)) -> Result<()>,
 ) -> Result<()> {
+    write_with(file, expected, true, fill)
+}
+
+/// Writes a run's chunk `file` as [`write`] does, but without flushing it or its record to the
+/// disk ([`write_atomic_unsynced`]): a chunk is only ever read after its size and checksum are
+/// checked against its record, so a crash that loses its bytes makes it damaged (computed
+/// again), never wrong. The results a run leaves are written with [`write`].
+///
+/// # Errors
+/// As [`write`].
+pub fn write_chunk(
+    file: &Path,
+    expected: Expected<'_>,
+    fill: impl FnOnce(&mut (dyn Write + Send)) -> Result<()>,
+) -> Result<()> {
+    write_with(file, expected, false, fill)
+}
+
+/// [`write`], the part and its record flushed to the disk when `sync`.
+fn write_with(
+    file: &Path,
+    expected: Expected<'_>,
+    sync: bool,
+    fill: impl FnOnce(&mut (dyn Write + Send)) -> Result<()>,
+) -> Result<()> {
+    let atomic = |path: &Path, fill: &mut dyn FnMut(&mut (dyn Write + Send)) -> Result<()>| {
+        if sync {
+            write_atomic(path, fill)
+        } else {
+            write_atomic_unsynced(path, fill)
+        }
+    };
+    let mut fill = Some(fill);
     let mut sums = (0u64, 0u32);
-    write_atomic(file, |w| {
+    atomic(file, &mut |w: &mut (dyn Write + Send)| {
         let mut summing = Summing {
             inner: w,
             hasher: crc32fast::Hasher::new(),
             bytes: 0,
         };
-        fill(&mut summing)?;
+        (fill.take().expect("written once"))(&mut summing)?;
         sums = (summing.bytes, summing.hasher.finalize());
         Ok(())
     })?;
@@ -114,7 +147,12 @@ pub fn write(
         bytes: sums.0,
         crc32: format!("{:08x}", sums.1),
     };
-    write_json(&record_path(file), &record)
+    let record_file = record_path(file);
+    atomic(&record_file, &mut |w: &mut (dyn Write + Send)| {
+        serde_json::to_writer_pretty(&mut *w, &record).map_err(|e| Error::write_output(&record_file, e))?;
+        w.write_all(b"\n")
+            .map_err(|e| Error::write_output(&record_file, e))
+    })
 }
 
 /// Writes `value` to `path` as pretty JSON, whole or not at all.
@@ -505,5 +543,22 @@ mod tests {
         assert!(matches!(check(&file, expected), Status::Damaged(r) if r.contains("bytes")));
         std::fs::remove_file(record_path(&file)).unwrap();
         assert!(matches!(check(&file, expected), Status::Damaged(r) if r.contains("missing")));
+        // A chunk written without flushing is the same part: the same bytes, the same record.
+        let chunk = dir.path().join("chunk-00000002.csv");
+        write_chunk(&chunk, expected, |w| {
+            w.write_all(b"index,x\n10,1\n11,2\n").unwrap();
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(check(&chunk, expected), Status::Good);
+        assert_eq!(std::fs::read(&chunk).unwrap(), b"index,x\n10,1\n11,2\n");
+        assert_eq!(
+            std::fs::read(record_path(&chunk)).unwrap(),
+            serde_json::to_vec_pretty(&record)
+                .unwrap()
+                .into_iter()
+                .chain(*b"\n")
+                .collect::<Vec<u8>>()
+        );
     }
 }

@@ -382,7 +382,7 @@ pub fn run(
                 )?;
                 t.push(table)?;
                 t.finish()?;
-                parts::write(&path, expected(&r), |w| {
+                parts::write_chunk(&path, expected(&r), |w| {
                     w.write_all(&bytes).map_err(|e| Error::write_output(&path, e))
                 })?;
                 written.table = Some(bytes::Bytes::from(bytes));
@@ -391,7 +391,7 @@ pub fn run(
                 let summary = spec.partial(grid, r.start, &values)?;
                 let part = summary.to_part();
                 let sum_path = chunk_summary(c);
-                parts::write(&sum_path, expected(&r), |w| {
+                parts::write_chunk(&sum_path, expected(&r), |w| {
                     serde_json::to_writer(&mut *w, &part).map_err(|e| Error::write_output(&sum_path, e))
                 })?;
                 written.summary = Some(summary);
@@ -494,7 +494,7 @@ pub fn run(
                         let batch = chunk_batch(config, &poses);
                         let results = backend.project(&batch, Output::MetricsOnly)?;
                         let body = csv_rows(&batch, &poses, &fields, &results, sigma, &path)?;
-                        parts::write(&path, expected(r), |w| {
+                        parts::write_chunk(&path, expected(r), |w| {
                             write_rows(
                                 &mut *w,
                                 &header,
