@@ -49,6 +49,7 @@ if "XDG_RUNTIME_DIR" not in _os.environ and "NODEVICE_SELECT" not in _os.environ
 from . import _sonarproj as _native  # noqa: E402
 from ._sonarproj import (
     DEFAULT_CHUNK_POSES,
+    DEFAULT_SUMMARY_CHUNK_POSES,
     METRIC_COLUMNS,
     InputError,
     InputTypeError,

@@ -9,7 +9,6 @@ from typing import Any, Callable, Optional, Union
 import numpy as _np
 
 from . import InputError, _backend, _native, _number, _warn  # defined before this module loads
-from ._sonarproj import DEFAULT_CHUNK_POSES
 
 
 def _count(parameter: str, value: Any, *, optional: bool = False) -> Optional[int]:
@@ -25,7 +24,7 @@ def sweep(
     out_dir: Optional[Union[str, "_os.PathLike[str]"]] = None,
     *,
     shard: Optional[str] = None,
-    chunk_poses: int = DEFAULT_CHUNK_POSES,
+    chunk_poses: Optional[int] = None,
     max_chunks: Optional[int] = None,
     backend: str = "auto",
     progress: Optional[Callable[[int, int], None]] = None,
@@ -39,7 +38,9 @@ def sweep(
     floats for the rest, null where the CSV leaves a cell empty), for ``pandas.read_parquet``,
     polars, pyarrow or DuckDB, and faster to write.
 
-    Finished chunks of `chunk_poses` poses stay on disk, so calling it again resumes; Ctrl-C
+    Finished chunks of `chunk_poses` poses stay on disk, so calling it again resumes (None: the
+    unfinished run's own size, else ``DEFAULT_CHUNK_POSES``, one Parquet row group, or
+    ``DEFAULT_SUMMARY_CHUNK_POSES`` for summaries only); Ctrl-C
     (KeyboardInterrupt) stops it between chunks. `shard` ``"K/N"`` runs part K of N;
     `max_chunks` stops after that many chunks. `progress(done, total)` is called after each
     chunk. `backend` picks where to compute: "auto", "gpu", "cpu-fast" or "cpu".
@@ -68,7 +69,11 @@ def sweep(
         if format != "csv":
             raise InputError(f"format: {format!r} needs out_dir (a sweep in memory returns its columns)")
         result, notice = _native.sweep_memory(
-            _os.fspath(config), shard, _count("chunk_poses", chunk_poses), _backend(backend), progress
+            _os.fspath(config),
+            shard,
+            _count("chunk_poses", chunk_poses, optional=True),
+            _backend(backend),
+            progress,
         )
         _warn(notice)
         return result
@@ -76,7 +81,7 @@ def sweep(
         _os.fspath(config),
         _os.fspath(out_dir),
         shard,
-        _count("chunk_poses", chunk_poses),
+        _count("chunk_poses", chunk_poses, optional=True),
         _count("max_chunks", max_chunks, optional=True),
         _backend(backend),
         progress,

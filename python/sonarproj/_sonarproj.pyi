@@ -10,6 +10,7 @@ __version__: str
 METRIC_COLUMNS: list[str]
 SPLAT_WORKGROUPS: list[int]
 DEFAULT_CHUNK_POSES: int
+DEFAULT_SUMMARY_CHUNK_POSES: int
 
 class InputError(ValueError):
     """Bad input: the message names the parameter, the value and what is allowed."""
@@ -322,7 +323,7 @@ def sweep_run(
     config: str,
     out_dir: str,
     shard: Optional[str],
-    chunk_poses: int,
+    chunk_poses: Optional[int],
     max_chunks: Optional[int],
     backend_name: str,
     progress: Optional[Callable[[int, int], None]],
@@ -331,7 +332,7 @@ def sweep_run(
 def sweep_memory(
     config: str,
     shard: Optional[str],
-    chunk_poses: int,
+    chunk_poses: Optional[int],
     backend_name: str,
     progress: Optional[Callable[[int, int], None]],
 ) -> tuple[dict[str, Any], Optional[str]]: ...

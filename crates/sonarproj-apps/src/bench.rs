@@ -259,7 +259,7 @@ pub fn time_sweep(backend: &Backend, poses: u64, block: u64, runs: u32) -> Resul
         let opts = Options {
             out: out.clone(),
             shard: None,
-            chunk_poses: crate::sweep::DEFAULT_CHUNK_POSES,
+            chunk_poses: None,
             max_chunks: None,
             format: Format::Parquet,
         };

@@ -64,7 +64,7 @@ pub(crate) fn sweep_run<'py>(
     config: PathBuf,
     out_dir: PathBuf,
     shard: Option<&str>,
-    chunk_poses: u64,
+    chunk_poses: Option<u64>,
     max_chunks: Option<u64>,
     backend_name: &str,
     progress: Option<Py<PyAny>>,
@@ -127,7 +127,7 @@ pub(crate) fn sweep_memory<'py>(
     py: Python<'py>,
     config: PathBuf,
     shard: Option<&str>,
-    chunk_poses: u64,
+    chunk_poses: Option<u64>,
     backend_name: &str,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {

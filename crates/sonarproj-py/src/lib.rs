@@ -58,6 +58,10 @@ fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
         sonarproj::gpu::options::SPLAT_WORKGROUPS.to_vec(),
     )?;
     m.add("DEFAULT_CHUNK_POSES", sonarproj_apps::sweep::DEFAULT_CHUNK_POSES)?;
+    m.add(
+        "DEFAULT_SUMMARY_CHUNK_POSES",
+        sonarproj_apps::sweep::DEFAULT_SUMMARY_CHUNK_POSES,
+    )?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -34,8 +34,9 @@ pub struct InMemory {
 
 /// Runs `config` (or one shard of it) on `backend` and returns its table's columns and its
 /// summaries, writing nothing: the rows are those `sweep.parquet` holds, the summaries those of
-/// `summary.json`. `events` hears of progress after each chunk of `chunk_poses` poses and may
-/// stop the run (the result is then `None`).
+/// `summary.json`. `events` hears of progress after each chunk of `chunk_poses` poses (`None`:
+/// [`default_chunk_poses`](super::run::default_chunk_poses)) and may stop the run (the result
+/// is then `None`).
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `--chunk-poses` when 0, and `--out` when the table
@@ -44,12 +45,13 @@ pub fn run_in_memory(
     config: &SweepConfig,
     backend: &Backend,
     shard: Option<Shard>,
-    chunk_poses: u64,
+    chunk_poses: Option<u64>,
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Option<InMemory>> {
-    if chunk_poses == 0 {
+    if chunk_poses == Some(0) {
         return Err(Error::invalid("--chunk-poses", 0, "must be >= 1"));
     }
+    let chunk_poses = chunk_poses.unwrap_or_else(|| super::run::default_chunk_poses(config));
     let desc = descriptor(config)?;
     let range = shard.map_or(0..desc.poses, |s| s.range(desc.poses));
     let poses = range.end - range.start;

@@ -20,6 +20,8 @@ pub use config::{Axis, Grid, Poses, SweepConfig};
 pub use in_memory::{InMemory, MAX_IN_MEMORY_BYTES, run_in_memory};
 pub use merge::{Merged, merge};
 pub use records::{Descriptor, Settings, descriptor, settings};
-pub use run::{DEFAULT_CHUNK_POSES, Event, Options, Outcome, run};
+pub use run::{
+    DEFAULT_CHUNK_POSES, DEFAULT_SUMMARY_CHUNK_POSES, Event, Options, Outcome, default_chunk_poses, run,
+};
 pub use shard::{MAX_SHARDS, Shard};
 pub use table::{Format, column_kinds};

@@ -8,7 +8,6 @@ use std::time::Instant;
 use super::BackendArg;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use sonarproj_apps::Result;
-use sonarproj_apps::sweep::DEFAULT_CHUNK_POSES;
 use sonarproj_apps::sweep::{self, Event, Options, Shard, SweepConfig};
 
 /// Options of `sonarproj sweep`.
@@ -26,9 +25,11 @@ pub(super) struct SweepArgs {
     /// Run part K of N independent parts (e.g. a Slurm array task); `sonarproj merge DIR` joins them.
     #[arg(long, value_name = "K/N")]
     shard: Option<String>,
-    /// Poses per chunk: each finished chunk is kept on disk, so an interrupted run loses at most one.
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_CHUNK_POSES)]
-    chunk_poses: u64,
+    /// Poses per chunk: each finished chunk is kept on disk, so an interrupted run loses at most
+    /// one. Default: 131072 (one Parquet row group), 1048576 for summaries only ([summary] rows =
+    /// false); a resumed run keeps the size it started with.
+    #[arg(long, value_name = "N")]
+    chunk_poses: Option<u64>,
     /// Compute at most N chunks, then stop (for time-limited jobs; re-run to go on).
     #[arg(long, value_name = "N")]
     max_chunks: Option<u64>,

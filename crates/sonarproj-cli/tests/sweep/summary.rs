@@ -157,13 +157,38 @@ fn summaries_alone_are_the_same_however_the_run_is_cut() {
         .assert()
         .success();
     assert!(!resumed.join("summary.json").exists());
-    assert!(
-        sweep(
-            &alone,
-            &resumed,
-            &["--backend", "cpu-fast", "--chunk-poses", "100"],
-            "summary.json"
-        ) == summary
+    // Resumed without --chunk-poses: the unfinished run's size is kept (the default for
+    // summaries only, DEFAULT_SUMMARY_CHUNK_POSES, would be refused as another setting).
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(resumed.join(".partial-sweep/manifest.json")).unwrap())
+            .unwrap();
+    assert_eq!(manifest["chunk_poses"], 100);
+    let out = common::sonarproj()
+        .args(["sweep", "--config"])
+        .arg(&alone)
+        .arg("--out")
+        .arg(&resumed)
+        .args(["--backend", "cpu-fast"])
+        .assert()
+        .success();
+    let stdout = String::from_utf8_lossy(&out.get_output().stdout).into_owned();
+    assert!(stdout.contains("200 from earlier runs"), "{stdout}");
+    assert!(std::fs::read(resumed.join("summary.json")).unwrap() == summary);
+    // A fresh summaries-only run takes chunks of DEFAULT_SUMMARY_CHUNK_POSES.
+    let fresh = dir.path().join("fresh");
+    common::sonarproj()
+        .args(["sweep", "--config"])
+        .arg(&alone)
+        .arg("--out")
+        .arg(&fresh)
+        .args(["--backend", "cpu-fast", "--max-chunks", "0"])
+        .assert()
+        .success();
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(fresh.join(".partial-sweep/manifest.json")).unwrap()).unwrap();
+    assert_eq!(
+        manifest["chunk_poses"],
+        sonarproj_apps::sweep::DEFAULT_SUMMARY_CHUNK_POSES
     );
     // Shards merged.
     let sharded = dir.path().join("sharded");
