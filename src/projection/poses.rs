@@ -308,7 +308,7 @@ impl PoseSweep<'_> {
         })
     }
 
-    /// Returns the local precision (`recover`'s first-order model, [`local_precision`]) of
+    /// Returns the local precision (`recover`'s first-order model, [`local_precision`](crate::local_precision::local_precision)) of
     /// poses `range` of a grid at each feature's true point, for range error `sigma` (m), into
     /// `range_per_elevation` and `sigma_elevation` (their rows replaced; NaN where there is no
     /// value), on all cores.
