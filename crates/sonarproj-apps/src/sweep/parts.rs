@@ -99,13 +99,13 @@ pub fn write(
     write_with(file, expected, true, fill)
 }
 
-/// Writes a run's chunk `file` as [`write`] does, but without flushing it or its record to the
+/// Writes a run's chunk `file` as [`write()`] does, but without flushing it or its record to the
 /// disk ([`write_atomic_unsynced`]): a chunk is only ever read after its size and checksum are
 /// checked against its record, so a crash that loses its bytes makes it damaged (computed
-/// again), never wrong. The results a run leaves are written with [`write`].
+/// again), never wrong. The results a run leaves are written with [`write()`].
 ///
 /// # Errors
-/// As [`write`].
+/// As [`write()`].
 pub fn write_chunk(
     file: &Path,
     expected: Expected<'_>,
@@ -114,7 +114,7 @@ pub fn write_chunk(
     write_with(file, expected, false, fill)
 }
 
-/// [`write`], the part and its record flushed to the disk when `sync`.
+/// [`write()`], the part and its record flushed to the disk when `sync`.
 fn write_with(
     file: &Path,
     expected: Expected<'_>,
