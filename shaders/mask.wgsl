@@ -1,8 +1,9 @@
 // Correspondence masks on the GPU: the same cells and balls as src/masks/ (read the two side by
 // side), in f32: blocks of cells culled by their ball, then each cell's ball marked. Every
 // rounding error is absorbed by a slack the CPU adds to each job's radii (src/masks/gpu.rs), so
-// a mask can only grow, never miss a pixel; beams are found without trigonometry by the side of
-// each beam edge the ball lies on.
+// a mask can only grow, never miss a pixel; beams are decided by the side of each beam edge the
+// ball lies on (cross products, no trigonometry), the edges compared walked to from a guess that
+// an angle makes (edges_with_cross_above: the guess saves steps, the comparisons decide).
 //
 // Structs: keep in sync with src/masks/gpu.rs (sizes asserted there, layout checked in
 // src/gpu/shader_tests.rs).
@@ -60,23 +61,40 @@ fn may_meet_view(q: vec3<f32>, d: f32, r: f32) -> bool {
 
 // Returns the number of beam edges k with cross_k(q) > limit, where cross_k = rho sin(az(q) - e_k)
 // is the signed distance of q from edge k's line: a prefix of the edges while
-// radius < rho cos(half_az) (then |az(q) - e_k| stays below 180 deg - asin(radius / rho)).
-fn edges_with_cross_above(q: vec3<f32>, limit: f32) -> u32 {
-    var lo = 0u;
-    var hi = params.beams + 1u;
+// radius < rho cos(half_az) (then |az(q) - e_k| stays below 180 deg - asin(radius / rho)). The
+// count is first guessed from `guess`, the angle az(q) - asin(limit / rho) the edges are compared
+// with, on edges spread evenly from `first` (rad) by 1 / `per` (the beams' mean spacing), then
+// walked to the exact count by the same comparisons a binary search makes: the guess only saves
+// steps (a software adapter pays for each, all lanes together), never changes the answer.
+fn edges_with_cross_above(q: vec3<f32>, limit: f32, guess: f32, first: f32, per: f32) -> u32 {
+    let n = params.beams + 1u;
+    // Within 0..=n whatever the guess (NaN included: the comparison is false).
+    let g = (guess - first) * per;
+    var k = 0u;
+    if g > 0.0 {
+        k = u32(min(ceil(g), f32(n)));
+    }
     loop {
-        if lo >= hi {
+        if k == 0u {
             break;
         }
-        let mid = (lo + hi) / 2u;
-        let e = edges[mid];
+        let e = edges[k - 1u];
         if e.x * q.y - e.y * q.x > limit {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
+            break;
         }
+        k -= 1u;
     }
-    return lo;
+    loop {
+        if k >= n {
+            break;
+        }
+        let e = edges[k];
+        if !(e.x * q.y - e.y * q.x > limit) {
+            break;
+        }
+        k += 1u;
+    }
+    return k;
 }
 
 // Sets bits first..=last of the mask that starts at word `base`.
@@ -113,6 +131,45 @@ fn moved(job: MaskJob, a: vec2<f32>, e: vec2<f32>) -> vec3<f32> {
     );
 }
 
+// Marks the pixels of the ball of radius `r` around cell (ia, ie) of `job` in the mask at word
+// `base`, when it may meet the view; `first` and `per` place the beam edges for the searches'
+// guesses. Nested conditions rather than early exits: a software adapter runs a workgroup's
+// lanes together and skips a branch only when no lane takes it.
+fn draw_cell(job: MaskJob, base: u32, ia: u32, ie: u32, r: f32, first: f32, per: f32) {
+    let q = moved(job, dirs[job.az_offset + ia], dirs[job.el_offset + ie]);
+    let d = length(q);
+    if may_meet_view(q, d, r) {
+        let lo = max(d - r, params.range_min);
+        let hi = min(d + r, params.range_max);
+        let last_bin = params.range_bins - 1u;
+        let i0 = min(u32(max(floor((lo - params.range_min) * params.inv_range_bin), 0.0)), last_bin);
+        let i1 = min(u32(max(floor((hi - params.range_min) * params.inv_range_bin), 0.0)), last_bin);
+        var j0 = 0u;
+        var j1 = 0u;
+        var seen = true;
+        if params.beamed == 1u {
+            j1 = params.beams - 1u;
+            let rho = length(q.xy);
+            if r < rho * params.cos_half_az {
+                // Beams from the one right of the last edge wholly left of the ball to the one
+                // left of the first edge wholly right of it.
+                let az = atan2(q.y, q.x);
+                let half = asin(r / rho);
+                let left = edges_with_cross_above(q, r, az - half, first, per);
+                let not_right = edges_with_cross_above(q, -r, az + half, first, per);
+                seen = left <= params.beams && not_right > 0u;
+                j0 = max(left, 1u) - 1u;
+                j1 = min(max(not_right, 1u), params.beams) - 1u;
+            }
+        }
+        if seen {
+            for (var i = i0; i <= i1; i++) {
+                set_bits(base, i * params.beams + j0, i * params.beams + j1);
+            }
+        }
+    }
+}
+
 // A workgroup per block of cells (blocks strided by the workgroups along x), a job
 // per workgroup row (y): the block's ball is tested first (every thread computes the same
 // test, so the branch is uniform) and, when it may meet the view, each thread draws one cell.
@@ -128,47 +185,37 @@ fn main(
     let blocks = blocks_a * ((job.el_count + block_e - 1u) / block_e);
     let base = group.y * params.words_per_mask;
     let r = job.radius;
-    for (var b = group.x; b < blocks; b += groups.x) {
-        let ba = b % blocks_a;
-        let be = b / blocks_a;
+    // The beam edges' first angle and mean spacing, for the searches' first guesses.
+    let first_edge = atan2(edges[0].y, edges[0].x);
+    let per_edge = f32(params.beams) / (atan2(edges[params.beams].y, edges[params.beams].x) - first_edge);
+    // The block's place and the thread's cell in it, stepped without a division a block (a
+    // software adapter divides lane by lane).
+    let lane_a = local % job.block_a;
+    let lane_e = local / job.block_a;
+    let step_a = groups.x % blocks_a;
+    let step_e = groups.x / blocks_a;
+    var ba = group.x % blocks_a;
+    var be = group.x / blocks_a;
+    var b = group.x;
+    loop {
+        if b >= blocks {
+            break;
+        }
         let middle = moved(job, dirs[job.az_offset + job.az_count + ba], dirs[job.el_offset + job.el_count + be]);
-        if !may_meet_view(middle, length(middle), job.block_radius) {
-            continue;
+        let ia = ba * job.block_a + lane_a;
+        let ie = be * block_e + lane_e;
+        if ia < job.az_count && ie < job.el_count
+            && may_meet_view(middle, length(middle), job.block_radius) {
+            draw_cell(job, base, ia, ie, r, first_edge, per_edge);
         }
-        let ia = ba * job.block_a + local % job.block_a;
-        let ie = be * block_e + local / job.block_a;
-        if ia >= job.az_count || ie >= job.el_count {
-            continue;
-        }
-        let q = moved(job, dirs[job.az_offset + ia], dirs[job.el_offset + ie]);
-        let d = length(q);
-        if !may_meet_view(q, d, r) {
-            continue;
-        }
-        let lo = max(d - r, params.range_min);
-        let hi = min(d + r, params.range_max);
-        let last_bin = params.range_bins - 1u;
-        let i0 = min(u32(max(floor((lo - params.range_min) * params.inv_range_bin), 0.0)), last_bin);
-        let i1 = min(u32(max(floor((hi - params.range_min) * params.inv_range_bin), 0.0)), last_bin);
-        var j0 = 0u;
-        var j1 = 0u;
-        if params.beamed == 1u {
-            j1 = params.beams - 1u;
-            let rho = length(q.xy);
-            if r < rho * params.cos_half_az {
-                // Beams from the one right of the last edge wholly left of the ball to the one
-                // left of the first edge wholly right of it.
-                let left = edges_with_cross_above(q, r);
-                let not_right = edges_with_cross_above(q, -r);
-                if left > params.beams || not_right == 0u {
-                    continue;
-                }
-                j0 = max(left, 1u) - 1u;
-                j1 = min(not_right, params.beams) - 1u;
+        continuing {
+            b += groups.x;
+            ba += step_a;
+            be += step_e;
+            if ba >= blocks_a {
+                ba -= blocks_a;
+                be += 1u;
             }
-        }
-        for (var i = i0; i <= i1; i++) {
-            set_bits(base, i * params.beams + j0, i * params.beams + j1);
         }
     }
 }

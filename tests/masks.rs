@@ -64,7 +64,11 @@ fn true_pixel(s: &Sonar, p: DVec3) -> (usize, usize) {
             let bw = s.azimuth_aperture / f64::from(*count);
             (((az + s.azimuth_aperture / 2.0) / bw).floor().max(0.0) as usize).min(*count as usize - 1)
         }
-        (SonarKind::Fls, other) => panic!("presets have uniform beams, got {other:?}"),
+        (SonarKind::Fls, BeamLayout::Edges(edges)) => {
+            // The beam whose [edge, next edge) holds the azimuth, the last closed.
+            let az = p.y.atan2(p.x).to_degrees();
+            edges[1..edges.len() - 1].iter().filter(|&&e| e <= az).count()
+        }
     };
     (i, j)
 }
@@ -383,6 +387,74 @@ mod gpu {
             extra < 0.02,
             "GPU masks {:.3} % larger than the CPU's",
             100.0 * extra
+        );
+    }
+
+    /// Returns the imaging sonar `name` with `beams` beams spread very unevenly (edges at
+    /// `half · t · |t|`, `t` evenly from -1 to 1: a hundred times narrower at the axis than at
+    /// the sides), as a driver's beam table may give them.
+    fn uneven(name: &str, beams: u32) -> Sonar {
+        let mut s = Sonar::preset(name).unwrap();
+        let half = s.azimuth_aperture / 2.0;
+        let edges = (0..=beams)
+            .map(|k| {
+                let t = 2.0 * f64::from(k) / f64::from(beams) - 1.0;
+                half * t * t.abs()
+            })
+            .collect();
+        s.beams = BeamLayout::Edges(edges);
+        s.validated().unwrap()
+    }
+
+    /// On unevenly spaced beams the GPU's beam search, which starts from a guess made for even
+    /// ones and walks to the edge, still finds every true pixel and holds the CPU engine's
+    /// masks: a sidescan's and an imaging sonar's features into an imaging sonar of 256 beams a
+    /// hundred times narrower at the axis than at the sides, with noise-free and noisy scenes.
+    #[test]
+    fn gpu_masks_hold_the_cpu_masks_on_uneven_beams() {
+        let Some(ctx) = common::gpu_context() else {
+            return;
+        };
+        let s2 = uneven("holoocean-imaging", 256);
+        let mut failures = Vec::new();
+        for (a, from) in ["holoocean-sidescan", "paper-fls", "oculus-m750d"]
+            .iter()
+            .enumerate()
+        {
+            let s1 = Sonar::preset(from).unwrap();
+            let cpu = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
+            let gpu = MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx.clone()).unwrap();
+            let mut rng = ChaCha8Rng::seed_from_u64(7000 + a as u64);
+            let scenes: Vec<Scene> = (0..gpu_scenes() / 2).map(|_| scene(&mut rng, &s1, &s2)).collect();
+            let jobs: Vec<(RelativePose, Measurement)> =
+                scenes.iter().map(|s| (s.pose, s.measurement)).collect();
+            let on_gpu = gpu.masks_of_scenes(&jobs).unwrap();
+            let on_cpu = cpu.masks_of_scenes(&jobs).unwrap();
+            let mut beams_seen = std::collections::BTreeSet::new();
+            for (sc, (g, c)) in scenes.iter().zip(on_gpu.iter().zip(&on_cpu)) {
+                let (i, j) = true_pixel(&s2, sc.p2);
+                beams_seen.insert(j);
+                if !g.occupancy.get(i, j) {
+                    failures.push(format!(
+                        "{from}: {:?}: true pixel ({i}, {j}) missed",
+                        sc.measurement
+                    ));
+                }
+                if !c.occupancy.is_subset_of(&g.occupancy) {
+                    failures.push(format!(
+                        "{from}: {:?}: CPU pixels missing on the GPU",
+                        sc.measurement
+                    ));
+                }
+            }
+            // The scenes reach beams across the fan, the narrow middle and the wide sides.
+            assert!(beams_seen.len() > 100, "{from}: {} beams", beams_seen.len());
+        }
+        assert!(
+            failures.is_empty(),
+            "{} failures:\n{}",
+            failures.len(),
+            failures[..failures.len().min(10)].join("\n")
         );
     }
 
