@@ -606,6 +606,41 @@ mod gpu {
             }
             let stopped = engine.summaries_of_pings(&pings, None, &|| true);
             assert!(matches!(stopped, Err(sonarproj::Error::Stopped)), "{stopped:?}");
+            // The masks of many pings (two in flight on the GPU) are each ping's masks, with
+            // noise too.
+            let noise = Noise {
+                rotation: [0.3, 0.3, 0.5],
+                translation: [0.02, 0.02, 0.02],
+                range: 0.01,
+                azimuth: 0.2,
+                coverage: 0.99,
+            };
+            for noise in [None, Some(&noise)] {
+                let all = engine.masks_of_pings(&pings, noise, &|| false).unwrap();
+                assert_eq!(all.len(), pings.len());
+                for (k, (pose, features)) in pings.iter().enumerate() {
+                    let one = engine.masks(pose, features, noise, Counts::Skip).unwrap();
+                    assert_eq!(all[k], one, "ping {k} on {}", engine.device());
+                }
+                assert!(all.iter().any(|s| s.union.count() > 0));
+            }
+            let e = engine
+                .masks_of_pings(
+                    &[(
+                        pings[0].0,
+                        vec![Measurement {
+                            range: 1e6,
+                            azimuth: 0.0,
+                        }],
+                    )],
+                    None,
+                    &|| false,
+                )
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("ping 1: feature 1"), "{e}");
+            let stopped = engine.masks_of_pings(&pings, None, &|| true);
+            assert!(matches!(stopped, Err(sonarproj::Error::Stopped)), "{stopped:?}");
         }
     }
 }

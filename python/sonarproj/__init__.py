@@ -603,7 +603,9 @@ class MaskEngine:
         dense: bool = True,
     ) -> list[MaskSet]:
         """Returns the masks of a sequence of pings: ``poses[k]`` and ``features[k]`` (as in
-        :meth:`masks`) per ping, one :class:`MaskSet` each. Ctrl-C stops it between pings."""
+        :meth:`masks`) per ping, one :class:`MaskSet` each. On a GPU without counts two pings
+        are in flight (the next is submitted while the one before is drawn) and Ctrl-C stops it
+        between groups of 64 pings; otherwise between pings."""
         ps, ranges, azimuths = self._pings(poses, features)
         return self._engine.masks_of_pings(
             ps, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage), _flag("counts", counts),

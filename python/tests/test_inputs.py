@@ -320,6 +320,26 @@ def test_the_gpu_path_is_reachable_from_python():
         s = on_gpu.summary(pose, [4.0, 7.5])
         assert list(s.occupied) == [int(m.sum()) for m in g]
         np.testing.assert_array_equal(s.union, g.max(axis=0))
+    # Many pings at once (two in flight on the GPU): each ping's masks, dense or as runs, as
+    # one call gives them, on both engines; a ping's bad feature is named with its ping.
+    poses = [Pose(pitch=5, yaw=10 + k, t=(0.3, 0.2, -0.1)) for k in range(70)]
+    features = [[4.0 + 0.05 * k, 7.5][: 1 + k % 2] for k in range(70)]
+    for engine in (on_gpu, on_cpu):
+        for dense in (True, False):
+            sets = engine.masks_of_pings(poses, features, sigma={"yaw": 0.5}, dense=dense)
+            assert len(sets) == 70
+            for k in (0, 1, 63, 64, 69):
+                one = engine.masks(poses[k], features[k], sigma={"yaw": 0.5}, dense=dense)
+                np.testing.assert_array_equal(sets[k].union, one.union)
+                assert sets[k].radius == one.radius and sets[k].boxes == one.boxes
+                if dense:
+                    np.testing.assert_array_equal(sets[k].masks, one.masks)
+                else:
+                    assert len(sets[k].runs) == len(one.runs)
+                    for a, b in zip(sets[k].runs, one.runs):
+                        np.testing.assert_array_equal(a, b)
+        with pytest.raises(InputError, match="ping 66"):
+            engine.masks_of_pings(poses, features[:65] + [[500.0]] + features[66:])
 
 
 @pytest.mark.parametrize("kwargs,words", [

@@ -323,8 +323,94 @@ impl MaskEngine {
         noise: Option<&Noise>,
         stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<Vec<PingSummary>> {
-        let noise = noise.map(|n| n.validated()).transpose()?;
         let mut out = Vec::with_capacity(pings.len());
+        self.of_pings(
+            pings,
+            noise,
+            stop,
+            false,
+            &|drawn, jobs| self.summary_of_gpu(drawn, jobs),
+            &|pose, plans| self.summary_on_cpu(pose, plans),
+            &mut |s| {
+                out.push(s);
+                Ok(())
+            },
+        )?;
+        Ok(out)
+    }
+
+    /// Returns the masks of many pings, one pose and one set of features each: each ping's
+    /// [`MaskEngine::masks`] without counts, two pings in flight on a GPU as in
+    /// [`MaskEngine::summaries_of_pings`]; `stop` is asked before each group of 64 pings.
+    ///
+    /// # Errors
+    /// As [`MaskEngine::summaries_of_pings`].
+    pub fn masks_of_pings(
+        &self,
+        pings: &[(RelativePose, Vec<Measurement>)],
+        noise: Option<&Noise>,
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Vec<MaskSet>> {
+        let mut out = Vec::with_capacity(pings.len());
+        self.masks_of_pings_each(pings, noise, stop, &mut |set| {
+            out.push(set);
+            Ok(())
+        })?;
+        Ok(out)
+    }
+
+    /// Gives `each` the masks of each ping of `pings` in order, as
+    /// [`MaskEngine::masks_of_pings`] computes them, holding no more than one group of 64 pings'
+    /// masks at a time.
+    ///
+    /// # Errors
+    /// As [`MaskEngine::masks_of_pings`], and `each`'s errors (which stop it).
+    pub fn masks_of_pings_each(
+        &self,
+        pings: &[(RelativePose, Vec<Measurement>)],
+        noise: Option<&Noise>,
+        stop: &(dyn Fn() -> bool + Sync),
+        each: &mut dyn FnMut(MaskSet) -> Result<()>,
+    ) -> Result<()> {
+        let layout = &self.view.layout;
+        self.of_pings(
+            pings,
+            noise,
+            stop,
+            true,
+            &|drawn, jobs| MaskSet {
+                masks: Mask::of_gpu(layout, drawn.masks.unwrap_or_default(), jobs),
+                union: layout.to_data_order(drawn.union),
+            },
+            &|pose, plans| {
+                let masks = plans
+                    .par_iter()
+                    .map(|plan| self.draw_cpu(pose, plan, Counts::Skip))
+                    .collect();
+                self.with_union(masks)
+            },
+            each,
+        )
+    }
+
+    /// Gives `emit`, in order, `on_gpu` or `on_cpu` of each ping of `pings` (its drawing and jobs
+    /// on a GPU, the masks read back too when `masks`; its pose and plans on the CPU), in groups
+    /// of 64 pings with two dispatches in flight on a GPU, `stop` asked before each group.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the two ways a ping is drawn, and where it goes"
+    )]
+    fn of_pings<T>(
+        &self,
+        pings: &[(RelativePose, Vec<Measurement>)],
+        noise: Option<&Noise>,
+        stop: &(dyn Fn() -> bool + Sync),
+        masks: bool,
+        on_gpu: &dyn Fn(gpu::Drawn, &[Job]) -> T,
+        on_cpu: &dyn Fn(&RelativePose, &[Plan]) -> T,
+        emit: &mut dyn FnMut(T) -> Result<()>,
+    ) -> Result<()> {
+        let noise = noise.map(|n| n.validated()).transpose()?;
         for (g, group) in pings.chunks(64).enumerate() {
             if stop() {
                 return Err(Error::Stopped);
@@ -336,35 +422,35 @@ impl MaskEngine {
                 planned.push((pose, self.plans(features, noise.as_ref()).map_err(ping)?));
             }
             // The pings the GPU takes (all, but those too small under `auto`), as jobs.
-            let on_gpu: Vec<bool> = planned
+            let gpu_takes: Vec<bool> = planned
                 .iter()
                 .map(|(_, plans)| self.gpu_for(plans).is_some())
                 .collect();
             let jobs: Vec<Vec<Job>> = planned
                 .iter_mut()
-                .zip(&on_gpu)
+                .zip(&gpu_takes)
                 .filter(|(_, gpu)| **gpu)
                 .map(|((pose, plans), _)| Self::jobs(pose, std::mem::take(plans)))
                 .collect();
             let mut drawn = match self.gpu.as_deref() {
                 Some(gpu) if !jobs.is_empty() => {
                     let refs: Vec<&[Job]> = jobs.iter().map(Vec::as_slice).collect();
-                    gpu.draw_pings(&self.view.layout, &refs, false)?
+                    gpu.draw_pings(&self.view.layout, &refs, masks)?
                 }
                 _ => Vec::new(),
             }
             .into_iter()
             .zip(&jobs);
-            for ((pose, plans), gpu) in planned.iter().zip(on_gpu) {
-                out.push(if gpu {
+            for ((pose, plans), gpu) in planned.iter().zip(gpu_takes) {
+                emit(if gpu {
                     let (d, jobs) = drawn.next().expect("one drawing a GPU ping");
-                    self.summary_of_gpu(d, jobs)
+                    on_gpu(d, jobs)
                 } else {
-                    self.summary_on_cpu(pose, plans)
-                });
+                    on_cpu(pose, plans)
+                })?;
             }
         }
-        Ok(out)
+        Ok(())
     }
 
     /// Returns the summary of one feature: its reduced mask with the plan's radius and cells.

@@ -178,6 +178,77 @@ struct Part {
     radius: Vec<(f64, f64)>,
 }
 
+impl Part {
+    /// Returns the part of the mask set `set` in `layout`: its masks as dense bytes (`dense`)
+    /// or runs, their counts when `counts`, boxes, union and radii.
+    fn of(
+        set: &sonarproj::masks::MaskSet,
+        layout: &sonarproj::occupancy::Layout,
+        dense: bool,
+        counts: bool,
+    ) -> Part {
+        let (rows, beams) = layout.data_shape();
+        let pixels = rows * beams;
+        let mut part = Part {
+            dense: Vec::new(),
+            counts: Vec::new(),
+            runs: Vec::new(),
+            boxes: set
+                .masks
+                .iter()
+                .map(|m| bounding_box(layout, &m.occupancy))
+                .collect(),
+            union: (set.union.range_bins, set.union.beams, set.union.words.clone()),
+            radius: set.masks.iter().map(|m| (m.radius, m.noise_radius)).collect(),
+        };
+        for m in &set.masks {
+            if dense {
+                part.dense.extend(m.occupancy.to_bytes(false, false));
+            } else {
+                part.runs.push(run_lengths(&m.occupancy));
+            }
+            if counts {
+                match &m.counts {
+                    Some(c) => part.counts.extend_from_slice(c),
+                    None => part.counts.extend(std::iter::repeat_n(0, pixels)),
+                }
+            }
+        }
+        part
+    }
+}
+
+/// The parts of one ping's masks gathered in order.
+#[derive(Default)]
+struct Gathered {
+    dense: Vec<u8>,
+    counts: Vec<u32>,
+    runs: Vec<Vec<[u64; 2]>>,
+    boxes: Vec<Option<sonarproj::masks::BoundingBox>>,
+    radius: Vec<(f64, f64)>,
+    /// The union so far (`None` before the first part).
+    union: Option<(usize, usize, Vec<u32>)>,
+}
+
+impl Gathered {
+    /// Adds the next part.
+    fn add(&mut self, part: Part) {
+        if self.dense.is_empty() {
+            self.dense = part.dense;
+        } else {
+            self.dense.extend(part.dense);
+        }
+        self.counts.extend(part.counts);
+        self.runs.extend(part.runs);
+        self.boxes.extend(part.boxes);
+        self.radius.extend(part.radius);
+        match &mut self.union {
+            None => self.union = Some(part.union),
+            Some(u) => u.2.iter_mut().zip(&part.union.2).for_each(|(a, b)| *a |= b),
+        }
+    }
+}
+
 /// Returns `flat` (n masks of `rows × beams` values, one after the other) as an array of `n`
 /// masks in sonar 2's layout.
 fn shaped<T: numpy::Element>(
@@ -285,28 +356,9 @@ impl PyMaskEngine {
             .collect()
     }
 
-    /// Returns the mask set of one ping. Features are drawn in chunks without the GIL, sized so
-    /// that one takes about 50 ms; Ctrl-C is looked for between chunks. Dense masks are refused
-    /// up front past [`MAX_DENSE_MASK_BYTES`]; `dense = false` gives runs instead.
-    #[expect(
-        clippy::too_many_lines,
-        reason = "one ping's chunks, gathered and turned into arrays"
-    )]
-    fn draw(
-        &self,
-        py: Python<'_>,
-        pose: &PyPose,
-        features: &[Measurement],
-        noise: Option<&Noise>,
-        counts: bool,
-        dense: bool,
-    ) -> PyResult<PyMaskSet> {
-        self.in_this_process()?;
-        let layout = self.engine.layout();
-        let kind = self.engine.target().kind;
-        let (rows, beams) = layout.data_shape();
-        let pixels = rows * beams;
-        let n = features.len();
+    /// Returns an error when `n` features' dense masks (with `counts`) would exceed what one
+    /// call returns ([`MAX_DENSE_MASK_BYTES`]), or counts are asked for as runs.
+    fn check_dense(&self, n: usize, counts: bool, dense: bool) -> PyResult<()> {
         if counts && !dense {
             return Err(errors::input(
                 "counts",
@@ -314,6 +366,8 @@ impl PyMaskEngine {
             ));
         }
         if dense {
+            let (rows, beams) = self.engine.layout().data_shape();
+            let pixels = rows * beams;
             let per_pixel: u64 = if counts { 5 } else { 1 };
             let bytes = (n as u64).saturating_mul(pixels as u64).saturating_mul(per_pixel);
             if bytes > MAX_DENSE_MASK_BYTES {
@@ -328,62 +382,38 @@ impl PyMaskEngine {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// Returns the mask set of one ping. Features are drawn in chunks without the GIL, sized so
+    /// that one takes about 50 ms; Ctrl-C is looked for between chunks. Dense masks are refused
+    /// up front past [`MAX_DENSE_MASK_BYTES`]; `dense = false` gives runs instead.
+    fn draw(
+        &self,
+        py: Python<'_>,
+        pose: &PyPose,
+        features: &[Measurement],
+        noise: Option<&Noise>,
+        counts: bool,
+        dense: bool,
+    ) -> PyResult<PyMaskSet> {
+        self.in_this_process()?;
+        let n = features.len();
+        self.check_dense(n, counts, dense)?;
         let want = if counts { Counts::Draw } else { Counts::Skip };
-        let mut dense_bytes: Vec<u8> = Vec::new();
-        let mut all_counts: Vec<u32> = Vec::new();
-        let mut runs: Vec<Vec<[u64; 2]>> = Vec::new();
-        let mut boxes = Vec::with_capacity(n);
-        let mut radius = Vec::with_capacity(n);
-        let mut union: Option<(usize, usize, Vec<u32>)> = None;
+        let mut gathered = Gathered::default();
         let (mut start, mut chunk) = (0, FIRST_CHUNK_FEATURES);
-        while start < n || union.is_none() {
+        while start < n || gathered.union.is_none() {
             let end = (start + chunk).min(n);
             let began = Instant::now();
             let part = crate::runtime::detach(py, || -> sonarproj::Result<Part> {
                 let set = self
                     .engine
                     .masks(&pose.inner, &features[start..end], noise, want)?;
-                let mut part = Part {
-                    dense: Vec::new(),
-                    counts: Vec::new(),
-                    runs: Vec::new(),
-                    boxes: set
-                        .masks
-                        .iter()
-                        .map(|m| bounding_box(layout, &m.occupancy))
-                        .collect(),
-                    union: (set.union.range_bins, set.union.beams, set.union.words),
-                    radius: set.masks.iter().map(|m| (m.radius, m.noise_radius)).collect(),
-                };
-                for m in &set.masks {
-                    if dense {
-                        part.dense.extend(m.occupancy.to_bytes(false, false));
-                    } else {
-                        part.runs.push(run_lengths(&m.occupancy));
-                    }
-                    if counts {
-                        match &m.counts {
-                            Some(c) => part.counts.extend_from_slice(c),
-                            None => part.counts.extend(std::iter::repeat_n(0, pixels)),
-                        }
-                    }
-                }
-                Ok(part)
+                Ok(Part::of(&set, self.engine.layout(), dense, counts))
             })
             .map_err(errors::engine)?;
-            if dense_bytes.is_empty() {
-                dense_bytes = part.dense;
-            } else {
-                dense_bytes.extend(part.dense);
-            }
-            all_counts.extend(part.counts);
-            runs.extend(part.runs);
-            boxes.extend(part.boxes);
-            radius.extend(part.radius);
-            match &mut union {
-                None => union = Some(part.union),
-                Some(u) => u.2.iter_mut().zip(&part.union.2).for_each(|(a, b)| *a |= b),
-            }
+            gathered.add(part);
             py.check_signals()?;
             // The next chunk takes about CHUNK_SECONDS at this chunk's pace.
             let per_feature = began.elapsed().as_secs_f64() / (end - start).max(1) as f64;
@@ -407,7 +437,29 @@ impl PyMaskEngine {
             .unwrap_or(MIN_CHUNK_FEATURES);
             start = end;
         }
-        let (union_rows, union_beams, words) = union.expect("at least one chunk");
+        self.to_py(py, n, gathered, counts, dense)
+    }
+
+    /// Returns the gathered parts of one ping's `n` masks as Python's `MaskSet`.
+    fn to_py(
+        &self,
+        py: Python<'_>,
+        n: usize,
+        gathered: Gathered,
+        counts: bool,
+        dense: bool,
+    ) -> PyResult<PyMaskSet> {
+        let kind = self.engine.target().kind;
+        let (rows, beams) = self.engine.layout().data_shape();
+        let Gathered {
+            dense: dense_bytes,
+            counts: all_counts,
+            runs,
+            boxes,
+            radius,
+            union,
+        } = gathered;
+        let (union_rows, union_beams, words) = union.expect("at least one part");
         let union = Occupancy::from_words(union_rows, union_beams, words);
         let boxes = boxes
             .iter()
@@ -576,8 +628,10 @@ impl PyMaskEngine {
         summaries.iter().map(|s| self.summary_to_py(py, s)).collect()
     }
 
-    /// Returns the masks of many pings, one pose and one set of features each, stopping on
-    /// Ctrl-C between pings.
+    /// Returns the masks of many pings, one pose and one set of features each. On a GPU without
+    /// counts two pings are in flight (the next submitted while the one before is drawn),
+    /// Ctrl-C looked for between groups of 64 pings; otherwise ping by ping, Ctrl-C between
+    /// chunks of features.
     #[pyo3(signature = (poses, ranges, azimuths, sigma, coverage, counts, dense))]
     #[expect(clippy::too_many_arguments, reason = "the Python method's parameters")]
     fn masks_of_pings(
@@ -592,12 +646,48 @@ impl PyMaskEngine {
         dense: bool,
     ) -> PyResult<Vec<PyMaskSet>> {
         let noise = noise(sigma, coverage)?;
-        let mut out = Vec::with_capacity(poses.len());
+        let mut pings = Vec::with_capacity(poses.len());
         for (k, pose) in poses.iter().enumerate() {
-            let features = self.ping_features(py, k, &ranges, azimuths.as_deref())?;
-            out.push(self.draw(py, pose, &features, noise.as_ref(), counts, dense)?);
-            py.check_signals()?;
+            pings.push((
+                pose.inner,
+                self.ping_features(py, k, &ranges, azimuths.as_deref())?,
+            ));
         }
-        Ok(out)
+        if counts || !self.engine.draws_on_gpu() {
+            return pings
+                .iter()
+                .zip(&poses)
+                .map(|((_, features), pose)| self.draw(py, pose, features, noise.as_ref(), counts, dense))
+                .collect();
+        }
+        self.in_this_process()?;
+        for (k, (_, features)) in pings.iter().enumerate() {
+            self.check_dense(features.len(), counts, dense).map_err(|e| {
+                errors::input(
+                    "pings",
+                    format!("ping {} (counted from 1): {}", k + 1, e.value(py)),
+                )
+            })?;
+        }
+        let mut parts = Vec::with_capacity(pings.len());
+        crate::runtime::detach_watching(py, |stop| {
+            let stopped = || stop.load(std::sync::atomic::Ordering::Relaxed);
+            let layout = self.engine.layout();
+            self.engine
+                .masks_of_pings_each(&pings, noise.as_ref(), &stopped, &mut |set| {
+                    parts.push(Part::of(&set, layout, dense, false));
+                    Ok(())
+                })
+        })?
+        .map_err(errors::engine)?;
+        parts
+            .into_iter()
+            .zip(&pings)
+            .map(|(part, (_, features))| {
+                let mut gathered = Gathered::default();
+                gathered.add(part);
+                self.to_py(py, features.len(), gathered, false, dense)
+            })
+            .collect()
     }
 }
