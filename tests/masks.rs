@@ -580,8 +580,13 @@ mod gpu {
             })
             .collect();
         let cpu = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
-        let gpu = MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx).unwrap();
-        for engine in [&cpu, &gpu] {
+        let gpu = MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx.clone()).unwrap();
+        // Pings of one feature (2 693 cells) on the CPU, larger ones on the GPU, given out in
+        // ping order all the same.
+        let mixed = MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx)
+            .unwrap()
+            .with_gpu_min_cells(3000);
+        for engine in [&cpu, &gpu, &mixed] {
             let all = engine.summaries_of_pings(&pings, None, &|| false).unwrap();
             assert_eq!(all.len(), pings.len());
             for (k, (pose, features)) in pings.iter().enumerate() {

@@ -430,17 +430,28 @@ impl GpuMasks {
     /// [`Error::InvalidValue`] when one job's cell tables exceed what the device can bind;
     /// [`Error::Gpu`] on device failure.
     pub(crate) fn draw(&self, layout: &Layout, jobs: &[Job], masks: bool) -> Result<Drawn> {
-        let mut out = self.draw_pings(layout, &[jobs], masks)?;
-        Ok(out.pop().expect("one ping"))
+        let mut out = None;
+        self.draw_pings(layout, &[jobs], masks, &mut |_, drawn| {
+            out = Some(drawn);
+            Ok(())
+        })?;
+        Ok(out.expect("one ping"))
     }
 
-    /// Returns [`GpuMasks::draw`] of each ping of `pings`, two dispatches in flight: the next
-    /// ping is planned, uploaded and submitted while the GPU draws the one before, and read back
-    /// after it.
+    /// Gives `emit` [`GpuMasks::draw`] of each ping of `pings` (its index and drawing), in order,
+    /// as soon as the ping is read back, two dispatches in flight: the next ping is planned,
+    /// uploaded and submitted while the GPU draws the one before, and read back after it (so
+    /// `emit` runs while the GPU draws the next).
     ///
     /// # Errors
-    /// As [`GpuMasks::draw`].
-    pub(crate) fn draw_pings(&self, layout: &Layout, pings: &[&[Job]], masks: bool) -> Result<Vec<Drawn>> {
+    /// As [`GpuMasks::draw`], and `emit`'s errors (which stop it).
+    pub(crate) fn draw_pings(
+        &self,
+        layout: &Layout,
+        pings: &[&[Job]],
+        masks: bool,
+        emit: &mut dyn FnMut(usize, Drawn) -> Result<()>,
+    ) -> Result<()> {
         let mut state = self.state.lock().unwrap_or_else(|poisoned| {
             let mut state = poisoned.into_inner();
             *state = State::default();
@@ -451,20 +462,45 @@ impl GpuMasks {
             dispatches.extend(self.dispatches(jobs)?.into_iter().map(|(r, e)| (p, r, e)));
         }
         let mut out: Vec<Drawn> = pings.iter().map(|_| Drawn::empty(layout, masks)).collect();
+        // Dispatches of each ping not yet read back, and the first ping not yet given out.
+        let mut left = vec![0usize; pings.len()];
+        for (p, _, _) in &dispatches {
+            left[*p] += 1;
+        }
+        let mut next = 0;
+        let mut give_out = |out: &mut Vec<Drawn>, left: &[usize], next: &mut usize| -> Result<()> {
+            while *next < left.len() && left[*next] == 0 {
+                emit(
+                    *next,
+                    std::mem::replace(&mut out[*next], Drawn::empty(layout, false)),
+                )?;
+                *next += 1;
+            }
+            Ok(())
+        };
         let mut in_flight: std::collections::VecDeque<(usize, Pending)> = std::collections::VecDeque::new();
         let result = (|| -> Result<()> {
+            give_out(&mut out, &left, &mut next)?;
             for (i, (p, r, entries)) in dispatches.into_iter().enumerate() {
                 // The slot this one takes was last used two dispatches ago: read that one first.
                 if in_flight.len() == 2
                     && let Some((q, pending)) = in_flight.pop_front()
                 {
                     self.collect(&mut state, pending, layout, &mut out[q])?;
+                    left[q] -= 1;
+                    // Submitted first, then given out: the GPU draws the next meanwhile.
+                    let pending = self.submit(&mut state, i % 2, layout, &pings[p][r], entries, masks)?;
+                    in_flight.push_back((p, pending));
+                    give_out(&mut out, &left, &mut next)?;
+                    continue;
                 }
                 let pending = self.submit(&mut state, i % 2, layout, &pings[p][r], entries, masks)?;
                 in_flight.push_back((p, pending));
             }
             while let Some((q, pending)) = in_flight.pop_front() {
                 self.collect(&mut state, pending, layout, &mut out[q])?;
+                left[q] -= 1;
+                give_out(&mut out, &left, &mut next)?;
             }
             Ok(())
         })();
@@ -472,7 +508,7 @@ impl GpuMasks {
             // A failed dispatch or readback may leave a staging buffer mapped: start afresh.
             *state = State::default();
         }
-        result.map(|()| out)
+        result
     }
 
     /// Returns the dispatches `jobs` are drawn in: their ranges of jobs and the table entries

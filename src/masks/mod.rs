@@ -212,6 +212,15 @@ impl MaskEngine {
         }
     }
 
+    /// Returns this engine drawing each ping of fewer than `cells` cells on the CPU, as `auto`
+    /// does with [`GPU_MIN_CELLS`] (a GPU engine only; 0, the default of
+    /// [`MaskEngine::on_gpu`], sends every ping to the GPU).
+    #[must_use]
+    pub fn with_gpu_min_cells(mut self, cells: u64) -> MaskEngine {
+        self.gpu_min_cells = cells;
+        self
+    }
+
     /// Returns whether masks are drawn on a GPU.
     #[must_use]
     pub fn draws_on_gpu(&self) -> bool {
@@ -324,6 +333,25 @@ impl MaskEngine {
         stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<Vec<PingSummary>> {
         let mut out = Vec::with_capacity(pings.len());
+        self.summaries_of_pings_each(pings, noise, stop, &mut |s| {
+            out.push(s);
+            Ok(())
+        })?;
+        Ok(out)
+    }
+
+    /// Gives `each` the summary of each ping of `pings` in order, as soon as it is read back,
+    /// as [`MaskEngine::summaries_of_pings`] computes them.
+    ///
+    /// # Errors
+    /// As [`MaskEngine::summaries_of_pings`], and `each`'s errors (which stop it).
+    pub fn summaries_of_pings_each(
+        &self,
+        pings: &[(RelativePose, Vec<Measurement>)],
+        noise: Option<&Noise>,
+        stop: &(dyn Fn() -> bool + Sync),
+        each: &mut dyn FnMut(PingSummary) -> Result<()>,
+    ) -> Result<()> {
         self.of_pings(
             pings,
             noise,
@@ -331,12 +359,8 @@ impl MaskEngine {
             false,
             &|drawn, jobs| self.summary_of_gpu(drawn, jobs),
             &|pose, plans| self.summary_on_cpu(pose, plans),
-            &mut |s| {
-                out.push(s);
-                Ok(())
-            },
-        )?;
-        Ok(out)
+            each,
+        )
     }
 
     /// Returns the masks of many pings, one pose and one set of features each: each ping's
@@ -359,9 +383,9 @@ impl MaskEngine {
         Ok(out)
     }
 
-    /// Gives `each` the masks of each ping of `pings` in order, as
-    /// [`MaskEngine::masks_of_pings`] computes them, holding no more than one group of 64 pings'
-    /// masks at a time.
+    /// Gives `each` the masks of each ping of `pings` in order, as soon as they are read back,
+    /// as [`MaskEngine::masks_of_pings`] computes them, holding no more than one group of 64
+    /// pings' masks at a time.
     ///
     /// # Errors
     /// As [`MaskEngine::masks_of_pings`], and `each`'s errors (which stop it).
@@ -432,23 +456,31 @@ impl MaskEngine {
                 .filter(|(_, gpu)| **gpu)
                 .map(|((pose, plans), _)| Self::jobs(pose, std::mem::take(plans)))
                 .collect();
-            let mut drawn = match self.gpu.as_deref() {
-                Some(gpu) if !jobs.is_empty() => {
-                    let refs: Vec<&[Job]> = jobs.iter().map(Vec::as_slice).collect();
-                    gpu.draw_pings(&self.view.layout, &refs, masks)?
-                }
-                _ => Vec::new(),
-            }
-            .into_iter()
-            .zip(&jobs);
-            for ((pose, plans), gpu) in planned.iter().zip(gpu_takes) {
-                emit(if gpu {
-                    let (d, jobs) = drawn.next().expect("one drawing a GPU ping");
-                    on_gpu(d, jobs)
-                } else {
-                    on_cpu(pose, plans)
+            // Each ping given out in order as soon as it is drawn: a GPU ping when read back
+            // (the next drawn meanwhile), the CPU's pings before it first.
+            let gpu_pings: Vec<usize> = (0..planned.len()).filter(|&k| gpu_takes[k]).collect();
+            let mut next = 0;
+            let cpu_until =
+                |end: usize, next: &mut usize, emit: &mut dyn FnMut(T) -> Result<()>| -> Result<()> {
+                    while *next < end {
+                        let (pose, plans) = &planned[*next];
+                        emit(on_cpu(pose, plans))?;
+                        *next += 1;
+                    }
+                    Ok(())
+                };
+            if let Some(gpu) = self.gpu.as_deref()
+                && !jobs.is_empty()
+            {
+                let refs: Vec<&[Job]> = jobs.iter().map(Vec::as_slice).collect();
+                gpu.draw_pings(&self.view.layout, &refs, masks, &mut |j, drawn| {
+                    cpu_until(gpu_pings[j], &mut next, emit)?;
+                    emit(on_gpu(drawn, &jobs[j]))?;
+                    next += 1;
+                    Ok(())
                 })?;
             }
+            cpu_until(planned.len(), &mut next, emit)?;
         }
         Ok(())
     }

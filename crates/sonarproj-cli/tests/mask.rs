@@ -229,6 +229,110 @@ fn the_stream_without_runs_says_the_same_of_each_feature() {
     assert!(reduced[0]["features"][0]["occupied"].as_u64().unwrap() > 100);
 }
 
+/// A stream whose lines arrive faster than they are drawn (all of stdin at once): the pings
+/// waiting are drawn together (two in flight on a GPU), and every line still gets its own
+/// answer, in line order, the one the library gives that ping alone — with runs and without,
+/// on the CPU and on the GPU, a bad line and a line with another noise among them.
+#[test]
+fn a_stream_of_waiting_pings_answers_each_in_order() {
+    let (s1, s2) = (
+        Sonar::preset("holoocean-sidescan").unwrap(),
+        Sonar::preset("holoocean-imaging").unwrap(),
+    );
+    let ping = |k: usize| {
+        let yaw = 5.0 + (k % 17) as f64;
+        let features = vec![4.0 + 0.1 * (k % 5) as f64, 7.5];
+        (yaw, features)
+    };
+    let mut input = Vec::new();
+    for k in 0..150 {
+        let (yaw, features) = ping(k);
+        let fs: Vec<String> = features.iter().map(|r| format!("[{r}]")).collect();
+        let sigma = if k == 80 {
+            r#", "sigma": {"rotation": 0.5, "range": 0.05, "coverage": 0.95}"#
+        } else {
+            ""
+        };
+        input.push(if k == 50 {
+            "{not json".to_string()
+        } else {
+            format!(
+                r#"{{"pose": {{"pitch": 5, "yaw": {yaw}, "translation": [0.3, 0.2, -0.1]}}, "features": [{}]{sigma}}}"#,
+                fs.join(", ")
+            )
+        });
+    }
+    let input = input.join("\n");
+    let gpu = sonarproj_testkit::gpu_context();
+    let mut engines = vec![("cpu", MaskEngine::new(s1.clone(), s2.clone()).unwrap())];
+    if let Some(ctx) = gpu {
+        engines.push(("gpu", MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx).unwrap()));
+    }
+    for (backend, engine) in &engines {
+        for extra in [&[][..], &["--no-runs"][..]] {
+            let assert = sonarproj()
+                .arg("mask")
+                .args(PAIR)
+                .args(["--backend", backend, "--stream"])
+                .args(extra)
+                .write_stdin(input.clone())
+                .assert()
+                .code(2);
+            let out = String::from_utf8(assert.get_output().stdout.clone()).unwrap();
+            let lines: Vec<Value> = out.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+            assert_eq!(lines.len(), 150, "{backend} {extra:?}");
+            for (k, reply) in lines.iter().enumerate() {
+                assert_eq!(reply["line"], k + 1, "{backend} {extra:?}");
+                if k == 50 {
+                    assert!(reply["error"].is_string(), "{reply}");
+                    continue;
+                }
+                if k == 80 {
+                    assert!(reply["features"][0]["noise_radius"].as_f64().unwrap() > 0.0);
+                    continue;
+                }
+                let (yaw, features) = ping(k);
+                let pose = RelativePose::new(
+                    Rotation::RollPitchYaw {
+                        roll: 0.0,
+                        pitch: 5.0,
+                        yaw,
+                    },
+                    [0.3, 0.2, -0.1],
+                )
+                .unwrap();
+                let ms: Vec<Measurement> = features
+                    .iter()
+                    .map(|&r| Measurement {
+                        range: r,
+                        azimuth: 0.0,
+                    })
+                    .collect();
+                let want = engine.masks(&pose, &ms, None, Counts::Skip).unwrap();
+                assert_eq!(
+                    reply["union_occupied"],
+                    want.union.count(),
+                    "{backend} line {}",
+                    k + 1
+                );
+                assert_eq!(
+                    reply["union_runs"],
+                    serde_json::to_value(run_lengths(&want.union)).unwrap()
+                );
+                for (f, m) in want.masks.iter().enumerate() {
+                    assert_eq!(reply["features"][f]["occupied"], m.occupancy.count());
+                    if extra.is_empty() {
+                        assert_eq!(
+                            reply["features"][f]["runs"],
+                            serde_json::to_value(run_lengths(&m.occupancy)).unwrap()
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn bad_mask_input_names_the_option() {
     for (args, needle) in [

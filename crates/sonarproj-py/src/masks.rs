@@ -629,9 +629,9 @@ impl PyMaskEngine {
     }
 
     /// Returns the masks of many pings, one pose and one set of features each. On a GPU without
-    /// counts two pings are in flight (the next submitted while the one before is drawn),
-    /// Ctrl-C looked for between groups of 64 pings; otherwise ping by ping, Ctrl-C between
-    /// chunks of features.
+    /// counts, pings of at most [`FIRST_CHUNK_FEATURES`] features each, two pings are in flight
+    /// (the next submitted while the one before is drawn), Ctrl-C looked for between groups of
+    /// 64 pings; otherwise ping by ping, Ctrl-C between chunks of features.
     #[pyo3(signature = (poses, ranges, azimuths, sigma, coverage, counts, dense))]
     #[expect(clippy::too_many_arguments, reason = "the Python method's parameters")]
     fn masks_of_pings(
@@ -653,7 +653,10 @@ impl PyMaskEngine {
                 self.ping_features(py, k, &ranges, azimuths.as_deref())?,
             ));
         }
-        if counts || !self.engine.draws_on_gpu() {
+        // Together only pings that `draw` would draw in one chunk (so on the same engine, GPU or
+        // CPU, under `auto`): the same masks either way.
+        if counts || !self.engine.draws_on_gpu() || pings.iter().any(|(_, f)| f.len() > FIRST_CHUNK_FEATURES)
+        {
             return pings
                 .iter()
                 .zip(&poses)

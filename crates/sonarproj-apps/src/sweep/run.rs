@@ -448,7 +448,16 @@ pub fn run(
     let stopped = std::thread::scope(|scope| -> Result<bool> {
         type Writing<'s> = Option<(u64, std::thread::ScopedJoinHandle<'s, Result<Written>>)>;
         let mut writing: Writing<'_> = None;
-        let mut joiner = (rows && opts.format == Format::Parquet).then(|| {
+        // The chunks are joined as they finish only when the run can finish (a run that
+        // `--max-chunks` will stop would copy the finished chunks for nothing, again each time
+        // it is resumed) into a regular file (a device or FIFO gets the table only once it is
+        // whole); otherwise they are joined at the end.
+        let can_finish = opts.max_chunks.is_none_or(|_| {
+            let missing = (0..n_chunks).filter(|&c| chunk_files(c).iter().any(|f| !f.exists()));
+            usize::try_from(budget).is_ok_and(|b| missing.take(b.saturating_add(1)).count() <= b)
+        });
+        let regular = std::fs::metadata(&file).map_or(true, |m| m.is_file());
+        let mut joiner = (rows && opts.format == Format::Parquet && can_finish && regular).then(|| {
             let (tx, rx) = std::sync::mpsc::sync_channel(1);
             Joiner {
                 tx,
@@ -565,10 +574,15 @@ pub fn run(
             write_summary(&summary_file, whole, &total)?;
             outcome.summary = Some(summary_file.clone());
         }
-        if let Some(joiner) = joiner {
-            joiner.finish()?;
-        } else if rows {
-            parts::join((0..n_chunks).map(chunk_path), &desc.columns, &file, whole)?;
+        match (joiner, rows, opts.format) {
+            (Some(joiner), _, _) => joiner.finish()?,
+            (None, true, Format::Csv) => {
+                parts::join((0..n_chunks).map(chunk_path), &desc.columns, &file, whole)?;
+            }
+            (None, true, Format::Parquet) => {
+                parts::join_parquet((0..n_chunks).map(chunk_path), &desc.columns, &kinds, &file, whole)?;
+            }
+            (None, false, _) => {}
         }
         Ok(false)
     })?;

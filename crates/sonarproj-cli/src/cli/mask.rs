@@ -1,7 +1,6 @@
 //! `sonarproj mask`: where each feature of sonar 1 can be in sonar 2 — PNG, NPY, JSON, or a
 //! stream of JSON lines for a live pipeline.
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -10,8 +9,7 @@ use sonarproj::masks::{
     Counts, FeatureSummary, MaskEngine, MaskSet, Noise, PingSummary, bounding_box, run_lengths,
 };
 use sonarproj::{Measurement, RelativePose, SonarKind};
-use sonarproj_apps::io::text::{feature, one_or_three, parse_mask_line};
-use sonarproj_apps::io::{BoundedLine, MAX_LINE_BYTES, read_line_bounded};
+use sonarproj_apps::io::text::{feature, one_or_three};
 use sonarproj_apps::report::mask_image;
 use sonarproj_apps::{Error, Result};
 
@@ -91,7 +89,12 @@ pub(super) struct MaskArgs {
 
 /// Returns the per-feature JSON of `set`: occupied count and bounding box, with the run-length
 /// masks when `runs`.
-fn features_json(engine: &MaskEngine, features: &[Measurement], set: &MaskSet, runs: bool) -> Vec<Value> {
+pub(super) fn features_json(
+    engine: &MaskEngine,
+    features: &[Measurement],
+    set: &MaskSet,
+    runs: bool,
+) -> Vec<Value> {
     let fls = engine.source().kind == SonarKind::Fls;
     features
         .iter()
@@ -115,7 +118,11 @@ fn features_json(engine: &MaskEngine, features: &[Measurement], set: &MaskSet, r
 }
 
 /// Returns the per-feature JSON of `summary`, as [`features_json`] writes it without runs.
-fn summary_json(engine: &MaskEngine, features: &[Measurement], summary: &PingSummary) -> Vec<Value> {
+pub(super) fn summary_json(
+    engine: &MaskEngine,
+    features: &[Measurement],
+    summary: &PingSummary,
+) -> Vec<Value> {
     let fls = engine.source().kind == SonarKind::Fls;
     features
         .iter()
@@ -166,7 +173,7 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
         eprintln!("{n}");
     }
     if a.stream {
-        return stream(&engine, !a.no_runs);
+        return super::mask_stream::stream(&engine, !a.no_runs);
     }
     let features = a
         .feature
@@ -270,83 +277,5 @@ fn print_json(
         "{}",
         serde_json::to_string_pretty(&out).expect("plain JSON values")
     )?;
-    Ok(())
-}
-
-/// Runs the stream mode: a JSON line out for every line in; a bad line gets `{"line", "error"}`
-/// and the stream goes on (exit status 2 at the end if any line was bad).
-fn stream(engine: &MaskEngine, runs: bool) -> Result<()> {
-    let mut input = std::io::stdin().lock();
-    let mut out = std::io::stdout().lock();
-    let (mut bad, mut lines) = (0usize, 0usize);
-    let write_error = |e: std::io::Error| Error::WriteOutput {
-        path: "stdout".into(),
-        message: e.to_string(),
-    };
-    let mut buf = Vec::new();
-    while let Some(read) =
-        read_line_bounded(&mut input, MAX_LINE_BYTES, &mut buf).map_err(|source| Error::ReadInput {
-            path: "stdin".into(),
-            source,
-        })?
-    {
-        lines += 1;
-        let line = lines;
-        // Each bad line gets its own error reply; the stream goes on.
-        let text = match read {
-            BoundedLine::TooLong(len) => Err(Error::input(
-                "line",
-                format!("{len} bytes, longer than the {MAX_LINE_BYTES} a line may hold"),
-            )),
-            BoundedLine::Line => {
-                std::str::from_utf8(&buf).map_err(|e| Error::input("line", format!("not valid UTF-8 ({e})")))
-            }
-        };
-        if matches!(&text, Ok(t) if t.trim().is_empty()) {
-            continue;
-        }
-        let reply = match text
-            .and_then(|t| parse_mask_line(engine.source(), t).map(|l| (l.pose, l.features, l.noise)))
-        {
-            Ok((pose, features, noise)) => {
-                let start = Instant::now();
-                let answer = if runs {
-                    engine
-                        .masks(&pose, &features, noise.as_ref(), Counts::Skip)
-                        .map(|set| (features_json(engine, &features, &set, true), set.union))
-                } else {
-                    engine
-                        .summary(&pose, &features, noise.as_ref())
-                        .map(|s| (summary_json(engine, &features, &s), s.union))
-                };
-                match answer {
-                    Ok((per_feature, union)) => {
-                        let elapsed = start.elapsed().as_secs_f64() * 1e3;
-                        json!({
-                            "line": line,
-                            "features": per_feature,
-                            "union_occupied": union.count(),
-                            "union_runs": run_lengths(&union),
-                            "elapsed_ms": elapsed,
-                        })
-                    }
-                    Err(e) => {
-                        bad += 1;
-                        json!({ "line": line, "error": e.to_string() })
-                    }
-                }
-            }
-            Err(e) => {
-                bad += 1;
-                json!({ "line": line, "error": e.to_string() })
-            }
-        };
-        serde_json::to_writer(&mut out, &reply).map_err(|e| write_error(e.into()))?;
-        out.write_all(b"\n").map_err(write_error)?;
-        out.flush().map_err(write_error)?;
-    }
-    if bad > 0 {
-        return Err(Error::BadLines { bad, lines });
-    }
     Ok(())
 }
