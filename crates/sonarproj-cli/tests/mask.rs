@@ -13,6 +13,28 @@ const PAIR: [&str; 4] = ["--from", "holoocean-sidescan", "--to", "holoocean-imag
 const CPU: [&str; 2] = ["--backend", "cpu"];
 const POSE: [&str; 6] = ["--pitch", "5", "--yaw", "10", "--translation", "0.3,0.2,-0.1"];
 
+/// Returns the pose of pitch 5°, yaw `yaw` and translation (0.3, 0.2, -0.1) m, and the
+/// sidescan features of ranges `features`: the tests' pings.
+fn ping(yaw: f64, features: &[f64]) -> (RelativePose, Vec<Measurement>) {
+    let pose = RelativePose::new(
+        Rotation::RollPitchYaw {
+            roll: 0.0,
+            pitch: 5.0,
+            yaw,
+        },
+        [0.3, 0.2, -0.1],
+    )
+    .unwrap();
+    let ms = features
+        .iter()
+        .map(|&r| Measurement {
+            range: r,
+            azimuth: 0.0,
+        })
+        .collect();
+    (pose, ms)
+}
+
 /// Returns the library's masks for the same pose and features as the CLI calls below.
 fn library(features: &[f64]) -> Vec<sonarproj::Occupancy> {
     let engine = MaskEngine::new(
@@ -20,22 +42,7 @@ fn library(features: &[f64]) -> Vec<sonarproj::Occupancy> {
         Sonar::preset("holoocean-imaging").unwrap(),
     )
     .unwrap();
-    let pose = RelativePose::new(
-        Rotation::RollPitchYaw {
-            roll: 0.0,
-            pitch: 5.0,
-            yaw: 10.0,
-        },
-        [0.3, 0.2, -0.1],
-    )
-    .unwrap();
-    let ms: Vec<Measurement> = features
-        .iter()
-        .map(|&r| Measurement {
-            range: r,
-            azimuth: 0.0,
-        })
-        .collect();
+    let (pose, ms) = ping(10.0, features);
     engine
         .masks(&pose, &ms, None, Counts::Skip)
         .unwrap()
@@ -239,14 +246,14 @@ fn a_stream_of_waiting_pings_answers_each_in_order() {
         Sonar::preset("holoocean-sidescan").unwrap(),
         Sonar::preset("holoocean-imaging").unwrap(),
     );
-    let ping = |k: usize| {
+    let line_ping = |k: usize| {
         let yaw = 5.0 + (k % 17) as f64;
         let features = vec![4.0 + 0.1 * (k % 5) as f64, 7.5];
         (yaw, features)
     };
     let mut input = Vec::new();
     for k in 0..150 {
-        let (yaw, features) = ping(k);
+        let (yaw, features) = line_ping(k);
         let fs: Vec<String> = features.iter().map(|r| format!("[{r}]")).collect();
         let sigma = if k == 80 {
             r#", "sigma": {"rotation": 0.5, "range": 0.05, "coverage": 0.95}"#
@@ -291,23 +298,8 @@ fn a_stream_of_waiting_pings_answers_each_in_order() {
                     assert!(reply["features"][0]["noise_radius"].as_f64().unwrap() > 0.0);
                     continue;
                 }
-                let (yaw, features) = ping(k);
-                let pose = RelativePose::new(
-                    Rotation::RollPitchYaw {
-                        roll: 0.0,
-                        pitch: 5.0,
-                        yaw,
-                    },
-                    [0.3, 0.2, -0.1],
-                )
-                .unwrap();
-                let ms: Vec<Measurement> = features
-                    .iter()
-                    .map(|&r| Measurement {
-                        range: r,
-                        azimuth: 0.0,
-                    })
-                    .collect();
+                let (yaw, features) = line_ping(k);
+                let (pose, ms) = ping(yaw, &features);
                 let want = engine.masks(&pose, &ms, None, Counts::Skip).unwrap();
                 assert_eq!(
                     reply["union_occupied"],

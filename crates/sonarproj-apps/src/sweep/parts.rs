@@ -243,6 +243,12 @@ pub fn check(file: &Path, expected: Expected<'_>) -> Status {
     }
 }
 
+/// Returns the record of part `part`, or `None` when it is missing or unreadable.
+fn record_of(part: &Path) -> Option<PartRecord> {
+    let text = std::fs::read(record_path(part)).ok()?;
+    serde_json::from_slice(&text).ok()
+}
+
 /// Returns the size and CRC-32 of `file`.
 fn sums(file: &Path) -> std::io::Result<(u64, u32)> {
     let mut r = BufReader::with_capacity(1 << 16, std::fs::File::open(file)?);
@@ -287,10 +293,8 @@ pub fn join(
                 context: part.display().to_string(),
                 message,
             };
-            let record = std::fs::read(record_path(part))
-                .ok()
-                .and_then(|t| serde_json::from_slice::<PartRecord>(&t).ok())
-                .ok_or_else(|| damaged("its record is missing or unreadable".into()))?;
+            let record =
+                record_of(part).ok_or_else(|| damaged("its record is missing or unreadable".into()))?;
             let f = std::fs::File::open(part).map_err(|source| Error::ReadInput {
                 path: part.clone(),
                 source,
@@ -409,10 +413,7 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
             context: part.display().to_string(),
             message,
         };
-        let record = std::fs::read(record_path(part))
-            .ok()
-            .and_then(|t| serde_json::from_slice::<PartRecord>(&t).ok())
-            .ok_or_else(|| damaged("its record is missing or unreadable".into()))?;
+        let record = record_of(part).ok_or_else(|| damaged("its record is missing or unreadable".into()))?;
         let same = |when: &str| match sums(part) {
             Ok((bytes, crc)) if bytes == record.bytes && format!("{crc:08x}") == record.crc32 => Ok(()),
             Ok(_) => Err(damaged(format!(
