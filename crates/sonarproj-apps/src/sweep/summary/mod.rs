@@ -223,7 +223,17 @@ impl<const ASCENDING: bool> Best<ASCENDING> {
     /// Offers pose `r`.
     #[inline]
     fn offer(&mut self, r: Ranked) {
-        if self.k == 0 || self.bound.is_some_and(|b| Self::order(&r, &b).is_ge()) {
+        // Behind the bound by value (no NaN here, and -0 == +0 only ties): out at once; a tie
+        // is settled by the total order.
+        let behind = |b: Ranked| {
+            let by_value = if ASCENDING {
+                r.value > b.value
+            } else {
+                r.value < b.value
+            };
+            by_value || (r.value == b.value && Self::order(&r, &b).is_ge())
+        };
+        if self.k == 0 || self.bound.is_some_and(behind) {
             return;
         }
         self.list.push(r);
@@ -487,10 +497,16 @@ impl SummarySpec {
                 value,
             };
             s.with_value += 1;
-            if s.min.is_none_or(|m| ascending(&r, &m).is_lt()) {
+            // The float comparisons first (no NaN here; -0 == +0 only ties), the total order
+            // for ties.
+            if s.min
+                .is_none_or(|m| value < m.value || (value == m.value && ascending(&r, &m).is_lt()))
+            {
                 s.min = Some(r);
             }
-            if s.max.is_none_or(|m| descending(&r, &m).is_lt()) {
+            if s.max
+                .is_none_or(|m| value > m.value || (value == m.value && descending(&r, &m).is_lt()))
+            {
                 s.max = Some(r);
             }
             smallest.offer(r);

@@ -318,3 +318,37 @@ fn fixed_point_rounds_as_round_does() {
     assert_eq!(mean_of(7, 2), Some(3.5 / unit));
     assert_eq!(mean_of(5, 0), None);
 }
+
+/// The extremes and rankings order -0 below +0 (IEEE total order), whichever comes first, and
+/// ties of equal values go to the lower index: what a sort by (total order, index) gives.
+#[test]
+fn extremes_and_rankings_follow_the_total_order_on_ties() {
+    let spec = SummarySpec {
+        top: 2,
+        histogram: None,
+        marginals: Vec::new(),
+        ..spec()
+    };
+    for v in [
+        vec![Some(0.0), Some(-0.0), Some(0.0), Some(-0.0)],
+        vec![Some(-0.0), Some(0.0), Some(-0.0), Some(0.0)],
+        vec![Some(1.0), Some(0.5), Some(1.0), Some(0.5), Some(0.75)],
+    ] {
+        let s = spec.summarise(None, 0, &v).unwrap();
+        let mut sorted: Vec<Ranked> = v
+            .iter()
+            .enumerate()
+            .map(|(k, x)| Ranked {
+                index: k as u64,
+                value: x.unwrap(),
+            })
+            .collect();
+        sorted.sort_by(|a, b| a.value.total_cmp(&b.value).then(a.index.cmp(&b.index)));
+        let first = |s: &[Ranked]| s.iter().map(|r| (r.index, r.value.to_bits())).collect::<Vec<_>>();
+        assert_eq!(first(&s.smallest), first(&sorted[..2]), "{v:?}");
+        assert_eq!(first(&s.min.into_iter().collect::<Vec<_>>()), first(&sorted[..1]));
+        sorted.sort_by(|a, b| b.value.total_cmp(&a.value).then(a.index.cmp(&b.index)));
+        assert_eq!(first(&s.largest), first(&sorted[..2]), "{v:?}");
+        assert_eq!(first(&s.max.into_iter().collect::<Vec<_>>()), first(&sorted[..1]));
+    }
+}
