@@ -177,16 +177,40 @@ pub struct SweepTiming {
     /// ([`Backend::project_columns`]), block by block: the sweep's own computation.
     pub decoded: Duration,
     /// Projecting the same poses as batches of items (built, packed and unpacked by the host:
-    /// the per-item path), block by block.
-    pub per_item: Duration,
-    /// The whole sweep into a directory as Parquet (`sonarproj sweep --format parquet`).
-    pub parquet: Duration,
-    /// The whole sweep with summaries only (`[summary]` with `rows = false`).
-    pub summaries: Duration,
+    /// the per-item path), block by block; `None` when not asked for.
+    pub per_item: Option<Duration>,
+    /// The whole sweep into a directory as Parquet (`sonarproj sweep --format parquet`); `None`
+    /// when not asked for.
+    pub parquet: Option<Duration>,
+    /// The whole sweep with summaries only (`[summary]` with `rows = false`); `None` when not
+    /// asked for.
+    pub summaries: Option<Duration>,
     /// Of `decoded`, the time the GPU's compute passes took on the device's own clock (one
     /// more run, timed by timestamp queries); `None` on the CPU backends and on adapters
     /// without timestamp queries.
     pub device: Option<Duration>,
+}
+
+/// Which of `bench sweep`'s measures to take besides the projection (each `true`: taken).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SweepMeasures {
+    /// The per-item path.
+    pub per_item: bool,
+    /// The whole sweep to Parquet.
+    pub parquet: bool,
+    /// The whole sweep with summaries only.
+    pub summaries: bool,
+}
+
+impl Default for SweepMeasures {
+    /// Returns all of them.
+    fn default() -> Self {
+        SweepMeasures {
+            per_item: true,
+            parquet: true,
+            summaries: true,
+        }
+    }
 }
 
 /// Returns the times of the benchmark sweep of about `poses` poses on `backend` ([`sweep_config`]):
@@ -197,7 +221,13 @@ pub struct SweepTiming {
 /// # Errors
 /// As [`time`], [`sweep_config`] and [`crate::sweep::run()`]; [`Error::WriteOutput`] when no
 /// temporary directory can be made.
-pub fn time_sweep(backend: &Backend, poses: u64, block: u64, runs: u32) -> Result<SweepTiming> {
+pub fn time_sweep(
+    backend: &Backend,
+    poses: u64,
+    block: u64,
+    runs: u32,
+    measures: SweepMeasures,
+) -> Result<SweepTiming> {
     use crate::sweep::{Format, Options, Poses, run};
     if !(1..=MAX_RUNS).contains(&runs) {
         return Err(Error::invalid(
@@ -245,14 +275,19 @@ pub fn time_sweep(backend: &Backend, poses: u64, block: u64, runs: u32) -> Resul
         _ => None,
     };
     let decoded = decoded_time;
-    let per_item = median(runs, &mut || {
-        for r in blocks() {
-            let (pose_rows, _) = rows.items_numeric(r)?;
-            let batch = crate::sweep::table::chunk_batch(&rows, &pose_rows);
-            backend.project(&batch, Output::MetricsOnly)?;
-        }
-        Ok(())
-    })?;
+    let per_item = measures
+        .per_item
+        .then(|| {
+            median(runs, &mut || {
+                for r in blocks() {
+                    let (pose_rows, _) = rows.items_numeric(r)?;
+                    let batch = crate::sweep::table::chunk_batch(&rows, &pose_rows);
+                    backend.project(&batch, Output::MetricsOnly)?;
+                }
+                Ok(())
+            })
+        })
+        .transpose()?;
     let scratch = tempfile::tempdir().map_err(|e| Error::write_output(&std::env::temp_dir(), e))?;
     let sweep_into = |config: &crate::sweep::SweepConfig| {
         let out = scratch.path().join("bench-sweep");
@@ -269,8 +304,14 @@ pub fn time_sweep(backend: &Backend, poses: u64, block: u64, runs: u32) -> Resul
         let _ = std::fs::remove_dir_all(&out);
         result.map(drop)
     };
-    let parquet = median(runs, &mut || sweep_into(&rows))?;
-    let summaries = median(runs, &mut || sweep_into(&summaries))?;
+    let parquet = measures
+        .parquet
+        .then(|| median(runs, &mut || sweep_into(&rows)))
+        .transpose()?;
+    let summaries = measures
+        .summaries
+        .then(|| median(runs, &mut || sweep_into(&summaries)))
+        .transpose()?;
     Ok(SweepTiming {
         poses: n,
         samples,

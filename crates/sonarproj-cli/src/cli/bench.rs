@@ -77,6 +77,22 @@ pub(super) struct BenchArgs {
     /// default 131072, the sweep's chunk and Parquet row group).
     #[arg(long, default_value_t = 131_072, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     block: u64,
+    /// The sweep's measures to take besides the projection, comma-separated (sweep only):
+    /// items, parquet, summary. Default: all three (at 10^8 poses the Parquet sweep writes
+    /// 4.7 GB twice: `--measures summary` takes the projection and the summaries alone).
+    #[arg(long, value_delimiter = ',', value_enum)]
+    measures: Vec<SweepMeasure>,
+}
+
+/// The values of `--measures`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(super) enum SweepMeasure {
+    /// The same poses as batches of items (the per-item path).
+    Items,
+    /// The whole sweep to Parquet.
+    Parquet,
+    /// The whole sweep with summaries only.
+    Summary,
 }
 
 /// Runs `sonarproj bench`.
@@ -117,7 +133,16 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
     }
     outln!()?;
     if sweep {
-        return sweep_table(&backends, a.poses, a.block, a.runs);
+        let measures = if a.measures.is_empty() {
+            bench::SweepMeasures::default()
+        } else {
+            bench::SweepMeasures {
+                per_item: a.measures.contains(&SweepMeasure::Items),
+                parquet: a.measures.contains(&SweepMeasure::Parquet),
+                summaries: a.measures.contains(&SweepMeasure::Summary),
+            }
+        };
+        return sweep_table(&backends, a.poses, a.block, a.runs, measures);
     }
     outln!(
         "{:28} {:8} {:>8} {:>12} {:>14} {:>14} {:>12}",
@@ -184,7 +209,13 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
 /// Prints the times of the benchmark sweep on each of `backends`: the projection with the grid
 /// decoded where the work runs, the per-item path's, and the two sweeps, each also as a
 /// multiple of the projection.
-fn sweep_table(backends: &[Backend], poses: u64, block: u64, runs: u32) -> Result<()> {
+fn sweep_table(
+    backends: &[Backend],
+    poses: u64,
+    block: u64,
+    runs: u32,
+    measures: bench::SweepMeasures,
+) -> Result<()> {
     outln!(
         "{:9} {:>9} {:>10} {:>12} {:>11} {:>13} {:>13} {:>12} {:>7} {:>12} {:>7}",
         "backend",
@@ -200,35 +231,42 @@ fn sweep_table(backends: &[Backend], poses: u64, block: u64, runs: u32) -> Resul
         "ratio"
     )?;
     for b in backends {
-        let t = bench::time_sweep(b, poses, block, runs)?;
+        let t = bench::time_sweep(b, poses, block, runs, measures)?;
         let secs = |d: std::time::Duration| d.as_secs_f64();
-        let ratio = |d| format!("{:.2}x", secs(d) / secs(t.decoded));
+        // A measure's seconds and its multiple of the projection ("-" where not taken).
+        let time = |d: Option<std::time::Duration>| d.map_or("-".to_string(), |d| format!("{:.3}", secs(d)));
+        let ratio = |d: Option<std::time::Duration>| {
+            d.map_or("-".to_string(), |d| format!("{:.2}x", secs(d) / secs(t.decoded)))
+        };
         #[expect(clippy::cast_precision_loss, reason = "pose and sample counts below 2^53")]
         let (per_pose, rate) = (
-            (secs(t.per_item) - secs(t.decoded)) * 1e9 / t.poses as f64,
+            t.per_item.map_or("-".to_string(), |p| {
+                format!("{:.0}", (secs(p) - secs(t.decoded)) * 1e9 / t.poses as f64)
+            }),
             t.samples as f64 / secs(t.decoded),
         );
         outln!(
-            "{:9} {:>9} {:>10.3e} {:>12.3} {:>11} {:>13.3} {:>13.0} {:>12.3} {:>7} {:>12.3} {:>7}",
+            "{:9} {:>9} {:>10.3e} {:>12.3} {:>11} {:>13} {:>13} {:>12} {:>7} {:>12} {:>7}",
             b.label(),
             t.poses,
             rate,
             secs(t.decoded),
-            t.device.map_or("-".to_string(), |d| format!("{:.3}", secs(d))),
-            secs(t.per_item),
+            time(t.device),
+            time(t.per_item),
             per_pose,
-            secs(t.parquet),
+            time(t.parquet),
             ratio(t.parquet),
-            secs(t.summaries),
+            time(t.summaries),
             ratio(t.summaries)
         )?;
     }
     outln!(
         "\nproject: the grid decoded where the work runs, metric columns out; device: of project, \
-         the GPU's compute passes on its own clock (timestamp queries; - where none); per item: the same \
+         the GPU's compute passes on its own clock (timestamp queries); per item: the same \
          poses as batches of items built, packed and unpacked by the host (host ns/pose: the \
          difference a pose); parquet and summary: whole sweeps into a directory (ratio: their \
-         multiple of project); medians of the runs after one warm-up"
+         multiple of project); - where not measured (no timestamp queries, or left out of \
+         --measures); medians of the runs after one warm-up"
     )?;
     Ok(())
 }
