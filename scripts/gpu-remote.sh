@@ -6,7 +6,8 @@
 #   scripts/gpu-remote.sh run       # there, from the repository root, with .gpu/ copied along:
 #                                   # Vulkan loader, NVIDIA ICD, GPU tests, benches, paper,
 #                                   # 1 M-pose sweeps (Parquet, summaries) on GPU and CPU,
-#                                   # `bench sweep` on 10 M poses, the advisor's benchmark;
+#                                   # `bench sweep` on 10 M poses (10^8 with summaries only),
+#                                   # mask --stream with 2000 waiting pings, the advisor's benchmark;
 #                                   # summary.txt and logs.tar.gz into $OUT (or .gpu/out)
 #
 # `prepare` needs cargo and apt-get (for the Vulkan loader packages, unpacked there with dpkg -x).
@@ -129,6 +130,22 @@ run() {
     # The same with 1 M poses a projection call instead of the sweep's chunk of 131 072: what the
     # per-call cost is (device time against project time).
     step bench-sweep-block "$bin/sonarproj" bench sweep --backends gpu,cpu-fast --poses 10000000 --runs 3 --block 1048576
+    # 10^8 poses with summaries only against their projection (the sweep issue's 1.1x), without
+    # the per-item path and the 4.7 GB Parquet sweep.
+    step bench-sweep-1e8 "$bin/sonarproj" bench sweep --backends gpu,cpu-fast --poses 100000000 --runs 1 --measures summary
+    # mask --stream given 2000 pings of 100 features at once (all waiting): drawn together, two
+    # in flight on a GPU; the wall time a ping.
+    local pings="$bundle/stream-pings.jsonl" feats="" k
+    for k in $(seq 0 99); do feats+="${feats:+, }[$((400 + 5 * k))e-2]"; done
+    for k in $(seq 1 2000); do
+        printf '{"pose": {"pitch": 5, "yaw": %d, "translation": [0.3, 0.2, -0.1]}, "features": [%s]}\n' $((k % 20)) "$feats"
+    done >"$pings"
+    for b in gpu cpu-fast; do
+        step "stream-$b" bash -c 'start=$(date +%s.%N)
+            n=$("$0" mask --from holoocean-sidescan --to holoocean-imaging --backend "$2" --stream --no-runs <"$1" | grep -c "\"features\"")
+            awk -v n="$n" -v s="$start" -v e="$(date +%s.%N)" -v b="$2" "BEGIN { printf \"stream: %s %d pings answered, %.3f ms a ping\\n\", b, n, (e - s) * 1000 / n }"' \
+            "$bin/sonarproj" "$pings" "$b"
+    done
     # The rig advisor's target (10 000 rotations x 1000 features x 121 samples) on both.
     for b in gpu cpu-fast; do
         rm -rf "$bundle/advise-$b"
@@ -136,6 +153,7 @@ run() {
     done
     grep -h "advise:" "$logs"/advise-*.log >>"$logs/summary.txt" || true
     grep -h "sweep:" "$logs"/sweep-*.log >>"$logs/summary.txt" || true
+    grep -h "stream:" "$logs"/stream-*.log >>"$logs/summary.txt" || true
     grep -hE "^(gpu|cpu-fast) " "$logs"/bench-sweep*.log >>"$logs/summary.txt" || true
     grep -h "paper:" "$logs"/paper-*.log >>"$logs/summary.txt" || true
     # With the file names: which variant each row is.
