@@ -461,19 +461,16 @@ impl GpuMasks {
         for (p, jobs) in pings.iter().enumerate() {
             dispatches.extend(self.dispatches(jobs)?.into_iter().map(|(r, e)| (p, r, e)));
         }
-        let mut out: Vec<Drawn> = pings.iter().map(|_| Drawn::empty(layout, masks)).collect();
+        let mut out: Vec<Option<Drawn>> = pings.iter().map(|_| Some(Drawn::empty(layout, masks))).collect();
         // Dispatches of each ping not yet read back, and the first ping not yet given out.
         let mut left = vec![0usize; pings.len()];
         for (p, _, _) in &dispatches {
             left[*p] += 1;
         }
         let mut next = 0;
-        let mut give_out = |out: &mut Vec<Drawn>, left: &[usize], next: &mut usize| -> Result<()> {
+        let mut give_out = |out: &mut Vec<Option<Drawn>>, left: &[usize], next: &mut usize| -> Result<()> {
             while *next < left.len() && left[*next] == 0 {
-                emit(
-                    *next,
-                    std::mem::replace(&mut out[*next], Drawn::empty(layout, false)),
-                )?;
+                emit(*next, out[*next].take().expect("a ping given out once"))?;
                 *next += 1;
             }
             Ok(())
@@ -486,7 +483,12 @@ impl GpuMasks {
                 if in_flight.len() == 2
                     && let Some((q, pending)) = in_flight.pop_front()
                 {
-                    self.collect(&mut state, pending, layout, &mut out[q])?;
+                    self.collect(
+                        &mut state,
+                        pending,
+                        layout,
+                        out[q].as_mut().expect("a ping still drawn"),
+                    )?;
                     left[q] -= 1;
                     // Submitted first, then given out: the GPU draws the next meanwhile.
                     let pending = self.submit(&mut state, i % 2, layout, &pings[p][r], entries, masks)?;
@@ -498,7 +500,12 @@ impl GpuMasks {
                 in_flight.push_back((p, pending));
             }
             while let Some((q, pending)) = in_flight.pop_front() {
-                self.collect(&mut state, pending, layout, &mut out[q])?;
+                self.collect(
+                    &mut state,
+                    pending,
+                    layout,
+                    out[q].as_mut().expect("a ping still drawn"),
+                )?;
                 left[q] -= 1;
                 give_out(&mut out, &left, &mut next)?;
             }

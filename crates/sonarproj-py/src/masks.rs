@@ -342,6 +342,22 @@ impl PyMaskEngine {
             })
     }
 
+    /// Returns the pings of `poses`, `ranges` and `azimuths` (one pose and set of features
+    /// each, errors naming the ping counted from 1).
+    fn pings(
+        &self,
+        py: Python<'_>,
+        poses: &[PyRef<'_, PyPose>],
+        ranges: &[Vec<f64>],
+        azimuths: Option<&[Vec<f64>]>,
+    ) -> PyResult<Vec<(sonarproj::RelativePose, Vec<Measurement>)>> {
+        poses
+            .iter()
+            .enumerate()
+            .map(|(k, pose)| Ok((pose.inner, self.ping_features(py, k, ranges, azimuths)?)))
+            .collect()
+    }
+
     /// Returns the measurements of `ranges` and `azimuths` (deg; `None` for a sidescan), each
     /// checked against sonar 1 and named by its index.
     fn features(&self, ranges: &[f64], azimuths: Option<&[f64]>) -> PyResult<Vec<Measurement>> {
@@ -613,13 +629,7 @@ impl PyMaskEngine {
     ) -> PyResult<Vec<PyMaskSummary>> {
         self.in_this_process()?;
         let noise = noise(sigma, coverage)?;
-        let mut pings = Vec::with_capacity(poses.len());
-        for (k, pose) in poses.iter().enumerate() {
-            pings.push((
-                pose.inner,
-                self.ping_features(py, k, &ranges, azimuths.as_deref())?,
-            ));
-        }
+        let pings = self.pings(py, &poses, &ranges, azimuths.as_deref())?;
         let summaries = crate::runtime::detach_watching(py, |stop| {
             let stopped = || stop.load(std::sync::atomic::Ordering::Relaxed);
             self.engine.summaries_of_pings(&pings, noise.as_ref(), &stopped)
@@ -646,13 +656,7 @@ impl PyMaskEngine {
         dense: bool,
     ) -> PyResult<Vec<PyMaskSet>> {
         let noise = noise(sigma, coverage)?;
-        let mut pings = Vec::with_capacity(poses.len());
-        for (k, pose) in poses.iter().enumerate() {
-            pings.push((
-                pose.inner,
-                self.ping_features(py, k, &ranges, azimuths.as_deref())?,
-            ));
-        }
+        let pings = self.pings(py, &poses, &ranges, azimuths.as_deref())?;
         // Together only pings that `draw` would draw in one chunk (so on the same engine, GPU or
         // CPU, under `auto`): the same masks either way.
         if counts || !self.engine.draws_on_gpu() || pings.iter().any(|(_, f)| f.len() > FIRST_CHUNK_FEATURES)

@@ -147,12 +147,7 @@ fn write_with(
         bytes: sums.0,
         crc32: format!("{:08x}", sums.1),
     };
-    let record_file = record_path(file);
-    atomic(&record_file, &mut |w: &mut (dyn Write + Send)| {
-        serde_json::to_writer_pretty(&mut *w, &record).map_err(|e| Error::write_output(&record_file, e))?;
-        w.write_all(b"\n")
-            .map_err(|e| Error::write_output(&record_file, e))
-    })
+    write_json_with(&record_path(file), &record, sync)
 }
 
 /// Writes `value` to `path` as pretty JSON, whole or not at all.
@@ -160,10 +155,20 @@ fn write_with(
 /// # Errors
 /// [`Error::WriteOutput`] on I/O failure.
 pub(crate) fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
-    write_atomic(path, |w| {
+    write_json_with(path, value, true)
+}
+
+/// [`write_json`], flushed to the disk before the rename when `sync`.
+fn write_json_with<T: Serialize>(path: &Path, value: &T, sync: bool) -> Result<()> {
+    let fill = |w: &mut (dyn Write + Send)| {
         serde_json::to_writer_pretty(&mut *w, value).map_err(|e| Error::write_output(path, e))?;
         w.write_all(b"\n").map_err(|e| Error::write_output(path, e))
-    })
+    };
+    if sync {
+        write_atomic(path, fill)
+    } else {
+        write_atomic_unsynced(path, fill)
+    }
 }
 
 /// Returns the record of part `file` when it says the part is what `expected` describes.
