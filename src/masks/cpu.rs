@@ -1,5 +1,6 @@
 //! Drawing a mask on the CPU in f64: the twin of `shaders/mask.wgsl` (same cells, same blocks,
-//! same balls; the GPU adds a rounding slack and finds beams without trigonometry).
+//! same balls; the GPU adds a rounding slack and decides beams by the side of each beam edge,
+//! walking to the edges from a guess the angle makes).
 
 use crate::clip::{MASK_ANGLE_SLACK, MASK_F64_SLACK};
 use glam::DVec3;
