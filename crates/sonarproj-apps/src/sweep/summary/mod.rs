@@ -261,49 +261,6 @@ impl<const ASCENDING: bool> Best<ASCENDING> {
     }
 }
 
-/// A marginal's cell and what has fallen in it since the cell last changed: consecutive poses
-/// often share a cell (a marginal over slow axes), and are added to it once.
-struct Run {
-    cell: usize,
-    count: u64,
-    sum: i128,
-    min: f64,
-    max: f64,
-}
-
-impl Run {
-    /// Adds the run to marginal `m` and starts an empty one in `cell`.
-    fn flush(&mut self, m: &mut Marginal, cell: usize) {
-        if self.count > 0 {
-            let c = self.cell;
-            m.count[c] += self.count;
-            m.sum[c] += self.sum;
-            m.min[c] = Some(m.min[c].map_or(self.min, |x| least(x, self.min)));
-            m.max[c] = Some(m.max[c].map_or(self.max, |x| greatest(x, self.max)));
-        }
-        *self = Run {
-            cell,
-            count: 0,
-            sum: 0,
-            min: f64::INFINITY,
-            max: f64::NEG_INFINITY,
-        };
-    }
-
-    /// Adds `value` (`f` in fixed point) to the run.
-    #[inline]
-    fn add(&mut self, value: f64, f: i128) {
-        if self.count == 0 {
-            (self.min, self.max) = (value, value);
-        } else {
-            self.min = least(self.min, value);
-            self.max = greatest(self.max, value);
-        }
-        self.count += 1;
-        self.sum += f;
-    }
-}
-
 /// A marginal's cell over consecutive pose indices, stepped without a division a pose: each of
 /// its axes as an odometer digit `[poses a value lasts, values, weight in the cell, place within
 /// the value, the value]`.
@@ -328,21 +285,105 @@ impl Odometer {
         Odometer(digits)
     }
 
-    /// Returns the cell of the current pose and steps to the next.
-    fn next_cell(&mut self) -> usize {
-        let mut cell = 0;
-        for d in &mut self.0 {
-            cell += d[4] * d[2];
-            d[3] += 1;
-            if d[3] == d[0] {
-                d[3] = 0;
-                d[4] = if d[4] + 1 == d[1] { 0 } else { d[4] + 1 };
-            }
-        }
+    /// Returns the cell of the current pose.
+    fn cell(&self) -> usize {
+        let cell: u64 = self.0.iter().map(|d| d[4] * d[2]).sum();
         #[expect(clippy::cast_possible_truncation, reason = "below the cell count")]
         let cell = cell as usize;
         cell
     }
+
+    /// Returns the length (1 to `left`) of the segment of poses from the current one over which
+    /// the cell goes up by the same step a pose, and that step: the digits of axes that last
+    /// several poses hold their value, those of axes that change every pose do not wrap (step 0:
+    /// one cell).
+    fn segment(&self, left: usize) -> (usize, usize) {
+        let mut len = left as u64;
+        let mut step = 0;
+        for d in &self.0 {
+            if d[0] == 1 {
+                len = len.min(d[1] - d[4]);
+                step += d[2];
+            } else {
+                len = len.min(d[0] - d[3]);
+            }
+        }
+        #[expect(
+            clippy::cast_possible_truncation,
+            reason = "at most left, and below the cell count"
+        )]
+        let out = (len as usize, step as usize);
+        out
+    }
+
+    /// Steps `by` poses: the length of the current [`Odometer::segment`] or less.
+    fn advance(&mut self, by: u64) {
+        for d in &mut self.0 {
+            if d[0] == 1 {
+                d[4] += by;
+                if d[4] == d[1] {
+                    d[4] = 0;
+                }
+            } else {
+                d[3] += by;
+                if d[3] == d[0] {
+                    d[3] = 0;
+                    d[4] = if d[4] + 1 == d[1] { 0 } else { d[4] + 1 };
+                }
+            }
+        }
+    }
+}
+
+/// Adds the poses whose metric `values` (NaN: no value) start at `odometer`'s pose to the
+/// marginal `m`, segment by segment: a segment in one cell (a marginal over slow axes) reduced
+/// first and added once, one whose cell steps every pose added value by value; `fixed_of(k, v)`
+/// is value `k`'s exact term.
+fn add_to_marginal(
+    m: &mut Marginal,
+    mut odometer: Odometer,
+    values: &[f64],
+    fixed_of: impl Fn(usize, f64) -> Result<i128>,
+) -> Result<()> {
+    let mut k = 0;
+    while k < values.len() {
+        let (len, step) = odometer.segment(values.len() - k);
+        let base = odometer.cell();
+        let segment = &values[k..k + len];
+        if step == 0 {
+            let (mut count, mut sum) = (0u64, 0i128);
+            let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
+            for (i, &v) in segment.iter().enumerate() {
+                if v.is_nan() {
+                    continue;
+                }
+                sum += fixed_of(k + i, v)?;
+                count += 1;
+                min = least(min, v);
+                max = greatest(max, v);
+            }
+            if count > 0 {
+                m.count[base] += count;
+                m.sum[base] += sum;
+                m.min[base] = Some(m.min[base].map_or(min, |x| least(x, min)));
+                m.max[base] = Some(m.max[base].map_or(max, |x| greatest(x, max)));
+            }
+        } else {
+            for (i, &v) in segment.iter().enumerate() {
+                if v.is_nan() {
+                    continue;
+                }
+                let c = base + i * step;
+                m.count[c] += 1;
+                m.sum[c] += fixed_of(k + i, v)?;
+                m.min[c] = Some(m.min[c].map_or(v, |x| least(x, v)));
+                m.max[c] = Some(m.max[c].map_or(v, |x| greatest(x, v)));
+            }
+        }
+        odometer.advance(len as u64);
+        k += len;
+    }
+    Ok(())
 }
 
 impl SummarySpec {
@@ -443,53 +484,28 @@ impl SummarySpec {
     /// `s` yet) to the summary `s`, on one thread, in one pass.
     fn add(&self, s: &mut Summary, grid: Option<&Grid>, first: u64, values: &[f64]) -> Result<()> {
         s.poses += values.len() as u64;
-        let mut odometers: Vec<Odometer> = s
-            .marginals
-            .iter()
-            .map(|m| {
-                Odometer::new(
-                    grid.expect("marginals are checked to need a grid"),
-                    &m.axes,
-                    first,
+        // The marginals first, each in its own pass (a value too large for their exact sums is
+        // refused in the first, at the first pose that has one).
+        let fixed_of = |k: usize, value: f64| {
+            fixed(value).ok_or_else(|| {
+                Error::invalid(
+                    format!("summary of {} at pose {}", self.by, first + k as u64),
+                    value,
+                    "is too large for the marginals' exact sums (at most 2^40)",
                 )
             })
-            .collect();
-        let mut runs: Vec<Run> = (0..s.marginals.len())
-            .map(|_| Run {
-                cell: 0,
-                count: 0,
-                sum: 0,
-                min: 0.0,
-                max: 0.0,
-            })
-            .collect();
+        };
+        for m in &mut s.marginals {
+            let grid = grid.expect("marginals are checked to need a grid");
+            let odometer = Odometer::new(grid, &m.axes, first);
+            add_to_marginal(m, odometer, values, fixed_of)?;
+        }
         let mut smallest = Best::<true>::new(std::mem::take(&mut s.smallest), self.top);
         let mut largest = Best::<false>::new(std::mem::take(&mut s.largest), self.top);
         #[expect(clippy::cast_precision_loss, reason = "bin counts are small")]
         let histogram = self.histogram.map(|h| (h, h.bins as f64 / (h.max - h.min)));
         for (k, &value) in values.iter().enumerate() {
-            let present = !value.is_nan();
-            let f = if present && !runs.is_empty() {
-                fixed(value).ok_or_else(|| {
-                    Error::invalid(
-                        format!("summary of {} at pose {}", self.by, first + k as u64),
-                        value,
-                        "is too large for the marginals' exact sums (at most 2^40)",
-                    )
-                })?
-            } else {
-                0
-            };
-            for ((o, run), m) in odometers.iter_mut().zip(&mut runs).zip(&mut s.marginals) {
-                let cell = o.next_cell();
-                if cell != run.cell {
-                    run.flush(m, cell);
-                }
-                if present {
-                    run.add(value, f);
-                }
-            }
-            if !present {
+            if value.is_nan() {
                 continue;
             }
             let r = Ranked {
@@ -534,9 +550,6 @@ impl SummarySpec {
                     h.counts[b] += 1;
                 }
             }
-        }
-        for (run, m) in runs.iter_mut().zip(&mut s.marginals) {
-            run.flush(m, 0);
         }
         s.smallest = smallest.finish();
         s.largest = largest.finish();

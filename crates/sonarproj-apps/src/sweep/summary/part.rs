@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Summary, mean_of};
+use super::{Marginal, Summary, mean_of};
 use crate::error::{Error, Result};
 
 /// A part's summary as kept on disk between chunks: the marginals' cells listed only where a
@@ -22,9 +22,8 @@ impl Summary {
     /// Returns this summary with its marginals' cells listed sparsely, for a part on disk.
     #[must_use]
     pub fn to_part(&self) -> PartSummary {
-        let mut summary = self.clone();
         let mut cells = Vec::with_capacity(self.marginals.len());
-        for m in &mut summary.marginals {
+        for m in &self.marginals {
             cells.push(
                 (0..m.count.len())
                     .filter(|&c| m.count[c] > 0)
@@ -39,13 +38,32 @@ impl Summary {
                     })
                     .collect(),
             );
-            m.values.clear();
-            m.count.clear();
-            m.min.clear();
-            m.mean.clear();
-            m.max.clear();
-            m.sum.clear();
         }
+        // The rest copied, the marginals without their dense cells (as large as the marginal
+        // whatever the part's size).
+        let summary = Summary {
+            metric: self.metric.clone(),
+            poses: self.poses,
+            with_value: self.with_value,
+            min: self.min,
+            max: self.max,
+            smallest: self.smallest.clone(),
+            largest: self.largest.clone(),
+            histogram: self.histogram.clone(),
+            marginals: self
+                .marginals
+                .iter()
+                .map(|m| Marginal {
+                    axes: m.axes.clone(),
+                    values: Vec::new(),
+                    count: Vec::new(),
+                    min: Vec::new(),
+                    mean: Vec::new(),
+                    max: Vec::new(),
+                    sum: Vec::new(),
+                })
+                .collect(),
+        };
         PartSummary { summary, cells }
     }
 }

@@ -352,3 +352,83 @@ fn extremes_and_rankings_follow_the_total_order_on_ties() {
         assert_eq!(first(&s.max.into_iter().collect::<Vec<_>>()), first(&sorted[..1]));
     }
 }
+
+/// The marginals, taken segment by segment (one cell, or a cell stepping every pose), against
+/// each pose put in its cell by division: axes of several values, of one value, the one that
+/// changes every pose, in either order within a pair, pieces starting anywhere.
+#[test]
+fn marginals_match_each_pose_put_in_its_cell() {
+    let axis = |column, n: usize| Axis {
+        column,
+        values: (0..n).map(|i| i as f64).collect(),
+    };
+    let g = Grid {
+        axes: vec![axis("roll", 3), axis("pitch", 1), axis("yaw", 5), axis("yaw2", 4)],
+        placement: true,
+    };
+    let sizes: Vec<u64> = g.axes.iter().map(|a| a.values.len() as u64).collect();
+    let poses: u64 = sizes.iter().product();
+    let marginals: Vec<Vec<String>> = [
+        &["roll"][..],
+        &["pitch"],
+        &["yaw2"],
+        &["yaw", "roll"],
+        &["roll", "yaw"],
+        &["yaw2", "yaw"],
+        &["yaw", "yaw2"],
+        &["pitch", "yaw2"],
+    ]
+    .iter()
+    .map(|m| m.iter().map(|a| (*a).to_string()).collect())
+    .collect();
+    let spec = SummarySpec {
+        by: "span".into(),
+        top: 0,
+        histogram: None,
+        marginals: marginals.clone(),
+        rows: false,
+    };
+    // Two laps of the grid, with gaps and repeated values.
+    let value = |i: u64| (i % 7 != 3).then(|| ((i * 37) % 11) as f64 * 0.125 - 0.5);
+    let total = 2 * poses;
+    for (first, piece) in [(0, total), (5, 1), (7, 13), (59, 61), (1, total - 1)] {
+        let v: Vec<f64> = (first..first + piece)
+            .map(|i| value(i).unwrap_or(f64::NAN))
+            .collect();
+        let mut s = spec.empty(Some(&g));
+        spec.add(&mut s, Some(&g), first, &v).unwrap();
+        for (axes, m) in marginals.iter().zip(&s.marginals) {
+            let cells: usize = axes
+                .iter()
+                .map(|a| g.axes.iter().find(|x| x.column == a).unwrap().values.len())
+                .product();
+            let (mut count, mut sum) = (vec![0u64; cells], vec![0i128; cells]);
+            let (mut min, mut max) = (vec![None::<f64>; cells], vec![None::<f64>; cells]);
+            for i in first..first + piece {
+                let Some(x) = value(i) else { continue };
+                // The value of each axis at pose i (the last axis fastest), then the cell.
+                let mut rest = i % poses;
+                let mut at = vec![0; sizes.len()];
+                for k in (0..sizes.len()).rev() {
+                    at[k] = rest % sizes[k];
+                    rest /= sizes[k];
+                }
+                let mut c = 0;
+                for a in axes {
+                    let k = g.axes.iter().position(|x| x.column == a).unwrap();
+                    c = c * sizes[k] + at[k];
+                }
+                let c = usize::try_from(c).unwrap();
+                count[c] += 1;
+                sum[c] += fixed(x).unwrap();
+                min[c] = Some(min[c].map_or(x, |y: f64| y.min(x)));
+                max[c] = Some(max[c].map_or(x, |y: f64| y.max(x)));
+            }
+            let case = format!("{axes:?} from {first}, {piece} poses");
+            assert_eq!(m.count, count, "{case}");
+            assert_eq!(m.sum, sum, "{case}");
+            assert_eq!(m.min, min, "{case}");
+            assert_eq!(m.max, max, "{case}");
+        }
+    }
+}
