@@ -159,13 +159,18 @@ pub fn run(
     };
     // Unless given, the chunk size of the unfinished run being resumed (of this sweep: another
     // is refused below), or the default.
-    let chunk_poses = opts.chunk_poses.unwrap_or_else(|| {
-        read_json::<Manifest>(&dir.join(format!(".partial-{stem}")).join("manifest.json"))
+    // The field an error names says where the size came from.
+    let (chunk_poses, field) = match opts.chunk_poses {
+        Some(cp) => (cp, "--chunk-poses"),
+        None => read_json::<Manifest>(&dir.join(format!(".partial-{stem}")).join("manifest.json"))
             .ok()
             .flatten()
             .filter(|m| m.fingerprint == desc.fingerprint && m.chunk_poses > 0)
-            .map_or_else(|| default_chunk_poses(config), |m| m.chunk_poses)
-    });
+            .map_or_else(
+                || (default_chunk_poses(config), "--chunk-poses (the default)"),
+                |m| (m.chunk_poses, "--chunk-poses (the unfinished run's)"),
+            ),
+    };
     let poses = range.end - range.start;
     // One file a chunk: their number is bounded, and nothing is kept per chunk but its file.
     // Chunks end at the multiples of --chunk-poses in the pose index (a shard's first and last
@@ -189,7 +194,7 @@ pub fn run(
             fits += 1;
         }
         return Err(Error::invalid(
-            "--chunk-poses",
+            field,
             chunk_poses,
             format!(
                 "cuts this run's {poses} poses into {n_chunks} chunk files, more than the \
@@ -567,13 +572,9 @@ pub fn run(
             }
         }
         settle(&mut writing, &mut total, &mut joiner)?;
-        // The settings first: a result never stands without them.
+        // The settings first: a result never stands without them. The table next, the summary
+        // last: a summary beside a table means the table is whole.
         write_json(&settings_path(&file), &manifest.settings)?;
-        if let Some(mut total) = total.take() {
-            fill_means(&mut total);
-            write_summary(&summary_file, whole, &total)?;
-            outcome.summary = Some(summary_file.clone());
-        }
         match (joiner, rows, opts.format) {
             (Some(joiner), _, _) => joiner.finish()?,
             (None, true, Format::Csv) => {
@@ -583,6 +584,11 @@ pub fn run(
                 parts::join_parquet((0..n_chunks).map(chunk_path), &desc.columns, &kinds, &file, whole)?;
             }
             (None, false, _) => {}
+        }
+        if let Some(mut total) = total.take() {
+            fill_means(&mut total);
+            write_summary(&summary_file, whole, &total)?;
+            outcome.summary = Some(summary_file.clone());
         }
         Ok(false)
     })?;

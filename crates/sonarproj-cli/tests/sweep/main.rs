@@ -407,6 +407,24 @@ fn more_chunks_than_a_run_keeps_are_refused_up_front() {
             "--chunk-poses 1000000 or more",
         ],
     );
+    // Not given, the size is the default's, and the message says so.
+    common::rejects(
+        &[
+            "sweep",
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--backend",
+            "cpu-fast",
+        ],
+        None,
+        &[
+            "--chunk-poses (the default) = 131072",
+            "7629395 chunk files",
+            "--chunk-poses 1000000 or more",
+        ],
+    );
     assert!(!out.exists(), "a refused run made its directory");
 }
 
