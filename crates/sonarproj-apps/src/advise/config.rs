@@ -181,12 +181,7 @@ impl AdviseConfig {
     /// [`Error::ReadInput`], [`Error::AdviseFile`] (TOML syntax) or
     /// [`sonarproj::Error::InvalidValue`] naming the file and the key.
     pub fn load(path: &Path) -> Result<AdviseConfig> {
-        crate::report::note_input(path);
-        let text = std::fs::read_to_string(path).map_err(|source| Error::ReadInput {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let (text, base) = crate::report::read_config(path)?;
         AdviseConfig::parse(&path.display().to_string(), &text, &base)
     }
 

@@ -48,6 +48,20 @@ pub fn note_input(path: &Path) {
     let _ = path;
 }
 
+/// Returns the text of the configuration file at `path` (noted as an input, [`note_input`]) and
+/// the folder its relative paths are taken from.
+///
+/// # Errors
+/// [`Error::ReadInput`] when it cannot be read.
+pub fn read_config(path: &Path) -> Result<(String, std::path::PathBuf)> {
+    note_input(path);
+    let text = std::fs::read_to_string(path).map_err(|source| Error::ReadInput {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok((text, path.parent().map(Path::to_path_buf).unwrap_or_default()))
+}
+
 /// Returns an error when the regular file at `path` is one that [`note_input`] noted.
 fn refuse_input(path: &Path, m: &std::fs::Metadata) -> Result<()> {
     #[cfg(unix)]

@@ -255,12 +255,7 @@ impl SweepConfig {
     /// [`Error::ReadInput`], [`Error::SweepFile`] (TOML syntax) or [`sonarproj::Error::InvalidValue`] naming
     /// the file and the key.
     pub fn load(path: &Path) -> Result<SweepConfig> {
-        crate::report::note_input(path);
-        let text = std::fs::read_to_string(path).map_err(|source| Error::ReadInput {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let (text, base) = crate::report::read_config(path)?;
         SweepConfig::parse(&path.display().to_string(), &text, &base)
     }
 
