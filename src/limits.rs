@@ -36,12 +36,21 @@ pub const MAX_SHARDS: u64 = 100_000;
 /// The most chunk files one sweep run (or shard) is cut into: a larger `--chunk-poses` or more
 /// shards beyond it.
 pub const MAX_CHUNKS: u64 = 1_000_000;
+/// The most poses of one sweep chunk (`--chunk-poses`, 2 097 152): a chunk's metrics, table and
+/// summary values are held in memory together (about 0.5 KB a pose with rows).
+pub const MAX_CHUNK_POSES: u64 = 1 << 21;
 /// The finest angle step of the paper's simulations (deg): 18 001 angles, about 3 million poses
 /// a direction, whose results are held in memory.
 pub const MIN_ANGLE_STEP: f64 = 0.01;
 /// The most bytes of dense masks (one byte a pixel a feature, four more with counts) one call of
 /// the Python package returns: 1 GiB. More features at once take the sparse form (runs).
 pub const MAX_DENSE_MASK_BYTES: u64 = 1 << 30;
+/// The most features of one ping a mask engine takes (65 536): their plans and results are held
+/// together; a larger ping is split by the caller.
+pub const MAX_PING_FEATURES: usize = 1 << 16;
+/// The most bytes of masks as bitsets (one bit a pixel) one call of the mask engine holds: 1 GiB,
+/// whatever the sonar's size; a ping that would need more is refused, naming its features.
+pub const MAX_MASK_BITSET_BYTES: u64 = 1 << 30;
 /// The most timed runs of one benchmark measurement.
 pub const MAX_RUNS: u32 = 10_000;
 /// The longest input line (a stream's JSON line) or CSV record read whole (1 MiB): a longer one
@@ -56,7 +65,7 @@ pub const MAX_VALUE_CHARS: usize = 200;
 // The limits keep derived sizes far from overflow, checked when the crate compiles: a whole
 // image of bits fits in 8 MiB and a u32 word index; sample and cell counts fit the GPU's u32
 // indices; a sweep's pose index is exact in an f64 (CSV columns print it); a square grid of
-// full axes stays within a sweep.
+// full axes stays within a sweep; the largest sweep fits in a run's chunks.
 const _: () = {
     assert!(MAX_PIXELS / 8 <= 8 << 20);
     assert!(MAX_PIXELS <= u32::MAX as u64);
@@ -66,4 +75,5 @@ const _: () = {
     assert!(MAX_AREA_CELLS / 8 <= 8 << 20);
     assert!(MAX_POSES < 1 << 53);
     assert!(MAX_AXIS_VALUES * MAX_AXIS_VALUES <= MAX_POSES);
+    assert!(MAX_POSES <= MAX_CHUNKS * MAX_CHUNK_POSES);
 };

@@ -649,3 +649,52 @@ mod gpu {
         }
     }
 }
+
+/// A ping of more features than an engine holds, or whose masks or unions would hold more than
+/// a call's bitsets, is refused up front naming the input and the limit, before anything is
+/// drawn (so these calls are quick).
+#[test]
+fn pings_past_the_memory_limits_are_refused_naming_them() {
+    use sonarproj::limits::{MAX_MASK_BITSET_BYTES, MAX_PING_FEATURES};
+    let s1 = Sonar::preset("holoocean-sidescan").unwrap();
+    let s2 = Sonar::preset("holoocean-imaging").unwrap();
+    let engine = MaskEngine::new(s1, s2).unwrap();
+    let pose = RelativePose {
+        rotation: DMat3::IDENTITY,
+        translation: DVec3::new(0.3, 0.2, -0.1),
+    };
+    let feature = Measurement {
+        range: 4.0,
+        azimuth: 0.0,
+    };
+    let message = |e: sonarproj::Error| e.to_string();
+    // One bitset a mask: the pixels in 32-bit words.
+    let per_mask = (engine.layout().pixels() as u64).div_ceil(32) * 4;
+    let fit = usize::try_from(MAX_MASK_BITSET_BYTES / per_mask).unwrap();
+    assert!(fit < MAX_PING_FEATURES, "the bitsets bind first on this sonar");
+    let many = vec![feature; fit];
+    let e = message(engine.masks(&pose, &many, None, Counts::Skip).err().unwrap());
+    assert!(
+        e.contains("features") && e.contains(&MAX_MASK_BITSET_BYTES.to_string()),
+        "{e}"
+    );
+    let e = message(
+        engine
+            .summary(&pose, &vec![feature; MAX_PING_FEATURES + 1], None)
+            .err()
+            .unwrap(),
+    );
+    assert!(
+        e.contains("features = 65537") && e.contains("at most 65536"),
+        "{e}"
+    );
+    let pings = vec![(pose, vec![feature]); fit + 1];
+    let e = message(engine.summaries_of_pings(&pings, None, &|| false).err().unwrap());
+    assert!(
+        e.contains("pings") && e.contains(&MAX_MASK_BITSET_BYTES.to_string()),
+        "{e}"
+    );
+    let pings = vec![(pose, vec![feature; 2]); fit / 3 + 1];
+    let e = message(engine.masks_of_pings(&pings, None, &|| false).err().unwrap());
+    assert!(e.contains("pings"), "{e}");
+}

@@ -16,6 +16,8 @@ def _count(parameter: str, value: Any, *, optional: bool = False) -> Optional[in
         return None
     if isinstance(value, (bool, _np.bool_)) or not isinstance(value, (int, _np.integer)) or value < 1:
         raise InputError(f"{parameter}: expected a whole number >= 1, got {value!r}")
+    if value > 2**64 - 1:
+        raise InputError(f"{parameter}: {value} is too large (at most {2**64 - 1})")
     return int(value)
 
 

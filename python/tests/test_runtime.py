@@ -134,6 +134,26 @@ def test_dense_masks_past_the_limit_are_refused_before_any_work():
         engine.masks(Pose(), features[:2], counts=True, dense=False)
 
 
+def test_many_pings_past_the_dense_limit_are_refused_before_any_work():
+    # A dense union a ping (one byte a pixel), and dense masks too for masks_of_pings: past
+    # 1 GiB together the call is refused naming the pings, whatever each ping holds.
+    engine = MaskEngine("holoocean-sidescan", "holoocean-imaging", backend="cpu-fast")
+    second = engine.second
+    pixels = second.range_bins * second.beams
+    n = (1 << 30) // pixels + 1
+    pose = Pose(pitch=5, yaw=10, t=(0.3, 0.2, -0.1))
+    with pytest.raises(InputError) as e:
+        engine.summaries_of_pings([pose] * n, [[4.0]] * n)
+    message = str(e.value)
+    assert message.startswith("poses:") and f"{n} pings' dense unions of {pixels} pixels" in message
+    assert str(1 << 30) in message
+    half = n // 2 + 1
+    with pytest.raises(InputError, match=f"{half} pings' dense unions and {half} dense masks"):
+        engine.masks_of_pings([pose] * half, [[4.0]] * half)
+    # Runs instead of dense masks: only the unions count, and these fit.
+    assert len(engine.masks_of_pings([pose] * 2, [[4.0]] * 2, dense=False)) == 2
+
+
 @pytest.mark.parametrize("pair", [("holoocean-sidescan", "holoocean-imaging"),
                                   ("paper-fls", "holoocean-sidescan")])
 def test_runs_are_the_dense_masks(pair):

@@ -39,6 +39,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{RelativePose, Sonar};
 use crate::gpu::{GpuContext, GpuOptions};
 pub use crate::limits::MAX_CELLS;
+use crate::limits::{MAX_MASK_BITSET_BYTES, MAX_PING_FEATURES};
 use crate::occupancy::{Layout, Occupancy};
 use crate::projection::{BackendChoice, Device};
 use crate::sampling::Measurement;
@@ -276,6 +277,7 @@ impl MaskEngine {
                 "per-pixel counts are drawn on the CPU only",
             ));
         }
+        self.check_bitsets("features", features.len(), 1)?;
         let plans = self.plans(features, noise.as_ref())?;
         if let Some(gpu) = self.gpu_for(&plans) {
             let jobs = Self::jobs(pose, plans);
@@ -332,6 +334,7 @@ impl MaskEngine {
         noise: Option<&Noise>,
         stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<Vec<PingSummary>> {
+        self.check_bitsets("pings", 0, pings.len())?;
         let mut out = Vec::with_capacity(pings.len());
         self.summaries_of_pings_each(pings, noise, stop, &mut |s| {
             out.push(s);
@@ -375,6 +378,8 @@ impl MaskEngine {
         noise: Option<&Noise>,
         stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<Vec<MaskSet>> {
+        let features = pings.iter().map(|(_, f)| f.len()).sum();
+        self.check_bitsets("pings", features, pings.len())?;
         let mut out = Vec::with_capacity(pings.len());
         self.masks_of_pings_each(pings, noise, stop, &mut |set| {
             out.push(set);
@@ -443,6 +448,9 @@ impl MaskEngine {
             for (k, (pose, features)) in group.iter().enumerate() {
                 let ping = |e: Error| e.in_context(&format!("ping {}", 64 * g + k + 1));
                 pose.validate().map_err(ping)?;
+                if masks {
+                    self.check_bitsets("features", features.len(), 1).map_err(ping)?;
+                }
                 planned.push((pose, self.plans(features, noise.as_ref()).map_err(ping)?));
             }
             // The pings the GPU takes (all, but those too small under `auto`), as jobs.
@@ -515,25 +523,37 @@ impl MaskEngine {
     /// Returns the summary of the ping of `plans` under `pose`, drawn and reduced on the CPU.
     fn summary_on_cpu(&self, pose: &RelativePose, plans: &[Plan]) -> PingSummary {
         let layout = &self.view.layout;
-        let drawn: Vec<(cpu::Drawn, Reduced)> = plans
+        // Each mask reduced and added to its thread's union as soon as it is drawn: the ping
+        // holds a union a thread, not a mask a feature.
+        let empty = || Occupancy::new(layout.range_bins, layout.beams());
+        let or_into = |u: &mut Occupancy, o: &Occupancy| {
+            for (a, b) in u.words.iter_mut().zip(&o.words) {
+                *a |= b;
+            }
+        };
+        let (features, union) = plans
             .par_iter()
             .map(|plan| {
                 let d = cpu::draw(&self.view, &self.trig, pose, plan, false);
                 let r = mask_reduce(&d.occupancy.words, layout.beams());
-                (d, r)
+                (self.feature_summary(&r, d.radius, plan), d.occupancy)
             })
-            .collect();
-        let mut union = Occupancy::new(layout.range_bins, layout.beams());
-        for (d, _) in &drawn {
-            for (u, w) in union.words.iter_mut().zip(&d.occupancy.words) {
-                *u |= w;
-            }
-        }
-        let features = drawn
-            .iter()
-            .zip(plans)
-            .map(|((d, r), plan)| self.feature_summary(r, d.radius, plan))
-            .collect();
+            .fold(
+                || (Vec::new(), empty()),
+                |(mut features, mut union), (f, occupancy)| {
+                    features.push(f);
+                    or_into(&mut union, &occupancy);
+                    (features, union)
+                },
+            )
+            .reduce(
+                || (Vec::new(), empty()),
+                |(mut a, mut ua), (b, ub)| {
+                    a.extend(b);
+                    or_into(&mut ua, &ub);
+                    (a, ua)
+                },
+            );
         PingSummary {
             features,
             union: layout.to_data_order(union),
@@ -542,6 +562,13 @@ impl MaskEngine {
 
     /// Returns the plans of `features` under `noise` (errors name the feature).
     fn plans(&self, features: &[Measurement], noise: Option<&Noise>) -> Result<Vec<Plan>> {
+        if features.len() > MAX_PING_FEATURES {
+            return Err(Error::invalid(
+                "features",
+                features.len(),
+                format!("must be at most {MAX_PING_FEATURES} a ping: split it"),
+            ));
+        }
         features
             .iter()
             .enumerate()
@@ -550,6 +577,24 @@ impl MaskEngine {
                     .map_err(|e| e.in_context(&format!("feature {}", k + 1)))
             })
             .collect()
+    }
+
+    /// Returns an error when the masks of `features` features and `unions` unions, one bitset
+    /// each, would hold more than [`MAX_MASK_BITSET_BYTES`]; `what` names the input.
+    fn check_bitsets(&self, what: &str, features: usize, unions: usize) -> Result<()> {
+        let per = (self.view.layout.pixels() as u64).div_ceil(32) * 4;
+        let bytes = (features as u64 + unions as u64).saturating_mul(per);
+        if bytes > MAX_MASK_BITSET_BYTES {
+            return Err(Error::invalid(
+                what,
+                format!("{features} masks and {unions} unions"),
+                format!(
+                    "make {bytes} bytes of bitsets ({per} a mask), more than the \
+                     {MAX_MASK_BITSET_BYTES} one call holds: fewer at once"
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// Returns the GPU to draw `plans` on: none for a CPU engine, nor for a ping smaller than

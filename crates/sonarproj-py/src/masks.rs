@@ -401,6 +401,39 @@ impl PyMaskEngine {
         Ok(())
     }
 
+    /// Returns an error when the dense arrays that many pings return together — a union a ping,
+    /// and with `dense` a mask a feature (`counts`: with counts) — would exceed what one call
+    /// returns ([`MAX_DENSE_MASK_BYTES`]).
+    fn check_pings_dense(&self, features: &[usize], counts: bool, dense: bool) -> PyResult<()> {
+        let (rows, beams) = self.engine.layout().data_shape();
+        let pixels = (rows * beams) as u64;
+        let masks: u64 = if dense {
+            features.iter().map(|&n| n as u64).sum()
+        } else {
+            0
+        };
+        let per_mask = if counts { 5 } else { 1 };
+        let bytes = masks
+            .saturating_mul(pixels * per_mask)
+            .saturating_add((features.len() as u64).saturating_mul(pixels));
+        if bytes > MAX_DENSE_MASK_BYTES {
+            return Err(errors::input(
+                "poses",
+                format!(
+                    "{} pings' dense unions{} of {pixels} pixels make {bytes} bytes, more than the \
+                     {MAX_DENSE_MASK_BYTES} one call returns: fewer pings per call",
+                    features.len(),
+                    if masks > 0 {
+                        format!(" and {masks} dense masks")
+                    } else {
+                        String::new()
+                    },
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// Returns the mask set of one ping. Features are drawn in chunks without the GIL, sized so
     /// that one takes about 50 ms; Ctrl-C is looked for between chunks. Dense masks are refused
     /// up front past [`MAX_DENSE_MASK_BYTES`]; `dense = false` gives runs instead.
@@ -630,6 +663,7 @@ impl PyMaskEngine {
         self.in_this_process()?;
         let noise = noise(sigma, coverage)?;
         let pings = self.pings(py, &poses, &ranges, azimuths.as_deref())?;
+        self.check_pings_dense(&vec![0; pings.len()], false, false)?;
         let summaries = crate::runtime::detach_watching(py, |stop| {
             let stopped = || stop.load(std::sync::atomic::Ordering::Relaxed);
             self.engine.summaries_of_pings(&pings, noise.as_ref(), &stopped)
@@ -657,6 +691,8 @@ impl PyMaskEngine {
     ) -> PyResult<Vec<PyMaskSet>> {
         let noise = noise(sigma, coverage)?;
         let pings = self.pings(py, &poses, &ranges, azimuths.as_deref())?;
+        let features: Vec<usize> = pings.iter().map(|(_, f)| f.len()).collect();
+        self.check_pings_dense(&features, counts, dense)?;
         // Together only pings that `draw` would draw in one chunk (so on the same engine, GPU or
         // CPU, under `auto`): the same masks either way.
         if counts || !self.engine.draws_on_gpu() || pings.iter().any(|(_, f)| f.len() > FIRST_CHUNK_FEATURES)

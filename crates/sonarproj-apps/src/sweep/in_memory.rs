@@ -48,9 +48,7 @@ pub fn run_in_memory(
     chunk_poses: Option<u64>,
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Option<InMemory>> {
-    if chunk_poses == Some(0) {
-        return Err(Error::invalid("--chunk-poses", 0, "must be >= 1"));
-    }
+    super::run::check_chunk_poses(chunk_poses)?;
     let chunk_poses = chunk_poses.unwrap_or_else(|| super::run::default_chunk_poses(config));
     let desc = descriptor(config)?;
     let range = shard.map_or(0..desc.poses, |s| s.range(desc.poses));

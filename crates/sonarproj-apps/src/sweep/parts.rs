@@ -227,10 +227,11 @@ pub fn check_bytes(file: &Path, bytes: &[u8], expected: Expected<'_>) -> std::re
 }
 
 /// Returns what part `file` is: good when its record matches `expected` and its bytes the
-/// record; missing when there is no file; damaged (with the reason) otherwise.
+/// record; missing when there is no file, or a device or FIFO (written through, nothing to read
+/// back: opening a FIFO would wait for a writer); damaged (with the reason) otherwise.
 #[must_use]
 pub fn check(file: &Path, expected: Expected<'_>) -> Status {
-    if !file.exists() {
+    if !std::fs::metadata(file).is_ok_and(|m| m.is_file()) {
         return Status::Missing;
     }
     let record = match check_record(file, expected) {

@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use sonarproj::Output;
-use sonarproj::limits::MAX_CHUNKS;
+use sonarproj::limits::{MAX_CHUNK_POSES, MAX_CHUNKS};
 use sonarproj::local_precision::resolve_sigma_range;
 use sonarproj::metrics::Metric;
 use sonarproj::projection::Backend;
@@ -61,6 +61,21 @@ pub fn default_chunk_poses(config: &SweepConfig) -> u64 {
     match &config.summary {
         Some(s) if !s.rows => DEFAULT_SUMMARY_CHUNK_POSES,
         _ => DEFAULT_CHUNK_POSES,
+    }
+}
+
+/// Returns an error unless `chunk_poses` (when given) is in `[1, MAX_CHUNK_POSES]`.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] naming `--chunk-poses`.
+pub(crate) fn check_chunk_poses(chunk_poses: Option<u64>) -> Result<()> {
+    match chunk_poses {
+        Some(cp) if !(1..=MAX_CHUNK_POSES).contains(&cp) => Err(Error::invalid(
+            "--chunk-poses",
+            cp,
+            format!("must be in [1, {MAX_CHUNK_POSES}] (a chunk is held in memory)"),
+        )),
+        _ => Ok(()),
     }
 }
 
@@ -147,9 +162,7 @@ pub fn run(
     opts: &Options,
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Outcome> {
-    if opts.chunk_poses == Some(0) {
-        return Err(Error::invalid("--chunk-poses", 0, "must be >= 1"));
-    }
+    check_chunk_poses(opts.chunk_poses)?;
     // Everything is checked before the directory is created: a refused run leaves nothing.
     let dir = &opts.out;
     let desc = descriptor(config)?;
