@@ -259,8 +259,9 @@ impl MaskEngine {
     /// with per-pixel counts when `counts`; features are drawn in parallel.
     ///
     /// # Errors
-    /// [`Error::InvalidValue`] for a feature outside sonar 1's field of view, invalid noise, or a
-    /// set that would need more than [`MAX_CELLS`] cells.
+    /// [`Error::InvalidValue`] for a feature outside sonar 1's field of view, invalid noise, a
+    /// set that would need more than [`MAX_CELLS`] cells, more than [`MAX_PING_FEATURES`]
+    /// features, or masks past [`MAX_MASK_BITSET_BYTES`] of bitsets (summaries hold none).
     pub fn masks(
         &self,
         pose: &RelativePose,

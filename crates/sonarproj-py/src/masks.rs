@@ -6,7 +6,7 @@ use numpy::{IntoPyArray, PyArray2, PyArrayDyn};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use sonarproj::limits::MAX_DENSE_MASK_BYTES;
+use sonarproj::limits::{MAX_DENSE_MASK_BYTES, MAX_MASK_BITSET_BYTES};
 use sonarproj::masks::run_lengths;
 use sonarproj::masks::{Noise, bounding_box};
 use sonarproj::occupancy::Occupancy;
@@ -401,6 +401,15 @@ impl PyMaskEngine {
         Ok(())
     }
 
+    /// Returns the most features one engine call draws: their masks and a union within what
+    /// it holds as bitsets ([`MAX_MASK_BITSET_BYTES`]).
+    fn most_features_a_call(&self) -> usize {
+        let per_mask = (self.engine.layout().pixels() as u64).div_ceil(32) * 4;
+        usize::try_from(MAX_MASK_BITSET_BYTES / per_mask - 1)
+            .unwrap_or(usize::MAX)
+            .max(1)
+    }
+
     /// Returns an error when the dense arrays that many pings return together — a union a ping,
     /// and with `dense` a mask a feature (`counts`: with counts) — would exceed what one call
     /// returns ([`MAX_DENSE_MASK_BYTES`]).
@@ -451,7 +460,8 @@ impl PyMaskEngine {
         self.check_dense(n, counts, dense)?;
         let want = if counts { Counts::Draw } else { Counts::Skip };
         let mut gathered = Gathered::default();
-        let (mut start, mut chunk) = (0, FIRST_CHUNK_FEATURES);
+        let most = self.most_features_a_call();
+        let (mut start, mut chunk) = (0, FIRST_CHUNK_FEATURES.min(most));
         while start < n || gathered.union.is_none() {
             let end = (start + chunk).min(n);
             let began = Instant::now();
@@ -483,7 +493,8 @@ impl PyMaskEngine {
             .into_iter()
             .rev()
             .find(|&c| c as f64 <= fits)
-            .unwrap_or(MIN_CHUNK_FEATURES);
+            .unwrap_or(MIN_CHUNK_FEATURES)
+            .min(most);
             start = end;
         }
         self.to_py(py, n, gathered, counts, dense)
@@ -695,7 +706,11 @@ impl PyMaskEngine {
         self.check_pings_dense(&features, counts, dense)?;
         // Together only pings that `draw` would draw in one chunk (so on the same engine, GPU or
         // CPU, under `auto`): the same masks either way.
-        if counts || !self.engine.draws_on_gpu() || pings.iter().any(|(_, f)| f.len() > FIRST_CHUNK_FEATURES)
+        if counts
+            || !self.engine.draws_on_gpu()
+            || pings
+                .iter()
+                .any(|(_, f)| f.len() > FIRST_CHUNK_FEATURES.min(self.most_features_a_call()))
         {
             return pings
                 .iter()
