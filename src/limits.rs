@@ -51,6 +51,12 @@ pub const MAX_PING_FEATURES: usize = 1 << 16;
 /// The most bytes of masks as bitsets (one bit a pixel) one call of the mask engine holds: 1 GiB,
 /// whatever the sonar's size; a ping that would need more is refused, naming its features.
 pub const MAX_MASK_BITSET_BYTES: u64 = 1 << 30;
+/// The longest sweep or advise file read (64 MiB): a longer one is refused after that many bytes
+/// (a device or FIFO included).
+pub const MAX_CONFIG_BYTES: u64 = 64 << 20;
+/// The most poses of a sweep's pose list (1 000 000): the list is held in memory (about 1 KB a
+/// pose); longer lists are split into several sweeps, or given as a grid.
+pub const MAX_LIST_POSES: usize = 1_000_000;
 /// The most timed runs of one benchmark measurement.
 pub const MAX_RUNS: u32 = 10_000;
 /// The longest input line (a stream's JSON line) or CSV record read whole (1 MiB): a longer one

@@ -15,7 +15,7 @@ use sonarproj::Sonar;
 use sonarproj::recovery::recover;
 use sonarproj_apps::io::recover::recover_csv;
 use sonarproj_apps::io::text::{feature, numbers, one_or_three, parse_mask_line};
-use sonarproj_apps::io::{project_csv, read_batch_csv};
+use sonarproj_apps::io::{project_csv, read_batch_csv, read_batch_csv_at_most};
 use sonarproj_apps::sweep::SweepConfig;
 
 /// Returns a strategy over number-like text: specials, extremes, signs and garbage.
@@ -266,5 +266,43 @@ fn parsers_accept_what_the_readme_shows() {
         azimuth_aperture = 1\nelevation_aperture = 60\nrange_bins = 500\n"
         )
         .is_ok()
+    );
+}
+
+/// A pose list is held in memory, so one longer than the limit is refused as soon as its next
+/// row is read, naming what was read; and a sweep file is read at most `MAX_CONFIG_BYTES` deep,
+/// whatever it is (a device that never ends included).
+#[test]
+fn pose_lists_and_sweep_files_past_their_limits_are_refused_while_read() {
+    let fls = Sonar::preset("paper-fls").unwrap();
+    let csv = std::fs::read(common::repository().join("data/example-poses.csv")).unwrap();
+    let rows = read_batch_csv(csv.as_slice(), &fls).unwrap().items.len();
+    assert!(rows > 2);
+    assert_eq!(
+        read_batch_csv_at_most(csv.as_slice(), &fls, rows, "poses")
+            .unwrap()
+            .items
+            .len(),
+        rows
+    );
+    let e = read_batch_csv_at_most(csv.as_slice(), &fls, rows - 1, "list \"p.csv\"")
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains(&format!("list \"p.csv\" = more than {} rows", rows - 1))
+            && e.contains(&format!("at most {} poses", rows - 1)),
+        "{e}"
+    );
+    let e = SweepConfig::load(Path::new("/dev/zero"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains(&format!(
+            "longer than {} bytes",
+            sonarproj::limits::MAX_CONFIG_BYTES
+        )),
+        "{e}"
     );
 }

@@ -133,9 +133,33 @@ pub struct BatchInput {
 /// As [`BatchReader::new`] and [`BatchReader::next_item`]; [`Error::Csv`](crate::Error::Csv)
 /// for an input without rows.
 pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
+    read_batch_csv_at_most(reader, source, usize::MAX, "rows")
+}
+
+/// Returns [`read_batch_csv`]'s batch, refused once it has more than `max_rows` rows (before
+/// more are held), the error naming `what`.
+///
+/// # Errors
+/// As [`read_batch_csv`]; [`sonarproj::Error::InvalidValue`] naming `what` past `max_rows`.
+pub fn read_batch_csv_at_most(
+    reader: impl Read,
+    source: &Sonar,
+    max_rows: usize,
+    what: &str,
+) -> Result<BatchInput> {
     let mut input = BatchReader::new(reader, source)?;
     let (mut rows, mut items, mut true_points) = (Vec::new(), Vec::new(), Vec::new());
     while let Some((row, pose)) = input.next_item()? {
+        if rows.len() == max_rows {
+            return Err(crate::Error::invalid(
+                what,
+                format!("more than {max_rows} rows"),
+                format!(
+                    "a pose list holds at most {max_rows} poses (held in memory): split it into \
+                     several sweeps, or give the poses as a grid"
+                ),
+            ));
+        }
         rows.push(row.fields);
         items.push(pose.item);
         true_points.push(pose.true_point);

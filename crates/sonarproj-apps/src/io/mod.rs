@@ -10,7 +10,10 @@ pub mod recover;
 pub mod table;
 pub mod text;
 
-pub use batch::{BatchInput, BatchReader, METRIC_COLUMNS, metric_fields, project_csv, read_batch_csv};
+pub use batch::{
+    BatchInput, BatchReader, METRIC_COLUMNS, metric_fields, project_csv, read_batch_csv,
+    read_batch_csv_at_most,
+};
 
 /// Returns `v` in its shortest exact form, or an empty field for `None`.
 #[must_use]

@@ -52,13 +52,27 @@ pub fn note_input(path: &Path) {
 /// the folder its relative paths are taken from.
 ///
 /// # Errors
-/// [`Error::ReadInput`] when it cannot be read.
+/// [`Error::ReadInput`] when it cannot be read, is not UTF-8 or is longer than
+/// [`MAX_CONFIG_BYTES`](sonarproj::limits::MAX_CONFIG_BYTES).
 pub fn read_config(path: &Path) -> Result<(String, std::path::PathBuf)> {
+    use sonarproj::limits::MAX_CONFIG_BYTES;
+    use std::io::Read;
     note_input(path);
-    let text = std::fs::read_to_string(path).map_err(|source| Error::ReadInput {
+    let fail = |source: std::io::Error| Error::ReadInput {
         path: path.to_path_buf(),
         source,
-    })?;
+    };
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_CONFIG_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(fail)?;
+    if bytes.len() as u64 > MAX_CONFIG_BYTES {
+        return Err(fail(std::io::Error::other(format!(
+            "longer than {MAX_CONFIG_BYTES} bytes: not a sweep or advise file"
+        ))));
+    }
+    let text = String::from_utf8(bytes)
+        .map_err(|e| fail(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))?;
     Ok((text, path.parent().map(Path::to_path_buf).unwrap_or_default()))
 }
 

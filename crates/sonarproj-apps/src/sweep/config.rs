@@ -34,13 +34,14 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::io::batch::PoseRow;
-use crate::io::{BatchInput, read_batch_csv};
+use crate::io::{BatchInput, read_batch_csv_at_most};
 use crate::sweep::summary::{self, SummarySpec};
 use sonarproj::geometry::sonar::{Sonar, SonarKind};
 use sonarproj::metrics::Metric;
 use sonarproj::projection::Batch;
 use sonarproj::sampling::Sampling;
 
+use sonarproj::limits::MAX_LIST_POSES;
 pub use sonarproj::limits::{MAX_AXIS_VALUES, MAX_POSES};
 
 /// One grid axis: a column of the output and the values it takes.
@@ -357,11 +358,19 @@ impl SweepConfig {
                 }
             }
             let path = base.join(list);
-            let bytes = std::fs::read(&path).map_err(|source| Error::ReadInput {
+            // Read as a stream, at most MAX_LIST_POSES rows held.
+            let opened = std::fs::File::open(&path).map_err(|source| Error::ReadInput {
                 path: path.clone(),
                 source,
             })?;
-            let input = read_batch_csv(bytes.as_slice(), &source).map_err(|e| match e {
+            let reader = std::io::BufReader::with_capacity(1 << 16, opened);
+            let input = read_batch_csv_at_most(
+                reader,
+                &source,
+                MAX_LIST_POSES,
+                &format!("{file}: poses {list:?}"),
+            )
+            .map_err(|e| match e {
                 Error::Csv { context, message } => Error::Csv {
                     context: format!("{}: {context}", path.display()),
                     message,
