@@ -149,6 +149,7 @@ fn the_stream_answers_every_line_and_names_bad_ones() {
         r#"{"pose": {"pitch": 5, "yaw": 10, "translation": [0.3, 0.2, -0.1]}, "features": [[400]]}"#,
         r#"{"pose": {"pitch": 5, "yaw": 10, "translation": [0.3, 0.2, -0.1]}, "features": [[4]], "sigma": {"rotation": 0.5, "range": 0.05, "coverage": 0.95}}"#,
         r#"{"pose": {"pitch": 5}, "features": [[4]]}"#,
+        r#"{"pose": {"pitch": "five", "translation": [0.3, 0.2, -0.1]}, "features": [[4]]}"#,
     ]
     .join("\n");
     let assert = sonarproj()
@@ -161,7 +162,7 @@ fn the_stream_answers_every_line_and_names_bad_ones() {
         .code(2);
     let out = String::from_utf8(assert.get_output().stdout.clone()).unwrap();
     let lines: Vec<Value> = out.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
-    assert_eq!(lines.len(), 4);
+    assert_eq!(lines.len(), 5);
     let want = library(&[4.0, 7.5]);
     for (k, occ) in want.iter().enumerate() {
         let runs: Vec<[u64; 2]> = serde_json::from_value(lines[0]["features"][k]["runs"].clone()).unwrap();
@@ -182,6 +183,14 @@ fn the_stream_answers_every_line_and_names_bad_ones() {
         lines[3]
     );
     assert_eq!(lines[3]["line"], 4);
+    // The parser's whole message (what it expected, and where), and the line's form for a
+    // sidescan's features (a range each).
+    let bad = lines[4]["error"].as_str().unwrap();
+    assert!(
+        bad.contains(r#"invalid type: string "five", expected f64 at line 1 column"#),
+        "{bad}"
+    );
+    assert!(bad.contains(r#""features": [[R], …]"#), "{bad}");
 }
 
 /// `--stream --no-runs` answers with the masks' summaries (reduced by `MaskEngine::summary`):

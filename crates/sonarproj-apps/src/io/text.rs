@@ -153,7 +153,22 @@ pub struct MaskRequest {
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] or [`sonarproj::Error::Input`] naming the key.
 pub fn parse_mask_line(source: &Sonar, text: &str) -> Result<MaskRequest> {
-    let line: Line = serde_json::from_str(text).map_err(|e| Error::invalid("line", excerpt(&e.to_string()), "must be one JSON object: {\"pose\": {\"roll\",\"pitch\",\"yaw\" | \"quaternion\" | \"matrix\", \"translation\"}, \"features\": [[R, A], …], \"sigma\"?: {…}}"))?;
+    // The parser's whole message (it says what and where; an error cuts a value at 200
+    // characters), and the form of a line for this sonar's features.
+    let features = match source.kind {
+        SonarKind::Fls => "[[R, A], …]",
+        SonarKind::Sss => "[[R], …]",
+    };
+    let line: Line = serde_json::from_str(text).map_err(|e| {
+        Error::invalid(
+            "line",
+            e,
+            format!(
+                "must be one JSON object: {{\"pose\": {{\"roll\",\"pitch\",\"yaw\" | \"quaternion\" | \
+                 \"matrix\", \"translation\"}}, \"features\": {features}, \"sigma\"?: {{…}}}}"
+            ),
+        )
+    })?;
     let p = &line.pose;
     let rotation = match (p.quaternion, p.matrix) {
         (Some(q), None) if p.roll.is_none() && p.pitch.is_none() && p.yaw.is_none() => {
