@@ -197,6 +197,14 @@ impl Sonar {
                 source: std::io::Error::other("it is a directory; give a sonar TOML file or a preset"),
             });
         }
+        if path.exists() {
+            return Err(Error::ReadInput {
+                path: path.to_path_buf(),
+                source: std::io::Error::other(
+                    "not a regular file (a device or a FIFO); give a sonar TOML file or a preset",
+                ),
+            });
+        }
         Err(Error::UnknownSonar {
             name: spec.to_string(),
             presets: Sonar::preset_names().join(", "),

@@ -174,16 +174,34 @@ impl PoseGrid {
 
     /// Returns the number of poses, or an error past [`MAX_POSES`].
     fn checked_len(&self) -> Result<u64> {
-        self.axes.iter().try_fold(1u64, |n, a| {
-            n.checked_mul(a.len() as u64)
-                .filter(|&n| n <= MAX_POSES)
-                .ok_or_else(|| {
-                    Error::input(
-                        "pose grid",
-                        format!("too many poses; a grid may have at most {MAX_POSES}"),
-                    )
-                })
-        })
+        self.axes
+            .iter()
+            .try_fold(1u64, |n, a| n.checked_mul(a.len() as u64))
+            .filter(|&n| n <= MAX_POSES)
+            .ok_or_else(|| {
+                // The axes that multiply, and their product (as a float: it may pass u64).
+                let names = if self.placement {
+                    PLACEMENT_AXES
+                } else {
+                    TRANSLATION_AXES
+                };
+                let sizes: Vec<String> = names
+                    .iter()
+                    .zip(&self.axes)
+                    .filter(|(_, a)| a.len() > 1)
+                    .map(|(name, a)| format!("{name} {}", a.len()))
+                    .collect();
+                #[expect(clippy::cast_precision_loss, reason = "an order of magnitude to show")]
+                let total: f64 = self.axes.iter().map(|a| a.len() as f64).product();
+                Error::invalid(
+                    "pose grid",
+                    format!("{} = {total:.3e} poses", sizes.join(" × ")),
+                    format!(
+                        "a grid may have at most {MAX_POSES} poses: fewer values an axis (a larger \
+                         step), or several grids"
+                    ),
+                )
+            })
     }
 
     /// Returns the number of poses (the product of the axes' lengths).
@@ -630,6 +648,11 @@ mod tests {
         a[7] = big.clone();
         a[8] = big;
         let e = PoseGrid::new(a, true, &source).unwrap_err();
-        assert!(e.to_string().contains("too many poses"), "{e}");
+        let e = e.to_string();
+        assert!(e.contains("at most 1099511627776 poses"), "{e}");
+        assert!(
+            e.contains("roll 1000000 × pitch 1000000 × yaw 1000000 = 1.000e18 poses"),
+            "{e}"
+        );
     }
 }
