@@ -32,6 +32,7 @@ True
 
 from __future__ import annotations
 
+import collections.abc as _abc
 import json as _json
 import os as _os
 import warnings as _warnings
@@ -580,6 +581,11 @@ class MaskEngine:
         return self._engine.summaries_of_pings(ps, ranges, azimuths, _sigma(sigma, covariance), _coverage(coverage))
 
     def _pings(self, poses: Sequence[Pose], features: Sequence[Any]) -> tuple[list, list, Optional[list]]:
+        for name, value in (("poses", poses), ("features", features)):
+            if isinstance(value, (Pose, str, bytes)) or not isinstance(value, _abc.Iterable):
+                raise InputTypeError(
+                    f"{name}: expected a sequence with one entry a ping, got {type(value).__name__}"
+                )
         poses = list(poses)
         features = list(features)
         if len(poses) != len(features):

@@ -8,7 +8,7 @@ from typing import Any, Callable, Optional, Union
 
 import numpy as _np
 
-from . import InputError, _backend, _native, _number, _warn  # defined before this module loads
+from . import InputError, InputTypeError, _backend, _native, _number, _warn  # defined before this module loads
 
 
 def _count(parameter: str, value: Any, *, optional: bool = False) -> Optional[int]:
@@ -19,6 +19,19 @@ def _count(parameter: str, value: Any, *, optional: bool = False) -> Optional[in
     if value > 2**64 - 1:
         raise InputError(f"{parameter}: {value} is too large (at most {2**64 - 1})")
     return int(value)
+
+
+def _path(parameter: str, value: Any) -> str:
+    if isinstance(value, (bytes, bytearray)):
+        value = _os.fsdecode(bytes(value))
+    if not isinstance(value, (str, _os.PathLike)):
+        raise InputTypeError(f"{parameter}: expected a path (str or os.PathLike), got {value!r} ({type(value).__name__})")
+    path = _os.fspath(value)
+    if not isinstance(path, str):
+        path = _os.fsdecode(path)
+    if path == "":
+        raise InputError(f"{parameter}: expected a path, got an empty string")
+    return path
 
 
 def sweep(
@@ -59,6 +72,9 @@ def sweep(
     refused (give `out_dir`, or ask for summaries only); `max_chunks` and `format` need
     `out_dir`.
     """
+    config = _path("config", config)
+    if out_dir is not None:
+        out_dir = _path("out_dir", out_dir)
     if format not in ("csv", "parquet"):
         raise InputError(f'format: expected "csv" or "parquet", got {format!r}')
     if progress is not None and not callable(progress):
@@ -105,7 +121,7 @@ def merge(out_dir: Union[str, "_os.PathLike[str]"]) -> dict[str, Optional[str]]:
     (``summary.json``, when the sweep file has a ``[summary]``) and ``figure`` (None when the
     sweep draws none).
     """
-    file, summary, figure = _native.sweep_merge(_os.fspath(out_dir))
+    file, summary, figure = _native.sweep_merge(_path("out_dir", out_dir))
     path = lambda p: None if p is None else _os.fspath(p)  # noqa: E731
     return {"file": path(file), "summary": path(summary), "figure": path(figure)}
 
@@ -127,7 +143,7 @@ def paper(
     ``poses``, ``seconds`` (compute time), ``device``, ``out_dir``.
     """
     result, notice = _native.paper_run(
-        _os.fspath(out_dir), _number("angle_step", angle_step), _paper_step(step), _backend(backend)
+        _path("out_dir", out_dir), _number("angle_step", angle_step), _paper_step(step), _backend(backend)
     )
     _warn(notice)
     return result
