@@ -5,7 +5,6 @@
 
 use std::ops::Range;
 
-use rayon::prelude::*;
 use sonarproj::projection::poses::item_of;
 use sonarproj::projection::{Backend, ColumnRef, MetricColumns, PoseGrid, PoseSource, PoseSweep};
 use sonarproj::{Output, Sonar};
@@ -152,15 +151,7 @@ fn grid_table(
         *column = if j == 0 {
             Column::Int(r.clone().map(|i| i as i64).collect())
         } else if j <= 9 {
-            let (a, stride) = (&axes[j - 1], strides[j - 1]);
-            let n = a.len() as u64;
-            #[expect(clippy::cast_possible_truncation, reason = "an axis index")]
-            Column::Real(
-                r.clone()
-                    .into_par_iter()
-                    .map(|i| a[((i / stride) % n) as usize])
-                    .collect(),
-            )
+            Column::Real(axis_column(&axes[j - 1], strides[j - 1], r.clone()))
         } else if let Some(info) = sonarproj::metrics::METRICS.get(j - 10) {
             match (metrics.column(info.metric), kinds[j]) {
                 (ColumnRef::Count(c), _) => {
@@ -174,6 +165,27 @@ fn grid_table(
         };
     }
     table
+}
+
+/// Returns the values of an axis (`values`, each lasting `stride` poses, the last axis fastest)
+/// at poses `r`: run by run, one division at the start.
+#[expect(
+    clippy::cast_possible_truncation,
+    reason = "an axis index, and runs within a chunk held in memory"
+)]
+fn axis_column(values: &[f64], stride: u64, r: Range<u64>) -> Vec<f64> {
+    let n = values.len();
+    let mut out = Vec::with_capacity((r.end - r.start) as usize);
+    let (mut k, mut place) = (((r.start / stride) % n as u64) as usize, r.start % stride);
+    let mut i = r.start;
+    while i < r.end {
+        let take = (stride - place).min(r.end - i);
+        out.extend(std::iter::repeat_n(values[k], take as usize));
+        i += take;
+        place = 0;
+        k = if k + 1 == n { 0 } else { k + 1 };
+    }
+    out
 }
 
 impl Grid {
@@ -191,5 +203,27 @@ impl Grid {
     pub(crate) fn item(&self, source: &Sonar, v: &[f64]) -> Result<sonarproj::BatchItem> {
         let v: [f64; 9] = std::array::from_fn(|k| v[k]);
         Ok(item_of(source, &v, self.placement)?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// An axis's column, run by run, against each pose's value by division, for strides of
+    /// one and more, starts and ends anywhere.
+    #[test]
+    fn axis_columns_are_each_poses_value() {
+        let values = [1.0, 2.5, -3.0];
+        for stride in [1, 2, 7] {
+            for start in 0..30 {
+                for len in [0, 1, 5, 23] {
+                    let r = start..start + len;
+                    let want: Vec<f64> = r
+                        .clone()
+                        .map(|i| values[usize::try_from((i / stride) % 3).unwrap()])
+                        .collect();
+                    assert_eq!(super::axis_column(&values, stride, r), want, "stride {stride}");
+                }
+            }
+        }
     }
 }
