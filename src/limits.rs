@@ -49,7 +49,8 @@ pub const MAX_DENSE_MASK_BYTES: u64 = 1 << 30;
 /// together; a larger ping is split by the caller.
 pub const MAX_PING_FEATURES: usize = 1 << 16;
 /// The most bytes of masks as bitsets (one bit a pixel) one call of the mask engine holds: 1 GiB,
-/// whatever the sonar's size; a ping that would need more is refused, naming its features.
+/// whatever the sonar's size (with per-pixel counts, four bytes a pixel more a mask); a call
+/// that would need more is refused, naming its features or its pings.
 pub const MAX_MASK_BITSET_BYTES: u64 = 1 << 30;
 /// The longest sweep or advise file read (64 MiB): a longer one is refused after that many bytes
 /// (a device or FIFO included).

@@ -670,6 +670,7 @@ fn pings_past_the_memory_limits_are_refused_naming_them() {
     let message = |e: sonarproj::Error| e.to_string();
     // One bitset a mask: the pixels in 32-bit words.
     let per_mask = (engine.layout().pixels() as u64).div_ceil(32) * 4;
+    assert_eq!(engine.bitset_bytes(), per_mask);
     let fit = usize::try_from(MAX_MASK_BITSET_BYTES / per_mask).unwrap();
     assert!(fit < MAX_PING_FEATURES, "the bitsets bind first on this sonar");
     let many = vec![feature; fit];
@@ -678,6 +679,10 @@ fn pings_past_the_memory_limits_are_refused_naming_them() {
         e.contains("features") && e.contains(&MAX_MASK_BITSET_BYTES.to_string()),
         "{e}"
     );
+    // Counts take a u32 a pixel more: 33 times a bitset, so far fewer features fit.
+    let few = vec![feature; fit / 33 + 1];
+    let e = message(engine.masks(&pose, &few, None, Counts::Draw).err().unwrap());
+    assert!(e.contains("and its counts"), "{e}");
     let e = message(
         engine
             .summary(&pose, &vec![feature; MAX_PING_FEATURES + 1], None)

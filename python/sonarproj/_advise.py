@@ -30,14 +30,11 @@ def advise(
     ``best``, ``gain``; None without ``[from_pose]``), ``metric``, ``files`` (the paths
     written), ``seconds`` and ``device``.
     """
-    from . import InputError, _backend, _native, _warn
+    from . import _backend, _native, _warn
+    from ._apps import _path
 
-    if not isinstance(config, (str, _os.PathLike)):
-        raise InputError(f"config: expected the path of an advise TOML file, got {type(config).__name__}")
-    if out_dir is not None and not isinstance(out_dir, (str, _os.PathLike)):
-        raise InputError(f"out_dir: expected a directory path, got {type(out_dir).__name__}")
     result, notice = _native.advise_run(
-        _os.fspath(config), None if out_dir is None else _os.fspath(out_dir), _backend(backend)
+        _path("config", config), None if out_dir is None else _path("out_dir", out_dir), _backend(backend)
     )
     _warn(notice)
     return result

@@ -278,7 +278,7 @@ impl MaskEngine {
                 "per-pixel counts are drawn on the CPU only",
             ));
         }
-        self.check_bitsets("features", features.len(), 1)?;
+        self.check_bitsets("features", features.len(), 1, counts == Counts::Draw)?;
         let plans = self.plans(features, noise.as_ref())?;
         if let Some(gpu) = self.gpu_for(&plans) {
             let jobs = Self::jobs(pose, plans);
@@ -335,7 +335,7 @@ impl MaskEngine {
         noise: Option<&Noise>,
         stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<Vec<PingSummary>> {
-        self.check_bitsets("pings", 0, pings.len())?;
+        self.check_bitsets("pings", 0, pings.len(), false)?;
         let mut out = Vec::with_capacity(pings.len());
         self.summaries_of_pings_each(pings, noise, stop, &mut |s| {
             out.push(s);
@@ -380,7 +380,7 @@ impl MaskEngine {
         stop: &(dyn Fn() -> bool + Sync),
     ) -> Result<Vec<MaskSet>> {
         let features = pings.iter().map(|(_, f)| f.len()).sum();
-        self.check_bitsets("pings", features, pings.len())?;
+        self.check_bitsets("pings", features, pings.len(), false)?;
         let mut out = Vec::with_capacity(pings.len());
         self.masks_of_pings_each(pings, noise, stop, &mut |set| {
             out.push(set);
@@ -450,7 +450,8 @@ impl MaskEngine {
                 let ping = |e: Error| e.in_context(&format!("ping {}", 64 * g + k + 1));
                 pose.validate().map_err(ping)?;
                 if masks {
-                    self.check_bitsets("features", features.len(), 1).map_err(ping)?;
+                    self.check_bitsets("features", features.len(), 1, false)
+                        .map_err(ping)?;
                 }
                 planned.push((pose, self.plans(features, noise.as_ref()).map_err(ping)?));
             }
@@ -537,16 +538,8 @@ impl MaskEngine {
             .map(|plan| {
                 let d = cpu::draw(&self.view, &self.trig, pose, plan, false);
                 let r = mask_reduce(&d.occupancy.words, layout.beams());
-                (self.feature_summary(&r, d.radius, plan), d.occupancy)
+                (vec![self.feature_summary(&r, d.radius, plan)], d.occupancy)
             })
-            .fold(
-                || (Vec::new(), empty()),
-                |(mut features, mut union), (f, occupancy)| {
-                    features.push(f);
-                    or_into(&mut union, &occupancy);
-                    (features, union)
-                },
-            )
             .reduce(
                 || (Vec::new(), empty()),
                 |(mut a, mut ua), (b, ub)| {
@@ -580,18 +573,35 @@ impl MaskEngine {
             .collect()
     }
 
-    /// Returns an error when the masks of `features` features and `unions` unions, one bitset
-    /// each, would hold more than [`MAX_MASK_BITSET_BYTES`]; `what` names the input.
-    fn check_bitsets(&self, what: &str, features: usize, unions: usize) -> Result<()> {
-        let per = (self.view.layout.pixels() as u64).div_ceil(32) * 4;
-        let bytes = (features as u64 + unions as u64).saturating_mul(per);
+    /// Returns the bytes of one mask held as a bitset: a bit a pixel of sonar 2, in 32-bit
+    /// words (what [`MAX_MASK_BITSET_BYTES`] counts).
+    #[must_use]
+    pub fn bitset_bytes(&self) -> u64 {
+        (self.view.layout.pixels() as u64).div_ceil(32) * 4
+    }
+
+    /// Returns an error when the masks of `features` features (with a `u32` count a pixel each
+    /// when `counts`) and `unions` unions, one bitset each, would hold more than
+    /// [`MAX_MASK_BITSET_BYTES`]; `what` names the input.
+    fn check_bitsets(&self, what: &str, features: usize, unions: usize, counts: bool) -> Result<()> {
+        let per = self.bitset_bytes();
+        let per_feature = per
+            + if counts {
+                4 * self.view.layout.pixels() as u64
+            } else {
+                0
+            };
+        let bytes = (features as u64)
+            .saturating_mul(per_feature)
+            .saturating_add((unions as u64).saturating_mul(per));
         if bytes > MAX_MASK_BITSET_BYTES {
             return Err(Error::invalid(
                 what,
                 format!("{features} masks and {unions} unions"),
                 format!(
-                    "make {bytes} bytes of bitsets ({per} a mask), more than the \
-                     {MAX_MASK_BITSET_BYTES} one call holds: fewer at once"
+                    "make {bytes} bytes ({per} a mask{}), more than the {MAX_MASK_BITSET_BYTES} \
+                     one call holds: fewer at once",
+                    if counts { ", and its counts" } else { "" }
                 ),
             ));
         }

@@ -42,6 +42,28 @@ pub const TRANSLATION_AXES: [&str; 9] = [
     "yaw",
 ];
 
+/// Returns the error of a grid of `axes` (name, values) with more than [`MAX_POSES`] poses,
+/// naming `field`, the axes that multiply and their product.
+#[must_use]
+pub fn too_many_poses(field: &str, axes: &[(&str, usize)]) -> Error {
+    let sizes: Vec<String> = axes
+        .iter()
+        .filter(|(_, n)| *n > 1)
+        .map(|(name, n)| format!("{name} {n}"))
+        .collect();
+    // As a float: the product may pass u64.
+    #[expect(clippy::cast_precision_loss, reason = "an order of magnitude to show")]
+    let total: f64 = axes.iter().map(|(_, n)| *n as f64).product();
+    Error::invalid(
+        field,
+        format!("{} = {total:.3e} poses", sizes.join(" × ")),
+        format!(
+            "a grid may have at most {MAX_POSES} poses: fewer values an axis (a larger step), or \
+             several grids"
+        ),
+    )
+}
+
 /// A grid of poses: every combination of nine axes' values, the last axis fastest (mixed
 /// radix). The axes are the feature's true point in sonar 1 (range m, azimuth deg, elevation
 /// deg), then its place in sonar 2 (range, azimuth, elevation) or the translation `t` (m), then
@@ -179,28 +201,17 @@ impl PoseGrid {
             .try_fold(1u64, |n, a| n.checked_mul(a.len() as u64))
             .filter(|&n| n <= MAX_POSES)
             .ok_or_else(|| {
-                // The axes that multiply, and their product (as a float: it may pass u64).
                 let names = if self.placement {
                     PLACEMENT_AXES
                 } else {
                     TRANSLATION_AXES
                 };
-                let sizes: Vec<String> = names
+                let axes: Vec<(&str, usize)> = names
                     .iter()
-                    .zip(&self.axes)
-                    .filter(|(_, a)| a.len() > 1)
-                    .map(|(name, a)| format!("{name} {}", a.len()))
+                    .copied()
+                    .zip(self.axes.iter().map(Vec::len))
                     .collect();
-                #[expect(clippy::cast_precision_loss, reason = "an order of magnitude to show")]
-                let total: f64 = self.axes.iter().map(|a| a.len() as f64).product();
-                Error::invalid(
-                    "pose grid",
-                    format!("{} = {total:.3e} poses", sizes.join(" × ")),
-                    format!(
-                        "a grid may have at most {MAX_POSES} poses: fewer values an axis (a larger \
-                         step), or several grids"
-                    ),
-                )
+                too_many_poses("pose grid", &axes)
             })
     }
 

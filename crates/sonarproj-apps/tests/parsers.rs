@@ -291,7 +291,7 @@ fn pose_lists_and_sweep_files_past_their_limits_are_refused_while_read() {
         .to_string();
     assert!(
         e.contains(&format!("list \"p.csv\" = more than {} rows", rows - 1))
-            && e.contains(&format!("at most {} poses", rows - 1)),
+            && e.contains(&format!("at most {} rows", rows - 1)),
         "{e}"
     );
     let e = SweepConfig::load(Path::new("/dev/zero"))

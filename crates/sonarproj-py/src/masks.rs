@@ -404,34 +404,29 @@ impl PyMaskEngine {
     /// Returns the most features one engine call draws: their masks and a union within what
     /// it holds as bitsets ([`MAX_MASK_BITSET_BYTES`]).
     fn most_features_a_call(&self) -> usize {
-        let per_mask = (self.engine.layout().pixels() as u64).div_ceil(32) * 4;
-        usize::try_from(MAX_MASK_BITSET_BYTES / per_mask - 1)
+        usize::try_from(MAX_MASK_BITSET_BYTES / self.engine.bitset_bytes() - 1)
             .unwrap_or(usize::MAX)
             .max(1)
     }
 
-    /// Returns an error when the dense arrays that many pings return together — a union a ping,
-    /// and with `dense` a mask a feature (`counts`: with counts) — would exceed what one call
-    /// returns ([`MAX_DENSE_MASK_BYTES`]).
-    fn check_pings_dense(&self, features: &[usize], counts: bool, dense: bool) -> PyResult<()> {
+    /// Returns an error when the dense arrays that `pings` pings of `features` features in all
+    /// return together — a union a ping, and with `dense` a mask a feature (`counts`: with
+    /// counts) — would exceed what one call returns ([`MAX_DENSE_MASK_BYTES`]).
+    fn check_pings_dense(&self, pings: usize, features: u64, counts: bool, dense: bool) -> PyResult<()> {
         let (rows, beams) = self.engine.layout().data_shape();
         let pixels = (rows * beams) as u64;
-        let masks: u64 = if dense {
-            features.iter().map(|&n| n as u64).sum()
-        } else {
-            0
-        };
+        let masks = if dense { features } else { 0 };
         let per_mask = if counts { 5 } else { 1 };
         let bytes = masks
             .saturating_mul(pixels * per_mask)
-            .saturating_add((features.len() as u64).saturating_mul(pixels));
+            .saturating_add((pings as u64).saturating_mul(pixels));
         if bytes > MAX_DENSE_MASK_BYTES {
             return Err(errors::input(
                 "poses",
                 format!(
                     "{} pings' dense unions{} of {pixels} pixels make {bytes} bytes, more than the \
                      {MAX_DENSE_MASK_BYTES} one call returns: fewer pings per call",
-                    features.len(),
+                    pings,
                     if masks > 0 {
                         format!(" and {masks} dense masks")
                     } else {
@@ -674,7 +669,7 @@ impl PyMaskEngine {
         self.in_this_process()?;
         let noise = noise(sigma, coverage)?;
         let pings = self.pings(py, &poses, &ranges, azimuths.as_deref())?;
-        self.check_pings_dense(&vec![0; pings.len()], false, false)?;
+        self.check_pings_dense(pings.len(), 0, false, false)?;
         let summaries = crate::runtime::detach_watching(py, |stop| {
             let stopped = || stop.load(std::sync::atomic::Ordering::Relaxed);
             self.engine.summaries_of_pings(&pings, noise.as_ref(), &stopped)
@@ -702,8 +697,10 @@ impl PyMaskEngine {
     ) -> PyResult<Vec<PyMaskSet>> {
         let noise = noise(sigma, coverage)?;
         let pings = self.pings(py, &poses, &ranges, azimuths.as_deref())?;
-        let features: Vec<usize> = pings.iter().map(|(_, f)| f.len()).collect();
-        self.check_pings_dense(&features, counts, dense)?;
+        // Counts need dense masks: said before any count of bytes.
+        self.check_dense(0, counts, dense)?;
+        let features = pings.iter().map(|(_, f)| f.len() as u64).sum();
+        self.check_pings_dense(pings.len(), features, counts, dense)?;
         // Together only pings that `draw` would draw in one chunk (so on the same engine, GPU or
         // CPU, under `auto`): the same masks either way.
         if counts

@@ -40,6 +40,34 @@ pub fn sonarproj() -> assert_cmd::Command {
     c
 }
 
+/// Makes a FIFO at `path` (with `mkfifo`).
+///
+/// # Panics
+/// When it cannot be made.
+pub fn mkfifo(path: &std::path::Path) {
+    let made = std::process::Command::new("mkfifo").arg(path).status().unwrap();
+    assert!(made.success(), "mkfifo {}", path.display());
+}
+
+/// Returns a thread that opens the FIFO at `path` and reads it to its end (what a writer put
+/// through it).
+///
+/// # Panics
+/// The thread panics when the FIFO cannot be read.
+#[must_use]
+pub fn read_fifo(path: &std::path::Path) -> std::thread::JoinHandle<String> {
+    use std::io::Read;
+    let path = path.to_path_buf();
+    std::thread::spawn(move || {
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .unwrap()
+            .read_to_string(&mut text)
+            .unwrap();
+        text
+    })
+}
+
 /// Runs the binary with `args` (and `stdin`), expects exit status 2 (bad input) and a stderr
 /// that contains each of `needles` and no panic.
 ///

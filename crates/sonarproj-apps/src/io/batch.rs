@@ -154,10 +154,7 @@ pub fn read_batch_csv_at_most(
             return Err(crate::Error::invalid(
                 what,
                 format!("more than {max_rows} rows"),
-                format!(
-                    "a pose list holds at most {max_rows} poses (held in memory): split it into \
-                     several sweeps, or give the poses as a grid"
-                ),
+                format!("must hold at most {max_rows} rows (they are held in memory): split it"),
             ));
         }
         rows.push(row.fields);

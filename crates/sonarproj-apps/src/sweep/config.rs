@@ -533,23 +533,9 @@ impl SweepConfig {
                 .try_fold(1u64, |n, a| n.checked_mul(a.values.len() as u64))
                 .filter(|&n| n <= MAX_POSES)
                 .ok_or_else(|| {
-                    // The axes that multiply, and their product (as a float: it may pass u64).
-                    let sizes: Vec<String> = g
-                        .axes
-                        .iter()
-                        .filter(|a| a.values.len() > 1)
-                        .map(|a| format!("{} {}", a.column, a.values.len()))
-                        .collect();
-                    #[expect(clippy::cast_precision_loss, reason = "an order of magnitude to show")]
-                    let total: f64 = g.axes.iter().map(|a| a.values.len() as f64).product();
-                    Error::invalid(
-                        "sweep grid",
-                        format!("{} = {total:.3e} poses", sizes.join(" × ")),
-                        format!(
-                            "a sweep may have at most {MAX_POSES} poses: fewer values an axis (a \
-                             larger step), or several sweeps"
-                        ),
-                    )
+                    let axes: Vec<(&str, usize)> =
+                        g.axes.iter().map(|a| (a.column, a.values.len())).collect();
+                    sonarproj::projection::poses::too_many_poses("sweep grid", &axes).into()
                 }),
         }
     }

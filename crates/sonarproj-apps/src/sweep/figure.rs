@@ -6,21 +6,16 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::io::parquet::read_groups;
 use crate::report::figures;
+use crate::sweep::parts::is_regular;
 use crate::sweep::records::Descriptor;
 use crate::sweep::summary::Summary;
 use crate::sweep::table::{Format, column_kinds};
-
-/// Returns whether `path` is a regular file: a result written into a device or a FIFO is not
-/// read back for its figure (a FIFO would wait for a writer).
-fn regular(path: &Path) -> bool {
-    std::fs::metadata(path).is_ok_and(|m| m.is_file())
-}
 
 /// Draws `DIR/sweep-METRIC.png` from the summaries in `summary` when the sweep writes no rows
 /// and a marginal is over exactly the grid's varying axes (each of its cells is one pose: the
 /// figure is the one the table would give); returns its path.
 pub(crate) fn figure_of_marginal(dir: &Path, d: &Descriptor, summary: &Path) -> Result<Option<PathBuf>> {
-    if d.varying.is_empty() || d.varying.len() > 2 || !regular(summary) {
+    if d.varying.is_empty() || d.varying.len() > 2 || !is_regular(summary) {
         return Ok(None);
     }
     let bytes = std::fs::read(summary).map_err(|source| Error::ReadInput {
@@ -53,7 +48,7 @@ pub(crate) fn figure_of_marginal(dir: &Path, d: &Descriptor, summary: &Path) -> 
 /// Draws `DIR/sweep-METRIC.png` from the result `table` (`DIR/sweep.csv` or `sweep.parquet`)
 /// when the grid has one or two varying axes; returns its path.
 pub(crate) fn figure(table: &Path, format: Format, d: &Descriptor) -> Result<Option<PathBuf>> {
-    if d.varying.is_empty() || d.varying.len() > 2 || !regular(table) {
+    if d.varying.is_empty() || d.varying.len() > 2 || !is_regular(table) {
         return Ok(None);
     }
     let dir = table.parent().unwrap_or(Path::new("."));

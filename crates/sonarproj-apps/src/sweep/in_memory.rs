@@ -48,7 +48,9 @@ pub fn run_in_memory(
     chunk_poses: Option<u64>,
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Option<InMemory>> {
-    super::run::check_chunk_poses(chunk_poses)?;
+    if let Some(cp) = chunk_poses {
+        super::run::check_chunk_poses(cp, "--chunk-poses")?;
+    }
     let chunk_poses = chunk_poses.unwrap_or_else(|| super::run::default_chunk_poses(config));
     let desc = descriptor(config)?;
     let range = shard.map_or(0..desc.poses, |s| s.range(desc.poses));

@@ -195,8 +195,11 @@ pub fn merge(dir: &Path) -> Result<Merged> {
     if rows {
         check_output_file(&dir.join(format!("sweep.{ext}")), "DIR")?;
     }
+    // The shards' summaries combined (each read once and checked against its record) before
+    // anything is written, the summary written last: a summary beside a table means the table
+    // is whole, as after a run.
+    let mut combined: Option<Summary> = None;
     if let Some(spec) = &desc.summary {
-        // The shards' summaries combined, each read once and checked against its record.
         let mut total: Option<Summary> = None;
         for (path, r) in &summaries {
             let expected = parts::Expected {
@@ -218,11 +221,13 @@ pub fn merge(dir: &Path) -> Result<Merged> {
                 Some(t) => spec.combine(&t, &part, &context)?,
             });
         }
-        let total = total.expect("at least one shard");
-        write_summary(&summary_file, whole, &total)?;
+        combined = Some(total.expect("at least one shard"));
     }
     let summary = desc.summary.as_ref().map(|_| summary_file.clone());
     if !rows {
+        if let Some(total) = &combined {
+            write_summary(&summary_file, whole, total)?;
+        }
         let figure = figure_of_marginal(dir, &desc, &summary_file)?;
         return Ok(Merged {
             file: None,
@@ -236,6 +241,9 @@ pub fn merge(dir: &Path) -> Result<Merged> {
         Format::Parquet => {
             parts::join_parquet(files, &desc.columns, &column_kinds(&desc.columns), &out, whole)?;
         }
+    }
+    if let Some(total) = &combined {
+        write_summary(&summary_file, whole, total)?;
     }
     let figure = figure(&out, format, &desc)?;
     Ok(Merged {

@@ -226,12 +226,18 @@ pub fn check_bytes(file: &Path, bytes: &[u8], expected: Expected<'_>) -> std::re
     Ok(())
 }
 
+/// Returns whether `path` is a regular file (a link followed): a result written into a device
+/// or a FIFO is never read back (opening a FIFO would wait for a writer).
+pub(crate) fn is_regular(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| m.is_file())
+}
+
 /// Returns what part `file` is: good when its record matches `expected` and its bytes the
 /// record; missing when there is no file, or a device or FIFO (written through, nothing to read
 /// back: opening a FIFO would wait for a writer); damaged (with the reason) otherwise.
 #[must_use]
 pub fn check(file: &Path, expected: Expected<'_>) -> Status {
-    if !std::fs::metadata(file).is_ok_and(|m| m.is_file()) {
+    if !is_regular(file) {
         return Status::Missing;
     }
     let record = match check_record(file, expected) {

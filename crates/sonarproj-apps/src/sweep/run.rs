@@ -64,19 +64,19 @@ pub fn default_chunk_poses(config: &SweepConfig) -> u64 {
     }
 }
 
-/// Returns an error unless `chunk_poses` (when given) is in `[1, MAX_CHUNK_POSES]`.
+/// Returns an error unless `chunk_poses` is in `[1, MAX_CHUNK_POSES]`, naming `field`.
 ///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `--chunk-poses`.
-pub(crate) fn check_chunk_poses(chunk_poses: Option<u64>) -> Result<()> {
-    match chunk_poses {
-        Some(cp) if !(1..=MAX_CHUNK_POSES).contains(&cp) => Err(Error::invalid(
-            "--chunk-poses",
-            cp,
-            format!("must be in [1, {MAX_CHUNK_POSES}] (a chunk is held in memory)"),
-        )),
-        _ => Ok(()),
+/// [`sonarproj::Error::InvalidValue`] naming `field`.
+pub(crate) fn check_chunk_poses(chunk_poses: u64, field: &str) -> Result<()> {
+    if (1..=MAX_CHUNK_POSES).contains(&chunk_poses) {
+        return Ok(());
     }
+    Err(Error::invalid(
+        field,
+        chunk_poses,
+        format!("must be in [1, {MAX_CHUNK_POSES}] (a chunk is held in memory)"),
+    ))
 }
 
 /// The state of an unfinished run, in its `.partial-*` directory.
@@ -162,7 +162,9 @@ pub fn run(
     opts: &Options,
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Outcome> {
-    check_chunk_poses(opts.chunk_poses)?;
+    if let Some(cp) = opts.chunk_poses {
+        check_chunk_poses(cp, "--chunk-poses")?;
+    }
     // Everything is checked before the directory is created: a refused run leaves nothing.
     let dir = &opts.out;
     let desc = descriptor(config)?;
@@ -184,6 +186,8 @@ pub fn run(
                 |m| (m.chunk_poses, "--chunk-poses (the unfinished run's)"),
             ),
     };
+    // An unfinished run's size too (one of an older version, or an edited manifest).
+    check_chunk_poses(chunk_poses, field)?;
     let poses = range.end - range.start;
     // One file a chunk: their number is bounded, and nothing is kept per chunk but its file.
     // Chunks end at the multiples of --chunk-poses in the pose index (a shard's first and last
@@ -474,7 +478,7 @@ pub fn run(
             let missing = (0..n_chunks).filter(|&c| chunk_files(c).iter().any(|f| !f.exists()));
             usize::try_from(budget).is_ok_and(|b| missing.take(b.saturating_add(1)).count() <= b)
         });
-        let regular = std::fs::metadata(&file).map_or(true, |m| m.is_file());
+        let regular = !file.exists() || parts::is_regular(&file);
         let mut joiner = (rows && opts.format == Format::Parquet && can_finish && regular).then(|| {
             let (tx, rx) = std::sync::mpsc::sync_channel(1);
             Joiner {

@@ -6,7 +6,6 @@ mod inputs;
 
 use sonarproj_testkit as common;
 
-use std::io::Read;
 
 use predicates::prelude::*;
 use std::os::unix::fs::FileTypeExt;
@@ -43,18 +42,8 @@ fn is_root() -> bool {
 fn a_fifo_is_written_through_and_stays_a_fifo() {
     let dir = tempfile::tempdir().unwrap();
     let fifo = dir.path().join("out.fifo");
-    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
-    let reader = {
-        let fifo = fifo.clone();
-        std::thread::spawn(move || {
-            let mut text = String::new();
-            std::fs::File::open(fifo)
-                .unwrap()
-                .read_to_string(&mut text)
-                .unwrap();
-            text
-        })
-    };
+    common::mkfifo(&fifo);
+    let reader = common::read_fifo(&fifo);
     common::sonarproj().args(batch_to(&fifo)).assert().success();
     // Checked before joining: a replaced FIFO would leave the reader waiting for a writer.
     let kind = std::fs::symlink_metadata(&fifo).unwrap().file_type();

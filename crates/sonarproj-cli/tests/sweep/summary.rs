@@ -315,31 +315,14 @@ fn a_table_written_into_a_device_draws_no_figure_and_does_not_panic() {
 /// its bytes would wait for a writer forever): each run writes it through anew.
 #[test]
 fn a_table_written_into_a_fifo_is_written_again_not_read_back() {
-    use std::io::Read;
     let dir = tempfile::tempdir().unwrap();
     let cfg = file(dir.path(), "1d.toml", GRID_1D);
     let out = dir.path().join("o");
     std::fs::create_dir(&out).unwrap();
     let fifo = out.join("sweep.csv");
-    assert!(
-        std::process::Command::new("mkfifo")
-            .arg(&fifo)
-            .status()
-            .unwrap()
-            .success()
-    );
+    common::mkfifo(&fifo);
     for run in 1..=2 {
-        let reader = {
-            let fifo = fifo.clone();
-            std::thread::spawn(move || {
-                let mut text = String::new();
-                std::fs::File::open(fifo)
-                    .unwrap()
-                    .read_to_string(&mut text)
-                    .unwrap();
-                text
-            })
-        };
+        let reader = common::read_fifo(&fifo);
         common::sonarproj()
             .args(["sweep", "--config"])
             .arg(&cfg)

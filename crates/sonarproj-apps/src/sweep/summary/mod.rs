@@ -481,7 +481,8 @@ impl SummarySpec {
     }
 
     /// Adds poses `first`, `first + 1`, … with metric `values` (NaN: no value; none of them in
-    /// `s` yet) to the summary `s`, on one thread, in one pass.
+    /// `s` yet) to the summary `s`, on one thread: a pass a marginal ([`add_to_marginal`]),
+    /// then one for the extremes, rankings and histogram.
     fn add(&self, s: &mut Summary, grid: Option<&Grid>, first: u64, values: &[f64]) -> Result<()> {
         s.poses += values.len() as u64;
         // The marginals first, each in its own pass (a value too large for their exact sums is

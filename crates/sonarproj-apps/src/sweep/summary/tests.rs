@@ -355,7 +355,8 @@ fn extremes_and_rankings_follow_the_total_order_on_ties() {
 
 /// The marginals, taken segment by segment (one cell, or a cell stepping every pose), against
 /// each pose put in its cell by division: axes of several values, of one value, the one that
-/// changes every pose, in either order within a pair, pieces starting anywhere.
+/// changes every pose, two that do (the last of one value), in either order within a pair,
+/// pieces starting anywhere.
 #[test]
 fn marginals_match_each_pose_put_in_its_cell() {
     let axis = |column, n: usize| Axis {
@@ -363,7 +364,14 @@ fn marginals_match_each_pose_put_in_its_cell() {
         values: (0..n).map(|i| i as f64).collect(),
     };
     let g = Grid {
-        axes: vec![axis("roll", 3), axis("pitch", 1), axis("yaw", 5), axis("yaw2", 4)],
+        // A one-value axis last: two axes (yaw2, last) change their digit every pose.
+        axes: vec![
+            axis("roll", 3),
+            axis("pitch", 1),
+            axis("yaw", 5),
+            axis("yaw2", 4),
+            axis("last", 1),
+        ],
         placement: true,
     };
     let sizes: Vec<u64> = g.axes.iter().map(|a| a.values.len() as u64).collect();
@@ -377,6 +385,9 @@ fn marginals_match_each_pose_put_in_its_cell() {
         &["yaw2", "yaw"],
         &["yaw", "yaw2"],
         &["pitch", "yaw2"],
+        &["last"],
+        &["yaw2", "last"],
+        &["last", "roll"],
     ]
     .iter()
     .map(|m| m.iter().map(|a| (*a).to_string()).collect())
