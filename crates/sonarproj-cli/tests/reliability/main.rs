@@ -6,7 +6,6 @@ mod inputs;
 
 use sonarproj_testkit as common;
 
-
 use predicates::prelude::*;
 use std::os::unix::fs::FileTypeExt;
 use std::path::Path;
