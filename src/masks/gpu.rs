@@ -475,38 +475,38 @@ impl GpuMasks {
             }
             Ok(())
         };
+        // Reads back dispatch `pending` of ping `q` into its drawing.
+        let read_back = |state: &mut State,
+                         out: &mut Vec<Option<Drawn>>,
+                         left: &mut [usize],
+                         (q, pending): (usize, Pending)|
+         -> Result<()> {
+            self.collect(
+                state,
+                pending,
+                layout,
+                out[q].as_mut().expect("a ping still drawn"),
+            )?;
+            left[q] -= 1;
+            Ok(())
+        };
         let mut in_flight: std::collections::VecDeque<(usize, Pending)> = std::collections::VecDeque::new();
         let result = (|| -> Result<()> {
             give_out(&mut out, &left, &mut next)?;
             for (i, (p, r, entries)) in dispatches.into_iter().enumerate() {
                 // The slot this one takes was last used two dispatches ago: read that one first.
                 if in_flight.len() == 2
-                    && let Some((q, pending)) = in_flight.pop_front()
+                    && let Some(oldest) = in_flight.pop_front()
                 {
-                    self.collect(
-                        &mut state,
-                        pending,
-                        layout,
-                        out[q].as_mut().expect("a ping still drawn"),
-                    )?;
-                    left[q] -= 1;
-                    // Submitted first, then given out: the GPU draws the next meanwhile.
-                    let pending = self.submit(&mut state, i % 2, layout, &pings[p][r], entries, masks)?;
-                    in_flight.push_back((p, pending));
-                    give_out(&mut out, &left, &mut next)?;
-                    continue;
+                    read_back(&mut state, &mut out, &mut left, oldest)?;
                 }
+                // Submitted first, then given out: the GPU draws the next meanwhile.
                 let pending = self.submit(&mut state, i % 2, layout, &pings[p][r], entries, masks)?;
                 in_flight.push_back((p, pending));
+                give_out(&mut out, &left, &mut next)?;
             }
-            while let Some((q, pending)) = in_flight.pop_front() {
-                self.collect(
-                    &mut state,
-                    pending,
-                    layout,
-                    out[q].as_mut().expect("a ping still drawn"),
-                )?;
-                left[q] -= 1;
+            while let Some(oldest) = in_flight.pop_front() {
+                read_back(&mut state, &mut out, &mut left, oldest)?;
                 give_out(&mut out, &left, &mut next)?;
             }
             Ok(())
