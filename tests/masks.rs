@@ -330,6 +330,44 @@ mod gpu {
             .unwrap_or(1_000)
     }
 
+    /// Draws `n` random scenes of `s1` into `s2` (seeded by `seed`) on the GPU (`ctx`) and on
+    /// the CPU engine, adding a line to `failures` (labelled `label`) for each true pixel the GPU
+    /// misses and each CPU mask it does not hold; returns each scene's true beam and the CPU's
+    /// and the GPU's pixel counts.
+    fn gpu_against_cpu(
+        ctx: &sonarproj::gpu::GpuContext,
+        (s1, s2): (&Sonar, &Sonar),
+        (seed, n): (u64, usize),
+        label: &str,
+        failures: &mut Vec<String>,
+    ) -> Vec<(usize, u64, u64)> {
+        let cpu = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
+        let gpu = MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx.clone()).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let scenes: Vec<Scene> = (0..n).map(|_| scene(&mut rng, s1, s2)).collect();
+        let jobs: Vec<(RelativePose, Measurement)> = scenes.iter().map(|s| (s.pose, s.measurement)).collect();
+        let on_gpu = gpu.masks_of_scenes(&jobs).unwrap();
+        let on_cpu = cpu.masks_of_scenes(&jobs).unwrap();
+        let mut seen = Vec::with_capacity(n);
+        for (sc, (g, c)) in scenes.iter().zip(on_gpu.iter().zip(&on_cpu)) {
+            let (i, j) = true_pixel(s2, sc.p2);
+            if !g.occupancy.get(i, j) {
+                failures.push(format!(
+                    "{label}: {:?}: true pixel ({i}, {j}) missed",
+                    sc.measurement
+                ));
+            }
+            if !c.occupancy.is_subset_of(&g.occupancy) {
+                failures.push(format!(
+                    "{label}: {:?}: CPU pixels missing on the GPU",
+                    sc.measurement
+                ));
+            }
+            seen.push((j, c.occupancy.count(), g.occupancy.count()));
+        }
+        seen
+    }
+
     #[test]
     fn gpu_masks_never_miss_and_hold_the_cpu_masks() {
         let Some(ctx) = common::gpu_context() else {
@@ -341,30 +379,13 @@ mod gpu {
         for (a, from) in names.iter().enumerate() {
             for (b, to) in names.iter().enumerate() {
                 let (s1, s2) = (Sonar::preset(from).unwrap(), Sonar::preset(to).unwrap());
-                let cpu = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
-                let gpu = MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx.clone()).unwrap();
-                let mut rng = ChaCha8Rng::seed_from_u64(5000 + 10 * a as u64 + b as u64);
-                let scenes: Vec<Scene> = (0..gpu_scenes()).map(|_| scene(&mut rng, &s1, &s2)).collect();
-                let jobs: Vec<(RelativePose, Measurement)> =
-                    scenes.iter().map(|s| (s.pose, s.measurement)).collect();
-                let on_gpu = gpu.masks_of_scenes(&jobs).unwrap();
-                let on_cpu = cpu.masks_of_scenes(&jobs).unwrap();
-                for (sc, (g, c)) in scenes.iter().zip(on_gpu.iter().zip(&on_cpu)) {
-                    let (i, j) = true_pixel(&s2, sc.p2);
-                    if !g.occupancy.get(i, j) {
-                        failures.push(format!(
-                            "{from}->{to}: {:?}: true pixel ({i}, {j}) missed",
-                            sc.measurement
-                        ));
-                    }
-                    if !c.occupancy.is_subset_of(&g.occupancy) {
-                        failures.push(format!(
-                            "{from}->{to}: {:?}: CPU pixels missing on the GPU",
-                            sc.measurement
-                        ));
-                    }
-                    cpu_pixels += c.occupancy.count();
-                    gpu_pixels += g.occupancy.count();
+                let seed = 5000 + 10 * a as u64 + b as u64;
+                let label = format!("{from}->{to}");
+                for (_, c, g) in
+                    gpu_against_cpu(&ctx, (&s1, &s2), (seed, gpu_scenes()), &label, &mut failures)
+                {
+                    cpu_pixels += c;
+                    gpu_pixels += g;
                 }
             }
         }
@@ -422,31 +443,14 @@ mod gpu {
             .enumerate()
         {
             let s1 = Sonar::preset(from).unwrap();
-            let cpu = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
-            let gpu = MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx.clone()).unwrap();
-            let mut rng = ChaCha8Rng::seed_from_u64(7000 + a as u64);
-            let scenes: Vec<Scene> = (0..gpu_scenes() / 2).map(|_| scene(&mut rng, &s1, &s2)).collect();
-            let jobs: Vec<(RelativePose, Measurement)> =
-                scenes.iter().map(|s| (s.pose, s.measurement)).collect();
-            let on_gpu = gpu.masks_of_scenes(&jobs).unwrap();
-            let on_cpu = cpu.masks_of_scenes(&jobs).unwrap();
-            let mut beams_seen = std::collections::BTreeSet::new();
-            for (sc, (g, c)) in scenes.iter().zip(on_gpu.iter().zip(&on_cpu)) {
-                let (i, j) = true_pixel(&s2, sc.p2);
-                beams_seen.insert(j);
-                if !g.occupancy.get(i, j) {
-                    failures.push(format!(
-                        "{from}: {:?}: true pixel ({i}, {j}) missed",
-                        sc.measurement
-                    ));
-                }
-                if !c.occupancy.is_subset_of(&g.occupancy) {
-                    failures.push(format!(
-                        "{from}: {:?}: CPU pixels missing on the GPU",
-                        sc.measurement
-                    ));
-                }
-            }
+            let seen = gpu_against_cpu(
+                &ctx,
+                (&s1, &s2),
+                (7000 + a as u64, gpu_scenes() / 2),
+                from,
+                &mut failures,
+            );
+            let beams_seen: std::collections::BTreeSet<usize> = seen.iter().map(|&(j, _, _)| j).collect();
             // The scenes reach beams across the fan, the narrow middle and the wide sides.
             assert!(beams_seen.len() > 100, "{from}: {} beams", beams_seen.len());
         }
