@@ -162,9 +162,6 @@ pub fn run(
     opts: &Options,
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Outcome> {
-    if let Some(cp) = opts.chunk_poses {
-        check_chunk_poses(cp, "--chunk-poses")?;
-    }
     // Everything is checked before the directory is created: a refused run leaves nothing.
     let dir = &opts.out;
     let desc = descriptor(config)?;
@@ -186,7 +183,8 @@ pub fn run(
                 |m| (m.chunk_poses, "--chunk-poses (the unfinished run's)"),
             ),
     };
-    // An unfinished run's size too (one of an older version, or an edited manifest).
+    // Whichever it came from (an unfinished run's too: of an older version, or an edited
+    // manifest), before anything is written.
     check_chunk_poses(chunk_poses, field)?;
     let poses = range.end - range.start;
     // One file a chunk: their number is bounded, and nothing is kept per chunk but its file.
