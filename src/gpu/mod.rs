@@ -17,24 +17,9 @@ pub use context::GpuContext;
 pub use options::GpuOptions;
 pub use shaders::Precision;
 
-/// Returns the first `size` bytes of the mappable `buffer` as u32s, waiting for the GPU of `ctx`.
-pub(crate) fn read(ctx: &GpuContext, buffer: &wgpu::Buffer, size: u64) -> Result<Vec<u32>> {
-    read_with(ctx, buffer, size, <[u32]>::to_vec)
-}
-
 /// Returns what `f` makes of the first `size` bytes of the mappable `buffer` as u32s, read in
-/// place while the buffer is mapped (no copy), waiting for the GPU of `ctx`.
-pub(crate) fn read_with<T>(
-    ctx: &GpuContext,
-    buffer: &wgpu::Buffer,
-    size: u64,
-    f: impl FnOnce(&[u32]) -> T,
-) -> Result<T> {
-    read_after(ctx, buffer, size, None, f)
-}
-
-/// [`read_with`], waiting only for submission `index` (and those before it) when one is given,
-/// so that later submissions can go on running.
+/// place while the buffer is mapped (no copy), once submission `index` (and those before it) has
+/// finished, or every submission when `None`: later submissions can go on running.
 pub(crate) fn read_after<T>(
     ctx: &GpuContext,
     buffer: &wgpu::Buffer,

@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
 
 use crate::error::Result;
-use crate::gpu::{GpuContext, read};
+use crate::gpu::{GpuContext, read_after};
 
 /// Two timestamps around one compute pass: the query set, where they are resolved and where
 /// they are read back.
@@ -62,12 +62,13 @@ impl PassTimer {
         enc.copy_buffer_to_buffer(&self.resolved, 0, &self.staging, 0, 16);
     }
 
-    /// Returns the time between the pass's two timestamps (after its submission).
+    /// Returns the time between the pass's two timestamps, once submission `index` (the one
+    /// that resolved them; every submission when `None`) has finished.
     ///
     /// # Errors
     /// [`crate::Error::Gpu`] when the readback fails.
-    pub(crate) fn elapsed(&self, ctx: &GpuContext) -> Result<Duration> {
-        let words = read(ctx, &self.staging, 16)?;
+    pub(crate) fn elapsed(&self, ctx: &GpuContext, index: Option<wgpu::SubmissionIndex>) -> Result<Duration> {
+        let words = read_after(ctx, &self.staging, 16, index, <[u32]>::to_vec)?;
         let (begin, end) = (
             u64::from(words[0]) | (u64::from(words[1]) << 32),
             u64::from(words[2]) | (u64::from(words[3]) << 32),

@@ -442,6 +442,7 @@ impl PoseSweep<'_> {
             source: self.source.clone(),
             layout,
             plan_of_range,
+            range_stride: stride,
         })
     }
 }
@@ -454,6 +455,17 @@ pub(crate) struct PreparedGrid<'a> {
     pub(crate) layout: Layout,
     pub(crate) plans: Vec<SamplingPlan>,
     pub(crate) plan_of_range: Vec<u32>,
+    /// Poses a range value spans (the product of the other axes' lengths).
+    pub(crate) range_stride: u64,
+}
+
+impl PreparedGrid<'_> {
+    /// Returns the index of pose `i`'s range value (one division: the range axis is the
+    /// slowest).
+    #[expect(clippy::cast_possible_truncation, reason = "an index into the range axis")]
+    pub(crate) fn range_index(&self, i: u64) -> usize {
+        (i / self.range_stride) as usize
+    }
 }
 
 /// A grid's tables, built once in f64 so that decoding a pose takes no trigonometry: the axis

@@ -7,10 +7,9 @@
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose and counts are bounded by the device limits checked before packing"
 )]
 
+mod slots;
 mod tables;
 pub(crate) mod types;
-
-use std::collections::HashMap;
 
 use rayon::prelude::*;
 
@@ -21,7 +20,7 @@ pub use crate::gpu::options::SPLAT_WORKGROUPS;
 use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::{BufferPool, SharedPool};
 use crate::gpu::timing::{DeviceClock, PassTimer};
-use crate::gpu::{GpuContext, read, read_with, shaders};
+use crate::gpu::{GpuContext, read_after, shaders};
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::{Layout, Occupancy};
 use crate::projection::columns::MetricColumns;
@@ -29,7 +28,8 @@ use crate::projection::poses::PreparedGrid;
 use crate::projection::{Output, PreparedBatch, Projection};
 use crate::sampling::SamplingPlan;
 use bytemuck::Zeroable;
-use tables::{direction_table, grid_table, pose_gpu};
+use slots::{Directions, InFlight, SLOT_LABELS, Shape, Slot, SlotSizes};
+use tables::{grid_table, pose_gpu};
 use types::*;
 
 /// Bindings of `shaders/splat.wgsl`: params, beam_edges, range_edges_sq, poses, directions,
@@ -62,8 +62,15 @@ pub(crate) const POSES_WORKGROUP: u64 = 64;
 
 /// Most workgroups one pose's samples are spread over in the splat stage.
 const MAX_TILES: u64 = 1024;
-/// Most bytes of bitsets one chunk may hold (also capped by the device's binding size).
-const MAX_CHUNK_BITS_BYTES: u64 = 256 << 20;
+/// Most bytes of bitsets one chunk may hold (also capped by the device's binding size); two
+/// chunks are in flight.
+const MAX_CHUNK_BITS_BYTES: u64 = 128 << 20;
+/// Chunks a call of many poses is cut into at least, so that the device has the next chunk to
+/// project while the host reads one back.
+const OVERLAP_CHUNKS: usize = 4;
+/// Fewest poses a chunk is cut to for that overlap (a submission's fixed cost stays small beside
+/// its work).
+const MIN_OVERLAP_POSES: usize = 16_384;
 
 /// Variants of the splat stage, chosen when its pipeline is built (WGSL `override` constants), so
 /// that one build can measure each on a GPU.
@@ -226,7 +233,8 @@ impl GpuBackend {
         self
     }
 
-    /// Returns the number of poses per chunk for bitsets of `words` u32 each.
+    /// Returns the number of poses per chunk of a call of `total` poses with bitsets of `words`
+    /// u32 each.
     fn chunk_poses(&self, words: usize, total: usize) -> usize {
         let limits = &self.ctx.limits;
         let bytes_per_pose = (words as u64 * 4).max(4);
@@ -238,7 +246,8 @@ impl GpuBackend {
         // poses stage takes POSES_WORKGROUP a workgroup along x.
         let dim = u64::from(limits.max_compute_workgroups_per_dimension);
         let by_dispatch = usize::try_from((dim * POSES_WORKGROUP).min(dim * dim)).unwrap_or(usize::MAX);
-        let mut n = by_memory.min(by_dispatch).min(total.max(1));
+        let by_overlap = total.div_ceil(OVERLAP_CHUNKS).max(MIN_OVERLAP_POSES);
+        let mut n = by_memory.min(by_dispatch).min(by_overlap).min(total.max(1));
         if let Some(cap) = self.max_chunk_poses {
             n = n.min(cap);
         }
@@ -334,7 +343,9 @@ impl GpuBackend {
     }
 
     /// Projects every pose of `source` with the buffers of `pool`, handing each chunk's results
-    /// as read back (with the bitsets when `keep_occupancy`) to `emit`.
+    /// as read back (with the bitsets when `keep_occupancy`) to `emit`, in order. Two chunks are
+    /// in flight: the device projects one while the host reads back, unpacks and hands out the
+    /// one before (and, for items, packs the one after).
     fn project_with(
         &self,
         pool: &mut BufferPool,
@@ -347,7 +358,6 @@ impl GpuBackend {
         let plans = source.plans();
         let total_poses = source.count();
         let words = words_per_pose(layout);
-        let pixel_words = types::pixel_words(layout);
         let bits_per_pose_bytes = (words as u64 * 4).max(4);
         if bits_per_pose_bytes > self.ctx.limits.max_storage_buffer_binding_size {
             return Err(Error::gpu_limit(format!(
@@ -373,12 +383,6 @@ impl GpuBackend {
             queue.write_buffer(&buffer, 0, contents);
             buffer
         };
-        let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
-        let params = upload(
-            "params",
-            bytemuck::bytes_of(&TargetParams::new(layout, chunk as u32)),
-            uniform,
-        );
         let edges = upload("beam_edges", bytemuck::cast_slice(&beam_edges(layout)), storage);
         let weights = upload("row_weights", bytemuck::cast_slice(&row_weights(layout)), storage);
         let edges_sq = upload(
@@ -386,73 +390,48 @@ impl GpuBackend {
             bytemuck::cast_slice(&range_edges_sq(layout)),
             storage,
         );
-        // A grid's tables, once per call: its axes' entries, and the uniform its chunks rewrite.
-        let grid_buffers = match source {
+        // A grid's axis table, once per call.
+        let grid = match source {
             Source::Items(_) => None,
             Source::Grid { prepared, .. } => {
                 let (table, offsets) = grid_table(prepared.grid);
-                let table = upload("grid_table", bytemuck::cast_slice(&table), storage);
-                let grid_params = upload("grid_params", bytemuck::bytes_of(&GridParams::zeroed()), uniform);
-                Some((table, grid_params, offsets))
+                Some((
+                    upload("grid_table", bytemuck::cast_slice(&table), storage),
+                    offsets,
+                ))
             }
         };
-        let bits_size = chunk as u64 * bits_per_pose_bytes;
-        let metrics_size = (chunk * METRIC_STRIDE * 4) as u64;
-        let copy_src = wgpu::BufferUsages::COPY_SRC;
-        let mut empty = |label, size, usage| pool.get(device, label, size, limit, usage);
-        let bits = empty("bits", bits_size, storage | copy_src);
-        let metrics = empty("metrics", metrics_size, storage | copy_src);
-        let poses = empty("poses", (chunk * size_of::<PoseGpu>()) as u64, storage);
-        let readback = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
-        let metrics_staging = empty("metrics_staging", metrics_size, readback);
-        let bits_staging = keep_occupancy.then(|| empty("bits_staging", bits_size, readback));
+        let timed = self.clock.on();
+        let sizes = SlotSizes {
+            chunk,
+            bits: chunk as u64 * bits_per_pose_bytes,
+            metrics: (chunk * METRIC_STRIDE * 4) as u64,
+            grid: grid.is_some(),
+            occupancy: keep_occupancy,
+        };
+        let slots = [0, 1].map(|s| Slot::new(&self.ctx, pool, &SLOT_LABELS[s], &sizes, limit, timed));
+        let shape = Shape {
+            source,
+            layout,
+            plans,
+            words,
+            bits_per_pose_bytes,
+        };
 
         let mut directions: Option<Directions> = None;
         let dim = self.ctx.limits.max_compute_workgroups_per_dimension.max(1);
-        let timer = self.clock.on().then(|| PassTimer::new(&self.ctx)).flatten();
-        for start in (0..total_poses).step_by(chunk) {
+        let mut in_flight: Option<InFlight> = None;
+        for (i, start) in (0..total_poses).step_by(chunk).enumerate() {
             let end = (start + chunk).min(total_poses);
             let n = end - start;
+            let slot = &slots[i % 2];
 
-            // Direction table of the plans this chunk uses (kept when the same plans repeat).
+            // Direction table of the plans this chunk uses (kept when the same plans repeat;
+            // rewritten in queue order, after the chunk in flight has read the old one).
             let used = source.plans_used(start..end);
             let max_samples = used.iter().map(|&p| plans[p].total() as u64).fold(1, u64::max);
             if directions.as_ref().is_none_or(|d| d.plans != used) {
-                let (table, offsets) = direction_table(plans, &used);
-                let bytes: &[u8] = bytemuck::cast_slice(&table);
-                let buffer = pool.get(device, "directions", bytes.len() as u64, limit, storage);
-                queue.write_buffer(&buffer, 0, bytes);
-                // A grid's poses find their plan by their range value.
-                let range_plans = match source {
-                    Source::Items(_) => None,
-                    Source::Grid { prepared, .. } => {
-                        let entries: Vec<[u32; 4]> = prepared
-                            .plan_of_range
-                            .iter()
-                            .map(|&p| {
-                                let p = p as usize;
-                                offsets.get(&p).map_or([0; 4], |&[az, el]| {
-                                    [
-                                        az,
-                                        plans[p].azimuths.len() as u32,
-                                        el,
-                                        plans[p].elevations.len() as u32,
-                                    ]
-                                })
-                            })
-                            .collect();
-                        let bytes: &[u8] = bytemuck::cast_slice(&entries);
-                        let buffer = pool.get(device, "range_plans", bytes.len() as u64, limit, storage);
-                        queue.write_buffer(&buffer, 0, bytes);
-                        Some(buffer)
-                    }
-                };
-                directions = Some(Directions {
-                    plans: used,
-                    buffer,
-                    offsets,
-                    range_plans,
-                });
+                directions = Some(Directions::upload(&self.ctx, pool, source, used, limit));
             }
             let Directions {
                 buffer: dir_buffer,
@@ -461,11 +440,11 @@ impl GpuBackend {
                 ..
             } = directions.as_ref().expect("set above");
 
-            // Items: packed and, below, unpacked on all cores (serial, these loops took
-            // 80–180 ns a pose here, BENCHMARKS.md). A grid: the digits of the chunk's first
-            // pose, the poses decoded by the poses stage.
-            let decode = match (source, &grid_buffers, range_plans) {
-                (Source::Items(prepared), _, _) => {
+            // Items: packed on all cores (serial, this loop and the unpacking took 80–180 ns a
+            // pose here, BENCHMARKS.md). A grid: the digits of the chunk's first pose, the poses
+            // decoded by the poses stage.
+            let decode = match (source, &grid, &slot.grid_params, range_plans) {
+                (Source::Items(prepared), _, _, _) => {
                     let items = &prepared.batch.items;
                     let pose_data: Vec<PoseGpu> = (start..end)
                         .into_par_iter()
@@ -487,12 +466,13 @@ impl GpuBackend {
                             )
                         })
                         .collect();
-                    queue.write_buffer(&poses, 0, bytemuck::cast_slice(&pose_data));
+                    queue.write_buffer(&slot.poses, 0, bytemuck::cast_slice(&pose_data));
                     None
                 }
                 (
                     Source::Grid { prepared, first, .. },
-                    Some((table, grid_params, axis_offsets)),
+                    Some((table, axis_offsets)),
+                    Some(grid_params),
                     Some(range_plans),
                 ) => {
                     let grid = prepared.grid;
@@ -511,40 +491,48 @@ impl GpuBackend {
                     queue.write_buffer(grid_params, 0, bytemuck::bytes_of(&g));
                     Some(
                         self.poses
-                            .bind(device, &[grid_params, table, range_plans, &poses]),
+                            .bind(device, &[grid_params, table, range_plans, &slot.poses]),
                     )
                 }
                 _ => unreachable!("a grid has its tables"),
             };
             queue.write_buffer(
-                &params,
+                &slot.params,
                 0,
                 bytemuck::bytes_of(&TargetParams::new(layout, n as u32)),
             );
 
             let splat_group = self.splat.bind(
                 device,
-                &[&params, &edges, &edges_sq, &poses, dir_buffer, &bits, &metrics],
+                &[
+                    &slot.params,
+                    &edges,
+                    &edges_sq,
+                    &slot.poses,
+                    dir_buffer,
+                    &slot.bits,
+                    &slot.metrics,
+                ],
             );
-            let reduce_group = self
-                .reduce
-                .bind(device, &[&params, &edges, &weights, &bits, &metrics]);
+            let reduce_group = self.reduce.bind(
+                device,
+                &[&slot.params, &edges, &weights, &slot.bits, &slot.metrics],
+            );
             let tiles = max_samples
                 .div_ceil(u64::from(self.options.workgroup))
                 .clamp(1, MAX_TILES) as u32;
-            let used_bits = n as u64 * bits_per_pose_bytes;
-            let used_metrics = (n * METRIC_STRIDE * 4) as u64;
+            let (used_bits, used_metrics) = shape.bytes(n);
             // The chunk's poses over two dimensions of workgroups.
             let across = (n as u32).min(dim);
             let rows = (n as u32).div_ceil(across);
 
             let mut enc = device.create_command_encoder(&Default::default());
-            enc.clear_buffer(&bits, 0, Some(used_bits));
-            enc.clear_buffer(&metrics, 0, Some(used_metrics));
+            enc.clear_buffer(&slot.bits, 0, Some(used_bits));
+            enc.clear_buffer(&slot.metrics, 0, Some(used_metrics));
             {
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: None,
-                    timestamp_writes: timer.as_ref().map(PassTimer::writes),
+                    timestamp_writes: slot.timer.as_ref().map(PassTimer::writes),
                 });
                 if let Some(group) = &decode {
                     pass.set_pipeline(&self.poses.pipeline);
@@ -558,39 +546,69 @@ impl GpuBackend {
                 pass.set_bind_group(0, &reduce_group, &[]);
                 pass.dispatch_workgroups(across, rows, 1);
             }
-            enc.copy_buffer_to_buffer(&metrics, 0, &metrics_staging, 0, used_metrics);
-            if let Some(staging) = &bits_staging {
-                enc.copy_buffer_to_buffer(&bits, 0, staging, 0, used_bits);
+            enc.copy_buffer_to_buffer(&slot.metrics, 0, &slot.metrics_staging, 0, used_metrics);
+            if let Some(staging) = &slot.bits_staging {
+                enc.copy_buffer_to_buffer(&slot.bits, 0, staging, 0, used_bits);
             }
-            if let Some(t) = &timer {
+            if let Some(t) = &slot.timer {
                 t.resolve(&mut enc);
             }
-            queue.submit([enc.finish()]);
-            if let Some(t) = &timer {
-                self.clock.add(t.elapsed(&self.ctx)?);
+            let index = queue.submit([enc.finish()]);
+            // While the device projects this chunk, the one before is read back and handed out.
+            let before = in_flight.replace(InFlight {
+                slot: i % 2,
+                index,
+                start,
+                count: n,
+            });
+            if let Some(before) = before {
+                self.read_back(&slots[before.slot], &before, &shape, emit)?;
             }
-
-            let raw_bits: Option<Vec<u32>> = match &bits_staging {
-                Some(staging) => Some(read(&self.ctx, staging, used_bits)?),
-                None => None,
-            };
-            // The metrics are unpacked where they were mapped (no copy of the chunk's 32 bytes a
-            // pose first).
-            read_with(&self.ctx, &metrics_staging, used_metrics, |raw| {
-                emit(&Unpack {
-                    source,
-                    plans,
-                    layout,
-                    raw,
-                    raw_bits: raw_bits.as_deref(),
-                    words,
-                    pixel_words,
-                    start,
-                    count: n,
-                });
-            })?;
+        }
+        if let Some(last) = in_flight {
+            self.read_back(&slots[last.slot], &last, &shape, emit)?;
         }
         Ok(())
+    }
+
+    /// Waits for chunk `chunk` in `slot`, adds its device time when timed, and hands its results
+    /// to `emit`: the metrics unpacked where they were mapped (no copy of the chunk's 32 bytes a
+    /// pose first).
+    fn read_back(
+        &self,
+        slot: &Slot,
+        chunk: &InFlight,
+        shape: &Shape<'_>,
+        emit: &mut dyn FnMut(&Unpack<'_>),
+    ) -> Result<()> {
+        let index = || Some(chunk.index.clone());
+        if let Some(t) = &slot.timer {
+            self.clock.add(t.elapsed(&self.ctx, index())?);
+        }
+        let (used_bits, used_metrics) = shape.bytes(chunk.count);
+        let raw_bits: Option<Vec<u32>> = match &slot.bits_staging {
+            Some(staging) => Some(read_after(
+                &self.ctx,
+                staging,
+                used_bits,
+                index(),
+                <[u32]>::to_vec,
+            )?),
+            None => None,
+        };
+        read_after(&self.ctx, &slot.metrics_staging, used_metrics, index(), |raw| {
+            emit(&Unpack {
+                source: shape.source,
+                plans: shape.plans,
+                layout: shape.layout,
+                raw,
+                raw_bits: raw_bits.as_deref(),
+                words: shape.words,
+                pixel_words: types::pixel_words(shape.layout),
+                start: chunk.start,
+                count: chunk.count,
+            });
+        })
     }
 }
 
@@ -702,7 +720,7 @@ impl Source<'_> {
         match self {
             Source::Items(p) => p.plan_index(k),
             Source::Grid { prepared, first, .. } => {
-                prepared.plan_of_range[prepared.grid.indices(first + k as u64)[0]] as usize
+                prepared.plan_of_range[prepared.range_index(first + k as u64)] as usize
             }
         }
     }
@@ -718,7 +736,7 @@ impl Source<'_> {
             }
             // The range axis is the slowest: the chunk's range values are one span.
             Source::Grid { prepared, first, .. } => {
-                let range_of = |k: usize| prepared.grid.indices(first + k as u64)[0];
+                let range_of = |k: usize| prepared.range_index(first + k as u64);
                 for r in range_of(range.start)..=range_of(range.end - 1) {
                     used[prepared.plan_of_range[r] as usize] = true;
                 }
@@ -726,14 +744,4 @@ impl Source<'_> {
         }
         (0..used.len()).filter(|&p| used[p]).collect()
     }
-}
-
-/// The direction table uploaded for a chunk: which plans it holds, the buffer, and per plan the
-/// offsets of its azimuth and elevation entries.
-struct Directions {
-    plans: Vec<usize>,
-    buffer: wgpu::Buffer,
-    offsets: HashMap<usize, [u32; 2]>,
-    /// A grid's plan of each range value (its entries' offsets in this table).
-    range_plans: Option<wgpu::Buffer>,
 }
