@@ -1,7 +1,10 @@
 // Correspondence masks on the GPU: the same cells and balls as src/masks/ (read the two side by
-// side), in f32: blocks of cells culled by their ball, then each cell's ball marked. Every
-// rounding error is absorbed by a slack the CPU adds to each job's radii (src/masks/gpu.rs), so
-// a mask can only grow, never miss a pixel; beams are decided by the side of each beam edge the
+// side), in f32: blocks of cells culled by their ball, then each cell's ball marked. Each
+// mask's bounds (its first and last range bin and beam) are kept as the spans are set: exactly
+// what the CPU twin of the reduce stage finds walking the bits, so that the reduce stage
+// (mask_reduce.wgsl) reads only the rows between them. Every rounding error is absorbed by a
+// slack the CPU adds to each job's radii (src/masks/gpu.rs), so a mask can only grow, never
+// miss a pixel; beams are decided by the side of each beam edge the
 // ball lies on (cross products, no trigonometry), the edges compared walked to from a guess that
 // an angle makes (edges_with_cross_above: the guess saves steps, the comparisons decide).
 //
@@ -38,6 +41,10 @@ struct MaskJob {
 @group(0) @binding(3) var<storage, read> dirs: array<vec2<f32>>;
 // One bitset of words_per_mask words per job, in sonar 2's layout (pixel i * beams + j).
 @group(0) @binding(4) var<storage, read_write> bits: array<atomic<u32>>;
+// Five words per job, zeroed before the pass, laid out as mask_reduce.wgsl's: this stage sets
+// the bounds (words 1 to 4: !first range bin, last range bin, !first beam, last beam), the
+// reduce stage adds the pixel count (word 0).
+@group(0) @binding(5) var<storage, read_write> summaries: array<atomic<u32>>;
 
 // The workgroup (CELLS threads) is one block of block_a x (CELLS / block_a) cells (BLOCK x BLOCK
 // unless the grid is thin along one axis). CELLS (BLOCK x BLOCK, from masks::plan::BLOCK) is
@@ -133,9 +140,11 @@ fn moved(job: MaskJob, a: vec2<f32>, e: vec2<f32>) -> vec3<f32> {
 
 // Marks the pixels of the ball of radius `r` around cell (ia, ie) of `job` in the mask at word
 // `base`, when it may meet the view; `first` and `per` place the beam edges for the searches'
-// guesses. Nested conditions rather than early exits: a software adapter runs a workgroup's
-// lanes together and skips a branch only when no lane takes it.
-fn draw_cell(job: MaskJob, base: u32, ia: u32, ie: u32, r: f32, first: f32, per: f32) {
+// guesses; `bounds` (first and last range bin, first and last beam) takes in the spans set.
+// Nested conditions rather than early exits: a software adapter runs a workgroup's lanes
+// together and skips a branch only when no lane takes it.
+fn draw_cell(job: MaskJob, base: u32, ia: u32, ie: u32, r: f32, first: f32, per: f32,
+             bounds: ptr<function, vec4<u32>>) {
     let q = moved(job, dirs[job.az_offset + ia], dirs[job.el_offset + ie]);
     let d = length(q);
     if may_meet_view(q, d, r) {
@@ -166,6 +175,8 @@ fn draw_cell(job: MaskJob, base: u32, ia: u32, ie: u32, r: f32, first: f32, per:
             for (var i = i0; i <= i1; i++) {
                 set_bits(base, i * params.beams + j0, i * params.beams + j1);
             }
+            *bounds = vec4<u32>(min((*bounds).x, i0), max((*bounds).y, i1), min((*bounds).z, j0),
+                                max((*bounds).w, j1));
         }
     }
 }
@@ -179,6 +190,8 @@ fn main(
     @builtin(local_invocation_index) local: u32,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
+    // No span yet: the firsts above every bin and beam, the lasts at 0.
+    var bounds = vec4<u32>(0xffffffffu, 0u, 0xffffffffu, 0u);
     let job = jobs[group.y];
     let block_e = CELLS / job.block_a;
     let blocks_a = (job.az_count + job.block_a - 1u) / job.block_a;
@@ -206,7 +219,7 @@ fn main(
         let ie = be * block_e + lane_e;
         if ia < job.az_count && ie < job.el_count
             && may_meet_view(middle, length(middle), job.block_radius) {
-            draw_cell(job, base, ia, ie, r, first_edge, per_edge);
+            draw_cell(job, base, ia, ie, r, first_edge, per_edge, &bounds);
         }
         continuing {
             b += groups.x;
@@ -217,5 +230,14 @@ fn main(
                 be += 1u;
             }
         }
+    }
+    // The thread's bounds into the job's summary (the firsts inverted, so that atomicMax
+    // finds every bound).
+    if bounds.x <= bounds.y {
+        let at = group.y * 5u;
+        atomicMax(&summaries[at + 1u], ~bounds.x);
+        atomicMax(&summaries[at + 2u], bounds.y);
+        atomicMax(&summaries[at + 3u], ~bounds.z);
+        atomicMax(&summaries[at + 4u], bounds.w);
     }
 }

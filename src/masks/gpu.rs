@@ -1,6 +1,7 @@
 //! The GPU side of [`super::MaskEngine`]: `shaders/mask.wgsl` (draws every mask, culling its
-//! blocks of cells on the device) and `shaders/mask_reduce.wgsl` (each mask's pixel count and
-//! box, and the ping's union), their pipelines, bind groups and buffers (built once, grown when
+//! blocks of cells on the device, and keeps each mask's box as it sets its spans) and
+//! `shaders/mask_reduce.wgsl` (each mask's pixel count from the rows of its box, and the ping's
+//! union), their pipelines, bind groups and buffers (built once, grown when
 //! a ping needs more) and the cell tables, kept on the device between pings: a ping uploads its
 //! jobs (80 bytes a feature) and reads back the union and five words a feature, and the
 //! bitsets only when they are asked for.
@@ -98,12 +99,14 @@ pub(crate) const MASK_JOB_SIZE: usize = 80;
 const _: () = assert!(size_of::<MaskParams>() == MASK_PARAMS_SIZE);
 const _: () = assert!(size_of::<MaskJob>() == MASK_JOB_SIZE);
 
-/// Bindings of `shaders/mask.wgsl`: params, edges, jobs, dirs, bits.
-pub(crate) const MASK_BINDINGS: [Binding; 5] = [
+/// Bindings of `shaders/mask.wgsl`: params, edges, jobs, dirs, bits, summaries (the masks'
+/// bounds).
+pub(crate) const MASK_BINDINGS: [Binding; 6] = [
     Binding::Uniform,
     Binding::Read,
     Binding::Read,
     Binding::Read,
+    Binding::ReadWrite,
     Binding::ReadWrite,
 ];
 
@@ -133,7 +136,8 @@ const MAX_TABLE_ENTRIES: usize = 1 << 20;
 /// pays a fixed cost a workgroup on the CPU's cores — there the workgroups stride over the
 /// blocks and words instead (100-feature ping on lavapipe, 2 cores: 29–30 ms with 4096, 13.5–14
 /// ms with one draw workgroup and four reduce workgroups a mask, 8.7–9.0 ms once the beam search
-/// starts from a guess; `bench masks`).
+/// starts from a guess, 6.8–7.0 ms once the reduce reads only the rows of each mask's box and
+/// neither stage waits at a workgroup barrier; `bench masks`).
 fn tiles(ctx: &GpuContext) -> (u64, u64) {
     if ctx.is_software() {
         (1, 4)
@@ -648,7 +652,14 @@ impl GpuMasks {
         if new_tables || groups.as_ref().is_none_or(|(kept, _, _)| *kept != held) {
             let draw = self.stage.bind(
                 device,
-                &[&self.params_buffer, &self.edges, &held[0], &held[1], &held[2]],
+                &[
+                    &self.params_buffer,
+                    &self.edges,
+                    &held[0],
+                    &held[1],
+                    &held[2],
+                    &held[3],
+                ],
             );
             let reduce = self
                 .reduce

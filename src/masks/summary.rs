@@ -1,6 +1,7 @@
 //! Summaries of drawn masks: a mask's bounding box and run-length encoding, and a ping reduced
 //! to what a matcher needs first (each mask's pixel count and box, and their union) —
-//! `mask_reduce`, the CPU twin of `shaders/mask_reduce.wgsl`.
+//! `mask_reduce`, the CPU twin of `shaders/mask_reduce.wgsl` (which reads only the rows of the
+//! box the draw stage kept as it set each span: the box this walk finds).
 
 use serde::Serialize;
 
