@@ -414,6 +414,39 @@ fn results_do_not_depend_on_the_chunk_size() {
     assert_eq!(whole, chunked);
 }
 
+/// A backend keeps its buffers and bind groups between calls: after a small batch, a larger one
+/// (its buffers grown, its bind groups made again over them) and then the small one again (the
+/// larger buffers kept) give the results of backends that never ran before.
+#[test]
+fn a_backend_reused_across_batch_sizes_gives_a_fresh_backends_results() {
+    let (Some(gpu), Some(fresh_large), Some(fresh_small)) = (common::gpu(), common::gpu(), common::gpu())
+    else {
+        return;
+    };
+    let (source, target) = (common::preset("paper-sss"), common::preset("paper-fls"));
+    let batch = |seed, n| Batch {
+        items: random_items(seed, &source, &target, n),
+        source: source.clone(),
+        target: target.clone(),
+        sampling: Sampling::Step(0.2),
+        area_grid: sonarproj::PAPER_AREA_GRID,
+    };
+    let (small, large) = (batch(16, 3), batch(17, 400));
+    let (small, large) = (small.prepare().unwrap(), large.prepare().unwrap());
+    let project = |g: &GpuBackend, b: &PreparedBatch<'_>| g.project(b, Output::WithOccupancy).unwrap();
+    project(&gpu, &small);
+    assert_eq!(
+        project(&gpu, &large),
+        project(&fresh_large, &large),
+        "after a small batch"
+    );
+    assert_eq!(
+        project(&gpu, &small),
+        project(&fresh_small, &small),
+        "after a large batch"
+    );
+}
+
 /// Every workgroup size of the splat stage, with and without culling (whose block decisions a
 /// workgroup shares) and the f32 filter, gives the same bits, also where the workgroups step
 /// through a long plan; a size outside the list is an error naming it.

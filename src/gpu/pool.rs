@@ -5,10 +5,14 @@
 use std::collections::HashMap;
 use std::sync::{Mutex, MutexGuard};
 
-/// Named GPU buffers kept between calls and grown on demand.
+use crate::gpu::pipeline::Stage;
+
+/// Named GPU buffers kept between calls and grown on demand, and named bind groups kept with
+/// the buffers they bind.
 #[derive(Debug, Default)]
 pub(crate) struct BufferPool {
     buffers: HashMap<&'static str, wgpu::Buffer>,
+    groups: HashMap<&'static str, (Vec<wgpu::Buffer>, wgpu::BindGroup)>,
 }
 
 impl BufferPool {
@@ -45,6 +49,28 @@ impl BufferPool {
     /// Returns the bytes of GPU memory the pool holds.
     pub(crate) fn bytes(&self) -> u64 {
         self.buffers.values().map(wgpu::Buffer::size).sum()
+    }
+
+    /// Returns the pool's bind group `label` of `stage` over `buffers` (in binding order): the
+    /// one kept from an earlier call when it binds the same buffers, otherwise a new one, kept
+    /// (a label names one stage's group: callers never bind one label to two stages).
+    pub(crate) fn bind(
+        &mut self,
+        device: &wgpu::Device,
+        label: &'static str,
+        stage: &Stage,
+        buffers: &[&wgpu::Buffer],
+    ) -> wgpu::BindGroup {
+        if let Some((kept, group)) = self.groups.get(label)
+            && kept.len() == buffers.len()
+            && kept.iter().zip(buffers).all(|(k, b)| k == *b)
+        {
+            return group.clone();
+        }
+        let group = stage.bind(device, buffers);
+        let kept = buffers.iter().map(|&b| b.clone()).collect();
+        self.groups.insert(label, (kept, group.clone()));
+        group
     }
 }
 

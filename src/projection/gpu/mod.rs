@@ -319,11 +319,13 @@ impl GpuBackend {
         };
         self.pool.with(|pool| {
             self.project_with(pool, &source, false, &mut |u| {
-                // Straight into the columns, on all cores, no per-pose object.
-                let rows = out.slices(u.start..u.start + u.count).chunks(4096);
+                // Straight into the columns, on all cores, no per-pose object; pieces small
+                // enough for every core to take several (a chunk can be 16 384 poses).
+                let piece = (u.count / (4 * rayon::current_num_threads())).clamp(256, 4096);
+                let rows = out.slices(u.start..u.start + u.count).chunks(piece);
                 rows.into_par_iter().enumerate().for_each(|(b, mut rows)| {
                     for k in 0..rows.len() {
-                        rows.set(k, &u.metrics(b * 4096 + k));
+                        rows.set(k, &u.metrics(b * piece + k));
                     }
                 });
             })
@@ -424,7 +426,7 @@ impl GpuBackend {
         for (i, start) in (0..total_poses).step_by(chunk).enumerate() {
             let end = (start + chunk).min(total_poses);
             let n = end - start;
-            let slot = &slots[i % 2];
+            let (slot, labels) = (&slots[i % 2], &SLOT_LABELS[i % 2]);
 
             // Direction table of the plans this chunk uses (kept when the same plans repeat;
             // rewritten in queue order, after the chunk in flight has read the old one).
@@ -489,10 +491,12 @@ impl GpuBackend {
                         g.offsets[k] = axis_offsets[k];
                     }
                     queue.write_buffer(grid_params, 0, bytemuck::bytes_of(&g));
-                    Some(
-                        self.poses
-                            .bind(device, &[grid_params, table, range_plans, &slot.poses]),
-                    )
+                    Some(pool.bind(
+                        device,
+                        labels.poses_group,
+                        &self.poses,
+                        &[grid_params, table, range_plans, &slot.poses],
+                    ))
                 }
                 _ => unreachable!("a grid has its tables"),
             };
@@ -502,8 +506,11 @@ impl GpuBackend {
                 bytemuck::bytes_of(&TargetParams::new(layout, n as u32)),
             );
 
-            let splat_group = self.splat.bind(
+            // The groups are kept with the pool's buffers: made again only when one was grown.
+            let splat_group = pool.bind(
                 device,
+                labels.splat_group,
+                &self.splat,
                 &[
                     &slot.params,
                     &edges,
@@ -514,8 +521,10 @@ impl GpuBackend {
                     &slot.metrics,
                 ],
             );
-            let reduce_group = self.reduce.bind(
+            let reduce_group = pool.bind(
                 device,
+                labels.reduce_group,
+                &self.reduce,
                 &[&slot.params, &edges, &weights, &slot.bits, &slot.metrics],
             );
             let tiles = max_samples

@@ -13,8 +13,11 @@ use super::Source;
 use super::tables::direction_table;
 use super::types::{GridParams, METRIC_STRIDE, PoseGpu, TargetParams};
 
-/// The pool's names of one slot's buffers.
+/// The pool's names of one slot's buffers and bind groups.
 pub(super) struct SlotLabels {
+    pub(super) poses_group: &'static str,
+    pub(super) splat_group: &'static str,
+    pub(super) reduce_group: &'static str,
     params: &'static str,
     grid_params: &'static str,
     poses: &'static str,
@@ -27,6 +30,9 @@ pub(super) struct SlotLabels {
 /// The names of the two slots' buffers.
 pub(super) const SLOT_LABELS: [SlotLabels; 2] = [
     SlotLabels {
+        poses_group: "poses stage 0",
+        splat_group: "splat stage 0",
+        reduce_group: "reduce stage 0",
         params: "params 0",
         grid_params: "grid_params 0",
         poses: "poses 0",
@@ -36,6 +42,9 @@ pub(super) const SLOT_LABELS: [SlotLabels; 2] = [
         bits_staging: "bits_staging 0",
     },
     SlotLabels {
+        poses_group: "poses stage 1",
+        splat_group: "splat stage 1",
+        reduce_group: "reduce stage 1",
         params: "params 1",
         grid_params: "grid_params 1",
         poses: "poses 1",
