@@ -415,8 +415,10 @@ fn results_do_not_depend_on_the_chunk_size() {
 }
 
 /// A backend keeps its buffers and bind groups between calls: after a small batch, a larger one
-/// (its buffers grown, its bind groups made again over them) and then the small one again (the
-/// larger buffers kept) give the results of backends that never ran before.
+/// (its buffers grown, its bind groups made again over them), the small one again (the larger
+/// buffers kept), and the larger one in chunks of 64 (both slots of chunks in flight, the
+/// second's groups made on the kept buffers) give the results of backends that never ran
+/// before.
 #[test]
 fn a_backend_reused_across_batch_sizes_gives_a_fresh_backends_results() {
     let (Some(gpu), Some(fresh_large), Some(fresh_small)) = (common::gpu(), common::gpu(), common::gpu())
@@ -435,16 +437,15 @@ fn a_backend_reused_across_batch_sizes_gives_a_fresh_backends_results() {
     let (small, large) = (small.prepare().unwrap(), large.prepare().unwrap());
     let project = |g: &GpuBackend, b: &PreparedBatch<'_>| g.project(b, Output::WithOccupancy).unwrap();
     project(&gpu, &small);
-    assert_eq!(
-        project(&gpu, &large),
-        project(&fresh_large, &large),
-        "after a small batch"
-    );
+    let want = project(&fresh_large, &large);
+    assert_eq!(project(&gpu, &large), want, "after a small batch");
     assert_eq!(
         project(&gpu, &small),
         project(&fresh_small, &small),
         "after a large batch"
     );
+    let gpu = gpu.with_max_chunk_poses(64);
+    assert_eq!(project(&gpu, &large), want, "in chunks of 64");
 }
 
 /// Every workgroup size of the splat stage, with and without culling (whose block decisions a

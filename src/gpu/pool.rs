@@ -1,6 +1,7 @@
 //! Buffers kept between calls: a stage asks for a buffer by name and size and gets the one it
 //! used last time when it is large enough, or a new one grown to the next power of two (within
-//! the device's limit), so that a stream of calls of similar size allocates nothing.
+//! the device's limit), so that a stream of calls of similar size allocates nothing; and the
+//! bind groups made of them, kept while they bind the pool's current buffers.
 
 use std::collections::HashMap;
 use std::sync::{Mutex, MutexGuard};
@@ -42,7 +43,10 @@ impl BufferPool {
             usage,
             mapped_at_creation: false,
         });
-        self.buffers.insert(label, buffer.clone());
+        // A replaced buffer is freed: the groups that bound it go with it.
+        if let Some(old) = self.buffers.insert(label, buffer.clone()) {
+            self.groups.retain(|_, (kept, _)| !kept.contains(&old));
+        }
         buffer
     }
 

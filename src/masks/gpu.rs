@@ -136,8 +136,8 @@ const MAX_TABLE_ENTRIES: usize = 1 << 20;
 /// pays a fixed cost a workgroup on the CPU's cores — there the workgroups stride over the
 /// blocks and words instead (100-feature ping on lavapipe, 2 cores: 29–30 ms with 4096, 13.5–14
 /// ms with one draw workgroup and four reduce workgroups a mask, 8.7–9.0 ms once the beam search
-/// starts from a guess, 6.8–7.0 ms once the reduce reads only the rows of each mask's box and
-/// neither stage waits at a workgroup barrier; `bench masks`).
+/// starts from a guess, 6.8–7.0 ms once the reduce reads only the rows of each mask's box, kept
+/// by the draw stage without a workgroup barrier; `bench masks`).
 fn tiles(ctx: &GpuContext) -> (u64, u64) {
     if ctx.is_software() {
         (1, 4)

@@ -62,11 +62,11 @@ pub(crate) const POSES_WORKGROUP: u64 = 64;
 
 /// Most workgroups one pose's samples are spread over in the splat stage.
 const MAX_TILES: u64 = 1024;
-/// Most bytes of bitsets one chunk may hold (also capped by the device's binding size); two
-/// chunks are in flight.
+/// Most bytes one chunk's largest buffer (its bitsets, or its poses) may hold (also capped by
+/// the device's binding size); two chunks are in flight.
 const MAX_CHUNK_BITS_BYTES: u64 = 128 << 20;
-/// Chunks a call of many poses is cut into at least, so that the device has the next chunk to
-/// project while the host reads one back.
+/// Chunks a call of many poses (at least 4 × [`MIN_OVERLAP_POSES`]) is cut into at least, so
+/// that the device has the next chunk to project while the host reads one back.
 const OVERLAP_CHUNKS: usize = 4;
 /// Fewest poses a chunk is cut to for that overlap (a submission's fixed cost stays small beside
 /// its work).
@@ -237,7 +237,9 @@ impl GpuBackend {
     /// u32 each.
     fn chunk_poses(&self, words: usize, total: usize) -> usize {
         let limits = &self.ctx.limits;
-        let bytes_per_pose = (words as u64 * 4).max(4);
+        // The largest of a chunk's buffers a pose: its bitsets, or its packed pose (which also
+        // holds more than its 32 bytes of metrics).
+        let bytes_per_pose = (words as u64 * 4).max(size_of::<PoseGpu>() as u64);
         let budget = MAX_CHUNK_BITS_BYTES
             .min(limits.max_storage_buffer_binding_size)
             .min(limits.max_buffer_size);
@@ -320,7 +322,8 @@ impl GpuBackend {
         self.pool.with(|pool| {
             self.project_with(pool, &source, false, &mut |u| {
                 // Straight into the columns, on all cores, no per-pose object; pieces small
-                // enough for every core to take several (a chunk can be 16 384 poses).
+                // enough for every core to take several (a chunk of 32 768 poses in 4096-row
+                // pieces left half of 16 cores idle).
                 let piece = (u.count / (4 * rayon::current_num_threads())).clamp(256, 4096);
                 let rows = out.slices(u.start..u.start + u.count).chunks(piece);
                 rows.into_par_iter().enumerate().for_each(|(b, mut rows)| {
@@ -332,8 +335,8 @@ impl GpuBackend {
         })
     }
 
-    /// Returns the bytes of GPU memory the backend keeps between calls (its chunk buffers, grown
-    /// to the largest batch seen so far).
+    /// Returns the bytes of GPU memory the backend keeps between calls (its chunk buffers, two
+    /// sets once a call had two chunks or more, grown to the largest batch seen so far).
     #[must_use]
     pub fn kept_bytes(&self) -> u64 {
         self.pool.bytes()
@@ -411,7 +414,10 @@ impl GpuBackend {
             grid: grid.is_some(),
             occupancy: keep_occupancy,
         };
-        let slots = [0, 1].map(|s| Slot::new(&self.ctx, pool, &SLOT_LABELS[s], &sizes, limit, timed));
+        // The second slot only when there is a second chunk.
+        let slots: Vec<Slot> = (0..total_poses.div_ceil(chunk).clamp(1, 2))
+            .map(|s| Slot::new(&self.ctx, pool, &SLOT_LABELS[s], &sizes, limit, timed))
+            .collect();
         let shape = Shape {
             source,
             layout,

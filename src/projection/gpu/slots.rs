@@ -27,7 +27,7 @@ pub(super) struct SlotLabels {
     bits_staging: &'static str,
 }
 
-/// The names of the two slots' buffers.
+/// The names of the two slots' buffers and bind groups.
 pub(super) const SLOT_LABELS: [SlotLabels; 2] = [
     SlotLabels {
         poses_group: "poses stage 0",
