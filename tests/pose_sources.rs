@@ -7,6 +7,7 @@
 use sonarproj_testkit as common;
 
 use sonarproj::projection::PoseGrid;
+use sonarproj::projection::gpu::HostTime;
 use sonarproj::{Backend, Error, MetricColumns, Output, PoseSource, PoseSweep, Sampling, Sonar};
 
 /// Returns a small grid of `source` → `target` poses: features over sonar 1's view, placed over
@@ -275,7 +276,8 @@ fn a_chunk_of_more_poses_than_one_dispatch_dimension_holds() {
 /// The device's own clock times the compute passes (what `bench sweep` reports as device time):
 /// nothing is counted before timing starts, a projection then counts a positive time no longer
 /// than the call took on the host's clock, and stopping keeps the sum (lavapipe has timestamp
-/// queries; an adapter without them reports none).
+/// queries; an adapter without them reports none). The host's waits and unpacking beside them
+/// (`host_time`) are counted the same way, and together fit in the call too.
 #[test]
 fn device_time_is_counted_only_while_asked_and_within_the_call() {
     let Some(gpu) = common::gpu() else {
@@ -307,19 +309,31 @@ fn device_time_is_counted_only_while_asked_and_within_the_call() {
         Some(std::time::Duration::ZERO),
         "{before:?} kept"
     );
+    assert_eq!(
+        g.host_time(),
+        HostTime::default(),
+        "host time counted before timing"
+    );
     let start = std::time::Instant::now();
     gpu.project_columns(&s, 0..grid.len(), &mut out, &|| false)
         .unwrap();
     let wall = start.elapsed();
-    let device = g.device_time().unwrap();
+    let (device, host) = (g.device_time().unwrap(), g.host_time());
     g.time_device(false);
     assert!(
         device > std::time::Duration::ZERO && device <= wall,
         "device {device:?}, call {wall:?}"
     );
+    assert!(
+        host.wait > std::time::Duration::ZERO
+            && host.unpack > std::time::Duration::ZERO
+            && host.wait + host.unpack <= wall,
+        "host {host:?}, call {wall:?}"
+    );
     gpu.project_columns(&s, 0..grid.len(), &mut out, &|| false)
         .unwrap();
     assert_eq!(g.device_time(), Some(device), "counted while stopped");
+    assert_eq!(g.host_time(), host, "host time counted while stopped");
 }
 
 /// Returns the GPU's device-decoded projections of `s`'s grid (with their occupancy) and the

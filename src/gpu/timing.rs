@@ -78,18 +78,33 @@ impl PassTimer {
     }
 }
 
-/// The device time a backend's passes took while timing was on, summed.
+/// The device time a backend's passes took while timing was on, summed; and the host's time
+/// beside them: waiting for chunks to finish, and unpacking what they read back.
 #[derive(Debug, Default)]
 pub(crate) struct DeviceClock {
     on: AtomicBool,
-    ns: AtomicU64,
+    /// Nanoseconds of the device's passes, of the host's waits, of the host's unpacking.
+    ns: [AtomicU64; 3],
+}
+
+/// What a [`DeviceClock`] sums.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Timed {
+    /// The device's compute passes, on its own clock.
+    Device = 0,
+    /// The host waiting for a chunk's submission to finish.
+    Wait = 1,
+    /// The host unpacking a chunk's results.
+    Unpack = 2,
 }
 
 impl DeviceClock {
-    /// Starts or stops timing; starting clears the sum.
+    /// Starts or stops timing; starting clears the sums.
     pub(crate) fn set(&self, on: bool) {
         if on {
-            self.ns.store(0, Ordering::Relaxed);
+            for n in &self.ns {
+                n.store(0, Ordering::Relaxed);
+            }
         }
         self.on.store(on, Ordering::Relaxed);
     }
@@ -99,17 +114,17 @@ impl DeviceClock {
         self.on.load(Ordering::Relaxed)
     }
 
-    /// Adds one pass's time.
+    /// Adds `t` to the sum of `what`.
     #[expect(
         clippy::cast_possible_truncation,
         reason = "nanoseconds of a run fit in u64 (584 years)"
     )]
-    pub(crate) fn add(&self, t: Duration) {
-        self.ns.fetch_add(t.as_nanos() as u64, Ordering::Relaxed);
+    pub(crate) fn add(&self, what: Timed, t: Duration) {
+        self.ns[what as usize].fetch_add(t.as_nanos() as u64, Ordering::Relaxed);
     }
 
-    /// Returns the time summed since timing started.
-    pub(crate) fn total(&self) -> Duration {
-        Duration::from_nanos(self.ns.load(Ordering::Relaxed))
+    /// Returns the sum of `what` since timing started.
+    pub(crate) fn total(&self, what: Timed) -> Duration {
+        Duration::from_nanos(self.ns[what as usize].load(Ordering::Relaxed))
     }
 }

@@ -189,6 +189,9 @@ pub struct SweepTiming {
     /// more run, timed by timestamp queries); `None` on the CPU backends and on adapters
     /// without timestamp queries.
     pub device: Option<Duration>,
+    /// Of that same run, the host's time waiting for the GPU's chunks and unpacking their
+    /// metrics; `None` on the CPU backends.
+    pub host: Option<sonarproj::projection::gpu::HostTime>,
 }
 
 /// Which of `bench sweep`'s measures to take besides the projection (each `true`: taken).
@@ -263,16 +266,16 @@ pub fn time_sweep(
         Ok(())
     };
     let decoded_time = median(runs, &mut decoded)?;
-    let device = match backend {
+    let (device, host) = match backend {
         Backend::Gpu(g) => {
             g.time_device(true);
             let run = decoded();
-            let device = g.device_time();
+            let (device, host) = (g.device_time(), g.host_time());
             g.time_device(false);
             run?;
-            device
+            (device, Some(host))
         }
-        _ => None,
+        _ => (None, None),
     };
     let decoded = decoded_time;
     let per_item = measures
@@ -320,6 +323,7 @@ pub fn time_sweep(
         parquet,
         summaries,
         device,
+        host,
     })
 }
 

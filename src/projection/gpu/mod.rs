@@ -19,7 +19,7 @@ use crate::gpu::options::SPLAT_WORKGROUP;
 pub use crate::gpu::options::SPLAT_WORKGROUPS;
 use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::{BufferPool, SharedPool};
-use crate::gpu::timing::{DeviceClock, PassTimer};
+use crate::gpu::timing::{DeviceClock, PassTimer, Timed};
 use crate::gpu::{GpuContext, read_after, shaders};
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::{Layout, Occupancy};
@@ -216,7 +216,18 @@ impl GpuBackend {
             .device
             .features()
             .contains(wgpu::Features::TIMESTAMP_QUERY)
-            .then(|| self.clock.total())
+            .then(|| self.clock.total(Timed::Device))
+    }
+
+    /// Returns the time the host spent, since [`GpuBackend::time_device`] started timing,
+    /// waiting for chunks to finish on the device and unpacking their results (what a call
+    /// costs beside the device's passes, with two chunks in flight).
+    #[must_use]
+    pub fn host_time(&self) -> HostTime {
+        HostTime {
+            wait: self.clock.total(Timed::Wait),
+            unpack: self.clock.total(Timed::Unpack),
+        }
     }
 
     /// Returns the splat stage's variant.
@@ -597,8 +608,10 @@ impl GpuBackend {
         emit: &mut dyn FnMut(&Unpack<'_>),
     ) -> Result<()> {
         let index = || Some(chunk.index.clone());
+        let timed = self.clock.on();
+        let waiting = std::time::Instant::now();
         if let Some(t) = &slot.timer {
-            self.clock.add(t.elapsed(&self.ctx, index())?);
+            self.clock.add(Timed::Device, t.elapsed(&self.ctx, index())?);
         }
         let (used_bits, used_metrics) = shape.bytes(chunk.count);
         let raw_bits: Option<Vec<u32>> = match &slot.bits_staging {
@@ -612,6 +625,10 @@ impl GpuBackend {
             None => None,
         };
         read_after(&self.ctx, &slot.metrics_staging, used_metrics, index(), |raw| {
+            let unpacking = std::time::Instant::now();
+            if timed {
+                self.clock.add(Timed::Wait, unpacking - waiting);
+            }
             emit(&Unpack {
                 source: shape.source,
                 plans: shape.plans,
@@ -623,8 +640,21 @@ impl GpuBackend {
                 start: chunk.start,
                 count: chunk.count,
             });
+            if timed {
+                self.clock.add(Timed::Unpack, unpacking.elapsed());
+            }
         })
     }
+}
+
+/// The host's time beside the device's passes while a [`GpuBackend`] was timed
+/// ([`GpuBackend::host_time`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HostTime {
+    /// Waiting for chunks to finish on the device (their readback's mapping included).
+    pub wait: std::time::Duration,
+    /// Unpacking chunks' results (metrics into columns or projections, on all cores).
+    pub unpack: std::time::Duration,
 }
 
 /// A chunk's results as read back: what each pose's projection or metrics are made of, on the

@@ -217,12 +217,14 @@ fn sweep_table(
     measures: bench::SweepMeasures,
 ) -> Result<()> {
     outln!(
-        "{:9} {:>9} {:>10} {:>12} {:>11} {:>13} {:>13} {:>12} {:>7} {:>12} {:>7}",
+        "{:9} {:>9} {:>10} {:>12} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>12} {:>7}",
         "backend",
         "poses",
         "samples/s",
         "project (s)",
         "device (s)",
+        "wait (s)",
+        "unpack (s)",
         "per item (s)",
         "host ns/pose",
         "parquet (s)",
@@ -246,12 +248,14 @@ fn sweep_table(
             t.samples as f64 / secs(t.decoded),
         );
         outln!(
-            "{:9} {:>9} {:>10.3e} {:>12.3} {:>11} {:>13} {:>13} {:>12} {:>7} {:>12} {:>7}",
+            "{:9} {:>9} {:>10.3e} {:>12.3} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>12} {:>7}",
             b.label(),
             t.poses,
             rate,
             secs(t.decoded),
             time(t.device),
+            time(t.host.map(|h| h.wait)),
+            time(t.host.map(|h| h.unpack)),
             time(t.per_item),
             per_pose,
             time(t.parquet),
@@ -262,7 +266,9 @@ fn sweep_table(
     }
     outln!(
         "\nproject: the grid decoded where the work runs, metric columns out; device: of project, \
-         the GPU's compute passes on its own clock (timestamp queries); per item: the same \
+         the GPU's compute passes on its own clock (timestamp queries); wait and unpack: of the \
+         same timed run, the host waiting for the GPU's chunks and unpacking their metrics (two \
+         chunks in flight: the device works during an unpack); per item: the same \
          poses as batches of items built, packed and unpacked by the host (host ns/pose: the \
          difference a pose); parquet and summary: whole sweeps into a directory (ratio: their \
          multiple of project); - where not measured (no timestamp queries, or left out of \
