@@ -3,12 +3,12 @@
 // mask's bounds (its first and last range bin and beam) are kept as the spans are set: exactly
 // what the CPU twin of the reduce stage finds walking the bits, so that the reduce stage
 // (mask_reduce.wgsl) reads only the rows between them. Every rounding error is absorbed by a
-// slack the CPU adds to each job's radii (src/masks/gpu.rs), so a mask can only grow, never
+// slack the CPU adds to each job's radii (src/masks/gpu/mod.rs), so a mask can only grow, never
 // miss a pixel; beams are decided by the side of each beam edge the
 // ball lies on (cross products, no trigonometry), the edges compared walked to from a guess that
 // an angle makes (edges_with_cross_above: the guess saves steps, the comparisons decide).
 //
-// Structs: keep in sync with src/masks/gpu.rs (sizes asserted there, layout checked in
+// Structs: keep in sync with src/masks/gpu/mod.rs (sizes asserted there, layout checked in
 // src/gpu/shader_tests.rs).
 
 // MaskParams is shaders/shared/mask_params.wgsl, put before this file (src/gpu/shaders.rs).
@@ -18,7 +18,7 @@
 // rounding slack), the cell tables (offsets into dirs of the azimuth and elevation cells'
 // directions, each table followed by the directions of its blocks' middles, one per block_a
 // azimuths or 64 / block_a elevations) and the block's cells along the azimuth (block_a; 64 /
-// block_a along the elevation: src/masks/gpu.rs, block_shape).
+// block_a along the elevation: src/masks/gpu/tables.rs, block_shape).
 struct MaskJob {
     row0: vec4<f32>,
     row1: vec4<f32>,
@@ -37,7 +37,7 @@ struct MaskJob {
 // Beam edges as (cos, sin), beams + 1 of them, increasing angle.
 @group(0) @binding(1) var<storage, read> edges: array<vec2<f32>>;
 @group(0) @binding(2) var<storage, read> jobs: array<MaskJob>;
-// Cell-centre and block-middle angles as (cos, sin), kept between pings (src/masks/gpu.rs).
+// Cell-centre and block-middle angles as (cos, sin), kept between pings (src/masks/gpu/tables.rs).
 @group(0) @binding(3) var<storage, read> dirs: array<vec2<f32>>;
 // One bitset of words_per_mask words per job, in sonar 2's layout (pixel i * beams + j).
 @group(0) @binding(4) var<storage, read_write> bits: array<atomic<u32>>;
