@@ -210,21 +210,13 @@ pub(crate) fn reduce_source() -> String {
     shaders::mask_reduce()
 }
 
-/// What the engine keeps on the device between pings: the tables, and two slots of buffers and
-/// the bind groups made of them (made again only when a buffer is), so that two dispatches can
-/// be in flight ([`GpuMasks::draw_pings`]).
+/// What the engine keeps on the device between pings: the tables, and two slots' pools of
+/// buffers and the bind groups made of them (made again only when a buffer is), so that two
+/// dispatches can be in flight ([`GpuMasks::draw_pings`]).
 #[derive(Default)]
 struct State {
     tables: Tables,
-    slots: [Slot; 2],
-}
-
-/// One dispatch's buffers and bind groups.
-#[derive(Default)]
-struct Slot {
-    pool: BufferPool,
-    /// The buffers the bind groups were made of, and the groups (draw, reduce).
-    groups: Option<(Vec<wgpu::Buffer>, wgpu::BindGroup, wgpu::BindGroup)>,
+    slots: [BufferPool; 2],
 }
 
 /// A dispatch submitted and not yet read: its slot, the workgroup row of each of its jobs
@@ -541,7 +533,7 @@ impl GpuMasks {
                 }
             })
             .collect();
-        let new_tables = state.tables.upload(&self.ctx);
+        state.tables.upload(&self.ctx);
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
         let words = u64::from(self.params.words_per_mask);
@@ -552,7 +544,7 @@ impl GpuMasks {
         let union_bytes = words * 4;
         let summary_bytes = n * SUMMARY_WORDS as u64 * 4;
         let read_bytes = union_bytes + summary_bytes + if masks { bits_bytes } else { 0 };
-        let pool = &mut state.slots[slot].pool;
+        let pool = &mut state.slots[slot];
         let jobs_buffer = pool.get(device, "mask jobs", n * MASK_JOB_SIZE as u64, limit, storage);
         let mut output =
             |label, size| pool.get(device, label, size, limit, storage | wgpu::BufferUsages::COPY_SRC);
@@ -569,32 +561,25 @@ impl GpuMasks {
             wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         );
         let dirs = state.tables.buffer.clone().expect("uploaded above");
-        let held = vec![
-            jobs_buffer.clone(),
-            dirs,
-            bits.clone(),
-            summaries.clone(),
-            union.clone(),
-        ];
-        let groups = &mut state.slots[slot].groups;
-        if new_tables || groups.as_ref().is_none_or(|(kept, _, _)| *kept != held) {
-            let draw = self.stage.bind(
-                device,
-                &[
-                    &self.params_buffer,
-                    &self.edges,
-                    &held[0],
-                    &held[1],
-                    &held[2],
-                    &held[3],
-                ],
-            );
-            let reduce = self
-                .reduce
-                .bind(device, &[&self.params_buffer, &held[2], &held[3], &held[4]]);
-            *groups = Some((held, draw, reduce));
-        }
-        let (_, draw_group, reduce_group) = groups.as_ref().expect("made above");
+        let draw_group = pool.bind(
+            device,
+            "mask draw",
+            &self.stage,
+            &[
+                &self.params_buffer,
+                &self.edges,
+                &jobs_buffer,
+                &dirs,
+                &bits,
+                &summaries,
+            ],
+        );
+        let reduce_group = pool.bind(
+            device,
+            "mask reduce",
+            &self.reduce,
+            &[&self.params_buffer, &bits, &summaries, &union],
+        );
         queue.write_buffer(&jobs_buffer, 0, bytemuck::cast_slice(&gpu_jobs));
         let mut enc = device.create_command_encoder(&Default::default());
         enc.clear_buffer(&bits, 0, Some(bits_bytes));
@@ -603,10 +588,10 @@ impl GpuMasks {
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
             pass.set_pipeline(&self.stage.pipeline);
-            pass.set_bind_group(0, draw_group, &[]);
+            pass.set_bind_group(0, &draw_group, &[]);
             pass.dispatch_workgroups(max_blocks.min(self.tiles.0) as u32, n as u32, 1);
             pass.set_pipeline(&self.reduce.pipeline);
-            pass.set_bind_group(0, reduce_group, &[]);
+            pass.set_bind_group(0, &reduce_group, &[]);
             let tiles = words.div_ceil(MASK_REDUCE_WORKGROUP).clamp(1, self.tiles.1);
             pass.dispatch_workgroups(tiles as u32, n as u32, 1);
         }
@@ -664,7 +649,7 @@ impl GpuMasks {
                 }));
             }
         })
-        .inspect_err(|_| state.slots[slot] = Slot::default())
+        .inspect_err(|_| state.slots[slot] = BufferPool::default())
     }
 }
 

@@ -86,9 +86,9 @@ impl Tables {
         self.uploaded = 0;
     }
 
-    /// Puts the entries added since the last call on the device, growing its buffer when
-    /// needed; returns whether the buffer is a new one (bind groups that hold it are stale).
-    pub(super) fn upload(&mut self, ctx: &GpuContext) -> bool {
+    /// Puts the entries added since the last call on the device, growing its buffer (a new one,
+    /// so bind groups made of the old one are made again) when needed.
+    pub(super) fn upload(&mut self, ctx: &GpuContext) {
         let bytes = (self.host.len().max(2) * 8) as u64;
         let fits = self.buffer.as_ref().is_some_and(|b| b.size() >= bytes);
         if !fits {
@@ -111,6 +111,5 @@ impl Tables {
             );
             self.uploaded = self.host.len();
         }
-        !fits
     }
 }
