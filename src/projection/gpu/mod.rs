@@ -63,7 +63,7 @@ pub(crate) const POSES_WORKGROUP: u64 = 64;
 const MAX_TILES: u64 = 1024;
 /// Most bytes one chunk's largest buffer (its bitsets, or its poses) may hold (also capped by
 /// the device's binding size); two chunks are in flight.
-const MAX_CHUNK_BITS_BYTES: u64 = 128 << 20;
+const MAX_CHUNK_BUFFER_BYTES: u64 = 128 << 20;
 /// Chunks a call of many poses (at least 4 × [`MIN_OVERLAP_POSES`]) is cut into at least, so
 /// that the device has the next chunk to project while the host reads one back.
 const OVERLAP_CHUNKS: usize = 4;
@@ -250,7 +250,7 @@ impl GpuBackend {
         // The largest of a chunk's buffers a pose: its bitsets, or its packed pose (which also
         // holds more than its 32 bytes of metrics).
         let bytes_per_pose = (words as u64 * 4).max(size_of::<PoseGpu>() as u64);
-        let budget = MAX_CHUNK_BITS_BYTES
+        let budget = MAX_CHUNK_BUFFER_BYTES
             .min(limits.max_storage_buffer_binding_size)
             .min(limits.max_buffer_size);
         let by_memory = (budget / bytes_per_pose).max(1) as usize;
