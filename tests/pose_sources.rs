@@ -6,8 +6,9 @@
 
 use sonarproj_testkit as common;
 
-use sonarproj::projection::PoseGrid;
+use sonarproj::Metric;
 use sonarproj::projection::gpu::HostTime;
+use sonarproj::projection::{ColumnRef, PoseGrid};
 use sonarproj::{Backend, Error, MetricColumns, Output, PoseSource, PoseSweep, Sampling, Sonar};
 
 /// Returns a small grid of `source` → `target` poses: features over sonar 1's view, placed over
@@ -149,6 +150,62 @@ fn every_backend_gives_its_own_projections_as_columns() {
                 .project_columns(source, 0..g.len(), &mut got, &|| false)
                 .unwrap();
             same_bits(&got, &want, backend.name());
+        }
+    }
+}
+
+/// Returns the bits of `metric`'s column (counts as themselves, reals by their bits: NaN and
+/// -0 compared exactly).
+fn column_bits(c: &MetricColumns, metric: Metric) -> Vec<u64> {
+    match c.column(metric) {
+        ColumnRef::Count(v) => v.to_vec(),
+        ColumnRef::Real(v) => v.iter().map(|x| x.to_bits()).collect(),
+    }
+}
+
+/// Columns kept alone ([`MetricColumns::only`]) are the whole columns' own, bit for bit, on
+/// every backend, for both target kinds (an FLS's projection area, an SSS's measure from its
+/// bins), with the others left empty, in columns reused between calls and ranges.
+#[test]
+fn a_metric_kept_alone_is_its_column_of_all() {
+    let mut backends = vec![Backend::Cpu, Backend::CpuFast];
+    if let Some(gpu) = common::gpu() {
+        backends.push(Backend::Gpu(Box::new(gpu)));
+    }
+    for (a, b) in [("paper-fls", "paper-sss"), ("paper-sss", "paper-fls")] {
+        let (source, target) = (common::preset(a), common::preset(b));
+        let g = grid(&source, &target, false);
+        let s = sweep(&source, &target, Sampling::Step(1.0), PoseSource::Grid(&g));
+        for backend in &backends {
+            let what = format!("{a} -> {b} on {}", backend.name());
+            let mut all = MetricColumns::default();
+            backend
+                .project_columns(&s, 1..g.len(), &mut all, &|| false)
+                .unwrap();
+            assert!(all.visible.iter().any(|&v| v > 0), "{what}: nothing seen");
+            for metric in Metric::all() {
+                let mut one = MetricColumns::only(&[metric]);
+                // A first call of another range: the second replaces its rows.
+                backend.project_columns(&s, 0..5, &mut one, &|| false).unwrap();
+                backend
+                    .project_columns(&s, 1..g.len(), &mut one, &|| false)
+                    .unwrap();
+                assert_eq!(one.len(), all.len(), "{what}, {}", metric.name());
+                for other in Metric::all() {
+                    let want = if other == metric {
+                        column_bits(&all, metric)
+                    } else {
+                        Vec::new()
+                    };
+                    assert_eq!(
+                        column_bits(&one, other),
+                        want,
+                        "{what}: {} kept, {} column",
+                        metric.name(),
+                        other.name()
+                    );
+                }
+            }
         }
     }
 }

@@ -1,11 +1,15 @@
 //! Metrics as columns: one vector per metric of the metric table, so a sweep's results leave
 //! the engine without a per-pose object. Counts are `u64`; reals are `f64`, with NaN where a
 //! metric has no value (nothing visible: the extremes; an SSS target: the projection area).
+//! A caller may keep only the metrics it asks for ([`MetricColumns::only`]): the others stay
+//! empty, and the backends neither write nor (on the GPU) unpack them.
 
 use crate::metrics::{Metric, Metrics};
 
-/// The metrics of many poses, one column per metric (README: Conventions), in pose order.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// The metrics of many poses, one column per metric (README: Conventions), in pose order. Every
+/// column is kept unless the columns were made by [`MetricColumns::only`]; a column not kept
+/// stays empty whatever the rows.
+#[derive(Clone, Debug, PartialEq)]
 pub struct MetricColumns {
     /// Samples kept by the clip.
     pub visible: Vec<u64>,
@@ -27,6 +31,33 @@ pub struct MetricColumns {
     pub occupied_measure: Vec<f64>,
     /// The projection area (m², FLS target); NaN for an SSS target.
     pub projection_area: Vec<f64>,
+    /// The number of rows.
+    rows: usize,
+    /// Which columns are kept, bit `metric as usize` for each metric.
+    kept: u16,
+}
+
+/// Every metric's bit set.
+const ALL: u16 = (1 << crate::metrics::METRICS.len()) - 1;
+
+impl Default for MetricColumns {
+    /// Returns empty columns, every one kept.
+    fn default() -> Self {
+        MetricColumns {
+            visible: Vec::new(),
+            total: Vec::new(),
+            range_min: Vec::new(),
+            range_max: Vec::new(),
+            span: Vec::new(),
+            azimuth_min: Vec::new(),
+            azimuth_max: Vec::new(),
+            occupied: Vec::new(),
+            occupied_measure: Vec::new(),
+            projection_area: Vec::new(),
+            rows: 0,
+            kept: ALL,
+        }
+    }
 }
 
 /// One metric's column, borrowed.
@@ -75,33 +106,70 @@ impl MetricColumns {
         out
     }
 
+    /// Returns empty columns that keep only `metrics` (every other column stays empty): what
+    /// a caller that reduces one metric asks for, so that the backends write, and the GPU
+    /// unpacks, only that one.
+    #[must_use]
+    pub fn only(metrics: &[Metric]) -> Self {
+        MetricColumns {
+            kept: metrics.iter().fold(0, |k, &m| k | 1 << m as u16),
+            ..MetricColumns::default()
+        }
+    }
+
+    /// Returns whether the column of `metric` is kept.
+    #[must_use]
+    pub fn keeps(&self, metric: Metric) -> bool {
+        self.kept & 1 << metric as u16 != 0
+    }
+
     fn reserve(&mut self, n: usize) {
-        for c in [&mut self.visible, &mut self.total, &mut self.occupied] {
-            c.reserve(n);
+        let kept = self.kept;
+        let keeps = |m: Metric| kept & 1 << m as u16 != 0;
+        for (m, c) in self.counts_mut() {
+            if keeps(m) {
+                c.reserve(n);
+            }
         }
-        for c in [
-            &mut self.range_min,
-            &mut self.range_max,
-            &mut self.span,
-            &mut self.azimuth_min,
-            &mut self.azimuth_max,
-            &mut self.occupied_measure,
-            &mut self.projection_area,
-        ] {
-            c.reserve(n);
+        for (m, c) in self.reals_mut() {
+            if keeps(m) {
+                c.reserve(n);
+            }
         }
+    }
+
+    /// Returns the count columns with their metrics.
+    fn counts_mut(&mut self) -> [(Metric, &mut Vec<u64>); 3] {
+        [
+            (Metric::Visible, &mut self.visible),
+            (Metric::Total, &mut self.total),
+            (Metric::Occupied, &mut self.occupied),
+        ]
+    }
+
+    /// Returns the real columns with their metrics.
+    fn reals_mut(&mut self) -> [(Metric, &mut Vec<f64>); 7] {
+        [
+            (Metric::RangeMin, &mut self.range_min),
+            (Metric::RangeMax, &mut self.range_max),
+            (Metric::Span, &mut self.span),
+            (Metric::AzimuthMin, &mut self.azimuth_min),
+            (Metric::AzimuthMax, &mut self.azimuth_max),
+            (Metric::OccupiedMeasure, &mut self.occupied_measure),
+            (Metric::ProjectionArea, &mut self.projection_area),
+        ]
     }
 
     /// Returns the number of rows.
     #[must_use]
     pub fn len(&self) -> usize {
-        self.visible.len()
+        self.rows
     }
 
     /// Returns whether there are no rows.
     #[must_use]
     pub fn is_empty(&self) -> bool {
-        self.visible.is_empty()
+        self.rows == 0
     }
 
     /// Empties every column, keeping its memory (so a caller reusing the columns block after
@@ -110,22 +178,17 @@ impl MetricColumns {
         self.resize(0);
     }
 
-    /// Sets the number of rows to `n` (new rows are zero).
+    /// Sets the number of rows to `n` (new rows of the kept columns are zero).
     pub(crate) fn resize(&mut self, n: usize) {
-        for c in [&mut self.visible, &mut self.total, &mut self.occupied] {
-            c.resize(n, 0);
+        let kept = self.kept;
+        let keeps = |m: Metric| kept & 1 << m as u16 != 0;
+        for (m, c) in self.counts_mut() {
+            c.resize(if keeps(m) { n } else { 0 }, 0);
         }
-        for c in [
-            &mut self.range_min,
-            &mut self.range_max,
-            &mut self.span,
-            &mut self.azimuth_min,
-            &mut self.azimuth_max,
-            &mut self.occupied_measure,
-            &mut self.projection_area,
-        ] {
-            c.resize(n, 0.0);
+        for (m, c) in self.reals_mut() {
+            c.resize(if keeps(m) { n } else { 0 }, 0.0);
         }
+        self.rows = n;
     }
 
     /// Appends the metrics of one pose.
@@ -138,7 +201,7 @@ impl MetricColumns {
     /// Returns the metrics of row `k`.
     ///
     /// # Panics
-    /// When `k` is past the end.
+    /// When `k` is past the end, or a column is not kept ([`MetricColumns::only`]).
     #[must_use]
     pub fn get(&self, k: usize) -> Metrics {
         Metrics {
@@ -155,7 +218,7 @@ impl MetricColumns {
         }
     }
 
-    /// Returns the column of `metric`.
+    /// Returns the column of `metric`: empty when it is not kept ([`MetricColumns::keeps`]).
     #[must_use]
     pub fn column(&self, metric: Metric) -> ColumnRef<'_> {
         match metric {
@@ -172,56 +235,75 @@ impl MetricColumns {
         }
     }
 
-    /// Returns rows `range` of every column, mutably.
+    /// Returns rows `range` of every kept column, mutably (the others empty).
+    ///
+    /// # Panics
+    /// When `range` is past the end.
     pub(crate) fn slices(&mut self, range: std::ops::Range<usize>) -> MetricSlices<'_> {
+        assert!(
+            range.start <= range.end && range.end <= self.rows,
+            "rows past the end"
+        );
+        let len = range.len();
+        fn rows<'s, T>(c: &'s mut [T], range: &std::ops::Range<usize>) -> &'s mut [T] {
+            if c.is_empty() { c } else { &mut c[range.clone()] }
+        }
         MetricSlices {
-            visible: &mut self.visible[range.clone()],
-            total: &mut self.total[range.clone()],
-            range_min: &mut self.range_min[range.clone()],
-            range_max: &mut self.range_max[range.clone()],
-            span: &mut self.span[range.clone()],
-            azimuth_min: &mut self.azimuth_min[range.clone()],
-            azimuth_max: &mut self.azimuth_max[range.clone()],
-            occupied: &mut self.occupied[range.clone()],
-            occupied_measure: &mut self.occupied_measure[range.clone()],
-            projection_area: &mut self.projection_area[range],
+            len,
+            visible: rows(&mut self.visible, &range),
+            total: rows(&mut self.total, &range),
+            range_min: rows(&mut self.range_min, &range),
+            range_max: rows(&mut self.range_max, &range),
+            span: rows(&mut self.span, &range),
+            azimuth_min: rows(&mut self.azimuth_min, &range),
+            azimuth_max: rows(&mut self.azimuth_max, &range),
+            occupied: rows(&mut self.occupied, &range),
+            occupied_measure: rows(&mut self.occupied_measure, &range),
+            projection_area: rows(&mut self.projection_area, &range),
         }
     }
 }
 
-/// Consecutive rows of [`MetricColumns`], mutably: what one thread of a backend fills.
+/// Consecutive rows of [`MetricColumns`], mutably: what one thread of a backend fills. A
+/// column not kept is an empty slice, and writes to it are skipped.
 pub(crate) struct MetricSlices<'a> {
-    visible: &'a mut [u64],
-    total: &'a mut [u64],
-    range_min: &'a mut [f64],
-    range_max: &'a mut [f64],
-    span: &'a mut [f64],
-    azimuth_min: &'a mut [f64],
-    azimuth_max: &'a mut [f64],
-    occupied: &'a mut [u64],
-    occupied_measure: &'a mut [f64],
-    projection_area: &'a mut [f64],
+    len: usize,
+    pub(crate) visible: &'a mut [u64],
+    pub(crate) total: &'a mut [u64],
+    pub(crate) range_min: &'a mut [f64],
+    pub(crate) range_max: &'a mut [f64],
+    pub(crate) span: &'a mut [f64],
+    pub(crate) azimuth_min: &'a mut [f64],
+    pub(crate) azimuth_max: &'a mut [f64],
+    pub(crate) occupied: &'a mut [u64],
+    pub(crate) occupied_measure: &'a mut [f64],
+    pub(crate) projection_area: &'a mut [f64],
 }
 
 impl<'a> MetricSlices<'a> {
     /// Returns the number of rows.
     pub(crate) fn len(&self) -> usize {
-        self.visible.len()
+        self.len
     }
 
-    /// Writes row `k`.
+    /// Writes row `k` of the kept columns.
     #[inline]
     pub(crate) fn set(&mut self, k: usize, m: &Metrics) {
-        self.visible[k] = m.visible;
-        self.total[k] = m.total;
-        self.range_min[k] = real(m.range_min);
-        self.range_max[k] = real(m.range_max);
-        self.span[k] = m.span;
-        self.azimuth_min[k] = real(m.azimuth_min);
-        self.azimuth_max[k] = real(m.azimuth_max);
-        self.occupied[k] = m.occupied;
-        self.occupied_measure[k] = m.occupied_measure;
-        self.projection_area[k] = real(m.projection_area);
+        fn put<T>(c: &mut [T], k: usize, v: T) {
+            if let Some(x) = c.get_mut(k) {
+                *x = v;
+            }
+        }
+        put(self.visible, k, m.visible);
+        put(self.total, k, m.total);
+        put(self.range_min, k, real(m.range_min));
+        put(self.range_max, k, real(m.range_max));
+        put(self.span, k, m.span);
+        put(self.azimuth_min, k, real(m.azimuth_min));
+        put(self.azimuth_max, k, real(m.azimuth_max));
+        put(self.occupied, k, m.occupied);
+        put(self.occupied_measure, k, m.occupied_measure);
+        put(self.projection_area, k, real(m.projection_area));
     }
 
     /// Returns these rows cut into pieces of `n` (the last shorter).
@@ -242,10 +324,15 @@ impl<'a> MetricSlices<'a> {
     fn split_at(self, n: usize) -> (MetricSlices<'a>, MetricSlices<'a>) {
         macro_rules! split {
             ($($f:ident),*) => {{
-                $(let $f = self.$f.split_at_mut(n);)*
+                // A column not kept stays empty on both sides.
+                $(let $f = if self.$f.is_empty() {
+                    self.$f.split_at_mut(0)
+                } else {
+                    self.$f.split_at_mut(n)
+                };)*
                 (
-                    MetricSlices { $($f: $f.0,)* },
-                    MetricSlices { $($f: $f.1,)* },
+                    MetricSlices { len: n, $($f: $f.0,)* },
+                    MetricSlices { len: self.len - n, $($f: $f.1,)* },
                 )
             }};
         }
@@ -304,5 +391,39 @@ mod tests {
         assert_eq!(pieces.len(), 2);
         c.clear();
         assert!(c.is_empty());
+    }
+
+    /// Columns kept alone take their rows; the others stay empty through resizing, slicing,
+    /// cutting and writing.
+    #[test]
+    fn columns_not_kept_stay_empty() {
+        let mut c = MetricColumns::only(&[Metric::Span, Metric::Total]);
+        assert!(c.keeps(Metric::Span) && c.keeps(Metric::Total) && !c.keeps(Metric::Visible));
+        c.resize(5);
+        assert_eq!((c.len(), c.span.len(), c.total.len()), (5, 5, 5));
+        assert!(c.visible.is_empty() && c.range_min.is_empty() && c.projection_area.is_empty());
+        let m = metrics_of(
+            2,
+            7,
+            Extremes {
+                range_min: 1.0,
+                range_max: 3.5,
+                azimuth_min: 0.0,
+                azimuth_max: 0.1,
+            },
+        );
+        for (p, mut piece) in c.slices(1..5).chunks(3).into_iter().enumerate() {
+            assert_eq!(piece.len(), [3, 1][p]);
+            for k in 0..piece.len() {
+                piece.set(k, &m);
+            }
+        }
+        assert_eq!(c.span, [0.0, 2.5, 2.5, 2.5, 2.5]);
+        assert_eq!(c.total, [0, 7, 7, 7, 7]);
+        assert!(c.visible.is_empty());
+        c.push(&m);
+        assert_eq!((c.len(), c.span.len()), (6, 6));
+        assert!(c.column(Metric::Visible) == ColumnRef::Count(&[]));
+        assert!(MetricColumns::default().keeps(Metric::ProjectionArea));
     }
 }

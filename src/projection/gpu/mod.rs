@@ -336,11 +336,9 @@ impl GpuBackend {
                 // pieces left half of 16 cores idle).
                 let piece = (u.count / (4 * rayon::current_num_threads())).clamp(256, 4096);
                 let rows = out.slices(u.start..u.start + u.count).chunks(piece);
-                rows.into_par_iter().enumerate().for_each(|(b, mut rows)| {
-                    for k in 0..rows.len() {
-                        rows.set(k, &u.metrics(b * piece + k));
-                    }
-                });
+                rows.into_par_iter()
+                    .enumerate()
+                    .for_each(|(b, rows)| u.fill(rows, b * piece));
             })
         })
     }

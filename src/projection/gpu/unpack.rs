@@ -6,6 +6,7 @@ use rayon::prelude::*;
 use crate::geometry::SonarKind;
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::{Layout, Occupancy};
+use crate::projection::columns::MetricSlices;
 use crate::projection::poses::PreparedGrid;
 use crate::projection::{PreparedBatch, Projection};
 use crate::sampling::SamplingPlan;
@@ -50,6 +51,52 @@ impl Unpack<'_> {
         Metrics::new(visible, total, extremes, (occupied, measure), area)
     }
 
+    /// Writes the kept columns of `rows`, the metrics of the chunk's poses `first..` (the
+    /// values of [`Unpack::metrics`], bit for bit), column by column: a column not kept costs
+    /// nothing, so a caller reducing one metric unpacks only that one.
+    pub(super) fn fill(&self, rows: MetricSlices<'_>, first: usize) {
+        let raw = &self.raw[first * METRIC_STRIDE..][..rows.len() * METRIC_STRIDE];
+        let seen = |m: &[u32]| m[METRIC_VISIBLE] > 0;
+        let key = |m: &[u32], slot: usize| f64::from(from_order_key(m[slot]));
+        let not_key = |m: &[u32], slot: usize| f64::from(from_order_key(!m[slot]));
+        // As `Metrics::new`: the extremes are none (NaN) and the span 0 where nothing is seen.
+        let nan_unless = |m: &[u32], v: f64| if seen(m) { v } else { f64::NAN };
+        column(rows.visible, raw, |_, m| u64::from(m[METRIC_VISIBLE]));
+        column(rows.total, raw, |k, _| {
+            self.plans[self.source.plan_index(self.start + first + k)].total() as u64
+        });
+        column(rows.occupied, raw, |_, m| u64::from(m[METRIC_OCCUPIED]));
+        column(rows.range_min, raw, |_, m| {
+            nan_unless(m, not_key(m, METRIC_RANGE_MIN_NOT))
+        });
+        column(rows.range_max, raw, |_, m| {
+            nan_unless(m, key(m, METRIC_RANGE_MAX))
+        });
+        column(rows.span, raw, |_, m| {
+            if seen(m) {
+                key(m, METRIC_RANGE_MAX) - not_key(m, METRIC_RANGE_MIN_NOT)
+            } else {
+                0.0
+            }
+        });
+        column(rows.azimuth_min, raw, |_, m| {
+            nan_unless(m, not_key(m, METRIC_AZIMUTH_MIN_NOT).to_degrees())
+        });
+        column(rows.azimuth_max, raw, |_, m| {
+            nan_unless(m, key(m, METRIC_AZIMUTH_MAX).to_degrees())
+        });
+        let layout = self.layout;
+        column(rows.occupied_measure, raw, |_, m| match layout.kind {
+            SonarKind::Sss => f64::from(m[METRIC_OCCUPIED]) * layout.range_bin_width,
+            SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_OCCUPIED_MEASURE])),
+        });
+        column(rows.projection_area, raw, |_, m| {
+            layout
+                .area_grid
+                .map_or(f64::NAN, |g| g.area(u64::from(m[METRIC_PROJECTION_AREA])))
+        });
+    }
+
     /// Returns the projection of the chunk's pose `c`, with its occupancy when it was read back.
     pub(super) fn projection(&self, c: usize) -> Projection {
         let (layout, words, pixel_words) = (self.layout, self.words, self.pixel_words);
@@ -78,6 +125,14 @@ impl Unpack<'_> {
             .into_par_iter()
             .map(|c| self.projection(c))
             .collect()
+    }
+}
+
+/// Writes `out[k] = value(k, metrics of pose k)` for the poses of `raw` (`METRIC_STRIDE` words
+/// each); nothing for a column not kept (empty).
+fn column<T>(out: &mut [T], raw: &[u32], value: impl Fn(usize, &[u32]) -> T) {
+    for (k, (v, m)) in out.iter_mut().zip(raw.chunks_exact(METRIC_STRIDE)).enumerate() {
+        *v = value(k, m);
     }
 }
 

@@ -26,14 +26,31 @@ pub(crate) struct Work<'a> {
 
 /// Returns the values of `metric` in `metrics` (NaN where a pose has none): what a summary
 /// reduces.
+///
+/// # Panics
+/// When `metrics` does not keep `metric` (a block's columns come from [`metric_columns`]).
 #[expect(
     clippy::cast_precision_loss,
     reason = "counts are below 2^53 (MAX_SAMPLES_PER_POSE)"
 )]
 pub(crate) fn values(metrics: &MetricColumns, metric: sonarproj::Metric) -> Vec<f64> {
+    assert!(
+        metrics.keeps(metric),
+        "the summary's metric is not kept: {}",
+        metric.name()
+    );
     match metrics.column(metric) {
         ColumnRef::Real(c) => c.to_vec(),
         ColumnRef::Count(c) => c.iter().map(|&v| v as f64).collect(),
+    }
+}
+
+/// Returns the columns a sweep's blocks fill: every metric when rows are written; else only the
+/// metric the summary reduces, `by` (the backends write, and the GPU unpacks, that one alone).
+pub(crate) fn metric_columns(rows: bool, by: Option<sonarproj::Metric>) -> MetricColumns {
+    match (rows, by) {
+        (false, Some(by)) => MetricColumns::only(&[by]),
+        _ => MetricColumns::default(),
     }
 }
 

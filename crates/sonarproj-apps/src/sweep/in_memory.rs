@@ -9,7 +9,7 @@ use sonarproj::projection::Backend;
 use crate::error::{Error, Result};
 use crate::io::parquet::Table;
 use crate::sweep::SweepConfig;
-use crate::sweep::compute::{Work, values};
+use crate::sweep::compute::{Work, metric_columns, values};
 use crate::sweep::records::descriptor;
 use crate::sweep::run::Event;
 use crate::sweep::shard::Shard;
@@ -80,7 +80,7 @@ pub fn run_in_memory(
     let mut table = rows.then(|| Table::new(&desc.columns, &kinds));
     let mut summary = spec.map(|s| s.empty(grid));
     let work = Work::new(config, &desc.columns, &kinds, sigma)?;
-    let mut metrics = sonarproj::MetricColumns::default();
+    let mut metrics = metric_columns(rows, by);
     let mut start = range.start;
     while start < range.end {
         let r = start..(start + chunk_poses).min(range.end);

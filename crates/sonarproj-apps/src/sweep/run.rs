@@ -33,7 +33,7 @@ use crate::io::parquet::{Table, TableWriter};
 use crate::io::table::write_rows;
 use crate::report::{check_output_file, output_dir, remove_stale_temporaries};
 use crate::sweep::SweepConfig;
-use crate::sweep::compute::{Work, values};
+use crate::sweep::compute::{Work, metric_columns, values};
 use crate::sweep::figure::{figure, figure_of_marginal};
 use crate::sweep::parts::{self, final_encoding, write_json};
 use crate::sweep::records::{
@@ -403,7 +403,7 @@ pub fn run(
     let kinds = column_kinds(&desc.columns);
     let sigma = resolve_sigma_range(&config.source, &config.target, config.sigma_range)?;
     let work = Work::new(config, &desc.columns, &kinds, sigma)?;
-    let mut metrics = sonarproj::MetricColumns::default();
+    let mut metrics = metric_columns(rows, by);
     let mut done = 0;
     let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
     // The summary of the chunks finished so far (this run's, and earlier runs' read back from

@@ -117,6 +117,36 @@ fn summaries_are_the_tables_reduced_by_hand() {
     }
 }
 
+/// A sweep of summaries alone fills only the metric it reduces (`MetricColumns::only`: the GPU
+/// unpacks that one alone); its summaries are those of the same backend's Parquet sweep, whose
+/// blocks fill every column, for a real, a count and an extreme.
+#[test]
+fn summaries_alone_are_those_of_the_rows_on_every_backend() {
+    let dir = tempfile::tempdir().unwrap();
+    for backend in common::cli_backends("cpu-fast") {
+        for by in ["span", "occupied", "azimuth_max"] {
+            let config = |rows: bool| {
+                grid_with_summary(rows).replace("[summary]\n", &format!("[summary]\nby = \"{by}\"\n"))
+            };
+            let with_rows = file(dir.path(), &format!("{backend}-{by}-rows.toml"), &config(true));
+            let alone = file(dir.path(), &format!("{backend}-{by}-alone.toml"), &config(false));
+            let (a, b) = (
+                dir.path().join(format!("{backend}-{by}-a")),
+                dir.path().join(format!("{backend}-{by}-b")),
+            );
+            let args = ["--backend", backend, "--format", "parquet"];
+            sweep(&with_rows, &a, &args, "sweep.parquet");
+            let want = std::fs::read(a.join("summary.json")).unwrap();
+            assert!(String::from_utf8_lossy(&want).contains(&format!("\"metric\": \"{by}\"")));
+            let got = sweep(&alone, &b, &args[..2], "summary.json");
+            assert!(
+                got == want,
+                "{backend}, by {by}: summaries alone differ from the rows'"
+            );
+        }
+    }
+}
+
 #[test]
 fn summaries_alone_are_the_same_however_the_run_is_cut() {
     use predicates::prelude::*;
