@@ -90,9 +90,10 @@ fn main(
         workgroupBarrier();
     }
     if lid == 0u && pose_index < params.pose_count {
-        let m = pose_index * METRIC_STRIDE;
-        metrics[m + METRIC_OCCUPIED] = partial_count[0];
-        metrics[m + METRIC_OCCUPIED_MEASURE] = bitcast<u32>(partial_measure[0]);
-        metrics[m + METRIC_PROJECTION_AREA] = partial_cells[0];
+        // Slot-major: slot s of the chunk's pose p at s × pose_count + p.
+        let n = params.pose_count;
+        metrics[METRIC_OCCUPIED * n + pose_index] = partial_count[0];
+        metrics[METRIC_OCCUPIED_MEASURE * n + pose_index] = bitcast<u32>(partial_measure[0]);
+        metrics[METRIC_PROJECTION_AREA * n + pose_index] = partial_cells[0];
     }
 }

@@ -222,12 +222,13 @@ fn main(
     if lid == 0u && pose_index < params.pose_count {
         let seen = atomicLoad(&wg_visible);
         if seen > 0u {
-            let m = pose_index * METRIC_STRIDE;
-            atomicAdd(&metrics[m + METRIC_VISIBLE], seen);
-            atomicMax(&metrics[m + METRIC_RANGE_MIN_NOT], atomicLoad(&wg_range_min_not));
-            atomicMax(&metrics[m + METRIC_RANGE_MAX], atomicLoad(&wg_range_max));
-            atomicMax(&metrics[m + METRIC_AZIMUTH_MIN_NOT], atomicLoad(&wg_azimuth_min_not));
-            atomicMax(&metrics[m + METRIC_AZIMUTH_MAX], atomicLoad(&wg_azimuth_max));
+            // Slot-major: slot s of the chunk's pose p at s × pose_count + p.
+            let n = params.pose_count;
+            atomicAdd(&metrics[METRIC_VISIBLE * n + pose_index], seen);
+            atomicMax(&metrics[METRIC_RANGE_MIN_NOT * n + pose_index], atomicLoad(&wg_range_min_not));
+            atomicMax(&metrics[METRIC_RANGE_MAX * n + pose_index], atomicLoad(&wg_range_max));
+            atomicMax(&metrics[METRIC_AZIMUTH_MIN_NOT * n + pose_index], atomicLoad(&wg_azimuth_min_not));
+            atomicMax(&metrics[METRIC_AZIMUTH_MAX * n + pose_index], atomicLoad(&wg_azimuth_max));
         }
     }
 }

@@ -68,9 +68,11 @@ struct BeamEdge {
     _pad: vec2<f32>,
 }
 
-// Per-pose metric slots (METRIC_STRIDE u32 each, METRIC_<NAME> for each metric the GPU reduces,
+// Per-pose metric slots (METRIC_STRIDE of them, METRIC_<NAME> for each metric the GPU reduces,
 // _NOT for minima) are generated from the metric table (src/metrics.rs) and put before this file
-// (src/gpu/shaders.rs). Minima are stored as the bitwise NOT of the order key so that every slot
+// (src/gpu/shaders.rs). The metrics buffer is slot-major: slot s of a chunk's pose p is word
+// s × pose_count + p, so the host copies back only the slots of the metrics it asks for, each
+// one contiguous. Minima are stored as the bitwise NOT of the order key so that every slot
 // starts at 0 and only atomicMax is needed.
 
 // Returns a u32 whose unsigned order is the order of the f32 x.

@@ -278,6 +278,7 @@ impl GpuBackend {
                 pool,
                 &Source::Items(prepared),
                 output == Output::WithOccupancy,
+                ALL_SLOTS,
                 &mut |u| out.extend(u.projections()),
             )
         })?;
@@ -303,7 +304,7 @@ impl GpuBackend {
         };
         let mut out = Vec::with_capacity(count);
         self.pool.with(|pool| {
-            self.project_with(pool, &source, keep_occupancy, &mut |u| {
+            self.project_with(pool, &source, keep_occupancy, ALL_SLOTS, &mut |u| {
                 out.extend(u.projections())
             })
         })?;
@@ -329,8 +330,10 @@ impl GpuBackend {
             first: range.start,
             count,
         };
+        // Only the slots of the columns kept are copied back.
+        let slots = slots_of(crate::Metric::all().filter(|&m| out.keeps(m)));
         self.pool.with(|pool| {
-            self.project_with(pool, &source, false, &mut |u| {
+            self.project_with(pool, &source, false, slots, &mut |u| {
                 // Straight into the columns, on all cores, no per-pose object; pieces small
                 // enough for every core to take several (a chunk of 32 768 poses in 4096-row
                 // pieces left half of 16 cores idle).
@@ -356,7 +359,7 @@ impl GpuBackend {
     }
 
     /// Projects every pose of `source` with the buffers of `pool`, handing each chunk's results
-    /// as read back (with the bitsets when `keep_occupancy`) to `emit`, in order. Two chunks are
+    /// as read back (metric `slots`, and the bitsets when `keep_occupancy`) to `emit`, in order. Two chunks are
     /// in flight: the device projects one while the host reads back, unpacks and hands out the
     /// one before (and, for items, packs the one after).
     fn project_with(
@@ -364,6 +367,7 @@ impl GpuBackend {
         pool: &mut BufferPool,
         source: &Source<'_>,
         keep_occupancy: bool,
+        read_slots: Slots,
         emit: &mut dyn FnMut(&Unpack<'_>),
     ) -> Result<()> {
         let device = &self.ctx.device;
@@ -432,6 +436,7 @@ impl GpuBackend {
             plans,
             words,
             bits_per_pose_bytes,
+            slots: read_slots,
         };
 
         let mut directions: Option<Directions> = None;
@@ -569,7 +574,7 @@ impl GpuBackend {
                 pass.set_bind_group(0, &reduce_group, &[]);
                 pass.dispatch_workgroups(across, rows, 1);
             }
-            enc.copy_buffer_to_buffer(&slot.metrics, 0, &slot.metrics_staging, 0, used_metrics);
+            shape.copy_slots(&mut enc, &slot.metrics, &slot.metrics_staging, n);
             if let Some(staging) = &slot.bits_staging {
                 enc.copy_buffer_to_buffer(&slot.bits, 0, staging, 0, used_bits);
             }
@@ -610,7 +615,7 @@ impl GpuBackend {
         if let Some(t) = &slot.timer {
             self.clock.add(Timed::Device, t.elapsed(&self.ctx, index())?);
         }
-        let (used_bits, used_metrics) = shape.bytes(chunk.count);
+        let (used_bits, _) = shape.bytes(chunk.count);
         let raw_bits: Option<Vec<u32>> = match &slot.bits_staging {
             Some(staging) => Some(read_after(
                 &self.ctx,
@@ -621,7 +626,8 @@ impl GpuBackend {
             )?),
             None => None,
         };
-        read_after(&self.ctx, &slot.metrics_staging, used_metrics, index(), |raw| {
+        let read = shape.read_bytes(chunk.count);
+        read_after(&self.ctx, &slot.metrics_staging, read, index(), |raw| {
             let unpacking = std::time::Instant::now();
             if timed {
                 self.clock.add(Timed::Wait, unpacking - waiting);
@@ -631,6 +637,7 @@ impl GpuBackend {
                 plans: shape.plans,
                 layout: shape.layout,
                 raw,
+                slots: shape.slots,
                 raw_bits: raw_bits.as_deref(),
                 words: shape.words,
                 pixel_words: types::pixel_words(shape.layout),

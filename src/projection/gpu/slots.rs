@@ -11,7 +11,7 @@ use crate::sampling::SamplingPlan;
 
 use super::Source;
 use super::tables::direction_table;
-use super::types::{GridParams, METRIC_STRIDE, PoseGpu, TargetParams};
+use super::types::{ALL_SLOTS, GridParams, METRIC_STRIDE, PoseGpu, Slots, TargetParams};
 
 /// The pool's names of one slot's buffers and bind groups.
 pub(super) struct SlotLabels {
@@ -128,9 +128,37 @@ pub(super) struct Shape<'a> {
     pub(super) plans: &'a [SamplingPlan],
     pub(super) words: usize,
     pub(super) bits_per_pose_bytes: u64,
+    /// The metric slots copied back.
+    pub(super) slots: Slots,
 }
 
 impl Shape<'_> {
+    /// Records into `enc` the copy of a chunk of `n` poses' metric slots that are read back,
+    /// from `metrics` (slot-major) to `staging` (the slots one after the other): one copy when
+    /// every slot is, else one a slot.
+    pub(super) fn copy_slots(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        metrics: &wgpu::Buffer,
+        staging: &wgpu::Buffer,
+        n: usize,
+    ) {
+        let run = (n * 4) as u64;
+        if self.slots == ALL_SLOTS {
+            enc.copy_buffer_to_buffer(metrics, 0, staging, 0, run * METRIC_STRIDE as u64);
+            return;
+        }
+        let read = (0..METRIC_STRIDE).filter(|&s| self.slots & 1 << s != 0);
+        for (j, s) in read.enumerate() {
+            enc.copy_buffer_to_buffer(metrics, s as u64 * run, staging, j as u64 * run, run);
+        }
+    }
+
+    /// Returns the bytes of the metric slots read back for `n` poses.
+    pub(super) fn read_bytes(&self, n: usize) -> u64 {
+        u64::from(self.slots.count_ones()) * (n * 4) as u64
+    }
+
     /// Returns the bytes of bitsets and of metrics `n` poses use.
     pub(super) fn bytes(&self, n: usize) -> (u64, u64) {
         (

@@ -156,6 +156,33 @@ pub(crate) const METRIC_OCCUPIED_MEASURE: usize = slot(Metric::OccupiedMeasure);
 /// Slot of the count of projection-area cells.
 pub(crate) const METRIC_PROJECTION_AREA: usize = slot(Metric::ProjectionArea);
 
+/// A set of metric slots, bit `s` for slot `s`: which slots of a chunk's metrics are copied
+/// back (the metrics buffer is slot-major, one contiguous run of a chunk's poses a slot).
+pub(crate) type Slots = u8;
+
+/// Every metric slot.
+pub(crate) const ALL_SLOTS: Slots = u8::MAX >> (8 - METRIC_STRIDE);
+
+/// Returns the slots the columns of `metrics` are made of (the visible count with each
+/// extreme, which is none where nothing is seen; nothing for the plan's total), never empty.
+pub(crate) fn slots_of(metrics: impl IntoIterator<Item = Metric>) -> Slots {
+    let bit = |s: usize| 1 << s;
+    metrics.into_iter().fold(bit(METRIC_VISIBLE), |set, m| {
+        set | match m {
+            Metric::Visible | Metric::Total => 0,
+            Metric::RangeMin => bit(METRIC_RANGE_MIN_NOT),
+            Metric::RangeMax => bit(METRIC_RANGE_MAX),
+            Metric::Span => bit(METRIC_RANGE_MIN_NOT) | bit(METRIC_RANGE_MAX),
+            Metric::AzimuthMin => bit(METRIC_AZIMUTH_MIN_NOT),
+            Metric::AzimuthMax => bit(METRIC_AZIMUTH_MAX),
+            // An SSS's measure is its count × the bin width, an FLS's summed on the device.
+            Metric::Occupied => bit(METRIC_OCCUPIED),
+            Metric::OccupiedMeasure => bit(METRIC_OCCUPIED) | bit(METRIC_OCCUPIED_MEASURE),
+            Metric::ProjectionArea => bit(METRIC_PROJECTION_AREA),
+        }
+    })
+}
+
 /// Returns the f32 whose order key (WGSL `order_key`) is `key`.
 #[must_use]
 pub(crate) fn from_order_key(key: u32) -> f32 {

@@ -19,7 +19,10 @@ pub(super) struct Unpack<'a> {
     pub(super) source: &'a Source<'a>,
     pub(super) plans: &'a [SamplingPlan],
     pub(super) layout: &'a Layout,
+    /// The metric slots read back (`slots`), each a run of the chunk's `count` poses, in slot
+    /// order.
     pub(super) raw: &'a [u32],
+    pub(super) slots: Slots,
     pub(super) raw_bits: Option<&'a [u32]>,
     pub(super) words: usize,
     pub(super) pixel_words: usize,
@@ -29,72 +32,114 @@ pub(super) struct Unpack<'a> {
 }
 
 impl Unpack<'_> {
-    /// Returns the metrics of the chunk's pose `c`.
+    /// Returns metric slot `s` of the chunk's poses.
+    ///
+    /// # Panics
+    /// When slot `s` was not read back (`slots_of` names every slot a column needs).
+    fn slot(&self, s: usize) -> &[u32] {
+        assert!(self.slots & 1 << s != 0, "metric slot {s} was not read back");
+        let at = (self.slots & ((1 << s) - 1)).count_ones() as usize * self.count;
+        &self.raw[at..at + self.count]
+    }
+
+    /// Returns the metrics of the chunk's pose `c` (every slot read back).
     pub(super) fn metrics(&self, c: usize) -> Metrics {
-        let (layout, m) = (self.layout, &self.raw[c * METRIC_STRIDE..(c + 1) * METRIC_STRIDE]);
+        let layout = self.layout;
+        let at = |s: usize| self.slot(s)[c];
         let total = self.plans[self.source.plan_index(self.start + c)].total() as u64;
         let extremes = Extremes {
-            range_min: f64::from(from_order_key(!m[METRIC_RANGE_MIN_NOT])),
-            range_max: f64::from(from_order_key(m[METRIC_RANGE_MAX])),
-            azimuth_min: f64::from(from_order_key(!m[METRIC_AZIMUTH_MIN_NOT])),
-            azimuth_max: f64::from(from_order_key(m[METRIC_AZIMUTH_MAX])),
+            range_min: f64::from(from_order_key(!at(METRIC_RANGE_MIN_NOT))),
+            range_max: f64::from(from_order_key(at(METRIC_RANGE_MAX))),
+            azimuth_min: f64::from(from_order_key(!at(METRIC_AZIMUTH_MIN_NOT))),
+            azimuth_max: f64::from(from_order_key(at(METRIC_AZIMUTH_MAX))),
         };
-        let occupied = u64::from(m[METRIC_OCCUPIED]);
+        let occupied = u64::from(at(METRIC_OCCUPIED));
         let measure = match layout.kind {
             SonarKind::Sss => occupied as f64 * layout.range_bin_width,
-            SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_OCCUPIED_MEASURE])),
+            SonarKind::Fls => f64::from(f32::from_bits(at(METRIC_OCCUPIED_MEASURE))),
         };
         let area = layout
             .area_grid
-            .map(|g| g.area(u64::from(m[METRIC_PROJECTION_AREA])));
-        let visible = u64::from(m[METRIC_VISIBLE]);
+            .map(|g| g.area(u64::from(at(METRIC_PROJECTION_AREA))));
+        let visible = u64::from(at(METRIC_VISIBLE));
         Metrics::new(visible, total, extremes, (occupied, measure), area)
     }
 
     /// Writes the kept columns of `rows`, the metrics of the chunk's poses `first..` (the
-    /// values of [`Unpack::metrics`], bit for bit), column by column: a column not kept costs
-    /// nothing, so a caller reducing one metric unpacks only that one.
+    /// values of [`Unpack::metrics`], bit for bit), column by column from the slots read back:
+    /// a column not kept costs nothing, so a caller reducing one metric unpacks only that one.
     pub(super) fn fill(&self, rows: MetricSlices<'_>, first: usize) {
-        let raw = &self.raw[first * METRIC_STRIDE..][..rows.len() * METRIC_STRIDE];
-        let seen = |m: &[u32]| m[METRIC_VISIBLE] > 0;
-        let key = |m: &[u32], slot: usize| f64::from(from_order_key(m[slot]));
-        let not_key = |m: &[u32], slot: usize| f64::from(from_order_key(!m[slot]));
+        let n = rows.len();
+        let slot = |s: usize| &self.slot(s)[first..first + n];
+        let key = |k: u32| f64::from(from_order_key(k));
+        let not_key = |k: u32| f64::from(from_order_key(!k));
         // As `Metrics::new`: the extremes are none (NaN) and the span 0 where nothing is seen.
-        let nan_unless = |m: &[u32], v: f64| if seen(m) { v } else { f64::NAN };
-        column(rows.visible, raw, |_, m| u64::from(m[METRIC_VISIBLE]));
-        column(rows.total, raw, |k, _| {
-            self.plans[self.source.plan_index(self.start + first + k)].total() as u64
-        });
-        column(rows.occupied, raw, |_, m| u64::from(m[METRIC_OCCUPIED]));
-        column(rows.range_min, raw, |_, m| {
-            nan_unless(m, not_key(m, METRIC_RANGE_MIN_NOT))
-        });
-        column(rows.range_max, raw, |_, m| {
-            nan_unless(m, key(m, METRIC_RANGE_MAX))
-        });
-        column(rows.span, raw, |_, m| {
-            if seen(m) {
-                key(m, METRIC_RANGE_MAX) - not_key(m, METRIC_RANGE_MIN_NOT)
-            } else {
-                0.0
+        let visible = slot(METRIC_VISIBLE);
+        fn extreme(out: &mut [f64], visible: &[u32], keys: &[u32], value: impl Fn(u32) -> f64) {
+            for ((v, &seen), &k) in out.iter_mut().zip(visible).zip(keys) {
+                *v = if seen > 0 { value(k) } else { f64::NAN };
             }
-        });
-        column(rows.azimuth_min, raw, |_, m| {
-            nan_unless(m, not_key(m, METRIC_AZIMUTH_MIN_NOT).to_degrees())
-        });
-        column(rows.azimuth_max, raw, |_, m| {
-            nan_unless(m, key(m, METRIC_AZIMUTH_MAX).to_degrees())
-        });
+        }
+        for (v, &k) in rows.visible.iter_mut().zip(visible) {
+            *v = u64::from(k);
+        }
+        for (k, v) in rows.total.iter_mut().enumerate() {
+            *v = self.plans[self.source.plan_index(self.start + first + k)].total() as u64;
+        }
+        if !rows.occupied.is_empty() {
+            for (v, &k) in rows.occupied.iter_mut().zip(slot(METRIC_OCCUPIED)) {
+                *v = u64::from(k);
+            }
+        }
+        if !rows.range_min.is_empty() {
+            extreme(rows.range_min, visible, slot(METRIC_RANGE_MIN_NOT), not_key);
+        }
+        if !rows.range_max.is_empty() {
+            extreme(rows.range_max, visible, slot(METRIC_RANGE_MAX), key);
+        }
+        if !rows.span.is_empty() {
+            let (low, high) = (slot(METRIC_RANGE_MIN_NOT), slot(METRIC_RANGE_MAX));
+            for (((v, &seen), &l), &h) in rows.span.iter_mut().zip(visible).zip(low).zip(high) {
+                *v = if seen > 0 { key(h) - not_key(l) } else { 0.0 };
+            }
+        }
+        if !rows.azimuth_min.is_empty() {
+            extreme(rows.azimuth_min, visible, slot(METRIC_AZIMUTH_MIN_NOT), |k| {
+                not_key(k).to_degrees()
+            });
+        }
+        if !rows.azimuth_max.is_empty() {
+            extreme(rows.azimuth_max, visible, slot(METRIC_AZIMUTH_MAX), |k| {
+                key(k).to_degrees()
+            });
+        }
         let layout = self.layout;
-        column(rows.occupied_measure, raw, |_, m| match layout.kind {
-            SonarKind::Sss => f64::from(m[METRIC_OCCUPIED]) * layout.range_bin_width,
-            SonarKind::Fls => f64::from(f32::from_bits(m[METRIC_OCCUPIED_MEASURE])),
-        });
-        column(rows.projection_area, raw, |_, m| {
-            layout
-                .area_grid
-                .map_or(f64::NAN, |g| g.area(u64::from(m[METRIC_PROJECTION_AREA])))
-        });
+        if !rows.occupied_measure.is_empty() {
+            let out = rows.occupied_measure.iter_mut();
+            match layout.kind {
+                SonarKind::Sss => {
+                    for (v, &k) in out.zip(slot(METRIC_OCCUPIED)) {
+                        *v = f64::from(k) * layout.range_bin_width;
+                    }
+                }
+                SonarKind::Fls => {
+                    for (v, &k) in out.zip(slot(METRIC_OCCUPIED_MEASURE)) {
+                        *v = f64::from(f32::from_bits(k));
+                    }
+                }
+            }
+        }
+        if !rows.projection_area.is_empty() {
+            let out = rows.projection_area.iter_mut();
+            match layout.area_grid {
+                Some(g) => {
+                    for (v, &k) in out.zip(slot(METRIC_PROJECTION_AREA)) {
+                        *v = g.area(u64::from(k));
+                    }
+                }
+                None => out.for_each(|v| *v = f64::NAN),
+            }
+        }
     }
 
     /// Returns the projection of the chunk's pose `c`, with its occupancy when it was read back.
@@ -125,14 +170,6 @@ impl Unpack<'_> {
             .into_par_iter()
             .map(|c| self.projection(c))
             .collect()
-    }
-}
-
-/// Writes `out[k] = value(k, metrics of pose k)` for the poses of `raw` (`METRIC_STRIDE` words
-/// each); nothing for a column not kept (empty).
-fn column<T>(out: &mut [T], raw: &[u32], value: impl Fn(usize, &[u32]) -> T) {
-    for (k, (v, m)) in out.iter_mut().zip(raw.chunks_exact(METRIC_STRIDE)).enumerate() {
-        *v = value(k, m);
     }
 }
 
