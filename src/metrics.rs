@@ -69,8 +69,9 @@ pub struct MetricInfo {
     pub label: [Option<&'static str>; 2],
     /// How it is reduced over the samples.
     pub reduce: Reduce,
-    /// The u32 slot of the GPU's per-pose metric record that holds it (WGSL `METRIC_*` in
-    /// `shaders/shared/types.wgsl`), `None` when the CPU computes it after the readback.
+    /// The GPU's metric slot that holds it (WGSL `METRIC_*` in `shaders/shared/types.wgsl`: a
+    /// chunk's metrics buffer holds, slot after slot, one u32 a pose), `None` when the CPU
+    /// computes it after the readback.
     pub gpu_slot: Option<usize>,
 }
 

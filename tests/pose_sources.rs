@@ -163,14 +163,34 @@ fn column_bits(c: &MetricColumns, metric: Metric) -> Vec<u64> {
     }
 }
 
+/// Asserts `metric`'s column the same bits in `a` and `b`, naming the first pose that differs.
+fn same_column(a: &MetricColumns, b: &MetricColumns, metric: Metric, what: &str) {
+    let (x, y) = (column_bits(a, metric), column_bits(b, metric));
+    assert_eq!(x.len(), y.len(), "{what}: rows of {}", metric.name());
+    if let Some(k) = (0..x.len()).find(|&k| x[k] != y[k]) {
+        panic!(
+            "{what}: {} differs at row {k}: bits {:#x} vs {:#x}",
+            metric.name(),
+            x[k],
+            y[k]
+        );
+    }
+}
+
 /// Columns kept alone ([`MetricColumns::only`]) are the whole columns' own, bit for bit, on
-/// every backend, for both target kinds (an FLS's projection area, an SSS's measure from its
-/// bins), with the others left empty, in columns reused between calls and ranges.
+/// every backend (the GPU in one chunk and in chunks of 7), for both target kinds (an FLS's
+/// projection area, an SSS's measure from its bins), with the others left empty, in columns
+/// reused between calls and ranges.
 #[test]
 fn a_metric_kept_alone_is_its_column_of_all() {
     let mut backends = vec![Backend::Cpu, Backend::CpuFast];
     if let Some(gpu) = common::gpu() {
+        // Chunks of 7 poses too: slots copied back at a chunk's own offsets, the last short.
+        let small = sonarproj::projection::gpu::GpuBackend::new(gpu.context().clone())
+            .unwrap()
+            .with_max_chunk_poses(7);
         backends.push(Backend::Gpu(Box::new(gpu)));
+        backends.push(Backend::Gpu(Box::new(small)));
     }
     for (a, b) in [("paper-fls", "paper-sss"), ("paper-sss", "paper-fls")] {
         let (source, target) = (common::preset(a), common::preset(b));
@@ -191,22 +211,118 @@ fn a_metric_kept_alone_is_its_column_of_all() {
                     .project_columns(&s, 1..g.len(), &mut one, &|| false)
                     .unwrap();
                 assert_eq!(one.len(), all.len(), "{what}, {}", metric.name());
-                for other in Metric::all() {
-                    let want = if other == metric {
-                        column_bits(&all, metric)
-                    } else {
-                        Vec::new()
-                    };
-                    assert_eq!(
-                        column_bits(&one, other),
-                        want,
-                        "{what}: {} kept, {} column",
+                same_column(&one, &all, metric, &what);
+                for other in Metric::all().filter(|&m| m != metric) {
+                    assert!(
+                        column_bits(&one, other).is_empty(),
+                        "{what}: {} kept, {} column not empty",
                         metric.name(),
                         other.name()
                     );
                 }
             }
         }
+    }
+}
+
+/// A sweep's blocks projected one after the other ([`Backend::project_blocks`]: on the GPU the
+/// next block already on the device while a block is handed out) are each block's own columns,
+/// bit for bit, on every backend, with gaps between blocks (a resumed sweep's) and columns kept
+/// alone; a `Break` ends the run at once; bad blocks and stops are errors.
+#[test]
+fn blocks_are_each_blocks_own_columns() {
+    use std::ops::ControlFlow;
+    let mut backends = vec![Backend::Cpu, Backend::CpuFast];
+    if let Some(gpu) = common::gpu() {
+        let small = sonarproj::projection::gpu::GpuBackend::new(gpu.context().clone())
+            .unwrap()
+            .with_max_chunk_poses(7);
+        backends.push(Backend::Gpu(Box::new(gpu)));
+        backends.push(Backend::Gpu(Box::new(small)));
+    }
+    let (source, target) = (common::preset("paper-fls"), common::preset("paper-sss"));
+    let g = grid(&source, &target, false);
+    let s = sweep(&source, &target, Sampling::Step(1.0), PoseSource::Grid(&g));
+    let n = g.len();
+    let blocks = [0..5, 5..100, 100..101, 300..n - 1];
+    for backend in &backends {
+        for keep in [None, Some(Metric::Span)] {
+            let what = format!("{}, keeping {keep:?}", backend.name());
+            let fresh = || keep.map_or_else(MetricColumns::default, |m| MetricColumns::only(&[m]));
+            let mut seen = Vec::new();
+            let mut out = fresh();
+            let flow = backend
+                .project_blocks(&s, &blocks, &mut out, &|| false, &mut |b, columns| {
+                    seen.push((b, columns.clone()));
+                    ControlFlow::Continue(())
+                })
+                .unwrap();
+            assert!(flow.is_continue(), "{what}");
+            assert_eq!(
+                seen.iter().map(|(b, _)| b.clone()).collect::<Vec<_>>(),
+                blocks,
+                "{what}"
+            );
+            // Each block's columns are the backend's own for that block alone.
+            for (b, columns) in &seen {
+                let mut alone = fresh();
+                backend
+                    .project_columns(&s, b.clone(), &mut alone, &|| false)
+                    .unwrap();
+                assert_eq!(columns.len() as u64, b.end - b.start, "{what}: {b:?}");
+                for m in Metric::all() {
+                    same_column(columns, &alone, m, &format!("{what}: {b:?}"));
+                }
+            }
+            // A break after the second block: no third.
+            let mut calls = 0;
+            let flow = backend
+                .project_blocks(&s, &blocks, &mut out, &|| false, &mut |_, _| {
+                    calls += 1;
+                    if calls == 2 {
+                        ControlFlow::Break(())
+                    } else {
+                        ControlFlow::Continue(())
+                    }
+                })
+                .unwrap();
+            assert!(
+                flow.is_break() && calls == 2,
+                "{what}: {calls} blocks after a break"
+            );
+        }
+        let (empty, past) = (4..4, 0..n + 1);
+        for bad in [vec![0..5, 3..9], vec![empty], vec![past], vec![9..12, 0..3]] {
+            let e = backend
+                .project_blocks(&s, &bad, &mut MetricColumns::default(), &|| false, &mut |_, _| {
+                    ControlFlow::Continue(())
+                })
+                .unwrap_err();
+            assert!(
+                e.is_input() && e.to_string().contains("pose blocks"),
+                "{bad:?}: {e}"
+            );
+        }
+        let stop_after_one = std::sync::atomic::AtomicUsize::new(0);
+        let e = backend
+            .project_blocks(
+                &s,
+                &blocks,
+                &mut MetricColumns::default(),
+                &|| stop_after_one.load(std::sync::atomic::Ordering::Relaxed) > 0,
+                &mut |_, _| {
+                    stop_after_one.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    ControlFlow::Continue(())
+                },
+            )
+            .unwrap_err();
+        assert!(matches!(e, Error::Stopped), "{}: {e}", backend.name());
+        assert_eq!(
+            stop_after_one.into_inner(),
+            1,
+            "{}: blocks after a stop",
+            backend.name()
+        );
     }
 }
 

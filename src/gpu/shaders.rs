@@ -62,8 +62,8 @@ fn slot_name(name: &str, reduce: Reduce) -> String {
     format!("METRIC_{}{not}", name.to_uppercase())
 }
 
-/// Returns the WGSL constants of the per-pose metric record: `METRIC_STRIDE` and one slot per
-/// metric the GPU reduces, from the metric table ([`METRICS`]).
+/// Returns the WGSL constants of the metric slots: `METRIC_STRIDE` (slots a pose) and one slot
+/// per metric the GPU reduces, from the metric table ([`METRICS`]).
 pub(crate) fn metric_slots() -> String {
     let mut out = format!("const METRIC_STRIDE: u32 = {METRIC_STRIDE}u;\n");
     for m in METRICS.iter() {

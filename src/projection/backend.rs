@@ -1,6 +1,8 @@
 //! One interface over the three backends, so every caller (CLI, Python, tests, benches) can run
 //! any of them, and the one policy that picks where a choice runs.
 
+use std::ops::ControlFlow;
+
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions, context};
 use crate::projection::gpu::GpuBackend;
@@ -270,6 +272,62 @@ impl Backend {
             start = end;
         }
         Ok(())
+    }
+}
+
+impl Backend {
+    /// Projects poses `blocks` of `sweep` (ranges in increasing order, none empty) block by
+    /// block into `out` (its rows replaced by each block's), handing each block's columns to
+    /// `each` as they are done, until `each` returns `Break` (returned): what a sweep does chunk
+    /// after chunk. The columns are [`Backend::project_columns`]'s for the same block; on the
+    /// GPU a grid's next block is already on the device while `each` runs, so the device does
+    /// not wait for the host between blocks.
+    ///
+    /// # Errors
+    /// As [`Backend::project_columns`]; [`Error::InvalidValue`] for blocks empty, out of order
+    /// or past the sweep's poses.
+    pub fn project_blocks(
+        &self,
+        sweep: &PoseSweep<'_>,
+        blocks: &[std::ops::Range<u64>],
+        out: &mut MetricColumns,
+        stop: &(dyn Fn() -> bool + Sync),
+        each: &mut dyn FnMut(std::ops::Range<u64>, &MetricColumns) -> ControlFlow<()>,
+    ) -> Result<ControlFlow<()>> {
+        let n = sweep.poses.len();
+        let mut end = 0;
+        for b in blocks {
+            if b.start < end || b.start >= b.end || b.end > n {
+                return Err(Error::invalid(
+                    "pose blocks",
+                    format!("{}..{}", b.start, b.end),
+                    format!("must be non-empty, in increasing order and within the sweep's {n} poses"),
+                ));
+            }
+            end = b.end;
+        }
+        if let (Backend::Gpu(g), PoseSource::Grid(grid)) = (self, sweep.poses) {
+            let prepared = sweep.prepare_grid(grid)?;
+            if stop() {
+                return Err(Error::Stopped);
+            }
+            let mut stopped = false;
+            let flow = g.project_grid_blocks(&prepared, blocks, out, &mut |b, columns| {
+                stopped = stop();
+                if stopped {
+                    return ControlFlow::Break(());
+                }
+                each(b, columns)
+            })?;
+            return if stopped { Err(Error::Stopped) } else { Ok(flow) };
+        }
+        for b in blocks {
+            self.project_columns(sweep, b.clone(), out, stop)?;
+            if each(b.clone(), out).is_break() {
+                return Ok(ControlFlow::Break(()));
+            }
+        }
+        Ok(ControlFlow::Continue(()))
     }
 }
 

@@ -289,9 +289,10 @@ impl<'a> MetricSlices<'a> {
     /// Writes row `k` of the kept columns.
     #[inline]
     pub(crate) fn set(&mut self, k: usize, m: &Metrics) {
+        // A column not kept is empty; a kept one has every row (an index past it panics).
         fn put<T>(c: &mut [T], k: usize, v: T) {
-            if let Some(x) = c.get_mut(k) {
-                *x = v;
+            if !c.is_empty() {
+                c[k] = v;
             }
         }
         put(self.visible, k, m.visible);

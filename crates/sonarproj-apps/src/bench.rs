@@ -257,12 +257,15 @@ pub fn time_sweep(
     let blocks = || (0..n.div_ceil(block)).map(move |b| b * block..((b + 1) * block).min(n));
     let mut samples = 0;
     let mut columns = sonarproj::MetricColumns::default();
+    // Block after block as a sweep projects them (`Backend::project_blocks`).
+    let all: Vec<std::ops::Range<u64>> = blocks().collect();
     let mut decoded = || -> Result<()> {
         samples = 0;
-        for r in blocks() {
-            backend.project_columns(&sweep, r, &mut columns, &|| false)?;
-            samples += columns.total.iter().sum::<u64>();
-        }
+        // Every block is taken: the flow is always `Continue`.
+        let _ = backend.project_blocks(&sweep, &all, &mut columns, &|| false, &mut |_, c| {
+            samples += c.total.iter().sum::<u64>();
+            std::ops::ControlFlow::Continue(())
+        })?;
         Ok(())
     };
     let decoded_time = median(runs, &mut decoded)?;

@@ -1,6 +1,7 @@
 //! The GPU backend: WGSL compute shaders through wgpu. A batch is cut into chunks that fit the
-//! device; each chunk is one submission of two stages (splat, reduce) and reads back 32 bytes of
-//! metrics per pose (plus the bitsets only when occupancy is asked for). The CPU twin of the two
+//! device; each chunk is one submission of two stages (splat, reduce) and reads back the metric
+//! slots the caller's columns need, at most 32 bytes a pose (plus the bitsets only when
+//! occupancy is asked for). The CPU twin of the two
 //! stages is [`crate::projection::fast`], block culling included.
 #![expect(
     clippy::cast_possible_truncation,
@@ -11,6 +12,8 @@ mod slots;
 mod tables;
 pub(crate) mod types;
 mod unpack;
+
+use std::ops::ControlFlow;
 
 use rayon::prelude::*;
 
@@ -279,8 +282,13 @@ impl GpuBackend {
                 &Source::Items(prepared),
                 output == Output::WithOccupancy,
                 ALL_SLOTS,
-                &mut |u| out.extend(u.projections()),
+                std::slice::from_ref(&(0..prepared.batch.items.len())),
+                &mut |u| {
+                    out.extend(u.projections());
+                    Ok(ControlFlow::Continue(()))
+                },
             )
+            .map(|_| ())
         })?;
         Ok(out)
     }
@@ -300,50 +308,92 @@ impl GpuBackend {
         let source = Source::Grid {
             prepared,
             first: range.start,
-            count,
         };
         let mut out = Vec::with_capacity(count);
-        self.pool.with(|pool| {
-            self.project_with(pool, &source, keep_occupancy, ALL_SLOTS, &mut |u| {
-                out.extend(u.projections())
+        self.pool
+            .with(|pool| {
+                self.project_with(
+                    pool,
+                    &source,
+                    keep_occupancy,
+                    ALL_SLOTS,
+                    std::slice::from_ref(&(0..count)),
+                    &mut |u| {
+                        out.extend(u.projections());
+                        Ok(ControlFlow::Continue(()))
+                    },
+                )
             })
-        })?;
+            .map(|_| ())?;
         Ok(out)
     }
 
-    /// Returns the metric columns of poses `range` of a prepared grid into `out` (its rows
-    /// replaced): each chunk's poses decoded on the device by the poses stage
-    /// (`shaders/poses.wgsl`) from tables built once in f64, none packed or uploaded by the host.
+    /// Projects poses `blocks` of a prepared grid (ranges in increasing order, none empty) block by block
+    /// into `out` (its rows replaced by each block's), handing each block's columns to `each` as
+    /// soon as its last chunk is unpacked: each chunk's poses decoded on the device by the poses
+    /// stage (`shaders/poses.wgsl`) from tables built once in f64, none packed or uploaded by
+    /// the host, and the next block's first chunk already on the device while `each` runs (the
+    /// device does not wait between blocks). Returns `Break` as soon as `each` does.
     ///
     /// # Errors
     /// [`Error::Gpu`] when the device fails or a bitset does not fit in one binding.
+    pub(crate) fn project_grid_blocks(
+        &self,
+        prepared: &PreparedGrid<'_>,
+        blocks: &[std::ops::Range<u64>],
+        out: &mut MetricColumns,
+        each: &mut dyn FnMut(std::ops::Range<u64>, &MetricColumns) -> ControlFlow<()>,
+    ) -> Result<ControlFlow<()>> {
+        let Some(first) = blocks.first() else {
+            return Ok(ControlFlow::Continue(()));
+        };
+        let at = |i: u64| usize::try_from(i - first.start).expect("blocks of poses in memory");
+        let runs: Vec<std::ops::Range<usize>> = blocks.iter().map(|b| at(b.start)..at(b.end)).collect();
+        let source = Source::Grid {
+            prepared,
+            first: first.start,
+        };
+        // Only the slots of the columns kept are copied back.
+        let slots = slots_of(crate::Metric::all().filter(|&m| out.keeps(m)));
+        let mut block = 0;
+        self.pool.with(|pool| {
+            self.project_with(pool, &source, false, slots, &runs, &mut |u| {
+                let run = runs[block].clone();
+                if u.start == run.start {
+                    out.resize(run.len());
+                }
+                // Straight into the columns, on all cores, no per-pose object; pieces small
+                // enough for every core to take several (a chunk of 32 768 poses in 4096-row
+                // pieces left half of 16 cores idle).
+                let piece = (u.count / (4 * rayon::current_num_threads())).clamp(256, 4096);
+                let rows = u.start - run.start..u.start - run.start + u.count;
+                let rows = out.slices(rows).chunks(piece);
+                rows.into_par_iter()
+                    .enumerate()
+                    .for_each(|(b, rows)| u.fill(rows, b * piece));
+                if u.start + u.count < run.end {
+                    return Ok(ControlFlow::Continue(()));
+                }
+                block += 1;
+                Ok(each(blocks[block - 1].clone(), out))
+            })
+        })
+    }
+
+    /// Returns the metric columns of poses `range` of a prepared grid into `out` (its rows
+    /// replaced), as [`GpuBackend::project_grid_blocks`] does for one block.
+    ///
+    /// # Errors
+    /// As [`GpuBackend::project_grid_blocks`].
     pub(crate) fn project_grid(
         &self,
         prepared: &PreparedGrid<'_>,
         range: std::ops::Range<u64>,
         out: &mut MetricColumns,
     ) -> Result<()> {
-        let count = usize::try_from(range.end - range.start).expect("a block of poses in memory");
-        out.resize(count);
-        let source = Source::Grid {
-            prepared,
-            first: range.start,
-            count,
-        };
-        // Only the slots of the columns kept are copied back.
-        let slots = slots_of(crate::Metric::all().filter(|&m| out.keeps(m)));
-        self.pool.with(|pool| {
-            self.project_with(pool, &source, false, slots, &mut |u| {
-                // Straight into the columns, on all cores, no per-pose object; pieces small
-                // enough for every core to take several (a chunk of 32 768 poses in 4096-row
-                // pieces left half of 16 cores idle).
-                let piece = (u.count / (4 * rayon::current_num_threads())).clamp(256, 4096);
-                let rows = out.slices(u.start..u.start + u.count).chunks(piece);
-                rows.into_par_iter()
-                    .enumerate()
-                    .for_each(|(b, rows)| u.fill(rows, b * piece));
-            })
-        })
+        out.resize(0);
+        self.project_grid_blocks(prepared, &[range], out, &mut |_, _| ControlFlow::Continue(()))
+            .map(|_| ())
     }
 
     /// Returns the bytes of GPU memory the backend keeps between calls (its chunk buffers, two
@@ -358,8 +408,10 @@ impl GpuBackend {
         self.pool.clear();
     }
 
-    /// Projects every pose of `source` with the buffers of `pool`, handing each chunk's results
-    /// as read back (metric `slots`, and the bitsets when `keep_occupancy`) to `emit`, in order. Two chunks are
+    /// Projects poses `runs` of `source` (ranges of its poses, in increasing order, each cut into
+    /// chunks of its own) with the buffers of `pool`, handing each chunk's results as read back
+    /// (metric `read_slots`, and the bitsets when `keep_occupancy`) to `emit`, in order, until
+    /// `emit` returns `Break` (returned; the chunk then in flight is left unread). Two chunks are
     /// in flight: the device projects one while the host reads back, unpacks and hands out the
     /// one before (and, for items, packs the one after).
     fn project_with(
@@ -368,12 +420,12 @@ impl GpuBackend {
         source: &Source<'_>,
         keep_occupancy: bool,
         read_slots: Slots,
-        emit: &mut dyn FnMut(&Unpack<'_>),
-    ) -> Result<()> {
+        runs: &[std::ops::Range<usize>],
+        emit: &mut dyn FnMut(&Unpack<'_>) -> Result<ControlFlow<()>>,
+    ) -> Result<ControlFlow<()>> {
         let device = &self.ctx.device;
         let layout = source.layout();
         let plans = source.plans();
-        let total_poses = source.count();
         let words = words_per_pose(layout);
         let bits_per_pose_bytes = (words as u64 * 4).max(4);
         if bits_per_pose_bytes > self.ctx.limits.max_storage_buffer_binding_size {
@@ -383,7 +435,15 @@ impl GpuBackend {
                 self.ctx.limits.max_storage_buffer_binding_size
             )));
         }
-        let chunk = self.chunk_poses(words, total_poses);
+        // Each run cut into chunks of the size its own length gives.
+        let chunks: Vec<std::ops::Range<usize>> = runs
+            .iter()
+            .flat_map(|r| {
+                let chunk = self.chunk_poses(words, r.len());
+                r.clone().step_by(chunk).map(move |s| s..(s + chunk).min(r.end))
+            })
+            .collect();
+        let chunk = chunks.iter().map(ExactSizeIterator::len).max().unwrap_or(1);
 
         // Every buffer comes from the pool: the target's tables are rewritten on each call (a few
         // KiB), the chunk buffers are reused whenever the kept ones are large enough.
@@ -427,7 +487,7 @@ impl GpuBackend {
             occupancy: keep_occupancy,
         };
         // The second slot only when there is a second chunk.
-        let slots: Vec<Slot> = (0..total_poses.div_ceil(chunk).clamp(1, 2))
+        let slots: Vec<Slot> = (0..chunks.len().clamp(1, 2))
             .map(|s| Slot::new(&self.ctx, pool, &SLOT_LABELS[s], &sizes, limit, timed))
             .collect();
         let shape = Shape {
@@ -442,8 +502,7 @@ impl GpuBackend {
         let mut directions: Option<Directions> = None;
         let dim = self.ctx.limits.max_compute_workgroups_per_dimension.max(1);
         let mut in_flight: Option<InFlight> = None;
-        for (i, start) in (0..total_poses).step_by(chunk).enumerate() {
-            let end = (start + chunk).min(total_poses);
+        for (i, &std::ops::Range { start, end }) in chunks.iter().enumerate() {
             let n = end - start;
             let (slot, labels) = (&slots[i % 2], &SLOT_LABELS[i % 2]);
 
@@ -589,26 +648,30 @@ impl GpuBackend {
                 start,
                 count: n,
             });
-            if let Some(before) = before {
-                self.read_back(&slots[before.slot], &before, &shape, emit)?;
+            if let Some(before) = before
+                && self
+                    .read_back(&slots[before.slot], &before, &shape, emit)?
+                    .is_break()
+            {
+                return Ok(ControlFlow::Break(()));
             }
         }
-        if let Some(last) = in_flight {
-            self.read_back(&slots[last.slot], &last, &shape, emit)?;
+        match in_flight {
+            Some(last) => self.read_back(&slots[last.slot], &last, &shape, emit),
+            None => Ok(ControlFlow::Continue(())),
         }
-        Ok(())
     }
 
     /// Waits for chunk `chunk` in `slot`, adds its device time when timed, and hands its results
-    /// to `emit`: the metrics unpacked where they were mapped (no copy of the chunk's 32 bytes a
-    /// pose first).
+    /// to `emit`: the metric slots read back, unpacked where they were mapped (no copy of them
+    /// first).
     fn read_back(
         &self,
         slot: &Slot,
         chunk: &InFlight,
         shape: &Shape<'_>,
-        emit: &mut dyn FnMut(&Unpack<'_>),
-    ) -> Result<()> {
+        emit: &mut dyn FnMut(&Unpack<'_>) -> Result<ControlFlow<()>>,
+    ) -> Result<ControlFlow<()>> {
         let index = || Some(chunk.index.clone());
         let timed = self.clock.on();
         let waiting = std::time::Instant::now();
@@ -632,7 +695,7 @@ impl GpuBackend {
             if timed {
                 self.clock.add(Timed::Wait, unpacking - waiting);
             }
-            emit(&Unpack {
+            let flow = emit(&Unpack {
                 source: shape.source,
                 plans: shape.plans,
                 layout: shape.layout,
@@ -647,7 +710,8 @@ impl GpuBackend {
             if timed {
                 self.clock.add(Timed::Unpack, unpacking.elapsed());
             }
-        })
+            flow
+        })?
     }
 }
 

@@ -177,22 +177,14 @@ impl Unpack<'_> {
 pub(super) enum Source<'a> {
     /// A batch's items, packed by the host.
     Items(&'a PreparedBatch<'a>),
-    /// Poses `first..first + count` of a grid, decoded on the device.
+    /// A grid's poses from `first` on (those a call asks for), decoded on the device.
     Grid {
         prepared: &'a PreparedGrid<'a>,
         first: u64,
-        count: usize,
     },
 }
 
 impl Source<'_> {
-    pub(super) fn count(&self) -> usize {
-        match self {
-            Source::Items(p) => p.batch.items.len(),
-            Source::Grid { count, .. } => *count,
-        }
-    }
-
     pub(super) fn layout(&self) -> &Layout {
         match self {
             Source::Items(p) => &p.layout,

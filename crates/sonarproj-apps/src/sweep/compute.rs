@@ -116,28 +116,48 @@ impl<'a> Work<'a> {
             });
             return Ok(table);
         };
-        let sweep = PoseSweep {
+        let sweep = self.grid_sweep(grid);
+        backend.project_columns(&sweep, r.clone(), metrics, stop)?;
+        if !rows {
+            return Ok(None);
+        }
+        Ok(Some(self.grid_rows(grid, r, metrics)?))
+    }
+
+    /// Returns the engine's sweep of a grid sweep's poses (`None` for a list): what
+    /// [`Backend::project_blocks`] projects block after block.
+    pub(crate) fn sweep(&self) -> Option<PoseSweep<'_>> {
+        self.grid.as_ref().map(|g| self.grid_sweep(g))
+    }
+
+    fn grid_sweep<'g>(&self, grid: &'g PoseGrid) -> PoseSweep<'g> {
+        let config = self.config;
+        PoseSweep {
             source: config.source.clone(),
             target: config.target.clone(),
             sampling: config.sampling,
             area_grid: config.area_grid,
             poses: PoseSource::Grid(grid),
-        };
-        backend.project_columns(&sweep, r.clone(), metrics, stop)?;
-        if !rows {
-            return Ok(None);
         }
+    }
+
+    /// Returns the table of poses `r` of a grid sweep, whose `metrics` are projected.
+    ///
+    /// # Errors
+    /// As [`PoseSweep::local_precision_columns`].
+    ///
+    /// # Panics
+    /// For a list sweep (its table comes from [`Work::block`]).
+    pub(crate) fn rows(&self, r: Range<u64>, metrics: &MetricColumns) -> Result<Table> {
+        let grid = self.grid.as_ref().expect("a grid sweep");
+        self.grid_rows(grid, r, metrics)
+    }
+
+    fn grid_rows(&self, grid: &PoseGrid, r: Range<u64>, metrics: &MetricColumns) -> Result<Table> {
         let (mut rpe, mut sig) = (Vec::new(), Vec::new());
+        let sweep = self.grid_sweep(grid);
         sweep.local_precision_columns(r.clone(), self.sigma, &mut rpe, &mut sig)?;
-        Ok(Some(grid_table(
-            self.columns,
-            self.kinds,
-            grid,
-            r,
-            metrics,
-            rpe,
-            sig,
-        )))
+        Ok(grid_table(self.columns, self.kinds, grid, r, metrics, rpe, sig))
     }
 }
 

@@ -81,25 +81,58 @@ pub fn run_in_memory(
     let mut summary = spec.map(|s| s.empty(grid));
     let work = Work::new(config, &desc.columns, &kinds, sigma)?;
     let mut metrics = metric_columns(rows, by);
-    let mut start = range.start;
-    while start < range.end {
-        let r = start..(start + chunk_poses).min(range.end);
-        let part = work.block(backend, r.clone(), rows, &mut metrics, &|| false)?;
-        if let (Some(table), Some(part)) = (&mut table, part) {
-            table.append(part)?;
+    let blocks: Vec<std::ops::Range<u64>> = (range.start..range.end)
+        .step_by(usize::try_from(chunk_poses).unwrap_or(usize::MAX))
+        .map(|s| s..(s + chunk_poses).min(range.end))
+        .collect();
+    // Adds block `r` (its table, when rows are asked for, and its metrics) to the results;
+    // returns whether to stop.
+    let mut add =
+        |r: std::ops::Range<u64>, part: Option<Table>, metrics: &sonarproj::MetricColumns| -> Result<bool> {
+            if let (Some(table), Some(part)) = (&mut table, part) {
+                table.append(part)?;
+            }
+            if let (Some(spec), Some(by), Some(total)) = (spec, by, &mut summary) {
+                let part = spec.partial(grid, r.start, &values(metrics, by))?;
+                spec.merge_into(total, &part, "in memory")?;
+            }
+            Ok(events(Event::Progress {
+                done: r.end - range.start,
+                total: poses,
+            })
+            .is_break())
+        };
+    if let Some(sweep) = work.sweep() {
+        // A grid's blocks one after the other, the device not waiting between them.
+        let mut failed = None;
+        let mut each = |r: std::ops::Range<u64>, metrics: &sonarproj::MetricColumns| {
+            let part = if rows {
+                work.rows(r.clone(), metrics).map(Some)
+            } else {
+                Ok(None)
+            };
+            match part.and_then(|part| add(r, part, metrics)) {
+                Ok(false) => ControlFlow::Continue(()),
+                Ok(true) => ControlFlow::Break(()),
+                Err(e) => {
+                    failed = Some(e);
+                    ControlFlow::Break(())
+                }
+            }
+        };
+        let flow = backend.project_blocks(&sweep, &blocks, &mut metrics, &|| false, &mut each)?;
+        if let Some(e) = failed {
+            return Err(e);
         }
-        if let (Some(spec), Some(by), Some(total)) = (spec, by, &mut summary) {
-            let part = spec.partial(grid, r.start, &values(&metrics, by))?;
-            spec.merge_into(total, &part, "in memory")?;
-        }
-        start = r.end;
-        if events(Event::Progress {
-            done: start - range.start,
-            total: poses,
-        })
-        .is_break()
-        {
+        if flow.is_break() {
             return Ok(None);
+        }
+    } else {
+        for r in blocks {
+            let part = work.block(backend, r.clone(), rows, &mut metrics, &|| false)?;
+            if add(r, part, &metrics)? {
+                return Ok(None);
+            }
         }
     }
     if let Some(s) = &mut summary {

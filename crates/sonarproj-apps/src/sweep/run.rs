@@ -21,16 +21,13 @@ use std::ops::{ControlFlow, Range};
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use sonarproj::Output;
 use sonarproj::limits::{MAX_CHUNK_POSES, MAX_CHUNKS};
 use sonarproj::local_precision::resolve_sigma_range;
 use sonarproj::metrics::Metric;
 use sonarproj::projection::Backend;
 
 use crate::error::{Error, Result};
-use crate::io::METRIC_COLUMNS;
 use crate::io::parquet::{Table, TableWriter};
-use crate::io::table::write_rows;
 use crate::report::{check_output_file, output_dir, remove_stale_temporaries};
 use crate::sweep::SweepConfig;
 use crate::sweep::compute::{Work, metric_columns, values};
@@ -42,7 +39,7 @@ use crate::sweep::records::{
 };
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::{PartSummary, Summary, fill_means};
-use crate::sweep::table::{Format, chunk_batch, column_kinds, csv_rows};
+use crate::sweep::table::{CsvChunk, Format, column_kinds};
 
 /// The default number of poses per chunk of a sweep that writes rows: one Parquet row group.
 pub const DEFAULT_CHUNK_POSES: u64 = crate::io::parquet::GROUP_ROWS;
@@ -504,15 +501,40 @@ pub fn run(
                 None => Ok(()),
             }
         };
-        for c in 0..n_chunks {
-            let r = &chunk(c);
-            let path = chunk_path(c);
+        // Starts writing computed chunk `k` (poses `r`: its table, the values its summary
+        // reduces) on a thread of its own; the caller has settled the chunk written before.
+        let spawn_writer = |k: u64, r: Range<u64>, (table, values): (Option<Table>, Option<Vec<f64>>)| {
+            let write_chunk = &write_chunk;
+            (k, scope.spawn(move || write_chunk(k, r, table, values)))
+        };
+        // Returns whether chunk `c`'s files are all good (a chunk of an earlier run), and the
+        // event that says a damaged one is computed again.
+        let checked = |c: u64| -> (bool, Option<Event>) {
             let files = chunk_files(c);
             let (damaged, status) = first_not_good(
                 &files.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
-                expected(r),
+                expected(&chunk(c)),
             );
-            if status == parts::Status::Good {
+            match status {
+                parts::Status::Good => (true, None),
+                parts::Status::Damaged(reason) => (
+                    false,
+                    Some(Event::Recomputing {
+                        file: damaged.to_path_buf(),
+                        reason,
+                    }),
+                ),
+                parts::Status::Missing => (false, None),
+            }
+        };
+        // A grid's chunks to Parquet or summaries are projected block after block, the device
+        // never waiting for the host between them (`Backend::project_blocks`).
+        let streamed = work.sweep().filter(|_| !(rows && opts.format == Format::Csv));
+        let mut c = 0;
+        while c < n_chunks {
+            let r = &chunk(c);
+            let (good, damaged) = checked(c);
+            if good {
                 outcome.resumed += r.end - r.start;
                 if joiner.is_some() {
                     settle(&mut writing, &mut total, &mut joiner)?;
@@ -526,48 +548,30 @@ pub fn run(
                     spec.check(&part, r.start, r.end - r.start, &context)?;
                     spec.merge_into(t, &part, &context)?;
                 }
-            } else {
-                if budget == 0 {
+                done += r.end - r.start;
+                c += 1;
+                if events(Event::Progress { done, total: poses }).is_break() {
                     settle(&mut writing, &mut total, &mut joiner)?;
                     return Ok(true);
                 }
-                budget -= 1;
-                if let parts::Status::Damaged(reason) = status
-                    && events(Event::Recomputing {
-                        file: damaged.to_path_buf(),
-                        reason,
-                    })
-                    .is_break()
-                {
-                    settle(&mut writing, &mut total, &mut joiner)?;
-                    return Ok(true);
-                }
-                // The chunk's table (Parquet) and the values the summary reduces, when one is
-                // asked for; a CSV chunk is written here.
-                let (table, values): (Option<Table>, Option<Vec<f64>>) = match (rows, opts.format) {
+                continue;
+            }
+            if budget == 0 || damaged.is_some_and(|e| events(e).is_break()) {
+                settle(&mut writing, &mut total, &mut joiner)?;
+                return Ok(true);
+            }
+            budget -= 1;
+            let Some(sweep) = &streamed else {
+                // A list's chunk (its items), or a chunk of CSV rows.
+                let outputs = match (rows, opts.format) {
                     (true, Format::Csv) => {
-                        let (poses, fields) = config.items(r.clone())?;
-                        let batch = chunk_batch(config, &poses);
-                        let results = backend.project(&batch, Output::MetricsOnly)?;
-                        let body = csv_rows(&batch, &poses, &fields, &results, sigma, &path)?;
-                        parts::write_chunk(&path, expected(r), |w| {
-                            write_rows(
-                                &mut *w,
-                                &header,
-                                &METRIC_COLUMNS,
-                                std::iter::empty::<(&[String], Vec<String>)>(),
-                            )?;
-                            w.write_all(&body).map_err(|e| Error::write_output(&path, e))
-                        })?;
-                        (
-                            None,
-                            by.map(|by| {
-                                results
-                                    .iter()
-                                    .map(|p| p.metrics.get(by).as_f64().unwrap_or(f64::NAN))
-                                    .collect()
-                            }),
-                        )
+                        let path = chunk_path(c);
+                        let csv = CsvChunk {
+                            config,
+                            header: &header,
+                            sigma,
+                        };
+                        (None, csv.write(backend, r.clone(), &path, expected(r), by)?)
                     }
                     (_, format) => {
                         let table = work.block(backend, r.clone(), rows, &mut metrics, &|| false)?;
@@ -576,15 +580,67 @@ pub fn run(
                     }
                 };
                 settle(&mut writing, &mut total, &mut joiner)?;
-                let (write_chunk, poses) = (&write_chunk, r.clone());
-                writing = Some((c, scope.spawn(move || write_chunk(c, poses, table, values))));
+                writing = Some(spawn_writer(c, r.clone(), outputs));
                 outcome.computed += r.end - r.start;
+                done += r.end - r.start;
+                c += 1;
+                if events(Event::Progress { done, total: poses }).is_break() {
+                    settle(&mut writing, &mut total, &mut joiner)?;
+                    return Ok(true);
+                }
+                continue;
+            };
+            // This chunk and the ones after it still to compute, within the budget.
+            let mut blocks = vec![r.clone()];
+            let mut stop = false;
+            while !stop && budget > 0 && c + (blocks.len() as u64) < n_chunks {
+                let d = c + blocks.len() as u64;
+                let (good, damaged) = checked(d);
+                if good {
+                    break;
+                }
+                stop = damaged.is_some_and(|e| events(e).is_break());
+                if !stop {
+                    budget -= 1;
+                    blocks.push(chunk(d));
+                }
             }
-            done += r.end - r.start;
-            if events(Event::Progress { done, total: poses }).is_break() {
+            let mut failed = None;
+            let mut k = c;
+            let flow =
+                backend.project_blocks(sweep, &blocks, &mut metrics, &|| false, &mut |r, metrics| {
+                    let mut step = || -> Result<bool> {
+                        let table = if rows {
+                            Some(work.rows(r.clone(), metrics)?)
+                        } else {
+                            None
+                        };
+                        let values = by.map(|by| values(metrics, by));
+                        settle(&mut writing, &mut total, &mut joiner)?;
+                        writing = Some(spawn_writer(k, r.clone(), (table, values)));
+                        outcome.computed += r.end - r.start;
+                        done += r.end - r.start;
+                        Ok(events(Event::Progress { done, total: poses }).is_break())
+                    };
+                    let outcome = step();
+                    k += 1;
+                    match outcome {
+                        Ok(false) => ControlFlow::Continue(()),
+                        Ok(true) => ControlFlow::Break(()),
+                        Err(e) => {
+                            failed = Some(e);
+                            ControlFlow::Break(())
+                        }
+                    }
+                })?;
+            if let Some(e) = failed {
+                return Err(e);
+            }
+            if flow.is_break() || stop {
                 settle(&mut writing, &mut total, &mut joiner)?;
                 return Ok(true);
             }
+            c += blocks.len() as u64;
         }
         settle(&mut writing, &mut total, &mut joiner)?;
         // The settings first: a result never stands without them. The table next, the summary

@@ -5,13 +5,17 @@ use std::path::Path;
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use sonarproj::projection::{Batch, Projection};
+use sonarproj::Output;
+use sonarproj::metrics::Metric;
+use sonarproj::projection::{Backend, Batch, Projection};
 
 use crate::error::{Error, Result};
 use crate::io::batch::{PoseRow, local_of};
 use crate::io::parquet::{Column, Kind, Table};
+use crate::io::table::write_rows;
 use crate::io::{METRIC_COLUMNS, metric_fields};
 use crate::sweep::SweepConfig;
+use crate::sweep::parts;
 
 /// The format of a sweep's tables.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
@@ -178,4 +182,43 @@ pub(crate) fn csv_rows(
         })
         .collect::<Result<_>>()?;
     Ok(blocks.concat())
+}
+/// A chunk of a sweep to CSV: its items projected and its rows written with their record.
+pub(crate) struct CsvChunk<'a> {
+    pub(crate) config: &'a SweepConfig,
+    pub(crate) header: &'a [String],
+    pub(crate) sigma: f64,
+}
+
+impl CsvChunk<'_> {
+    /// Projects poses `r` on `backend`, writes their rows into `path` (recorded as `expected`),
+    /// and returns the values of `by` when a summary reduces one.
+    pub(crate) fn write(
+        &self,
+        backend: &Backend,
+        r: std::ops::Range<u64>,
+        path: &Path,
+        expected: parts::Expected<'_>,
+        by: Option<Metric>,
+    ) -> Result<Option<Vec<f64>>> {
+        let (poses, fields) = self.config.items(r)?;
+        let batch = chunk_batch(self.config, &poses);
+        let results = backend.project(&batch, Output::MetricsOnly)?;
+        let body = csv_rows(&batch, &poses, &fields, &results, self.sigma, path)?;
+        parts::write_chunk(path, expected, |w| {
+            write_rows(
+                &mut *w,
+                self.header,
+                &METRIC_COLUMNS,
+                std::iter::empty::<(&[String], Vec<String>)>(),
+            )?;
+            w.write_all(&body).map_err(|e| Error::write_output(path, e))
+        })?;
+        Ok(by.map(|by| {
+            results
+                .iter()
+                .map(|p| p.metrics.get(by).as_f64().unwrap_or(f64::NAN))
+                .collect()
+        }))
+    }
 }

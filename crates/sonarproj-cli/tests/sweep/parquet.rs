@@ -87,63 +87,119 @@ fn parquet_holds_the_csv_values_and_merges_byte_for_byte() {
     }
 }
 
+/// A Parquet sweep is the same bytes whatever its chunks, on every backend (the GPU's chunks
+/// projected block after block with `Backend::project_blocks`).
+#[test]
+fn parquet_does_not_depend_on_the_chunk_size_on_any_backend() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = file(dir.path(), "2d.toml", GRID_2D);
+    for backend in common::cli_backends("cpu-fast") {
+        let args = |chunk: &'static str| {
+            [
+                "--backend",
+                backend,
+                "--format",
+                "parquet",
+                "--chunk-poses",
+                chunk,
+            ]
+        };
+        let whole = sweep(
+            &cfg,
+            &dir.path().join(format!("{backend}-all")),
+            &args("1000"),
+            "sweep.parquet",
+        );
+        for chunk in ["1", "7", "100"] {
+            let part = sweep(
+                &cfg,
+                &dir.path().join(format!("{backend}-{chunk}")),
+                &args(chunk),
+                "sweep.parquet",
+            );
+            assert!(
+                whole == part,
+                "{backend}: chunk size {chunk} changed sweep.parquet"
+            );
+        }
+    }
+}
+
 #[test]
 fn a_parquet_sweep_resumes_redoes_damaged_chunks_and_keeps_its_format() {
     use predicates::prelude::*;
     let dir = tempfile::tempdir().unwrap();
     let cfg = file(dir.path(), "2d.toml", GRID_2D);
-    let reference = sweep(
-        &cfg,
-        &dir.path().join("one"),
-        &["--backend", "cpu-fast", "--format", "parquet"],
-        "sweep.parquet",
-    );
-    let out = dir.path().join("o");
-    let args = [
-        "--backend",
-        "cpu-fast",
-        "--format",
-        "parquet",
-        "--chunk-poses",
-        "100",
-    ];
-    common::sonarproj()
-        .args(["sweep", "--config"])
-        .arg(&cfg)
-        .arg("--out")
-        .arg(&out)
-        .args(args)
-        .args(["--max-chunks", "3"])
-        .assert()
-        .success();
-    // Stopped: no result, and the result's temporary file (joined while the chunks were
-    // computed) is gone.
-    let left: Vec<String> = std::fs::read_dir(&out)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with("sweep.parquet") || n.ends_with(".tmp"))
-        .collect();
-    assert!(left.is_empty(), "{left:?}");
-    // Resuming as CSV is refused naming --format; the unfinished run is kept.
-    common::sonarproj()
-        .args(["sweep", "--config"])
-        .arg(&cfg)
-        .arg("--out")
-        .arg(&out)
-        .args(["--backend", "cpu-fast", "--chunk-poses", "100"])
-        .assert()
-        .code(2)
-        .stderr(predicates::str::contains("--format").and(predicates::str::contains("parquet")));
-    // One byte of chunk 1 changed: computed again; chunks 0 and 2 kept.
-    let chunk = out.join(".partial-sweep/chunk-00000001.parquet");
-    let mut bytes = std::fs::read(&chunk).unwrap();
-    let at = bytes.len() / 2;
-    bytes[at] ^= 0x55;
-    std::fs::write(&chunk, bytes).unwrap();
-    let stderr = sweep_stderr(&cfg, &out, &args);
-    assert!(stderr.contains("chunk-00000001.parquet is damaged"), "{stderr}");
-    assert!(!stderr.contains("chunk-00000000.parquet"), "{stderr}");
-    assert!(std::fs::read(out.join("sweep.parquet")).unwrap() == reference);
+    // On the GPU too: a resumed run's chunks are projected block after block around the ones
+    // kept (`Backend::project_blocks`), the same bytes as one run.
+    for backend in common::cli_backends("cpu-fast") {
+        let reference = sweep(
+            &cfg,
+            &dir.path().join(format!("{backend}-one")),
+            &["--backend", backend, "--format", "parquet"],
+            "sweep.parquet",
+        );
+        let out = dir.path().join(format!("{backend}-o"));
+        let args = [
+            "--backend",
+            backend,
+            "--format",
+            "parquet",
+            "--chunk-poses",
+            "100",
+        ];
+        common::sonarproj()
+            .args(["sweep", "--config"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&out)
+            .args(args)
+            .args(["--max-chunks", "3"])
+            .assert()
+            .success();
+        // Stopped: no result, and the result's temporary file (joined while the chunks were
+        // computed) is gone.
+        let left: Vec<String> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with("sweep.parquet") || n.ends_with(".tmp"))
+            .collect();
+        assert!(left.is_empty(), "{backend}: {left:?}");
+        assert!(
+            out.join(".partial-sweep/chunk-00000002.parquet").exists(),
+            "{backend}"
+        );
+        assert!(
+            !out.join(".partial-sweep/chunk-00000003.parquet").exists(),
+            "{backend}"
+        );
+        // Resuming as CSV is refused naming --format; the unfinished run is kept.
+        common::sonarproj()
+            .args(["sweep", "--config"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&out)
+            .args(["--backend", backend, "--chunk-poses", "100"])
+            .assert()
+            .code(2)
+            .stderr(predicates::str::contains("--format").and(predicates::str::contains("parquet")));
+        // One byte of chunk 1 changed: computed again; chunks 0 and 2 kept.
+        let chunk = out.join(".partial-sweep/chunk-00000001.parquet");
+        let mut bytes = std::fs::read(&chunk).unwrap();
+        let at = bytes.len() / 2;
+        bytes[at] ^= 0x55;
+        std::fs::write(&chunk, bytes).unwrap();
+        let stderr = sweep_stderr(&cfg, &out, &args);
+        assert!(
+            stderr.contains("chunk-00000001.parquet is damaged"),
+            "{backend}: {stderr}"
+        );
+        assert!(!stderr.contains("chunk-00000000.parquet"), "{backend}: {stderr}");
+        assert!(
+            std::fs::read(out.join("sweep.parquet")).unwrap() == reference,
+            "{backend}: resumed file differs"
+        );
+    }
 
     // Shards in both formats are not merged.
     let mixed = dir.path().join("mixed");
