@@ -163,6 +163,21 @@ fn column_bits(c: &MetricColumns, metric: Metric) -> Vec<u64> {
     }
 }
 
+/// Returns the reference, the fast CPU path and, where an adapter exists, the GPU twice: in
+/// chunks as large as it takes, and in chunks of 7 poses (slots copied back at each chunk's
+/// own offsets, the last chunk short, blocks cut into several chunks).
+fn every_backend() -> Vec<Backend> {
+    let mut backends = vec![Backend::Cpu, Backend::CpuFast];
+    if let Some(gpu) = common::gpu() {
+        let small = sonarproj::projection::gpu::GpuBackend::new(gpu.context().clone())
+            .unwrap()
+            .with_max_chunk_poses(7);
+        backends.push(Backend::Gpu(Box::new(gpu)));
+        backends.push(Backend::Gpu(Box::new(small)));
+    }
+    backends
+}
+
 /// Asserts `metric`'s column the same bits in `a` and `b`, naming the first pose that differs.
 fn same_column(a: &MetricColumns, b: &MetricColumns, metric: Metric, what: &str) {
     let (x, y) = (column_bits(a, metric), column_bits(b, metric));
@@ -183,15 +198,7 @@ fn same_column(a: &MetricColumns, b: &MetricColumns, metric: Metric, what: &str)
 /// reused between calls and ranges.
 #[test]
 fn a_metric_kept_alone_is_its_column_of_all() {
-    let mut backends = vec![Backend::Cpu, Backend::CpuFast];
-    if let Some(gpu) = common::gpu() {
-        // Chunks of 7 poses too: slots copied back at a chunk's own offsets, the last short.
-        let small = sonarproj::projection::gpu::GpuBackend::new(gpu.context().clone())
-            .unwrap()
-            .with_max_chunk_poses(7);
-        backends.push(Backend::Gpu(Box::new(gpu)));
-        backends.push(Backend::Gpu(Box::new(small)));
-    }
+    let backends = every_backend();
     for (a, b) in [("paper-fls", "paper-sss"), ("paper-sss", "paper-fls")] {
         let (source, target) = (common::preset(a), common::preset(b));
         let g = grid(&source, &target, false);
@@ -232,14 +239,7 @@ fn a_metric_kept_alone_is_its_column_of_all() {
 #[test]
 fn blocks_are_each_blocks_own_columns() {
     use std::ops::ControlFlow;
-    let mut backends = vec![Backend::Cpu, Backend::CpuFast];
-    if let Some(gpu) = common::gpu() {
-        let small = sonarproj::projection::gpu::GpuBackend::new(gpu.context().clone())
-            .unwrap()
-            .with_max_chunk_poses(7);
-        backends.push(Backend::Gpu(Box::new(gpu)));
-        backends.push(Backend::Gpu(Box::new(small)));
-    }
+    let backends = every_backend();
     let (source, target) = (common::preset("paper-fls"), common::preset("paper-sss"));
     let g = grid(&source, &target, false);
     let s = sweep(&source, &target, Sampling::Step(1.0), PoseSource::Grid(&g));

@@ -306,6 +306,9 @@ impl Backend {
             }
             end = b.end;
         }
+        if blocks.is_empty() {
+            return Ok(ControlFlow::Continue(()));
+        }
         if let (Backend::Gpu(g), PoseSource::Grid(grid)) = (self, sweep.poses) {
             let prepared = sweep.prepare_grid(grid)?;
             if stop() {

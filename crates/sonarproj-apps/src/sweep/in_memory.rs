@@ -12,6 +12,7 @@ use crate::sweep::SweepConfig;
 use crate::sweep::compute::{Work, metric_columns, values};
 use crate::sweep::records::descriptor;
 use crate::sweep::run::Event;
+use crate::sweep::run::RUN_BLOCKS;
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::Summary;
 use crate::sweep::table::column_kinds;
@@ -81,10 +82,17 @@ pub fn run_in_memory(
     let mut summary = spec.map(|s| s.empty(grid));
     let work = Work::new(config, &desc.columns, &kinds, sigma)?;
     let mut metrics = metric_columns(rows, by);
-    let blocks: Vec<std::ops::Range<u64>> = (range.start..range.end)
-        .step_by(usize::try_from(chunk_poses).unwrap_or(usize::MAX))
-        .map(|s| s..(s + chunk_poses).min(range.end))
-        .collect();
+    let mut next = range.start;
+    // The next `n` blocks at most (none at the end).
+    let mut take = |n: usize| -> Vec<std::ops::Range<u64>> {
+        let mut out = Vec::new();
+        while next < range.end && out.len() < n {
+            let r = next..(next + chunk_poses).min(range.end);
+            next = r.end;
+            out.push(r);
+        }
+        out
+    };
     // Adds block `r` (its table, when rows are asked for, and its metrics) to the results;
     // returns whether to stop.
     let mut add =
@@ -104,31 +112,37 @@ pub fn run_in_memory(
         };
     if let Some(sweep) = work.sweep() {
         // A grid's blocks one after the other, the device not waiting between them.
-        let mut failed = None;
-        let mut each = |r: std::ops::Range<u64>, metrics: &sonarproj::MetricColumns| {
-            let part = if rows {
-                work.rows(r.clone(), metrics).map(Some)
-            } else {
-                Ok(None)
-            };
-            match part.and_then(|part| add(r, part, metrics)) {
-                Ok(false) => ControlFlow::Continue(()),
-                Ok(true) => ControlFlow::Break(()),
-                Err(e) => {
-                    failed = Some(e);
-                    ControlFlow::Break(())
-                }
+        loop {
+            let blocks = take(RUN_BLOCKS);
+            if blocks.is_empty() {
+                break;
             }
-        };
-        let flow = backend.project_blocks(&sweep, &blocks, &mut metrics, &|| false, &mut each)?;
-        if let Some(e) = failed {
-            return Err(e);
-        }
-        if flow.is_break() {
-            return Ok(None);
+            let mut failed = None;
+            let mut each = |r: std::ops::Range<u64>, metrics: &sonarproj::MetricColumns| {
+                let part = if rows {
+                    work.rows(r.clone(), metrics).map(Some)
+                } else {
+                    Ok(None)
+                };
+                match part.and_then(|part| add(r, part, metrics)) {
+                    Ok(false) => ControlFlow::Continue(()),
+                    Ok(true) => ControlFlow::Break(()),
+                    Err(e) => {
+                        failed = Some(e);
+                        ControlFlow::Break(())
+                    }
+                }
+            };
+            let flow = backend.project_blocks(&sweep, &blocks, &mut metrics, &|| false, &mut each)?;
+            if let Some(e) = failed {
+                return Err(e);
+            }
+            if flow.is_break() {
+                return Ok(None);
+            }
         }
     } else {
-        for r in blocks {
+        while let Some(r) = take(1).pop() {
             let part = work.block(backend, r.clone(), rows, &mut metrics, &|| false)?;
             if add(r, part, &metrics)? {
                 return Ok(None);

@@ -41,6 +41,10 @@ use crate::sweep::shard::Shard;
 use crate::sweep::summary::{PartSummary, Summary, fill_means};
 use crate::sweep::table::{CsvChunk, Format, column_kinds};
 
+/// Most chunks projected in one run of blocks ([`Backend::project_blocks`]): the device goes on
+/// from one to the next without waiting, and the run's lists stay small however many chunks.
+pub(crate) const RUN_BLOCKS: usize = 256;
+
 /// The default number of poses per chunk of a sweep that writes rows: one Parquet row group.
 pub const DEFAULT_CHUNK_POSES: u64 = crate::io::parquet::GROUP_ROWS;
 
@@ -548,20 +552,75 @@ pub fn run(
                     spec.check(&part, r.start, r.end - r.start, &context)?;
                     spec.merge_into(t, &part, &context)?;
                 }
-                done += r.end - r.start;
-                c += 1;
-                if events(Event::Progress { done, total: poses }).is_break() {
+            } else {
+                if budget == 0 || damaged.is_some_and(|e| events(e).is_break()) {
                     settle(&mut writing, &mut total, &mut joiner)?;
                     return Ok(true);
                 }
-                continue;
-            }
-            if budget == 0 || damaged.is_some_and(|e| events(e).is_break()) {
-                settle(&mut writing, &mut total, &mut joiner)?;
-                return Ok(true);
-            }
-            budget -= 1;
-            let Some(sweep) = &streamed else {
+                budget -= 1;
+                if let Some(sweep) = &streamed {
+                    // This chunk and the ones after it still to compute, within the budget, at
+                    // most RUN_BLOCKS at a time; a damaged one's event is sent when its turn
+                    // comes (after the chunks before it are done, as one at a time would).
+                    let mut blocks = vec![r.clone()];
+                    let mut announce: Vec<Option<Event>> = vec![None];
+                    while budget > 0 && blocks.len() < RUN_BLOCKS && c + (blocks.len() as u64) < n_chunks {
+                        let d = c + blocks.len() as u64;
+                        let (good, damaged) = checked(d);
+                        if good {
+                            break;
+                        }
+                        budget -= 1;
+                        blocks.push(chunk(d));
+                        announce.push(damaged);
+                    }
+                    let mut failed = None;
+                    let mut k = c;
+                    let flow = backend.project_blocks(
+                        sweep,
+                        &blocks,
+                        &mut metrics,
+                        &|| false,
+                        &mut |r, metrics| {
+                            let mut step = || -> Result<bool> {
+                                let said = announce[usize::try_from(k - c).expect("a run's block")].take();
+                                if said.is_some_and(|e| events(e).is_break()) {
+                                    return Ok(true);
+                                }
+                                let table = if rows {
+                                    Some(work.rows(r.clone(), metrics)?)
+                                } else {
+                                    None
+                                };
+                                let values = by.map(|by| values(metrics, by));
+                                settle(&mut writing, &mut total, &mut joiner)?;
+                                writing = Some(spawn_writer(k, r.clone(), (table, values)));
+                                outcome.computed += r.end - r.start;
+                                done += r.end - r.start;
+                                Ok(events(Event::Progress { done, total: poses }).is_break())
+                            };
+                            let result = step();
+                            k += 1;
+                            match result {
+                                Ok(false) => ControlFlow::Continue(()),
+                                Ok(true) => ControlFlow::Break(()),
+                                Err(e) => {
+                                    failed = Some(e);
+                                    ControlFlow::Break(())
+                                }
+                            }
+                        },
+                    )?;
+                    if let Some(e) = failed {
+                        return Err(e);
+                    }
+                    if flow.is_break() {
+                        settle(&mut writing, &mut total, &mut joiner)?;
+                        return Ok(true);
+                    }
+                    c += blocks.len() as u64;
+                    continue;
+                }
                 // A list's chunk (its items), or a chunk of CSV rows.
                 let outputs = match (rows, opts.format) {
                     (true, Format::Csv) => {
@@ -582,65 +641,13 @@ pub fn run(
                 settle(&mut writing, &mut total, &mut joiner)?;
                 writing = Some(spawn_writer(c, r.clone(), outputs));
                 outcome.computed += r.end - r.start;
-                done += r.end - r.start;
-                c += 1;
-                if events(Event::Progress { done, total: poses }).is_break() {
-                    settle(&mut writing, &mut total, &mut joiner)?;
-                    return Ok(true);
-                }
-                continue;
-            };
-            // This chunk and the ones after it still to compute, within the budget.
-            let mut blocks = vec![r.clone()];
-            let mut stop = false;
-            while !stop && budget > 0 && c + (blocks.len() as u64) < n_chunks {
-                let d = c + blocks.len() as u64;
-                let (good, damaged) = checked(d);
-                if good {
-                    break;
-                }
-                stop = damaged.is_some_and(|e| events(e).is_break());
-                if !stop {
-                    budget -= 1;
-                    blocks.push(chunk(d));
-                }
             }
-            let mut failed = None;
-            let mut k = c;
-            let flow =
-                backend.project_blocks(sweep, &blocks, &mut metrics, &|| false, &mut |r, metrics| {
-                    let mut step = || -> Result<bool> {
-                        let table = if rows {
-                            Some(work.rows(r.clone(), metrics)?)
-                        } else {
-                            None
-                        };
-                        let values = by.map(|by| values(metrics, by));
-                        settle(&mut writing, &mut total, &mut joiner)?;
-                        writing = Some(spawn_writer(k, r.clone(), (table, values)));
-                        outcome.computed += r.end - r.start;
-                        done += r.end - r.start;
-                        Ok(events(Event::Progress { done, total: poses }).is_break())
-                    };
-                    let outcome = step();
-                    k += 1;
-                    match outcome {
-                        Ok(false) => ControlFlow::Continue(()),
-                        Ok(true) => ControlFlow::Break(()),
-                        Err(e) => {
-                            failed = Some(e);
-                            ControlFlow::Break(())
-                        }
-                    }
-                })?;
-            if let Some(e) = failed {
-                return Err(e);
-            }
-            if flow.is_break() || stop {
+            done += r.end - r.start;
+            c += 1;
+            if events(Event::Progress { done, total: poses }).is_break() {
                 settle(&mut writing, &mut total, &mut joiner)?;
                 return Ok(true);
             }
-            c += blocks.len() as u64;
         }
         settle(&mut writing, &mut total, &mut joiner)?;
         // The settings first: a result never stands without them. The table next, the summary

@@ -1,0 +1,126 @@
+//! What a sweep run reports while it works, when its chunks are projected block after block
+//! (`Backend::project_blocks`): a resumed run's events in chunk order (a damaged chunk's
+//! `Recomputing` just before its own `Progress`, not ahead of the chunks before it), and a
+//! `Break` answered to one stops the run there.
+
+use std::ops::ControlFlow;
+use std::path::Path;
+
+use sonarproj::Backend;
+use sonarproj_apps::sweep::{Event, Format, Options, SweepConfig, run};
+
+const GRID: &str = r#"
+from = "paper-fls"
+to = "paper-sss"
+step = 1
+[feature]
+range = 5
+[place]
+range = 10
+[rotation]
+roll = { start = 0, stop = 99, step = 1 }
+"#;
+
+fn options(out: &Path, max_chunks: Option<u64>) -> Options {
+    Options {
+        out: out.to_path_buf(),
+        shard: None,
+        chunk_poses: Some(10),
+        max_chunks,
+        format: Format::Parquet,
+    }
+}
+
+/// Returns the run's events, answered `Continue` until `stop_at` says otherwise.
+fn events_of(
+    config: &SweepConfig,
+    backend: &Backend,
+    opts: &Options,
+    stop_at: &dyn Fn(&Event) -> bool,
+) -> Vec<Event> {
+    let mut seen = Vec::new();
+    run(config, backend, opts, &mut |e| {
+        let stop = stop_at(&e);
+        seen.push(e);
+        if stop {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+    .unwrap();
+    seen
+}
+
+/// Damages chunk `c` of the unfinished run in `out` (one byte flipped).
+fn damage(out: &Path, c: u64) {
+    let chunk = out.join(format!(".partial-sweep/chunk-{c:08}.parquet"));
+    let mut bytes = std::fs::read(&chunk).unwrap();
+    let at = bytes.len() / 2;
+    bytes[at] ^= 0x55;
+    std::fs::write(&chunk, bytes).unwrap();
+}
+
+/// A short name of an event: `P<done>` or `R<chunk>`.
+fn name(e: &Event) -> String {
+    match e {
+        Event::Progress { done, .. } => format!("P{done}"),
+        Event::Recomputing { file, .. } => {
+            let f = file.file_name().unwrap().to_string_lossy();
+            format!(
+                "R{}",
+                f.trim_start_matches("chunk-")
+                    .trim_end_matches(".parquet")
+                    .trim_start_matches('0')
+            )
+        }
+        _ => "?".into(),
+    }
+}
+
+#[test]
+fn a_resumed_run_reports_its_chunks_in_order_and_stops_where_told() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = SweepConfig::parse("grid.toml", GRID, dir.path()).unwrap();
+    let mut backends = vec![Backend::CpuFast];
+    if let Some(gpu) = sonarproj_testkit::gpu() {
+        backends.push(Backend::Gpu(Box::new(gpu)));
+    }
+    for backend in &backends {
+        let out = dir.path().join(backend.name());
+        // Chunks 0–5 of ten; then 2 and 3 damaged (projected as one run of blocks, with the
+        // missing 6–9 as another).
+        events_of(&config, backend, &options(&out, Some(6)), &|_| false);
+        damage(&out, 2);
+        damage(&out, 3);
+        let got: Vec<String> = events_of(&config, backend, &options(&out, None), &|_| false)
+            .iter()
+            .map(name)
+            .collect();
+        let want = [
+            "P10", "P20", "R2", "P30", "R3", "P40", "P50", "P60", "P70", "P80", "P90", "P100",
+        ];
+        assert_eq!(got, want, "{}", backend.name());
+        // Again, with 2 and 3 damaged, told to stop at the news of chunk 3: nothing after it.
+        let again = dir.path().join(format!("{}-again", backend.name()));
+        events_of(&config, backend, &options(&again, Some(6)), &|_| false);
+        damage(&again, 2);
+        damage(&again, 3);
+        let got: Vec<String> = events_of(
+            &config,
+            backend,
+            &options(&again, None),
+            &|e| matches!(e, Event::Recomputing { file, .. } if file.ends_with("chunk-00000003.parquet")),
+        )
+        .iter()
+        .map(name)
+        .collect();
+        assert_eq!(got, ["P10", "P20", "R2", "P30", "R3"], "{}", backend.name());
+        // Chunk 3 was not written again: still damaged, reported by the next run.
+        let got: Vec<String> = events_of(&config, backend, &options(&again, None), &|_| false)
+            .iter()
+            .map(name)
+            .collect();
+        assert_eq!(got[..5], ["P10", "P20", "P30", "R3", "P40"], "{}", backend.name());
+    }
+}
