@@ -192,6 +192,9 @@ pub struct SweepTiming {
     /// Of that same run, the host's time waiting for the GPU's chunks and unpacking their
     /// metrics; `None` on the CPU backends.
     pub host: Option<sonarproj::projection::gpu::HostTime>,
+    /// Of one more sweep with summaries only, timed as `device` and `host` are: the device's
+    /// time and the host's; `None` on the CPU backends or when summaries are not measured.
+    pub summary_gpu: Option<(Option<Duration>, sonarproj::projection::gpu::HostTime)>,
 }
 
 /// Which of `bench sweep`'s measures to take besides the projection (each `true`: taken).
@@ -314,10 +317,22 @@ pub fn time_sweep(
         .parquet
         .then(|| median(runs, &mut || sweep_into(&rows)))
         .transpose()?;
-    let summaries = measures
+    let summary_time = measures
         .summaries
         .then(|| median(runs, &mut || sweep_into(&summaries)))
         .transpose()?;
+    let summary_gpu = match backend {
+        Backend::Gpu(g) if measures.summaries => {
+            g.time_device(true);
+            let run = sweep_into(&summaries);
+            let (device, host) = (g.device_time(), g.host_time());
+            g.time_device(false);
+            run?;
+            Some((device, host))
+        }
+        _ => None,
+    };
+    let summaries = summary_time;
     Ok(SweepTiming {
         poses: n,
         samples,
@@ -327,6 +342,7 @@ pub fn time_sweep(
         summaries,
         device,
         host,
+        summary_gpu,
     })
 }
 

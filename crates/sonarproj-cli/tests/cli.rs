@@ -693,3 +693,67 @@ fn a_holoocean_sensor_file_is_a_sonar_with_its_frames_shape() {
         &["HoloOcean ImagingSonar: \"RangeMAx\"", "not a key"],
     );
 }
+
+/// `bench sweep` times every measure on each backend asked for, and on the GPU the summaries
+/// sweep once more on the device's clock and the host's (what a lease reads to see where a
+/// sweep's time goes).
+#[test]
+fn bench_sweep_times_each_measure_and_the_gpus_summary_sweep() {
+    let backends = common::cli_backends("cpu-fast").join(",");
+    let out = common::sonarproj()
+        .args([
+            "bench",
+            "sweep",
+            "--runs",
+            "1",
+            "--poses",
+            "1000",
+            "--backends",
+            &backends,
+        ])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    let row = |label: &str| {
+        text.lines()
+            .map(|l| l.split_whitespace().collect::<Vec<_>>())
+            .find(|c| c.first() == Some(&label) && c.get(1).is_some_and(|p| p.parse::<u64>().is_ok()))
+    };
+    // The grid's smallest size: roll × pitch 100 × 100 and one yaw.
+    let cpu = row("cpu-fast").unwrap_or_else(|| panic!("no cpu-fast row:\n{text}"));
+    assert_eq!(cpu[1], "10000", "{text}");
+    assert!(
+        cpu.iter().filter(|c| **c == "-").count() == 3,
+        "cpu: no device, wait, unpack\n{text}"
+    );
+    if let Some(g) = common::gpu() {
+        let label = if g.context().is_software() {
+            "gpu-sw"
+        } else {
+            "gpu"
+        };
+        let gpu = row(label).unwrap_or_else(|| panic!("no {label} row:\n{text}"));
+        // Every measure taken: no "-" left but where the adapter has no timestamp queries.
+        let device = g
+            .context()
+            .device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY);
+        assert_eq!(
+            gpu.iter().filter(|c| **c == "-").count(),
+            usize::from(!device),
+            "{text}"
+        );
+        let note = format!("{label} summary sweep, one more timed run: device ");
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&note))
+            .unwrap_or_else(|| panic!("{text}"));
+        assert!(line.contains(", wait ") && line.contains(", unpack "), "{line}");
+    } else {
+        assert!(!text.contains("summary sweep, one more timed run"), "{text}");
+    }
+}

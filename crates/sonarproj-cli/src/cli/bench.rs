@@ -232,8 +232,18 @@ fn sweep_table(
         "summary (s)",
         "ratio"
     )?;
+    let mut notes = Vec::new();
     for b in backends {
         let t = bench::time_sweep(b, poses, block, runs, measures)?;
+        if let Some((device, host)) = t.summary_gpu {
+            let device = device.map_or("-".to_string(), |d| format!("{:.3} s", d.as_secs_f64()));
+            notes.push(format!(
+                "{} summary sweep, one more timed run: device {device}, wait {:.3} s, unpack {:.3} s",
+                b.label(),
+                host.wait.as_secs_f64(),
+                host.unpack.as_secs_f64()
+            ));
+        }
         let secs = |d: std::time::Duration| d.as_secs_f64();
         // A measure's seconds and its multiple of the projection ("-" where not taken).
         let time = |d: Option<std::time::Duration>| d.map_or("-".to_string(), |d| format!("{:.3}", secs(d)));
@@ -263,6 +273,9 @@ fn sweep_table(
             time(t.summaries),
             ratio(t.summaries)
         )?;
+    }
+    for note in notes {
+        outln!("{note}")?;
     }
     outln!(
         "\nproject: the grid decoded where the work runs, metric columns out; device: of project, \
