@@ -40,6 +40,11 @@ pub struct MetricColumns {
 /// Every metric's bit set.
 const ALL: u16 = (1 << crate::metrics::METRICS.len()) - 1;
 
+/// Returns whether the set of columns `kept` holds `metric`'s.
+fn has(kept: u16, metric: Metric) -> bool {
+    kept & 1 << metric as u16 != 0
+}
+
 impl Default for MetricColumns {
     /// Returns empty columns, every one kept.
     fn default() -> Self {
@@ -120,21 +125,16 @@ impl MetricColumns {
     /// Returns whether the column of `metric` is kept.
     #[must_use]
     pub fn keeps(&self, metric: Metric) -> bool {
-        self.kept & 1 << metric as u16 != 0
+        has(self.kept, metric)
     }
 
     fn reserve(&mut self, n: usize) {
         let kept = self.kept;
-        let keeps = |m: Metric| kept & 1 << m as u16 != 0;
         for (m, c) in self.counts_mut() {
-            if keeps(m) {
-                c.reserve(n);
-            }
+            c.reserve(if has(kept, m) { n } else { 0 });
         }
         for (m, c) in self.reals_mut() {
-            if keeps(m) {
-                c.reserve(n);
-            }
+            c.reserve(if has(kept, m) { n } else { 0 });
         }
     }
 
@@ -181,12 +181,11 @@ impl MetricColumns {
     /// Sets the number of rows to `n` (new rows of the kept columns are zero).
     pub(crate) fn resize(&mut self, n: usize) {
         let kept = self.kept;
-        let keeps = |m: Metric| kept & 1 << m as u16 != 0;
         for (m, c) in self.counts_mut() {
-            c.resize(if keeps(m) { n } else { 0 }, 0);
+            c.resize(if has(kept, m) { n } else { 0 }, 0);
         }
         for (m, c) in self.reals_mut() {
-            c.resize(if keeps(m) { n } else { 0 }, 0.0);
+            c.resize(if has(kept, m) { n } else { 0 }, 0.0);
         }
         self.rows = n;
     }

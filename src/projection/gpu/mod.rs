@@ -1,8 +1,8 @@
 //! The GPU backend: WGSL compute shaders through wgpu. A batch is cut into chunks that fit the
 //! device; each chunk is one submission of two stages (splat, reduce) and reads back the metric
 //! slots the caller's columns need, at most 32 bytes a pose (plus the bitsets only when
-//! occupancy is asked for). The CPU twin of the two
-//! stages is [`crate::projection::fast`], block culling included.
+//! occupancy is asked for). The CPU twin of the two stages is [`crate::projection::fast`],
+//! block culling included.
 #![expect(
     clippy::cast_possible_truncation,
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose and counts are bounded by the device limits checked before packing"
@@ -328,9 +328,9 @@ impl GpuBackend {
         Ok(out)
     }
 
-    /// Projects poses `blocks` of a prepared grid (ranges in increasing order, none empty) block by block
-    /// into `out` (its rows replaced by each block's), handing each block's columns to `each` as
-    /// soon as its last chunk is unpacked: each chunk's poses decoded on the device by the poses
+    /// Projects poses `blocks` of a prepared grid (ranges in increasing order, none empty) block
+    /// by block into `out` (its rows replaced by each block's), handing each block's columns to
+    /// `each` as soon as its last chunk is unpacked: each chunk's poses decoded on the device by the poses
     /// stage (`shaders/poses.wgsl`) from tables built once in f64, none packed or uploaded by
     /// the host, and the next block's first chunk already on the device while `each` runs (the
     /// device does not wait between blocks). Returns `Break` as soon as `each` does.
@@ -391,7 +391,12 @@ impl GpuBackend {
         range: std::ops::Range<u64>,
         out: &mut MetricColumns,
     ) -> Result<()> {
-        out.resize(0);
+        // No rows for no poses (a block is never empty); else the block's first chunk sets them,
+        // the rows kept from the last call not zeroed first.
+        if range.is_empty() {
+            out.resize(0);
+            return Ok(());
+        }
         self.project_grid_blocks(prepared, &[range], out, &mut |_, _| ControlFlow::Continue(()))
             .map(|_| ())
     }
