@@ -6,6 +6,7 @@ use sonarproj::Output;
 use std::time::{Duration, Instant};
 
 use crate::error::{Error, Result};
+use crate::sweep::run::RUN_BLOCKS;
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::Sonar;
 use sonarproj::projection::Backend;
@@ -173,8 +174,8 @@ pub struct SweepTiming {
     pub poses: u64,
     /// Samples drawn.
     pub samples: u64,
-    /// Projecting the poses into metric columns, the grid decoded where the work runs
-    /// ([`Backend::project_columns`]), block by block: the sweep's own computation.
+    /// Projecting the poses into metric columns, the grid decoded where the work runs, block
+    /// after block as a sweep does ([`Backend::project_blocks`]): the sweep's own computation.
     pub decoded: Duration,
     /// Projecting the same poses as batches of items (built, packed and unpacked by the host:
     /// the per-item path), block by block; `None` when not asked for.
@@ -260,29 +261,25 @@ pub fn time_sweep(
     let blocks = || (0..n.div_ceil(block)).map(move |b| b * block..((b + 1) * block).min(n));
     let mut samples = 0;
     let mut columns = sonarproj::MetricColumns::default();
-    // Block after block as a sweep projects them (`Backend::project_blocks`).
-    let all: Vec<std::ops::Range<u64>> = blocks().collect();
     let mut decoded = || -> Result<()> {
         samples = 0;
-        // Every block is taken: the flow is always `Continue`.
-        let _ = backend.project_blocks(&sweep, &all, &mut columns, &|| false, &mut |_, c| {
-            samples += c.total.iter().sum::<u64>();
-            std::ops::ControlFlow::Continue(())
-        })?;
-        Ok(())
+        // Block after block as a sweep projects them, RUN_BLOCKS at a time.
+        let mut all = blocks();
+        loop {
+            let run: Vec<_> = all.by_ref().take(RUN_BLOCKS).collect();
+            if run.is_empty() {
+                return Ok(());
+            }
+            // Every block is taken: the flow is always `Continue`.
+            let _ = backend.project_blocks(&sweep, &run, &mut columns, &|| false, &mut |_, c| {
+                samples += c.total.iter().sum::<u64>();
+                std::ops::ControlFlow::Continue(())
+            })?;
+        }
     };
     let decoded_time = median(runs, &mut decoded)?;
-    let (device, host) = match backend {
-        Backend::Gpu(g) => {
-            g.time_device(true);
-            let run = decoded();
-            let (device, host) = (g.device_time(), g.host_time());
-            g.time_device(false);
-            run?;
-            (device, Some(host))
-        }
-        _ => (None, None),
-    };
+    let timed = on_gpu_clock(backend, &mut decoded)?;
+    let (device, host) = (timed.and_then(|t| t.0), timed.map(|t| t.1));
     let decoded = decoded_time;
     let per_item = measures
         .per_item
@@ -317,22 +314,12 @@ pub fn time_sweep(
         .parquet
         .then(|| median(runs, &mut || sweep_into(&rows)))
         .transpose()?;
-    let summary_time = measures
-        .summaries
-        .then(|| median(runs, &mut || sweep_into(&summaries)))
-        .transpose()?;
-    let summary_gpu = match backend {
-        Backend::Gpu(g) if measures.summaries => {
-            g.time_device(true);
-            let run = sweep_into(&summaries);
-            let (device, host) = (g.device_time(), g.host_time());
-            g.time_device(false);
-            run?;
-            Some((device, host))
-        }
-        _ => None,
+    let (summaries, summary_gpu) = if measures.summaries {
+        let time = median(runs, &mut || sweep_into(&summaries))?;
+        (Some(time), on_gpu_clock(backend, &mut || sweep_into(&summaries))?)
+    } else {
+        (None, None)
     };
-    let summaries = summary_time;
     Ok(SweepTiming {
         poses: n,
         samples,
@@ -344,6 +331,22 @@ pub fn time_sweep(
         host,
         summary_gpu,
     })
+}
+
+/// Returns, on the GPU, the device's time (`None` without timestamp queries) and the host's of
+/// one more call of `f`, timed by the backend; `None` on the CPU backends.
+fn on_gpu_clock(
+    backend: &Backend,
+    f: &mut dyn FnMut() -> Result<()>,
+) -> Result<Option<(Option<Duration>, sonarproj::projection::gpu::HostTime)>> {
+    let Backend::Gpu(g) = backend else {
+        return Ok(None);
+    };
+    g.time_device(true);
+    let run = f();
+    let (device, host) = (g.device_time(), g.host_time());
+    g.time_device(false);
+    run.map(|()| Some((device, host)))
 }
 
 /// Returns the median time of `runs` calls of `f`, after one warm-up call.

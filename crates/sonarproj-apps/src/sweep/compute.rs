@@ -3,7 +3,7 @@
 //! ([`Backend::project_columns`]: no item, no per-pose result object); a list's items are
 //! projected as a batch.
 
-use std::ops::Range;
+use std::ops::{ControlFlow, Range};
 
 use sonarproj::projection::poses::item_of;
 use sonarproj::projection::{Backend, ColumnRef, MetricColumns, PoseGrid, PoseSource, PoseSweep};
@@ -52,6 +52,31 @@ pub(crate) fn metric_columns(rows: bool, by: Option<sonarproj::Metric>) -> Metri
         (false, Some(by)) => MetricColumns::only(&[by]),
         _ => MetricColumns::default(),
     }
+}
+
+/// Projects `blocks` of `sweep` on `backend` one after the other ([`Backend::project_blocks`]),
+/// handing each block's columns to `each`, which returns whether to stop; returns whether it
+/// did, or its first error.
+///
+/// # Errors
+/// As [`Backend::project_blocks`]; `each`'s first error.
+pub(crate) fn for_blocks(
+    backend: &Backend,
+    sweep: &PoseSweep<'_>,
+    blocks: &[Range<u64>],
+    metrics: &mut MetricColumns,
+    each: &mut dyn FnMut(Range<u64>, &MetricColumns) -> Result<bool>,
+) -> Result<bool> {
+    let mut failed = None;
+    let flow = backend.project_blocks(sweep, blocks, metrics, &|| false, &mut |r, m| match each(r, m) {
+        Ok(false) => ControlFlow::Continue(()),
+        Ok(true) => ControlFlow::Break(()),
+        Err(e) => {
+            failed = Some(e);
+            ControlFlow::Break(())
+        }
+    })?;
+    failed.map_or(Ok(flow.is_break()), Err)
 }
 
 impl<'a> Work<'a> {

@@ -9,7 +9,7 @@ use sonarproj::projection::Backend;
 use crate::error::{Error, Result};
 use crate::io::parquet::Table;
 use crate::sweep::SweepConfig;
-use crate::sweep::compute::{Work, metric_columns, values};
+use crate::sweep::compute::{Work, for_blocks, metric_columns, values};
 use crate::sweep::records::descriptor;
 use crate::sweep::run::Event;
 use crate::sweep::run::RUN_BLOCKS;
@@ -117,27 +117,15 @@ pub fn run_in_memory(
             if blocks.is_empty() {
                 break;
             }
-            let mut failed = None;
             let mut each = |r: std::ops::Range<u64>, metrics: &sonarproj::MetricColumns| {
                 let part = if rows {
-                    work.rows(r.clone(), metrics).map(Some)
+                    Some(work.rows(r.clone(), metrics)?)
                 } else {
-                    Ok(None)
+                    None
                 };
-                match part.and_then(|part| add(r, part, metrics)) {
-                    Ok(false) => ControlFlow::Continue(()),
-                    Ok(true) => ControlFlow::Break(()),
-                    Err(e) => {
-                        failed = Some(e);
-                        ControlFlow::Break(())
-                    }
-                }
+                add(r, part, metrics)
             };
-            let flow = backend.project_blocks(&sweep, &blocks, &mut metrics, &|| false, &mut each)?;
-            if let Some(e) = failed {
-                return Err(e);
-            }
-            if flow.is_break() {
+            if for_blocks(backend, &sweep, &blocks, &mut metrics, &mut each)? {
                 return Ok(None);
             }
         }

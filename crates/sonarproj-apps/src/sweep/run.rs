@@ -30,7 +30,7 @@ use crate::error::{Error, Result};
 use crate::io::parquet::{Table, TableWriter};
 use crate::report::{check_output_file, output_dir, remove_stale_temporaries};
 use crate::sweep::SweepConfig;
-use crate::sweep::compute::{Work, metric_columns, values};
+use crate::sweep::compute::{Work, for_blocks, metric_columns, values};
 use crate::sweep::figure::{figure, figure_of_marginal};
 use crate::sweep::parts::{self, final_encoding, write_json};
 use crate::sweep::records::{
@@ -574,47 +574,27 @@ pub fn run(
                         blocks.push(chunk(d));
                         announce.push(damaged);
                     }
-                    let mut failed = None;
                     let mut k = c;
-                    let flow = backend.project_blocks(
-                        sweep,
-                        &blocks,
-                        &mut metrics,
-                        &|| false,
-                        &mut |r, metrics| {
-                            let mut step = || -> Result<bool> {
-                                let said = announce[usize::try_from(k - c).expect("a run's block")].take();
-                                if said.is_some_and(|e| events(e).is_break()) {
-                                    return Ok(true);
-                                }
-                                let table = if rows {
-                                    Some(work.rows(r.clone(), metrics)?)
-                                } else {
-                                    None
-                                };
-                                let values = by.map(|by| values(metrics, by));
-                                settle(&mut writing, &mut total, &mut joiner)?;
-                                writing = Some(spawn_writer(k, r.clone(), (table, values)));
-                                outcome.computed += r.end - r.start;
-                                done += r.end - r.start;
-                                Ok(events(Event::Progress { done, total: poses }).is_break())
-                            };
-                            let result = step();
-                            k += 1;
-                            match result {
-                                Ok(false) => ControlFlow::Continue(()),
-                                Ok(true) => ControlFlow::Break(()),
-                                Err(e) => {
-                                    failed = Some(e);
-                                    ControlFlow::Break(())
-                                }
-                            }
-                        },
-                    )?;
-                    if let Some(e) = failed {
-                        return Err(e);
-                    }
-                    if flow.is_break() {
+                    let stopped = for_blocks(backend, sweep, &blocks, &mut metrics, &mut |r, metrics| {
+                        let this = k;
+                        k += 1;
+                        let said = announce[usize::try_from(this - c).expect("a run's block")].take();
+                        if said.is_some_and(|e| events(e).is_break()) {
+                            return Ok(true);
+                        }
+                        let table = if rows {
+                            Some(work.rows(r.clone(), metrics)?)
+                        } else {
+                            None
+                        };
+                        let values = by.map(|by| values(metrics, by));
+                        settle(&mut writing, &mut total, &mut joiner)?;
+                        writing = Some(spawn_writer(this, r.clone(), (table, values)));
+                        outcome.computed += r.end - r.start;
+                        done += r.end - r.start;
+                        Ok(events(Event::Progress { done, total: poses }).is_break())
+                    })?;
+                    if stopped {
                         settle(&mut writing, &mut total, &mut joiner)?;
                         return Ok(true);
                     }

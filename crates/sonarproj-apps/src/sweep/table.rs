@@ -183,6 +183,7 @@ pub(crate) fn csv_rows(
         .collect::<Result<_>>()?;
     Ok(blocks.concat())
 }
+
 /// A chunk of a sweep to CSV: its items projected and its rows written with their record.
 pub(crate) struct CsvChunk<'a> {
     pub(crate) config: &'a SweepConfig,
