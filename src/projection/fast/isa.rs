@@ -62,8 +62,9 @@ fn draw_pose_avx2<const BEAMS: bool>(
     geo: &Geometry<'_>,
     dirs: &Directions,
     pose: PoseArgs,
+    azimuths: bool,
 ) -> (u64, Extremes) {
-    s.draw_pose::<BEAMS>(geo, dirs, pose)
+    s.draw_pose::<BEAMS>(geo, dirs, pose, azimuths)
 }
 
 /// [`Scratch::draw_pose`] compiled for AVX-512 (eight f64 lanes a vector), the same bits again.
@@ -74,8 +75,9 @@ fn draw_pose_avx512<const BEAMS: bool>(
     geo: &Geometry<'_>,
     dirs: &Directions,
     pose: PoseArgs,
+    azimuths: bool,
 ) -> (u64, Extremes) {
-    s.draw_pose::<BEAMS>(geo, dirs, pose)
+    s.draw_pose::<BEAMS>(geo, dirs, pose, azimuths)
 }
 
 /// Runs [`Scratch::draw_pose`] in the build `isa` names (which this processor runs:
@@ -86,14 +88,15 @@ pub(super) fn draw_pose<const BEAMS: bool>(
     geo: &Geometry<'_>,
     dirs: &Directions,
     pose: PoseArgs,
+    azimuths: bool,
 ) -> (u64, Extremes) {
     match isa {
-        Isa::Baseline => s.draw_pose::<BEAMS>(geo, dirs, pose),
+        Isa::Baseline => s.draw_pose::<BEAMS>(geo, dirs, pose, azimuths),
         // SAFETY: `isa` came from `Isa::detect` or `Isa::available`, which saw the processor run
         // these instructions.
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { draw_pose_avx2::<BEAMS>(s, geo, dirs, pose) },
+        Isa::Avx2 => unsafe { draw_pose_avx2::<BEAMS>(s, geo, dirs, pose, azimuths) },
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { draw_pose_avx512::<BEAMS>(s, geo, dirs, pose) },
+        Isa::Avx512 => unsafe { draw_pose_avx512::<BEAMS>(s, geo, dirs, pose, azimuths) },
     }
 }

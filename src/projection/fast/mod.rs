@@ -156,7 +156,7 @@ impl<'a> std::ops::Deref for Geometry<'a> {
 /// [`Output::WithOccupancy`] each carries its occupancy buffer.
 #[must_use]
 pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> {
-    project_with(prepared, output == Output::WithOccupancy, Isa::detect())
+    project_with(prepared, Keep::all(output), Isa::detect())
 }
 
 /// [`project`], given up (`None`) once `stop` returns true: it is asked before each pose and
@@ -167,13 +167,7 @@ pub fn project_until(
     output: Output,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Option<Vec<Projection>> {
-    project_tiled_batch(
-        prepared,
-        output == Output::WithOccupancy,
-        Isa::detect(),
-        TILE_SAMPLES,
-        stop,
-    )
+    project_tiled_batch(prepared, Keep::all(output), Isa::detect(), TILE_SAMPLES, stop)
 }
 
 /// The most samples whose tables (about 60 bytes a sample) are built at once. A plan with
@@ -183,8 +177,28 @@ pub fn project_until(
 pub(crate) const TILE_SAMPLES: usize = 1 << 20;
 
 /// [`project`], with the lane stage built for `isa` (tests run every build).
-fn project_with(prepared: &PreparedBatch<'_>, keep_occupancy: bool, isa: Isa) -> Vec<Projection> {
-    project_tiled_batch(prepared, keep_occupancy, isa, TILE_SAMPLES, &|| false).expect("never stopped")
+fn project_with(prepared: &PreparedBatch<'_>, keep: Keep, isa: Isa) -> Vec<Projection> {
+    project_tiled_batch(prepared, keep, isa, TILE_SAMPLES, &|| false).expect("never stopped")
+}
+
+/// What a projection keeps besides the visible count and the ranges' extremes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Keep {
+    /// Each pose's occupancy buffer (and cells), returned with its metrics.
+    occupancy: bool,
+    /// The azimuths' extremes: their exact `atan2`s take a tenth of a sidescan sweep's time,
+    /// for nothing when no one reads them.
+    azimuths: bool,
+}
+
+impl Keep {
+    /// Returns what a batch keeps: every metric, the occupancy when `output` asks for it.
+    fn all(output: Output) -> Self {
+        Keep {
+            occupancy: output == Output::WithOccupancy,
+            azimuths: true,
+        }
+    }
 }
 
 /// The poses a projection draws, whatever their source: how many, each one's plan, and each
@@ -283,13 +297,17 @@ pub(crate) fn project_grid(
         plan_of_range: &prepared.plan_of_range,
     };
     out.resize(count);
+    let keep = Keep {
+        occupancy: false,
+        azimuths: out.keeps(crate::Metric::AzimuthMin) || out.keeps(crate::Metric::AzimuthMax),
+    };
     let blocks = out.slices(0..count).chunks(POSE_BLOCK);
     let large = project_tiled(
         &poses,
         &prepared.plans,
         &prepared.layout,
         blocks,
-        false,
+        keep,
         Isa::detect(),
         TILE_SAMPLES,
         stop,
@@ -302,18 +320,20 @@ pub(crate) fn project_grid(
 }
 
 /// Draws one pose (or one tile of it) into `scratch`: a sidescan's one beam by runs of range
-/// bins; beams (an FLS, or a two-sided sidescan's two sides) sample by sample.
+/// bins; beams (an FLS, or a two-sided sidescan's two sides) sample by sample. The azimuths'
+/// extremes are left out unless `keep` asks for them.
 fn draw(
     isa: Isa,
     scratch: &mut Scratch,
     geo: &Geometry<'_>,
     dirs: &Directions,
     pose: PoseArgs,
+    keep: Keep,
 ) -> (u64, Extremes) {
     if geo.layout.beams() > 1 || geo.layout.kind == SonarKind::Fls {
-        isa::draw_pose::<true>(isa, scratch, geo, dirs, pose)
+        isa::draw_pose::<true>(isa, scratch, geo, dirs, pose, keep.azimuths)
     } else {
-        isa::draw_pose::<false>(isa, scratch, geo, dirs, pose)
+        isa::draw_pose::<false>(isa, scratch, geo, dirs, pose, keep.azimuths)
     }
 }
 
@@ -339,7 +359,7 @@ fn reduced(
 /// once `stop` returns true.
 fn project_tiled_batch(
     prepared: &PreparedBatch<'_>,
-    keep_occupancy: bool,
+    keep: Keep,
     isa: Isa,
     tile: usize,
     stop: &(dyn Fn() -> bool + Sync),
@@ -351,7 +371,7 @@ fn project_tiled_batch(
         &prepared.plans,
         &prepared.layout,
         blocks,
-        keep_occupancy,
+        keep,
         isa,
         tile,
         stop,
@@ -371,7 +391,7 @@ fn project_tiled<T: PoseTable, S: Slots>(
     plans: &[SamplingPlan],
     layout: &Layout,
     blocks: Vec<S>,
-    keep_occupancy: bool,
+    keep: Keep,
     isa: Isa,
     tile: usize,
     stop: &(dyn Fn() -> bool + Sync),
@@ -410,13 +430,13 @@ fn project_tiled<T: PoseTable, S: Slots>(
                         return tiled;
                     }
                     let pose = poses.pose_args(scratch, layout, n);
-                    let (visible, extremes) = draw(isa, scratch, &geo, dirs, pose);
+                    let (visible, extremes) = draw(isa, scratch, &geo, dirs, pose, keep);
                     slots.put(
                         n - first,
                         reduced(
                             &geo,
                             scratch,
-                            keep_occupancy,
+                            keep.occupancy,
                             visible,
                             dirs.units.len() as u64,
                             extremes,
@@ -462,7 +482,7 @@ fn project_tiled<T: PoseTable, S: Slots>(
                 );
                 states[..items.len()].par_iter_mut().zip(&args).for_each(
                     |((scratch, visible, extremes), &pose)| {
-                        let (v, e) = draw(isa, scratch, &geo, &dirs, pose);
+                        let (v, e) = draw(isa, scratch, &geo, &dirs, pose, keep);
                         scratch.settle_span();
                         *visible += v;
                         extremes.merge(&e);
@@ -472,7 +492,7 @@ fn project_tiled<T: PoseTable, S: Slots>(
             for (&n, (scratch, visible, extremes)) in items.iter().zip(&mut states) {
                 out.push((
                     n,
-                    reduced(&geo, scratch, keep_occupancy, *visible, total as u64, *extremes),
+                    reduced(&geo, scratch, keep.occupancy, *visible, total as u64, *extremes),
                 ));
             }
         }

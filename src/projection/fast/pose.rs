@@ -16,16 +16,18 @@ impl Scratch {
     /// Draws one pose: `m` is `M = R · Rz(base azimuth) · range` and `t` the translation,
     /// `slack` the culling slack. Returns the visible count and the extremes, the pixels set in
     /// the occupancy buffer. `BEAMS`: sonar 2 has beams to find (an FLS, or a two-sided
-    /// sidescan); without, a sidescan's range bins may be drawn by runs.
+    /// sidescan); without, a sidescan's range bins may be drawn by runs. The azimuths' extremes
+    /// are left empty (infinite) unless `azimuths`.
     #[inline(always)]
     pub(super) fn draw_pose<const BEAMS: bool>(
         &mut self,
         geo: &Geometry<'_>,
         dirs: &Directions,
         (m, t, range, slack): PoseArgs,
+        azimuths: bool,
     ) -> (u64, Extremes) {
         if !BEAMS && range * dirs.max_step * (1.0 + F64_WIDEN) + slack < geo.layout.range_bin_width {
-            return self.draw_runs(geo, dirs, (m, t, range, slack));
+            return self.draw_runs(geo, dirs, (m, t, range, slack), azimuths);
         }
         let Scratch {
             occ,
@@ -120,7 +122,7 @@ impl Scratch {
                 key_max - KEY_TOLERANCE * key_max.abs(),
             )
         };
-        for s in &seen[..n_seen] {
+        for s in &seen[..if azimuths { n_seen } else { 0 }] {
             if !(s.key > low && s.key < high) {
                 extremes.add_azimuth(s.y.atan2(s.x));
             }
@@ -142,6 +144,7 @@ impl Scratch {
         geo: &Geometry<'_>,
         dirs: &Directions,
         (m, t, range, slack): PoseArgs,
+        azimuths: bool,
     ) -> (u64, Extremes) {
         let Scratch {
             occ,
@@ -222,7 +225,10 @@ impl Scratch {
             key_min + KEY_TOLERANCE * key_min.abs(),
             key_max - KEY_TOLERANCE * key_max.abs(),
         );
-        for (b, &visible) in runs.visible[..blocks].iter().enumerate() {
+        for (b, &visible) in runs.visible[..if azimuths { blocks } else { 0 }]
+            .iter()
+            .enumerate()
+        {
             if visible == 0 {
                 continue;
             }

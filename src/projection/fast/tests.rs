@@ -123,11 +123,16 @@ fn runs_change_no_result() {
         };
         let prepared = batch.prepare().unwrap();
         let plain = project_plainly(&prepared);
-        let fast = project_with(&prepared, true, Isa::Baseline);
+        let fast = project_with(&prepared, Keep::all(Output::WithOccupancy), Isa::Baseline);
         for isa in Isa::available() {
-            assert_eq!(project_with(&prepared, true, isa), fast, "{}: {isa:?}", s1.name);
+            assert_eq!(
+                project_with(&prepared, Keep::all(Output::WithOccupancy), isa),
+                fast,
+                "{}: {isa:?}",
+                s1.name
+            );
             // Without the occupancy, one run's bins are counted, not set.
-            let lean = project_with(&prepared, false, isa);
+            let lean = project_with(&prepared, Keep::all(Output::MetricsOnly), isa);
             assert!(
                 lean.iter()
                     .zip(&fast)
@@ -331,10 +336,10 @@ fn culling_changes_no_result() {
                 let prepared = batch.prepare().unwrap();
                 let plain = project_plainly(&prepared);
                 // Every build of the lane stage this processor runs gives the same bits.
-                let fast = project_with(&prepared, true, Isa::Baseline);
+                let fast = project_with(&prepared, Keep::all(Output::WithOccupancy), Isa::Baseline);
                 for isa in Isa::available() {
                     assert_eq!(
-                        project_with(&prepared, true, isa),
+                        project_with(&prepared, Keep::all(Output::WithOccupancy), isa),
                         fast,
                         "{from} -> {to}: {isa:?}"
                     );
@@ -397,12 +402,39 @@ fn tiles_change_no_result() {
             .map(|n| prepared.plan(n).azimuths.len() * prepared.plan(n).elevations.len())
             .max()
             .unwrap();
-        for keep in [true, false] {
+        for occupancy in [true, false] {
+            let keep = Keep {
+                occupancy,
+                azimuths: true,
+            };
             let whole = project_tiled_batch(&prepared, keep, Isa::Baseline, usize::MAX, &|| false).unwrap();
             for tile in [LANES, 997, 4096, largest - 1] {
                 for isa in Isa::available() {
                     let tiled = project_tiled_batch(&prepared, keep, isa, tile, &|| false).unwrap();
-                    assert_eq!(tiled, whole, "{a} -> {b}: tile {tile}, {isa:?}, occupancy {keep}");
+                    assert_eq!(
+                        tiled, whole,
+                        "{a} -> {b}: tile {tile}, {isa:?}, occupancy {occupancy}"
+                    );
+                    // Without the azimuths' extremes: every other result the same, those left
+                    // empty (infinite where something is visible).
+                    let lean = Keep {
+                        azimuths: false,
+                        ..keep
+                    };
+                    let lean = project_tiled_batch(&prepared, lean, isa, tile, &|| false).unwrap();
+                    for (l, w) in lean.iter().zip(&whole) {
+                        let seen = l.metrics.visible > 0;
+                        assert_eq!(l.metrics.azimuth_min, seen.then_some(f64::INFINITY), "{a} -> {b}");
+                        assert_eq!(
+                            l.metrics.azimuth_max,
+                            seen.then_some(f64::NEG_INFINITY),
+                            "{a} -> {b}"
+                        );
+                        let mut l = l.clone();
+                        (l.metrics.azimuth_min, l.metrics.azimuth_max) =
+                            (w.metrics.azimuth_min, w.metrics.azimuth_max);
+                        assert_eq!(&l, w, "{a} -> {b}: tile {tile}, {isa:?}, no azimuths");
+                    }
                 }
             }
             tiled_and_seen += whole.iter().filter(|p| p.metrics.visible > 0).count();
