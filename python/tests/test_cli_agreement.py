@@ -345,6 +345,17 @@ def test_a_sweep_in_memory_returns_the_tables_columns(tmp_path, cli):
         sonarproj.sweep(config, max_chunks=1)
     with pytest.raises(sonarproj.InputError, match="format"):
         sonarproj.sweep(config, format="parquet")
+    # A sweep file's `columns`: those result columns alone, in the table's order, the same values.
+    kept = tmp_path / "kept.toml"
+    kept.write_text('columns = ["sigma_elevation", "occupied"]\n' + config.read_text())
+    some = sonarproj.sweep(kept, backend="cpu-fast", chunk_poses=5)["columns"]
+    poses = [name for name in columns if name not in sonarproj.METRIC_COLUMNS]
+    assert list(some) == poses + ["occupied", "sigma_elevation"]
+    for name, array in some.items():
+        np.testing.assert_array_equal(array, columns[name])
+    with pytest.raises(sonarproj.InputError, match=r"columns\[1\]"):
+        kept.write_text('columns = ["span", "spam"]\n' + config.read_text())
+        sonarproj.sweep(kept)
 
 
 def test_sweep_summaries_come_back_as_a_dict(tmp_path, cli):

@@ -141,13 +141,12 @@ pub fn mask_ping(source: &Sonar, target: &Sonar, n: usize) -> Result<(RelativePo
 
 /// Returns the sweep `bench sweep` times: fls→sss at 0.1° sampling, the feature 5 m ahead placed
 /// 10 m from the sidescan, roll × pitch 0–99° by 1°, and yaw 0, 1, … degrees, as many values as
-/// make at least `poses` poses (`data/bench-sweep-1m.toml` for a million); with `summaries`, a
-/// `[summary]` of its span (top 10, a histogram of 120 bins, the roll × pitch and the yaw
-/// marginals) and no rows.
+/// make at least `poses` poses (`data/bench-sweep-1m.toml` for a million), its table or
+/// summaries as `output` says.
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `poses` outside `[1, 10^8]`.
-pub fn sweep_config(poses: u64, summaries: bool) -> Result<crate::sweep::SweepConfig> {
+pub fn sweep_config(poses: u64, output: SweepOutput) -> Result<crate::sweep::SweepConfig> {
     if !(1..=100_000_000).contains(&poses) {
         return Err(Error::invalid("poses", poses, "must be in [1, 100000000]"));
     }
@@ -158,13 +157,28 @@ pub fn sweep_config(poses: u64, summaries: bool) -> Result<crate::sweep::SweepCo
          yaw = {{ start = 0, stop = {}, step = 1 }}\n",
         yaws - 1
     );
-    if summaries {
+    if output == SweepOutput::Span {
+        text.insert_str(0, "columns = [\"span\"]\n");
+    }
+    if output == SweepOutput::Summaries {
         text.push_str(
             "[summary]\ntop = 10\nhistogram = { min = 0, max = 1.2, bins = 120 }\nrows = false\n\
              marginals = [[\"roll\", \"pitch\"], \"yaw\"]\n",
         );
     }
     crate::sweep::SweepConfig::parse("bench sweep", &text, std::path::Path::new("."))
+}
+
+/// What the benchmark sweep ([`sweep_config`]) writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SweepOutput {
+    /// Its table, every column.
+    Table,
+    /// Its table, the span alone of the result columns (`columns = ["span"]`).
+    Span,
+    /// A `[summary]` of its span (top 10, a histogram of 120 bins, the roll × pitch and the
+    /// yaw marginals) and no rows.
+    Summaries,
 }
 
 /// One backend's times on the benchmark sweep (medians of the runs).
@@ -183,6 +197,12 @@ pub struct SweepTiming {
     /// The whole sweep into a directory as Parquet (`sonarproj sweep --format parquet`); `None`
     /// when not asked for.
     pub parquet: Option<Duration>,
+    /// Projecting the poses as `decoded` does, the span alone kept: what the span's sweeps
+    /// compute (the azimuths' extremes left out); `None` when neither is asked for.
+    pub span_decoded: Option<Duration>,
+    /// The whole sweep to Parquet keeping the span alone of the result columns
+    /// ([`SweepOutput::Span`]); `None` when not asked for.
+    pub span_parquet: Option<Duration>,
     /// The whole sweep with summaries only (`[summary]` with `rows = false`); `None` when not
     /// asked for.
     pub summaries: Option<Duration>,
@@ -205,6 +225,8 @@ pub struct SweepMeasures {
     pub per_item: bool,
     /// The whole sweep to Parquet.
     pub parquet: bool,
+    /// The whole sweep to Parquet, the span alone of the result columns.
+    pub span: bool,
     /// The whole sweep with summaries only.
     pub summaries: bool,
 }
@@ -215,6 +237,7 @@ impl Default for SweepMeasures {
         SweepMeasures {
             per_item: true,
             parquet: true,
+            span: true,
             summaries: true,
         }
     }
@@ -243,8 +266,9 @@ pub fn time_sweep(
             format!("must be in [1, {MAX_RUNS}]"),
         ));
     }
-    let rows = sweep_config(poses, false)?;
-    let summaries = sweep_config(poses, true)?;
+    let rows = sweep_config(poses, SweepOutput::Table)?;
+    let span_rows = sweep_config(poses, SweepOutput::Span)?;
+    let summaries = sweep_config(poses, SweepOutput::Summaries)?;
     let Poses::Grid(grid) = &rows.poses else {
         unreachable!("a grid sweep")
     };
@@ -260,8 +284,7 @@ pub fn time_sweep(
     let block = block.max(1);
     let blocks = || (0..n.div_ceil(block)).map(move |b| b * block..((b + 1) * block).min(n));
     let mut samples = 0;
-    let mut columns = sonarproj::MetricColumns::default();
-    let mut decoded = || -> Result<()> {
+    let mut decode = |columns: &mut sonarproj::MetricColumns| -> Result<()> {
         samples = 0;
         // Block after block as a sweep projects them, RUN_BLOCKS at a time.
         let mut all = blocks();
@@ -271,12 +294,20 @@ pub fn time_sweep(
                 return Ok(());
             }
             // Every block is taken: the flow is always `Continue`.
-            let _ = backend.project_blocks(&sweep, &run, &mut columns, &|| false, &mut |_, c| {
+            let _ = backend.project_blocks(&sweep, &run, columns, &|| false, &mut |_, c| {
                 samples += c.total.iter().sum::<u64>();
                 std::ops::ControlFlow::Continue(())
             })?;
         }
     };
+    let span_decoded = (measures.span || measures.summaries)
+        .then(|| {
+            let mut span = sonarproj::MetricColumns::only(&[sonarproj::Metric::Span]);
+            median(runs, &mut || decode(&mut span))
+        })
+        .transpose()?;
+    let mut all = sonarproj::MetricColumns::default();
+    let mut decoded = || decode(&mut all);
     let decoded_time = median(runs, &mut decoded)?;
     let timed = on_gpu_clock(backend, &mut decoded)?;
     let (device, host) = (timed.and_then(|t| t.0), timed.map(|t| t.1));
@@ -314,6 +345,10 @@ pub fn time_sweep(
         .parquet
         .then(|| median(runs, &mut || sweep_into(&rows)))
         .transpose()?;
+    let span_parquet = measures
+        .span
+        .then(|| median(runs, &mut || sweep_into(&span_rows)))
+        .transpose()?;
     let (summaries, summary_gpu) = if measures.summaries {
         let time = median(runs, &mut || sweep_into(&summaries))?;
         (Some(time), on_gpu_clock(backend, &mut || sweep_into(&summaries))?)
@@ -326,6 +361,8 @@ pub fn time_sweep(
         decoded,
         per_item,
         parquet,
+        span_decoded,
+        span_parquet,
         summaries,
         device,
         host,

@@ -725,6 +725,12 @@ fn bench_sweep_times_each_measure_and_the_gpus_summary_sweep() {
     // The grid's smallest size: roll × pitch 100 × 100 and one yaw.
     let cpu = row("cpu-fast").unwrap_or_else(|| panic!("no cpu-fast row:\n{text}"));
     assert_eq!(cpu[1], "10000", "{text}");
+    // Every column of the header, the span's projection and Parquet sweep among them.
+    assert_eq!(cpu.len(), 16, "{text}");
+    assert!(
+        text.contains("span proj (s)") && text.contains("span pq (s)"),
+        "{text}"
+    );
     assert!(
         cpu.iter().filter(|c| **c == "-").count() == 3,
         "cpu: no device, wait, unpack\n{text}"

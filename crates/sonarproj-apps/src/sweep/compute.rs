@@ -10,9 +10,10 @@ use sonarproj::projection::{Backend, ColumnRef, MetricColumns, PoseGrid, PoseSou
 use sonarproj::{Output, Sonar};
 
 use crate::error::Result;
+use crate::io::batch::LOCAL_COLUMNS;
 use crate::io::parquet::{Column, Kind, Table};
 use crate::sweep::config::{Grid, Poses, SweepConfig};
-use crate::sweep::table::{chunk_batch, columns_of};
+use crate::sweep::table::{Fill, chunk_batch, columns_of, fill_of, kept_metrics};
 
 /// What every block of one sweep shares: the engine's grid (for a grid sweep), the table's
 /// columns and kinds, and the range error of the local precision.
@@ -45,13 +46,13 @@ pub(crate) fn values(metrics: &MetricColumns, metric: sonarproj::Metric) -> Vec<
     }
 }
 
-/// Returns the columns a sweep's blocks fill: every metric when rows are written; else only the
-/// metric the summary reduces, `by` (the backends write, and the GPU unpacks, that one alone).
-pub(crate) fn metric_columns(rows: bool, by: Option<sonarproj::Metric>) -> MetricColumns {
-    match (rows, by) {
-        (false, Some(by)) => MetricColumns::only(&[by]),
-        _ => MetricColumns::default(),
-    }
+/// Returns the columns a sweep's blocks fill: the metrics of the table's result columns `table`
+/// when rows are written, and the metric the summary reduces, `by` (the backends write, and the
+/// GPU unpacks, those alone).
+pub(crate) fn metric_columns(table: Option<&[&str]>, by: Option<sonarproj::Metric>) -> MetricColumns {
+    let mut kept = table.map(kept_metrics).unwrap_or_default();
+    kept.extend(by);
+    MetricColumns::only(&kept)
 }
 
 /// Projects `blocks` of `sweep` on `backend` one after the other ([`Backend::project_blocks`]),
@@ -180,14 +181,18 @@ impl<'a> Work<'a> {
 
     fn grid_rows(&self, grid: &PoseGrid, r: Range<u64>, metrics: &MetricColumns) -> Result<Table> {
         let (mut rpe, mut sig) = (Vec::new(), Vec::new());
-        let sweep = self.grid_sweep(grid);
-        sweep.local_precision_columns(r.clone(), self.sigma, &mut rpe, &mut sig)?;
-        Ok(grid_table(self.columns, self.kinds, grid, r, metrics, rpe, sig))
+        // The local precision only where the table keeps it (it is a tenth of a sweep's time).
+        if self.columns.iter().any(|c| LOCAL_COLUMNS.contains(&c.as_str())) {
+            let sweep = self.grid_sweep(grid);
+            sweep.local_precision_columns(r.clone(), self.sigma, &mut rpe, &mut sig)?;
+        }
+        Ok(grid_table(self.columns, self.kinds, grid, r, metrics, &rpe, &sig))
     }
 }
 
-/// Returns the table of poses `r` of `grid`: the index, the nine axis values, the `metrics`, then
-/// the local precision (`rpe`, `sig`: NaN where none), in the sweep's `columns` of `kinds`.
+/// Returns the table of poses `r` of `grid`: the index, the nine axis values, then the result
+/// columns: the `metrics` and the local precision (`rpe`, `sig`: NaN where none; empty when the
+/// table keeps neither), in the sweep's `columns` of `kinds`.
 #[expect(
     clippy::cast_possible_wrap,
     reason = "pose indices are below 2^40 (MAX_POSES) and sample counts below 2^63"
@@ -198,32 +203,32 @@ fn grid_table(
     grid: &PoseGrid,
     r: Range<u64>,
     metrics: &MetricColumns,
-    rpe: Vec<f64>,
-    sig: Vec<f64>,
+    rpe: &[f64],
+    sig: &[f64],
 ) -> Table {
-    let optional =
-        |v: Vec<f64>| Column::Optional(v.into_iter().map(|x| Some(x).filter(|x| !x.is_nan())).collect());
+    let optional = |v: &[f64]| Column::Optional(v.iter().map(|&x| Some(x).filter(|x| !x.is_nan())).collect());
     let axes = grid.axes();
     let strides: Vec<u64> = (0..9)
         .map(|k| axes[k + 1..].iter().map(|a| a.len() as u64).product())
         .collect();
     let mut table = Table::new(columns, kinds);
-    let mut locals = [Some(rpe), Some(sig)].into_iter();
     for (j, column) in table.columns.iter_mut().enumerate() {
         *column = if j == 0 {
             Column::Int(r.clone().map(|i| i as i64).collect())
         } else if j <= 9 {
             Column::Real(axis_column(&axes[j - 1], strides[j - 1], r.clone()))
-        } else if let Some(info) = sonarproj::metrics::METRICS.get(j - 10) {
-            match (metrics.column(info.metric), kinds[j]) {
-                (ColumnRef::Count(c), _) => {
-                    Column::Int(c.iter().map(|&v| i64::try_from(v).unwrap_or(i64::MAX)).collect())
-                }
-                (ColumnRef::Real(c), Kind::Real) => Column::Real(c.to_vec()),
-                (ColumnRef::Real(c), _) => optional(c.to_vec()),
-            }
         } else {
-            optional(locals.next().flatten().expect("two local precision columns"))
+            match fill_of(&columns[j]) {
+                Fill::Metric(m) => match (metrics.column(m), kinds[j]) {
+                    (ColumnRef::Count(c), _) => {
+                        Column::Int(c.iter().map(|&v| i64::try_from(v).unwrap_or(i64::MAX)).collect())
+                    }
+                    (ColumnRef::Real(c), Kind::Real) => Column::Real(c.to_vec()),
+                    (ColumnRef::Real(c), _) => optional(c),
+                },
+                Fill::RangePerElevation => optional(rpe),
+                Fill::SigmaElevation => optional(sig),
+            }
         };
     }
     table

@@ -10,6 +10,7 @@
 //!                             # projection_area for an FLS target)
 //! area_grid = 0.08            # cell side (m) of the projection-area grid (default: the paper's)
 //! sigma_range = 0.003         # range error (m) of sigma_elevation (default: a bin width / √12)
+//! columns = ["span", "projection_area"]  # the result columns the table keeps (default: all)
 //!
 //! [feature]                   # the feature's true point in sonar 1 (m, deg, deg)
 //! range = { start = 10, stop = 50, step = 10 }
@@ -36,7 +37,8 @@ use crate::error::{Error, Result};
 use crate::io::batch::PoseRow;
 use crate::io::{BatchInput, read_batch_csv_at_most};
 use crate::sweep::summary::{self, SummarySpec};
-use sonarproj::geometry::sonar::{Sonar, SonarKind};
+use crate::sweep::table;
+use sonarproj::geometry::sonar::Sonar;
 use sonarproj::metrics::Metric;
 use sonarproj::projection::Batch;
 use sonarproj::sampling::Sampling;
@@ -88,6 +90,10 @@ pub struct SweepConfig {
     pub sigma_range: Option<f64>,
     /// The metric the figure draws (one with a figure label in the metric table).
     pub metric: Metric,
+    /// The result columns the table keeps after the pose columns, in table order: some of
+    /// [`METRIC_COLUMNS`](crate::io::METRIC_COLUMNS) (all unless the file's `columns` names
+    /// fewer).
+    pub result_columns: Vec<&'static str>,
     /// The poses.
     pub poses: Poses,
     /// The summaries asked for (`[summary]`), if any.
@@ -270,11 +276,12 @@ impl SweepConfig {
             path: PathBuf::from(file),
             message: sonarproj::error::parser_message(&e.to_string()),
         })?;
-        const TOP: [&str; 12] = [
+        const TOP: [&str; 13] = [
             "from",
             "to",
             "step",
             "metric",
+            "columns",
             "area_grid",
             "sigma_range",
             "feature",
@@ -326,11 +333,12 @@ impl SweepConfig {
         };
         let area_grid = positive("area_grid", "m")?.unwrap_or(sonarproj::PAPER_AREA_GRID);
         let sigma_range = positive("sigma_range", "m")?;
+        let result_columns = match top.get("columns") {
+            None => crate::io::METRIC_COLUMNS.to_vec(),
+            Some(v) => table::result_columns(file, v)?,
+        };
         let metric = match string("metric")? {
-            None => match target.kind {
-                SonarKind::Sss => Metric::Span,
-                SonarKind::Fls => Metric::ProjectionArea,
-            },
+            None => table::default_metric(target.kind, &result_columns),
             Some(m) => Metric::from_name(m)
                 .filter(|m| m.label(target.kind).is_some())
                 .ok_or_else(|| {
@@ -392,6 +400,7 @@ impl SweepConfig {
             }
             Some(other) => return Err(key_error(file, "summary", other, "must be a table: [summary]")),
         };
+        table::check_columns(file, &top, &result_columns, metric, summary.as_ref())?;
         let config = SweepConfig {
             source,
             target,
@@ -399,6 +408,7 @@ impl SweepConfig {
             area_grid,
             sigma_range,
             metric,
+            result_columns,
             poses,
             summary,
         };
@@ -672,6 +682,9 @@ impl SweepConfig {
         // Only when asked for, so the sweeps of files without one keep their fingerprints.
         if let Some(s) = &self.summary {
             text.push_str(&format!("|{s:?}"));
+        }
+        if self.result_columns != crate::io::METRIC_COLUMNS {
+            text.push_str(&format!("|columns {:?}", self.result_columns));
         }
         let mut h: u64 = 0xcbf2_9ce4_8422_2325;
         for b in text.bytes() {

@@ -46,9 +46,10 @@ pub(crate) fn figure_of_marginal(dir: &Path, d: &Descriptor, summary: &Path) -> 
 }
 
 /// Draws `DIR/sweep-METRIC.png` from the result `table` (`DIR/sweep.csv` or `sweep.parquet`)
-/// when the grid has one or two varying axes; returns its path.
+/// when the grid has one or two varying axes and the table keeps the metric; returns its path.
 pub(crate) fn figure(table: &Path, format: Format, d: &Descriptor) -> Result<Option<PathBuf>> {
-    if d.varying.is_empty() || d.varying.len() > 2 || !is_regular(table) {
+    let kept = d.columns.contains(&d.metric);
+    if d.varying.is_empty() || d.varying.len() > 2 || !kept || !is_regular(table) {
         return Ok(None);
     }
     let dir = table.parent().unwrap_or(Path::new("."));

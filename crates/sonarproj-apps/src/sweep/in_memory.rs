@@ -81,7 +81,7 @@ pub fn run_in_memory(
     let mut table = rows.then(|| Table::new(&desc.columns, &kinds));
     let mut summary = spec.map(|s| s.empty(grid));
     let work = Work::new(config, &desc.columns, &kinds, sigma)?;
-    let mut metrics = metric_columns(rows, by);
+    let mut metrics = metric_columns(rows.then_some(config.result_columns.as_slice()), by);
     let mut next = range.start;
     // The next `n` blocks at most (none at the end).
     let mut take = |n: usize| -> Vec<std::ops::Range<u64>> {

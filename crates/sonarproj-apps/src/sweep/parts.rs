@@ -491,9 +491,9 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
 /// dictionaries for the pose columns (between the index and the metrics: their values repeat).
 #[must_use]
 pub fn final_encoding(columns: &[String]) -> crate::io::parquet::Encoding<'_> {
-    let metrics = crate::io::METRIC_COLUMNS.len();
+    let poses = crate::sweep::table::pose_column_count(columns);
     crate::io::parquet::Encoding {
-        dictionary: &columns[1..columns.len().saturating_sub(metrics).max(1)],
+        dictionary: columns.get(1..1 + poses).unwrap_or_default(),
     }
 }
 

@@ -8,7 +8,6 @@ use serde::{Deserialize, Serialize};
 use sonarproj::projection::Backend;
 
 use crate::error::{Error, Result};
-use crate::io::METRIC_COLUMNS;
 use crate::sweep::SweepConfig;
 use crate::sweep::parts::{self, write_json};
 use crate::sweep::summary::{Summary, SummarySpec};
@@ -95,7 +94,7 @@ pub(crate) fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Opt
 /// Returns the descriptor of `config`.
 pub fn descriptor(config: &SweepConfig) -> Result<Descriptor> {
     let mut columns = config.columns();
-    columns.extend(METRIC_COLUMNS.iter().map(|c| c.to_string()));
+    columns.extend(config.result_columns.iter().map(|c| c.to_string()));
     Ok(Descriptor {
         fingerprint: config.fingerprint(),
         poses: config.count()?,

@@ -404,7 +404,7 @@ pub fn run(
     let kinds = column_kinds(&desc.columns);
     let sigma = resolve_sigma_range(&config.source, &config.target, config.sigma_range)?;
     let work = Work::new(config, &desc.columns, &kinds, sigma)?;
-    let mut metrics = metric_columns(rows, by);
+    let mut metrics = metric_columns(rows.then_some(config.result_columns.as_slice()), by);
     let mut done = 0;
     let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
     // The summary of the chunks finished so far (this run's, and earlier runs' read back from

@@ -6,16 +6,20 @@ use std::path::Path;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sonarproj::Output;
+use sonarproj::local_precision::LocalPrecision;
 use sonarproj::metrics::Metric;
 use sonarproj::projection::{Backend, Batch, Projection};
 
 use crate::error::{Error, Result};
-use crate::io::batch::{PoseRow, local_of};
+use crate::io::batch::{LOCAL_COLUMNS, PoseRow, local_of};
 use crate::io::parquet::{Column, Kind, Table};
 use crate::io::table::write_rows;
 use crate::io::{METRIC_COLUMNS, metric_fields};
 use crate::sweep::SweepConfig;
+use crate::sweep::config::key_error;
 use crate::sweep::parts;
+use crate::sweep::summary::SummarySpec;
+use sonarproj::geometry::sonar::SonarKind;
 
 /// The format of a sweep's tables.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
@@ -58,25 +62,159 @@ impl Format {
     }
 }
 
+/// Returns the result columns sweep file `file` keeps, from its `columns` value `v`: a non-empty
+/// list of distinct names of [`METRIC_COLUMNS`], returned in table order.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] naming `columns` (or `columns[i]`) otherwise.
+pub(crate) fn result_columns(file: &str, v: &toml::Value) -> Result<Vec<&'static str>> {
+    let allowed = || format!("must be one of {}", METRIC_COLUMNS.join(", "));
+    let toml::Value::Array(names) = v else {
+        return Err(key_error(file, "columns", v, "must be a list of column names"));
+    };
+    if names.is_empty() {
+        return Err(key_error(
+            file,
+            "columns",
+            "[]",
+            format!("must name at least one column: {}", METRIC_COLUMNS.join(", ")),
+        ));
+    }
+    let mut kept = [false; METRIC_COLUMNS.len()];
+    for (i, name) in names.iter().enumerate() {
+        let key = format!("columns[{i}]");
+        let toml::Value::String(name) = name else {
+            return Err(key_error(file, &key, name, allowed()));
+        };
+        let Some(k) = METRIC_COLUMNS.iter().position(|c| c == name) else {
+            return Err(key_error(file, &key, format!("{name:?}"), allowed()));
+        };
+        if std::mem::replace(&mut kept[k], true) {
+            return Err(key_error(file, &key, format!("{name:?}"), "is named twice"));
+        }
+    }
+    Ok(METRIC_COLUMNS
+        .iter()
+        .zip(kept)
+        .filter_map(|(c, k)| k.then_some(*c))
+        .collect())
+}
+
+/// Returns the metric a sweep's figure draws when its file names none: the span for an SSS
+/// sonar 2, the projection area for an FLS, when `kept`; else the first kept metric with a
+/// figure label (else the default, and no figure is drawn: its column is not in the table).
+pub(crate) fn default_metric(target: SonarKind, kept: &[&str]) -> Metric {
+    let preferred = match target {
+        SonarKind::Sss => Metric::Span,
+        SonarKind::Fls => Metric::ProjectionArea,
+    };
+    if kept.contains(&preferred.name()) {
+        return preferred;
+    }
+    kept.iter()
+        .filter_map(|c| Metric::from_name(c))
+        .find(|m| m.label(target).is_some())
+        .unwrap_or(preferred)
+}
+
+/// Checks sweep file `file`'s `columns` (`kept`) against the rest of it (`top`): a table is
+/// written (no `[summary]` with `rows = false`), and it keeps the figure's `metric` when the
+/// file names one.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] naming `columns` or `metric`.
+pub(crate) fn check_columns(
+    file: &str,
+    top: &toml::Table,
+    kept: &[&str],
+    metric: Metric,
+    summary: Option<&SummarySpec>,
+) -> Result<()> {
+    let Some(columns) = top.get("columns") else {
+        return Ok(());
+    };
+    if summary.is_some_and(|s| !s.rows) {
+        return Err(key_error(
+            file,
+            "columns",
+            columns,
+            "has no table to choose from: [summary] says rows = false (leave columns out)",
+        ));
+    }
+    if top.contains_key("metric") && !kept.contains(&metric.name()) {
+        return Err(key_error(
+            file,
+            "metric",
+            format!("{:?}", metric.name()),
+            format!(
+                "is drawn from the table, so columns must keep it (columns keeps {})",
+                kept.join(", ")
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Returns the kinds of a sweep table's `columns` (its descriptor's): the index an integer, the
-/// pose columns numbers, then the metric columns as the metric table types them (counts
-/// integers; extremes, the projection area and the local precision nullable).
+/// pose columns numbers, and the result columns (any of [`METRIC_COLUMNS`], after the pose
+/// columns) as the metric table types them (counts integers; extremes, the projection area and
+/// the local precision nullable).
 #[must_use]
 pub fn column_kinds(columns: &[String]) -> Vec<Kind> {
     let metrics = sonarproj::Metrics::default();
-    let metric_kinds = sonarproj::metrics::METRICS
+    columns
         .iter()
-        .map(|info| match metrics.get(info.metric) {
-            sonarproj::metrics::Value::Count(_) => Kind::Int,
-            sonarproj::metrics::Value::Real(_) => Kind::Real,
-            sonarproj::metrics::Value::Optional(_) => Kind::Optional,
+        .enumerate()
+        .map(|(j, name)| match Metric::from_name(name) {
+            _ if j == 0 => Kind::Int,
+            Some(m) => match metrics.get(m) {
+                sonarproj::metrics::Value::Count(_) => Kind::Int,
+                sonarproj::metrics::Value::Real(_) => Kind::Real,
+                sonarproj::metrics::Value::Optional(_) => Kind::Optional,
+            },
+            None if LOCAL_COLUMNS.contains(&name.as_str()) => Kind::Optional,
+            None => Kind::Real,
         })
-        .chain([Kind::Optional, Kind::Optional]);
-    let poses = columns.len().saturating_sub(1 + METRIC_COLUMNS.len());
-    std::iter::once(Kind::Int)
-        .chain(std::iter::repeat_n(Kind::Real, poses))
-        .chain(metric_kinds)
         .collect()
+}
+
+/// Returns the number of pose columns of a sweep table's `columns`: those between the index and
+/// the first result column.
+#[must_use]
+pub(crate) fn pose_column_count(columns: &[String]) -> usize {
+    columns
+        .iter()
+        .skip(1)
+        .take_while(|c| !METRIC_COLUMNS.contains(&c.as_str()))
+        .count()
+}
+
+/// What fills a result column of a sweep table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Fill {
+    /// A metric.
+    Metric(Metric),
+    /// The local precision's range per elevation.
+    RangePerElevation,
+    /// The local precision's sigma elevation.
+    SigmaElevation,
+}
+
+/// Returns what fills result column `name` (one of [`METRIC_COLUMNS`]).
+pub(crate) fn fill_of(name: &str) -> Fill {
+    match Metric::from_name(name) {
+        Some(m) => Fill::Metric(m),
+        None if name == LOCAL_COLUMNS[0] => Fill::RangePerElevation,
+        None => {
+            debug_assert_eq!(name, LOCAL_COLUMNS[1], "a result column");
+            Fill::SigmaElevation
+        }
+    }
+}
+
+/// Returns the metrics among a table's result `columns`.
+pub(crate) fn kept_metrics(columns: &[&str]) -> Vec<Metric> {
+    columns.iter().filter_map(|c| Metric::from_name(c)).collect()
 }
 
 /// Returns the batch of a chunk's `poses`.
@@ -110,60 +248,76 @@ pub(crate) fn columns_of(
 ) -> Table {
     let mut table = Table::new(columns, kinds);
     let n = poses.len();
-    let pose_columns = columns.len() - 1 - METRIC_COLUMNS.len();
-    let locals: Vec<_> = poses
-        .par_iter()
-        .map(|pose| local_of(batch, &pose.item, pose.true_point, sigma))
-        .collect();
+    let pose_columns = pose_column_count(columns);
+    let locals: Vec<_> = if columns.iter().any(|c| LOCAL_COLUMNS.contains(&c.as_str())) {
+        poses
+            .par_iter()
+            .map(|pose| local_of(batch, &pose.item, pose.true_point, sigma))
+            .collect()
+    } else {
+        Vec::new()
+    };
     for (j, column) in table.columns.iter_mut().enumerate() {
         *column = if j == 0 {
             Column::Int((0..n as u64).map(|i| (first + i) as i64).collect())
         } else if j <= pose_columns {
             Column::Real((0..n).map(|i| values[i * pose_columns + j - 1]).collect())
-        } else if let Some(info) = sonarproj::metrics::METRICS.get(j - 1 - pose_columns) {
-            match kinds[j] {
-                Kind::Int => Column::Int(
+        } else {
+            match (fill_of(&columns[j]), kinds[j]) {
+                (Fill::Metric(metric), Kind::Int) => Column::Int(
                     results
                         .iter()
-                        .map(|p| match p.metrics.get(info.metric) {
+                        .map(|p| match p.metrics.get(metric) {
                             sonarproj::metrics::Value::Count(c) => i64::try_from(c).unwrap_or(i64::MAX),
                             _ => unreachable!("the metric table's counts"),
                         })
                         .collect(),
                 ),
-                Kind::Real => Column::Real(
+                (Fill::Metric(metric), Kind::Real) => Column::Real(
                     results
                         .iter()
-                        .map(|p| p.metrics.get(info.metric).as_f64().unwrap_or(f64::NAN))
+                        .map(|p| p.metrics.get(metric).as_f64().unwrap_or(f64::NAN))
                         .collect(),
                 ),
-                Kind::Optional => Column::Optional(
-                    results
-                        .iter()
-                        .map(|p| p.metrics.get(info.metric).as_f64())
-                        .collect(),
-                ),
+                (Fill::Metric(metric), Kind::Optional) => {
+                    Column::Optional(results.iter().map(|p| p.metrics.get(metric).as_f64()).collect())
+                }
+                (Fill::RangePerElevation, _) => {
+                    Column::Optional(locals.iter().map(|l| l.range_per_elevation).collect())
+                }
+                (Fill::SigmaElevation, _) => {
+                    Column::Optional(locals.iter().map(|l| l.sigma_elevation).collect())
+                }
             }
-        } else if j == columns.len() - 2 {
-            Column::Optional(locals.iter().map(|l| l.range_per_elevation).collect())
-        } else {
-            Column::Optional(locals.iter().map(|l| l.sigma_elevation).collect())
         };
     }
     table
 }
 
-/// Returns the CSV rows (no header) of `fields` followed by the metrics of `results` and the
-/// local precision of `poses` of `batch` (range error `sigma`), formatted in parallel blocks (the
-/// same bytes as one writer would produce: each record is formatted on its own).
+/// Returns the CSV rows (no header) of `fields` followed by the result columns `kept` (of
+/// [`METRIC_COLUMNS`], in its order): the metrics of `results` and the local precision of
+/// `poses` of `batch` (range error `sigma`), formatted in parallel blocks (the same bytes as one
+/// writer would produce: each record is formatted on its own).
 pub(crate) fn csv_rows(
     batch: &Batch,
     poses: &[PoseRow],
     fields: &[Vec<String>],
-    results: &[Projection],
+    (results, kept): (&[Projection], &[&str]),
     sigma: f64,
     path: &Path,
 ) -> Result<Vec<u8>> {
+    let picks: Vec<usize> = kept
+        .iter()
+        .map(|c| {
+            METRIC_COLUMNS
+                .iter()
+                .position(|m| m == c)
+                .expect("a result column")
+        })
+        .collect();
+    let local = picks
+        .iter()
+        .any(|&k| k >= METRIC_COLUMNS.len() - LOCAL_COLUMNS.len());
     let blocks: Vec<Vec<u8>> = fields
         .par_chunks(4096)
         .zip(results.par_chunks(4096))
@@ -173,9 +327,13 @@ pub(crate) fn csv_rows(
                 .has_headers(false)
                 .from_writer(Vec::new());
             for ((fields, p), pose) in f.iter().zip(r).zip(poses) {
-                let local = local_of(batch, &pose.item, pose.true_point, sigma);
+                let local = if local {
+                    local_of(batch, &pose.item, pose.true_point, sigma)
+                } else {
+                    LocalPrecision::default()
+                };
                 let metrics = metric_fields(&p.metrics, &local);
-                w.write_record(fields.iter().chain(metrics.iter()))
+                w.write_record(fields.iter().chain(picks.iter().map(|&k| &metrics[k])))
                     .map_err(|e| Error::write_output(path, e))?;
             }
             w.into_inner().map_err(|e| Error::write_output(path, e))
@@ -205,12 +363,13 @@ impl CsvChunk<'_> {
         let (poses, fields) = self.config.items(r)?;
         let batch = chunk_batch(self.config, &poses);
         let results = backend.project(&batch, Output::MetricsOnly)?;
-        let body = csv_rows(&batch, &poses, &fields, &results, self.sigma, path)?;
+        let kept = &self.config.result_columns;
+        let body = csv_rows(&batch, &poses, &fields, (&results, kept), self.sigma, path)?;
         parts::write_chunk(path, expected, |w| {
             write_rows(
                 &mut *w,
                 self.header,
-                &METRIC_COLUMNS,
+                kept,
                 std::iter::empty::<(&[String], Vec<String>)>(),
             )?;
             w.write_all(&body).map_err(|e| Error::write_output(path, e))
@@ -221,5 +380,38 @@ impl CsvChunk<'_> {
                 .map(|p| p.metrics.get(by).as_f64().unwrap_or(f64::NAN))
                 .collect()
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A table's columns are told apart by name: no pose column a grid or a list can have is
+    /// named as a result column, and each result column is filled by its own value.
+    #[test]
+    fn result_columns_are_told_from_pose_columns_by_name() {
+        let poses = crate::io::pose_columns::allowed_columns();
+        for name in METRIC_COLUMNS {
+            assert!(!poses.contains(&name), "{name} is both");
+        }
+        let mut names: Vec<String> = ["index", "range", "roll"].map(String::from).to_vec();
+        names.extend(["sigma_elevation", "visible", "span", "range_per_elevation"].map(String::from));
+        assert_eq!(pose_column_count(&names), 2);
+        assert_eq!(
+            column_kinds(&names),
+            [
+                Kind::Int,
+                Kind::Real,
+                Kind::Real,
+                Kind::Optional,
+                Kind::Int,
+                Kind::Real,
+                Kind::Optional
+            ]
+        );
+        assert_eq!(fill_of("span"), Fill::Metric(Metric::Span));
+        assert_eq!(fill_of("range_per_elevation"), Fill::RangePerElevation);
+        assert_eq!(fill_of("sigma_elevation"), Fill::SigmaElevation);
     }
 }

@@ -78,7 +78,7 @@ pub(super) struct BenchArgs {
     #[arg(long, default_value_t = 131_072, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     block: u64,
     /// The sweep's measures to take besides the projection, comma-separated (sweep only):
-    /// items, parquet, summary. Default: all three (at 10^8 poses the Parquet sweep writes
+    /// items, parquet, span, summary. Default: all four (at 10^8 poses the Parquet sweep writes
     /// 4.7 GB twice: `--measures summary` takes the projection and the summaries alone).
     #[arg(long, value_delimiter = ',', value_enum)]
     measures: Vec<SweepMeasure>,
@@ -91,6 +91,9 @@ pub(super) enum SweepMeasure {
     Items,
     /// The whole sweep to Parquet.
     Parquet,
+    /// The whole sweep to Parquet keeping the span alone of the result columns (`columns =
+    /// ["span"]`), against the projection of the span alone.
+    Span,
     /// The whole sweep with summaries only.
     Summary,
 }
@@ -139,6 +142,7 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
             bench::SweepMeasures {
                 per_item: a.measures.contains(&SweepMeasure::Items),
                 parquet: a.measures.contains(&SweepMeasure::Parquet),
+                span: a.measures.contains(&SweepMeasure::Span),
                 summaries: a.measures.contains(&SweepMeasure::Summary),
             }
         };
@@ -217,7 +221,7 @@ fn sweep_table(
     measures: bench::SweepMeasures,
 ) -> Result<()> {
     outln!(
-        "{:9} {:>9} {:>10} {:>12} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>12} {:>7}",
+        "{:9} {:>9} {:>10} {:>12} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>13} {:>13} {:>7} {:>12} {:>7}",
         "backend",
         "poses",
         "samples/s",
@@ -228,6 +232,9 @@ fn sweep_table(
         "per item (s)",
         "host ns/pose",
         "parquet (s)",
+        "ratio",
+        "span proj (s)",
+        "span pq (s)",
         "ratio",
         "summary (s)",
         "ratio"
@@ -247,8 +254,9 @@ fn sweep_table(
         let secs = |d: std::time::Duration| d.as_secs_f64();
         // A measure's seconds and its multiple of the projection ("-" where not taken).
         let time = |d: Option<std::time::Duration>| d.map_or("-".to_string(), |d| format!("{:.3}", secs(d)));
-        let ratio = |d: Option<std::time::Duration>| {
-            d.map_or("-".to_string(), |d| format!("{:.2}x", secs(d) / secs(t.decoded)))
+        let ratio = |d: Option<std::time::Duration>, of: Option<std::time::Duration>| match (d, of) {
+            (Some(d), Some(of)) => format!("{:.2}x", secs(d) / secs(of)),
+            _ => "-".to_string(),
         };
         #[expect(clippy::cast_precision_loss, reason = "pose and sample counts below 2^53")]
         let (per_pose, rate) = (
@@ -258,7 +266,7 @@ fn sweep_table(
             t.samples as f64 / secs(t.decoded),
         );
         outln!(
-            "{:9} {:>9} {:>10.3e} {:>12.3} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>12} {:>7}",
+            "{:9} {:>9} {:>10.3e} {:>12.3} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>13} {:>13} {:>7} {:>12} {:>7}",
             b.label(),
             t.poses,
             rate,
@@ -269,9 +277,12 @@ fn sweep_table(
             time(t.per_item),
             per_pose,
             time(t.parquet),
-            ratio(t.parquet),
+            ratio(t.parquet, Some(t.decoded)),
+            time(t.span_decoded),
+            time(t.span_parquet),
+            ratio(t.span_parquet, t.span_decoded),
             time(t.summaries),
-            ratio(t.summaries)
+            ratio(t.summaries, t.span_decoded)
         )?;
     }
     for note in notes {
@@ -283,8 +294,10 @@ fn sweep_table(
          same timed run, the host waiting for the GPU's chunks and unpacking their metrics (two \
          chunks in flight: the device works during an unpack); per item: the same \
          poses as batches of items built, packed and unpacked by the host (host ns/pose: the \
-         difference a pose); parquet and summary: whole sweeps into a directory (ratio: their \
-         multiple of project); - where not measured (no timestamp queries, or left out of \
+         difference a pose); parquet: the whole sweep into a directory (ratio: its multiple of \
+         project); span proj: the projection keeping the span alone (no azimuth extremes); span \
+         pq: the sweep to Parquet keeping the span alone of the result columns, and summary: the \
+         sweep with summaries of the span only (ratios: their multiples of span proj); - where not measured (no timestamp queries, or left out of \
          --measures); medians of the runs after one warm-up"
     )?;
     Ok(())

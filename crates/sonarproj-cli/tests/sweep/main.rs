@@ -3,6 +3,7 @@
 //! poses they describe; bad sweep files and mismatched re-runs are refused naming the key.
 //! Parquet output is `parquet`, the `[summary]`'s reductions `summary`.
 
+mod columns;
 mod parquet;
 mod summary;
 
@@ -347,6 +348,24 @@ fn bad_sweep_files_name_the_key() {
         (format!("{GRID_2D}[translation]\nx = 1\n"), "translation"),
         (format!("poses = \"p.csv\"\n{GRID_2D}"), "feature"),
         (GRID_2D.replace("[rotation]", "[rotation"), "s.toml"),
+        (format!("columns = []\n{GRID_2D}"), "columns"),
+        (format!("columns = \"span\"\n{GRID_2D}"), "columns"),
+        (format!("columns = [\"span\", \"spam\"]\n{GRID_2D}"), "columns[1]"),
+        (format!("columns = [\"span\", 3]\n{GRID_2D}"), "columns[1]"),
+        (
+            format!("columns = [\"span\", \"visible\", \"span\"]\n{GRID_2D}"),
+            "columns[2]",
+        ),
+        (format!("columns = [\"index\"]\n{GRID_2D}"), "columns[0]"),
+        (format!("columns = [\"roll\"]\n{GRID_2D}"), "columns[0]"),
+        (
+            format!("metric = \"visible\"\ncolumns = [\"span\"]\n{GRID_2D}"),
+            "metric",
+        ),
+        (
+            format!("columns = [\"span\"]\n{GRID_2D}[summary]\nrows = false\n"),
+            "columns",
+        ),
     ];
     for (text, key) in cases {
         let cfg = file(dir.path(), "s.toml", &text);

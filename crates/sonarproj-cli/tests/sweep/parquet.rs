@@ -4,7 +4,7 @@
 use super::*;
 
 /// Returns the rows of the Parquet file `path` (columns `names`) as numbers, `None` for null.
-fn parquet_cells(path: &Path, names: &[String]) -> Vec<Vec<Option<f64>>> {
+pub(super) fn parquet_cells(path: &Path, names: &[String]) -> Vec<Vec<Option<f64>>> {
     use sonarproj_apps::io::parquet::read_groups;
     let kinds = sonarproj_apps::sweep::column_kinds(names);
     let mut rows = Vec::new();
