@@ -7,7 +7,7 @@
 //! to = "paper-sss"            # sonar 2
 //! step = 0.1                  # sampling step (deg); leave out for auto sampling
 //! metric = "span"             # metric drawn in the figure (default: span for an SSS target,
-//!                             # projection_area for an FLS target)
+//!                             # projection_area for an FLS target, when `columns` keeps it)
 //! area_grid = 0.08            # cell side (m) of the projection-area grid (default: the paper's)
 //! sigma_range = 0.003         # range error (m) of sigma_elevation (default: a bin width / √12)
 //! columns = ["span", "projection_area"]  # the result columns the table keeps (default: all)
@@ -337,23 +337,29 @@ impl SweepConfig {
             None => crate::io::METRIC_COLUMNS.to_vec(),
             Some(v) => table::result_columns(file, v)?,
         };
-        let metric = match string("metric")? {
-            None => table::default_metric(target.kind, &result_columns),
-            Some(m) => Metric::from_name(m)
-                .filter(|m| m.label(target.kind).is_some())
-                .ok_or_else(|| {
-                    let names: Vec<&str> = Metric::all()
-                        .filter(|m| m.label(target.kind).is_some())
-                        .map(Metric::name)
-                        .collect();
-                    key_error(
-                        file,
-                        "metric",
-                        format!("{m:?}"),
-                        format!("must be one of {}", names.join(", ")),
-                    )
-                })?,
+        let named = match string("metric")? {
+            None => None,
+            Some(m) => Some(
+                Metric::from_name(m)
+                    .filter(|m| m.label(target.kind).is_some())
+                    .ok_or_else(|| {
+                        let names: Vec<&str> = Metric::all()
+                            .filter(|m| m.label(target.kind).is_some())
+                            .map(Metric::name)
+                            .collect();
+                        key_error(
+                            file,
+                            "metric",
+                            format!("{m:?}"),
+                            format!("must be one of {}", names.join(", ")),
+                        )
+                    })?,
+            ),
         };
+        // The figure draws from the table: a metric the file does not name is one it keeps. A
+        // summary reduces any metric: its default is the file's metric, or the sonar's.
+        let metric = named.unwrap_or_else(|| table::default_metric(target.kind, &result_columns));
+        let by = named.unwrap_or_else(|| table::default_metric(target.kind, &crate::io::METRIC_COLUMNS));
         let poses = if let Some(list) = string("poses")? {
             for k in ["feature", "place", "translation", "rotation"] {
                 if top.contains_key(k) {
@@ -396,7 +402,7 @@ impl SweepConfig {
                     Poses::Grid(g) => Some(g),
                     Poses::List(_) => None,
                 };
-                Some(summary::from_toml(file, t, metric, target.kind)?.checked(file, grid)?)
+                Some(summary::from_toml(file, t, by, target.kind)?.checked(file, grid)?)
             }
             Some(other) => return Err(key_error(file, "summary", other, "must be a table: [summary]")),
         };

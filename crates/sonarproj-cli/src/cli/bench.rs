@@ -79,7 +79,8 @@ pub(super) struct BenchArgs {
     block: u64,
     /// The sweep's measures to take besides the projection, comma-separated (sweep only):
     /// items, parquet, span, summary. Default: all four (at 10^8 poses the Parquet sweep writes
-    /// 4.7 GB twice: `--measures summary` takes the projection and the summaries alone).
+    /// 4.7 GB twice and the span's 1.2 GB twice: `--measures summary` takes the projections and
+    /// the summaries alone).
     #[arg(long, value_delimiter = ',', value_enum)]
     measures: Vec<SweepMeasure>,
 }

@@ -104,15 +104,22 @@ fn kept_columns_are_those_of_the_full_table_on_every_backend() {
         );
     }
     let (header, rows) = csv_cells(&std::fs::read(dir.path().join("cpu-fast-full/sweep.csv")).unwrap());
-    // No span kept: the figure draws the first kept metric with a label.
+    // No span kept: the figure draws the first kept metric with a label; a summary reduces
+    // the sonar's default metric still (it needs no column).
     let visible = file(
         dir.path(),
         "visible.toml",
-        &format!("columns = [\"total\", \"visible\"]\n{GRID_2D}"),
+        &format!("columns = [\"total\", \"visible\"]\n{GRID_2D}[summary]\ntop = 2\n"),
     );
     let out = dir.path().join("visible");
     sweep(&visible, &out, &["--backend", "cpu-fast"], "sweep.csv");
     assert!(out.join("sweep-visible.png").exists());
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["metric"], "span", "{summary}");
+    let spans = pick(&header, &rows, &["span".to_string()]);
+    let least = spans.iter().filter_map(|r| r[0]).fold(f64::INFINITY, f64::min);
+    assert_eq!(summary["min"]["value"].as_f64(), Some(least), "{summary}");
     assert!(!out.join("sweep-span.png").exists());
     // Only the local precision: no metric kept, none drawn.
     let local = file(
