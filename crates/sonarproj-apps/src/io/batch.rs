@@ -279,13 +279,24 @@ pub fn metrics_json(m: &Metrics, local: &LocalPrecision) -> serde_json::Value {
 /// f32 results keep their f32 value), empty where nothing is visible or there is no value.
 #[must_use]
 pub fn metric_fields(m: &Metrics, local: &LocalPrecision) -> Vec<String> {
-    METRICS
-        .iter()
-        .map(|info| match m.get(info.metric) {
+    (0..METRIC_COLUMNS.len())
+        .map(|k| metric_field(m, local, k))
+        .collect()
+}
+
+/// Returns result field `k` (of [`METRIC_COLUMNS`]) of one projection, as [`metric_fields`]
+/// writes it.
+///
+/// # Panics
+/// When `k` is not below `METRIC_COLUMNS.len()`.
+#[must_use]
+pub fn metric_field(m: &Metrics, local: &LocalPrecision, k: usize) -> String {
+    match METRICS.get(k) {
+        Some(info) => match m.get(info.metric) {
             Value::Count(n) => n.to_string(),
             Value::Real(v) => v.to_string(),
             Value::Optional(v) => field(v),
-        })
-        .chain([field(local.range_per_elevation), field(local.sigma_elevation)])
-        .collect()
+        },
+        None => field([local.range_per_elevation, local.sigma_elevation][k - METRICS.len()]),
+    }
 }

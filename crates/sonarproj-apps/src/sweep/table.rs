@@ -11,10 +11,11 @@ use sonarproj::metrics::Metric;
 use sonarproj::projection::{Backend, Batch, Projection};
 
 use crate::error::{Error, Result};
+use crate::io::METRIC_COLUMNS;
+use crate::io::batch::metric_field;
 use crate::io::batch::{LOCAL_COLUMNS, PoseRow, local_of};
 use crate::io::parquet::{Column, Kind, Table};
 use crate::io::table::write_rows;
-use crate::io::{METRIC_COLUMNS, metric_fields};
 use crate::sweep::SweepConfig;
 use crate::sweep::config::key_error;
 use crate::sweep::parts;
@@ -332,8 +333,15 @@ pub(crate) fn csv_rows(
                 } else {
                     LocalPrecision::default()
                 };
-                let metrics = metric_fields(&p.metrics, &local);
-                w.write_record(fields.iter().chain(picks.iter().map(|&k| &metrics[k])))
+                // The pose fields and the kept ones, then the record's end (a row always has
+                // its index, so never the empty record's lone field).
+                let kept = picks.iter().map(|&k| metric_field(&p.metrics, &local, k));
+                fields
+                    .iter()
+                    .map(String::as_bytes)
+                    .try_for_each(|f| w.write_field(f))
+                    .and_then(|()| kept.into_iter().try_for_each(|f| w.write_field(f)))
+                    .and_then(|()| w.write_record(std::iter::empty::<&[u8]>()))
                     .map_err(|e| Error::write_output(path, e))?;
             }
             w.into_inner().map_err(|e| Error::write_output(path, e))
