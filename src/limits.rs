@@ -1,5 +1,5 @@
-//! Every size limit of sonarproj in one place, for the engine, the applications, the command
-//! line and the Python package alike. Each bounds something derived from input before it is
+//! Every size limit of the engine in one place (the applications keep theirs in
+//! `sonarproj_apps::limits`). Each bounds something derived from input before it is
 //! allocated, so that no input can exhaust memory or overflow a count; an input past a limit is
 //! refused with a message naming the field, the value and the limit.
 
@@ -31,20 +31,6 @@ pub const MAX_POSES: u64 = 1 << 40;
 /// The most values one sweep grid axis may take (its values are held in memory, 8 bytes each);
 /// grids reach [`MAX_POSES`] through the product of their axes.
 pub const MAX_AXIS_VALUES: u64 = 1_000_000;
-/// The most parts a sweep may be cut into.
-pub const MAX_SHARDS: u64 = 100_000;
-/// The most chunk files one sweep run (or shard) is cut into: a larger `--chunk-poses` or more
-/// shards beyond it.
-pub const MAX_CHUNKS: u64 = 1_000_000;
-/// The most poses of one sweep chunk (`--chunk-poses`, 2 097 152): a chunk's metrics, table and
-/// summary values are held in memory together (about 0.5 KB a pose with rows).
-pub const MAX_CHUNK_POSES: u64 = 1 << 21;
-/// The finest angle step of the paper's simulations (deg): 18 001 angles, about 3 million poses
-/// a direction, whose results are held in memory.
-pub const MIN_ANGLE_STEP: f64 = 0.01;
-/// The most bytes of dense masks (one byte a pixel a feature, four more with counts) one call of
-/// the Python package returns: 1 GiB. More features at once take the sparse form (runs).
-pub const MAX_DENSE_MASK_BYTES: u64 = 1 << 30;
 /// The most features of one ping a mask engine takes (65 536): their plans and results are held
 /// together; a larger ping is split by the caller.
 pub const MAX_PING_FEATURES: usize = 1 << 16;
@@ -52,17 +38,6 @@ pub const MAX_PING_FEATURES: usize = 1 << 16;
 /// whatever the sonar's size (with per-pixel counts, four bytes a pixel more a mask); a call
 /// that would need more is refused, naming its features or its pings.
 pub const MAX_MASK_BITSET_BYTES: u64 = 1 << 30;
-/// The longest sweep or advise file read (64 MiB): a longer one is refused after that many bytes
-/// (a device or FIFO included).
-pub const MAX_CONFIG_BYTES: u64 = 64 << 20;
-/// The most poses of a sweep's pose list (1 000 000): the list is held in memory (about 1 KB a
-/// pose); longer lists are split into several sweeps, or given as a grid.
-pub const MAX_LIST_POSES: usize = 1_000_000;
-/// The most timed runs of one benchmark measurement.
-pub const MAX_RUNS: u32 = 10_000;
-/// The longest input line (a stream's JSON line) or CSV record read whole (1 MiB): a longer one
-/// is refused before it is held in memory.
-pub const MAX_LINE_BYTES: usize = 1 << 20;
 /// The most characters of input text an error quotes whole (a column name, a field); longer
 /// text is cut and marked with its length.
 pub const EXCERPT_CHARS: usize = 40;
@@ -72,7 +47,7 @@ pub const MAX_VALUE_CHARS: usize = 200;
 // The limits keep derived sizes far from overflow, checked when the crate compiles: a whole
 // image of bits fits in 8 MiB and a u32 word index; sample and cell counts fit the GPU's u32
 // indices; a sweep's pose index is exact in an f64 (CSV columns print it); a square grid of
-// full axes stays within a sweep; the largest sweep fits in a run's chunks.
+// full axes stays within a sweep.
 const _: () = {
     assert!(MAX_PIXELS / 8 <= 8 << 20);
     assert!(MAX_PIXELS <= u32::MAX as u64);
@@ -82,5 +57,4 @@ const _: () = {
     assert!(MAX_AREA_CELLS / 8 <= 8 << 20);
     assert!(MAX_POSES < 1 << 53);
     assert!(MAX_AXIS_VALUES * MAX_AXIS_VALUES <= MAX_POSES);
-    assert!(MAX_POSES <= MAX_CHUNKS * MAX_CHUNK_POSES);
 };

@@ -73,7 +73,7 @@ impl Timing {
     }
 }
 
-pub use sonarproj::limits::MAX_RUNS;
+pub use crate::limits::MAX_RUNS;
 
 /// Returns the median time of `runs` runs (after one warm-up run) of `batch` on `backend`.
 ///

@@ -9,6 +9,7 @@ pub mod bench;
 pub mod error;
 pub mod gpu_env;
 pub mod io;
+pub mod limits;
 pub mod paper;
 pub mod report;
 pub mod sweep;

@@ -301,7 +301,7 @@ fn pose_lists_and_sweep_files_past_their_limits_are_refused_while_read() {
     assert!(
         e.contains(&format!(
             "longer than {} bytes",
-            sonarproj::limits::MAX_CONFIG_BYTES
+            sonarproj_apps::limits::MAX_CONFIG_BYTES
         )),
         "{e}"
     );

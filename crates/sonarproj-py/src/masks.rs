@@ -6,11 +6,12 @@ use numpy::{IntoPyArray, PyArray2, PyArrayDyn};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use sonarproj::limits::{MAX_DENSE_MASK_BYTES, MAX_MASK_BITSET_BYTES};
+use sonarproj::limits::MAX_MASK_BITSET_BYTES;
 use sonarproj::masks::run_lengths;
 use sonarproj::masks::{Noise, bounding_box};
 use sonarproj::occupancy::Occupancy;
 use sonarproj::{Counts, MaskEngine, Measurement, SonarKind};
+use sonarproj_apps::limits::MAX_DENSE_MASK_BYTES;
 use std::time::Instant;
 
 use crate::pose::PyPose;

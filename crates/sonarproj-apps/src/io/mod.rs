@@ -21,8 +21,9 @@ pub fn field(v: Option<f64>) -> String {
     v.map(|x| x.to_string()).unwrap_or_default()
 }
 
+pub use crate::limits::MAX_LINE_BYTES;
 pub use sonarproj::error::excerpt;
-pub use sonarproj::limits::{EXCERPT_CHARS, MAX_LINE_BYTES};
+pub use sonarproj::limits::EXCERPT_CHARS;
 
 /// One line read by [`read_line_bounded`].
 #[derive(Debug, PartialEq, Eq)]

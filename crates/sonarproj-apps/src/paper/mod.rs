@@ -93,7 +93,7 @@ pub struct ScenarioPose {
     pub angles: [f64; 3],
 }
 
-pub use sonarproj::limits::MIN_ANGLE_STEP;
+pub use crate::limits::MIN_ANGLE_STEP;
 
 /// Returns the swept angles `0, s, 2s, …` up to 180° (deg).
 ///

@@ -53,9 +53,9 @@ pub fn note_input(path: &Path) {
 ///
 /// # Errors
 /// [`Error::ReadInput`] when it cannot be read, is not UTF-8 or is longer than
-/// [`MAX_CONFIG_BYTES`](sonarproj::limits::MAX_CONFIG_BYTES).
+/// [`MAX_CONFIG_BYTES`](crate::limits::MAX_CONFIG_BYTES).
 pub fn read_config(path: &Path) -> Result<(String, std::path::PathBuf)> {
-    use sonarproj::limits::MAX_CONFIG_BYTES;
+    use crate::limits::MAX_CONFIG_BYTES;
     use std::io::Read;
     note_input(path);
     let fail = |source: std::io::Error| Error::ReadInput {

@@ -43,7 +43,7 @@ use sonarproj::metrics::Metric;
 use sonarproj::projection::Batch;
 use sonarproj::sampling::Sampling;
 
-use sonarproj::limits::MAX_LIST_POSES;
+use crate::limits::MAX_LIST_POSES;
 pub use sonarproj::limits::{MAX_AXIS_VALUES, MAX_POSES};
 
 /// One grid axis: a column of the output and the values it takes.

@@ -20,8 +20,8 @@
 use std::ops::{ControlFlow, Range};
 use std::path::{Path, PathBuf};
 
+use crate::limits::{MAX_CHUNK_POSES, MAX_CHUNKS};
 use serde::{Deserialize, Serialize};
-use sonarproj::limits::{MAX_CHUNK_POSES, MAX_CHUNKS};
 use sonarproj::local_precision::resolve_sigma_range;
 use sonarproj::metrics::Metric;
 use sonarproj::projection::Backend;

@@ -16,7 +16,7 @@ pub struct Shard {
     pub n: u64,
 }
 
-pub use sonarproj::limits::MAX_SHARDS;
+pub use crate::limits::MAX_SHARDS;
 
 impl Shard {
     /// Returns the shard written `K/N`.
