@@ -6,7 +6,6 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use rayon::prelude::*;
 use sonarproj::gpu::GpuContext;
 use sonarproj::metrics::{Extremes, Metrics};
-use sonarproj::projection::gpu::GpuBackend;
 use sonarproj::projection::{Projection, fast, reference};
 use sonarproj::{Output, Sonar};
 use sonarproj_apps::bench;
@@ -14,7 +13,7 @@ use sonarproj_apps::bench;
 fn projection(c: &mut Criterion) {
     let gpu = GpuContext::open(&sonarproj_testkit::gpu_options())
         .ok()
-        .and_then(|ctx| GpuBackend::new(ctx).ok());
+        .map(sonarproj_testkit::gpu_backend_on);
     for (from, to, n) in bench::STANDARD {
         let b = bench::batch(&Sonar::preset(from).unwrap(), &Sonar::preset(to).unwrap(), n).unwrap();
         let prepared = b.prepare().unwrap();
@@ -93,7 +92,7 @@ fn small_calls(c: &mut Criterion) {
     let Ok(ctx) = GpuContext::open(&sonarproj_testkit::gpu_options()) else {
         return;
     };
-    let Ok(gpu) = GpuBackend::new(ctx) else { return };
+    let gpu = sonarproj_testkit::gpu_backend_on(ctx);
     let (from, to) = ("paper-sss", "paper-fls");
     let b = bench::batch(&Sonar::preset(from).unwrap(), &Sonar::preset(to).unwrap(), 4).unwrap();
     let prepared = b.prepare().unwrap();

@@ -9,9 +9,9 @@
 // an angle makes (edges_with_cross_above: the guess saves steps, the comparisons decide).
 //
 // Structs: keep in sync with src/masks/gpu/mod.rs (sizes asserted there, layout checked in
-// src/gpu/shader_tests.rs).
+// src/masks/gpu/source_tests.rs).
 
-// MaskParams is shaders/shared/mask_params.wgsl, put before this file (src/gpu/shaders.rs).
+// MaskParams is shaders/shared/mask_params.wgsl, put before this file (src/masks/gpu/source.rs).
 
 // One mask to draw: the rows of R with t in .w, the set's range, the ball radius of a cell (cell +
 // noise + rounding slack) and of a block of cells around its middle point (block + noise +
@@ -48,7 +48,7 @@ struct MaskJob {
 
 // The workgroup (CELLS threads) is one block of block_a x (CELLS / block_a) cells (BLOCK x BLOCK
 // unless the grid is thin along one axis). CELLS (BLOCK x BLOCK, from masks::plan::BLOCK) is
-// generated and put before this file (src/gpu/shaders.rs).
+// generated and put before this file (src/masks/gpu/source.rs).
 
 // Returns false only when no point within r of q lies in sonar 2's field of view: the twin of
 // clip::View::may_meet (src/clip.rs).

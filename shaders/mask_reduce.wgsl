@@ -7,7 +7,7 @@
 // and the union. Integer atomics only (add, or), so the result does not depend on the order the
 // GPU runs in.
 //
-// MaskParams is shaders/shared/mask_params.wgsl, put before this file (src/gpu/shaders.rs).
+// MaskParams is shaders/shared/mask_params.wgsl, put before this file (src/masks/gpu/source.rs).
 
 @group(0) @binding(0) var<uniform> params: MaskParams;
 // The masks drawn by mask.wgsl: words_per_mask words each, pixel i * beams + j.

@@ -10,10 +10,8 @@
 // x*WORKGROUP + l, stepping by tiles*WORKGROUP, of pose y + z * across. Each visible sample sets its pixel's bit with atomicOr; the workgroup
 // then folds its visible count and range/azimuth extremes into the pose's metric slots.
 
-@group(0) @binding(0) var<uniform> params: TargetParams;
-@group(0) @binding(1) var<storage, read> beam_edges: array<BeamEdge>;
-// squared range-bin edges (range_min + i * width)^2, i = 0..=range_bins, double-f32
-@group(0) @binding(2) var<storage, read> range_edges_sq: array<vec2<f32>>;
+// Bindings 0-2 (params, beam_edges, range_edges_sq: sonar 2) are declared by shared/clip.wgsl,
+// put before this file, which reads them.
 @group(0) @binding(3) var<storage, read> poses: array<Pose>;
 // (cos hi, sin hi, cos lo, sin lo) of the plans' azimuth offsets and elevations; after each
 // plan's elevations, one culling ball per block of BLOCK samples (centre xyz, radius w, f32),

@@ -28,7 +28,7 @@ use crate::occupancy::Layout;
 
 // ---------------------------------------------------------------------------------------------
 // Tolerances. Each says what it is relative to and why it is large enough. The splat shader's
-// F32_SLACK and F32_WIDEN are generated from these (gpu::shaders), never written in WGSL.
+// F32_SLACK and F32_WIDEN are generated from these (projection/gpu/source.rs), never written in WGSL.
 // ---------------------------------------------------------------------------------------------
 
 /// Relative size (against the sample's range in sonar 2) of the neighbourhood of a bound or edge

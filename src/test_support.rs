@@ -25,7 +25,7 @@ pub fn build_stage(ctx: &GpuContext, name: &str, source: &str, bindings: &[&str]
             other => panic!("no binding kind {other:?}"),
         })
         .collect();
-    Stage::new(&ctx.device, name, source, &kinds).map(drop)
+    Stage::new(ctx.device(), name, source, &kinds).map(drop)
 }
 
 /// Returns the GPU's projections of poses `range` of `sweep`'s grid, each decoded on the device

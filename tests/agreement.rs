@@ -160,7 +160,7 @@ fn agree_on(items: Vec<BatchItem>, source: Sonar, target: Sonar, sampling: Sampl
             .collect()
     };
     let envelopes = envelopes_at(envelope::INPUT_TOLERANCE);
-    let gpu_envelopes = common::gpu().map(|g| match g.context().precision {
+    let gpu_envelopes = common::gpu().map(|g| match g.context().precision() {
         Precision::F64 => envelopes.clone(),
         Precision::DoubleF32 => envelopes_at(envelope::DOUBLE_F32_TOLERANCE),
     });
@@ -530,7 +530,7 @@ fn results_do_not_depend_on_the_workgroup_size() {
 #[test]
 fn kept_buffers_do_not_change_results() {
     let Some(ctx) = common::gpu_context() else { return };
-    let kept = GpuBackend::new(ctx.clone()).unwrap();
+    let kept = sonarproj_testkit::gpu_backend_on(ctx.clone());
     let batch = |seed, source: &str, target: &str, n| {
         let (source, target) = (common::preset(source), common::preset(target));
         Batch {
@@ -551,8 +551,7 @@ fn kept_buffers_do_not_change_results() {
     let mut sizes = Vec::new();
     for (k, (batch, output)) in calls.iter().enumerate() {
         let prepared = batch.prepare().unwrap();
-        let fresh = GpuBackend::new(ctx.clone())
-            .unwrap()
+        let fresh = sonarproj_testkit::gpu_backend_on(ctx.clone())
             .project(&prepared, *output)
             .unwrap();
         let reused = kept.project(&prepared, *output).unwrap();
@@ -678,25 +677,27 @@ fn one_context_per_process_and_device() {
     let Some(first) = common::gpu_context() else {
         return;
     };
-    let options = first.options.clone();
+    let options = sonarproj_testkit::gpu_options();
     let before = GpuContext::opened();
     let threads: Vec<_> = (0..4)
         .map(|_| {
             let options = options.clone();
-            std::thread::spawn(move || GpuContext::open(&options).unwrap().info.name)
+            std::thread::spawn(move || GpuContext::open(&options).unwrap().info().name.clone())
         })
         .collect();
     for t in threads {
-        assert_eq!(t.join().unwrap(), first.info.name);
+        assert_eq!(t.join().unwrap(), first.info().name);
     }
+    // Another variant of the splat stage is the backend's, on the same device.
     let variant = GpuOptions {
         workgroup: Some(128),
         cull: Some(true),
         ..options.clone()
     };
     let ctx = GpuContext::open(&variant).unwrap();
-    assert_eq!(ctx.options, variant, "the caller's options");
-    assert_eq!(GpuBackend::new(ctx).unwrap().options().workgroup, 128);
+    let splat = SplatOptions::for_adapter(&ctx, &variant);
+    assert_eq!((splat.workgroup, splat.cull), (128, true), "the caller's variant");
+    assert_eq!(GpuBackend::with_options(ctx, splat).unwrap().options(), splat);
     assert_eq!(GpuContext::opened(), before, "a second device for the same one");
     let other = GpuOptions {
         precision: match options.precision {
@@ -706,7 +707,11 @@ fn one_context_per_process_and_device() {
         ..options
     };
     for _ in 0..3 {
-        assert_eq!(GpuContext::open(&other).unwrap().options, other);
+        let precision = GpuContext::open(&other).unwrap().precision();
+        assert!(
+            other.precision.is_none_or(|p| p == precision),
+            "{precision:?}: not the precision asked for"
+        );
     }
     assert_eq!(GpuContext::opened(), before + 1);
 }

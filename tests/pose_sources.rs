@@ -169,9 +169,7 @@ fn column_bits(c: &MetricColumns, metric: Metric) -> Vec<u64> {
 fn every_backend() -> Vec<Backend> {
     let mut backends = vec![Backend::Cpu, Backend::CpuFast];
     if let Some(gpu) = common::gpu() {
-        let small = sonarproj::projection::gpu::GpuBackend::new(gpu.context().clone())
-            .unwrap()
-            .with_max_chunk_poses(7);
+        let small = sonarproj_testkit::gpu_backend_on(gpu.context().clone()).with_max_chunk_poses(7);
         backends.push(Backend::Gpu(Box::new(gpu)));
         backends.push(Backend::Gpu(Box::new(small)));
     }
@@ -356,15 +354,10 @@ fn bad_ranges_and_stops_are_errors() {
 /// not depend on how the poses are cut into chunks (the digits carried across chunk starts).
 #[test]
 fn device_decoded_grids_lie_in_the_reference_envelope() {
-    use sonarproj::projection::gpu::GpuBackend;
     let Some(gpu) = common::gpu() else {
         return;
     };
-    let small = || {
-        GpuBackend::new(gpu.context().clone())
-            .unwrap()
-            .with_max_chunk_poses(7)
-    };
+    let small = || sonarproj_testkit::gpu_backend_on(gpu.context().clone()).with_max_chunk_poses(7);
     let names = Sonar::preset_names();
     let mut visible = 0;
     for a in &names {
@@ -387,7 +380,7 @@ fn device_decoded_grids_lie_in_the_reference_envelope() {
                 let (got, _) = device_grid_in_envelope(&gpu, &s, &what, Output::WithOccupancy);
                 visible += got.iter().filter(|p| p.metrics.visible > 0).count();
                 // The columns are the metrics of the same path, whatever the chunks.
-                for backend in [GpuBackend::new(gpu.context().clone()).unwrap(), small()] {
+                for backend in [sonarproj_testkit::gpu_backend_on(gpu.context().clone()), small()] {
                     let mut columns = MetricColumns::default();
                     Backend::Gpu(Box::new(backend))
                         .project_columns(&s, 3..g.len(), &mut columns, &|| false)
@@ -468,12 +461,7 @@ fn device_time_is_counted_only_while_asked_and_within_the_call() {
     gpu.project_columns(&s, 0..grid.len(), &mut out, &|| false)
         .unwrap();
     let Some(before) = g.device_time() else {
-        assert!(
-            !g.context()
-                .device
-                .features()
-                .contains(wgpu::Features::TIMESTAMP_QUERY)
-        );
+        assert!(!g.context().features().contains(wgpu::Features::TIMESTAMP_QUERY));
         return;
     };
     g.time_device(true);
@@ -520,7 +508,7 @@ fn device_grid_in_envelope(
 ) -> (Vec<sonarproj::Projection>, Vec<sonarproj::Projection>) {
     use sonarproj::gpu::Precision;
     use sonarproj::projection::{envelope, reference};
-    let tolerance = match gpu.context().precision {
+    let tolerance = match gpu.context().precision() {
         Precision::F64 => envelope::INPUT_TOLERANCE,
         Precision::DoubleF32 => envelope::DOUBLE_F32_TOLERANCE,
     };

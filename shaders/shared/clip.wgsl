@@ -2,16 +2,23 @@
 // the f32 filter), block culling, and the slack of every f32 decision. The Rust twins are
 // src/clip.rs (Clip: in_view, range_bin, at_or_above, beam; the tolerances, with their
 // derivations) and src/projection/culling.rs (ball_side, chord_outside); read them side by side.
-// A prelude of splat.wgsl (after types.wgsl and real_*.wgsl): it reads the stage's params,
-// beam_edges and range_edges_sq, declared there. The mask stage (mask.wgsl) tests balls instead
-// and is self-contained.
+// A prelude of splat.wgsl (after types.wgsl and real_*.wgsl). It declares the splat stage's
+// first three bindings, sonar 2 as its decisions read it (params, beam_edges, range_edges_sq),
+// so that no part reads a global declared after it. The mask stage (mask.wgsl) tests balls
+// instead and is self-contained.
 
 // Generated from src/clip.rs and src/projection/culling.rs and put before this file
-// (src/gpu/shaders.rs): F32_SLACK, the relative slack of the f32 decisions against
+// (src/projection/gpu/source.rs): F32_SLACK, the relative slack of the f32 decisions against
 // range + |t| + range_max (a point moved in f32 lies within 4e-6 * (range + |t|) of the Real one,
 // a clip or edge function adds a few roundings, a double-f32 Real left at f32 precision by its
 // driver 1e-6 * (range + |t|)); F32_WIDEN, the relative widening of an f32 culling radius or
 // reach; BLOCK, the samples of a culling block (consecutive in the plan's order).
+
+// Sonar 2: bindings 0-2 of the splat stage (see splat.wgsl for the others).
+@group(0) @binding(0) var<uniform> params: TargetParams;
+@group(0) @binding(1) var<storage, read> beam_edges: array<BeamEdge>;
+// squared range-bin edges (range_min + i * width)^2, i = 0..=range_bins, double-f32
+@group(0) @binding(2) var<storage, read> range_edges_sq: array<vec2<f32>>;
 
 // Where a block's ball lies.
 const OUTSIDE: u32 = 0u;

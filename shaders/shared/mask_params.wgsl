@@ -1,5 +1,5 @@
 // Sonar 2 as both mask stages see it (mask.wgsl draws, mask_reduce.wgsl reduces). Keep in sync
-// with MaskParams in src/masks/gpu/mod.rs (size and offsets checked in src/gpu/shader_tests.rs).
+// with MaskParams in src/masks/gpu/mod.rs (size and offsets checked in src/masks/gpu/source_tests.rs).
 struct MaskParams {
     range_min: f32,
     range_max: f32,

@@ -1,5 +1,5 @@
 // Structs shared by the projection stages. Keep in sync with src/projection/gpu/types.rs (sizes
-// asserted there and checked against naga's layout in src/gpu/shaders.rs's tests).
+// asserted there and checked against naga's layout in src/projection/gpu/source_tests.rs).
 
 // Sonar 2: field of view and data layout, precomputed in f64 on the CPU. vec2<f32> fields hold
 // a value as hi + lo (about 48 significant bits), read through real() (shared/real_*.wgsl).
@@ -70,7 +70,7 @@ struct BeamEdge {
 
 // Per-pose metric slots (METRIC_STRIDE of them, METRIC_<NAME> for each metric the GPU reduces,
 // _NOT for minima) are generated from the metric table (src/metrics.rs) and put before this file
-// (src/gpu/shaders.rs). The metrics buffer is slot-major: slot s of a chunk's pose p is word
+// (src/projection/gpu/source.rs). The metrics buffer is slot-major: slot s of a chunk's pose p is word
 // s × pose_count + p, so the host copies back only the slots of the metrics it asks for, each
 // one contiguous. Minima are stored as the bitwise NOT of the order key so that every slot
 // starts at 0 and only atomicMax is needed.

@@ -7,26 +7,29 @@ use std::sync::{Mutex, PoisonError};
 
 use crate::error::{Error, Result, excerpt};
 use crate::gpu::options::GpuOptions;
-use crate::gpu::shaders::Precision;
+use crate::gpu::precision::Precision;
 
 /// Timeout for one wait on the GPU; lavapipe can be slow on big batches.
 pub const WAIT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(600);
 
-/// A device ready for compute work, with the adapter it came from.
+/// A device ready for compute work, with the adapter it came from. Cloning it shares the device.
+/// What runs on it (the splat stage's variant) is the backend's, not the device's.
 #[derive(Clone, Debug)]
 pub struct GpuContext {
-    /// The device.
-    pub device: wgpu::Device,
-    /// Its queue.
-    pub queue: wgpu::Queue,
-    /// What the adapter says of itself.
-    pub info: wgpu::AdapterInfo,
-    /// The limits the device was created with.
-    pub limits: wgpu::Limits,
-    /// The arithmetic of the splat stage: f64 where the adapter has it.
-    pub precision: Precision,
-    /// The options the context was opened with; the splat stage's variant follows them.
-    pub options: GpuOptions,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    info: wgpu::AdapterInfo,
+    limits: wgpu::Limits,
+    precision: Precision,
+}
+
+/// What tells two devices apart: the backends, the adapter asked for and the precision asked
+/// for ([`GpuOptions`] without the splat stage's variant).
+type DeviceKey = (Option<wgpu::Backends>, Option<String>, Option<Precision>);
+
+/// Returns the device `options` ask for.
+fn device_key(options: &GpuOptions) -> DeviceKey {
+    (options.backends, options.adapter.clone(), options.precision)
 }
 
 /// Returns a wgpu instance over `backends`.
@@ -57,9 +60,43 @@ pub fn describe(info: &wgpu::AdapterInfo) -> String {
 }
 
 /// The contexts this process has opened, with the options they were opened for.
-static OPENED: Mutex<Vec<GpuContext>> = Mutex::new(Vec::new());
+static OPENED: Mutex<Vec<(DeviceKey, GpuContext)>> = Mutex::new(Vec::new());
 
 impl GpuContext {
+    /// Returns what the adapter says of itself (name, backend, type, driver).
+    #[must_use]
+    pub fn info(&self) -> &wgpu::AdapterInfo {
+        &self.info
+    }
+
+    /// Returns the limits the device was created with.
+    #[must_use]
+    pub fn limits(&self) -> &wgpu::Limits {
+        &self.limits
+    }
+
+    /// Returns the arithmetic of the projection's `Real` numbers: f64 where the adapter has it.
+    #[must_use]
+    pub fn precision(&self) -> Precision {
+        self.precision
+    }
+
+    /// Returns the features the device was created with (f64 in shaders, timestamp queries).
+    #[must_use]
+    pub fn features(&self) -> wgpu::Features {
+        self.device.features()
+    }
+
+    /// Returns the device.
+    pub(crate) fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    /// Returns the device's queue.
+    pub(crate) fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
     /// Returns whether the adapter is a software one (lavapipe, llvmpipe, WARP): it runs on the
     /// CPU's cores.
     #[must_use]
@@ -71,8 +108,8 @@ impl GpuContext {
     /// `options.adapter` names, else the high-performance adapter of the backends, a software one
     /// such as lavapipe included) and shared by every later call that asks for the same device
     /// (the same backends, adapter and precision), as an application shares its device. The
-    /// context returned carries the caller's `options`, so the splat stage a backend builds on it
-    /// follows them.
+    /// splat stage's variant in `options` is not the device's: a backend takes it
+    /// ([`crate::projection::gpu::SplatOptions::for_adapter`]).
     ///
     /// # Errors
     /// As [`GpuOptions::validate`]; [`Error::NoAdapter`] when no adapter exists;
@@ -81,17 +118,12 @@ impl GpuContext {
     pub fn open(options: &GpuOptions) -> Result<Self> {
         options.validate()?;
         let mut opened = OPENED.lock().unwrap_or_else(PoisonError::into_inner);
-        let same_device = |o: &GpuOptions| {
-            (o.backends, &o.adapter, o.precision) == (options.backends, &options.adapter, options.precision)
-        };
-        if let Some(ctx) = opened.iter().find(|c| same_device(&c.options)) {
-            return Ok(GpuContext {
-                options: options.clone(),
-                ..ctx.clone()
-            });
+        let key = device_key(options);
+        if let Some((_, ctx)) = opened.iter().find(|(k, _)| *k == key) {
+            return Ok(ctx.clone());
         }
         let ctx = Self::open_new(options)?;
-        opened.push(ctx.clone());
+        opened.push((key, ctx.clone()));
         Ok(ctx)
     }
 
@@ -139,17 +171,17 @@ impl GpuContext {
                 hint: format!(": {e}"),
             })?,
         };
-        Self::from_adapter(&adapter, options)
+        Self::from_adapter(&adapter, options.precision)
     }
 
     /// Returns a new context on `adapter` (not shared), asking for the larger buffer limits it
-    /// offers; the splat stage computes in f64 where the adapter has it, unless
-    /// `options.precision` asks for double-f32.
+    /// offers; the projection computes in f64 where the adapter has it, unless `precision` asks
+    /// for double-f32.
     ///
     /// # Errors
-    /// [`Error::InvalidValue`] when `options.precision` asks for f64 on an adapter without it;
+    /// [`Error::InvalidValue`] when `precision` asks for f64 on an adapter without it;
     /// [`Error::Gpu`] when the device cannot be made.
-    pub fn from_adapter(adapter: &wgpu::Adapter, options: &GpuOptions) -> Result<Self> {
+    pub fn from_adapter(adapter: &wgpu::Adapter, precision: Option<Precision>) -> Result<Self> {
         let offered = adapter.limits();
         let mut limits = wgpu::Limits::default();
         // Ask for up to 1 GiB bindings where the adapter has them; chunks are sized from these.
@@ -159,7 +191,7 @@ impl GpuContext {
             .max_storage_buffers_per_shader_stage
             .min(offered.max_storage_buffers_per_shader_stage);
         let has_f64 = adapter.features().contains(wgpu::Features::SHADER_F64);
-        let precision = match options.precision {
+        let precision = match precision {
             None if has_f64 => Precision::F64,
             None | Some(Precision::DoubleF32) => Precision::DoubleF32,
             Some(Precision::F64) if has_f64 => Precision::F64,
@@ -191,7 +223,6 @@ impl GpuContext {
             info: adapter.get_info(),
             limits,
             precision,
-            options: options.clone(),
         })
     }
 }

@@ -1,21 +1,25 @@
 //! The GPU plumbing shared by the projection and the mask pipelines: the device
-//! ([`GpuContext`], opened once per process for the [`GpuOptions`] the fronts give), compute stages and their binding tables (`pipeline`), the WGSL sources
-//! (`shaders`), buffers kept between calls (`pool`), the device's own time of a pass (`timing`)
-//! and reading buffers back.
+//! ([`GpuContext`], opened once per process for the [`GpuOptions`] the fronts give), its
+//! arithmetic ([`Precision`]), compute stages and their binding tables (`pipeline`), buffers kept
+//! between calls (`pool`), the device's own time of a pass (`timing`) and reading buffers back.
+//! A leaf: it imports nothing of the engine but its errors; each pipeline assembles its own WGSL
+//! (`projection/gpu/source.rs`, `masks/gpu/source.rs`).
 
 pub mod context;
 pub mod options;
 pub(crate) mod pipeline;
 pub(crate) mod pool;
-pub(crate) mod shaders;
+pub mod precision;
 pub(crate) mod timing;
+#[cfg(test)]
+pub(crate) mod wgsl_checks;
 
 use std::sync::mpsc;
 
 use crate::error::{Error, Result};
 pub use context::GpuContext;
 pub use options::GpuOptions;
-pub use shaders::Precision;
+pub use precision::Precision;
 
 /// Returns what `f` makes of the first `size` bytes of the mappable `buffer` as u32s, read in
 /// place while the buffer is mapped (no copy), once submission `index` (and those before it) has
@@ -32,7 +36,7 @@ pub(crate) fn read_after<T>(
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
     });
-    ctx.device
+    ctx.device()
         .poll(wgpu::PollType::Wait {
             submission_index: index,
             timeout: Some(context::WAIT_TIMEOUT),

@@ -3,7 +3,7 @@
 //! hand. The engine itself reads no environment variable.
 
 use crate::error::{Error, Result};
-use crate::gpu::shaders::Precision;
+use crate::gpu::precision::Precision;
 
 /// The splat stage's workgroup sizes [`GpuOptions::workgroup`] may take: multiples of the culling
 /// block (16 samples) that every adapter runs (at least 256 threads a workgroup).

@@ -18,11 +18,11 @@ pub(crate) struct PassTimer {
 impl PassTimer {
     /// Returns a timer on `ctx`, or `None` when its device has no timestamp queries.
     pub(crate) fn new(ctx: &GpuContext) -> Option<PassTimer> {
-        if !ctx.device.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+        if !ctx.device().features().contains(wgpu::Features::TIMESTAMP_QUERY) {
             return None;
         }
         let buffer = |label, usage| {
-            ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            ctx.device().create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
                 size: 16,
                 usage,
@@ -30,7 +30,7 @@ impl PassTimer {
             })
         };
         Some(PassTimer {
-            queries: ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+            queries: ctx.device().create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("pass timer"),
                 ty: wgpu::QueryType::Timestamp,
                 count: 2,
@@ -73,7 +73,7 @@ impl PassTimer {
             u64::from(words[0]) | (u64::from(words[1]) << 32),
             u64::from(words[2]) | (u64::from(words[3]) << 32),
         );
-        let ns = end.saturating_sub(begin) as f64 * f64::from(ctx.queue.get_timestamp_period());
+        let ns = end.saturating_sub(begin) as f64 * f64::from(ctx.queue().get_timestamp_period());
         Ok(Duration::from_secs_f64(ns / 1e9))
     }
 }

@@ -13,7 +13,7 @@ use crate::sampling::Measurement;
 use super::noise::Noise;
 
 /// Cells per block side (blocks are culled as a whole before their cells are visited); the mask
-/// stage's WGSL `BLOCK` is generated from it (`gpu::shaders::mask`).
+/// stage's WGSL `BLOCK` is generated from it (`masks/gpu/source.rs`).
 pub(crate) const BLOCK: usize = 8;
 
 /// What one mask is drawn from: the cells of the set, their ball radius and the noise part of it.

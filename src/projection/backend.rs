@@ -5,7 +5,7 @@ use std::ops::ControlFlow;
 
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions, context};
-use crate::projection::gpu::GpuBackend;
+use crate::projection::gpu::{GpuBackend, SplatOptions};
 use crate::projection::{Batch, MetricColumns, PoseSource, PoseSweep, Projection, fast, reference};
 
 /// Which backend a user asked for.
@@ -55,7 +55,7 @@ impl BackendChoice {
                         "the only GPU adapter is a software one ({}), slower than the CPU path; \
                          running on the CPU (all cores; choosing the GPU backend uses the adapter \
                          anyway)",
-                        ctx.info.name
+                        ctx.info().name
                     )),
                     Ok(ctx) => Ok(Device::Gpu(Box::new(ctx))),
                     Err(Error::NoAdapter { .. }) => cpu(
@@ -98,27 +98,34 @@ impl Backend {
     /// As [`BackendChoice::device`]; [`Error::Gpu`] when the device refuses a stage.
     pub fn select(choice: BackendChoice, gpu: &GpuOptions) -> Result<(Backend, Option<String>)> {
         let backend = match choice.device(gpu)? {
-            Device::Gpu(ctx) => Backend::on(*ctx)?,
+            Device::Gpu(ctx) => {
+                let variant = SplatOptions::for_adapter(&ctx, gpu);
+                Backend::on(*ctx, variant)?
+            }
             Device::Cpu(_) if choice == BackendChoice::Cpu => Backend::Cpu,
             Device::Cpu(notice) => return Ok((Backend::CpuFast, notice)),
         };
         Ok((backend, None))
     }
 
-    /// Returns the GPU backend on the process's context for `gpu`.
+    /// Returns the GPU backend on the process's context for `gpu`, with the splat stage's
+    /// variant `gpu` asks for.
     ///
     /// # Errors
-    /// As [`GpuContext::open`] and [`GpuBackend::new`].
+    /// As [`GpuContext::open`] and [`GpuBackend::with_options`].
     pub fn gpu(gpu: &GpuOptions) -> Result<Backend> {
-        Backend::on(GpuContext::open(gpu)?)
+        let ctx = GpuContext::open(gpu)?;
+        let variant = SplatOptions::for_adapter(&ctx, gpu);
+        Backend::on(ctx, variant)
     }
 
-    /// Returns the GPU backend on `ctx`, a device it may share with a mask engine.
+    /// Returns the GPU backend on `ctx` (a device it may share with a mask engine), its splat
+    /// stage built as `variant`.
     ///
     /// # Errors
-    /// As [`GpuBackend::new`].
-    pub fn on(ctx: GpuContext) -> Result<Backend> {
-        Ok(Backend::Gpu(Box::new(GpuBackend::new(ctx)?)))
+    /// As [`GpuBackend::with_options`].
+    pub fn on(ctx: GpuContext, variant: SplatOptions) -> Result<Backend> {
+        Ok(Backend::Gpu(Box::new(GpuBackend::with_options(ctx, variant)?)))
     }
 
     /// Returns `"cpu"`, `"cpu-fast"` or `"gpu"`.
@@ -150,8 +157,8 @@ impl Backend {
             Backend::CpuFast => cpu_device(),
             Backend::Gpu(g) => format!(
                 "{}, {} transform, {}",
-                context::describe(&g.context().info),
-                g.context().precision.name(),
+                context::describe(g.context().info()),
+                g.context().precision().name(),
                 g.options().describe()
             ),
         }
@@ -165,12 +172,12 @@ impl Backend {
     pub fn settings(&self) -> Vec<(&'static str, String)> {
         let mut out = vec![("backend", self.name().to_string())];
         if let Backend::Gpu(g) = self {
-            let info = &g.context().info;
+            let info = g.context().info();
             out.push((
                 "adapter",
                 format!("{} ({:?}, driver {})", info.name, info.backend, info.driver),
             ));
-            out.push(("precision", g.context().precision.name().to_string()));
+            out.push(("precision", g.context().precision().name().to_string()));
             out.push(("gpu options", g.options().describe()));
         }
         out

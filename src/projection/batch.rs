@@ -51,7 +51,9 @@ pub struct Projection {
     pub cells: Option<Occupancy>,
 }
 
-/// A batch made ready for a backend: sonar 2's layout and the distinct sampling plans.
+/// A batch made ready for a backend: sonar 2's layout and the distinct sampling plans. Hidden:
+/// the backends' own calls take it ([`Backend`](crate::Backend) prepares for its callers).
+#[doc(hidden)]
 #[derive(Clone, Debug)]
 pub struct PreparedBatch<'a> {
     /// The batch itself.
@@ -212,6 +214,7 @@ impl Batch {
     /// [`Error::InvalidValue`](crate::Error::InvalidValue) for an invalid sonar, sampling,
     /// measurement or pose (each checked here: the fields are public and may be set by hand,
     /// and item `k`'s errors name it), or a plan that would draw too many samples.
+    #[doc(hidden)]
     pub fn prepare(&self) -> Result<PreparedBatch<'_>> {
         let checker = self.checker()?;
         let layout = Layout::of(&self.target).with_area_grid(self.area_grid)?;

@@ -14,7 +14,7 @@
 //! intervals for every metric. A correct GPU result lies inside all of them.
 
 use crate::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
-use crate::gpu::shaders::Precision;
+use crate::gpu::Precision;
 use crate::occupancy::{Layout, Occupancy};
 use crate::sampling::SamplingPlan;
 use std::f64::consts::{FRAC_PI_2, PI};

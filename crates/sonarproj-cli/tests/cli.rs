@@ -743,11 +743,7 @@ fn bench_sweep_times_each_measure_and_the_gpus_summary_sweep() {
         };
         let gpu = row(label).unwrap_or_else(|| panic!("no {label} row:\n{text}"));
         // Every measure taken: no "-" left but where the adapter has no timestamp queries.
-        let device = g
-            .context()
-            .device
-            .features()
-            .contains(wgpu::Features::TIMESTAMP_QUERY);
+        let device = g.device_time().is_some();
         assert_eq!(
             gpu.iter().filter(|c| **c == "-").count(),
             usize::from(!device),

@@ -160,10 +160,21 @@ fn say_skipped(why: &str) {
     let _ = writeln!(std::io::stderr(), "skipped: no adapter ({test}){reason}");
 }
 
-/// Returns a GPU backend on the shared context of [`gpu_context`].
+/// Returns a GPU backend on the shared context of [`gpu_context`], its splat stage the variant
+/// the GPU variables ask for.
 #[must_use]
 pub fn gpu() -> Option<GpuBackend> {
-    gpu_context().map(|ctx| GpuBackend::new(ctx).expect("the GPU builds the projection stages"))
+    gpu_context().map(gpu_backend_on)
+}
+
+/// Returns a GPU backend on `ctx`, its splat stage the variant the GPU variables ask for.
+///
+/// # Panics
+/// When the device refuses a stage.
+#[must_use]
+pub fn gpu_backend_on(ctx: GpuContext) -> GpuBackend {
+    let variant = sonarproj::projection::gpu::SplatOptions::for_adapter(&ctx, &gpu_options());
+    GpuBackend::with_options(ctx, variant).expect("the GPU builds the projection stages")
 }
 
 use sonarproj::Projection;

@@ -24,9 +24,10 @@ use crate::error::{Error, Result};
 use crate::geometry::RelativePose;
 use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::BufferPool;
-use crate::gpu::{GpuContext, context, read_after, shaders};
+use crate::gpu::{GpuContext, context, read_after};
 use crate::occupancy::{Layout, Occupancy};
 
+mod source;
 mod tables;
 
 use super::plan::{BLOCK, Plan};
@@ -94,7 +95,7 @@ pub(crate) struct MaskJob {
     pub(crate) block_a: u32,
 }
 
-/// Byte sizes of the shared structs (checked against naga's layout in src/gpu/shader_tests.rs).
+/// Byte sizes of the shared structs (checked against naga's layout in src/masks/gpu/source_tests.rs).
 pub(crate) const MASK_PARAMS_SIZE: usize = 48;
 /// See [`MASK_PARAMS_SIZE`].
 pub(crate) const MASK_JOB_SIZE: usize = 80;
@@ -121,10 +122,10 @@ pub(crate) const MASK_REDUCE_BINDINGS: [Binding; 4] = [
 ];
 
 /// Threads per workgroup of the mask stage, one per cell of a block (WGSL `@workgroup_size` in
-/// mask.wgsl; checked in src/gpu/shader_tests.rs).
+/// mask.wgsl; checked in src/masks/gpu/source_tests.rs).
 pub(crate) const MASK_WORKGROUP: u64 = 64;
 const _: () = assert!(MASK_WORKGROUP as usize == BLOCK * BLOCK);
-/// Threads per workgroup of the reduce stage (checked in src/gpu/shader_tests.rs).
+/// Threads per workgroup of the reduce stage (checked in src/masks/gpu/source_tests.rs).
 pub(crate) const MASK_REDUCE_WORKGROUP: u64 = 64;
 /// Words a mask's summary takes in the reduce stage's output.
 const SUMMARY_WORDS: usize = 5;
@@ -198,18 +199,6 @@ pub(crate) fn slack(r: f64, pose: &RelativePose, layout: &Layout) -> f64 {
     MASK_F32_SLACK * (r + pose.translation.length() + layout.range_max) + MASK_F32_FLOOR
 }
 
-/// Returns the full source of the mask stage.
-#[must_use]
-pub(crate) fn source() -> String {
-    shaders::mask()
-}
-
-/// Returns the full source of the reduce stage.
-#[must_use]
-pub(crate) fn reduce_source() -> String {
-    shaders::mask_reduce()
-}
-
 /// What the engine keeps on the device between pings: the tables, and two slots' pools of
 /// buffers and the bind groups made of them (made again only when a buffer is), so that two
 /// dispatches can be in flight ([`GpuMasks::draw_pings`]).
@@ -257,7 +246,7 @@ pub(crate) struct GpuMasks {
 impl std::fmt::Debug for GpuMasks {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("GpuMasks")
-            .field("adapter", &self.ctx.info.name)
+            .field("adapter", &self.ctx.info().name)
             .finish()
     }
 }
@@ -277,10 +266,15 @@ impl GpuMasks {
                 "GPU masks need less than 180 deg; the CPU mask engine takes any aperture",
             ));
         }
-        let device = &ctx.device;
+        let device = ctx.device();
         let tiles = tiles(&ctx);
-        let stage = Stage::new(device, "mask", &source(), &MASK_BINDINGS)?;
-        let reduce = Stage::new(device, "mask reduce", &reduce_source(), &MASK_REDUCE_BINDINGS)?;
+        let stage = Stage::new(device, "mask", &source::mask(), &MASK_BINDINGS)?;
+        let reduce = Stage::new(
+            device,
+            "mask reduce",
+            &source::mask_reduce(),
+            &MASK_REDUCE_BINDINGS,
+        )?;
         let he = layout.half_elevation;
         let params = MaskParams {
             range_min: layout.range_min as f32,
@@ -329,15 +323,15 @@ impl GpuMasks {
 
     /// Returns the adapter's description.
     pub(crate) fn describe(&self) -> String {
-        format!("{} (f32 with rounding slack)", context::describe(&self.ctx.info))
+        format!("{} (f32 with rounding slack)", context::describe(self.ctx.info()))
     }
 
     /// The largest storage binding the stages use (at most 256 MiB).
     fn binding_limit(&self) -> u64 {
         self.ctx
-            .limits
+            .limits()
             .max_storage_buffer_binding_size
-            .min(self.ctx.limits.max_buffer_size)
+            .min(self.ctx.limits().max_buffer_size)
             .min(256 << 20)
     }
 
@@ -534,8 +528,8 @@ impl GpuMasks {
             })
             .collect();
         state.tables.upload(&self.ctx);
-        let device = &self.ctx.device;
-        let queue = &self.ctx.queue;
+        let device = self.ctx.device();
+        let queue = self.ctx.queue();
         let words = u64::from(self.params.words_per_mask);
         let n = jobs.len() as u64;
         let limit = self.binding_limit();

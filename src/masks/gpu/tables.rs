@@ -93,7 +93,7 @@ impl Tables {
         let fits = self.buffer.as_ref().is_some_and(|b| b.size() >= bytes);
         if !fits {
             let size = bytes.next_power_of_two().max(4096);
-            self.buffer = Some(ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            self.buffer = Some(ctx.device().create_buffer(&wgpu::BufferDescriptor {
                 label: Some("mask dirs"),
                 size,
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
@@ -104,7 +104,7 @@ impl Tables {
         if let Some(buffer) = &self.buffer
             && self.uploaded < self.host.len()
         {
-            ctx.queue.write_buffer(
+            ctx.queue().write_buffer(
                 buffer,
                 (self.uploaded * 8) as u64,
                 bytemuck::cast_slice(&self.host[self.uploaded..]),

@@ -9,6 +9,7 @@
 )]
 
 mod slots;
+mod source;
 mod tables;
 pub(crate) mod types;
 mod unpack;
@@ -19,12 +20,12 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::geometry::SonarKind;
-use crate::gpu::options::SPLAT_WORKGROUP;
+pub(crate) use crate::gpu::options::SPLAT_WORKGROUP;
 pub use crate::gpu::options::SPLAT_WORKGROUPS;
 use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::{BufferPool, SharedPool};
 use crate::gpu::timing::{DeviceClock, PassTimer, Timed};
-use crate::gpu::{GpuContext, read_after, shaders};
+use crate::gpu::{GpuContext, GpuOptions, read_after};
 use crate::projection::columns::MetricColumns;
 use crate::projection::poses::PreparedGrid;
 use crate::projection::{Output, PreparedBatch, Projection};
@@ -92,15 +93,16 @@ pub struct SplatOptions {
 }
 
 impl SplatOptions {
-    /// Returns the variant `ctx`'s options ask for ([`GpuContext::options`]), with the engine's
-    /// choice where they leave one open: culling and the f32 filter on a hardware GPU, where
-    /// `Real` arithmetic costs many f32 operations (f64 on consumer GPUs, double-f32), and
-    /// neither on a software adapter such as lavapipe, measured slower there with each
-    /// (BENCHMARKS.md); workgroups of [`SPLAT_WORKGROUP`] threads.
+    /// Returns the variant `options` ask for on `ctx`'s adapter, with the engine's choice where
+    /// they leave one open: culling and the f32 filter on a hardware GPU, where `Real`
+    /// arithmetic costs many f32 operations (f64 on consumer GPUs, double-f32), and neither on
+    /// a software adapter such as lavapipe, measured slower there with each (BENCHMARKS.md);
+    /// workgroups of [`SPLAT_WORKGROUP`] threads. Of `options`, only `cull`, `filter` and
+    /// `workgroup` are read (the device is `ctx`).
     #[must_use]
-    pub fn for_adapter(ctx: &GpuContext) -> Self {
+    pub fn for_adapter(ctx: &GpuContext, options: &GpuOptions) -> Self {
         let hardware = !ctx.is_software();
-        let o = &ctx.options;
+        let o = options;
         SplatOptions {
             cull: o.cull.unwrap_or(hardware),
             filter: o.filter.unwrap_or(hardware),
@@ -147,12 +149,13 @@ pub struct GpuBackend {
 }
 
 impl GpuBackend {
-    /// Returns the backend on `ctx`, building its pipelines with [`SplatOptions::for_adapter`].
+    /// Returns the backend on `ctx` with the engine's variant of the splat stage for its adapter
+    /// ([`SplatOptions::for_adapter`] with no option given).
     ///
     /// # Errors
     /// [`Error::Gpu`] when the device refuses a stage's shader or pipeline.
     pub fn new(ctx: GpuContext) -> Result<Self> {
-        let options = SplatOptions::for_adapter(&ctx);
+        let options = SplatOptions::for_adapter(&ctx, &GpuOptions::default());
         Self::with_options(ctx, options)
     }
 
@@ -168,9 +171,9 @@ impl GpuBackend {
     /// Returns the backend on `ctx` with valid `options`.
     fn build(ctx: GpuContext, options: SplatOptions) -> Result<Self> {
         let splat = Stage::with_constants(
-            &ctx.device,
+            ctx.device(),
             "splat",
-            &shaders::splat(ctx.precision),
+            &source::splat(ctx.precision()),
             &SPLAT_BINDINGS,
             &[
                 ("CULL", f64::from(u8::from(options.cull))),
@@ -178,11 +181,11 @@ impl GpuBackend {
                 ("WORKGROUP", f64::from(options.workgroup)),
             ],
         )?;
-        let reduce = Stage::new(&ctx.device, "reduce", &shaders::reduce(), &REDUCE_BINDINGS)?;
+        let reduce = Stage::new(ctx.device(), "reduce", &source::reduce(), &REDUCE_BINDINGS)?;
         let poses = Stage::new(
-            &ctx.device,
+            ctx.device(),
             "poses",
-            &shaders::poses(ctx.precision),
+            &source::poses(ctx.precision()),
             &POSES_BINDINGS,
         )?;
         Ok(GpuBackend {
@@ -215,7 +218,7 @@ impl GpuBackend {
     #[must_use]
     pub fn device_time(&self) -> Option<std::time::Duration> {
         self.ctx
-            .device
+            .device()
             .features()
             .contains(wgpu::Features::TIMESTAMP_QUERY)
             .then(|| self.clock.total(Timed::Device))
@@ -249,7 +252,7 @@ impl GpuBackend {
     /// Returns the number of poses per chunk of a call of `total` poses with bitsets of `words`
     /// u32 each.
     fn chunk_poses(&self, words: usize, total: usize) -> usize {
-        let limits = &self.ctx.limits;
+        let limits = self.ctx.limits();
         // The largest of a chunk's buffers a pose: its bitsets, or its packed pose (which also
         // holds more than its 32 bytes of metrics).
         let bytes_per_pose = (words as u64 * 4).max(size_of::<PoseGpu>() as u64);
@@ -274,6 +277,7 @@ impl GpuBackend {
     ///
     /// # Errors
     /// [`Error::Gpu`] when the device fails or a bitset does not fit in one binding.
+    #[doc(hidden)]
     pub fn project(&self, prepared: &PreparedBatch<'_>, output: Output) -> Result<Vec<Projection>> {
         let mut out = Vec::with_capacity(prepared.batch.items.len());
         self.pool.with(|pool| {
@@ -428,16 +432,16 @@ impl GpuBackend {
         runs: &[std::ops::Range<usize>],
         emit: &mut dyn FnMut(&Unpack<'_>) -> Result<ControlFlow<()>>,
     ) -> Result<ControlFlow<()>> {
-        let device = &self.ctx.device;
+        let device = self.ctx.device();
         let layout = source.layout();
         let plans = source.plans();
         let words = words_per_pose(layout);
         let bits_per_pose_bytes = (words as u64 * 4).max(4);
-        if bits_per_pose_bytes > self.ctx.limits.max_storage_buffer_binding_size {
+        if bits_per_pose_bytes > self.ctx.limits().max_storage_buffer_binding_size {
             return Err(Error::gpu_limit(format!(
                 "one occupancy buffer ({bits_per_pose_bytes} bytes) exceeds this device's \
                  largest storage binding ({} bytes); the CPU backends have no such limit",
-                self.ctx.limits.max_storage_buffer_binding_size
+                self.ctx.limits().max_storage_buffer_binding_size
             )));
         }
         // Each run cut into chunks of the size its own length gives.
@@ -455,11 +459,11 @@ impl GpuBackend {
         // Buffers are bound whole, so growth stops at the largest binding.
         let limit = self
             .ctx
-            .limits
+            .limits()
             .max_storage_buffer_binding_size
-            .min(self.ctx.limits.max_buffer_size);
+            .min(self.ctx.limits().max_buffer_size);
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let queue = &self.ctx.queue;
+        let queue = self.ctx.queue();
         let mut upload = |label: &'static str, contents: &[u8], usage| {
             let buffer = pool.get(device, label, contents.len() as u64, limit, usage);
             queue.write_buffer(&buffer, 0, contents);
@@ -505,7 +509,7 @@ impl GpuBackend {
         };
 
         let mut directions: Option<Directions> = None;
-        let dim = self.ctx.limits.max_compute_workgroups_per_dimension.max(1);
+        let dim = self.ctx.limits().max_compute_workgroups_per_dimension.max(1);
         let mut in_flight: Option<InFlight> = None;
         for (i, &std::ops::Range { start, end }) in chunks.iter().enumerate() {
             let n = end - start;

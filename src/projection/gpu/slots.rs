@@ -93,7 +93,7 @@ impl Slot {
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let copy_src = wgpu::BufferUsages::COPY_SRC;
         let readback = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
-        let mut get = |label, size, usage| pool.get(&ctx.device, label, size, limit, usage);
+        let mut get = |label, size, usage| pool.get(ctx.device(), label, size, limit, usage);
         Slot {
             params: get(labels.params, size_of::<TargetParams>() as u64, uniform),
             grid_params: sizes
@@ -197,8 +197,8 @@ impl Directions {
         let plans = source.plans();
         let (table, offsets) = direction_table(plans, &used);
         let bytes: &[u8] = bytemuck::cast_slice(&table);
-        let buffer = pool.get(&ctx.device, "directions", bytes.len() as u64, limit, storage);
-        ctx.queue.write_buffer(&buffer, 0, bytes);
+        let buffer = pool.get(ctx.device(), "directions", bytes.len() as u64, limit, storage);
+        ctx.queue().write_buffer(&buffer, 0, bytes);
         // A grid's poses find their plan by their range value.
         let range_plans = match source {
             Source::Items(_) => None,
@@ -219,8 +219,8 @@ impl Directions {
                     })
                     .collect();
                 let bytes: &[u8] = bytemuck::cast_slice(&entries);
-                let buffer = pool.get(&ctx.device, "range_plans", bytes.len() as u64, limit, storage);
-                ctx.queue.write_buffer(&buffer, 0, bytes);
+                let buffer = pool.get(ctx.device(), "range_plans", bytes.len() as u64, limit, storage);
+                ctx.queue().write_buffer(&buffer, 0, bytes);
                 Some(buffer)
             }
         };

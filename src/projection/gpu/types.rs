@@ -1,5 +1,5 @@
 //! GPU-side structs, internal to the engine. Keep in sync with `shaders/shared/types.wgsl` (sizes
-//! asserted here and checked against naga's layout of the WGSL in `src/gpu/shader_tests.rs`).
+//! asserted here and checked against naga's layout of the WGSL in `source_tests.rs`).
 #![expect(
     clippy::cast_possible_truncation,
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose and counts are bounded by the device limits checked before packing"

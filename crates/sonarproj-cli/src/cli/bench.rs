@@ -315,12 +315,12 @@ fn masks(runs: u32) -> Result<()> {
     let options = super::gpu_env::gpu_options()?;
     let gpu = match GpuContext::open(&options).map_err(super::gpu_env::name_variable) {
         Ok(ctx) if ctx.is_software() => {
-            outln!("gpu-sw {}", sonarproj::gpu::context::describe(&ctx.info))?;
+            outln!("gpu-sw {}", sonarproj::gpu::context::describe(ctx.info()))?;
             outln!("{SOFTWARE_NOTE}")?;
             Some("gpu-sw")
         }
         Ok(ctx) => {
-            outln!("gpu   {}", sonarproj::gpu::context::describe(&ctx.info))?;
+            outln!("gpu   {}", sonarproj::gpu::context::describe(ctx.info()))?;
             Some("gpu")
         }
         Err(e) if e.is_input() => return Err(e),
