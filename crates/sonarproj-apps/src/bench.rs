@@ -6,7 +6,7 @@ use sonarproj::Output;
 use std::time::{Duration, Instant};
 
 use crate::error::{Error, Result};
-use crate::sweep::run::RUN_BLOCKS;
+use crate::sweep::plan::RUN_BLOCKS;
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::Sonar;
 use sonarproj::projection::Backend;

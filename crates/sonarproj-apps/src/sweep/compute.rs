@@ -3,7 +3,7 @@
 //! ([`Backend::project_columns`]: no item, no per-pose result object); a list's items are
 //! projected as a batch.
 
-use std::ops::{ControlFlow, Range};
+use std::ops::Range;
 
 use sonarproj::projection::poses::item_of;
 use sonarproj::projection::{Backend, ColumnRef, MetricColumns, PoseGrid, PoseSource, PoseSweep};
@@ -53,31 +53,6 @@ pub(crate) fn metric_columns(table: Option<&[&str]>, by: Option<sonarproj::Metri
     let mut kept = table.map(kept_metrics).unwrap_or_default();
     kept.extend(by);
     MetricColumns::only(&kept)
-}
-
-/// Projects `blocks` of `sweep` on `backend` one after the other ([`Backend::project_blocks`]),
-/// handing each block's columns to `each`, which returns whether to stop; returns whether it
-/// did, or its first error.
-///
-/// # Errors
-/// As [`Backend::project_blocks`]; `each`'s first error.
-pub(crate) fn for_blocks(
-    backend: &Backend,
-    sweep: &PoseSweep<'_>,
-    blocks: &[Range<u64>],
-    metrics: &mut MetricColumns,
-    each: &mut dyn FnMut(Range<u64>, &MetricColumns) -> Result<bool>,
-) -> Result<bool> {
-    let mut failed = None;
-    let flow = backend.project_blocks(sweep, blocks, metrics, &|| false, &mut |r, m| match each(r, m) {
-        Ok(false) => ControlFlow::Continue(()),
-        Ok(true) => ControlFlow::Break(()),
-        Err(e) => {
-            failed = Some(e);
-            ControlFlow::Break(())
-        }
-    })?;
-    failed.map_or(Ok(flow.is_break()), Err)
 }
 
 impl<'a> Work<'a> {

@@ -2,20 +2,16 @@
 
 use std::ops::ControlFlow;
 
-use sonarproj::local_precision::resolve_sigma_range;
-use sonarproj::metrics::Metric;
 use sonarproj::projection::Backend;
 
 use crate::error::{Error, Result};
 use crate::io::parquet::Table;
 use crate::sweep::SweepConfig;
-use crate::sweep::compute::{Work, for_blocks, metric_columns, values};
+use crate::sweep::plan::{Computed, Plan, RUN_BLOCKS, check_chunk_poses, default_chunk_poses};
 use crate::sweep::records::descriptor;
 use crate::sweep::run::Event;
-use crate::sweep::run::RUN_BLOCKS;
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::Summary;
-use crate::sweep::table::column_kinds;
 
 /// The most bytes of columns [`run_in_memory`] builds (1 GiB: about 6 million poses of a grid
 /// sweep); a larger sweep runs into a directory, or asks for summaries only.
@@ -35,9 +31,9 @@ pub struct InMemory {
 
 /// Runs `config` (or one shard of it) on `backend` and returns its table's columns and its
 /// summaries, writing nothing: the rows are those `sweep.parquet` holds, the summaries those of
-/// `summary.json`. `events` hears of progress after each chunk of `chunk_poses` poses (`None`:
-/// [`default_chunk_poses`](super::run::default_chunk_poses)) and may stop the run (the result
-/// is then `None`).
+/// `summary.json`. It is planned and computed as [`super::run::run`] runs into a directory, in
+/// the same chunks of `chunk_poses` poses (`None`: [`default_chunk_poses`]); `events` hears of
+/// progress after each chunk and may stop the run (the result is then `None`).
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `--chunk-poses` when 0, and `--out` when the table
@@ -50,16 +46,13 @@ pub fn run_in_memory(
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Option<InMemory>> {
     if let Some(cp) = chunk_poses {
-        super::run::check_chunk_poses(cp, "--chunk-poses")?;
+        check_chunk_poses(cp, "--chunk-poses")?;
     }
-    let chunk_poses = chunk_poses.unwrap_or_else(|| super::run::default_chunk_poses(config));
-    let desc = descriptor(config)?;
-    let range = shard.map_or(0..desc.poses, |s| s.range(desc.poses));
-    let poses = range.end - range.start;
-    let spec = config.summary.as_ref();
-    let rows = spec.is_none_or(|s| s.rows);
-    let bytes = poses.saturating_mul(8 * desc.columns.len() as u64);
-    if rows && bytes > MAX_IN_MEMORY_BYTES {
+    let chunk_poses = chunk_poses.unwrap_or_else(|| default_chunk_poses(config));
+    let plan = Plan::new(config, descriptor(config)?, shard, chunk_poses)?;
+    let poses = plan.poses();
+    let bytes = poses.saturating_mul(8 * plan.desc.columns.len() as u64);
+    if plan.rows && bytes > MAX_IN_MEMORY_BYTES {
         return Err(Error::invalid(
             "--out",
             "(none)",
@@ -71,71 +64,41 @@ pub fn run_in_memory(
             ),
         ));
     }
-    let grid = match &config.poses {
-        crate::sweep::Poses::Grid(g) => Some(g),
-        crate::sweep::Poses::List(_) => None,
-    };
-    let kinds = column_kinds(&desc.columns);
-    let sigma = resolve_sigma_range(&config.source, &config.target, config.sigma_range)?;
-    let by = spec.map(|s| Metric::from_name(&s.by).expect("a checked metric name"));
-    let mut table = rows.then(|| Table::new(&desc.columns, &kinds));
-    let mut summary = spec.map(|s| s.empty(grid));
-    let work = Work::new(config, &desc.columns, &kinds, sigma)?;
-    let mut metrics = metric_columns(rows.then_some(config.result_columns.as_slice()), by);
-    let mut next = range.start;
-    // The next `n` blocks at most (none at the end).
-    let mut take = |n: usize| -> Vec<std::ops::Range<u64>> {
-        let mut out = Vec::new();
-        while next < range.end && out.len() < n {
-            let r = next..(next + chunk_poses).min(range.end);
-            next = r.end;
-            out.push(r);
+    let mut table = plan.rows.then(|| Table::new(&plan.desc.columns, &plan.kinds));
+    let mut summary = plan.spec.map(|s| s.empty(plan.grid));
+    let work = plan.work()?;
+    let mut metrics = plan.metric_columns();
+    // Adds a chunk (its table, when rows are asked for, and its summary) to the results.
+    let mut add = |computed: Computed, _: &sonarproj::MetricColumns| -> Result<ControlFlow<()>> {
+        if let (Some(table), Some(part)) = (&mut table, computed.table) {
+            table.append(part)?;
         }
-        out
-    };
-    // Adds block `r` (its table, when rows are asked for, and its metrics) to the results;
-    // returns whether to stop.
-    let mut add =
-        |r: std::ops::Range<u64>, part: Option<Table>, metrics: &sonarproj::MetricColumns| -> Result<bool> {
-            if let (Some(table), Some(part)) = (&mut table, part) {
-                table.append(part)?;
-            }
-            if let (Some(spec), Some(by), Some(total)) = (spec, by, &mut summary) {
-                let part = spec.partial(grid, r.start, &values(metrics, by))?;
-                spec.merge_into(total, &part, "in memory")?;
-            }
-            Ok(events(Event::Progress {
-                done: r.end - range.start,
-                total: poses,
-            })
-            .is_break())
-        };
-    if let Some(sweep) = work.sweep() {
-        // A grid's blocks one after the other, the device not waiting between them.
-        loop {
-            let blocks = take(RUN_BLOCKS);
-            if blocks.is_empty() {
-                break;
-            }
-            let mut each = |r: std::ops::Range<u64>, metrics: &sonarproj::MetricColumns| {
-                let part = if rows {
-                    Some(work.rows(r.clone(), metrics)?)
-                } else {
-                    None
-                };
-                add(r, part, metrics)
-            };
-            if for_blocks(backend, &sweep, &blocks, &mut metrics, &mut each)? {
-                return Ok(None);
-            }
+        if let (Some(spec), Some(values), Some(total)) = (plan.spec, computed.values, &mut summary) {
+            let part = spec.partial(plan.grid, computed.poses.start, &values)?;
+            spec.merge_into(total, &part, "in memory")?;
         }
+        Ok(events(Event::Progress {
+            done: computed.poses.end - plan.range.start,
+            total: poses,
+        }))
+    };
+    // A grid's chunks RUN_BLOCKS at a time, the device not waiting between them; a list's one
+    // at a time.
+    let run = if work.sweep().is_some() {
+        RUN_BLOCKS as u64
     } else {
-        while let Some(r) = take(1).pop() {
-            let part = work.block(backend, r.clone(), rows, &mut metrics, &|| false)?;
-            if add(r, part, &metrics)? {
-                return Ok(None);
-            }
+        1
+    };
+    let mut c = 0;
+    while c < plan.chunks {
+        let todo = c..(c + run).min(plan.chunks);
+        if plan
+            .compute(&work, backend, &mut metrics, todo.clone(), &mut add)?
+            .is_break()
+        {
+            return Ok(None);
         }
+        c = todo.end;
     }
     if let Some(s) = &mut summary {
         crate::sweep::summary::fill_means(s);

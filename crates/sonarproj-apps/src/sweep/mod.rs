@@ -10,18 +10,20 @@ mod figure;
 pub mod in_memory;
 pub mod merge;
 pub mod parts;
+pub(crate) mod plan;
 pub mod records;
 pub mod run;
 pub mod shard;
+mod state;
 pub mod summary;
 pub mod table;
+mod writer;
 
 pub use config::{Axis, Grid, Poses, SweepConfig};
 pub use in_memory::{InMemory, MAX_IN_MEMORY_BYTES, run_in_memory};
 pub use merge::{Merged, merge};
+pub use plan::{DEFAULT_CHUNK_POSES, DEFAULT_SUMMARY_CHUNK_POSES, default_chunk_poses};
 pub use records::{Descriptor, Settings, descriptor, settings};
-pub use run::{
-    DEFAULT_CHUNK_POSES, DEFAULT_SUMMARY_CHUNK_POSES, Event, Options, Outcome, default_chunk_poses, run,
-};
+pub use run::{Event, Options, Outcome, run};
 pub use shard::{MAX_SHARDS, Shard};
 pub use table::{Format, column_kinds};

@@ -17,80 +17,26 @@
 //!   A re-run skips the finished chunks whose bytes match their records and computes the others
 //!   again, saying so; the directory is removed once the result file is written.
 
-use std::ops::{ControlFlow, Range};
-use std::path::{Path, PathBuf};
+use std::ops::ControlFlow;
+use std::path::PathBuf;
 
-use crate::limits::{MAX_CHUNK_POSES, MAX_CHUNKS};
-use serde::{Deserialize, Serialize};
-use sonarproj::local_precision::resolve_sigma_range;
-use sonarproj::metrics::Metric;
 use sonarproj::projection::Backend;
 
 use crate::error::{Error, Result};
-use crate::io::parquet::{Table, TableWriter};
-use crate::report::{check_output_file, output_dir, remove_stale_temporaries};
+use crate::report::{output_dir, remove_stale_temporaries};
 use crate::sweep::SweepConfig;
-use crate::sweep::compute::{Work, for_blocks, metric_columns, values};
 use crate::sweep::figure::{figure, figure_of_marginal};
-use crate::sweep::parts::{self, final_encoding, write_json};
+use crate::sweep::parts::{self, write_json};
+use crate::sweep::plan::{Computed, Plan, RUN_BLOCKS, check_chunk_poses, default_chunk_poses};
 use crate::sweep::records::{
-    Settings, claim, descriptor, first_difference, first_not_good, read_json, read_part, settings,
-    settings_path, write_summary,
+    Settings, claim, descriptor, first_difference, first_not_good, read_json, settings, settings_path,
+    write_summary,
 };
 use crate::sweep::shard::Shard;
-use crate::sweep::summary::{PartSummary, Summary, fill_means};
-use crate::sweep::table::{CsvChunk, Format, column_kinds};
-
-/// Most chunks projected in one run of blocks ([`Backend::project_blocks`]): the device goes on
-/// from one to the next without waiting, and the run's lists stay small however many chunks.
-pub(crate) const RUN_BLOCKS: usize = 256;
-
-/// The default number of poses per chunk of a sweep that writes rows: one Parquet row group.
-pub const DEFAULT_CHUNK_POSES: u64 = crate::io::parquet::GROUP_ROWS;
-
-/// The default number of poses per chunk of a sweep of summaries only (`rows = false`): eight
-/// row groups' worth. Its chunks are reductions, whose parts on disk are as large as the
-/// marginals whatever the chunk's size, so fewer, larger chunks cost less (10^8 poses with a
-/// 10 000-value marginal: 763 parts of 0.7 MB at 131 072 poses, 96 at 2^20) and make larger
-/// calls to a GPU; memory grows with them (about 0.2 KB a pose).
-pub const DEFAULT_SUMMARY_CHUNK_POSES: u64 = 1 << 20;
-
-/// Returns the default number of poses per chunk of `config`: [`DEFAULT_SUMMARY_CHUNK_POSES`]
-/// for summaries only, else [`DEFAULT_CHUNK_POSES`].
-#[must_use]
-pub fn default_chunk_poses(config: &SweepConfig) -> u64 {
-    match &config.summary {
-        Some(s) if !s.rows => DEFAULT_SUMMARY_CHUNK_POSES,
-        _ => DEFAULT_CHUNK_POSES,
-    }
-}
-
-/// Returns an error unless `chunk_poses` is in `[1, MAX_CHUNK_POSES]`, naming `field`.
-///
-/// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `field`.
-pub(crate) fn check_chunk_poses(chunk_poses: u64, field: &str) -> Result<()> {
-    if (1..=MAX_CHUNK_POSES).contains(&chunk_poses) {
-        return Ok(());
-    }
-    Err(Error::invalid(
-        field,
-        chunk_poses,
-        format!("must be in [1, {MAX_CHUNK_POSES}] (a chunk is held in memory)"),
-    ))
-}
-
-/// The state of an unfinished run, in its `.partial-*` directory.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-struct Manifest {
-    fingerprint: String,
-    /// Absent in the manifests of runs from before Parquet: CSV.
-    #[serde(default)]
-    format: Format,
-    chunk_poses: u64,
-    shard: Option<Shard>,
-    settings: Settings,
-}
+use crate::sweep::state::{Files, Manifest, unfinished};
+use crate::sweep::summary::fill_means;
+use crate::sweep::table::{CsvChunk, Format};
+use crate::sweep::writer::Writer;
 
 /// How to run a sweep.
 #[derive(Clone, Debug)]
@@ -153,31 +99,82 @@ pub enum Event {
 /// When `events` answers [`ControlFlow::Break`], the run stops there as `max_chunks` stops it:
 /// finished chunks stay on disk, the outcome has no file, and the same call resumes.
 ///
+/// The run goes through five phases: plan (everything checked, nothing written), lock (the
+/// directory claimed, the run's state locked and its manifest checked), compute and write (chunk
+/// after chunk, each written while the next is computed), and finish (the result joined from
+/// the chunks, the state removed, the figure drawn).
+///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] for a directory holding another sweep or an unfinished run with
-/// other settings, or `--chunk-poses` cutting the run into more than [`MAX_CHUNKS`] chunks;
-/// errors of [`Backend::project`] and of writing files.
+/// [`sonarproj::Error::InvalidValue`] for a directory holding another sweep or an unfinished run
+/// with other settings, or `--chunk-poses` cutting the run into more than
+/// [`MAX_CHUNKS`](crate::limits::MAX_CHUNKS) chunks; errors of [`Backend::project`] and of
+/// writing files.
 pub fn run(
     config: &SweepConfig,
     backend: &Backend,
     opts: &Options,
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Outcome> {
-    // Everything is checked before the directory is created: a refused run leaves nothing.
+    // Plan: everything is checked before the directory is created, so a refused run leaves
+    // nothing.
+    let plan = plan(config, opts)?;
+    let files = Files::new(&plan, opts);
     let dir = &opts.out;
-    let desc = descriptor(config)?;
-    let (stem, range) = match opts.shard {
-        Some(s) => (s.stem(), s.range(desc.poses)),
-        None => ("sweep".to_string(), 0..desc.poses),
+    output_dir(dir, "--out")?;
+    remove_stale_temporaries(dir);
+    claim(dir, &plan.desc)?;
+    files.check_writable()?;
+    let mut outcome = Outcome {
+        file: None,
+        figure: None,
+        summary: None,
+        poses: plan.poses(),
+        computed: 0,
+        resumed: 0,
+        finished_before: false,
     };
-    // Unless given, the chunk size of the unfinished run being resumed (of this sweep: another
-    // is refused below), or the default.
-    // The field an error names says where the size came from.
+    if finished_before(&files, backend, opts, events, &mut outcome)?.is_break() {
+        return Ok(outcome);
+    }
+    // Lock.
+    let manifest = Manifest {
+        fingerprint: plan.desc.fingerprint.clone(),
+        format: opts.format,
+        chunk_poses: plan.chunk_poses,
+        shard: opts.shard,
+        settings: settings(backend),
+    };
+    let _lock = files.open_state(&manifest)?;
+    // Compute and write.
+    if compute_and_write(&files, backend, opts, &manifest.settings, events, &mut outcome)?.is_break() {
+        return Ok(outcome);
+    }
+    // Finish.
+    outcome.summary = plan.spec.map(|_| files.summary.clone());
+    std::fs::remove_dir_all(&files.state).map_err(|e| Error::write_output(&files.state, e))?;
+    if opts.shard.is_none() {
+        outcome.figure = if plan.rows {
+            figure(&files.file, opts.format, &plan.desc)?
+        } else {
+            figure_of_marginal(dir, &plan.desc, &files.summary)?
+        };
+    }
+    outcome.file = plan.rows.then_some(files.file);
+    Ok(outcome)
+}
+
+/// Returns the plan of the run `opts` asks for: its chunk size given, else the unfinished run's
+/// (of this sweep: another is refused later), else the default; each checked, the error naming
+/// where it came from.
+///
+/// # Errors
+/// As [`Plan::new`], [`check_chunk_poses`] and [`Plan::check_chunk_count`].
+fn plan<'a>(config: &'a SweepConfig, opts: &Options) -> Result<Plan<'a>> {
+    let desc = descriptor(config)?;
+    let stem = opts.shard.map_or_else(|| "sweep".to_string(), |s| s.stem());
     let (chunk_poses, field) = match opts.chunk_poses {
         Some(cp) => (cp, "--chunk-poses"),
-        None => read_json::<Manifest>(&dir.join(format!(".partial-{stem}")).join("manifest.json"))
-            .ok()
-            .flatten()
+        None => unfinished(&opts.out, &stem)
             .filter(|m| m.fingerprint == desc.fingerprint && m.chunk_poses > 0)
             .map_or_else(
                 || (default_chunk_poses(config), "--chunk-poses (the default)"),
@@ -187,574 +184,249 @@ pub fn run(
     // Whichever it came from (an unfinished run's too: of an older version, or an edited
     // manifest), before anything is written.
     check_chunk_poses(chunk_poses, field)?;
-    let poses = range.end - range.start;
     // One file a chunk: their number is bounded, and nothing is kept per chunk but its file.
-    // Chunks end at the multiples of --chunk-poses in the pose index (a shard's first and last
+    // Chunks end at the multiples of the chunk size in the pose index (a shard's first and last
     // may be shorter), so a chunk of a multiple of GROUP_ROWS poses is whole row groups, which
     // the join copies as they are.
-    let cp = chunk_poses;
-    let first_chunk = range.start / cp;
-    let chunks_of = |cp: u64| {
-        if poses == 0 {
-            0
-        } else {
-            range.end.div_ceil(cp) - range.start / cp
-        }
-    };
-    let n_chunks = chunks_of(cp);
-    if n_chunks > MAX_CHUNKS {
-        // The smallest chunk size that works: a whole run's, or one more chunk's for a shard
-        // that starts between two multiples (at most a step or two above the whole run's).
-        let mut fits = poses.div_ceil(MAX_CHUNKS);
-        while chunks_of(fits) > MAX_CHUNKS {
-            fits += 1;
-        }
-        return Err(Error::invalid(
-            field,
-            chunk_poses,
-            format!(
-                "cuts this run's {poses} poses into {n_chunks} chunk files, more than the \
-                 {MAX_CHUNKS} one run keeps: use --chunk-poses {fits} or more (or shards)"
-            ),
-        ));
-    }
-    output_dir(dir, "--out")?;
-    remove_stale_temporaries(dir);
-    claim(dir, &desc)?;
-    let ext = opts.format.extension();
-    let spec = config.summary.as_ref();
-    let rows = spec.is_none_or(|s| s.rows);
-    let grid = match &config.poses {
-        crate::sweep::Poses::Grid(g) => Some(g),
-        crate::sweep::Poses::List(_) => None,
-    };
-    // The result: the table, or the summaries alone when no rows are asked for (the settings
-    // record stands beside it).
-    let summary_file = match opts.shard {
-        Some(_) => dir.join(format!("{stem}.summary.json")),
-        None => dir.join("summary.json"),
-    };
-    let file = if rows {
-        dir.join(format!("{stem}.{ext}"))
-    } else {
-        summary_file.clone()
-    };
-    // The result files this run writes: the table, the summaries, or both.
-    let results: Vec<&Path> = match (rows, spec.is_some()) {
-        (true, true) => vec![&file, &summary_file],
-        (false, _) => vec![&summary_file],
-        (true, false) => vec![&file],
-    };
-    // Every result file can be written (not a directory, say) before anything is computed.
-    for f in &results {
-        check_output_file(f, "--out")?;
-    }
-    let mut outcome = Outcome {
-        file: None,
-        figure: None,
-        summary: None,
-        poses,
-        computed: 0,
-        resumed: 0,
-        finished_before: false,
-    };
-    let whole = parts::Expected {
-        fingerprint: &desc.fingerprint,
-        first: range.start,
-        rows: poses,
-    };
-    let (checked, status) = first_not_good(&results, whole);
+    let plan = Plan::new(config, desc, opts.shard, chunk_poses)?;
+    plan.check_chunk_count(field)?;
+    Ok(plan)
+}
+
+/// Returns `Break` when the run's result was finished by an earlier call with these settings
+/// (`outcome` then says so), or when `events` stops the run as a damaged result is set aside.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] when the result was computed with other settings, or (a
+/// shard) without a record of how.
+fn finished_before(
+    files: &Files<'_>,
+    backend: &Backend,
+    opts: &Options,
+    events: &mut dyn FnMut(Event) -> ControlFlow<()>,
+    outcome: &mut Outcome,
+) -> Result<ControlFlow<()>> {
+    let (checked, status) = first_not_good(&files.results(), files.whole());
     match status {
-        // Finished earlier (the result is written only once every chunk is), with these
-        // settings: a part computed otherwise, or without a record of how (a shard must have
-        // one to be merged), is not passed off as this run's.
-        parts::Status::Good => {
-            let record = settings_path(&file);
-            let now = settings(backend);
-            match read_json::<Settings>(&record)? {
-                Some(was) => {
-                    if let Some((name, a, b)) = first_difference(&was, &now) {
-                        return Err(Error::invalid(
-                            if name == "backend" {
-                                "--backend".to_string()
-                            } else {
-                                name.clone()
-                            },
-                            b,
-                            format!(
-                                "{} was finished with {name} {a:?}; run with the same settings, or remove it to compute it again",
-                                file.display()
-                            ),
-                        ));
-                    }
-                }
-                None if opts.shard.is_some() => {
-                    return Err(Error::invalid(
-                        "--shard",
-                        stem.clone(),
-                        format!(
-                            "{} is finished but has no record of how it was computed ({} is missing): remove it to compute it again",
-                            file.display(),
-                            record.display()
-                        ),
-                    ));
-                }
-                None => {}
-            }
-            outcome.resumed = poses;
-            outcome.finished_before = true;
-            outcome.summary = spec.map(|_| summary_file.clone());
-            outcome.file = rows.then_some(file);
-            // Finished: nothing left to stop.
-            let _ = events(Event::Progress {
-                done: poses,
-                total: poses,
-            });
-            return Ok(outcome);
-        }
-        parts::Status::Missing => {}
+        parts::Status::Good => {}
+        parts::Status::Missing => return Ok(ControlFlow::Continue(())),
         parts::Status::Damaged(reason) => {
-            if events(Event::Recomputing {
-                file: checked.to_path_buf(),
-                reason,
-            })
-            .is_break()
-            {
-                return Ok(outcome);
-            }
+            let file = checked.to_path_buf();
+            return Ok(events(Event::Recomputing { file, reason }));
         }
     }
-    let state = dir.join(format!(".partial-{stem}"));
-    std::fs::create_dir_all(&state).map_err(|e| Error::write_output(&state, e))?;
-    // One run at a time in a run's state: a second (the same shard submitted twice, a job
-    // requeued while the first still runs) stops here instead of racing over its chunks.
-    let _lock = lock_state(&state)?;
-    remove_stale_temporaries(&state);
-    let manifest = Manifest {
-        fingerprint: desc.fingerprint.clone(),
-        format: opts.format,
-        chunk_poses,
-        shard: opts.shard,
-        settings: settings(backend),
-    };
-    let manifest_path = state.join("manifest.json");
-    match read_json::<Manifest>(&manifest_path)? {
-        None => write_json(&manifest_path, &manifest)?,
-        Some(old) if old == manifest => {}
-        Some(old) => {
-            let (field, was, now) = if old.format != manifest.format {
-                (
-                    "--format".to_string(),
-                    old.format.extension().to_string(),
-                    manifest.format.extension().to_string(),
-                )
-            } else if old.chunk_poses != manifest.chunk_poses {
-                (
-                    "--chunk-poses".to_string(),
-                    old.chunk_poses.to_string(),
-                    manifest.chunk_poses.to_string(),
-                )
-            } else if let Some((name, was, now)) = first_difference(&old.settings, &manifest.settings) {
-                (
+    // Finished earlier (the result is written only once every chunk is), with these settings:
+    // a part computed otherwise, or without a record of how (a shard must have one to be
+    // merged), is not passed off as this run's.
+    let file = &files.file;
+    let record = settings_path(file);
+    match read_json::<Settings>(&record)? {
+        Some(was) => {
+            if let Some((name, a, b)) = first_difference(&was, &settings(backend)) {
+                return Err(Error::invalid(
                     if name == "backend" {
                         "--backend".to_string()
                     } else {
-                        name
+                        name.clone()
                     },
-                    was,
-                    now,
-                )
-            } else {
-                ("--config".to_string(), "another sweep".into(), "this one".into())
-            };
+                    b,
+                    format!(
+                        "{} was finished with {name} {a:?}; run with the same settings, or remove it to compute it again",
+                        file.display()
+                    ),
+                ));
+            }
+        }
+        None if opts.shard.is_some() => {
             return Err(Error::invalid(
-                field,
-                now,
+                "--shard",
+                files.stem.clone(),
                 format!(
-                    "the unfinished run in {} used {was}; re-run with the same settings to resume, or remove that directory to start over",
-                    state.display()
+                    "{} is finished but has no record of how it was computed ({} is missing): remove it to compute it again",
+                    file.display(),
+                    record.display()
                 ),
             ));
         }
+        None => {}
     }
-
-    let chunk = |c: u64| {
-        let s = ((first_chunk + c) * cp).max(range.start);
-        s..((first_chunk + c + 1) * cp).min(range.end)
-    };
-    let chunk_path = |c: u64| state.join(format!("chunk-{c:08}.{ext}"));
-    let chunk_summary = |c: u64| state.join(format!("chunk-{c:08}.summary.json"));
-    let chunk_files = |c: u64| -> Vec<PathBuf> {
-        let mut out = Vec::with_capacity(2);
-        if rows {
-            out.push(chunk_path(c));
-        }
-        if spec.is_some() {
-            out.push(chunk_summary(c));
-        }
-        out
-    };
-    let by = spec.map(|s| Metric::from_name(&s.by).expect("a checked metric name"));
-    let expected = |r: &Range<u64>| parts::Expected {
-        fingerprint: &desc.fingerprint,
-        first: r.start,
-        rows: r.end - r.start,
-    };
-    let header = config.columns();
-    let kinds = column_kinds(&desc.columns);
-    let sigma = resolve_sigma_range(&config.source, &config.target, config.sigma_range)?;
-    let work = Work::new(config, &desc.columns, &kinds, sigma)?;
-    let mut metrics = metric_columns(rows.then_some(config.result_columns.as_slice()), by);
-    let mut done = 0;
-    let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
-    // The summary of the chunks finished so far (this run's, and earlier runs' read back from
-    // disk), its means derived once at the end.
-    let template = spec.map(|s| s.empty(grid));
-    let mut total = template.clone();
-    // Writes chunk `c` (poses `r`): its Parquet table when there is one (returned encoded, for
-    // the result's join), and the summary of its `values` when one is asked for (returned, for
-    // the total).
-    let write_chunk =
-        |c: u64, r: Range<u64>, table: Option<Table>, values: Option<Vec<f64>>| -> Result<Written> {
-            let mut written = Written::default();
-            if let Some(table) = table {
-                let path = chunk_path(c);
-                let mut bytes = Vec::new();
-                let mut t = TableWriter::new(
-                    &mut bytes,
-                    &desc.columns,
-                    &kinds,
-                    r.start,
-                    final_encoding(&desc.columns),
-                    &path,
-                )?;
-                t.push(table)?;
-                t.finish()?;
-                parts::write_chunk(&path, expected(&r), |w| {
-                    w.write_all(&bytes).map_err(|e| Error::write_output(&path, e))
-                })?;
-                written.table = Some(bytes::Bytes::from(bytes));
-            }
-            if let (Some(spec), Some(values)) = (spec, values) {
-                let summary = spec.partial(grid, r.start, &values)?;
-                let part = summary.to_part();
-                let sum_path = chunk_summary(c);
-                parts::write_chunk(&sum_path, expected(&r), |w| {
-                    serde_json::to_writer(&mut *w, &part).map_err(|e| Error::write_output(&sum_path, e))
-                })?;
-                written.summary = Some(summary);
-            }
-            Ok(written)
-        };
-    // Joins the chunks of a Parquet table into the result as they finish, in order, on a thread
-    // of its own: the result's temporary file grows while the run goes on, and is renamed into
-    // place at `Finish` (a run that stops drops the sender, and the temporary file is removed).
-    let join_chunks = |rx: std::sync::mpsc::Receiver<ToJoin>| -> Result<()> {
-        parts::write(&file, whole, |w| {
-            let mut join = parts::ParquetJoin::new(w, &desc.columns, &kinds, &file, whole)?;
-            for message in rx {
-                match message {
-                    ToJoin::Bytes(c, bytes) => join.add_bytes(bytes, &chunk_path(c), c + 1 == n_chunks)?,
-                    ToJoin::File(c) => join.add_file(&chunk_path(c), c + 1 == n_chunks)?,
-                    ToJoin::Finish => return join.finish(),
-                }
-            }
-            Err(sonarproj::Error::Stopped.into())
-        })
-    };
-    // A chunk's files are written on a thread of their own while the next chunk is computed
-    // (its Parquet encoding and summary overlap the next projection); one chunk at most is being
-    // written, and it is finished, its error stopping the run, before the run stops or goes on
-    // to the next write.
-    let stopped = std::thread::scope(|scope| -> Result<bool> {
-        type Writing<'s> = Option<(u64, std::thread::ScopedJoinHandle<'s, Result<Written>>)>;
-        let mut writing: Writing<'_> = None;
-        // The chunks are joined as they finish only when the run can finish (a run that
-        // `--max-chunks` will stop would copy the finished chunks for nothing, again each time
-        // it is resumed) into a regular file (a device or FIFO gets the table only once it is
-        // whole); otherwise they are joined at the end.
-        let can_finish = opts.max_chunks.is_none_or(|_| {
-            let missing = (0..n_chunks).filter(|&c| chunk_files(c).iter().any(|f| !f.exists()));
-            usize::try_from(budget).is_ok_and(|b| missing.take(b.saturating_add(1)).count() <= b)
-        });
-        let regular = !file.exists() || parts::is_regular(&file);
-        let mut joiner = (rows && opts.format == Format::Parquet && can_finish && regular).then(|| {
-            let (tx, rx) = std::sync::mpsc::sync_channel(1);
-            Joiner {
-                tx,
-                handle: scope.spawn(move || join_chunks(rx)),
-            }
-        });
-        // Waits for the chunk being written, adding its summary to the total and its table to
-        // the result's join.
-        let settle = |writing: &mut Writing<'_>,
-                      total: &mut Option<Summary>,
-                      joiner: &mut Option<Joiner<'_>>|
-         -> Result<()> {
-            let Some((c, h)) = writing.take() else {
-                return Ok(());
-            };
-            let written = h
-                .join()
-                .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
-            if let (Some(spec), Some(t), Some(s)) = (spec, total, written.summary) {
-                spec.merge_into(t, &s, "summary")?;
-            }
-            match written.table {
-                Some(bytes) => Joiner::send(joiner, ToJoin::Bytes(c, bytes)),
-                None => Ok(()),
-            }
-        };
-        // Starts writing computed chunk `k` (poses `r`: its table, the values its summary
-        // reduces) on a thread of its own; the caller has settled the chunk written before.
-        let spawn_writer = |k: u64, r: Range<u64>, (table, values): (Option<Table>, Option<Vec<f64>>)| {
-            let write_chunk = &write_chunk;
-            (k, scope.spawn(move || write_chunk(k, r, table, values)))
-        };
-        // Returns whether chunk `c`'s files are all good (a chunk of an earlier run), and the
-        // event that says a damaged one is computed again.
-        let checked = |c: u64| -> (bool, Option<Event>) {
-            let files = chunk_files(c);
-            let (damaged, status) = first_not_good(
-                &files.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
-                expected(&chunk(c)),
-            );
-            match status {
-                parts::Status::Good => (true, None),
-                parts::Status::Damaged(reason) => (
-                    false,
-                    Some(Event::Recomputing {
-                        file: damaged.to_path_buf(),
-                        reason,
-                    }),
-                ),
-                parts::Status::Missing => (false, None),
-            }
-        };
-        // A grid's chunks to Parquet or summaries are projected block after block, the device
-        // never waiting for the host between them (`Backend::project_blocks`).
-        let streamed = work.sweep().filter(|_| !(rows && opts.format == Format::Csv));
-        let mut c = 0;
-        while c < n_chunks {
-            let r = &chunk(c);
-            let (good, damaged) = checked(c);
-            if good {
-                outcome.resumed += r.end - r.start;
-                if joiner.is_some() {
-                    settle(&mut writing, &mut total, &mut joiner)?;
-                    Joiner::send(&mut joiner, ToJoin::File(c))?;
-                }
-                if let (Some(spec), Some(t), Some(template)) = (spec, &mut total, &template) {
-                    let path = chunk_summary(c);
-                    let context = path.display().to_string();
-                    let part: PartSummary = read_part(&path, expected(r))?;
-                    let part = part.into_summary(template, &context)?;
-                    spec.check(&part, r.start, r.end - r.start, &context)?;
-                    spec.merge_into(t, &part, &context)?;
-                }
-            } else {
-                if budget == 0 || damaged.is_some_and(|e| events(e).is_break()) {
-                    settle(&mut writing, &mut total, &mut joiner)?;
-                    return Ok(true);
-                }
-                budget -= 1;
-                if let Some(sweep) = &streamed {
-                    // This chunk and the ones after it still to compute, within the budget, at
-                    // most RUN_BLOCKS at a time; a damaged one's event is sent when its turn
-                    // comes (after the chunks before it are done, as one at a time would).
-                    let mut blocks = vec![r.clone()];
-                    let mut announce: Vec<Option<Event>> = vec![None];
-                    while budget > 0 && blocks.len() < RUN_BLOCKS && c + (blocks.len() as u64) < n_chunks {
-                        let d = c + blocks.len() as u64;
-                        let (good, damaged) = checked(d);
-                        if good {
-                            break;
-                        }
-                        budget -= 1;
-                        blocks.push(chunk(d));
-                        announce.push(damaged);
-                    }
-                    let mut k = c;
-                    let stopped = for_blocks(backend, sweep, &blocks, &mut metrics, &mut |r, metrics| {
-                        let this = k;
-                        k += 1;
-                        let said = announce[usize::try_from(this - c).expect("a run's block")].take();
-                        if said.is_some_and(|e| events(e).is_break()) {
-                            return Ok(true);
-                        }
-                        let table = if rows {
-                            Some(work.rows(r.clone(), metrics)?)
-                        } else {
-                            None
-                        };
-                        let values = by.map(|by| values(metrics, by));
-                        settle(&mut writing, &mut total, &mut joiner)?;
-                        writing = Some(spawn_writer(this, r.clone(), (table, values)));
-                        outcome.computed += r.end - r.start;
-                        done += r.end - r.start;
-                        Ok(events(Event::Progress { done, total: poses }).is_break())
-                    })?;
-                    if stopped {
-                        settle(&mut writing, &mut total, &mut joiner)?;
-                        return Ok(true);
-                    }
-                    c += blocks.len() as u64;
-                    continue;
-                }
-                // A list's chunk (its items), or a chunk of CSV rows.
-                let outputs = match (rows, opts.format) {
-                    (true, Format::Csv) => {
-                        let path = chunk_path(c);
-                        let csv = CsvChunk {
-                            config,
-                            header: &header,
-                            sigma,
-                        };
-                        (None, csv.write(backend, r.clone(), &path, expected(r), by)?)
-                    }
-                    (_, format) => {
-                        let table = work.block(backend, r.clone(), rows, &mut metrics, &|| false)?;
-                        debug_assert!(table.is_none() || format == Format::Parquet);
-                        (table, by.map(|by| values(&metrics, by)))
-                    }
-                };
-                settle(&mut writing, &mut total, &mut joiner)?;
-                writing = Some(spawn_writer(c, r.clone(), outputs));
-                outcome.computed += r.end - r.start;
-            }
-            done += r.end - r.start;
-            c += 1;
-            if events(Event::Progress { done, total: poses }).is_break() {
-                settle(&mut writing, &mut total, &mut joiner)?;
-                return Ok(true);
-            }
-        }
-        settle(&mut writing, &mut total, &mut joiner)?;
-        // The settings first: a result never stands without them. The table next, the summary
-        // last: a summary beside a table means the table is whole.
-        write_json(&settings_path(&file), &manifest.settings)?;
-        match (joiner, rows, opts.format) {
-            (Some(joiner), _, _) => joiner.finish()?,
-            (None, true, Format::Csv) => {
-                parts::join((0..n_chunks).map(chunk_path), &desc.columns, &file, whole)?;
-            }
-            (None, true, Format::Parquet) => {
-                parts::join_parquet((0..n_chunks).map(chunk_path), &desc.columns, &kinds, &file, whole)?;
-            }
-            (None, false, _) => {}
-        }
-        if let Some(mut total) = total.take() {
-            fill_means(&mut total);
-            write_summary(&summary_file, whole, &total)?;
-            outcome.summary = Some(summary_file.clone());
-        }
-        Ok(false)
-    })?;
-    if stopped {
-        return Ok(outcome);
-    }
-    std::fs::remove_dir_all(&state).map_err(|e| Error::write_output(&state, e))?;
-    if opts.shard.is_none() {
-        outcome.figure = if rows {
-            figure(&file, opts.format, &desc)?
-        } else {
-            figure_of_marginal(dir, &desc, &summary_file)?
-        };
-    }
-    outcome.file = rows.then_some(file);
-    Ok(outcome)
+    let plan = files.plan;
+    outcome.resumed = plan.poses();
+    outcome.finished_before = true;
+    outcome.summary = plan.spec.map(|_| files.summary.clone());
+    outcome.file = plan.rows.then(|| file.clone());
+    // Finished: nothing left to stop.
+    let _ = events(Event::Progress {
+        done: plan.poses(),
+        total: plan.poses(),
+    });
+    Ok(ControlFlow::Break(()))
 }
 
-/// What writing a chunk gives back: its table encoded (Parquet), its summary.
-#[derive(Default)]
-struct Written {
-    table: Option<bytes::Bytes>,
-    summary: Option<Summary>,
-}
-
-/// A message to the thread joining a run's Parquet chunks into its result.
-enum ToJoin {
-    /// Chunk `c`, just written from these bytes.
-    Bytes(u64, bytes::Bytes),
-    /// Chunk `c`, on disk from an earlier run.
-    File(u64),
-    /// Every chunk is in: the result is finished and renamed into place.
-    Finish,
-}
-
-/// The thread joining a run's Parquet chunks (`join_chunks` in [`run`]), and its channel.
-struct Joiner<'s> {
-    tx: std::sync::mpsc::SyncSender<ToJoin>,
-    handle: std::thread::ScopedJoinHandle<'s, Result<()>>,
-}
-
-impl Joiner<'_> {
-    /// Sends `message` to the joiner, if there is one; when it has stopped on an error, returns
-    /// that error.
-    fn send(joiner: &mut Option<Joiner<'_>>, message: ToJoin) -> Result<()> {
-        let Some(j) = joiner else {
-            return Ok(());
-        };
-        if j.tx.send(message).is_ok() {
-            return Ok(());
-        }
-        let j = joiner.take().expect("a joiner");
-        drop(j.tx);
-        match j
-            .handle
-            .join()
-            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-        {
-            Err(e) => Err(e),
-            Ok(()) => Err(Error::write_output(
-                Path::new("sweep"),
-                "the join of its chunks ended early",
-            )),
-        }
-    }
-
-    /// Tells the joiner every chunk is in and waits for the result to be written.
-    fn finish(self) -> Result<()> {
-        // A joiner that has stopped on an error has dropped its receiver: its error is returned.
-        let _ = self.tx.send(ToJoin::Finish);
-        drop(self.tx);
-        self.handle
-            .join()
-            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
-    }
-}
-
-/// Returns the lock of the run state `state` (an open file, its lock released when it is
-/// dropped), or `None` where the file system has no locks.
+/// Computes the chunks not finished before and writes them, each while the next is computed;
+/// once every chunk is finished, writes the settings record, the result and the summaries.
+/// Returns `Break` when the run stopped first (`max_chunks`, or `events`).
 ///
 /// # Errors
-/// [`Error::WriteOutput`] when another process holds it, or the lock file cannot be made.
-fn lock_state(state: &Path) -> Result<Option<std::fs::File>> {
-    #[cfg(unix)]
-    {
-        let path = state.join("lock");
-        let file = std::fs::OpenOptions::new()
-            .create(true)
-            .truncate(false)
-            .write(true)
-            .open(&path)
-            .map_err(|e| Error::write_output(&path, e))?;
-        match rustix::fs::flock(&file, rustix::fs::FlockOperation::NonBlockingLockExclusive) {
-            Ok(()) => Ok(Some(file)),
-            Err(e) if e == rustix::io::Errno::WOULDBLOCK => Err(Error::WriteOutput {
-                path: state.to_path_buf(),
-                message: "another run of this sweep (or shard) is working in it; wait for it to finish, \
-                          or run this one into another --out"
-                    .into(),
-            }),
-            // A file system without locks (Lustre mounted without `flock`, some NFS setups):
-            // the run goes on unlocked, as it did before locks.
-            Err(_) => Ok(None),
+/// Errors of the backend, of reading finished chunks and of writing files.
+fn compute_and_write(
+    files: &Files<'_>,
+    backend: &Backend,
+    opts: &Options,
+    settings: &Settings,
+    events: &mut dyn FnMut(Event) -> ControlFlow<()>,
+    outcome: &mut Outcome,
+) -> Result<ControlFlow<()>> {
+    let plan = files.plan;
+    let work = plan.work()?;
+    let mut metrics = plan.metric_columns();
+    let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
+    // A grid's chunks to Parquet or summaries are projected in runs of blocks, the device never
+    // waiting for the host between them; a list's, and CSV chunks, one at a time.
+    let csv = plan.rows && opts.format == Format::Csv;
+    let streamed = work.sweep().is_some() && !csv;
+    let join = joins_as_chunks_finish(files, opts, budget);
+    std::thread::scope(|scope| -> Result<ControlFlow<()>> {
+        let mut writer = Writer::new(scope, files, join);
+        let mut done = 0;
+        let mut c = 0;
+        while c < plan.chunks {
+            let r = plan.chunk(c);
+            let (good, damaged) = files.checked(c);
+            if good {
+                outcome.resumed += r.end - r.start;
+                writer.resumed(c)?;
+                done += r.end - r.start;
+                c += 1;
+                if events(Event::Progress {
+                    done,
+                    total: plan.poses(),
+                })
+                .is_break()
+                {
+                    writer.settle()?;
+                    return Ok(ControlFlow::Break(()));
+                }
+                continue;
+            }
+            if budget == 0 || damaged.is_some_and(|e| events(e).is_break()) {
+                writer.settle()?;
+                return Ok(ControlFlow::Break(()));
+            }
+            budget -= 1;
+            // This chunk, and when streamed the ones after it still to compute, within the
+            // budget, at most RUN_BLOCKS at a time; a damaged one's event is sent when its turn
+            // comes (after the chunks before it are done, as one at a time would).
+            let mut announce: Vec<Option<Event>> = vec![None];
+            while streamed
+                && budget > 0
+                && announce.len() < RUN_BLOCKS
+                && c + (announce.len() as u64) < plan.chunks
+            {
+                let (good, damaged) = files.checked(c + announce.len() as u64);
+                if good {
+                    break;
+                }
+                budget -= 1;
+                announce.push(damaged);
+            }
+            let todo = c..c + announce.len() as u64;
+            let mut accept = |computed: Computed| -> Result<ControlFlow<()>> {
+                let said =
+                    announce[usize::try_from(computed.chunk - todo.start).expect("a run's chunk")].take();
+                if said.is_some_and(|e| events(e).is_break()) {
+                    return Ok(ControlFlow::Break(()));
+                }
+                let n = computed.poses.end - computed.poses.start;
+                writer.write(computed)?;
+                outcome.computed += n;
+                done += n;
+                Ok(events(Event::Progress {
+                    done,
+                    total: plan.poses(),
+                }))
+            };
+            let flow = if csv {
+                accept(csv_chunk(files, backend, c)?)?
+            } else {
+                plan.compute(&work, backend, &mut metrics, todo.clone(), &mut |computed, _| {
+                    accept(computed)
+                })?
+            };
+            if flow.is_break() {
+                writer.settle()?;
+                return Ok(ControlFlow::Break(()));
+            }
+            c = todo.end;
         }
+        writer.settle()?;
+        write_results(files, opts, settings, &mut writer)?;
+        Ok(ControlFlow::Continue(()))
+    })
+}
+
+/// Returns whether a Parquet result is joined as its chunks finish: only when the run can
+/// finish (a run that `max_chunks` (`budget`) will stop would copy the finished chunks for
+/// nothing, again each time it is resumed) into a regular file (a device or FIFO gets the table
+/// only once it is whole); otherwise it is joined at the end.
+fn joins_as_chunks_finish(files: &Files<'_>, opts: &Options, budget: u64) -> bool {
+    let plan = files.plan;
+    let can_finish = opts.max_chunks.is_none_or(|_| {
+        let missing = (0..plan.chunks).filter(|&c| files.chunk_files(c).iter().any(|f| !f.exists()));
+        usize::try_from(budget).is_ok_and(|b| missing.take(b.saturating_add(1)).count() <= b)
+    });
+    let regular = !files.file.exists() || parts::is_regular(&files.file);
+    plan.rows && opts.format == Format::Parquet && can_finish && regular
+}
+
+/// Computes chunk `c` as CSV rows written straight into its file, and returns it with the
+/// values its summary reduces (its table is on disk).
+///
+/// # Errors
+/// Errors of the backend and of writing the chunk.
+fn csv_chunk(files: &Files<'_>, backend: &Backend, c: u64) -> Result<Computed> {
+    let plan = files.plan;
+    let poses = plan.chunk(c);
+    let header = plan.config.columns();
+    let csv = CsvChunk {
+        config: plan.config,
+        header: &header,
+        sigma: plan.sigma,
+    };
+    let path = files.chunk_path(c);
+    let values = csv.write(backend, poses.clone(), &path, files.expected(&poses), plan.by)?;
+    Ok(Computed {
+        chunk: c,
+        poses,
+        table: None,
+        values,
+    })
+}
+
+/// Writes a finished run's results: the settings first (a result never stands without them),
+/// the table next, the summary last (a summary beside a table means the table is whole).
+///
+/// # Errors
+/// Errors of joining the chunks and writing the files.
+fn write_results(
+    files: &Files<'_>,
+    opts: &Options,
+    settings: &Settings,
+    writer: &mut Writer<'_, '_>,
+) -> Result<()> {
+    let plan = files.plan;
+    let chunks = (0..plan.chunks).map(|c| files.chunk_path(c));
+    let (columns, whole) = (&plan.desc.columns, files.whole());
+    write_json(&settings_path(&files.file), settings)?;
+    match (plan.rows, opts.format) {
+        _ if writer.joins() => writer.finish_join()?,
+        (true, Format::Csv) => parts::join(chunks, columns, &files.file, whole)?,
+        (true, Format::Parquet) => parts::join_parquet(chunks, columns, &plan.kinds, &files.file, whole)?,
+        (false, _) => {}
     }
-    #[cfg(not(unix))]
-    {
-        let _ = state;
-        Ok(None)
+    if let Some(mut total) = writer.total.take() {
+        fill_means(&mut total);
+        write_summary(&files.summary, whole, &total)?;
     }
+    Ok(())
 }

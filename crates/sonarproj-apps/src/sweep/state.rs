@@ -1,0 +1,336 @@
+//! A run's files on disk: its result files, its state while unfinished (`.partial-*`: the
+//! manifest, the lock and one file a finished chunk, each with its record), and the writing of a
+//! chunk's files and of the Parquet result joined from them.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::io::parquet::{Table, TableWriter};
+use crate::report::{check_output_file, remove_stale_temporaries};
+use crate::sweep::parts::{self, final_encoding, write_json};
+use crate::sweep::plan::Plan;
+use crate::sweep::records::{Settings, first_difference, first_not_good, read_json};
+use crate::sweep::run::{Event, Options};
+use crate::sweep::summary::Summary;
+use crate::sweep::table::Format;
+
+/// The state of an unfinished run, in its `.partial-*` directory.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub(crate) struct Manifest {
+    pub(crate) fingerprint: String,
+    /// Absent in the manifests of runs from before Parquet: CSV.
+    #[serde(default)]
+    pub(crate) format: Format,
+    pub(crate) chunk_poses: u64,
+    pub(crate) shard: Option<crate::sweep::shard::Shard>,
+    pub(crate) settings: Settings,
+}
+
+/// Returns the manifest of the unfinished run `stem` in `dir`, if one is there and readable.
+pub(crate) fn unfinished(dir: &Path, stem: &str) -> Option<Manifest> {
+    read_json::<Manifest>(&dir.join(format!(".partial-{stem}")).join("manifest.json"))
+        .ok()
+        .flatten()
+}
+
+/// Where a run's files are: its results, its state and its chunks.
+pub(crate) struct Files<'a> {
+    pub(crate) plan: &'a Plan<'a>,
+    /// `sweep` for a whole run, `shard-K-of-N` for a shard.
+    pub(crate) stem: String,
+    /// The result: the table, or the summaries alone when no rows are written.
+    pub(crate) file: PathBuf,
+    /// The summaries' file.
+    pub(crate) summary: PathBuf,
+    /// The unfinished run's state.
+    pub(crate) state: PathBuf,
+    format: Format,
+}
+
+/// What writing a chunk gives back: its table encoded (Parquet), its summary.
+#[derive(Default)]
+pub(crate) struct Written {
+    pub(crate) table: Option<bytes::Bytes>,
+    pub(crate) summary: Option<Summary>,
+}
+
+impl<'a> Files<'a> {
+    /// Returns the files of `plan` run with `opts`.
+    pub(crate) fn new(plan: &'a Plan<'a>, opts: &Options) -> Self {
+        let dir = &opts.out;
+        let stem = opts.shard.map_or_else(|| "sweep".to_string(), |s| s.stem());
+        let summary = match opts.shard {
+            Some(_) => dir.join(format!("{stem}.summary.json")),
+            None => dir.join("summary.json"),
+        };
+        let file = if plan.rows {
+            dir.join(format!("{stem}.{}", opts.format.extension()))
+        } else {
+            summary.clone()
+        };
+        Files {
+            plan,
+            state: dir.join(format!(".partial-{stem}")),
+            stem,
+            file,
+            summary,
+            format: opts.format,
+        }
+    }
+
+    /// Returns the result files this run writes: the table, the summaries, or both.
+    pub(crate) fn results(&self) -> Vec<&Path> {
+        match (self.plan.rows, self.plan.spec.is_some()) {
+            (true, true) => vec![&self.file, &self.summary],
+            (false, _) => vec![&self.summary],
+            (true, false) => vec![&self.file],
+        }
+    }
+
+    /// Returns an error unless every result file can be written (not a directory, say).
+    ///
+    /// # Errors
+    /// As [`check_output_file`], naming `--out`.
+    pub(crate) fn check_writable(&self) -> Result<()> {
+        self.results()
+            .iter()
+            .try_for_each(|f| check_output_file(f, "--out"))
+    }
+
+    /// Returns what the record of the whole run's result must say.
+    pub(crate) fn whole(&self) -> parts::Expected<'_> {
+        self.expected(&self.plan.range)
+    }
+
+    /// Returns what the record of a part holding poses `r` must say.
+    pub(crate) fn expected(&self, r: &Range<u64>) -> parts::Expected<'_> {
+        parts::Expected {
+            fingerprint: &self.plan.desc.fingerprint,
+            first: r.start,
+            rows: r.end - r.start,
+        }
+    }
+
+    /// Returns the table file of chunk `c`.
+    pub(crate) fn chunk_path(&self, c: u64) -> PathBuf {
+        self.state
+            .join(format!("chunk-{c:08}.{}", self.format.extension()))
+    }
+
+    /// Returns the summary file of chunk `c`.
+    pub(crate) fn chunk_summary(&self, c: u64) -> PathBuf {
+        self.state.join(format!("chunk-{c:08}.summary.json"))
+    }
+
+    /// Returns the files chunk `c` leaves: its table, its summary, or both.
+    pub(crate) fn chunk_files(&self, c: u64) -> Vec<PathBuf> {
+        let mut out = Vec::with_capacity(2);
+        if self.plan.rows {
+            out.push(self.chunk_path(c));
+        }
+        if self.plan.spec.is_some() {
+            out.push(self.chunk_summary(c));
+        }
+        out
+    }
+
+    /// Returns whether chunk `c`'s files are all good (a chunk of an earlier run), and the
+    /// event that says a damaged one is computed again.
+    pub(crate) fn checked(&self, c: u64) -> (bool, Option<Event>) {
+        let files = self.chunk_files(c);
+        let (damaged, status) = first_not_good(
+            &files.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
+            self.expected(&self.plan.chunk(c)),
+        );
+        match status {
+            parts::Status::Good => (true, None),
+            parts::Status::Damaged(reason) => (
+                false,
+                Some(Event::Recomputing {
+                    file: damaged.to_path_buf(),
+                    reason,
+                }),
+            ),
+            parts::Status::Missing => (false, None),
+        }
+    }
+
+    /// Makes the run's state directory, locks it (one run at a time in it: a second, such as the
+    /// same shard submitted twice, stops here instead of racing over its chunks) and checks or
+    /// writes its `manifest`; returns the lock, released when dropped.
+    ///
+    /// # Errors
+    /// [`Error::WriteOutput`] when the directory cannot be made or another run holds it;
+    /// [`sonarproj::Error::InvalidValue`] naming the setting that differs from an unfinished
+    /// run's.
+    pub(crate) fn open_state(&self, manifest: &Manifest) -> Result<Option<std::fs::File>> {
+        let state = &self.state;
+        std::fs::create_dir_all(state).map_err(|e| Error::write_output(state, e))?;
+        let lock = lock_state(state)?;
+        remove_stale_temporaries(state);
+        let manifest_path = state.join("manifest.json");
+        match read_json::<Manifest>(&manifest_path)? {
+            None => write_json(&manifest_path, manifest)?,
+            Some(old) if old == *manifest => {}
+            Some(old) => {
+                let (field, was, now) = first_manifest_difference(&old, manifest);
+                return Err(Error::invalid(
+                    field,
+                    now,
+                    format!(
+                        "the unfinished run in {} used {was}; re-run with the same settings to resume, or remove that directory to start over",
+                        state.display()
+                    ),
+                ));
+            }
+        }
+        Ok(lock)
+    }
+
+    /// Writes chunk `c` (poses `r`): its Parquet table when there is one (returned encoded, for
+    /// the result's join), and the summary of its `values` when one is asked for (returned, for
+    /// the total).
+    ///
+    /// # Errors
+    /// Errors of encoding and writing the files, and of the summary.
+    pub(crate) fn write_chunk(
+        &self,
+        c: u64,
+        r: Range<u64>,
+        table: Option<Table>,
+        values: Option<Vec<f64>>,
+    ) -> Result<Written> {
+        let plan = self.plan;
+        let mut written = Written::default();
+        if let Some(table) = table {
+            let path = self.chunk_path(c);
+            let mut bytes = Vec::new();
+            let columns = &plan.desc.columns;
+            let mut t = TableWriter::new(
+                &mut bytes,
+                columns,
+                &plan.kinds,
+                r.start,
+                final_encoding(columns),
+                &path,
+            )?;
+            t.push(table)?;
+            t.finish()?;
+            parts::write_chunk(&path, self.expected(&r), |w| {
+                w.write_all(&bytes).map_err(|e| Error::write_output(&path, e))
+            })?;
+            written.table = Some(bytes::Bytes::from(bytes));
+        }
+        if let (Some(spec), Some(values)) = (plan.spec, values) {
+            let summary = spec.partial(plan.grid, r.start, &values)?;
+            let part = summary.to_part();
+            let sum_path = self.chunk_summary(c);
+            parts::write_chunk(&sum_path, self.expected(&r), |w| {
+                serde_json::to_writer(&mut *w, &part).map_err(|e| Error::write_output(&sum_path, e))
+            })?;
+            written.summary = Some(summary);
+        }
+        Ok(written)
+    }
+
+    /// Joins the chunks of a Parquet table into the result as `rx` hands them over, in order:
+    /// the result's temporary file grows while the run goes on, and is renamed into place at
+    /// [`ToJoin::Finish`] (a run that stops drops the sender, and the temporary file is removed).
+    ///
+    /// # Errors
+    /// Errors of reading the chunks and writing the result; [`sonarproj::Error::Stopped`] when
+    /// the sender is dropped first.
+    pub(crate) fn join_chunks(&self, rx: std::sync::mpsc::Receiver<ToJoin>) -> Result<()> {
+        let (columns, kinds) = (&self.plan.desc.columns, &self.plan.kinds);
+        let (file, whole, last) = (&self.file, self.whole(), self.plan.chunks);
+        parts::write(file, whole, |w| {
+            let mut join = parts::ParquetJoin::new(w, columns, kinds, file, whole)?;
+            for message in rx {
+                match message {
+                    ToJoin::Bytes(c, bytes) => join.add_bytes(bytes, &self.chunk_path(c), c + 1 == last)?,
+                    ToJoin::File(c) => join.add_file(&self.chunk_path(c), c + 1 == last)?,
+                    ToJoin::Finish => return join.finish(),
+                }
+            }
+            Err(sonarproj::Error::Stopped.into())
+        })
+    }
+}
+
+/// A message to the thread joining a run's Parquet chunks into its result.
+pub(crate) enum ToJoin {
+    /// Chunk `c`, just written from these bytes.
+    Bytes(u64, bytes::Bytes),
+    /// Chunk `c`, on disk from an earlier run.
+    File(u64),
+    /// Every chunk is in: the result is finished and renamed into place.
+    Finish,
+}
+
+/// Returns the first setting in which manifest `old` differs from `new`: the option's name,
+/// what it was and what it is now.
+fn first_manifest_difference(old: &Manifest, new: &Manifest) -> (String, String, String) {
+    if old.format != new.format {
+        (
+            "--format".to_string(),
+            old.format.extension().to_string(),
+            new.format.extension().to_string(),
+        )
+    } else if old.chunk_poses != new.chunk_poses {
+        (
+            "--chunk-poses".to_string(),
+            old.chunk_poses.to_string(),
+            new.chunk_poses.to_string(),
+        )
+    } else if let Some((name, was, now)) = first_difference(&old.settings, &new.settings) {
+        (
+            if name == "backend" {
+                "--backend".to_string()
+            } else {
+                name
+            },
+            was,
+            now,
+        )
+    } else {
+        ("--config".to_string(), "another sweep".into(), "this one".into())
+    }
+}
+
+/// Returns the lock of the run state `state` (an open file, its lock released when it is
+/// dropped), or `None` where the file system has no locks.
+///
+/// # Errors
+/// [`Error::WriteOutput`] when another process holds it, or the lock file cannot be made.
+fn lock_state(state: &Path) -> Result<Option<std::fs::File>> {
+    #[cfg(unix)]
+    {
+        let path = state.join("lock");
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .map_err(|e| Error::write_output(&path, e))?;
+        match rustix::fs::flock(&file, rustix::fs::FlockOperation::NonBlockingLockExclusive) {
+            Ok(()) => Ok(Some(file)),
+            Err(e) if e == rustix::io::Errno::WOULDBLOCK => Err(Error::WriteOutput {
+                path: state.to_path_buf(),
+                message: "another run of this sweep (or shard) is working in it; wait for it to finish, \
+                          or run this one into another --out"
+                    .into(),
+            }),
+            // A file system without locks (Lustre mounted without `flock`, some NFS setups):
+            // the run goes on unlocked, as it did before locks.
+            Err(_) => Ok(None),
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = state;
+        Ok(None)
+    }
+}

@@ -1,0 +1,173 @@
+//! A run's chunks written while the next is computed: each chunk's files on a thread of their
+//! own (its Parquet encoding and summary overlap the next projection), one write in flight, its
+//! error stopping the run; the summaries added to the run's total as chunks finish; a Parquet
+//! result joined from its chunks as they finish, on a thread of its own.
+
+use std::thread::{Scope, ScopedJoinHandle};
+
+use crate::error::{Error, Result};
+use crate::sweep::plan::Computed;
+use crate::sweep::records::read_part;
+use crate::sweep::state::{Files, ToJoin, Written};
+use crate::sweep::summary::{PartSummary, Summary};
+
+/// What a run writes while it computes: the chunk being written, the thread joining the Parquet
+/// result (when there is one), and the summary of the chunks finished so far (this run's, and
+/// earlier runs' read back from disk).
+pub(crate) struct Writer<'s, 'e> {
+    scope: &'s Scope<'s, 'e>,
+    files: &'e Files<'e>,
+    writing: Option<(u64, ScopedJoinHandle<'s, Result<Written>>)>,
+    joiner: Option<Joiner<'s>>,
+    /// The total so far; its means are derived once at the end.
+    pub(crate) total: Option<Summary>,
+    /// An empty summary of this run (what a part read back is made into).
+    template: Option<Summary>,
+}
+
+impl<'s, 'e> Writer<'s, 'e> {
+    /// Returns the writer of `files`' chunks in `scope`, joining a Parquet result as chunks
+    /// finish when `join` (else the result is joined at the end from the files).
+    pub(crate) fn new(scope: &'s Scope<'s, 'e>, files: &'e Files<'e>, join: bool) -> Self {
+        let joiner = join.then(|| {
+            let (tx, rx) = std::sync::mpsc::sync_channel(1);
+            Joiner {
+                tx,
+                handle: scope.spawn(move || files.join_chunks(rx)),
+            }
+        });
+        let plan = files.plan;
+        let template = plan.spec.map(|s| s.empty(plan.grid));
+        Writer {
+            scope,
+            files,
+            writing: None,
+            joiner,
+            total: template.clone(),
+            template,
+        }
+    }
+
+    /// Returns whether the result is joined as chunks finish.
+    pub(crate) fn joins(&self) -> bool {
+        self.joiner.is_some()
+    }
+
+    /// Waits for the chunk being written, adding its summary to the total and its table to the
+    /// result's join.
+    ///
+    /// # Errors
+    /// The write's error, or the joiner's.
+    pub(crate) fn settle(&mut self) -> Result<()> {
+        let Some((c, h)) = self.writing.take() else {
+            return Ok(());
+        };
+        let written = h
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
+        if let (Some(spec), Some(t), Some(s)) = (self.files.plan.spec, &mut self.total, written.summary) {
+            spec.merge_into(t, &s, "summary")?;
+        }
+        match written.table {
+            Some(bytes) => Joiner::send(&mut self.joiner, ToJoin::Bytes(c, bytes)),
+            None => Ok(()),
+        }
+    }
+
+    /// Settles the chunk before, then starts writing `computed` on a thread of its own.
+    ///
+    /// # Errors
+    /// As [`Writer::settle`].
+    pub(crate) fn write(&mut self, computed: Computed) -> Result<()> {
+        self.settle()?;
+        let files = self.files;
+        let Computed {
+            chunk,
+            poses,
+            table,
+            values,
+        } = computed;
+        let handle = self
+            .scope
+            .spawn(move || files.write_chunk(chunk, poses, table, values));
+        self.writing = Some((chunk, handle));
+        Ok(())
+    }
+
+    /// Takes chunk `c`, finished by an earlier run: its table into the result's join, its
+    /// summary read back into the total.
+    ///
+    /// # Errors
+    /// The joiner's error; a summary part that cannot be read or does not fit this run.
+    pub(crate) fn resumed(&mut self, c: u64) -> Result<()> {
+        if self.joiner.is_some() {
+            self.settle()?;
+            Joiner::send(&mut self.joiner, ToJoin::File(c))?;
+        }
+        let plan = self.files.plan;
+        if let (Some(spec), Some(t), Some(template)) = (plan.spec, &mut self.total, &self.template) {
+            let r = plan.chunk(c);
+            let path = self.files.chunk_summary(c);
+            let context = path.display().to_string();
+            let part: PartSummary = read_part(&path, self.files.expected(&r))?;
+            let part = part.into_summary(template, &context)?;
+            spec.check(&part, r.start, r.end - r.start, &context)?;
+            spec.merge_into(t, &part, &context)?;
+        }
+        Ok(())
+    }
+
+    /// Tells the joiner every chunk is in and waits for the result to be written (nothing when
+    /// the result is not joined as chunks finish).
+    ///
+    /// # Errors
+    /// The joiner's error.
+    pub(crate) fn finish_join(&mut self) -> Result<()> {
+        match self.joiner.take() {
+            Some(joiner) => joiner.finish(),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The thread joining a run's Parquet chunks ([`Files::join_chunks`]), and its channel.
+struct Joiner<'s> {
+    tx: std::sync::mpsc::SyncSender<ToJoin>,
+    handle: ScopedJoinHandle<'s, Result<()>>,
+}
+
+impl Joiner<'_> {
+    /// Sends `message` to the joiner, if there is one; when it has stopped on an error, returns
+    /// that error.
+    fn send(joiner: &mut Option<Joiner<'_>>, message: ToJoin) -> Result<()> {
+        let Some(j) = joiner else {
+            return Ok(());
+        };
+        if j.tx.send(message).is_ok() {
+            return Ok(());
+        }
+        let j = joiner.take().expect("a joiner");
+        drop(j.tx);
+        match j
+            .handle
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+        {
+            Err(e) => Err(e),
+            Ok(()) => Err(Error::write_output(
+                std::path::Path::new("sweep"),
+                "the join of its chunks ended early",
+            )),
+        }
+    }
+
+    /// Tells the joiner every chunk is in and waits for the result to be written.
+    fn finish(self) -> Result<()> {
+        // A joiner that has stopped on an error has dropped its receiver: its error is returned.
+        let _ = self.tx.send(ToJoin::Finish);
+        drop(self.tx);
+        self.handle
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+    }
+}
