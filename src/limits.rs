@@ -38,6 +38,9 @@ pub const MAX_PING_FEATURES: usize = 1 << 16;
 /// whatever the sonar's size (with per-pixel counts, four bytes a pixel more a mask); a call
 /// that would need more is refused, naming its features or its pings.
 pub const MAX_MASK_BITSET_BYTES: u64 = 1 << 30;
+/// The largest sonar file read (bytes): a sonar file is a few hundred bytes, one with
+/// [`MAX_BEAMS`] beam edges about 1.5 MB.
+pub const MAX_SONAR_FILE_BYTES: u64 = 4 << 20;
 /// The most characters of input text an error quotes whole (a column name, a field); longer
 /// text is cut and marked with its length.
 pub const EXCERPT_CHARS: usize = 40;

@@ -99,7 +99,7 @@ impl Sonar {
             }
         };
         let centres: Vec<f64> = columns.iter().map(|&j| azimuths[j]).collect();
-        let aperture = super::sonar::aperture_of_beam_centres(&centres)
+        let aperture = super::beam_table::aperture_of_beam_centres(&centres)
             .map_err(|why| Error::invalid("beam_directions", format!("{} beams", centres.len()), why))?;
         let n = ranges.len();
         if n < 2 {

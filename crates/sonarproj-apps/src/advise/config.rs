@@ -42,9 +42,13 @@ use std::path::{Path, PathBuf};
 use sonarproj::geometry::sonar::Sonar;
 use sonarproj::sampling::Sampling;
 
+use glam::DVec3;
+use sonarproj::geometry::pose::{RelativePose, Rotation};
+
 use crate::advise::features::Features;
 use crate::error::{Error, Result};
-use crate::sweep::config::{axis_values, resolve_sonar};
+use crate::io::toml_keys::{ConfigFile, numbers};
+use crate::sweep::config::resolve_sonar;
 
 /// What the advisor minimises.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -152,26 +156,60 @@ pub fn unit(k: usize) -> &'static str {
     if k < 3 { "deg" } else { "m" }
 }
 
-pub(super) fn key_error(
-    file: &str,
-    key: &str,
-    value: impl std::fmt::Display,
-    allowed: impl Into<String>,
-) -> Error {
-    Error::invalid(format!("advise file {file:?}: {key}"), value, allowed)
-}
+/// The keys an advise file may have at its top.
+const TOP_KEYS: [&str; 12] = [
+    "from",
+    "to",
+    "step",
+    "area_grid",
+    "sigma_range",
+    "objective",
+    "min_shared",
+    "mix",
+    "features",
+    "rig",
+    "search",
+    "from_pose",
+];
 
-/// Returns the keys of `table` that are not in `allowed`, as an error naming the first.
-pub(super) fn only(file: &str, section: &str, table: &toml::Table, allowed: &[&str]) -> Result<()> {
-    match table.keys().find(|k| !allowed.contains(&k.as_str())) {
-        Some(k) => Err(key_error(
-            file,
-            &format!("{section}{k}"),
-            table[k].clone(),
-            format!("unknown key (allowed: {})", allowed.join(", ")),
-        )),
-        None => Ok(()),
-    }
+/// The keys of `[search]`.
+const SEARCH_KEYS: [&str; 11] = [
+    "roll",
+    "pitch",
+    "yaw",
+    "x",
+    "y",
+    "z",
+    "refine",
+    "refine_to",
+    "refine_to_m",
+    "landscape",
+    "uniform",
+];
+
+/// The keys of `[from_pose]`.
+const FROM_POSE_KEYS: [&str; 10] = [
+    "roll",
+    "pitch",
+    "yaw",
+    "x",
+    "y",
+    "z",
+    "step",
+    "step_m",
+    "gradient_step",
+    "gradient_step_m",
+];
+
+/// What `[search]` says: the values of each axis, a uniform cover instead of the rotation grid,
+/// the refinement and the figure's axes.
+struct Search {
+    axes: [Vec<f64>; 6],
+    uniform: Option<usize>,
+    refine: usize,
+    refine_to: f64,
+    refine_to_m: f64,
+    landscape: Option<[usize; 2]>,
 }
 
 impl AdviseConfig {
@@ -190,331 +228,38 @@ impl AdviseConfig {
     ///
     /// # Errors
     /// As [`AdviseConfig::load`].
-    #[expect(clippy::too_many_lines, reason = "one key after the other, each checked")]
     pub fn parse(file: &str, text: &str, base: &Path) -> Result<AdviseConfig> {
         let top: toml::Table = text.parse().map_err(|e: toml::de::Error| Error::AdviseFile {
             path: PathBuf::from(file),
             message: sonarproj::error::parser_message(&e.to_string()),
         })?;
-        only(
-            file,
-            "",
-            &top,
-            &[
-                "from",
-                "to",
-                "step",
-                "area_grid",
-                "sigma_range",
-                "objective",
-                "min_shared",
-                "mix",
-                "features",
-                "rig",
-                "search",
-                "from_pose",
-            ],
-        )?;
-        let string = |k: &str| -> Result<Option<&str>> {
-            match top.get(k) {
-                None => Ok(None),
-                Some(toml::Value::String(s)) => Ok(Some(s)),
-                Some(other) => Err(key_error(file, k, other, "must be a string")),
-            }
-        };
+        let f = ConfigFile::advise(file);
+        f.only("", &top, &TOP_KEYS)?;
         let sonar = |k: &str| -> Result<Sonar> {
-            let spec = string(k)?.ok_or_else(|| {
-                Error::input(
-                    format!("advise file {file:?}: {k}"),
-                    "missing; required: a preset name or a sonar TOML file",
-                )
-            })?;
+            let spec = f
+                .string(&top, k)?
+                .ok_or_else(|| f.missing(k, "required: a preset name or a sonar TOML file"))?;
             resolve_sonar(spec, base)
         };
         let (source, target) = (sonar("from")?, sonar("to")?);
-        let table = |k: &str| -> Result<Option<&toml::Table>> {
-            match top.get(k) {
-                None => Ok(None),
-                Some(toml::Value::Table(t)) => Ok(Some(t)),
-                Some(other) => Err(key_error(file, k, other, "must be a table")),
-            }
-        };
-        // One number of key `key` in `t` (named `name`), within `range`.
-        let number = |t: &toml::Table, name: &str, key: &str| -> Result<Option<f64>> {
-            let Some(v) = t.get(key) else { return Ok(None) };
-            match axis_values(file, name, v)?.as_slice() {
-                [x] => Ok(Some(*x)),
-                _ => Err(key_error(file, name, v, "must be one number")),
-            }
-        };
-        let in_range = |name: &str, v: f64, lo: f64, hi: f64, unit: &str| -> Result<f64> {
-            if (lo..=hi).contains(&v) {
-                Ok(v)
-            } else {
-                Err(key_error(file, name, v, format!("must be in [{lo}, {hi}]{unit}")))
-            }
-        };
-        let sampling = match top.get("step") {
-            Some(toml::Value::String(s)) if s == "auto" => Sampling::Auto,
-            Some(_) => match number(&top, "step", "step")? {
-                Some(s) if s > 0.0 => Sampling::Step(s),
-                other => {
-                    return Err(key_error(
-                        file,
-                        "step",
-                        format!("{other:?}"),
-                        "must be > 0 (deg) or \"auto\"",
-                    ));
-                }
-            },
-            None => Sampling::Auto,
-        };
-        let area_grid = number(&top, "area_grid", "area_grid")?.unwrap_or(sonarproj::PAPER_AREA_GRID);
-        let sigma_range = number(&top, "sigma_range", "sigma_range")?;
+        let sampling = sampling(f, &top)?;
+        let area_grid = f
+            .number(&top, "area_grid", "area_grid")?
+            .unwrap_or(sonarproj::PAPER_AREA_GRID);
+        let sigma_range = f.number(&top, "sigma_range", "sigma_range")?;
         if let Some(s) = sigma_range {
             sonarproj::local_precision::resolve_sigma_range(&source, &target, Some(s))?;
         }
-        let min_shared = in_range(
-            "min_shared",
-            number(&top, "min_shared", "min_shared")?.unwrap_or(0.0),
-            0.0,
-            1.0,
-            "",
-        )?;
-        let objective = match string("objective")?.unwrap_or("correspondence") {
-            "correspondence" => Objective::Correspondence,
-            "recovery" => Objective::Recovery,
-            "mix" => {
-                let mix = table("mix")?.ok_or_else(|| {
-                    Error::input(
-                        format!("advise file {file:?}: mix"),
-                        "missing; objective \"mix\" needs [mix] with weight, metric_scale and sigma_scale",
-                    )
-                })?;
-                only(file, "mix.", mix, &["weight", "metric_scale", "sigma_scale"])?;
-                let positive = |k: &str| -> Result<f64> {
-                    match number(mix, &format!("mix.{k}"), k)? {
-                        Some(v) if v > 0.0 && v.is_finite() => Ok(v),
-                        other => Err(key_error(
-                            file,
-                            &format!("mix.{k}"),
-                            format!("{other:?}"),
-                            "must be a number > 0",
-                        )),
-                    }
-                };
-                Objective::Mix {
-                    weight: in_range(
-                        "mix.weight",
-                        number(mix, "mix.weight", "weight")?.unwrap_or(0.5),
-                        0.0,
-                        1.0,
-                        "",
-                    )?,
-                    metric_scale: positive("metric_scale")?,
-                    sigma_scale: positive("sigma_scale")?,
-                }
-            }
-            other => {
-                return Err(key_error(
-                    file,
-                    "objective",
-                    format!("{other:?}"),
-                    "must be \"correspondence\", \"recovery\" or \"mix\"",
-                ));
-            }
-        };
-        if top.contains_key("mix") && !matches!(objective, Objective::Mix { .. }) {
-            return Err(key_error(file, "mix", "given", "only with objective = \"mix\""));
-        }
-        let features = crate::advise::features::read(file, table("features")?, &source, &number)?;
-        let rig = rig(file, table("rig")?)?;
+        let min_shared = f.number(&top, "min_shared", "min_shared")?.unwrap_or(0.0);
+        let min_shared = f.in_range("min_shared", min_shared, 0.0, 1.0, "")?;
+        let objective = objective(f, &top)?;
+        let features = crate::advise::features::read(f, f.table(&top, "features")?, &source)?;
+        let rig = rig(f, f.table(&top, "rig")?)?;
         let empty = toml::Table::new();
-        let search = table("search")?.unwrap_or(&empty);
-        only(
-            file,
-            "search.",
-            search,
-            &[
-                "roll",
-                "pitch",
-                "yaw",
-                "x",
-                "y",
-                "z",
-                "refine",
-                "refine_to",
-                "refine_to_m",
-                "landscape",
-                "uniform",
-            ],
-        )?;
-        // A uniform cover of the rotations instead of the roll, pitch and yaw grid.
-        #[expect(clippy::cast_possible_truncation, reason = "at most 10^6")]
-        let uniform = whole(file, &number, search, "search.uniform", 2.0, 1e6)?.map(|n| n as usize);
-        if uniform.is_some()
-            && let Some(k) = ["roll", "pitch", "yaw"].iter().find(|k| search.contains_key(**k))
-        {
-            return Err(key_error(
-                file,
-                &format!("search.{k}"),
-                search[*k].clone(),
-                "give the rotations as search.uniform or as roll, pitch, yaw, not both",
-            ));
-        }
-        let axes: [Vec<f64>; 6] = {
-            let mut out: [Vec<f64>; 6] = Default::default();
-            for (k, name) in AXES.iter().enumerate() {
-                out[k] = match search.get(*name) {
-                    Some(v) => axis_values(file, &format!("search.{name}"), v)?,
-                    None => vec![0.0],
-                };
-                if k >= 3 {
-                    if matches!(rig, Rig::Place { .. }) && out[k] != [0.0] {
-                        return Err(key_error(
-                            file,
-                            &format!("search.{name}"),
-                            search[*name].clone(),
-                            "only with [rig] origin or translation (a placement sets the translation)",
-                        ));
-                    }
-                    if let Some(v) = out[k].iter().find(|v| v.abs() > 1000.0) {
-                        return Err(key_error(
-                            file,
-                            &format!("search.{name}"),
-                            v,
-                            "must be within ±1000 m",
-                        ));
-                    }
-                }
-            }
-            out
-        };
-        // Counted without overflow: every candidate and its score are held at once.
-        let candidates = axes
-            .iter()
-            .map(|a| a.len() as u64)
-            .chain(uniform.map(|n| n as u64))
-            .try_fold(1u64, u64::checked_mul)
-            .unwrap_or(u64::MAX);
-        if candidates > MAX_CANDIDATES {
-            return Err(key_error(
-                file,
-                "search",
-                format!("{candidates} candidates"),
-                format!("at most {MAX_CANDIDATES} candidates a search"),
-            ));
-        }
-        #[expect(clippy::cast_possible_truncation, reason = "at most 100")]
-        let refine = whole(file, &number, search, "search.refine", 0.0, 100.0)?.map_or(3, |n| n as usize);
-        let refine_to = in_range(
-            "search.refine_to",
-            number(search, "search.refine_to", "refine_to")?.unwrap_or(0.5),
-            1e-6,
-            180.0,
-            " deg",
-        )?;
-        let refine_to_m = in_range(
-            "search.refine_to_m",
-            number(search, "search.refine_to_m", "refine_to_m")?.unwrap_or(0.01),
-            1e-6,
-            100.0,
-            " m",
-        )?;
-        let varying: Vec<usize> = (0..6).filter(|&k| axes[k].len() > 1).collect();
-        if uniform.is_some() && search.contains_key("landscape") {
-            return Err(key_error(
-                file,
-                "search.landscape",
-                search["landscape"].clone(),
-                "needs a grid of roll, pitch, yaw (search.uniform scatters the rotations)",
-            ));
-        }
-        let landscape = match search.get("landscape") {
-            None => (uniform.is_none() && varying.len() >= 2).then(|| [varying[0], varying[1]]),
-            Some(toml::Value::Array(a)) => {
-                let names: Vec<Option<usize>> = a
-                    .iter()
-                    .map(|v| v.as_str().and_then(|s| AXES.iter().position(|n| *n == s)))
-                    .collect();
-                match names.as_slice() {
-                    [Some(x), Some(y)] if x != y && varying.contains(x) && varying.contains(y) => {
-                        Some([*x, *y])
-                    }
-                    _ => {
-                        return Err(key_error(
-                            file,
-                            "search.landscape",
-                            search["landscape"].clone(),
-                            "must name two different axes the search varies (roll, pitch, yaw, x, y, z)",
-                        ));
-                    }
-                }
-            }
-            Some(other) => {
-                return Err(key_error(
-                    file,
-                    "search.landscape",
-                    other,
-                    "must be a list of two axis names",
-                ));
-            }
-        };
-        let from_pose = match table("from_pose")? {
+        let search = Search::read(f, f.table(&top, "search")?.unwrap_or(&empty), rig)?;
+        let from_pose = match f.table(&top, "from_pose")? {
             None => None,
-            Some(t) => {
-                only(
-                    file,
-                    "from_pose.",
-                    t,
-                    &[
-                        "roll",
-                        "pitch",
-                        "yaw",
-                        "x",
-                        "y",
-                        "z",
-                        "step",
-                        "step_m",
-                        "gradient_step",
-                        "gradient_step_m",
-                    ],
-                )?;
-                let get = |k: &str, lo: f64, hi: f64, unit: &str| -> Result<f64> {
-                    let name = format!("from_pose.{k}");
-                    in_range(&name, number(t, &name, k)?.unwrap_or(0.0), lo, hi, unit)
-                };
-                let rotation = [
-                    get("roll", -360.0, 360.0, " deg")?,
-                    get("pitch", -360.0, 360.0, " deg")?,
-                    get("yaw", -360.0, 360.0, " deg")?,
-                ];
-                let offset = [
-                    get("x", -1000.0, 1000.0, " m")?,
-                    get("y", -1000.0, 1000.0, " m")?,
-                    get("z", -1000.0, 1000.0, " m")?,
-                ];
-                if matches!(rig, Rig::Place { .. }) && offset != [0.0; 3] {
-                    return Err(key_error(
-                        file,
-                        "from_pose",
-                        format!("offset {offset:?}"),
-                        "x, y, z only with [rig] origin or translation",
-                    ));
-                }
-                let positive = |k: &str, default: f64, hi: f64, unit: &str| -> Result<f64> {
-                    let name = format!("from_pose.{k}");
-                    in_range(&name, number(t, &name, k)?.unwrap_or(default), 1e-6, hi, unit)
-                };
-                Some(FromPose {
-                    rotation,
-                    offset,
-                    step: positive("step", 5.0, 90.0, " deg")?,
-                    step_m: positive("step_m", 0.1, 100.0, " m")?,
-                    gradient_step: positive("gradient_step", 0.5, 10.0, " deg")?,
-                    gradient_step_m: positive("gradient_step_m", 0.01, 10.0, " m")?,
-                })
-            }
+            Some(t) => Some(from_pose(f, t, rig)?),
         };
         let config = AdviseConfig {
             source,
@@ -526,21 +271,28 @@ impl AdviseConfig {
             min_shared,
             features,
             rig,
-            axes,
-            uniform,
-            refine,
-            refine_to,
-            refine_to_m,
-            landscape,
+            axes: search.axes,
+            uniform: search.uniform,
+            refine: search.refine,
+            refine_to: search.refine_to,
+            refine_to_m: search.refine_to_m,
+            landscape: search.landscape,
             from_pose,
         };
-        // Every candidate's translation stays within the engine's bound: its length is at most
-        // the rig's reach (the origin or translation and the largest offset the search, the
-        // pose now and its moves give it; a placement's two ranges).
-        let reach = crate::advise::score::reach(&config);
+        config.check_reach(f)?;
+        Ok(config)
+    }
+
+    /// Returns an error unless every candidate's translation stays within the engine's bound
+    /// (its length is at most the rig's reach) and the rig makes a valid pose (a placement too
+    /// far, say).
+    ///
+    /// # Errors
+    /// [`sonarproj::Error::InvalidValue`] naming `rig`.
+    fn check_reach(&self, f: ConfigFile<'_>) -> Result<()> {
+        let reach = self.reach();
         if reach > sonarproj::limits::MAX_TRANSLATION {
-            return Err(key_error(
-                file,
+            return Err(f.error(
                 "rig",
                 format!("a translation of up to {reach} m"),
                 format!(
@@ -549,65 +301,271 @@ impl AdviseConfig {
                 ),
             ));
         }
-        // The rig and a candidate make valid poses (a placement too far, say).
-        crate::advise::score::pose_of(&config, [0.0; 6])
-            .map_err(|e| Error::invalid(format!("advise file {file:?}: rig"), e, "must give a valid pose"))?;
-        Ok(config)
+        self.pose_of([0.0; 6])
+            .map_err(|e| Error::invalid(f.field("rig"), e, "must give a valid pose"))?;
+        Ok(())
+    }
+
+    /// Returns the pose of candidate `c` under the rig: the rotation `c[0..3]` (roll, pitch, yaw
+    /// in deg), the rig's origin or translation offset by `c[3..6]` (m).
+    ///
+    /// # Errors
+    /// As [`RelativePose::new`] and [`RelativePose::placement`].
+    pub fn pose_of(&self, c: [f64; 6]) -> sonarproj::Result<RelativePose> {
+        let r = Rotation::RollPitchYaw {
+            roll: c[0],
+            pitch: c[1],
+            yaw: c[2],
+        };
+        let offset = DVec3::new(c[3], c[4], c[5]);
+        match self.rig {
+            Rig::Translation(t) => RelativePose::new(r, DVec3::from_array(t) + offset),
+            Rig::Origin(o) => {
+                let m = r.to_matrix()?;
+                RelativePose::new(r, -(m * (DVec3::from_array(o) + offset)))
+            }
+            Rig::Place { feature, at } => RelativePose::placement(r, feature, at),
+        }
+    }
+
+    /// Returns the largest distance between the two sonars' origins any candidate can have (m):
+    /// for an origin or translation rig its length plus the largest offset the search (its
+    /// cover, which refinement does not leave), the pose now and its moves give it; for a
+    /// placement, the feature's range plus the place's.
+    #[must_use]
+    pub fn reach(&self) -> f64 {
+        match self.rig {
+            Rig::Origin(o) | Rig::Translation(o) => {
+                let far = |k: usize| {
+                    let cover = self.axes[k].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                    let moved = self
+                        .from_pose
+                        .map_or(0.0, |p| p.offset[k - 3].abs() + p.step_m.max(p.gradient_step_m));
+                    cover.max(moved)
+                };
+                DVec3::from_array(o).length() + DVec3::new(far(3), far(4), far(5)).length()
+            }
+            Rig::Place { feature, at } => feature[0].abs() + at[0].abs(),
+        }
     }
 }
 
-/// Reads one number: `(table, name in messages, key)`.
-pub(super) type NumberOf<'a> = dyn Fn(&toml::Table, &str, &str) -> Result<Option<f64>> + 'a;
-
-/// Returns the whole number of key `key` in `t` (named `name` in messages) within `[lo, hi]`,
-/// `None` when left out.
-#[expect(
-    clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    reason = "checked range"
-)]
-pub(super) fn whole(
-    file: &str,
-    number: &NumberOf<'_>,
-    t: &toml::Table,
-    name: &str,
-    lo: f64,
-    hi: f64,
-) -> Result<Option<u64>> {
-    let key = name.rsplit('.').next().unwrap_or(name);
-    match number(t, name, key)? {
-        None => Ok(None),
-        Some(v) if v.fract() == 0.0 && (lo..=hi).contains(&v) => Ok(Some(v as u64)),
-        Some(v) => Err(key_error(
-            file,
-            name,
-            v,
-            format!("must be a whole number in [{lo}, {hi}]"),
-        )),
+/// Returns the sampling `step` gives: a step > 0 (deg), or `"auto"` (the default).
+fn sampling(f: ConfigFile<'_>, top: &toml::Table) -> Result<Sampling> {
+    match top.get("step") {
+        Some(toml::Value::String(s)) if s == "auto" => Ok(Sampling::Auto),
+        Some(_) => match f.number(top, "step", "step")? {
+            Some(s) if s > 0.0 => Ok(Sampling::Step(s)),
+            other => Err(f.error("step", format!("{other:?}"), "must be > 0 (deg) or \"auto\"")),
+        },
+        None => Ok(Sampling::Auto),
     }
 }
 
-/// Returns the numbers of TOML array `v`, `None` unless every element is one (a stray string is
-/// refused, not skipped).
-pub(super) fn numbers(v: &toml::Value) -> Option<Vec<f64>> {
-    #[expect(clippy::cast_precision_loss, reason = "TOML integers taken as numbers")]
-    let number = |x: &toml::Value| x.as_float().or(x.as_integer().map(|i| i as f64));
-    v.as_array()?.iter().map(number).collect()
+/// Returns the objective (`objective`, with `[mix]` for a mix; the default correspondence).
+fn objective(f: ConfigFile<'_>, top: &toml::Table) -> Result<Objective> {
+    let objective = match f.string(top, "objective")?.unwrap_or("correspondence") {
+        "correspondence" => Objective::Correspondence,
+        "recovery" => Objective::Recovery,
+        "mix" => {
+            let mix = f.table(top, "mix")?.ok_or_else(|| {
+                f.missing(
+                    "mix",
+                    "objective \"mix\" needs [mix] with weight, metric_scale and sigma_scale",
+                )
+            })?;
+            f.only("mix.", mix, &["weight", "metric_scale", "sigma_scale"])?;
+            let positive = |k: &str| -> Result<f64> {
+                let name = format!("mix.{k}");
+                match f.number(mix, &name, k)? {
+                    Some(v) if v > 0.0 && v.is_finite() => Ok(v),
+                    other => Err(f.error(&name, format!("{other:?}"), "must be a number > 0")),
+                }
+            };
+            let weight = f.number(mix, "mix.weight", "weight")?.unwrap_or(0.5);
+            Objective::Mix {
+                weight: f.in_range("mix.weight", weight, 0.0, 1.0, "")?,
+                metric_scale: positive("metric_scale")?,
+                sigma_scale: positive("sigma_scale")?,
+            }
+        }
+        other => {
+            return Err(f.error(
+                "objective",
+                format!("{other:?}"),
+                "must be \"correspondence\", \"recovery\" or \"mix\"",
+            ));
+        }
+    };
+    if top.contains_key("mix") && !matches!(objective, Objective::Mix { .. }) {
+        return Err(f.error("mix", "given", "only with objective = \"mix\""));
+    }
+    Ok(objective)
+}
+
+impl Search {
+    /// Returns `[search]` (`search`) read for `rig`.
+    ///
+    /// # Errors
+    /// [`sonarproj::Error::InvalidValue`] naming the key.
+    fn read(f: ConfigFile<'_>, search: &toml::Table, rig: Rig) -> Result<Search> {
+        f.only("search.", search, &SEARCH_KEYS)?;
+        // A uniform cover of the rotations instead of the roll, pitch and yaw grid.
+        #[expect(clippy::cast_possible_truncation, reason = "at most 10^6")]
+        let uniform = f.whole(search, "search.uniform", 2.0, 1e6)?.map(|n| n as usize);
+        if uniform.is_some()
+            && let Some(k) = ["roll", "pitch", "yaw"].iter().find(|k| search.contains_key(**k))
+        {
+            return Err(f.error(
+                &format!("search.{k}"),
+                search[*k].clone(),
+                "give the rotations as search.uniform or as roll, pitch, yaw, not both",
+            ));
+        }
+        let axes = search_axes(f, search, rig)?;
+        // Counted without overflow: every candidate and its score are held at once.
+        let candidates = axes
+            .iter()
+            .map(|a| a.len() as u64)
+            .chain(uniform.map(|n| n as u64))
+            .try_fold(1u64, u64::checked_mul)
+            .unwrap_or(u64::MAX);
+        if candidates > MAX_CANDIDATES {
+            return Err(f.error(
+                "search",
+                format!("{candidates} candidates"),
+                format!("at most {MAX_CANDIDATES} candidates a search"),
+            ));
+        }
+        #[expect(clippy::cast_possible_truncation, reason = "at most 100")]
+        let refine = f
+            .whole(search, "search.refine", 0.0, 100.0)?
+            .map_or(3, |n| n as usize);
+        let refine_to = f.number(search, "search.refine_to", "refine_to")?.unwrap_or(0.5);
+        let refine_to = f.in_range("search.refine_to", refine_to, 1e-6, 180.0, " deg")?;
+        let refine_to_m = f
+            .number(search, "search.refine_to_m", "refine_to_m")?
+            .unwrap_or(0.01);
+        let refine_to_m = f.in_range("search.refine_to_m", refine_to_m, 1e-6, 100.0, " m")?;
+        Ok(Search {
+            refine,
+            refine_to,
+            refine_to_m,
+            landscape: landscape(f, search, &axes, uniform.is_some())?,
+            axes,
+            uniform,
+        })
+    }
+}
+
+/// Returns the values covered on each axis of [`AXES`] (0 where left out): offsets only with an
+/// origin or translation rig, within ±1000 m.
+fn search_axes(f: ConfigFile<'_>, search: &toml::Table, rig: Rig) -> Result<[Vec<f64>; 6]> {
+    let mut out: [Vec<f64>; 6] = Default::default();
+    for (k, name) in AXES.iter().enumerate() {
+        let key = format!("search.{name}");
+        out[k] = match search.get(*name) {
+            Some(v) => f.values(&key, v)?,
+            None => vec![0.0],
+        };
+        if k < 3 {
+            continue;
+        }
+        if matches!(rig, Rig::Place { .. }) && out[k] != [0.0] {
+            return Err(f.error(
+                &key,
+                search[*name].clone(),
+                "only with [rig] origin or translation (a placement sets the translation)",
+            ));
+        }
+        if let Some(v) = out[k].iter().find(|v| v.abs() > 1000.0) {
+            return Err(f.error(&key, v, "must be within ±1000 m"));
+        }
+    }
+    Ok(out)
+}
+
+/// Returns the figure's two axes: those `search.landscape` names, else the first two that vary
+/// (none for a uniform cover).
+fn landscape(
+    f: ConfigFile<'_>,
+    search: &toml::Table,
+    axes: &[Vec<f64>; 6],
+    uniform: bool,
+) -> Result<Option<[usize; 2]>> {
+    let varying: Vec<usize> = (0..6).filter(|&k| axes[k].len() > 1).collect();
+    if uniform && search.contains_key("landscape") {
+        return Err(f.error(
+            "search.landscape",
+            search["landscape"].clone(),
+            "needs a grid of roll, pitch, yaw (search.uniform scatters the rotations)",
+        ));
+    }
+    match search.get("landscape") {
+        None => Ok((!uniform && varying.len() >= 2).then(|| [varying[0], varying[1]])),
+        Some(toml::Value::Array(a)) => {
+            let names: Vec<Option<usize>> = a
+                .iter()
+                .map(|v| v.as_str().and_then(|s| AXES.iter().position(|n| *n == s)))
+                .collect();
+            match names.as_slice() {
+                [Some(x), Some(y)] if x != y && varying.contains(x) && varying.contains(y) => {
+                    Ok(Some([*x, *y]))
+                }
+                _ => Err(f.error(
+                    "search.landscape",
+                    search["landscape"].clone(),
+                    "must name two different axes the search varies (roll, pitch, yaw, x, y, z)",
+                )),
+            }
+        }
+        Some(other) => Err(f.error("search.landscape", other, "must be a list of two axis names")),
+    }
+}
+
+/// Returns `[from_pose]` (`t`): the rig's pose now (offsets only with an origin or translation
+/// rig) and the sizes of its moves and finite differences.
+fn from_pose(f: ConfigFile<'_>, t: &toml::Table, rig: Rig) -> Result<FromPose> {
+    f.only("from_pose.", t, &FROM_POSE_KEYS)?;
+    let get = |k: &str, default: f64, lo: f64, hi: f64, unit: &str| -> Result<f64> {
+        let name = format!("from_pose.{k}");
+        let v = f.number(t, &name, k)?.unwrap_or(default);
+        f.in_range(&name, v, lo, hi, unit)
+    };
+    let rotation = [
+        get("roll", 0.0, -360.0, 360.0, " deg")?,
+        get("pitch", 0.0, -360.0, 360.0, " deg")?,
+        get("yaw", 0.0, -360.0, 360.0, " deg")?,
+    ];
+    let offset = [
+        get("x", 0.0, -1000.0, 1000.0, " m")?,
+        get("y", 0.0, -1000.0, 1000.0, " m")?,
+        get("z", 0.0, -1000.0, 1000.0, " m")?,
+    ];
+    if matches!(rig, Rig::Place { .. }) && offset != [0.0; 3] {
+        return Err(f.error(
+            "from_pose",
+            format!("offset {offset:?}"),
+            "x, y, z only with [rig] origin or translation",
+        ));
+    }
+    Ok(FromPose {
+        rotation,
+        offset,
+        step: get("step", 5.0, 1e-6, 90.0, " deg")?,
+        step_m: get("step_m", 0.1, 1e-6, 100.0, " m")?,
+        gradient_step: get("gradient_step", 0.5, 1e-6, 10.0, " deg")?,
+        gradient_step_m: get("gradient_step_m", 0.01, 1e-6, 10.0, " m")?,
+    })
 }
 
 /// Returns the `[rig]`: one of origin, translation, place.
-fn rig(file: &str, t: Option<&toml::Table>) -> Result<Rig> {
-    let missing = || {
-        Error::input(
-            format!("advise file {file:?}: rig"),
-            "missing; required: [rig] with origin, translation or place",
-        )
-    };
+fn rig(f: ConfigFile<'_>, t: Option<&toml::Table>) -> Result<Rig> {
+    let missing = || f.missing("rig", "required: [rig] with origin, translation or place");
     let t = t.ok_or_else(missing)?;
-    only(file, "rig.", t, &["origin", "translation", "place"])?;
+    f.only("rig.", t, &["origin", "translation", "place"])?;
     if t.len() != 1 {
-        return Err(key_error(
-            file,
+        return Err(f.error(
             "rig",
             toml::Value::Table(t.clone()),
             "give one of origin, translation, place",
@@ -623,8 +581,7 @@ fn rig(file: &str, t: Option<&toml::Table>) -> Result<Rig> {
             {
                 Ok([*a, *b, *c])
             }
-            _ => Err(key_error(
-                file,
+            _ => Err(f.error(
                 name,
                 v.clone(),
                 "must be three finite numbers (m, or [range m, azimuth deg, elevation deg])",
@@ -637,19 +594,19 @@ fn rig(file: &str, t: Option<&toml::Table>) -> Result<Rig> {
         "translation" => Ok(Rig::Translation(triple("rig.translation", v)?)),
         _ => {
             let place = v.as_table().ok_or_else(|| {
-                key_error(
-                    file,
+                f.error(
                     "rig.place",
                     v.clone(),
                     "must be { feature = [r, az, el], at = [r, az, el] }",
                 )
             })?;
-            only(file, "rig.place.", place, &["feature", "at"])?;
+            f.only("rig.place.", place, &["feature", "at"])?;
             let get = |name: &str| -> Result<[f64; 3]> {
-                let v = place.get(name).ok_or_else(|| {
-                    Error::input(format!("advise file {file:?}: rig.place.{name}"), "missing")
-                })?;
-                triple(&format!("rig.place.{name}"), v)
+                let key = format!("rig.place.{name}");
+                let v = place
+                    .get(name)
+                    .ok_or_else(|| Error::input(f.field(&key), "missing"))?;
+                triple(&key, v)
             };
             Ok(Rig::Place {
                 feature: get("feature")?,

@@ -5,8 +5,8 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sonarproj::geometry::sonar::Sonar;
 
-use crate::advise::config::{NumberOf, key_error, numbers, only, whole};
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::io::toml_keys::{ConfigFile, numbers};
 
 /// The most features an advise file may ask for.
 pub const MAX_FEATURES: usize = 1_000_000;
@@ -31,32 +31,20 @@ pub enum Features {
 
 /// Returns the features of `[features]`: drawn (a count and a seed) or given as points, each
 /// checked to lie in sonar 1's field of view.
-pub(super) fn read(
-    file: &str,
-    t: Option<&toml::Table>,
-    source: &Sonar,
-    number: &NumberOf<'_>,
-) -> Result<Features> {
-    let missing = || {
-        Error::input(
-            format!("advise file {file:?}: features"),
-            "missing; required: [features] with count (and seed) or points",
-        )
-    };
+pub(super) fn read(f: ConfigFile<'_>, t: Option<&toml::Table>, source: &Sonar) -> Result<Features> {
+    let missing = || f.missing("features", "required: [features] with count (and seed) or points");
     let t = t.ok_or_else(missing)?;
-    only(file, "features.", t, &["count", "seed", "points"])?;
+    f.only("features.", t, &["count", "seed", "points"])?;
     if let Some(points) = t.get("points") {
         if t.contains_key("count") {
-            return Err(key_error(
-                file,
+            return Err(f.error(
                 "features.count",
                 t["count"].clone(),
                 "give count or points, not both",
             ));
         }
         let bad = || {
-            key_error(
-                file,
+            f.error(
                 "features.points",
                 points.clone(),
                 "must be a list of [range, azimuth, elevation]",
@@ -64,8 +52,7 @@ pub(super) fn read(
         };
         let list = points.as_array().ok_or_else(bad)?;
         if list.is_empty() || list.len() > MAX_FEATURES {
-            return Err(key_error(
-                file,
+            return Err(f.error(
                 "features.points",
                 format!("{} points", list.len()),
                 format!("must have 1 to {MAX_FEATURES}"),
@@ -81,18 +68,18 @@ pub(super) fn read(
                     };
                     source
                         .check_point("feature", *r, *az, *el)
-                        .map_err(|e| e.in_context(&format!("advise file {file:?}: features.points[{i}]")))?;
+                        .map_err(|e| e.in_context(&f.field(&format!("features.points[{i}]"))))?;
                     Ok([*r, *az, *el])
                 })
                 .collect::<Result<_>>()?,
         ));
     }
     #[expect(clippy::cast_possible_truncation, reason = "at most MAX_FEATURES")]
-    let count = match whole(file, number, t, "features.count", 1.0, MAX_FEATURES as f64)? {
+    let count = match f.whole(t, "features.count", 1.0, MAX_FEATURES as f64)? {
         Some(n) => n as usize,
         None => return Err(missing()),
     };
-    let seed = whole(file, number, t, "features.seed", 0.0, 9.0e15)?.unwrap_or(1);
+    let seed = f.whole(t, "features.seed", 0.0, 9.0e15)?.unwrap_or(1);
     Ok(Features::Drawn { count, seed })
 }
 

@@ -120,7 +120,7 @@ pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Writt
         ])
         .map_err(err)?;
         // The best pose's own features: those it was scored over.
-        let pose = crate::advise::score::pose_of(config, best.params())?;
+        let pose = config.pose_of(best.params())?;
         let pool = crate::advise::score::Pool::new(config);
         for (f, _) in &crate::advise::score::kept(&config.source, &pool, &pose).1 {
             let row: Vec<String> = f

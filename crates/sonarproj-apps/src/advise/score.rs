@@ -4,7 +4,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
-use sonarproj::geometry::pose::{RelativePose, Rotation, cart_to_sph, sph_to_cart};
+use sonarproj::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
 use sonarproj::geometry::sonar::SonarKind;
 use sonarproj::local_precision::{local_precision, resolve_sigma_range};
 use sonarproj::occupancy::Layout;
@@ -12,7 +12,7 @@ use sonarproj::projection::{Backend, Batch, BatchItem};
 use sonarproj::sampling::Measurement;
 use sonarproj::{Metrics, Output};
 
-use crate::advise::config::{AdviseConfig, Objective, Rig};
+use crate::advise::config::{AdviseConfig, Objective};
 use crate::advise::features::{Features, draw_features};
 use crate::error::Result;
 
@@ -100,49 +100,6 @@ impl Score {
     }
 }
 
-/// Returns the pose of candidate `c` under the rig: the rotation `c[0..3]` (roll, pitch, yaw in
-/// deg), the rig's origin or translation offset by `c[3..6]` (m).
-///
-/// # Errors
-/// As [`RelativePose::new`] and [`RelativePose::placement`].
-pub fn pose_of(config: &AdviseConfig, c: Params) -> sonarproj::Result<RelativePose> {
-    let r = Rotation::RollPitchYaw {
-        roll: c[0],
-        pitch: c[1],
-        yaw: c[2],
-    };
-    let offset = DVec3::new(c[3], c[4], c[5]);
-    match config.rig {
-        Rig::Translation(t) => RelativePose::new(r, DVec3::from_array(t) + offset),
-        Rig::Origin(o) => {
-            let m = r.to_matrix()?;
-            RelativePose::new(r, -(m * (DVec3::from_array(o) + offset)))
-        }
-        Rig::Place { feature, at } => RelativePose::placement(r, feature, at),
-    }
-}
-
-/// Returns the largest distance between the two sonars' origins any candidate of `config` can
-/// have (m): for an origin or translation rig its length plus the largest offset the search
-/// (its cover, which refinement does not leave), the pose now and its moves give it; for a
-/// placement, the feature's range plus the place's.
-#[must_use]
-pub fn reach(config: &AdviseConfig) -> f64 {
-    match config.rig {
-        Rig::Origin(o) | Rig::Translation(o) => {
-            let far = |k: usize| {
-                let cover = config.axes[k].iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-                let moved = config
-                    .from_pose
-                    .map_or(0.0, |p| p.offset[k - 3].abs() + p.step_m.max(p.gradient_step_m));
-                cover.max(moved)
-            };
-            DVec3::from_array(o).length() + DVec3::new(far(3), far(4), far(5)).length()
-        }
-        Rig::Place { feature, at } => feature[0].abs() + at[0].abs(),
-    }
-}
-
 /// Returns the name of the projection metric the advisor scores for sonar 2's kind.
 #[must_use]
 pub fn metric_name(config: &AdviseConfig) -> &'static str {
@@ -213,7 +170,7 @@ impl Pool {
         };
         // The other sonar's range bounds the distance of a point it sees from its origin, and
         // the origins are at most `reach` apart whatever the rotation.
-        let reach = reach(config);
+        let reach = config.reach();
         let other = if in_target { &config.source } else { &config.target };
         let drawn = points.len();
         let points = points
@@ -341,11 +298,11 @@ impl<'a> Scorer<'a> {
     /// the backend (many candidates a batch), their metrics and sigmas reduced.
     ///
     /// # Errors
-    /// As [`pose_of`] and [`Backend::project`].
+    /// As [`AdviseConfig::pose_of`] and [`Backend::project`].
     pub fn score_all(&self, rotations: &[Params]) -> Result<Vec<Score>> {
         let poses = rotations
             .par_iter()
-            .map(|&r| pose_of(self.config, r))
+            .map(|&r| self.config.pose_of(r))
             .collect::<sonarproj::Result<Vec<_>>>()?;
         let mut out = Vec::with_capacity(rotations.len());
         // Candidates a block at a time (memory stays bounded); their shared features and

@@ -9,6 +9,7 @@ pub mod pose_columns;
 pub mod recover;
 pub mod table;
 pub mod text;
+pub(crate) mod toml_keys;
 
 pub use batch::{
     BatchInput, BatchReader, METRIC_COLUMNS, metric_fields, project_csv, read_batch_csv,

@@ -387,7 +387,7 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
             Ok(f64::from(i16::from_le_bytes(raw)) / 100.0)
         })
         .collect::<Result<Vec<f64>>>()?;
-    let aperture = sonarproj::geometry::sonar::aperture_of_beam_centres(&bearings_deg)
+    let aperture = sonarproj::geometry::beam_table::aperture_of_beam_centres(&bearings_deg)
         .map_err(|why| m.bad(fixed, "bearings", why))?;
     let gain = flags & 0x04 != 0;
     let stride = n_beams * sample + if gain { 4 } else { 0 };

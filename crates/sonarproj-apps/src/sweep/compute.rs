@@ -5,15 +5,15 @@
 
 use std::ops::Range;
 
-use sonarproj::projection::poses::item_of;
+use sonarproj::Output;
 use sonarproj::projection::{Backend, ColumnRef, MetricColumns, PoseGrid, PoseSource, PoseSweep};
-use sonarproj::{Output, Sonar};
 
 use crate::error::Result;
 use crate::io::batch::LOCAL_COLUMNS;
 use crate::io::parquet::{Column, Kind, Table};
-use crate::sweep::config::{Grid, Poses, SweepConfig};
-use crate::sweep::table::{Fill, chunk_batch, columns_of, fill_of, kept_metrics};
+use crate::sweep::columns::{Fill, fill_of, kept_metrics};
+use crate::sweep::config::{Poses, SweepConfig};
+use crate::sweep::table::{chunk_batch, columns_of};
 
 /// What every block of one sweep shares: the engine's grid (for a grid sweep), the table's
 /// columns and kinds, and the range error of the local precision.
@@ -228,24 +228,6 @@ fn axis_column(values: &[f64], stride: u64, r: Range<u64>) -> Vec<f64> {
         k = if k + 1 == n { 0 } else { k + 1 };
     }
     out
-}
-
-impl Grid {
-    /// Returns the engine's grid of these axes, checked against sonar 1 `source`.
-    ///
-    /// # Errors
-    /// As [`PoseGrid::new`].
-    pub fn pose_grid(&self, source: &Sonar) -> Result<PoseGrid> {
-        let axes: [Vec<f64>; 9] = std::array::from_fn(|k| self.axes[k].values.clone());
-        Ok(PoseGrid::new(axes, self.placement, source)?)
-    }
-
-    /// Returns the batch item of axis values `v` (in [`Grid::axes`] order): the engine's
-    /// definition of a grid's pose.
-    pub(crate) fn item(&self, source: &Sonar, v: &[f64]) -> Result<sonarproj::BatchItem> {
-        let v: [f64; 9] = std::array::from_fn(|k| v[k]);
-        Ok(item_of(source, &v, self.placement)?)
-    }
 }
 
 #[cfg(test)]

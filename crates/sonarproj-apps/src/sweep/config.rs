@@ -35,35 +35,18 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::io::batch::PoseRow;
+use crate::io::toml_keys::ConfigFile;
 use crate::io::{BatchInput, read_batch_csv_at_most};
+use crate::sweep::columns;
 use crate::sweep::summary::{self, SummarySpec};
-use crate::sweep::table;
-use sonarproj::geometry::sonar::Sonar;
+use sonarproj::geometry::sonar::{Sonar, SonarKind};
 use sonarproj::metrics::Metric;
 use sonarproj::projection::Batch;
 use sonarproj::sampling::Sampling;
 
 use crate::limits::MAX_LIST_POSES;
+pub use crate::sweep::grid::{Axis, Grid};
 pub use sonarproj::limits::{MAX_AXIS_VALUES, MAX_POSES};
-
-/// One grid axis: a column of the output and the values it takes.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Axis {
-    /// The output column (also the batch CSV column).
-    pub column: &'static str,
-    /// The values, in order.
-    pub values: Vec<f64>,
-}
-
-/// A full grid: every combination of the axes' values, the last axis fastest.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Grid {
-    /// The axes in column order: range, azimuth, elevation, then place_range, place_azimuth,
-    /// place_elevation (or tx, ty, tz), then roll, pitch, yaw.
-    pub axes: Vec<Axis>,
-    /// Whether the translation is a placement (else tx, ty, tz).
-    pub placement: bool,
-}
 
 /// Where a sweep's poses come from.
 #[derive(Clone, Debug)]
@@ -98,143 +81,6 @@ pub struct SweepConfig {
     pub poses: Poses,
     /// The summaries asked for (`[summary]`), if any.
     pub summary: Option<SummarySpec>,
-}
-
-/// Returns the error for key `key` of sweep file `file`.
-pub(crate) fn key_error(
-    file: &str,
-    key: &str,
-    value: impl std::fmt::Display,
-    allowed: impl Into<String>,
-) -> Error {
-    Error::invalid(format!("sweep file {file:?}: {key}"), value, allowed)
-}
-
-/// Returns the error of sweep file `file` for the missing key `key`, which `needed` explains.
-pub(crate) fn missing_key(file: &str, key: &str, needed: &str) -> Error {
-    Error::input(
-        format!("sweep file {file:?}: {key}"),
-        format!("missing; {needed}"),
-    )
-}
-
-/// Returns the values of grid key `key` given as `v`: a number, a list or `{start, stop, step}`.
-#[expect(
-    clippy::cast_possible_truncation,
-    reason = "grid sizes are checked against MAX_POSES before they are used as indices"
-)]
-pub(crate) fn axis_values(file: &str, key: &str, v: &toml::Value) -> Result<Vec<f64>> {
-    let shape = "must be a number, a list of numbers or { start, stop, step }";
-    let number = |v: &toml::Value, k: &str| -> Result<f64> {
-        let x = match v {
-            toml::Value::Integer(i) => *i as f64,
-            toml::Value::Float(f) => *f,
-            other => return Err(key_error(file, k, other, "must be a number")),
-        };
-        if x.is_finite() {
-            Ok(x)
-        } else {
-            Err(key_error(file, k, x, "must be a finite number"))
-        }
-    };
-    match v {
-        toml::Value::Integer(_) | toml::Value::Float(_) => Ok(vec![number(v, key)?]),
-        toml::Value::Array(a) if !a.is_empty() => a
-            .iter()
-            .enumerate()
-            .map(|(i, x)| number(x, &format!("{key}[{i}]")))
-            .collect(),
-        toml::Value::Array(_) => Err(key_error(file, key, "[]", "must list at least one value")),
-        toml::Value::Table(t) => {
-            for k in t.keys() {
-                if !["start", "stop", "step"].contains(&k.as_str()) {
-                    return Err(key_error(
-                        file,
-                        &format!("{key}.{k}"),
-                        t[k].clone(),
-                        "unknown key (allowed: start, stop, step)",
-                    ));
-                }
-            }
-            let get = |k: &str| -> Result<f64> {
-                let full = format!("{key}.{k}");
-                match t.get(k) {
-                    Some(x) => number(x, &full),
-                    None => Err(missing_key(file, &full, "required with start, stop, step")),
-                }
-            };
-            let (start, stop, step) = (get("start")?, get("stop")?, get("step")?);
-            if step <= 0.0 {
-                return Err(key_error(file, &format!("{key}.step"), step, "must be > 0"));
-            }
-            if stop < start {
-                return Err(key_error(
-                    file,
-                    &format!("{key}.stop"),
-                    stop,
-                    format!("must be >= start ({start})"),
-                ));
-            }
-            let n = ((stop - start) / step + 1e-9).floor();
-            if n >= MAX_AXIS_VALUES as f64 {
-                return Err(key_error(
-                    file,
-                    &format!("{key}.step"),
-                    step,
-                    format!(
-                        "gives {} values from {start} to {stop}; at most {MAX_AXIS_VALUES} per axis",
-                        n + 1.0
-                    ),
-                ));
-            }
-            Ok((0..=n as u64).map(|i| start + i as f64 * step).collect())
-        }
-        other => Err(key_error(file, key, other, shape)),
-    }
-}
-
-/// Returns the table under `key` (empty when missing), checking its keys against `allowed`.
-fn section<'a>(
-    file: &str,
-    top: &'a toml::Table,
-    key: &str,
-    allowed: &[&str],
-) -> Result<Option<&'a toml::Table>> {
-    match top.get(key) {
-        None => Ok(None),
-        Some(toml::Value::Table(t)) => {
-            for k in t.keys() {
-                if !allowed.contains(&k.as_str()) {
-                    return Err(key_error(
-                        file,
-                        &format!("{key}.{k}"),
-                        t[k].clone(),
-                        format!("unknown key (allowed: {})", allowed.join(", ")),
-                    ));
-                }
-            }
-            Ok(Some(t))
-        }
-        Some(other) => Err(key_error(file, key, other, "must be a table ([{key}])")),
-    }
-}
-
-/// Returns the axis `column` read from `table.name` (0 when left out, an error when `required`).
-fn axis(
-    file: &str,
-    table: Option<&toml::Table>,
-    prefix: &str,
-    name: &str,
-    column: &'static str,
-    required: bool,
-) -> Result<Axis> {
-    let key = format!("{prefix}.{name}");
-    let values = match table.and_then(|t| t.get(name)) {
-        Some(v) => axis_values(file, &key, v)?,
-        None if required => return Err(missing_key(file, &key, "required")),
-        None => vec![0.0],
-    };
-    Ok(Axis { column, values })
 }
 
 /// Returns the sonar `spec` names from a sweep file in `base`: a preset, or a file relative to
@@ -276,124 +122,33 @@ impl SweepConfig {
             path: PathBuf::from(file),
             message: sonarproj::error::parser_message(&e.to_string()),
         })?;
-        const TOP: [&str; 13] = [
-            "from",
-            "to",
-            "step",
-            "metric",
-            "columns",
-            "area_grid",
-            "sigma_range",
-            "feature",
-            "place",
-            "translation",
-            "rotation",
-            "poses",
-            "summary",
-        ];
-        for k in top.keys() {
-            if !TOP.contains(&k.as_str()) {
-                return Err(key_error(
-                    file,
-                    k,
-                    top[k].clone(),
-                    format!("unknown key (allowed: {})", TOP.join(", ")),
-                ));
-            }
-        }
-        let string = |k: &str| -> Result<Option<&str>> {
-            match top.get(k) {
-                None => Ok(None),
-                Some(toml::Value::String(s)) => Ok(Some(s)),
-                Some(other) => Err(key_error(file, k, other, "must be a string")),
-            }
-        };
+        let f = ConfigFile::sweep(file);
+        f.only("", &top, &TOP_KEYS)?;
         let sonar = |k: &str| -> Result<Sonar> {
-            let spec = string(k)?
-                .ok_or_else(|| missing_key(file, k, "required: a preset name or a sonar TOML file"))?;
+            let spec = f
+                .string(&top, k)?
+                .ok_or_else(|| f.missing(k, "required: a preset name or a sonar TOML file"))?;
             resolve_sonar(spec, base)
         };
         let (source, target) = (sonar("from")?, sonar("to")?);
-        // A key holding one positive number (in `unit`), `None` when left out.
-        let positive = |key: &str, unit: &str| -> Result<Option<f64>> {
-            let Some(v) = top.get(key) else { return Ok(None) };
-            match axis_values(file, key, v)?.as_slice() {
-                [x] if *x > 0.0 => Ok(Some(*x)),
-                _ => Err(key_error(
-                    file,
-                    key,
-                    v,
-                    format!("must be one number > 0 ({unit})"),
-                )),
-            }
-        };
         let sampling = match top.get("step") {
             Some(toml::Value::String(s)) if s == "auto" => Sampling::Auto,
-            _ => positive("step", "deg, or \"auto\"")?.map_or(Sampling::Auto, Sampling::Step),
+            _ => positive(f, &top, "step", "deg, or \"auto\"")?.map_or(Sampling::Auto, Sampling::Step),
         };
-        let area_grid = positive("area_grid", "m")?.unwrap_or(sonarproj::PAPER_AREA_GRID);
-        let sigma_range = positive("sigma_range", "m")?;
+        let area_grid = positive(f, &top, "area_grid", "m")?.unwrap_or(sonarproj::PAPER_AREA_GRID);
+        let sigma_range = positive(f, &top, "sigma_range", "m")?;
         let result_columns = match top.get("columns") {
             None => crate::io::METRIC_COLUMNS.to_vec(),
-            Some(v) => table::result_columns(file, v)?,
+            Some(v) => columns::result_columns(f, v)?,
         };
-        let named = match string("metric")? {
-            None => None,
-            Some(m) => Some(
-                Metric::from_name(m)
-                    .filter(|m| m.label(target.kind).is_some())
-                    .ok_or_else(|| {
-                        let names: Vec<&str> = Metric::all()
-                            .filter(|m| m.label(target.kind).is_some())
-                            .map(Metric::name)
-                            .collect();
-                        key_error(
-                            file,
-                            "metric",
-                            format!("{m:?}"),
-                            format!("must be one of {}", names.join(", ")),
-                        )
-                    })?,
-            ),
-        };
+        let named = named_metric(f, &top, target.kind)?;
         // The figure draws from the table: a metric the file does not name is one it keeps. A
         // summary reduces any metric: its default is the file's metric, or the sonar's.
-        let metric = named.unwrap_or_else(|| table::default_metric(target.kind, &result_columns));
-        let by = named.unwrap_or_else(|| table::default_metric(target.kind, &crate::io::METRIC_COLUMNS));
-        let poses = if let Some(list) = string("poses")? {
-            for k in ["feature", "place", "translation", "rotation"] {
-                if top.contains_key(k) {
-                    return Err(key_error(
-                        file,
-                        k,
-                        top[k].clone(),
-                        "cannot be combined with poses (the list gives every pose)",
-                    ));
-                }
-            }
-            let path = base.join(list);
-            // Read as a stream, at most MAX_LIST_POSES rows held.
-            let opened = std::fs::File::open(&path).map_err(|source| Error::ReadInput {
-                path: path.clone(),
-                source,
-            })?;
-            let reader = std::io::BufReader::with_capacity(1 << 16, opened);
-            let input = read_batch_csv_at_most(
-                reader,
-                &source,
-                MAX_LIST_POSES,
-                &format!("{file}: poses {list:?}"),
-            )
-            .map_err(|e| match e {
-                Error::Csv { context, message } => Error::Csv {
-                    context: format!("{}: {context}", path.display()),
-                    message,
-                },
-                other => other,
-            })?;
-            Poses::List(input)
-        } else {
-            Poses::Grid(Self::grid(file, &top, &source)?)
+        let metric = named.unwrap_or_else(|| columns::default_metric(target.kind, &result_columns));
+        let by = named.unwrap_or_else(|| columns::default_metric(target.kind, &crate::io::METRIC_COLUMNS));
+        let poses = match f.string(&top, "poses")? {
+            Some(list) => Poses::List(pose_list(f, &top, base, list, &source)?),
+            None => Poses::Grid(Grid::read(f, &top, &source)?),
         };
         let summary = match top.get("summary") {
             None => None,
@@ -402,11 +157,11 @@ impl SweepConfig {
                     Poses::Grid(g) => Some(g),
                     Poses::List(_) => None,
                 };
-                Some(summary::from_toml(file, t, by, target.kind)?.checked(file, grid)?)
+                Some(summary::from_toml(f, t, by, target.kind)?.checked(f.path(), grid)?)
             }
-            Some(other) => return Err(key_error(file, "summary", other, "must be a table: [summary]")),
+            Some(other) => return Err(f.error("summary", other, "must be a table: [summary]")),
         };
-        table::check_columns(file, &top, &result_columns, metric, summary.as_ref())?;
+        columns::check_columns(f, &top, &result_columns, metric, summary.as_ref())?;
         let config = SweepConfig {
             source,
             target,
@@ -456,84 +211,6 @@ impl SweepConfig {
             Poses::Grid(_) => {}
         }
         Ok(())
-    }
-
-    /// Returns the grid of sweep file `file`, the feature checked against sonar 1.
-    fn grid(file: &str, top: &toml::Table, source: &Sonar) -> Result<Grid> {
-        let rae = ["range", "azimuth", "elevation"];
-        let feature = section(file, top, "feature", &rae)?;
-        let place = section(file, top, "place", &rae)?;
-        let translation = section(file, top, "translation", &["x", "y", "z"])?;
-        let rotation = section(file, top, "rotation", &["roll", "pitch", "yaw"])?;
-        if feature.is_none() {
-            return Err(missing_key(
-                file,
-                "feature",
-                "required: [feature] with range (or poses = \"FILE.csv\")",
-            ));
-        }
-        let mut axes = vec![
-            axis(file, feature, "feature", "range", "range", true)?,
-            axis(file, feature, "feature", "azimuth", "azimuth", false)?,
-            axis(file, feature, "feature", "elevation", "elevation", false)?,
-        ];
-        let placement = match (place, translation) {
-            (Some(_), Some(_)) => {
-                return Err(key_error(
-                    file,
-                    "translation",
-                    "given",
-                    "give [place] or [translation], not both",
-                ));
-            }
-            (None, None) => {
-                return Err(missing_key(
-                    file,
-                    "place",
-                    "required: [place] with range, or [translation]",
-                ));
-            }
-            (Some(_), None) => {
-                let a = axis(file, place, "place", "range", "place_range", true)?;
-                if let Some(r) = a.values.iter().find(|r| **r < 0.0) {
-                    return Err(key_error(file, "place.range", r, "must be >= 0 m"));
-                }
-                axes.extend([
-                    a,
-                    axis(file, place, "place", "azimuth", "place_azimuth", false)?,
-                    axis(file, place, "place", "elevation", "place_elevation", false)?,
-                ]);
-                true
-            }
-            (None, Some(_)) => {
-                axes.extend([
-                    axis(file, translation, "translation", "x", "tx", false)?,
-                    axis(file, translation, "translation", "y", "ty", false)?,
-                    axis(file, translation, "translation", "z", "tz", false)?,
-                ]);
-                false
-            }
-        };
-        for name in ["roll", "pitch", "yaw"] {
-            axes.push(axis(file, rotation, "rotation", name, name, false)?);
-        }
-        // Every feature point must lie in sonar 1's field of view.
-        for (k, a) in axes[..3].iter().enumerate() {
-            for &v in &a.values {
-                let mut p = [axes[0].values[0], axes[1].values[0], axes[2].values[0]];
-                p[k] = v;
-                // Bounds are per coordinate, so checking each value with the others at their
-                // first values covers every combination.
-                source
-                    .check_point("feature", p[0], p[1], p[2])
-                    .map_err(|e| e.in_context(&format!("sweep file {file:?}: feature.{}", rae[k])))?;
-            }
-        }
-        let grid = Grid { axes, placement };
-        // The engine's checks too (a placement's reach), named in the file's terms.
-        grid.pose_grid(source)
-            .map_err(|e| e.in_context(&format!("sweep file {file:?}")))?;
-        Ok(grid)
     }
 
     /// Returns the number of poses.
@@ -708,25 +385,89 @@ impl SweepConfig {
     }
 }
 
-impl Grid {
-    /// Returns the axis values of pose `i` (mixed radix, the last axis fastest).
-    #[must_use]
-    pub fn values(&self, i: u64) -> Vec<f64> {
-        let mut out = vec![0.0; self.axes.len()];
-        self.values_into(i, &mut out);
-        out
-    }
+/// The keys a sweep file may have at its top.
+const TOP_KEYS: [&str; 13] = [
+    "from",
+    "to",
+    "step",
+    "metric",
+    "columns",
+    "area_grid",
+    "sigma_range",
+    "feature",
+    "place",
+    "translation",
+    "rotation",
+    "poses",
+    "summary",
+];
 
-    /// Writes the axis values of pose `i` into `out` (one per axis), as [`Grid::values`].
-    #[expect(
-        clippy::cast_possible_truncation,
-        reason = "grid sizes are checked against MAX_POSES before they are used as indices"
-    )]
-    pub fn values_into(&self, mut i: u64, out: &mut [f64]) {
-        for (k, a) in self.axes.iter().enumerate().rev() {
-            let n = a.values.len() as u64;
-            out[k] = a.values[(i % n) as usize];
-            i /= n;
+/// Returns key `key` of `top` holding one positive number (in `unit`), `None` when left out.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] naming the key otherwise.
+fn positive(f: ConfigFile<'_>, top: &toml::Table, key: &str, unit: &str) -> Result<Option<f64>> {
+    let Some(v) = top.get(key) else { return Ok(None) };
+    match f.values(key, v)?.as_slice() {
+        [x] if *x > 0.0 => Ok(Some(*x)),
+        _ => Err(f.error(key, v, format!("must be one number > 0 ({unit})"))),
+    }
+}
+
+/// Returns the metric the file names for its figure (`metric`), one with a label for sonar 2's
+/// `kind`; `None` when it names none.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] naming `metric` for any other.
+fn named_metric(f: ConfigFile<'_>, top: &toml::Table, kind: SonarKind) -> Result<Option<Metric>> {
+    let Some(m) = f.string(top, "metric")? else {
+        return Ok(None);
+    };
+    let drawn = |m: &Metric| m.label(kind).is_some();
+    Metric::from_name(m).filter(drawn).map(Some).ok_or_else(|| {
+        let names: Vec<&str> = Metric::all().filter(drawn).map(Metric::name).collect();
+        f.error(
+            "metric",
+            format!("{m:?}"),
+            format!("must be one of {}", names.join(", ")),
+        )
+    })
+}
+
+/// Returns the pose list `list` names (a batch CSV relative to `base`), read as a stream with at
+/// most [`MAX_LIST_POSES`] rows held.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] when the file has grid keys too; errors of reading the
+/// list, named by its path.
+fn pose_list(
+    f: ConfigFile<'_>,
+    top: &toml::Table,
+    base: &Path,
+    list: &str,
+    source: &Sonar,
+) -> Result<BatchInput> {
+    for k in ["feature", "place", "translation", "rotation"] {
+        if top.contains_key(k) {
+            return Err(f.error(
+                k,
+                top[k].clone(),
+                "cannot be combined with poses (the list gives every pose)",
+            ));
         }
     }
+    let path = base.join(list);
+    let opened = std::fs::File::open(&path).map_err(|source| Error::ReadInput {
+        path: path.clone(),
+        source,
+    })?;
+    let reader = std::io::BufReader::with_capacity(1 << 16, opened);
+    let context = format!("{}: poses {list:?}", f.path());
+    read_batch_csv_at_most(reader, source, MAX_LIST_POSES, &context).map_err(|e| match e {
+        Error::Csv { context, message } => Error::Csv {
+            context: format!("{}: {context}", path.display()),
+            message,
+        },
+        other => other,
+    })
 }

@@ -6,10 +6,11 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::io::parquet::read_groups;
 use crate::report::figures;
+use crate::sweep::columns::column_kinds;
 use crate::sweep::parts::is_regular;
 use crate::sweep::records::Descriptor;
 use crate::sweep::summary::Summary;
-use crate::sweep::table::{Format, column_kinds};
+use crate::sweep::table::Format;
 
 /// Draws `DIR/sweep-METRIC.png` from the summaries in `summary` when the sweep writes no rows
 /// and a marginal is over exactly the grid's varying axes (each of its cells is one pose: the

@@ -1,9 +1,12 @@
 //! Joining a sweep's shards into the files one run writes.
 
+use std::collections::BTreeSet;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::report::check_output_file;
+use crate::sweep::columns::column_kinds;
 use crate::sweep::figure::{figure, figure_of_marginal};
 use crate::sweep::parts::{self};
 use crate::sweep::records::{
@@ -12,7 +15,7 @@ use crate::sweep::records::{
 };
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::Summary;
-use crate::sweep::table::{Format, column_kinds};
+use crate::sweep::table::Format;
 
 /// Joins the shard files `shard-K-of-N.csv` in `dir` into `dir/sweep.csv` (byte for byte the
 /// file one run would have written) and draws the figure; returns both paths.
@@ -30,6 +33,71 @@ pub fn merge(dir: &Path) -> Result<Merged> {
     })?;
     // A shard's result: its table, or its summaries when the sweep writes no rows.
     let rows = desc.summary.as_ref().is_none_or(|s| s.rows);
+    let (format, n) = find_shards(dir, rows)?;
+    let ext = format.extension();
+    let shards = check_shards(dir, &desc, rows, format, n)?;
+    check_alike(&shards, n)?;
+    let whole = parts::Expected {
+        fingerprint: &desc.fingerprint,
+        first: 0,
+        rows: desc.poses,
+    };
+    let summary_file = dir.join("summary.json");
+    // Both results can be written before either is.
+    if desc.summary.is_some() {
+        check_output_file(&summary_file, "DIR")?;
+    }
+    if rows {
+        check_output_file(&dir.join(format!("sweep.{ext}")), "DIR")?;
+    }
+    // The shards' summaries combined before anything is written, the summary written last: a
+    // summary beside a table means the table is whole, as after a run.
+    let combined = combine_summaries(&desc, &shards)?;
+    let summary = desc.summary.as_ref().map(|_| summary_file.clone());
+    if !rows {
+        if let Some(total) = &combined {
+            write_summary(&summary_file, whole, total)?;
+        }
+        let figure = figure_of_marginal(dir, &desc, &summary_file)?;
+        return Ok(Merged {
+            file: None,
+            summary,
+            figure,
+        });
+    }
+    let out = dir.join(format!("sweep.{ext}"));
+    let files = shards.into_iter().map(|s| s.file);
+    match format {
+        Format::Csv => parts::join(files, &desc.columns, &out, whole)?,
+        Format::Parquet => {
+            parts::join_parquet(files, &desc.columns, &column_kinds(&desc.columns), &out, whole)?;
+        }
+    }
+    if let Some(total) = &combined {
+        write_summary(&summary_file, whole, total)?;
+    }
+    let figure = figure(&out, format, &desc)?;
+    Ok(Merged {
+        file: Some(out),
+        summary,
+        figure,
+    })
+}
+
+/// A shard found whole: its result file, its summaries' file and its poses.
+struct Found {
+    file: PathBuf,
+    summary: PathBuf,
+    poses: Range<u64>,
+}
+
+/// Returns the format of the shards in `dir` (their tables when `rows`, else their summaries)
+/// and their count N.
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] naming `DIR` when it holds shards in both formats, none, or
+/// shards of different counts.
+fn find_shards(dir: &Path, rows: bool) -> Result<(Format, u64)> {
     let suffixes: &[(&str, Format)] = if rows {
         &[(".csv", Format::Csv), (".parquet", Format::Parquet)]
     } else {
@@ -52,36 +120,19 @@ pub fn merge(dir: &Path) -> Result<Merged> {
             }
         }
     }
-    let format = match shards
-        .iter()
-        .map(|s| s.1)
-        .collect::<std::collections::BTreeSet<_>>()
-    {
-        f if f.len() == 2 => {
-            return Err(Error::invalid(
-                "DIR",
-                dir.display(),
-                "holds shards as CSV and as Parquet; keep one set (remove the other's shard files)",
-            ));
-        }
-        f => f.first().copied().unwrap_or_default(),
-    };
-    let ext = format.extension();
-    let main = |stem: &str| {
-        if rows {
-            dir.join(format!("{stem}.{ext}"))
-        } else {
-            dir.join(format!("{stem}.summary.json"))
-        }
-    };
-    let shards: Vec<Shard> = shards.into_iter().map(|s| s.0).collect();
-    let n = match shards
-        .iter()
-        .map(|s| s.n)
-        .collect::<std::collections::BTreeSet<_>>()
-    {
-        ns if ns.len() == 1 => *ns.first().expect("one"),
-        ns if ns.is_empty() => {
+    let formats: BTreeSet<Format> = shards.iter().map(|s| s.1).collect();
+    if formats.len() == 2 {
+        return Err(Error::invalid(
+            "DIR",
+            dir.display(),
+            "holds shards as CSV and as Parquet; keep one set (remove the other's shard files)",
+        ));
+    }
+    let format = formats.first().copied().unwrap_or_default();
+    let counts: BTreeSet<u64> = shards.iter().map(|s| s.0.n).collect();
+    let n = match counts.len() {
+        1 => *counts.first().expect("one"),
+        0 => {
             return Err(Error::invalid(
                 "DIR",
                 dir.display(),
@@ -92,15 +143,15 @@ pub fn merge(dir: &Path) -> Result<Merged> {
                 },
             ));
         }
-        ns => {
+        _ => {
             return Err(Error::invalid(
                 "DIR",
                 dir.display(),
-                format!("holds shards of different counts N ({ns:?}); keep one set"),
+                format!("holds shards of different counts N ({counts:?}); keep one set"),
             ));
         }
     };
-    let missing: Vec<u64> = (1..=n).filter(|k| !shards.iter().any(|s| s.k == *k)).collect();
+    let missing: Vec<u64> = (1..=n).filter(|k| !shards.iter().any(|s| s.0.k == *k)).collect();
     if !missing.is_empty() {
         return Err(Error::invalid(
             "DIR",
@@ -108,14 +159,26 @@ pub fn merge(dir: &Path) -> Result<Merged> {
             format!("lacks shards {missing:?} of {n} (run them with --shard K/{n}, or finish them)"),
         ));
     }
-    // Every shard must be this sweep's part K, whole: checked against its record before
-    // anything is written, and again while it is copied.
-    let mut files = Vec::new();
-    let mut summaries = Vec::new();
+    Ok((format, n))
+}
+
+/// Returns the `n` shards of the sweep `desc` in `dir`, each checked against its record to be
+/// this sweep's part K, whole, before anything is written (and again while it is copied).
+///
+/// # Errors
+/// [`sonarproj::Error::InvalidValue`] naming `DIR` for a missing shard; [`Error::Csv`] for a
+/// damaged one.
+fn check_shards(dir: &Path, desc: &Descriptor, rows: bool, format: Format, n: u64) -> Result<Vec<Found>> {
+    let mut found = Vec::new();
     for k in 1..=n {
         let shard = Shard { k, n };
-        let file = main(&shard.stem());
-        let summary = dir.join(format!("{}.summary.json", shard.stem()));
+        let stem = shard.stem();
+        let file = if rows {
+            dir.join(format!("{stem}.{}", format.extension()))
+        } else {
+            dir.join(format!("{stem}.summary.json"))
+        };
+        let summary = dir.join(format!("{stem}.summary.json"));
         let r = shard.range(desc.poses);
         let expected = parts::Expected {
             fingerprint: &desc.fingerprint,
@@ -126,27 +189,28 @@ pub fn merge(dir: &Path) -> Result<Merged> {
         if rows && desc.summary.is_some() {
             checked.push(&summary);
         }
-        let (file, status) = first_not_good(&checked, expected);
-        let file = file.to_path_buf();
+        let (bad, status) = first_not_good(&checked, expected);
+        let bad = bad.to_path_buf();
         match status {
-            parts::Status::Good => {
-                files.push(main(&shard.stem()));
-                summaries.push((summary, r));
-            }
+            parts::Status::Good => found.push(Found {
+                file,
+                summary,
+                poses: r,
+            }),
             parts::Status::Missing => {
                 return Err(Error::invalid(
                     "DIR",
                     dir.display(),
                     format!(
                         "lacks {} (shard {k} of {n}): run `sweep --shard {k}/{n}` again",
-                        file.file_name()
+                        bad.file_name()
                             .map_or_else(String::new, |f| f.to_string_lossy().into_owned())
                     ),
                 ));
             }
             parts::Status::Damaged(reason) => {
                 return Err(Error::Csv {
-                    context: file.display().to_string(),
+                    context: bad.display().to_string(),
                     message: format!(
                         "{reason}; nothing merged (run `sweep --shard {k}/{n}` again to recompute this shard)"
                     ),
@@ -154,10 +218,19 @@ pub fn merge(dir: &Path) -> Result<Merged> {
             }
         }
     }
-    // Every shard computed alike: the same engine and backend settings as shard 1, else nothing
-    // is written.
+    Ok(found)
+}
+
+/// Returns an error unless every shard was computed alike: the same engine and backend
+/// settings as shard 1.
+///
+/// # Errors
+/// [`Error::Csv`] for a shard without its settings record; [`sonarproj::Error::InvalidValue`]
+/// naming the first setting that differs.
+fn check_alike(shards: &[Found], n: u64) -> Result<()> {
     let mut first: Option<Settings> = None;
-    for (k, file) in files.iter().enumerate() {
+    for (k, shard) in shards.iter().enumerate() {
+        let file = &shard.file;
         let path = settings_path(file);
         let record: Settings = read_json(&path)?.ok_or_else(|| Error::Csv {
             context: file.display().to_string(),
@@ -182,75 +255,45 @@ pub fn merge(dir: &Path) -> Result<Merged> {
             }
         }
     }
-    let whole = parts::Expected {
-        fingerprint: &desc.fingerprint,
-        first: 0,
-        rows: desc.poses,
+    Ok(())
+}
+
+/// Returns the shards' summaries combined (each read once and checked against its record), or
+/// `None` when the sweep asks for none.
+///
+/// # Errors
+/// [`Error::Csv`] for a summary that does not fit its shard or summarises another metric.
+fn combine_summaries(desc: &Descriptor, shards: &[Found]) -> Result<Option<Summary>> {
+    let Some(spec) = &desc.summary else {
+        return Ok(None);
     };
-    let summary_file = dir.join("summary.json");
-    // Both results can be written before either is.
-    if desc.summary.is_some() {
-        check_output_file(&summary_file, "DIR")?;
-    }
-    if rows {
-        check_output_file(&dir.join(format!("sweep.{ext}")), "DIR")?;
-    }
-    // The shards' summaries combined (each read once and checked against its record) before
-    // anything is written, the summary written last: a summary beside a table means the table
-    // is whole, as after a run.
-    let mut combined: Option<Summary> = None;
-    if let Some(spec) = &desc.summary {
-        let mut total: Option<Summary> = None;
-        for (path, r) in &summaries {
-            let expected = parts::Expected {
-                fingerprint: &desc.fingerprint,
-                first: r.start,
-                rows: r.end - r.start,
-            };
-            let part: Summary = read_part(path, expected)?;
-            let context = path.display().to_string();
-            spec.check(&part, r.start, r.end - r.start, &context)?;
-            total = Some(match total {
-                None if part.metric == spec.by => part,
-                None => {
-                    return Err(Error::Csv {
-                        context,
-                        message: format!("summarises {:?}, not this sweep's {:?}", part.metric, spec.by),
-                    });
-                }
-                Some(t) => spec.combine(&t, &part, &context)?,
-            });
-        }
-        combined = Some(total.expect("at least one shard"));
-    }
-    let summary = desc.summary.as_ref().map(|_| summary_file.clone());
-    if !rows {
-        if let Some(total) = &combined {
-            write_summary(&summary_file, whole, total)?;
-        }
-        let figure = figure_of_marginal(dir, &desc, &summary_file)?;
-        return Ok(Merged {
-            file: None,
-            summary,
-            figure,
+    let mut total: Option<Summary> = None;
+    for Found {
+        summary: path,
+        poses: r,
+        ..
+    } in shards
+    {
+        let expected = parts::Expected {
+            fingerprint: &desc.fingerprint,
+            first: r.start,
+            rows: r.end - r.start,
+        };
+        let part: Summary = read_part(path, expected)?;
+        let context = path.display().to_string();
+        spec.check(&part, r.start, r.end - r.start, &context)?;
+        total = Some(match total {
+            None if part.metric == spec.by => part,
+            None => {
+                return Err(Error::Csv {
+                    context,
+                    message: format!("summarises {:?}, not this sweep's {:?}", part.metric, spec.by),
+                });
+            }
+            Some(t) => spec.combine(&t, &part, &context)?,
         });
     }
-    let out = dir.join(format!("sweep.{ext}"));
-    match format {
-        Format::Csv => parts::join(files, &desc.columns, &out, whole)?,
-        Format::Parquet => {
-            parts::join_parquet(files, &desc.columns, &column_kinds(&desc.columns), &out, whole)?;
-        }
-    }
-    if let Some(total) = &combined {
-        write_summary(&summary_file, whole, total)?;
-    }
-    let figure = figure(&out, format, &desc)?;
-    Ok(Merged {
-        file: Some(out),
-        summary,
-        figure,
-    })
+    Ok(Some(total.expect("at least one shard")))
 }
 
 /// What [`merge`] wrote.

@@ -4,9 +4,11 @@
 //! `records`), joined by `merge`, reduced to summaries (`summary`), drawn (`figure`), or run in
 //! memory (`in_memory`).
 
+mod columns;
 mod compute;
 pub mod config;
 mod figure;
+pub mod grid;
 pub mod in_memory;
 pub mod merge;
 pub mod parts;
@@ -19,6 +21,7 @@ pub mod summary;
 pub mod table;
 mod writer;
 
+pub use columns::column_kinds;
 pub use config::{Axis, Grid, Poses, SweepConfig};
 pub use in_memory::{InMemory, MAX_IN_MEMORY_BYTES, run_in_memory};
 pub use merge::{Merged, merge};
@@ -26,4 +29,4 @@ pub use plan::{DEFAULT_CHUNK_POSES, DEFAULT_SUMMARY_CHUNK_POSES, default_chunk_p
 pub use records::{Descriptor, Settings, descriptor, settings};
 pub use run::{Event, Options, Outcome, run};
 pub use shard::{MAX_SHARDS, Shard};
-pub use table::{Format, column_kinds};
+pub use table::Format;

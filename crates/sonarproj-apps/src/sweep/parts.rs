@@ -491,7 +491,7 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
 /// dictionaries for the pose columns (between the index and the metrics: their values repeat).
 #[must_use]
 pub fn final_encoding(columns: &[String]) -> crate::io::parquet::Encoding<'_> {
-    let poses = crate::sweep::table::pose_column_count(columns);
+    let poses = crate::sweep::columns::pose_column_count(columns);
     crate::io::parquet::Encoding {
         dictionary: columns.get(1..1 + poses).unwrap_or_default(),
     }

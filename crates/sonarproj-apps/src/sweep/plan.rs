@@ -13,12 +13,12 @@ use sonarproj::projection::Backend;
 use crate::error::{Error, Result};
 use crate::io::parquet::{Kind, Table};
 use crate::limits::{MAX_CHUNK_POSES, MAX_CHUNKS};
+use crate::sweep::columns::column_kinds;
 use crate::sweep::compute::{Work, metric_columns, values};
 use crate::sweep::config::{Grid, Poses, SweepConfig};
 use crate::sweep::records::Descriptor;
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::SummarySpec;
-use crate::sweep::table::column_kinds;
 
 /// Most chunks projected in one run of blocks ([`Backend::project_blocks`]): the device goes on
 /// from one to the next without waiting, and the run's lists stay small however many chunks.

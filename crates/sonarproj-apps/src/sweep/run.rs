@@ -118,7 +118,7 @@ pub fn run(
     // Plan: everything is checked before the directory is created, so a refused run leaves
     // nothing.
     let plan = plan(config, opts)?;
-    let files = Files::new(&plan, opts);
+    let files = Files::new(&plan, &opts.out, opts.shard, opts.format);
     let dir = &opts.out;
     output_dir(dir, "--out")?;
     remove_stale_temporaries(dir);
@@ -293,6 +293,7 @@ fn compute_and_write(
         while c < plan.chunks {
             let r = plan.chunk(c);
             let (good, damaged) = files.checked(c);
+            let damaged = damaged.map(recomputing);
             if good {
                 outcome.resumed += r.end - r.start;
                 writer.resumed(c)?;
@@ -328,7 +329,7 @@ fn compute_and_write(
                     break;
                 }
                 budget -= 1;
-                announce.push(damaged);
+                announce.push(damaged.map(recomputing));
             }
             let todo = c..c + announce.len() as u64;
             let mut accept = |computed: Computed| -> Result<ControlFlow<()>> {
@@ -363,6 +364,11 @@ fn compute_and_write(
         write_results(files, opts, settings, &mut writer)?;
         Ok(ControlFlow::Continue(()))
     })
+}
+
+/// Returns the event that says `file` was set aside (`reason`) and is computed again.
+fn recomputing((file, reason): (PathBuf, String)) -> Event {
+    Event::Recomputing { file, reason }
 }
 
 /// Returns whether a Parquet result is joined as its chunks finish: only when the run can

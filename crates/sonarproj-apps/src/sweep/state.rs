@@ -13,7 +13,7 @@ use crate::report::{check_output_file, remove_stale_temporaries};
 use crate::sweep::parts::{self, final_encoding, write_json};
 use crate::sweep::plan::Plan;
 use crate::sweep::records::{Settings, first_difference, first_not_good, read_json};
-use crate::sweep::run::{Event, Options};
+use crate::sweep::shard::Shard;
 use crate::sweep::summary::Summary;
 use crate::sweep::table::Format;
 
@@ -25,7 +25,7 @@ pub(crate) struct Manifest {
     #[serde(default)]
     pub(crate) format: Format,
     pub(crate) chunk_poses: u64,
-    pub(crate) shard: Option<crate::sweep::shard::Shard>,
+    pub(crate) shard: Option<Shard>,
     pub(crate) settings: Settings,
 }
 
@@ -58,16 +58,16 @@ pub(crate) struct Written {
 }
 
 impl<'a> Files<'a> {
-    /// Returns the files of `plan` run with `opts`.
-    pub(crate) fn new(plan: &'a Plan<'a>, opts: &Options) -> Self {
-        let dir = &opts.out;
-        let stem = opts.shard.map_or_else(|| "sweep".to_string(), |s| s.stem());
-        let summary = match opts.shard {
+    /// Returns the files of `plan` (of `shard`, or of the whole sweep) run into `dir` in
+    /// `format`.
+    pub(crate) fn new(plan: &'a Plan<'a>, dir: &Path, shard: Option<Shard>, format: Format) -> Self {
+        let stem = shard.map_or_else(|| "sweep".to_string(), |s| s.stem());
+        let summary = match shard {
             Some(_) => dir.join(format!("{stem}.summary.json")),
             None => dir.join("summary.json"),
         };
         let file = if plan.rows {
-            dir.join(format!("{stem}.{}", opts.format.extension()))
+            dir.join(format!("{stem}.{}", format.extension()))
         } else {
             summary.clone()
         };
@@ -77,7 +77,7 @@ impl<'a> Files<'a> {
             stem,
             file,
             summary,
-            format: opts.format,
+            format,
         }
     }
 
@@ -137,9 +137,9 @@ impl<'a> Files<'a> {
         out
     }
 
-    /// Returns whether chunk `c`'s files are all good (a chunk of an earlier run), and the
-    /// event that says a damaged one is computed again.
-    pub(crate) fn checked(&self, c: u64) -> (bool, Option<Event>) {
+    /// Returns whether chunk `c`'s files are all good (a chunk of an earlier run), and for a
+    /// damaged one the file set aside and why.
+    pub(crate) fn checked(&self, c: u64) -> (bool, Option<(PathBuf, String)>) {
         let files = self.chunk_files(c);
         let (damaged, status) = first_not_good(
             &files.iter().map(PathBuf::as_path).collect::<Vec<_>>(),
@@ -147,13 +147,7 @@ impl<'a> Files<'a> {
         );
         match status {
             parts::Status::Good => (true, None),
-            parts::Status::Damaged(reason) => (
-                false,
-                Some(Event::Recomputing {
-                    file: damaged.to_path_buf(),
-                    reason,
-                }),
-            ),
+            parts::Status::Damaged(reason) => (false, Some((damaged.to_path_buf(), reason))),
             parts::Status::Missing => (false, None),
         }
     }

@@ -16,7 +16,7 @@ use sonarproj_apps::io::text::parse_mask_line;
 use sonarproj_apps::io::{BoundedLine, MAX_LINE_BYTES, read_line_bounded};
 use sonarproj_apps::{Error, Result};
 
-use super::mask::{features_json, summary_json};
+use super::mask_json::{features_json, summary_json};
 
 /// The most waiting pings drawn together (and the lines read ahead of the one being drawn).
 const MAX_BATCH: usize = 64;

@@ -17,6 +17,7 @@ mod bench;
 mod devices;
 mod gpu_env;
 mod mask;
+mod mask_json;
 mod mask_stream;
 mod paper;
 mod pose_args;

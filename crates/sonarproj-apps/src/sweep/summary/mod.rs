@@ -24,7 +24,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::sweep::config::Grid;
+use crate::sweep::grid::Grid;
 use spec::edges;
 
 /// The fixed-point resolution of the marginals' sums: 2^-40 of the metric's unit (a picometre,

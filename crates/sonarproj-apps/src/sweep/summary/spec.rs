@@ -7,7 +7,8 @@ use sonarproj::metrics::Metric;
 
 use super::{Ranked, Summary};
 use crate::error::{Error, Result};
-use crate::sweep::config::{Grid, key_error, missing_key};
+use crate::io::toml_keys::ConfigFile;
+use crate::sweep::grid::Grid;
 
 /// The most poses `top` may keep at each end.
 pub const MAX_TOP: usize = 10_000;
@@ -51,146 +52,114 @@ pub(super) fn edges(h: &HistogramSpec) -> Vec<f64> {
         .collect()
 }
 
-/// Returns the `[summary]` table `t` of sweep file `file` read (not yet checked against the
+/// Returns the `[summary]` table `t` of sweep file `f` read (not yet checked against the
 /// grid): `by` a metric of sonar 2's kind (default: the figure's `metric`), `top` (default 10),
 /// `histogram = { min, max, bins }`, `marginals` (axis names, or pairs of them), `rows` (default
 /// true).
 pub(crate) fn from_toml(
-    file: &str,
+    f: ConfigFile<'_>,
     t: &toml::Table,
     metric: Metric,
     target: SonarKind,
 ) -> Result<SummarySpec> {
-    const KEYS: [&str; 5] = ["by", "top", "histogram", "marginals", "rows"];
-    let key = |k: &str| format!("summary.{k}");
-    for k in t.keys() {
-        if !KEYS.contains(&k.as_str()) {
-            return Err(key_error(
-                file,
-                &key(k),
-                t[k].clone(),
-                format!("unknown key (allowed: {})", KEYS.join(", ")),
-            ));
-        }
-    }
+    f.only("summary.", t, &["by", "top", "histogram", "marginals", "rows"])?;
     let by = match t.get("by") {
         None => metric,
-        Some(toml::Value::String(m)) => Metric::from_name(m)
-            .filter(|m| m.label(target).is_some())
-            .ok_or_else(|| {
-                let names: Vec<&str> = Metric::all()
-                    .filter(|m| m.label(target).is_some())
-                    .map(Metric::name)
-                    .collect();
-                key_error(
-                    file,
-                    &key("by"),
+        Some(toml::Value::String(m)) => {
+            let drawn = |m: &Metric| m.label(target).is_some();
+            Metric::from_name(m).filter(drawn).ok_or_else(|| {
+                let names: Vec<&str> = Metric::all().filter(drawn).map(Metric::name).collect();
+                f.error(
+                    "summary.by",
                     format!("{m:?}"),
                     format!("must be one of {}", names.join(", ")),
                 )
-            })?,
-        Some(other) => return Err(key_error(file, &key("by"), other, "must be a metric's name")),
-    };
-    let count = |k: &str, v: &toml::Value, min: usize, max: usize| -> Result<usize> {
-        match v {
-            toml::Value::Integer(i) => usize::try_from(*i)
-                .ok()
-                .filter(|&n| (min..=max).contains(&n))
-                .ok_or_else(|| key_error(file, &key(k), i, format!("must be {min} to {max}"))),
-            other => Err(key_error(file, &key(k), other, "must be a whole number")),
+            })?
         }
+        Some(other) => return Err(f.error("summary.by", other, "must be a metric's name")),
     };
     let top = t
         .get("top")
-        .map(|v| count("top", v, 0, MAX_TOP))
+        .map(|v| count(f, "summary.top", v, 0, MAX_TOP))
         .transpose()?
         .unwrap_or(10);
     let histogram = match t.get("histogram") {
         None => None,
-        Some(toml::Value::Table(h)) => {
-            for k in h.keys() {
-                if !["min", "max", "bins"].contains(&k.as_str()) {
-                    return Err(key_error(
-                        file,
-                        &key(&format!("histogram.{k}")),
-                        h[k].clone(),
-                        "unknown key (allowed: min, max, bins)",
-                    ));
-                }
-            }
-            let number = |k: &str| -> Result<f64> {
-                match h.get(k) {
-                    Some(toml::Value::Integer(i)) => Ok(*i as f64),
-                    Some(toml::Value::Float(x)) => Ok(*x),
-                    Some(other) => Err(key_error(
-                        file,
-                        &key(&format!("histogram.{k}")),
-                        other,
-                        "must be a number",
-                    )),
-                    None => Err(missing_key(
-                        file,
-                        &key(&format!("histogram.{k}")),
-                        "a histogram needs min, max and bins",
-                    )),
-                }
-            };
-            let bins = match h.get("bins") {
-                Some(v) => count("histogram.bins", v, 1, MAX_HISTOGRAM_BINS)?,
-                None => {
-                    return Err(missing_key(
-                        file,
-                        &key("histogram.bins"),
-                        "a histogram needs min, max and bins",
-                    ));
-                }
-            };
-            Some(HistogramSpec {
-                min: number("min")?,
-                max: number("max")?,
-                bins,
-            })
-        }
+        Some(toml::Value::Table(h)) => Some(histogram(f, h)?),
         Some(other) => {
-            return Err(key_error(
-                file,
-                &key("histogram"),
-                other,
-                "must be a table { min, max, bins }",
-            ));
+            return Err(f.error("summary.histogram", other, "must be a table { min, max, bins }"));
         }
-    };
-    let shape = "must be a list of axis names or pairs of them, e.g. [\"roll\", [\"roll\", \"pitch\"]]";
-    let marginals = match t.get("marginals") {
-        None => Vec::new(),
-        Some(toml::Value::Array(list)) => list
-            .iter()
-            .map(|m| match m {
-                toml::Value::String(a) => Ok(vec![a.clone()]),
-                toml::Value::Array(pair) => pair
-                    .iter()
-                    .map(|a| match a {
-                        toml::Value::String(a) => Ok(a.clone()),
-                        other => Err(key_error(file, &key("marginals"), other, shape)),
-                    })
-                    .collect(),
-                other => Err(key_error(file, &key("marginals"), other, shape)),
-            })
-            .collect::<Result<_>>()?,
-        Some(other) => return Err(key_error(file, &key("marginals"), other, shape)),
     };
     let rows = match t.get("rows") {
         None => true,
         Some(toml::Value::Boolean(b)) => *b,
-        Some(other) => return Err(key_error(file, &key("rows"), other, "must be true or false")),
+        Some(other) => return Err(f.error("summary.rows", other, "must be true or false")),
     };
     Ok(SummarySpec {
         by: by.name().to_string(),
         top,
         histogram,
-        marginals,
+        marginals: marginals(f, t.get("marginals"))?,
         rows,
     })
+}
+
+/// Returns the whole number `v` of key `name` in `[min, max]`.
+fn count(f: ConfigFile<'_>, name: &str, v: &toml::Value, min: usize, max: usize) -> Result<usize> {
+    match v {
+        toml::Value::Integer(i) => usize::try_from(*i)
+            .ok()
+            .filter(|&n| (min..=max).contains(&n))
+            .ok_or_else(|| f.error(name, i, format!("must be {min} to {max}"))),
+        other => Err(f.error(name, other, "must be a whole number")),
+    }
+}
+
+/// Returns the histogram of table `h` (`summary.histogram`: min, max and bins, all required).
+#[expect(clippy::cast_precision_loss, reason = "TOML integers taken as numbers")]
+fn histogram(f: ConfigFile<'_>, h: &toml::Table) -> Result<HistogramSpec> {
+    f.only("summary.histogram.", h, &["min", "max", "bins"])?;
+    let needed = "a histogram needs min, max and bins";
+    let number = |k: &str| -> Result<f64> {
+        let name = format!("summary.histogram.{k}");
+        match h.get(k) {
+            Some(toml::Value::Integer(i)) => Ok(*i as f64),
+            Some(toml::Value::Float(x)) => Ok(*x),
+            Some(other) => Err(f.error(&name, other, "must be a number")),
+            None => Err(f.missing(&name, needed)),
+        }
+    };
+    let bins = match h.get("bins") {
+        Some(v) => count(f, "summary.histogram.bins", v, 1, MAX_HISTOGRAM_BINS)?,
+        None => return Err(f.missing("summary.histogram.bins", needed)),
+    };
+    Ok(HistogramSpec {
+        min: number("min")?,
+        max: number("max")?,
+        bins,
+    })
+}
+
+/// Returns the marginals `v` asks for (`summary.marginals`): axis names, or pairs of them.
+fn marginals(f: ConfigFile<'_>, v: Option<&toml::Value>) -> Result<Vec<Vec<String>>> {
+    let shape = "must be a list of axis names or pairs of them, e.g. [\"roll\", [\"roll\", \"pitch\"]]";
+    let bad = |other: &toml::Value| f.error("summary.marginals", other, shape);
+    let name = |a: &toml::Value| match a {
+        toml::Value::String(a) => Ok(a.clone()),
+        other => Err(bad(other)),
+    };
+    match v {
+        None => Ok(Vec::new()),
+        Some(toml::Value::Array(list)) => list
+            .iter()
+            .map(|m| match m {
+                toml::Value::String(a) => Ok(vec![a.clone()]),
+                toml::Value::Array(pair) => pair.iter().map(name).collect(),
+                other => Err(bad(other)),
+            })
+            .collect(),
+        Some(other) => Err(bad(other)),
+    }
 }
 
 impl SummarySpec {
