@@ -112,32 +112,7 @@ impl Sonar {
             }
         };
         let field = |key: &str| format!("HoloOcean {sensor_type}: {key}");
-        let mut given = std::collections::BTreeMap::new();
-        for (key, value) in config {
-            let k = key.as_str();
-            if IGNORED.contains(&k) || extra.contains(&k) {
-                continue;
-            }
-            if !geometry.contains(&k) {
-                return Err(Error::input(
-                    field(&crate::error::excerpt(k)),
-                    format!(
-                        "not a key of HoloOcean's {sensor_type} (its geometry is {}; noise, \
-                         multipath and octree keys are accepted and ignored)",
-                        geometry.join(", ")
-                    ),
-                ));
-            }
-            match value {
-                HoloValue::Number(v) if v.is_finite() => {
-                    given.insert(k, *v);
-                }
-                HoloValue::Number(v) => return Err(Error::invalid(field(k), v, "must be a finite number")),
-                HoloValue::Other(t) => {
-                    return Err(Error::input(field(k), format!("must be a number, not a {t}")));
-                }
-            }
-        }
+        let given = given_keys(sensor_type, geometry, extra, config)?;
         let fls = kind == SonarKind::Fls;
         let get = |k: &str, default: f64| given.get(k).copied().unwrap_or(default);
         let azimuth = get("Azimuth", if fls { 120.0 } else { 170.0 });
@@ -231,6 +206,48 @@ impl Sonar {
         .validated()
         .map_err(|e| e.in_context(&format!("HoloOcean {sensor_type}")))
     }
+}
+
+/// Returns the numbers `config` gives for the geometry keys of HoloOcean's `sensor_type`
+/// (`geometry`), the noise, multipath and octree keys (and `extra`) left out.
+///
+/// # Errors
+/// [`Error::Input`] for a key of no such sensor, or a value that is not a number;
+/// [`Error::InvalidValue`] for a number that is not finite.
+fn given_keys<'c>(
+    sensor_type: &str,
+    geometry: &[&str],
+    extra: &[&str],
+    config: &'c [(String, HoloValue)],
+) -> Result<std::collections::BTreeMap<&'c str, f64>> {
+    let field = |key: &str| format!("HoloOcean {sensor_type}: {key}");
+    let mut given = std::collections::BTreeMap::new();
+    for (key, value) in config {
+        let k = key.as_str();
+        if IGNORED.contains(&k) || extra.contains(&k) {
+            continue;
+        }
+        if !geometry.contains(&k) {
+            return Err(Error::input(
+                field(&crate::error::excerpt(k)),
+                format!(
+                    "not a key of HoloOcean's {sensor_type} (its geometry is {}; noise, \
+                     multipath and octree keys are accepted and ignored)",
+                    geometry.join(", ")
+                ),
+            ));
+        }
+        match value {
+            HoloValue::Number(v) if v.is_finite() => {
+                given.insert(k, *v);
+            }
+            HoloValue::Number(v) => return Err(Error::invalid(field(k), v, "must be a finite number")),
+            HoloValue::Other(t) => {
+                return Err(Error::input(field(k), format!("must be a number, not a {t}")));
+            }
+        }
+    }
+    Ok(given)
 }
 
 /// A bin count, or a resolution that makes one.

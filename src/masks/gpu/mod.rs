@@ -490,43 +490,7 @@ impl GpuMasks {
         if state.tables.host.len() + entries > keep {
             state.tables.clear();
         }
-        let mut max_blocks = 1u64;
-        let rows = rows_of_jobs(jobs.len());
-        let mut in_rows = vec![0; jobs.len()];
-        for (k, &row) in rows.iter().enumerate() {
-            in_rows[row] = k;
-        }
-        let gpu_jobs: Vec<MaskJob> = in_rows
-            .iter()
-            .map(|&k| &jobs[k])
-            .map(|Job { pose, plan }| {
-                let cells = &plan.cells;
-                let (na, ne) = (cells.azimuths.len(), cells.elevations.len());
-                let (ba, be) = block_shape(na, ne);
-                max_blocks = max_blocks.max((na.div_ceil(ba) * ne.div_ceil(be)) as u64);
-                let slack = slack(plan.range, pose, layout);
-                // A block's half-extents are those of its cells (fewer at a grid's end, which
-                // this covers), as `View::blocks` measures them.
-                let block_half = (na.min(ba) as f64 * cells.half.0, ne.min(be) as f64 * cells.half.1);
-                let block_radius = plan.range * block_half.0.hypot(block_half.1) + plan.noise_radius + slack;
-                let t = pose.translation;
-                let row = |i: usize| {
-                    let v = pose.rotation.row(i);
-                    [v.x as f32, v.y as f32, v.z as f32, t[i] as f32]
-                };
-                MaskJob {
-                    rows: [row(0), row(1), row(2)],
-                    range: plan.range as f32,
-                    radius: (plan.radius + slack) as f32,
-                    block_radius: block_radius as f32,
-                    az_count: na as u32,
-                    el_count: ne as u32,
-                    az_offset: state.tables.offset(&cells.azimuths, ba),
-                    el_offset: state.tables.offset(&cells.elevations, be),
-                    block_a: ba as u32,
-                }
-            })
-            .collect();
+        let (gpu_jobs, rows, max_blocks) = pack_jobs(&mut state.tables, layout, jobs);
         state.tables.upload(&self.ctx);
         let device = self.ctx.device();
         let queue = self.ctx.queue();
@@ -645,6 +609,50 @@ impl GpuMasks {
         })
         .inspect_err(|_| state.slots[slot] = BufferPool::default())
     }
+}
+
+/// Returns `jobs` as the mask stage reads them, in the order of their rows ([`rows_of_jobs`]),
+/// their cell tables added to `tables`; with the row of each job and the most blocks of cells
+/// one job has.
+fn pack_jobs(tables: &mut Tables, layout: &Layout, jobs: &[Job]) -> (Vec<MaskJob>, Vec<usize>, u64) {
+    let mut max_blocks = 1u64;
+    let rows = rows_of_jobs(jobs.len());
+    let mut in_rows = vec![0; jobs.len()];
+    for (k, &row) in rows.iter().enumerate() {
+        in_rows[row] = k;
+    }
+    let gpu_jobs: Vec<MaskJob> = in_rows
+        .iter()
+        .map(|&k| &jobs[k])
+        .map(|Job { pose, plan }| {
+            let cells = &plan.cells;
+            let (na, ne) = (cells.azimuths.len(), cells.elevations.len());
+            let (ba, be) = block_shape(na, ne);
+            max_blocks = max_blocks.max((na.div_ceil(ba) * ne.div_ceil(be)) as u64);
+            let slack = slack(plan.range, pose, layout);
+            // A block's half-extents are those of its cells (fewer at a grid's end, which
+            // this covers), as `View::blocks` measures them.
+            let block_half = (na.min(ba) as f64 * cells.half.0, ne.min(be) as f64 * cells.half.1);
+            let block_radius = plan.range * block_half.0.hypot(block_half.1) + plan.noise_radius + slack;
+            let t = pose.translation;
+            let row = |i: usize| {
+                let v = pose.rotation.row(i);
+                [v.x as f32, v.y as f32, v.z as f32, t[i] as f32]
+            };
+            MaskJob {
+                rows: [row(0), row(1), row(2)],
+                range: plan.range as f32,
+                radius: (plan.radius + slack) as f32,
+                block_radius: block_radius as f32,
+                az_count: na as u32,
+                el_count: ne as u32,
+                az_offset: tables.offset(&cells.azimuths, ba),
+                el_offset: tables.offset(&cells.elevations, be),
+                block_a: ba as u32,
+            }
+        })
+        .collect();
+    (gpu_jobs, rows, max_blocks)
 }
 
 #[cfg(test)]

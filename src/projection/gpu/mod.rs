@@ -10,6 +10,7 @@
 
 mod slots;
 mod source;
+mod submit;
 mod tables;
 pub(crate) mod types;
 mod unpack;
@@ -19,19 +20,17 @@ use std::ops::ControlFlow;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::geometry::SonarKind;
 pub(crate) use crate::gpu::options::SPLAT_WORKGROUP;
 pub use crate::gpu::options::SPLAT_WORKGROUPS;
 use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::{BufferPool, SharedPool};
-use crate::gpu::timing::{DeviceClock, PassTimer, Timed};
+use crate::gpu::timing::{DeviceClock, Timed};
 use crate::gpu::{GpuContext, GpuOptions, read_after};
 use crate::projection::columns::MetricColumns;
 use crate::projection::poses::PreparedGrid;
 use crate::projection::{Output, PreparedBatch, Projection};
-use bytemuck::Zeroable;
 use slots::{Directions, InFlight, SLOT_LABELS, Shape, Slot, SlotSizes};
-use tables::{grid_table, pose_gpu};
+use submit::{CallTables, Chunk};
 use types::*;
 use unpack::{Source, Unpack};
 
@@ -423,6 +422,10 @@ impl GpuBackend {
     /// `emit` returns `Break` (returned; the chunk then in flight is left unread). Two chunks are
     /// in flight: the device projects one while the host reads back, unpacks and hands out the
     /// one before (and, for items, packs the one after).
+    ///
+    /// The call in steps: plan the chunks ([`GpuBackend::chunks_of`]), upload sonar 2's tables
+    /// once ([`CallTables::upload`]), take the slots' buffers, then for each chunk submit it
+    /// ([`GpuBackend::submit_chunk`]) and read back the one before ([`GpuBackend::read_back`]).
     fn project_with(
         &self,
         pool: &mut BufferPool,
@@ -432,230 +435,57 @@ impl GpuBackend {
         runs: &[std::ops::Range<usize>],
         emit: &mut dyn FnMut(&Unpack<'_>) -> Result<ControlFlow<()>>,
     ) -> Result<ControlFlow<()>> {
-        let device = self.ctx.device();
         let layout = source.layout();
-        let plans = source.plans();
         let words = words_per_pose(layout);
         let bits_per_pose_bytes = (words as u64 * 4).max(4);
-        if bits_per_pose_bytes > self.ctx.limits().max_storage_buffer_binding_size {
+        let max_binding = self.ctx.limits().max_storage_buffer_binding_size;
+        if bits_per_pose_bytes > max_binding {
             return Err(Error::gpu_limit(format!(
                 "one occupancy buffer ({bits_per_pose_bytes} bytes) exceeds this device's \
-                 largest storage binding ({} bytes); the CPU backends have no such limit",
-                self.ctx.limits().max_storage_buffer_binding_size
+                 largest storage binding ({max_binding} bytes); the CPU backends have no such limit"
             )));
         }
-        // Each run cut into chunks of the size its own length gives.
-        let chunks: Vec<std::ops::Range<usize>> = runs
-            .iter()
-            .flat_map(|r| {
-                let chunk = self.chunk_poses(words, r.len());
-                r.clone().step_by(chunk).map(move |s| s..(s + chunk).min(r.end))
-            })
-            .collect();
+        let chunks = self.chunks_of(words, runs);
         let chunk = chunks.iter().map(ExactSizeIterator::len).max().unwrap_or(1);
-
-        // Every buffer comes from the pool: the target's tables are rewritten on each call (a few
-        // KiB), the chunk buffers are reused whenever the kept ones are large enough.
         // Buffers are bound whole, so growth stops at the largest binding.
-        let limit = self
-            .ctx
-            .limits()
-            .max_storage_buffer_binding_size
-            .min(self.ctx.limits().max_buffer_size);
-        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let queue = self.ctx.queue();
-        let mut upload = |label: &'static str, contents: &[u8], usage| {
-            let buffer = pool.get(device, label, contents.len() as u64, limit, usage);
-            queue.write_buffer(&buffer, 0, contents);
-            buffer
-        };
-        let edges = upload("beam_edges", bytemuck::cast_slice(&beam_edges(layout)), storage);
-        let weights = upload("row_weights", bytemuck::cast_slice(&row_weights(layout)), storage);
-        let edges_sq = upload(
-            "range_edges_sq",
-            bytemuck::cast_slice(&range_edges_sq(layout)),
-            storage,
-        );
-        // A grid's axis table, once per call.
-        let grid = match source {
-            Source::Items(_) => None,
-            Source::Grid { prepared, .. } => {
-                let (table, offsets) = grid_table(prepared.grid);
-                Some((
-                    upload("grid_table", bytemuck::cast_slice(&table), storage),
-                    offsets,
-                ))
-            }
-        };
-        let timed = self.clock.on();
+        let limit = max_binding.min(self.ctx.limits().max_buffer_size);
+        let tables = CallTables::upload(&self.ctx, pool, source, limit);
         let sizes = SlotSizes {
             chunk,
             bits: chunk as u64 * bits_per_pose_bytes,
             metrics: (chunk * METRIC_STRIDE * 4) as u64,
-            grid: grid.is_some(),
+            grid: tables.grid.is_some(),
             occupancy: keep_occupancy,
         };
         // The second slot only when there is a second chunk.
+        let timed = self.clock.on();
         let slots: Vec<Slot> = (0..chunks.len().clamp(1, 2))
             .map(|s| Slot::new(&self.ctx, pool, &SLOT_LABELS[s], &sizes, limit, timed))
             .collect();
         let shape = Shape {
             source,
             layout,
-            plans,
+            plans: source.plans(),
             words,
             bits_per_pose_bytes,
             slots: read_slots,
         };
-
         let mut directions: Option<Directions> = None;
-        let dim = self.ctx.limits().max_compute_workgroups_per_dimension.max(1);
         let mut in_flight: Option<InFlight> = None;
-        for (i, &std::ops::Range { start, end }) in chunks.iter().enumerate() {
-            let n = end - start;
-            let (slot, labels) = (&slots[i % 2], &SLOT_LABELS[i % 2]);
-
-            // Direction table of the plans this chunk uses (kept when the same plans repeat;
-            // rewritten in queue order, after the chunk in flight has read the old one).
-            let used = source.plans_used(start..end);
-            let max_samples = used.iter().map(|&p| plans[p].total() as u64).fold(1, u64::max);
-            if directions.as_ref().is_none_or(|d| d.plans != used) {
-                directions = Some(Directions::upload(&self.ctx, pool, source, used, limit));
-            }
-            let Directions {
-                buffer: dir_buffer,
-                offsets,
-                range_plans,
-                ..
-            } = directions.as_ref().expect("set above");
-
-            // Items: packed on all cores (serial, this loop and the unpacking took 80–180 ns a
-            // pose here, BENCHMARKS.md). A grid: the digits of the chunk's first pose, the poses
-            // decoded by the poses stage.
-            let decode = match (source, &grid, &slot.grid_params, range_plans) {
-                (Source::Items(prepared), _, _, _) => {
-                    let items = &prepared.batch.items;
-                    let pose_data: Vec<PoseGpu> = (start..end)
-                        .into_par_iter()
-                        .map(|k| {
-                            let plan_index = prepared.plan_index(k);
-                            let plan = &prepared.plans[plan_index];
-                            let [az_off, el_off] = offsets[&plan_index];
-                            pose_gpu(
-                                &items[k].pose.rotation,
-                                items[k].pose.translation.to_array(),
-                                items[k].measurement.range,
-                                prepared.base_azimuth(k),
-                                [
-                                    az_off,
-                                    plan.azimuths.len() as u32,
-                                    el_off,
-                                    plan.elevations.len() as u32,
-                                ],
-                            )
-                        })
-                        .collect();
-                    queue.write_buffer(&slot.poses, 0, bytemuck::cast_slice(&pose_data));
-                    None
-                }
-                (
-                    Source::Grid { prepared, first, .. },
-                    Some((table, axis_offsets)),
-                    Some(grid_params),
-                    Some(range_plans),
-                ) => {
-                    let grid = prepared.grid;
-                    let digits = grid.indices(first + start as u64);
-                    let mut g = GridParams {
-                        count: n as u32,
-                        placement: u32::from(grid.placement()),
-                        fls: u32::from(prepared.source.kind == SonarKind::Fls),
-                        ..GridParams::zeroed()
-                    };
-                    for k in 0..9 {
-                        g.first[k] = digits[k] as u32;
-                        g.lens[k] = grid.axes()[k].len() as u32;
-                        g.offsets[k] = axis_offsets[k];
-                    }
-                    queue.write_buffer(grid_params, 0, bytemuck::bytes_of(&g));
-                    Some(pool.bind(
-                        device,
-                        labels.poses_group,
-                        &self.poses,
-                        &[grid_params, table, range_plans, &slot.poses],
-                    ))
-                }
-                _ => unreachable!("a grid has its tables"),
+        for (i, poses) in chunks.iter().enumerate() {
+            let chunk = Chunk {
+                slot: i % 2,
+                poses: poses.clone(),
             };
-            queue.write_buffer(
-                &slot.params,
-                0,
-                bytemuck::bytes_of(&TargetParams::new(layout, n as u32)),
-            );
-
-            // The groups are kept with the pool's buffers: made again only when one was grown.
-            let splat_group = pool.bind(
-                device,
-                labels.splat_group,
-                &self.splat,
-                &[
-                    &slot.params,
-                    &edges,
-                    &edges_sq,
-                    &slot.poses,
-                    dir_buffer,
-                    &slot.bits,
-                    &slot.metrics,
-                ],
-            );
-            let reduce_group = pool.bind(
-                device,
-                labels.reduce_group,
-                &self.reduce,
-                &[&slot.params, &edges, &weights, &slot.bits, &slot.metrics],
-            );
-            let tiles = max_samples
-                .div_ceil(u64::from(self.options.workgroup))
-                .clamp(1, MAX_TILES) as u32;
-            let (used_bits, used_metrics) = shape.bytes(n);
-            // The chunk's poses over two dimensions of workgroups.
-            let across = (n as u32).min(dim);
-            let rows = (n as u32).div_ceil(across);
-
-            let mut enc = device.create_command_encoder(&Default::default());
-            enc.clear_buffer(&slot.bits, 0, Some(used_bits));
-            enc.clear_buffer(&slot.metrics, 0, Some(used_metrics));
-            {
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: None,
-                    timestamp_writes: slot.timer.as_ref().map(PassTimer::writes),
-                });
-                if let Some(group) = &decode {
-                    pass.set_pipeline(&self.poses.pipeline);
-                    pass.set_bind_group(0, group, &[]);
-                    pass.dispatch_workgroups((n as u64).div_ceil(POSES_WORKGROUP) as u32, 1, 1);
-                }
-                pass.set_pipeline(&self.splat.pipeline);
-                pass.set_bind_group(0, &splat_group, &[]);
-                pass.dispatch_workgroups(tiles, across, rows);
-                pass.set_pipeline(&self.reduce.pipeline);
-                pass.set_bind_group(0, &reduce_group, &[]);
-                pass.dispatch_workgroups(across, rows, 1);
-            }
-            shape.copy_slots(&mut enc, &slot.metrics, &slot.metrics_staging, n);
-            if let Some(staging) = &slot.bits_staging {
-                enc.copy_buffer_to_buffer(&slot.bits, 0, staging, 0, used_bits);
-            }
-            if let Some(t) = &slot.timer {
-                t.resolve(&mut enc);
-            }
-            let index = queue.submit([enc.finish()]);
+            directions = Some(self.directions_for(pool, &shape, &chunk, directions, limit));
+            let directions = directions.as_ref().expect("set above");
+            let index = self.submit_chunk(pool, &shape, &tables, &slots, directions, &chunk);
             // While the device projects this chunk, the one before is read back and handed out.
             let before = in_flight.replace(InFlight {
-                slot: i % 2,
+                slot: chunk.slot,
                 index,
-                start,
-                count: n,
+                start: poses.start,
+                count: poses.len(),
             });
             if let Some(before) = before
                 && self
@@ -669,6 +499,17 @@ impl GpuBackend {
             Some(last) => self.read_back(&slots[last.slot], &last, &shape, emit),
             None => Ok(ControlFlow::Continue(())),
         }
+    }
+
+    /// Returns the chunks of `runs`: each run cut into chunks of the size its own length gives
+    /// ([`GpuBackend::chunk_poses`], bitsets of `words` a pose).
+    fn chunks_of(&self, words: usize, runs: &[std::ops::Range<usize>]) -> Vec<std::ops::Range<usize>> {
+        runs.iter()
+            .flat_map(|r| {
+                let chunk = self.chunk_poses(words, r.len());
+                r.clone().step_by(chunk).map(move |s| s..(s + chunk).min(r.end))
+            })
+            .collect()
     }
 
     /// Waits for chunk `chunk` in `slot`, adds its device time when timed, and hands its results

@@ -320,9 +320,31 @@ pub fn parse_oculus(file: &str, bytes: &[u8], elevation: Option<f64>) -> Result<
     Ok(pings)
 }
 
-/// Returns the ping of one simple ping result message.
-#[expect(clippy::too_many_lines, reason = "one message's fields in their order")]
-fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPing> {
+/// The fixed fields of one simple ping result message, and where its parts are.
+struct Header {
+    v2: bool,
+    flags: u8,
+    /// Where the fire message starts (its ping id, then its frequency).
+    fire: usize,
+    ping_id: u32,
+    frequency: f64,
+    range_resolution: f64,
+    n_ranges: usize,
+    n_beams: usize,
+    /// Where `imageOffset` and `imageSize` are.
+    offsets: usize,
+    image_offset: usize,
+    image_size: usize,
+    /// The fixed part's length (the bearings follow it).
+    fixed: usize,
+    /// Bytes a sample: 1 or 2.
+    sample: usize,
+}
+
+/// Returns the fixed fields of message `m` of `version`, checked: a version read, 8- or 16-bit
+/// samples, a non-empty image, a range resolution that keeps its range lines within the
+/// engine's range.
+fn header(m: &Reader<'_>, version: u16) -> Result<Header> {
     let v2 = version == 2;
     if version > 2 {
         return Err(m.bad(8, "msgVersion", format!("{version}: versions 1 and 2 are read")));
@@ -381,19 +403,33 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
             ),
         ));
     }
-    let bearings_deg = (0..n_beams)
-        .map(|j| {
-            let raw = m.take::<2>(fixed + 2 * j, "bearings")?;
-            Ok(f64::from(i16::from_le_bytes(raw)) / 100.0)
-        })
-        .collect::<Result<Vec<f64>>>()?;
-    let aperture = sonarproj::geometry::beam_table::aperture_of_beam_centres(&bearings_deg)
-        .map_err(|why| m.bad(fixed, "bearings", why))?;
-    let gain = flags & 0x04 != 0;
+    Ok(Header {
+        v2,
+        flags,
+        fire,
+        ping_id,
+        frequency,
+        range_resolution,
+        n_ranges,
+        n_beams,
+        offsets,
+        image_offset,
+        image_size,
+        fixed,
+        sample,
+    })
+}
+
+/// Returns the image of message `m` (with header `h`) and, when the message carries them, each
+/// range line's gain.
+fn image(m: &Reader<'_>, h: &Header) -> Result<(OculusImage, Option<Vec<f32>>)> {
+    let (n_ranges, n_beams, sample) = (h.n_ranges, h.n_beams, h.sample);
+    let (image_offset, image_size) = (h.image_offset, h.image_size);
+    let gain = h.flags & 0x04 != 0;
     let stride = n_beams * sample + if gain { 4 } else { 0 };
     if image_size != n_ranges * stride {
         return Err(m.bad(
-            offsets + 4,
+            h.offsets + 4,
             "imageSize",
             format!(
                 "{image_size} bytes is not nRanges × (nBeams × {sample}{}) = {}",
@@ -402,13 +438,13 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
             ),
         ));
     }
-    if image_offset < fixed + 2 * n_beams || image_offset + image_size > m.bytes.len() {
+    if image_offset < h.fixed + 2 * n_beams || image_offset + image_size > m.bytes.len() {
         return Err(m.bad(
-            offsets,
+            h.offsets,
             "imageOffset",
             format!(
                 "{image_offset} + {image_size} bytes lies outside the message (bearings end at {}, the message at {})",
-                fixed + 2 * n_beams,
+                h.fixed + 2 * n_beams,
                 m.bytes.len()
             ),
         ));
@@ -434,27 +470,43 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
     } else {
         OculusImage::U16(u16s)
     };
+    Ok((image, gains))
+}
+
+/// Returns the ping of one simple ping result message.
+fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPing> {
+    let h = header(m, version)?;
+    let bearings_deg = (0..h.n_beams)
+        .map(|j| {
+            let raw = m.take::<2>(h.fixed + 2 * j, "bearings")?;
+            Ok(f64::from(i16::from_le_bytes(raw)) / 100.0)
+        })
+        .collect::<Result<Vec<f64>>>()?;
+    let aperture = sonarproj::geometry::beam_table::aperture_of_beam_centres(&bearings_deg)
+        .map_err(|why| m.bad(h.fixed, "bearings", why))?;
+    let (image, gains) = image(m, &h)?;
+    let frequency = h.frequency;
     let elevation = match elevation.or_else(|| elevation_of(frequency, aperture)) {
         Some(e) => e,
         None => {
             return Err(m.bad(
-                fire + 8,
+                h.fire + 8,
                 "frequency",
                 format!("{frequency} Hz is not an Oculus frequency whose elevation aperture is known: give it (elevation)"),
             ));
         }
     };
-    let range_bins = u32::try_from(n_ranges).expect("a u16");
-    let range_max = span;
+    #[expect(clippy::cast_precision_loss, reason = "a u16 count")]
+    let range_max = h.n_ranges as f64 * h.range_resolution;
     // Provisional beams for the builder; the ping's own replace them.
     let sonar = Sonar {
-        name: format!("oculus-ping-{ping_id}"),
+        name: format!("oculus-ping-{}", h.ping_id),
         kind: SonarKind::Fls,
         range_min: 0.0,
         range_max,
         azimuth_aperture: 180.0,
         elevation_aperture: elevation,
-        range_bins,
+        range_bins: u32::try_from(h.n_ranges).expect("a u16"),
         beams: BeamLayout::Uniform { count: 1 },
     }
     .with_beam_centres(&bearings_deg, Some(aperture))
@@ -465,10 +517,10 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
         gains,
         bearings_deg,
         offset: m.base,
-        version: if v2 { 2 } else { 1 },
-        ping_id,
+        version: if h.v2 { 2 } else { 1 },
+        ping_id: h.ping_id,
         frequency,
-        range_resolution,
+        range_resolution: h.range_resolution,
     })
 }
 

@@ -68,35 +68,14 @@ impl AdviseRequest {
         }
         serde_json::from_slice(body).map_err(|e| Error::input("request", e.to_string()))
     }
-}
 
-impl Viewer {
-    /// Returns the advise panel's answer for `request`: the axes and their values, the score of
-    /// every grid cell (`null` where infeasible), the pose now's score and the best small move,
-    /// as JSON.
+    /// Returns the request's two axes (indices into [`AXES`]), its span, steps and features
+    /// checked.
     ///
     /// # Errors
-    /// Bad input naming the field (objective, axes, span, steps, features; the scene's own);
-    /// the backend's failures.
-    pub fn advise(&self, request: &AdviseRequest) -> Result<Value> {
-        let started = std::time::Instant::now();
-        let scene = &request.scene;
-        let source = self.choice("from", &scene.from)?.sonar.clone();
-        let target = self.choice("to", &scene.to)?.sonar.clone();
-        let f = scene.feature;
-        source.check_point("feature", f.range, f.azimuth, f.elevation)?;
-        scene.pose()?;
-        let objective = match request.objective.as_str() {
-            "correspondence" => Objective::Correspondence,
-            "recovery" => Objective::Recovery,
-            other => {
-                return Err(Error::invalid(
-                    "objective",
-                    format!("{other:?}"),
-                    "must be \"correspondence\" or \"recovery\"",
-                ));
-            }
-        };
+    /// Bad input naming `axes`, `span`, `steps` or `features`.
+    fn axes_checked(&self) -> Result<[usize; 2]> {
+        let request = self;
         let axis = |name: &str| {
             AXES[..3]
                 .iter()
@@ -128,6 +107,38 @@ impl Viewer {
                 format!("must be in [0, {MAX_PANEL_FEATURES}]"),
             ));
         }
+        Ok(axes)
+    }
+}
+
+impl Viewer {
+    /// Returns the advise panel's answer for `request`: the axes and their values, the score of
+    /// every grid cell (`null` where infeasible), the pose now's score and the best small move,
+    /// as JSON.
+    ///
+    /// # Errors
+    /// Bad input naming the field (objective, axes, span, steps, features; the scene's own);
+    /// the backend's failures.
+    pub fn advise(&self, request: &AdviseRequest) -> Result<Value> {
+        let started = std::time::Instant::now();
+        let scene = &request.scene;
+        let source = self.choice("from", &scene.from)?.sonar.clone();
+        let target = self.choice("to", &scene.to)?.sonar.clone();
+        let f = scene.feature;
+        source.check_point("feature", f.range, f.azimuth, f.elevation)?;
+        scene.pose()?;
+        let objective = match request.objective.as_str() {
+            "correspondence" => Objective::Correspondence,
+            "recovery" => Objective::Recovery,
+            other => {
+                return Err(Error::invalid(
+                    "objective",
+                    format!("{other:?}"),
+                    "must be \"correspondence\" or \"recovery\"",
+                ));
+            }
+        };
+        let axes = request.axes_checked()?;
         let now = [scene.rotation.roll, scene.rotation.pitch, scene.rotation.yaw];
         #[expect(clippy::cast_precision_loss, reason = "at most 21 steps")]
         let cell = 2.0 * request.span / (request.steps - 1) as f64;

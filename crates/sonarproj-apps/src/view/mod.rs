@@ -395,70 +395,12 @@ impl Viewer {
         check()?;
 
         let mask = match &noise {
-            Some(n) => {
-                let key = (first.label.clone(), second.label.clone());
-                let known = self
-                    .engines
-                    .lock()
-                    .unwrap_or_else(PoisonError::into_inner)
-                    .get(&key)
-                    .cloned();
-                let engine = match known {
-                    Some(e) => e,
-                    None => {
-                        let (engine, _) = MaskEngine::select(
-                            source.clone(),
-                            target.clone(),
-                            self.choice,
-                            Counts::Skip,
-                            &self.gpu,
-                        )?;
-                        let engine = Arc::new(engine);
-                        self.engines
-                            .lock()
-                            .unwrap_or_else(PoisonError::into_inner)
-                            .insert(key, Arc::clone(&engine));
-                        engine
-                    }
-                };
-                let m = engine.mask(&pose, &measurement, Some(n), Counts::Skip)?;
-                Some(json!({
-                    "runs": run_lengths(&m.occupancy),
-                    "count": m.occupancy.count(),
-                    "radius": m.radius,
-                    "noise_radius": m.noise_radius,
-                }))
-            }
+            Some(n) => Some(self.mask_json(&first, &second, &pose, &measurement, n)?),
             None => None,
         };
-
         check()?;
         let recovery = match scene.second {
-            Some(s) => {
-                let sigmas = scene.sigma.and_then(|g| {
-                    (g.range != 0.0 || g.azimuth != 0.0).then_some(Sigmas {
-                        range: g.range,
-                        azimuth: g.azimuth,
-                    })
-                });
-                let obs = |range: f64, azimuth: Option<f64>| Observation { range, azimuth };
-                let first_obs = obs(
-                    measurement.range,
-                    (source.kind == SonarKind::Fls).then_some(measurement.azimuth),
-                );
-                let second_obs = obs(s.range, s.azimuth.filter(|_| target.kind == SonarKind::Fls));
-                let r = recover(
-                    source,
-                    target,
-                    &pose,
-                    first_obs,
-                    second_obs,
-                    sigmas,
-                    DEFAULT_CURVE_STEP,
-                )
-                .map_err(|e| Error::from(e).in_context("second"))?;
-                Some(serde_json::to_value(&r).expect("plain values"))
-            }
+            Some(s) => Some(recovery_json(scene, s, source, target, &pose, &measurement)?),
             None => None,
         };
 
@@ -506,6 +448,54 @@ impl Viewer {
             "compute_ms": started.elapsed().as_secs_f64() * 1e3,
         }))
     }
+
+    /// Returns the JSON of the mask of `measurement` under `pose` with noise `n` (the engine of
+    /// the pair `first`, `second` made once and kept): its runs, pixel count and radii.
+    ///
+    /// # Errors
+    /// As [`MaskEngine::select`] and [`MaskEngine::mask`].
+    fn mask_json(
+        &self,
+        first: &Choice,
+        second: &Choice,
+        pose: &RelativePose,
+        measurement: &Measurement,
+        n: &Noise,
+    ) -> Result<Value> {
+        let (source, target) = (&first.sonar, &second.sonar);
+        let key = (first.label.clone(), second.label.clone());
+        let known = self
+            .engines
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .get(&key)
+            .cloned();
+        let engine = match known {
+            Some(e) => e,
+            None => {
+                let (engine, _) = MaskEngine::select(
+                    source.clone(),
+                    target.clone(),
+                    self.choice,
+                    Counts::Skip,
+                    &self.gpu,
+                )?;
+                let engine = Arc::new(engine);
+                self.engines
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .insert(key, Arc::clone(&engine));
+                engine
+            }
+        };
+        let m = engine.mask(pose, measurement, Some(n), Counts::Skip)?;
+        Ok(json!({
+            "runs": run_lengths(&m.occupancy),
+            "count": m.occupancy.count(),
+            "radius": m.radius,
+            "noise_radius": m.noise_radius,
+        }))
+    }
 }
 
 /// Returns a sonar as the page needs it: field of view, layout and beam edges (deg).
@@ -549,4 +539,42 @@ fn samples(target: &Sonar, m: &Measurement, plan: &SamplingPlan, pose: &Relative
         "first": points,
         "visible": visible,
     })
+}
+
+/// Returns the JSON of the recovery from `measurement` in `source` and the second observation
+/// `s` in `target` under `pose`, with the scene's sigmas when it gives any.
+///
+/// # Errors
+/// As [`recover`], named `second`.
+fn recovery_json(
+    scene: &Scene,
+    s: Second,
+    source: &Sonar,
+    target: &Sonar,
+    pose: &RelativePose,
+    measurement: &Measurement,
+) -> Result<Value> {
+    let sigmas = scene.sigma.and_then(|g| {
+        (g.range != 0.0 || g.azimuth != 0.0).then_some(Sigmas {
+            range: g.range,
+            azimuth: g.azimuth,
+        })
+    });
+    let obs = |range: f64, azimuth: Option<f64>| Observation { range, azimuth };
+    let first_obs = obs(
+        measurement.range,
+        (source.kind == SonarKind::Fls).then_some(measurement.azimuth),
+    );
+    let second_obs = obs(s.range, s.azimuth.filter(|_| target.kind == SonarKind::Fls));
+    let r = recover(
+        source,
+        target,
+        pose,
+        first_obs,
+        second_obs,
+        sigmas,
+        DEFAULT_CURVE_STEP,
+    )
+    .map_err(|e| Error::from(e).in_context("second"))?;
+    Ok(serde_json::to_value(&r).expect("plain values"))
 }

@@ -1,0 +1,254 @@
+//! One chunk of a GPU projection call put on the device: its direction table, its poses (packed
+//! by the host for items, decoded on the device for a grid), the passes encoded (poses, splat,
+//! reduce) and the copies of what is read back, in one submission.
+
+use bytemuck::Zeroable;
+use rayon::prelude::*;
+
+use crate::geometry::SonarKind;
+use crate::gpu::GpuContext;
+use crate::gpu::pool::BufferPool;
+use crate::gpu::timing::PassTimer;
+
+use super::slots::{Directions, SLOT_LABELS, Shape, Slot};
+use super::tables::{grid_table, pose_gpu};
+use super::types::{GridParams, PoseGpu, TargetParams, beam_edges, range_edges_sq, row_weights};
+use super::unpack::Source;
+use super::{GpuBackend, MAX_TILES, POSES_WORKGROUP};
+
+/// What every chunk of one call shares on the device: sonar 2's tables (written once a call, a
+/// few KiB) and, for a grid, its axis table with each axis's offset in it.
+pub(super) struct CallTables {
+    edges: wgpu::Buffer,
+    weights: wgpu::Buffer,
+    edges_sq: wgpu::Buffer,
+    pub(super) grid: Option<(wgpu::Buffer, [u32; 9])>,
+}
+
+impl CallTables {
+    /// Returns the tables of a call on `source`, written into buffers of `pool` (at most `limit`
+    /// bytes each).
+    pub(super) fn upload(
+        ctx: &GpuContext,
+        pool: &mut BufferPool,
+        source: &Source<'_>,
+        limit: u64,
+    ) -> CallTables {
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let mut upload = |label: &'static str, contents: &[u8]| {
+            let buffer = pool.get(ctx.device(), label, contents.len() as u64, limit, storage);
+            ctx.queue().write_buffer(&buffer, 0, contents);
+            buffer
+        };
+        let layout = source.layout();
+        let edges = upload("beam_edges", bytemuck::cast_slice(&beam_edges(layout)));
+        let weights = upload("row_weights", bytemuck::cast_slice(&row_weights(layout)));
+        let edges_sq = upload("range_edges_sq", bytemuck::cast_slice(&range_edges_sq(layout)));
+        let grid = match source {
+            Source::Items(_) => None,
+            Source::Grid { prepared, .. } => {
+                let (table, offsets) = grid_table(prepared.grid);
+                Some((upload("grid_table", bytemuck::cast_slice(&table)), offsets))
+            }
+        };
+        CallTables {
+            edges,
+            weights,
+            edges_sq,
+            grid,
+        }
+    }
+}
+
+/// A chunk of a call: the slot it runs in and its poses (indices into the call's source).
+pub(super) struct Chunk {
+    pub(super) slot: usize,
+    pub(super) poses: std::ops::Range<usize>,
+}
+
+impl GpuBackend {
+    /// Returns the direction table of the plans `chunk` uses: `kept` when it holds the same
+    /// plans, else a new one (written in queue order, after the chunk in flight has read the
+    /// old one).
+    pub(super) fn directions_for(
+        &self,
+        pool: &mut BufferPool,
+        shape: &Shape<'_>,
+        chunk: &Chunk,
+        kept: Option<Directions>,
+        limit: u64,
+    ) -> Directions {
+        let used = shape.source.plans_used(chunk.poses.clone());
+        match kept {
+            Some(d) if d.plans == used => d,
+            _ => Directions::upload(&self.ctx, pool, shape.source, used, limit),
+        }
+    }
+
+    /// Puts `chunk` on the device in its slot and returns its submission: its poses, sonar 2's
+    /// parameters for its pose count, the passes (poses for a grid, splat, reduce) with the
+    /// buffers cleared first, and the copies of what is read back.
+    pub(super) fn submit_chunk(
+        &self,
+        pool: &mut BufferPool,
+        shape: &Shape<'_>,
+        tables: &CallTables,
+        slots: &[Slot],
+        directions: &Directions,
+        chunk: &Chunk,
+    ) -> wgpu::SubmissionIndex {
+        let (device, queue) = (self.ctx.device(), self.ctx.queue());
+        let (slot, labels) = (&slots[chunk.slot], &SLOT_LABELS[chunk.slot]);
+        let n = chunk.poses.len();
+        let decode = self.chunk_poses_on_device(pool, shape, tables, slot, directions, chunk);
+        let params = TargetParams::new(shape.layout, n as u32);
+        queue.write_buffer(&slot.params, 0, bytemuck::bytes_of(&params));
+        // The groups are kept with the pool's buffers: made again only when one was grown.
+        let splat_group = pool.bind(
+            device,
+            labels.splat_group,
+            &self.splat,
+            &[
+                &slot.params,
+                &tables.edges,
+                &tables.edges_sq,
+                &slot.poses,
+                &directions.buffer,
+                &slot.bits,
+                &slot.metrics,
+            ],
+        );
+        let reduce_group = pool.bind(
+            device,
+            labels.reduce_group,
+            &self.reduce,
+            &[
+                &slot.params,
+                &tables.edges,
+                &tables.weights,
+                &slot.bits,
+                &slot.metrics,
+            ],
+        );
+        let plans = shape.plans;
+        let max_samples = directions
+            .plans
+            .iter()
+            .map(|&p| plans[p].total() as u64)
+            .fold(1, u64::max);
+        let tiles = max_samples
+            .div_ceil(u64::from(self.options.workgroup))
+            .clamp(1, MAX_TILES) as u32;
+        let (used_bits, used_metrics) = shape.bytes(n);
+        // The chunk's poses over two dimensions of workgroups.
+        let dim = self.ctx.limits().max_compute_workgroups_per_dimension.max(1);
+        let across = (n as u32).min(dim);
+        let rows = (n as u32).div_ceil(across);
+
+        let mut enc = device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&slot.bits, 0, Some(used_bits));
+        enc.clear_buffer(&slot.metrics, 0, Some(used_metrics));
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: None,
+                timestamp_writes: slot.timer.as_ref().map(PassTimer::writes),
+            });
+            if let Some(group) = &decode {
+                pass.set_pipeline(&self.poses.pipeline);
+                pass.set_bind_group(0, group, &[]);
+                pass.dispatch_workgroups((n as u64).div_ceil(POSES_WORKGROUP) as u32, 1, 1);
+            }
+            pass.set_pipeline(&self.splat.pipeline);
+            pass.set_bind_group(0, &splat_group, &[]);
+            pass.dispatch_workgroups(tiles, across, rows);
+            pass.set_pipeline(&self.reduce.pipeline);
+            pass.set_bind_group(0, &reduce_group, &[]);
+            pass.dispatch_workgroups(across, rows, 1);
+        }
+        shape.copy_slots(&mut enc, &slot.metrics, &slot.metrics_staging, n);
+        if let Some(staging) = &slot.bits_staging {
+            enc.copy_buffer_to_buffer(&slot.bits, 0, staging, 0, used_bits);
+        }
+        if let Some(t) = &slot.timer {
+            t.resolve(&mut enc);
+        }
+        queue.submit([enc.finish()])
+    }
+
+    /// Writes `chunk`'s poses where the splat stage reads them, and returns the poses stage's
+    /// bind group when they are decoded on the device. Items: packed on all cores (serial, this
+    /// loop and the unpacking took 80–180 ns a pose, BENCHMARKS.md). A grid: the digits of the
+    /// chunk's first pose, the poses decoded by the poses stage.
+    fn chunk_poses_on_device(
+        &self,
+        pool: &mut BufferPool,
+        shape: &Shape<'_>,
+        tables: &CallTables,
+        slot: &Slot,
+        directions: &Directions,
+        chunk: &Chunk,
+    ) -> Option<wgpu::BindGroup> {
+        let (device, queue) = (self.ctx.device(), self.ctx.queue());
+        let (start, end) = (chunk.poses.start, chunk.poses.end);
+        match (
+            shape.source,
+            &tables.grid,
+            &slot.grid_params,
+            &directions.range_plans,
+        ) {
+            (Source::Items(prepared), _, _, _) => {
+                let items = &prepared.batch.items;
+                let pose_data: Vec<PoseGpu> = (start..end)
+                    .into_par_iter()
+                    .map(|k| {
+                        let plan_index = prepared.plan_index(k);
+                        let plan = &prepared.plans[plan_index];
+                        let [az_off, el_off] = directions.offsets[&plan_index];
+                        pose_gpu(
+                            &items[k].pose.rotation,
+                            items[k].pose.translation.to_array(),
+                            items[k].measurement.range,
+                            prepared.base_azimuth(k),
+                            [
+                                az_off,
+                                plan.azimuths.len() as u32,
+                                el_off,
+                                plan.elevations.len() as u32,
+                            ],
+                        )
+                    })
+                    .collect();
+                queue.write_buffer(&slot.poses, 0, bytemuck::cast_slice(&pose_data));
+                None
+            }
+            (
+                Source::Grid { prepared, first, .. },
+                Some((table, axis_offsets)),
+                Some(grid_params),
+                Some(range_plans),
+            ) => {
+                let grid = prepared.grid;
+                let digits = grid.indices(first + start as u64);
+                let mut g = GridParams {
+                    count: (end - start) as u32,
+                    placement: u32::from(grid.placement()),
+                    fls: u32::from(prepared.source.kind == SonarKind::Fls),
+                    ..GridParams::zeroed()
+                };
+                for k in 0..9 {
+                    g.first[k] = digits[k] as u32;
+                    g.lens[k] = grid.axes()[k].len() as u32;
+                    g.offsets[k] = axis_offsets[k];
+                }
+                queue.write_buffer(grid_params, 0, bytemuck::bytes_of(&g));
+                Some(pool.bind(
+                    device,
+                    SLOT_LABELS[chunk.slot].poses_group,
+                    &self.poses,
+                    &[grid_params, table, range_plans, &slot.poses],
+                ))
+            }
+            _ => unreachable!("a grid has its tables"),
+        }
+    }
+}
