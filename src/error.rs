@@ -72,8 +72,9 @@ pub enum Error {
         #[source]
         source: Option<Box<dyn std::error::Error + Send + Sync + 'static>>,
     },
-    /// The work was given up before its end because the caller's `stop` said so
-    /// ([`crate::Backend::project_until`]): a viewer client that went away.
+    /// The work was given up before its end because the caller's [`crate::stream::Stop`] was
+    /// set ([`crate::Backend::project_until`]): a viewer client that went away, a Ctrl-C. A
+    /// call that streams its results returns `Break` instead.
     #[error("stopped before the end, as asked")]
     Stopped,
 }

@@ -49,6 +49,7 @@ pub mod occupancy;
 pub mod projection;
 pub mod recovery;
 pub mod sampling;
+pub mod stream;
 #[doc(hidden)]
 pub mod test_support;
 

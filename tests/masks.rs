@@ -8,6 +8,7 @@ use rand_chacha::ChaCha8Rng;
 use sonarproj::geometry::sonar::{BeamLayout, SonarKind};
 use sonarproj::masks::{BoundingBox, Counts, MaskEngine, MaskSet, Noise, bounding_box};
 use sonarproj::occupancy::Occupancy;
+use sonarproj::stream::{Flow, Stop};
 use sonarproj::{Measurement, RelativePose, Sonar};
 
 /// Scenes per preset pair (the masks are checked on at least 10 000).
@@ -591,7 +592,7 @@ mod gpu {
             .unwrap()
             .with_gpu_min_cells(3000);
         for engine in [&cpu, &gpu, &mixed] {
-            let all = engine.summaries_of_pings(&pings, None, &|| false).unwrap();
+            let all = engine.summaries_of_pings(&pings, None, Stop::NEVER).unwrap();
             assert_eq!(all.len(), pings.len());
             for (k, (pose, features)) in pings.iter().enumerate() {
                 let one = engine.summary(pose, features, None).unwrap();
@@ -608,13 +609,38 @@ mod gpu {
                     azimuth: 0.0,
                 });
                 let e = engine
-                    .summaries_of_pings(&bad, None, &|| false)
+                    .summaries_of_pings(&bad, None, Stop::NEVER)
                     .unwrap_err()
                     .to_string();
                 assert!(e.contains(&format!("ping {}: feature", k + 1)), "{e}");
             }
-            let stopped = engine.summaries_of_pings(&pings, None, &|| true);
+            let stopped = engine.summaries_of_pings(&pings, None, Stop::when(&|| true));
             assert!(matches!(stopped, Err(sonarproj::Error::Stopped)), "{stopped:?}");
+            // A sink's Break ends the stream there, on the GPU's pings and the CPU's alike:
+            // nothing after it is given out, and the stream says it ended early.
+            for stop_at in [1, 3, 65] {
+                let mut given = Vec::new();
+                let flow = engine
+                    .summaries_of_pings_each(&pings, None, Stop::NEVER, &mut |s| {
+                        given.push(s);
+                        Ok(if given.len() == stop_at {
+                            Flow::Break(())
+                        } else {
+                            Flow::Continue(())
+                        })
+                    })
+                    .unwrap();
+                assert!(flow.is_break(), "ping {stop_at} on {}", engine.device());
+                assert_eq!(given, all[..stop_at], "ping {stop_at} on {}", engine.device());
+            }
+            let mut given = 0;
+            let flow = engine
+                .masks_of_pings_each(&pings, None, Stop::NEVER, &mut |_| {
+                    given += 1;
+                    Ok(Flow::Continue(()))
+                })
+                .unwrap();
+            assert!(flow.is_continue() && given == pings.len());
             // The masks of many pings (two in flight on the GPU) are each ping's masks, with
             // noise too.
             let noise = Noise {
@@ -625,7 +651,7 @@ mod gpu {
                 coverage: 0.99,
             };
             for noise in [None, Some(&noise)] {
-                let all = engine.masks_of_pings(&pings, noise, &|| false).unwrap();
+                let all = engine.masks_of_pings(&pings, noise, Stop::NEVER).unwrap();
                 assert_eq!(all.len(), pings.len());
                 for (k, (pose, features)) in pings.iter().enumerate() {
                     let one = engine.masks(pose, features, noise, Counts::Skip).unwrap();
@@ -643,12 +669,12 @@ mod gpu {
                         }],
                     )],
                     None,
-                    &|| false,
+                    Stop::NEVER,
                 )
                 .unwrap_err()
                 .to_string();
             assert!(e.contains("ping 1: feature 1"), "{e}");
-            let stopped = engine.masks_of_pings(&pings, None, &|| true);
+            let stopped = engine.masks_of_pings(&pings, None, Stop::when(&|| true));
             assert!(matches!(stopped, Err(sonarproj::Error::Stopped)), "{stopped:?}");
         }
     }
@@ -698,12 +724,17 @@ fn pings_past_the_memory_limits_are_refused_naming_them() {
         "{e}"
     );
     let pings = vec![(pose, vec![feature]); fit + 1];
-    let e = message(engine.summaries_of_pings(&pings, None, &|| false).err().unwrap());
+    let e = message(
+        engine
+            .summaries_of_pings(&pings, None, Stop::NEVER)
+            .err()
+            .unwrap(),
+    );
     assert!(
         e.contains("pings") && e.contains(&MAX_MASK_BITSET_BYTES.to_string()),
         "{e}"
     );
     let pings = vec![(pose, vec![feature; 2]); fit / 3 + 1];
-    let e = message(engine.masks_of_pings(&pings, None, &|| false).err().unwrap());
+    let e = message(engine.masks_of_pings(&pings, None, Stop::NEVER).err().unwrap());
     assert!(e.contains("pings"), "{e}");
 }

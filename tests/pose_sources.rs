@@ -4,6 +4,7 @@
 //! poses are asked in; a list gives its items' metrics; every backend's columns are its
 //! `project`'s.
 
+use sonarproj::stream::Stop;
 use sonarproj_testkit as common;
 
 use sonarproj::Metric;
@@ -86,7 +87,7 @@ fn decoded_grids_match_the_per_item_path_on_every_preset_pair() {
                     let want = per_item(&Backend::CpuFast, &s);
                     let mut got = MetricColumns::default();
                     Backend::CpuFast
-                        .project_columns(&s, 0..g.len(), &mut got, &|| false)
+                        .project_columns(&s, 0..g.len(), &mut got, Stop::NEVER)
                         .unwrap();
                     same_bits(
                         &got,
@@ -109,14 +110,14 @@ fn columns_do_not_depend_on_the_range_asked() {
     let s = sweep(&source, &target, Sampling::Step(0.5), PoseSource::Grid(&g));
     let mut whole = MetricColumns::default();
     Backend::CpuFast
-        .project_columns(&s, 0..g.len(), &mut whole, &|| false)
+        .project_columns(&s, 0..g.len(), &mut whole, Stop::NEVER)
         .unwrap();
     // Ranges cut anywhere, into columns reused between calls.
     let mut part = MetricColumns::default();
     let mut joined = MetricColumns::default();
     for r in [0..1, 1..77, 77..300, 300..g.len()] {
         Backend::CpuFast
-            .project_columns(&s, r.clone(), &mut part, &|| false)
+            .project_columns(&s, r.clone(), &mut part, Stop::NEVER)
             .unwrap();
         assert_eq!(part.len() as u64, r.end - r.start);
         for k in 0..part.len() {
@@ -147,7 +148,7 @@ fn every_backend_gives_its_own_projections_as_columns() {
         for source in [&s, &list] {
             let mut got = MetricColumns::default();
             backend
-                .project_columns(source, 0..g.len(), &mut got, &|| false)
+                .project_columns(source, 0..g.len(), &mut got, Stop::NEVER)
                 .unwrap();
             same_bits(&got, &want, backend.name());
         }
@@ -205,15 +206,15 @@ fn a_metric_kept_alone_is_its_column_of_all() {
             let what = format!("{a} -> {b} on {}", backend.name());
             let mut all = MetricColumns::default();
             backend
-                .project_columns(&s, 1..g.len(), &mut all, &|| false)
+                .project_columns(&s, 1..g.len(), &mut all, Stop::NEVER)
                 .unwrap();
             assert!(all.visible.iter().any(|&v| v > 0), "{what}: nothing seen");
             for metric in Metric::all() {
                 let mut one = MetricColumns::only(&[metric]);
                 // A first call of another range: the second replaces its rows.
-                backend.project_columns(&s, 0..5, &mut one, &|| false).unwrap();
+                backend.project_columns(&s, 0..5, &mut one, Stop::NEVER).unwrap();
                 backend
-                    .project_columns(&s, 1..g.len(), &mut one, &|| false)
+                    .project_columns(&s, 1..g.len(), &mut one, Stop::NEVER)
                     .unwrap();
                 assert_eq!(one.len(), all.len(), "{what}, {}", metric.name());
                 same_column(&one, &all, metric, &what);
@@ -250,7 +251,7 @@ fn blocks_are_each_blocks_own_columns() {
             let mut seen = Vec::new();
             let mut out = fresh();
             let flow = backend
-                .project_blocks(&s, &blocks, &mut out, &|| false, &mut |b, columns| {
+                .project_blocks(&s, &blocks, &mut out, Stop::NEVER, &mut |b, columns| {
                     seen.push((b, columns.clone()));
                     ControlFlow::Continue(())
                 })
@@ -265,7 +266,7 @@ fn blocks_are_each_blocks_own_columns() {
             for (b, columns) in &seen {
                 let mut alone = fresh();
                 backend
-                    .project_columns(&s, b.clone(), &mut alone, &|| false)
+                    .project_columns(&s, b.clone(), &mut alone, Stop::NEVER)
                     .unwrap();
                 assert_eq!(columns.len() as u64, b.end - b.start, "{what}: {b:?}");
                 for m in Metric::all() {
@@ -275,7 +276,7 @@ fn blocks_are_each_blocks_own_columns() {
             // A break after the second block: no third.
             let mut calls = 0;
             let flow = backend
-                .project_blocks(&s, &blocks, &mut out, &|| false, &mut |_, _| {
+                .project_blocks(&s, &blocks, &mut out, Stop::NEVER, &mut |_, _| {
                     calls += 1;
                     if calls == 2 {
                         ControlFlow::Break(())
@@ -292,29 +293,35 @@ fn blocks_are_each_blocks_own_columns() {
         let (empty, past) = (4..4, 0..n + 1);
         for bad in [vec![0..5, 3..9], vec![empty], vec![past], vec![9..12, 0..3]] {
             let e = backend
-                .project_blocks(&s, &bad, &mut MetricColumns::default(), &|| false, &mut |_, _| {
-                    ControlFlow::Continue(())
-                })
+                .project_blocks(
+                    &s,
+                    &bad,
+                    &mut MetricColumns::default(),
+                    Stop::NEVER,
+                    &mut |_, _| ControlFlow::Continue(()),
+                )
                 .unwrap_err();
             assert!(
                 e.is_input() && e.to_string().contains("pose blocks"),
                 "{bad:?}: {e}"
             );
         }
+        // A stop ends the stream as its sink's Break does: the flow it returns says so.
         let stop_after_one = std::sync::atomic::AtomicUsize::new(0);
-        let e = backend
+        let signal = || stop_after_one.load(std::sync::atomic::Ordering::Relaxed) > 0;
+        let flow = backend
             .project_blocks(
                 &s,
                 &blocks,
                 &mut MetricColumns::default(),
-                &|| stop_after_one.load(std::sync::atomic::Ordering::Relaxed) > 0,
+                Stop::when(&signal),
                 &mut |_, _| {
                     stop_after_one.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                     ControlFlow::Continue(())
                 },
             )
-            .unwrap_err();
-        assert!(matches!(e, Error::Stopped), "{}: {e}", backend.name());
+            .unwrap();
+        assert!(flow.is_break(), "{}: a stop is a Break", backend.name());
         assert_eq!(
             stop_after_one.into_inner(),
             1,
@@ -332,11 +339,11 @@ fn bad_ranges_and_stops_are_errors() {
     let mut out = MetricColumns::default();
     for backend in [Backend::Cpu, Backend::CpuFast] {
         let e = backend
-            .project_columns(&s, 0..g.len() + 1, &mut out, &|| false)
+            .project_columns(&s, 0..g.len() + 1, &mut out, Stop::NEVER)
             .unwrap_err();
         assert!(e.is_input() && e.to_string().contains("pose range"), "{e}");
         let e = backend
-            .project_columns(&s, 0..g.len(), &mut out, &|| true)
+            .project_columns(&s, 0..g.len(), &mut out, Stop::when(&|| true))
             .unwrap_err();
         assert!(matches!(e, Error::Stopped), "{e}");
     }
@@ -344,7 +351,7 @@ fn bad_ranges_and_stops_are_errors() {
     let narrow = common::preset("paper-sss");
     let s = sweep(&narrow, &target, Sampling::Step(1.0), PoseSource::Grid(&g));
     let e = Backend::CpuFast
-        .project_columns(&s, 0..1, &mut out, &|| false)
+        .project_columns(&s, 0..1, &mut out, Stop::NEVER)
         .unwrap_err();
     assert!(e.is_input() && e.to_string().contains("grid axis"), "{e}");
 }
@@ -383,7 +390,7 @@ fn device_decoded_grids_lie_in_the_reference_envelope() {
                 for backend in [sonarproj_testkit::gpu_backend_on(gpu.context().clone()), small()] {
                     let mut columns = MetricColumns::default();
                     Backend::Gpu(Box::new(backend))
-                        .project_columns(&s, 3..g.len(), &mut columns, &|| false)
+                        .project_columns(&s, 3..g.len(), &mut columns, Stop::NEVER)
                         .unwrap();
                     assert_eq!(columns.len() as u64, g.len() - 3, "{what}");
                     for k in 0..columns.len() {
@@ -458,7 +465,7 @@ fn device_time_is_counted_only_while_asked_and_within_the_call() {
     let s = sweep(&source, &target, Sampling::Step(0.5), PoseSource::Grid(&grid));
     let mut out = MetricColumns::default();
     g.time_device(false);
-    gpu.project_columns(&s, 0..grid.len(), &mut out, &|| false)
+    gpu.project_columns(&s, 0..grid.len(), &mut out, Stop::NEVER)
         .unwrap();
     let Some(before) = g.device_time() else {
         assert!(!g.context().features().contains(wgpu::Features::TIMESTAMP_QUERY));
@@ -476,7 +483,7 @@ fn device_time_is_counted_only_while_asked_and_within_the_call() {
         "host time counted before timing"
     );
     let start = std::time::Instant::now();
-    gpu.project_columns(&s, 0..grid.len(), &mut out, &|| false)
+    gpu.project_columns(&s, 0..grid.len(), &mut out, Stop::NEVER)
         .unwrap();
     let wall = start.elapsed();
     let (device, host) = (g.device_time().unwrap(), g.host_time());
@@ -491,7 +498,7 @@ fn device_time_is_counted_only_while_asked_and_within_the_call() {
             && host.wait + host.unpack <= wall,
         "host {host:?}, call {wall:?}"
     );
-    gpu.project_columns(&s, 0..grid.len(), &mut out, &|| false)
+    gpu.project_columns(&s, 0..grid.len(), &mut out, Stop::NEVER)
         .unwrap();
     assert_eq!(g.device_time(), Some(device), "counted while stopped");
     assert_eq!(g.host_time(), host, "host time counted while stopped");

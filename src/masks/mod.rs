@@ -43,6 +43,7 @@ use crate::limits::{MAX_MASK_BITSET_BYTES, MAX_PING_FEATURES};
 use crate::occupancy::{Layout, Occupancy};
 use crate::projection::{BackendChoice, Device};
 use crate::sampling::Measurement;
+use crate::stream::{Flow, Stop};
 use gpu::{GpuMasks, Job};
 pub use noise::Noise;
 use plan::Plan;
@@ -328,24 +329,29 @@ impl MaskEngine {
     ///
     /// # Errors
     /// As [`MaskEngine::masks`], naming the ping (counted from 1); [`Error::Stopped`] when
-    /// `stop` said so.
+    /// `stop` was set.
     pub fn summaries_of_pings(
         &self,
         pings: &[(RelativePose, Vec<Measurement>)],
         noise: Option<&Noise>,
-        stop: &(dyn Fn() -> bool + Sync),
+        stop: Stop<'_>,
     ) -> Result<Vec<PingSummary>> {
         self.check_bitsets("pings", 0, pings.len(), false)?;
         let mut out = Vec::with_capacity(pings.len());
-        self.summaries_of_pings_each(pings, noise, stop, &mut |s| {
+        let flow = self.summaries_of_pings_each(pings, noise, stop, &mut |s| {
             out.push(s);
-            Ok(())
+            Ok(Flow::Continue(()))
         })?;
+        if flow.is_break() {
+            return Err(Error::Stopped);
+        }
         Ok(out)
     }
 
     /// Gives `each` the summary of each ping of `pings` in order, as soon as it is read back,
-    /// as [`MaskEngine::summaries_of_pings`] computes them.
+    /// as [`MaskEngine::summaries_of_pings`] computes them, until `each` answers `Break` or
+    /// `stop` is set (asked before each group of 64 pings): then returns `Break`
+    /// ([`crate::stream`]).
     ///
     /// # Errors
     /// As [`MaskEngine::summaries_of_pings`], and `each`'s errors (which stop it).
@@ -353,9 +359,9 @@ impl MaskEngine {
         &self,
         pings: &[(RelativePose, Vec<Measurement>)],
         noise: Option<&Noise>,
-        stop: &(dyn Fn() -> bool + Sync),
-        each: &mut dyn FnMut(PingSummary) -> Result<()>,
-    ) -> Result<()> {
+        stop: Stop<'_>,
+        each: &mut dyn FnMut(PingSummary) -> Result<Flow>,
+    ) -> Result<Flow> {
         self.of_pings(
             pings,
             noise,
@@ -377,21 +383,25 @@ impl MaskEngine {
         &self,
         pings: &[(RelativePose, Vec<Measurement>)],
         noise: Option<&Noise>,
-        stop: &(dyn Fn() -> bool + Sync),
+        stop: Stop<'_>,
     ) -> Result<Vec<MaskSet>> {
         let features = pings.iter().map(|(_, f)| f.len()).sum();
         self.check_bitsets("pings", features, pings.len(), false)?;
         let mut out = Vec::with_capacity(pings.len());
-        self.masks_of_pings_each(pings, noise, stop, &mut |set| {
+        let flow = self.masks_of_pings_each(pings, noise, stop, &mut |set| {
             out.push(set);
-            Ok(())
+            Ok(Flow::Continue(()))
         })?;
+        if flow.is_break() {
+            return Err(Error::Stopped);
+        }
         Ok(out)
     }
 
     /// Gives `each` the masks of each ping of `pings` in order, as soon as they are read back,
     /// as [`MaskEngine::masks_of_pings`] computes them, holding no more than one group of 64
-    /// pings' masks at a time.
+    /// pings' masks at a time, until `each` answers `Break` or `stop` is set (asked before each
+    /// group): then returns `Break` ([`crate::stream`]).
     ///
     /// # Errors
     /// As [`MaskEngine::masks_of_pings`], and `each`'s errors (which stop it).
@@ -399,9 +409,9 @@ impl MaskEngine {
         &self,
         pings: &[(RelativePose, Vec<Measurement>)],
         noise: Option<&Noise>,
-        stop: &(dyn Fn() -> bool + Sync),
-        each: &mut dyn FnMut(MaskSet) -> Result<()>,
-    ) -> Result<()> {
+        stop: Stop<'_>,
+        each: &mut dyn FnMut(MaskSet) -> Result<Flow>,
+    ) -> Result<Flow> {
         let layout = &self.view.layout;
         self.of_pings(
             pings,
@@ -434,16 +444,16 @@ impl MaskEngine {
         &self,
         pings: &[(RelativePose, Vec<Measurement>)],
         noise: Option<&Noise>,
-        stop: &(dyn Fn() -> bool + Sync),
+        stop: Stop<'_>,
         masks: bool,
         on_gpu: &dyn Fn(gpu::Drawn, &[Job]) -> T,
         on_cpu: &dyn Fn(&RelativePose, &[Plan]) -> T,
-        emit: &mut dyn FnMut(T) -> Result<()>,
-    ) -> Result<()> {
+        emit: &mut dyn FnMut(T) -> Result<Flow>,
+    ) -> Result<Flow> {
         let noise = noise.map(|n| n.validated()).transpose()?;
         for (g, group) in pings.chunks(64).enumerate() {
-            if stop() {
-                return Err(Error::Stopped);
+            if stop.is_set() {
+                return Ok(Flow::Break(()));
             }
             let mut planned = Vec::with_capacity(group.len());
             for (k, (pose, features)) in group.iter().enumerate() {
@@ -471,28 +481,36 @@ impl MaskEngine {
             let gpu_pings: Vec<usize> = (0..planned.len()).filter(|&k| gpu_takes[k]).collect();
             let mut next = 0;
             let cpu_until =
-                |end: usize, next: &mut usize, emit: &mut dyn FnMut(T) -> Result<()>| -> Result<()> {
+                |end: usize, next: &mut usize, emit: &mut dyn FnMut(T) -> Result<Flow>| -> Result<Flow> {
                     while *next < end {
                         let (pose, plans) = &planned[*next];
-                        emit(on_cpu(pose, plans))?;
                         *next += 1;
+                        if emit(on_cpu(pose, plans))?.is_break() {
+                            return Ok(Flow::Break(()));
+                        }
                     }
-                    Ok(())
+                    Ok(Flow::Continue(()))
                 };
             if let Some(gpu) = self.gpu.as_deref()
                 && !jobs.is_empty()
             {
                 let refs: Vec<&[Job]> = jobs.iter().map(Vec::as_slice).collect();
-                gpu.draw_pings(&self.view.layout, &refs, masks, &mut |j, drawn| {
-                    cpu_until(gpu_pings[j], &mut next, emit)?;
-                    emit(on_gpu(drawn, &jobs[j]))?;
+                let flow = gpu.draw_pings(&self.view.layout, &refs, masks, &mut |j, drawn| {
+                    if cpu_until(gpu_pings[j], &mut next, emit)?.is_break() {
+                        return Ok(Flow::Break(()));
+                    }
                     next += 1;
-                    Ok(())
+                    emit(on_gpu(drawn, &jobs[j]))
                 })?;
+                if flow.is_break() {
+                    return Ok(flow);
+                }
             }
-            cpu_until(planned.len(), &mut next, emit)?;
+            if cpu_until(planned.len(), &mut next, emit)?.is_break() {
+                return Ok(Flow::Break(()));
+            }
         }
-        Ok(())
+        Ok(Flow::Continue(()))
     }
 
     /// Returns the summary of one feature: its reduced mask with the plan's radius and cells.

@@ -1,12 +1,11 @@
 //! One interface over the three backends, so every caller (CLI, Python, tests, benches) can run
 //! any of them, and the one policy that picks where a choice runs.
 
-use std::ops::ControlFlow;
-
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions, context};
 use crate::projection::gpu::{GpuBackend, SplatOptions};
 use crate::projection::{Batch, MetricColumns, PoseSource, PoseSweep, Projection, fast, reference};
+use crate::stream::{Flow, Stop};
 
 /// Which backend a user asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -189,33 +188,24 @@ impl Backend {
     /// # Errors
     /// As [`Batch::prepare`]; [`Error::Gpu`] on device failure.
     pub fn project(&self, batch: &Batch, output: Output) -> Result<Vec<Projection>> {
-        self.project_until(batch, output, &|| false)
+        self.project_until(batch, output, Stop::NEVER)
     }
 
-    /// [`Backend::project`], given up once `stop` returns true: the fast CPU path asks it
+    /// [`Backend::project`], given up once `stop` is set: the fast CPU path asks it
     /// before each pose and each tile of a large sampling, the reference and the GPU before and
     /// after their work.
     ///
     /// # Errors
     /// As [`Backend::project`]; [`Error::Stopped`] when stopped.
-    pub fn project_until(
-        &self,
-        batch: &Batch,
-        output: Output,
-        stop: &(dyn Fn() -> bool + Sync),
-    ) -> Result<Vec<Projection>> {
+    pub fn project_until(&self, batch: &Batch, output: Output, stop: Stop<'_>) -> Result<Vec<Projection>> {
         let prepared = batch.prepare()?;
-        if stop() {
-            return Err(Error::Stopped);
-        }
+        stop.check()?;
         let projected = match self {
             Backend::Cpu => reference::project(&prepared, output),
             Backend::CpuFast => fast::project_until(&prepared, output, stop).ok_or(Error::Stopped)?,
             Backend::Gpu(g) => g.project(&prepared, output)?,
         };
-        if stop() {
-            return Err(Error::Stopped);
-        }
+        stop.check()?;
         Ok(projected)
     }
 }
@@ -235,13 +225,13 @@ impl Backend {
     ///
     /// # Errors
     /// As [`Backend::project`]; [`Error::InvalidValue`] for a range past the sweep's poses;
-    /// [`Error::Stopped`] when `stop` returned true (asked as by [`Backend::project_until`]).
+    /// [`Error::Stopped`] when `stop` was set (asked as by [`Backend::project_until`]).
     pub fn project_columns(
         &self,
         sweep: &PoseSweep<'_>,
         range: std::ops::Range<u64>,
         out: &mut MetricColumns,
-        stop: &(dyn Fn() -> bool + Sync),
+        stop: Stop<'_>,
     ) -> Result<()> {
         let n = sweep.poses.len();
         if range.start > range.end || range.end > n {
@@ -259,11 +249,9 @@ impl Backend {
                 }
                 Backend::Gpu(g) => {
                     let prepared = sweep.prepare_grid(grid)?;
-                    if stop() {
-                        return Err(Error::Stopped);
-                    }
+                    stop.check()?;
                     g.project_grid(&prepared, range, out)?;
-                    return if stop() { Err(Error::Stopped) } else { Ok(()) };
+                    return stop.check();
                 }
                 Backend::Cpu => {}
             }
@@ -285,8 +273,8 @@ impl Backend {
 impl Backend {
     /// Projects poses `blocks` of `sweep` (ranges in increasing order, none empty) block by
     /// block into `out` (its rows replaced by each block's), handing each block's columns to
-    /// `each` as they are done, until `each` returns `Break` (returned): what a sweep does chunk
-    /// after chunk. The columns are [`Backend::project_columns`]'s for the same block; on the
+    /// `each` as they are done, until `each` returns `Break` or `stop` is set (`Break` returned:
+    /// the stream's shape, [`crate::stream`]): what a sweep does chunk after chunk. The columns are [`Backend::project_columns`]'s for the same block; on the
     /// GPU a grid's next block is already on the device while `each` runs, so the device does
     /// not wait for the host between blocks.
     ///
@@ -298,9 +286,9 @@ impl Backend {
         sweep: &PoseSweep<'_>,
         blocks: &[std::ops::Range<u64>],
         out: &mut MetricColumns,
-        stop: &(dyn Fn() -> bool + Sync),
-        each: &mut dyn FnMut(std::ops::Range<u64>, &MetricColumns) -> ControlFlow<()>,
-    ) -> Result<ControlFlow<()>> {
+        stop: Stop<'_>,
+        each: &mut dyn FnMut(std::ops::Range<u64>, &MetricColumns) -> Flow,
+    ) -> Result<Flow> {
         let n = sweep.poses.len();
         let mut end = 0;
         for b in blocks {
@@ -314,30 +302,28 @@ impl Backend {
             end = b.end;
         }
         if blocks.is_empty() {
-            return Ok(ControlFlow::Continue(()));
+            return Ok(Flow::Continue(()));
         }
         if let (Backend::Gpu(g), PoseSource::Grid(grid)) = (self, sweep.poses) {
             let prepared = sweep.prepare_grid(grid)?;
-            if stop() {
-                return Err(Error::Stopped);
+            if stop.is_set() {
+                return Ok(Flow::Break(()));
             }
-            let mut stopped = false;
-            let flow = g.project_grid_blocks(&prepared, blocks, out, &mut |b, columns| {
-                stopped = stop();
-                if stopped {
-                    return ControlFlow::Break(());
-                }
+            return g.project_grid_blocks(&prepared, blocks, out, &mut |b, columns| {
+                stop.flow()?;
                 each(b, columns)
-            })?;
-            return if stopped { Err(Error::Stopped) } else { Ok(flow) };
+            });
         }
         for b in blocks {
-            self.project_columns(sweep, b.clone(), out, stop)?;
+            match self.project_columns(sweep, b.clone(), out, stop) {
+                Err(Error::Stopped) => return Ok(Flow::Break(())),
+                other => other?,
+            }
             if each(b.clone(), out).is_break() {
-                return Ok(ControlFlow::Break(()));
+                return Ok(Flow::Break(()));
             }
         }
-        Ok(ControlFlow::Continue(()))
+        Ok(Flow::Continue(()))
     }
 }
 

@@ -3,6 +3,7 @@
 //! sphere), step sampling 0.1° as the published code.
 
 use sonarproj::Output;
+use sonarproj::stream::Stop;
 use std::time::{Duration, Instant};
 
 use crate::error::{Error, Result};
@@ -294,7 +295,7 @@ pub fn time_sweep(
                 return Ok(());
             }
             // Every block is taken: the flow is always `Continue`.
-            let _ = backend.project_blocks(&sweep, &run, columns, &|| false, &mut |_, c| {
+            let _ = backend.project_blocks(&sweep, &run, columns, Stop::NEVER, &mut |_, c| {
                 samples += c.total.iter().sum::<u64>();
                 std::ops::ControlFlow::Continue(())
             })?;

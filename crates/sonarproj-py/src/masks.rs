@@ -10,6 +10,7 @@ use sonarproj::limits::MAX_MASK_BITSET_BYTES;
 use sonarproj::masks::run_lengths;
 use sonarproj::masks::{Noise, bounding_box};
 use sonarproj::occupancy::Occupancy;
+use sonarproj::stream::{Flow, Stop};
 use sonarproj::{Counts, MaskEngine, Measurement, SonarKind};
 use sonarproj_apps::limits::MAX_DENSE_MASK_BYTES;
 use std::time::Instant;
@@ -673,7 +674,8 @@ impl PyMaskEngine {
         self.check_pings_dense(pings.len(), 0, false, false)?;
         let summaries = crate::runtime::detach_watching(py, |stop| {
             let stopped = || stop.load(std::sync::atomic::Ordering::Relaxed);
-            self.engine.summaries_of_pings(&pings, noise.as_ref(), &stopped)
+            self.engine
+                .summaries_of_pings(&pings, noise.as_ref(), Stop::when(&stopped))
         })?
         .map_err(errors::engine)?;
         summaries.iter().map(|s| self.summary_to_py(py, s)).collect()
@@ -730,9 +732,14 @@ impl PyMaskEngine {
             let stopped = || stop.load(std::sync::atomic::Ordering::Relaxed);
             let layout = self.engine.layout();
             self.engine
-                .masks_of_pings_each(&pings, noise.as_ref(), &stopped, &mut |set| {
+                .masks_of_pings_each(&pings, noise.as_ref(), Stop::when(&stopped), &mut |set| {
                     parts.push(Part::of(&set, layout, dense, false));
-                    Ok(())
+                    Ok(Flow::Continue(()))
+                })
+                // Stopped by Ctrl-C: the masks are not returned in part.
+                .and_then(|flow| match flow {
+                    Flow::Continue(()) => Ok(()),
+                    Flow::Break(()) => Err(sonarproj::Error::Stopped),
                 })
         })?
         .map_err(errors::engine)?;

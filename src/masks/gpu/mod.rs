@@ -26,6 +26,7 @@ use crate::gpu::pipeline::{Binding, Stage};
 use crate::gpu::pool::BufferPool;
 use crate::gpu::{GpuContext, context, read_after};
 use crate::occupancy::{Layout, Occupancy};
+use crate::stream::Flow;
 
 mod source;
 mod tables;
@@ -343,9 +344,10 @@ impl GpuMasks {
     /// [`Error::Gpu`] on device failure.
     pub(crate) fn draw(&self, layout: &Layout, jobs: &[Job], masks: bool) -> Result<Drawn> {
         let mut out = None;
-        self.draw_pings(layout, &[jobs], masks, &mut |_, drawn| {
+        // The sink never breaks: the one ping is always given out.
+        let _ = self.draw_pings(layout, &[jobs], masks, &mut |_, drawn| {
             out = Some(drawn);
-            Ok(())
+            Ok(Flow::Continue(()))
         })?;
         Ok(out.expect("one ping"))
     }
@@ -353,7 +355,7 @@ impl GpuMasks {
     /// Gives `emit` [`GpuMasks::draw`] of each ping of `pings` (its index and drawing), in order,
     /// as soon as the ping is read back, two dispatches in flight: the next ping is planned,
     /// uploaded and submitted while the GPU draws the one before, and read back after it (so
-    /// `emit` runs while the GPU draws the next).
+    /// `emit` runs while the GPU draws the next), until `emit` answers `Break` (returned).
     ///
     /// # Errors
     /// As [`GpuMasks::draw`], and `emit`'s errors (which stop it).
@@ -362,8 +364,8 @@ impl GpuMasks {
         layout: &Layout,
         pings: &[&[Job]],
         masks: bool,
-        emit: &mut dyn FnMut(usize, Drawn) -> Result<()>,
-    ) -> Result<()> {
+        emit: &mut dyn FnMut(usize, Drawn) -> Result<Flow>,
+    ) -> Result<Flow> {
         let mut state = self.state.lock().unwrap_or_else(|poisoned| {
             let mut state = poisoned.into_inner();
             *state = State::default();
@@ -380,12 +382,15 @@ impl GpuMasks {
             left[*p] += 1;
         }
         let mut next = 0;
-        let mut give_out = |out: &mut Vec<Option<Drawn>>, left: &[usize], next: &mut usize| -> Result<()> {
+        let mut give_out = |out: &mut Vec<Option<Drawn>>, left: &[usize], next: &mut usize| -> Result<Flow> {
             while *next < left.len() && left[*next] == 0 {
-                emit(*next, out[*next].take().expect("a ping given out once"))?;
+                let flow = emit(*next, out[*next].take().expect("a ping given out once"))?;
                 *next += 1;
+                if flow.is_break() {
+                    return Ok(flow);
+                }
             }
-            Ok(())
+            Ok(Flow::Continue(()))
         };
         // Reads back dispatch `pending` of ping `q` into its drawing.
         let read_back = |state: &mut State,
@@ -403,8 +408,10 @@ impl GpuMasks {
             Ok(())
         };
         let mut in_flight: std::collections::VecDeque<(usize, Pending)> = std::collections::VecDeque::new();
-        let result = (|| -> Result<()> {
-            give_out(&mut out, &left, &mut next)?;
+        let result = (|| -> Result<Flow> {
+            if give_out(&mut out, &left, &mut next)?.is_break() {
+                return Ok(Flow::Break(()));
+            }
             for (i, (p, r, entries)) in dispatches.into_iter().enumerate() {
                 // The slot this one takes was last used two dispatches ago: read that one first.
                 if in_flight.len() == 2
@@ -415,16 +422,21 @@ impl GpuMasks {
                 // Submitted first, then given out: the GPU draws the next meanwhile.
                 let pending = self.submit(&mut state, i % 2, layout, &pings[p][r], entries, masks)?;
                 in_flight.push_back((p, pending));
-                give_out(&mut out, &left, &mut next)?;
+                if give_out(&mut out, &left, &mut next)?.is_break() {
+                    return Ok(Flow::Break(()));
+                }
             }
             while let Some(oldest) = in_flight.pop_front() {
                 read_back(&mut state, &mut out, &mut left, oldest)?;
-                give_out(&mut out, &left, &mut next)?;
+                if give_out(&mut out, &left, &mut next)?.is_break() {
+                    return Ok(Flow::Break(()));
+                }
             }
-            Ok(())
+            Ok(Flow::Continue(()))
         })();
-        if result.is_err() {
-            // A failed dispatch or readback may leave a staging buffer mapped: start afresh.
+        if !matches!(result, Ok(Flow::Continue(()))) {
+            // A failed dispatch or readback may leave a staging buffer mapped, and a stream
+            // ended early leaves dispatches unread: start afresh.
             *state = State::default();
         }
         result

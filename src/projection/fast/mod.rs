@@ -65,6 +65,7 @@ use crate::projection::columns::{MetricColumns, MetricSlices};
 use crate::projection::poses::{GridTables, PreparedGrid};
 use crate::projection::{Output, PreparedBatch, Projection};
 use crate::sampling::SamplingPlan;
+use crate::stream::Stop;
 use isa::Isa;
 use scratch::Scratch;
 use tables::Directions;
@@ -159,13 +160,13 @@ pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> 
     project_with(prepared, Keep::all(output), Isa::detect())
 }
 
-/// [`project`], given up (`None`) once `stop` returns true: it is asked before each pose and
+/// [`project`], given up (`None`) once `stop` is set: it is asked before each pose and
 /// each tile of a large sampling.
 #[must_use]
 pub fn project_until(
     prepared: &PreparedBatch<'_>,
     output: Output,
-    stop: &(dyn Fn() -> bool + Sync),
+    stop: Stop<'_>,
 ) -> Option<Vec<Projection>> {
     project_tiled_batch(prepared, Keep::all(output), Isa::detect(), TILE_SAMPLES, stop)
 }
@@ -178,7 +179,7 @@ pub(crate) const TILE_SAMPLES: usize = 1 << 20;
 
 /// [`project`], with the lane stage built for `isa` (tests run every build).
 fn project_with(prepared: &PreparedBatch<'_>, keep: Keep, isa: Isa) -> Vec<Projection> {
-    project_tiled_batch(prepared, keep, isa, TILE_SAMPLES, &|| false).expect("never stopped")
+    project_tiled_batch(prepared, keep, isa, TILE_SAMPLES, Stop::NEVER).expect("never stopped")
 }
 
 /// What a projection keeps besides the visible count and the ranges' extremes.
@@ -281,13 +282,13 @@ impl Slots for MetricSlices<'_> {
 const POSE_BLOCK: usize = 256;
 
 /// Returns the metric columns of poses `range` of `grid` (prepared by [`PreparedGrid`]) into
-/// `out`, its rows replaced (its memory kept), on all cores; `None` once `stop` returns true
+/// `out`, its rows replaced (its memory kept), on all cores; `None` once `stop` is set
 /// (asked before each pose and each tile of a large sampling).
 pub(crate) fn project_grid(
     prepared: &PreparedGrid<'_>,
     range: std::ops::Range<u64>,
     out: &mut MetricColumns,
-    stop: &(dyn Fn() -> bool + Sync),
+    stop: Stop<'_>,
 ) -> Option<()> {
     let count = usize::try_from(range.end - range.start).expect("a block of poses in memory");
     let poses = GridPoses {
@@ -356,13 +357,13 @@ fn reduced(
 }
 
 /// [`project_with`] with tiles of `tile` samples (tests make them small), given up (`None`)
-/// once `stop` returns true.
+/// once `stop` is set.
 fn project_tiled_batch(
     prepared: &PreparedBatch<'_>,
     keep: Keep,
     isa: Isa,
     tile: usize,
-    stop: &(dyn Fn() -> bool + Sync),
+    stop: Stop<'_>,
 ) -> Option<Vec<Projection>> {
     let mut out: Vec<Option<Projection>> = vec![None; prepared.count()];
     let blocks: Vec<&mut [Option<Projection>]> = out.chunks_mut(POSE_BLOCK).collect();
@@ -384,7 +385,7 @@ fn project_tiled_batch(
 
 /// Draws every pose of `poses` into `blocks` (consecutive blocks of [`POSE_BLOCK`] poses),
 /// each on one thread, and returns the projections of the poses whose plan has more than
-/// `tile` samples, drawn tile by tile; `None` once `stop` returns true.
+/// `tile` samples, drawn tile by tile; `None` once `stop` is set.
 #[expect(clippy::too_many_arguments, reason = "the parts of one projection, named")]
 fn project_tiled<T: PoseTable, S: Slots>(
     poses: &T,
@@ -394,11 +395,11 @@ fn project_tiled<T: PoseTable, S: Slots>(
     keep: Keep,
     isa: Isa,
     tile: usize,
-    stop: &(dyn Fn() -> bool + Sync),
+    stop: Stop<'_>,
 ) -> Option<Vec<(usize, Projection)>> {
     let stopped = std::sync::atomic::AtomicBool::new(false);
     let halt = || {
-        let now = stopped.load(std::sync::atomic::Ordering::Relaxed) || stop();
+        let now = stopped.load(std::sync::atomic::Ordering::Relaxed) || stop.is_set();
         if now {
             stopped.store(true, std::sync::atomic::Ordering::Relaxed);
         }

@@ -1,6 +1,7 @@
 //! The fast path against the plain sample-by-sample loop: bit for bit, in every build the
 //! processor runs, with runs and culling; the polynomial `atan2` within its bound.
 
+use crate::stream::Stop;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -407,10 +408,10 @@ fn tiles_change_no_result() {
                 occupancy,
                 azimuths: true,
             };
-            let whole = project_tiled_batch(&prepared, keep, Isa::Baseline, usize::MAX, &|| false).unwrap();
+            let whole = project_tiled_batch(&prepared, keep, Isa::Baseline, usize::MAX, Stop::NEVER).unwrap();
             for tile in [LANES, 997, 4096, largest - 1] {
                 for isa in Isa::available() {
-                    let tiled = project_tiled_batch(&prepared, keep, isa, tile, &|| false).unwrap();
+                    let tiled = project_tiled_batch(&prepared, keep, isa, tile, Stop::NEVER).unwrap();
                     assert_eq!(
                         tiled, whole,
                         "{a} -> {b}: tile {tile}, {isa:?}, occupancy {occupancy}"
@@ -421,7 +422,7 @@ fn tiles_change_no_result() {
                         azimuths: false,
                         ..keep
                     };
-                    let lean = project_tiled_batch(&prepared, lean, isa, tile, &|| false).unwrap();
+                    let lean = project_tiled_batch(&prepared, lean, isa, tile, Stop::NEVER).unwrap();
                     for (l, w) in lean.iter().zip(&whole) {
                         let seen = l.metrics.visible > 0;
                         assert_eq!(l.metrics.azimuth_min, seen.then_some(f64::INFINITY), "{a} -> {b}");

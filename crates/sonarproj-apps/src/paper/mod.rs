@@ -16,6 +16,7 @@ use sonarproj::metrics::{Metric, Metrics};
 use sonarproj::projection::Backend;
 use sonarproj::projection::{Batch, BatchItem, Projection};
 use sonarproj::sampling::{Measurement, Sampling};
+use sonarproj::stream::Stop;
 
 /// The distance fractions of scenarios 1–6.
 pub const FRACTIONS: [f64; 9] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9];
@@ -352,7 +353,7 @@ fn project_grids(
             area_grid: sonarproj::PAPER_AREA_GRID,
             poses: sonarproj::PoseSource::Grid(&grid),
         };
-        backend.project_columns(&sweep, 0..grid.len(), &mut columns, &|| false)?;
+        backend.project_columns(&sweep, 0..grid.len(), &mut columns, Stop::NEVER)?;
         sweep.local_precision_columns(0..grid.len(), sigma, &mut rpe, &mut sig)?;
         // A pose's place in the grid (scenario 9 sweeps yaw outside roll, the grid roll first).
         for p in run {

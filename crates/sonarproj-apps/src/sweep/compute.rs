@@ -3,6 +3,7 @@
 //! ([`Backend::project_columns`]: no item, no per-pose result object); a list's items are
 //! projected as a batch.
 
+use sonarproj::stream::Stop;
 use std::ops::Range;
 
 use sonarproj::Output;
@@ -92,7 +93,7 @@ impl<'a> Work<'a> {
         r: Range<u64>,
         rows: bool,
         metrics: &mut MetricColumns,
-        stop: &(dyn Fn() -> bool + Sync),
+        stop: Stop<'_>,
     ) -> Result<Option<Table>> {
         let config = self.config;
         let Some(grid) = &self.grid else {

@@ -3,6 +3,7 @@
 //! into a directory ([`super::run`]) and the run in memory ([`super::in_memory`]) make one, and
 //! compute its chunks with [`Plan::compute`].
 
+use sonarproj::stream::Stop;
 use std::ops::{ControlFlow, Range};
 
 use sonarproj::MetricColumns;
@@ -211,7 +212,7 @@ impl<'a> Plan<'a> {
         let Some(sweep) = work.sweep() else {
             for chunk in todo {
                 let poses = self.chunk(chunk);
-                let table = work.block(backend, poses.clone(), rows, metrics, &|| false)?;
+                let table = work.block(backend, poses.clone(), rows, metrics, Stop::NEVER)?;
                 let values = values_of(metrics);
                 let computed = Computed {
                     chunk,
@@ -228,7 +229,7 @@ impl<'a> Plan<'a> {
         let blocks: Vec<Range<u64>> = todo.clone().map(|c| self.chunk(c)).collect();
         let mut chunk = todo.start;
         let mut failed = None;
-        let flow = backend.project_blocks(&sweep, &blocks, metrics, &|| false, &mut |poses, metrics| {
+        let flow = backend.project_blocks(&sweep, &blocks, metrics, Stop::NEVER, &mut |poses, metrics| {
             let this = chunk;
             chunk += 1;
             let step = || -> Result<ControlFlow<()>> {

@@ -7,6 +7,7 @@
 pub mod advise;
 pub mod copy_as;
 
+use sonarproj::stream::Stop;
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, PoisonError};
@@ -349,18 +350,18 @@ impl Viewer {
     /// out of range, a second measurement outside sonar 2's view), each naming the field; and
     /// the backend's failures.
     pub fn scene(&self, scene: &Scene) -> Result<Value> {
-        self.scene_until(scene, &|| false)
+        self.scene_until(scene, Stop::NEVER)
     }
 
-    /// [`Viewer::scene`], given up once `stop` says so: between its stages (projection, mask,
+    /// [`Viewer::scene`], given up once `stop` is set: between its stages (projection, mask,
     /// recovery) and inside the projection as [`Backend::project_until`] does: the server's way
     /// to drop the work of a client that went away.
     ///
     /// # Errors
     /// As [`Viewer::scene`]; [`sonarproj::Error::Stopped`] when stopped.
-    pub fn scene_until(&self, scene: &Scene, stop: &(dyn Fn() -> bool + Sync)) -> Result<Value> {
+    pub fn scene_until(&self, scene: &Scene, stop: Stop<'_>) -> Result<Value> {
         let check = || {
-            if stop() {
+            if stop.is_set() {
                 Err(Error::from(sonarproj::Error::Stopped))
             } else {
                 Ok(())

@@ -1,6 +1,7 @@
 //! `sonarproj bench`: the same batches on every backend, samples and poses per second.
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use sonarproj::stream::Stop;
 use sonarproj_apps::bench::{self, STANDARD, Timing};
 use std::time::Instant;
 
@@ -374,7 +375,7 @@ fn masks(runs: u32) -> Result<()> {
                         match output {
                             "masks" => drop(engine.masks(&pose, &features, None, Counts::Skip)?),
                             "summary" => drop(engine.summary(&pose, &features, None)?),
-                            _ => drop(engine.summaries_of_pings(&pings, None, &|| false)?),
+                            _ => drop(engine.summaries_of_pings(&pings, None, Stop::NEVER)?),
                         }
                         Ok(())
                     };

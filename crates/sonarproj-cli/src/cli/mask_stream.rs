@@ -4,6 +4,7 @@
 //! as it is read back. A ping that arrives alone is drawn alone at once: none is held back to
 //! wait for another.
 
+use sonarproj::stream::{Flow, Stop};
 use std::io::Write;
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, sync_channel};
 use std::time::Instant;
@@ -190,23 +191,27 @@ fn draw(engine: &MaskEngine, runs: bool, batch: &[Ping], out: &mut Replies<'_>) 
         let mut last = Instant::now();
         let mut written: Result<()> = Ok(());
         let mut reply =
-            |per_feature: &dyn Fn(&Ping) -> Vec<Value>, union: &Occupancy| -> sonarproj::Result<()> {
+            |per_feature: &dyn Fn(&Ping) -> Vec<Value>, union: &Occupancy| -> sonarproj::Result<Flow> {
                 let p = &batch[done];
                 written = out.answer(p.line, per_feature(p), union, last.elapsed());
                 last = Instant::now();
                 done += 1;
                 // A reply that cannot be written stops the drawing; its error is returned below.
-                written.as_ref().map_err(|_| sonarproj::Error::Stopped).copied()
+                Ok(if written.is_ok() {
+                    Flow::Continue(())
+                } else {
+                    Flow::Break(())
+                })
             };
         let drawn = if runs {
-            engine.masks_of_pings_each(&pings, noise, &|| false, &mut |set| {
+            engine.masks_of_pings_each(&pings, noise, Stop::NEVER, &mut |set| {
                 reply(
                     &|p: &Ping| features_json(engine, &p.features, &set, true),
                     &set.union,
                 )
             })
         } else {
-            engine.summaries_of_pings_each(&pings, noise, &|| false, &mut |s| {
+            engine.summaries_of_pings_each(&pings, noise, Stop::NEVER, &mut |s| {
                 reply(&|p: &Ping| summary_json(engine, &p.features, &s), &s.union)
             })
         };

@@ -17,6 +17,7 @@
 //! until its work ends; a client that goes away has its work given up at the next stage (on the
 //! fast CPU path, at the next pose or tile of samples). Every error reply is a short JSON object.
 
+use sonarproj::stream::Stop;
 use std::net::{IpAddr, SocketAddr};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -416,7 +417,8 @@ async fn scene(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Ful
         Err(e) => return error_reply(StatusCode::BAD_REQUEST, &e.to_string(), true),
     };
     compute(shared, move |viewer, gone| {
-        viewer.scene_until(&scene, &|| gone.load(Ordering::Relaxed))
+        let gone = || gone.load(Ordering::Relaxed);
+        viewer.scene_until(&scene, Stop::when(&gone))
     })
     .await
 }
