@@ -16,7 +16,7 @@ pub enum Error {
     #[error("{field} = {value} is invalid: {allowed}")]
     InvalidValue {
         /// Which field, with enough context to find it (e.g. `sonar "rig.toml": range_max`).
-        field: String,
+        field: Field,
         /// The value as given.
         value: String,
         /// What is allowed instead.
@@ -26,7 +26,7 @@ pub enum Error {
     #[error("{field}: {message}")]
     Input {
         /// Which input, with enough context to find it.
-        field: String,
+        field: Field,
         /// What is wrong and what to give instead.
         message: String,
     },
@@ -94,10 +94,10 @@ impl Error {
         )
     }
 
-    /// Returns an [`Error::InvalidValue`] for `field`, `value` and the `allowed` text; a long
-    /// value is quoted as an [`excerpt`].
+    /// Returns an [`Error::InvalidValue`] for `field` (its name, or a front's [`Param`]),
+    /// `value` and the `allowed` text; a long value is quoted as an [`excerpt`].
     pub fn invalid(
-        field: impl Into<String>,
+        field: impl Into<Field>,
         value: impl std::fmt::Display,
         allowed: impl Into<String>,
     ) -> Self {
@@ -110,7 +110,7 @@ impl Error {
 
     /// Returns an [`Error::Input`]: `field` is missing or given with one it excludes, as
     /// `message` says.
-    pub fn input(field: impl Into<String>, message: impl Into<String>) -> Self {
+    pub fn input(field: impl Into<Field>, message: impl Into<String>) -> Self {
         Error::Input {
             field: field.into(),
             message: message.into(),
@@ -134,25 +134,165 @@ impl Error {
         }
     }
 
-    /// Returns the same error with `prefix: ` put in front of the field name (for nesting context).
+    /// Returns the same error with `prefix: ` put in front of the field name (for nesting
+    /// context); the prefix is words or a front's [`Param`].
     #[must_use]
-    pub fn in_context(self, prefix: &str) -> Self {
+    pub fn in_context(self, prefix: impl Into<Field>) -> Self {
         match self {
             Error::InvalidValue {
                 field,
                 value,
                 allowed,
             } => Error::InvalidValue {
-                field: format!("{prefix}: {field}"),
+                field: field.in_context(prefix),
                 value,
                 allowed,
             },
             Error::Input { field, message } => Error::Input {
-                field: format!("{prefix}: {field}"),
+                field: field.in_context(prefix),
                 message,
             },
             other => other,
         }
+    }
+
+    /// Returns the message with each front's input named by `name` (a flag, an environment
+    /// variable, a Python keyword) where the error names a [`Param`]; `Display` writes the
+    /// params' neutral names.
+    #[must_use]
+    pub fn render(&self, name: &dyn Fn(Param) -> String) -> String {
+        match self {
+            Error::InvalidValue {
+                field,
+                value,
+                allowed,
+            } => format!("{} = {value} is invalid: {allowed}", field.render(name)),
+            Error::Input { field, message } => format!("{}: {message}", field.render(name)),
+            other => other.to_string(),
+        }
+    }
+
+    /// Returns the front's input this error is about, if it names one.
+    #[must_use]
+    pub fn param(&self) -> Option<Param> {
+        match self {
+            Error::InvalidValue { field, .. } | Error::Input { field, .. } => field.first_param(),
+            _ => None,
+        }
+    }
+}
+
+/// Names an input that each front gives under a name of its own: a flag or an environment
+/// variable on the command line, a keyword in Python. The engine and the applications name it by
+/// this neutral key; each front renders it ([`Error::render`]), and `Display` writes its neutral
+/// name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Param(&'static str);
+
+impl Param {
+    /// Returns the param of neutral name `name`.
+    #[must_use]
+    pub const fn new(name: &'static str) -> Self {
+        Param(name)
+    }
+
+    /// Returns the neutral name.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        self.0
+    }
+}
+
+/// What an error is about: a field by its name (`sonar "rig.toml": range_max`), a front's input
+/// by its [`Param`] (with words after it: `chunk_poses (the default)`), or either under the
+/// context it was met in (`--feature 2: feature azimuth`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Field(Vec<Part>);
+
+/// A piece of a [`Field`]: words, or a front's input.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Part {
+    Text(String),
+    Param(Param),
+}
+
+impl Field {
+    /// Returns the field of `param`, followed by `text` (empty, or words such as
+    /// ` (the default)`).
+    #[must_use]
+    pub fn param(param: Param, text: impl Into<String>) -> Self {
+        let text = text.into();
+        let mut parts = vec![Part::Param(param)];
+        if !text.is_empty() {
+            parts.push(Part::Text(text));
+        }
+        Field(parts)
+    }
+
+    /// Returns whether the field is the name `name` alone (no param, no context).
+    #[must_use]
+    pub fn is(&self, name: &str) -> bool {
+        matches!(self.0.as_slice(), [Part::Text(t)] if t == name)
+    }
+
+    /// Returns the first front's input the field names, if any.
+    #[must_use]
+    pub fn first_param(&self) -> Option<Param> {
+        self.0.iter().find_map(|p| match p {
+            Part::Param(p) => Some(*p),
+            Part::Text(_) => None,
+        })
+    }
+
+    /// Returns the field with `name` rendering its params.
+    #[must_use]
+    pub fn render(&self, name: &dyn Fn(Param) -> String) -> String {
+        self.0
+            .iter()
+            .map(|p| match p {
+                Part::Text(t) => t.clone(),
+                Part::Param(p) => name(*p),
+            })
+            .collect()
+    }
+
+    /// Returns the field under `prefix: `.
+    #[must_use]
+    pub fn in_context(self, prefix: impl Into<Field>) -> Self {
+        let mut parts = prefix.into().0;
+        parts.push(Part::Text(": ".into()));
+        parts.extend(self.0);
+        Field(parts)
+    }
+}
+
+impl std::fmt::Display for Field {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.render(&|p| p.name().to_string()))
+    }
+}
+
+impl From<String> for Field {
+    fn from(text: String) -> Self {
+        Field(vec![Part::Text(text)])
+    }
+}
+
+impl From<&str> for Field {
+    fn from(text: &str) -> Self {
+        Field::from(text.to_string())
+    }
+}
+
+impl From<&String> for Field {
+    fn from(text: &String) -> Self {
+        Field::from(text.clone())
+    }
+}
+
+impl From<Param> for Field {
+    fn from(param: Param) -> Self {
+        Field::param(param, "")
     }
 }
 
@@ -217,5 +357,36 @@ pub fn finite_named(field: impl FnOnce() -> String, v: f64) -> Result<f64> {
         Ok(v)
     } else {
         Err(Error::invalid(field(), v, "must be a finite number"))
+    }
+}
+
+#[cfg(test)]
+mod param_tests {
+    use super::*;
+
+    /// An error about a front's input keeps it as a value: `Display` writes its neutral name,
+    /// each front its own, in the field and in any context around it.
+    #[test]
+    fn a_param_is_named_by_each_front_its_own_way() {
+        const OUT: Param = Param::new("out");
+        let flag = |p: Param| format!("--{}", p.name());
+        let e = Error::invalid(Field::param(OUT, " (the default)"), 3, "must be >= 4").in_context("sweep");
+        assert_eq!(e.param(), Some(OUT));
+        assert_eq!(
+            e.to_string(),
+            "sweep: out (the default) = 3 is invalid: must be >= 4"
+        );
+        assert_eq!(
+            e.render(&flag),
+            "sweep: --out (the default) = 3 is invalid: must be >= 4"
+        );
+        let inner = Error::input("azimuth", "missing").in_context(OUT);
+        assert_eq!(inner.render(&flag), "--out: azimuth: missing");
+        assert_eq!(inner.to_string(), "out: azimuth: missing");
+        assert!(Field::from("tx").is("tx") && !Field::from(OUT).is("out"));
+        // Errors without a param read the same whichever front renders them.
+        let plain = Error::invalid("range_max", 1, "must be > 2");
+        assert_eq!(plain.render(&flag), plain.to_string());
+        assert_eq!(plain.param(), None);
     }
 }

@@ -204,7 +204,7 @@ impl Sonar {
             beams,
         }
         .validated()
-        .map_err(|e| e.in_context(&format!("HoloOcean {sensor_type}")))
+        .map_err(|e| e.in_context(format!("HoloOcean {sensor_type}")))
     }
 }
 

@@ -152,7 +152,7 @@ impl GpuContext {
                     None => {
                         let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
                         return Err(Error::invalid(
-                            "GPU adapter",
+                            crate::gpu::options::ADAPTER,
                             excerpt(wanted),
                             if names.is_empty() {
                                 "the name of an adapter, but wgpu sees none".to_string()
@@ -197,7 +197,7 @@ impl GpuContext {
             Some(Precision::F64) if has_f64 => Precision::F64,
             Some(Precision::F64) => {
                 return Err(Error::invalid(
-                    "GPU precision",
+                    crate::gpu::options::PRECISION,
                     "f64",
                     format!("double-f32: {} has no f64 in shaders", adapter.get_info().name),
                 ));

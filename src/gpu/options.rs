@@ -2,8 +2,15 @@
 //! command line from its environment variables, Python from keyword arguments, a Rust caller by
 //! hand. The engine itself reads no environment variable.
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Param, Result};
 use crate::gpu::precision::Precision;
+
+/// The GPU adapter option ([`GpuOptions::adapter`]) as errors name it.
+pub const ADAPTER: Param = Param::new("GPU adapter");
+/// The GPU precision option ([`GpuOptions::precision`]) as errors name it.
+pub const PRECISION: Param = Param::new("GPU precision");
+/// The splat stage's workgroup option ([`GpuOptions::workgroup`]) as errors name it.
+pub const WORKGROUP: Param = Param::new("GPU workgroup");
 
 /// The splat stage's workgroup sizes [`GpuOptions::workgroup`] may take: multiples of the culling
 /// block (16 samples) that every adapter runs (at least 256 threads a workgroup).
@@ -56,7 +63,7 @@ pub fn check_workgroup(workgroup: u32) -> Result<()> {
         Ok(())
     } else {
         Err(Error::invalid(
-            "GPU workgroup",
+            WORKGROUP,
             workgroup,
             format!("{} threads", workgroups_text()),
         ))
@@ -75,7 +82,7 @@ impl GpuOptions {
         }
         if self.adapter.as_deref().is_some_and(|a| a.trim().is_empty()) {
             return Err(Error::invalid(
-                "GPU adapter",
+                ADAPTER,
                 "\"\"",
                 "part of an adapter's name (`sonarproj devices` lists them)",
             ));

@@ -41,7 +41,7 @@ use crate::gpu::{GpuContext, GpuOptions};
 pub use crate::limits::MAX_CELLS;
 use crate::limits::{MAX_MASK_BITSET_BYTES, MAX_PING_FEATURES};
 use crate::occupancy::{Layout, Occupancy};
-use crate::projection::{BackendChoice, Device};
+use crate::projection::{BackendChoice, Device, Notice};
 use crate::sampling::Measurement;
 use crate::stream::{Flow, Stop};
 use gpu::{GpuMasks, Job};
@@ -191,7 +191,7 @@ impl MaskEngine {
         choice: BackendChoice,
         counts: Counts,
         gpu: &GpuOptions,
-    ) -> Result<(MaskEngine, Option<String>)> {
+    ) -> Result<(MaskEngine, Option<Notice>)> {
         if counts == Counts::Draw && choice == BackendChoice::Auto {
             return Ok((MaskEngine::new(source, target)?, None));
         }
@@ -207,7 +207,7 @@ impl MaskEngine {
                 }
                 // A field of view the GPU engine does not take (180° or wider).
                 Err(e) => {
-                    let notice = format!("note: {e}; drawing masks on the CPU");
+                    let notice = Notice::MasksOnCpu(std::sync::Arc::new(e));
                     Ok((MaskEngine::new(source, target)?, Some(notice)))
                 }
             },
@@ -457,7 +457,7 @@ impl MaskEngine {
             }
             let mut planned = Vec::with_capacity(group.len());
             for (k, (pose, features)) in group.iter().enumerate() {
-                let ping = |e: Error| e.in_context(&format!("ping {}", 64 * g + k + 1));
+                let ping = |e: Error| e.in_context(format!("ping {}", 64 * g + k + 1));
                 pose.validate().map_err(ping)?;
                 if masks {
                     self.check_bitsets("features", features.len(), 1, false)
@@ -586,7 +586,7 @@ impl MaskEngine {
             .enumerate()
             .map(|(k, m)| {
                 plan::plan(&self.source, &self.view.layout, m, noise)
-                    .map_err(|e| e.in_context(&format!("feature {}", k + 1)))
+                    .map_err(|e| e.in_context(format!("feature {}", k + 1)))
             })
             .collect()
     }
@@ -647,7 +647,7 @@ impl MaskEngine {
     pub fn masks_of_scenes(&self, scenes: &[(RelativePose, Measurement)]) -> Result<Vec<Mask>> {
         for (k, (pose, _)) in scenes.iter().enumerate() {
             pose.validate()
-                .map_err(|e| e.in_context(&format!("scene {}", k + 1)))?;
+                .map_err(|e| e.in_context(format!("scene {}", k + 1)))?;
         }
         if let Some(gpu) = &self.gpu {
             let jobs = scenes

@@ -1,7 +1,7 @@
 //! One interface over the three backends, so every caller (CLI, Python, tests, benches) can run
 //! any of them, and the one policy that picks where a choice runs.
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Param, Result};
 use crate::gpu::{GpuContext, GpuOptions, context};
 use crate::projection::gpu::{GpuBackend, SplatOptions};
 use crate::projection::{Batch, MetricColumns, PoseSource, PoseSweep, Projection, fast, reference};
@@ -27,7 +27,7 @@ pub enum BackendChoice {
 #[derive(Debug)]
 pub enum Device {
     /// The CPU; the notice when `auto` found no usable GPU.
-    Cpu(Option<String>),
+    Cpu(Option<Notice>),
     /// A GPU device.
     Gpu(Box<GpuContext>),
 }
@@ -48,24 +48,54 @@ impl BackendChoice {
             BackendChoice::Gpu => Ok(Device::Gpu(Box::new(GpuContext::open(gpu)?))),
             BackendChoice::Auto => {
                 gpu.validate()?;
-                let cpu = |why: String| Ok(Device::Cpu(Some(format!("note: {why}"))));
+                let cpu = |why: Notice| Ok(Device::Cpu(Some(why)));
                 match GpuContext::open(gpu) {
-                    Ok(ctx) if ctx.is_software() => cpu(format!(
-                        "the only GPU adapter is a software one ({}), slower than the CPU path; \
-                         running on the CPU (all cores; choosing the GPU backend uses the adapter \
-                         anyway)",
-                        ctx.info().name
-                    )),
+                    Ok(ctx) if ctx.is_software() => cpu(Notice::SoftwareAdapter(ctx.info().name.clone())),
                     Ok(ctx) => Ok(Device::Gpu(Box::new(ctx))),
-                    Err(Error::NoAdapter { .. }) => cpu(
-                        "no GPU adapter found, running on the CPU (all cores; for the GPU path \
-                         install a Vulkan driver)"
-                            .into(),
-                    ),
-                    Err(e) => cpu(format!("{e}; running on the CPU (all cores)")),
+                    Err(Error::NoAdapter { .. }) => cpu(Notice::NoAdapter),
+                    Err(e) => cpu(Notice::GpuUnavailable(std::sync::Arc::new(e))),
                 }
             }
         }
+    }
+}
+
+/// Why a choice runs on the CPU although `auto` looked for a GPU: a value each front says in one
+/// line its own way ([`Notice::render`]; `Display` names the GPU options neutrally).
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub enum Notice {
+    /// The only GPU adapter is a software one (its name), slower than the CPU path.
+    SoftwareAdapter(String),
+    /// wgpu found no adapter.
+    NoAdapter,
+    /// The GPU could not be had (an adapter name that matches none, a device that failed).
+    GpuUnavailable(std::sync::Arc<Error>),
+    /// The GPU mask engine does not take this sonar pair (a field of view of 180° or wider).
+    MasksOnCpu(std::sync::Arc<Error>),
+}
+
+impl Notice {
+    /// Returns the notice's line, `note: …`, with each GPU option named by `name`.
+    #[must_use]
+    pub fn render(&self, name: &dyn Fn(Param) -> String) -> String {
+        match self {
+            Notice::SoftwareAdapter(adapter) => format!(
+                "note: the only GPU adapter is a software one ({adapter}), slower than the CPU path; \
+                 running on the CPU (all cores; choosing the GPU backend uses the adapter anyway)"
+            ),
+            Notice::NoAdapter => "note: no GPU adapter found, running on the CPU (all cores; for the GPU \
+                                  path install a Vulkan driver)"
+                .to_string(),
+            Notice::GpuUnavailable(e) => format!("note: {}; running on the CPU (all cores)", e.render(name)),
+            Notice::MasksOnCpu(e) => format!("note: {}; drawing masks on the CPU", e.render(name)),
+        }
+    }
+}
+
+impl std::fmt::Display for Notice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.render(&|p| p.name().to_string()))
     }
 }
 
@@ -95,7 +125,7 @@ impl Backend {
     ///
     /// # Errors
     /// As [`BackendChoice::device`]; [`Error::Gpu`] when the device refuses a stage.
-    pub fn select(choice: BackendChoice, gpu: &GpuOptions) -> Result<(Backend, Option<String>)> {
+    pub fn select(choice: BackendChoice, gpu: &GpuOptions) -> Result<(Backend, Option<Notice>)> {
         let backend = match choice.device(gpu)? {
             Device::Gpu(ctx) => {
                 let variant = SplatOptions::for_adapter(&ctx, gpu);

@@ -224,7 +224,7 @@ impl Batch {
             // An invalid item is named; a plan too large is the sampling's fault, not the item's.
             checker
                 .validate(item)
-                .map_err(|e| e.in_context(&format!("item {k}")))?;
+                .map_err(|e| e.in_context(format!("item {k}")))?;
             checker.counts(item)
         };
         // The first failing item (in order) is named, as a check item by item would find.

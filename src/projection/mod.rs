@@ -26,7 +26,7 @@ pub mod poses;
 #[doc(hidden)]
 pub mod reference;
 
-pub use backend::{Backend, BackendChoice, Device, Output, cpu_device};
+pub use backend::{Backend, BackendChoice, Device, Notice, Output, cpu_device};
 #[doc(hidden)]
 pub use batch::PreparedBatch;
 pub use batch::{Batch, BatchItem, ItemChecker, Projection};

@@ -188,7 +188,7 @@ impl PoseGrid {
                 p[k] = v;
                 source
                     .check_point("feature", p[0], p[1], p[2])
-                    .map_err(|e| e.in_context(&format!("grid axis {}", self.names()[k])))?;
+                    .map_err(|e| e.in_context(format!("grid axis {}", self.names()[k])))?;
             }
         }
         Ok(())

@@ -1,6 +1,7 @@
 //! The applications' error type: the engine's errors, plus what reading and writing files can
 //! go wrong with (sweep files, CSV tables, output files, figures).
 
+use sonarproj::error::{Field, Param};
 use std::path::PathBuf;
 
 /// Returns the applications' result type, with [`Error`] as the error.
@@ -90,7 +91,7 @@ impl Error {
     /// Returns the engine's [`sonarproj::Error::InvalidValue`] for `field`, `value` and the
     /// `allowed` text.
     pub fn invalid(
-        field: impl Into<String>,
+        field: impl Into<Field>,
         value: impl std::fmt::Display,
         allowed: impl Into<String>,
     ) -> Self {
@@ -107,16 +108,27 @@ impl Error {
 
     /// Returns the engine's [`sonarproj::Error::Input`]: `field` is missing or given with one it
     /// excludes, as `message` says.
-    pub fn input(field: impl Into<String>, message: impl Into<String>) -> Self {
+    pub fn input(field: impl Into<Field>, message: impl Into<String>) -> Self {
         Error::Engine(sonarproj::Error::input(field, message))
     }
 
-    /// Returns the same error with `prefix: ` put in front of the field name of an invalid value.
+    /// Returns the same error with `prefix: ` put in front of the field name of an invalid value
+    /// (words, or a front's [`Param`]).
     #[must_use]
-    pub fn in_context(self, prefix: &str) -> Self {
+    pub fn in_context(self, prefix: impl Into<Field>) -> Self {
         match self {
             Error::Engine(e) => Error::Engine(e.in_context(prefix)),
             other => other,
+        }
+    }
+
+    /// Returns the message with each front's input named by `name` ([`sonarproj::Error::render`]):
+    /// how the command line and Python say the same error in their own words.
+    #[must_use]
+    pub fn render(&self, name: &dyn Fn(Param) -> String) -> String {
+        match self {
+            Error::Engine(e) => e.render(name),
+            other => other.to_string(),
         }
     }
 }
@@ -125,6 +137,10 @@ impl Error {
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] for NaN and infinities.
-pub fn finite(field: &str, v: f64) -> Result<f64> {
-    Ok(sonarproj::error::finite(field, v)?)
+pub fn finite(field: impl Into<Field>, v: f64) -> Result<f64> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(Error::invalid(field, v, "must be a finite number"))
+    }
 }

@@ -11,6 +11,7 @@ pub mod gpu_env;
 pub mod io;
 pub mod limits;
 pub mod paper;
+pub mod params;
 pub mod report;
 pub mod sweep;
 pub mod view;

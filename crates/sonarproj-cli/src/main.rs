@@ -20,7 +20,7 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {}", e.render(&cli::name));
             if let sonarproj_apps::Error::Engine(sonarproj::Error::NoAdapter { .. }) = e {
                 eprintln!("hint: --backend cpu-fast runs on the CPU, without a GPU");
             }

@@ -13,7 +13,7 @@ use crate::{backend, errors};
 
 /// Returns the error of an advise call, with the command line's flags renamed.
 fn error(e: sonarproj_apps::Error) -> PyErr {
-    errors::apps_renamed(e, &[("--out", "out_dir"), ("--config", "config")])
+    errors::apps(e)
 }
 
 /// Returns `value` as a Python object through JSON (parsed by Python's json module).
@@ -36,7 +36,7 @@ pub(crate) fn advise_run<'py>(
 ) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
     let config = AdviseConfig::load(&config).map_err(error)?;
     if let Some(dir) = &out_dir {
-        sonarproj_apps::report::check_output_dir(dir, "--out").map_err(error)?;
+        sonarproj_apps::report::check_output_dir(dir, sonarproj_apps::params::OUT).map_err(error)?;
     }
     let (backend, notice) = backend::get(backend_name)?;
     let start = Instant::now();

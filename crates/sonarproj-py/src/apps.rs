@@ -14,20 +14,9 @@ use sonarproj_apps::sweep::{self, Event, Options, Shard, SweepConfig};
 
 use crate::{backend, errors};
 
-/// The command line's flags named in the applications' messages, and the Python parameters
-/// that stand for them.
-const FLAGS: [(&str, &str); 6] = [
-    ("--out", "out_dir"),
-    ("--format", "format"),
-    ("--chunk-poses", "chunk_poses"),
-    ("--max-chunks", "max_chunks"),
-    ("--shard", "shard"),
-    ("--config", "config"),
-];
-
-/// Returns the error of an applications call, with the command line's flags renamed.
+/// Returns the error of an applications call, in Python's words.
 fn error(e: sonarproj_apps::Error) -> PyErr {
-    errors::apps_renamed(e, &FLAGS)
+    errors::apps(e)
 }
 
 /// Answers a sweep's `event`: stop once the calling thread saw Ctrl-C (`stop`) or `progress`
@@ -146,9 +135,7 @@ pub(crate) fn sweep_memory<'py>(
     if let Some(e) = raised {
         return Err(e);
     }
-    let Some(result) = result
-        .map_err(|e| errors::apps_renamed(e, &[("--out", "out_dir"), ("--chunk-poses", "chunk_poses")]))?
-    else {
+    let Some(result) = result.map_err(errors::apps)? else {
         return Err(pyo3::exceptions::PyKeyboardInterrupt::new_err("sweep stopped"));
     };
     let d = PyDict::new(py);
@@ -198,7 +185,7 @@ pub(crate) fn sweep_merge(
 ) -> PyResult<(Option<PathBuf>, Option<PathBuf>, Option<PathBuf>)> {
     crate::runtime::detach(py, || sweep::merge(&out_dir))
         .map(|m| (m.file, m.summary, m.figure))
-        .map_err(|e| errors::apps_renamed(e, &[("DIR", "out_dir")]))
+        .map_err(errors::apps)
 }
 
 /// Runs the paper's simulations and writes their CSV, figures and findings into `out_dir`;
@@ -216,7 +203,7 @@ pub(crate) fn paper_run<'py>(
         .map_or(Sampling::Auto, Sampling::Step)
         .validated()
         .map_err(|e| errors::engine(e.in_context("step")))?;
-    paper::angles(angle_step).map_err(|e| errors::apps_renamed(e, &[("--angle-step", "angle_step")]))?;
+    paper::angles(angle_step).map_err(errors::apps)?;
     check_output_dir(&out_dir, "out_dir").map_err(error)?;
     let (backend, notice) = backend::get(backend_name)?;
     let start = Instant::now();

@@ -136,6 +136,7 @@ pub(crate) fn get(name: &str) -> PyResult<(Arc<Backend>, Option<String>)> {
         return Ok((Arc::clone(b), notice.clone()));
     }
     let (backend, notice) = Backend::select(c, &options()).map_err(errors::engine)?;
+    let notice = notice.map(|n| n.render(&errors::name));
     let backend = Arc::new(backend);
     map.insert(key, (Arc::clone(&backend), notice.clone()));
     Ok((backend, notice))

@@ -45,7 +45,7 @@ fn items(
         let item = columns
             .item(source, &values)
             .and_then(|item| checker.check(&item).map(|_| item));
-        let item = item.map_err(|e| e.in_context(&format!("poses row {k}")))?;
+        let item = item.map_err(|e| e.in_context(format!("poses row {k}")))?;
         Ok(PoseRow {
             item,
             true_point: columns.true_point(&values),

@@ -4,6 +4,8 @@
 use pyo3::PyErr;
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use sonarproj::error::Param;
+use sonarproj_apps::params;
 
 // Defined in module `sonarproj` (which re-exports it), so that pickle finds it there: an error
 // raised in a multiprocessing worker reaches the parent as itself.
@@ -19,52 +21,26 @@ pub(crate) fn engine(e: sonarproj::Error) -> PyErr {
     apps(e.into())
 }
 
-/// Returns the Python exception of an applications error.
+/// Returns the Python exception of an applications error, each front's input it names called
+/// by its Python keyword ([`name`]).
 pub(crate) fn apps(e: sonarproj_apps::Error) -> PyErr {
+    let message = e.render(&name);
     if e.is_input() {
-        InputError::new_err(e.to_string())
-    } else {
-        PyRuntimeError::new_err(e.to_string())
-    }
-}
-
-/// Returns the Python exception of an applications error whose message names command-line
-/// flags, with each flag replaced by the Python parameter that stands for it (`names`: pairs of
-/// flag and parameter).
-pub(crate) fn apps_renamed(e: sonarproj_apps::Error, names: &[(&str, &str)]) -> PyErr {
-    let input = e.is_input();
-    let message = rename_flags(&e.to_string(), names);
-    if input {
         InputError::new_err(message)
     } else {
         PyRuntimeError::new_err(message)
     }
 }
 
-/// Returns `text` with each whole flag of `names` (not followed by another letter, digit or
-/// hyphen) replaced by its parameter.
-fn rename_flags(text: &str, names: &[(&str, &str)]) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut rest = text;
-    'outer: while !rest.is_empty() {
-        for (flag, param) in names {
-            if let Some(after) = rest.strip_prefix(flag) {
-                let whole = !after
-                    .chars()
-                    .next()
-                    .is_some_and(|c| c.is_alphanumeric() || c == '-' || c == '_');
-                if whole {
-                    out.push_str(param);
-                    rest = after;
-                    continue 'outer;
-                }
-            }
-        }
-        let c = rest.chars().next().expect("not empty");
-        out.push(c);
-        rest = &rest[c.len_utf8()..];
+/// Returns the Python keyword of `param`: the applications' inputs as the package's functions
+/// take them; the GPU options by their neutral names (`configure_gpu`'s keywords are checked by
+/// the package before they reach the engine).
+pub(crate) fn name(param: Param) -> String {
+    match param {
+        p if p == params::OUT || p == params::SWEEP_DIR => "out_dir",
+        other => other.name(),
     }
-    out
+    .to_string()
 }
 
 /// Returns an `InputError` for `parameter` with `message`.

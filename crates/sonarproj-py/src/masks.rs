@@ -369,7 +369,7 @@ impl PyMaskEngine {
             .map(|(k, &r)| {
                 let az = azimuths.map_or(0.0, |a| a[k]);
                 Measurement::of(self.engine.source(), r, az)
-                    .map_err(|e| errors::engine(e.in_context(&format!("features row {k}"))))
+                    .map_err(|e| errors::engine(e.in_context(format!("features row {k}"))))
             })
             .collect()
     }
@@ -598,7 +598,7 @@ impl PyMaskEngine {
         .map_err(errors::engine)?;
         Ok(PyMaskEngine {
             engine,
-            notice,
+            notice: notice.map(|n| n.render(&errors::name)),
             owner: std::process::id(),
         })
     }

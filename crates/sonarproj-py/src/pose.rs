@@ -49,7 +49,7 @@ fn rotation(rpy: [f64; 3], quat_xyzw: Option<[f64; 4]>, matrix: Option<[[f64; 3]
 /// Returns the Python error of a pose constructor, naming the argument `t` before a translation
 /// component (`t: tx = 1e300 is invalid: …`).
 fn translation_error(e: sonarproj::Error) -> PyErr {
-    let component = matches!(&e, sonarproj::Error::InvalidValue { field, .. } if ["tx", "ty", "tz"].contains(&field.as_str()));
+    let component = matches!(&e, sonarproj::Error::InvalidValue { field, .. } if ["tx", "ty", "tz"].iter().any(|c| field.is(c)));
     errors::engine(if component { e.in_context("t") } else { e })
 }
 

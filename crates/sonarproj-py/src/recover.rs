@@ -107,7 +107,7 @@ pub(crate) fn recover_columns<'py>(
                         s,
                         recovery::DEFAULT_CURVE_STEP,
                     )
-                    .map_err(|e| e.in_context(&format!("row {k}")))
+                    .map_err(|e| e.in_context(format!("row {k}")))
                 })
                 .collect::<Vec<_>>()
                 // In row order, so the error is the first bad row's whatever the threads did.

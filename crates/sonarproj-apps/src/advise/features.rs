@@ -68,7 +68,7 @@ pub(super) fn read(f: ConfigFile<'_>, t: Option<&toml::Table>, source: &Sonar) -
                     };
                     source
                         .check_point("feature", *r, *az, *el)
-                        .map_err(|e| e.in_context(&f.field(&format!("features.points[{i}]"))))?;
+                        .map_err(|e| e.in_context(f.field(&format!("features.points[{i}]"))))?;
                     Ok([*r, *az, *el])
                 })
                 .collect::<Result<_>>()?,

@@ -73,9 +73,9 @@ pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Writt
         .into_iter()
         .chain(written.landscape.as_ref())
     {
-        check_output_file(f, "--out")?;
+        check_output_file(f, crate::params::OUT)?;
     }
-    output_dir(dir, "--out")?;
+    output_dir(dir, crate::params::OUT)?;
     write_atomic(&written.best, |w| {
         serde_json::to_writer_pretty(&mut *w, &best_json(config, advice))
             .map_err(|e| Error::write_output(&written.best, e))?;

@@ -510,7 +510,7 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
         beams: BeamLayout::Uniform { count: 1 },
     }
     .with_beam_centres(&bearings_deg, Some(aperture))
-    .map_err(|e| Error::from(e.in_context(&format!("Oculus file {}: offset {}", m.file, m.base))))?;
+    .map_err(|e| Error::from(e.in_context(format!("Oculus file {}: offset {}", m.file, m.base))))?;
     Ok(OculusPing {
         sonar,
         image,

@@ -3,7 +3,7 @@
 //! `Ok` or an error naming the field, for any text (property-tested in `tests/parsers.rs`).
 
 use serde::Deserialize;
-use sonarproj::error::excerpt;
+use sonarproj::error::{Field, excerpt};
 use sonarproj::masks::Noise;
 use sonarproj::{Measurement, RelativePose, Rotation, Sonar, SonarKind};
 
@@ -14,11 +14,11 @@ use crate::error::{Error, Result};
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `field` for another count or a field that is not a
 /// number.
-pub fn numbers<const N: usize>(field: &str, text: &str) -> Result<[f64; N]> {
+pub fn numbers<const N: usize>(field: impl Into<Field> + Clone, text: &str) -> Result<[f64; N]> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != N {
         return Err(Error::invalid(
-            field,
+            field.clone(),
             excerpt(text),
             format!("needs {N} comma-separated numbers, got {}", parts.len()),
         ));
@@ -27,7 +27,7 @@ pub fn numbers<const N: usize>(field: &str, text: &str) -> Result<[f64; N]> {
     for (o, p) in out.iter_mut().zip(&parts) {
         *o = p
             .parse()
-            .map_err(|_| Error::invalid(field, excerpt(p), "must be a number"))?;
+            .map_err(|_| Error::invalid(field.clone(), excerpt(p), "must be a number"))?;
     }
     Ok(out)
 }
@@ -36,7 +36,7 @@ pub fn numbers<const N: usize>(field: &str, text: &str) -> Result<[f64; N]> {
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `field`.
-pub fn one_or_three(field: &str, text: &str) -> Result<[f64; 3]> {
+pub fn one_or_three(field: impl Into<Field> + Clone, text: &str) -> Result<[f64; 3]> {
     if text.contains(',') {
         numbers::<3>(field, text)
     } else {
@@ -50,7 +50,7 @@ pub fn one_or_three(field: &str, text: &str) -> Result<[f64; 3]> {
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `field`.
-pub fn measurement(source: &Sonar, field: &str, numbers: &[f64]) -> Result<Measurement> {
+pub fn measurement(source: &Sonar, field: impl Into<Field> + Clone, numbers: &[f64]) -> Result<Measurement> {
     let (range, azimuth) = match (numbers, source.kind) {
         ([r], SonarKind::Sss) => (*r, 0.0),
         ([r, a], SonarKind::Fls) => (*r, *a),
@@ -69,21 +69,21 @@ pub fn measurement(source: &Sonar, field: &str, numbers: &[f64]) -> Result<Measu
             ));
         }
     };
-    Measurement::of(source, range, azimuth).map_err(|e| Error::from(e).in_context(field))
+    Measurement::of(source, range, azimuth).map_err(|e| Error::from(e).in_context(field.clone()))
 }
 
 /// Returns the measurement `R` or `R,A` of feature `k` (from 0) in `source`, named
-/// `--feature N` (N from 1).
+/// feature `N` (N from 1: the command line's `--feature N`).
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming the feature.
 pub fn feature(source: &Sonar, k: usize, text: &str) -> Result<Measurement> {
-    let field = format!("--feature {}", k + 1);
+    let field = Field::param(crate::params::FEATURE, format!(" {}", k + 1));
     let values = text
         .split(',')
-        .map(|part| numbers::<1>(&field, part).map(|v| v[0]))
+        .map(|part| numbers::<1>(field.clone(), part).map(|v| v[0]))
         .collect::<Result<Vec<f64>>>()?;
-    measurement(source, &field, &values)
+    measurement(source, field, &values)
 }
 
 /// A pose in a stream line.

@@ -106,10 +106,10 @@ pub use crate::limits::MIN_ANGLE_STEP;
     reason = "a count of angle steps or a quantile index, finite and bounded by the checked input"
 )]
 pub fn angles(step: f64) -> Result<Vec<f64>> {
-    finite("--angle-step", step)?;
+    finite(crate::params::ANGLE_STEP, step)?;
     if !(MIN_ANGLE_STEP..=180.0).contains(&step) {
         return Err(Error::invalid(
-            "--angle-step",
+            crate::params::ANGLE_STEP,
             step,
             format!(
                 "must be in [{MIN_ANGLE_STEP}, 180] degrees (a finer step makes more than \

@@ -7,6 +7,7 @@
 //! processes left ([`remove_stale_temporaries`]) and never touches one of a live process or of
 //! another host (shards of one sweep may write to one directory from several machines).
 
+use sonarproj::error::Field;
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -260,7 +261,7 @@ fn target(path: &Path) -> Result<Target> {
 ///
 /// # Errors
 /// As [`write_atomic`]'s checks, naming `field`.
-pub fn check_output_file(path: &Path, field: &str) -> Result<()> {
+pub fn check_output_file(path: &Path, field: impl Into<Field>) -> Result<()> {
     target(path).map(|_| ()).map_err(|e| match e {
         Error::Engine(e) => Error::Engine(e.in_context(field)),
         other => other,

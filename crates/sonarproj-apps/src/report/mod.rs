@@ -32,6 +32,7 @@ pub mod occupancy_image;
 mod picture;
 mod style;
 
+use sonarproj::error::Field;
 use std::io::Write;
 use std::path::Path;
 
@@ -72,7 +73,8 @@ pub fn write_npy<T: npyz::AutoSerialize>(
 ///
 /// # Errors
 /// An input error naming `field` when `path` is empty or exists and is not a directory.
-pub fn check_output_dir(path: &Path, field: &str) -> Result<()> {
+pub fn check_output_dir(path: &Path, field: impl Into<Field>) -> Result<()> {
+    let field = field.into();
     if path.as_os_str().is_empty() {
         return Err(Error::invalid(field, "\"\"", "must name a directory"));
     }
@@ -105,7 +107,7 @@ pub fn check_output_dir(path: &Path, field: &str) -> Result<()> {
 ///
 /// # Errors
 /// As [`check_output_dir`]; [`Error::WriteOutput`] when it cannot be created.
-pub fn output_dir(path: &Path, field: &str) -> Result<()> {
+pub fn output_dir(path: &Path, field: impl Into<Field>) -> Result<()> {
     check_output_dir(path, field)?;
     std::fs::create_dir_all(path).map_err(|e| Error::WriteOutput {
         path: path.to_path_buf(),

@@ -62,7 +62,7 @@ pub fn check_extension(path: &Path) -> Result<Format> {
         Some("png") => Ok(Format::Png),
         Some("npy") => Ok(Format::Npy),
         _ => Err(Error::invalid(
-            "--occupancy",
+            crate::params::OCCUPANCY,
             path.display(),
             "the file name must end in .png or .npy",
         )),

@@ -125,13 +125,13 @@ impl Grid {
                 // first values covers every combination.
                 source
                     .check_point("feature", p[0], p[1], p[2])
-                    .map_err(|e| e.in_context(&f.field(&format!("feature.{}", rae[k]))))?;
+                    .map_err(|e| e.in_context(f.field(&format!("feature.{}", rae[k]))))?;
             }
         }
         let grid = Grid { axes, placement };
         // The engine's checks too (a placement's reach), named in the file's terms.
         grid.pose_grid(source)
-            .map_err(|e| e.in_context(&format!("sweep file {:?}", f.path())))?;
+            .map_err(|e| e.in_context(format!("sweep file {:?}", f.path())))?;
         Ok(grid)
     }
 }

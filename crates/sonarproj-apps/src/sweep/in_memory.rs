@@ -46,7 +46,7 @@ pub fn run_in_memory(
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Option<InMemory>> {
     if let Some(cp) = chunk_poses {
-        check_chunk_poses(cp, "--chunk-poses")?;
+        check_chunk_poses(cp, crate::params::CHUNK_POSES)?;
     }
     let chunk_poses = chunk_poses.unwrap_or_else(|| default_chunk_poses(config));
     let plan = Plan::new(config, descriptor(config)?, shard, chunk_poses)?;
@@ -54,7 +54,7 @@ pub fn run_in_memory(
     let bytes = poses.saturating_mul(8 * plan.desc.columns.len() as u64);
     if plan.rows && bytes > MAX_IN_MEMORY_BYTES {
         return Err(Error::invalid(
-            "--out",
+            crate::params::OUT,
             "(none)",
             format!(
                 "is needed: this sweep's {poses} rows would take {} MiB in memory, more than {} MiB; \

@@ -26,7 +26,7 @@ use crate::sweep::table::Format;
 pub fn merge(dir: &Path) -> Result<Merged> {
     let desc: Descriptor = read_json(&dir.join("sweep.json"))?.ok_or_else(|| {
         Error::invalid(
-            "DIR",
+            crate::params::SWEEP_DIR,
             dir.display(),
             "has no sweep.json: not the --out directory of a sharded sweep",
         )
@@ -45,10 +45,10 @@ pub fn merge(dir: &Path) -> Result<Merged> {
     let summary_file = dir.join("summary.json");
     // Both results can be written before either is.
     if desc.summary.is_some() {
-        check_output_file(&summary_file, "DIR")?;
+        check_output_file(&summary_file, crate::params::SWEEP_DIR)?;
     }
     if rows {
-        check_output_file(&dir.join(format!("sweep.{ext}")), "DIR")?;
+        check_output_file(&dir.join(format!("sweep.{ext}")), crate::params::SWEEP_DIR)?;
     }
     // The shards' summaries combined before anything is written, the summary written last: a
     // summary beside a table means the table is whole, as after a run.
@@ -123,7 +123,7 @@ fn find_shards(dir: &Path, rows: bool) -> Result<(Format, u64)> {
     let formats: BTreeSet<Format> = shards.iter().map(|s| s.1).collect();
     if formats.len() == 2 {
         return Err(Error::invalid(
-            "DIR",
+            crate::params::SWEEP_DIR,
             dir.display(),
             "holds shards as CSV and as Parquet; keep one set (remove the other's shard files)",
         ));
@@ -134,7 +134,7 @@ fn find_shards(dir: &Path, rows: bool) -> Result<(Format, u64)> {
         1 => *counts.first().expect("one"),
         0 => {
             return Err(Error::invalid(
-                "DIR",
+                crate::params::SWEEP_DIR,
                 dir.display(),
                 if rows {
                     "holds no finished shard-K-of-N.csv or shard-K-of-N.parquet"
@@ -145,7 +145,7 @@ fn find_shards(dir: &Path, rows: bool) -> Result<(Format, u64)> {
         }
         _ => {
             return Err(Error::invalid(
-                "DIR",
+                crate::params::SWEEP_DIR,
                 dir.display(),
                 format!("holds shards of different counts N ({counts:?}); keep one set"),
             ));
@@ -154,7 +154,7 @@ fn find_shards(dir: &Path, rows: bool) -> Result<(Format, u64)> {
     let missing: Vec<u64> = (1..=n).filter(|k| !shards.iter().any(|s| s.0.k == *k)).collect();
     if !missing.is_empty() {
         return Err(Error::invalid(
-            "DIR",
+            crate::params::SWEEP_DIR,
             dir.display(),
             format!("lacks shards {missing:?} of {n} (run them with --shard K/{n}, or finish them)"),
         ));
@@ -199,7 +199,7 @@ fn check_shards(dir: &Path, desc: &Descriptor, rows: bool, format: Format, n: u6
             }),
             parts::Status::Missing => {
                 return Err(Error::invalid(
-                    "DIR",
+                    crate::params::SWEEP_DIR,
                     dir.display(),
                     format!(
                         "lacks {} (shard {k} of {n}): run `sweep --shard {k}/{n}` again",

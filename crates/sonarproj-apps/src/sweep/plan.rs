@@ -7,6 +7,7 @@ use sonarproj::stream::Stop;
 use std::ops::{ControlFlow, Range};
 
 use sonarproj::MetricColumns;
+use sonarproj::error::Field;
 use sonarproj::local_precision::resolve_sigma_range;
 use sonarproj::metrics::Metric;
 use sonarproj::projection::Backend;
@@ -49,7 +50,7 @@ pub fn default_chunk_poses(config: &SweepConfig) -> u64 {
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `field`.
-pub(crate) fn check_chunk_poses(chunk_poses: u64, field: &str) -> Result<()> {
+pub(crate) fn check_chunk_poses(chunk_poses: u64, field: impl Into<Field>) -> Result<()> {
     if (1..=MAX_CHUNK_POSES).contains(&chunk_poses) {
         return Ok(());
     }
@@ -150,7 +151,7 @@ impl<'a> Plan<'a> {
     ///
     /// # Errors
     /// [`sonarproj::Error::InvalidValue`] naming `field`.
-    pub(crate) fn check_chunk_count(&self, field: &str) -> Result<()> {
+    pub(crate) fn check_chunk_count(&self, field: impl Into<Field>) -> Result<()> {
         let (poses, n_chunks) = (self.poses(), self.chunks);
         if n_chunks <= MAX_CHUNKS {
             return Ok(());

@@ -113,7 +113,7 @@ pub(crate) fn claim(dir: &Path, d: &Descriptor) -> Result<()> {
     match read_json::<Descriptor>(&path)? {
         Some(old) if old == *d => Ok(()),
         Some(_) => Err(Error::invalid(
-            "--out",
+            crate::params::OUT,
             dir.display(),
             "holds results of a different sweep (its sweep.json differs); choose another directory or empty this one",
         )),

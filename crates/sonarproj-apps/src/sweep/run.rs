@@ -22,7 +22,10 @@ use std::path::PathBuf;
 
 use sonarproj::projection::Backend;
 
+use sonarproj::error::Field;
+
 use crate::error::{Error, Result};
+use crate::params;
 use crate::report::{output_dir, remove_stale_temporaries};
 use crate::sweep::SweepConfig;
 use crate::sweep::figure::{figure, figure_of_marginal};
@@ -120,7 +123,7 @@ pub fn run(
     let plan = plan(config, opts)?;
     let files = Files::new(&plan, &opts.out, opts.shard, opts.format);
     let dir = &opts.out;
-    output_dir(dir, "--out")?;
+    output_dir(dir, params::OUT)?;
     remove_stale_temporaries(dir);
     claim(dir, &plan.desc)?;
     files.check_writable()?;
@@ -173,17 +176,23 @@ fn plan<'a>(config: &'a SweepConfig, opts: &Options) -> Result<Plan<'a>> {
     let desc = descriptor(config)?;
     let stem = opts.shard.map_or_else(|| "sweep".to_string(), |s| s.stem());
     let (chunk_poses, field) = match opts.chunk_poses {
-        Some(cp) => (cp, "--chunk-poses"),
+        Some(cp) => (cp, Field::from(params::CHUNK_POSES)),
         None => unfinished(&opts.out, &stem)
             .filter(|m| m.fingerprint == desc.fingerprint && m.chunk_poses > 0)
             .map_or_else(
-                || (default_chunk_poses(config), "--chunk-poses (the default)"),
-                |m| (m.chunk_poses, "--chunk-poses (the unfinished run's)"),
+                || {
+                    let field = Field::param(params::CHUNK_POSES, " (the default)");
+                    (default_chunk_poses(config), field)
+                },
+                |m| {
+                    let field = Field::param(params::CHUNK_POSES, " (the unfinished run's)");
+                    (m.chunk_poses, field)
+                },
             ),
     };
     // Whichever it came from (an unfinished run's too: of an older version, or an edited
     // manifest), before anything is written.
-    check_chunk_poses(chunk_poses, field)?;
+    check_chunk_poses(chunk_poses, field.clone())?;
     // One file a chunk: their number is bounded, and nothing is kept per chunk but its file.
     // Chunks end at the multiples of the chunk size in the pose index (a shard's first and last
     // may be shorter), so a chunk of a multiple of GROUP_ROWS poses is whole row groups, which
@@ -225,9 +234,9 @@ fn finished_before(
             if let Some((name, a, b)) = first_difference(&was, &settings(backend)) {
                 return Err(Error::invalid(
                     if name == "backend" {
-                        "--backend".to_string()
+                        Field::from(params::BACKEND)
                     } else {
-                        name.clone()
+                        Field::from(&name)
                     },
                     b,
                     format!(
@@ -239,7 +248,7 @@ fn finished_before(
         }
         None if opts.shard.is_some() => {
             return Err(Error::invalid(
-                "--shard",
+                params::SHARD,
                 files.stem.clone(),
                 format!(
                     "{} is finished but has no record of how it was computed ({} is missing): remove it to compute it again",

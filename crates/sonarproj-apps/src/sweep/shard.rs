@@ -26,7 +26,7 @@ impl Shard {
     pub fn parse(text: &str) -> Result<Shard> {
         let bad = || {
             Error::invalid(
-                "--shard",
+                crate::params::SHARD,
                 format!("{text:?}"),
                 "must be K/N with 1 <= K <= N, e.g. 3/8",
             )
@@ -41,7 +41,7 @@ impl Shard {
         }
         if n > MAX_SHARDS {
             return Err(Error::invalid(
-                "--shard",
+                crate::params::SHARD,
                 format!("{text:?}"),
                 format!("N must be at most {MAX_SHARDS} (merge lists the parts it finds)"),
             ));

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::io::parquet::{Table, TableWriter};
+use crate::params;
 use crate::report::{check_output_file, remove_stale_temporaries};
 use crate::sweep::parts::{self, final_encoding, write_json};
 use crate::sweep::plan::Plan;
@@ -16,6 +17,7 @@ use crate::sweep::records::{Settings, first_difference, first_not_good, read_jso
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::Summary;
 use crate::sweep::table::Format;
+use sonarproj::error::Field;
 
 /// The state of an unfinished run, in its `.partial-*` directory.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -97,7 +99,7 @@ impl<'a> Files<'a> {
     pub(crate) fn check_writable(&self) -> Result<()> {
         self.results()
             .iter()
-            .try_for_each(|f| check_output_file(f, "--out"))
+            .try_for_each(|f| check_output_file(f, crate::params::OUT))
     }
 
     /// Returns what the record of the whole run's result must say.
@@ -266,31 +268,35 @@ pub(crate) enum ToJoin {
 
 /// Returns the first setting in which manifest `old` differs from `new`: the option's name,
 /// what it was and what it is now.
-fn first_manifest_difference(old: &Manifest, new: &Manifest) -> (String, String, String) {
+fn first_manifest_difference(old: &Manifest, new: &Manifest) -> (Field, String, String) {
     if old.format != new.format {
         (
-            "--format".to_string(),
+            Field::from(params::FORMAT),
             old.format.extension().to_string(),
             new.format.extension().to_string(),
         )
     } else if old.chunk_poses != new.chunk_poses {
         (
-            "--chunk-poses".to_string(),
+            Field::from(params::CHUNK_POSES),
             old.chunk_poses.to_string(),
             new.chunk_poses.to_string(),
         )
     } else if let Some((name, was, now)) = first_difference(&old.settings, &new.settings) {
         (
             if name == "backend" {
-                "--backend".to_string()
+                Field::from(params::BACKEND)
             } else {
-                name
+                Field::from(name)
             },
             was,
             now,
         )
     } else {
-        ("--config".to_string(), "another sweep".into(), "this one".into())
+        (
+            Field::from(params::CONFIG),
+            "another sweep".into(),
+            "this one".into(),
+        )
     }
 }
 

@@ -314,7 +314,7 @@ const PINGS: usize = 10;
 fn masks(runs: u32) -> Result<()> {
     let runs = runs.max(20);
     let options = super::gpu_env::gpu_options()?;
-    let gpu = match GpuContext::open(&options).map_err(super::gpu_env::name_variable) {
+    let gpu = match GpuContext::open(&options).map_err(sonarproj_apps::Error::from) {
         Ok(ctx) if ctx.is_software() => {
             outln!("gpu-sw {}", sonarproj::gpu::context::describe(ctx.info()))?;
             outln!("{SOFTWARE_NOTE}")?;
@@ -326,7 +326,7 @@ fn masks(runs: u32) -> Result<()> {
         }
         Err(e) if e.is_input() => return Err(e),
         Err(e) => {
-            outln!("GPU: not measured ({e})")?;
+            outln!("GPU: not measured ({})", e.render(&super::name))?;
             None
         }
     };

@@ -5,7 +5,7 @@
 
 use sonarproj::gpu::GpuOptions;
 use sonarproj::{Backend, BackendChoice, MaskEngine, Sonar};
-use sonarproj_apps::{Error, Result};
+use sonarproj_apps::Result;
 
 /// Returns the GPU options the environment gives ([`sonarproj_apps::gpu_env`]).
 ///
@@ -27,40 +27,15 @@ pub(crate) fn options_for(choice: BackendChoice) -> Result<GpuOptions> {
     }
 }
 
-/// Names the environment variable in an engine error about a GPU option (the engine names the
-/// option, the command line knows where it came from).
-pub(crate) fn name_variable(e: sonarproj::Error) -> Error {
-    let e = match &e {
-        sonarproj::Error::InvalidValue { field, .. } if field == "GPU adapter" => {
-            e.in_context("WGPU_ADAPTER_NAME")
-        }
-        sonarproj::Error::InvalidValue { field, .. } if field == "GPU precision" => {
-            e.in_context("SONARPROJ_GPU_PRECISION")
-        }
-        _ => e,
-    };
-    e.into()
-}
-
-/// Returns `auto`'s notice with the environment variable named where the engine named the
-/// option it came from (an adapter name that matches nothing).
-fn name_in_notice(notice: String) -> String {
-    notice.replacen(
-        "note: GPU adapter = ",
-        "note: WGPU_ADAPTER_NAME: GPU adapter = ",
-        1,
-    )
-}
-
 /// Returns the backend for `choice` with the environment's GPU options and, when `auto` fell back
-/// to the CPU, its one-line notice.
+/// to the CPU, its one-line notice in the command line's words.
 ///
 /// # Errors
 /// As [`gpu_options`] and [`Backend::select`].
 pub(crate) fn select(choice: BackendChoice) -> Result<(Backend, Option<String>)> {
     let gpu = options_for(choice)?;
-    let (backend, notice) = Backend::select(choice, &gpu).map_err(name_variable)?;
-    Ok((backend, notice.map(name_in_notice)))
+    let (backend, notice) = Backend::select(choice, &gpu)?;
+    Ok((backend, notice.map(|n| n.render(&super::names::name))))
 }
 
 /// Returns the mask engine for `choice` with the environment's GPU options, as [`select`].
@@ -74,6 +49,6 @@ pub(crate) fn select_masks(
     counts: sonarproj::Counts,
 ) -> Result<(MaskEngine, Option<String>)> {
     let gpu = options_for(choice)?;
-    let (engine, notice) = MaskEngine::select(source, target, choice, counts, &gpu).map_err(name_variable)?;
-    Ok((engine, notice.map(name_in_notice)))
+    let (engine, notice) = MaskEngine::select(source, target, choice, counts, &gpu)?;
+    Ok((engine, notice.map(|n| n.render(&super::names::name))))
 }

@@ -19,6 +19,7 @@ mod gpu_env;
 mod mask;
 mod mask_json;
 mod mask_stream;
+mod names;
 mod paper;
 mod pose_args;
 mod project;
@@ -28,6 +29,8 @@ mod sweep;
 mod view;
 
 use clap::{Parser, Subcommand};
+
+pub(crate) use names::name;
 
 use std::io::{Read, Write};
 use std::path::PathBuf;
