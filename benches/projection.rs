@@ -75,6 +75,7 @@ fn results(c: &mut Criterion) {
             (0..1_000_000u64)
                 .into_par_iter()
                 .map(|k| Projection {
+                    local: Default::default(),
                     metrics: Metrics::new(k % 7, 121, Extremes::default(), (k % 5, 0.1), None),
                     occupancy: None,
                     cells: None,

@@ -22,11 +22,13 @@ fn main() -> Result<(), sonarproj::Error> {
     };
     let pose = RelativePose::placement(rotation, [5.0, 10.0, 0.0], [15.0, 0.0, 0.0])?;
     let batch = Batch {
+        sigma_range: None,
         source: fls,
         target: sss,
         sampling: Sampling::Step(0.1),
         area_grid: sonarproj::PAPER_AREA_GRID,
         items: vec![BatchItem {
+            true_point: None,
             measurement: feature,
             pose,
         }],

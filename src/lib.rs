@@ -28,12 +28,16 @@
 //!     target: sss,
 //!     sampling: Sampling::Step(0.1),
 //!     area_grid: sonarproj::PAPER_AREA_GRID,
-//!     items: vec![BatchItem { measurement: feature, pose }],
+//!     sigma_range: None,
+//!     // The true point given: the projection carries the local precision there.
+//!     items: vec![BatchItem { measurement: feature, pose, true_point: Some([5.0, 10.0, 0.0]) }],
 //! };
-//! let metrics = Backend::CpuFast.project(&batch, Output::MetricsOnly)?[0].metrics;
+//! let projection = &Backend::CpuFast.project(&batch, Output::MetricsOnly)?[0];
+//! let metrics = projection.metrics;
 //! // Every sample of the arc is seen; its ranges in the sidescan straddle 15 m.
 //! assert_eq!(metrics.visible, metrics.total);
 //! assert!(metrics.range_min.unwrap() < 15.0 && metrics.range_max.unwrap() > 15.0);
+//! assert!(projection.local.sigma_elevation.is_some());
 //! # Ok::<(), sonarproj::Error>(())
 //! ```
 

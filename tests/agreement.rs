@@ -49,6 +49,7 @@ fn random_items(seed: u64, source: &Sonar, target: &Sonar, n: usize) -> Vec<Batc
                 RelativePose::placement(rotation, feature, point_in(&mut rng, target)).unwrap()
             };
             BatchItem {
+                true_point: None,
                 measurement: Measurement::of(source, feature[0], feature[1]).unwrap(),
                 pose,
             }
@@ -105,6 +106,7 @@ fn agree_on(items: Vec<BatchItem>, source: Sonar, target: Sonar, sampling: Sampl
     target.validate().unwrap();
     let poses = items.len();
     let batch = Batch {
+        sigma_range: None,
         items,
         source,
         target,
@@ -329,7 +331,9 @@ fn items_on_bounds(seed: u64, source: &Sonar, target: &Sonar, step: f64, n: usiz
             let [range, azimuth, _] = point_in(&mut rng, source);
             let measurement = Measurement::of(source, range, azimuth).unwrap();
             let one = Batch {
+                sigma_range: None,
                 items: vec![BatchItem {
+                    true_point: None,
                     measurement,
                     pose: RelativePose::new(
                         Rotation::RollPitchYaw {
@@ -369,6 +373,7 @@ fn items_on_bounds(seed: u64, source: &Sonar, target: &Sonar, step: f64, n: usiz
                 yaw: rng.random_range(-180.0..180.0),
             };
             BatchItem {
+                true_point: None,
                 measurement,
                 pose: RelativePose::placement(rotation, feature, [r, a, e]).unwrap(),
             }
@@ -401,6 +406,7 @@ fn results_do_not_depend_on_the_chunk_size() {
     let Some(gpu) = common::gpu() else { return };
     let (source, target) = (common::preset("paper-sss"), common::preset("paper-fls"));
     let batch = Batch {
+        sigma_range: None,
         items: random_items(13, &source, &target, 100),
         source,
         target,
@@ -427,6 +433,7 @@ fn a_backend_reused_across_batch_sizes_gives_a_fresh_backends_results() {
     };
     let (source, target) = (common::preset("paper-sss"), common::preset("paper-fls"));
     let batch = |seed, n| Batch {
+        sigma_range: None,
         items: random_items(seed, &source, &target, n),
         source: source.clone(),
         target: target.clone(),
@@ -481,6 +488,7 @@ fn results_do_not_depend_on_the_workgroup_size() {
     ];
     for (seed, source, target, sampling, poses) in pairs {
         let batch = Batch {
+            sigma_range: None,
             items: random_items(seed, &source, &target, poses),
             source,
             target,
@@ -534,6 +542,7 @@ fn kept_buffers_do_not_change_results() {
     let batch = |seed, source: &str, target: &str, n| {
         let (source, target) = (common::preset(source), common::preset(target));
         Batch {
+            sigma_range: None,
             items: random_items(seed, &source, &target, n),
             source,
             target,
@@ -572,6 +581,7 @@ fn kept_buffers_do_not_change_results() {
 fn the_envelope_check_catches_wrong_results() {
     let (source, target) = (common::preset("paper-sss"), common::preset("paper-fls"));
     let batch = Batch {
+        sigma_range: None,
         items: random_items(14, &source, &target, 1),
         source,
         target,
@@ -714,4 +724,81 @@ fn one_context_per_process_and_device() {
         );
     }
     assert_eq!(GpuContext::opened(), before + 1);
+}
+
+/// The local precision travels with the projection: an item that gives its feature's true
+/// point comes back with [`sonarproj::local_precision::local_precision`] there (for the batch's
+/// range error, or the default), an item without one with none; every backend alike, the
+/// metrics untouched by it.
+#[test]
+fn the_true_point_in_gives_the_local_precision_out() {
+    use sonarproj::Backend;
+    use sonarproj::local_precision::{LocalPrecision, local_precision, resolve_sigma_range};
+    for (from, to) in [("paper-fls", "paper-sss"), ("paper-sss", "paper-fls")] {
+        let (source, target) = (common::preset(from), common::preset(to));
+        let mut rng = ChaCha8Rng::seed_from_u64(31);
+        let mut items = random_items(30, &source, &target, 40);
+        let truths: Vec<Option<[f64; 3]>> = (0..items.len())
+            .map(|k| (k % 3 != 0).then(|| point_in(&mut rng, &source)))
+            .collect();
+        for (item, truth) in items.iter_mut().zip(&truths) {
+            item.true_point = *truth;
+        }
+        let mut backends = vec![Backend::Cpu, Backend::CpuFast];
+        backends.extend(common::gpu().map(|g| Backend::Gpu(Box::new(g))));
+        for sigma_range in [None, Some(0.02)] {
+            let batch = Batch {
+                source: source.clone(),
+                target: target.clone(),
+                sampling: Sampling::Step(0.5),
+                area_grid: sonarproj::PAPER_AREA_GRID,
+                sigma_range,
+                items: items.clone(),
+            };
+            let sigma = resolve_sigma_range(&source, &target, sigma_range).unwrap();
+            let without = Batch {
+                items: items
+                    .iter()
+                    .map(|i| BatchItem {
+                        true_point: None,
+                        ..*i
+                    })
+                    .collect(),
+                ..batch.clone()
+            };
+            for backend in &backends {
+                let out = backend.project(&batch, Output::MetricsOnly).unwrap();
+                let plain = backend.project(&without, Output::MetricsOnly).unwrap();
+                for (k, ((p, q), item)) in out.iter().zip(&plain).zip(&items).enumerate() {
+                    let want = item.true_point.map_or_else(LocalPrecision::default, |t| {
+                        local_precision(&source, &target, t, &item.pose, sigma)
+                    });
+                    assert_eq!(p.local, want, "{from} -> {to}, {}, item {k}", backend.name());
+                    assert_eq!(
+                        p.metrics,
+                        q.metrics,
+                        "{from} -> {to}, {}, item {k}",
+                        backend.name()
+                    );
+                    assert_eq!(q.local, LocalPrecision::default());
+                }
+            }
+        }
+        // A true point that is not finite is refused, naming the item.
+        let mut bad = items.clone();
+        bad[5].true_point = Some([f64::NAN, 0.0, 0.0]);
+        let batch = Batch {
+            source: source.clone(),
+            target: target.clone(),
+            sampling: Sampling::Step(0.5),
+            area_grid: sonarproj::PAPER_AREA_GRID,
+            sigma_range: None,
+            items: bad,
+        };
+        let e = Backend::CpuFast
+            .project(&batch, Output::MetricsOnly)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("item 5") && e.contains("true point range"), "{e}");
+    }
 }

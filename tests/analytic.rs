@@ -18,11 +18,13 @@ fn run_all(
     pose: RelativePose,
 ) -> Vec<(&'static str, Metrics)> {
     let batch = Batch {
+        sigma_range: None,
         source: source.clone(),
         target: target.clone(),
         sampling: Sampling::Step(0.1),
         area_grid: sonarproj::PAPER_AREA_GRID,
         items: vec![BatchItem {
+            true_point: None,
             measurement: Measurement::of(source, range, az).unwrap(),
             pose,
         }],

@@ -82,6 +82,7 @@ fn item_at(rng: &mut ChaCha8Rng, source: &Sonar, target_point: [f64; 3]) -> Batc
         yaw: rng.random_range(-180.0..180.0),
     };
     BatchItem {
+        true_point: None,
         measurement: Measurement::of(source, feature[0], feature[1]).unwrap(),
         pose: RelativePose::placement(rotation, feature, target_point).unwrap(),
     }
@@ -95,6 +96,7 @@ fn land_where_holoocean_puts_them(points: &[[f64; 3]], rng: &mut ChaCha8Rng) {
     let source = point_source();
     let items: Vec<BatchItem> = points.iter().map(|&p| item_at(rng, &source, p)).collect();
     let batch = Batch {
+        sigma_range: None,
         items,
         source,
         target: Sonar::preset("holoocean-sidescan").unwrap(),
@@ -335,6 +337,7 @@ fn an_imaging_sonar_from_its_configuration_puts_points_where_holoocean_does() {
     let source = point_source();
     let items: Vec<BatchItem> = points.iter().map(|&p| item_at(&mut rng, &source, p)).collect();
     let batch = Batch {
+        sigma_range: None,
         items,
         source,
         target,

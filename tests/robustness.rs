@@ -188,12 +188,12 @@ proptest! {
                                  range in coordinate(), azimuth in coordinate(), pose in pose()) {
         let range = within(range, source.range_min, source.range_max);
         let azimuth = within(azimuth, -source.azimuth_aperture / 2.0, source.azimuth_aperture / 2.0);
-        let batch = Batch {
+        let batch = Batch { sigma_range: None,
             source: source.clone(),
             target,
             sampling,
             area_grid: sonarproj::PAPER_AREA_GRID,
-            items: vec![BatchItem { measurement: Measurement { range, azimuth }, pose }],
+            items: vec![BatchItem { true_point: None,  measurement: Measurement { range, azimuth }, pose }],
         };
         // The one-item check of a streaming reader agrees with preparing the batch.
         let checked = batch.checker().and_then(|c| c.check(&batch.items[0]));

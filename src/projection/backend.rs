@@ -230,12 +230,13 @@ impl Backend {
     pub fn project_until(&self, batch: &Batch, output: Output, stop: Stop<'_>) -> Result<Vec<Projection>> {
         let prepared = batch.prepare()?;
         stop.check()?;
-        let projected = match self {
+        let mut projected = match self {
             Backend::Cpu => reference::project(&prepared, output),
             Backend::CpuFast => fast::project_until(&prepared, output, stop).ok_or(Error::Stopped)?,
             Backend::Gpu(g) => g.project(&prepared, output)?,
         };
         stop.check()?;
+        prepared.add_local_precision(&mut projected);
         Ok(projected)
     }
 }

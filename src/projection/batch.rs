@@ -9,6 +9,7 @@ use rayon::prelude::*;
 use crate::error::Result;
 use crate::geometry::pose::RelativePose;
 use crate::geometry::sonar::Sonar;
+use crate::local_precision::{LocalPrecision, local_precision, resolve_sigma_range};
 use crate::metrics::Metrics;
 use crate::occupancy::{Layout, Occupancy};
 use crate::sampling::{Measurement, Sampling, SamplingPlan, auto_spacing, base_azimuth};
@@ -20,6 +21,9 @@ pub struct BatchItem {
     pub measurement: Measurement,
     /// The pose mapping sonar-1 to sonar-2 coordinates.
     pub pose: RelativePose,
+    /// The feature's true point in sonar 1, `[range m, azimuth deg, elevation deg]`, when known:
+    /// its projection then carries the local precision there ([`Projection::local`]).
+    pub true_point: Option<[f64; 3]>,
 }
 
 /// Many projections between the same two sonars.
@@ -34,6 +38,9 @@ pub struct Batch {
     /// The cell side (m) of the grid the projection area is counted in (FLS target; the paper's
     /// is [`PAPER_AREA_GRID`](crate::PAPER_AREA_GRID)): see [`AreaGrid`](crate::occupancy::AreaGrid).
     pub area_grid: f64,
+    /// The range error (m) the local precision of an item with a true point is computed for;
+    /// `None`: [`default_sigma_range`](crate::local_precision::default_sigma_range).
+    pub sigma_range: Option<f64>,
     /// The projections, in order.
     pub items: Vec<BatchItem>,
 }
@@ -49,6 +56,8 @@ pub struct Projection {
     /// [`AreaGrid`](crate::occupancy::AreaGrid), `nx` rows of `ny`), when the occupancy was asked
     /// for.
     pub cells: Option<Occupancy>,
+    /// The local precision at the item's true point, when the item gives one (else none).
+    pub local: LocalPrecision,
 }
 
 /// A batch made ready for a backend: sonar 2's layout and the distinct sampling plans. Hidden:
@@ -64,6 +73,8 @@ pub struct PreparedBatch<'a> {
     pub(crate) plans: Vec<SamplingPlan>,
     /// Which plan each item has.
     plan_of: PlanOf,
+    /// The range error (m) of the items' local precision.
+    sigma: f64,
 }
 
 /// Which plan of [`PreparedBatch::plans`] each item has.
@@ -77,6 +88,20 @@ enum PlanOf {
 }
 
 impl PreparedBatch<'_> {
+    /// Sets each projection's local precision at its item's true point, for the items that give
+    /// one (on all cores): what every backend's projections carry through [`crate::Backend`].
+    pub(crate) fn add_local_precision(&self, projections: &mut [Projection]) {
+        let b = self.batch;
+        if b.items.iter().all(|item| item.true_point.is_none()) {
+            return;
+        }
+        projections.par_iter_mut().zip(&b.items).for_each(|(p, item)| {
+            if let Some(point) = item.true_point {
+                p.local = local_precision(&b.source, &b.target, point, &item.pose, self.sigma);
+            }
+        });
+    }
+
     /// Returns the batch this preparation is of.
     #[must_use]
     pub fn batch(&self) -> &Batch {
@@ -152,6 +177,8 @@ impl PreparedBatch<'_> {
 pub struct ItemChecker<'a> {
     batch: &'a Batch,
     sampling: Sampling,
+    /// The range error (m) of the local precision.
+    sigma: f64,
     spacing: Option<f64>,
 }
 
@@ -168,10 +195,20 @@ impl ItemChecker<'_> {
         self.counts(item)
     }
 
-    /// Returns `Ok` when `item`'s measurement is valid for sonar 1 and its pose valid.
+    /// Returns `Ok` when `item`'s measurement is valid for sonar 1, its pose valid and its true
+    /// point, when it gives one, finite.
     fn validate(&self, item: &BatchItem) -> Result<()> {
         item.measurement.validate(&self.batch.source)?;
-        item.pose.validate()
+        item.pose.validate()?;
+        if let Some(p) = item.true_point {
+            for (v, name) in p
+                .iter()
+                .zip(["true point range", "true point azimuth", "true point elevation"])
+            {
+                crate::error::finite(name, *v)?;
+            }
+        }
+        Ok(())
     }
 
     /// Returns the sample counts of `item`'s plan, refused past the per-pose limit.
@@ -199,9 +236,11 @@ impl Batch {
         self.target.validate().map_err(|e| e.in_context("sonar 2"))?;
         let sampling = self.sampling.validated()?;
         crate::occupancy::AreaGrid::over(&Layout::of(&self.target), self.area_grid)?;
+        let sigma = resolve_sigma_range(&self.source, &self.target, self.sigma_range)?;
         Ok(ItemChecker {
             batch: self,
             sampling,
+            sigma,
             // Computed once for every plan that auto sampling counts.
             spacing: matches!(sampling, Sampling::Auto).then(|| auto_spacing(&self.target)),
         })
@@ -254,6 +293,7 @@ impl Batch {
                 layout: layout.clone(),
                 plans,
                 plan_of: PlanOf::First,
+                sigma: checker.sigma,
             });
         }
         // Sample counts packed in one word (each is at most MAX_SAMPLES_PER_POSE < 2^32).
@@ -293,6 +333,7 @@ impl Batch {
             layout,
             plans,
             plan_of: PlanOf::Each(plan_of),
+            sigma: checker.sigma,
         })
     }
 }
@@ -306,6 +347,7 @@ mod tests {
     /// along x.
     fn item(range: f64, azimuth: f64) -> BatchItem {
         BatchItem {
+            true_point: None,
             measurement: Measurement { range, azimuth },
             pose: RelativePose::new(
                 Rotation::RollPitchYaw {
@@ -322,6 +364,7 @@ mod tests {
     /// Returns a paper-fls → paper-sss batch of `items`.
     fn fls_to_sss(sampling: Sampling, items: Vec<BatchItem>) -> Batch {
         Batch {
+            sigma_range: None,
             source: Sonar::preset("paper-fls").unwrap(),
             target: Sonar::preset("paper-sss").unwrap(),
             sampling,

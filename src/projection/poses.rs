@@ -300,6 +300,7 @@ pub fn item_of(source: &Sonar, v: &[f64; 9], placement: bool) -> Result<BatchIte
         RelativePose::new(rotation, [v[3], v[4], v[5]])?
     };
     Ok(BatchItem {
+        true_point: None,
         measurement: Measurement::of(source, v[0], v[1])?,
         pose,
     })
@@ -401,6 +402,7 @@ impl PoseSweep<'_> {
     /// Returns a batch of this sweep's sonars and sampling without items.
     fn empty_batch(&self) -> Batch {
         Batch {
+            sigma_range: None,
             source: self.source.clone(),
             target: self.target.clone(),
             sampling: self.sampling,

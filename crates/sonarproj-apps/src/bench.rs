@@ -35,12 +35,14 @@ pub fn batch(source: &Sonar, target: &Sonar, n: usize) -> Result<Batch> {
                 yaw: 180.0 - a,
             };
             Ok(BatchItem {
+                true_point: None,
                 measurement: Measurement::of(source, f[0], 0.0)?,
                 pose: RelativePose::placement(rot, f, place)?,
             })
         })
         .collect::<Result<Vec<_>>>()?;
     Ok(Batch {
+        sigma_range: None,
         source: source.clone(),
         target: target.clone(),
         sampling: Sampling::Step(0.1),

@@ -146,6 +146,7 @@ fn a_reported_score_is_the_score_of_its_pose_by_hand() {
             Layout::of(&c.target).inside(r, az, el)
         }));
         let batch = Batch {
+            sigma_range: None,
             source: c.source.clone(),
             target: c.target.clone(),
             sampling: c.sampling,
@@ -153,6 +154,7 @@ fn a_reported_score_is_the_score_of_its_pose_by_hand() {
             items: shared
                 .iter()
                 .map(|f| BatchItem {
+                    true_point: None,
                     measurement: Measurement::of(&c.source, f[0], f[1]).unwrap(),
                     pose,
                 })

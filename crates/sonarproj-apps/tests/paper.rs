@@ -107,7 +107,7 @@ fn the_scenarios_as_grids_are_the_per_item_results() {
                 &batch.items[k].pose,
                 sigma,
             );
-            assert_eq!(local, run.local[k], "{:?} pose {k} {p:?}", run.direction);
+            assert_eq!(local, run.results[k].local, "{:?} pose {k} {p:?}", run.direction);
         }
     }
 }

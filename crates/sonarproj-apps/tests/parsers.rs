@@ -159,7 +159,7 @@ proptest! {
         }
         // Read whole, and streamed through a projection (small sampling: only parsing is tested).
         slowest.time(|| { let _ = read_batch_csv(text.as_bytes(), &fls); });
-        let pair = sonarproj::Batch {
+        let pair = sonarproj::Batch { sigma_range: None,
             source: fls,
             target: sss,
             sampling: sonarproj::Sampling::Step(3.0),
@@ -167,7 +167,7 @@ proptest! {
             items: Vec::new(),
         };
         slowest.time(|| {
-            let _ = project_csv(text.as_bytes(), std::io::sink(), &pair, None, |b| {
+            let _ = project_csv(text.as_bytes(), std::io::sink(), &pair, |b| {
                 Ok(sonarproj::Backend::CpuFast.project(b, sonarproj::Output::MetricsOnly)?)
             });
         });

@@ -42,11 +42,13 @@ fn a_scene_shows_the_engines_metrics_occupancy_and_visible_samples() {
         let (from, to) = (Sonar::preset(&s.from).unwrap(), Sonar::preset(&s.to).unwrap());
         let measurement = Measurement::of(&from, s.feature.range, s.feature.azimuth).unwrap();
         let batch = Batch {
+            sigma_range: None,
             source: from,
             target: to,
             sampling: s.step.map_or(Sampling::Auto, Sampling::Step),
             area_grid: sonarproj::PAPER_AREA_GRID,
             items: vec![BatchItem {
+                true_point: None,
                 measurement,
                 pose: s.pose().unwrap(),
             }],
@@ -229,8 +231,7 @@ fn the_sweep_file_it_offers_gives_back_the_same_pose() {
         let config =
             SweepConfig::parse("view.toml", toml, Path::new("/")).unwrap_or_else(|e| panic!("{toml}\n{e}"));
         assert_eq!(config.count().unwrap(), 1);
-        let (rows, _) = config.items(0..1).unwrap();
-        let items: Vec<_> = rows.iter().map(|r| r.item).collect();
+        let (items, _) = config.items(0..1).unwrap();
         let pose = s.pose().unwrap();
         assert_eq!(items[0].pose.rotation, pose.rotation, "{toml}");
         assert_eq!(items[0].pose.translation, pose.translation, "{toml}");

@@ -9,7 +9,6 @@ use pyo3::types::PyDict;
 use sonarproj::local_precision::{LocalPrecision, resolve_sigma_range};
 use sonarproj::metrics::Metrics;
 use sonarproj::{Backend, Batch, BatchItem, Measurement, Output, Sampling, SonarKind};
-use sonarproj_apps::io::batch::{PoseRow, local_of};
 use sonarproj_apps::io::pose_columns::{PoseColumns, allowed_columns, expected_columns};
 
 use crate::arrays::{metric_dict, slices};
@@ -28,15 +27,15 @@ pub(crate) fn sampling(step: Option<f64>) -> PyResult<Sampling> {
         .map_err(|e| errors::engine(e.in_context("step")))
 }
 
-/// Returns the items of rows `rows` of `cols` (in `columns`' order), each checked: errors name
-/// the row (0-based).
+/// Returns the items of rows `rows` of `cols` (in `columns`' order), each checked and with its
+/// feature's true point when the columns give it: errors name the row (0-based).
 fn items(
     source: &sonarproj::Sonar,
     columns: &PoseColumns,
     cols: &[&[f64]],
     rows: std::ops::Range<usize>,
     checker: &sonarproj::projection::ItemChecker<'_>,
-) -> sonarproj::Result<Vec<PoseRow>> {
+) -> sonarproj::Result<Vec<BatchItem>> {
     let mut values = vec![0.0; cols.len()];
     rows.map(|k| {
         for (v, c) in values.iter_mut().zip(cols) {
@@ -45,11 +44,7 @@ fn items(
         let item = columns
             .item(source, &values)
             .and_then(|item| checker.check(&item).map(|_| item));
-        let item = item.map_err(|e| e.in_context(format!("poses row {k}")))?;
-        Ok(PoseRow {
-            item,
-            true_point: columns.true_point(&values),
-        })
+        item.map_err(|e| e.in_context(format!("poses row {k}")))
     })
     .collect()
 }
@@ -89,6 +84,7 @@ fn columns_and_pair<'a>(
         })
         .collect();
     let pair = Batch {
+        sigma_range: None,
         source: first.inner.clone(),
         target: second.inner.clone(),
         sampling: sampling(step)?,
@@ -117,23 +113,24 @@ pub(crate) fn batch_columns<'py>(
 ) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
     let (reading, cols, len, pair) = columns_and_pair(first, second, &names, &columns, step, area_grid)?;
     let checker = pair.checker().map_err(errors::engine)?;
-    let sigma = resolve_sigma_range(&pair.source, &pair.target, sigma_range).map_err(errors::engine)?;
+    resolve_sigma_range(&pair.source, &pair.target, sigma_range).map_err(errors::engine)?;
     let (backend, notice) = backend::get(backend_name)?;
-    let mut chunk = pair.clone();
+    let mut chunk = Batch {
+        sigma_range,
+        ..pair.clone()
+    };
     let mut metrics: Vec<Metrics> = Vec::with_capacity(len);
     let mut locals: Vec<LocalPrecision> = Vec::with_capacity(len);
     let mut start = 0;
     while start < len {
         let end = (start + CHUNK_POSES).min(len);
         let results = crate::runtime::detach(py, || -> sonarproj::Result<()> {
-            let rows = items(&pair.source, &reading, &cols, start..end, &checker)?;
-            chunk.items = rows.iter().map(|r| r.item).collect();
+            chunk.items = items(&pair.source, &reading, &cols, start..end, &checker)?;
             let projected = backend.project(&chunk, Output::MetricsOnly)?;
-            metrics.extend(projected.into_iter().map(|p| p.metrics));
-            locals.extend(
-                rows.iter()
-                    .map(|r| local_of(&chunk, &r.item, r.true_point, sigma)),
-            );
+            for p in projected {
+                metrics.push(p.metrics);
+                locals.push(p.local);
+            }
             Ok(())
         });
         results.map_err(errors::engine)?;
@@ -166,7 +163,11 @@ pub(crate) fn bench_rust_batch<'py>(
         let batch = Batch {
             items: items(&pair.source, &reading, &cols, 0..len, &checker)?
                 .into_iter()
-                .map(|r| r.item)
+                // The metrics alone, as the timed projection computes them.
+                .map(|item| BatchItem {
+                    true_point: None,
+                    ..item
+                })
                 .collect(),
             ..pair.clone()
         };
@@ -203,12 +204,22 @@ pub(crate) fn project_one<'py>(
 ) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
     let measurement =
         Measurement::of(&first.inner, range, azimuth).map_err(|e| errors::engine(e.in_context("feature")))?;
+    if let Some(el) = elevation {
+        first
+            .inner
+            .check_point("feature", range, azimuth, el)
+            .map_err(errors::engine)?;
+    }
+    // The true point, when the elevation is given: the projection carries the local precision
+    // there.
     let batch = Batch {
+        sigma_range,
         source: first.inner.clone(),
         target: second.inner.clone(),
         sampling: sampling(step)?,
         area_grid,
         items: vec![BatchItem {
+            true_point: elevation.map(|el| [range, azimuth, el]),
             measurement,
             pose: pose.inner,
         }],
@@ -224,20 +235,7 @@ pub(crate) fn project_one<'py>(
         crate::runtime::detach(py, || backend.project(&batch, output)).map_err(errors::engine)?;
     let projection = result.pop().expect("one item in, one result out");
     let dict = PyDict::new(py);
-    if let Some(el) = elevation {
-        first
-            .inner
-            .check_point("feature", range, azimuth, el)
-            .map_err(errors::engine)?;
-    }
-    let sigma = resolve_sigma_range(&batch.source, &batch.target, sigma_range).map_err(errors::engine)?;
-    let local = local_of(
-        &batch,
-        &batch.items[0],
-        elevation.map(|el| [range, azimuth, el]),
-        sigma,
-    );
-    for (k, v) in metric_dict(py, &[projection.metrics], &[local])?.iter() {
+    for (k, v) in metric_dict(py, &[projection.metrics], &[projection.local])?.iter() {
         let first = v.get_item(0)?;
         dict.set_item(k, first.call_method0("item")?)?;
     }

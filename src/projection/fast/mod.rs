@@ -350,6 +350,7 @@ fn reduced(
     let (occupied, measure, occupancy) = scratch.reduce(geo, keep);
     let (area, cells) = scratch.reduce_cells(geo, keep);
     Projection {
+        local: Default::default(),
         metrics: Metrics::new(visible, total, extremes, (occupied, measure), area),
         occupancy: occupancy.map(|o| geo.layout.to_data_order(o)),
         cells,

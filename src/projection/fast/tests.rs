@@ -82,6 +82,7 @@ fn random_item(s1: &Sonar, s2: &Sonar, rng: &mut ChaCha8Rng) -> BatchItem {
         yaw: rng.random::<f64>() * 360.0 - 180.0,
     };
     BatchItem {
+        true_point: None,
         measurement: Measurement::of(s1, f[0], f[1]).unwrap(),
         pose: RelativePose::placement(rot, f, place).unwrap(),
     }
@@ -116,6 +117,7 @@ fn runs_change_no_result() {
     ] {
         let items = (0..300).map(|_| random_item(&s1, &sss, &mut rng)).collect();
         let batch = Batch {
+            sigma_range: None,
             source: s1.clone(),
             target: sss.clone(),
             sampling: Sampling::Auto,
@@ -237,6 +239,7 @@ fn chords_skip_only_blocks_without_a_visible_sample() {
         for _ in 0..300 {
             let item = random_item(&s1, &s2, &mut rng);
             let batch = Batch {
+                sigma_range: None,
                 source: s1.clone(),
                 target: s2.clone(),
                 sampling: Sampling::Step(0.1),
@@ -328,6 +331,7 @@ fn culling_changes_no_result() {
             for sampling in [Sampling::Step(0.5), Sampling::Auto] {
                 let items = (0..40).map(|_| random_item(&s1, &s2, &mut rng)).collect();
                 let batch = Batch {
+                    sigma_range: None,
                     source: s1.clone(),
                     target: s2.clone(),
                     sampling,
@@ -379,6 +383,7 @@ fn tiles_change_no_result() {
         let mut items: Vec<BatchItem> = (0..24).map(|_| random_item(&s1, &s2, &mut rng)).collect();
         // The paper's hard case as well: an arc crossing the sidescan's sheet.
         items.push(BatchItem {
+            true_point: None,
             measurement: Measurement::of(&s1, s1.range_max / 2.0, 0.0).unwrap(),
             pose: RelativePose::placement(
                 Rotation::RollPitchYaw {
@@ -392,6 +397,7 @@ fn tiles_change_no_result() {
             .unwrap(),
         });
         let batch = Batch {
+            sigma_range: None,
             source: s1.clone(),
             target: s2.clone(),
             sampling: Sampling::Step(0.25),

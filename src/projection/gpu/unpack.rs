@@ -158,6 +158,7 @@ impl Unpack<'_> {
             Occupancy::from_words(g.nx, g.ny, words_of.to_vec())
         });
         Projection {
+            local: Default::default(),
             metrics: self.metrics(c),
             occupancy,
             cells,

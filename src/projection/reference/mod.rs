@@ -36,6 +36,7 @@ pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> 
             let occupied = reduce::reduce(layout, &occupancy);
             let area = reduce::projection_area(layout, &cells);
             Projection {
+                local: Default::default(),
                 metrics: Metrics::new(splat.visible, plan.total() as u64, splat.extremes, occupied, area),
                 occupancy: keep_occupancy.then(|| layout.to_data_order(occupancy)),
                 cells: (keep_occupancy && layout.area_grid.is_some()).then_some(cells),

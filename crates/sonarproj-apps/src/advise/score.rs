@@ -316,6 +316,7 @@ impl<'a> Scorer<'a> {
                 .map(|p| kept(&self.config.source, &self.pool, p))
                 .collect();
             let batch = Batch {
+                sigma_range: None,
                 source: self.config.source.clone(),
                 target: self.config.target.clone(),
                 sampling: self.config.sampling,
@@ -324,9 +325,11 @@ impl<'a> Scorer<'a> {
                     .iter()
                     .zip(&selections)
                     .flat_map(|(&pose, sel)| {
-                        sel.1
-                            .iter()
-                            .map(move |&(_, measurement)| BatchItem { measurement, pose })
+                        sel.1.iter().map(move |&(_, measurement)| BatchItem {
+                            true_point: None,
+                            measurement,
+                            pose,
+                        })
                     })
                     .collect(),
             };

@@ -16,7 +16,7 @@ use crate::io::field;
 use crate::io::pose_columns::{PoseColumns, allowed_columns, expected_columns};
 use crate::io::table::{CsvOut, Row, TableReader, header_error, row_error};
 use sonarproj::geometry::sonar::Sonar;
-use sonarproj::local_precision::{LocalPrecision, local_precision, resolve_sigma_range};
+use sonarproj::local_precision::LocalPrecision;
 use sonarproj::metrics::{METRIC_NAMES, METRICS, Metrics, Value};
 use sonarproj::projection::{Batch, BatchItem, Projection};
 
@@ -87,29 +87,16 @@ impl<'s, R: Read> BatchReader<'s, R> {
     /// # Errors
     /// [`Error::Csv`](crate::Error::Csv) naming the row (1-based, with its line) for a bad
     /// number, a wrong field count, an invalid pose or a feature outside sonar 1's field of view.
-    pub fn next_item(&mut self) -> Result<Option<(Row, PoseRow)>> {
+    pub fn next_item(&mut self) -> Result<Option<(Row, BatchItem)>> {
         let (source, columns, read) = (self.source, &self.columns, &self.read);
         self.table.next_parsed(|table, fields| {
             let values = read
                 .iter()
                 .map(|c| table.number(fields, c))
                 .collect::<Result<Vec<f64>>>()?;
-            Ok(PoseRow {
-                item: columns.item(source, &values)?,
-                true_point: columns.true_point(&values),
-            })
+            Ok(columns.item(source, &values)?)
         })
     }
-}
-
-/// One row of a pose table: the projection it asks for and the feature's true point (m, deg,
-/// deg) when the row gives it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PoseRow {
-    /// The measurement and pose.
-    pub item: BatchItem,
-    /// The feature's true point in sonar 1.
-    pub true_point: Option<[f64; 3]>,
 }
 
 /// A batch CSV read whole (a sweep's pose list): the rows as given and the projections they ask
@@ -120,10 +107,9 @@ pub struct BatchInput {
     pub headers: Vec<String>,
     /// Each row's fields as given.
     pub rows: Vec<Vec<String>>,
-    /// Each row as a measurement and pose.
+    /// Each row as a measurement and pose, with the feature's true point when the table gives
+    /// it.
     pub items: Vec<BatchItem>,
-    /// Each row's feature true point in sonar 1 (m, deg, deg), when the table gives it.
-    pub true_points: Vec<Option<[f64; 3]>>,
 }
 
 /// Returns the whole batch read from CSV `reader`, each row checked against sonar 1 (`source`).
@@ -148,8 +134,8 @@ pub fn read_batch_csv_at_most(
     what: &str,
 ) -> Result<BatchInput> {
     let mut input = BatchReader::new(reader, source)?;
-    let (mut rows, mut items, mut true_points) = (Vec::new(), Vec::new(), Vec::new());
-    while let Some((row, pose)) = input.next_item()? {
+    let (mut rows, mut items) = (Vec::new(), Vec::new());
+    while let Some((row, item)) = input.next_item()? {
         if rows.len() == max_rows {
             return Err(crate::Error::invalid(
                 what,
@@ -158,8 +144,7 @@ pub fn read_batch_csv_at_most(
             ));
         }
         rows.push(row.fields);
-        items.push(pose.item);
-        true_points.push(pose.true_point);
+        items.push(item);
     }
     if rows.is_empty() {
         return Err(no_rows());
@@ -168,7 +153,6 @@ pub fn read_batch_csv_at_most(
         headers: input.headers().to_vec(),
         rows,
         items,
-        true_points,
     })
 }
 
@@ -193,32 +177,30 @@ pub fn project_csv(
     input: impl Read,
     output: impl Write,
     pair: &Batch,
-    sigma_range: Option<f64>,
     mut project: impl FnMut(&Batch) -> Result<Vec<Projection>>,
 ) -> Result<usize> {
-    // The sonars and sampling are checked once; each row then only for itself.
+    // The sonars, sampling and range error are checked once; each row then only for itself.
     let checker = pair.checker()?;
-    let sigma = resolve_sigma_range(&pair.source, &pair.target, sigma_range)?;
     let mut reader = BatchReader::new(input, &pair.source)?;
     let headers = reader.headers().to_vec();
     let mut out = CsvOut::new(output, &headers, &METRIC_COLUMNS);
     let mut chunk = Batch {
+        sigma_range: pair.sigma_range,
         source: pair.source.clone(),
         target: pair.target.clone(),
         sampling: pair.sampling,
         area_grid: pair.area_grid,
         items: Vec::with_capacity(CHUNK_ROWS),
     };
-    let mut fields: Vec<(Vec<String>, Option<[f64; 3]>)> = Vec::with_capacity(CHUNK_ROWS);
+    let mut fields: Vec<Vec<String>> = Vec::with_capacity(CHUNK_ROWS);
     let mut total = 0;
-    let mut flush = |chunk: &mut Batch, fields: &mut Vec<(Vec<String>, Option<[f64; 3]>)>| -> Result<()> {
+    let mut flush = |chunk: &mut Batch, fields: &mut Vec<Vec<String>>| -> Result<()> {
         if chunk.items.is_empty() {
             return Ok(());
         }
         let results = project(chunk)?;
-        for (((f, true_point), p), item) in fields.iter().zip(&results).zip(&chunk.items) {
-            let local = local_of(chunk, item, *true_point, sigma);
-            out.row(f, &metric_fields(&p.metrics, &local))?;
+        for (f, p) in fields.iter().zip(&results) {
+            out.row(f, &metric_fields(&p.metrics, &p.local))?;
         }
         out.flush()?;
         chunk.items.clear();
@@ -227,16 +209,16 @@ pub fn project_csv(
     };
     let stop = loop {
         let next = reader.next_item().and_then(|next| match next {
-            Some((row, pose)) => match checker.check(&pose.item) {
-                Ok(_) => Ok(Some((row, pose))),
+            Some((row, item)) => match checker.check(&item) {
+                Ok(_) => Ok(Some((row, item))),
                 Err(e) => Err(row_error(row.number, row.line, e.into())),
             },
             None => Ok(None),
         });
         match next {
-            Ok(Some((row, pose))) => {
-                chunk.items.push(pose.item);
-                fields.push((row.fields, pose.true_point));
+            Ok(Some((row, item))) => {
+                chunk.items.push(item);
+                fields.push(row.fields);
                 total += 1;
                 if chunk.items.len() == CHUNK_ROWS {
                     flush(&mut chunk, &mut fields)?;
@@ -252,15 +234,6 @@ pub fn project_csv(
         None if total == 0 => Err(no_rows()),
         None => Ok(total),
     }
-}
-
-/// Returns the local precision of `item` of `pair` at the feature's `true_point` (empty without
-/// it) for a range error `sigma` (m).
-#[must_use]
-pub fn local_of(pair: &Batch, item: &BatchItem, true_point: Option<[f64; 3]>, sigma: f64) -> LocalPrecision {
-    true_point.map_or_else(LocalPrecision::default, |point| {
-        local_precision(&pair.source, &pair.target, point, &item.pose, sigma)
-    })
 }
 
 /// Returns the result columns of one projection as a JSON object (`project`'s and the viewer's

@@ -222,8 +222,9 @@ impl PoseColumns {
             .then(|| [v[0], azimuth, v[usize::from(self.azimuth) + 1]])
     }
 
-    /// Returns the projection one row asks for, checked against sonar 1 (`source`); `v` holds
-    /// the row's values in [`PoseColumns::columns`] order.
+    /// Returns the projection one row asks for, checked against sonar 1 (`source`), with the
+    /// feature's true point when the row gives it ([`PoseColumns::true_point`]); `v` holds the
+    /// row's values in [`PoseColumns::columns`] order.
     ///
     /// # Errors
     /// [`sonarproj::Error::InvalidValue`] for a feature outside sonar 1's field of view or an
@@ -247,7 +248,11 @@ impl PoseColumns {
         } else {
             RelativePose::new(rotation, [t[0], t[1], t[2]])?
         };
-        Ok(BatchItem { measurement, pose })
+        Ok(BatchItem {
+            true_point: self.true_point(v),
+            measurement,
+            pose,
+        })
     }
 }
 

@@ -220,12 +220,14 @@ fn batch_at(
                 [d2, 0.0, 0.0],
             )?;
             Ok(BatchItem {
+                true_point: None,
                 measurement: Measurement::of(&s1, d1, 0.0)?,
                 pose,
             })
         })
         .collect::<Result<Vec<_>>>()?;
     Ok(Batch {
+        sigma_range: None,
         source: s1,
         target: s2,
         sampling,
@@ -243,11 +245,9 @@ pub struct DirectionRun {
     pub sampling: Sampling,
     /// The poses, in order.
     pub poses: Vec<ScenarioPose>,
-    /// Their projections, in the same order.
+    /// Their projections, in the same order, each with the local precision at its feature's
+    /// true point (`(d1, 0, 0)` in sonar 1) for the default range error.
     pub results: Vec<Projection>,
-    /// The local precision at each feature's true point (`(d1, 0, 0)` in sonar 1), for the
-    /// default range error, in the same order.
-    pub local: Vec<LocalPrecision>,
     /// Scenario 7's grid again with both features at [`NEAR_FRACTION`] of their sonar's
     /// maximum range (for the finding about the minimum range; not one of the paper's nine).
     pub near_both: Vec<Projection>,
@@ -286,24 +286,22 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
         .map(|direction| {
             let sampling = direction_sampling(direction, sampling);
             let (s1, s2) = direction.sonars();
-            let (results, local) =
-                project_grids(backend, direction, &poses, sampling, |p| distances(p, &s1, &s2))?;
+            let results = project_grids(backend, direction, &poses, sampling, |p| distances(p, &s1, &s2))?;
             let near = (NEAR_FRACTION * s1.range_max, NEAR_FRACTION * s2.range_max);
-            let (near_both, _) = project_grids(backend, direction, &grid, sampling, |_| near)?;
+            let near_both = project_grids(backend, direction, &grid, sampling, |_| near)?;
             Ok(DirectionRun {
                 direction,
                 sampling,
                 poses: poses.clone(),
                 results,
-                local,
                 near_both,
             })
         })
         .collect()
 }
 
-/// Returns the projections of `poses` for `direction` (with the feature distances `at` gives)
-/// and the local precision at each feature's true point, in the order of `poses`: each run of
+/// Returns the projections of `poses` for `direction` (with the feature distances `at` gives),
+/// each with the local precision at its feature's true point, in the order of `poses`: each run of
 /// poses of one scenario and fraction is a grid — the distances fixed, the swept angles over
 /// their values — projected with its poses decoded where the work runs
 /// ([`Backend::project_columns`]), the batch items of the same poses' results.
@@ -316,11 +314,10 @@ fn project_grids(
     poses: &[ScenarioPose],
     sampling: Sampling,
     at: impl Fn(&ScenarioPose) -> (f64, f64),
-) -> Result<(Vec<Projection>, Vec<LocalPrecision>)> {
+) -> Result<Vec<Projection>> {
     let (s1, s2) = direction.sonars();
     let sigma = default_sigma_range(&s1, &s2);
     let mut results = Vec::with_capacity(poses.len());
-    let mut local = Vec::with_capacity(poses.len());
     let mut columns = sonarproj::MetricColumns::default();
     let (mut rpe, mut sig) = (Vec::new(), Vec::new());
     let optional = |v: f64| Some(v).filter(|v| !v.is_nan());
@@ -365,14 +362,14 @@ fn project_grids(
                 metrics: columns.get(index),
                 occupancy: None,
                 cells: None,
-            });
-            local.push(LocalPrecision {
-                range_per_elevation: optional(rpe[index]),
-                sigma_elevation: optional(sig[index]),
+                local: LocalPrecision {
+                    range_per_elevation: optional(rpe[index]),
+                    sigma_elevation: optional(sig[index]),
+                },
             });
         }
     }
-    Ok((results, local))
+    Ok(results)
 }
 
 impl DirectionRun {
@@ -429,19 +426,14 @@ pub fn write(
     runs.par_iter().try_for_each(|run| -> Result<()> {
         let stem = run.direction.stem();
         let write_csv = || {
-            let rows = run
-                .poses
-                .iter()
-                .zip(&run.results)
-                .zip(&run.local)
-                .map(|((p, r), local)| {
-                    let mut fields = vec![
-                        p.scenario.to_string(),
-                        p.fraction.map(|f| f.to_string()).unwrap_or_default(),
-                    ];
-                    fields.extend(p.angles.iter().map(f64::to_string));
-                    (fields, metric_fields(&r.metrics, local))
-                });
+            let rows = run.poses.iter().zip(&run.results).map(|(p, r)| {
+                let mut fields = vec![
+                    p.scenario.to_string(),
+                    p.fraction.map(|f| f.to_string()).unwrap_or_default(),
+                ];
+                fields.extend(p.angles.iter().map(f64::to_string));
+                (fields, metric_fields(&r.metrics, &r.local))
+            });
             let csv = out.join(format!("{stem}.csv"));
             write_atomic(&csv, |w| write_rows(w, &header, &METRIC_COLUMNS, rows))
         };

@@ -104,18 +104,7 @@ impl<'a> Work<'a> {
             for p in &results {
                 metrics.push(&p.metrics);
             }
-            let table = rows.then(|| {
-                columns_of(
-                    self.columns,
-                    self.kinds,
-                    r.start,
-                    &batch,
-                    &poses,
-                    &values,
-                    &results,
-                    self.sigma,
-                )
-            });
+            let table = rows.then(|| columns_of(self.columns, self.kinds, r.start, &values, &results));
             return Ok(table);
         };
         let sweep = self.grid_sweep(grid);

@@ -34,14 +34,13 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::io::batch::PoseRow;
 use crate::io::toml_keys::ConfigFile;
 use crate::io::{BatchInput, read_batch_csv_at_most};
 use crate::sweep::columns;
 use crate::sweep::summary::{self, SummarySpec};
 use sonarproj::geometry::sonar::{Sonar, SonarKind};
 use sonarproj::metrics::Metric;
-use sonarproj::projection::Batch;
+use sonarproj::projection::{Batch, BatchItem};
 use sonarproj::sampling::Sampling;
 
 use crate::limits::MAX_LIST_POSES;
@@ -187,6 +186,7 @@ impl SweepConfig {
     /// [`sonarproj::Error::InvalidValue`] for the sampling, naming the list row when there is one.
     fn check_sampling(&self) -> Result<()> {
         let pair = Batch {
+            sigma_range: None,
             source: self.source.clone(),
             target: self.target.clone(),
             sampling: self.sampling,
@@ -269,7 +269,7 @@ impl SweepConfig {
         clippy::cast_possible_truncation,
         reason = "grid sizes are checked against MAX_POSES before they are used as indices"
     )]
-    pub fn items(&self, range: std::ops::Range<u64>) -> Result<(Vec<PoseRow>, Vec<Vec<String>>)> {
+    pub fn items(&self, range: std::ops::Range<u64>) -> Result<(Vec<BatchItem>, Vec<Vec<String>>)> {
         // In parallel: formatting the fields costs as much as projecting some batches.
         let pairs = range
             .into_par_iter()
@@ -278,18 +278,12 @@ impl SweepConfig {
                 let pose = match &self.poses {
                     Poses::List(l) => {
                         row.extend(l.rows[i as usize].iter().cloned());
-                        PoseRow {
-                            item: l.items[i as usize],
-                            true_point: l.true_points[i as usize],
-                        }
+                        l.items[i as usize]
                     }
                     Poses::Grid(g) => {
                         let v = g.values(i);
                         row.extend(v.iter().map(f64::to_string));
-                        PoseRow {
-                            true_point: Some([v[0], v[1], v[2]]),
-                            item: g.item(&self.source, &v)?,
-                        }
+                        g.item(&self.source, &v)?
                     }
                 };
                 Ok((pose, row))
@@ -308,7 +302,7 @@ impl SweepConfig {
         clippy::cast_possible_truncation,
         reason = "grid sizes are checked against MAX_POSES before they are used as indices"
     )]
-    pub fn items_numeric(&self, range: std::ops::Range<u64>) -> Result<(Vec<PoseRow>, Vec<f64>)> {
+    pub fn items_numeric(&self, range: std::ops::Range<u64>) -> Result<(Vec<BatchItem>, Vec<f64>)> {
         let n = (range.end - range.start) as usize;
         let width = self.columns().len() - 1;
         // Each pose's numbers written in place, its item built from them: nothing is allocated
@@ -326,17 +320,11 @@ impl SweepConfig {
                                 Error::invalid(format!("poses row {i}"), format!("{t:?}"), "must be a number")
                             })?;
                         }
-                        Ok(PoseRow {
-                            item: l.items[i as usize],
-                            true_point: l.true_points[i as usize],
-                        })
+                        Ok(l.items[i as usize])
                     }
                     Poses::Grid(g) => {
                         g.values_into(i, v);
-                        Ok(PoseRow {
-                            true_point: Some([v[0], v[1], v[2]]),
-                            item: g.item(&self.source, v)?,
-                        })
+                        g.item(&self.source, v)
                     }
                 }
             })

@@ -60,10 +60,13 @@ impl Grid {
     }
 
     /// Returns the batch item of axis values `v` (in [`Grid::axes`] order): the engine's
-    /// definition of a grid's pose.
+    /// definition of a grid's pose, with the feature's true point (the first three values).
     pub(crate) fn item(&self, source: &Sonar, v: &[f64]) -> Result<sonarproj::BatchItem> {
         let v: [f64; 9] = std::array::from_fn(|k| v[k]);
-        Ok(item_of(source, &v, self.placement)?)
+        Ok(sonarproj::BatchItem {
+            true_point: Some([v[0], v[1], v[2]]),
+            ..item_of(source, &v, self.placement)?
+        })
     }
 
     /// Returns the grid of sweep file `f` (its `[feature]`, `[place]` or `[translation]`, and

@@ -406,7 +406,6 @@ fn csv_chunk(files: &Files<'_>, backend: &Backend, c: u64) -> Result<Computed> {
     let csv = CsvChunk {
         config: plan.config,
         header: &header,
-        sigma: plan.sigma,
     };
     let path = files.chunk_path(c);
     let values = csv.write(backend, poses.clone(), &path, files.expected(&poses), plan.by)?;

@@ -6,14 +6,14 @@ use std::path::Path;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sonarproj::Output;
-use sonarproj::local_precision::LocalPrecision;
+
 use sonarproj::metrics::Metric;
-use sonarproj::projection::{Backend, Batch, Projection};
+use sonarproj::projection::{Backend, Batch, BatchItem, Projection};
 
 use crate::error::{Error, Result};
 use crate::io::METRIC_COLUMNS;
+use crate::io::batch::LOCAL_COLUMNS;
 use crate::io::batch::metric_field;
-use crate::io::batch::{LOCAL_COLUMNS, PoseRow, local_of};
 use crate::io::parquet::{Column, Kind, Table};
 use crate::io::table::write_rows;
 use crate::sweep::SweepConfig;
@@ -61,21 +61,28 @@ impl Format {
     }
 }
 
-/// Returns the batch of a chunk's `poses`.
-pub(crate) fn chunk_batch(config: &SweepConfig, poses: &[PoseRow]) -> Batch {
+/// Returns the batch of a chunk's `poses`, with their true points (and so their local precision
+/// computed) only when the table keeps a local column (a tenth of a sweep's time).
+pub(crate) fn chunk_batch(config: &SweepConfig, poses: &[BatchItem]) -> Batch {
+    let local = config.result_columns.iter().any(|c| LOCAL_COLUMNS.contains(c));
     Batch {
+        sigma_range: config.sigma_range,
         source: config.source.clone(),
         target: config.target.clone(),
         sampling: config.sampling,
         area_grid: config.area_grid,
-        items: poses.iter().map(|p| p.item).collect(),
+        items: poses
+            .iter()
+            .map(|p| BatchItem {
+                true_point: p.true_point.filter(|_| local),
+                ..*p
+            })
+            .collect(),
     }
 }
 
 /// Returns a chunk's table: the index from `first`, the pose columns `values` (row after row),
-/// the metrics of `results` and the local precision of `poses` (range error `sigma`), in the
-/// sweep's `columns` of `kinds`.
-#[expect(clippy::too_many_arguments, reason = "the parts of one chunk, named")]
+/// the metrics and local precision of `results`, in the sweep's `columns` of `kinds`.
 #[expect(
     clippy::cast_possible_wrap,
     reason = "pose indices are below 2^40 (MAX_POSES)"
@@ -84,23 +91,13 @@ pub(crate) fn columns_of(
     columns: &[String],
     kinds: &[Kind],
     first: u64,
-    batch: &Batch,
-    poses: &[PoseRow],
     values: &[f64],
     results: &[Projection],
-    sigma: f64,
 ) -> Table {
     let mut table = Table::new(columns, kinds);
-    let n = poses.len();
+    let n = results.len();
     let pose_columns = pose_column_count(columns);
-    let locals: Vec<_> = if columns.iter().any(|c| LOCAL_COLUMNS.contains(&c.as_str())) {
-        poses
-            .par_iter()
-            .map(|pose| local_of(batch, &pose.item, pose.true_point, sigma))
-            .collect()
-    } else {
-        Vec::new()
-    };
+    let locals: Vec<_> = results.iter().map(|p| p.local).collect();
     for (j, column) in table.columns.iter_mut().enumerate() {
         *column = if j == 0 {
             Column::Int((0..n as u64).map(|i| (first + i) as i64).collect())
@@ -139,15 +136,12 @@ pub(crate) fn columns_of(
 }
 
 /// Returns the CSV rows (no header) of `fields` followed by the result columns `kept` (of
-/// [`METRIC_COLUMNS`], in its order): the metrics of `results` and the local precision of
-/// `poses` of `batch` (range error `sigma`), formatted in parallel blocks (the same bytes as one
-/// writer would produce: each record is formatted on its own).
+/// [`METRIC_COLUMNS`], in its order): the metrics and local precision of `results`, formatted in
+/// parallel blocks (the same bytes as one writer would produce: each record is formatted on its
+/// own).
 pub(crate) fn csv_rows(
-    batch: &Batch,
-    poses: &[PoseRow],
     fields: &[Vec<String>],
     (results, kept): (&[Projection], &[&str]),
-    sigma: f64,
     path: &Path,
 ) -> Result<Vec<u8>> {
     let picks: Vec<usize> = kept
@@ -159,23 +153,15 @@ pub(crate) fn csv_rows(
                 .expect("a result column")
         })
         .collect();
-    let local = picks
-        .iter()
-        .any(|&k| k >= METRIC_COLUMNS.len() - LOCAL_COLUMNS.len());
     let blocks: Vec<Vec<u8>> = fields
         .par_chunks(4096)
         .zip(results.par_chunks(4096))
-        .zip(poses.par_chunks(4096))
-        .map(|((f, r), poses)| {
+        .map(|(f, r)| {
             let mut w = csv::WriterBuilder::new()
                 .has_headers(false)
                 .from_writer(Vec::new());
-            for ((fields, p), pose) in f.iter().zip(r).zip(poses) {
-                let local = if local {
-                    local_of(batch, &pose.item, pose.true_point, sigma)
-                } else {
-                    LocalPrecision::default()
-                };
+            for (fields, p) in f.iter().zip(r) {
+                let local = p.local;
                 // The pose fields and the kept ones, then the record's end (a row always has
                 // its index, so never the empty record's lone field).
                 let kept = picks.iter().map(|&k| metric_field(&p.metrics, &local, k));
@@ -197,7 +183,6 @@ pub(crate) fn csv_rows(
 pub(crate) struct CsvChunk<'a> {
     pub(crate) config: &'a SweepConfig,
     pub(crate) header: &'a [String],
-    pub(crate) sigma: f64,
 }
 
 impl CsvChunk<'_> {
@@ -215,7 +200,7 @@ impl CsvChunk<'_> {
         let batch = chunk_batch(self.config, &poses);
         let results = backend.project(&batch, Output::MetricsOnly)?;
         let kept = &self.config.result_columns;
-        let body = csv_rows(&batch, &poses, &fields, (&results, kept), self.sigma, path)?;
+        let body = csv_rows(&fields, (&results, kept), path)?;
         parts::write_chunk(path, expected, |w| {
             write_rows(
                 &mut *w,

@@ -17,7 +17,6 @@ use serde::Deserialize;
 use serde_json::{Value, json};
 use sonarproj::geometry::{cart_to_sph, sph_to_cart};
 use sonarproj::gpu::GpuOptions;
-use sonarproj::local_precision::{default_sigma_range, local_precision};
 use sonarproj::masks::{Counts, MaskEngine, Noise, run_lengths};
 use sonarproj::recovery::{DEFAULT_CURVE_STEP, Observation, Sigmas, recover};
 use sonarproj::sampling::{SamplingPlan, base_azimuth};
@@ -381,11 +380,18 @@ impl Viewer {
         let plan = SamplingPlan::new(source, target, &measurement, sampling)?;
 
         let batch = Batch {
+            sigma_range: None,
             source: source.clone(),
             target: target.clone(),
             sampling,
             area_grid: sonarproj::PAPER_AREA_GRID,
-            items: vec![BatchItem { measurement, pose }],
+            // The feature's true point: the metrics carry the local precision there (the
+            // default range error), as `project` prints them.
+            items: vec![BatchItem {
+                true_point: Some([f.range, f.azimuth, f.elevation]),
+                measurement,
+                pose,
+            }],
         };
         let result = self
             .backend
@@ -413,21 +419,12 @@ impl Viewer {
         let (tr, taz, tel) = cart_to_sph(truth);
         let (backend, device) = self.device();
         let r = pose.rotation;
-        // The metrics as `project` prints them: the table's, then the local precision at the
-        // feature's true point (the default range error).
-        let local = local_precision(
-            source,
-            target,
-            [f.range, f.azimuth, f.elevation],
-            &pose,
-            default_sigma_range(source, target),
-        );
         Ok(json!({
             "from": sonar_json(&first.label, source),
             "to": sonar_json(&second.label, target),
             "backend": backend,
             "device": device,
-            "metrics": metrics_json(&result.metrics, &local),
+            "metrics": metrics_json(&result.metrics, &result.local),
             "occupancy": {
                 "range_bins": occupancy.range_bins,
                 "beams": occupancy.beams,

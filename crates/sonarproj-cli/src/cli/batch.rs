@@ -35,7 +35,7 @@ pub(super) fn run(a: BatchArgs) -> Result<()> {
     let input = open_input(&a.input)?;
     let mut backend: Option<Backend> = None;
     write_output(&a.output, |w| {
-        project_csv(input, w, &pair, a.pair.sigma_range, |chunk| {
+        project_csv(input, w, &pair, |chunk| {
             let backend = match &mut backend {
                 Some(b) => b,
                 None => backend.insert(a.pair.backend()?),

@@ -35,7 +35,6 @@ pub(crate) use names::name;
 use std::io::{Read, Write};
 use std::path::PathBuf;
 
-use sonarproj::local_precision::resolve_sigma_range;
 use sonarproj::{Backend, BackendChoice, Batch, Sampling, Sonar};
 use sonarproj_apps::Error;
 use sonarproj_apps::Result;
@@ -148,6 +147,7 @@ impl PairArgs {
             None => Sampling::Auto,
         };
         let pair = Batch {
+            sigma_range: self.sigma_range,
             source,
             target,
             sampling,
@@ -155,7 +155,6 @@ impl PairArgs {
             items: Vec::new(),
         };
         pair.checker()?;
-        resolve_sigma_range(&pair.source, &pair.target, self.sigma_range)?;
         Ok(pair)
     }
 

@@ -4,7 +4,6 @@ use sonarproj::Output;
 use std::path::PathBuf;
 
 use serde_json::json;
-use sonarproj::local_precision::{LocalPrecision, local_precision, resolve_sigma_range};
 use sonarproj::occupancy::Layout;
 use sonarproj::sampling::SamplingPlan;
 use sonarproj::{BatchItem, Measurement, Sampling};
@@ -95,7 +94,11 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
         }
     }
     let backend = a.pair.backend()?;
-    batch.items.push(BatchItem { measurement, pose });
+    batch.items.push(BatchItem {
+        true_point,
+        measurement,
+        pose,
+    });
     let result = backend
         .project(
             &batch,
@@ -119,10 +122,7 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
         occupancy_image::write(path, occ, &Layout::of(&batch.target), &title, orientation)?;
     }
     let rows = pose.rotation.transpose().to_cols_array_2d();
-    let sigma = resolve_sigma_range(&batch.source, &batch.target, a.pair.sigma_range)?;
-    let local = true_point.map_or_else(LocalPrecision::default, |point| {
-        local_precision(&batch.source, &batch.target, point, &pose, sigma)
-    });
+    let local = result.local;
     let out = json!({
         "from": batch.source.name,
         "to": batch.target.name,
