@@ -183,11 +183,11 @@ mod tests {
             ("paper-fls", "paper-fls", [5.0, -7.0, -2.0], [6.0, 5.0, 4.0]),
             ("paper-sss", "paper-fls", [15.0, 20.0, 0.1], [5.0, 3.0, 2.0]),
         ] {
-            let (s1, s2) = (Sonar::preset(a).unwrap(), Sonar::preset(b).unwrap());
+            let (source, target) = (Sonar::preset(a).unwrap(), Sonar::preset(b).unwrap());
             let pose = RelativePose::placement(rotation, point, second).unwrap();
-            let lp = local_precision(&s1, &s2, point, &pose, 0.01);
+            let lp = local_precision(&source, &target, point, &pose, 0.01);
             let h = 1e-6f64.to_radians();
-            let fd = (range_along(&s1, &s2, point, &pose, h) - range_along(&s1, &s2, point, &pose, -h))
+            let fd = (range_along(&source, &target, point, &pose, h) - range_along(&source, &target, point, &pose, -h))
                 / (2.0 * h)
                 * PI
                 / 180.0;

@@ -181,12 +181,12 @@ pub fn scenario_poses(step: f64) -> Result<Vec<ScenarioPose>> {
 
 /// Returns the feature distances `(in sonar 1, in sonar 2)` (m) of a scenario pose.
 #[must_use]
-pub fn distances(p: &ScenarioPose, s1: &Sonar, s2: &Sonar) -> (f64, f64) {
+pub fn distances(p: &ScenarioPose, source: &Sonar, target: &Sonar) -> (f64, f64) {
     let f = p.fraction.unwrap_or(0.5);
     match p.scenario {
-        1..=3 => (0.5 * s1.range_max, f * s2.range_max),
-        4..=6 => (f * s1.range_max, 0.5 * s2.range_max),
-        _ => (0.5 * s1.range_max, 0.5 * s2.range_max),
+        1..=3 => (0.5 * source.range_max, f * target.range_max),
+        4..=6 => (f * source.range_max, 0.5 * target.range_max),
+        _ => (0.5 * source.range_max, 0.5 * target.range_max),
     }
 }
 
@@ -196,8 +196,8 @@ pub fn distances(p: &ScenarioPose, s1: &Sonar, s2: &Sonar) -> (f64, f64) {
 /// # Errors
 /// Invalid poses (none for angles from [`angles`]).
 pub fn batch(direction: Direction, poses: &[ScenarioPose], sampling: Sampling) -> Result<Batch> {
-    let (s1, s2) = direction.sonars();
-    batch_at(direction, poses, sampling, |p| distances(p, &s1, &s2))
+    let (source, target) = direction.sonars();
+    batch_at(direction, poses, sampling, |p| distances(p, &source, &target))
 }
 
 /// Returns the batch of `poses` for `direction` with the feature distances `(in sonar 1, in
@@ -208,7 +208,7 @@ fn batch_at(
     sampling: Sampling,
     at: impl Fn(&ScenarioPose) -> (f64, f64),
 ) -> Result<Batch> {
-    let (s1, s2) = direction.sonars();
+    let (source, target) = direction.sonars();
     let items = poses
         .iter()
         .map(|p| {
@@ -221,15 +221,15 @@ fn batch_at(
             )?;
             Ok(BatchItem {
                 true_point: None,
-                measurement: Measurement::of(&s1, d1, 0.0)?,
+                measurement: Measurement::of(&source, d1, 0.0)?,
                 pose,
             })
         })
         .collect::<Result<Vec<_>>>()?;
     Ok(Batch {
         sigma_range: None,
-        source: s1,
-        target: s2,
+        source,
+        target,
         sampling,
         area_grid: sonarproj::PAPER_AREA_GRID,
         items,
@@ -285,9 +285,9 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
         .into_iter()
         .map(|direction| {
             let sampling = direction_sampling(direction, sampling);
-            let (s1, s2) = direction.sonars();
-            let results = project_grids(backend, direction, &poses, sampling, |p| distances(p, &s1, &s2))?;
-            let near = (NEAR_FRACTION * s1.range_max, NEAR_FRACTION * s2.range_max);
+            let (source, target) = direction.sonars();
+            let results = project_grids(backend, direction, &poses, sampling, |p| distances(p, &source, &target))?;
+            let near = (NEAR_FRACTION * source.range_max, NEAR_FRACTION * target.range_max);
             let near_both = project_grids(backend, direction, &grid, sampling, |_| near)?;
             Ok(DirectionRun {
                 direction,
@@ -315,8 +315,8 @@ fn project_grids(
     sampling: Sampling,
     at: impl Fn(&ScenarioPose) -> (f64, f64),
 ) -> Result<Vec<Projection>> {
-    let (s1, s2) = direction.sonars();
-    let sigma = default_sigma_range(&s1, &s2);
+    let (source, target) = direction.sonars();
+    let sigma = default_sigma_range(&source, &target);
     let mut results = Vec::with_capacity(poses.len());
     let mut columns = sonarproj::MetricColumns::default();
     let (mut rpe, mut sig) = (Vec::new(), Vec::new());
@@ -342,10 +342,10 @@ fn project_grids(
             pitch,
             yaw,
         ];
-        let grid = sonarproj::PoseGrid::new(axes, true, &s1)?;
+        let grid = sonarproj::PoseGrid::new(axes, true, &source)?;
         let sweep = sonarproj::PoseSweep {
-            source: s1.clone(),
-            target: s2.clone(),
+            source: source.clone(),
+            target: target.clone(),
             sampling,
             area_grid: sonarproj::PAPER_AREA_GRID,
             poses: sonarproj::PoseSource::Grid(&grid),

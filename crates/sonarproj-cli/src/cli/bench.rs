@@ -347,7 +347,7 @@ fn masks(runs: u32) -> Result<()> {
         "pixels/mask"
     )?;
     for (from, to) in bench::MASK_CASES {
-        let (s1, s2) = (
+        let (source, target) = (
             Sonar::preset(from).expect("preset"),
             Sonar::preset(to).expect("preset"),
         );
@@ -355,13 +355,13 @@ fn masks(runs: u32) -> Result<()> {
         if let Some(label) = gpu {
             engines.push((
                 label,
-                MaskEngine::on_gpu(s1.clone(), s2.clone(), GpuContext::open(&options)?)?,
+                MaskEngine::on_gpu(source.clone(), target.clone(), GpuContext::open(&options)?)?,
             ));
         }
-        engines.push(("cpu", MaskEngine::new(s1.clone(), s2.clone())?));
+        engines.push(("cpu", MaskEngine::new(source.clone(), target.clone())?));
         for (name, engine) in &engines {
             for n in [1, 100] {
-                let (pose, features) = bench::mask_ping(&s1, &s2, n)?;
+                let (pose, features) = bench::mask_ping(&source, &target, n)?;
                 let summary = engine.summary(&pose, &features, None)?;
                 let cells = summary.features.iter().map(|f| f.cells).sum::<u64>() / n as u64;
                 let seen = summary.features.iter().filter(|f| f.occupied > 0).count();

@@ -83,14 +83,14 @@ fn observation(which: &str, text: &str) -> Result<Observation> {
 
 /// Runs `sonarproj recover`.
 pub(super) fn run(a: RecoverArgs) -> Result<()> {
-    let s1 = super::resolve_sonar(&a.from)?;
-    let s2 = super::resolve_sonar(&a.to)?;
+    let source = super::resolve_sonar(&a.from)?;
+    let target = super::resolve_sonar(&a.to)?;
     if let Some(input) = &a.input {
-        return run_batch(&a, &s1, &s2, input);
+        return run_batch(&a, &source, &target, input);
     }
     let first = observation("first", a.first.as_deref().expect("clap requires it"))?;
     let second = observation("second", a.second.as_deref().expect("clap requires it"))?;
-    let feature_azimuth = match s1.kind {
+    let feature_azimuth = match source.kind {
         SonarKind::Fls => first.azimuth.unwrap_or(0.0),
         SonarKind::Sss => a.feature_azimuth,
     };
@@ -102,10 +102,10 @@ pub(super) fn run(a: RecoverArgs) -> Result<()> {
             azimuth: az.unwrap_or(0.0),
         }),
     };
-    let rec: Recovery = recover(&s1, &s2, &pose, first, second, sigmas, a.curve_step)?;
+    let rec: Recovery = recover(&source, &target, &pose, first, second, sigmas, a.curve_step)?;
     let out = json!({
-        "from": s1.name,
-        "to": s2.name,
+        "from": source.name,
+        "to": target.name,
         "first": { "range": first.range, "azimuth": first.azimuth },
         "second": { "range": second.range, "azimuth": second.azimuth },
         "pose": {
@@ -125,13 +125,13 @@ pub(super) fn run(a: RecoverArgs) -> Result<()> {
 }
 
 /// Runs the batch mode: every row of `input` recovered, written as CSV row by row.
-fn run_batch(a: &RecoverArgs, s1: &Sonar, s2: &Sonar, input: &str) -> Result<()> {
+fn run_batch(a: &RecoverArgs, source: &Sonar, target: &Sonar, input: &str) -> Result<()> {
     let input = open_input(input)?;
     write_output(a.output.as_deref().unwrap_or("-"), |w| {
         recover_csv(input, w, |item| {
             Ok(recover(
-                s1,
-                s2,
+                source,
+                target,
                 &item.pose,
                 item.first,
                 item.second,
