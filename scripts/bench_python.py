@@ -6,7 +6,8 @@ the same process, and prints both.
 The Python call is `sonarproj.batch` from numpy arrays (column checks, conversion, the engine,
 the metric arrays); the Rust figure is the library alone on the same columns (items built and
 checked, one `Backend::project` call, metrics collected), timed inside the extension module.
-Both take the median of `--runs` runs after one warm-up.
+Both take the median of `--runs` runs after one warm-up. The Rust timing function is only in a
+package built with the `bench` feature: `maturin build --release --features bench`.
 """
 
 import argparse
@@ -49,8 +50,12 @@ def main() -> None:
         sonarproj.batch(first, second, cols, step=a.step, backend=a.backend)
         return time.perf_counter() - t
 
+    if not hasattr(_sonarproj, "bench_rust_batch"):
+        raise SystemExit("this package has no timing function: build it with "
+                         "`maturin build --release --features bench` and install that wheel")
+
     def rust_call() -> float:
-        return _sonarproj.bench_rust_batch(s1, s2, list(cols), ordered, a.step, a.backend)
+        return _sonarproj.bench_rust_batch(s1, s2, list(cols), ordered, a.step, a.backend)  # type: ignore[attr-defined]
 
     python_call(), rust_call()  # warm-up: backend opened, pages touched
     py, rs = [], []

@@ -187,7 +187,8 @@ mod tests {
             let pose = RelativePose::placement(rotation, point, second).unwrap();
             let lp = local_precision(&source, &target, point, &pose, 0.01);
             let h = 1e-6f64.to_radians();
-            let fd = (range_along(&source, &target, point, &pose, h) - range_along(&source, &target, point, &pose, -h))
+            let fd = (range_along(&source, &target, point, &pose, h)
+                - range_along(&source, &target, point, &pose, -h))
                 / (2.0 * h)
                 * PI
                 / 180.0;

@@ -277,14 +277,6 @@ def batch_columns(
     sigma_range: Optional[float],
     backend_name: str,
 ) -> tuple[dict[str, npt.NDArray[Any]], Optional[str]]: ...
-def bench_rust_batch(
-    first: Sonar,
-    second: Sonar,
-    names: list[str],
-    columns: list[npt.NDArray[np.float64]],
-    step: Optional[float],
-    backend_name: str,
-) -> float: ...
 def project_one(
     first: Sonar,
     second: Sonar,

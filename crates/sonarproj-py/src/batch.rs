@@ -1,7 +1,5 @@
 //! `sonarproj.batch` and `sonarproj.project`: projections from numpy columns and from one pose.
 
-use std::time::Instant;
-
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::prelude::*;
@@ -29,7 +27,7 @@ pub(crate) fn sampling(step: Option<f64>) -> PyResult<Sampling> {
 
 /// Returns the items of rows `rows` of `cols` (in `columns`' order), each checked and with its
 /// feature's true point when the columns give it: errors name the row (0-based).
-fn items(
+pub(crate) fn items(
     source: &sonarproj::Sonar,
     columns: &PoseColumns,
     cols: &[&[f64]],
@@ -52,7 +50,7 @@ fn items(
 /// Returns the pose table's reading (its columns `names`, checked against sonar 1), the column
 /// slices in the order it reads them, their length, and the pair they are projected between:
 /// the sonars, the sampling of `step` and the area grid, no items yet.
-fn columns_and_pair<'a>(
+pub(crate) fn columns_and_pair<'a>(
     first: &PySonar,
     second: &PySonar,
     names: &[String],
@@ -138,48 +136,6 @@ pub(crate) fn batch_columns<'py>(
         start = end;
     }
     Ok((metric_dict(py, &metrics, &locals)?, notice))
-}
-
-/// Returns the seconds the Rust library takes for the batch `batch_columns` would compute
-/// (the pair checked, items built from the columns and checked, projected in one call, metrics
-/// collected), for the benchmark comparing the Python call with the library.
-#[pyfunction]
-#[pyo3(signature = (first, second, names, columns, step, backend_name))]
-pub(crate) fn bench_rust_batch<'py>(
-    py: Python<'py>,
-    first: &PySonar,
-    second: &PySonar,
-    names: Vec<String>,
-    columns: Vec<PyReadonlyArray1<'py, f64>>,
-    step: Option<f64>,
-    backend_name: &str,
-) -> PyResult<f64> {
-    let (reading, cols, len, pair) =
-        columns_and_pair(first, second, &names, &columns, step, sonarproj::PAPER_AREA_GRID)?;
-    let (backend, _) = backend::get(backend_name)?;
-    crate::runtime::detach(py, || -> sonarproj::Result<f64> {
-        let start = Instant::now();
-        let checker = pair.checker()?;
-        let batch = Batch {
-            items: items(&pair.source, &reading, &cols, 0..len, &checker)?
-                .into_iter()
-                // The metrics alone, as the timed projection computes them.
-                .map(|item| BatchItem {
-                    true_point: None,
-                    ..item
-                })
-                .collect(),
-            ..pair.clone()
-        };
-        let metrics: Vec<Metrics> = backend
-            .project(&batch, Output::MetricsOnly)?
-            .into_iter()
-            .map(|p| p.metrics)
-            .collect();
-        std::hint::black_box(&metrics);
-        Ok(start.elapsed().as_secs_f64())
-    })
-    .map_err(errors::engine)
 }
 
 /// Returns the metrics of one projection (and its occupancy as a uint8 array in sonar 2's

@@ -11,6 +11,8 @@ mod apps;
 mod arrays;
 mod backend;
 mod batch;
+#[cfg(feature = "bench")]
+mod bench;
 mod errors;
 mod masks;
 mod oculus;
@@ -43,7 +45,8 @@ fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sonar::presets, m)?)?;
     m.add_function(wrap_pyfunction!(backend::configure_gpu, m)?)?;
     m.add_function(wrap_pyfunction!(batch::batch_columns, m)?)?;
-    m.add_function(wrap_pyfunction!(batch::bench_rust_batch, m)?)?;
+    #[cfg(feature = "bench")]
+    m.add_function(wrap_pyfunction!(bench::bench_rust_batch, m)?)?;
     m.add_function(wrap_pyfunction!(batch::project_one, m)?)?;
     m.add_function(wrap_pyfunction!(recover::recover_one, m)?)?;
     m.add_function(wrap_pyfunction!(recover::recover_columns, m)?)?;

@@ -15,20 +15,24 @@
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::{Sonar, SonarKind};
 use sonarproj::projection::BatchItem;
+use sonarproj::projection::poses::{PLACEMENT_AXES, TRANSLATION_AXES};
 use sonarproj::sampling::Measurement;
 
+// The pose columns' names, one place: a grid's axes are the engine's ([`PLACEMENT_AXES`],
+// [`TRANSLATION_AXES`]); the other forms of the rotation are the tables' own.
+
 /// The feature's columns: its measurement and true point in sonar 1.
-pub const FEATURE_COLUMNS: [&str; 3] = ["range", "azimuth", "elevation"];
+pub const FEATURE_COLUMNS: [&str; 3] = [PLACEMENT_AXES[0], PLACEMENT_AXES[1], PLACEMENT_AXES[2]];
 /// The rotation as roll, pitch, yaw (deg).
-pub const RPY_COLUMNS: [&str; 3] = ["roll", "pitch", "yaw"];
+pub const RPY_COLUMNS: [&str; 3] = [PLACEMENT_AXES[6], PLACEMENT_AXES[7], PLACEMENT_AXES[8]];
 /// The rotation as a unit quaternion, scalar first.
 pub const QUATERNION_COLUMNS: [&str; 4] = ["qw", "qx", "qy", "qz"];
 /// The rotation as a matrix, row-major.
 pub const MATRIX_COLUMNS: [&str; 9] = ["r11", "r12", "r13", "r21", "r22", "r23", "r31", "r32", "r33"];
 /// Placement columns (one way to give the translation).
-pub const PLACE_COLUMNS: [&str; 3] = ["place_range", "place_azimuth", "place_elevation"];
+pub const PLACE_COLUMNS: [&str; 3] = [PLACEMENT_AXES[3], PLACEMENT_AXES[4], PLACEMENT_AXES[5]];
 /// Translation columns (the other way).
-pub const TRANSLATION_COLUMNS: [&str; 3] = ["tx", "ty", "tz"];
+pub const TRANSLATION_COLUMNS: [&str; 3] = [TRANSLATION_AXES[3], TRANSLATION_AXES[4], TRANSLATION_AXES[5]];
 
 /// How a table gives the rotation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -286,7 +286,9 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
         .map(|direction| {
             let sampling = direction_sampling(direction, sampling);
             let (source, target) = direction.sonars();
-            let results = project_grids(backend, direction, &poses, sampling, |p| distances(p, &source, &target))?;
+            let results = project_grids(backend, direction, &poses, sampling, |p| {
+                distances(p, &source, &target)
+            })?;
             let near = (NEAR_FRACTION * source.range_max, NEAR_FRACTION * target.range_max);
             let near_both = project_grids(backend, direction, &grid, sampling, |_| near)?;
             Ok(DirectionRun {

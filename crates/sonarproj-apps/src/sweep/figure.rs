@@ -114,9 +114,11 @@ fn draw(dir: &Path, d: &Descriptor, points: &[(Vec<f64>, Option<f64>)]) -> Resul
 
 /// Returns the axis label of sweep column `c`, with its unit.
 fn column_label(c: &str) -> String {
-    let unit = match c {
-        "range" | "place_range" | "tx" | "ty" | "tz" => "m",
-        _ => "deg",
-    };
+    use crate::io::pose_columns::{FEATURE_COLUMNS, PLACE_COLUMNS, TRANSLATION_COLUMNS};
+    let metres = [FEATURE_COLUMNS[0], PLACE_COLUMNS[0]]
+        .into_iter()
+        .chain(TRANSLATION_COLUMNS)
+        .any(|m| m == c);
+    let unit = if metres { "m" } else { "deg" };
     format!("{c} ({unit})")
 }

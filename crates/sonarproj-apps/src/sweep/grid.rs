@@ -7,6 +7,7 @@ use sonarproj::projection::PoseGrid;
 use sonarproj::projection::poses::item_of;
 
 use crate::error::Result;
+use crate::io::pose_columns::{FEATURE_COLUMNS, PLACE_COLUMNS, RPY_COLUMNS, TRANSLATION_COLUMNS};
 use crate::io::toml_keys::ConfigFile;
 
 /// One grid axis: a column of the output and the values it takes.
@@ -83,10 +84,11 @@ impl Grid {
                 "required: [feature] with range (or poses = \"FILE.csv\")",
             ));
         }
+        let [range, azimuth, elevation] = FEATURE_COLUMNS;
         let mut axes = vec![
-            axis(f, feature, "feature", "range", "range", true)?,
-            axis(f, feature, "feature", "azimuth", "azimuth", false)?,
-            axis(f, feature, "feature", "elevation", "elevation", false)?,
+            axis(f, feature, "feature", "range", range, true)?,
+            axis(f, feature, "feature", "azimuth", azimuth, false)?,
+            axis(f, feature, "feature", "elevation", elevation, false)?,
         ];
         let placement = match (place, translation) {
             (Some(_), Some(_)) => {
@@ -96,27 +98,29 @@ impl Grid {
                 return Err(f.missing("place", "required: [place] with range, or [translation]"));
             }
             (Some(_), None) => {
-                let a = axis(f, place, "place", "range", "place_range", true)?;
+                let [place_range, place_azimuth, place_elevation] = PLACE_COLUMNS;
+                let a = axis(f, place, "place", "range", place_range, true)?;
                 if let Some(r) = a.values.iter().find(|r| **r < 0.0) {
                     return Err(f.error("place.range", r, "must be >= 0 m"));
                 }
                 axes.extend([
                     a,
-                    axis(f, place, "place", "azimuth", "place_azimuth", false)?,
-                    axis(f, place, "place", "elevation", "place_elevation", false)?,
+                    axis(f, place, "place", "azimuth", place_azimuth, false)?,
+                    axis(f, place, "place", "elevation", place_elevation, false)?,
                 ]);
                 true
             }
             (None, Some(_)) => {
+                let [tx, ty, tz] = TRANSLATION_COLUMNS;
                 axes.extend([
-                    axis(f, translation, "translation", "x", "tx", false)?,
-                    axis(f, translation, "translation", "y", "ty", false)?,
-                    axis(f, translation, "translation", "z", "tz", false)?,
+                    axis(f, translation, "translation", "x", tx, false)?,
+                    axis(f, translation, "translation", "y", ty, false)?,
+                    axis(f, translation, "translation", "z", tz, false)?,
                 ]);
                 false
             }
         };
-        for name in ["roll", "pitch", "yaw"] {
+        for name in RPY_COLUMNS {
             axes.push(axis(f, rotation, "rotation", name, name, false)?);
         }
         // Every feature point must lie in sonar 1's field of view.
