@@ -291,7 +291,10 @@ impl Backend {
         let mut start = range.start;
         while start < range.end {
             let end = range.end.min(start + ITEMS_AT_ONCE);
-            let batch = sweep.batch(start..end)?;
+            // Metrics alone: the items' true points (a list's) would cost a local precision
+            // the columns do not hold.
+            let mut batch = sweep.batch(start..end)?;
+            batch.items.iter_mut().for_each(|i| i.true_point = None);
             for p in self.project_until(&batch, Output::MetricsOnly, stop)? {
                 out.push(&p.metrics);
             }
@@ -310,8 +313,9 @@ impl Backend {
     /// not wait for the host between blocks.
     ///
     /// # Errors
-    /// As [`Backend::project_columns`]; [`Error::InvalidValue`] for blocks empty, out of order
-    /// or past the sweep's poses.
+    /// As [`Backend::project_columns`], but a set `stop` returns `Break` instead of
+    /// [`Error::Stopped`]; [`Error::InvalidValue`] for blocks empty, out of order or past the
+    /// sweep's poses.
     pub fn project_blocks(
         &self,
         sweep: &PoseSweep<'_>,

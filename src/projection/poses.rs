@@ -344,7 +344,8 @@ impl PoseSweep<'_> {
     /// value), on all cores.
     ///
     /// # Errors
-    /// [`Error::Input`] for a list of poses (its items carry no true point);
+    /// [`Error::Input`] for a list of poses (its items carry their own true points: their
+    /// projections give the local precision, [`crate::Projection::local`]);
     /// [`Error::InvalidValue`] for a range past the grid's poses.
     pub fn local_precision_columns(
         &self,
@@ -356,7 +357,7 @@ impl PoseSweep<'_> {
         let PoseSource::Grid(grid) = self.poses else {
             return Err(Error::input(
                 "local precision",
-                "needs a grid of poses: a list's items carry no true point",
+                "needs a grid of poses: a list's projections carry their own (Projection::local)",
             ));
         };
         if range.start > range.end || range.end > grid.len() {

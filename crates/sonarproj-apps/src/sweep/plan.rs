@@ -167,7 +167,7 @@ impl<'a> Plan<'a> {
             self.chunk_poses,
             format!(
                 "cuts this run's {poses} poses into {n_chunks} chunk files, more than the \
-                 {MAX_CHUNKS} one run keeps: use --chunk-poses {fits} or more (or shards)"
+                 {MAX_CHUNKS} one run keeps: use chunks of {fits} poses or more (or shards)"
             ),
         ))
     }

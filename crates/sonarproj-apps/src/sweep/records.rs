@@ -81,7 +81,9 @@ pub(crate) fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Opt
     match std::fs::read(path) {
         Ok(bytes) => serde_json::from_slice(&bytes).map(Some).map_err(|e| Error::Csv {
             context: path.display().to_string(),
-            message: format!("not a sonarproj sweep file ({e}); remove it or choose another --out"),
+            message: format!(
+                "not a sonarproj sweep file ({e}); remove it or choose another output directory"
+            ),
         }),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(source) => Err(Error::ReadInput {

@@ -102,7 +102,7 @@ pub enum Event {
 /// When `events` answers [`ControlFlow::Break`], the run stops there as `max_chunks` stops it:
 /// finished chunks stay on disk, the outcome has no file, and the same call resumes.
 ///
-/// The run goes through five phases: plan (everything checked, nothing written), lock (the
+/// The run goes through four phases: plan (everything checked, nothing written), lock (the
 /// directory claimed, the run's state locked and its manifest checked), compute and write (chunk
 /// after chunk, each written while the next is computed), and finish (the result joined from
 /// the chunks, the state removed, the figure drawn).

@@ -320,7 +320,7 @@ fn lock_state(state: &Path) -> Result<Option<std::fs::File>> {
             Err(e) if e == rustix::io::Errno::WOULDBLOCK => Err(Error::WriteOutput {
                 path: state.to_path_buf(),
                 message: "another run of this sweep (or shard) is working in it; wait for it to finish, \
-                          or run this one into another --out"
+                          or run this one into another output directory"
                     .into(),
             }),
             // A file system without locks (Lustre mounted without `flock`, some NFS setups):

@@ -62,9 +62,11 @@ impl Format {
 }
 
 /// Returns the batch of a chunk's `poses`, with their true points (and so their local precision
-/// computed) only when the table keeps a local column (a tenth of a sweep's time).
+/// computed) only when rows are written and the table keeps a local column (a tenth of a
+/// sweep's time).
 pub(crate) fn chunk_batch(config: &SweepConfig, poses: &[BatchItem]) -> Batch {
-    let local = config.result_columns.iter().any(|c| LOCAL_COLUMNS.contains(c));
+    let rows = config.summary.as_ref().is_none_or(|s| s.rows);
+    let local = rows && config.result_columns.iter().any(|c| LOCAL_COLUMNS.contains(c));
     Batch {
         sigma_range: config.sigma_range,
         source: config.source.clone(),

@@ -425,7 +425,7 @@ fn more_chunks_than_a_run_keeps_are_refused_up_front() {
         &[
             "--chunk-poses = 1",
             "1000000000000 chunk files",
-            "--chunk-poses 1000000 or more",
+            "use chunks of 1000000 poses or more",
         ],
     );
     // Not given, the size is the default's, and the message says so.
@@ -434,7 +434,7 @@ fn more_chunks_than_a_run_keeps_are_refused_up_front() {
         &[
             "--chunk-poses (the default) = 131072",
             "7629395 chunk files",
-            "--chunk-poses 1000000 or more",
+            "use chunks of 1000000 poses or more",
         ],
     );
     assert!(!out.exists(), "a refused run made its directory");

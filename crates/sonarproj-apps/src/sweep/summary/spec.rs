@@ -90,6 +90,7 @@ pub(crate) fn from_toml(
             return Err(f.error("summary.histogram", other, "must be a table { min, max, bins }"));
         }
     };
+    let marginals = marginals(f, t.get("marginals"))?;
     let rows = match t.get("rows") {
         None => true,
         Some(toml::Value::Boolean(b)) => *b,
@@ -99,7 +100,7 @@ pub(crate) fn from_toml(
         by: by.name().to_string(),
         top,
         histogram,
-        marginals: marginals(f, t.get("marginals"))?,
+        marginals,
         rows,
     })
 }
