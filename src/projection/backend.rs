@@ -212,8 +212,10 @@ impl Backend {
         out
     }
 
-    /// Returns the projections of every item of `batch`, in order; with
-    /// [`Output::WithOccupancy`] each carries its occupancy buffer.
+    /// Returns the projections of every item of `batch`, in order.
+    ///
+    /// With [`Output::WithOccupancy`] each carries its occupancy buffer. An item that gives its
+    /// feature's true point gets the local precision there ([`Projection::local`]).
     ///
     /// # Errors
     /// As [`Batch::prepare`]; [`Error::Gpu`] on device failure.
@@ -221,9 +223,10 @@ impl Backend {
         self.project_until(batch, output, Stop::NEVER)
     }
 
-    /// [`Backend::project`], given up once `stop` is set: the fast CPU path asks it
-    /// before each pose and each tile of a large sampling, the reference and the GPU before and
-    /// after their work.
+    /// Returns [`Backend::project`]'s projections, or gives up once `stop` is set.
+    ///
+    /// The fast CPU path asks `stop` before each pose and each tile of a large sampling; the
+    /// reference and the GPU ask it before and after their work.
     ///
     /// # Errors
     /// As [`Backend::project`]; [`Error::Stopped`] when stopped.
@@ -246,17 +249,19 @@ impl Backend {
 const ITEMS_AT_ONCE: u64 = 1 << 16;
 
 impl Backend {
-    /// Returns the metrics of poses `range` of `sweep` into `out` as columns (its rows replaced,
-    /// its memory kept, so a caller going block by block allocates once). A grid's poses are
-    /// decoded from their index where the work runs, with no per-pose object: in the fast CPU
-    /// path's loop (the results of [`Backend::project`] on the same poses' items, bit for bit),
-    /// on the GPU by the poses stage (within the same envelope as its per-item results); the
-    /// reference, and every backend for a list, takes the poses' items 65 536 at a
-    /// time.
+    /// Writes the metrics of poses `range` of `sweep` into `out`, as columns.
+    ///
+    /// `out`'s rows are replaced and its memory kept: a caller going block by block allocates
+    /// once. A grid's poses are decoded from their index where the work runs, with no per-pose
+    /// object:
+    /// - the fast CPU path decodes them in its loop (the same bits as [`Backend::project`] on
+    ///   the poses' items);
+    /// - the GPU decodes them in its poses stage (within the envelope of its per-item results);
+    /// - the reference, and every backend for a list, takes the items 65 536 at a time.
     ///
     /// # Errors
     /// As [`Backend::project`]; [`Error::InvalidValue`] for a range past the sweep's poses;
-    /// [`Error::Stopped`] when `stop` was set (asked as by [`Backend::project_until`]).
+    /// [`Error::Stopped`] when `stop` was set (asked as [`Backend::project_until`] asks it).
     pub fn project_columns(
         &self,
         sweep: &PoseSweep<'_>,
@@ -305,11 +310,13 @@ impl Backend {
 }
 
 impl Backend {
-    /// Projects poses `blocks` of `sweep` (ranges in increasing order, none empty) block by
-    /// block into `out` (its rows replaced by each block's), handing each block's columns to
-    /// `each` as they are done, until `each` returns `Break` or `stop` is set (`Break` returned:
-    /// the stream's shape, [`crate::stream`]): what a sweep does chunk after chunk. The columns are [`Backend::project_columns`]'s for the same block; on the
-    /// GPU a grid's next block is already on the device while `each` runs, so the device does
+    /// Projects poses `blocks` of `sweep` block by block, and hands each block's columns to
+    /// `each` as soon as they are done: what a sweep does chunk after chunk.
+    ///
+    /// `blocks` are ranges in increasing order, none empty. `out` holds each block's rows in
+    /// turn; they are [`Backend::project_columns`]'s for the same block. The stream ends early,
+    /// returning `Break`, when `each` answers `Break` or `stop` is set ([`crate::stream`]). On
+    /// the GPU a grid's next block is already on the device while `each` runs: the device does
     /// not wait for the host between blocks.
     ///
     /// # Errors
