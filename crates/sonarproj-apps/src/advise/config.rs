@@ -172,14 +172,14 @@ const TOP_KEYS: [&str; 12] = [
     "from_pose",
 ];
 
-/// The keys of `[search]`.
+/// The keys of `[search]`: the axes ([`AXES`]), then the refinement and the figure.
 const SEARCH_KEYS: [&str; 11] = [
-    "roll",
-    "pitch",
-    "yaw",
-    "x",
-    "y",
-    "z",
+    AXES[0],
+    AXES[1],
+    AXES[2],
+    AXES[3],
+    AXES[4],
+    AXES[5],
     "refine",
     "refine_to",
     "refine_to_m",
@@ -187,14 +187,14 @@ const SEARCH_KEYS: [&str; 11] = [
     "uniform",
 ];
 
-/// The keys of `[from_pose]`.
+/// The keys of `[from_pose]`: the axes ([`AXES`]), then the moves' sizes.
 const FROM_POSE_KEYS: [&str; 10] = [
-    "roll",
-    "pitch",
-    "yaw",
-    "x",
-    "y",
-    "z",
+    AXES[0],
+    AXES[1],
+    AXES[2],
+    AXES[3],
+    AXES[4],
+    AXES[5],
     "step",
     "step_m",
     "gradient_step",

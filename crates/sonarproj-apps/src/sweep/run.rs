@@ -36,7 +36,7 @@ use crate::sweep::records::{
     write_summary,
 };
 use crate::sweep::shard::Shard;
-use crate::sweep::state::{Files, Manifest, unfinished};
+use crate::sweep::state::{self, Files, Manifest, unfinished};
 use crate::sweep::summary::fill_means;
 use crate::sweep::table::{CsvChunk, Format};
 use crate::sweep::writer::Writer;
@@ -174,7 +174,7 @@ pub fn run(
 /// As [`Plan::new`], [`check_chunk_poses`] and [`Plan::check_chunk_count`].
 fn plan<'a>(config: &'a SweepConfig, opts: &Options) -> Result<Plan<'a>> {
     let desc = descriptor(config)?;
-    let stem = opts.shard.map_or_else(|| "sweep".to_string(), |s| s.stem());
+    let stem = state::stem(opts.shard);
     let (chunk_poses, field) = match opts.chunk_poses {
         Some(cp) => (cp, Field::from(params::CHUNK_POSES)),
         None => unfinished(&opts.out, &stem)

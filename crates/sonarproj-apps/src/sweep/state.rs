@@ -31,6 +31,11 @@ pub(crate) struct Manifest {
     pub(crate) settings: Settings,
 }
 
+/// Returns the name a run's files take: `sweep` for a whole run, `shard-K-of-N` for a shard.
+pub(crate) fn stem(shard: Option<Shard>) -> String {
+    shard.map_or_else(|| "sweep".to_string(), |s| s.stem())
+}
+
 /// Returns the manifest of the unfinished run `stem` in `dir`, if one is there and readable.
 pub(crate) fn unfinished(dir: &Path, stem: &str) -> Option<Manifest> {
     read_json::<Manifest>(&dir.join(format!(".partial-{stem}")).join("manifest.json"))
@@ -63,7 +68,7 @@ impl<'a> Files<'a> {
     /// Returns the files of `plan` (of `shard`, or of the whole sweep) run into `dir` in
     /// `format`.
     pub(crate) fn new(plan: &'a Plan<'a>, dir: &Path, shard: Option<Shard>, format: Format) -> Self {
-        let stem = shard.map_or_else(|| "sweep".to_string(), |s| s.stem());
+        let stem = stem(shard);
         let summary = match shard {
             Some(_) => dir.join(format!("{stem}.summary.json")),
             None => dir.join("summary.json"),
