@@ -43,6 +43,7 @@
 
 pub mod clip;
 pub mod error;
+pub mod exact;
 pub mod geometry;
 pub mod gpu;
 pub mod limits;

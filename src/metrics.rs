@@ -18,6 +18,8 @@ pub enum Metric {
     Visible,
     /// Samples drawn.
     Total,
+    /// The visible share of the back-projected set.
+    VisibleFraction,
     /// Smallest range of a visible sample.
     RangeMin,
     /// Largest range of a visible sample.
@@ -76,7 +78,7 @@ pub struct MetricInfo {
 }
 
 /// The metric table: every metric once, in output order.
-pub const METRICS: [MetricInfo; 10] = [
+pub const METRICS: [MetricInfo; 11] = [
     MetricInfo {
         metric: Metric::Visible,
         name: "visible",
@@ -91,6 +93,14 @@ pub const METRICS: [MetricInfo; 10] = [
         unit: ["samples", "samples"],
         label: [None, None],
         reduce: Reduce::Plan,
+        gpu_slot: None,
+    },
+    MetricInfo {
+        metric: Metric::VisibleFraction,
+        name: "visible_fraction",
+        unit: ["", ""],
+        label: [Some("visible fraction"), Some("visible fraction")],
+        reduce: Reduce::Derived,
         gpu_slot: None,
     },
     MetricInfo {
@@ -271,8 +281,11 @@ impl Serialize for Value {
 pub struct Metrics {
     /// Samples kept by the clip.
     pub visible: u64,
-    /// Samples drawn.
+    /// Samples drawn; 0 in exact mode, which draws none.
     pub total: u64,
+    /// The visible share of the back-projected set, in `[0, 1]`: `visible / total` when sampled
+    /// (0 when nothing is drawn), the visible arc length over the arc's length in exact mode.
+    pub visible_fraction: f64,
     /// Smallest range (m) of a visible sample in sonar 2; `None` when nothing is visible.
     pub range_min: Option<f64>,
     /// Largest range (m) of a visible sample in sonar 2.
@@ -363,6 +376,11 @@ impl Metrics {
         Metrics {
             visible,
             total,
+            visible_fraction: if total > 0 {
+                visible as f64 / total as f64
+            } else {
+                0.0
+            },
             range_min: some(ex.range_min),
             range_max: some(ex.range_max),
             span: if seen { ex.range_max - ex.range_min } else { 0.0 },
@@ -376,12 +394,36 @@ impl Metrics {
 }
 
 impl Metrics {
+    /// Returns the metrics of an arc solved exactly: no samples (`visible` and `total` 0), the
+    /// visible fraction, the extremes (m, rad) and the occupancy summary; extremes are `None`
+    /// and the span 0 when nothing is visible. The projection area, a count of grid cells
+    /// holding samples, has no exact form: `None`.
+    #[must_use]
+    pub fn exact(visible_fraction: f64, ex: Extremes, (occupied, measure): (u64, f64)) -> Self {
+        let seen = visible_fraction > 0.0;
+        let some = |v: f64| seen.then_some(v);
+        Metrics {
+            visible: 0,
+            total: 0,
+            visible_fraction,
+            range_min: some(ex.range_min),
+            range_max: some(ex.range_max),
+            span: if seen { ex.range_max - ex.range_min } else { 0.0 },
+            azimuth_min: some(ex.azimuth_min.to_degrees()),
+            azimuth_max: some(ex.azimuth_max.to_degrees()),
+            occupied,
+            occupied_measure: measure,
+            projection_area: None,
+        }
+    }
+
     /// Returns the value of `metric`.
     #[must_use]
     pub fn get(&self, metric: Metric) -> Value {
         match metric {
             Metric::Visible => Value::Count(self.visible),
             Metric::Total => Value::Count(self.total),
+            Metric::VisibleFraction => Value::Real(self.visible_fraction),
             Metric::RangeMin => Value::Optional(self.range_min),
             Metric::RangeMax => Value::Optional(self.range_max),
             Metric::Span => Value::Real(self.span),

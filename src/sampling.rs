@@ -52,6 +52,40 @@ pub enum Sampling {
     /// Steps chosen so neighbouring samples land less than half a range bin and half a beam
     /// apart in sonar 2 (README: Commands, `--step`): see [`auto_spacing`].
     Auto,
+    /// No samples: an FLS feature's arc solved in closed form ([`crate::exact`]). Sonar 1 must
+    /// be an FLS.
+    Exact,
+}
+
+impl std::str::FromStr for Sampling {
+    type Err = Error;
+
+    /// Parses `auto`, `exact` or a step in degrees (checked as [`Sampling::validated`]).
+    fn from_str(text: &str) -> Result<Self> {
+        match text.trim() {
+            "auto" => Ok(Sampling::Auto),
+            "exact" => Ok(Sampling::Exact),
+            t => match t.parse::<f64>() {
+                Ok(step) => Sampling::Step(step).validated(),
+                Err(_) => Err(Error::invalid(
+                    "step",
+                    format!("{t:?}"),
+                    "must be a step in degrees (> 0), \"auto\" or \"exact\"",
+                )),
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for Sampling {
+    /// Writes `auto`, `exact` or the step in degrees: what its `FromStr` reads back.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Sampling::Step(s) => write!(f, "{s}"),
+            Sampling::Auto => f.write_str("auto"),
+            Sampling::Exact => f.write_str("exact"),
+        }
+    }
 }
 
 impl Sampling {
@@ -67,6 +101,23 @@ impl Sampling {
             }
         }
         Ok(self)
+    }
+
+    /// Returns the sampling checked for sonar 1 `source`: [`Sampling::validated`], and exact
+    /// sampling only for an FLS (a sidescan's back-projected set is a surface, not an arc).
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] naming `step`.
+    pub fn validated_for(self, source: &Sonar) -> Result<Self> {
+        if self == Sampling::Exact && source.kind == SonarKind::Sss {
+            return Err(Error::invalid(
+                "step",
+                "exact",
+                "exact sampling solves an imaging sonar's (FLS) arc; sonar 1 is a sidescan, whose \
+                 back-projected set is a surface: give a step in degrees or auto",
+            ));
+        }
+        self.validated()
     }
 }
 
@@ -99,7 +150,7 @@ impl SamplingPlan {
     }
 
     /// Returns `(azimuth samples, elevation samples)` of the plan [`SamplingPlan::new`] draws,
-    /// without drawing it. `spacing`, when given, is [`auto_spacing`]`(target)` computed once
+    /// without drawing it (none in exact mode). `spacing`, when given, is [`auto_spacing`]`(target)` computed once
     /// by a caller that counts many plans (only [`Sampling::Auto`] uses it).
     ///
     /// # Errors
@@ -118,6 +169,7 @@ impl SamplingPlan {
                     let d = spacing.unwrap_or_else(|| auto_spacing(target));
                     auto_count(aperture, measurement.range, d)
                 }
+                Sampling::Exact => 0,
             }
         };
         let n_el = count(source.elevation_aperture);
@@ -219,9 +271,12 @@ pub fn auto_count(a: f64, r: f64, d: f64) -> usize {
 }
 
 /// Returns `linspace(-a/2, a/2, n)` in degrees, as numpy computes it (`start + i·step`, the last
-/// set to `stop`; `n = 1` gives `[start]`), converted to radians.
+/// set to `stop`; `n = 1` gives `[start]`, `n = 0` nothing), converted to radians.
 pub fn linspace_rad(a: f64, n: usize) -> Vec<f64> {
     let (start, stop) = (-a / 2.0, a / 2.0);
+    if n == 0 {
+        return Vec::new();
+    }
     if n == 1 {
         return vec![start.to_radians()];
     }

@@ -243,7 +243,12 @@ def configure_gpu(
     )
 
 
-def _step(value: Any) -> Optional[float]:
+def _step(value: Any) -> Union[None, float, str]:
+    """Returns `step` for the engine: a number of degrees, ``"auto"``, ``"exact"`` or None."""
+    if isinstance(value, str):
+        if value.strip().lower() in ("auto", "exact"):
+            return value.strip().lower()
+        raise InputError(f"step: expected a number of degrees, 'auto', 'exact' or None, got {value!r}")
     return _number("step", value, optional=True)
 
 
@@ -294,7 +299,9 @@ def batch(
     place_elevation`` (where the true point appears in `second`: m, deg, deg; then ``azimuth``
     and ``elevation``, the feature's true point in `first`, are required) or ``tx, ty, tz``
     (m; ``elevation`` optional). `step` is the sampling step (deg) of the arc or surface as in
-    the published code (e.g. 0.1); None chooses it from `second`'s resolution. `area_grid` is
+    the published code (e.g. 0.1); None (or ``"auto"``) chooses it from `second`'s resolution;
+    ``"exact"`` solves an imaging `first`'s arc in closed form (no samples: ``visible`` and
+    ``total`` are 0, ``visible_fraction`` the visible share of the arc). `area_grid` is
     the cell side (m) of the grid ``projection_area`` counts (the paper's 0.08 m).
     `sigma_range` is the range error (m) ``sigma_elevation`` is computed for (None: the bin
     width over √12 of the sonar whose range pins the elevation). `backend`

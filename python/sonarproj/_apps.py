@@ -149,10 +149,10 @@ def paper(
     return result
 
 
-def _paper_step(value: Any) -> Optional[float]:
-    """Returns `paper`'s step in degrees, or None for ``"auto"``."""
+def _paper_step(value: Any) -> Union[float, str]:
+    """Returns `paper`'s step in degrees, or ``"auto"`` or ``"exact"``."""
     if isinstance(value, str):
-        if value.strip().lower() == "auto":
-            return None
-        raise InputError(f"step: expected a number of degrees or 'auto', got {value!r}")
+        if value.strip().lower() in ("auto", "exact"):
+            return value.strip().lower()
+        raise InputError(f"step: expected a number of degrees, 'auto' or 'exact', got {value!r}")
     return _number("step", value)

@@ -5,6 +5,7 @@ use crate::error::{Error, Param, Result};
 use crate::gpu::{GpuContext, GpuOptions, context};
 use crate::projection::gpu::{GpuBackend, SplatOptions};
 use crate::projection::{Batch, MetricColumns, PoseSource, PoseSweep, Projection, fast, reference};
+use crate::sampling::Sampling;
 use crate::stream::{Flow, Stop};
 
 /// Which backend a user asked for.
@@ -234,6 +235,11 @@ impl Backend {
         let prepared = batch.prepare()?;
         stop.check()?;
         let mut projected = match self {
+            // Exact mode has one f64 solver, on the CPU whichever backend was chosen.
+            _ if prepared.is_exact() => {
+                crate::exact::project(&prepared, output, !matches!(self, Backend::Cpu), stop)
+                    .ok_or(Error::Stopped)?
+            }
             Backend::Cpu => reference::project(&prepared, output),
             Backend::CpuFast => fast::project_until(&prepared, output, stop).ok_or(Error::Stopped)?,
             Backend::Gpu(g) => g.project(&prepared, output)?,
@@ -277,7 +283,8 @@ impl Backend {
                 format!("must lie within the sweep's {n} poses"),
             ));
         }
-        if let PoseSource::Grid(grid) = sweep.poses {
+        // Exact mode takes the items path: its solver runs per item on the CPU.
+        if let (PoseSource::Grid(grid), false) = (sweep.poses, sweep.sampling == Sampling::Exact) {
             match self {
                 Backend::CpuFast => {
                     let prepared = sweep.prepare_grid(grid)?;
@@ -346,7 +353,9 @@ impl Backend {
         if blocks.is_empty() {
             return Ok(Flow::Continue(()));
         }
-        if let (Backend::Gpu(g), PoseSource::Grid(grid)) = (self, sweep.poses) {
+        if let (Backend::Gpu(g), PoseSource::Grid(grid), false) =
+            (self, sweep.poses, sweep.sampling == Sampling::Exact)
+        {
             let prepared = sweep.prepare_grid(grid)?;
             if stop.is_set() {
                 return Ok(Flow::Break(()));

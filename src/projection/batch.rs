@@ -108,6 +108,12 @@ impl PreparedBatch<'_> {
         self.batch
     }
 
+    /// Returns whether the batch is solved exactly ([`Sampling::Exact`]): it then has no plans.
+    #[must_use]
+    pub fn is_exact(&self) -> bool {
+        self.batch.sampling == Sampling::Exact
+    }
+
     /// Returns sonar 2's data layout.
     #[must_use]
     pub fn layout(&self) -> &Layout {
@@ -234,7 +240,7 @@ impl Batch {
     pub fn checker(&self) -> Result<ItemChecker<'_>> {
         self.source.validate().map_err(|e| e.in_context("sonar 1"))?;
         self.target.validate().map_err(|e| e.in_context("sonar 2"))?;
-        let sampling = self.sampling.validated()?;
+        let sampling = self.sampling.validated_for(&self.source)?;
         crate::occupancy::AreaGrid::over(&Layout::of(&self.target), self.area_grid)?;
         let sigma = resolve_sigma_range(&self.source, &self.target, self.sigma_range)?;
         Ok(ItemChecker {
@@ -275,6 +281,19 @@ impl Batch {
                 .find_map(|(k, item)| check(k, item).err());
             first.expect("an item failed its check")
         };
+        if let Sampling::Exact = checker.sampling {
+            // Nothing is sampled: no plans, every item validated on all cores.
+            if !self.items.par_iter().all(|item| checker.validate(item).is_ok()) {
+                return Err(first_error());
+            }
+            return Ok(PreparedBatch {
+                batch: self,
+                layout: layout.clone(),
+                plans: Vec::new(),
+                plan_of: PlanOf::First,
+                sigma: checker.sigma,
+            });
+        }
         if let Sampling::Step(_) = checker.sampling {
             // Step sampling counts do not depend on the item: counted once (with the first
             // item's check), every item then validated on all cores, nothing kept per item.

@@ -15,6 +15,8 @@ pub struct MetricColumns {
     pub visible: Vec<u64>,
     /// Samples drawn.
     pub total: Vec<u64>,
+    /// The visible share of the back-projected set.
+    pub visible_fraction: Vec<f64>,
     /// Smallest range (m) of a visible sample; NaN when nothing is visible.
     pub range_min: Vec<f64>,
     /// Largest range (m) of a visible sample; NaN when nothing is visible.
@@ -51,6 +53,7 @@ impl Default for MetricColumns {
         MetricColumns {
             visible: Vec::new(),
             total: Vec::new(),
+            visible_fraction: Vec::new(),
             range_min: Vec::new(),
             range_max: Vec::new(),
             span: Vec::new(),
@@ -148,8 +151,9 @@ impl MetricColumns {
     }
 
     /// Returns the real columns with their metrics.
-    fn reals_mut(&mut self) -> [(Metric, &mut Vec<f64>); 7] {
+    fn reals_mut(&mut self) -> [(Metric, &mut Vec<f64>); 8] {
         [
+            (Metric::VisibleFraction, &mut self.visible_fraction),
             (Metric::RangeMin, &mut self.range_min),
             (Metric::RangeMax, &mut self.range_max),
             (Metric::Span, &mut self.span),
@@ -206,6 +210,7 @@ impl MetricColumns {
         Metrics {
             visible: self.visible[k],
             total: self.total[k],
+            visible_fraction: self.visible_fraction[k],
             range_min: optional(self.range_min[k]),
             range_max: optional(self.range_max[k]),
             span: self.span[k],
@@ -223,6 +228,7 @@ impl MetricColumns {
         match metric {
             Metric::Visible => ColumnRef::Count(&self.visible),
             Metric::Total => ColumnRef::Count(&self.total),
+            Metric::VisibleFraction => ColumnRef::Real(&self.visible_fraction),
             Metric::RangeMin => ColumnRef::Real(&self.range_min),
             Metric::RangeMax => ColumnRef::Real(&self.range_max),
             Metric::Span => ColumnRef::Real(&self.span),
@@ -251,6 +257,7 @@ impl MetricColumns {
             len,
             visible: rows(&mut self.visible, &range),
             total: rows(&mut self.total, &range),
+            visible_fraction: rows(&mut self.visible_fraction, &range),
             range_min: rows(&mut self.range_min, &range),
             range_max: rows(&mut self.range_max, &range),
             span: rows(&mut self.span, &range),
@@ -269,6 +276,7 @@ pub(crate) struct MetricSlices<'a> {
     len: usize,
     pub(crate) visible: &'a mut [u64],
     pub(crate) total: &'a mut [u64],
+    pub(crate) visible_fraction: &'a mut [f64],
     pub(crate) range_min: &'a mut [f64],
     pub(crate) range_max: &'a mut [f64],
     pub(crate) span: &'a mut [f64],
@@ -296,6 +304,7 @@ impl<'a> MetricSlices<'a> {
         }
         put(self.visible, k, m.visible);
         put(self.total, k, m.total);
+        put(self.visible_fraction, k, m.visible_fraction);
         put(self.range_min, k, real(m.range_min));
         put(self.range_max, k, real(m.range_max));
         put(self.span, k, m.span);
@@ -339,6 +348,7 @@ impl<'a> MetricSlices<'a> {
         split!(
             visible,
             total,
+            visible_fraction,
             range_min,
             range_max,
             span,

@@ -106,7 +106,7 @@ def browser(viewer):
 class Page:
     """The viewer's page in a browser: set fields, wait for the engine's answer, read back."""
 
-    METRICS = ["visible", "total", "range_min", "range_max", "span", "azimuth_min", "azimuth_max",
+    METRICS = ["visible", "total", "visible_fraction", "range_min", "range_max", "span", "azimuth_min", "azimuth_max",
                "occupied", "occupied_measure", "projection_area", "range_per_elevation", "sigma_elevation"]
 
     def __init__(self, driver, url):

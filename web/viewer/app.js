@@ -11,7 +11,7 @@ import { setupAdvise } from "/advise.js";
 const COLOURS = {
   s1: 0x1f77b4, s2: 0xff7f0e, seen: 0xd62728, unseen: 0xa0a4ab, truth: 0x111111, rec: 0x2ca02c,
 };
-const METRICS = ["visible", "total", "range_min", "range_max", "span", "azimuth_min",
+const METRICS = ["visible", "total", "visible_fraction", "range_min", "range_max", "span", "azimuth_min",
   "azimuth_max", "occupied", "occupied_measure", "projection_area", "range_per_elevation",
   "sigma_elevation"];
 
@@ -153,7 +153,8 @@ function readScene() {
   } else {
     scene.translation = [value("translation.x"), value("translation.y"), value("translation.z")];
   }
-  if (!$("auto-step").checked) scene.step = numberOf("step", "step");
+  if ($("exact").checked) scene.exact = true;
+  else if (!$("auto-step").checked) scene.step = numberOf("step", "step");
   if ($("noise-on").checked) {
     scene.sigma = {};
     for (const k of ["roll", "pitch", "yaw", "tx", "ty", "tz", "range", "azimuth"]) {
@@ -706,6 +707,11 @@ async function start() {
   }
   $("auto-step").addEventListener("change", () => { $("step").disabled = $("auto-step").checked; changed(); });
   $("step").addEventListener("input", changed);
+  $("exact").addEventListener("change", () => {
+    $("auto-step").disabled = $("exact").checked;
+    $("step").disabled = $("exact").checked || $("auto-step").checked;
+    changed();
+  });
   $("noise-on").addEventListener("change", () => { $("noise-fields").hidden = !$("noise-on").checked; changed(); });
   for (const el of document.querySelectorAll("#noise-fields input")) el.addEventListener("input", changed);
   $("second-on").addEventListener("change", () => { $("second-fields").hidden = !$("second-on").checked; changed(); });

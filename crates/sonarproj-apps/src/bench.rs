@@ -142,20 +142,28 @@ pub fn mask_ping(source: &Sonar, target: &Sonar, n: usize) -> Result<(RelativePo
     Ok((pose, features))
 }
 
-/// Returns the sweep `bench sweep` times: fls→sss at 0.1° sampling, the feature 5 m ahead placed
+/// Returns the sweep `bench sweep` times: fls→sss at `sampling` (0.1° by default), the feature 5 m ahead placed
 /// 10 m from the sidescan, roll × pitch 0–99° by 1°, and yaw 0, 1, … degrees, as many values as
 /// make at least `poses` poses (`data/bench-sweep-1m.toml` for a million), its table or
 /// summaries as `output` says.
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `poses` outside `[1, 10^8]`.
-pub fn sweep_config(poses: u64, output: SweepOutput) -> Result<crate::sweep::SweepConfig> {
+pub fn sweep_config(
+    poses: u64,
+    output: SweepOutput,
+    sampling: Sampling,
+) -> Result<crate::sweep::SweepConfig> {
     if !(1..=100_000_000).contains(&poses) {
         return Err(Error::invalid("poses", poses, "must be in [1, 100000000]"));
     }
     let yaws = poses.div_ceil(10_000);
+    let step = match sampling {
+        Sampling::Step(s) => format!("{s}"),
+        other => format!("\"{other}\""),
+    };
     let mut text = format!(
-        "from = \"paper-fls\"\nto = \"paper-sss\"\nstep = 0.1\n[feature]\nrange = 5\n[place]\nrange = 10\n\
+        "from = \"paper-fls\"\nto = \"paper-sss\"\nstep = {step}\n[feature]\nrange = 5\n[place]\nrange = 10\n\
          [rotation]\nroll = {{ start = 0, stop = 99, step = 1 }}\npitch = {{ start = 0, stop = 99, step = 1 }}\n\
          yaw = {{ start = 0, stop = {}, step = 1 }}\n",
         yaws - 1
@@ -260,6 +268,7 @@ pub fn time_sweep(
     block: u64,
     runs: u32,
     measures: SweepMeasures,
+    sampling: Sampling,
 ) -> Result<SweepTiming> {
     use crate::sweep::{Format, Options, Poses, run};
     if !(1..=MAX_RUNS).contains(&runs) {
@@ -269,9 +278,9 @@ pub fn time_sweep(
             format!("must be in [1, {MAX_RUNS}]"),
         ));
     }
-    let rows = sweep_config(poses, SweepOutput::Table)?;
-    let span_rows = sweep_config(poses, SweepOutput::Span)?;
-    let summaries = sweep_config(poses, SweepOutput::Summaries)?;
+    let rows = sweep_config(poses, SweepOutput::Table, sampling)?;
+    let span_rows = sweep_config(poses, SweepOutput::Span, sampling)?;
+    let summaries = sweep_config(poses, SweepOutput::Summaries, sampling)?;
     let Poses::Grid(grid) = &rows.poses else {
         unreachable!("a grid sweep")
     };

@@ -417,7 +417,7 @@ fn bad_paper_input_exits_2() {
     common::rejects(
         &["paper", "--out", out, "--step", "smooth"],
         None,
-        &["--step", "in degrees (> 0) or `auto`", "\"smooth\""],
+        &["--step", "in degrees (> 0), `auto` or `exact`", "\"smooth\""],
     );
     let batch = [
         "batch",

@@ -521,7 +521,9 @@ fn paper_writes_csv_figures_and_findings() {
     let rows = 6 * 9 * 7 + 3 * 7 * 7;
     for d in ["fls-to-sss", "sss-to-fls"] {
         let text = std::fs::read_to_string(out.join(format!("{d}.csv"))).unwrap();
-        assert!(text.starts_with("scenario,fraction,roll,pitch,yaw,visible,total,range_min,"));
+        assert!(
+            text.starts_with("scenario,fraction,roll,pitch,yaw,visible,total,visible_fraction,range_min,")
+        );
         assert_eq!(text.lines().count(), rows + 1, "{d}");
         for fig in ["lines", "heatmaps"] {
             let file = std::fs::File::open(out.join(format!("{d}-{fig}.png"))).unwrap();

@@ -7,7 +7,6 @@ use std::time::Instant;
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use sonarproj::Sampling;
 use sonarproj_apps::paper;
 use sonarproj_apps::report::check_output_dir;
 use sonarproj_apps::sweep::{self, Event, Options, Shard, SweepConfig};
@@ -196,13 +195,10 @@ pub(crate) fn paper_run<'py>(
     py: Python<'py>,
     out_dir: PathBuf,
     angle_step: f64,
-    step: Option<f64>,
+    step: Option<crate::batch::Step>,
     backend_name: &str,
 ) -> PyResult<(Bound<'py, PyDict>, Option<String>)> {
-    let sampling = step
-        .map_or(Sampling::Auto, Sampling::Step)
-        .validated()
-        .map_err(|e| errors::engine(e.in_context("step")))?;
+    let sampling = crate::batch::sampling(step)?;
     paper::angles(angle_step).map_err(errors::apps)?;
     check_output_dir(&out_dir, "out_dir").map_err(error)?;
     let (backend, notice) = backend::get(backend_name)?;

@@ -18,9 +18,23 @@ use crate::{backend, errors};
 /// chunks (about a second of work at 0.1° sampling on two cores).
 const CHUNK_POSES: usize = 65_536;
 
-/// Returns the sampling of `step` (deg; `None`: auto), checked.
-pub(crate) fn sampling(step: Option<f64>) -> PyResult<Sampling> {
-    step.map_or(Sampling::Auto, Sampling::Step)
+/// A sampling as Python gives it: a step in degrees, or a name (`"auto"`, `"exact"`).
+#[derive(Clone, Debug, FromPyObject)]
+pub(crate) enum Step {
+    /// A step (deg).
+    Degrees(f64),
+    /// `"auto"` or `"exact"`.
+    Named(String),
+}
+
+/// Returns the sampling of `step` (`None`: auto), checked.
+pub(crate) fn sampling(step: Option<Step>) -> PyResult<Sampling> {
+    let sampling = match step {
+        None => Sampling::Auto,
+        Some(Step::Degrees(s)) => Sampling::Step(s),
+        Some(Step::Named(name)) => name.parse::<Sampling>().map_err(errors::engine)?,
+    };
+    sampling
         .validated()
         .map_err(|e| errors::engine(e.in_context("step")))
 }
@@ -55,7 +69,7 @@ pub(crate) fn columns_and_pair<'a>(
     second: &PySonar,
     names: &[String],
     columns: &'a [PyReadonlyArray1<'_, f64>],
-    step: Option<f64>,
+    step: Option<Step>,
     area_grid: f64,
 ) -> PyResult<(PoseColumns, Vec<&'a [f64]>, usize, Batch)> {
     let allowed = allowed_columns();
@@ -104,7 +118,7 @@ pub(crate) fn batch_columns<'py>(
     second: &PySonar,
     names: Vec<String>,
     columns: Vec<PyReadonlyArray1<'py, f64>>,
-    step: Option<f64>,
+    step: Option<Step>,
     area_grid: f64,
     sigma_range: Option<f64>,
     backend_name: &str,
@@ -152,7 +166,7 @@ pub(crate) fn project_one<'py>(
     range: f64,
     azimuth: f64,
     elevation: Option<f64>,
-    step: Option<f64>,
+    step: Option<Step>,
     area_grid: f64,
     sigma_range: Option<f64>,
     occupancy: bool,

@@ -27,7 +27,7 @@ pub(crate) fn bench_rust_batch<'py>(
     second: &PySonar,
     names: Vec<String>,
     columns: Vec<PyReadonlyArray1<'py, f64>>,
-    step: Option<f64>,
+    step: Option<crate::batch::Step>,
     backend_name: &str,
 ) -> PyResult<f64> {
     let (reading, cols, len, pair) =

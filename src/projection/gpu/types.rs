@@ -169,7 +169,7 @@ pub(crate) fn slots_of(metrics: impl IntoIterator<Item = Metric>) -> Slots {
     let bit = |s: usize| 1 << s;
     metrics.into_iter().fold(bit(METRIC_VISIBLE), |set, m| {
         set | match m {
-            Metric::Visible | Metric::Total => 0,
+            Metric::Visible | Metric::Total | Metric::VisibleFraction => 0,
             Metric::RangeMin => bit(METRIC_RANGE_MIN_NOT),
             Metric::RangeMax => bit(METRIC_RANGE_MAX),
             Metric::Span => bit(METRIC_RANGE_MIN_NOT) | bit(METRIC_RANGE_MAX),

@@ -86,6 +86,17 @@ impl Unpack<'_> {
         for (k, v) in rows.total.iter_mut().enumerate() {
             *v = self.plans[self.source.plan_index(self.start + first + k)].total() as u64;
         }
+        if !rows.visible_fraction.is_empty() {
+            // As `Metrics::new`: visible over total.
+            for (k, (v, &seen)) in rows.visible_fraction.iter_mut().zip(visible).enumerate() {
+                let total = self.plans[self.source.plan_index(self.start + first + k)].total();
+                *v = if total > 0 {
+                    f64::from(seen) / total as f64
+                } else {
+                    0.0
+                };
+            }
+        }
         if !rows.occupied.is_empty() {
             for (v, &k) in rows.occupied.iter_mut().zip(slot(METRIC_OCCUPIED)) {
                 *v = u64::from(k);

@@ -243,6 +243,14 @@ impl AdviseConfig {
         };
         let (source, target) = (sonar("from")?, sonar("to")?);
         let sampling = sampling(f, &top)?;
+        if sampling == Sampling::Exact && target.kind == sonarproj::SonarKind::Fls {
+            return Err(f.error(
+                "step",
+                "\"exact\"",
+                "an imaging sonar 2 is scored by the projection area, a count of grid cells holding \
+                 samples, which has no exact form: give a step (deg) or \"auto\"",
+            ));
+        }
         let area_grid = f
             .number(&top, "area_grid", "area_grid")?
             .unwrap_or(sonarproj::PAPER_AREA_GRID);
@@ -350,13 +358,18 @@ impl AdviseConfig {
     }
 }
 
-/// Returns the sampling `step` gives: a step > 0 (deg), or `"auto"` (the default).
+/// Returns the sampling `step` gives: a step > 0 (deg), `"exact"`, or `"auto"` (the default).
 fn sampling(f: ConfigFile<'_>, top: &toml::Table) -> Result<Sampling> {
     match top.get("step") {
         Some(toml::Value::String(s)) if s == "auto" => Ok(Sampling::Auto),
+        Some(toml::Value::String(s)) if s == "exact" => Ok(Sampling::Exact),
         Some(_) => match f.number(top, "step", "step")? {
             Some(s) if s > 0.0 => Ok(Sampling::Step(s)),
-            other => Err(f.error("step", format!("{other:?}"), "must be > 0 (deg) or \"auto\"")),
+            other => Err(f.error(
+                "step",
+                format!("{other:?}"),
+                "must be > 0 (deg), \"auto\" or \"exact\"",
+            )),
         },
         None => Ok(Sampling::Auto),
     }

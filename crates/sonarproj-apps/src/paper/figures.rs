@@ -34,6 +34,7 @@ fn sampling_text(run: &DirectionRun) -> String {
     match run.sampling {
         sonarproj::Sampling::Step(s) => format!("{set} every {s}°"),
         sonarproj::Sampling::Auto => format!("{set} with auto sampling"),
+        sonarproj::Sampling::Exact => format!("{set} solved exactly"),
     }
 }
 

@@ -159,6 +159,9 @@ pub fn findings_markdown(findings: &[Finding], angle_step: f64, sampling: Sampli
              auto sampling)",
             super::SMOOTH_ARC_STEP
         ),
+        Sampling::Exact => "exact arcs (`--step exact`: FLS arcs solved in closed form, SSS \
+                            surfaces with auto sampling)"
+            .to_string(),
     };
     let _ = writeln!(
         md,

@@ -264,11 +264,14 @@ pub const SMOOTH_ARC_STEP: f64 = 0.001;
 /// Returns the sampling that `direction` runs at when the command asks for `sampling`: a step
 /// as given; for `auto`, the smooth version: FLS arcs every [`SMOOTH_ARC_STEP`], SSS surfaces
 /// with the engine's auto sampling (the projection area counts 8 cm cells, so its curves keep
-/// the cells' steps; denser samples only fill the cells the surface really crosses).
+/// the cells' steps; denser samples only fill the cells the surface really crosses). For
+/// `exact`, FLS arcs are solved exactly and SSS surfaces, which have no exact mode, sampled
+/// as `auto` samples them.
 #[must_use]
 pub fn direction_sampling(direction: Direction, sampling: Sampling) -> Sampling {
     match (sampling, direction) {
         (Sampling::Auto, Direction::FlsToSss) => Sampling::Step(SMOOTH_ARC_STEP),
+        (Sampling::Exact, Direction::SssToFls) => Sampling::Auto,
         (s, _) => s,
     }
 }

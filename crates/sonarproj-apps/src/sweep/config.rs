@@ -132,7 +132,9 @@ impl SweepConfig {
         let (source, target) = (sonar("from")?, sonar("to")?);
         let sampling = match top.get("step") {
             Some(toml::Value::String(s)) if s == "auto" => Sampling::Auto,
-            _ => positive(f, &top, "step", "deg, or \"auto\"")?.map_or(Sampling::Auto, Sampling::Step),
+            Some(toml::Value::String(s)) if s == "exact" => Sampling::Exact,
+            _ => positive(f, &top, "step", "deg, \"auto\" or \"exact\"")?
+                .map_or(Sampling::Auto, Sampling::Step),
         };
         let area_grid = positive(f, &top, "area_grid", "m")?.unwrap_or(sonarproj::PAPER_AREA_GRID);
         let sigma_range = positive(f, &top, "sigma_range", "m")?;

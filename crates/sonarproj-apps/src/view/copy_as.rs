@@ -56,7 +56,10 @@ fn pose_options(scene: &Scene) -> String {
 pub fn command(scene: &Scene, first: &Choice, second: &Choice, pose: &RelativePose) -> String {
     let f = scene.feature;
     let pair = format!("--from {} --to {}", cli_sonar(first), cli_sonar(second));
-    let step = scene.step.map(|s| format!(" --step {s}")).unwrap_or_default();
+    let step = match (scene.exact, scene.step) {
+        (true, _) => " --step exact".to_string(),
+        (false, s) => s.map(|s| format!(" --step {s}")).unwrap_or_default(),
+    };
     let pose_text = pose_options(scene);
     let mut out = format!(
         "sonarproj project {pair} --range {} --azimuth {} --elevation {} {pose_text}{step} \
@@ -166,7 +169,9 @@ pub fn sweep_toml(scene: &Scene, first: &Choice, second: &Choice) -> String {
         name(first),
         name(second)
     );
-    if let Some(s) = scene.step {
+    if scene.exact {
+        let _ = writeln!(out, "step = \"exact\"");
+    } else if let Some(s) = scene.step {
         let _ = writeln!(out, "step = {s}");
     }
     let _ = write!(
@@ -238,10 +243,10 @@ pub fn python(scene: &Scene, first: &Choice, second: &Choice) -> String {
         SonarKind::Fls => format!("({}, {})", py(f.range), py(f.azimuth)),
         SonarKind::Sss => py(f.range),
     };
-    let step = scene
-        .step
-        .map(|s| format!(", step={}", py(s)))
-        .unwrap_or_default();
+    let step = match (scene.exact, scene.step) {
+        (true, _) => ", step=\"exact\"".to_string(),
+        (false, s) => s.map(|s| format!(", step={}", py(s))).unwrap_or_default(),
+    };
     let mut out = format!(
         "import sonarproj\n\n\
          first = {}\n\

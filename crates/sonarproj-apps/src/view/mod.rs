@@ -172,6 +172,9 @@ pub struct Scene {
     /// Sampling step (deg); auto sampling when `None`.
     #[serde(default)]
     pub step: Option<f64>,
+    /// Solves an FLS sonar 1's arc exactly instead of sampling it (no `step` then).
+    #[serde(default)]
+    pub exact: bool,
     /// What sonar 2 measured, to recover the lost coordinates.
     #[serde(default)]
     pub second: Option<Second>,
@@ -237,9 +240,13 @@ impl Scene {
     /// # Errors
     /// An invalid step.
     pub fn sampling(&self) -> Result<Sampling> {
-        Ok(match self.step {
-            Some(s) => Sampling::Step(s),
-            None => Sampling::Auto,
+        Ok(match (self.step, self.exact) {
+            (Some(_), true) => {
+                return Err(Error::input("step", "a step and exact given; give one"));
+            }
+            (Some(s), false) => Sampling::Step(s),
+            (None, true) => Sampling::Exact,
+            (None, false) => Sampling::Auto,
         }
         .validated()?)
     }
@@ -377,7 +384,13 @@ impl Viewer {
         let pose = scene.pose()?;
         let sampling = scene.sampling()?;
         let noise = scene.noise()?;
-        let plan = SamplingPlan::new(source, target, &measurement, sampling)?;
+        // The picture's points: exact mode draws no samples, so its arc is shown at auto spacing.
+        let shown = if sampling == Sampling::Exact {
+            Sampling::Auto
+        } else {
+            sampling
+        };
+        let plan = SamplingPlan::new(source, target, &measurement, shown)?;
 
         let batch = Batch {
             sigma_range: None,

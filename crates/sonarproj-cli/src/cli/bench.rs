@@ -84,6 +84,10 @@ pub(super) struct BenchArgs {
     /// the summaries alone).
     #[arg(long, value_delimiter = ',', value_enum)]
     measures: Vec<SweepMeasure>,
+    /// The sweep's sampling (sweep only): a step in degrees, `auto` or `exact`. Run it twice,
+    /// `--step 0.1` and `--step exact`, to compare the two side by side.
+    #[arg(long, value_name = "DEG|auto|exact", default_value = "0.1", value_parser = super::parse_step)]
+    step: sonarproj::Sampling,
 }
 
 /// The values of `--measures`.
@@ -148,7 +152,7 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
                 summaries: a.measures.contains(&SweepMeasure::Summary),
             }
         };
-        return sweep_table(&backends, a.poses, a.block, a.runs, measures);
+        return sweep_table(&backends, a.poses, a.block, a.runs, measures, a.step.validated()?);
     }
     outln!(
         "{:28} {:8} {:>8} {:>12} {:>14} {:>14} {:>12}",
@@ -221,6 +225,7 @@ fn sweep_table(
     block: u64,
     runs: u32,
     measures: bench::SweepMeasures,
+    step: sonarproj::Sampling,
 ) -> Result<()> {
     outln!(
         "{:9} {:>9} {:>10} {:>12} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>13} {:>13} {:>7} {:>12} {:>7}",
@@ -243,7 +248,7 @@ fn sweep_table(
     )?;
     let mut notes = Vec::new();
     for b in backends {
-        let t = bench::time_sweep(b, poses, block, runs, measures)?;
+        let t = bench::time_sweep(b, poses, block, runs, measures, step)?;
         if let Some((device, host)) = t.summary_gpu {
             let device = device.map_or("-".to_string(), |d| format!("{:.3} s", d.as_secs_f64()));
             notes.push(format!(
@@ -265,13 +270,14 @@ fn sweep_table(
             t.per_item.map_or("-".to_string(), |p| {
                 format!("{:.0}", (secs(p) - secs(t.decoded)) * 1e9 / t.poses as f64)
             }),
-            t.samples as f64 / secs(t.decoded),
+            // Exact mode draws no samples: no rate.
+            (t.samples > 0).then(|| t.samples as f64 / secs(t.decoded)),
         );
         outln!(
-            "{:9} {:>9} {:>10.3e} {:>12.3} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>13} {:>13} {:>7} {:>12} {:>7}",
+            "{:9} {:>9} {:>10} {:>12.3} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>13} {:>13} {:>7} {:>12} {:>7}",
             b.label(),
             t.poses,
-            rate,
+            rate.map_or("-".to_string(), |r| format!("{r:.3e}")),
             secs(t.decoded),
             time(t.device),
             time(t.host.map(|h| h.wait)),

@@ -119,10 +119,11 @@ pub(crate) struct PairArgs {
     /// Sonar 2 (where the feature is looked for): a preset name or a sonar TOML file.
     #[arg(long, value_name = "SONAR")]
     to: String,
-    /// Sampling step in degrees (as the published code; 0.1 there). Default: auto, so that
-    /// neighbouring samples land less than half a bin and half a beam apart in sonar 2.
-    #[arg(long, value_name = "DEG")]
-    step: Option<f64>,
+    /// Sampling step in degrees (as the published code; 0.1 there), or `exact` (an FLS sonar 1's
+    /// arc solved in closed form, no samples). Default: auto, so that neighbouring samples land
+    /// less than half a bin and half a beam apart in sonar 2.
+    #[arg(long, value_name = "DEG|auto|exact", value_parser = parse_step)]
+    step: Option<Sampling>,
     /// Cell side (m) of the Cartesian grid over an FLS sonar 2's image that `projection_area`
     /// counts (the paper's: 0.08 m).
     #[arg(long, value_name = "M", default_value_t = sonarproj::PAPER_AREA_GRID)]
@@ -142,10 +143,7 @@ impl PairArgs {
     fn resolve(&self) -> Result<Batch> {
         let source = resolve_sonar(&self.from)?;
         let target = resolve_sonar(&self.to)?;
-        let sampling = match self.step {
-            Some(s) => Sampling::Step(s),
-            None => Sampling::Auto,
-        };
+        let sampling = self.step.unwrap_or(Sampling::Auto);
         let pair = Batch {
             sigma_range: self.sigma_range,
             source,
@@ -165,6 +163,19 @@ impl PairArgs {
             eprintln!("{n}");
         }
         Ok(backend)
+    }
+}
+
+/// Returns the sampling that `--step` names: `auto`, `exact` or a step in degrees (checked
+/// later, where the error names the option).
+fn parse_step(s: &str) -> std::result::Result<Sampling, String> {
+    match s.trim().to_ascii_lowercase().as_str() {
+        "auto" => Ok(Sampling::Auto),
+        "exact" => Ok(Sampling::Exact),
+        t => t
+            .parse::<f64>()
+            .map(Sampling::Step)
+            .map_err(|_| format!("must be a step in degrees (> 0), `auto` or `exact`, got {s:?}")),
     }
 }
 

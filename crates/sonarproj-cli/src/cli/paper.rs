@@ -22,9 +22,10 @@ pub(super) struct PaperArgs {
     #[arg(long, value_name = "DEG", default_value_t = 1.0)]
     angle_step: f64,
     /// Sampling step (deg) of the arcs and surfaces: 0.1 as the published code (its curves are
-    /// staircases, as the authors' are), or `auto` for smooth curves (neighbouring samples less
-    /// than half a bin and half a beam apart in sonar 2).
-    #[arg(long, value_name = "DEG|auto", default_value = "0.1", value_parser = parse_step)]
+    /// staircases, as the authors' are), `auto` for smooth curves (neighbouring samples less
+    /// than half a bin and half a beam apart in sonar 2), or `exact` (FLS arcs solved in closed
+    /// form, SSS surfaces sampled as `auto`).
+    #[arg(long, value_name = "DEG|auto|exact", default_value = "0.1", value_parser = super::parse_step)]
     step: Sampling,
     /// Where to compute.
     #[arg(long, value_enum, default_value = "auto")]
@@ -62,15 +63,4 @@ pub(super) fn run(a: PaperArgs) -> Result<()> {
         a.out.display()
     )?;
     Ok(())
-}
-
-/// Returns the sampling that `--step` names: `auto` or a step in degrees.
-fn parse_step(s: &str) -> std::result::Result<Sampling, String> {
-    if s.trim().eq_ignore_ascii_case("auto") {
-        return Ok(Sampling::Auto);
-    }
-    s.trim()
-        .parse::<f64>()
-        .map(Sampling::Step)
-        .map_err(|_| format!("must be a step in degrees (> 0) or `auto`, got {s:?}"))
 }

@@ -137,8 +137,12 @@ pub(super) fn run(a: ProjectArgs) -> Result<()> {
         },
         "pose": { "rotation": rows, "translation": pose.translation.to_array() },
         "sampling": {
-            "mode": match sampling { Sampling::Step(_) => "step", Sampling::Auto => "auto" },
-            "step_deg": match sampling { Sampling::Step(s) => Some(s), Sampling::Auto => None },
+            "mode": match sampling {
+                Sampling::Step(_) => "step",
+                Sampling::Auto => "auto",
+                Sampling::Exact => "exact",
+            },
+            "step_deg": match sampling { Sampling::Step(s) => Some(s), _ => None },
             "azimuth_samples": plan.azimuths.len(),
             "elevation_samples": plan.elevations.len(),
         },
