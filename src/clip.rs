@@ -9,12 +9,11 @@
 //!   point's range, azimuth and elevation, with trigonometry, as the conventions state them.
 //!   Bounds are inclusive. Bin `i` covers `[edge(i), edge(i + 1))`. The last bin and beam also
 //!   take the upper bound. The reference (`projection::reference`) decides this way.
-//! - **The same decisions without trigonometry** (`Clip`) use the Cartesian point in sonar 2.
-//!   Range: `r²` against `range_min²` and `range_max²`. Azimuth: `x sin h − |y| cos h ≥ 0`.
-//!   Elevation: `z² cos² e ≤ (x² + y²) sin² e`. Range bin: a first guess, then `r²` against the
-//!   guessed bin's squared edges. Beam: a first guess, then a cross product with the guessed
-//!   beam's edges. The fast CPU path and the splat shader decide this way. They differ from the
-//!   definition only within a rounding of a bound or edge, which the envelope
+//! - **The same decisions without trigonometry** (`Clip`) use the Cartesian point in sonar 2:
+//!   `r²` against the squared bounds, `x sin h − |y| cos h ≥ 0` for the azimuth,
+//!   `z² cos² e ≤ (x² + y²) sin² e` for the elevation, and a first guess of the bin and beam
+//!   settled by edge tests. The fast CPU path and the splat shader decide this way. They differ
+//!   from the definition only within a rounding of a bound or edge, which the envelope
 //!   ([`RELATIVE_TOLERANCE`]) allows.
 //!
 //! The masks test balls, not points, against the field of view. `View::may_meet` is false only
@@ -25,10 +24,8 @@ use glam::DVec3;
 use crate::geometry::Sonar;
 use crate::occupancy::Layout;
 
-// ---------------------------------------------------------------------------------------------
 // Tolerances. Each says what it is relative to and why it is large enough. The splat
 // shader's F32_SLACK and F32_WIDEN are generated from these by projection/gpu/source.rs.
-// ---------------------------------------------------------------------------------------------
 
 /// The envelope of "How the GPU is checked", relative to the sample's range in sonar 2.
 /// A GPU result may disagree with the reference only this close to a bound or edge. The GPU
@@ -42,7 +39,6 @@ pub const RELATIVE_TOLERANCE: f64 = 1e-5;
 pub const INPUT_TOLERANCE: f64 = 1e-9;
 
 /// [`INPUT_TOLERANCE`] for a GPU that decides in double-f32.
-///
 /// Where the driver keeps f32 arithmetic exact and fuses `fma`, double-f32 is that precise.
 /// Drivers that do not (lavapipe, and the H100's driver, which gave the same 2e-6 m errors)
 /// leave it at f32. Then a coordinate takes eight roundings: `u` from the plan's angles, and
@@ -51,18 +47,12 @@ pub const INPUT_TOLERANCE: f64 = 1e-9;
 pub const DOUBLE_F32_TOLERANCE: f64 = 1e-6;
 
 /// The extra neighbourhood of a projection-area cell edge within which a GPU's cell may differ
-/// from the reference's, relative to sonar 2's `range_max`.
-///
-/// It comes on top of the sample's own [`RELATIVE_TOLERANCE`]. The splat shader (WGSL
-/// `set_cell`) places a sample in its cell in f32, from its f32 range and point, as
-/// `x0 + r · x / √(x² + y²)`. The errors:
-///
-/// 1. The scaled point errs by a few ulps of `r`: under 4e-7 · r.
-/// 2. `x − x0` errs by an ulp of `range_max`: 6e-8.
-/// 3. `× 1/cell` errs by an ulp of the index: 6e-8 · 2 range_max.
-/// 4. `x0` itself errs by an ulp: 6e-8 · range_max.
-///
-/// That is under 6e-7 · `range_max` in all, taken as 1e-6.
+/// from the reference's, relative to sonar 2's `range_max`, on top of [`RELATIVE_TOLERANCE`].
+/// The splat shader (WGSL `set_cell`) places a sample in f32 from its f32 range and point, as
+/// `x0 + r · x / √(x² + y²)`. The scaled point errs by a few ulps of `r` (under 4e-7 · r).
+/// `x − x0` errs by an ulp of `range_max` (6e-8), `× 1/cell` by an ulp of the index
+/// (6e-8 · 2 range_max), and `x0` itself by an ulp (6e-8 · range_max). That is under
+/// 6e-7 · `range_max` in all, taken as 1e-6.
 pub const CELL_SLACK: f64 = 1e-6;
 
 /// The fast CPU path's block-culling slack, relative to `range + |t| + range_max`. The roundings
@@ -71,16 +61,14 @@ pub const CELL_SLACK: f64 = 1e-6;
 pub(crate) const CULL_SLACK: f64 = 1e-9;
 
 /// The slack of the splat shader's f32 decisions (block culling and the f32 filter), relative to
-/// `range + |t| + range_max`. WGSL: `F32_SLACK`, in `f32_slack`.
+/// `range + |t| + range_max` (WGSL `F32_SLACK`, in `f32_slack`). It covers three errors:
 ///
 /// 1. A point moved in f32, from the pose's hi parts and the f32 unit, lies within
-///    `4e-6 · (range + |t|)` of the `Real` one. The unit is within 4e-7 ([`F32_UNIT_ERROR`]).
-///    Each entry of `M` and `t` is within 2⁻²⁴ of its value. The dot product adds four
-///    roundings, each within 2⁻²⁴ of `|M| |u| + |t|`.
-/// 2. A clip or edge function evaluated there in f32 adds a few roundings of
-///    `|p| ≤ range + |t|`.
-/// 3. A double-f32 `Real` that its driver leaves at f32 precision adds
-///    [`DOUBLE_F32_TOLERANCE`].
+///    `4e-6 · (range + |t|)` of the `Real` one: the unit is within 4e-7 ([`F32_UNIT_ERROR`]),
+///    each entry of `M` and `t` within 2⁻²⁴, and the dot product's four roundings each within
+///    2⁻²⁴ of `|M| |u| + |t|`.
+/// 2. A clip or edge function evaluated there in f32 adds a few roundings of `|p| ≤ range + |t|`.
+/// 3. A double-f32 `Real` left at f32 precision by its driver adds [`DOUBLE_F32_TOLERANCE`].
 ///
 /// 1e-5 is more than twice their sum.
 pub(crate) const F32_SLACK: f64 = 1e-5;
@@ -148,9 +136,8 @@ pub(crate) const UNIFORM_BEAMS: f64 = 1e-12;
 pub(crate) const ATAN_ERROR: f64 = 1e-11;
 
 /// The relative tolerance of the fast path's azimuth key `y / x` (sonar 2 an SSS). Samples
-/// whose key lies within it of the pose's smallest (largest) key get an exact `atan2` for the
-/// azimuth extremes. The others' azimuths are larger (smaller) by far more than `atan2`'s
-/// rounding.
+/// within it of the pose's smallest (largest) key get an exact `atan2` for the azimuth extremes.
+/// Other azimuths are larger (smaller) by far more than `atan2`'s rounding.
 pub(crate) const KEY_TOLERANCE: f64 = 1e-12;
 
 /// Returns the fast path's culling slack (m) for a pose of this range and translation into
@@ -160,9 +147,7 @@ pub(crate) fn cull_slack(range: f64, t: DVec3, layout: &Layout) -> f64 {
     CULL_SLACK * (range + t.length() + layout.range_max)
 }
 
-// ---------------------------------------------------------------------------------------------
 // The definition: decisions from range, azimuth and elevation.
-// ---------------------------------------------------------------------------------------------
 
 impl Layout {
     /// Returns true when `(r, az, el)` (m, rad, rad) lies in the field of view. Bounds are
@@ -286,11 +271,9 @@ impl Layout {
     }
 }
 
-// ---------------------------------------------------------------------------------------------
-// The same decisions without trigonometry, from the Cartesian point. These are the fast CPU
-// path's, twins of the splat shader's (shaders/shared/clip.wgsl: in_view, range_bin,
-// at_or_above, beam_of).
-// ---------------------------------------------------------------------------------------------
+// The same decisions without trigonometry, from the Cartesian point: the fast CPU path's,
+// twins of the splat shader's (shaders/shared/clip.wgsl: in_view, range_bin, at_or_above,
+// beam_of).
 
 /// The most beam edges [`Clip::beam_near`] walks from a starting beam.
 const WALK: usize = 4;
@@ -354,12 +337,10 @@ impl<'a> Clip<'a> {
                 | ((p.x * p.x + p.y * p.y) * self.sin2_half_el >= p.z * p.z * self.cos2_half_el))
     }
 
-    /// Returns the range bin of a point at range `r` (squared `r2`).
-    ///
-    /// It guesses, then tests the guessed bin's squared edges. The edges are computed as
-    /// [`Layout::range_edge`] does, so they equal [`Layout::range_edges_sq`], the splat shader's
-    /// table. This is the fast path's one range-bin decision (lanes, runs, the plain loop of its
-    /// tests), and in `Real` the shader's `range_bin`.
+    /// Returns the range bin of a point at range `r` (squared `r2`): a guess, then the guessed
+    /// bin's squared edges. The edges are computed as [`Layout::range_edge`] does, so they equal
+    /// [`Layout::range_edges_sq`], the splat shader's table. This is the fast path's one range-bin
+    /// decision (lanes, runs, the plain loop of its tests), and in `Real` the shader's `range_bin`.
     #[inline(always)]
     pub(crate) fn range_bin(&self, r: f64, r2: f64) -> i32 {
         let l = self.layout;
@@ -415,12 +396,10 @@ impl<'a> Clip<'a> {
     }
 
     /// Returns the beam of `p`, walking at most [`WALK`] edges from beam `from`, or `None` when it
-    /// lies farther.
-    ///
-    /// `from` is the fast path's guess or the previous sample's beam. The edge tests are those of
-    /// [`Clip::beam`], so both give the same beam. The side test `sin(az − e) ≥ 0` is right only
-    /// within half a turn of the edge. Every edge is that close when the aperture is at most 180°.
-    /// Wider sonars, where an edge may lie behind the point, always get `None`.
+    /// lies farther. `from` is the fast path's guess or the previous sample's beam. The edge tests
+    /// are those of [`Clip::beam`], so both give the same beam. The side test `sin(az − e) ≥ 0` is
+    /// right only within half a turn of the edge, which every edge is when the aperture is at most
+    /// 180°. Wider sonars, where an edge may lie behind the point, always get `None`.
     #[inline]
     pub(crate) fn beam_near(&self, p: DVec3, from: usize) -> Option<usize> {
         if self.layout.half_azimuth > std::f64::consts::FRAC_PI_2 {
@@ -441,9 +420,7 @@ impl<'a> Clip<'a> {
     }
 }
 
-// ---------------------------------------------------------------------------------------------
 // Balls instead of points: the masks' test, twin of may_meet_view in shaders/mask.wgsl.
-// ---------------------------------------------------------------------------------------------
 
 /// Sonar 2's field of view as the balls of a mask are tested against it.
 #[derive(Debug)]
