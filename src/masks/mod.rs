@@ -176,14 +176,11 @@ impl MaskEngine {
         Ok(engine)
     }
 
-    /// Returns the engine `choice` asks for, and a one-line notice when `auto` fell back to the
-    /// CPU.
-    ///
-    /// - A GPU is opened with the options `gpu`.
-    /// - `cpu` and `cpu-fast` are the same engine for masks (f64, every core).
-    /// - `auto` takes a hardware GPU, but the CPU when `counts` are wanted (only the CPU draws
-    ///   them). An engine that `auto` put on a GPU still draws pings of fewer than
-    ///   [`GPU_MIN_CELLS`] cells on the CPU, where they finish sooner.
+    /// Returns the engine `choice` asks for (a GPU opened with `gpu`), and a one-line notice when
+    /// `auto` fell back to the CPU. For masks, `cpu` and `cpu-fast` are one engine (f64, every
+    /// core). `auto` takes a hardware GPU, but the CPU when `counts` are wanted, since only the CPU
+    /// draws them. On a GPU, `auto` still draws pings of fewer than [`GPU_MIN_CELLS`] cells on the
+    /// CPU, where they finish sooner.
     ///
     /// # Errors
     /// [`Error::NoAdapter`] or [`Error::Gpu`] when `gpu` was asked for and cannot be had. Also
@@ -351,10 +348,9 @@ impl MaskEngine {
         Ok(out)
     }
 
-    /// Gives `each` the summary of each ping of `pings` in order, as soon as it is read back.
-    /// Summaries are as [`MaskEngine::summaries_of_pings`] computes them. It stops when `each`
-    /// answers `Break` or `stop` is set (asked before each group of 64 pings), and then returns
-    /// `Break` ([`crate::stream`]).
+    /// Gives `each` each ping's summary, as [`MaskEngine::summaries_of_pings`] computes it, in
+    /// order and as soon as it is read back. Stops when `each` answers `Break` or `stop` is set
+    /// (asked before each group of 64 pings), and then returns `Break` ([`crate::stream`]).
     ///
     /// # Errors
     /// As [`MaskEngine::summaries_of_pings`], and `each`'s errors (which stop it).
@@ -436,10 +432,9 @@ impl MaskEngine {
         )
     }
 
-    /// Gives `emit` each ping of `pings` in order, as `on_gpu` or `on_cpu` makes it. `on_gpu` takes
-    /// the ping's drawing and jobs (masks read back too when `masks`), `on_cpu` its pose and plans.
-    /// Pings go in groups of 64, with two dispatches in flight on a GPU. `stop` is asked before
-    /// each group.
+    /// Gives `emit` each ping of `pings` in order, as `on_gpu` (its drawing and jobs, with masks
+    /// read back when `masks`) or `on_cpu` (its pose and plans) makes it. Pings go in groups of
+    /// 64, with two dispatches in flight on a GPU, and `stop` is asked before each group.
     #[expect(
         clippy::too_many_arguments,
         reason = "the two ways a ping is drawn, and where it goes"
