@@ -1,122 +1,123 @@
-//! One clip and one error model: whether a point lies in sonar 2's field of view, which range bin
-//! and beam it falls in, and every tolerance the engine's decisions and checks use, each with its
-//! derivation. The WGSL twin is `shaders/shared/clip.wgsl` (the splat stage's decisions and its
-//! f32 slack); read the two side by side.
+//! The one clip and error model: field-of-view tests, range bins, beams and every tolerance.
 //!
-//! There are two kinds of decision, both here:
+//! Each tolerance carries its derivation. The WGSL twin is `shaders/shared/clip.wgsl`, which
+//! holds the splat stage's decisions and its f32 slack. Read the two side by side.
 //!
-//! - **The definition** ([`Layout::inside`], [`Layout::range_bin`], [`Layout::beam`]): from a
-//!   point's range, azimuth and elevation, with trigonometry, as the conventions state them —
-//!   bounds inclusive, bin `i` covering `[edge(i), edge(i + 1))`, the last bin and beam also
-//!   taking the upper bound. The reference (`projection::reference`) decides so.
-//! - **The same decisions without trigonometry** (`Clip`): from the Cartesian point in sonar 2,
-//!   `r²` against `range_min²` and `range_max²`, `x sin h − |y| cos h ≥ 0` for the azimuth,
-//!   `z² cos² e ≤ (x² + y²) sin² e` for the elevation, a first guess of the range bin then `r²`
-//!   against the guessed bin's squared edges, a first guess of the beam then the side of the
-//!   guessed beam's edges by a cross product. The fast CPU path and the splat shader decide so;
-//!   they differ from the definition only for points within a rounding of a bound or an edge,
-//!   which the envelope ([`RELATIVE_TOLERANCE`]) allows.
+//! Two kinds of decision live here:
 //!
-//! The masks test balls, not points, against the field of view (`View::may_meet`: false only
-//! when no point of the ball can be in view), twin of `may_meet_view` in `shaders/mask.wgsl`;
-//! their slacks are here too.
+//! - **The definition** ([`Layout::inside`], [`Layout::range_bin`], [`Layout::beam`]) uses a
+//!   point's range, azimuth and elevation, with trigonometry, as the conventions state them.
+//!   Bounds are inclusive. Bin `i` covers `[edge(i), edge(i + 1))`. The last bin and beam also
+//!   take the upper bound. The reference (`projection::reference`) decides this way.
+//! - **The same decisions without trigonometry** (`Clip`) use the Cartesian point in sonar 2:
+//!   `r²` against the squared bounds, `x sin h − |y| cos h ≥ 0` for the azimuth,
+//!   `z² cos² e ≤ (x² + y²) sin² e` for the elevation, and a first guess of the bin and beam
+//!   settled by edge tests. The fast CPU path and the splat shader decide this way. They differ
+//!   from the definition only within a rounding of a bound or edge, which the envelope
+//!   ([`RELATIVE_TOLERANCE`]) allows.
+//!
+//! The masks test balls, not points, against the field of view. `View::may_meet` is false only
+//! when no point of the ball can be in view. Its twin is `may_meet_view` in `shaders/mask.wgsl`.
 
 use glam::DVec3;
 
 use crate::geometry::Sonar;
 use crate::occupancy::Layout;
 
-// ---------------------------------------------------------------------------------------------
-// Tolerances. Each says what it is relative to and why it is large enough. The splat shader's
-// F32_SLACK and F32_WIDEN are generated from these (projection/gpu/source.rs), never written in WGSL.
-// ---------------------------------------------------------------------------------------------
+// Tolerances. Each says what it is relative to and why it is large enough. The splat
+// shader's F32_SLACK and F32_WIDEN are generated from these by projection/gpu/source.rs.
 
-/// Relative size (against the sample's range in sonar 2) of the neighbourhood of a bound or edge
-/// within which a GPU result and the reference may disagree: the envelope of "How the GPU is
-/// checked". The GPU reports ranges and azimuths rounded to f32 (about 6e-8 relative) and
-/// decides in f64 or double-f32, far inside it.
+/// The envelope of "How the GPU is checked", relative to the sample's range in sonar 2.
+/// A GPU result may disagree with the reference only this close to a bound or edge. The GPU
+/// reports ranges and azimuths rounded to f32 (about 6e-8 relative) and decides in f64 or
+/// double-f32, far inside it.
 pub const RELATIVE_TOLERANCE: f64 = 1e-5;
 
-/// Relative size (against `range + |t|`, the magnitudes the transform adds) of the rounding of
-/// the pose and directions to f32 hi + lo pairs on their way to the GPU: about 48 bits, so
-/// 1e-14, taken with a wide margin.
+/// The rounding of the pose and directions to f32 hi + lo pairs for the GPU, relative to
+/// `range + |t|` (the magnitudes the transform adds). A pair keeps about 48 bits, so 1e-14.
+/// The bound takes a wide margin.
 pub const INPUT_TOLERANCE: f64 = 1e-9;
 
-/// [`INPUT_TOLERANCE`] for a GPU deciding in double-f32: where the driver keeps f32 arithmetic
-/// exact and fuses `fma` it is as precise as that, but drivers that do not (lavapipe; the H100's
-/// driver gave the same 2e-6 m errors) leave it f32: each of the eight roundings of a coordinate
-/// (`u` from the plan's angles, three products and sums with the pose) errs by up to
-/// 2⁻²⁴ ≈ 6e-8 of `range + |t|`, so 5e-7 in all; doubled.
+/// [`INPUT_TOLERANCE`] for a GPU that decides in double-f32.
+/// Where the driver keeps f32 arithmetic exact and fuses `fma`, double-f32 is that precise.
+/// Drivers that do not (lavapipe, and the H100's driver, which gave the same 2e-6 m errors)
+/// leave it at f32. Then a coordinate takes eight roundings: `u` from the plan's angles, and
+/// three products and sums with the pose. Each errs by up to 2⁻²⁴ ≈ 6e-8 of `range + |t|`, so
+/// 5e-7 in all. The bound doubles that.
 pub const DOUBLE_F32_TOLERANCE: f64 = 1e-6;
 
-/// Relative size (against sonar 2's `range_max`) of the extra neighbourhood of a projection-area
-/// cell edge within which a GPU's cell may differ from the reference's, beyond the sample's own
-/// [`RELATIVE_TOLERANCE`]: the splat shader places a sample in its cell in f32 (WGSL `set_cell`)
-/// from its f32 range and point, `x0 + r · x / √(x² + y²)`: the scaled point errs by a few ulps
-/// of `r` (under 4e-7 · r), `x − x0` by an ulp of `range_max` (6e-8), `× 1/cell` by an ulp of the
-/// index (6e-8 · 2 range_max) and `x0` itself by an ulp (6e-8 · range_max): under 6e-7 ·
-/// `range_max` in all, taken as 1e-6.
+/// The extra neighbourhood of a projection-area cell edge within which a GPU's cell may differ
+/// from the reference's, relative to sonar 2's `range_max`, on top of [`RELATIVE_TOLERANCE`].
+/// The splat shader (WGSL `set_cell`) places a sample in f32 from its f32 range and point, as
+/// `x0 + r · x / √(x² + y²)`. The scaled point errs by a few ulps of `r` (under 4e-7 · r).
+/// `x − x0` errs by an ulp of `range_max` (6e-8), `× 1/cell` by an ulp of the index
+/// (6e-8 · 2 range_max), and `x0` itself by an ulp (6e-8 · range_max). That is under
+/// 6e-7 · `range_max` in all, taken as 1e-6.
 pub const CELL_SLACK: f64 = 1e-6;
 
-/// Relative slack of the fast CPU path's block culling, against `range + |t| + range_max`: the
-/// roundings of `M u + t` in f64 and of the clip functions are below 1e-15 of that sum, so a block
-/// is culled only when it clears a bound by a million times them.
+/// The fast CPU path's block-culling slack, relative to `range + |t| + range_max`. The roundings
+/// of `M u + t` in f64 and of the clip functions are below 1e-15 of that sum. So a block is
+/// culled only when it clears a bound by a million times them.
 pub(crate) const CULL_SLACK: f64 = 1e-9;
 
-/// Relative slack of the splat shader's f32 decisions (block culling and the f32 filter), against
-/// `range + |t| + range_max` (WGSL `F32_SLACK`, in `f32_slack`). A point moved in f32 from the
-/// pose's hi parts and the f32 unit lies within `4e-6 · (range + |t|)` of the `Real` one: the unit
-/// within 4e-7 ([`F32_UNIT_ERROR`]), each entry of `M` and `t` within 2⁻²⁴ of its value, and four
-/// roundings of the dot product, each within 2⁻²⁴ of `|M| |u| + |t|`. A clip or edge function
-/// evaluated there in f32 adds a few roundings of `|p| ≤ range + |t|`; a double-f32 `Real` left
-/// at f32 precision by its driver, [`DOUBLE_F32_TOLERANCE`]. 1e-5 is more than twice their sum.
+/// The slack of the splat shader's f32 decisions (block culling and the f32 filter), relative to
+/// `range + |t| + range_max` (WGSL `F32_SLACK`, in `f32_slack`). It covers three errors:
+///
+/// 1. A point moved in f32, from the pose's hi parts and the f32 unit, lies within
+///    `4e-6 · (range + |t|)` of the `Real` one: the unit is within 4e-7 ([`F32_UNIT_ERROR`]),
+///    each entry of `M` and `t` within 2⁻²⁴, and the dot product's four roundings each within
+///    2⁻²⁴ of `|M| |u| + |t|`.
+/// 2. A clip or edge function evaluated there in f32 adds a few roundings of `|p| ≤ range + |t|`.
+/// 3. A double-f32 `Real` left at f32 precision by its driver adds [`DOUBLE_F32_TOLERANCE`].
+///
+/// 1e-5 is more than twice their sum.
 pub(crate) const F32_SLACK: f64 = 1e-5;
 
-/// Relative widening of an f32 ball radius or chord reach in the splat shader (WGSL
-/// `F32_WIDEN`): `length(M row)` and the product with the radius round by a few 2⁻²⁴ ≈ 6e-8.
+/// The relative widening of an f32 ball radius or chord reach in the splat shader (WGSL
+/// `F32_WIDEN`). `length(M row)` and the product with the radius round by a few 2⁻²⁴ ≈ 6e-8.
 pub(crate) const F32_WIDEN: f64 = 1e-5;
 
-/// How far the f32 centre of a culling ball may lie from its f64 centre once rounded: √3 · 2⁻²⁴
-/// of a unit vector's coordinates, below 2e-7; the direction table's radii grow by it.
+/// How far the f32 centre of a culling ball may lie from its f64 centre once rounded. That is
+/// √3 · 2⁻²⁴ of a unit vector's coordinates, below 2e-7. The direction table's radii grow by it.
 pub(crate) const F32_CENTRE_ERROR: f64 = 2e-7;
 
-/// How far a unit direction the shader builds in f32 from the hi parts of the direction table
-/// (`unit_f32`) may lie from the f64 one: a product and three roundings, below 4e-7; the
+/// How far a unit direction built in f32 by the shader (`unit_f32`, from the direction table's
+/// hi parts) may lie from the f64 one. A product and three roundings stay below 4e-7. The
 /// direction table's chord reaches grow by it.
 pub(crate) const F32_UNIT_ERROR: f64 = 4e-7;
 
-/// Relative rounding-up of every radius and reach stored in f32 in the direction table, so the
+/// The relative rounding-up of every f32 radius and reach in the direction table, so that the
 /// stored value is never below the f64 one.
 pub(crate) const F32_ROUND_UP: f64 = 1e-6;
 
-/// Relative widening of a culling radius in f64 (fast path): the radius, the range and their
-/// product round by a few 2⁻⁵³.
+/// The relative widening of a culling radius in f64 (fast path). The radius, the range and
+/// their product round by a few 2⁻⁵³.
 pub(crate) const F64_WIDEN: f64 = 1e-12;
 
-/// Relative slack of a mask's ball in the GPU's f32 drawing (`shaders/mask.wgsl`), against
-/// `r + |t| + range_max`: about 17 f32 ulps of the largest distance, which bounds every rounding
-/// of the shader's transform, length and bin arithmetic; with [`MASK_F32_FLOOR`] (m) for distances
-/// near zero. A GPU mask so holds the CPU mask of the same scene.
+/// The slack of a mask's ball in the GPU's f32 drawing (`shaders/mask.wgsl`), relative to
+/// `r + |t| + range_max`. About 17 f32 ulps of the largest distance bound every rounding of the
+/// shader's transform, length and bin arithmetic. [`MASK_F32_FLOOR`] (m) covers distances near
+/// zero. So a GPU mask holds the CPU mask of the same scene.
 pub(crate) const MASK_F32_SLACK: f64 = 2e-6;
 
 /// The absolute floor (m) of a mask's f32 slack.
 pub(crate) const MASK_F32_FLOOR: f64 = 1e-6;
 
-/// Relative slack of a mask's ball in the CPU's f64 drawing, against `r + |t| + range_max`, and
-/// its absolute floor (m): the roundings of `q = R p + t` and `|q|` in f64 are below 1e-15 of the
+/// The slack of a mask's ball in the CPU's f64 drawing, relative to `r + |t| + range_max`, and
+/// its absolute floor (m). The f64 roundings of `q = R p + t` and `|q|` are below 1e-15 of the
 /// distances.
 pub(crate) const MASK_F64_SLACK: f64 = 1e-12;
 
-/// Angular slack (rad) of the masks' beam spread `asin(radius / ρ)` in f64: the roundings of
-/// `atan2` and `asin`, a few 1e-16.
+/// The angular slack (rad) of the masks' beam spread `asin(radius / ρ)` in f64. It covers the
+/// roundings of `atan2` and `asin`, a few 1e-16.
 pub(crate) const MASK_ANGLE_SLACK: f64 = 1e-12;
 
 /// How close (rad) to 90° a half aperture may come and still bound the masks' ball test by its
-/// tangent; nearer, the bound is dropped (the tangent would overflow or lose all precision).
+/// tangent. Nearer, the bound is dropped, since the tangent would overflow or lose all precision.
 pub(crate) const RIGHT_ANGLE_SLACK: f64 = 1e-9;
 
-/// How far (relative to the aperture) a sonar's first and last beam edges may lie from
-/// `∓aperture / 2`: edges written in a file as decimals of the aperture's half.
+/// How far a sonar's first and last beam edges may lie from `∓aperture / 2`, relative to the
+/// aperture. Files write edges as decimals of the aperture's half.
 pub(crate) const APERTURE_ENDS: f64 = 1e-9;
 
 /// A few roundings of an f64 computation, relative to its magnitude (2⁻⁵³ ≈ 1.1e-16 each).
@@ -125,34 +126,32 @@ pub(crate) const F64_ROUNDINGS: f64 = 1e-15;
 /// The floor (in beams) of the fast path's beam-guess slack.
 pub(crate) const GUESS_SLACK_FLOOR: f64 = 1e-9;
 
-/// How far from an even split a sonar's beam widths may be (relative to the mean width) for the
-/// beams to count as uniform, so that a beam is first guessed by one multiplication.
+/// How far from an even split a sonar's beam widths may be (relative to the mean width) and
+/// still count as uniform. Uniform beams are first guessed by one multiplication.
 pub(crate) const UNIFORM_BEAMS: f64 = 1e-12;
 
-/// Bound on `|approx_atan2(y, x) − atan2(y, x)|` (rad) of the fast path's polynomial `atan2`: the
-/// fitted polynomial's 4.2e-12 (`scripts/fit_atan.py`) and the roundings of its evaluation, with
-/// margin; a unit test holds the function to it against libm.
+/// The bound on `|approx_atan2(y, x) − atan2(y, x)|` (rad) of the fast path's polynomial
+/// `atan2`. It covers the fitted polynomial's 4.2e-12 (`scripts/fit_atan.py`) and the roundings
+/// of its evaluation, with margin. A unit test holds the function to it against libm.
 pub(crate) const ATAN_ERROR: f64 = 1e-11;
 
-/// Relative tolerance of the fast path's azimuth key `y / x` (sonar 2 an SSS): samples whose key
-/// lies within it of the pose's smallest (largest) key get an exact `atan2` for the azimuth
-/// extremes; the others' azimuths are larger (smaller) by far more than `atan2`'s rounding.
+/// The relative tolerance of the fast path's azimuth key `y / x` (sonar 2 an SSS). Samples
+/// within it of the pose's smallest (largest) key get an exact `atan2` for the azimuth extremes.
+/// Other azimuths are larger (smaller) by far more than `atan2`'s rounding.
 pub(crate) const KEY_TOLERANCE: f64 = 1e-12;
 
-/// Returns the fast path's culling slack (m) of a pose of this range and translation into
+/// Returns the fast path's culling slack (m) for a pose of this range and translation into
 /// `layout` ([`CULL_SLACK`]).
 #[inline]
 pub(crate) fn cull_slack(range: f64, t: DVec3, layout: &Layout) -> f64 {
     CULL_SLACK * (range + t.length() + layout.range_max)
 }
 
-// ---------------------------------------------------------------------------------------------
 // The definition: decisions from range, azimuth and elevation.
-// ---------------------------------------------------------------------------------------------
 
 impl Layout {
-    /// Returns true when `(r, az, el)` (m, rad, rad) lies in the field of view: bounds
-    /// inclusive, the origin outside.
+    /// Returns true when `(r, az, el)` (m, rad, rad) lies in the field of view. Bounds are
+    /// inclusive; the origin is outside.
     #[must_use]
     pub fn inside(&self, r: f64, az: f64, el: f64) -> bool {
         r > 0.0
@@ -172,8 +171,8 @@ impl Layout {
         }
     }
 
-    /// Returns the range bin of `r` (m): bin `i` covers `[edge(i), edge(i+1))`, the last one also
-    /// takes `range_max`. `r` must lie in `[range_min, range_max]`.
+    /// Returns the range bin of `r` (m). Bin `i` covers `[edge(i), edge(i+1))`, and the last one
+    /// also takes `range_max`. `r` must lie in `[range_min, range_max]`.
     #[expect(
         clippy::cast_possible_truncation,
         reason = "a saturating float-to-index conversion, clamped to the table right after"
@@ -190,8 +189,8 @@ impl Layout {
         }
     }
 
-    /// Returns the beam of `az` (rad): beam `j` covers `[e_j, e_{j+1})`, the last one also takes
-    /// `+half_azimuth`. `az` must lie in the aperture.
+    /// Returns the beam of `az` (rad). Beam `j` covers `[e_j, e_{j+1})`, and the last one also
+    /// takes `+half_azimuth`. `az` must lie in the aperture.
     #[must_use]
     #[inline]
     pub fn beam(&self, az: f64) -> usize {
@@ -199,9 +198,9 @@ impl Layout {
         j.saturating_sub(1).min(self.beams() - 1)
     }
 
-    /// Returns how many beam edges are `<= az`: `beam_edges.partition_point(|&e| e <= az)`,
-    /// found from a guess (the edges' position as if they were uniform) and checked against the
-    /// edges themselves, a binary search only when the guess is more than a few edges off.
+    /// Returns how many beam edges are `<= az`, as `beam_edges.partition_point(|&e| e <= az)`.
+    /// It guesses the position as if the edges were uniform, then checks the edges themselves.
+    /// It binary-searches only when the guess is more than a few edges off.
     #[expect(
         clippy::cast_possible_truncation,
         clippy::cast_sign_loss,
@@ -232,8 +231,8 @@ impl Layout {
         e.partition_point(|&x| x <= az)
     }
 
-    /// Returns `(sin h, cos h)` for the trigonometry-free azimuth clip `x sin h − |y| cos h ≥ 0`
-    /// (⇔ `|az| ≤ h` for `h` in `(0, π]`); exactly `(0, −1)` for the full circle.
+    /// Returns `(sin h, cos h)` for the trigonometry-free azimuth clip `x sin h − |y| cos h ≥ 0`,
+    /// which is `|az| ≤ h` for `h` in `(0, π]`. The full circle gives exactly `(0, −1)`.
     #[must_use]
     pub fn azimuth_clip(&self) -> (f64, f64) {
         let h = self.half_azimuth;
@@ -244,16 +243,16 @@ impl Layout {
         }
     }
 
-    /// Returns `(sin² e, cos² e)` for the elevation clip `z² cos² e ≤ (x² + y²) sin² e`
-    /// (⇔ `|el| ≤ e`), or `None` for a 180° aperture, which clips nothing.
+    /// Returns `(sin² e, cos² e)` for the elevation clip `z² cos² e ≤ (x² + y²) sin² e`, which is
+    /// `|el| ≤ e`. Returns `None` for a 180° aperture, which clips nothing.
     #[must_use]
     pub fn elevation_clip(&self) -> Option<(f64, f64)> {
         let e = self.half_elevation;
         (e < std::f64::consts::FRAC_PI_2).then(|| (e.sin().powi(2), e.cos().powi(2)))
     }
 
-    /// Returns the beam width (rad) when the beams split the aperture uniformly (each width
-    /// within 1e-12 of the mean: `clip::UNIFORM_BEAMS`), else `None`.
+    /// Returns the beam width (rad) when the beams split the aperture uniformly, else `None`.
+    /// Uniform means each width lies within 1e-12 of the mean (`clip::UNIFORM_BEAMS`).
     #[must_use]
     pub fn uniform_beam_width(&self) -> Option<f64> {
         let width = 2.0 * self.half_azimuth / self.beams() as f64;
@@ -272,15 +271,14 @@ impl Layout {
     }
 }
 
-// ---------------------------------------------------------------------------------------------
-// The same decisions without trigonometry, from the Cartesian point: the fast CPU path's, twin of
-// the splat shader's (shaders/shared/clip.wgsl: in_view, range_bin, at_or_above, beam_of).
-// ---------------------------------------------------------------------------------------------
+// The same decisions without trigonometry, from the Cartesian point: the fast CPU path's,
+// twins of the splat shader's (shaders/shared/clip.wgsl: in_view, range_bin, at_or_above,
+// beam_of).
 
-/// Most beam edges [`Clip::beam_near`] walks from a starting beam.
+/// The most beam edges [`Clip::beam_near`] walks from a starting beam.
 const WALK: usize = 4;
 
-/// Sonar 2's field of view and layout as the trigonometry-free decisions use them: the f64 twin
+/// Sonar 2's field of view and layout as the trigonometry-free decisions use them. The f64 twin
 /// of the splat shader's `TargetParams`.
 pub(crate) struct Clip<'a> {
     pub layout: &'a Layout,
@@ -293,7 +291,7 @@ pub(crate) struct Clip<'a> {
     pub cos2_half_el: f64,
     /// `(sin e, cos e)` of the half elevation aperture, for the culling cone.
     pub sin_cos_half_el: (f64, f64),
-    /// `1 / Δ`: the range bin guess multiplies (the edge tests then settle it).
+    /// `1 / Δ`, so the range-bin guess is one multiplication. The edge tests then settle it.
     pub inv_range_bin: f64,
     /// `(cos, sin)` of each beam edge.
     pub beam_edges_cs: Vec<(f64, f64)>,
@@ -327,8 +325,8 @@ impl<'a> Clip<'a> {
         }
     }
 
-    /// Returns whether `p` (squared range `r2`) is in view: the splat shader's `in_view`.
-    /// Every test is evaluated (`&`, not `&&`): no branch to mispredict per sample.
+    /// Returns whether `p` (squared range `r2`) is in view, as the splat shader's `in_view`.
+    /// Every test is evaluated (`&`, not `&&`), so there is no branch to mispredict per sample.
     #[inline(always)]
     pub(crate) fn in_view(&self, p: DVec3, r2: f64) -> bool {
         (r2 > 0.0)
@@ -340,10 +338,9 @@ impl<'a> Clip<'a> {
     }
 
     /// Returns the range bin of a point at range `r` (squared `r2`): a guess, then the guessed
-    /// bin's squared edges, computed as [`Layout::range_edge`] does (so equal to the squared
-    /// edges of [`Layout::range_edges_sq`], the splat shader's table). The one range-bin decision
-    /// of the fast path (lanes, runs, the plain loop of its tests) and, in `Real`, of the shader's
-    /// `range_bin`.
+    /// bin's squared edges. The edges are computed as [`Layout::range_edge`] does, so they equal
+    /// [`Layout::range_edges_sq`], the splat shader's table. This is the fast path's one range-bin
+    /// decision (lanes, runs, the plain loop of its tests), and in `Real` the shader's `range_bin`.
     #[inline(always)]
     pub(crate) fn range_bin(&self, r: f64, r2: f64) -> i32 {
         let l = self.layout;
@@ -360,17 +357,17 @@ impl<'a> Clip<'a> {
         i - i32::from(down) + i32::from(up)
     }
 
-    /// Returns whether `p` lies at or above (counter-clockwise of) beam edge `k`:
-    /// `sin(az − e) · ρ = y cos e − x sin e ≥ 0`, valid within a quarter turn of the edge (the
-    /// shader's `at_or_above`).
+    /// Returns whether `p` lies at or above (counter-clockwise of) beam edge `k`, as the shader's
+    /// `at_or_above`. The test is `sin(az − e) · ρ = y cos e − x sin e ≥ 0`, valid within a
+    /// quarter turn of the edge.
     #[inline(always)]
     pub(crate) fn at_or_above(&self, p: DVec3, k: usize) -> bool {
         let (c, s) = self.beam_edges_cs[k];
         p.y * c - p.x * s >= 0.0
     }
 
-    /// Returns the beam of `p` at azimuth `az`: a first guess, then the side of the guessed
-    /// beam's edges (the shader's `beam_of`).
+    /// Returns the beam of `p` at azimuth `az`: a first guess, then the side of the guessed beam's
+    /// edges (the shader's `beam_of`).
     #[expect(
         clippy::cast_possible_truncation,
         reason = "a saturating float-to-index conversion, clamped to the table right after"
@@ -398,12 +395,11 @@ impl<'a> Clip<'a> {
         j
     }
 
-    /// Returns the beam of `p` found by walking at most [`WALK`] edges from beam `from` (the fast
-    /// path's guess, or the previous sample's beam), or `None` when it lies farther. The edge
-    /// tests are those of [`Clip::beam`], so both give the same beam. The side test
-    /// `sin(az − e) ≥ 0` is right only within half a turn of the edge, which every edge is when
-    /// the aperture is at most 180°; wider sonars (an edge may lie behind the point) always take
-    /// `None`.
+    /// Returns the beam of `p`, walking at most [`WALK`] edges from beam `from`, or `None` when it
+    /// lies farther. `from` is the fast path's guess or the previous sample's beam. The edge tests
+    /// are those of [`Clip::beam`], so both give the same beam. The side test `sin(az − e) ≥ 0` is
+    /// right only within half a turn of the edge, which every edge is when the aperture is at most
+    /// 180°. Wider sonars, where an edge may lie behind the point, always get `None`.
     #[inline]
     pub(crate) fn beam_near(&self, p: DVec3, from: usize) -> Option<usize> {
         if self.layout.half_azimuth > std::f64::consts::FRAC_PI_2 {
@@ -424,18 +420,15 @@ impl<'a> Clip<'a> {
     }
 }
 
-// ---------------------------------------------------------------------------------------------
 // Balls instead of points: the masks' test, twin of may_meet_view in shaders/mask.wgsl.
-// ---------------------------------------------------------------------------------------------
 
 /// Sonar 2's field of view as the balls of a mask are tested against it.
 #[derive(Debug)]
 pub(crate) struct View {
-    /// Sonar 2's layout.
     pub(crate) layout: Layout,
-    /// `tan` of the half elevation aperture, `None` at 90° or more (no bound).
+    /// `tan` of the half elevation aperture, or `None` at 90° or more (no bound).
     tan_elevation: Option<f64>,
-    /// `tan` of the half azimuth aperture, `None` at 90° or more (no bound).
+    /// `tan` of the half azimuth aperture, or `None` at 90° or more (no bound).
     tan_azimuth: Option<f64>,
 }
 
@@ -456,8 +449,8 @@ impl View {
         self.may_meet_at(q, q.length(), q.x.hypot(q.y), radius)
     }
 
-    /// [`View::may_meet`] with `q`'s length `d` and its distance `rho` from the z axis
-    /// (`x.hypot(y)`) already computed by the caller, who needs them again.
+    /// Returns [`View::may_meet`], given `q`'s length `d` and its distance `rho` from the z axis
+    /// (`x.hypot(y)`). The caller computes them because it needs them again.
     #[inline]
     pub(crate) fn may_meet_at(&self, q: DVec3, d: f64, rho: f64, radius: f64) -> bool {
         let l = &self.layout;
@@ -474,8 +467,8 @@ impl View {
     }
 }
 
-/// Returns `v` as an index: `v` is finite and within `0..=i32::MAX` (clamped by the caller), so
-/// the conversion is exact truncation; unlike `as`, it vectorises.
+/// Returns `v` as an index. The caller clamps `v` to be finite and within `0..=i32::MAX`, so the
+/// conversion is an exact truncation. Unlike `as`, it vectorises.
 #[inline(always)]
 pub(crate) fn to_index(v: f64) -> i32 {
     debug_assert!((0.0..=f64::from(i32::MAX)).contains(&v));
@@ -527,7 +520,7 @@ mod tests {
         assert_eq!(f.beam((30f64).to_radians()), 511, "+A/2 goes to the last beam");
     }
 
-    /// The trigonometry-free range bin is the definition's wherever a point is not within a
+    /// The trigonometry-free range bin matches the definition wherever a point is not within a
     /// rounding of an edge: at bin centres, and a millionth of a bin inside each edge.
     #[test]
     fn the_two_range_bins_agree_away_from_edges() {

@@ -73,8 +73,8 @@ pub enum Error {
         source: Option<Box<dyn std::error::Error + Send + Sync + 'static>>,
     },
     /// The work was given up before its end because the caller's [`crate::stream::Stop`] was
-    /// set ([`crate::Backend::project_until`]): a viewer client that went away, a Ctrl-C. A
-    /// call that streams its results returns `Break` instead.
+    /// set ([`crate::Backend::project_until`]): a viewer client that went away, a Ctrl-C. A call
+    /// that streams its results returns `Break` instead.
     #[error("stopped before the end, as asked")]
     Stopped,
 }
@@ -94,8 +94,8 @@ impl Error {
         )
     }
 
-    /// Returns an [`Error::InvalidValue`] for `field` (its name, or a front's [`Param`]),
-    /// `value` and the `allowed` text; a long value is quoted as an [`excerpt`].
+    /// Returns an [`Error::InvalidValue`] for `field` (its name, or a front's [`Param`]), `value`
+    /// and the `allowed` text. A long value is shortened, as every error shows values.
     pub fn invalid(
         field: impl Into<Field>,
         value: impl std::fmt::Display,
@@ -134,8 +134,8 @@ impl Error {
         }
     }
 
-    /// Returns the same error with `prefix: ` put in front of the field name (for nesting
-    /// context); the prefix is words or a front's [`Param`].
+    /// Returns the same error with `prefix: ` put in front of the field name, to nest context. The
+    /// prefix is words or a front's [`Param`].
     #[must_use]
     pub fn in_context(self, prefix: impl Into<Field>) -> Self {
         match self {
@@ -157,8 +157,8 @@ impl Error {
     }
 
     /// Returns the message with each front's input named by `name` (a flag, an environment
-    /// variable, a Python keyword) where the error names a [`Param`]; `Display` writes the
-    /// params' neutral names.
+    /// variable, a Python keyword) where the error names a [`Param`]. `Display` writes the params'
+    /// neutral names instead.
     #[must_use]
     pub fn render(&self, name: &dyn Fn(Param) -> String) -> String {
         match self {
@@ -183,9 +183,9 @@ impl Error {
 }
 
 /// Names an input that each front gives under a name of its own: a flag or an environment
-/// variable on the command line, a keyword in Python. The engine and the applications name it by
-/// this neutral key; each front renders it ([`Error::render`]), and `Display` writes its neutral
-/// name.
+/// variable on the command line, a keyword in Python. The engine and the applications name it
+/// by this neutral key. Each front renders it ([`Error::render`]), and `Display` writes its
+/// neutral name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Param(&'static str);
 
@@ -203,9 +203,9 @@ impl Param {
     }
 }
 
-/// What an error is about: a field by its name (`sonar "rig.toml": range_max`), a front's input
-/// by its [`Param`] (with words after it: `chunk_poses (the default)`), or either under the
-/// context it was met in (`--feature 2: feature azimuth`).
+/// What an error is about: a field by its name (`sonar "rig.toml": range_max`), or a front's
+/// input by its [`Param`], with words after it (`chunk_poses (the default)`). Either may sit
+/// under the context it was met in (`--feature 2: feature azimuth`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Field(Vec<Part>);
 
@@ -296,20 +296,20 @@ impl From<Param> for Field {
     }
 }
 
-/// Returns `text` quoted for an error message: whole when it has at most
-/// [`EXCERPT_CHARS`](crate::limits::EXCERPT_CHARS) characters, else its beginning followed by `…`
-/// and its length in bytes (a message never echoes a long piece of its input whole).
+/// Returns `text` quoted for an error message: whole up to
+/// [`EXCERPT_CHARS`](crate::limits::EXCERPT_CHARS) characters, else its beginning, `…` and its
+/// length in bytes. So a message never echoes a long piece of its input whole.
 #[must_use]
 pub fn excerpt(text: &str) -> String {
     let (head, mark) = cut(text, crate::limits::EXCERPT_CHARS);
     format!("{head:?}{mark}")
 }
 
-/// Returns `value` as an error shows it: a long number in exponent form (`1e308`), anything else
-/// whole up to [`MAX_VALUE_CHARS`](crate::limits::MAX_VALUE_CHARS) characters, else cut there
-/// and marked with its length.
+/// Returns `value` as an error shows it. A long number takes exponent form (`1e308`). Anything
+/// else is whole up to [`MAX_VALUE_CHARS`](crate::limits::MAX_VALUE_CHARS) characters, else
+/// cut there and marked with its length.
 fn shortened(value: &str) -> String {
-    // A huge or tiny number formats with all its digits (1e308 has 309): say it as Rust reads it.
+    // A huge or tiny number formats with all its digits (1e308 has 309). Say it as Rust reads it.
     if value.len() > 24
         && let Ok(v) = value.parse::<f64>()
         && v.is_finite()
@@ -320,8 +320,8 @@ fn shortened(value: &str) -> String {
     format!("{head}{mark}")
 }
 
-/// Returns the first `chars` characters of `text` and, when it has more, the mark
-/// `… (N bytes)` giving its whole length (empty otherwise).
+/// Returns the first `chars` characters of `text`, and the mark `… (N bytes)` giving its whole
+/// length when it has more (else an empty mark).
 fn cut(text: &str, chars: usize) -> (&str, String) {
     match text.char_indices().nth(chars) {
         None => (text, String::new()),
@@ -347,8 +347,8 @@ pub fn finite(field: &str, v: f64) -> Result<f64> {
     finite_named(|| field.to_string(), v)
 }
 
-/// Returns `v` when it is finite, else [`Error::InvalidValue`] for the field `field()` names;
-/// the name is only built for the error (hot paths check every pose).
+/// Returns `v` when it is finite, else [`Error::InvalidValue`] for the field `field()` names.
+/// The name is built only for the error, since hot paths check every pose.
 ///
 /// # Errors
 /// [`Error::InvalidValue`] for NaN and infinities.
@@ -364,7 +364,7 @@ pub fn finite_named(field: impl FnOnce() -> String, v: f64) -> Result<f64> {
 mod param_tests {
     use super::*;
 
-    /// An error about a front's input keeps it as a value: `Display` writes its neutral name,
+    /// An error about a front's input keeps it as a value. `Display` writes its neutral name and
     /// each front its own, in the field and in any context around it.
     #[test]
     fn a_param_is_named_by_each_front_its_own_way() {

@@ -1,17 +1,18 @@
-//! sonarproj: the epipolar geometry of sonar. Given a feature measured by one sonar (FLS or SSS)
-//! and the pose of a second sonar, compute where in the second sonar's data the feature can be.
+//! sonarproj: the epipolar geometry of sonar. Given a feature measured by one sonar (FLS or
+//! SSS) and the pose of a second sonar, it computes where in the second sonar's data the
+//! feature can be.
 //!
 //! Data flows one way, and the modules follow it: [`geometry`] (sonars, poses, rigs) →
 //! [`sampling`] ([`Measurement`] → [`SamplingPlan`]) → [`projection`] ([`Backend`]: the f64
-//! reference, the fast CPU path, or WGSL on the GPU) → [`occupancy`] → [`metrics`] → reports;
-//! beside it, [`masks`] (correspondence masks) and [`recovery`] (the lost coordinate), with the
-//! GPU plumbing in [`gpu`]. See `ARCHITECTURE.md`.
+//! reference, the fast CPU path, or WGSL on the GPU) → [`occupancy`] → [`metrics`] → reports.
+//! Beside it sit [`masks`] (correspondence masks) and [`recovery`] (the lost coordinate). The
+//! GPU plumbing is in [`gpu`]. See `ARCHITECTURE.md`.
 //!
-//! Units: metres for ranges and translations. Angles are in degrees wherever a user gives or
-//! reads them — sonars, measurements, rotations, mounts, noise, metrics, mask bounding boxes —
-//! and in radians only inside the computation's own types ([`Layout`]'s beam edges and half
-//! apertures, [`SamplingPlan`], [`metrics::Extremes`], [`geometry::sph_to_cart`]); every field
-//! and argument says which.
+//! Units: ranges and translations are in metres. Angles are in degrees wherever a user gives or
+//! reads them: sonars, measurements, rotations, mounts, noise, metrics, mask bounding boxes.
+//! They are in radians only inside the computation's own types ([`Layout`]'s beam edges and
+//! half apertures, [`SamplingPlan`], [`metrics::Extremes`], [`geometry::sph_to_cart`]). Every
+//! field and argument says which.
 //!
 //! ```
 //! use sonarproj::{Backend, Batch, BatchItem, Measurement, Output, RelativePose, Rotation, Sampling, Sonar};
@@ -60,7 +61,7 @@ pub mod test_support;
 
 pub use error::{Error, Result};
 
-/// The engine's version (its crate version): results of one version with equal inputs and
+/// The engine's version (its crate version). Results of one version with equal inputs and
 /// backend settings are equal.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 pub use geometry::{BeamLayout, RelativePose, Rotation, Sonar, SonarKind, rig};

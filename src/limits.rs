@@ -1,6 +1,6 @@
-//! Every size limit of the engine in one place (the applications keep theirs in
-//! `sonarproj_apps::limits`). Each bounds something derived from input before it is
-//! allocated, so that no input can exhaust memory or overflow a count; an input past a limit is
+//! Every size limit of the engine in one place. The applications keep theirs in
+//! `sonarproj_apps::limits`. Each limit bounds something derived from input before it is
+//! allocated, so that no input can exhaust memory or overflow a count. An input past a limit is
 //! refused with a message naming the field, the value and the limit.
 
 /// The longest range a sonar may have (m): 10 km covers every real sonar and keeps every
@@ -9,7 +9,7 @@ pub const MAX_RANGE: f64 = 10_000.0;
 /// The largest translation between two sonars, per axis (m): 1 000 km. Two sonars of
 /// [`MAX_RANGE`] share nothing beyond 20 km, and every squared length stays far from overflow.
 pub const MAX_TRANSLATION: f64 = 1_000_000.0;
-/// The largest standard deviation of an angle (deg): half a turn; a wider one means nothing.
+/// The largest standard deviation of an angle (deg): half a turn. A wider one means nothing.
 pub const MAX_SIGMA_ANGLE: f64 = 180.0;
 /// The largest number of range bins a sonar may have.
 pub const MAX_RANGE_BINS: u32 = 1 << 20;
@@ -28,29 +28,30 @@ pub const MAX_CELLS: u64 = 1 << 26;
 pub const MAX_CURVE_POINTS: usize = 10_000;
 /// The most poses one sweep may have (they are streamed in chunks, never held at once).
 pub const MAX_POSES: u64 = 1 << 40;
-/// The most values one sweep grid axis may take (its values are held in memory, 8 bytes each);
-/// grids reach [`MAX_POSES`] through the product of their axes.
+/// The most values one sweep grid axis may take, held in memory at 8 bytes each. Grids reach
+/// [`MAX_POSES`] through the product of their axes.
 pub const MAX_AXIS_VALUES: u64 = 1_000_000;
-/// The most features of one ping a mask engine takes (65 536): their plans and results are held
-/// together; a larger ping is split by the caller.
+/// The most features of one ping a mask engine takes (65 536). Their plans and results are held
+/// together, so the caller splits a larger ping.
 pub const MAX_PING_FEATURES: usize = 1 << 16;
-/// The most bytes of masks as bitsets (one bit a pixel) one call of the mask engine holds: 1 GiB,
-/// whatever the sonar's size (with per-pixel counts, four bytes a pixel more a mask); a call
-/// that would need more is refused, naming its features or its pings.
+/// The most bytes of masks as bitsets (one bit a pixel) that one call of the mask engine holds:
+/// 1 GiB, whatever the sonar's size. Per-pixel counts add four bytes a pixel to each mask. A
+/// call that would need more is refused, naming its features or its pings.
 pub const MAX_MASK_BITSET_BYTES: u64 = 1 << 30;
 /// The largest sonar file read (bytes): a sonar file is a few hundred bytes, one with
 /// [`MAX_BEAMS`] beam edges about 1.5 MB.
 pub const MAX_SONAR_FILE_BYTES: u64 = 4 << 20;
-/// The most characters of input text an error quotes whole (a column name, a field); longer
+/// The most characters of input text (a column name, a field) an error quotes whole. Longer
 /// text is cut and marked with its length.
 pub const EXCERPT_CHARS: usize = 40;
 /// The most characters of a value an error shows whole.
 pub const MAX_VALUE_CHARS: usize = 200;
 
-// The limits keep derived sizes far from overflow, checked when the crate compiles: a whole
-// image of bits fits in 8 MiB and a u32 word index; sample and cell counts fit the GPU's u32
-// indices; a sweep's pose index is exact in an f64 (CSV columns print it); a square grid of
-// full axes stays within a sweep.
+// The limits keep derived sizes far from overflow, checked when the crate compiles:
+// - a whole image of bits fits in 8 MiB and a u32 word index;
+// - sample and cell counts fit the GPU's u32 indices;
+// - a sweep's pose index is exact in an f64 (CSV columns print it);
+// - a square grid of full axes stays within a sweep.
 const _: () = {
     assert!(MAX_PIXELS / 8 <= 8 << 20);
     assert!(MAX_PIXELS <= u32::MAX as u64);

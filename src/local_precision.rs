@@ -1,24 +1,24 @@
 //! How well a match pins the coordinate a sonar loses, at the feature's true point: the local
 //! counterpart of the range span (README: Metrics).
 //!
-//! The span says how far along sonar 2's range a match must be searched for: the range extent of
-//! the whole clipped arc. How precisely a match then fixes the lost coordinate depends on the
-//! slope at the true point: where the other sonar's range changes fast along the arc, a range
-//! error moves the recovered elevation little. With the same first-order model as
+//! The span is the range extent of the whole clipped arc: how far along sonar 2's range a
+//! match must be searched for. How precisely a match then fixes the lost coordinate depends on
+//! the slope at the true point. Where the other sonar's range changes fast along the arc, a
+//! range error moves the recovered elevation little. The model is the first-order one of
 //! [`crate::recovery`] (README: Recovering the lost coordinate):
 //!
-//! - an FLS sonar 1: its arc `p(el) = sph(r, az, el)` seen by sonar 2, whose range is
-//!   `d(el) = |R p(el) + t|`. `range_per_elevation = ∂d/∂el` (m/deg) at the true elevation, and
-//!   `sigma_elevation = σ / |∂d/∂el|` (deg): the 1-σ of the elevation recovered from a match when
-//!   sonar 2's range carries an error of σ (recovery's "first elevation").
-//! - an SSS sonar 1 with an FLS sonar 2: the FLS arc through the true point in sonar 2,
-//!   `q(el) = sph(r2, az2, el)`, seen by the sidescan at sonar 2's `t` (sonar 1's origin):
-//!   `d(el) = |q(el) − t|`; the same two figures with σ on the sidescan's range (recovery's
-//!   "second elevation").
-//! - two sidescans: neither sonar keeps an angle; there is no elevation to pin (`None`).
+//! - FLS sonar 1: its arc `p(el) = sph(r, az, el)` is seen by sonar 2 at range
+//!   `d(el) = |R p(el) + t|`. Then `range_per_elevation = ∂d/∂el` (m/deg) at the true
+//!   elevation, and `sigma_elevation = σ / |∂d/∂el|` (deg). That is the 1-σ of the elevation
+//!   recovered from a match when sonar 2's range has an error σ (recovery's "first elevation").
+//! - SSS sonar 1, FLS sonar 2: the FLS arc through the true point in sonar 2,
+//!   `q(el) = sph(r2, az2, el)`, is seen by the sidescan at sonar 2's `t` (sonar 1's origin),
+//!   at range `d(el) = |q(el) − t|`. The same two figures follow, with σ on the sidescan's
+//!   range (recovery's "second elevation").
+//! - Two sidescans: neither keeps an angle, so there is no elevation to pin (`None`).
 //!
 //! σ defaults to the range quantisation of the sonar whose range meets the arc: its bin width
-//! Δ over √12 (the standard deviation of a uniform error over one bin).
+//! Δ over √12, the standard deviation of a uniform error over one bin.
 
 use std::f64::consts::PI;
 
@@ -32,11 +32,11 @@ use crate::recovery::GEOMETRY_TOLERANCE;
 /// The local precision at a feature's true point (see the module documentation).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LocalPrecision {
-    /// `∂d/∂el` (m/deg): how fast the other sonar's range moves along the arc at the true point;
+    /// `∂d/∂el` (m/deg): how fast the other sonar's range moves along the arc at the true point.
     /// `None` for two sidescans.
     pub range_per_elevation: Option<f64>,
-    /// The 1-σ (deg) of the elevation a match recovers, first order; `None` for two sidescans
-    /// and where the slope vanishes (the arc is tangent to the range sphere there).
+    /// The 1-σ (deg) of the elevation a match recovers, first order. `None` for two sidescans, and
+    /// where the slope vanishes (the arc is tangent to the range sphere there).
     pub sigma_elevation: Option<f64>,
 }
 
@@ -83,9 +83,9 @@ pub fn local_precision(
     TruePoint::new(source, target, true_point).at(pose, sigma)
 }
 
-/// A feature's true point with what [`local_precision`] computes from it alone, for many poses
-/// of one feature (a sweep's rotations): the same figures, bit for bit, without the feature's
-/// trigonometry a pose.
+/// A feature's true point, with what [`local_precision`] computes from it alone. For many poses
+/// of one feature (a sweep's rotations), it gives the same figures, bit for bit, without the
+/// feature's trigonometry each pose.
 #[derive(Clone, Copy, Debug)]
 pub struct TruePoint {
     kinds: (SonarKind, SonarKind),
@@ -116,8 +116,8 @@ impl TruePoint {
     /// error `sigma` (m): [`local_precision`]'s.
     #[must_use]
     pub fn at(&self, pose: &RelativePose, sigma: f64) -> LocalPrecision {
-        // The arc (centre the arc's sonar origin), the point the other sonar ranges from, in the
-        // arc's frame, and the arc's parameters.
+        // The slope of the other sonar's range along the arc at the true point, and the arc's
+        // radius.
         let (slope, arc_r) = match self.kinds {
             (SonarKind::Sss, SonarKind::Sss) => return LocalPrecision::default(),
             (SonarKind::Fls, _) => {

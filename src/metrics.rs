@@ -2,10 +2,10 @@
 //!
 //! [`METRICS`] lists every metric once: its name (the CSV column, the JSON key and the sweep
 //! file's `metric` value), its unit and figure label for each kind of sonar 2, how it is reduced
-//! over the samples, and the GPU metric slot that holds it. Outputs, figures and the tests read the
-//! table; adding a metric means a field of [`Metrics`], a row of the table, and the code that
-//! computes it (the reference, the fast CPU path, the GPU stage, and its envelope in
-//! [`crate::projection::envelope`] where one applies).
+//! over the samples, and the GPU metric slot that holds it. Outputs, figures and tests read the
+//! table. Adding a metric takes a field of [`Metrics`], a row of the table, and the code that
+//! computes it: the reference, the fast CPU path, the GPU stage, and its envelope in
+//! [`crate::projection::envelope`] where one applies.
 
 use serde::ser::{Serialize, SerializeStruct, Serializer};
 
@@ -66,14 +66,14 @@ pub struct MetricInfo {
     pub name: &'static str,
     /// Its unit when sonar 2 is a sidescan (SSS) and when it is an imaging sonar (FLS).
     pub unit: [&'static str; 2],
-    /// Its figure axis label for an SSS and an FLS sonar 2; `None` where no figure draws it (a
-    /// bookkeeping count, or a metric that sonar 2's kind leaves empty).
+    /// Its figure axis label for an SSS and an FLS sonar 2. `None` where no figure draws it: a
+    /// bookkeeping count, or a metric that sonar 2's kind leaves empty.
     pub label: [Option<&'static str>; 2],
     /// How it is reduced over the samples.
     pub reduce: Reduce,
-    /// The GPU's metric slot that holds it (WGSL `METRIC_*` in `shaders/shared/types.wgsl`: a
-    /// chunk's metrics buffer holds, slot after slot, one u32 a pose), `None` when the CPU
-    /// computes it after the readback.
+    /// The GPU metric slot that holds it (WGSL `METRIC_*` in `shaders/shared/types.wgsl`), or
+    /// `None` when the CPU computes it after readback. A chunk's metrics buffer holds one u32 a
+    /// pose, slot after slot.
     pub gpu_slot: Option<usize>,
 }
 
@@ -157,7 +157,7 @@ pub const METRICS: [MetricInfo; 11] = [
         unit: ["m", "m²"],
         label: [Some("occupied length (m)"), Some("occupied area (m²)")],
         reduce: Reduce::Occupancy,
-        // The FLS area sum; an SSS length is `occupied × bin width`, computed after readback.
+        // The FLS area sum. An SSS length is `occupied × bin width`, computed after readback.
         gpu_slot: Some(6),
     },
     MetricInfo {
@@ -166,7 +166,7 @@ pub const METRICS: [MetricInfo; 11] = [
         unit: ["", "m²"],
         label: [None, Some("projection area (m²)")],
         reduce: Reduce::Cells,
-        // The cell count; the area is `count × cell²`, computed after readback.
+        // The cell count. The area is `count × cell²`, computed after readback.
         gpu_slot: Some(7),
     },
 ];
@@ -212,8 +212,8 @@ impl Metric {
         self.info().unit[kind_index(kind)]
     }
 
-    /// Returns this metric's figure axis label when sonar 2 is of `kind`; `None` for a metric no
-    /// figure draws.
+    /// Returns this metric's figure axis label when sonar 2 is of `kind`, or `None` for a metric
+    /// no figure draws.
     #[must_use]
     pub const fn label(self, kind: SonarKind) -> Option<&'static str> {
         self.info().label[kind_index(kind)]
@@ -272,11 +272,11 @@ impl Serialize for Value {
     }
 }
 
-/// The metrics of one projection (README: Conventions). Ranges in metres, azimuths in degrees.
+/// The metrics of one projection (README: Conventions), ranges in metres and azimuths in degrees.
 ///
-/// Serialised (JSON) as an object whose keys are the [`METRICS`] names in table order, with
-/// `null` for an extreme when nothing is visible. The default is a projection of which nothing
-/// is visible (zeros, and no extremes).
+/// Serialised (JSON) as an object keyed by the [`METRICS`] names in table order, with `null` for
+/// an extreme when nothing is visible. The default is a projection with nothing visible: zeros,
+/// and no extremes.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Metrics {
     /// Samples kept by the clip.
@@ -298,11 +298,11 @@ pub struct Metrics {
     pub azimuth_max: Option<f64>,
     /// Number of occupied bins (SSS) or pixels (FLS).
     pub occupied: u64,
-    /// Occupied bins × bin width (m, SSS) or summed true area of occupied pixels (m², FLS): the
-    /// occupied measure at sonar 2's own resolution.
+    /// The occupied measure at sonar 2's own resolution: occupied bins × bin width (m, SSS), or the
+    /// summed true area of occupied pixels (m², FLS).
     pub occupied_measure: f64,
     /// The paper's projection area (m², FLS target): the cells of the layout's
-    /// [`AreaGrid`](crate::occupancy::AreaGrid) holding a visible sample, times the cell's area;
+    /// [`AreaGrid`](crate::occupancy::AreaGrid) holding a visible sample, times the cell's area.
     /// `None` for an SSS target.
     pub projection_area: Option<f64>,
 }
@@ -360,9 +360,9 @@ impl Extremes {
 }
 
 impl Metrics {
-    /// Returns the metrics from the sample counts, the extremes (m, rad), the occupancy summary
-    /// and the projection area (m², `None` for an SSS target); extremes are `None` and the span
-    /// 0 when nothing is visible.
+    /// Returns the metrics from the sample counts, the extremes (m, rad), the occupancy summary and
+    /// the projection area (m², `None` for an SSS target). With nothing visible, the extremes are
+    /// `None` and the span is 0.
     #[must_use]
     pub fn new(
         visible: u64,

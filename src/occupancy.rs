@@ -1,5 +1,6 @@
-//! Sonar 2's data layout (range bins, beams: README: Conventions) and the occupancy bitset drawn
-//! in it. Which bin and beam a point falls in, and whether it is in view, is [`crate::clip`]'s.
+//! Sonar 2's data layout (range bins and beams; README: Conventions) and the occupancy bitset
+//! drawn in it. [`crate::clip`] decides which bin and beam a point falls in, and whether it is
+//! in view.
 
 use crate::error::{Error, Result, finite};
 use crate::geometry::{Sonar, SonarKind};
@@ -27,21 +28,21 @@ pub struct Layout {
     pub half_azimuth: f64,
     /// Half the elevation aperture (rad).
     pub half_elevation: f64,
-    /// The Cartesian grid the projection area is counted in (an FLS only, once a batch sets it:
-    /// [`Layout::with_area_grid`]).
+    /// The Cartesian grid the projection area is counted in: an FLS only, once a batch sets it
+    /// ([`Layout::with_area_grid`]).
     pub area_grid: Option<AreaGrid>,
 }
 
-/// The Cartesian grid over an FLS image plane that the paper's projection area is counted in:
-/// square cells of side `cell` from `(x0, y0)`, `x` forward and `y` to starboard of the sonar
-/// after the elevation is dropped (`x = r cos az`, `y = r sin az`). The projection area is the
-/// number of cells holding a visible sample times `cell²`.
+/// The Cartesian grid over an FLS image plane that the paper's projection area is counted in.
 ///
-/// The grid is the authors' (`np.arange(x0, x1, cell)` along each axis): for an azimuth
-/// aperture `A` up to 180°, `x` from `range_min · cos(A/2)` to `range_max` and `y` from
-/// `−range_max · sin(A/2)` to `range_max · sin(A/2)`; wider apertures cover the full disc
-/// (`±range_max` on both axes). A point's cell is `floor((x − x0) / cell)` along each axis,
-/// clamped into the grid (only a point exactly on the far edge needs it).
+/// Cells are squares of side `cell` from `(x0, y0)`. Once the elevation is dropped, `x` points
+/// forward and `y` to starboard (`x = r cos az`, `y = r sin az`). The projection area is the
+/// number of cells holding a visible sample, times `cell²`. The grid is the authors'
+/// (`np.arange(x0, x1, cell)` along each axis). For an azimuth aperture `A` up to 180°, `x` runs
+/// from `range_min · cos(A/2)` to `range_max`, and `y` from `−range_max · sin(A/2)` to
+/// `range_max · sin(A/2)`. Wider apertures cover the full disc (`±range_max` on both axes). A
+/// point's cell is `floor((x − x0) / cell)` along each axis, clamped into the grid. Only a point
+/// exactly on the far edge needs the clamp.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AreaGrid {
     /// The side of a cell (m).
@@ -152,9 +153,9 @@ impl AreaGrid {
     }
 
     /// Returns the flat index `i · ny + j` of the cell holding the point `(x, y, z)` of sonar 2's
-    /// frame at range `r = |(x, y, z)|` without trigonometry: its image point is `(x, y)` scaled
-    /// to length `r` (`(r, 0)` on the z axis, where `atan2` gives azimuth 0), which is
-    /// `(r cos az, r sin az)` up to rounding.
+    /// frame at range `r = |(x, y, z)|`, without trigonometry. Its image point is `(x, y)` scaled
+    /// to length `r`, which is `(r cos az, r sin az)` up to rounding. On the z axis it is `(r, 0)`,
+    /// where `atan2` gives azimuth 0.
     #[inline]
     #[must_use]
     pub fn flat_cell(&self, x: f64, y: f64, r: f64) -> usize {
@@ -222,8 +223,8 @@ impl Layout {
         self.beam_edges.len() - 1
     }
 
-    /// Returns whether this is a two-sided sidescan's layout (an SSS with a starboard beam 0
-    /// and a port beam 1; see [`Sonar::two_sided`]): its data is one row of both sides, not
+    /// Returns whether this is a two-sided sidescan's layout: an SSS with a starboard beam 0 and a
+    /// port beam 1 ([`Sonar::two_sided`]). Its data is one row of both sides, not
     /// `[range_bin][beam]`.
     #[must_use]
     pub fn two_sided(&self) -> bool {
@@ -241,8 +242,8 @@ impl Layout {
         }
     }
 
-    /// Returns the index in the sonar's data of range bin `i`, beam `j`: `i · beams + j`, or for
-    /// a two-sided sidescan `range_bins − 1 − i` to port (`j = 1`, far to near) and
+    /// Returns the index in the sonar's data of range bin `i`, beam `j`: `i · beams + j`. For a
+    /// two-sided sidescan it is `range_bins − 1 − i` to port (`j = 1`, far to near) and
     /// `range_bins + i` to starboard (`j = 0`, near to far).
     #[must_use]
     pub fn data_index(&self, i: usize, j: usize) -> usize {
@@ -272,10 +273,10 @@ impl Layout {
         }
     }
 
-    /// Returns `occ`, drawn `[range_bin][beam]` in this layout, in the order of the sonar's
-    /// data ([`Layout::data_shape`], [`Layout::data_index`]): unchanged except for a two-sided
-    /// sidescan, whose two columns become one row of `2 × range_bins` bins. Every occupancy
-    /// and mask the engine hands out has passed through here.
+    /// Returns `occ`, drawn `[range_bin][beam]` in this layout, in the order of the sonar's data
+    /// ([`Layout::data_shape`], [`Layout::data_index`]). Only a two-sided sidescan changes: its two
+    /// columns become one row of `2 × range_bins` bins. Every occupancy and mask the engine hands
+    /// out passes through here.
     #[must_use]
     pub fn to_data_order(&self, occ: Occupancy) -> Occupancy {
         if !self.two_sided() {
@@ -310,7 +311,7 @@ impl Layout {
         self.range_bins * self.beams()
     }
 
-    /// Returns the measure of pixel `(i, j)`: the bin width (m) for an SSS; for an FLS the true
+    /// Returns the measure of pixel `(i, j)`: the bin width (m) for an SSS, and for an FLS the true
     /// area `Δa_j/2 · (r_{i+1}² − r_i²)` (m², Δa in radians).
     #[must_use]
     pub fn pixel_measure(&self, i: usize, j: usize) -> f64 {

@@ -1,28 +1,29 @@
-//! Recovering the coordinate a sonar loses from a correspondence between two sonars (README: Recovering the lost coordinate).
+//! Recovering the coordinate a sonar loses, from a correspondence between two sonars (README:
+//! Recovering the lost coordinate).
 //!
 //! An FLS measurement `(r, az)` leaves the elevation free: the point lies on the arc
-//! `p(el) = sph(r, az, el)`. A range `d` measured by the other sonar puts it on the sphere of
-//! radius `d` around that sonar's origin `o` (expressed in the arc's frame). On the arc,
-//! `|p(el) − o| = d` becomes `a cos el + b sin el = c` with `a = r (o_x cos az + o_y sin az)`,
-//! `b = r o_z`, `c = (r² + |o|² − d²) / 2`: zero, one (tangency) or two elevations, in closed
+//! `p(el) = sph(r, az, el)`. The other sonar's range `d` puts it on the sphere of radius `d`
+//! around that sonar's origin `o`, in the arc's frame. On the arc, `|p(el) − o| = d` becomes
+//! `a cos el + b sin el = c`, with `a = r (o_x cos az + o_y sin az)`, `b = r o_z` and
+//! `c = (r² + |o|² − d²) / 2`. That gives zero, one (tangency) or two elevations, in closed
 //! form ([`solve_arc`]).
 //!
 //! - FLS + SSS: the FLS arc (in sonar 1) against the SSS range sphere (around sonar 2).
 //! - SSS + FLS: the FLS arc (in sonar 2) against the SSS range sphere (around sonar 1).
-//! - FLS + FLS: the first arc against the second range; the second azimuth then ranks the
-//!   candidates and says which are consistent with it.
-//! - SSS + SSS: the two range spheres meet in a circle; the parts of it inside both fields of
-//!   view are returned as angular intervals, sampled, with their length.
+//! - FLS + FLS: the first arc against the second range. The second azimuth then ranks the
+//!   candidates and tells which fit it.
+//! - SSS + SSS: the two range spheres meet in a circle. Its parts inside both fields of view
+//!   are returned as angular intervals, sampled, with their length.
 //!
 //! Sensitivity: with `g(el) = |p(el) − o| − d`, the recovered elevation moves by
-//! `∂el/∂m = −(∂g/∂m)/(∂g/∂el)` for each measurement `m`; `∂g/∂el` is `d range / d el` of the
-//! arc seen from the other sonar, the quantity whose integral over the arc is the range span.
-//! A long span means a large `|d range/d el|` and so a small `σ_el = σ_range / |d range/d el|`.
+//! `∂el/∂m = −(∂g/∂m)/(∂g/∂el)` for each measurement `m`. Here `∂g/∂el` is `d range / d el` of
+//! the arc seen from the other sonar, whose integral over the arc is the range span. So a long
+//! span means a large `|d range/d el|` and a small `σ_el = σ_range / |d range/d el|`.
 //!
-//! The sigmas are first order. On random paper-preset scenes (`tests/recover.rs`) the true
-//! elevation fell within 1σ / 3σ in 67–69% / 99.6–99.7% of 3000 trials at σ_range = 0.2 mm,
-//! σ_azimuth = 0.005° (Gaussian: 68.3% / 99.73%); at 2 mm / 0.05° the arc's curvature brings the
-//! 3σ coverage down to about 99.45%, and near tangency (flagged) the sigmas do not hold.
+//! The sigmas are first order. On 3000 random paper-preset scenes (`tests/recover.rs`) at
+//! σ_range = 0.2 mm and σ_azimuth = 0.005°, the true elevation fell within 1σ / 3σ in 67–69% /
+//! 99.6–99.7% of trials (Gaussian: 68.3% / 99.73%). At 2 mm / 0.05° the arc's curvature brings
+//! 3σ coverage down to about 99.45%. Near tangency (flagged) the sigmas do not hold.
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
@@ -33,17 +34,16 @@ use crate::error::{Error, Result, finite};
 use crate::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
 use crate::geometry::sonar::{Sonar, SonarKind};
 
-/// Relative tolerance for what counts as zero in the geometry (`a² + b²`, a vanishing circle)
-/// and for the field-of-view test of a recovered point (which sits exactly on a bound when the
-/// true point does).
+/// The relative tolerance for zero in the geometry (`a² + b²`, a vanishing circle) and for the
+/// field-of-view test of a recovered point, which sits on a bound when the true point does.
 pub const GEOMETRY_TOLERANCE: f64 = 1e-9;
-/// Relative overshoot of `|c| / √(a² + b²)` past 1 that is taken as rounding of a tangency (a
-/// larger tolerance would merge two real solutions: `acos` spreads `1 − 1e-10` to ±1.4e-5 rad).
+/// The relative overshoot of `|c| / √(a² + b²)` past 1 taken as rounding of a tangency. A larger
+/// one would merge two real solutions: `acos` spreads `1 − 1e-10` to ±1.4e-5 rad.
 pub const TANGENCY_TOLERANCE: f64 = 1e-12;
-/// Two solutions closer than this many sigmas are flagged [`Flag::NearTangent`]: measured on
-/// random paper-preset scenes, 3 σ left 3-σ coverage at 99.43%, 5 σ restores the Gaussian 99.7%.
+/// Two solutions closer than this many sigmas are flagged [`Flag::NearTangent`]. On random
+/// paper-preset scenes, 3 σ left 3-σ coverage at 99.43%, and 5 σ restores the Gaussian 99.7%.
 pub const NEAR_TANGENT_SIGMAS: f64 = 5.0;
-/// Default spacing (m) of the points returned along an SSS + SSS curve.
+/// The default spacing (m) of the points returned along an SSS + SSS curve.
 pub const DEFAULT_CURVE_STEP: f64 = 0.01;
 pub use crate::limits::MAX_CURVE_POINTS;
 
@@ -56,7 +56,7 @@ pub struct Observation {
     pub azimuth: Option<f64>,
 }
 
-/// Standard deviations of the measurements, the same for both sonars.
+/// The standard deviations of the measurements, the same for both sonars.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Sigmas {
     /// Of a range (m).
@@ -73,11 +73,11 @@ pub enum Flag {
     NoSolution,
     /// The arc only touches the range sphere (one solution; the elevation is ill-conditioned).
     Tangent,
-    /// Two solutions closer than 5 σ of each other: near tangency, where first-order sigmas
-    /// understate the error and noise can remove both solutions.
+    /// Two solutions within 5 σ of each other. Near tangency, first-order sigmas understate the
+    /// error, and noise can remove both solutions.
     NearTangent,
-    /// `a² + b² = 0`: the arc is centred on the other sonar's origin, so every point of it has
-    /// the same range there (or concentric spheres): the lost coordinate cannot be recovered.
+    /// `a² + b² = 0`: the arc is centred on the other sonar's origin, or the spheres are
+    /// concentric. Every point has the same range there, so nothing can be recovered.
     Degenerate,
     /// Solutions exist, but none lies inside both fields of view.
     NoneInView,
@@ -179,8 +179,8 @@ pub enum ArcSolution {
     Points(Vec<f64>),
 }
 
-/// Returns the elevations (rad) where the arc `sph(r, az, ·)` is at distance `d` from `o`;
-/// `scale` (m², typically `r·|o|`) sets what counts as zero.
+/// Returns the elevations (rad) where the arc `sph(r, az, ·)` is at distance `d` from `o`.
+/// The scale `r·(r + |o| + d)` (m²) sets what counts as zero.
 #[must_use]
 pub fn solve_arc(r: f64, az: f64, o: DVec3, d: f64) -> ArcSolution {
     let a = r * (o.x * az.cos() + o.y * az.sin());
@@ -215,7 +215,7 @@ fn wrap(x: f64) -> f64 {
     if y <= -PI { y + TAU } else { y }
 }
 
-/// Returns whether `(r, az, el)` (m, rad) lies in `sonar`'s field of view, bounds widened by
+/// Returns whether `p` lies in `sonar`'s field of view, bounds widened by
 /// [`GEOMETRY_TOLERANCE`] (relative).
 fn sees(sonar: &Sonar, p: DVec3) -> bool {
     let (r, az, el) = cart_to_sph(p);
@@ -233,8 +233,8 @@ fn spherical_deg(p: DVec3) -> [f64; 3] {
     [r, az.to_degrees(), el.to_degrees()]
 }
 
-/// Checks one observation against its sonar: finite, range inside, azimuth given (and inside)
-/// exactly when the sonar is an FLS.
+/// Checks one observation against its sonar: finite, range inside, and an azimuth (inside the
+/// aperture) exactly when the sonar is an FLS.
 fn check(which: &str, sonar: &Sonar, obs: &Observation) -> Result<()> {
     let f = |c: &str| format!("{which} {c}");
     finite(&f("range"), obs.range)?;
@@ -287,8 +287,8 @@ fn check(which: &str, sonar: &Sonar, obs: &Observation) -> Result<()> {
 /// under `pose`, with first-order sigmas of the recovered elevation when `sigmas` is given.
 ///
 /// # Errors
-/// [`Error::InvalidValue`] naming the observation, when a value is not finite, outside its
-/// sonar's field of view, or an azimuth is given to an SSS or missing for an FLS; or for
+/// [`Error::InvalidValue`] naming the observation, when a value is not finite or outside its
+/// sonar's field of view, or an azimuth is given to an SSS or missing for an FLS. Also for
 /// negative or non-finite sigmas.
 pub fn recover(
     sonar1: &Sonar,
@@ -357,8 +357,8 @@ impl Context<'_> {
         }
     }
 
-    /// Candidates where the FLS arc `(r, az)` on `side` meets the other sonar's range `d`;
-    /// `az_other` is the other sonar's azimuth when it is an FLS too (ranking only).
+    /// Returns the candidates where the FLS arc `(r, az)` on `side` meets the other sonar's range
+    /// `d`. `az_other` is the other sonar's azimuth when it is an FLS too, used for ranking only.
     fn arc_meets_sphere(
         &self,
         side: ArcSide,
@@ -447,7 +447,7 @@ impl Context<'_> {
     }
 
     /// Returns `(∂g/∂el (m/rad), σ_el (deg))` at elevation `el` of the arc `(r, az)` against the
-    /// sphere around `o`; σ only with sigmas, and `None` where `∂g/∂el` vanishes (tangency).
+    /// sphere around `o`. σ needs sigmas, and is `None` where `∂g/∂el` vanishes (tangency).
     fn sensitivity(&self, r: f64, az: f64, el: f64, o: DVec3) -> (f64, Option<f64>) {
         let p = sph_to_cart(r, az, el);
         let n = (p - o).normalize_or_zero();
@@ -459,7 +459,7 @@ impl Context<'_> {
             if dg_del.abs() <= GEOMETRY_TOLERANCE * r {
                 return None;
             }
-            // ∂el/∂m = −(∂g/∂m)/(∂g/∂el); ∂g/∂d = −1 for the other sonar's range.
+            // ∂el/∂m = −(∂g/∂m)/(∂g/∂el), and ∂g/∂d = −1 for the other sonar's range.
             let by_r = n.dot(dp_dr) / dg_del;
             let by_az = n.dot(dp_daz) / dg_del;
             let by_d = 1.0 / dg_del;
@@ -471,7 +471,8 @@ impl Context<'_> {
         (dg_del, sigma)
     }
 
-    /// SSS + SSS: the visible arcs of the circle where `|p| = r1` meets `|R p + t| = r2`.
+    /// Returns the SSS + SSS recovery: the visible arcs of the circle where `|p| = r1` meets
+    /// `|R p + t| = r2`.
     #[expect(
         clippy::cast_possible_truncation,
         reason = "a saturating float-to-count conversion, clamped to a bounded number of points"
@@ -560,8 +561,8 @@ impl Context<'_> {
 }
 
 /// Returns the intervals `[a, b]` (rad, `0 <= a < 2π`, `b` may pass 2π) of the circle where
-/// `visible` holds: scanned at 1 mm along the circle (at least 3600, at most 2·10⁶ steps; a
-/// visible piece shorter than a step can be missed), each end refined by bisection to 1e-12 rad.
+/// `visible` holds. It scans at 1 mm along the circle (3600 to 2·10⁶ steps), so a visible
+/// piece shorter than a step can be missed. Each end is refined by bisection to 1e-12 rad.
 #[expect(
     clippy::cast_possible_truncation,
     reason = "a saturating float-to-count conversion, clamped to a bounded number of points"
@@ -573,7 +574,7 @@ fn visible_arcs(visible: &dyn Fn(f64) -> bool, radius: f64) -> Vec<[f64; 2]> {
     let Some(start) = flags.iter().position(|&f| !f) else {
         return vec![[0.0, TAU]];
     };
-    // The visibility changes between lo and lo + h; returns the visible side of the change.
+    // The visibility changes between lo and lo + h. Returns the visible side of the change.
     let edge = |lo: f64, visible_at_lo: bool| {
         let (mut a, mut b) = (lo, lo + h);
         while b - a > 1e-12 {
@@ -586,7 +587,7 @@ fn visible_arcs(visible: &dyn Fn(f64) -> bool, radius: f64) -> Vec<[f64; 2]> {
         }
         if visible_at_lo { a } else { b }
     };
-    // One lap from an invisible sample back to it: every run that opens also closes.
+    // One lap from an invisible sample back to it, so every run that opens also closes.
     let mut arcs = Vec::new();
     let mut open = None;
     for k in start + 1..=start + n {
@@ -638,7 +639,7 @@ mod tests {
 
     #[test]
     fn arc_solutions_cover_every_case() {
-        // Arc of radius 5 at az 0; other origin 10 m ahead: distances range over the arc.
+        // An arc of radius 5 at az 0, the other origin 10 m ahead: distances vary along the arc.
         let o = DVec3::new(10.0, 0.0, 0.0);
         match solve_arc(5.0, 0.0, o, 5.5) {
             ArcSolution::Points(els) => {
@@ -652,8 +653,8 @@ mod tests {
         }
         assert_eq!(solve_arc(5.0, 0.0, o, 20.0), ArcSolution::None);
         assert!(matches!(solve_arc(5.0, 0.0, o, 5.0), ArcSolution::Tangent(e) if e.abs() < 1e-12));
-        // The other origin on the arc's axis of symmetry (the z axis seen from az 90°... here o
-        // at the sonar's own origin): every elevation has the same distance.
+        // The other origin at the sonar's own origin, or on the normal of the arc's plane:
+        // every elevation has the same distance.
         assert_eq!(solve_arc(5.0, 0.3, DVec3::ZERO, 5.0), ArcSolution::Degenerate);
         assert_eq!(
             solve_arc(5.0, 0.0, DVec3::new(0.0, 3.0, 0.0), 5.0),

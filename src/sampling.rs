@@ -1,5 +1,5 @@
-//! Measurements, the set of 3D points each one back-projects to (an arc for an FLS, a surface for
-//! an SSS: README: Commands, `--step`), and the sampling plan that draws points from that set.
+//! Measurements, the 3D set each back-projects to (an FLS arc or an SSS surface; README:
+//! Commands, `--step`), and the sampling plan that draws points from that set.
 
 use crate::error::{Error, Result, finite};
 use crate::geometry::sonar::{Sonar, SonarKind};
@@ -11,7 +11,7 @@ pub use crate::limits::MAX_SAMPLES_PER_POSE;
 pub struct Measurement {
     /// Measured range (m).
     pub range: f64,
-    /// Measured azimuth (deg) for an FLS; ignored (0) for an SSS, which does not measure it.
+    /// Measured azimuth (deg) for an FLS. An SSS does not measure it: 0, ignored.
     pub azimuth: f64,
 }
 
@@ -32,8 +32,8 @@ impl Measurement {
         })
     }
 
-    /// Returns `Ok(())` when this measurement could come from `sonar` (what [`Measurement::of`]
-    /// checks); entry points check measurements built by hand with it.
+    /// Returns `Ok(())` when this measurement could come from `sonar`, as [`Measurement::of`]
+    /// checks. Entry points use it on measurements built by hand.
     ///
     /// # Errors
     /// [`Error::InvalidValue`] when a value is not finite or outside the field of view.
@@ -45,7 +45,7 @@ impl Measurement {
 /// How densely the back-projected set is sampled.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Sampling {
-    /// Step sampling as the published code: for an aperture `A` (deg) and step `s` (deg),
+    /// Step sampling as the published code does it. For an aperture `A` (deg) and step `s` (deg),
     /// `n = round(A / s)` (ties to even, as Python), plus one if even, samples at
     /// `linspace(-A/2, A/2, n)`.
     Step(f64),
@@ -150,8 +150,8 @@ impl SamplingPlan {
     }
 
     /// Returns `(azimuth samples, elevation samples)` of the plan [`SamplingPlan::new`] draws,
-    /// without drawing it (none in exact mode). `spacing`, when given, is [`auto_spacing`]`(target)` computed once
-    /// by a caller that counts many plans (only [`Sampling::Auto`] uses it).
+    /// without drawing it (none in exact mode). Only [`Sampling::Auto`] uses `spacing`:
+    /// [`auto_spacing`]`(target)`, computed once by a caller that counts many plans.
     ///
     /// # Errors
     /// [`Error::InvalidValue`] when the plan would exceed [`MAX_SAMPLES_PER_POSE`].
@@ -230,9 +230,9 @@ pub fn step_count(a: f64, s: f64) -> usize {
     if n.is_multiple_of(2) { n + 1 } else { n }
 }
 
-/// Returns the largest sample spacing (m) that auto sampling allows for `target`:
-/// half of the smaller of the range bin width and (FLS only) the narrowest beam's arc length at
-/// `target.range_min`, that arc length floored at 1 cm.
+/// Returns the largest sample spacing (m) that auto sampling allows for `target`: half the
+/// smaller of the range bin width and, for an FLS, the narrowest beam's arc length at
+/// `target.range_min`. That arc length is floored at 1 cm.
 pub fn auto_spacing(target: &Sonar) -> f64 {
     let dr = target.range_bin_width();
     match target.kind {
@@ -249,10 +249,10 @@ pub fn auto_spacing(target: &Sonar) -> f64 {
     }
 }
 
-/// Returns the auto-mode sample count for aperture `a` (deg) at range `r` (m) so that the spacing
-/// `a·r/(n−1)` is strictly below `d`; `n − 1` is rounded up to an even number with at most five
-/// significant bits, so batches share few plans (at most 1/16 more samples than needed) and the
-/// centre of the aperture is always a sample.
+/// Returns the auto-mode sample count for aperture `a` (deg) at range `r` (m), so that the
+/// spacing `a·r/(n−1)` is strictly below `d`. `n − 1` is rounded up to an even number with at
+/// most five significant bits. So batches share few plans (at most 1/16 more samples than
+/// needed), and the centre of the aperture is always a sample.
 #[expect(
     clippy::cast_possible_truncation,
     reason = "sample counts are capped (MAX_SAMPLES_PER_POSE) before or right after the conversion"
@@ -270,8 +270,9 @@ pub fn auto_count(a: f64, r: f64, d: f64) -> usize {
     intervals as usize + 1
 }
 
-/// Returns `linspace(-a/2, a/2, n)` in degrees, as numpy computes it (`start + i·step`, the last
-/// set to `stop`; `n = 1` gives `[start]`, `n = 0` nothing), converted to radians.
+/// Returns `linspace(-a/2, a/2, n)` in degrees as numpy computes it, converted to radians.
+/// numpy takes `start + i·step`, sets the last to `stop`, and gives `[start]` for `n = 1`;
+/// `n = 0` gives nothing.
 pub fn linspace_rad(a: f64, n: usize) -> Vec<f64> {
     let (start, stop) = (-a / 2.0, a / 2.0);
     if n == 0 {

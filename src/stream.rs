@@ -1,9 +1,9 @@
-//! The one shape of streaming in sonarproj. A call that streams hands each result to a sink as
-//! soon as it is ready; the sink answers whether to go on ([`Flow`]: `Continue`, or `Break` to
-//! end the call there). A [`Stop`] signal, polled by the engine's threads while one result is
-//! computed, ends a call the same way. A streaming call returns the flow it ended with: `Break`
-//! when its sink or its stop ended it early. A call that returns its results whole instead
-//! fails with [`Error::Stopped`] when its stop is set.
+//! The one shape of streaming in sonarproj: a call hands each result to a sink as soon as it
+//! is ready. The sink answers whether to go on ([`Flow`]): `Continue`, or `Break` to end the
+//! call there. A [`Stop`] signal, polled by the engine's threads while a result is computed,
+//! ends a call the same way. A streaming call returns the flow it ended with: `Break` when its
+//! sink or its stop ended it early. A call that returns its results whole fails with
+//! [`Error::Stopped`] instead when its stop is set.
 //!
 //! ```
 //! use sonarproj::stream::{Flow, Stop};
@@ -20,12 +20,12 @@
 
 use crate::error::{Error, Result};
 
-/// What a sink answers after each result, and what a streaming call returns: `Continue` (go on;
-/// the call ran to its end) or `Break` (stop there; the call ended early).
+/// What a sink answers after each result, and what a streaming call returns: `Continue` (go
+/// on, or the call ran to its end) or `Break` (stop there, or the call ended early).
 pub type Flow = std::ops::ControlFlow<()>;
 
-/// A signal that a call should end early, polled by the engine's threads between (and inside)
-/// the results they compute: a Ctrl-C seen by a front, a client that went away.
+/// A signal that a call should end early, such as a Ctrl-C seen by a front or a client that
+/// went away. The engine's threads poll it between (and inside) the results they compute.
 #[derive(Clone, Copy)]
 pub struct Stop<'a>(Option<&'a (dyn Fn() -> bool + Sync)>);
 

@@ -6,8 +6,8 @@ use crate::gpu::GpuContext;
 use crate::gpu::pipeline::{Binding, Stage};
 
 /// Builds a compute stage named `name` of WGSL `source` (entry point `main`) on `ctx`'s device,
-/// with group 0's bindings of the kinds `bindings` names (`"uniform"`, `"read"`,
-/// `"read_write"`), and drops it: what every pipeline of the engine goes through.
+/// then drops it. Group 0's bindings are of the kinds `bindings` names (`"uniform"`, `"read"`,
+/// `"read_write"`). Every pipeline of the engine goes through this.
 ///
 /// # Errors
 /// As the engine's stages: [`crate::Error::Gpu`] when the device refuses the shader or pipeline.

@@ -6,12 +6,11 @@ use super::sonar::{BeamLayout, Sonar, SonarKind};
 use crate::error::{Error, Result, finite, finite_named};
 
 impl Sonar {
-    /// Returns this FLS with the beams of a driver's beam-angle table: `centres` (deg,
-    /// increasing; what ProjectedSonarImage's beam directions or an Oculus bearing table give,
-    /// converted to degrees of azimuth) become beams whose edges are the midpoints between
-    /// neighbours. The outer edges are `±azimuth_aperture / 2` when it is given, else the
-    /// aperture is the smallest symmetric one that gives the outer beams half their neighbour's
-    /// spacing on their outer side.
+    /// Returns this FLS with the beams of a driver's beam-angle table. `centres` (deg, increasing)
+    /// are the beam azimuths that ProjectedSonarImage's beam directions or an Oculus bearing table
+    /// give, in degrees. Beam edges are the midpoints between neighbours. The outer edges are
+    /// `±azimuth_aperture / 2` when it is given. Otherwise the aperture is the smallest symmetric
+    /// one that gives the outer beams half their neighbour's spacing on their outer side.
     ///
     /// ```
     /// use sonarproj::Sonar;
@@ -24,8 +23,8 @@ impl Sonar {
     /// ```
     ///
     /// # Errors
-    /// [`Error::InvalidValue`] when the sonar is not an FLS, a centre is not finite, the centres
-    /// do not increase strictly or do not lie inside the aperture, or the result is invalid.
+    /// [`Error::InvalidValue`] when the sonar is not an FLS, a centre is not finite, the centres do
+    /// not increase strictly or do not lie inside the aperture, or the result is invalid.
     pub fn with_beam_centres(self, centres: &[f64], azimuth_aperture: Option<f64>) -> Result<Sonar> {
         let ctx = format!("sonar {:?}", self.name);
         if self.kind != SonarKind::Fls {
@@ -62,8 +61,8 @@ impl Sonar {
     }
 }
 
-/// Returns the azimuth aperture (deg) of a driver's beam table `centres` (deg, increasing):
-/// its outer edges half a spacing beyond the outer beams, which must lie symmetric about the
+/// Returns the azimuth aperture (deg) of a driver's beam table `centres` (deg, increasing): its
+/// outer edges lie half a spacing beyond the outer beams. The table must be symmetric about the
 /// boresight within a tenth of the mean spacing (this project's sonars are centred on it), and
 /// within 360°. `Err` says what is wrong with the table, for the caller to name it.
 ///

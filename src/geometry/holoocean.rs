@@ -1,24 +1,25 @@
-//! Sonars as HoloOcean describes them: a scenario's sensor entry (its `sensor_type` and its
-//! `configuration` block) read into a [`Sonar`] whose data layout is the frame the simulator
-//! returns, index for index.
+//! Sonars as HoloOcean describes them. A scenario's sensor entry (its `sensor_type` and
+//! `configuration` block) is read into a [`Sonar`] whose data layout is the simulator's frame,
+//! index for index.
 //!
-//! - `ImagingSonar`: a frame of `(RangeBins, AzimuthBins)`, row `i` the range bin
-//!   `[RangeMin + i·RangeRes, RangeMin + (i+1)·RangeRes)`, column `j` the azimuth bin from
-//!   `−Azimuth/2 + j·AzimuthRes`, HoloOcean's azimuth being positive to port
-//!   (`atan2(−y, x)` in Unreal's left-handed frame, +y to starboard): column 0 is the
-//!   starboard-most beam, as this project's layout has it. An FLS with `RangeBins` bins and
-//!   `AzimuthBins` uniform beams.
-//! - `SidescanSonar`: one fan over both sides (`Azimuth`, the wide angle; `Elevation` the
-//!   along-track width), a frame of `RangeBins` values, port far→near then starboard near→far,
-//!   each side `RangeBins / 2` bins over the whole range: a two-sided SSS ([`Sonar::two_sided`]).
+//! - `ImagingSonar`: a frame of `(RangeBins, AzimuthBins)`, an FLS with `RangeBins` bins and
+//!   `AzimuthBins` uniform beams. Row `i` is the range bin
+//!   `[RangeMin + i·RangeRes, RangeMin + (i+1)·RangeRes)`. Column `j` is the azimuth bin from
+//!   `−Azimuth/2 + j·AzimuthRes`. HoloOcean's azimuth is positive to port (`atan2(−y, x)` in
+//!   Unreal's left-handed frame, +y to starboard), so column 0 is the starboard-most beam, as
+//!   in this project's layout.
+//! - `SidescanSonar`: one fan over both sides (`Azimuth` is the wide angle, `Elevation` the
+//!   along-track width), a two-sided SSS ([`Sonar::two_sided`]). Its frame has `RangeBins`
+//!   values, port far→near then starboard near→far, each side `RangeBins / 2` bins over the
+//!   whole range.
 //!
 //! Defaults are HoloOcean's (its Python `holoocean.sensors` and C++ sensors agree on them):
 //! imaging 120° × 20°, 0.1–10 m, 512 × 512 bins; sidescan 170° × 0.25°, 0.5–35 m, 5 cm bins.
-//! `RangeBins` or `RangeRes`, `AzimuthBins` or `AzimuthRes`, never both (HoloOcean refuses
-//! both too); a resolution must divide its span into whole bins, or the simulator's bins would
-//! not end where its field of view does. Keys that only shape the simulated intensities (noise,
-//! multipath, octree and shadowing settings) are accepted and ignored; any other key is refused,
-//! so that a misspelt `RangeMAx` does not silently become the default.
+//! Give `RangeBins` or `RangeRes`, and `AzimuthBins` or `AzimuthRes`, never both (HoloOcean
+//! refuses both too). A resolution must divide its span into whole bins, or the simulator's
+//! bins would not end where its field of view does. Keys that only shape the simulated
+//! intensities (noise, multipath, octree and shadowing settings) are accepted and ignored. Any
+//! other key is refused, so a misspelt `RangeMAx` does not silently become the default.
 
 use super::sonar::{BeamLayout, Sonar, SonarKind};
 use crate::error::{Error, Result};
@@ -44,7 +45,7 @@ const GEOMETRY: &[&str] = &[
     "AzimuthBins",
     "AzimuthRes",
 ];
-/// The sensor types read, with the keys that shape their geometry; the keys that only shape the
+/// The sensor types read, with the keys that shape their geometry. Keys that only shape the
 /// simulated intensities are below (accepted, ignored).
 const IMAGING: (&str, &[&str]) = ("ImagingSonar", GEOMETRY);
 const SIDESCAN: (&str, &[&str]) = ("SidescanSonar", GEOMETRY);
@@ -70,8 +71,8 @@ const IGNORED: &[&str] = &[
     "WaterSoundSpeed",
     "UseApprox",
 ];
-/// Keys the sidescan takes beyond the imaging sonar's: none (its azimuth bins decide its side
-/// split, checked).
+/// Keys the sidescan takes beyond the imaging sonar's: none. Its azimuth bins decide its side
+/// split, which is checked.
 const SIDESCAN_IGNORED: &[&str] = &[];
 
 /// How close (in bins) a resolution must divide its span to a whole number of bins.
@@ -82,8 +83,8 @@ const MAX_SIDESCAN_AZIMUTH_RES: f64 = 1.0;
 
 impl Sonar {
     /// Returns the sonar HoloOcean simulates for a sensor of `sensor_type` (`ImagingSonar` or
-    /// `SidescanSonar`) configured by `config` (its `configuration` block's keys and values),
-    /// named `name`; its data layout is the frame HoloOcean returns (module documentation).
+    /// `SidescanSonar`), configured by `config` (its `configuration` block's keys and values) and
+    /// named `name`. Its data layout is the frame HoloOcean returns (see the module docs).
     ///
     /// ```
     /// use sonarproj::Sonar;
@@ -152,7 +153,7 @@ impl Sonar {
         } else {
             // HoloOcean puts a sidescan return on a side by its azimuth bin: the first bin above
             // the nadir goes to starboard. With fine bins (its default) that is the nadir itself,
-            // where this project splits; coarse ones would move the split.
+            // where this project splits. Coarse bins would move the split.
             let (n, key) = bins(
                 &field,
                 &given,
@@ -209,10 +210,10 @@ impl Sonar {
 }
 
 /// Returns the numbers `config` gives for the geometry keys of HoloOcean's `sensor_type`
-/// (`geometry`), the noise, multipath and octree keys (and `extra`) left out.
+/// (`geometry`), leaving out the noise, multipath and octree keys (and `extra`).
 ///
 /// # Errors
-/// [`Error::Input`] for a key of no such sensor, or a value that is not a number;
+/// [`Error::Input`] for a key of no such sensor, or a value that is not a number.
 /// [`Error::InvalidValue`] for a number that is not finite.
 fn given_keys<'c>(
     sensor_type: &str,
@@ -341,8 +342,8 @@ mod tests {
         pairs.iter().map(|(k, v)| ((*k).to_string(), v.clone())).collect()
     }
 
-    /// HoloOcean's documented defaults: the imaging sonar is the `holoocean-imaging` preset;
-    /// the sidescan's 5 cm bins over 0.5–35 m make a frame of 690 values, 345 a side.
+    /// HoloOcean's documented defaults. The imaging sonar is the `holoocean-imaging` preset. The
+    /// sidescan's 5 cm bins over 0.5–35 m make a frame of 690 values, 345 a side.
     #[test]
     fn defaults_are_holooceans() {
         let imaging = Sonar::from_holoocean("x", "ImagingSonar", &[]).unwrap();

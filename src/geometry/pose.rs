@@ -31,9 +31,9 @@ pub enum Rotation {
         /// Yaw (deg), about z.
         yaw: f64,
     },
-    /// Unit quaternion of the rotation `R` itself, in the order `[w, x, y, z]` (the command
-    /// line's `--quaternion W,X,Y,Z`; glam, ROS and scipy write `x, y, z, w`: use
-    /// [`Rotation::Quat`] with a glam quaternion instead).
+    /// Unit quaternion of the rotation `R` itself, in the order `[w, x, y, z]` of the command
+    /// line's `--quaternion W,X,Y,Z`. glam, ROS and scipy write `x, y, z, w`: for those, use
+    /// [`Rotation::Quat`] with a glam quaternion.
     QuaternionWxyz([f64; 4]),
     /// Unit quaternion of the rotation `R` itself, as glam's `DQuat` (built with
     /// `DQuat::from_xyzw(x, y, z, w)`).
@@ -42,7 +42,7 @@ pub enum Rotation {
     Matrix([[f64; 3]; 3]),
 }
 
-/// Returns the Cartesian point of spherical `(r, az, el)` (radians): README: Conventions.
+/// Returns the Cartesian point of spherical `(r, az, el)` (radians; README: Conventions).
 #[must_use]
 pub fn sph_to_cart(r: f64, az: f64, el: f64) -> DVec3 {
     DVec3::new(r * el.cos() * az.cos(), r * el.cos() * az.sin(), r * el.sin())
@@ -177,8 +177,8 @@ impl RelativePose {
         })
     }
 
-    /// Returns the placement pose (README: Conventions): the feature's true point `sph(first)` in sonar 1
-    /// appears at `sph(second)` in sonar 2, so `t = sph(second) − R sph(first)`. Both are
+    /// Returns the placement pose (README: Conventions): the feature's true point `sph(first)` in
+    /// sonar 1 appears at `sph(second)` in sonar 2, so `t = sph(second) − R sph(first)`. Both are
     /// `[range (m), azimuth (deg), elevation (deg)]`.
     ///
     /// ```
@@ -222,15 +222,15 @@ impl RelativePose {
         })
     }
 
-    /// Returns `Ok(())` when the pose is usable: a finite translation and a rotation matrix that
-    /// is orthonormal with determinant +1 (within [`ORTHONORMAL_TOLERANCE`]). The constructors
-    /// give such poses; every entry point that takes a pose checks it again, since the fields
-    /// are public and a pose may be built by hand.
+    /// Returns `Ok(())` when the pose is usable: a finite translation, and a rotation matrix that
+    /// is orthonormal with determinant +1 (within [`ORTHONORMAL_TOLERANCE`]). The constructors give
+    /// such poses. Every entry point that takes a pose checks it again, since the fields are public
+    /// and a pose may be built by hand.
     ///
     /// # Errors
     /// [`Error::InvalidValue`] naming `pose tx` … or the `pose matrix` and what is wrong with it.
     pub fn validate(&self) -> Result<()> {
-        // The common case first, without building anything (batches check every pose); the
+        // The common case first, without building anything, since batches check every pose. The
         // slow path below finds and names what is wrong.
         let m = self.rotation;
         if self.translation.is_finite()
@@ -287,7 +287,7 @@ mod tests {
 
     #[test]
     fn rpy_is_the_transpose_of_the_active_zyx_rotation() {
-        // yaw 90°: the active Rz(90) maps x to y; the passive pose maps sonar-1 +y to sonar-2 +x.
+        // yaw 90°: active Rz(90) maps x to y; the passive pose maps sonar-1 +y to sonar-2 +x.
         let r = Rotation::RollPitchYaw {
             roll: 0.0,
             pitch: 0.0,
@@ -296,7 +296,7 @@ mod tests {
         .to_matrix()
         .unwrap();
         assert!((r * DVec3::Y - DVec3::X).length() < 1e-12);
-        // pitch 90°: the active Ry(90) maps x to -z; the passive pose maps sonar-1 +x to sonar-2 +z.
+        // pitch 90°: active Ry(90) maps x to -z; the passive pose maps sonar-1 +x to sonar-2 +z.
         let r = Rotation::RollPitchYaw {
             roll: 0.0,
             pitch: 90.0,

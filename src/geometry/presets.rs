@@ -44,8 +44,8 @@ const PRESETS: &[PresetRow] = &[
         "paper Table I",
     ),
     // Blueprint Subsea Oculus M750d data sheet, 750 kHz mode: 0.1-120 m, 130° x 20°, 512 beams.
-    // The maker's beams are not uniform and its image height follows the range setting; we
-    // use 512 uniform beams and 10 cm range bins. Give beam_edges in a sonar file to match a unit.
+    // The maker's beams are not uniform, and its image height follows the range setting. We use
+    // 512 uniform beams and 10 cm range bins. Give beam_edges in a sonar file to match a unit.
     (
         "oculus-m750d",
         SonarKind::Fls,
@@ -84,11 +84,12 @@ const PRESETS: &[PresetRow] = &[
         "HoloOcean ImagingSonar defaults",
     ),
     // HoloOcean SidescanSonar as its example scenarios set it: RangeMin 0.5, RangeMax 35 (the
-    // class defaults), Azimuth 170, Elevation 0.25, RangeBins 2000 (the class default is 5 cm
-    // bins, 690 values: `Sonar::from_holoocean` reads any configuration). Its one fan covers both sides and its frame is one row of RangeBins
-    // values, port far→near then starboard near→far, each side RangeBins / 2 bins over the
-    // whole range (SidescanSonar.cpp: bin X = (r − RangeMin) / RangeRes, port index
-    // RangeBins/2 − X/2 − 1, starboard RangeBins/2 + X/2): two sides of 1000 bins.
+    // class defaults), Azimuth 170, Elevation 0.25, RangeBins 2000. The class default is 5 cm
+    // bins, 690 values; `Sonar::from_holoocean` reads any configuration. Its one fan covers both
+    // sides, and its frame is one row of RangeBins values: port far→near, then starboard
+    // near→far, each side RangeBins / 2 bins over the whole range. In SidescanSonar.cpp, bin
+    // X = (r − RangeMin) / RangeRes has port index RangeBins/2 − X/2 − 1 and starboard index
+    // RangeBins/2 + X/2. So this preset has two sides of 1000 bins.
     (
         "holoocean-sidescan",
         SonarKind::Sss,

@@ -1,17 +1,18 @@
 //! Relative poses the way rigs describe them: each sonar's mounting in a common frame (the
-//! vehicle's, or the world's for two vehicles), as a URDF or TF tree gives it, and the pair of
+//! vehicle's, or the world's for two vehicles) as a URDF or TF tree gives it, and the two
 //! channels of a sidescan.
 //!
-//! **Frames.** This crate's sonar frames are FLU: +x along the boresight (forward), +y to port
-//! (left), +z up — ROS's convention (REP 103). Marine and aerospace body frames are often FRD
-//! (+x forward, +y starboard, +z down; NED in the world): [`Mount::from_frd`] converts a mount
-//! whose common frame and sonar frame are both FRD.
+//! **Frames.** This crate's sonar frames are FLU, ROS's convention (REP 103): +x along the
+//! boresight (forward), +y to port (left), +z up. Marine and aerospace body frames are often
+//! FRD: +x forward, +y starboard, +z down (NED in the world). [`Mount::from_frd`] converts a
+//! mount whose common frame and sonar frame are both FRD.
 //!
 //! **Roll, pitch, yaw.** A URDF `<origin rpy="r p y">` (and ROS's `setRPY`) is the *active*
-//! rotation `Rz(yaw) · Ry(pitch) · Rx(roll)` that turns the child frame's axes into the parent's
-//! ([`Mount::from_rpy_deg`], in degrees where URDF writes radians). The paper's roll/pitch/yaw
-//! ([`Rotation::RollPitchYaw`](crate::geometry::pose::Rotation::RollPitchYaw)) is the *transposed* (passive) rotation: a sonar 2 mounted with
-//! ROS angles `(r, p, y)` in sonar 1's frame has the relative rotation
+//! rotation `Rz(yaw) · Ry(pitch) · Rx(roll)` that turns the child frame's axes into the
+//! parent's ([`Mount::from_rpy_deg`] takes degrees where URDF writes radians). The paper's
+//! roll/pitch/yaw ([`Rotation::RollPitchYaw`](crate::geometry::pose::Rotation::RollPitchYaw))
+//! is the *transposed* (passive) rotation. So a sonar 2 mounted with ROS angles `(r, p, y)` in
+//! sonar 1's frame has the relative rotation
 //! `Rotation::RollPitchYaw { roll: r, pitch: p, yaw: y }`, not its inverse.
 
 use glam::{DMat3, DQuat, DVec3};
@@ -57,8 +58,8 @@ impl Mount {
                 format!("must be a unit quaternion, norm within {QUATERNION_NORM_TOLERANCE} of 1"),
             ));
         }
-        // A quaternion already of norm 1 to a few ulp (one this constructor made) is kept as
-        // it is, so a mount rebuilt from its own rotation is the same mount, bit for bit.
+        // A quaternion already of norm 1 to a few ulp, as this constructor makes them, is kept
+        // as is. So a mount rebuilt from its own rotation is the same mount, bit for bit.
         let rotation = if (n - 1.0).abs() <= 4.0 * f64::EPSILON {
             rotation
         } else {
@@ -67,9 +68,9 @@ impl Mount {
         Ok(Mount { rotation, position })
     }
 
-    /// Returns the mount of a URDF joint `<origin xyz="…" rpy="…">` with the angles in degrees:
-    /// the sonar's axes are turned by `Rz(yaw) · Ry(pitch) · Rx(roll)` (fixed axes, applied roll
-    /// first) and its origin is at `position` (m), in the common frame (FLU).
+    /// Returns the mount of a URDF joint `<origin xyz="…" rpy="…">`, with the angles in degrees.
+    /// The sonar's axes are turned by `Rz(yaw) · Ry(pitch) · Rx(roll)` (fixed axes, roll applied
+    /// first), and its origin is at `position` (m), in the common frame (FLU).
     ///
     /// # Errors
     /// [`Error::InvalidValue`] for a non-finite value.
@@ -83,10 +84,9 @@ impl Mount {
         Mount::new(q, position)
     }
 
-    /// Returns the mount given in FRD axes (common frame and sonar frame both +x forward, +y
-    /// starboard, +z down; NED for a world frame) in this crate's FLU axes: both frames are
-    /// turned 180° about x, `F = diag(1, −1, −1)`, so the rotation becomes `F R F` and the
-    /// position `F p`.
+    /// Returns a mount given in FRD axes, in this crate's FLU axes. Both its frames are FRD: +x
+    /// forward, +y starboard, +z down (NED for a world frame). Turning both 180° about x,
+    /// `F = diag(1, −1, −1)`, makes the rotation `F R F` and the position `F p`.
     ///
     /// # Errors
     /// As [`Mount::new`].
@@ -140,9 +140,9 @@ impl Mount {
 /// ```
 ///
 /// # Errors
-/// As [`RelativePose::validate`]: none for mounts built by [`Mount`]'s constructors, whose
-/// rotations are unit quaternions and positions finite (a difference of huge positions may
-/// still overflow).
+/// As [`RelativePose::validate`]. Mounts built by [`Mount`]'s constructors give none, since
+/// their rotations are unit quaternions and positions finite. A difference of huge positions
+/// may still overflow.
 pub fn relative_pose(first: &Mount, second: &Mount) -> Result<RelativePose> {
     let inv = second.rotation.inverse();
     let pose = RelativePose {
@@ -158,19 +158,19 @@ pub fn relative_pose(first: &Mount, second: &Mount) -> Result<RelativePose> {
 pub struct SidescanPair {
     /// The port channel (looking to +y of the vehicle, tilted down; its fan across the track).
     pub port: (Sonar, Mount),
-    /// The starboard channel (looking to −y of the vehicle, tilted down; its fan across the
-    /// track).
+    /// The starboard channel (looking to −y of the vehicle, tilted down; its fan across the track).
     pub starboard: (Sonar, Mount),
 }
 
-/// Returns the port and starboard channels of a sidescan whose channel is `channel` (an SSS),
-/// mounted at `port_position` and `starboard_position` (m, vehicle frame, FLU) with their
-/// boresights `depression` degrees below the horizontal, square to the track: the port
-/// boresight is `(0, cos d, −sin d)` in the vehicle frame, the starboard one `(0, −cos d, −sin d)`.
-/// Each channel's thin elevation aperture lies along the track (its +z is the vehicle's +x) and
-/// its wide azimuth fan across it, in the vehicle's y–z plane: the fan spans `d ± A/2` below the
-/// horizontal to each side. (The port channel's +y points up and out, the starboard one's down
-/// and in: mirror images; a sidescan measures no azimuth, so only the fan's plane matters.)
+/// Returns the port and starboard channels of a sidescan made of `channel` (an SSS).
+/// They are mounted at `port_position` and `starboard_position` (m, vehicle frame, FLU), with
+/// their boresights `depression` degrees below the horizontal, square to the track. The port
+/// boresight is `(0, cos d, −sin d)` in the vehicle frame, the starboard one
+/// `(0, −cos d, −sin d)`. Each channel's thin elevation aperture lies along the track (its +z
+/// is the vehicle's +x), and its wide azimuth fan across it, in the vehicle's y–z plane. The
+/// fan spans `d ± A/2` below the horizontal to each side. The port channel's +y points up and
+/// out, the starboard one's down and in: mirror images. Only the fan's plane matters, since a
+/// sidescan measures no azimuth.
 ///
 /// # Errors
 /// [`Error::InvalidValue`] when `channel` is not a valid SSS or a value is not finite.
@@ -203,8 +203,8 @@ pub fn sidescan_pair(
     Ok(SidescanPair {
         port: (
             named("port"),
-            // Roll first: the fan (local y) goes across the track, the thin axis (local z)
-            // along it; then the depression and the turn to the side.
+            // Roll first, so the fan (local y) goes across the track and the thin axis
+            // (local z) along it. Then the depression, and the turn to the side.
             Mount::from_rpy_deg(90.0, depression, 90.0, port_position)?,
         ),
         starboard: (

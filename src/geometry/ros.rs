@@ -1,35 +1,35 @@
 //! A driver's beam table as ROS's `marine_acoustic_msgs/ProjectedSonarImage` gives it: one
 //! direction vector per beam and the centre of each range bin.
 //!
-//! That message's frame has **Z forward and X up**, so its Y (Z × X) is **starboard**; this
-//! project's sonar frame has x forward, y port, z up. A direction `(X, Y, Z)` of the message is
-//! `(Z, −Y, X)` here: azimuth `atan2(−Y, Z)` (positive to port), elevation `atan2(X, √(Y² + Z²))`.
-//! The beams of a one-dimensional imaging sonar lie in the message's Y-Z plane; the message may
-//! list them port to starboard or starboard to port, so the conversion also says which column of
-//! the message's image each beam of the sonar is.
+//! That message's frame has **Z forward and X up**, so its Y (Z × X) is **starboard**. This
+//! project's sonar frame has x forward, y port, z up. So a direction `(X, Y, Z)` of the message
+//! is `(Z, −Y, X)` here: azimuth `atan2(−Y, Z)` (positive to port), elevation
+//! `atan2(X, √(Y² + Z²))`. A one-dimensional imaging sonar's beams lie in the message's Y-Z
+//! plane. The message may list them port to starboard or starboard to port, so the conversion
+//! also says which column of the message's image each beam of the sonar is.
 
 use super::sonar::{BeamLayout, Sonar, SonarKind};
 use crate::error::{Error, Result};
 
-/// The largest angle (deg) a beam may point out of the fan's plane: a two-dimensional array is
+/// The largest angle (deg) a beam may point out of the fan's plane. A two-dimensional array is
 /// not an imaging sonar this project models.
 const MAX_OUT_OF_PLANE_DEG: f64 = 0.5;
 
-/// The relative tolerance within which the range bins' centres must be evenly spaced (the
-/// message's ranges are `float32`: their rounding is far below it).
+/// The relative tolerance within which the range bins' centres must be evenly spaced. The
+/// message's ranges are `float32`, whose rounding is far below it.
 const EVEN_SPACING: f64 = 1e-3;
 
-/// The finest range bin (m) a message may give: a micrometre, far below any sonar's, so that a
-/// table of equal ranges is refused rather than read as bins of no width.
+/// The finest range bin (m) a message may give: a micrometre, far below any sonar's. So a table
+/// of equal ranges is refused, not read as bins of no width.
 const MIN_RANGE_STEP: f64 = 1e-6;
 
 impl Sonar {
-    /// Returns the FLS that a `ProjectedSonarImage`'s `beam_directions` (message frame: X up, Y
-    /// starboard, Z forward; any lengths) and `ranges` (m, the centres of evenly spaced bins)
-    /// describe, with an elevation aperture of `elevation_aperture` (deg: the message's
-    /// `ping_info.tx_beamwidths`, in degrees), and `columns`: beam `k` of the sonar is column
-    /// `columns[k]` of the message's image (`image[:, columns]` is the image in this project's
-    /// layout). Beam edges lie halfway between the beams' azimuths.
+    /// Returns the FLS that a `ProjectedSonarImage` describes, and `columns`: beam `k` of the
+    /// sonar is column `columns[k]` of the message's image, so `image[:, columns]` is the image in
+    /// this project's layout. `beam_directions` are in the message frame (X up, Y starboard,
+    /// Z forward), of any length. `ranges` (m) are the centres of evenly spaced bins.
+    /// `elevation_aperture` (deg) is the message's `ping_info.tx_beamwidths`, in degrees. Beam
+    /// edges lie halfway between the beams' azimuths.
     ///
     /// ```
     /// use sonarproj::Sonar;
@@ -43,10 +43,10 @@ impl Sonar {
     /// ```
     ///
     /// # Errors
-    /// [`Error::InvalidValue`] naming `beam_directions[j]` or `ranges[i]`: a direction of zero
-    /// length or not finite, a beam out of the fan's plane, azimuths that are not monotonic,
-    /// fewer than two beams or a table not centred on the boresight, fewer than two ranges,
-    /// ranges not evenly spaced, closer than a micrometre or below 0, and every check of
+    /// [`Error::InvalidValue`] naming `beam_directions[j]` or `ranges[i]`, for: a direction of zero
+    /// length or not finite; a beam out of the fan's plane; azimuths that are not monotonic; fewer
+    /// than two beams, or a table not centred on the boresight; fewer than two ranges, or ranges
+    /// not evenly spaced, closer than a micrometre or below 0. Also every check of
     /// [`Sonar::validate`].
     pub fn from_projected_sonar_image(
         name: &str,

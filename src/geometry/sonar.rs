@@ -29,8 +29,8 @@ impl SonarKind {
 #[derive(Clone, Debug, PartialEq)]
 pub enum BeamLayout {
     /// `count` beams of equal width over the aperture. An SSS has one, or two for a two-sided
-    /// sidescan (one fan over port and starboard, its data one row of both sides: see
-    /// [`Sonar::two_sided`]).
+    /// sidescan: one fan over port and starboard, its data one row of both sides
+    /// ([`Sonar::two_sided`]).
     Uniform {
         /// Number of beams.
         count: u32,
@@ -42,8 +42,8 @@ pub enum BeamLayout {
 
 /// A sonar: kind, field of view (metres, degrees) and the layout of its data.
 ///
-/// Construct it from a preset ([`Sonar::preset`]), a TOML file ([`Sonar::from_toml_file`]) or
-/// directly followed by [`Sonar::validate`].
+/// Build it from a preset ([`Sonar::preset`]) or a TOML file ([`Sonar::from_toml_file`]), or
+/// directly and then check it with [`Sonar::validate`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Sonar {
     /// A name for messages and reports (preset name or file name).
@@ -60,16 +60,16 @@ pub struct Sonar {
     pub elevation_aperture: f64,
     /// Number of uniform range bins over `[range_min, range_max]`.
     pub range_bins: u32,
-    /// Beams of the FLS image; for an SSS `Uniform { count: 1 }`, or `Uniform { count: 2 }` for
-    /// a two-sided sidescan (starboard then port: [`Sonar::two_sided`]).
+    /// Beams of the FLS image. An SSS has `Uniform { count: 1 }`, or `Uniform { count: 2 }` for a
+    /// two-sided sidescan (starboard then port: [`Sonar::two_sided`]).
     pub beams: BeamLayout,
 }
 
 pub use crate::limits::{MAX_BEAMS, MAX_PIXELS, MAX_RANGE, MAX_RANGE_BINS, MAX_SONAR_FILE_BYTES};
 
 impl Sonar {
-    /// Returns the sonar when every field holds (README: Sonars): the way to check a sonar
-    /// built by hand.
+    /// Returns the sonar when every field holds (README: Sonars). Use it to check a sonar built by
+    /// hand.
     ///
     /// ```
     /// use sonarproj::{BeamLayout, Sonar, SonarKind};
@@ -181,12 +181,11 @@ impl Sonar {
     }
 
     /// Returns whether this is a two-sided sidescan: an SSS whose one fan covers port and
-    /// starboard (`Uniform { count: 2 }`) and whose data is one row of both sides, as
-    /// HoloOcean's `SidescanSonar` returns it. Each side has `range_bins` bins over
-    /// `[range_min, range_max]`; a point with azimuth `>= 0` (toward +y) is to port, below 0
-    /// to starboard. The row holds `2 × range_bins` values: port from far to near, then
-    /// starboard from near to far — index `range_bins − 1 − i` for port bin `i`,
-    /// `range_bins + i` for starboard bin `i` (HoloOcean's `RangeBins` is `2 × range_bins`).
+    /// starboard (`Uniform { count: 2 }`), its data one row of both sides as HoloOcean's
+    /// `SidescanSonar` returns it. Each side has `range_bins` bins over `[range_min, range_max]`.
+    /// Azimuth `>= 0` (toward +y) is port, below 0 starboard. The row holds `2 × range_bins`
+    /// values (HoloOcean's `RangeBins`): port from far to near, bin `i` at `range_bins − 1 − i`,
+    /// then starboard from near to far, bin `i` at `range_bins + i`.
     #[must_use]
     pub fn two_sided(&self) -> bool {
         self.kind == SonarKind::Sss && self.beams == (BeamLayout::Uniform { count: 2 })
@@ -335,8 +334,8 @@ fn check_edges(ctx: &str, aperture: f64, edges: &[f64]) -> Result<()> {
 
 #[cfg(test)]
 mod tests {
-    /// Every preset, a sidescan with two sides and an imaging sonar with a driver's uneven
-    /// beams read back from their TOML to themselves, bit for bit.
+    /// Every preset, a two-sided sidescan, and an imaging sonar with a driver's uneven beams read
+    /// back from their TOML to themselves, bit for bit.
     #[test]
     fn to_toml_reads_back_to_the_same_sonar() {
         let mut sonars: Vec<Sonar> = Sonar::preset_names()

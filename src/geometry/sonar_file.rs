@@ -61,8 +61,8 @@ fn holoocean_file(name: &str, mut table: toml::Table) -> Result<Sonar> {
             ));
         }
     };
-    // The configuration's keys in the table itself, or in a [holoocean.configuration] table as a
-    // scenario nests them.
+    // The configuration's keys sit in the table itself, or in a [holoocean.configuration]
+    // table as a scenario nests them.
     if let Some(toml::Value::Table(nested)) = sensor.remove("configuration") {
         for (k, v) in nested {
             if sensor.contains_key(&k) {
@@ -116,7 +116,7 @@ impl Sonar {
     /// Returns the sonar named by `spec`: a preset name, or else a path to a sonar TOML file.
     ///
     /// # Errors
-    /// [`Error::UnknownSonar`] when it is neither; file and validation errors from
+    /// [`Error::UnknownSonar`] when it is neither. File and validation errors as
     /// [`Sonar::from_toml_file`].
     pub fn resolve(spec: &str) -> Result<Sonar> {
         if let Some(s) = Sonar::preset(spec) {
@@ -149,9 +149,9 @@ impl Sonar {
     /// Returns the sonar described by the TOML file at `path`, validated.
     ///
     /// Keys: `kind` (`"fls"`/`"sss"`), `range_min`, `range_max` (m), `azimuth_aperture`,
-    /// `elevation_aperture` (deg), `range_bins`, and for an FLS one of `beams` (uniform),
-    /// `beam_edges` or `beam_centres` (deg); for an SSS optionally `sides` (1, or 2 for a
-    /// two-sided sidescan: [`Sonar::two_sided`]).
+    /// `elevation_aperture` (deg) and `range_bins`. An FLS also takes one of `beams` (uniform),
+    /// `beam_edges` or `beam_centres` (deg). An SSS optionally takes `sides`: 1, or 2 for a
+    /// two-sided sidescan ([`Sonar::two_sided`]).
     ///
     /// # Errors
     /// [`Error::ReadInput`], [`Error::SonarFile`] (syntax, unknown or missing keys) or
@@ -254,7 +254,7 @@ impl Sonar {
     }
 
     /// Returns the sonar as a sonar TOML file's text, every number exact (Rust's shortest
-    /// round-trip form): [`Sonar::from_toml_str`] reads it back to this sonar.
+    /// round-trip form). [`Sonar::from_toml_str`] reads it back to this sonar.
     ///
     /// ```
     /// use sonarproj::Sonar;

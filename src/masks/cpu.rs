@@ -1,6 +1,6 @@
-//! Drawing a mask on the CPU in f64: the twin of `shaders/mask.wgsl` (same cells, same blocks,
-//! same balls; the GPU adds a rounding slack and decides beams by the side of each beam edge,
-//! walking to the edges from a guess the angle makes).
+//! Drawing a mask on the CPU in f64: the twin of `shaders/mask.wgsl`, with the same cells,
+//! blocks and balls. The GPU adds a rounding slack, and decides beams by the side of each beam
+//! edge, walking to the edges from a guess the angle makes.
 
 use crate::clip::{MASK_ANGLE_SLACK, MASK_F64_SLACK};
 use glam::DVec3;
@@ -15,7 +15,6 @@ use crate::clip::View;
 
 /// One mask drawn on the CPU.
 pub(crate) struct Drawn {
-    /// The bins or pixels marked.
     pub occupancy: Occupancy,
     /// Per-pixel counts, when asked for.
     pub counts: Option<Vec<u32>>,
@@ -23,9 +22,9 @@ pub(crate) struct Drawn {
     pub radius: f64,
 }
 
-/// The cosines and sines of cell-centre angles, kept between masks and pings: a grid of cells
-/// depends on its count, not on the feature (the cells of `n` over an aperture are the same for
-/// every feature that needs `n`), so pings after the first mostly find theirs here.
+/// The cosines and sines of cell-centre angles, kept between masks and pings. A grid of cells
+/// depends on its count, not on the feature: `n` cells over an aperture are the same for every
+/// feature that needs `n`. So pings after the first mostly find theirs here.
 #[derive(Debug, Default)]
 pub(crate) struct TrigTables {
     tables: Mutex<HashMap<(u64, u64, usize), Arc<Trig>>>,
@@ -50,11 +49,11 @@ impl Trig {
     }
 }
 
-/// The most angles the tables keep (16 MB); past it they start afresh.
+/// The most angles the tables keep (16 MB). Past it, they start afresh.
 const MAX_TABLE_ANGLES: usize = 1 << 20;
 
 impl TrigTables {
-    /// Returns the cosines and sines of `angles`: the kept ones when the same angles (every
+    /// Returns the cosines and sines of `angles`, reusing the kept ones when the same angles (every
     /// bit) were asked for before.
     fn of(&self, angles: &[f64]) -> Arc<Trig> {
         if angles.len() < 8 {
@@ -81,7 +80,7 @@ impl TrigTables {
     }
 }
 
-/// Returns the mask of `plan` under `pose` in `view`, with per-pixel counts when `counts`; the
+/// Returns the mask of `plan` under `pose` in `view`, with per-pixel counts when `counts`. The
 /// cells' cosines and sines come from `trig`.
 pub(crate) fn draw(view: &View, trig: &TrigTables, pose: &RelativePose, plan: &Plan, counts: bool) -> Drawn {
     let Plan {
@@ -92,15 +91,15 @@ pub(crate) fn draw(view: &View, trig: &TrigTables, pose: &RelativePose, plan: &P
     } = plan;
     let (r, noise_radius) = (*r, *noise_radius);
     let l = &view.layout;
-    // Slack for the rounding of q = R p + t and |q| in f64 (MASK_F64_SLACK of the distances).
+    // Slack for the f64 rounding of q = R p + t and |q| (MASK_F64_SLACK of the distances).
     let slack = MASK_F64_SLACK * (r + pose.translation.length() + l.range_max) + MASK_F64_SLACK;
     let radius = radius + slack;
     let (na, ne) = (cells.azimuths.len(), cells.elevations.len());
     let mut occ = Occupancy::new(l.range_bins, l.beams());
     let inv_width = 1.0 / l.range_bin_width;
     let mut count = counts.then(|| vec![0u32; l.pixels()]);
-    // The cells' directions from one cos/sin per azimuth and per elevation (not per cell), kept
-    // between masks: the same products as `sph_to_cart`, so the same bits.
+    // One cos/sin per azimuth and per elevation, not per cell, kept between masks. These are
+    // the same products as `sph_to_cart`, so the same bits.
     let (a, e) = (trig.of(&cells.azimuths), trig.of(&cells.elevations));
     let (ca, sa, ce, se) = (&a.cos, &a.sin, &e.cos, &e.sin);
     let point = |i: usize, j: usize| pose.apply(DVec3::new(r * ce[j] * ca[i], r * ce[j] * sa[i], r * se[j]));
@@ -130,23 +129,22 @@ pub(crate) fn draw(view: &View, trig: &TrigTables, pose: &RelativePose, plan: &P
     }
 }
 
-/// Marks every bin or pixel that the ball of `radius` around `q` may touch in the field of
-/// view.
+/// Marks every bin or pixel that the ball of `radius` around `q` may touch in the field of view.
 #[expect(
     clippy::cast_possible_truncation,
     clippy::cast_sign_loss,
     reason = "a non-negative bin index, clamped to the table"
 )]
 fn mark(view: &View, inv_width: f64, q: DVec3, radius: f64, occ: &mut Occupancy, counts: Option<&mut [u32]>) {
-    // `sqrt(x² + y²)`, not `hypot` (several times slower; the coordinates are far from
-    // overflow): a rounding apart, which the angle slack of the spread below covers.
+    // `sqrt(x² + y²)` is several times faster than `hypot`, and the coordinates are far from
+    // overflow. The two differ by a rounding, which the spread's angle slack covers.
     let (d, rho) = (q.length(), (q.x * q.x + q.y * q.y).sqrt());
     if !view.may_meet_at(q, d, rho, radius) {
         return;
     }
     let l = &view.layout;
     let (lo, hi) = ((d - radius).max(l.range_min), (d + radius).min(l.range_max));
-    // Bins by a multiplication with the width's inverse: within a rounding of the division,
+    // Bins by multiplying with the width's inverse. That is within a rounding of the division,
     // which the ball's slack covers.
     let bin = |r: f64| {
         let i = (r - l.range_min) * inv_width;

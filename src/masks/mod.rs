@@ -1,30 +1,30 @@
-//! Correspondence masks: for each feature measured by sonar 1, the set of sonar 2's bins or
-//! pixels where it can be, conservative so that the true pixel is never missed.
+//! Correspondence masks: for each feature measured by sonar 1, the bins or pixels of sonar 2
+//! where it can be.
 //!
-//! How a mask is drawn (and why it cannot miss):
-//! 1. The back-projected set (an FLS arc or an SSS surface, README: Commands, `--step`) is cut into cells of the
-//!    angle grid that tile sonar 1's aperture exactly: `n_e` elevation cells (and for an SSS `n_a`
-//!    azimuth cells) at range `r`. Every point of a cell lies within `h = r·√((Δa/2)² + (Δe/2)²)`
-//!    of the cell's centre point (the path along the sphere in a straight line of the angles is at
-//!    most that long, and the straight chord is shorter).
-//! 2. A rigid pose keeps distances, so in sonar 2 every point of the cell lies in the ball of
+//! Masks are conservative, so the true pixel is never missed. A mask is drawn in three steps:
+//!
+//! 1. The back-projected set (an FLS arc or an SSS surface; README: Commands, `--step`) is cut
+//!    into cells of an angle grid that tiles sonar 1's aperture exactly. At range `r` there are
+//!    `n_e` elevation cells, and for an SSS also `n_a` azimuth cells. Every point of a cell lies
+//!    within `h = r·√((Δa/2)² + (Δe/2)²)` of the cell's centre point. The path along the sphere
+//!    in a straight line of the angles is at most that long, and the straight chord is shorter.
+//! 2. A rigid pose keeps distances. So in sonar 2, every point of the cell lies in the ball of
 //!    radius `h` around the centre's image `q`. The mask marks every bin or pixel that ball may
-//!    touch inside sonar 2's field of view: range bins over `[|q| − h, |q| + h]`, and for an FLS
-//!    beams over `az(q) ± asin(h/ρ)` (`ρ` the distance from sonar 2's vertical axis; every beam
-//!    when `h ≥ ρ`). Balls that cannot touch the field of view are skipped, tested with bounds
-//!    that only ever keep too many (`|q_z| ≤ tan(e)(ρ + h) + h`, `|q_y| ≤ tan(a)(q_x + h) + h`).
-//! 3. Cells are sized so that `h` is half a range bin of sonar 2 (more under noise, below); the
+//!    touch inside sonar 2's field of view. That is range bins over `[|q| − h, |q| + h]`, and for
+//!    an FLS beams over `az(q) ± asin(h/ρ)`, where `ρ` is the distance from sonar 2's vertical
+//!    axis (every beam when `h ≥ ρ`). Balls that cannot touch the field of view are skipped. The
+//!    tests only ever keep too many: `|q_z| ≤ tan(e)(ρ + h) + h`, `|q_y| ≤ tan(a)(q_x + h) + h`.
+//! 3. Cells are sized so that `h` is half a range bin of sonar 2 (more under noise, below). The
 //!    mask is then at most about one bin wider on each side than the exact image, and has no
-//!    holes. Cells are visited in blocks whose own ball is tested first, so parts of the set far
-//!    outside sonar 2's view cost one test per block.
+//!    holes. Cells are visited in blocks, and each block's own ball is tested first. So parts of
+//!    the set far outside sonar 2's view cost one test per block.
 //!
 //! Under noise ([`Noise`]) the ball grows by a radius `D` that holds with probability at least
 //! `coverage`: see [`Noise::radius`].
-
 //!
 //! Modules: `plan` (cells, blocks, the view test), `cpu` (drawing in f64), `gpu` (drawing with
-//! `shaders/mask.wgsl`), [`noise`], [`summary`] (bounding box, run lengths); this module holds
-//! the engine that picks between them.
+//! `shaders/mask.wgsl`), [`noise`], and [`summary`] (bounding box, run lengths). This module
+//! holds the engine that picks between them.
 
 mod cpu;
 pub(crate) mod gpu;
@@ -50,21 +50,21 @@ use plan::Plan;
 pub use summary::{BoundingBox, FeatureSummary, PingSummary, bounding_box, run_lengths};
 use summary::{Reduced, mask_reduce};
 
-/// The fewest cells a ping must have for an engine picked by `auto` to draw it on the GPU:
-/// below it the CPU engine answers sooner. Measured on an H200 with 16 CPU cores (`sonarproj
-/// bench masks`): a GPU ping costs at least about 0.09 ms, which the CPU engine spends on about
-/// 1000 cells on one core (one 52-cell imaging-sonar feature: 0.001–0.002 ms on the CPU, 0.09–0.12
-/// ms on the GPU; one 2172-cell sidescan feature: 0.15–0.20 ms on the CPU, 0.10 ms on the GPU).
+/// The fewest cells a ping needs for an `auto` engine to draw it on the GPU. Below it, the CPU
+/// engine answers sooner. On an H200 with 16 CPU cores (`sonarproj bench masks`), a GPU ping
+/// costs at least about 0.09 ms, which the CPU engine spends on about 1000 cells on one core.
+/// A 52-cell imaging-sonar feature takes 0.001–0.002 ms on the CPU and 0.09–0.12 ms on the GPU.
+/// A 2172-cell sidescan feature takes 0.15–0.20 ms on the CPU and 0.10 ms on the GPU.
 pub const GPU_MIN_CELLS: u64 = 1024;
 
 /// One feature's mask in sonar 2's layout.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mask {
-    /// The bins or pixels where the feature can be, in the order of the sonar's data
-    /// ([`Layout::to_data_order`]: one row of both sides for a two-sided sidescan).
+    /// The bins or pixels where the feature can be, in the order of the sonar's data. For a
+    /// two-sided sidescan, one row holds both sides ([`Layout::to_data_order`]).
     pub occupancy: Occupancy,
-    /// Per bin or pixel, how many cells of the back-projected set may fall there (a prior for a
-    /// matcher), in the order of the sonar's data; only when asked for.
+    /// How many cells of the back-projected set may fall in each bin or pixel, in the order of the
+    /// sonar's data. A prior for a matcher, present only when asked for.
     pub counts: Option<Vec<u32>>,
     /// The ball radius used (m): half a cell's diagonal plus the noise radius.
     pub radius: f64,
@@ -75,8 +75,8 @@ pub struct Mask {
 }
 
 impl Mask {
-    /// Returns the masks the GPU drew in `layout` for `jobs` (`drawn`, one occupancy per job, in
-    /// order), in the order of the sonar's data.
+    /// Returns the masks the GPU drew in `layout` for `jobs`, in the order of the sonar's data.
+    /// `drawn` holds one occupancy per job, in order.
     fn of_gpu(layout: &Layout, drawn: Vec<Occupancy>, jobs: &[Job]) -> Vec<Mask> {
         drawn
             .into_iter()
@@ -101,8 +101,8 @@ pub struct MaskSet {
     pub union: Occupancy,
 }
 
-/// Whether masks carry per-pixel counts (how many cells of the back-projected set may fall in
-/// each pixel, a prior for a matcher), drawn on the CPU only.
+/// Whether masks carry per-pixel counts, which are drawn on the CPU only. A count says how many
+/// cells of the back-projected set may fall in a pixel: a prior for a matcher.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Counts {
     /// The bits only.
@@ -111,7 +111,7 @@ pub enum Counts {
     Draw,
 }
 
-/// Draws masks for one sonar pair; built once, used for every ping.
+/// The engine that draws masks for one sonar pair. It is built once and used for every ping.
 ///
 /// ```
 /// use sonarproj::masks::{Counts, MaskEngine};
@@ -130,7 +130,7 @@ pub enum Counts {
 /// # Ok::<(), sonarproj::Error>(())
 /// ```
 ///
-/// On the CPU (all cores, f64) by default; [`MaskEngine::on_gpu`] draws them with
+/// It draws on the CPU (all cores, f64) by default. [`MaskEngine::on_gpu`] draws with
 /// `shaders/mask.wgsl` instead.
 #[derive(Debug)]
 pub struct MaskEngine {
@@ -138,10 +138,10 @@ pub struct MaskEngine {
     target: Sonar,
     view: View,
     gpu: Option<Box<GpuMasks>>,
-    /// Pings of fewer cells are drawn on the CPU even with a GPU (0: never; `auto` sets
-    /// [`GPU_MIN_CELLS`]).
+    /// Pings of fewer cells are drawn on the CPU even with a GPU. 0 means never; `auto` sets
+    /// [`GPU_MIN_CELLS`].
     gpu_min_cells: u64,
-    /// Cosines and sines of cell grids, kept between pings (the CPU's drawing).
+    /// Cosines and sines of cell grids for the CPU's drawing, kept between pings.
     trig: cpu::TrigTables,
 }
 
@@ -164,27 +164,27 @@ impl MaskEngine {
         })
     }
 
-    /// Returns the engine drawing its masks on the GPU of `ctx` (pipeline and buffers built
-    /// once, kept between pings).
+    /// Returns the engine drawing its masks on the GPU of `ctx`. The pipeline and buffers are built
+    /// once and kept between pings.
     ///
     /// # Errors
-    /// [`Error::InvalidValue`] when sonar 2's azimuth aperture is 180° or more (the GPU's beam
-    /// search needs less; the CPU engine has no such limit).
+    /// [`Error::InvalidValue`] when sonar 2's azimuth aperture is 180° or more. The GPU's beam
+    /// search needs less; the CPU engine has no such limit.
     pub fn on_gpu(source: Sonar, target: Sonar, ctx: GpuContext) -> Result<MaskEngine> {
         let mut engine = MaskEngine::new(source, target)?;
         engine.gpu = Some(Box::new(GpuMasks::new(ctx, &engine.view.layout)?));
         Ok(engine)
     }
 
-    /// Returns the engine `choice` asks for (a GPU opened with `gpu`) and, when `auto` fell back
-    /// to the CPU, a one-line notice saying so. `cpu` and `cpu-fast` are the same engine for masks (f64, every core);
-    /// `auto` takes a hardware GPU, and the CPU when `counts` are wanted (drawn there only); an
-    /// engine `auto` put on a GPU still draws pings of fewer than [`GPU_MIN_CELLS`] cells on the
-    /// CPU, where they are done sooner.
+    /// Returns the engine `choice` asks for (a GPU opened with `gpu`), and a one-line notice when
+    /// `auto` fell back to the CPU. For masks, `cpu` and `cpu-fast` are one engine (f64, every
+    /// core). `auto` takes a hardware GPU, but the CPU when `counts` are wanted, since only the CPU
+    /// draws them. On a GPU, `auto` still draws pings of fewer than [`GPU_MIN_CELLS`] cells on the
+    /// CPU, where they finish sooner.
     ///
     /// # Errors
-    /// [`Error::NoAdapter`] or [`Error::Gpu`] when `gpu` was asked for and cannot be had; as
-    /// [`MaskEngine::on_gpu`].
+    /// [`Error::NoAdapter`] or [`Error::Gpu`] when `gpu` was asked for and cannot be had. Also
+    /// those of [`MaskEngine::on_gpu`].
     pub fn select(
         source: Sonar,
         target: Sonar,
@@ -214,9 +214,9 @@ impl MaskEngine {
         }
     }
 
-    /// Returns this engine drawing each ping of fewer than `cells` cells on the CPU, as `auto`
-    /// does with [`GPU_MIN_CELLS`] (a GPU engine only; 0, the default of
-    /// [`MaskEngine::on_gpu`], sends every ping to the GPU).
+    /// Returns this engine drawing each ping of fewer than `cells` cells on the CPU, as `auto` does
+    /// with [`GPU_MIN_CELLS`]. This applies to a GPU engine only. 0, the default of
+    /// [`MaskEngine::on_gpu`], sends every ping to the GPU.
     #[must_use]
     pub fn with_gpu_min_cells(mut self, cells: u64) -> MaskEngine {
         self.gpu_min_cells = cells;
@@ -257,7 +257,7 @@ impl MaskEngine {
     }
 
     /// Returns the masks of `features` (measured by sonar 1) under `pose`, widened for `noise`,
-    /// with per-pixel counts when `counts`; features are drawn in parallel.
+    /// with per-pixel counts when `counts`. Features are drawn in parallel.
     ///
     /// # Errors
     /// [`Error::InvalidValue`] for a feature outside sonar 1's field of view, invalid noise, a
@@ -297,11 +297,11 @@ impl MaskEngine {
         Ok(self.with_union(masks))
     }
 
-    /// Returns the masks of `features` under `pose`, widened for `noise`, reduced to what a
-    /// matcher looks at first: each mask's pixel count and bounding box, and their union. On a
-    /// GPU this is all that is read back (the union and 20 bytes a feature), reduced there
-    /// (`shaders/mask_reduce.wgsl`); the CPU engine reduces its masks the same way. The counts,
-    /// boxes and union are those of [`MaskEngine::masks`] on the same engine.
+    /// Returns the masks of `features` under `pose`, widened for `noise`, reduced to what a matcher
+    /// looks at first: each mask's pixel count and bounding box, and their union. On a GPU the
+    /// reduction runs there (`shaders/mask_reduce.wgsl`), and only the union and 20 bytes a feature
+    /// are read back. The CPU engine reduces its masks the same way. The counts, boxes and union
+    /// equal those of [`MaskEngine::masks`] on the same engine.
     ///
     /// # Errors
     /// As [`MaskEngine::masks`].
@@ -322,14 +322,14 @@ impl MaskEngine {
         Ok(self.summary_on_cpu(pose, &plans))
     }
 
-    /// Returns the summaries of many pings, one pose and one set of features each: each ping's
-    /// [`MaskEngine::summary`]. On a GPU two pings are in flight — the next is planned,
-    /// uploaded and submitted while the GPU draws the one before — in groups of 64 pings;
-    /// `stop` is asked before each group.
+    /// Returns the summaries of many pings, one pose and one set of features each, as each ping's
+    /// [`MaskEngine::summary`]. On a GPU two pings are in flight: the next is planned, uploaded and
+    /// submitted while the GPU draws the one before. Pings go in groups of 64, and `stop` is asked
+    /// before each group.
     ///
     /// # Errors
-    /// As [`MaskEngine::masks`], naming the ping (counted from 1); [`Error::Stopped`] when
-    /// `stop` was set.
+    /// As [`MaskEngine::masks`], naming the ping (counted from 1). [`Error::Stopped`] when `stop`
+    /// was set.
     pub fn summaries_of_pings(
         &self,
         pings: &[(RelativePose, Vec<Measurement>)],
@@ -348,10 +348,9 @@ impl MaskEngine {
         Ok(out)
     }
 
-    /// Gives `each` the summary of each ping of `pings` in order, as soon as it is read back,
-    /// as [`MaskEngine::summaries_of_pings`] computes them, until `each` answers `Break` or
-    /// `stop` is set (asked before each group of 64 pings): then returns `Break`
-    /// ([`crate::stream`]).
+    /// Gives `each` each ping's summary, as [`MaskEngine::summaries_of_pings`] computes it, in
+    /// order and as soon as it is read back. Stops when `each` answers `Break` or `stop` is set
+    /// (asked before each group of 64 pings), and then returns `Break` ([`crate::stream`]).
     ///
     /// # Errors
     /// As [`MaskEngine::summaries_of_pings`], and `each`'s errors (which stop it).
@@ -373,9 +372,9 @@ impl MaskEngine {
         )
     }
 
-    /// Returns the masks of many pings, one pose and one set of features each: each ping's
-    /// [`MaskEngine::masks`] without counts, two pings in flight on a GPU as in
-    /// [`MaskEngine::summaries_of_pings`]; `stop` is asked before each group of 64 pings.
+    /// Returns the masks of many pings, one pose and one set of features each, as each ping's
+    /// [`MaskEngine::masks`] without counts. On a GPU two pings are in flight, as in
+    /// [`MaskEngine::summaries_of_pings`]. `stop` is asked before each group of 64 pings.
     ///
     /// # Errors
     /// As [`MaskEngine::summaries_of_pings`].
@@ -398,10 +397,10 @@ impl MaskEngine {
         Ok(out)
     }
 
-    /// Gives `each` the masks of each ping of `pings` in order, as soon as they are read back,
-    /// as [`MaskEngine::masks_of_pings`] computes them, holding no more than one group of 64
-    /// pings' masks at a time, until `each` answers `Break` or `stop` is set (asked before each
-    /// group): then returns `Break` ([`crate::stream`]).
+    /// Gives `each` the masks of each ping of `pings` in order, as soon as they are read back.
+    /// Masks are as [`MaskEngine::masks_of_pings`] computes them, and at most one group of 64
+    /// pings' masks is held at a time. It stops when `each` answers `Break` or `stop` is set
+    /// (asked before each group), and then returns `Break` ([`crate::stream`]).
     ///
     /// # Errors
     /// As [`MaskEngine::masks_of_pings`], and `each`'s errors (which stop it).
@@ -433,9 +432,9 @@ impl MaskEngine {
         )
     }
 
-    /// Gives `emit`, in order, `on_gpu` or `on_cpu` of each ping of `pings` (its drawing and jobs
-    /// on a GPU, the masks read back too when `masks`; its pose and plans on the CPU), in groups
-    /// of 64 pings with two dispatches in flight on a GPU, `stop` asked before each group.
+    /// Gives `emit` each ping of `pings` in order, as `on_gpu` (its drawing and jobs, with masks
+    /// read back when `masks`) or `on_cpu` (its pose and plans) makes it. Pings go in groups of
+    /// 64, with two dispatches in flight on a GPU, and `stop` is asked before each group.
     #[expect(
         clippy::too_many_arguments,
         reason = "the two ways a ping is drawn, and where it goes"
@@ -465,7 +464,7 @@ impl MaskEngine {
                 }
                 planned.push((pose, self.plans(features, noise.as_ref()).map_err(ping)?));
             }
-            // The pings the GPU takes (all, but those too small under `auto`), as jobs.
+            // The GPU takes every ping but those too small under `auto`. Its pings become jobs.
             let gpu_takes: Vec<bool> = planned
                 .iter()
                 .map(|(_, plans)| self.gpu_for(plans).is_some())
@@ -476,8 +475,8 @@ impl MaskEngine {
                 .filter(|(_, gpu)| **gpu)
                 .map(|((pose, plans), _)| Self::jobs(pose, std::mem::take(plans)))
                 .collect();
-            // Each ping given out in order as soon as it is drawn: a GPU ping when read back
-            // (the next drawn meanwhile), the CPU's pings before it first.
+            // Pings go out in order, each as soon as it is drawn. A GPU ping goes when it is
+            // read back, while the next one draws. The CPU's pings before it go first.
             let gpu_pings: Vec<usize> = (0..planned.len()).filter(|&k| gpu_takes[k]).collect();
             let mut next = 0;
             let cpu_until =
@@ -543,8 +542,8 @@ impl MaskEngine {
     /// Returns the summary of the ping of `plans` under `pose`, drawn and reduced on the CPU.
     fn summary_on_cpu(&self, pose: &RelativePose, plans: &[Plan]) -> PingSummary {
         let layout = &self.view.layout;
-        // Each mask reduced and added to its thread's union as soon as it is drawn: the ping
-        // holds a union a thread, not a mask a feature.
+        // Each mask is reduced and OR-ed into its thread's union as soon as it is drawn. So the
+        // ping holds one union per thread, not one mask per feature.
         let empty = || Occupancy::new(layout.range_bins, layout.beams());
         let or_into = |u: &mut Occupancy, o: &Occupancy| {
             for (a, b) in u.words.iter_mut().zip(&o.words) {
@@ -591,16 +590,16 @@ impl MaskEngine {
             .collect()
     }
 
-    /// Returns the bytes of one mask held as a bitset: a bit a pixel of sonar 2, in 32-bit
-    /// words (what [`MAX_MASK_BITSET_BYTES`] counts).
+    /// Returns the bytes of one mask held as a bitset: a bit per pixel of sonar 2, in 32-bit words.
+    /// [`MAX_MASK_BITSET_BYTES`] counts these.
     #[must_use]
     pub fn bitset_bytes(&self) -> u64 {
         (self.view.layout.pixels() as u64).div_ceil(32) * 4
     }
 
-    /// Returns an error when the masks of `features` features (with a `u32` count a pixel each
-    /// when `counts`) and `unions` unions, one bitset each, would hold more than
-    /// [`MAX_MASK_BITSET_BYTES`]; `what` names the input.
+    /// Returns an error when the masks would hold more than [`MAX_MASK_BITSET_BYTES`]. There are
+    /// `features` masks (each with a `u32` count per pixel when `counts`) and `unions` unions, one
+    /// bitset each. `what` names the input.
     fn check_bitsets(&self, what: &str, features: usize, unions: usize, counts: bool) -> Result<()> {
         let per = self.bitset_bytes();
         let per_feature = per
@@ -626,7 +625,7 @@ impl MaskEngine {
         Ok(())
     }
 
-    /// Returns the GPU to draw `plans` on: none for a CPU engine, nor for a ping smaller than
+    /// Returns the GPU to draw `plans` on, or `None` for a CPU engine or for a ping smaller than
     /// the engine's `gpu_min_cells`.
     fn gpu_for(&self, plans: &[Plan]) -> Option<&GpuMasks> {
         let gpu = self.gpu.as_deref()?;
@@ -639,8 +638,8 @@ impl MaskEngine {
         plans.into_iter().map(|plan| Job { pose: *pose, plan }).collect()
     }
 
-    /// Returns the masks of many scenes at once, each feature with its own pose (for tests and
-    /// sweeps of scenes); no noise, no counts.
+    /// Returns the masks of many scenes at once, each feature with its own pose, without noise or
+    /// counts. For tests and sweeps of scenes.
     ///
     /// # Errors
     /// As [`MaskEngine::masks`].

@@ -41,8 +41,8 @@ impl Noise {
         ];
         for (k, (field, v)) in named.into_iter().enumerate() {
             finite(field, v)?;
-            // Angles (deg) up to half a turn, lengths (m) up to the largest sonar range: wider
-            // noise means nothing, and the radius it makes stays finite.
+            // Angles (deg) go up to half a turn and lengths (m) up to the largest sonar range.
+            // Wider noise means nothing, and this keeps the radius finite.
             let (max, unit) = match k {
                 0..=2 | 7 => (MAX_SIGMA_ANGLE, "deg"),
                 _ => (MAX_RANGE, "m"),
@@ -62,19 +62,20 @@ impl Noise {
         Ok(self)
     }
 
-    /// Returns the radius `D` (m) by which the true point's image in sonar 2 can lie away from
-    /// the noise-free back-projection of measured range `r` (m), with probability at least
-    /// `coverage`.
+    /// Returns the radius `D` (m) by which the true point's image in sonar 2 can lie away from the
+    /// noise-free back-projection of measured range `r` (m), with probability at least `coverage`.
     ///
-    /// The true point `P` and the point `P'` of the measured arc at `P`'s own elevation differ
-    /// by at most `|δr| + (r + |δr|)·|δa|` (azimuth only for an FLS); the true pose moves `P` by
-    /// at most `|δt| + (r + |δr|)·|δθ|` from where the nominal pose puts it, with
-    /// `|δθ| ≤ |δroll| + |δpitch| + |δyaw|` (a telescoped product of small rotations). Each of
-    /// the groups with a non-zero sigma (translation, rotation, range, azimuth) is bounded at
-    /// probability `1 − (1 − coverage)/k` for `k` groups, so all bounds hold together with
-    /// probability at least `coverage` (union bound): `|δt| ≤ max σ_t · χ₃`,
-    /// `Σ|δθ_i| ≤ ‖σ_θ‖ · χ₃` (Cauchy–Schwarz), `|δr| ≤ σ_r · z`, `|δa| ≤ σ_a · z`, with `χ₃`
-    /// and `z` the quantiles of the chi distribution with 3 degrees of freedom and of `|N(0,1)|`.
+    /// 1. The true point `P` and the point `P'` of the measured arc at `P`'s own elevation differ
+    ///    by at most `|δr| + (r + |δr|)·|δa|`. The azimuth term is for an FLS only.
+    /// 2. The true pose moves `P` by at most `|δt| + (r + |δr|)·|δθ|` from where the nominal pose
+    ///    puts it, with `|δθ| ≤ |δroll| + |δpitch| + |δyaw|` (a telescoped product of small
+    ///    rotations).
+    /// 3. Each of the `k` groups with a non-zero sigma (translation, rotation, range, azimuth) is
+    ///    bounded at probability `1 − (1 − coverage)/k`. By the union bound, all bounds then hold
+    ///    together with probability at least `coverage`. With `χ₃` the quantile of the chi
+    ///    distribution with 3 degrees of freedom and `z` that of `|N(0,1)|`: `|δt| ≤ max σ_t · χ₃`,
+    ///    `Σ|δθ_i| ≤ ‖σ_θ‖ · χ₃` (Cauchy–Schwarz), `|δr| ≤ σ_r · z` and `|δa| ≤ σ_a · z`.
+    ///
     /// The result is conservative: simulated coverage is higher than stated (tests/masks.rs).
     #[must_use]
     pub fn radius(&self, r: f64, source: SonarKind) -> f64 {

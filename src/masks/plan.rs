@@ -1,6 +1,6 @@
 //! What a mask is drawn from, shared by the CPU and GPU drawings: the cells that tile the
-//! back-projected set and their ball radius (`Plan`), and the test that a ball may meet
-//! sonar 2's field of view (`crate::clip::View`), applied to blocks of cells before their cells are visited.
+//! back-projected set and their ball radius (`Plan`). Blocks of cells are tested against
+//! sonar 2's field of view (`crate::clip::View`) before their cells are visited.
 
 use crate::clip::View;
 
@@ -12,13 +12,12 @@ use crate::sampling::Measurement;
 
 use super::noise::Noise;
 
-/// Cells per block side (blocks are culled as a whole before their cells are visited); the mask
+/// Cells per block side. Blocks are culled as a whole before their cells are visited. The mask
 /// stage's WGSL `BLOCK` is generated from it (`masks/gpu/source.rs`).
 pub(crate) const BLOCK: usize = 8;
 
-/// What one mask is drawn from: the cells of the set, their ball radius and the noise part of it.
+/// What one mask is drawn from: the set's cells, their ball radius and its noise part.
 pub(crate) struct Plan {
-    /// The cells.
     pub cells: Cells,
     /// The set's range in sonar 1 (m).
     pub range: f64,
@@ -46,9 +45,9 @@ impl Cells {
 }
 
 impl View {
-    /// Returns the first cells `(azimuth, elevation)` of the blocks of `BLOCK × BLOCK` cells whose
-    /// ball (around the block's middle point, covering all its cells, grown by `extra`) may meet
-    /// sonar 2's field of view under `pose`: the only cells worth visiting.
+    /// Returns the first cells `(azimuth, elevation)` of the `BLOCK × BLOCK` blocks worth visiting:
+    /// those whose ball may meet sonar 2's field of view under `pose`. A block's ball is centred on
+    /// its middle point, covers all its cells and grows by `extra`.
     pub(crate) fn blocks(
         &self,
         pose: &RelativePose,
@@ -85,8 +84,8 @@ impl View {
 pub(crate) fn plan(source: &Sonar, layout: &Layout, m: &Measurement, noise: Option<&Noise>) -> Result<Plan> {
     let m = Measurement::of(source, m.range, m.azimuth)?;
     let noise_radius = noise.map_or(0.0, |n| n.radius(m.range, source.kind));
-    // Half a range bin, or a quarter of the noise radius when that is larger (a finer cell
-    // would not make the widened mask noticeably smaller).
+    // Half a range bin, or a quarter of the noise radius when that is larger. A finer cell
+    // would not make the widened mask noticeably smaller.
     let h_target = (layout.range_bin_width / 2.0).max(noise_radius / 4.0);
     let cells = cells(source, &m, h_target)?;
     let h = m.range * cells.half.0.hypot(cells.half.1);

@@ -1,7 +1,7 @@
 //! Summaries of drawn masks: a mask's bounding box and run-length encoding, and a ping reduced
-//! to what a matcher needs first (each mask's pixel count and box, and their union) —
-//! `mask_reduce`, the CPU twin of `shaders/mask_reduce.wgsl` (which reads only the rows of the
-//! box the draw stage kept as it set each span: the box this walk finds).
+//! to what a matcher needs first (each mask's pixel count and box, and their union).
+//! `mask_reduce` is the CPU twin of `shaders/mask_reduce.wgsl`. The shader reads only the rows
+//! of the box that the draw stage kept as it set each span, which is the box this walk finds.
 
 use serde::Serialize;
 
@@ -14,7 +14,7 @@ pub struct BoundingBox {
     pub range_min: f64,
     /// Upper edge of the farthest occupied range bin (m).
     pub range_max: f64,
-    /// Lower edge of the leftmost occupied beam (deg); the aperture's edge for an SSS.
+    /// Lower edge of the leftmost occupied beam (deg), or the aperture's edge for an SSS.
     pub azimuth_min: f64,
     /// Upper edge of the rightmost occupied beam (deg).
     pub azimuth_max: f64,
@@ -51,19 +51,17 @@ pub fn bounding_box(layout: &Layout, occ: &Occupancy) -> Option<BoundingBox> {
     b.map(|(i0, i1, j0, j1)| BoundingBox::of_bins(layout, (i0, i1), (j0, j1)))
 }
 
-/// One mask reduced: the pixels set and the range bins and beams of its box (sonar 2's layout:
-/// pixel `i · beams + j`), `None` when no pixel is set.
+/// One mask reduced: the pixels set, and the range bins and beams of its box (`None` when no
+/// pixel is set). Pixel `i · beams + j` is in sonar 2's layout.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub(crate) struct Reduced {
-    /// Pixels set.
     pub pixels: u64,
     /// First and last range bin, first and last beam.
     pub bounds: Option<((usize, usize), (usize, usize))>,
 }
 
-/// Returns the pixels set in the bitset `words` of a layout with `beams` beams a range bin, and
-/// their bounds: the CPU twin of `shaders/mask_reduce.wgsl` (the same walk over each word's
-/// rows).
+/// Returns the pixels set in the bitset `words` (`beams` beams a range bin) and their bounds.
+/// The CPU twin of `shaders/mask_reduce.wgsl`, with the same walk over each word's rows.
 pub(crate) fn mask_reduce(words: &[u32], beams: usize) -> Reduced {
     let mut out = Reduced::default();
     for (w, &word) in words.iter().enumerate() {
@@ -72,8 +70,8 @@ pub(crate) fn mask_reduce(words: &[u32], beams: usize) -> Reduced {
             continue;
         }
         out.pixels += u64::from(m.count_ones());
-        // The word's bits row by row: the first set pixel's row, the bits of that row, their
-        // first and last beams; then the rest of the word.
+        // Walk the word row by row: the first set pixel's row, that row's bits, their first
+        // and last beams. Then go on with the rest of the word.
         while m != 0 {
             let first = w * 32 + m.trailing_zeros() as usize;
             let row = first / beams;
@@ -110,8 +108,8 @@ pub struct FeatureSummary {
     pub cells: u64,
 }
 
-/// A ping's masks reduced: each feature's summary and the union of their masks, what
-/// [`super::MaskEngine::summary`] returns (on a GPU, all that is read back).
+/// A ping's masks reduced: each feature's summary and the union of their masks. It is what
+/// [`super::MaskEngine::summary`] returns, and on a GPU all that is read back.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PingSummary {
     /// One summary per feature, in order.

@@ -1,14 +1,17 @@
-//! The GPU side of [`super::MaskEngine`]: `shaders/mask.wgsl` (draws every mask, culling its
-//! blocks of cells on the device, and keeps each mask's box as it sets its spans) and
-//! `shaders/mask_reduce.wgsl` (each mask's pixel count from the rows of its box, and the ping's
-//! union), their pipelines, bind groups and buffers (built once, grown when
-//! a ping needs more) and the cell tables, kept on the device between pings: a ping uploads its
-//! jobs (80 bytes a feature) and reads back the union and five words a feature, and the
-//! bitsets only when they are asked for.
+//! The GPU side of [`super::MaskEngine`].
 //!
-//! The shaders work in f32. Each job's radii carry a slack that bounds every rounding of
-//! the f32 path (the direction tables and rotation rounded to f32, `R p + t`, `|q|`, the bin
-//! arithmetic and the edge tests), so GPU masks contain the CPU engine's and never miss.
+//! - `shaders/mask.wgsl` draws every mask. It culls blocks of cells on the device and keeps
+//!   each mask's box as it sets its spans.
+//! - `shaders/mask_reduce.wgsl` counts each mask's pixels from the rows of its box, and makes
+//!   the ping's union.
+//!
+//! Their pipelines, bind groups, buffers and cell tables stay on the device between pings. They
+//! are built once and grown when a ping needs more. A ping uploads its jobs (80 bytes a feature)
+//! and reads back the union and five words a feature, and the bitsets only when asked for.
+//!
+//! The shaders work in f32. Each job's radii carry a slack that bounds every rounding of the
+//! f32 path: the direction tables and rotation rounded to f32, `R p + t`, `|q|`, the bin
+//! arithmetic and the edge tests. So GPU masks contain the CPU engine's and never miss.
 #![expect(
     clippy::cast_possible_truncation,
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose (the slack covers it) and counts are bounded by the device limits checked before packing"
@@ -35,8 +38,7 @@ use super::plan::{BLOCK, Plan};
 use super::summary::Reduced;
 use tables::{Tables, block_shape, table_entries};
 
-/// Parameters of sonar 2 (members as documented in shaders/mask.wgsl). Keep in sync with
-/// `MaskParams` there.
+/// Sonar 2's parameters, as `MaskParams` in shaders/mask.wgsl documents them. Keep in sync.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub(crate) struct MaskParams {
@@ -46,29 +48,23 @@ pub(crate) struct MaskParams {
     pub(crate) range_max: f32,
     /// `range_bins / (range_max - range_min)` (1/m).
     pub(crate) inv_range_bin: f32,
-    /// Sonar 2's range bins.
     pub(crate) range_bins: u32,
     /// Sonar 2's beams (1 for a sidescan, 2 for a two-sided one).
     pub(crate) beams: u32,
-    /// 32-bit words of one mask's bitset.
     pub(crate) words_per_mask: u32,
-    /// Padding (zero).
     pub(crate) _pad0: u32,
-    /// 1 when sonar 2 has more than one beam (an FLS, or a two-sided sidescan), 0 for range
-    /// bins only.
+    /// 1 when sonar 2 has several beams (an FLS or a two-sided sidescan), 0 for range bins only.
     pub(crate) beamed: u32,
-    /// tan of half the elevation aperture; < 0 when the aperture is 180° (no test).
+    /// tan of half the elevation aperture, or < 0 for a 180° aperture (no test).
     pub(crate) tan_half_el: f32,
-    /// tan of half the azimuth aperture (< 90°: checked on the CPU).
+    /// tan of half the azimuth aperture (below 90°, checked on the CPU).
     pub(crate) tan_half_az: f32,
-    /// cos of half the azimuth aperture: the edge search holds while `radius < ρ cos(half_az)`.
+    /// cos of half the azimuth aperture. The edge search holds while `radius < ρ cos(half_az)`.
     pub(crate) cos_half_az: f32,
-    /// Padding (zero).
     pub(crate) _pad: f32,
 }
 
-/// One mask to draw (members as documented in shaders/mask.wgsl). Keep in sync with `MaskJob`
-/// there.
+/// One mask to draw, as `MaskJob` in shaders/mask.wgsl documents it. Keep in sync.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub(crate) struct MaskJob {
@@ -78,33 +74,28 @@ pub(crate) struct MaskJob {
     pub(crate) range: f32,
     /// The ball radius of one cell: cell, noise and rounding slack (m).
     pub(crate) radius: f32,
-    /// The ball radius of a block of `BLOCK × BLOCK` cells around its middle point: block, noise
+    /// The ball radius of a `BLOCK × BLOCK` block of cells around its middle point: block, noise
     /// and rounding slack (m).
     pub(crate) block_radius: f32,
-    /// Cells along the azimuth.
     pub(crate) az_count: u32,
-    /// Cells along the elevation.
     pub(crate) el_count: u32,
-    /// Where the job's azimuth directions start in the direction table (its blocks' middles
-    /// follow them).
+    /// The job's first azimuth direction in the direction table. Its blocks' middles follow.
     pub(crate) az_offset: u32,
-    /// Where the job's elevation directions start in the direction table (its blocks' middles
-    /// follow them).
+    /// The job's first elevation direction in the direction table. Its blocks' middles follow.
     pub(crate) el_offset: u32,
-    /// Cells of a block along the azimuth (1, 2, 4, 8, 16, 32 or 64; along the elevation
-    /// `64 / block_a`): see [`block_shape`].
+    /// Cells of a block along the azimuth: 1, 2, 4, 8, 16, 32 or 64, and `64 / block_a` along the
+    /// elevation ([`block_shape`]).
     pub(crate) block_a: u32,
 }
 
-/// Byte sizes of the shared structs (checked against naga's layout in src/masks/gpu/source_tests.rs).
+/// Byte sizes of the shared structs. src/masks/gpu/source_tests.rs checks them against naga.
 pub(crate) const MASK_PARAMS_SIZE: usize = 48;
 /// See [`MASK_PARAMS_SIZE`].
 pub(crate) const MASK_JOB_SIZE: usize = 80;
 const _: () = assert!(size_of::<MaskParams>() == MASK_PARAMS_SIZE);
 const _: () = assert!(size_of::<MaskJob>() == MASK_JOB_SIZE);
 
-/// Bindings of `shaders/mask.wgsl`: params, edges, jobs, dirs, bits, summaries (the masks'
-/// bounds).
+/// Bindings of `shaders/mask.wgsl`: params, edges, jobs, dirs, bits, summaries (masks' bounds).
 pub(crate) const MASK_BINDINGS: [Binding; 6] = [
     Binding::Uniform,
     Binding::Read,
@@ -122,27 +113,26 @@ pub(crate) const MASK_REDUCE_BINDINGS: [Binding; 4] = [
     Binding::ReadWrite,
 ];
 
-/// Threads per workgroup of the mask stage, one per cell of a block (WGSL `@workgroup_size` in
-/// mask.wgsl; checked in src/masks/gpu/source_tests.rs).
+/// Threads per workgroup of the mask stage, one per cell of a block. WGSL `@workgroup_size` in
+/// mask.wgsl, checked in src/masks/gpu/source_tests.rs.
 pub(crate) const MASK_WORKGROUP: u64 = 64;
 const _: () = assert!(MASK_WORKGROUP as usize == BLOCK * BLOCK);
 /// Threads per workgroup of the reduce stage (checked in src/masks/gpu/source_tests.rs).
 pub(crate) const MASK_REDUCE_WORKGROUP: u64 = 64;
 /// Words a mask's summary takes in the reduce stage's output.
 const SUMMARY_WORDS: usize = 5;
-/// The most workgroups along x (blocks, or a mask's words, are strided beyond).
+/// The most workgroups along x. Beyond it, workgroups stride over blocks or a mask's words.
 const MAX_TILES: u64 = 4096;
-/// The most direction-table entries kept between pings (8 MiB); past it the tables start afresh.
+/// The most direction-table entries kept between pings (8 MiB). Past it, the tables start afresh.
 const MAX_TABLE_ENTRIES: usize = 1 << 20;
 
-/// Returns the most workgroups a mask gets along x in the draw and the reduce stage: many on a
-/// hardware GPU (its cores run them at once); few on a software adapter such as lavapipe, which
-/// pays a fixed cost a workgroup on the CPU's cores — there the workgroups stride over the
-/// blocks and words instead (100-feature ping on lavapipe, 2 cores: 29–30 ms with 4096, 13.5–14
-/// ms with one draw workgroup and four reduce workgroups a mask, 8.7–9.0 ms once the beam search
-/// starts from a guess, 6.8–7.0 ms once the reduce reads only the rows of each mask's box, kept
-/// by the draw stage without a workgroup barrier, 4.5–4.6 ms once a ping's jobs are spread over
-/// the rows ([`rows_of_jobs`]); `bench masks`).
+/// Returns the most workgroups a mask gets along x in the draw and the reduce stage.
+///
+/// A hardware GPU gets many, since its cores run them at once. A software adapter such as
+/// lavapipe pays a fixed cost per workgroup on the CPU's cores. It gets few, which stride over
+/// the blocks and words instead. On lavapipe with 2 cores (`bench masks`), a 100-feature ping
+/// took 29–30 ms with 4096 workgroups and 13.5–14 ms with one draw and four reduce workgroups a
+/// mask. Later shader work and [`rows_of_jobs`] brought it to 4.5–4.6 ms.
 fn tiles(ctx: &GpuContext) -> (u64, u64) {
     if ctx.is_software() {
         (1, 4)
@@ -151,13 +141,14 @@ fn tiles(ctx: &GpuContext) -> (u64, u64) {
     }
 }
 
-/// Returns the workgroup row (dispatch order) of each of a dispatch's `n` jobs: job `k` in row
-/// `k · s mod n`, `s` the first stride from `0.618 n` up that is coprime with `n`, so that any
-/// run of consecutive rows holds jobs from all over the ping. A software adapter such as
-/// lavapipe gives each of its threads a run of consecutive workgroups, and a ping's features
-/// in order (by range, as a detector lists them) would give the runs unequal work: the
-/// 100-feature ping on lavapipe, 2 cores, took 6.7–6.9 ms in job order and 4.5 ms spread
-/// (`bench masks`). Results are handed out in job order whatever the rows.
+/// Returns the workgroup row (dispatch order) of each of a dispatch's `n` jobs.
+///
+/// Job `k` goes in row `k · s mod n`, where `s` is the first stride from `0.618 n` up that is
+/// coprime with `n`. So any run of consecutive rows holds jobs from all over the ping. A
+/// software adapter such as lavapipe gives each thread a run of consecutive workgroups. Features
+/// in order (by range, as a detector lists them) would give the runs unequal work. A 100-feature
+/// ping on lavapipe, 2 cores, took 6.7–6.9 ms in job order and 4.5 ms spread (`bench masks`).
+/// Results are handed out in job order whatever the rows.
 fn rows_of_jobs(n: usize) -> Vec<usize> {
     const fn gcd(a: usize, b: usize) -> usize {
         if b == 0 { a } else { gcd(b, a % b) }
@@ -177,16 +168,14 @@ fn rows_of_jobs(n: usize) -> Vec<usize> {
 
 /// One mask for the GPU to draw: the pose and the plan.
 pub(crate) struct Job {
-    /// The pose.
     pub(crate) pose: RelativePose,
     /// The cells and radius.
     pub(crate) plan: Plan,
 }
 
-/// What the GPU returns of a ping: the union and each mask's reduction, and the masks
-/// themselves when they were asked for (all in sonar 2's layout).
+/// What the GPU returns of a ping, in sonar 2's layout: the union, each mask's reduction, and
+/// the masks themselves when asked for.
 pub(crate) struct Drawn {
-    /// The union of the masks.
     pub(crate) union: Occupancy,
     /// Per mask, its pixel count and bounds.
     pub(crate) reduced: Vec<Reduced>,
@@ -194,23 +183,23 @@ pub(crate) struct Drawn {
     pub(crate) masks: Option<Vec<Occupancy>>,
 }
 
-/// Returns the radius (m) added to every ball on the GPU to cover the f32 rounding of a set at
+/// Returns the radius (m) added to every ball on the GPU to cover f32 rounding, for a set at
 /// range `r` under `pose` in `layout` ([`MASK_F32_SLACK`], [`MASK_F32_FLOOR`]).
 pub(crate) fn slack(r: f64, pose: &RelativePose, layout: &Layout) -> f64 {
     MASK_F32_SLACK * (r + pose.translation.length() + layout.range_max) + MASK_F32_FLOOR
 }
 
-/// What the engine keeps on the device between pings: the tables, and two slots' pools of
-/// buffers and the bind groups made of them (made again only when a buffer is), so that two
-/// dispatches can be in flight ([`GpuMasks::draw_pings`]).
+/// What the engine keeps on the device between pings: the tables, and two slots of buffer pools
+/// with their bind groups. A bind group is remade only when one of its buffers is. Two slots
+/// let two dispatches be in flight ([`GpuMasks::draw_pings`]).
 #[derive(Default)]
 struct State {
     tables: Tables,
     slots: [BufferPool; 2],
 }
 
-/// A dispatch submitted and not yet read: its slot, the workgroup row of each of its jobs
-/// ([`rows_of_jobs`]), whether it copied the masks too, and what to read after which submission.
+/// A dispatch submitted and not yet read: its slot, each job's workgroup row ([`rows_of_jobs`]),
+/// whether it copied the masks too, and what to read after which submission.
 struct Pending {
     slot: usize,
     rows: Vec<usize>,
@@ -256,7 +245,7 @@ impl GpuMasks {
     /// Returns the pipelines for sonar 2's `layout` on `ctx`.
     ///
     /// # Errors
-    /// [`Error::InvalidValue`] for an azimuth aperture of 180° or more; [`Error::Gpu`] when the
+    /// [`Error::InvalidValue`] for an azimuth aperture of 180° or more. [`Error::Gpu`] when the
     /// device refuses a stage.
     pub(crate) fn new(ctx: GpuContext, layout: &Layout) -> Result<GpuMasks> {
         let ha = layout.half_azimuth;
@@ -327,7 +316,7 @@ impl GpuMasks {
         format!("{} (f32 with rounding slack)", context::describe(self.ctx.info()))
     }
 
-    /// The largest storage binding the stages use (at most 256 MiB).
+    /// Returns the largest storage binding the stages use (at most 256 MiB).
     fn binding_limit(&self) -> u64 {
         self.ctx
             .limits()
@@ -336,11 +325,11 @@ impl GpuMasks {
             .min(256 << 20)
     }
 
-    /// Returns the union and reductions of the masks of `jobs` (a pose and a plan each), and the
-    /// masks themselves when `masks`, in order and in sonar 2's layout.
+    /// Returns the union and reductions of the masks of `jobs` (a pose and a plan each), in order
+    /// and in sonar 2's layout, and the masks themselves when `masks`.
     ///
     /// # Errors
-    /// [`Error::InvalidValue`] when one job's cell tables exceed what the device can bind;
+    /// [`Error::InvalidValue`] when one job's cell tables exceed what the device can bind.
     /// [`Error::Gpu`] on device failure.
     pub(crate) fn draw(&self, layout: &Layout, jobs: &[Job], masks: bool) -> Result<Drawn> {
         let mut out = None;
@@ -352,10 +341,10 @@ impl GpuMasks {
         Ok(out.expect("one ping"))
     }
 
-    /// Gives `emit` [`GpuMasks::draw`] of each ping of `pings` (its index and drawing), in order,
-    /// as soon as the ping is read back, two dispatches in flight: the next ping is planned,
-    /// uploaded and submitted while the GPU draws the one before, and read back after it (so
-    /// `emit` runs while the GPU draws the next), until `emit` answers `Break` (returned).
+    /// Gives `emit` each ping's index and [`GpuMasks::draw`], in order, as soon as it is read back.
+    /// It stops when `emit` answers `Break`, and returns that. Two dispatches are in flight: the
+    /// next ping is planned, uploaded and submitted while the GPU draws the one before, and read
+    /// back after it. So `emit` runs while the GPU draws the next.
     ///
     /// # Errors
     /// As [`GpuMasks::draw`], and `emit`'s errors (which stop it).
@@ -413,13 +402,13 @@ impl GpuMasks {
                 return Ok(Flow::Break(()));
             }
             for (i, (p, r, entries)) in dispatches.into_iter().enumerate() {
-                // The slot this one takes was last used two dispatches ago: read that one first.
+                // This slot was last used two dispatches ago. Read that dispatch first.
                 if in_flight.len() == 2
                     && let Some(oldest) = in_flight.pop_front()
                 {
                     read_back(&mut state, &mut out, &mut left, oldest)?;
                 }
-                // Submitted first, then given out: the GPU draws the next meanwhile.
+                // Submit before giving out, so the GPU draws the next meanwhile.
                 let pending = self.submit(&mut state, i % 2, layout, &pings[p][r], entries, masks)?;
                 in_flight.push_back((p, pending));
                 if give_out(&mut out, &left, &mut next)?.is_break() {
@@ -435,25 +424,25 @@ impl GpuMasks {
             Ok(Flow::Continue(()))
         })();
         if !matches!(result, Ok(Flow::Continue(()))) {
-            // A failed dispatch or readback may leave a staging buffer mapped, and a stream
-            // ended early leaves dispatches unread: start afresh.
+            // A failed dispatch or readback may leave a staging buffer mapped. A stream ended
+            // early leaves dispatches unread. Either way, start afresh.
             *state = State::default();
         }
         result
     }
 
-    /// Returns the dispatches `jobs` are drawn in: their ranges of jobs and the table entries
-    /// each may add.
+    /// Returns the dispatches `jobs` are drawn in: each one's range of jobs and the table entries
+    /// it may add.
     ///
     /// # Errors
     /// As [`GpuMasks::draw`].
     fn dispatches(&self, jobs: &[Job]) -> Result<Vec<(std::ops::Range<usize>, usize)>> {
         let words = u64::from(self.params.words_per_mask);
         let limit = self.binding_limit();
-        // The most entries the tables' binding holds (one job's must fit; a dispatch's too).
+        // The most entries the tables' binding holds. A job's, and a dispatch's, must fit.
         let tables_cap = (limit / 8) as usize;
-        // Jobs per dispatch: the dispatch's y limit, and the bitsets and what is read back of
-        // them (union, summaries, bitsets) within one binding.
+        // Jobs per dispatch: within the y limit, and with the bitsets and what is read back of them
+        // (union, summaries, bitsets) in one binding.
         let per_mask = words * 4 + SUMMARY_WORDS as u64 * 4;
         let per_dispatch = (65_535u64).min(limit.saturating_sub(words * 4) / per_mask).max(1) as usize;
         let mut out = Vec::new();
@@ -483,8 +472,8 @@ impl GpuMasks {
         Ok(out)
     }
 
-    /// Submits the drawing and reduction of one dispatch's worth of `jobs` (whose tables take at
-    /// most `entries` new entries) in `slot`, the masks copied out too when `masks`.
+    /// Submits the drawing and reduction of one dispatch's `jobs` in `slot`, copying the masks out
+    /// too when `masks`. Their tables take at most `entries` new entries.
     fn submit(
         &self,
         state: &mut State,
@@ -494,8 +483,8 @@ impl GpuMasks {
         entries: usize,
         masks: bool,
     ) -> Result<Pending> {
-        // The tables kept between pings stay within MAX_TABLE_ENTRIES (more only for one
-        // dispatch that needs more, up to its binding): past it they start afresh.
+        // Tables kept between pings stay within MAX_TABLE_ENTRIES and start afresh past it. Only
+        // a dispatch that needs more may go further, up to its binding.
         let keep = MAX_TABLE_ENTRIES
             .min((self.binding_limit() / 8) as usize)
             .max(entries);
@@ -595,8 +584,7 @@ impl GpuMasks {
         } = pending;
         let jobs = rows.len();
         debug_assert!(!masks || drawn.masks.is_some());
-        // Read where it was mapped: the union, the summaries and the masks go straight into
-        // their own vectors.
+        // Read in place: the union, summaries and masks go straight into their own vectors.
         read_after(&self.ctx, &staging, read_bytes, Some(index), |raw| {
             for (u, w) in drawn.union.words.iter_mut().zip(&raw[..words]) {
                 *u |= w;
@@ -624,8 +612,8 @@ impl GpuMasks {
 }
 
 /// Returns `jobs` as the mask stage reads them, in the order of their rows ([`rows_of_jobs`]),
-/// their cell tables added to `tables`; with the row of each job and the most blocks of cells
-/// one job has.
+/// with each job's row and the most blocks of cells in one job. Adds their cell tables to
+/// `tables`.
 fn pack_jobs(tables: &mut Tables, layout: &Layout, jobs: &[Job]) -> (Vec<MaskJob>, Vec<usize>, u64) {
     let mut max_blocks = 1u64;
     let rows = rows_of_jobs(jobs.len());
@@ -642,8 +630,8 @@ fn pack_jobs(tables: &mut Tables, layout: &Layout, jobs: &[Job]) -> (Vec<MaskJob
             let (ba, be) = block_shape(na, ne);
             max_blocks = max_blocks.max((na.div_ceil(ba) * ne.div_ceil(be)) as u64);
             let slack = slack(plan.range, pose, layout);
-            // A block's half-extents are those of its cells (fewer at a grid's end, which
-            // this covers), as `View::blocks` measures them.
+            // A block's half-extents are those of its cells, as `View::blocks` measures them.
+            // This also covers the smaller blocks at a grid's end.
             let block_half = (na.min(ba) as f64 * cells.half.0, ne.min(be) as f64 * cells.half.1);
             let block_radius = plan.range * block_half.0.hypot(block_half.1) + plan.noise_radius + slack;
             let t = pose.translation;
@@ -671,10 +659,10 @@ fn pack_jobs(tables: &mut Tables, layout: &Layout, jobs: &[Job]) -> (Vec<MaskJob
 mod tests {
     use super::rows_of_jobs;
 
-    /// Every job gets one row of its own, and every run of a tenth, a quarter or a half of the
-    /// rows holds jobs from all over the ping: their mean index is within an eighth of the
-    /// middle (in job order it would be off by up to 45%), so features listed by range give
-    /// lavapipe's threads runs of like work.
+    /// Every job gets a row of its own, and every run of a tenth, quarter or half of the rows holds
+    /// jobs from all over the ping. Their mean index is within an eighth of the middle (in job
+    /// order it would be off by up to 45%). So features listed by range give lavapipe's threads
+    /// runs of like work.
     #[test]
     fn rows_of_jobs_spread_a_permutation() {
         for n in 0..300 {

@@ -1,5 +1,5 @@
-//! The WGSL sources of the two mask stages, each assembled from its parts (WGSL has no
-//! includes), each part after the ones it reads: the cells a block holds (generated from
+//! The WGSL sources of the two mask stages. WGSL has no includes, so each is assembled from
+//! parts, each after the ones it reads: the cells a block holds (generated from
 //! [`crate::masks::plan::BLOCK`]), sonar 2 as both stages see it
 //! (`shaders/shared/mask_params.wgsl`), then the stage.
 

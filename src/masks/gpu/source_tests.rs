@@ -63,8 +63,8 @@ fn mask_structs_match_the_rust_layout() {
     assert_eq!(wgsl_members(&m, "MaskJob"), want);
 }
 
-/// The mask stage's block holds the mask planner's BLOCK × BLOCK cells, one per thread; the
-/// constant is generated, never hand-written.
+/// The mask stage's block holds the planner's BLOCK × BLOCK cells, one per thread. The constant
+/// is generated, never hand-written.
 #[test]
 fn cells_of_a_block_match_the_planner() {
     let m = module(&mask(), "mask");

@@ -13,14 +13,13 @@ use crate::masks::plan::BLOCK;
 /// A table's first and last angle's bits, count and block size.
 type TableKey = (u64, u64, usize, usize);
 
-/// The direction tables of cell grids, kept on the device between pings: a grid of cells
-/// depends on its count (and an arc's azimuth on the feature), not on the pose, so pings after
-/// the first mostly find theirs here. Each table holds its cells' directions, then its blocks'
-/// middles (`ceil(count / block)` for the block's size along that axis).
+/// The direction tables of cell grids, kept on the device between pings. A grid depends on its
+/// count (and an arc's azimuth on the feature), not on the pose, so pings after the first mostly
+/// find theirs here. Each table holds its cells' directions, then its blocks' middles
+/// (`ceil(count / block)`, for the block's size along that axis).
 #[derive(Default)]
 pub(super) struct Tables {
-    /// Offset of each table by its first and last angle's bits, count and block size, with its
-    /// angles.
+    /// Each table's offset and angles, by its first and last angle's bits, count and block size.
     index: HashMap<TableKey, (u32, Vec<f64>)>,
     /// Every entry, as on the device.
     pub(super) host: Vec<[f32; 2]>,
@@ -30,11 +29,11 @@ pub(super) struct Tables {
     pub(super) buffer: Option<wgpu::Buffer>,
 }
 
-/// Returns the cells of a GPU block along the azimuth and the elevation for a grid of `na × ne`
-/// cells: 64 cells (a workgroup's threads), `BLOCK × BLOCK` unless the grid is thinner than
-/// `BLOCK` along one axis (an arc is one azimuth; a sidescan's surface a few elevations), where
-/// the block takes the grid's width (rounded up to a power of two) and is longer along the other
-/// axis, so the threads are not left idle. Any shape is as safe: a block's ball covers its cells'.
+/// Returns the cells of a GPU block along the azimuth and the elevation, for `na × ne` cells.
+/// A block has 64 cells, one per workgroup thread, in `BLOCK × BLOCK`. A grid thinner than
+/// `BLOCK` along one axis (an arc is one azimuth; a sidescan's surface a few elevations) gets
+/// blocks as wide as the grid, rounded up to a power of two, and longer along the other axis.
+/// So no thread is idle. Any shape is as safe, since a block's ball covers its cells'.
 pub(super) fn block_shape(na: usize, ne: usize) -> (usize, usize) {
     let cells = BLOCK * BLOCK;
     if na < BLOCK {
@@ -54,8 +53,7 @@ pub(super) fn table_entries(n: usize, block: usize) -> usize {
 }
 
 impl Tables {
-    /// Returns where the table of `angles` in blocks of `block` starts, adding it when it is
-    /// new.
+    /// Returns where the table of `angles` in blocks of `block` starts, adding it when new.
     pub(super) fn offset(&mut self, angles: &[f64], block: usize) -> u32 {
         let key = (
             angles.first().map_or(0, |a| a.to_bits()),
@@ -71,7 +69,7 @@ impl Tables {
         let at = self.host.len() as u32;
         let dir = |a: f64| [a.cos() as f32, a.sin() as f32];
         self.host.extend(angles.iter().map(|&a| dir(a)));
-        // A block's middle: halfway between its first and last cell's centres, as
+        // A block's middle is halfway between its first and last cell's centres, as
         // `View::blocks` takes it.
         self.host
             .extend(angles.chunks(block).map(|b| dir((b[0] + b[b.len() - 1]) / 2.0)));
@@ -86,8 +84,8 @@ impl Tables {
         self.uploaded = 0;
     }
 
-    /// Puts the entries added since the last call on the device, growing its buffer (a new one,
-    /// so bind groups made of the old one are made again) when needed.
+    /// Puts the entries added since the last call on the device. A buffer that must grow is
+    /// replaced, so bind groups made of the old one are made again.
     pub(super) fn upload(&mut self, ctx: &GpuContext) {
         let bytes = (self.host.len().max(2) * 8) as u64;
         let fits = self.buffer.as_ref().is_some_and(|b| b.size() >= bytes);
