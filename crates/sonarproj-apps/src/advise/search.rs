@@ -40,12 +40,12 @@ pub fn better(a: &Score, b: &Score) -> bool {
     }
 }
 
-/// Returns `n` rotations spread uniformly over SO(3), as roll, pitch, yaw (deg, paper convention).
+/// Returns `n` rotations spread uniformly over SO(3), as roll, pitch, yaw in degrees.
 /// They come from the super-Fibonacci spiral of unit quaternions (M. Alexa, "Super-Fibonacci
 /// Spirals: Fast, Low-Discrepancy Sampling of SO(3)", CVPR 2022). Point `i` sits at height
 /// `s = (i + ½) / n` on two circles turned by the irrational ratios √2 and ψ (ψ⁴ = ψ + 4). Each
-/// is taken as the active rotation `Rz(yaw) Ry(pitch) Rx(roll)`, `R`'s transpose. That is fine:
-/// the inverse of a uniform rotation is uniform too.
+/// is taken as the active rotation `Rz(yaw) Ry(pitch) Rx(roll)`, `R`'s transpose in the paper's
+/// convention. That is fine: the inverse of a uniform rotation is uniform too.
 #[must_use]
 pub fn uniform_rotations(n: usize) -> Vec<[f64; 3]> {
     use glam::{DQuat, EulerRot};
@@ -134,7 +134,7 @@ pub fn free_axes(axes: &[Vec<f64>; 6]) -> ([bool; 6], [f64; 6]) {
     (free, spacing)
 }
 
-/// Refines each of `starts` by pattern search over the free axes; returns every candidate scored.
+/// Refines `starts` by pattern search over the free axes and returns every candidate scored.
 /// Steps start at half the cover's spacing. The best one-step move along a free axis (either
 /// way) is taken while it lowers the score; else the steps halve, down to each axis's `finest`.
 /// No move leaves `bounds`, so offsets stay within the searched box.
