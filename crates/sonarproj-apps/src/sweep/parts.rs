@@ -170,7 +170,6 @@ fn write_json_with<T: Serialize>(path: &Path, value: &T, sync: bool) -> Result<(
     }
 }
 
-/// Returns the record of part `file` when it says the part is what `expected` describes.
 fn check_record(file: &Path, expected: Expected<'_>) -> std::result::Result<PartRecord, String> {
     let path = record_path(file);
     let text = std::fs::read(&path).map_err(|e| match e.kind() {
@@ -197,7 +196,6 @@ fn check_record(file: &Path, expected: Expected<'_>) -> std::result::Result<Part
     Ok(record)
 }
 
-/// Returns the file name of `path` for messages.
 fn name(path: &Path) -> String {
     path.file_name().map_or_else(
         || path.display().to_string(),
@@ -408,9 +406,6 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
     }
 
     /// Adds the rows of part `part`, checked against its record before and after reading.
-    ///
-    /// # Errors
-    /// As [`join_parquet`].
     pub(crate) fn add_file(&mut self, part: &Path, last: bool) -> Result<()> {
         let damaged = |message: String| Error::Csv {
             context: part.display().to_string(),
@@ -434,9 +429,6 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
     }
 
     /// Adds the rows of the Parquet `bytes` just written as part `part`.
-    ///
-    /// # Errors
-    /// As [`join_parquet`].
     pub(crate) fn add_bytes(&mut self, bytes: bytes::Bytes, part: &Path, last: bool) -> Result<()> {
         let opened = crate::io::parquet::open_part_bytes(bytes, part, self.columns, self.kinds)?;
         self.add(&opened, part, last)
@@ -476,7 +468,7 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
 }
 
 /// Returns the encoding shared by a sweep's chunks, shards and result, so row groups copy as-is.
-/// Snappy pages, statistics, and dictionaries for the pose columns, whose values repeat.
+/// It uses Snappy pages, statistics, and dictionaries for the pose columns, whose values repeat.
 #[must_use]
 pub fn final_encoding(columns: &[String]) -> crate::io::parquet::Encoding<'_> {
     let poses = crate::sweep::columns::pose_column_count(columns);

@@ -45,10 +45,7 @@ pub fn default_chunk_poses(config: &SweepConfig) -> u64 {
     }
 }
 
-/// Returns an error unless `chunk_poses` is in `[1, MAX_CHUNK_POSES]`.
-///
-/// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `field`.
+/// Returns an error naming `field` unless `chunk_poses` is in `[1, MAX_CHUNK_POSES]`.
 pub(crate) fn check_chunk_poses(chunk_poses: u64, field: impl Into<Field>) -> Result<()> {
     if (1..=MAX_CHUNK_POSES).contains(&chunk_poses) {
         return Ok(());
@@ -93,9 +90,6 @@ pub(crate) struct Computed {
 
 impl<'a> Plan<'a> {
     /// Returns the plan of `config` (described by `desc`) or its `shard`, in `chunk_poses` chunks.
-    ///
-    /// # Errors
-    /// As [`resolve_sigma_range`].
     pub(crate) fn new(
         config: &'a SweepConfig,
         desc: Descriptor,
@@ -127,7 +121,6 @@ impl<'a> Plan<'a> {
         Ok(plan)
     }
 
-    /// Returns the number of poses of this run.
     pub(crate) fn poses(&self) -> u64 {
         self.range.end - self.range.start
     }
@@ -143,9 +136,6 @@ impl<'a> Plan<'a> {
 
     /// Returns an error when the run has more than [`MAX_CHUNKS`] chunks.
     /// It names `field`, where the chunk size came from, and the smallest chunk size that works.
-    ///
-    /// # Errors
-    /// [`sonarproj::Error::InvalidValue`] naming `field`.
     pub(crate) fn check_chunk_count(&self, field: impl Into<Field>) -> Result<()> {
         let (poses, n_chunks) = (self.poses(), self.chunks);
         if n_chunks <= MAX_CHUNKS {
@@ -167,16 +157,12 @@ impl<'a> Plan<'a> {
         ))
     }
 
-    /// Returns the poses of chunk `c` of this run.
     pub(crate) fn chunk(&self, c: u64) -> Range<u64> {
         let (cp, first) = (self.chunk_poses, self.range.start / self.chunk_poses);
         ((first + c) * cp).max(self.range.start)..((first + c + 1) * cp).min(self.range.end)
     }
 
     /// Returns what every chunk's computation shares.
-    ///
-    /// # Errors
-    /// As [`Work::new`].
     pub(crate) fn work(&self) -> Result<Work<'_>> {
         Work::new(self.config, &self.desc.columns, &self.kinds, self.sigma)
     }

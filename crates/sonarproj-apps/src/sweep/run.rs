@@ -168,9 +168,6 @@ pub fn run(
 /// Returns the plan of the run `opts` asks for, with its chunk size checked.
 /// The size is the one given, else the unfinished run's (of this sweep; another is refused
 /// later), else the default. An error names where the size came from.
-///
-/// # Errors
-/// As [`Plan::new`], [`check_chunk_poses`] and [`Plan::check_chunk_count`].
 fn plan<'a>(config: &'a SweepConfig, opts: &Options) -> Result<Plan<'a>> {
     let desc = descriptor(config)?;
     let stem = state::stem(opts.shard);
@@ -274,9 +271,6 @@ fn finished_before(
 /// Computes the unfinished chunks, writing each while the next is computed.
 /// Once all are done, writes the settings record, the result and the summaries.
 /// Returns `Break` when the run stopped first (`max_chunks`, or `events`).
-///
-/// # Errors
-/// Errors of the backend, of reading finished chunks and of writing files.
 fn compute_and_write(
     files: &Files<'_>,
     backend: &Backend,
@@ -374,7 +368,6 @@ fn compute_and_write(
     })
 }
 
-/// Returns the event that says `file` was set aside (`reason`) and is computed again.
 fn recomputing((file, reason): (PathBuf, String)) -> Event {
     Event::Recomputing { file, reason }
 }
@@ -395,9 +388,6 @@ fn joins_as_chunks_finish(files: &Files<'_>, opts: &Options, budget: u64) -> boo
 
 /// Computes chunk `c` as CSV rows written straight into its file.
 /// Returns it with the values its summary reduces; its table is already on disk.
-///
-/// # Errors
-/// Errors of the backend and of writing the chunk.
 fn csv_chunk(files: &Files<'_>, backend: &Backend, c: u64) -> Result<Computed> {
     let plan = files.plan;
     let poses = plan.chunk(c);
@@ -418,9 +408,6 @@ fn csv_chunk(files: &Files<'_>, backend: &Backend, c: u64) -> Result<Computed> {
 
 /// Writes a finished run's results. Settings go first, so a result never stands without them.
 /// The summary goes last, after the table, so a summary beside a table means the table is whole.
-///
-/// # Errors
-/// Errors of joining the chunks and writing the files.
 fn write_results(
     files: &Files<'_>,
     opts: &Options,

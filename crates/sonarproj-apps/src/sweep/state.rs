@@ -94,10 +94,7 @@ impl<'a> Files<'a> {
         }
     }
 
-    /// Returns an error unless every result file can be written (not a directory, say).
-    ///
-    /// # Errors
-    /// As [`check_output_file`], naming `--out`.
+    /// Returns an error naming `--out` unless every result file can be written.
     pub(crate) fn check_writable(&self) -> Result<()> {
         self.results()
             .iter()
@@ -118,7 +115,6 @@ impl<'a> Files<'a> {
         }
     }
 
-    /// Returns the table file of chunk `c`.
     pub(crate) fn chunk_path(&self, c: u64) -> PathBuf {
         self.state
             .join(format!("chunk-{c:08}.{}", self.format.extension()))
@@ -188,9 +184,6 @@ impl<'a> Files<'a> {
 
     /// Writes chunk `c` (poses `r`): its Parquet table, if any, and the summary of its `values`,
     /// if asked. Returns both: the table encoded for the result's join, the summary for the total.
-    ///
-    /// # Errors
-    /// Errors of encoding and writing the files, and of the summary.
     pub(crate) fn write_chunk(
         &self,
         c: u64,

@@ -6,8 +6,6 @@
 //! Every reduction is exact and order-independent, so the same poses give the same bits whatever
 //! the chunking, threads or shards. Ties go to the lower pose index, histograms count, and means
 //! divide a fixed-point sum (an integer of 2^-[`FIXED_BITS`] units).
-//!
-//! `spec` reads and checks a sweep file's `[summary]`. `part` is a part's sparse form on disk.
 
 mod part;
 mod spec;
@@ -154,12 +152,10 @@ pub(crate) fn fill_means(s: &mut Summary) {
     }
 }
 
-/// Orders ranked poses by value, then index.
 fn ascending(a: &Ranked, b: &Ranked) -> std::cmp::Ordering {
     a.value.total_cmp(&b.value).then(a.index.cmp(&b.index))
 }
 
-/// Orders ranked poses by value, largest first, then index.
 fn descending(a: &Ranked, b: &Ranked) -> std::cmp::Ordering {
     b.value.total_cmp(&a.value).then(a.index.cmp(&b.index))
 }
@@ -217,8 +213,8 @@ impl<const ASCENDING: bool> Best<ASCENDING> {
 
     #[inline]
     fn offer(&mut self, r: Ranked) {
-        // A value behind the bound is out at once. The total order settles a tie.
-        // (No NaN reaches here, and -0 == +0 only ties.)
+        // A value behind the bound is out at once; a tie goes by the total order.
+        // No NaN reaches here, and -0 == +0 only ties.
         let behind = |b: Ranked| {
             let by_value = if ASCENDING {
                 r.value > b.value
@@ -261,7 +257,6 @@ impl<const ASCENDING: bool> Best<ASCENDING> {
 struct Odometer(Vec<[u64; 5]>);
 
 impl Odometer {
-    /// Returns the odometer of a marginal over `axes` of `grid` at pose `first`.
     fn new(grid: &Grid, axes: &[String], first: u64) -> Odometer {
         let mut digits = Vec::with_capacity(axes.len());
         let mut weight = 1u64;
@@ -440,9 +435,6 @@ impl SummarySpec {
     /// Returns [`SummarySpec::summarise`]'s summary of `values` (NaN: no value), without means.
     /// Parts keep this form and [`SummarySpec::merge_into`] adds it up. [`fill_means`] derives
     /// the means once at the end.
-    ///
-    /// # Errors
-    /// As [`SummarySpec::summarise`].
     pub(crate) fn partial(&self, grid: Option<&Grid>, first: u64, values: &[f64]) -> Result<Summary> {
         // Pieces run on all cores, each added to its thread's running summary. The few running
         // summaries are then combined. Every reduction is exact and order-independent, so the
