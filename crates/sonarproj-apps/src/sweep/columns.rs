@@ -68,9 +68,6 @@ pub(crate) fn default_metric(target: SonarKind, kept: &[&str]) -> Metric {
 /// Checks sweep file `f`'s `columns` (`kept`) against the rest of it (`top`).
 /// A table must be written (no `[summary]` with `rows = false`), and it must keep the figure's
 /// `metric` when the file names one.
-///
-/// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `columns` or `metric`.
 pub(crate) fn check_columns(
     f: ConfigFile<'_>,
     top: &toml::Table,
@@ -137,7 +134,6 @@ pub(crate) fn pose_column_count(columns: &[String]) -> usize {
 /// What fills a result column of a sweep table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Fill {
-    /// A metric.
     Metric(Metric),
     /// The local precision's range per elevation.
     RangePerElevation,
@@ -157,7 +153,6 @@ pub(crate) fn fill_of(name: &str) -> Fill {
     }
 }
 
-/// Returns the metrics among a table's result `columns`.
 pub(crate) fn kept_metrics(columns: &[&str]) -> Vec<Metric> {
     columns.iter().filter_map(|c| Metric::from_name(c)).collect()
 }

@@ -79,9 +79,6 @@ impl<'a> Work<'a> {
 
     /// Computes poses `r` on `backend` into `metrics` and, when `rows`, returns their table.
     /// `metrics` keeps its memory between blocks. `stop` works as in [`Backend::project_until`].
-    ///
-    /// # Errors
-    /// As [`Backend::project_columns`] and [`SweepConfig::items_numeric`].
     pub(crate) fn block(
         &self,
         backend: &Backend,
@@ -127,9 +124,6 @@ impl<'a> Work<'a> {
     }
 
     /// Returns the table of poses `r` of a grid sweep, whose `metrics` are projected.
-    ///
-    /// # Errors
-    /// As [`PoseSweep::local_precision_columns`].
     ///
     /// # Panics
     /// For a list sweep (its table comes from [`Work::block`]).

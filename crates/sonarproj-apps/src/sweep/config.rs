@@ -387,9 +387,6 @@ const TOP_KEYS: [&str; 13] = [
 ];
 
 /// Returns key `key` of `top` holding one positive number (in `unit`), `None` when left out.
-///
-/// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming the key otherwise.
 fn positive(f: ConfigFile<'_>, top: &toml::Table, key: &str, unit: &str) -> Result<Option<f64>> {
     let Some(v) = top.get(key) else { return Ok(None) };
     match f.values(key, v)?.as_slice() {
@@ -400,9 +397,6 @@ fn positive(f: ConfigFile<'_>, top: &toml::Table, key: &str, unit: &str) -> Resu
 
 /// Returns the metric the file names for its figure (`metric`), or `None` when it names none.
 /// The metric must have a label for sonar 2's `kind`.
-///
-/// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `metric` for any other.
 fn named_metric(f: ConfigFile<'_>, top: &toml::Table, kind: SonarKind) -> Result<Option<Metric>> {
     let Some(m) = f.string(top, "metric")? else {
         return Ok(None);

@@ -67,7 +67,6 @@ pub fn run_in_memory(
     let mut summary = plan.spec.map(|s| s.empty(plan.grid));
     let work = plan.work()?;
     let mut metrics = plan.metric_columns();
-    // Adds a chunk's table and summary, when asked for, to the results.
     let mut add = |computed: Computed, _: &sonarproj::MetricColumns| -> Result<ControlFlow<()>> {
         if let (Some(table), Some(part)) = (&mut table, computed.table) {
             table.append(part)?;

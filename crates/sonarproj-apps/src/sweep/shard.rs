@@ -22,8 +22,7 @@ impl Shard {
     /// Returns the shard written `K/N`.
     ///
     /// # Errors
-    /// [`sonarproj::Error::InvalidValue`] naming the shard ([`crate::params::SHARD`]) unless
-    /// `1 <= K <= N`.
+    /// [`sonarproj::Error::InvalidValue`] naming the shard unless `1 <= K <= N`.
     pub fn parse(text: &str) -> Result<Shard> {
         let bad = || {
             Error::invalid(

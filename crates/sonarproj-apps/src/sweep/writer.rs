@@ -73,9 +73,6 @@ impl<'s, 'e> Writer<'s, 'e> {
     }
 
     /// Settles the chunk before, then starts writing `computed` on a thread of its own.
-    ///
-    /// # Errors
-    /// As [`Writer::settle`].
     pub(crate) fn write(&mut self, computed: Computed) -> Result<()> {
         self.settle()?;
         let files = self.files;
@@ -116,9 +113,6 @@ impl<'s, 'e> Writer<'s, 'e> {
     }
 
     /// Tells the joiner every chunk is in and waits for the result, if it is joined this way.
-    ///
-    /// # Errors
-    /// The joiner's error.
     pub(crate) fn finish_join(&mut self) -> Result<()> {
         match self.joiner.take() {
             Some(joiner) => joiner.finish(),
@@ -157,7 +151,6 @@ impl Joiner<'_> {
         }
     }
 
-    /// Tells the joiner every chunk is in and waits for the result to be written.
     fn finish(self) -> Result<()> {
         // A joiner that has stopped on an error has dropped its receiver: its error is returned.
         let _ = self.tx.send(ToJoin::Finish);
