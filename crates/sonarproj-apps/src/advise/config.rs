@@ -280,11 +280,8 @@ impl AdviseConfig {
         Ok(config)
     }
 
-    /// Returns an error unless the rig makes a valid pose and every candidate's translation,
-    /// at most the rig's reach long, stays within the engine's bound.
-    ///
-    /// # Errors
-    /// [`sonarproj::Error::InvalidValue`] naming `rig`.
+    /// Returns an error naming `rig` unless it makes a valid pose and every candidate's
+    /// translation, at most the rig's reach long, stays within the engine's bound.
     fn check_reach(&self, f: ConfigFile<'_>) -> Result<()> {
         let reach = self.reach();
         if reach > sonarproj::limits::MAX_TRANSLATION {
@@ -401,9 +398,6 @@ fn objective(f: ConfigFile<'_>, top: &toml::Table) -> Result<Objective> {
 
 impl Search {
     /// Returns `[search]` (`search`) read for `rig`.
-    ///
-    /// # Errors
-    /// [`sonarproj::Error::InvalidValue`] naming the key.
     fn read(f: ConfigFile<'_>, search: &toml::Table, rig: Rig) -> Result<Search> {
         f.only("search.", search, &SEARCH_KEYS)?;
         // A uniform cover of the rotations instead of the roll, pitch and yaw grid.

@@ -305,9 +305,6 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
 /// Each carries the local precision at its feature's true point. Each run of poses of one
 /// scenario and fraction is a grid (fixed distances, swept angles), decoded where the work runs
 /// ([`Backend::project_columns`]). The results match the batch items of the same poses.
-///
-/// # Errors
-/// As [`Backend::project_columns`].
 fn project_grids(
     backend: &Backend,
     direction: Direction,

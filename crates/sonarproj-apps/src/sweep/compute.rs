@@ -55,9 +55,6 @@ pub(crate) fn metric_columns(table: Option<&[&str]>, by: Option<sonarproj::Metri
 
 impl<'a> Work<'a> {
     /// Returns the work of `config`, with table `columns` of `kinds` and range error `sigma`.
-    ///
-    /// # Errors
-    /// As [`PoseGrid::new`] (none for a checked sweep file).
     pub(crate) fn new(
         config: &'a SweepConfig,
         columns: &'a [String],

@@ -150,9 +150,6 @@ fn write_with(
 }
 
 /// Writes `value` to `path` as pretty JSON, whole or not at all.
-///
-/// # Errors
-/// [`Error::WriteOutput`] on I/O failure.
 pub(crate) fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
     write_json_with(path, value, true)
 }
@@ -377,9 +374,6 @@ pub(crate) struct ParquetJoin<'a, W: Write + Send> {
 
 impl<'a, W: Write + Send> ParquetJoin<'a, W> {
     /// Returns a join into `w` (the file `out`) of the table `expected` describes.
-    ///
-    /// # Errors
-    /// [`Error::WriteOutput`] when the header cannot be written.
     pub(crate) fn new(
         w: W,
         columns: &'a [String],
@@ -453,9 +447,6 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
     }
 
     /// Writes the footer, after checking that the parts held the expected rows.
-    ///
-    /// # Errors
-    /// [`Error::Csv`] when they did not; [`Error::WriteOutput`] on I/O failure.
     pub(crate) fn finish(self) -> Result<()> {
         if self.rows != self.expected {
             return Err(Error::Csv {

@@ -53,9 +53,6 @@ impl<'s, 'e> Writer<'s, 'e> {
 
     /// Waits for the chunk being written, then adds its summary to the total and its table to
     /// the result's join.
-    ///
-    /// # Errors
-    /// The write's error, or the joiner's.
     pub(crate) fn settle(&mut self) -> Result<()> {
         let Some((c, h)) = self.writing.take() else {
             return Ok(());
@@ -91,9 +88,6 @@ impl<'s, 'e> Writer<'s, 'e> {
 
     /// Takes chunk `c`, finished by an earlier run: its table into the result's join, and its
     /// summary, read back, into the total.
-    ///
-    /// # Errors
-    /// The joiner's error, or a summary part that cannot be read or does not fit this run.
     pub(crate) fn resumed(&mut self, c: u64) -> Result<()> {
         if self.joiner.is_some() {
             self.settle()?;
