@@ -17,8 +17,7 @@ use crate::advise::features::{Features, draw_features};
 use crate::error::Result;
 
 /// Mean, median and 10th/90th percentiles of a set of values, `None` when empty.
-/// Percentiles interpolate linearly at position `q · (n − 1)`, as numpy does by default.
-/// The mean sums in feature order.
+/// The mean sums in feature order. Percentiles interpolate linearly at `q · (n − 1)`, like numpy.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct Stats {
     /// The mean.
@@ -115,8 +114,7 @@ pub struct Pool {
     /// Whether the pool's points are in sonar 2's frame (else sonar 1's).
     in_target: bool,
     /// The points the other sonar may see under some candidate, with their index in the draw.
-    /// Points too far or too near for any translation the rig gives are left out: they would be
-    /// examined and never kept.
+    /// Points out of reach for every translation the rig gives are left out: they'd never be kept.
     points: Vec<(usize, DVec3)>,
     /// How many shared features to keep.
     want: usize,

@@ -199,8 +199,7 @@ pub fn batch(direction: Direction, poses: &[ScenarioPose], sampling: Sampling) -
     batch_at(direction, poses, sampling, |p| distances(p, &source, &target))
 }
 
-/// Returns the batch of `poses` for `direction` with the feature distances `(in sonar 1, in
-/// sonar 2)` (m) given by `at`.
+/// Returns the batch of `poses` for `direction`, with feature distances (m) from `at`.
 fn batch_at(
     direction: Direction,
     poses: &[ScenarioPose],
@@ -302,9 +301,8 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
 }
 
 /// Returns the projections of `poses` for `direction`, in order, with feature distances from `at`.
-/// Each carries the local precision at its feature's true point. Each run of poses of one
-/// scenario and fraction is a grid (fixed distances, swept angles), decoded where the work runs
-/// ([`Backend::project_columns`]). The results match the batch items of the same poses.
+/// Each run of one scenario and fraction is a grid decoded where the work runs
+/// ([`Backend::project_columns`]). Results, local precision included, match the batch items'.
 fn project_grids(
     backend: &Backend,
     direction: Direction,
