@@ -114,7 +114,8 @@ pub struct Pool {
     /// Whether the pool's points are in sonar 2's frame (else sonar 1's).
     in_target: bool,
     /// The points the other sonar may see under some candidate, with their index in the draw.
-    /// Points out of reach for every translation the rig gives are left out: they'd never be kept.
+    /// Points out of reach of every translation the rig gives are left out: they would be
+    /// examined and never kept.
     points: Vec<(usize, DVec3)>,
     /// How many shared features to keep.
     want: usize,

@@ -12,7 +12,7 @@ use crate::sweep::records::Descriptor;
 use crate::sweep::summary::Summary;
 use crate::sweep::table::Format;
 
-/// Draws `DIR/sweep-METRIC.png` from `summary` when the sweep writes no rows; returns its path.
+/// Draws `DIR/sweep-METRIC.png` from `summary` when the sweep writes no rows, returning its path.
 /// It needs a marginal over exactly the varying axes, so each cell is one pose, as in the table.
 pub(crate) fn figure_of_marginal(dir: &Path, d: &Descriptor, summary: &Path) -> Result<Option<PathBuf>> {
     if d.varying.is_empty() || d.varying.len() > 2 || !is_regular(summary) {

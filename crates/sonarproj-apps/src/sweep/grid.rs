@@ -60,7 +60,7 @@ impl Grid {
     }
 
     /// Returns the batch item for axis values `v`, in [`Grid::axes`] order.
-    /// It follows the engine's grid pose, with the first three values as the true point.
+    /// It uses the engine's grid pose, and the first three values as the feature's true point.
     pub(crate) fn item(&self, source: &Sonar, v: &[f64]) -> Result<sonarproj::BatchItem> {
         let v: [f64; 9] = std::array::from_fn(|k| v[k]);
         Ok(sonarproj::BatchItem {

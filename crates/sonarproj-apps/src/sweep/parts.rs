@@ -1,4 +1,4 @@
-//! Sweep parts on disk (chunks, shards, the result), each with a record `NAME.meta.json` beside.
+//! Sweep parts on disk (chunks, shards, the result), each with a record `NAME.meta.json`.
 //!
 //! The record holds the sweep's fingerprint, first pose index, row count, size and CRC-32. A
 //! part counts only when its record and bytes match. This catches truncated, foreign and
@@ -339,7 +339,7 @@ pub fn join(
 ///
 /// Each part's size and checksum are checked before and after reading, its columns against
 /// `columns`. Row groups are cut at multiples of [`GROUP_ROWS`](crate::io::parquet::GROUP_ROWS)
-/// of the pose index, so the same rows make the same file however they were chunked.
+/// of the pose index, so the same rows make the same file however they were chunked or sharded.
 ///
 /// # Errors
 /// [`Error::Csv`] naming a part that is not what its record says or not this sweep's table;
