@@ -32,7 +32,6 @@ pub struct Written {
 /// How many ranked poses `best.json` lists.
 pub(crate) const RANKED: usize = 10;
 
-/// The candidates table's columns.
 const COLUMNS: [&str; 22] = [
     "index",
     "stage",
@@ -139,7 +138,6 @@ pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Writt
     Ok(written)
 }
 
-/// Returns the candidates as a table of [`COLUMNS`].
 #[expect(
     clippy::cast_possible_wrap,
     reason = "candidate and feature counts below 2^63"
@@ -177,7 +175,6 @@ fn candidates_table(names: &[String], kinds: &[Kind], advice: &Advice) -> Table 
     t
 }
 
-/// Returns `best.json`'s contents.
 fn best_json(config: &AdviseConfig, advice: &Advice) -> serde_json::Value {
     let objective = match config.objective {
         Objective::Correspondence => {

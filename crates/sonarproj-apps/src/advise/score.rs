@@ -282,7 +282,6 @@ impl<'a> Scorer<'a> {
         &self.pool
     }
 
-    /// Returns the metric the advisor scores, of one projection.
     fn metric(&self, m: &Metrics) -> f64 {
         match self.config.target.kind {
             SonarKind::Sss => m.span,
