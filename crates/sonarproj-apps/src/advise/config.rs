@@ -1,6 +1,5 @@
-//! Advise files: a TOML description of a sonar pair, the features a rig will see, how sonar 2 is
-//! placed while it turns, the objective, the rotations searched and, optionally, the pose a rig
-//! has now.
+//! Advise files: TOML describing a sonar pair, the features a rig will see, how sonar 2 sits
+//! while it turns, the objective, the rotations searched, and optionally the rig's pose now.
 //!
 //! ```toml
 //! from = "paper-fls"            # sonar 1: preset or sonar TOML file (relative to this file)
@@ -53,11 +52,11 @@ use crate::sweep::config::resolve_sonar;
 /// What the advisor minimises.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Objective {
-    /// The mean projection metric over the shared features: range span for a sidescan sonar 2,
-    /// projection area for an FLS sonar 2 (small: a feature's match is easy to find).
+    /// The mean projection metric over the shared features: range span for an SSS sonar 2,
+    /// projection area for an FLS. Small means a feature's match is easy to find.
     Correspondence,
-    /// The median first-order elevation sigma of the recovered coordinate (deg) over the shared
-    /// features that have one (small: recovery is precise).
+    /// The median first-order elevation sigma (deg) of the recovered coordinate, over the shared
+    /// features that have one. Small means recovery is precise.
     Recovery,
     /// `weight · metric mean / metric_scale + (1 − weight) · sigma median / sigma_scale`.
     Mix {
@@ -128,8 +127,8 @@ pub struct AdviseConfig {
     /// The values covered on each axis of [`AXES`]: roll, pitch, yaw (deg), and the offsets x,
     /// y, z (m) added to the rig's origin or translation.
     pub axes: [Vec<f64>; 6],
-    /// Rotations spread uniformly over SO(3) instead of the roll, pitch, yaw grid (its axes are
-    /// then the single value 0): how many.
+    /// How many rotations to spread uniformly over SO(3) instead of the roll, pitch, yaw grid.
+    /// The grid's axes are then the single value 0.
     pub uniform: Option<usize>,
     /// How many of the best feasible candidates are refined.
     pub refine: usize,
@@ -146,8 +145,7 @@ pub struct AdviseConfig {
 /// The most candidate rotations the cover may have.
 pub const MAX_CANDIDATES: u64 = 1_000_000;
 
-/// The names of the search's axes: the rotation (deg), then the offsets of the rig's origin or
-/// translation (m).
+/// The search's axes: the rotation (deg), then the offsets of the rig's origin or translation (m).
 pub const AXES: [&str; 6] = ["roll", "pitch", "yaw", "x", "y", "z"];
 
 /// Returns the unit of axis `k` of [`AXES`].
@@ -201,8 +199,7 @@ const FROM_POSE_KEYS: [&str; 10] = [
     "gradient_step_m",
 ];
 
-/// What `[search]` says: the values of each axis, a uniform cover instead of the rotation grid,
-/// the refinement and the figure's axes.
+/// What `[search]` says, as the config's fields of the same names.
 struct Search {
     axes: [Vec<f64>; 6],
     uniform: Option<usize>,
@@ -291,12 +288,8 @@ impl AdviseConfig {
         Ok(config)
     }
 
-    /// Returns an error unless every candidate's translation stays within the engine's bound
-    /// (its length is at most the rig's reach) and the rig makes a valid pose (a placement too
-    /// far, say).
-    ///
-    /// # Errors
-    /// [`sonarproj::Error::InvalidValue`] naming `rig`.
+    /// Returns an error naming `rig` unless it makes a valid pose and every candidate's
+    /// translation, at most the rig's reach long, stays within the engine's bound.
     fn check_reach(&self, f: ConfigFile<'_>) -> Result<()> {
         let reach = self.reach();
         if reach > sonarproj::limits::MAX_TRANSLATION {
@@ -336,10 +329,10 @@ impl AdviseConfig {
         }
     }
 
-    /// Returns the largest distance between the two sonars' origins any candidate can have (m):
-    /// for an origin or translation rig its length plus the largest offset the search (its
-    /// cover, which refinement does not leave), the pose now and its moves give it; for a
-    /// placement, the feature's range plus the place's.
+    /// Returns the largest distance (m) any candidate can put between the sonars' origins.
+    /// For an origin or translation rig: its length plus the largest offset of the cover (which
+    /// refinement does not leave), the pose now, and its moves. For a placement: the feature's
+    /// range plus the place's.
     #[must_use]
     pub fn reach(&self) -> f64 {
         match self.rig {
@@ -375,7 +368,7 @@ fn sampling(f: ConfigFile<'_>, top: &toml::Table) -> Result<Sampling> {
     }
 }
 
-/// Returns the objective (`objective`, with `[mix]` for a mix; the default correspondence).
+/// Returns the objective: `objective`, with `[mix]` for a mix. Correspondence by default.
 fn objective(f: ConfigFile<'_>, top: &toml::Table) -> Result<Objective> {
     let objective = match f.string(top, "objective")?.unwrap_or("correspondence") {
         "correspondence" => Objective::Correspondence,
@@ -418,9 +411,6 @@ fn objective(f: ConfigFile<'_>, top: &toml::Table) -> Result<Objective> {
 
 impl Search {
     /// Returns `[search]` (`search`) read for `rig`.
-    ///
-    /// # Errors
-    /// [`sonarproj::Error::InvalidValue`] naming the key.
     fn read(f: ConfigFile<'_>, search: &toml::Table, rig: Rig) -> Result<Search> {
         f.only("search.", search, &SEARCH_KEYS)?;
         // A uniform cover of the rotations instead of the roll, pitch and yaw grid.
@@ -471,8 +461,8 @@ impl Search {
     }
 }
 
-/// Returns the values covered on each axis of [`AXES`] (0 where left out): offsets only with an
-/// origin or translation rig, within ±1000 m.
+/// Returns the values covered on each axis of [`AXES`], 0 where left out.
+/// Offsets need an origin or translation rig, and must be within ±1000 m.
 fn search_axes(f: ConfigFile<'_>, search: &toml::Table, rig: Rig) -> Result<[Vec<f64>; 6]> {
     let mut out: [Vec<f64>; 6] = Default::default();
     for (k, name) in AXES.iter().enumerate() {
@@ -536,8 +526,8 @@ fn landscape(
     }
 }
 
-/// Returns `[from_pose]` (`t`): the rig's pose now (offsets only with an origin or translation
-/// rig) and the sizes of its moves and finite differences.
+/// Returns `[from_pose]` (`t`): the rig's pose now, and the sizes of its moves and finite
+/// differences. Offsets need an origin or translation rig.
 fn from_pose(f: ConfigFile<'_>, t: &toml::Table, rig: Rig) -> Result<FromPose> {
     f.only("from_pose.", t, &FROM_POSE_KEYS)?;
     let get = |k: &str, default: f64, lo: f64, hi: f64, unit: &str| -> Result<f64> {

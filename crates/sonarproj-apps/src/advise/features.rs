@@ -1,5 +1,4 @@
-//! The features an advise file scores candidates over: `[features]` read (a seeded draw's count,
-//! or points of sonar 1) and the draw itself.
+//! The features an advise file scores candidates over: `[features]` read, and the seeded draw.
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -14,11 +13,10 @@ pub const MAX_FEATURES: usize = 1_000_000;
 /// The features candidates are scored over.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Features {
-    /// `count` features of the view both sonars share: a seeded sequence of points drawn
-    /// uniformly over the view (as a volume) of the sonar with the thinner elevation aperture
-    /// (sonar 1 on a tie), taken in order while the other sonar sees them, until `count` are
-    /// kept — the same sequence for every candidate, so neighbouring candidates share most of
-    /// their features.
+    /// `count` features both sonars see, from one seeded sequence for every candidate.
+    /// Points are drawn uniformly over the view volume of the sonar with the thinner elevation
+    /// aperture (sonar 1 on a tie) and kept while the other sonar sees them. So neighbouring
+    /// candidates share most of their features.
     Drawn {
         /// How many to keep.
         count: usize,
@@ -29,8 +27,7 @@ pub enum Features {
     Points(Vec<[f64; 3]>),
 }
 
-/// Returns the features of `[features]`: drawn (a count and a seed) or given as points, each
-/// checked to lie in sonar 1's field of view.
+/// Returns the features of `[features]`: a seeded draw, or given points checked against sonar 1.
 pub(super) fn read(f: ConfigFile<'_>, t: Option<&toml::Table>, source: &Sonar) -> Result<Features> {
     let missing = || f.missing("features", "required: [features] with count (and seed) or points");
     let t = t.ok_or_else(missing)?;
@@ -83,10 +80,9 @@ pub(super) fn read(f: ConfigFile<'_>, t: Option<&toml::Table>, source: &Sonar) -
     Ok(Features::Drawn { count, seed })
 }
 
-/// Returns `count` points drawn uniformly over `sonar`'s field of view as a volume (seeded),
-/// `[range m, azimuth deg, elevation deg]`:
-/// the range's cube uniform between the bounds' cubes, the azimuth uniform, the elevation's sine
-/// uniform, so every cell of equal volume is as likely.
+/// Returns `count` seeded points `[range m, azimuth deg, elevation deg]` uniform in `source`.
+/// The range's cube, the azimuth and the elevation's sine are uniform, so equal volumes are
+/// equally likely.
 #[must_use]
 pub fn draw_features(source: &Sonar, count: usize, seed: u64) -> Vec<[f64; 3]> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);

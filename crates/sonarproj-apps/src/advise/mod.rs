@@ -1,14 +1,12 @@
 //! The rig advisor: which relative rotation of two sonars makes correspondence easy or recovery
-//! precise over the features a rig will see, and which small move improves the pose it has.
+//! precise, and which small move improves the current pose.
 //!
-//! A candidate rotation is scored over a fixed set of features in sonar 1 (drawn over its field of
-//! view, or given): the features whose true point sonar 2 also sees are the shared ones; each
-//! is projected (its range span in a sidescan sonar 2, its projection area in an FLS) and its
-//! recovered coordinate's first-order sigma computed; the objective reduces them
-//! (`config`: correspondence, recovery or a mix). The search covers the rotations asked for,
-//! refines the best by pattern search and, from a given pose, finds the best small move
-//! (`search`). Everything evaluated is written out with the features, so any score can be
-//! recomputed with `sonarproj batch` (`report`).
+//! Candidates are scored over a fixed set of sonar 1 features, drawn or given. The shared
+//! features are those sonar 2 also sees. Each is projected (range span for an SSS sonar 2,
+//! projection area for an FLS) and gets its recovered coordinate's first-order sigma. The
+//! objective (`config`) reduces these for correspondence, recovery or a mix. `search` covers the
+//! asked rotations, refines the best by pattern search, and finds the best small move from a
+//! given pose. `report` writes everything evaluated, so `sonarproj batch` can recompute a score.
 
 pub mod config;
 pub mod features;
@@ -31,8 +29,7 @@ use crate::error::Result;
 pub struct Advice {
     /// Every candidate evaluated, in order, with where it came from.
     pub candidates: Vec<(Stage, Score)>,
-    /// The feasible candidates from best to worst (indices into `candidates`; a rotation
-    /// evaluated twice counted once).
+    /// The feasible candidates, best first, as indices into `candidates`; each rotation once.
     pub ranked: Vec<usize>,
     /// The next-best move, when the advise file gives a pose.
     pub next: Option<Move>,
@@ -99,8 +96,8 @@ pub fn advise(config: &AdviseConfig, backend: &Backend) -> Result<Advice> {
     let next = match config.from_pose {
         None => None,
         Some(p) => {
-            // A search that fixes every axis still turns the pose about all three rotation axes
-            // (and moves it along x, y, z for a rig with an origin or translation).
+            // With every axis fixed, the move still turns the pose about all three rotation axes,
+            // and moves it along x, y, z for a rig with an origin or translation.
             let movable = !matches!(config.rig, Rig::Place { .. });
             let free = if free.iter().any(|&f| f) {
                 free
@@ -135,8 +132,7 @@ pub fn advise(config: &AdviseConfig, backend: &Backend) -> Result<Advice> {
     })
 }
 
-/// Returns the indices of the feasible candidates from best to worst (ties in evaluation order),
-/// each rotation once.
+/// Returns the feasible candidates best first, each rotation once; ties keep evaluation order.
 fn ranking(candidates: &[(Stage, Score)]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..candidates.len())
         .filter(|&i| candidates[i].1.score.is_some())

@@ -1,7 +1,7 @@
-//! The advisor's files: `best.json` (the ranked poses with their scores, the next-best move),
-//! `candidates.parquet` (every candidate evaluated), `features.csv` (the best pose's features
-//! with the pose, in `batch`'s columns: `batch` gives each one's metric) and `landscape.png`
-//! (the score over two axes).
+//! Writes the advisor's files: `best.json` (ranked poses, scores, next-best move),
+//! `candidates.parquet` (every candidate evaluated), `landscape.png` (the score over two axes),
+//! and `features.csv`: the best pose's features and pose in `batch`'s columns, so `batch` can
+//! give each one's metric.
 
 use std::path::{Path, PathBuf};
 
@@ -32,7 +32,6 @@ pub struct Written {
 /// How many ranked poses `best.json` lists.
 pub(crate) const RANKED: usize = 10;
 
-/// The candidates table's columns.
 const COLUMNS: [&str; 22] = [
     "index",
     "stage",
@@ -61,7 +60,7 @@ const COLUMNS: [&str; 22] = [
 /// Writes the advisor's files into `dir` (created when missing), each whole or not at all.
 ///
 /// # Errors
-/// As [`output_dir`] and [`write_atomic`]; [`Error::Figure`] when the landscape cannot be drawn.
+/// As [`output_dir`] and [`write_atomic`]. [`Error::Figure`] when the landscape cannot be drawn.
 pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Written> {
     let written = Written {
         best: dir.join("best.json"),
@@ -139,7 +138,6 @@ pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Writt
     Ok(written)
 }
 
-/// Returns the candidates as a table of [`COLUMNS`].
 #[expect(
     clippy::cast_possible_wrap,
     reason = "candidate and feature counts below 2^63"
@@ -177,7 +175,6 @@ fn candidates_table(names: &[String], kinds: &[Kind], advice: &Advice) -> Table 
     t
 }
 
-/// Returns `best.json`'s contents.
 fn best_json(config: &AdviseConfig, advice: &Advice) -> serde_json::Value {
     let objective = match config.objective {
         Objective::Correspondence => {
@@ -222,8 +219,8 @@ fn best_json(config: &AdviseConfig, advice: &Advice) -> serde_json::Value {
     })
 }
 
-/// Draws the score over axes `axes` (of [`AXES`]) with every other axis at the cover's value
-/// nearest the best candidate's (the cover's candidates there; grey where infeasible).
+/// Draws the score over `axes` (of [`AXES`]), each other axis at the cover value nearest the
+/// best's. It shows the cover's candidates there, grey where infeasible.
 fn landscape(
     config: &AdviseConfig,
     advice: &Advice,

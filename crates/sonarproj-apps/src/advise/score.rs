@@ -1,5 +1,5 @@
-//! Scoring a candidate rotation over the features: which of them both sonars see, their
-//! projection metric and recovery sigma, the statistics of both, and the objective.
+//! Scores a candidate rotation over the features: which ones both sonars see, their projection
+//! metric and recovery sigma, the statistics of both, and the objective.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -16,9 +16,8 @@ use crate::advise::config::{AdviseConfig, Objective};
 use crate::advise::features::{Features, draw_features};
 use crate::error::Result;
 
-/// Mean, median and 10th/90th percentiles of a set of values (`None` when empty). Percentiles
-/// interpolate linearly between the sorted values (position `q · (n − 1)`, numpy's default); the
-/// mean sums in feature order.
+/// Mean, median and 10th/90th percentiles of a set of values, `None` when empty.
+/// The mean sums in feature order. Percentiles interpolate linearly at `q · (n − 1)`, like numpy.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct Stats {
     /// The mean.
@@ -76,17 +75,17 @@ pub struct Score {
     pub offset: [f64; 3],
     /// The pose's translation `t` (m).
     pub translation: [f64; 3],
-    /// The share of the pool's sonar's view the other sonar sees (the kept features over the
-    /// pool's points examined; for given points, those sonar 2 sees over all).
+    /// The share of the pool sonar's view the other sonar sees: kept features over pool points
+    /// examined. For given points, those sonar 2 sees over all.
     pub shared: f64,
-    /// How many features were scored (both sonars see them).
+    /// How many features were scored: those both sonars see.
     pub features: usize,
     /// The projection metric over the shared features (range span m, or projection area m²).
     pub metric: Stats,
     /// The recovery sigma (deg) over the shared features that have one.
     pub sigma: Stats,
-    /// The objective's value (smaller is better); `None` when the candidate is infeasible (fewer
-    /// shared features than `min_shared` asks, none at all, or no value to score).
+    /// The objective's value, smaller is better. `None` when infeasible: shared features below
+    /// `min_shared`, none at all, or no value to score.
     pub score: Option<f64>,
 }
 
@@ -109,14 +108,14 @@ pub fn metric_name(config: &AdviseConfig) -> &'static str {
     }
 }
 
-/// The features a candidate is scored over: a pool of points in one sonar's frame, taken in
-/// order while both sonars see them ([`crate::advise::Features`]).
+/// The features a candidate is scored over: points in one sonar's frame, taken in order while
+/// both sonars see them ([`crate::advise::Features`]).
 pub struct Pool {
     /// Whether the pool's points are in sonar 2's frame (else sonar 1's).
     in_target: bool,
-    /// The points the other sonar may see under some candidate, with their place in the draw
-    /// (the others, too far or too near for any translation the rig gives, are left out: they
-    /// would be examined and never kept).
+    /// The points the other sonar may see under some candidate, with their index in the draw.
+    /// Points out of reach of every translation the rig gives are left out: they would be
+    /// examined and never kept.
     points: Vec<(usize, DVec3)>,
     /// How many shared features to keep.
     want: usize,
@@ -140,8 +139,7 @@ pub struct Selection {
 }
 
 impl Selection {
-    /// Returns the share of the pool's sonar's view the other sonar sees, as the examined points
-    /// estimate it.
+    /// Returns the share of the pool sonar's view the other sonar sees, from the examined points.
     #[must_use]
     #[expect(clippy::cast_precision_loss, reason = "pool sizes below 2^53")]
     pub fn shared(&self) -> f64 {
@@ -197,8 +195,7 @@ impl Pool {
         self.in_target
     }
 
-    /// Returns the features of the pool both sonars see under `pose`, in pool order, up to the
-    /// count asked for.
+    /// Returns the pool's features both sonars see under `pose`, in order, up to the count asked.
     #[must_use]
     pub fn select(&self, pose: &RelativePose) -> Selection {
         let inverse = pose.rotation.transpose();
@@ -210,8 +207,8 @@ impl Pool {
             if out.features.len() == self.want {
                 break;
             }
-            // Every point of the draw up to this one is examined (those left out of the pool
-            // could not have been kept).
+            // Every point of the draw up to this one counts as examined. Those left out of the
+            // pool could not have been kept.
             out.examined = index + 1;
             let (p1, other, layout) = if self.in_target {
                 (inverse * (p - pose.translation), p, &self.source)
@@ -248,9 +245,8 @@ pub struct Scorer<'a> {
 /// A candidate's points of the pool examined, and its shared features with their measurements.
 pub type Kept = (usize, Vec<([f64; 3], Measurement)>);
 
-/// Returns the features a candidate with `pose` is scored over: the pool's shared ones with
-/// their measurements by `source` (a point on a bound that the measurement's check refuses by
-/// a rounding is left out), and the pool's points examined.
+/// Returns the pool points examined for `pose`, and the shared features with their `source`
+/// measurements. A point on a bound that the measurement check refuses by rounding is left out.
 #[must_use]
 pub fn kept(source: &sonarproj::Sonar, pool: &Pool, pose: &RelativePose) -> Kept {
     let sel = pool.select(pose);
@@ -286,7 +282,6 @@ impl<'a> Scorer<'a> {
         &self.pool
     }
 
-    /// Returns the metric the advisor scores, of one projection.
     fn metric(&self, m: &Metrics) -> f64 {
         match self.config.target.kind {
             SonarKind::Sss => m.span,
@@ -294,8 +289,8 @@ impl<'a> Scorer<'a> {
         }
     }
 
-    /// Returns the scores of the candidates `rotations`, in order: the shared features of each projected on
-    /// the backend (many candidates a batch), their metrics and sigmas reduced.
+    /// Returns the scores of candidates `rotations`, in order, projecting many per batch.
+    /// Each one's shared features are projected, then their metrics and sigmas reduced.
     ///
     /// # Errors
     /// As [`AdviseConfig::pose_of`] and [`Backend::project`].
@@ -305,9 +300,8 @@ impl<'a> Scorer<'a> {
             .map(|&r| self.config.pose_of(r))
             .collect::<sonarproj::Result<Vec<_>>>()?;
         let mut out = Vec::with_capacity(rotations.len());
-        // Candidates a block at a time (memory stays bounded); their shared features and
-        // measurements (a point on a bound that the measurement's check refuses by a rounding
-        // is left out), one batch of items, then each candidate reduced.
+        // A block of candidates at a time, so memory stays bounded: their shared features and
+        // measurements (see `kept`), one batch of items, then each candidate reduced.
         let block = (ITEMS_AT_ONCE / self.pool.want.max(1)).clamp(1, 4096);
         for (b, poses) in poses.chunks(block).enumerate() {
             let rotations = &rotations[b * block..b * block + poses.len()];
@@ -353,8 +347,8 @@ impl<'a> Scorer<'a> {
         Ok(out)
     }
 
-    /// Returns the score of candidate `params` with pose `pose`, `examined` points of the pool
-    /// examined, the shared `features` (in sonar 1) and their `metrics`.
+    /// Returns the score of candidate `params` at `pose`, from the pool points `examined`, the
+    /// shared `features` (in sonar 1) and their `metrics`.
     fn reduce(
         &self,
         params: Params,

@@ -14,7 +14,7 @@ pub enum Stage {
     Cover,
     /// The pattern search around the best.
     Refine,
-    /// The next-best move's evaluations (the pose now, its finite differences and its moves).
+    /// The next-best move's evaluations: the pose now, its finite differences and its moves.
     Move,
 }
 
@@ -30,7 +30,7 @@ impl Stage {
     }
 }
 
-/// Orders scores: feasible ones by value, then the infeasible; ties keep their order.
+/// Returns whether `a` ranks strictly before `b`: feasible scores by value, then infeasible ones.
 #[must_use]
 pub fn better(a: &Score, b: &Score) -> bool {
     match (a.score, b.score) {
@@ -40,12 +40,12 @@ pub fn better(a: &Score, b: &Score) -> bool {
     }
 }
 
-/// Returns `n` rotations spread uniformly over SO(3) as roll, pitch, yaw (deg, the paper's
-/// convention): the super-Fibonacci spiral of unit quaternions (M. Alexa, "Super-Fibonacci
-/// Spirals: Fast, Low-Discrepancy Sampling of SO(3)", CVPR 2022) — point `i` at height
-/// `s = (i + ½) / n` on two circles turned by the irrational ratios √2 and ψ (ψ⁴ = ψ + 4) —
-/// each taken as the active rotation `Rz(yaw) Ry(pitch) Rx(roll)` (`R`'s transpose: the inverse
-/// of a uniform rotation is uniform too).
+/// Returns `n` rotations spread uniformly over SO(3), as roll, pitch, yaw in degrees.
+/// They come from the super-Fibonacci spiral of unit quaternions (M. Alexa, "Super-Fibonacci
+/// Spirals: Fast, Low-Discrepancy Sampling of SO(3)", CVPR 2022). Point `i` sits at height
+/// `s = (i + ½) / n` on two circles turned by the irrational ratios √2 and ψ (ψ⁴ = ψ + 4). Each
+/// is taken as the active rotation `Rz(yaw) Ry(pitch) Rx(roll)`, `R`'s transpose in the paper's
+/// convention. That is fine: the inverse of a uniform rotation is uniform too.
 #[must_use]
 pub fn uniform_rotations(n: usize) -> Vec<[f64; 3]> {
     use glam::{DQuat, EulerRot};
@@ -73,10 +73,10 @@ pub fn uniform_rotations(n: usize) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// Returns the spacing (deg) of `n` rotations spread over SO(3): the angle `ρ` of the ball of
-/// rotations around each that holds `1/n` of them all (the rotations within `ρ` of a given one
-/// are a share `(ρ − sin ρ)/π`, about `ρ³/(6π)`), so `ρ = (6π/n)^⅓`. A cover leaves no rotation
-/// much farther than that from one of its candidates (1.3 times it for this spiral).
+/// Returns the spacing (deg) of `n` rotations spread over SO(3): `ρ = (6π/n)^⅓`.
+/// The ball of radius `ρ` around each rotation holds `1/n` of them all, since the rotations
+/// within `ρ` of one are a share `(ρ − sin ρ)/π ≈ ρ³/(6π)`. A cover leaves no rotation much
+/// farther than `ρ` from a candidate (1.3 `ρ` for this spiral).
 #[must_use]
 pub fn uniform_spacing(n: usize) -> f64 {
     #[expect(clippy::cast_precision_loss, reason = "at most 10^7 rotations")]
@@ -116,8 +116,7 @@ pub fn cover(axes: &[Vec<f64>; 6]) -> Vec<Params> {
         .collect()
 }
 
-/// Returns the axes that vary (more than one value) and, per axis, the spacing of its values
-/// (their smallest gap; 0 for a fixed axis).
+/// Returns which axes vary, and each axis's spacing: its smallest gap, 0 for a fixed axis.
 #[must_use]
 pub fn free_axes(axes: &[Vec<f64>; 6]) -> ([bool; 6], [f64; 6]) {
     let mut free = [false; 6];
@@ -135,10 +134,10 @@ pub fn free_axes(axes: &[Vec<f64>; 6]) -> ([bool; 6], [f64; 6]) {
     (free, spacing)
 }
 
-/// Refines each of `starts` by pattern search over the free axes: from half the cover's spacing,
-/// the best of the moves of one step along each free axis (both ways) is taken while it lowers
-/// the score, else the steps halve, each axis down to its `finest`; no move leaves `bounds` (the
-/// offsets stay within the searched box). Returns every candidate evaluated.
+/// Refines `starts` by pattern search over the free axes and returns every candidate scored.
+/// Steps start at half the cover's spacing. The best one-step move along a free axis (either
+/// way) is taken while it lowers the score; else the steps halve, down to each axis's `finest`.
+/// No move leaves `bounds`, so offsets stay within the searched box.
 ///
 /// # Errors
 /// As [`Scorer::score_all`].
@@ -189,18 +188,18 @@ pub fn refine(
 pub struct Move {
     /// The pose now.
     pub now: Score,
-    /// The objective's partial derivative along each free axis of
-    /// [`AXES`](crate::advise::config::AXES) (per deg, per m; central differences over
-    /// `gradient_step`), `None` for a fixed axis or where a neighbour is infeasible.
+    /// The objective's derivative along each free axis of [`AXES`](crate::advise::config::AXES),
+    /// per deg or m, by central differences over `gradient_step`. `None` for a fixed axis, or
+    /// where a neighbour is infeasible.
     pub gradient: [Option<f64>; 6],
     /// The finite differences' step on each axis (deg, m).
     pub gradient_step: [f64; 6],
     /// The largest move on each axis (deg, m).
     pub step: [f64; 6],
-    /// The best pose within the steps (every combination of −step, 0, +step on the free axes,
-    /// and the steps down the gradient), when one scores better than now.
+    /// The best pose within the steps, when one scores better than now. The moves tried are
+    /// every combination of −step, 0, +step on the free axes, and a step down the gradient.
     pub best: Option<Score>,
-    /// `now − best` of the objective: what the move gains (both scored exactly, not predicted).
+    /// `now − best` of the objective: the move's gain, both scored exactly, not predicted.
     pub gain: Option<f64>,
 }
 
@@ -232,8 +231,8 @@ pub fn next_move(
         let (minus, plus) = (first[1 + 2 * i].score, first[2 + 2 * i].score);
         gradient[k] = minus.zip(plus).map(|(m, p)| (p - m) / (2.0 * gradient_step[k]));
     }
-    // Every combination of −step, 0, +step on the free axes, but staying; then down the gradient
-    // (each axis in units of its step, so degrees and metres weigh alike).
+    // Every combination of −step, 0, +step on the free axes except staying, then down the
+    // gradient. Each axis counts in units of its step, so degrees and metres weigh alike.
     let mut moves = Vec::new();
     let combos = 3usize.pow(u32::try_from(axes.len()).expect("six axes at most"));
     for c in 0..combos {

@@ -5,7 +5,6 @@
 use super::{Direction, DirectionRun, FRACTIONS, swept};
 use crate::report::figures::{HeatmapPanel, HeatmapRow, LineGrid, LinePanel};
 
-/// Names of the swept angles by index.
 const ANGLE_NAMES: [&str; 3] = ["roll", "pitch", "yaw"];
 
 /// Returns the distances text of scenario `s` (which sonar's distance is the fraction).

@@ -1,5 +1,5 @@
-//! The paper's four qualitative findings, checked against the numbers of both directions, and
-//! `findings.md`.
+//! Checks the paper's four qualitative findings against both directions' numbers, and writes
+//! them up as `findings.md`.
 
 use std::fmt::Write as _;
 
@@ -28,8 +28,8 @@ pub struct Finding {
     pub evidence: String,
 }
 
-/// Returns the paper's four findings (README: The paper's simulations) checked against `runs` (both directions, with 0°, 90° and
-/// 180° among the angles and every fraction).
+/// Returns the paper's four findings (README: The paper's simulations) checked against `runs`.
+/// `runs` holds both directions, with every fraction and 0°, 90° and 180° among the angles.
 pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
     let get = |d: Direction| {
         runs.iter()

@@ -1,7 +1,7 @@
-//! The paper's simulations (README): for each direction (fls→sss, sss→fls) with the paper
-//! presets, features at azimuth 0 and elevation 0 in both sonars, placement poses, and nine
-//! scenarios of swept rotations and feature distances. This module builds the poses, runs them
-//! on a backend and checks the paper's qualitative findings against the numbers.
+//! The paper's simulations (see the README): builds the poses, runs them on a backend, and checks
+//! the paper's qualitative findings against the numbers. Both directions (fls→sss, sss→fls) use
+//! the paper presets, a feature at azimuth and elevation 0 in both sonars, placement poses, and
+//! nine scenarios of swept rotations and feature distances.
 
 mod figures;
 mod findings;
@@ -99,8 +99,7 @@ pub use crate::limits::MIN_ANGLE_STEP;
 /// Returns the swept angles `0, s, 2s, …` up to 180° (deg).
 ///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `--angle-step` unless it is in
-/// `[MIN_ANGLE_STEP, 180]`.
+/// [`sonarproj::Error::InvalidValue`] naming `--angle-step` unless in `[MIN_ANGLE_STEP, 180]`.
 #[expect(
     clippy::cast_possible_truncation,
     reason = "a count of angle steps or a quantile index, finite and bounded by the checked input"
@@ -134,8 +133,8 @@ pub fn swept(s: u8) -> &'static [usize] {
     }
 }
 
-/// Returns every pose of scenarios 1–9 at angle step `step` (deg), scenario by scenario;
-/// within a scenario fraction by fraction (1–6), then the first swept angle, then the second.
+/// Returns every pose of scenarios 1–9 at angle step `step` (deg).
+/// They are ordered by scenario, then fraction (1–6), then the first and second swept angle.
 ///
 /// # Errors
 /// As [`angles`].
@@ -200,8 +199,7 @@ pub fn batch(direction: Direction, poses: &[ScenarioPose], sampling: Sampling) -
     batch_at(direction, poses, sampling, |p| distances(p, &source, &target))
 }
 
-/// Returns the batch of `poses` for `direction` with the feature distances `(in sonar 1, in
-/// sonar 2)` (m) given by `at`.
+/// Returns the batch of `poses` for `direction`, with feature distances (m) from `at`.
 fn batch_at(
     direction: Direction,
     poses: &[ScenarioPose],
@@ -245,11 +243,11 @@ pub struct DirectionRun {
     pub sampling: Sampling,
     /// The poses, in order.
     pub poses: Vec<ScenarioPose>,
-    /// Their projections, in the same order, each with the local precision at its feature's
-    /// true point (`(d1, 0, 0)` in sonar 1) for the default range error.
+    /// Their projections, in order, each with the local precision at its feature's true point
+    /// `(d1, 0, 0)` in sonar 1, for the default range error.
     pub results: Vec<Projection>,
-    /// Scenario 7's grid again with both features at [`NEAR_FRACTION`] of their sonar's
-    /// maximum range (for the finding about the minimum range; not one of the paper's nine).
+    /// Scenario 7's grid again, both features at [`NEAR_FRACTION`] of their sonar's maximum
+    /// range. It serves the minimum-range finding and is not one of the paper's nine.
     pub near_both: Vec<Projection>,
 }
 
@@ -257,16 +255,15 @@ pub struct DirectionRun {
 pub const NEAR_FRACTION: f64 = 0.1;
 
 /// The arc step (deg) of `paper --step auto`: a hundred times the published code's density.
-/// A span's steps come from one arc sample at a time entering sonar 2's field of view, so they
-/// shrink with the step; at 0.001° they fall below a pixel of the figures.
+/// A span's steps come from one arc sample at a time entering sonar 2's view, so they shrink
+/// with the step. At 0.001° they fall below a pixel of the figures.
 pub const SMOOTH_ARC_STEP: f64 = 0.001;
 
-/// Returns the sampling that `direction` runs at when the command asks for `sampling`: a step
-/// as given; for `auto`, the smooth version: FLS arcs every [`SMOOTH_ARC_STEP`], SSS surfaces
-/// with the engine's auto sampling (the projection area counts 8 cm cells, so its curves keep
-/// the cells' steps; denser samples only fill the cells the surface really crosses). For
-/// `exact`, FLS arcs are solved exactly and SSS surfaces, which have no exact mode, sampled
-/// as `auto` samples them.
+/// Returns the sampling `direction` runs at when the command asks for `sampling`.
+/// A step stays as given. `auto` samples FLS arcs every [`SMOOTH_ARC_STEP`] and SSS surfaces at
+/// the engine's auto sampling. The projection area counts 8 cm cells, so its curves keep the
+/// cells' steps anyway; denser samples only fill the cells the surface really crosses. `exact`
+/// solves FLS arcs exactly and samples SSS surfaces, which have no exact mode, as `auto` does.
 #[must_use]
 pub fn direction_sampling(direction: Direction, sampling: Sampling) -> Sampling {
     match (sampling, direction) {
@@ -276,8 +273,8 @@ pub fn direction_sampling(direction: Direction, sampling: Sampling) -> Sampling 
     }
 }
 
-/// Returns both directions run on `backend` at angle step `angle_step` and `sampling` (as
-/// [`direction_sampling`] maps it per direction).
+/// Returns both directions run on `backend` at `angle_step`, with `sampling` mapped per
+/// direction by [`direction_sampling`].
 ///
 /// # Errors
 /// As [`scenario_poses`] and [`Backend::project`].
@@ -305,14 +302,9 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
         .collect()
 }
 
-/// Returns the projections of `poses` for `direction` (with the feature distances `at` gives),
-/// each with the local precision at its feature's true point, in the order of `poses`: each run of
-/// poses of one scenario and fraction is a grid — the distances fixed, the swept angles over
-/// their values — projected with its poses decoded where the work runs
-/// ([`Backend::project_columns`]), the batch items of the same poses' results.
-///
-/// # Errors
-/// As [`Backend::project_columns`].
+/// Returns the projections of `poses` for `direction`, in order, with feature distances from `at`.
+/// Each run of one scenario and fraction is a grid decoded where the work runs
+/// ([`Backend::project_columns`]). Results, local precision included, match the batch items'.
 fn project_grids(
     backend: &Backend,
     direction: Direction,
@@ -400,16 +392,15 @@ impl DirectionRun {
     }
 }
 
-/// Writes the results of [`run`] into the directory `out` (created when missing; `field` names
-/// it in errors): `fls-to-sss.csv` and `sss-to-fls.csv` (scenario, fraction, roll, pitch, yaw,
-/// then the metric columns), the figures (`*-lines.png`: scenarios 1–6, `*-heatmaps.png`:
-/// scenarios 7–9) and `findings.md`; returns the findings. Each file is written whole or not at
-/// all; the two directions are written on all cores at once. The command line's `paper` and the
-/// Python package's `paper()` both end here.
+/// Writes the results of [`run`] into directory `out` and returns the findings.
+/// Files: `fls-to-sss.csv` and `sss-to-fls.csv` (scenario, fraction, roll, pitch, yaw, then the
+/// metric columns), `*-lines.png` (scenarios 1–6), `*-heatmaps.png` (7–9) and `findings.md`.
+/// Each is written whole or not at all, both directions at once. `out` is made when missing, and
+/// `field` names it in errors. The CLI's `paper` and Python's `paper()` both end here.
 ///
 /// # Errors
-/// As [`angles`] for `angle_step`; [`crate::report::output_dir`]'s for `out`; errors of
-/// writing files and drawing figures.
+/// As [`angles`] for `angle_step`, and [`crate::report::output_dir`]'s for `out`.
+/// Errors of writing files and drawing figures.
 pub fn write(
     out: &std::path::Path,
     field: &str,

@@ -1,5 +1,5 @@
 //! The columns of a sweep's table: which result columns a sweep file keeps (`columns`), the
-//! metric its figure draws by default, each column's kind and what fills it.
+//! default figure metric, each column's kind, and what fills it.
 
 use sonarproj::geometry::sonar::SonarKind;
 use sonarproj::metrics::Metric;
@@ -11,8 +11,8 @@ use crate::io::parquet::Kind;
 use crate::io::toml_keys::ConfigFile;
 use crate::sweep::summary::SummarySpec;
 
-/// Returns the result columns sweep file `f` keeps, from its `columns` value `v`: a non-empty
-/// list of distinct names of [`METRIC_COLUMNS`], returned in table order.
+/// Returns the result columns sweep file `f` keeps, in table order, from its `columns` value `v`.
+/// `v` must be a non-empty list of distinct names from [`METRIC_COLUMNS`].
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `columns` (or `columns[i]`) otherwise.
@@ -48,9 +48,9 @@ pub(crate) fn result_columns(f: ConfigFile<'_>, v: &toml::Value) -> Result<Vec<&
         .collect())
 }
 
-/// Returns the metric a sweep's figure draws when its file names none: the span for an SSS
-/// sonar 2, the projection area for an FLS, when `kept`; else the first kept metric with a
-/// figure label (else the default, and no figure is drawn: its column is not in the table).
+/// Returns the metric a sweep's figure draws when its file names none.
+/// Prefers the span for an SSS sonar 2 and the projection area for an FLS, if kept. Else the
+/// first kept metric with a figure label. Else the preferred one, and no figure is drawn.
 pub(crate) fn default_metric(target: SonarKind, kept: &[&str]) -> Metric {
     let preferred = match target {
         SonarKind::Sss => Metric::Span,
@@ -65,12 +65,9 @@ pub(crate) fn default_metric(target: SonarKind, kept: &[&str]) -> Metric {
         .unwrap_or(preferred)
 }
 
-/// Checks sweep file `f`'s `columns` (`kept`) against the rest of it (`top`): a table is
-/// written (no `[summary]` with `rows = false`), and it keeps the figure's `metric` when the
-/// file names one.
-///
-/// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `columns` or `metric`.
+/// Checks sweep file `f`'s `columns` (`kept`) against the rest of it (`top`).
+/// A table must be written (no `[summary]` with `rows = false`), and it must keep the figure's
+/// `metric` when the file names one.
 pub(crate) fn check_columns(
     f: ConfigFile<'_>,
     top: &toml::Table,
@@ -101,10 +98,9 @@ pub(crate) fn check_columns(
     Ok(())
 }
 
-/// Returns the kinds of a sweep table's `columns` (its descriptor's): the index an integer, the
-/// pose columns numbers, and the result columns (any of [`METRIC_COLUMNS`], after the pose
-/// columns) as the metric table types them (counts integers; extremes, the projection area and
-/// the local precision nullable).
+/// Returns the kinds of a sweep table's `columns`, as its descriptor lists them.
+/// The index is an integer and pose columns are numbers. Result columns follow the metric table:
+/// counts are integers; extremes, the projection area and local precision are nullable.
 #[must_use]
 pub fn column_kinds(columns: &[String]) -> Vec<Kind> {
     let metrics = sonarproj::Metrics::default();
@@ -138,7 +134,6 @@ pub(crate) fn pose_column_count(columns: &[String]) -> usize {
 /// What fills a result column of a sweep table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Fill {
-    /// A metric.
     Metric(Metric),
     /// The local precision's range per elevation.
     RangePerElevation,
@@ -158,7 +153,6 @@ pub(crate) fn fill_of(name: &str) -> Fill {
     }
 }
 
-/// Returns the metrics among a table's result `columns`.
 pub(crate) fn kept_metrics(columns: &[&str]) -> Vec<Metric> {
     columns.iter().filter_map(|c| Metric::from_name(c)).collect()
 }
@@ -167,8 +161,7 @@ pub(crate) fn kept_metrics(columns: &[&str]) -> Vec<Metric> {
 mod tests {
     use super::*;
 
-    /// A table's columns are told apart by name: no pose column a grid or a list can have is
-    /// named as a result column, and each result column is filled by its own value.
+    /// Pose and result columns are told apart by name, and each result column has its own fill.
     #[test]
     fn result_columns_are_told_from_pose_columns_by_name() {
         let poses = crate::io::pose_columns::allowed_columns();

@@ -1,7 +1,6 @@
-//! One block of a sweep's poses computed: the metrics as columns and, when rows are asked for,
-//! the block's typed table. A grid's poses are decoded by the engine where the work runs
-//! ([`Backend::project_columns`]: no item, no per-pose result object); a list's items are
-//! projected as a batch.
+//! Computes one block of a sweep's poses: metric columns and, when asked, the typed table.
+//! A grid's poses are decoded where the work runs ([`Backend::project_columns`]), with no
+//! per-pose objects. A list's items are projected as a batch.
 
 use sonarproj::stream::Stop;
 use std::ops::Range;
@@ -16,8 +15,8 @@ use crate::sweep::columns::{Fill, fill_of, kept_metrics};
 use crate::sweep::config::{Poses, SweepConfig};
 use crate::sweep::table::{chunk_batch, columns_of};
 
-/// What every block of one sweep shares: the engine's grid (for a grid sweep), the table's
-/// columns and kinds, and the range error of the local precision.
+/// The state every block of one sweep shares: the engine's grid (grid sweeps only), the
+/// table's columns and kinds, and the range error for local precision.
 pub(crate) struct Work<'a> {
     config: &'a SweepConfig,
     grid: Option<PoseGrid>,
@@ -26,8 +25,7 @@ pub(crate) struct Work<'a> {
     sigma: f64,
 }
 
-/// Returns the values of `metric` in `metrics` (NaN where a pose has none): what a summary
-/// reduces.
+/// Returns the values of `metric` in `metrics` for a summary, NaN where a pose has none.
 ///
 /// # Panics
 /// When `metrics` does not keep `metric` (a block's columns come from [`metric_columns`]).
@@ -47,9 +45,8 @@ pub(crate) fn values(metrics: &MetricColumns, metric: sonarproj::Metric) -> Vec<
     }
 }
 
-/// Returns the columns a sweep's blocks fill: the metrics of the table's result columns `table`
-/// when rows are written, and the metric the summary reduces, `by` (the backends write, and the
-/// GPU unpacks, those alone).
+/// Returns the columns a sweep's blocks fill: the metrics kept in `table`, plus the summary's
+/// metric `by`. The backends write, and the GPU unpacks, only these.
 pub(crate) fn metric_columns(table: Option<&[&str]>, by: Option<sonarproj::Metric>) -> MetricColumns {
     let mut kept = table.map(kept_metrics).unwrap_or_default();
     kept.extend(by);
@@ -57,11 +54,7 @@ pub(crate) fn metric_columns(table: Option<&[&str]>, by: Option<sonarproj::Metri
 }
 
 impl<'a> Work<'a> {
-    /// Returns the work of `config`, whose table has `columns` of `kinds`, local precision for
-    /// range error `sigma`.
-    ///
-    /// # Errors
-    /// As [`PoseGrid::new`] (none for a checked sweep file).
+    /// Returns the work of `config`, with table `columns` of `kinds` and range error `sigma`.
     pub(crate) fn new(
         config: &'a SweepConfig,
         columns: &'a [String],
@@ -81,12 +74,8 @@ impl<'a> Work<'a> {
         })
     }
 
-    /// Computes poses `r` on `backend`: their metrics into `metrics` (its rows replaced, its
-    /// memory kept from block to block) and, when `rows`, returns their table; `stop` is asked
-    /// as [`Backend::project_until`] asks it.
-    ///
-    /// # Errors
-    /// As [`Backend::project_columns`] and [`SweepConfig::items_numeric`].
+    /// Computes poses `r` on `backend` into `metrics` and, when `rows`, returns their table.
+    /// `metrics` keeps its memory between blocks. `stop` works as in [`Backend::project_until`].
     pub(crate) fn block(
         &self,
         backend: &Backend,
@@ -115,8 +104,7 @@ impl<'a> Work<'a> {
         Ok(Some(self.grid_rows(grid, r, metrics)?))
     }
 
-    /// Returns the engine's sweep of a grid sweep's poses (`None` for a list): what
-    /// [`Backend::project_blocks`] projects block after block.
+    /// Returns the engine's sweep for [`Backend::project_blocks`], or `None` for a list.
     pub(crate) fn sweep(&self) -> Option<PoseSweep<'_>> {
         self.grid.as_ref().map(|g| self.grid_sweep(g))
     }
@@ -134,9 +122,6 @@ impl<'a> Work<'a> {
 
     /// Returns the table of poses `r` of a grid sweep, whose `metrics` are projected.
     ///
-    /// # Errors
-    /// As [`PoseSweep::local_precision_columns`].
-    ///
     /// # Panics
     /// For a list sweep (its table comes from [`Work::block`]).
     pub(crate) fn rows(&self, r: Range<u64>, metrics: &MetricColumns) -> Result<Table> {
@@ -146,7 +131,7 @@ impl<'a> Work<'a> {
 
     fn grid_rows(&self, grid: &PoseGrid, r: Range<u64>, metrics: &MetricColumns) -> Result<Table> {
         let (mut rpe, mut sig) = (Vec::new(), Vec::new());
-        // The local precision only where the table keeps it (it is a tenth of a sweep's time).
+        // Local precision costs a tenth of a sweep's time: compute it only if the table keeps it.
         if self.columns.iter().any(|c| LOCAL_COLUMNS.contains(&c.as_str())) {
             let sweep = self.grid_sweep(grid);
             sweep.local_precision_columns(r.clone(), self.sigma, &mut rpe, &mut sig)?;
@@ -155,9 +140,9 @@ impl<'a> Work<'a> {
     }
 }
 
-/// Returns the table of poses `r` of `grid`: the index, the nine axis values, then the result
-/// columns: the `metrics` and the local precision (`rpe`, `sig`: NaN where none; empty when the
-/// table keeps neither), in the sweep's `columns` of `kinds`.
+/// Returns the table of poses `r` of `grid`, in the sweep's `columns` of `kinds`.
+/// Columns: the index, the nine axis values, the `metrics`, then local precision `rpe` and
+/// `sig` (NaN where none, empty when the table keeps neither).
 #[expect(
     clippy::cast_possible_wrap,
     reason = "pose indices are below 2^40 (MAX_POSES) and sample counts below 2^63"
@@ -199,8 +184,8 @@ fn grid_table(
     table
 }
 
-/// Returns the values of an axis (`values`, each lasting `stride` poses, the last axis fastest)
-/// at poses `r`: run by run, one division at the start.
+/// Returns the axis `values` at poses `r`, each value lasting `stride` poses.
+/// Fills run by run, with one division at the start.
 #[expect(
     clippy::cast_possible_truncation,
     reason = "an axis index, and runs within a chunk held in memory"
@@ -222,8 +207,7 @@ fn axis_column(values: &[f64], stride: u64, r: Range<u64>) -> Vec<f64> {
 
 #[cfg(test)]
 mod tests {
-    /// An axis's column, run by run, against each pose's value by division, for strides of
-    /// one and more, starts and ends anywhere.
+    /// Checks run-by-run axis columns against per-pose division, for any stride, start and end.
     #[test]
     fn axis_columns_are_each_poses_value() {
         let values = [1.0, 2.5, -3.0];

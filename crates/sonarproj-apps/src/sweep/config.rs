@@ -1,6 +1,7 @@
-//! Sweep files: a TOML description of a sonar pair, a sampling rule and the poses to run — a
-//! grid over the feature, its placement (or the translation) and roll/pitch/yaw, or an explicit
-//! list of poses in a batch CSV.
+//! Sweep files: TOML describing a sonar pair, a sampling rule, and the poses to run.
+//!
+//! The poses are a grid over the feature, its placement (or translation) and roll/pitch/yaw, or
+//! an explicit list in a batch CSV.
 //!
 //! ```toml
 //! from = "paper-fls"          # sonar 1: preset or sonar TOML file (relative to this file)
@@ -25,9 +26,9 @@
 //! yaw = [0, 45, 90]
 //! ```
 //!
-//! Every grid key takes a number, a list of numbers or `{ start, stop, step }` (start, start +
-//! step, … up to stop); keys left out are 0 (`feature.range` and `place.range` are required).
-//! Instead of the grid, `poses = "poses.csv"` names a batch CSV (the columns of `sonarproj batch`).
+//! Every grid key takes a number, a list of numbers, or `{ start, stop, step }` (start, start +
+//! step, … up to stop). Keys left out are 0, but `feature.range` and `place.range` are required.
+//! Instead of the grid, `poses = "poses.csv"` names a batch CSV with `sonarproj batch`'s columns.
 
 use std::path::{Path, PathBuf};
 
@@ -67,14 +68,13 @@ pub struct SweepConfig {
     pub sampling: Sampling,
     /// The cell side (m) of the projection-area grid (FLS target).
     pub area_grid: f64,
-    /// The range error (m) `sigma_elevation` is computed for (`None`: the default of
-    /// [`sonarproj::local_precision::default_sigma_range`]).
+    /// The range error (m) `sigma_elevation` is computed for.
+    /// `None` uses [`sonarproj::local_precision::default_sigma_range`].
     pub sigma_range: Option<f64>,
     /// The metric the figure draws (one with a figure label in the metric table).
     pub metric: Metric,
-    /// The result columns the table keeps after the pose columns, in table order: some of
-    /// [`METRIC_COLUMNS`](crate::io::METRIC_COLUMNS) (all unless the file's `columns` names
-    /// fewer).
+    /// The result columns kept after the pose columns, in table order. Some of
+    /// [`METRIC_COLUMNS`](crate::io::METRIC_COLUMNS): all unless the file's `columns` names fewer.
     pub result_columns: Vec<&'static str>,
     /// The poses.
     pub poses: Poses,
@@ -104,8 +104,8 @@ impl SweepConfig {
     /// Returns the sweep described by the file at `path`, checked.
     ///
     /// # Errors
-    /// [`Error::ReadInput`], [`Error::SweepFile`] (TOML syntax) or [`sonarproj::Error::InvalidValue`] naming
-    /// the file and the key.
+    /// [`Error::ReadInput`], [`Error::SweepFile`] (TOML syntax), or
+    /// [`sonarproj::Error::InvalidValue`] naming the file and the key.
     pub fn load(path: &Path) -> Result<SweepConfig> {
         let (text, base) = crate::report::read_config(path)?;
         SweepConfig::parse(&path.display().to_string(), &text, &base)
@@ -143,8 +143,8 @@ impl SweepConfig {
             Some(v) => columns::result_columns(f, v)?,
         };
         let named = named_metric(f, &top, target.kind)?;
-        // The figure draws from the table: a metric the file does not name is one it keeps. A
-        // summary reduces any metric: its default is the file's metric, or the sonar's.
+        // The figure draws from the table, so a metric the file does not name must be kept.
+        // A summary reduces any metric: by default the file's metric, or the sonar's.
         let metric = named.unwrap_or_else(|| columns::default_metric(target.kind, &result_columns));
         let by = named.unwrap_or_else(|| columns::default_metric(target.kind, &crate::io::METRIC_COLUMNS));
         let poses = match f.string(&top, "poses")? {
@@ -179,10 +179,9 @@ impl SweepConfig {
         Ok(config)
     }
 
-    /// Returns `Ok` when no pose would draw more samples than a pose may, so that a sweep is
-    /// refused before it creates anything: each listed pose is checked; for a grid, the pose with
-    /// its largest feature range (a plan's sample count grows with the feature's range and depends
-    /// on nothing else a grid varies).
+    /// Returns `Ok` when no pose would draw more samples than a pose may, before anything is made.
+    /// Each listed pose is checked. A grid checks its largest feature range only: a plan's sample
+    /// count grows with it and depends on nothing else a grid varies.
     ///
     /// # Errors
     /// [`sonarproj::Error::InvalidValue`] for the sampling, naming the list row when there is one.
@@ -235,8 +234,7 @@ impl SweepConfig {
         }
     }
 
-    /// Returns the output columns before the metrics: `index`, then the grid's columns (or the
-    /// list's columns as given).
+    /// Returns the output columns before the metrics: `index`, then the grid's or list's columns.
     #[must_use]
     pub fn columns(&self) -> Vec<String> {
         let mut out = vec!["index".to_string()];
@@ -261,12 +259,11 @@ impl SweepConfig {
         }
     }
 
-    /// Returns the poses with indices in `range`: each as a batch item with the feature's true
-    /// point (when the list gives it; a grid always does) and its leading output fields (index
-    /// and pose columns).
+    /// Returns the poses with indices in `range`: batch items and their index and pose fields.
+    /// An item has the feature's true point when the list gives it. A grid always does.
     ///
     /// # Errors
-    /// Invalid poses (a rotation that is not one; none for grids of finite angles).
+    /// Invalid poses, such as a rotation that is not one. Grids of finite angles have none.
     #[expect(
         clippy::cast_possible_truncation,
         reason = "grid sizes are checked against MAX_POSES before they are used as indices"
@@ -294,12 +291,11 @@ impl SweepConfig {
         Ok(pairs.into_iter().unzip())
     }
 
-    /// Returns the poses with indices in `range` as [`SweepConfig::items`] does, with their pose
-    /// columns as numbers (row after row, the columns of [`SweepConfig::columns`] after
-    /// `index`) instead of text.
+    /// Returns the poses in `range` like [`SweepConfig::items`], with pose columns as numbers.
+    /// The numbers run row after row, in [`SweepConfig::columns`]' order after `index`.
     ///
     /// # Errors
-    /// As [`SweepConfig::items`]; a list's field that is not a number.
+    /// As [`SweepConfig::items`], and a list field that is not a number.
     #[expect(
         clippy::cast_possible_truncation,
         reason = "grid sizes are checked against MAX_POSES before they are used as indices"
@@ -307,8 +303,8 @@ impl SweepConfig {
     pub fn items_numeric(&self, range: std::ops::Range<u64>) -> Result<(Vec<BatchItem>, Vec<f64>)> {
         let n = (range.end - range.start) as usize;
         let width = self.columns().len() - 1;
-        // Each pose's numbers written in place, its item built from them: nothing is allocated
-        // per pose (this runs for every pose of a sweep).
+        // Write each pose's numbers in place and build its item from them. This runs for every
+        // pose of a sweep, so nothing is allocated per pose.
         let mut values = vec![0.0; n * width];
         let poses = values
             .par_chunks_mut(width.max(1))
@@ -334,9 +330,9 @@ impl SweepConfig {
         Ok((poses, values))
     }
 
-    /// Returns a fingerprint of everything in the file that decides the output (sonars,
-    /// sampling, area grid, range error, poses):
-    /// FNV-1a over their full debug form, so a resumed or merged sweep can tell its own parts.
+    /// Returns a fingerprint of everything in the file that decides the output.
+    /// It is FNV-1a over the full debug form of the sonars, sampling, area grid, range error,
+    /// poses and so on. A resumed or merged sweep uses it to tell its own parts.
     #[must_use]
     pub fn fingerprint(&self) -> String {
         let mut text = format!(
@@ -393,9 +389,6 @@ const TOP_KEYS: [&str; 13] = [
 ];
 
 /// Returns key `key` of `top` holding one positive number (in `unit`), `None` when left out.
-///
-/// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming the key otherwise.
 fn positive(f: ConfigFile<'_>, top: &toml::Table, key: &str, unit: &str) -> Result<Option<f64>> {
     let Some(v) = top.get(key) else { return Ok(None) };
     match f.values(key, v)?.as_slice() {
@@ -404,11 +397,8 @@ fn positive(f: ConfigFile<'_>, top: &toml::Table, key: &str, unit: &str) -> Resu
     }
 }
 
-/// Returns the metric the file names for its figure (`metric`), one with a label for sonar 2's
-/// `kind`; `None` when it names none.
-///
-/// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `metric` for any other.
+/// Returns the metric the file names for its figure (`metric`), or `None` when it names none.
+/// The metric must have a label for sonar 2's `kind`.
 fn named_metric(f: ConfigFile<'_>, top: &toml::Table, kind: SonarKind) -> Result<Option<Metric>> {
     let Some(m) = f.string(top, "metric")? else {
         return Ok(None);
@@ -424,12 +414,12 @@ fn named_metric(f: ConfigFile<'_>, top: &toml::Table, kind: SonarKind) -> Result
     })
 }
 
-/// Returns the pose list `list` names (a batch CSV relative to `base`), read as a stream with at
-/// most [`MAX_LIST_POSES`] rows held.
+/// Returns the pose list `list` names, a batch CSV relative to `base`.
+/// It is read as a stream, holding at most [`MAX_LIST_POSES`] rows.
 ///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] when the file has grid keys too; errors of reading the
-/// list, named by its path.
+/// [`sonarproj::Error::InvalidValue`] when the file has grid keys too.
+/// Errors of reading the list, named by its path.
 fn pose_list(
     f: ConfigFile<'_>,
     top: &toml::Table,

@@ -1,5 +1,5 @@
-//! A sweep's figure: the metric against the grid's one or two varying axes, from the table or
-//! from the summaries' marginal.
+//! Draws a sweep's figure: the metric against the grid's one or two varying axes.
+//! The points come from the result table, or from a summary's marginal.
 
 use std::path::{Path, PathBuf};
 
@@ -12,9 +12,8 @@ use crate::sweep::records::Descriptor;
 use crate::sweep::summary::Summary;
 use crate::sweep::table::Format;
 
-/// Draws `DIR/sweep-METRIC.png` from the summaries in `summary` when the sweep writes no rows
-/// and a marginal is over exactly the grid's varying axes (each of its cells is one pose: the
-/// figure is the one the table would give); returns its path.
+/// Draws `DIR/sweep-METRIC.png` from `summary` when the sweep writes no rows, returning its path.
+/// It needs a marginal over exactly the varying axes, so each cell is one pose, as in the table.
 pub(crate) fn figure_of_marginal(dir: &Path, d: &Descriptor, summary: &Path) -> Result<Option<PathBuf>> {
     if d.varying.is_empty() || d.varying.len() > 2 || !is_regular(summary) {
         return Ok(None);
@@ -46,8 +45,8 @@ pub(crate) fn figure_of_marginal(dir: &Path, d: &Descriptor, summary: &Path) -> 
     draw(dir, d, &points).map(Some)
 }
 
-/// Draws `DIR/sweep-METRIC.png` from the result `table` (`DIR/sweep.csv` or `sweep.parquet`)
-/// when the grid has one or two varying axes and the table keeps the metric; returns its path.
+/// Draws `DIR/sweep-METRIC.png` from the result `table` and returns its path.
+/// It needs one or two varying axes and a table that keeps the metric.
 pub(crate) fn figure(table: &Path, format: Format, d: &Descriptor) -> Result<Option<PathBuf>> {
     let kept = d.columns.contains(&d.metric);
     if d.varying.is_empty() || d.varying.len() > 2 || !kept || !is_regular(table) {
@@ -93,14 +92,13 @@ pub(crate) fn figure(table: &Path, format: Format, d: &Descriptor) -> Result<Opt
         }
     }
     if points.is_empty() {
-        // A table that reads back empty (written through a link to a device): nothing to draw.
+        // A table written through a link to a device reads back empty: nothing to draw.
         return Ok(None);
     }
     draw(dir, d, &points).map(Some)
 }
 
-/// Draws `DIR/sweep-METRIC.png` of `points` (the varying axes' values, the metric); returns its
-/// path.
+/// Draws `DIR/sweep-METRIC.png` of `points` (axis values, metric) and returns its path.
 fn draw(dir: &Path, d: &Descriptor, points: &[(Vec<f64>, Option<f64>)]) -> Result<PathBuf> {
     let path = dir.join(format!("sweep-{}.png", d.metric));
     let caption = match d.varying.as_slice() {

@@ -1,6 +1,5 @@
-//! A sweep's grid: its nine axes (the feature, its placement or the translation, the rotation),
-//! read from a sweep file, and pose `i`'s values and batch item (mixed radix, the last axis
-//! fastest).
+//! A sweep's grid of nine axes (feature, placement or translation, rotation), read from a sweep
+//! file. Pose `i` is decoded in mixed radix, the last axis fastest.
 
 use sonarproj::geometry::sonar::Sonar;
 use sonarproj::projection::PoseGrid;
@@ -60,8 +59,8 @@ impl Grid {
         Ok(PoseGrid::new(axes, self.placement, source)?)
     }
 
-    /// Returns the batch item of axis values `v` (in [`Grid::axes`] order): the engine's
-    /// definition of a grid's pose, with the feature's true point (the first three values).
+    /// Returns the batch item for axis values `v`, in [`Grid::axes`] order.
+    /// It uses the engine's grid pose, and the first three values as the feature's true point.
     pub(crate) fn item(&self, source: &Sonar, v: &[f64]) -> Result<sonarproj::BatchItem> {
         let v: [f64; 9] = std::array::from_fn(|k| v[k]);
         Ok(sonarproj::BatchItem {
@@ -70,8 +69,8 @@ impl Grid {
         })
     }
 
-    /// Returns the grid of sweep file `f` (its `[feature]`, `[place]` or `[translation]`, and
-    /// `[rotation]` in `top`), the feature checked against sonar 1 `source`.
+    /// Returns the grid of sweep file `f`, read from the sections of `top`.
+    /// The feature is checked against sonar 1 `source`.
     pub(crate) fn read(f: ConfigFile<'_>, top: &toml::Table, source: &Sonar) -> Result<Grid> {
         let rae = ["range", "azimuth", "elevation"];
         let feature = section(f, top, "feature", &rae)?;
@@ -123,20 +122,19 @@ impl Grid {
         for name in RPY_COLUMNS {
             axes.push(axis(f, rotation, "rotation", name, name, false)?);
         }
-        // Every feature point must lie in sonar 1's field of view.
+        // Every feature point must lie in sonar 1's field of view. Bounds are per coordinate,
+        // so checking each value with the others at their first values covers every combination.
         for (k, a) in axes[..3].iter().enumerate() {
             for &v in &a.values {
                 let mut p = [axes[0].values[0], axes[1].values[0], axes[2].values[0]];
                 p[k] = v;
-                // Bounds are per coordinate, so checking each value with the others at their
-                // first values covers every combination.
                 source
                     .check_point("feature", p[0], p[1], p[2])
                     .map_err(|e| e.in_context(f.field(&format!("feature.{}", rae[k]))))?;
             }
         }
         let grid = Grid { axes, placement };
-        // The engine's checks too (a placement's reach), named in the file's terms.
+        // The engine's checks too (a placement's reach), with errors in the file's terms.
         grid.pose_grid(source)
             .map_err(|e| e.in_context(format!("sweep file {:?}", f.path())))?;
         Ok(grid)
@@ -182,8 +180,7 @@ fn axis(
 mod tests {
     use super::*;
 
-    /// A section given as something else than a table is refused, naming it as the file writes
-    /// it.
+    /// A section that is not a table is refused, named as the file writes it.
     #[test]
     fn a_section_must_be_a_table() {
         let top: toml::Table = "feature = 5\n".parse().unwrap();

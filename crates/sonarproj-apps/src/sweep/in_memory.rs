@@ -13,15 +13,14 @@ use crate::sweep::run::Event;
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::Summary;
 
-/// The most bytes of columns [`run_in_memory`] builds (1 GiB: about 6 million poses of a grid
-/// sweep); a larger sweep runs into a directory, or asks for summaries only.
+/// The most bytes of columns [`run_in_memory`] builds: 1 GiB, about 6 million grid poses.
+/// A larger sweep runs into a directory, or asks for summaries only.
 pub const MAX_IN_MEMORY_BYTES: u64 = 1 << 30;
 
 /// What [`run_in_memory`] returns.
 #[derive(Clone, Debug, PartialEq)]
 pub struct InMemory {
-    /// The table (every pose's row, the columns of `sweep.csv`), unless the sweep's `[summary]`
-    /// says `rows = false`.
+    /// Every pose's row in `sweep.csv`'s columns, unless the `[summary]` says `rows = false`.
     pub table: Option<Table>,
     /// The summaries, when the sweep asks for them.
     pub summary: Option<Summary>,
@@ -29,15 +28,15 @@ pub struct InMemory {
     pub poses: u64,
 }
 
-/// Runs `config` (or one shard of it) on `backend` and returns its table's columns and its
-/// summaries, writing nothing: the rows are those `sweep.parquet` holds, the summaries those of
-/// `summary.json`. It is planned and computed as [`super::run::run`] runs into a directory, in
-/// the same chunks of `chunk_poses` poses (`None`: [`default_chunk_poses`]); `events` hears of
-/// progress after each chunk and may stop the run (the result is then `None`).
+/// Runs `config` (or one shard) on `backend` in memory, returning its table and summaries.
+///
+/// The results match the `sweep.parquet` and `summary.json` of [`super::run::run`], computed in
+/// the same chunks of `chunk_poses` (`None`: [`default_chunk_poses`]). `events` hears of
+/// progress after each chunk and may stop the run, which then returns `None`.
 ///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `--chunk-poses` when 0, and `--out` when the table
-/// would exceed [`MAX_IN_MEMORY_BYTES`]; errors of [`Backend::project`].
+/// [`sonarproj::Error::InvalidValue`] naming `--chunk-poses` when 0, or `--out` when the table
+/// would exceed [`MAX_IN_MEMORY_BYTES`]. Errors of [`Backend::project`].
 pub fn run_in_memory(
     config: &SweepConfig,
     backend: &Backend,
@@ -68,7 +67,6 @@ pub fn run_in_memory(
     let mut summary = plan.spec.map(|s| s.empty(plan.grid));
     let work = plan.work()?;
     let mut metrics = plan.metric_columns();
-    // Adds a chunk (its table, when rows are asked for, and its summary) to the results.
     let mut add = |computed: Computed, _: &sonarproj::MetricColumns| -> Result<ControlFlow<()>> {
         if let (Some(table), Some(part)) = (&mut table, computed.table) {
             table.append(part)?;
@@ -82,8 +80,8 @@ pub fn run_in_memory(
             total: poses,
         }))
     };
-    // A grid's chunks RUN_BLOCKS at a time, the device not waiting between them; a list's one
-    // at a time.
+    // A grid runs RUN_BLOCKS chunks at a time, so the device does not wait between them.
+    // A list runs one at a time.
     let run = if work.sweep().is_some() {
         RUN_BLOCKS as u64
     } else {

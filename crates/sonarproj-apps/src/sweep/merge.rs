@@ -17,12 +17,11 @@ use crate::sweep::shard::Shard;
 use crate::sweep::summary::Summary;
 use crate::sweep::table::Format;
 
-/// Joins the shard files `shard-K-of-N.csv` in `dir` into `dir/sweep.csv` (byte for byte the
-/// file one run would have written) and draws the figure; returns both paths.
+/// Joins the shards in `dir` into the files one run writes, byte for byte, and draws the figure.
 ///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `DIR` when there is no sweep there, parts of different
-/// counts, or a missing part; [`Error::Csv`] for a part with the wrong header or row count.
+/// [`sonarproj::Error::InvalidValue`] naming `DIR` when there is no sweep there, parts of
+/// different counts, or a missing part. [`Error::Csv`] for a part with the wrong header or rows.
 pub fn merge(dir: &Path) -> Result<Merged> {
     let desc: Descriptor = read_json(&dir.join("sweep.json"))?.ok_or_else(|| {
         Error::invalid(
@@ -43,15 +42,15 @@ pub fn merge(dir: &Path) -> Result<Merged> {
         rows: desc.poses,
     };
     let summary_file = dir.join("summary.json");
-    // Both results can be written before either is.
+    // Check that both results can be written before writing either.
     if desc.summary.is_some() {
         check_output_file(&summary_file, crate::params::SWEEP_DIR)?;
     }
     if rows {
         check_output_file(&dir.join(format!("sweep.{ext}")), crate::params::SWEEP_DIR)?;
     }
-    // The shards' summaries combined before anything is written, the summary written last: a
-    // summary beside a table means the table is whole, as after a run.
+    // Combine the summaries before writing anything, and write the summary last. A summary
+    // beside a table then means the table is whole, as after a run.
     let combined = combine_summaries(&desc, &shards)?;
     let summary = desc.summary.as_ref().map(|_| summary_file.clone());
     if !rows {
@@ -91,8 +90,7 @@ struct Found {
     poses: Range<u64>,
 }
 
-/// Returns the format of the shards in `dir` (their tables when `rows`, else their summaries)
-/// and their count N.
+/// Returns the format of the shards in `dir` (tables when `rows`, else summaries) and their count.
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `DIR` when it holds shards in both formats, none, or
@@ -162,12 +160,12 @@ fn find_shards(dir: &Path, rows: bool) -> Result<(Format, u64)> {
     Ok((format, n))
 }
 
-/// Returns the `n` shards of the sweep `desc` in `dir`, each checked against its record to be
-/// this sweep's part K, whole, before anything is written (and again while it is copied).
+/// Returns the `n` shards of sweep `desc` in `dir`, each checked whole against its record.
+/// The check runs before anything is written, and again while each shard is copied.
 ///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `DIR` for a missing shard; [`Error::Csv`] for a
-/// damaged one.
+/// [`sonarproj::Error::InvalidValue`] naming `DIR` for a missing shard.
+/// [`Error::Csv`] for a damaged one.
 fn check_shards(dir: &Path, desc: &Descriptor, rows: bool, format: Format, n: u64) -> Result<Vec<Found>> {
     let mut found = Vec::new();
     for k in 1..=n {
@@ -221,12 +219,11 @@ fn check_shards(dir: &Path, desc: &Descriptor, rows: bool, format: Format, n: u6
     Ok(found)
 }
 
-/// Returns an error unless every shard was computed alike: the same engine and backend
-/// settings as shard 1.
+/// Returns an error unless every shard used shard 1's engine and backend settings.
 ///
 /// # Errors
-/// [`Error::Csv`] for a shard without its settings record; [`sonarproj::Error::InvalidValue`]
-/// naming the first setting that differs.
+/// [`Error::Csv`] for a shard without its settings record.
+/// [`sonarproj::Error::InvalidValue`] naming the first setting that differs.
 fn check_alike(shards: &[Found], n: u64) -> Result<()> {
     let mut first: Option<Settings> = None;
     for (k, shard) in shards.iter().enumerate() {
@@ -258,8 +255,8 @@ fn check_alike(shards: &[Found], n: u64) -> Result<()> {
     Ok(())
 }
 
-/// Returns the shards' summaries combined (each read once and checked against its record), or
-/// `None` when the sweep asks for none.
+/// Returns the shards' summaries combined, each read once and checked against its record.
+/// Returns `None` when the sweep asks for none.
 ///
 /// # Errors
 /// [`Error::Csv`] for a summary that does not fit its shard or summarises another metric.

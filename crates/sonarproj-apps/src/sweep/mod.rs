@@ -1,8 +1,8 @@
 //! Sweeps: any sonar pair over grids of rotations, feature distances and placements, or over
-//! explicit pose lists (`config`), run in resumable chunks (`run`) and shards (`shard`) whose
-//! tables are CSV or Parquet (`table`), each part on disk checked against its record (`parts`,
-//! `records`), joined by `merge`, reduced to summaries (`summary`), drawn (`figure`), or run in
-//! memory (`in_memory`).
+//! explicit pose lists (`config`). A sweep runs in resumable chunks (`run`) and shards (`shard`)
+//! into CSV or Parquet tables (`table`). Each part on disk is checked against its record
+//! (`parts`, `records`). `merge` joins shards, `summary` reduces poses to summaries, `figure`
+//! draws, and `in_memory` runs without writing files.
 
 mod columns;
 mod compute;

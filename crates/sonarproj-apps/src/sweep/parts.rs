@@ -1,8 +1,8 @@
-//! The parts of a sweep on disk — chunk files, shard files and the result — each with a record
-//! beside it (`NAME.meta.json`) of what it holds: the sweep's fingerprint, its first pose index,
-//! its row count, and its size and CRC-32 in bytes. A part counts only when its record matches
-//! what the reader expects and its bytes match the record, so a truncated part, a part of
-//! another sweep, or a part copied over another is found out.
+//! Sweep parts on disk (chunks, shards, the result), each with a record `NAME.meta.json`.
+//!
+//! The record holds the sweep's fingerprint, first pose index, row count, size and CRC-32. A
+//! part counts only when its record and bytes match. This catches truncated, foreign and
+//! copied-over parts.
 
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
@@ -12,14 +12,14 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::report::{write_atomic, write_atomic_unsynced};
 
-/// What a part file holds, written beside it.
+/// The record beside a part file: what the part holds.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct PartRecord {
     /// The fingerprint of the sweep the part belongs to.
     pub fingerprint: String,
     /// The index of its first pose.
     pub first: u64,
-    /// Its rows (poses), header not counted.
+    /// Its rows (poses), not counting the header.
     pub rows: u64,
     /// Its size in bytes.
     pub bytes: u64,
@@ -38,19 +38,19 @@ pub struct Expected<'a> {
     pub rows: u64,
 }
 
-/// What a part on disk turned out to be.
+/// The state of a part on disk.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Status {
     /// Present and as expected.
     Good,
     /// Not there.
     Missing,
-    /// There, but not what is expected; why, in words.
+    /// There, but not as expected. Holds the reason in words.
     Damaged(String),
 }
 
-/// Returns the path of the record of part `file` (`NAME.csv` → `NAME.meta.json`, `NAME.parquet`
-/// → `NAME.parquet.meta.json`, so the two formats of one part keep their own records).
+/// Returns the path of part `file`'s record. CSV and Parquet parts keep separate records:
+/// `NAME.csv` → `NAME.meta.json`, `NAME.parquet` → `NAME.parquet.meta.json`.
 #[must_use]
 pub fn record_path(file: &Path) -> PathBuf {
     beside(file, "meta.json")
@@ -66,7 +66,6 @@ pub fn beside(file: &Path, suffix: &str) -> PathBuf {
     }
 }
 
-/// A writer that counts and checksums what passes through it.
 struct Summing<'w> {
     inner: &'w mut (dyn Write + Send),
     hasher: crc32fast::Hasher,
@@ -86,8 +85,8 @@ impl Write for Summing<'_> {
     }
 }
 
-/// Writes part `file` with `fill` (whole or not at all), then its record for `expected`. The
-/// record comes second, so a part interrupted between the two is found damaged and redone.
+/// Writes part `file` with `fill`, whole or not at all, then its record for `expected`.
+/// The record comes second, so a part cut off between the two is found damaged and redone.
 ///
 /// # Errors
 /// As [`write_atomic`], and `fill`'s errors.
@@ -99,10 +98,10 @@ pub fn write(
     write_with(file, expected, true, fill)
 }
 
-/// Writes a run's chunk `file` as [`write()`] does, but without flushing it or its record to the
-/// disk ([`write_atomic_unsynced`]): a chunk is only ever read after its size and checksum are
-/// checked against its record, so a crash that loses its bytes makes it damaged (computed
-/// again), never wrong. The results a run leaves are written with [`write()`].
+/// Writes a run's chunk `file` like [`write()`], but unflushed ([`write_atomic_unsynced`]).
+///
+/// A chunk is read only after its size and checksum match its record. So a crash that loses its
+/// bytes leaves it damaged and recomputed, never wrong. A run's results use [`write()`].
 ///
 /// # Errors
 /// As [`write()`].
@@ -114,7 +113,7 @@ pub fn write_chunk(
     write_with(file, expected, false, fill)
 }
 
-/// [`write()`], the part and its record flushed to the disk when `sync`.
+/// Writes like [`write()`], flushing to disk only when `sync`.
 fn write_with(
     file: &Path,
     expected: Expected<'_>,
@@ -151,14 +150,11 @@ fn write_with(
 }
 
 /// Writes `value` to `path` as pretty JSON, whole or not at all.
-///
-/// # Errors
-/// [`Error::WriteOutput`] on I/O failure.
 pub(crate) fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
     write_json_with(path, value, true)
 }
 
-/// [`write_json`], flushed to the disk before the rename when `sync`.
+/// Writes like [`write_json`], flushing before the rename only when `sync`.
 fn write_json_with<T: Serialize>(path: &Path, value: &T, sync: bool) -> Result<()> {
     let fill = |w: &mut (dyn Write + Send)| {
         serde_json::to_writer_pretty(&mut *w, value).map_err(|e| Error::write_output(path, e))?;
@@ -171,7 +167,6 @@ fn write_json_with<T: Serialize>(path: &Path, value: &T, sync: bool) -> Result<(
     }
 }
 
-/// Returns the record of part `file` when it says the part is what `expected` describes.
 fn check_record(file: &Path, expected: Expected<'_>) -> std::result::Result<PartRecord, String> {
     let path = record_path(file);
     let text = std::fs::read(&path).map_err(|e| match e.kind() {
@@ -198,7 +193,6 @@ fn check_record(file: &Path, expected: Expected<'_>) -> std::result::Result<Part
     Ok(record)
 }
 
-/// Returns the file name of `path` for messages.
 fn name(path: &Path) -> String {
     path.file_name().map_or_else(
         || path.display().to_string(),
@@ -206,8 +200,7 @@ fn name(path: &Path) -> String {
     )
 }
 
-/// Returns `Ok` when `bytes` (the content of part `file`, read once) are what its record says
-/// for `expected`; else why not.
+/// Returns `Ok` when `bytes`, the content of part `file`, match its record for `expected`.
 ///
 /// # Errors
 /// The reason in words, as [`Status::Damaged`] gives it.
@@ -226,15 +219,14 @@ pub fn check_bytes(file: &Path, bytes: &[u8], expected: Expected<'_>) -> std::re
     Ok(())
 }
 
-/// Returns whether `path` is a regular file (a link followed): a result written into a device
-/// or a FIFO is never read back (opening a FIFO would wait for a writer).
+/// Returns whether `path` is a regular file, following links. A device or FIFO is never read
+/// back: opening a FIFO would wait for a writer.
 pub(crate) fn is_regular(path: &Path) -> bool {
     std::fs::metadata(path).is_ok_and(|m| m.is_file())
 }
 
-/// Returns what part `file` is: good when its record matches `expected` and its bytes the
-/// record; missing when there is no file, or a device or FIFO (written through, nothing to read
-/// back: opening a FIFO would wait for a writer); damaged (with the reason) otherwise.
+/// Returns the state of part `file`: good when record and bytes match `expected`, missing when
+/// absent or a device or FIFO (nothing to read back), else damaged with the reason.
 #[must_use]
 pub fn check(file: &Path, expected: Expected<'_>) -> Status {
     if !is_regular(file) {
@@ -261,7 +253,6 @@ fn record_of(part: &Path) -> Option<PartRecord> {
     serde_json::from_slice(&text).ok()
 }
 
-/// Returns the size and CRC-32 of `file`.
 fn sums(file: &Path) -> std::io::Result<(u64, u32)> {
     let mut r = BufReader::with_capacity(1 << 16, std::fs::File::open(file)?);
     let mut hasher = crc32fast::Hasher::new();
@@ -278,9 +269,8 @@ fn sums(file: &Path) -> std::io::Result<(u64, u32)> {
     }
 }
 
-/// Writes `out` (with its record for `expected`): the header `columns`, then the rows of each
-/// part in `parts` (each checked as it is read: its header must be `columns`, and its size and
-/// checksum those of its record); `out` is written whole or not at all.
+/// Writes CSV `out` and its record, whole or not at all: header `columns`, then each part's rows.
+/// Each part is checked as read: its header must be `columns`, its size and checksum its record's.
 ///
 /// # Errors
 /// [`Error::Csv`] naming a part that is not what its record says; [`Error::ReadInput`] and
@@ -345,12 +335,11 @@ pub fn join(
     })
 }
 
-/// Writes the Parquet file `out` (with its record for `expected`) from the rows of the Parquet
-/// parts `parts`, in order: each part's size and checksum checked against its record before it is
-/// read and again after, and its columns against `columns` of `kinds`. `out`'s row groups are
-/// cut at the multiples of [`GROUP_ROWS`](crate::io::parquet::GROUP_ROWS) of the pose index, so
-/// the same rows make the same file however they were chunked or sharded; `out` is written whole
-/// or not at all.
+/// Writes Parquet `out` and its record, whole or not at all, from the rows of `parts` in order.
+///
+/// Each part's size and checksum are checked before and after reading, its columns against
+/// `columns`. Row groups are cut at multiples of [`GROUP_ROWS`](crate::io::parquet::GROUP_ROWS)
+/// of the pose index, so the same rows make the same file however they were chunked or sharded.
 ///
 /// # Errors
 /// [`Error::Csv`] naming a part that is not what its record says or not this sweep's table;
@@ -372,9 +361,8 @@ pub fn join_parquet(
     })
 }
 
-/// A Parquet table being joined from parts in index order ([`join_parquet`], or a run joining
-/// its chunks as they finish): whole row groups copied as they are (the parts are written with
-/// the same encoding), the others decoded and cut again.
+/// A Parquet table joined from parts in index order, by [`join_parquet`] or a running sweep.
+/// Whole row groups are copied as they are (all parts share one encoding); others are re-cut.
 pub(crate) struct ParquetJoin<'a, W: Write + Send> {
     table: crate::io::parquet::TableWriter<'a, W>,
     columns: &'a [String],
@@ -385,11 +373,7 @@ pub(crate) struct ParquetJoin<'a, W: Write + Send> {
 }
 
 impl<'a, W: Write + Send> ParquetJoin<'a, W> {
-    /// Returns a join into `w` (the file `out`) of the table of `columns` of `kinds` that
-    /// `expected` describes.
-    ///
-    /// # Errors
-    /// [`Error::WriteOutput`] when the header cannot be written.
+    /// Returns a join into `w` (the file `out`) of the table `expected` describes.
     pub(crate) fn new(
         w: W,
         columns: &'a [String],
@@ -415,11 +399,7 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
         })
     }
 
-    /// Adds the rows of part `part` (`last`: the last part), its size and checksum checked
-    /// against its record before it is read and again after.
-    ///
-    /// # Errors
-    /// As [`join_parquet`].
+    /// Adds the rows of part `part`, checked against its record before and after reading.
     pub(crate) fn add_file(&mut self, part: &Path, last: bool) -> Result<()> {
         let damaged = |message: String| Error::Csv {
             context: part.display().to_string(),
@@ -442,17 +422,12 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
         same("after")
     }
 
-    /// Adds the rows of the Parquet bytes `bytes`, part `part` just written from them (`last`:
-    /// the last part).
-    ///
-    /// # Errors
-    /// As [`join_parquet`].
+    /// Adds the rows of the Parquet `bytes` just written as part `part`.
     pub(crate) fn add_bytes(&mut self, bytes: bytes::Bytes, part: &Path, last: bool) -> Result<()> {
         let opened = crate::io::parquet::open_part_bytes(bytes, part, self.columns, self.kinds)?;
         self.add(&opened, part, last)
     }
 
-    /// Adds the row groups of `opened` (part `part`).
     fn add<R: parquet::file::reader::ChunkReader + 'static>(
         &mut self,
         opened: &crate::io::parquet::Part<R>,
@@ -471,10 +446,7 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
         Ok(())
     }
 
-    /// Writes the footer, after checking that the parts held the rows expected.
-    ///
-    /// # Errors
-    /// [`Error::Csv`] when they did not; [`Error::WriteOutput`] on I/O failure.
+    /// Writes the footer, after checking that the parts held the expected rows.
     pub(crate) fn finish(self) -> Result<()> {
         if self.rows != self.expected {
             return Err(Error::Csv {
@@ -486,9 +458,8 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
     }
 }
 
-/// Returns how a sweep table of `columns` is encoded, its chunks, shards and result alike (so
-/// whole row groups are copied between them as they are): Snappy pages, statistics, and
-/// dictionaries for the pose columns (between the index and the metrics: their values repeat).
+/// Returns the encoding shared by a sweep's chunks, shards and result, so row groups copy as-is.
+/// It uses Snappy pages, statistics, and dictionaries for the pose columns, whose values repeat.
 #[must_use]
 pub fn final_encoding(columns: &[String]) -> crate::io::parquet::Encoding<'_> {
     let poses = crate::sweep::columns::pose_column_count(columns);
@@ -532,7 +503,7 @@ mod tests {
         })
         .unwrap();
         assert_eq!(check(&file, expected), Status::Good);
-        // The CRC-32 of the bytes, computed independently of the writer.
+        // The CRC-32, computed apart from the writer.
         let record: PartRecord = serde_json::from_slice(&std::fs::read(record_path(&file)).unwrap()).unwrap();
         assert_eq!(
             record.crc32,

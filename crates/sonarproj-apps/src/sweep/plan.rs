@@ -1,7 +1,6 @@
-//! What a sweep run is before anything is computed: its poses (the whole sweep's or a shard's),
-//! its chunks, whether it writes rows or summaries, and the work every chunk shares. Both the run
-//! into a directory ([`super::run`]) and the run in memory ([`super::in_memory`]) make one, and
-//! compute its chunks with [`Plan::compute`].
+//! A sweep run planned before anything is computed: its poses, chunks, outputs and shared work.
+//! Both the run into a directory ([`super::run`]) and the run in memory ([`super::in_memory`])
+//! make one and compute its chunks with [`Plan::compute`].
 
 use sonarproj::stream::Stop;
 use std::ops::{ControlFlow, Range};
@@ -22,18 +21,18 @@ use crate::sweep::records::Descriptor;
 use crate::sweep::shard::Shard;
 use crate::sweep::summary::SummarySpec;
 
-/// Most chunks projected in one run of blocks ([`Backend::project_blocks`]): the device goes on
-/// from one to the next without waiting, and the run's lists stay small however many chunks.
+/// The most chunks projected in one run of blocks ([`Backend::project_blocks`]).
+/// The device goes from one to the next without waiting, and the run's lists stay small.
 pub(crate) const RUN_BLOCKS: usize = 256;
 
 /// The default number of poses per chunk of a sweep that writes rows: one Parquet row group.
 pub const DEFAULT_CHUNK_POSES: u64 = crate::io::parquet::GROUP_ROWS;
 
-/// The default number of poses per chunk of a sweep of summaries only (`rows = false`): eight
-/// row groups' worth. Its chunks are reductions, whose parts on disk are as large as the
-/// marginals whatever the chunk's size, so fewer, larger chunks cost less (10^8 poses with a
-/// 10 000-value marginal: 763 parts of 0.7 MB at 131 072 poses, 96 at 2^20) and make larger
-/// calls to a GPU; memory grows with them (about 0.2 KB a pose).
+/// The default poses per chunk for a summaries-only sweep (`rows = false`): eight row groups.
+///
+/// A summary part on disk is as large as its marginals whatever the chunk's size, so fewer,
+/// larger chunks cost less and make larger GPU calls. 10^8 poses with a 10 000-value marginal
+/// make 763 parts of 0.7 MB at 131 072 poses, 96 at 2^20. Memory grows: about 0.2 KB a pose.
 pub const DEFAULT_SUMMARY_CHUNK_POSES: u64 = 1 << 20;
 
 /// Returns the default number of poses per chunk of `config`: [`DEFAULT_SUMMARY_CHUNK_POSES`]
@@ -46,10 +45,7 @@ pub fn default_chunk_poses(config: &SweepConfig) -> u64 {
     }
 }
 
-/// Returns an error unless `chunk_poses` is in `[1, MAX_CHUNK_POSES]`, naming `field`.
-///
-/// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `field`.
+/// Returns an error naming `field` unless `chunk_poses` is in `[1, MAX_CHUNK_POSES]`.
 pub(crate) fn check_chunk_poses(chunk_poses: u64, field: impl Into<Field>) -> Result<()> {
     if (1..=MAX_CHUNK_POSES).contains(&chunk_poses) {
         return Ok(());
@@ -68,25 +64,22 @@ pub(crate) struct Plan<'a> {
     pub(crate) desc: Descriptor,
     /// The poses of this run: the whole sweep's, or a shard's.
     pub(crate) range: Range<u64>,
-    /// Poses a chunk; chunks end at its multiples in the pose index.
+    /// Poses per chunk. Chunks end at its multiples of the pose index.
     pub(crate) chunk_poses: u64,
     /// This run's chunks (a shard's first and last may be short).
     pub(crate) chunks: u64,
     /// Whether rows are written (else the summaries alone).
     pub(crate) rows: bool,
-    /// The summaries asked for.
     pub(crate) spec: Option<&'a SummarySpec>,
     /// The metric the summaries reduce.
     pub(crate) by: Option<Metric>,
-    /// The grid, for a grid sweep.
     pub(crate) grid: Option<&'a Grid>,
-    /// The kinds of the table's columns.
     pub(crate) kinds: Vec<Kind>,
     /// The range error of the local precision (m).
     pub(crate) sigma: f64,
 }
 
-/// One chunk computed: its number in the run, its poses, its table (when rows are written) and
+/// One computed chunk: its number in the run, its poses, its table (when rows are written) and
 /// the values its summary reduces (when one is asked for).
 pub(crate) struct Computed {
     pub(crate) chunk: u64,
@@ -96,11 +89,7 @@ pub(crate) struct Computed {
 }
 
 impl<'a> Plan<'a> {
-    /// Returns the plan of `config` (described by `desc`), or of `shard` of it, in chunks of
-    /// `chunk_poses`.
-    ///
-    /// # Errors
-    /// As [`resolve_sigma_range`].
+    /// Returns the plan of `config` (described by `desc`) or its `shard`, in `chunk_poses` chunks.
     pub(crate) fn new(
         config: &'a SweepConfig,
         desc: Descriptor,
@@ -132,7 +121,6 @@ impl<'a> Plan<'a> {
         Ok(plan)
     }
 
-    /// Returns the number of poses of this run.
     pub(crate) fn poses(&self) -> u64 {
         self.range.end - self.range.start
     }
@@ -146,18 +134,15 @@ impl<'a> Plan<'a> {
         }
     }
 
-    /// Returns an error when the run has more than [`MAX_CHUNKS`] chunks, naming `field` (where
-    /// the chunk size came from) and the smallest chunk size that works.
-    ///
-    /// # Errors
-    /// [`sonarproj::Error::InvalidValue`] naming `field`.
+    /// Returns an error when the run has more than [`MAX_CHUNKS`] chunks.
+    /// It names `field`, where the chunk size came from, and the smallest chunk size that works.
     pub(crate) fn check_chunk_count(&self, field: impl Into<Field>) -> Result<()> {
         let (poses, n_chunks) = (self.poses(), self.chunks);
         if n_chunks <= MAX_CHUNKS {
             return Ok(());
         }
-        // The smallest chunk size that works: a whole run's, or one more chunk's for a shard
-        // that starts between two multiples (at most a step or two above the whole run's).
+        // The smallest chunk size that works. A shard that starts between two multiples may need
+        // one more chunk, so step up from the whole run's size (a step or two at most).
         let mut fits = poses.div_ceil(MAX_CHUNKS);
         while self.chunks_of(fits) > MAX_CHUNKS {
             fits += 1;
@@ -172,34 +157,28 @@ impl<'a> Plan<'a> {
         ))
     }
 
-    /// Returns the poses of chunk `c` of this run.
     pub(crate) fn chunk(&self, c: u64) -> Range<u64> {
         let (cp, first) = (self.chunk_poses, self.range.start / self.chunk_poses);
         ((first + c) * cp).max(self.range.start)..((first + c + 1) * cp).min(self.range.end)
     }
 
     /// Returns what every chunk's computation shares.
-    ///
-    /// # Errors
-    /// As [`Work::new`].
     pub(crate) fn work(&self) -> Result<Work<'_>> {
         Work::new(self.config, &self.desc.columns, &self.kinds, self.sigma)
     }
 
-    /// Returns the metric columns the chunks fill: the table's kept metrics when rows are
-    /// written, and the summary's metric.
+    /// Returns the metric columns the chunks fill: the kept metrics and the summary's metric.
     pub(crate) fn metric_columns(&self) -> MetricColumns {
         let table = self.rows.then_some(self.config.result_columns.as_slice());
         metric_columns(table, self.by)
     }
 
-    /// Computes chunks `todo` of this run on `backend` and hands each to `sink`, in order, until
-    /// `sink` answers `Break` (returned): a grid's chunks in one run of blocks
-    /// ([`Backend::project_blocks`], the device going on from one to the next), a list's one at a
-    /// time. `metrics` is reused from chunk to chunk.
+    /// Computes chunks `todo` on `backend` and hands each to `sink` in order, until it breaks.
+    /// A grid's chunks go in one run of blocks ([`Backend::project_blocks`]), so the device never
+    /// waits between them. A list's go one at a time. `metrics` is reused between chunks.
     ///
     /// # Errors
-    /// As [`Work::block`] and [`Work::rows`]; `sink`'s first error.
+    /// As [`Work::block`] and [`Work::rows`], and `sink`'s first error.
     pub(crate) fn compute(
         &self,
         work: &Work<'_>,

@@ -1,6 +1,5 @@
-//! What a sweep's directory records besides its tables: the descriptor `sweep.json`, the
-//! settings a part was computed with (`NAME.run.json`), and the checks every run and merge makes
-//! of them and of the parts it reads back.
+//! The records a sweep's directory keeps besides its tables: `sweep.json` and each part's
+//! settings `NAME.run.json`. Also the checks runs and merges make of them and of the parts.
 
 use std::path::{Path, PathBuf};
 
@@ -23,21 +22,20 @@ pub struct Descriptor {
     pub columns: Vec<String>,
     /// The grid columns that vary (a figure is drawn for one or two).
     pub varying: Vec<String>,
-    /// The metric the figure draws and its axis label.
+    /// The metric the figure draws.
     pub metric: String,
     /// The metric's axis label.
     pub metric_label: String,
     /// The figure title.
     pub title: String,
-    /// The summaries asked for (absent when none: the descriptors of sweeps without one are
-    /// unchanged).
+    /// The summaries asked for. Left out when none, so such sweeps' descriptors stay unchanged.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub summary: Option<SummarySpec>,
 }
 
-/// What decides a run's numbers besides the sweep file (whose fingerprint the parts carry): the
-/// engine's version and the backend's settings ([`Backend::settings`]), by name. Written beside
-/// each shard (`shard-K-of-N.run.json`), so that `merge` joins only shards computed alike.
+/// The settings that decide a run's numbers, besides the sweep file the fingerprint covers.
+/// They are the engine's version and [`Backend::settings`], by name. Written beside each shard
+/// (`shard-K-of-N.run.json`) so that `merge` joins only shards computed alike.
 pub type Settings = std::collections::BTreeMap<String, String>;
 
 /// Returns the settings of a run on `backend`.
@@ -70,8 +68,7 @@ pub(crate) fn first_difference(a: &Settings, b: &Settings) -> Option<(String, St
         })
 }
 
-/// Returns the path of the settings record of part `file` (`NAME.csv` → `NAME.run.json`,
-/// `NAME.parquet` → `NAME.parquet.run.json`).
+/// Returns the path of part `file`'s settings: `NAME.run.json` or `NAME.parquet.run.json`.
 pub(crate) fn settings_path(file: &Path) -> PathBuf {
     parts::beside(file, "run.json")
 }
@@ -131,8 +128,8 @@ pub(crate) fn write_summary(path: &Path, expected: parts::Expected<'_>, total: &
     })
 }
 
-/// Returns the first of `files` that is not good for `expected`, with its status; the last
-/// file and [`parts::Status::Good`] when all are.
+/// Returns the first of `files` not good for `expected`, with its status.
+/// When all are good, returns the last file and [`parts::Status::Good`].
 pub(crate) fn first_not_good<'f>(
     files: &[&'f Path],
     expected: parts::Expected<'_>,
@@ -146,8 +143,8 @@ pub(crate) fn first_not_good<'f>(
     (files[files.len() - 1], parts::Status::Good)
 }
 
-/// Returns the JSON part `path`, after checking its bytes against its record for `expected`
-/// (read once: what is checked is what is parsed).
+/// Returns the JSON part `path`, its bytes checked against its record for `expected`.
+/// It is read once, so what is checked is what is parsed.
 pub(crate) fn read_part<T: for<'de> Deserialize<'de>>(
     path: &Path,
     expected: parts::Expected<'_>,

@@ -1,21 +1,20 @@
-//! Running a sweep in chunks that survive interruption, in shards that can run on different
-//! machines, and merging the shards into the file one run would have written.
+//! Runs a sweep in chunks that survive interruption, and in shards that can run on different
+//! machines and merge into the file one run would write.
 //!
 //! Files in the output directory `DIR`:
-//! - `sweep.json`: what the sweep is (fingerprint, pose count, columns, figure axes); every run
-//!   and shard writes the same one and refuses a directory holding another sweep's;
+//! - `sweep.json`: what the sweep is (fingerprint, pose count, columns, figure axes). Every run
+//!   and shard writes the same one, and refuses a directory holding another sweep's.
 //! - `sweep.csv` (a whole run) or `shard-K-of-N.csv` (one shard): `index`, the pose columns and
-//!   the metrics, one row per pose in index order; beside each, `NAME.meta.json`, the record of
-//!   what it holds ([`super::parts`]: sweep fingerprint, first index, rows, size, CRC-32) — or
-//!   the same table as `sweep.parquet` / `shard-K-of-N.parquet` ([`Format::Parquet`]);
+//!   the metrics, one row per pose in index order. Or the same table as `sweep.parquet` /
+//!   `shard-K-of-N.parquet` ([`Format::Parquet`]).
+//! - `NAME.meta.json` beside each result: the record of what it holds ([`super::parts`]).
 //! - `summary.json` or `shard-K-of-N.summary.json` when the sweep file has a `[summary]`
-//!   ([`super::summary`]); with `rows = false` it is the only result;
-//! - `sweep-METRIC.png`: the metric against the grid's one or two varying axes (whole runs and
-//!   merges only);
+//!   ([`super::summary`]). With `rows = false` it is the only result.
+//! - `sweep-METRIC.png`: the metric against the varying axes (whole runs and merges only).
 //! - `.partial-sweep/` or `.partial-shard-K-of-N/` while unfinished: `manifest.json` and one
-//!   `chunk-NNNNNNNN.csv` per finished chunk (with its record), each written whole or not at all.
-//!   A re-run skips the finished chunks whose bytes match their records and computes the others
-//!   again, saying so; the directory is removed once the result file is written.
+//!   `chunk-NNNNNNNN.csv` per finished chunk with its record, each written whole or not at all.
+//!   A re-run skips finished chunks whose bytes match their records and recomputes the others,
+//!   saying so. The directory is removed once the result file is written.
 
 use std::ops::ControlFlow;
 use std::path::PathBuf;
@@ -48,8 +47,8 @@ pub struct Options {
     pub out: PathBuf,
     /// One part of the sweep, or all of it.
     pub shard: Option<Shard>,
-    /// Poses per chunk (the unit of resumption); `None`: the unfinished run's in the directory,
-    /// else [`default_chunk_poses`].
+    /// Poses per chunk, the unit of resumption.
+    /// `None` takes the unfinished run's in the directory, else [`default_chunk_poses`].
     pub chunk_poses: Option<u64>,
     /// Stop after computing this many chunks (the run stays resumable).
     pub max_chunks: Option<u64>,
@@ -64,8 +63,7 @@ pub struct Outcome {
     pub file: Option<PathBuf>,
     /// The figure written, if any.
     pub figure: Option<PathBuf>,
-    /// The summaries' file (`summary.json`, or a shard's), when the sweep asks for them and is
-    /// complete.
+    /// The summaries' file (`summary.json` or a shard's), when asked for and complete.
     pub summary: Option<PathBuf>,
     /// Poses of this run or shard.
     pub poses: u64,
@@ -97,20 +95,22 @@ pub enum Event {
     },
 }
 
-/// Runs `config` (or one shard of it) on `backend` into `opts.out`, resuming from finished
-/// chunks; `events` hears of progress after each chunk and of every damaged part set aside.
-/// When `events` answers [`ControlFlow::Break`], the run stops there as `max_chunks` stops it:
-/// finished chunks stay on disk, the outcome has no file, and the same call resumes.
+/// Runs `config` (or one shard) on `backend` into `opts.out`, resuming from finished chunks.
 ///
-/// The run goes through four phases: plan (everything checked, nothing written), lock (the
-/// directory claimed, the run's state locked and its manifest checked), compute and write (chunk
-/// after chunk, each written while the next is computed), and finish (the result joined from
-/// the chunks, the state removed, the figure drawn).
+/// `events` hears of progress after each chunk and of every damaged part set aside. When it
+/// answers [`ControlFlow::Break`], the run stops as `max_chunks` stops it: finished chunks stay
+/// on disk, the outcome has no file, and the same call resumes.
+///
+/// The run has four phases:
+/// 1. Plan: check everything, write nothing.
+/// 2. Lock: claim the directory, lock the run's state and check its manifest.
+/// 3. Compute and write: chunk after chunk, each written while the next is computed.
+/// 4. Finish: join the result from the chunks, remove the state, draw the figure.
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] for a directory holding another sweep or an unfinished run
 /// with other settings, or `--chunk-poses` cutting the run into more than
-/// [`MAX_CHUNKS`](crate::limits::MAX_CHUNKS) chunks; errors of [`Backend::project`] and of
+/// [`MAX_CHUNKS`](crate::limits::MAX_CHUNKS) chunks. Errors of [`Backend::project`] and of
 /// writing files.
 pub fn run(
     config: &SweepConfig,
@@ -118,8 +118,7 @@ pub fn run(
     opts: &Options,
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Outcome> {
-    // Plan: everything is checked before the directory is created, so a refused run leaves
-    // nothing.
+    // Plan. Everything is checked before the directory is made, so a refused run leaves nothing.
     let plan = plan(config, opts)?;
     let files = Files::new(&plan, &opts.out, opts.shard, opts.format);
     let dir = &opts.out;
@@ -166,12 +165,9 @@ pub fn run(
     Ok(outcome)
 }
 
-/// Returns the plan of the run `opts` asks for: its chunk size given, else the unfinished run's
-/// (of this sweep: another is refused later), else the default; each checked, the error naming
-/// where it came from.
-///
-/// # Errors
-/// As [`Plan::new`], [`check_chunk_poses`] and [`Plan::check_chunk_count`].
+/// Returns the plan of the run `opts` asks for, with its chunk size checked.
+/// The size is the one given, else the unfinished run's (of this sweep; another is refused
+/// later), else the default. An error names where the size came from.
 fn plan<'a>(config: &'a SweepConfig, opts: &Options) -> Result<Plan<'a>> {
     let desc = descriptor(config)?;
     let stem = state::stem(opts.shard);
@@ -190,13 +186,13 @@ fn plan<'a>(config: &'a SweepConfig, opts: &Options) -> Result<Plan<'a>> {
                 },
             ),
     };
-    // Whichever it came from (an unfinished run's too: of an older version, or an edited
-    // manifest), before anything is written.
+    // Check it whatever its source, before anything is written. An unfinished run's may come
+    // from an older version or an edited manifest.
     check_chunk_poses(chunk_poses, field.clone())?;
-    // One file a chunk: their number is bounded, and nothing is kept per chunk but its file.
-    // Chunks end at the multiples of the chunk size in the pose index (a shard's first and last
-    // may be shorter), so a chunk of a multiple of GROUP_ROWS poses is whole row groups, which
-    // the join copies as they are.
+    // One file per chunk, so their number is bounded; nothing else is kept per chunk.
+    // Chunks end at multiples of the chunk size in the pose index (a shard's first and last may
+    // be shorter). So a chunk of a multiple of GROUP_ROWS poses is whole row groups, which the
+    // join copies as they are.
     let plan = Plan::new(config, desc, opts.shard, chunk_poses)?;
     plan.check_chunk_count(field)?;
     Ok(plan)
@@ -206,8 +202,8 @@ fn plan<'a>(config: &'a SweepConfig, opts: &Options) -> Result<Plan<'a>> {
 /// (`outcome` then says so), or when `events` stops the run as a damaged result is set aside.
 ///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] when the result was computed with other settings, or (a
-/// shard) without a record of how.
+/// [`sonarproj::Error::InvalidValue`] when the result was computed with other settings, or,
+/// for a shard, without a record of how.
 fn finished_before(
     files: &Files<'_>,
     backend: &Backend,
@@ -224,9 +220,9 @@ fn finished_before(
             return Ok(events(Event::Recomputing { file, reason }));
         }
     }
-    // Finished earlier (the result is written only once every chunk is), with these settings:
-    // a part computed otherwise, or without a record of how (a shard must have one to be
-    // merged), is not passed off as this run's.
+    // Finished earlier: the result is written only once every chunk is. Check the settings too,
+    // so a part computed otherwise, or without a record of how, is not passed off as this run's.
+    // A shard needs that record to be merged.
     let file = &files.file;
     let record = settings_path(file);
     match read_json::<Settings>(&record)? {
@@ -272,12 +268,9 @@ fn finished_before(
     Ok(ControlFlow::Break(()))
 }
 
-/// Computes the chunks not finished before and writes them, each while the next is computed;
-/// once every chunk is finished, writes the settings record, the result and the summaries.
+/// Computes the unfinished chunks, writing each while the next is computed.
+/// Once all are done, writes the settings record, the result and the summaries.
 /// Returns `Break` when the run stopped first (`max_chunks`, or `events`).
-///
-/// # Errors
-/// Errors of the backend, of reading finished chunks and of writing files.
 fn compute_and_write(
     files: &Files<'_>,
     backend: &Backend,
@@ -290,8 +283,8 @@ fn compute_and_write(
     let work = plan.work()?;
     let mut metrics = plan.metric_columns();
     let mut budget = opts.max_chunks.unwrap_or(u64::MAX);
-    // A grid's chunks to Parquet or summaries are projected in runs of blocks, the device never
-    // waiting for the host between them; a list's, and CSV chunks, one at a time.
+    // A grid's Parquet or summary chunks are projected in runs of blocks, so the device never
+    // waits for the host between them. A list's chunks, and CSV chunks, go one at a time.
     let csv = plan.rows && opts.format == Format::Csv;
     let streamed = work.sweep().is_some() && !csv;
     let join = joins_as_chunks_finish(files, opts, budget);
@@ -324,9 +317,9 @@ fn compute_and_write(
                 return Ok(ControlFlow::Break(()));
             }
             budget -= 1;
-            // This chunk, and when streamed the ones after it still to compute, within the
-            // budget, at most RUN_BLOCKS at a time; a damaged one's event is sent when its turn
-            // comes (after the chunks before it are done, as one at a time would).
+            // Take this chunk and, when streamed, the unfinished ones after it, within the budget
+            // and at most RUN_BLOCKS at a time. A damaged chunk's event is sent when its turn
+            // comes, after the chunks before it, as one at a time would.
             let mut announce: Vec<Option<Event>> = vec![None];
             while streamed
                 && budget > 0
@@ -375,15 +368,14 @@ fn compute_and_write(
     })
 }
 
-/// Returns the event that says `file` was set aside (`reason`) and is computed again.
 fn recomputing((file, reason): (PathBuf, String)) -> Event {
     Event::Recomputing { file, reason }
 }
 
-/// Returns whether a Parquet result is joined as its chunks finish: only when the run can
-/// finish (a run that `max_chunks` (`budget`) will stop would copy the finished chunks for
-/// nothing, again each time it is resumed) into a regular file (a device or FIFO gets the table
-/// only once it is whole); otherwise it is joined at the end.
+/// Returns whether a Parquet result is joined as its chunks finish, rather than at the end.
+/// Only when the run can finish: a run that `max_chunks` (`budget`) will stop would copy the
+/// finished chunks for nothing, again on each resume. And only into a regular file: a device
+/// or FIFO gets the table only once it is whole.
 fn joins_as_chunks_finish(files: &Files<'_>, opts: &Options, budget: u64) -> bool {
     let plan = files.plan;
     let can_finish = opts.max_chunks.is_none_or(|_| {
@@ -394,11 +386,8 @@ fn joins_as_chunks_finish(files: &Files<'_>, opts: &Options, budget: u64) -> boo
     plan.rows && opts.format == Format::Parquet && can_finish && regular
 }
 
-/// Computes chunk `c` as CSV rows written straight into its file, and returns it with the
-/// values its summary reduces (its table is on disk).
-///
-/// # Errors
-/// Errors of the backend and of writing the chunk.
+/// Computes chunk `c` as CSV rows written straight into its file.
+/// Returns it with the values its summary reduces; its table is already on disk.
 fn csv_chunk(files: &Files<'_>, backend: &Backend, c: u64) -> Result<Computed> {
     let plan = files.plan;
     let poses = plan.chunk(c);
@@ -417,11 +406,8 @@ fn csv_chunk(files: &Files<'_>, backend: &Backend, c: u64) -> Result<Computed> {
     })
 }
 
-/// Writes a finished run's results: the settings first (a result never stands without them),
-/// the table next, the summary last (a summary beside a table means the table is whole).
-///
-/// # Errors
-/// Errors of joining the chunks and writing the files.
+/// Writes a finished run's results. Settings go first, so a result never stands without them.
+/// The summary goes last, after the table, so a summary beside a table means the table is whole.
 fn write_results(
     files: &Files<'_>,
     opts: &Options,

@@ -1,5 +1,5 @@
-//! Part K of N of a sweep: contiguous ranges of pose indices, their sizes differing by at most
-//! one, that run anywhere and merge into the file one run writes.
+//! Part K of N of a sweep: a contiguous range of pose indices, sizes differing by at most one.
+//! Shards run anywhere and merge into the file one run writes.
 
 use std::ops::Range;
 
@@ -22,8 +22,7 @@ impl Shard {
     /// Returns the shard written `K/N`.
     ///
     /// # Errors
-    /// [`sonarproj::Error::InvalidValue`] naming the shard ([`crate::params::SHARD`]) unless
-    /// `1 <= K <= N`.
+    /// [`sonarproj::Error::InvalidValue`] naming the shard unless `1 <= K <= N`.
     pub fn parse(text: &str) -> Result<Shard> {
         let bad = || {
             Error::invalid(
@@ -50,8 +49,7 @@ impl Shard {
         Ok(Shard { k, n })
     }
 
-    /// Returns the pose indices of this shard out of `total`: contiguous, sizes differing by at
-    /// most one.
+    /// Returns this shard's contiguous pose indices out of `total`.
     #[expect(
         clippy::cast_possible_truncation,
         reason = "pose counts and chunk sizes are bounded (MAX_POSES) before this point"

@@ -1,6 +1,6 @@
-//! A run's files on disk: its result files, its state while unfinished (`.partial-*`: the
-//! manifest, the lock and one file a finished chunk, each with its record), and the writing of a
-//! chunk's files and of the Parquet result joined from them.
+//! A run's files on disk: its results, and its `.partial-*` state while unfinished.
+//! The state holds the manifest, the lock, and one file per finished chunk, each with a record.
+//! Also writes the chunks and joins the Parquet result from them.
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -23,7 +23,7 @@ use sonarproj::error::Field;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub(crate) struct Manifest {
     pub(crate) fingerprint: String,
-    /// Absent in the manifests of runs from before Parquet: CSV.
+    /// CSV when absent, as in manifests written before Parquet existed.
     #[serde(default)]
     pub(crate) format: Format,
     pub(crate) chunk_poses: u64,
@@ -43,21 +43,19 @@ pub(crate) fn unfinished(dir: &Path, stem: &str) -> Option<Manifest> {
         .flatten()
 }
 
-/// Where a run's files are: its results, its state and its chunks.
+/// The paths of a run's files: results, state and chunks.
 pub(crate) struct Files<'a> {
     pub(crate) plan: &'a Plan<'a>,
-    /// `sweep` for a whole run, `shard-K-of-N` for a shard.
     pub(crate) stem: String,
     /// The result: the table, or the summaries alone when no rows are written.
     pub(crate) file: PathBuf,
-    /// The summaries' file.
     pub(crate) summary: PathBuf,
-    /// The unfinished run's state.
+    /// The unfinished run's `.partial-*` directory.
     pub(crate) state: PathBuf,
     format: Format,
 }
 
-/// What writing a chunk gives back: its table encoded (Parquet), its summary.
+/// What writing a chunk returns: its encoded Parquet table and its summary, when present.
 #[derive(Default)]
 pub(crate) struct Written {
     pub(crate) table: Option<bytes::Bytes>,
@@ -65,8 +63,7 @@ pub(crate) struct Written {
 }
 
 impl<'a> Files<'a> {
-    /// Returns the files of `plan` (of `shard`, or of the whole sweep) run into `dir` in
-    /// `format`.
+    /// Returns the files of `plan` run into `dir` in `format`, for `shard` or the whole sweep.
     pub(crate) fn new(plan: &'a Plan<'a>, dir: &Path, shard: Option<Shard>, format: Format) -> Self {
         let stem = stem(shard);
         let summary = match shard {
@@ -97,10 +94,7 @@ impl<'a> Files<'a> {
         }
     }
 
-    /// Returns an error unless every result file can be written (not a directory, say).
-    ///
-    /// # Errors
-    /// As [`check_output_file`], naming `--out`.
+    /// Returns an error naming `--out` unless every result file can be written.
     pub(crate) fn check_writable(&self) -> Result<()> {
         self.results()
             .iter()
@@ -121,13 +115,11 @@ impl<'a> Files<'a> {
         }
     }
 
-    /// Returns the table file of chunk `c`.
     pub(crate) fn chunk_path(&self, c: u64) -> PathBuf {
         self.state
             .join(format!("chunk-{c:08}.{}", self.format.extension()))
     }
 
-    /// Returns the summary file of chunk `c`.
     pub(crate) fn chunk_summary(&self, c: u64) -> PathBuf {
         self.state.join(format!("chunk-{c:08}.summary.json"))
     }
@@ -144,8 +136,8 @@ impl<'a> Files<'a> {
         out
     }
 
-    /// Returns whether chunk `c`'s files are all good (a chunk of an earlier run), and for a
-    /// damaged one the file set aside and why.
+    /// Returns whether chunk `c`'s files, left by an earlier run, are all good.
+    /// For a damaged chunk it also returns the bad file and why.
     pub(crate) fn checked(&self, c: u64) -> (bool, Option<(PathBuf, String)>) {
         let files = self.chunk_files(c);
         let (damaged, status) = first_not_good(
@@ -159,14 +151,13 @@ impl<'a> Files<'a> {
         }
     }
 
-    /// Makes the run's state directory, locks it (one run at a time in it: a second, such as the
-    /// same shard submitted twice, stops here instead of racing over its chunks) and checks or
-    /// writes its `manifest`; returns the lock, released when dropped.
+    /// Makes and locks the run's state directory, checks or writes `manifest`, returns the lock.
+    /// The lock, released when dropped, stops a second run (the same shard submitted twice, say)
+    /// from racing over the chunks.
     ///
     /// # Errors
-    /// [`Error::WriteOutput`] when the directory cannot be made or another run holds it;
-    /// [`sonarproj::Error::InvalidValue`] naming the setting that differs from an unfinished
-    /// run's.
+    /// [`Error::WriteOutput`] when the directory cannot be made or another run holds it.
+    /// [`sonarproj::Error::InvalidValue`] naming a setting that differs from the unfinished run.
     pub(crate) fn open_state(&self, manifest: &Manifest) -> Result<Option<std::fs::File>> {
         let state = &self.state;
         std::fs::create_dir_all(state).map_err(|e| Error::write_output(state, e))?;
@@ -191,12 +182,8 @@ impl<'a> Files<'a> {
         Ok(lock)
     }
 
-    /// Writes chunk `c` (poses `r`): its Parquet table when there is one (returned encoded, for
-    /// the result's join), and the summary of its `values` when one is asked for (returned, for
-    /// the total).
-    ///
-    /// # Errors
-    /// Errors of encoding and writing the files, and of the summary.
+    /// Writes chunk `c` (poses `r`): its Parquet table, if any, and the summary of its `values`,
+    /// if asked. Returns both: the table encoded for the result's join, the summary for the total.
     pub(crate) fn write_chunk(
         &self,
         c: u64,
@@ -237,13 +224,13 @@ impl<'a> Files<'a> {
         Ok(written)
     }
 
-    /// Joins the chunks of a Parquet table into the result as `rx` hands them over, in order:
-    /// the result's temporary file grows while the run goes on, and is renamed into place at
-    /// [`ToJoin::Finish`] (a run that stops drops the sender, and the temporary file is removed).
+    /// Joins the Parquet chunks into the result, in order, as `rx` hands them over.
+    /// The result's temporary file grows during the run and is renamed at [`ToJoin::Finish`].
+    /// A run that stops drops the sender, and the temporary file is removed.
     ///
     /// # Errors
-    /// Errors of reading the chunks and writing the result; [`sonarproj::Error::Stopped`] when
-    /// the sender is dropped first.
+    /// Errors of reading the chunks and writing the result.
+    /// [`sonarproj::Error::Stopped`] when the sender is dropped first.
     pub(crate) fn join_chunks(&self, rx: std::sync::mpsc::Receiver<ToJoin>) -> Result<()> {
         let (columns, kinds) = (&self.plan.desc.columns, &self.plan.kinds);
         let (file, whole, last) = (&self.file, self.whole(), self.plan.chunks);
@@ -271,8 +258,7 @@ pub(crate) enum ToJoin {
     Finish,
 }
 
-/// Returns the first setting in which manifest `old` differs from `new`: the option's name,
-/// what it was and what it is now.
+/// Returns the first setting where manifest `old` differs from `new`: option, old and new value.
 fn first_manifest_difference(old: &Manifest, new: &Manifest) -> (Field, String, String) {
     if old.format != new.format {
         (
@@ -305,8 +291,8 @@ fn first_manifest_difference(old: &Manifest, new: &Manifest) -> (Field, String, 
     }
 }
 
-/// Returns the lock of the run state `state` (an open file, its lock released when it is
-/// dropped), or `None` where the file system has no locks.
+/// Returns the lock on run state `state`: an open file, unlocked when dropped.
+/// Returns `None` where the file system has no locks.
 ///
 /// # Errors
 /// [`Error::WriteOutput`] when another process holds it, or the lock file cannot be made.
@@ -328,8 +314,7 @@ fn lock_state(state: &Path) -> Result<Option<std::fs::File>> {
                           or run this one into another output directory"
                     .into(),
             }),
-            // A file system without locks (Lustre mounted without `flock`, some NFS setups):
-            // the run goes on unlocked, as it did before locks.
+            // No locks on this file system (Lustre without `flock`, some NFS setups): run unlocked.
             Err(_) => Ok(None),
         }
     }

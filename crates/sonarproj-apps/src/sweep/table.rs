@@ -24,13 +24,12 @@ use crate::sweep::parts;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Format {
-    /// CSV: one line of text a pose, numbers in their shortest exact form, empty cells where
-    /// nothing is visible.
+    /// CSV: one line per pose, numbers in shortest exact form, empty cells where nothing is seen.
     #[default]
     Csv,
-    /// Parquet: typed columns (integers for the index and counts, doubles for the rest, null
-    /// where the CSV leaves a cell empty), Snappy-compressed, row groups at the multiples of
-    /// [`GROUP_ROWS`](crate::io::parquet::GROUP_ROWS) in the pose index.
+    /// Parquet: typed columns, Snappy-compressed, row groups at multiples of
+    /// [`GROUP_ROWS`](crate::io::parquet::GROUP_ROWS) of the pose index. Integers for the index
+    /// and counts, doubles for the rest, null where the CSV leaves a cell empty.
     Parquet,
 }
 
@@ -61,9 +60,8 @@ impl Format {
     }
 }
 
-/// Returns the batch of a chunk's `poses`, with their true points (and so their local precision
-/// computed) only when rows are written and the table keeps a local column (a tenth of a
-/// sweep's time).
+/// Returns the batch of a chunk's `poses`. True points, which add local precision (a tenth of a
+/// sweep's time), are kept only when rows are written and the table keeps a local column.
 pub(crate) fn chunk_batch(config: &SweepConfig, poses: &[BatchItem]) -> Batch {
     let rows = config.summary.as_ref().is_none_or(|s| s.rows);
     let local = rows && config.result_columns.iter().any(|c| LOCAL_COLUMNS.contains(c));
@@ -137,10 +135,9 @@ pub(crate) fn columns_of(
     table
 }
 
-/// Returns the CSV rows (no header) of `fields` followed by the result columns `kept` (of
-/// [`METRIC_COLUMNS`], in its order): the metrics and local precision of `results`, formatted in
-/// parallel blocks (the same bytes as one writer would produce: each record is formatted on its
-/// own).
+/// Returns the CSV rows (no header) of `fields`, then `results`' columns `kept`, in
+/// [`METRIC_COLUMNS`] order. Blocks are formatted in parallel. Each record is formatted on its
+/// own, so the bytes match one writer's.
 pub(crate) fn csv_rows(
     fields: &[Vec<String>],
     (results, kept): (&[Projection], &[&str]),
@@ -164,8 +161,8 @@ pub(crate) fn csv_rows(
                 .from_writer(Vec::new());
             for (fields, p) in f.iter().zip(r) {
                 let local = p.local;
-                // The pose fields and the kept ones, then the record's end (a row always has
-                // its index, so never the empty record's lone field).
+                // The pose fields and kept ones, then the record's end. A row always has its
+                // index, so it is never the empty record's lone field.
                 let kept = picks.iter().map(|&k| metric_field(&p.metrics, &local, k));
                 fields
                     .iter()

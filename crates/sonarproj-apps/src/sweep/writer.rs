@@ -1,7 +1,6 @@
-//! A run's chunks written while the next is computed: each chunk's files on a thread of their
-//! own (its Parquet encoding and summary overlap the next projection), one write in flight, its
-//! error stopping the run; the summaries added to the run's total as chunks finish; a Parquet
-//! result joined from its chunks as they finish, on a thread of its own.
+//! Writes a run's chunks while the next is computed, one write in flight on its own thread.
+//! Parquet encoding and summaries thus overlap the next projection. A write's error stops the
+//! run. As chunks finish, summaries join the total and a Parquet result is joined on its thread.
 
 use std::thread::{Scope, ScopedJoinHandle};
 
@@ -11,23 +10,22 @@ use crate::sweep::records::read_part;
 use crate::sweep::state::{Files, ToJoin, Written};
 use crate::sweep::summary::{PartSummary, Summary};
 
-/// What a run writes while it computes: the chunk being written, the thread joining the Parquet
-/// result (when there is one), and the summary of the chunks finished so far (this run's, and
-/// earlier runs' read back from disk).
+/// The writing side of a run: the chunk being written, the Parquet join thread (if any), and
+/// the summary of the chunks finished so far, this run's and earlier runs'.
 pub(crate) struct Writer<'s, 'e> {
     scope: &'s Scope<'s, 'e>,
     files: &'e Files<'e>,
     writing: Option<(u64, ScopedJoinHandle<'s, Result<Written>>)>,
     joiner: Option<Joiner<'s>>,
-    /// The total so far; its means are derived once at the end.
+    /// The total so far. Its means are derived once at the end.
     pub(crate) total: Option<Summary>,
-    /// An empty summary of this run (what a part read back is made into).
+    /// An empty summary of this run, which parts read back are made into.
     template: Option<Summary>,
 }
 
 impl<'s, 'e> Writer<'s, 'e> {
-    /// Returns the writer of `files`' chunks in `scope`, joining a Parquet result as chunks
-    /// finish when `join` (else the result is joined at the end from the files).
+    /// Returns the writer of `files`' chunks in `scope`.
+    /// With `join`, a Parquet result is joined as chunks finish; else from the files at the end.
     pub(crate) fn new(scope: &'s Scope<'s, 'e>, files: &'e Files<'e>, join: bool) -> Self {
         let joiner = join.then(|| {
             let (tx, rx) = std::sync::mpsc::sync_channel(1);
@@ -53,11 +51,8 @@ impl<'s, 'e> Writer<'s, 'e> {
         self.joiner.is_some()
     }
 
-    /// Waits for the chunk being written, adding its summary to the total and its table to the
-    /// result's join.
-    ///
-    /// # Errors
-    /// The write's error, or the joiner's.
+    /// Waits for the chunk being written, then adds its summary to the total and its table to
+    /// the result's join.
     pub(crate) fn settle(&mut self) -> Result<()> {
         let Some((c, h)) = self.writing.take() else {
             return Ok(());
@@ -75,9 +70,6 @@ impl<'s, 'e> Writer<'s, 'e> {
     }
 
     /// Settles the chunk before, then starts writing `computed` on a thread of its own.
-    ///
-    /// # Errors
-    /// As [`Writer::settle`].
     pub(crate) fn write(&mut self, computed: Computed) -> Result<()> {
         self.settle()?;
         let files = self.files;
@@ -94,11 +86,8 @@ impl<'s, 'e> Writer<'s, 'e> {
         Ok(())
     }
 
-    /// Takes chunk `c`, finished by an earlier run: its table into the result's join, its
-    /// summary read back into the total.
-    ///
-    /// # Errors
-    /// The joiner's error; a summary part that cannot be read or does not fit this run.
+    /// Takes chunk `c`, finished by an earlier run: its table into the result's join, and its
+    /// summary, read back, into the total.
     pub(crate) fn resumed(&mut self, c: u64) -> Result<()> {
         if self.joiner.is_some() {
             self.settle()?;
@@ -117,11 +106,7 @@ impl<'s, 'e> Writer<'s, 'e> {
         Ok(())
     }
 
-    /// Tells the joiner every chunk is in and waits for the result to be written (nothing when
-    /// the result is not joined as chunks finish).
-    ///
-    /// # Errors
-    /// The joiner's error.
+    /// Tells the joiner every chunk is in and waits for the result, if it is joined this way.
     pub(crate) fn finish_join(&mut self) -> Result<()> {
         match self.joiner.take() {
             Some(joiner) => joiner.finish(),
@@ -137,8 +122,7 @@ struct Joiner<'s> {
 }
 
 impl Joiner<'_> {
-    /// Sends `message` to the joiner, if there is one; when it has stopped on an error, returns
-    /// that error.
+    /// Sends `message` to the joiner, if any. If it has stopped on an error, returns that error.
     fn send(joiner: &mut Option<Joiner<'_>>, message: ToJoin) -> Result<()> {
         let Some(j) = joiner else {
             return Ok(());
@@ -161,7 +145,6 @@ impl Joiner<'_> {
         }
     }
 
-    /// Tells the joiner every chunk is in and waits for the result to be written.
     fn finish(self) -> Result<()> {
         // A joiner that has stopped on an error has dropped its receiver: its error is returned.
         let _ = self.tx.send(ToJoin::Finish);

@@ -1,15 +1,11 @@
-//! A sweep's summaries: reductions of one metric over every pose, computed chunk by chunk and
-//! combined — the count, the extremes and the poses that reach them, the `top` smallest and
-//! largest poses, a histogram, and marginals over one or two grid axes (min, mean, max of the
-//! metric for each value of the axes, what the sweep figures draw).
+//! A sweep's summaries: reductions of one metric over every pose, computed chunk by chunk.
 //!
-//! Every reduction is exact and independent of order: extremes and rankings break ties by the
-//! lower pose index, histograms count, and means divide a sum kept in fixed point (an integer of
-//! 2^-[`FIXED_BITS`] units), so the same poses give the same bits whatever the chunking, the
-//! threads or the shards.
+//! They are the count, the extremes and their poses, the `top` smallest and largest poses, a
+//! histogram, and marginals: min, mean and max per value of one or two grid axes (as figures draw).
 //!
-//! The spec a sweep file's `[summary]` gives and its checks are `spec`, a part's sparse form on
-//! disk `part`.
+//! Every reduction is exact and order-independent, so the same poses give the same bits whatever
+//! the chunking, threads or shards. Ties go to the lower pose index, histograms count, and means
+//! divide a fixed-point sum (an integer of 2^-[`FIXED_BITS`] units).
 
 mod part;
 mod spec;
@@ -27,9 +23,10 @@ use crate::error::{Error, Result};
 use crate::sweep::grid::Grid;
 use spec::edges;
 
-/// The fixed-point resolution of the marginals' sums: 2^-40 of the metric's unit (a picometre,
-/// a millionth of a millionth of a square metre), far below any sonar's resolution; a sum of
-/// 2^40 values up to 2^40 units stays within `i128`.
+/// The fixed-point resolution of the marginals' sums: 2^-40 of the metric's unit.
+///
+/// That is a picometre, or 10^-12 m², far below any sonar's resolution. A sum of 2^40 values up
+/// to 2^40 units stays within `i128`.
 pub const FIXED_BITS: i32 = 40;
 
 /// A pose and its value of the metric.
@@ -46,7 +43,7 @@ pub struct Ranked {
 pub struct Histogram {
     /// The bins' edges, `bins + 1` of them.
     pub edges: Vec<f64>,
-    /// Poses in each bin (a bin holds its lower edge; the last also its upper edge).
+    /// Poses in each bin. A bin holds its lower edge; the last bin also holds its upper edge.
     pub counts: Vec<u64>,
     /// Poses below the first edge.
     pub below: u64,
@@ -54,8 +51,8 @@ pub struct Histogram {
     pub above: u64,
 }
 
-/// The metric over one or two grid axes: for each combination of their values, the poses with
-/// a value and the min, mean and max of the metric over them (`null` where none has one).
+/// The metric over one or two grid axes: count, min, mean and max per cell of their values.
+/// Min, mean and max are `null` in a cell where no pose has a value.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Marginal {
     /// The axes (grid columns).
@@ -66,13 +63,12 @@ pub struct Marginal {
     pub count: Vec<u64>,
     /// Per cell: the smallest value.
     pub min: Vec<Option<f64>>,
-    /// Per cell: the mean value (the exact sum over `count`, then rounded: the same bits
-    /// whatever the order).
+    /// Per cell: the mean, the exact sum over `count` rounded once (the same bits in any order).
     pub mean: Vec<Option<f64>>,
     /// Per cell: the largest value.
     pub max: Vec<Option<f64>>,
-    /// Per cell: the exact sum, in units of 2^-[`FIXED_BITS`] (what combines exactly; `mean` is
-    /// derived from it).
+    /// Per cell: the exact sum, in units of 2^-[`FIXED_BITS`].
+    /// Sums combine exactly, and `mean` is derived from them.
     pub sum: Vec<i128>,
 }
 
@@ -83,7 +79,7 @@ pub struct Summary {
     pub metric: String,
     /// Poses summarised.
     pub poses: u64,
-    /// Poses with a value of the metric (the others see nothing, or the metric is empty there).
+    /// Poses with a value of the metric. The others see nothing, or the metric is empty there.
     pub with_value: u64,
     /// The smallest value and the first pose that has it.
     pub min: Option<Ranked>,
@@ -99,12 +95,12 @@ pub struct Summary {
     pub marginals: Vec<Marginal>,
 }
 
-/// Returns `value` in fixed point (units of 2^-FIXED_BITS, rounded to nearest, halves away from
-/// zero), or `None` when it is too large for the sums to stay exact.
+/// Returns `value` in units of 2^-FIXED_BITS, rounded half away from zero.
+/// Returns `None` when it is too large for the sums to stay exact.
 fn fixed(value: f64) -> Option<i128> {
     let scaled = value * f64::from(FIXED_BITS).exp2();
     if scaled.abs() < 2f64.powi(62) {
-        // In 64 bits: the truncation and the fraction it leaves are exact here, so this is
+        // Here the truncation and its fraction are exact in 64 bits, so this is
         // `scaled.round()` without a library call.
         #[expect(clippy::cast_possible_truncation, reason = "bounded just above")]
         let t = scaled as i64;
@@ -132,8 +128,8 @@ fn fixed(value: f64) -> Option<i128> {
 )]
 fn mean_of(sum: i128, count: u64) -> Option<f64> {
     (count > 0).then(|| {
-        // The integer quotient and remainder keep the division exact before one rounding; in
-        // 64 bits where the sum fits (the same quotient and remainder, a fraction of the time).
+        // The integer quotient and remainder keep the division exact until one final rounding.
+        // Where the sum fits in 64 bits, divide there: the same result in a fraction of the time.
         let (q, r, n) = match (i64::try_from(sum), i64::try_from(count)) {
             (Ok(s), Ok(n)) => (
                 i128::from(s.div_euclid(n)),
@@ -149,26 +145,23 @@ fn mean_of(sum: i128, count: u64) -> Option<f64> {
     })
 }
 
-/// Sets the marginals' means of `s` from their exact sums and counts: the last step of a
-/// summary, after every part is in.
+/// Sets the marginals' means in `s` from their exact sums, once every part is in.
 pub(crate) fn fill_means(s: &mut Summary) {
     for m in &mut s.marginals {
         m.mean = m.sum.iter().zip(&m.count).map(|(&s, &n)| mean_of(s, n)).collect();
     }
 }
 
-/// Orders ranked poses by value, then index.
 fn ascending(a: &Ranked, b: &Ranked) -> std::cmp::Ordering {
     a.value.total_cmp(&b.value).then(a.index.cmp(&b.index))
 }
 
-/// Orders ranked poses by value, largest first, then index.
 fn descending(a: &Ranked, b: &Ranked) -> std::cmp::Ordering {
     b.value.total_cmp(&a.value).then(a.index.cmp(&b.index))
 }
 
-/// Returns the lesser of `a` and `b` in IEEE total order (-0 below +0), so that the result does
-/// not depend on which comes first (`f64::min` may return either zero).
+/// Returns the lesser of `a` and `b` in IEEE total order (-0 below +0).
+/// Unlike `f64::min`, which may return either zero, the result does not depend on the order.
 fn least(a: f64, b: f64) -> f64 {
     if b.total_cmp(&a).is_lt() { b } else { a }
 }
@@ -178,8 +171,8 @@ fn greatest(a: f64, b: f64) -> f64 {
     if b.total_cmp(&a).is_gt() { b } else { a }
 }
 
-/// Returns the first `k` (> 0) of `all` in `order` (a total order), in that order: selected,
-/// then only they sorted.
+/// Returns the first `k` (> 0) of `all` in the total `order`, sorted.
+/// It selects them first, so only `k` are sorted.
 fn first_in_order(
     mut all: Vec<Ranked>,
     k: usize,
@@ -193,9 +186,8 @@ fn first_in_order(
     all
 }
 
-/// The `k` first poses among those offered — smallest first when `ASCENDING`, else largest
-/// first (ties: lower index first) — kept as they come: a pose behind the `k`-th of the last
-/// trim is not stored.
+/// The first `k` poses offered: smallest first when `ASCENDING`, else largest (ties: lower index).
+/// A pose behind the `k`-th at the last trim is not stored.
 struct Best<const ASCENDING: bool> {
     list: Vec<Ranked>,
     k: usize,
@@ -204,7 +196,6 @@ struct Best<const ASCENDING: bool> {
 }
 
 impl<const ASCENDING: bool> Best<ASCENDING> {
-    /// The order of the list.
     fn order(a: &Ranked, b: &Ranked) -> std::cmp::Ordering {
         if ASCENDING {
             ascending(a, b)
@@ -213,18 +204,17 @@ impl<const ASCENDING: bool> Best<ASCENDING> {
         }
     }
 
-    /// Returns the best `k`, starting from `list` (already the first of their poses).
+    /// Returns the best `k`, starting from `list`, itself the best of earlier poses.
     fn new(list: Vec<Ranked>, k: usize) -> Self {
         let mut best = Best { list, k, bound: None };
         best.trim();
         best
     }
 
-    /// Offers pose `r`.
     #[inline]
     fn offer(&mut self, r: Ranked) {
-        // Behind the bound by value (no NaN here, and -0 == +0 only ties): out at once; a tie
-        // is settled by the total order.
+        // A value behind the bound is out at once; a tie goes by the total order.
+        // No NaN reaches here, and -0 == +0 only ties.
         let behind = |b: Ranked| {
             let by_value = if ASCENDING {
                 r.value > b.value
@@ -261,13 +251,12 @@ impl<const ASCENDING: bool> Best<ASCENDING> {
     }
 }
 
-/// A marginal's cell over consecutive pose indices, stepped without a division a pose: each of
-/// its axes as an odometer digit `[poses a value lasts, values, weight in the cell, place within
-/// the value, the value]`.
+/// A marginal's cell over consecutive poses, stepped without a division per pose.
+/// Each axis is a digit: `[poses a value lasts, values, weight in the cell, place within the
+/// value, the value]`.
 struct Odometer(Vec<[u64; 5]>);
 
 impl Odometer {
-    /// Returns the odometer of a marginal over `axes` of `grid` at pose `first`.
     fn new(grid: &Grid, axes: &[String], first: u64) -> Odometer {
         let mut digits = Vec::with_capacity(axes.len());
         let mut weight = 1u64;
@@ -293,10 +282,9 @@ impl Odometer {
         cell
     }
 
-    /// Returns the length (1 to `left`) of the segment of poses from the current one over which
-    /// the cell goes up by the same step a pose, and that step: the digits of axes that last
-    /// several poses hold their value, those of axes that change every pose do not wrap (step 0:
-    /// one cell).
+    /// Returns the length (1 to `left`) of the run of poses from the current one whose cell
+    /// rises by a fixed step per pose, and that step (0: one cell). Within the run, slow axes
+    /// hold their value and per-pose axes do not wrap.
     fn segment(&self, left: usize) -> (usize, usize) {
         let mut len = left as u64;
         let mut step = 0;
@@ -335,10 +323,9 @@ impl Odometer {
     }
 }
 
-/// Adds the poses whose metric `values` (NaN: no value) start at `odometer`'s pose to the
-/// marginal `m`, segment by segment: a segment in one cell (a marginal over slow axes) reduced
-/// first and added once, one whose cell steps every pose added value by value; `fixed_of(k, v)`
-/// is value `k`'s exact term.
+/// Adds poses with metric `values` (NaN: no value), from `odometer`'s pose, to marginal `m`.
+/// A segment in one cell (slow axes) is reduced first and added once. A segment whose cell steps
+/// every pose is added value by value. `fixed_of(k, v)` is value `k`'s exact term.
 fn add_to_marginal(
     m: &mut Marginal,
     mut odometer: Odometer,
@@ -445,16 +432,13 @@ impl SummarySpec {
         Ok(s)
     }
 
-    /// Returns [`SummarySpec::summarise`]'s summary of `values` (NaN: no value) without its
-    /// marginals' means (what parts keep and [`SummarySpec::merge_into`] adds up; [`fill_means`]
-    /// derives them once at the end).
-    ///
-    /// # Errors
-    /// As [`SummarySpec::summarise`].
+    /// Returns [`SummarySpec::summarise`]'s summary of `values` (NaN: no value), without means.
+    /// Parts keep this form and [`SummarySpec::merge_into`] adds it up. [`fill_means`] derives
+    /// the means once at the end.
     pub(crate) fn partial(&self, grid: Option<&Grid>, first: u64, values: &[f64]) -> Result<Summary> {
-        // Pieces on all cores, each added to its thread's running summary, the few running
-        // summaries combined: the same summary (every reduction is exact and independent of
-        // order), in a fraction of the time and without a full-size summary a piece.
+        // Pieces run on all cores, each added to its thread's running summary. The few running
+        // summaries are then combined. Every reduction is exact and order-independent, so the
+        // result is the same, faster, and without a full-size summary per piece.
         const PIECE: usize = 1 << 14;
         if values.len() <= 2 * PIECE {
             let mut s = self.empty(grid);
@@ -480,13 +464,12 @@ impl SummarySpec {
             )
     }
 
-    /// Adds poses `first`, `first + 1`, … with metric `values` (NaN: no value; none of them in
-    /// `s` yet) to the summary `s`, on one thread: a pass a marginal ([`add_to_marginal`]),
-    /// then one for the extremes, rankings and histogram.
+    /// Adds poses `first`, `first + 1`, … with metric `values` (NaN: no value) to `s`, which
+    /// holds none of them yet. One thread: a pass per marginal, then one for the rest.
     fn add(&self, s: &mut Summary, grid: Option<&Grid>, first: u64, values: &[f64]) -> Result<()> {
         s.poses += values.len() as u64;
-        // The marginals first, each in its own pass (a value too large for their exact sums is
-        // refused in the first, at the first pose that has one).
+        // The marginals first, each in its own pass. A value too large for exact sums is refused
+        // in the first pass, at the first pose that has one.
         let fixed_of = |k: usize, value: f64| {
             fixed(value).ok_or_else(|| {
                 Error::invalid(
@@ -514,8 +497,7 @@ impl SummarySpec {
                 value,
             };
             s.with_value += 1;
-            // The float comparisons first (no NaN here; -0 == +0 only ties), the total order
-            // for ties.
+            // Floats compare first (no NaN here, -0 == +0 only ties); total order breaks ties.
             if s.min
                 .is_none_or(|m| value < m.value || (value == m.value && ascending(&r, &m).is_lt()))
             {
@@ -557,8 +539,8 @@ impl SummarySpec {
         Ok(())
     }
 
-    /// Returns `a` and `b` (summaries of this spec over disjoint poses) combined: the summary of
-    /// all their poses, the same whichever order they come in.
+    /// Returns `a` and `b`, summaries of this spec over disjoint poses, combined.
+    /// The result is the same whichever order they come in.
     ///
     /// # Errors
     /// [`Error::Csv`] naming `context` when the two are not summaries of this spec (another
@@ -570,12 +552,11 @@ impl SummarySpec {
         Ok(total)
     }
 
-    /// Adds `b` to `total` (summaries of this spec over disjoint poses), in place and without
-    /// the marginals' means ([`fill_means`] derives them at the end): what
-    /// [`SummarySpec::combine`] does, at the cost of the cells alone.
+    /// Adds `b` to `total` like [`SummarySpec::combine`], but in place and without the means.
+    /// It costs only the cells; [`fill_means`] derives the means at the end.
     ///
     /// # Errors
-    /// As [`SummarySpec::combine`]; `total` is unchanged on error.
+    /// As [`SummarySpec::combine`]. `total` is unchanged on error.
     pub(crate) fn merge_into(&self, total: &mut Summary, b: &Summary, context: &str) -> Result<()> {
         let bad = |message: &str| Error::Csv {
             context: context.to_string(),

@@ -5,8 +5,8 @@ use serde::{Deserialize, Serialize};
 use super::{Marginal, Summary, mean_of};
 use crate::error::{Error, Result};
 
-/// A part's summary as kept on disk between chunks: the marginals' cells listed only where a
-/// pose fell (a chunk touches few of a large marginal's cells), without the axes' values.
+/// A part's summary as kept on disk: marginal cells listed only where a pose fell.
+/// A chunk touches few of a large marginal's cells. The axes' values are left out.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PartSummary {
     /// The summary, its marginals without cells.
@@ -39,8 +39,8 @@ impl Summary {
                     .collect(),
             );
         }
-        // The rest copied, the marginals without their dense cells (as large as the marginal
-        // whatever the part's size).
+        // Copy the rest, minus the dense cells: they are as large as the marginal, however
+        // small the part.
         let summary = Summary {
             metric: self.metric.clone(),
             poses: self.poses,
@@ -69,12 +69,11 @@ impl Summary {
 }
 
 impl PartSummary {
-    /// Returns the summary this part holds, its marginals dense again with the axis values of
-    /// `template` (the empty summary of the sweep: a part does not repeat them).
+    /// Returns the summary this part holds, its marginals dense again.
+    /// The axis values come from `template`, the sweep's empty summary.
     ///
     /// # Errors
-    /// [`Error::Csv`] naming `context` for a cell outside its marginal or a sum that is not an
-    /// integer.
+    /// [`Error::Csv`] naming `context` for a cell outside its marginal or a non-integer sum.
     pub fn into_summary(self, template: &Summary, context: &str) -> Result<Summary> {
         let bad = |message: &str| Error::Csv {
             context: context.to_string(),

@@ -1,5 +1,5 @@
-//! What a sweep file's `[summary]` asks for: read from its TOML, checked against the grid, and
-//! the checks of a part's summary read back from disk.
+//! A sweep file's `[summary]`: read from TOML and checked against the grid.
+//! Also checks a part's summary read back from disk.
 
 use serde::{Deserialize, Serialize};
 use sonarproj::geometry::sonar::SonarKind;
@@ -14,8 +14,7 @@ use crate::sweep::grid::Grid;
 pub const MAX_TOP: usize = 10_000;
 /// The most bins a histogram may have.
 pub const MAX_HISTOGRAM_BINS: usize = 100_000;
-/// The most cells a marginal may have (the product of its axes' value counts): a 2-D marginal
-/// of 316 × 316 values, or one axis of 100 000.
+/// The most cells a marginal may have: 316 × 316 values in 2-D, or 100 000 on one axis.
 pub const MAX_MARGINAL_CELLS: usize = 100_000;
 
 /// What a sweep file's `[summary]` table asks for.
@@ -27,7 +26,7 @@ pub struct SummarySpec {
     pub top: usize,
     /// The histogram, if any.
     pub histogram: Option<HistogramSpec>,
-    /// The marginals: each the grid axes (one or two, by column) it is taken over.
+    /// The marginals, each given by its one or two grid axes (column names).
     pub marginals: Vec<Vec<String>>,
     /// Whether the per-pose table is written too (`false`: summaries only).
     pub rows: bool,
@@ -52,10 +51,9 @@ pub(super) fn edges(h: &HistogramSpec) -> Vec<f64> {
         .collect()
 }
 
-/// Returns the `[summary]` table `t` of sweep file `f` read (not yet checked against the
-/// grid): `by` a metric of sonar 2's kind (default: the figure's `metric`), `top` (default 10),
-/// `histogram = { min, max, bins }`, `marginals` (axis names, or pairs of them), `rows` (default
-/// true).
+/// Returns the `[summary]` table `t` of sweep file `f`, not yet checked against the grid.
+/// Keys: `by`, a metric of sonar 2's kind (default: the figure's `metric`), `top` (default 10),
+/// `histogram = { min, max, bins }`, `marginals` (axis names or pairs), `rows` (default true).
 pub(crate) fn from_toml(
     f: ConfigFile<'_>,
     t: &toml::Table,
@@ -164,8 +162,8 @@ fn marginals(f: ConfigFile<'_>, v: Option<&toml::Value>) -> Result<Vec<Vec<Strin
 }
 
 impl SummarySpec {
-    /// Returns the spec with every field checked against `grid` (its marginals' axes must be
-    /// grid columns; `None` for a pose list, which has none) — `file` names the sweep file.
+    /// Returns the spec with every field checked against `grid`, for sweep file `file`.
+    /// Marginal axes must be grid columns. A pose list (`None`) has no axes.
     ///
     /// # Errors
     /// [`sonarproj::Error::InvalidValue`] naming `summary.KEY`.
@@ -247,10 +245,9 @@ impl SummarySpec {
         Ok(self)
     }
 
-    /// Returns `Ok` when `s`, read from a part on disk, is a summary of this spec over `rows`
-    /// poses from index `first`: its metric, its counts adding up, its lists as long as `top`
-    /// allows and within the part's indices, its histogram's edges and its marginals' axes and
-    /// cells as the spec makes them.
+    /// Returns `Ok` when `s`, read from a part on disk, summarises `rows` poses from `first`.
+    /// Checks the metric, that counts add up, that the lists are as long as `top` allows and
+    /// within the part, and that the histogram and marginals have this spec's shape.
     ///
     /// # Errors
     /// [`Error::Csv`] naming `context` and what does not hold.

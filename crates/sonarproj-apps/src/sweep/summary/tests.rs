@@ -225,9 +225,8 @@ fn bad_specs_name_the_key() {
     assert!(list.contains("needs a grid"), "{list}");
 }
 
-/// A long chunk is summarised in pieces on all cores, each added to its thread's running summary,
-/// and those combined: the same summary, to the byte, as one pass over it (ties across pieces go
-/// to the lower index as in one pass); and so are pieces added one after another to one summary.
+/// Summarising a long chunk in pieces on all cores gives the same bytes as one pass.
+/// Ties across pieces go to the lower index. Pieces added one by one to a summary agree too.
 #[test]
 fn pieces_on_all_cores_make_the_summary_of_one_pass() {
     let g = grid();
@@ -353,10 +352,9 @@ fn extremes_and_rankings_follow_the_total_order_on_ties() {
     }
 }
 
-/// The marginals, taken segment by segment (one cell, or a cell stepping every pose), against
-/// each pose put in its cell by division: axes of several values, of one value, the one that
-/// changes every pose, two that do (the last of one value), in either order within a pair,
-/// pieces starting anywhere.
+/// Marginals taken segment by segment agree with each pose put in its cell by division.
+/// Covers axes of one or many values, one or two per-pose axes, both orders within a pair,
+/// and pieces starting anywhere.
 #[test]
 fn marginals_match_each_pose_put_in_its_cell() {
     let axis = |column, n: usize| Axis {
