@@ -74,8 +74,8 @@ fn part_of<R: ChunkReader + 'static>(
     names: &[String],
     kinds: &[Kind],
 ) -> Result<Part<R>> {
-    // Every field of the column chunks kept as written (the page encoding statistics as a
-    // list, not the reader's default mask), so a copied group is the bytes encoding it makes.
+    // Keep every field of the column chunks as written (page encoding statistics as a list, not
+    // the reader's default mask), so a copied group matches the bytes of encoding it.
     let options = ReadOptionsBuilder::new()
         .with_page_index()
         .with_encoding_stats_as_mask(false)
@@ -155,8 +155,8 @@ fn read_group<R: parquet::file::reader::ChunkReader + 'static>(
 /// checking that its columns are `names` of `kinds`.
 ///
 /// # Errors
-/// [`Error::ReadInput`] when the file cannot be opened; [`Error::Csv`] naming the file when it is
-/// not Parquet or has other columns.
+/// [`Error::ReadInput`] when the file cannot be opened. [`Error::Csv`] naming the file when it
+/// is not Parquet or has other columns.
 pub fn read_groups<'a>(
     path: &'a Path,
     names: &[String],
