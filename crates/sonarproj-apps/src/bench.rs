@@ -383,7 +383,6 @@ fn on_gpu_clock(
     run.map(|()| Some((device, host)))
 }
 
-/// Returns the median time of `runs` calls of `f`, after one warm-up call.
 fn median(runs: u32, f: &mut dyn FnMut() -> Result<()>) -> Result<Duration> {
     f()?;
     let mut times = (0..runs)

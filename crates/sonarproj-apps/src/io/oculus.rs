@@ -266,7 +266,6 @@ fn message_header(head: &Reader<'_>) -> Result<(u16, u16, usize)> {
     ))
 }
 
-/// The error of a file without a simple ping result.
 fn no_ping(file: &str, len: usize) -> Error {
     Error::invalid(
         format!("Oculus file {file}"),
@@ -478,7 +477,6 @@ fn image(m: &Reader<'_>, h: &Header) -> Result<(OculusImage, Option<Vec<f32>>)> 
     Ok((image, gains))
 }
 
-/// Returns the ping of one simple ping result message.
 fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPing> {
     let h = header(m, version)?;
     let bearings_deg = (0..h.n_beams)

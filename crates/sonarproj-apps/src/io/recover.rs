@@ -111,7 +111,6 @@ impl<R: Read> RecoverReader<R> {
     }
 }
 
-/// Returns the correspondence of the row `fields` of `table`.
 fn item<R: Read>(table: &TableReader<R>, fields: &[String]) -> Result<RecoverItem> {
     let get = |c: &str| table.number(fields, c);
     let rotation = Rotation::RollPitchYaw {
@@ -178,7 +177,6 @@ pub fn recover_csv(
     Ok(rows)
 }
 
-/// Returns the flags joined with `;`.
 fn flags(r: &Recovery) -> String {
     r.flags.iter().map(|f| f.name()).collect::<Vec<_>>().join(";")
 }

@@ -317,7 +317,6 @@ impl<'a, W: Write> CsvOut<'a, W> {
     }
 }
 
-/// Returns a write failure of the output.
 fn write_error(e: impl std::fmt::Display) -> Error {
     Error::WriteOutput {
         path: "output".into(),

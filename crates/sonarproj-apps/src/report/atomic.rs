@@ -120,7 +120,6 @@ fn host() -> String {
     if safe.is_empty() { "unknown".into() } else { safe }
 }
 
-/// Returns the start of the names of this host's temporaries, `.sonarproj-HOST-`.
 fn host_prefix() -> String {
     format!(".sonarproj-{}-", host())
 }
@@ -218,7 +217,6 @@ enum Target {
     Through,
 }
 
-/// Returns where writing `path` leads.
 fn target(path: &Path) -> Result<Target> {
     if path.as_os_str().is_empty() {
         return Err(Error::invalid("output path", "\"\"", "must name a file"));

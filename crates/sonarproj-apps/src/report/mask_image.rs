@@ -45,7 +45,6 @@ pub fn colour(k: usize) -> RGBColor {
     RGBColor(r, g, b)
 }
 
-/// Returns the `(r, g, b)` of feature `k`.
 fn rgb(k: usize) -> (u8, u8, u8) {
     PALETTE[k % PALETTE.len()]
 }

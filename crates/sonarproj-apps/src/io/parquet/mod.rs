@@ -183,7 +183,6 @@ impl Table {
     }
 }
 
-/// Returns the Parquet schema of columns `names` of `kinds`.
 fn schema(names: &[String], kinds: &[Kind]) -> Result<Arc<Type>> {
     let fields = names
         .iter()

@@ -86,7 +86,6 @@ fn part_of<R: ChunkReader + 'static>(
     Ok(Part { file, reader })
 }
 
-/// Returns `path` opened for reading.
 fn open(path: &Path) -> Result<std::fs::File> {
     std::fs::File::open(path).map_err(|source| Error::ReadInput {
         path: path.to_path_buf(),
@@ -94,7 +93,6 @@ fn open(path: &Path) -> Result<std::fs::File> {
     })
 }
 
-/// Returns the error of a file that is not Parquet.
 fn not_parquet(path: &Path, e: &parquet::errors::ParquetError) -> Error {
     Error::Csv {
         context: path.display().to_string(),
