@@ -40,6 +40,7 @@ pub const MAX_REQUEST_BYTES: usize = 64 * 1024;
 pub struct Choice {
     /// What the page shows and sends back: the preset name, or the file's name.
     pub label: String,
+    /// The sonar.
     pub sonar: Sonar,
     /// The file it was read from, for the "copy as" texts. `None` for a preset.
     pub path: Option<PathBuf>,
