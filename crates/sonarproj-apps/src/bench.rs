@@ -143,7 +143,7 @@ pub fn mask_ping(source: &Sonar, target: &Sonar, n: usize) -> Result<(RelativePo
 
 /// Returns the sweep that `bench sweep` times, writing its table or summaries as `output` says.
 /// It goes fls→sss at 0.1°, the feature 5 m ahead placed 10 m from the sidescan. Roll and pitch
-/// run 0–99° by 1°, and yaw 0, 1, … until there are `poses` poses (a million in
+/// run 0–99° by 1°, and yaw 0, 1, … until there are at least `poses` poses (a million in
 /// `data/bench-sweep-1m.toml`).
 ///
 /// # Errors

@@ -98,7 +98,6 @@ impl Column {
         }
     }
 
-    /// Returns an empty column of this one's kind.
     fn empty_like(&self) -> Column {
         match self {
             Column::Int(_) => Column::Int(Vec::new()),
