@@ -1,6 +1,5 @@
-//! The batches speed is measured on, shared by `sonarproj bench` and `cargo bench`: placement
-//! poses of the paper's kind (features at half range in both sonars, rotations spread over the
-//! sphere), step sampling 0.1° as the published code.
+//! The batches that `sonarproj bench` and `cargo bench` measure speed on: placement poses of
+//! the paper's kind, with 0.1° step sampling as in the published code.
 
 use sonarproj::Output;
 use sonarproj::stream::Stop;
@@ -14,15 +13,15 @@ use sonarproj::projection::Backend;
 use sonarproj::projection::{Batch, BatchItem};
 use sonarproj::sampling::{Measurement, Sampling};
 
-/// The standard batches: `(from, to, poses)`, sized so each takes about as long on the reference.
+/// The standard batches as `(from, to, poses)`, sized to take about as long on the reference.
 pub const STANDARD: [(&str, &str, usize); 2] =
     [("paper-fls", "paper-sss", 2000), ("paper-sss", "paper-fls", 200)];
 
-/// Returns `n` placement poses from `source` to `target`: the feature at half of each sonar's
-/// maximum range, on the boresight, under rotations spread over the sphere.
+/// Returns `n` placement poses from `source` to `target`, with rotations spread over the
+/// sphere and the feature on the boresight at half of each sonar's maximum range.
 ///
 /// # Errors
-/// None for valid sonars; invalid ones as [`RelativePose::placement`].
+/// Invalid sonars, as in [`RelativePose::placement`].
 pub fn batch(source: &Sonar, target: &Sonar, n: usize) -> Result<Batch> {
     let f = [source.range_max / 2.0, 0.0, 0.0];
     let place = [target.range_max / 2.0, 0.0, 0.0];
@@ -81,7 +80,7 @@ pub use crate::limits::MAX_RUNS;
 /// Returns the median time of `runs` runs (after one warm-up run) of `batch` on `backend`.
 ///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] unless `1 <= runs <= MAX_RUNS`; as [`Backend::project`].
+/// [`sonarproj::Error::InvalidValue`] unless `1 <= runs <= MAX_RUNS`. Else as [`Backend::project`].
 pub fn time(backend: &Backend, batch: &Batch, runs: u32) -> Result<Timing> {
     if !(1..=MAX_RUNS).contains(&runs) {
         return Err(Error::invalid(
@@ -112,11 +111,11 @@ pub const MASK_CASES: [(&str, &str); 2] = [
     ("holoocean-imaging", "holoocean-sidescan"),
 ];
 
-/// Returns the pose and `n` features of a mask benchmark ping: the two sonars side by side
-/// (0.3 m apart, 0.1 m in height), nearly aligned (pitch 5°, yaw 10°), so that a sidescan's
-/// fan lies inside the imaging sonar's elevation aperture (the largest masks, the slowest case)
-/// and each imaging-sonar arc crosses the sidescan's beam; features spread evenly over the
-/// ranges both sonars see and (for an FLS) over 90 % of the azimuths.
+/// Returns the pose and `n` features of a mask benchmark ping: the slowest case.
+/// The sonars sit side by side, nearly aligned, so a sidescan's fan lies inside the imaging
+/// sonar's elevation aperture (the largest masks) and each imaging-sonar arc crosses the
+/// sidescan's beam. Features spread evenly over the ranges both sonars see and, for an FLS,
+/// over 90 % of the azimuths.
 ///
 /// # Errors
 /// None for valid sonars.
@@ -142,10 +141,10 @@ pub fn mask_ping(source: &Sonar, target: &Sonar, n: usize) -> Result<(RelativePo
     Ok((pose, features))
 }
 
-/// Returns the sweep `bench sweep` times: fls→sss at `sampling` (0.1° by default), the feature 5 m ahead placed
-/// 10 m from the sidescan, roll × pitch 0–99° by 1°, and yaw 0, 1, … degrees, as many values as
-/// make at least `poses` poses (`data/bench-sweep-1m.toml` for a million), its table or
-/// summaries as `output` says.
+/// Returns the sweep that `bench sweep` times, writing its table or summaries as `output` says.
+/// It goes fls→sss at `sampling` (0.1° by default), the feature 5 m ahead placed 10 m from the
+/// sidescan. Roll and pitch run 0–99° by 1°, and yaw 0, 1, … until there are at least `poses`
+/// poses (a million in `data/bench-sweep-1m.toml`).
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `poses` outside `[1, 10^8]`.
@@ -199,37 +198,33 @@ pub struct SweepTiming {
     pub poses: u64,
     /// Samples drawn.
     pub samples: u64,
-    /// Projecting the poses into metric columns, the grid decoded where the work runs, block
-    /// after block as a sweep does ([`Backend::project_blocks`]): the sweep's own computation.
+    /// The sweep's own computation: the poses projected block by block into metric columns
+    /// ([`Backend::project_blocks`]).
     pub decoded: Duration,
-    /// Projecting the same poses as batches of items (built, packed and unpacked by the host:
-    /// the per-item path), block by block; `None` when not asked for.
+    /// The same poses as batches of items, which the host builds, packs and unpacks. `None` when
+    /// not asked for.
     pub per_item: Option<Duration>,
-    /// The whole sweep into a directory as Parquet (`sonarproj sweep --format parquet`); `None`
-    /// when not asked for.
+    /// The whole sweep to Parquet (`sweep --format parquet`). `None` when not asked for.
     pub parquet: Option<Duration>,
-    /// Projecting the poses as `decoded` does, the span alone kept: what the span's sweeps
-    /// compute (the azimuths' extremes left out); `None` when neither is asked for.
-    pub span_decoded: Option<Duration>,
-    /// The whole sweep to Parquet keeping the span alone of the result columns
-    /// ([`SweepOutput::Span`]); `None` when not asked for.
-    pub span_parquet: Option<Duration>,
-    /// The whole sweep with summaries only (`[summary]` with `rows = false`); `None` when not
+    /// As `decoded`, keeping the span alone, as the span's sweeps compute. `None` when neither is
     /// asked for.
+    pub span_decoded: Option<Duration>,
+    /// The whole sweep to Parquet, with the span as its only result column. `None` when not asked.
+    pub span_parquet: Option<Duration>,
+    /// The whole sweep with summaries only (`rows = false`). `None` when not asked for.
     pub summaries: Option<Duration>,
-    /// Of `decoded`, the time the GPU's compute passes took on the device's own clock (one
-    /// more run, timed by timestamp queries); `None` on the CPU backends and on adapters
-    /// without timestamp queries.
+    /// The GPU compute passes' part of `decoded`, on the device's clock, from one more run. `None`
+    /// on the CPU backends and on adapters without timestamp queries.
     pub device: Option<Duration>,
-    /// Of that same run, the host's time waiting for the GPU's chunks and unpacking their
-    /// metrics; `None` on the CPU backends.
+    /// In that run, the host's time waiting for the GPU's chunks and unpacking their metrics.
+    /// `None` on the CPU backends.
     pub host: Option<sonarproj::projection::gpu::HostTime>,
-    /// Of one more sweep with summaries only, timed as `device` and `host` are: the device's
-    /// time and the host's; `None` on the CPU backends or when summaries are not measured.
+    /// The device's and host's times of one more summaries-only sweep. `None` on the CPU backends
+    /// or when summaries are not measured.
     pub summary_gpu: Option<(Option<Duration>, sonarproj::projection::gpu::HostTime)>,
 }
 
-/// Which of `bench sweep`'s measures to take besides the projection (each `true`: taken).
+/// Which of `bench sweep`'s measures to take besides the projection (`true`: taken).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SweepMeasures {
     /// The per-item path.
@@ -254,14 +249,13 @@ impl Default for SweepMeasures {
     }
 }
 
-/// Returns the times of the benchmark sweep of about `poses` poses on `backend` ([`sweep_config`]):
-/// the median of `runs` runs of each measure after one warm-up, the projections made `block`
-/// poses a call (the sweep's own chunk is [`crate::io::parquet::GROUP_ROWS`]), the sweeps
-/// written into a directory in the system's temporary directory (removed after each run).
+/// Returns the times of the benchmark sweep ([`sweep_config`]) of about `poses` poses.
+/// Each is the median of `runs` runs after a warm-up. Projections take `block` poses a call.
+/// Sweeps are written under the system's temporary directory and removed after each run.
 ///
 /// # Errors
-/// As [`time`], [`sweep_config`] and [`crate::sweep::run()`]; [`Error::WriteOutput`] when no
-/// temporary directory can be made.
+/// As [`time`], [`sweep_config`] and [`crate::sweep::run()`], or [`Error::WriteOutput`] when
+/// no temporary directory can be made.
 pub fn time_sweep(
     backend: &Backend,
     poses: u64,
@@ -382,8 +376,8 @@ pub fn time_sweep(
     })
 }
 
-/// Returns, on the GPU, the device's time (`None` without timestamp queries) and the host's of
-/// one more call of `f`, timed by the backend; `None` on the CPU backends.
+/// Returns the device's time (`None` without timestamp queries) and the host's time of one
+/// more call of `f` on the GPU. `None` on the CPU backends.
 fn on_gpu_clock(
     backend: &Backend,
     f: &mut dyn FnMut() -> Result<()>,
@@ -398,7 +392,6 @@ fn on_gpu_clock(
     run.map(|()| Some((device, host)))
 }
 
-/// Returns the median time of `runs` calls of `f`, after one warm-up call.
 fn median(runs: u32, f: &mut dyn FnMut() -> Result<()>) -> Result<Duration> {
     f()?;
     let mut times = (0..runs)

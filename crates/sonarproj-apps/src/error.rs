@@ -1,5 +1,5 @@
-//! The applications' error type: the engine's errors, plus what reading and writing files can
-//! go wrong with (sweep files, CSV tables, output files, figures).
+//! The applications' error type: the engine's errors, plus what can go wrong reading and
+//! writing files (sweep files, CSV tables, output files, figures).
 
 use sonarproj::error::{Field, Param};
 use std::path::PathBuf;
@@ -7,13 +7,12 @@ use std::path::PathBuf;
 /// Returns the applications' result type, with [`Error`] as the error.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
-/// Everything that can go wrong in the applications.
-///
-/// [`Error::is_input`] tells bad input (exit status 2 in the CLI) from other failures (status 1).
+/// Everything that can go wrong in the applications. [`Error::is_input`] tells bad input (CLI
+/// exit status 2) from other failures (status 1).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
-    /// An error of the engine (an invalid value, a sonar file, the GPU).
+    /// An error of the engine, such as an invalid value, a sonar file or the GPU.
     #[error(transparent)]
     Engine(#[from] sonarproj::Error),
     /// A sweep TOML file could not be parsed.
@@ -32,7 +31,7 @@ pub enum Error {
         /// What the parser said.
         message: String,
     },
-    /// A CSV input is malformed (header, or one row).
+    /// A CSV input is malformed, in its header or one row.
     #[error("{context}: {message}")]
     Csv {
         /// Where: `input header` or `input row N (line L)`.
@@ -59,10 +58,10 @@ pub enum Error {
     /// A figure could not be drawn.
     #[error("cannot draw a figure: {0}")]
     Figure(String),
-    /// The viewer's web server failed (the address cannot be bound, a reply cannot be sent).
+    /// The viewer's web server failed: the address cannot be bound, or a reply cannot be sent.
     #[error("viewer server: {0}")]
     Serve(String),
-    /// Some lines of a line-by-line input were bad; each got its own error in the output.
+    /// Some lines of a line-by-line input were bad. Each got its own error in the output.
     #[error("{bad} of {lines} input lines were bad; each has an \"error\" object in the output")]
     BadLines {
         /// The bad lines.
@@ -73,8 +72,8 @@ pub enum Error {
 }
 
 impl Error {
-    /// Returns true when the error is the caller's input (CLI exit status 2), false when it is a
-    /// failure of the machine (status 1).
+    /// Returns true when the error is the caller's input (CLI exit status 2), false when the
+    /// machine failed (status 1).
     #[must_use]
     pub fn is_input(&self) -> bool {
         match self {
@@ -88,8 +87,7 @@ impl Error {
         }
     }
 
-    /// Returns the engine's [`sonarproj::Error::InvalidValue`] for `field`, `value` and the
-    /// `allowed` text.
+    /// Returns the engine's [`sonarproj::Error::InvalidValue`] for `field`, `value` and `allowed`.
     pub fn invalid(
         field: impl Into<Field>,
         value: impl std::fmt::Display,
@@ -106,14 +104,14 @@ impl Error {
         }
     }
 
-    /// Returns the engine's [`sonarproj::Error::Input`]: `field` is missing or given with one it
-    /// excludes, as `message` says.
+    /// Returns the engine's [`sonarproj::Error::Input`]: `field` is missing, or given with another
+    /// that it excludes, as `message` says.
     pub fn input(field: impl Into<Field>, message: impl Into<String>) -> Self {
         Error::Engine(sonarproj::Error::input(field, message))
     }
 
-    /// Returns the same error with `prefix: ` put in front of the field name of an invalid value
-    /// (words, or a front's [`Param`]).
+    /// Returns the same error with `prefix: ` before the field name of an invalid value. `prefix`
+    /// is words or a front's [`Param`].
     #[must_use]
     pub fn in_context(self, prefix: impl Into<Field>) -> Self {
         match self {
@@ -122,8 +120,8 @@ impl Error {
         }
     }
 
-    /// Returns the message with each front's input named by `name` ([`sonarproj::Error::render`]):
-    /// how the command line and Python say the same error in their own words.
+    /// Returns the message with each front's input named by `name` ([`sonarproj::Error::render`]).
+    /// This is how the command line and Python say one error in their own words.
     #[must_use]
     pub fn render(&self, name: &dyn Fn(Param) -> String) -> String {
         match self {

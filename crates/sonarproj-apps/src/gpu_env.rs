@@ -1,7 +1,7 @@
-//! The GPU options as environment variables, for the fronts that take them so — the command line,
-//! and the tests and benches run under `scripts/test.sh` and `scripts/gpu-remote.sh`: their names,
-//! the values each allows, and one checked reading of them. The engine reads no environment; a
-//! front passes its lookup (`std::env::var`) in.
+//! The GPU options as environment variables: their names, the values each allows, and one
+//! checked reading. The command line takes them so, as do the tests and benches run under
+//! `scripts/test.sh` and `scripts/gpu-remote.sh`. The engine reads no environment: a front
+//! passes its lookup (`std::env::var`) in.
 //!
 //! | variable | values | option |
 //! |---|---|---|
@@ -33,8 +33,8 @@ const BACKENDS: [&str; 9] = [
     "vulkan", "vk", "metal", "mtl", "dx12", "d3d12", "gl", "gles", "opengl",
 ];
 
-/// Returns the GPU options the variables give, `lookup` returning a variable's value (`None`
-/// when unset). A variable set to an empty value is unset.
+/// Returns the GPU options the variables give. `lookup` returns a variable's value, or `None`
+/// when unset. A variable set to an empty value counts as unset.
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming the variable whose value is not allowed.
@@ -85,7 +85,7 @@ pub fn gpu_options(lookup: impl Fn(&str) -> Option<String>) -> Result<GpuOptions
             _ => return Err(bad("SONARPROJ_GPU_WORKGROUP", &v, workgroups_text())),
         },
     };
-    // Set but blank is refused (not read as unset): a name was meant.
+    // Set but blank is refused, not read as unset: a name was meant.
     let adapter = match lookup("WGPU_ADAPTER_NAME") {
         Some(v) if v.trim().is_empty() => {
             return Err(bad(

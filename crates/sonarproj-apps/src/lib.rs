@@ -1,6 +1,10 @@
-//! The applications built on the [`sonarproj`] engine: the paper's simulations ([`paper`]),
-//! pose sweeps in chunks, shards and merges ([`sweep`]), speed comparisons ([`bench`](mod@bench)), figures
-//! and images ([`report`]) the CSV formats of batches and recoveries ([`io`]) and the viewer's scenes ([`view`]).
+//! The applications built on the [`sonarproj`] engine:
+//! - the paper's simulations ([`paper`]);
+//! - pose sweeps in chunks, shards and merges ([`sweep`]);
+//! - speed comparisons ([`bench`](mod@bench));
+//! - figures and images ([`report`]);
+//! - the CSV formats of batches and recoveries ([`io`]);
+//! - the viewer's scenes ([`view`]).
 //!
 //! The command line and the Python package are thin fronts on this crate and the engine.
 

@@ -1,6 +1,6 @@
-//! The applications' inputs that each front gives under a name of its own, as their errors name
-//! them ([`Param`]): the command line renders them as its flags, Python as its keywords
-//! ([`crate::Error::render`]); `Display` writes the neutral names below.
+//! The applications' inputs that each front names its own way, as their errors name them
+//! ([`Param`]). The command line renders them as flags and Python as keywords
+//! ([`crate::Error::render`]). `Display` writes the neutral names below.
 
 use sonarproj::error::Param;
 
@@ -25,7 +25,7 @@ pub const OCCUPANCY: Param = Param::new("occupancy");
 /// A feature given as text (`--feature`).
 pub const FEATURE: Param = Param::new("feature");
 
-/// Every param of the applications, for the fronts' tables (each front names all of them).
+/// Every param of the applications. Each front's table names all of them.
 pub const ALL: [Param; 10] = [
     OUT,
     SWEEP_DIR,

@@ -1,5 +1,5 @@
-//! `sonarproj.advise`: the rig advisor the command line runs, with the same code; every
-//! candidate as numpy columns.
+//! `sonarproj.advise`: the rig advisor the command line runs, with the same code. Every
+//! candidate comes back as numpy columns.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -24,7 +24,7 @@ fn json<'py>(py: Python<'py>, value: &impl serde::Serialize) -> PyResult<Bound<'
 }
 
 /// Runs the advisor of the TOML file `config` on the backend named `backend_name`, writing its
-/// files into `out_dir` when given; returns every candidate's columns (numpy), the ranking, the
+/// files into `out_dir` when given. Returns every candidate's columns (numpy), the ranking, the
 /// best candidate and the next-best move, and the notice of the backend's selection.
 #[pyfunction]
 #[pyo3(signature = (config, out_dir, backend_name))]

@@ -19,7 +19,7 @@ fn error(e: sonarproj_apps::Error) -> PyErr {
 }
 
 /// Answers a sweep's `event`: stop once the calling thread saw Ctrl-C (`stop`) or `progress`
-/// raised (kept in `raised`); else call `progress(done, total)` with the GIL on a progress event.
+/// raised (kept in `raised`). Else call `progress(done, total)` with the GIL on a progress event.
 fn on_event(
     event: Event,
     stop: &std::sync::atomic::AtomicBool,
@@ -41,9 +41,9 @@ fn on_event(
     })
 }
 
-/// Runs the sweep of the TOML file `config` into `out_dir` (resuming a run there); returns what
+/// Runs the sweep of the TOML file `config` into `out_dir`, resuming a run there. Returns what
 /// was done and the notice of the backend's selection. `progress(done, total)` is called after
-/// each chunk; Ctrl-C stops the run between chunks (finished chunks stay on disk).
+/// each chunk. Ctrl-C stops the run between chunks, and finished chunks stay on disk.
 #[pyfunction]
 #[pyo3(signature = (config, out_dir, shard, chunk_poses, max_chunks, backend_name, progress, format))]
 #[expect(clippy::too_many_arguments, reason = "the Python function's parameters")]
@@ -70,8 +70,8 @@ pub(crate) fn sweep_run<'py>(
     };
     let (backend, notice) = backend::get(backend_name)?;
     let start = Instant::now();
-    // The run goes on without the GIL on the pool; after each chunk it takes the GIL back to
-    // report progress, and stops (keeping the finished chunks) when the progress callback raised
+    // The run goes on without the GIL, on the pool. After each chunk it takes the GIL back to
+    // report progress. It stops, keeping the finished chunks, when the progress callback raised
     // or the calling thread saw Ctrl-C.
     let mut raised: Option<PyErr> = None;
     let outcome = crate::runtime::detach_watching(py, |stop| {
@@ -105,8 +105,8 @@ pub(crate) fn sweep_run<'py>(
     Ok((d, notice))
 }
 
-/// Runs the sweep of the TOML file `config` (or one shard of it) in memory, writing nothing;
-/// returns its columns (numpy arrays; NaN where the CSV leaves a cell empty), its summaries (a
+/// Runs the sweep of the TOML file `config` (or one shard of it) in memory, writing nothing.
+/// Returns its columns (numpy arrays, NaN where the CSV leaves a cell empty), its summaries (a
 /// dict, or None), and the notice of the backend's selection. Ctrl-C or a raising `progress`
 /// stops it between chunks.
 #[pyfunction]
@@ -172,10 +172,10 @@ pub(crate) fn sweep_memory<'py>(
     Ok((d, notice))
 }
 
-/// Joins the finished shards in `out_dir` into its `sweep.csv` (and draws the figure), as
-/// `sonarproj merge` does: refused, writing nothing, when a shard is missing or damaged or the
-/// shards were computed with different settings. Returns the table's, the summaries' and the
-/// figure's paths (each None when not written).
+/// Joins the finished shards in `out_dir` into its `sweep.csv` and draws the figure, as
+/// `sonarproj merge` does. It is refused, writing nothing, when a shard is missing or damaged
+/// or the shards were computed with different settings. Returns the table's, the summaries'
+/// and the figure's paths (each None when not written).
 #[pyfunction]
 #[pyo3(signature = (out_dir))]
 pub(crate) fn sweep_merge(
@@ -187,8 +187,8 @@ pub(crate) fn sweep_merge(
         .map_err(errors::apps)
 }
 
-/// Runs the paper's simulations and writes their CSV, figures and findings into `out_dir`;
-/// returns the findings and the notice of the backend's selection.
+/// Runs the paper's simulations and writes their CSV, figures and findings into `out_dir`.
+/// Returns the findings and the notice of the backend's selection.
 #[pyfunction]
 #[pyo3(signature = (out_dir, angle_step, step, backend_name))]
 pub(crate) fn paper_run<'py>(

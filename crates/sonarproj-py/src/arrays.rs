@@ -9,8 +9,8 @@ use sonarproj_apps::io::batch::LOCAL_COLUMNS;
 
 use crate::errors;
 
-/// Returns the slices of `columns`, which must all hold `len` values (the Python layer has
-/// made them contiguous float64 arrays of one length already; this is checked again).
+/// Returns the slices of `columns`, which must all hold `len` values. The Python layer already
+/// made them contiguous float64 arrays of one length, but this checks again.
 pub(crate) fn slices<'a>(
     names: &[&str],
     columns: &'a [PyReadonlyArray1<'_, f64>],
@@ -49,8 +49,8 @@ pub(crate) fn slices<'a>(
 }
 
 /// Returns a dict of metric arrays, named as the command line's metric columns, from `metrics`
-/// and the local precision `locals` of the same rows: counts as int64, numbers as float64 with
-/// NaN where nothing was visible or there is no value.
+/// and the local precision `locals` of the same rows. Counts are int64, and numbers float64
+/// with NaN where nothing was visible or there is no value.
 pub(crate) fn metric_dict<'py>(
     py: Python<'py>,
     metrics: &[Metrics],

@@ -1,6 +1,6 @@
 //! Backends chosen by name and kept for the life of the process, so a GPU device is opened once
-//! and its buffers are reused between calls; the GPU options they are opened with
-//! (`sonarproj.configure_gpu`, keyword arguments: the engine reads no environment variable).
+//! and its buffers are reused between calls. The engine reads no environment variable, so the
+//! GPU options come from `sonarproj.configure_gpu`'s keyword arguments.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
@@ -37,8 +37,8 @@ pub(crate) fn options() -> GpuOptions {
 }
 
 /// Sets the GPU options of the backends and mask engines opened from now on, and forgets those
-/// opened before (the next call opens them again with these). Arguments are checked by the
-/// Python package; each bad one raises `InputError` naming it.
+/// opened before, so the next call opens them again with these. The Python package checks the
+/// arguments, and each bad one raises `InputError` naming it.
 #[pyfunction]
 #[pyo3(signature = (backends, adapter, precision, cull, filter, workgroup))]
 pub(crate) fn configure_gpu(
@@ -122,8 +122,8 @@ pub(crate) fn get(name: &str) -> PyResult<(Arc<Backend>, Option<String>)> {
         .map(|(n, _)| *n)
         .expect("known");
     let mut opened = OPENED.lock().unwrap_or_else(PoisonError::into_inner);
-    // A forked child inherits its parent's devices, which it cannot use (nor safely close):
-    // they are left alone and the child opens its own.
+    // A forked child inherits its parent's devices but can neither use nor safely close them.
+    // Leave them alone, and let the child open its own.
     if opened
         .as_ref()
         .is_some_and(|(owner, _)| !crate::runtime::same_process(*owner))

@@ -14,8 +14,8 @@ use crate::pose::PyPose;
 use crate::sonar::PySonar;
 use crate::{backend, errors};
 
-/// Poses projected per call of the engine: the GIL is taken back and Ctrl-C looked for between
-/// chunks (about a second of work at 0.1° sampling on two cores).
+/// Poses projected per engine call: about a second of work at 0.1° sampling on two cores.
+/// Between chunks the GIL is taken back and Ctrl-C checked.
 const CHUNK_POSES: usize = 65_536;
 
 /// A sampling as Python gives it: a step in degrees, or a name (`"auto"`, `"exact"`).
@@ -40,7 +40,7 @@ pub(crate) fn sampling(step: Option<Step>) -> PyResult<Sampling> {
 }
 
 /// Returns the items of rows `rows` of `cols` (in `columns`' order), each checked and with its
-/// feature's true point when the columns give it: errors name the row (0-based).
+/// feature's true point when the columns give it. Errors name the row (0-based).
 pub(crate) fn items(
     source: &sonarproj::Sonar,
     columns: &PoseColumns,
@@ -62,8 +62,8 @@ pub(crate) fn items(
 }
 
 /// Returns the pose table's reading (its columns `names`, checked against sonar 1), the column
-/// slices in the order it reads them, their length, and the pair they are projected between:
-/// the sonars, the sampling of `step` and the area grid, no items yet.
+/// slices in the order it reads them, their length, and the pair to project between: the
+/// sonars, the sampling of `step` and the area grid, with no items yet.
 pub(crate) fn columns_and_pair<'a>(
     first: &PySonar,
     second: &PySonar,
@@ -180,8 +180,8 @@ pub(crate) fn project_one<'py>(
             .check_point("feature", range, azimuth, el)
             .map_err(errors::engine)?;
     }
-    // The true point, when the elevation is given: the projection carries the local precision
-    // there.
+    // With the elevation given, the true point is known, and the projection carries the local
+    // precision there.
     let batch = Batch {
         sigma_range,
         source: first.inner.clone(),

@@ -1,6 +1,6 @@
-//! What only the benchmark comparing the Python package with the Rust library needs
-//! (`scripts/bench_python.py`): the library's own time for a batch, measured inside the module.
-//! Built with the `bench` feature alone; the shipped package does not carry it.
+//! What only the benchmark comparing the Python package with the Rust library
+//! (`scripts/bench_python.py`) needs: the library's own time for a batch, measured inside the
+//! module. Built with the `bench` feature alone. The shipped package does not carry it.
 
 use std::time::Instant;
 
@@ -14,11 +14,10 @@ use crate::batch::{columns_and_pair, items};
 use crate::errors;
 use crate::sonar::PySonar;
 
-/// Returns the seconds the Rust library takes for the batch `batch_columns` would compute
-/// (the pair checked, items built from the columns and checked, projected in one call, metrics
-/// collected), for the benchmark comparing the Python call with the library
-/// (`scripts/bench_python.py`). Only in a module built with the `bench` feature: the shipped
-/// package does not carry it.
+/// Returns the seconds the Rust library takes for the batch that `batch_columns` would compute:
+/// the pair checked, items built from the columns and checked, projected in one call, metrics
+/// collected. For the benchmark comparing the Python call with the library
+/// (`scripts/bench_python.py`). Only in a module built with the `bench` feature.
 #[pyfunction]
 #[pyo3(signature = (first, second, names, columns, step, backend_name))]
 pub(crate) fn bench_rust_batch<'py>(

@@ -7,8 +7,8 @@ use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use sonarproj::error::Param;
 use sonarproj_apps::params;
 
-// Defined in module `sonarproj` (which re-exports it), so that pickle finds it there: an error
-// raised in a multiprocessing worker reaches the parent as itself.
+// Defined in module `sonarproj`, which re-exports it, so pickle finds it there. An error
+// raised in a multiprocessing worker then reaches the parent as itself.
 create_exception!(
     sonarproj,
     InputError,
@@ -21,8 +21,8 @@ pub(crate) fn engine(e: sonarproj::Error) -> PyErr {
     apps(e.into())
 }
 
-/// Returns the Python exception of an applications error, each front's input it names called
-/// by its Python keyword ([`name`]).
+/// Returns the Python exception of an applications error. Each front's input it names is
+/// called by its Python keyword ([`name`]).
 pub(crate) fn apps(e: sonarproj_apps::Error) -> PyErr {
     let message = e.render(&name);
     if e.is_input() {
@@ -33,8 +33,8 @@ pub(crate) fn apps(e: sonarproj_apps::Error) -> PyErr {
 }
 
 /// Returns the Python keyword of `param`: the applications' inputs as the package's functions
-/// take them; the GPU options by their neutral names (`configure_gpu`'s keywords are checked by
-/// the package before they reach the engine).
+/// take them, and the GPU options by their neutral names. The package checks `configure_gpu`'s
+/// keywords before they reach the engine.
 pub(crate) fn name(param: Param) -> String {
     match param {
         p if p == params::OUT || p == params::SWEEP_DIR => "out_dir",

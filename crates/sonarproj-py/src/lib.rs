@@ -25,10 +25,10 @@ mod values;
 /// Registers the module's classes, functions and exception.
 #[pymodule]
 fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    // NumPy's C API is looked up here, at import, and not on the first call that makes an
-    // array: rust-numpy panics when that lookup meets a pending Ctrl-C ("Failed to access NumPy
-    // array API capsule: PyErr { KeyboardInterrupt }"); here the module is loaded by then, and
-    // an interrupted import is an ordinary KeyboardInterrupt of the import.
+    // Look up NumPy's C API here, at import, not on the first call that makes an array.
+    // rust-numpy panics when that lookup meets a pending Ctrl-C ("Failed to access NumPy array API
+    // capsule: PyErr { KeyboardInterrupt }"). At import the module is loaded, and an interrupted
+    // import is an ordinary KeyboardInterrupt.
     let py = m.py();
     py.import("numpy")?;
     drop(numpy::PyArray1::<u8>::zeros(py, 0, false));

@@ -1,5 +1,5 @@
-//! `sonarproj.MaskEngine` (built once, kept between pings with its GPU buffers) and the masks
-//! it returns.
+//! `sonarproj.MaskEngine` and the masks it returns. The engine is built once and kept between
+//! pings, with its GPU buffers.
 
 use numpy::ndarray::{Array2, Array3, ArrayD, IxDyn};
 use numpy::{IntoPyArray, PyArray2, PyArrayDyn};
@@ -172,11 +172,9 @@ struct Part {
     counts: Vec<u32>,
     /// Its runs (empty when dense).
     runs: Vec<Vec<[u64; 2]>>,
-    /// Its bounding boxes.
     boxes: Vec<Option<sonarproj::masks::BoundingBox>>,
     /// Its union: range bins, beams and words.
     union: (usize, usize, Vec<u32>),
-    /// Its radii and noise radii.
     radius: Vec<(f64, f64)>,
 }
 
@@ -233,7 +231,6 @@ struct Gathered {
 }
 
 impl Gathered {
-    /// Adds the next part.
     fn add(&mut self, part: Part) {
         if self.dense.is_empty() {
             self.dense = part.dense;
@@ -270,9 +267,9 @@ fn shaped<T: numpy::Element>(
     }
 }
 
-/// The first chunk of a ping's features, the smallest and largest later ones, and the time one
-/// chunk aims at (s): short enough that Ctrl-C is answered at once, long enough that a GPU
-/// gets whole pings (most pings have fewer features than the first chunk).
+/// Chunk sizes of a ping's features: the first chunk, the smallest and largest later ones, and
+/// the time one chunk aims at (s). Short enough that Ctrl-C is answered at once, long enough
+/// that a GPU gets whole pings, since most pings have fewer features than the first chunk.
 const FIRST_CHUNK_FEATURES: usize = 128;
 const MIN_CHUNK_FEATURES: usize = 8;
 const MAX_CHUNK_FEATURES: usize = 8192;
@@ -289,7 +286,6 @@ fn layer(kind: SonarKind, occ: &Occupancy) -> ArrayD<u8> {
 }
 
 impl PyMaskEngine {
-    /// Returns `summary` as Python's `MaskSummary`.
     fn summary_to_py(
         &self,
         py: Python<'_>,
@@ -314,8 +310,8 @@ impl PyMaskEngine {
         })
     }
 
-    /// Returns an error when the engine's GPU device was opened by the parent of this forked
-    /// process (a device does not survive a fork).
+    /// Returns an error when this is a forked child of the process that opened the engine's GPU
+    /// device. A device does not survive a fork.
     fn in_this_process(&self) -> PyResult<()> {
         if self.engine.draws_on_gpu() && !crate::runtime::same_process(self.owner) {
             return Err(PyRuntimeError::new_err(
@@ -326,8 +322,8 @@ impl PyMaskEngine {
         Ok(())
     }
 
-    /// Returns the features of ping `k` of many (`ranges[k]`, `azimuths[k]`), an error naming
-    /// the ping counted from 1.
+    /// Returns the features of ping `k` of many (`ranges[k]`, `azimuths[k]`). Errors name the ping
+    /// counted from 1.
     fn ping_features(
         &self,
         py: Python<'_>,
@@ -344,8 +340,8 @@ impl PyMaskEngine {
             })
     }
 
-    /// Returns the pings of `poses`, `ranges` and `azimuths` (one pose and set of features
-    /// each, errors naming the ping counted from 1).
+    /// Returns the pings of `poses`, `ranges` and `azimuths`, one pose and set of features each.
+    /// Errors name the ping counted from 1.
     fn pings(
         &self,
         py: Python<'_>,
@@ -411,9 +407,9 @@ impl PyMaskEngine {
             .max(1)
     }
 
-    /// Returns an error when the dense arrays that `pings` pings of `features` features in all
-    /// return together — a union a ping, and with `dense` a mask a feature (`counts`: with
-    /// counts) — would exceed what one call returns ([`MAX_DENSE_MASK_BYTES`]).
+    /// Returns an error when the dense arrays of `pings` pings with `features` features in all
+    /// would exceed what one call returns ([`MAX_DENSE_MASK_BYTES`]). That is a union per ping,
+    /// plus with `dense` a mask per feature (with counts when `counts`).
     fn check_pings_dense(&self, pings: usize, features: u64, counts: bool, dense: bool) -> PyResult<()> {
         let (rows, beams) = self.engine.layout().data_shape();
         let pixels = (rows * beams) as u64;
@@ -440,9 +436,9 @@ impl PyMaskEngine {
         Ok(())
     }
 
-    /// Returns the mask set of one ping. Features are drawn in chunks without the GIL, sized so
-    /// that one takes about 50 ms; Ctrl-C is looked for between chunks. Dense masks are refused
-    /// up front past [`MAX_DENSE_MASK_BYTES`]; `dense = false` gives runs instead.
+    /// Returns the mask set of one ping. Features are drawn without the GIL in chunks of about
+    /// 50 ms, and Ctrl-C is checked between chunks. Dense masks past [`MAX_DENSE_MASK_BYTES`] are
+    /// refused up front. `dense = false` gives runs instead.
     fn draw(
         &self,
         py: Python<'_>,
@@ -682,9 +678,10 @@ impl PyMaskEngine {
     }
 
     /// Returns the masks of many pings, one pose and one set of features each. On a GPU without
-    /// counts, pings of at most [`FIRST_CHUNK_FEATURES`] features each, two pings are in flight
-    /// (the next submitted while the one before is drawn), Ctrl-C looked for between groups of
-    /// 64 pings; otherwise ping by ping, Ctrl-C between chunks of features.
+    /// counts, with pings of at most [`FIRST_CHUNK_FEATURES`] features each, two pings are in
+    /// flight (the next submitted while the one before is drawn), and Ctrl-C is checked between
+    /// groups of 64 pings. Otherwise pings go one by one, with Ctrl-C checked between chunks of
+    /// features.
     #[pyo3(signature = (poses, ranges, azimuths, sigma, coverage, counts, dense))]
     #[expect(clippy::too_many_arguments, reason = "the Python method's parameters")]
     fn masks_of_pings(
@@ -700,12 +697,12 @@ impl PyMaskEngine {
     ) -> PyResult<Vec<PyMaskSet>> {
         let noise = noise(sigma, coverage)?;
         let pings = self.pings(py, &poses, &ranges, azimuths.as_deref())?;
-        // Counts need dense masks: said before any count of bytes.
+        // Counts need dense masks. Say so before counting any bytes.
         self.check_dense(0, counts, dense)?;
         let features = pings.iter().map(|(_, f)| f.len() as u64).sum();
         self.check_pings_dense(pings.len(), features, counts, dense)?;
-        // Together only pings that `draw` would draw in one chunk (so on the same engine, GPU or
-        // CPU, under `auto`): the same masks either way.
+        // Draw together only pings that `draw` would draw in one chunk, so on the same engine
+        // (GPU or CPU under `auto`) and with the same masks either way.
         if counts
             || !self.engine.draws_on_gpu()
             || pings

@@ -47,7 +47,7 @@ impl PyOculusPing {
     }
 }
 
-/// Returns the simple ping results of the Oculus file at `path`; `elevation` (deg) overrides
+/// Returns the simple ping results of the Oculus file at `path`. `elevation` (deg) overrides
 /// the aperture the frequency gives.
 #[pyfunction]
 #[pyo3(signature = (path, elevation=None))]

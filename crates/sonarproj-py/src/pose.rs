@@ -275,8 +275,8 @@ pub(crate) struct PyMount {
 
 #[pymethods]
 impl PyMount {
-    /// Returns the mount at `position` (m) turned by `quat_xyzw` (x, y, z, w) or by URDF
-    /// `rpy` (deg, fixed axes: Rz(yaw) Ry(pitch) Rx(roll)); no rotation when neither is given.
+    /// Returns the mount at `position` (m) turned by `quat_xyzw` (x, y, z, w) or by URDF `rpy`
+    /// (deg, fixed axes: Rz(yaw) Ry(pitch) Rx(roll)). No rotation when neither is given.
     #[new]
     #[pyo3(signature = (position, *, quat_xyzw=None, rpy=None))]
     fn new(

@@ -59,11 +59,11 @@ pub(crate) fn recover_one(
 /// The columns of `recover_columns`' input, in order.
 const NAMES: [&str; 4] = ["first_range", "first_azimuth", "second_range", "second_azimuth"];
 
-/// The rows recovered between two looks for Ctrl-C (a few tens of milliseconds on one core).
+/// Rows recovered between two checks for Ctrl-C: a few tens of milliseconds on one core.
 const RECOVER_CHUNK_ROWS: usize = 16_384;
 
-/// Returns, per correspondence of the columns, the number of candidates and the best one
-/// (NaN where there is none), the curve length (sidescan pairs) and the flags. `poses` holds one
+/// Returns, per correspondence of the columns, the number of candidates, the best one (NaN
+/// where there is none), the curve length (sidescan pairs) and the flags. `poses` holds one
 /// pose for every correspondence, or one per correspondence.
 #[pyfunction]
 #[pyo3(signature = (first, second, poses, columns, sigma_range, sigma_azimuth))]
@@ -89,7 +89,7 @@ pub(crate) fn recover_columns<'py>(
     }
     let pose_of = |k: usize| &poses[if poses.len() == 1 { 0 } else { k }];
     let s = sigmas(sigma_range, sigma_azimuth);
-    // Chunks of rows on all cores without the GIL; Ctrl-C is looked for between chunks.
+    // Chunks of rows run on all cores without the GIL. Ctrl-C is checked between chunks.
     let mut results: Vec<Recovery> = Vec::with_capacity(len);
     let mut start = 0;
     while start < len {
@@ -125,7 +125,7 @@ pub(crate) fn recover_columns<'py>(
         .map(|r| i64::try_from(r.candidates.len()).unwrap_or(i64::MAX))
         .collect();
     dict.set_item("candidates", count.into_pyarray(py))?;
-    // The best candidate of a correspondence with a single point (none for a sidescan pair's curve).
+    // The best candidate, unless a sidescan pair gave a curve.
     let best = |r: &Recovery| r.curve.is_none().then(|| r.candidates.first()).flatten().cloned();
     let bests: Vec<_> = results.iter().map(best).collect();
     let in_view: Vec<bool> = bests

@@ -1,7 +1,7 @@
-//! Where the package's work runs: without the GIL, on a thread pool of this process. A process
-//! forked from one that computed inherits the pool's bookkeeping but not its threads (work sent
-//! there would wait forever), so the pool belongs to a process id and a forked child makes its
-//! own on its first call.
+//! Where the package's work runs: without the GIL, on a thread pool of this process. A forked
+//! child inherits the pool's bookkeeping but not its threads, so work sent there would wait
+//! forever. The pool therefore belongs to a process id, and a forked child makes its own on
+//! its first call.
 
 use std::sync::{Arc, Mutex, PoisonError};
 
@@ -39,8 +39,8 @@ pub(crate) fn same_process(owner: u32) -> bool {
     owner == std::process::id()
 }
 
-/// Returns `f()` run without the GIL on this process's pool (every parallel loop inside runs
-/// there too).
+/// Returns `f()` run without the GIL on this process's pool. Every parallel loop inside runs
+/// there too.
 pub(crate) fn detach<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> T {
     match pool() {
         Some(pool) => py.detach(|| pool.install(f)),
@@ -49,9 +49,9 @@ pub(crate) fn detach<T: Send>(py: Python<'_>, f: impl FnOnce() -> T + Send) -> T
 }
 
 /// Returns `work(stop)` run without the GIL on this process's pool, while the calling thread
-/// looks for Ctrl-C every 50 ms: CPython delivers signals to its main thread only, where the
-/// caller is, never to a pool thread. On a signal `stop` is set (the work is to end at its next
-/// chance), the work is waited for, and the signal's exception is returned.
+/// checks for Ctrl-C every 50 ms. CPython delivers signals to its main thread only, where the
+/// caller is, never to a pool thread. On a signal, `stop` is set so the work ends at its next
+/// chance, the work is waited for, and the signal's exception is returned.
 ///
 /// # Errors
 /// The exception of a signal handler (`KeyboardInterrupt` for Ctrl-C).

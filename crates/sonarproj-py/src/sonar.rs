@@ -13,14 +13,18 @@ use crate::values::arg;
 /// A sonar: kind, field of view (metres, degrees) and data layout.
 ///
 /// `Sonar(kind, range_min, range_max, azimuth_aperture, elevation_aperture, range_bins,
-/// beams=None, beam_edges=None, beam_centres=None, name=None, sides=None)`: `kind` "fls"
-/// (imaging) or "sss" (sidescan); ranges in m (`0 <= range_min < range_max <= 10000`); full
-/// apertures in degrees (azimuth in (0, 360], elevation in (0, 180]); `range_bins` uniform bins
-/// (per side for a two-sided sidescan); for an imaging sonar exactly one of `beams` (a count of
-/// equal beams), `beam_edges` (deg, beams + 1 increasing values from -aperture/2, starboard, to
-/// +aperture/2, port) or `beam_centres` (deg; edges at the midpoints); for a sidescan `sides`
-/// 1 (default) or 2 (one row of both sides, as HoloOcean's SidescanSonar). Also
-/// `Sonar.preset(name)` and `Sonar.from_toml(path)`.
+/// beams=None, beam_edges=None, beam_centres=None, name=None, sides=None)`:
+/// - `kind`: "fls" (imaging) or "sss" (sidescan).
+/// - Ranges in m: `0 <= range_min < range_max <= 10000`.
+/// - Full apertures in degrees: azimuth in (0, 360], elevation in (0, 180].
+/// - `range_bins`: uniform bins, per side for a two-sided sidescan.
+/// - For an imaging sonar, exactly one of `beams` (a count of equal beams), `beam_edges` (deg,
+///   beams + 1 increasing values from -aperture/2, starboard, to +aperture/2, port) or
+///   `beam_centres` (deg; edges at the midpoints).
+/// - For a sidescan, `sides` 1 (default) or 2 (one row of both sides, as HoloOcean's
+///   SidescanSonar).
+///
+/// Also `Sonar.preset(name)` and `Sonar.from_toml(path)`.
 #[pyclass(name = "Sonar", module = "sonarproj", frozen)]
 #[derive(Clone, Debug)]
 pub(crate) struct PySonar {
@@ -136,8 +140,8 @@ impl PySonar {
             .map_err(errors::engine)
     }
 
-    /// Returns the sonar HoloOcean simulates for `sensor`: a scenario's sensor entry (a dict
-    /// with `sensor_type` and, optionally, `configuration`), or a `configuration` block with
+    /// Returns the sonar HoloOcean simulates for `sensor`. That is a scenario's sensor entry (a
+    /// dict with `sensor_type` and, optionally, `configuration`), or a `configuration` block with
     /// `sensor_type` given apart. Its layout is the frame HoloOcean returns, index for index
     /// (README: Sonars).
     #[staticmethod]
@@ -212,8 +216,8 @@ impl PySonar {
             let key: String = k
                 .extract()
                 .map_err(|_| errors::input("sensor", format!("configuration key {k} is not a string")))?;
-            // Python and numpy numbers alike (anything with __float__ but a bool or a string).
-            // A numpy bool has a dtype of kind "b"; it is refused like a Python bool.
+            // Python and numpy numbers alike: anything with __float__ except a bool or a string. A
+            // numpy bool has a dtype of kind "b", and is refused like a Python bool.
             let numpy_bool = v
                 .getattr("dtype")
                 .and_then(|d| d.getattr("kind"))
@@ -237,9 +241,9 @@ impl PySonar {
             .map_err(|e| errors::engine(e.in_context("sensor")))
     }
 
-    /// Returns `(sonar, columns)` for a ROS `ProjectedSonarImage`'s beam table:
-    /// `beam_directions` (n × 3, the message's frame: X up, Y starboard, Z forward) and `ranges`
-    /// (the centres of evenly spaced bins, m), with `elevation_aperture` (deg); beam `k` of the
+    /// Returns `(sonar, columns)` for a ROS `ProjectedSonarImage`'s beam table, with
+    /// `elevation_aperture` (deg). `beam_directions` is n × 3 in the message's frame (X up, Y
+    /// starboard, Z forward). `ranges` are the centres of evenly spaced bins (m). Beam `k` of the
     /// sonar is column `columns[k]` of the message's image.
     #[staticmethod]
     #[pyo3(signature = (beam_directions, ranges, elevation_aperture, name=None))]

@@ -1,8 +1,8 @@
-//! Python arguments read strictly, as numpy users expect: a number is an `int` or a `float`
-//! (numpy's too), never a `bool`, a complex or a string; a count is an integer that fits; a
+//! Python arguments read strictly, as numpy users expect. A number is an `int` or a `float`
+//! (numpy's too), never a `bool`, a complex or a string. A count is an integer that fits. A
 //! vector or matrix has the stated shape. A bad argument raises an `InputError` whose message
-//! starts with the argument's name — an `InputTypeError` (also a `TypeError`) when its type is
-//! wrong. The named readers at the end are what `#[pyo3(from_py_with = …)]` takes.
+//! starts with the argument's name, or an `InputTypeError` (also a `TypeError`) for a wrong
+//! type. The named readers at the end are what `#[pyo3(from_py_with = …)]` takes.
 
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
@@ -96,7 +96,7 @@ pub(crate) fn real(name: &str, ob: &Bound<'_, PyAny>) -> PyResult<f64> {
         .map_err(|_| errors::input(name, format!("{} does not fit a float", shown(ob))))
 }
 
-/// Returns `ob` as a count (an integer in `[0, 2^32)`) for argument `name`; the caller checks
+/// Returns `ob` as a count (an integer in `[0, 2^32)`) for argument `name`. The caller checks
 /// the range the sonar allows.
 pub(crate) fn count(name: &str, ob: &Bound<'_, PyAny>) -> PyResult<u32> {
     let py = ob.py();
@@ -117,8 +117,8 @@ pub(crate) fn count(name: &str, ob: &Bound<'_, PyAny>) -> PyResult<u32> {
     })
 }
 
-/// Returns `ob` (a sequence or array of numbers) as `f64` values in C order, checked to have
-/// `shape` (`None` in a place: any length there), for argument `name`.
+/// Returns `ob`, a sequence or array of numbers, as `f64` values in C order for argument
+/// `name`, checked to have `shape`. `None` in `shape` allows any length there.
 pub(crate) fn reals(name: &str, ob: &Bound<'_, PyAny>, shape: &[Option<usize>]) -> PyResult<Vec<f64>> {
     let py = ob.py();
     if ob.is_instance_of::<PyString>() || ob.is_instance_of::<pyo3::types::PyBytes>() {
@@ -133,7 +133,7 @@ pub(crate) fn reals(name: &str, ob: &Bound<'_, PyAny>, shape: &[Option<usize>]) 
         .call_method1("asarray", (ob,))
         .map_err(|e| wrong_type(py, name, format!("not an array of numbers ({})", e.value(py))))?;
     let kind: String = array.getattr("dtype")?.getattr("kind")?.extract()?;
-    // numpy turns [0, 0, True] into integers: a bool in a list is looked for item by item.
+    // numpy turns [0, 0, True] into integers, so look for a bool in a list item by item.
     let has_bool = !ob.hasattr("dtype")?
         && numpy
             .call_method1("asarray", (ob, "object"))?

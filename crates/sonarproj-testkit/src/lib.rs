@@ -1,22 +1,20 @@
-//! Helpers shared by the integration tests of the workspace's crates: presets, the one GPU
-//! context of a test binary, the envelope check of a GPU result, the built `sonarproj` binary
-//! (run from the repository's root, as a user runs it), and PNG pictures read by the picture
-//! convention. Test code only: never a dependency of a shipped crate.
+//! Helpers shared by the workspace's integration tests: presets, the one GPU context of a test
+//! binary, the envelope check of a GPU result, the built `sonarproj` binary, and PNG pictures.
+//! Test code only: no shipped crate depends on it.
 
 use sonarproj::Sonar;
 use sonarproj::gpu::{GpuContext, GpuOptions};
 use sonarproj::projection::gpu::GpuBackend;
 
-/// Returns the preset `name` (a test names only presets that exist).
+/// Returns the preset `name`. Tests name only presets that exist.
 #[must_use]
 pub fn preset(name: &str) -> Sonar {
     Sonar::preset(name).unwrap_or_else(|| panic!("no preset {name:?}"))
 }
 
-/// Returns the repository's root (where the README's commands run; `data/` is there): the
-/// nearest folder at or above the current one that holds `crates/sonarproj-cli` (cargo runs a
-/// test in its package's folder; `scripts/gpu-remote.sh` runs the test binaries from the root of
-/// a copy elsewhere), else the root this crate was built in.
+/// Returns the repository's root, where the README's commands run: the nearest folder at or
+/// above the current one holding `crates/sonarproj-cli`, else the root this crate was built in.
+/// Cargo runs a test in its package's folder, and `scripts/gpu-remote.sh` from a copy's root.
 #[must_use]
 pub fn repository() -> std::path::PathBuf {
     let here = std::env::current_dir().unwrap_or_default();
@@ -28,8 +26,8 @@ pub fn repository() -> std::path::PathBuf {
         )
 }
 
-/// Returns a command running the built `sonarproj` binary in the repository's root, quiet
-/// about Mesa's device-select layer on headless machines.
+/// Returns a command running the built `sonarproj` binary in the repository's root, as a user
+/// runs it. It silences Mesa's device-select layer on headless machines.
 ///
 /// # Panics
 /// When the binary is not built.
@@ -40,7 +38,7 @@ pub fn sonarproj() -> assert_cmd::Command {
     c
 }
 
-/// Makes a FIFO at `path` (with `mkfifo`).
+/// Makes a FIFO at `path` with `mkfifo`.
 ///
 /// # Panics
 /// When it cannot be made.
@@ -49,8 +47,7 @@ pub fn mkfifo(path: &std::path::Path) {
     assert!(made.success(), "mkfifo {}", path.display());
 }
 
-/// Returns a thread that opens the FIFO at `path` and reads it to its end (what a writer put
-/// through it).
+/// Returns a thread that opens the FIFO at `path` and reads what a writer put through it.
 ///
 /// # Panics
 /// The thread panics when the FIFO cannot be read.
@@ -68,8 +65,8 @@ pub fn read_fifo(path: &std::path::Path) -> std::thread::JoinHandle<String> {
     })
 }
 
-/// Runs the binary with `args` (and `stdin`), expects exit status 2 (bad input) and a stderr
-/// that contains each of `needles` and no panic.
+/// Runs the binary with `args` and `stdin`. Expects exit status 2 (bad input), no panic, and a
+/// stderr containing each of `needles`.
 ///
 /// # Panics
 /// When any of that does not hold.
@@ -87,8 +84,8 @@ pub fn rejects(args: &[&str], stdin: Option<&str>, needles: &[&str]) {
     }
 }
 
-/// Returns the `--backend` values to try: `cpu` (the CPU backend a test wants) always, `gpu`
-/// where an adapter exists (always in CI, where [`gpu`] fails loudly without one).
+/// Returns the `--backend` values to try: always `cpu`, the CPU backend a test wants, and `gpu`
+/// where an adapter exists. In CI one always does, since [`gpu`] fails loudly without one.
 #[must_use]
 pub fn cli_backends(cpu: &'static str) -> Vec<&'static str> {
     let mut b = vec![cpu];
@@ -98,9 +95,8 @@ pub fn cli_backends(cpu: &'static str) -> Vec<&'static str> {
     b
 }
 
-/// Returns the GPU options of the test run, read from the environment as the command line reads
-/// them ([`sonarproj_apps::gpu_env`]): `WGPU_BACKEND` (`scripts/test.sh` sets `vulkan`),
-/// `SONARPROJ_GPU_PRECISION=df` (the agreement tests once more in double-f32), and the others.
+/// Returns the test run's GPU options, read from the environment as the command line does
+/// ([`sonarproj_apps::gpu_env`]). `SONARPROJ_GPU_PRECISION=df`, say, runs in double-f32.
 ///
 /// # Panics
 /// When a variable holds a value it does not allow: a test run must not quietly ignore it.
@@ -110,7 +106,7 @@ pub fn gpu_options() -> GpuOptions {
         .unwrap_or_else(|e| panic!("the test run's GPU variables: {e}"))
 }
 
-/// Returns `out` (a command's stdout) parsed as JSON.
+/// Returns `out`, a command's stdout, parsed as JSON.
 ///
 /// # Panics
 /// When it is not JSON, showing it.
@@ -119,12 +115,11 @@ pub fn json(out: &[u8]) -> serde_json::Value {
     serde_json::from_slice(out).unwrap_or_else(|e| panic!("not JSON ({e}): {}", String::from_utf8_lossy(out)))
 }
 
-/// Returns the test binary's one GPU context on the adapter `auto` would use, created by the
-/// first test that asks and shared by all, as an application shares its device. (On an H100
-/// with NVIDIA's Vulkan driver, tests that each created and dropped their own instance crashed
-/// the process when they ran in parallel, and instances created after others were dropped found
-/// no driver.) Without an adapter it panics when `CI=true` (GPU tests must run in CI, on
-/// lavapipe) and otherwise returns `None` after saying that the test is skipped.
+/// Returns the test binary's one GPU context, on the adapter `auto` would use.
+/// All tests share it, as an application shares its device. On an H100 with NVIDIA's Vulkan
+/// driver, tests that each made their own instance crashed the process or found no driver.
+/// Without an adapter it panics when `CI=true` (GPU tests must run in CI, on lavapipe), and
+/// otherwise says the test is skipped and returns `None`.
 #[must_use]
 pub fn gpu_context() -> Option<GpuContext> {
     static CONTEXT: std::sync::OnceLock<Result<GpuContext, String>> = std::sync::OnceLock::new();
@@ -140,9 +135,8 @@ pub fn gpu_context() -> Option<GpuContext> {
     }
 }
 
-/// Writes `skipped: no adapter` and the test's name straight to stderr, where the test harness
-/// does not capture it (a GPU test without an adapter passes, and says so), once per test; the
-/// reason once per test binary.
+/// Writes `skipped: no adapter` and the test's name to stderr, once per test, and the reason once
+/// per test binary. It bypasses the harness's capture so a passing GPU test says it was skipped.
 fn say_skipped(why: &str) {
     use std::io::Write;
     static SAID: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
@@ -160,14 +154,14 @@ fn say_skipped(why: &str) {
     let _ = writeln!(std::io::stderr(), "skipped: no adapter ({test}){reason}");
 }
 
-/// Returns a GPU backend on the shared context of [`gpu_context`], its splat stage the variant
-/// the GPU variables ask for.
+/// Returns a GPU backend on the shared [`gpu_context`], with the splat stage the GPU variables
+/// ask for.
 #[must_use]
 pub fn gpu() -> Option<GpuBackend> {
     gpu_context().map(gpu_backend_on)
 }
 
-/// Returns a GPU backend on `ctx`, its splat stage the variant the GPU variables ask for.
+/// Returns a GPU backend on `ctx`, with the splat stage the GPU variables ask for.
 ///
 /// # Panics
 /// When the device refuses a stage.
@@ -182,13 +176,13 @@ use sonarproj::geometry::sonar::SonarKind;
 use sonarproj::occupancy::Layout;
 use sonarproj::projection::envelope::Bounds;
 
-/// Relative error allowed on the GPU's FLS occupied measure: it sums pixel areas in f32, at most
-/// about (rows per thread + log2 64) roundings of 2^-24 each, well under 1e-5 for every layout
-/// here. The SSS measure is computed in f64 from the exact count and gets no allowance.
+/// The relative error allowed on the GPU's FLS occupied measure. It sums pixel areas in f32:
+/// at most about (rows per thread + log2 64) roundings of 2^-24, well under 1e-5 for every
+/// layout here. The SSS measure is computed in f64 from the exact count and gets no allowance.
 pub const F32_AREA_SUM_RELATIVE: f64 = 1e-5;
 
-/// Returns `Ok` when `p` (a GPU result with its occupancy) lies inside the envelope `b` computed
-/// by the CPU reference for the same pose, else a message saying which check failed.
+/// Returns `Ok` when `p`, a GPU result with its occupancy, lies inside the CPU reference's
+/// envelope `b` for the same pose. Else returns a message naming the failed check.
 pub fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Result<(), String> {
     let m = &p.metrics;
     let occ = p.occupancy.as_ref().ok_or("no occupancy read back")?;
@@ -226,8 +220,8 @@ pub fn check_within_bounds(layout: &Layout, b: &Bounds, p: &Projection) -> Resul
     if m.occupied_measure < lo * (1.0 - slack) || m.occupied_measure > hi * (1.0 + slack) {
         return Err(format!("measure {} outside [{lo}, {hi}]", m.occupied_measure));
     }
-    // Both areas are a cell count times the same cell², so they compare exactly; the cells
-    // themselves lie between the certain and the possible ones, and the area counts them.
+    // Both areas are a cell count times the same cell², so they compare exactly. The cells lie
+    // between the certain and the possible ones.
     match (b.projection_area(layout), m.projection_area) {
         (None, None) => {}
         (Some((lo, hi)), Some(a)) if (lo..=hi).contains(&a) => {}
@@ -279,9 +273,9 @@ pub fn differing_pixels(a: &sonarproj::Occupancy, b: &sonarproj::Occupancy) -> u
         .sum()
 }
 
-/// Returns the property tests' configuration: 256 cases from a fixed seed, so a run is
-/// repeatable and CI sees the same cases; `PROPTEST_RNG_SEED=N` explores others (failures found
-/// so far are replayed first from the test's `.proptest-regressions` file).
+/// Returns the property tests' configuration: 256 cases from a fixed seed, so runs repeat and
+/// CI sees the same cases. `PROPTEST_RNG_SEED=N` explores others. Failures found so far are
+/// replayed first from the test's `.proptest-regressions` file.
 #[must_use]
 pub fn proptest_config() -> proptest::test_runner::Config {
     use proptest::test_runner::{Config, RngSeed};
@@ -297,10 +291,9 @@ pub fn proptest_config() -> proptest::test_runner::Config {
     }
 }
 
-/// A picture the CLI wrote, decoded, read by the picture convention (README: Conventions; the
-/// `report` module's documentation): the panels of sonar data are the areas of its light grey
-/// (235, 235, 235, the field of view where nothing is occupied); masks and occupied pixels are
-/// coloured.
+/// A decoded picture the CLI wrote, read by the picture convention of the README and the
+/// `report` module: panels of sonar data are the light grey (235, 235, 235) areas, the empty
+/// field of view. Masks and occupied pixels are coloured.
 pub struct Picture {
     /// Width (px).
     pub w: usize,
@@ -348,9 +341,9 @@ impl Picture {
         [self.rgb[k], self.rgb[k + 1], self.rgb[k + 2]]
     }
 
-    /// Returns the panels, left to right: runs of columns holding 20 light grey pixels in a row
-    /// (runs a few columns apart, as split by a bearing line, are one panel), each with the rows
-    /// holding 8 of its light grey pixels side by side (anti-aliased text is not a panel).
+    /// Returns the panels, left to right. A panel is a run of columns holding 20 light grey pixels
+    /// in a row; runs a few columns apart (split by a bearing line) join. Its rows are those with
+    /// 8 light grey pixels side by side, so anti-aliased text is not a panel.
     #[must_use]
     pub fn panels(&self) -> Vec<Panel> {
         let longest = |cells: &mut dyn Iterator<Item = [u8; 3]>| {
@@ -386,8 +379,8 @@ impl Picture {
             .collect()
     }
 
-    /// Returns the coloured pixels (channels at least 60 apart: not white, grey or black text)
-    /// inside `p`.
+    /// Returns the coloured pixels inside `p`: channels at least 60 apart, so not white, grey or
+    /// black text.
     #[must_use]
     pub fn coloured(&self, p: Panel) -> Vec<(usize, usize)> {
         let mut out = Vec::new();
@@ -402,9 +395,9 @@ impl Picture {
         out
     }
 
-    /// Asserts that panel `p` holds coloured pixels, all in its left half (`port`: `Some(true)`)
-    /// or its right half (`Some(false)`; `None`: not checked), and all in its lower half
-    /// (`near`) or its upper half.
+    /// Asserts that panel `p` holds coloured pixels, all in its lower half when `near`, else all in
+    /// its upper half. `port` also checks the side: `Some(true)` the left half, `Some(false)` the
+    /// right half, `None` no check.
     pub fn assert_side(&self, p: Panel, port: Option<bool>, near: bool, what: &str) {
         let px = self.coloured(p);
         assert!(!px.is_empty(), "{what}: nothing coloured in panel {p:?}");

@@ -1,13 +1,13 @@
 //! Batch CSV files: poses in, metrics out, streamed.
 //!
-//! Input header (any order): a pose table's columns ([`crate::io::pose_columns`]: the feature,
-//! a rotation as roll/pitch/yaw, a quaternion or a matrix, and a placement or a translation).
-//! The feature's true point in sonar 1 is `sph(range, azimuth, elevation)` (m, deg, deg); its
-//! measurement is `(range, azimuth)` for an FLS, `range` for an SSS. Output: the input columns
-//! as given, then [`METRIC_COLUMNS`].
+//! The input header, in any order, holds a pose table's columns ([`crate::io::pose_columns`]):
+//! the feature, a rotation, and a placement or a translation. The feature's true point in
+//! sonar 1 is `sph(range, azimuth, elevation)` (m, deg, deg). Its measurement is
+//! `(range, azimuth)` for an FLS and `range` for an SSS. The output holds the input columns as
+//! given, then [`METRIC_COLUMNS`].
 //!
-//! [`project_csv`] reads, projects and writes [`CHUNK_ROWS`] rows at a time, so a batch of any
-//! length runs in bounded memory; it stops at the first bad row, after writing the rows before it.
+//! [`project_csv`] works on [`CHUNK_ROWS`] rows at a time, so memory stays bounded. It stops
+//! at the first bad row, after writing the rows before it.
 
 use std::io::{Read, Write};
 
@@ -21,10 +21,10 @@ use sonarproj::metrics::{METRIC_NAMES, METRICS, Metrics, Value};
 use sonarproj::projection::{Batch, BatchItem, Projection};
 
 pub use crate::io::pose_columns::{PLACE_COLUMNS, TRANSLATION_COLUMNS};
-/// The local precision columns ([`sonarproj::local_precision`]): empty where the row does not
-/// give the feature's true point, or two sidescans have no elevation to pin.
+/// The local precision columns ([`sonarproj::local_precision`]). Empty where the row does not
+/// give the feature's true point, or where two sidescans have no elevation to pin.
 pub const LOCAL_COLUMNS: [&str; 2] = ["range_per_elevation", "sigma_elevation"];
-/// The result columns appended to every output row: the metric table's names in its order, then
+/// The result columns appended to every output row: the metric table's names in order, then
 /// [`LOCAL_COLUMNS`].
 pub const METRIC_COLUMNS: [&str; METRICS.len() + 2] = {
     let mut out = [""; METRICS.len() + 2];
@@ -37,8 +37,7 @@ pub const METRIC_COLUMNS: [&str; METRICS.len() + 2] = {
     out[METRICS.len() + 1] = LOCAL_COLUMNS[1];
     out
 };
-/// Rows read, projected and written at a time by [`project_csv`] (a few MiB of rows in memory,
-/// enough poses to keep a GPU busy).
+/// Rows that [`project_csv`] handles at a time: a few MiB in memory, enough to keep a GPU busy.
 pub const CHUNK_ROWS: usize = 16_384;
 
 /// A batch CSV read row by row, each row checked against sonar 1.
@@ -47,12 +46,12 @@ pub struct BatchReader<'s, R: Read> {
     table: TableReader<R>,
     source: &'s Sonar,
     columns: PoseColumns,
-    /// The columns a row is read from, in [`PoseColumns::columns`] order (taken once).
+    /// The columns a row is read from, in [`PoseColumns::columns`] order.
     read: Vec<&'static str>,
 }
 
 impl<'s, R: Read> BatchReader<'s, R> {
-    /// Returns the reader of the batch CSV `reader` with its header read and checked; rows are
+    /// Returns a reader of the batch CSV `reader`, with its header read and checked. Rows are
     /// checked against sonar 1 (`source`) as they are read.
     ///
     /// # Errors
@@ -85,8 +84,8 @@ impl<'s, R: Read> BatchReader<'s, R> {
     /// Returns the next row with the projection it asks for, or `None` at the end of the input.
     ///
     /// # Errors
-    /// [`Error::Csv`](crate::Error::Csv) naming the row (1-based, with its line) for a bad
-    /// number, a wrong field count, an invalid pose or a feature outside sonar 1's field of view.
+    /// [`Error::Csv`](crate::Error::Csv) naming the row (1-based, with its line) for a bad number,
+    /// a wrong field count, an invalid pose or a feature outside sonar 1's field of view.
     pub fn next_item(&mut self) -> Result<Option<(Row, BatchItem)>> {
         let (source, columns, read) = (self.source, &self.columns, &self.read);
         self.table.next_parsed(|table, fields| {
@@ -99,34 +98,31 @@ impl<'s, R: Read> BatchReader<'s, R> {
     }
 }
 
-/// A batch CSV read whole (a sweep's pose list): the rows as given and the projections they ask
-/// for.
+/// A batch CSV read whole, such as a sweep's pose list: the rows as given and their projections.
 #[derive(Clone, Debug)]
 pub struct BatchInput {
     /// The header as given.
     pub headers: Vec<String>,
     /// Each row's fields as given.
     pub rows: Vec<Vec<String>>,
-    /// Each row as a measurement and pose, with the feature's true point when the table gives
-    /// it.
+    /// Each row as a measurement and pose, with the feature's true point when the table gives it.
     pub items: Vec<BatchItem>,
 }
 
 /// Returns the whole batch read from CSV `reader`, each row checked against sonar 1 (`source`).
-/// (A long batch is better streamed through [`project_csv`].)
+/// Stream a long batch through [`project_csv`] instead.
 ///
 /// # Errors
-/// As [`BatchReader::new`] and [`BatchReader::next_item`]; [`Error::Csv`](crate::Error::Csv)
+/// As [`BatchReader::new`] and [`BatchReader::next_item`], or [`Error::Csv`](crate::Error::Csv)
 /// for an input without rows.
 pub fn read_batch_csv(reader: impl Read, source: &Sonar) -> Result<BatchInput> {
     read_batch_csv_at_most(reader, source, usize::MAX, "rows")
 }
 
-/// Returns [`read_batch_csv`]'s batch, refused once it has more than `max_rows` rows (before
-/// more are held), the error naming `what`.
+/// Returns [`read_batch_csv`]'s batch, refused as soon as it passes `max_rows` rows.
 ///
 /// # Errors
-/// As [`read_batch_csv`]; [`sonarproj::Error::InvalidValue`] naming `what` past `max_rows`.
+/// As [`read_batch_csv`], or [`sonarproj::Error::InvalidValue`] naming `what` past `max_rows`.
 pub fn read_batch_csv_at_most(
     reader: impl Read,
     source: &Sonar,
@@ -164,22 +160,23 @@ pub(crate) fn no_rows() -> crate::Error {
     }
 }
 
-/// Reads the batch CSV `input`, projects its rows with `project` ([`CHUNK_ROWS`] at a time,
-/// between sonars and with the sampling of `pair`, whose items are ignored) and writes the output
-/// CSV to `output`; returns the number of rows. Memory stays bounded whatever the input's
-/// length. At the first bad row, the rows before it are projected and written, then its error is
-/// returned (a caller writing a file discards it; on a stream they are out).
+/// Reads the batch CSV `input`, projects its rows with `project` and writes the output CSV to
+/// `output`. Returns the number of rows.
+///
+/// Rows go [`CHUNK_ROWS`] at a time, with the sonars and sampling of `pair` (its items are
+/// ignored), so memory stays bounded. At the first bad row, the rows before it are written,
+/// then its error is returned.
 ///
 /// # Errors
-/// As [`BatchReader`] for the input, with each row also checked by [`Batch::checker`] (its
-/// sampling plan); an input without rows; `project`'s errors; [`Error::WriteOutput`](crate::Error::WriteOutput) on I/O failure.
+/// As [`BatchReader`], with each row also checked by [`Batch::checker`]. An input without rows,
+/// `project`'s errors, or [`Error::WriteOutput`](crate::Error::WriteOutput) on I/O failure.
 pub fn project_csv(
     input: impl Read,
     output: impl Write,
     pair: &Batch,
     mut project: impl FnMut(&Batch) -> Result<Vec<Projection>>,
 ) -> Result<usize> {
-    // The sonars, sampling and range error are checked once; each row then only for itself.
+    // The sonars, sampling and range error are checked once. Each row is then checked alone.
     let checker = pair.checker()?;
     let mut reader = BatchReader::new(input, &pair.source)?;
     let headers = reader.headers().to_vec();
@@ -236,9 +233,9 @@ pub fn project_csv(
     }
 }
 
-/// Returns the result columns of one projection as a JSON object (`project`'s and the viewer's
-/// `metrics`): the metric table's keys, then the local precision's; `null` where a CSV cell is
-/// empty.
+/// Returns the result columns of one projection as a JSON object, as `project` and the viewer
+/// print `metrics`. The metric table's keys come first, then the local precision's. `null`
+/// stands for an empty CSV cell.
 #[must_use]
 pub fn metrics_json(m: &Metrics, local: &LocalPrecision) -> serde_json::Value {
     let mut out = serde_json::to_value(m).expect("plain numbers");
@@ -247,9 +244,9 @@ pub fn metrics_json(m: &Metrics, local: &LocalPrecision) -> serde_json::Value {
     out
 }
 
-/// Returns the result fields of one projection, in [`METRIC_COLUMNS`] order: the metrics, then
-/// the local precision `local`; numbers in their shortest exact form (every digit of the f64;
-/// f32 results keep their f32 value), empty where nothing is visible or there is no value.
+/// Returns the result fields of one projection in [`METRIC_COLUMNS`] order: the metrics, then
+/// the local precision `local`. Numbers are in their shortest exact form, so f32 results keep
+/// their f32 value. Fields are empty where nothing is visible or there is no value.
 #[must_use]
 pub fn metric_fields(m: &Metrics, local: &LocalPrecision) -> Vec<String> {
     (0..METRIC_COLUMNS.len())
@@ -257,8 +254,7 @@ pub fn metric_fields(m: &Metrics, local: &LocalPrecision) -> Vec<String> {
         .collect()
 }
 
-/// Returns result field `k` (of [`METRIC_COLUMNS`]) of one projection, as [`metric_fields`]
-/// writes it.
+/// Returns result field `k` of [`METRIC_COLUMNS`] for one projection, as [`metric_fields`] does.
 ///
 /// # Panics
 /// When `k` is not below `METRIC_COLUMNS.len()`.

@@ -1,6 +1,8 @@
-//! Input and output formats: CSV projection batches (`batch`) and correspondences to recover
-//! (`recover`), both read through one checked table reader (`table`), and values given as text
-//! — pose strings, features, mask stream lines (`text`); sweep tables as Parquet (`parquet`).
+//! Input and output formats:
+//! - CSV projection batches (`batch`) and correspondences to recover (`recover`), both read
+//!   through one checked table reader (`table`);
+//! - values given as text: pose strings, features, mask stream lines (`text`);
+//! - sweep tables as Parquet (`parquet`).
 
 pub mod batch;
 pub mod oculus;
@@ -31,12 +33,13 @@ pub use sonarproj::limits::EXCERPT_CHARS;
 pub enum BoundedLine {
     /// A line within the limit is in the buffer (without its `\n` or `\r\n`).
     Line,
-    /// A line longer than the limit was skipped; its length in bytes.
+    /// A line longer than the limit was skipped. Holds its length in bytes.
     TooLong(u64),
 }
 
-/// Reads the next line of `reader` into `buf` (cleared first), holding at most `max` bytes of it
-/// (a `\r` before the `\n` counts): a longer line is read through and dropped. Returns `None` at the end of the input.
+/// Reads the next line of `reader` into `buf`, or returns `None` at the end of the input.
+/// `buf` is cleared first and holds at most `max` bytes, counting a `\r` before the `\n`. A
+/// longer line is read through and dropped.
 ///
 /// # Errors
 /// The reader's I/O errors.

@@ -1,32 +1,35 @@
-//! Saved pings of Blueprint Subsea's Oculus M-series imaging sonars: a file of network messages
-//! as the sonar sends them (little-endian, packed), of which the simple ping results (message id
-//! 0x23) are read, in the two layouts of the vendor's SDK header (`Oculus.h`):
+//! Reads saved pings of Blueprint Subsea's Oculus M-series imaging sonars.
 //!
-//! - every message starts with `OculusMessageHeader` (16 bytes): `oculusId` 0x4f53, source and
-//!   destination ids, `msgId`, `msgVersion`, `payloadSize` (u32, the bytes after the header),
-//!   a spare u16;
-//! - version 1 (`msgVersion` 0 or 1): the fire message (mode, ping rate, network speed, gamma,
-//!   flags as u8; range, gain, speed of sound, salinity as f64: 53 bytes with the header), then
-//!   ping id and status (u32), frequency, temperature, pressure, speed of sound used (f64), ping
-//!   start time (u32), data size (u8), range resolution (f64), ranges and beams (u16), image
-//!   offset, image size, message size (u32): 122 bytes;
-//! - version 2: the fire message adds extended flags and 8 reserved u32 (89 bytes); the result
-//!   adds heading, pitch and roll (f64), its ping start time is an f64, and four spare u32 come
-//!   before the image offset: 202 bytes;
-//! - then one i16 bearing per beam in hundredths of a degree, and the image at `imageOffset` from
-//!   the start of the message: `nRanges` rows of `nBeams` samples (8 or 16 bits), each row
-//!   preceded by a 32-bit float gain when the fire message's flag bit 2 asked for gains.
+//! A file holds network messages as the sonar sends them, little-endian and packed. Only
+//! simple ping results (message id 0x23) are read, in the two layouts of the vendor's SDK
+//! header (`Oculus.h`):
 //!
-//! The sonar a ping describes is an FLS with the ping's exact beams (edges halfway between the
-//! bearings, the outer ones half a spacing beyond, which must lie symmetric about the boresight),
-//! `nRanges` bins of `rangeResolution` from 0, and the elevation aperture of its mode (20° at
-//! 750 kHz, 12° at 1.2 MHz on an M750d (its 70° fan) and 20° on the wider units, 12° at 2.1 MHz,
-//! 20° at 3 MHz: the data sheets; other frequencies need it given). **A positive Oculus bearing is to
-//! port**, as in this project's azimuth (the UW-APL `oculus_sonar_driver`, whose test pings these
-//! layouts were checked on, publishes a bearing `b` as the ProjectedSonarImage direction
-//! `(0, −sin b, cos b)`, Y to starboard; other public drivers flip it, and the vendor's header
-//! does not say): the image's column 0, the most negative bearing, is the starboard-most beam,
-//! so the image is in this project's layout as it comes (row 0 the nearest range line).
+//! - Every message starts with `OculusMessageHeader` (16 bytes): `oculusId` 0x4f53, source and
+//!   destination ids, `msgId`, `msgVersion`, `payloadSize` (u32, the bytes after the header)
+//!   and a spare u16.
+//! - Version 1 (`msgVersion` 0 or 1) is 122 bytes. The fire message comes first (53 bytes with
+//!   the header): mode, ping rate, network speed, gamma and flags as u8, then range, gain,
+//!   speed of sound and salinity as f64. Then: ping id and status (u32), frequency,
+//!   temperature, pressure and speed of sound used (f64), ping start time (u32), data size
+//!   (u8), range resolution (f64), ranges and beams (u16), image offset, image size and
+//!   message size (u32).
+//! - Version 2 is 202 bytes. Its fire message adds extended flags and 8 reserved u32 (89
+//!   bytes). The result adds heading, pitch and roll (f64), has an f64 ping start time, and
+//!   puts four spare u32 before the image offset.
+//! - Next come the bearings, one i16 per beam in hundredths of a degree. The image sits at
+//!   `imageOffset` from the message start: `nRanges` rows of `nBeams` 8- or 16-bit samples.
+//!   Each row starts with an f32 gain when bit 2 of the fire message's flags asked for gains.
+//!
+//! A ping describes an FLS with the ping's exact beams, `nRanges` bins of `rangeResolution`
+//! from 0, and the elevation aperture of its mode. Beam edges lie halfway between bearings,
+//! the outer ones half a spacing beyond, and must be symmetric about the boresight.
+//!
+//! **A positive Oculus bearing is to port**, as in this project's azimuth. The vendor's header
+//! does not say, and public drivers disagree. The UW-APL `oculus_sonar_driver`, whose test
+//! pings these layouts were checked on, publishes bearing `b` as the ProjectedSonarImage
+//! direction `(0, −sin b, cos b)`, Y to starboard. So the image's column 0 (the most negative
+//! bearing) is the starboard-most beam, and the image comes in this project's layout, with
+//! row 0 the nearest range line.
 
 use std::path::Path;
 
@@ -34,9 +37,9 @@ use sonarproj::{BeamLayout, Sonar, SonarKind};
 
 use crate::error::{Error, Result};
 
-/// The largest Oculus file read whole (bytes): a ping of 2^16 × 2^16 16-bit samples is far
-/// beyond every unit (512 beams, a few thousand ranges); a recording of many pings is bigger,
-/// and is read ping by ping by its owner's tools.
+/// The largest Oculus file read, in bytes. One ping of 2^16 × 2^16 16-bit samples is far
+/// beyond every unit (512 beams, a few thousand ranges). Longer recordings of many pings are
+/// for their owner's tools, which read them ping by ping.
 pub const MAX_OCULUS_FILE_BYTES: u64 = 1 << 30;
 
 /// The image of one ping: `(ranges, beams)` samples, row-major.
@@ -51,7 +54,7 @@ pub enum OculusImage {
 /// One simple ping result.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OculusPing {
-    /// The sonar of this ping (exact beams, its range lines as bins).
+    /// The sonar of this ping: exact beams, with its range lines as bins.
     pub sonar: Sonar,
     /// Its image in this project's layout: row 0 the nearest range line, column 0 the
     /// starboard-most beam.
@@ -60,13 +63,13 @@ pub struct OculusPing {
     pub gains: Option<Vec<f32>>,
     /// The bearings (deg), as the ping gives them (positive to port).
     pub bearings_deg: Vec<f64>,
-    /// The message's byte offset in the file, its layout version (1 or 2) and its ping id.
+    /// The message's byte offset in the file.
     pub offset: usize,
     /// The layout version read (1 or 2).
     pub version: u8,
     /// The ping's id.
     pub ping_id: u32,
-    /// Acoustic frequency (Hz) and range resolution (m).
+    /// Acoustic frequency (Hz).
     pub frequency: f64,
     /// Metres per range line.
     pub range_resolution: f64,
@@ -76,7 +79,7 @@ pub struct OculusPing {
 const SIMPLE_PING_RESULT: u16 = 0x23;
 /// The Oculus check id that starts every message.
 const OCULUS_ID: u16 = 0x4f53;
-/// Sizes of the message header and of the two result layouts (bearings follow).
+/// Sizes of the message header and of the two result layouts. The bearings follow.
 const HEADER: usize = 16;
 const RESULT_V1: usize = 122;
 const RESULT_V2: usize = 202;
@@ -117,10 +120,12 @@ impl Reader<'_> {
     }
 }
 
-/// Returns the elevation aperture (deg) of an Oculus at `frequency` (Hz) whose beams span
-/// `aperture` (deg), when it is one of the units' modes (Blueprint Subsea's data sheets: M750d
-/// 750 kHz 130° × 20°, 1.2 MHz 70° × 12°; M1200d 1.2 MHz 130° × 20°, 2.1 MHz 60° × 12°; M3000d
-/// 1.2 MHz 130° × 20°, 3 MHz 40° × 20°). At 1.2 MHz the span tells the M750d from the others.
+/// Returns the elevation aperture (deg) of an Oculus mode at `frequency` (Hz) whose beams span
+/// `aperture` (deg), or `None` for an unknown frequency. At 1.2 MHz the span tells the M750d
+/// from the others. From Blueprint Subsea's data sheets:
+/// - M750d: 750 kHz 130° × 20°, 1.2 MHz 70° × 12°.
+/// - M1200d: 1.2 MHz 130° × 20°, 2.1 MHz 60° × 12°.
+/// - M3000d: 1.2 MHz 130° × 20°, 3 MHz 40° × 20°.
 fn elevation_of(frequency: f64, aperture: f64) -> Option<f64> {
     match frequency {
         f if (0.6e6..0.9e6).contains(&f) => Some(20.0),
@@ -139,21 +144,22 @@ const MIN_RANGE_RESOLUTION: f64 = 1e-6;
 pub enum Pick {
     /// Every ping.
     All,
-    /// Only ping `k` (0 for the first): the messages after it are not read, and the pings
-    /// before it are skipped unparsed.
+    /// Only ping `k` (0 for the first). Pings before it are skipped unparsed, and messages
+    /// after it are not read.
     One(usize),
 }
 
-/// Returns the simple ping results of the Oculus file at `path` that `pick` asks for (other
-/// messages are skipped); `elevation` (deg) overrides the aperture the frequency gives. The file
-/// is read one message at a time: memory follows the pings kept, not the file.
+/// Returns the simple ping results that `pick` asks for from the Oculus file at `path`.
+///
+/// Other messages are skipped. `elevation` (deg) overrides the aperture the frequency gives.
+/// The file is read one message at a time, so memory follows the pings kept, not the file.
 ///
 /// # Errors
-/// [`Error::ReadInput`] when the file cannot be read, is not a regular file or is larger than
-/// [`MAX_OCULUS_FILE_BYTES`]; an input error naming the offset and the field for a foreign or
-/// truncated file, an image that is not what its fields say, 24- or 32-bit samples, a frequency
-/// without a known aperture (and no `elevation`), a bad `elevation`, or no ping (or no ping
-/// `k`) at all.
+/// - [`Error::ReadInput`] when the file cannot be read, is not a regular file or is larger
+///   than [`MAX_OCULUS_FILE_BYTES`].
+/// - An input error naming the offset and field for: a foreign or truncated file, an image
+///   that does not match its fields, 24- or 32-bit samples, a frequency without a known
+///   aperture and no `elevation`, a bad `elevation`, or no ping (or no ping `k`).
 pub fn read_oculus(path: &Path, elevation: Option<f64>, pick: Pick) -> Result<Vec<OculusPing>> {
     use std::io::Read;
     let fail = |source| Error::ReadInput {
@@ -231,7 +237,7 @@ pub fn read_oculus(path: &Path, elevation: Option<f64>, pick: Pick) -> Result<Ve
     }
 }
 
-/// Reads as many bytes of `buf` as the file has left; returns how many.
+/// Reads as much of `buf` as the file has left, and returns how many bytes.
 fn read_up_to(r: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<usize> {
     let mut got = 0;
     while got < buf.len() {
@@ -260,7 +266,6 @@ fn message_header(head: &Reader<'_>) -> Result<(u16, u16, usize)> {
     ))
 }
 
-/// The error of a file without a simple ping result.
 fn no_ping(file: &str, len: usize) -> Error {
     Error::invalid(
         format!("Oculus file {file}"),
@@ -269,7 +274,7 @@ fn no_ping(file: &str, len: usize) -> Error {
     )
 }
 
-/// Checks an elevation aperture given for the pings (deg): in (0, 180].
+/// Checks an elevation aperture given for the pings: in (0, 180] deg.
 fn check_elevation(elevation: Option<f64>) -> Result<()> {
     match elevation {
         Some(e) if !(e > 0.0 && e <= 180.0) => Err(Error::invalid("elevation", e, "must be in (0, 180] deg")),
@@ -277,8 +282,8 @@ fn check_elevation(elevation: Option<f64>) -> Result<()> {
     }
 }
 
-/// Returns every simple ping result in the `bytes` of a file called `file` in messages (other
-/// messages are skipped); `elevation` as [`read_oculus`]'s.
+/// Returns every simple ping result in `bytes`, the messages of a file called `file`. Other
+/// messages are skipped. `elevation` is as in [`read_oculus`].
 ///
 /// # Errors
 /// As [`read_oculus`].
@@ -324,7 +329,7 @@ pub fn parse_oculus(file: &str, bytes: &[u8], elevation: Option<f64>) -> Result<
 struct Header {
     v2: bool,
     flags: u8,
-    /// Where the fire message starts (its ping id, then its frequency).
+    /// The end of the fire message: the ping id starts here, then the frequency.
     fire: usize,
     ping_id: u32,
     frequency: f64,
@@ -335,15 +340,14 @@ struct Header {
     offsets: usize,
     image_offset: usize,
     image_size: usize,
-    /// The fixed part's length (the bearings follow it).
+    /// The fixed part's length. The bearings follow it.
     fixed: usize,
-    /// Bytes a sample: 1 or 2.
+    /// Bytes per sample: 1 or 2.
     sample: usize,
 }
 
-/// Returns the fixed fields of message `m` of `version`, checked: a version read, 8- or 16-bit
-/// samples, a non-empty image, a range resolution that keeps its range lines within the
-/// engine's range.
+/// Returns the fixed fields of message `m` of `version`, checked. It needs a readable version,
+/// 8- or 16-bit samples, a non-empty image, and range lines within the engine's range.
 fn header(m: &Reader<'_>, version: u16) -> Result<Header> {
     let v2 = version == 2;
     if version > 2 {
@@ -353,8 +357,8 @@ fn header(m: &Reader<'_>, version: u16) -> Result<Header> {
     let fire = if v2 { 89 } else { 53 };
     let ping_id = m.u32(fire, "pingId")?;
     let frequency = m.f64(fire + 8, "frequency")?;
-    // v1: ..., speedOfSoundUsed (f64), pingStartTime (u32), dataSize; v2: heading, pitch, roll
-    // and pingStartTime (f64) come between.
+    // v1: speedOfSoundUsed (f64), then pingStartTime (u32), then dataSize.
+    // v2: heading, pitch, roll and pingStartTime (f64) come in between.
     let after_sos = if v2 {
         fire + 8 + 8 * 8
     } else {
@@ -420,8 +424,8 @@ fn header(m: &Reader<'_>, version: u16) -> Result<Header> {
     })
 }
 
-/// Returns the image of message `m` (with header `h`) and, when the message carries them, each
-/// range line's gain.
+/// Returns the image of message `m` with header `h`, and each range line's gain when the
+/// message carries them.
 fn image(m: &Reader<'_>, h: &Header) -> Result<(OculusImage, Option<Vec<f32>>)> {
     let (n_ranges, n_beams, sample) = (h.n_ranges, h.n_beams, h.sample);
     let (image_offset, image_size) = (h.image_offset, h.image_size);
@@ -473,7 +477,6 @@ fn image(m: &Reader<'_>, h: &Header) -> Result<(OculusImage, Option<Vec<f32>>)> 
     Ok((image, gains))
 }
 
-/// Returns the ping of one simple ping result message.
 fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPing> {
     let h = header(m, version)?;
     let bearings_deg = (0..h.n_beams)
@@ -498,7 +501,7 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
     };
     #[expect(clippy::cast_precision_loss, reason = "a u16 count")]
     let range_max = h.n_ranges as f64 * h.range_resolution;
-    // Provisional beams for the builder; the ping's own replace them.
+    // Provisional beams for the builder. The ping's own beams replace them.
     let sonar = Sonar {
         name: format!("oculus-ping-{}", h.ping_id),
         kind: SonarKind::Fls,
@@ -528,9 +531,9 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
 mod tests {
     use super::*;
 
-    /// Returns a simple ping result message of `version` built field by field from the SDK
-    /// header's layout: `bearings` (0.01°), an image of `rows` × bearings samples of `sample`
-    /// bytes whose value is `row * 7 + column` (wrapping), gains when `gain`.
+    /// Returns a simple ping result message of `version`, built field by field from the SDK
+    /// header's layout. It has `bearings` (0.01°) and `rows` × bearings samples of `sample` bytes,
+    /// each worth `row * 7 + column` (wrapping), with gains when `gain`.
     fn message(
         version: u16,
         bearings: &[i16],

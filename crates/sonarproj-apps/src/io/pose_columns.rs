@@ -1,16 +1,15 @@
-//! The columns of a pose table — a batch CSV, a sweep's pose list, the Python package's dict of
-//! arrays — and the projection one row asks for. One reading of the columns for every front.
+//! The columns of a pose table, and the projection one row asks for. Every front reads them
+//! the same way: a batch CSV, a sweep's pose list, the Python package's dict of arrays.
 //!
-//! - The feature: `range` (m) always; `azimuth` (deg) for an FLS sonar 1 or a placement;
-//!   `elevation` (deg) for a placement. With `tx,ty,tz` the columns only the placement uses are
-//!   optional; when given, they complete the feature's true point (which the local precision
-//!   columns need).
-//! - The rotation `R` of `p2 = R p1 + t`, one of: `roll,pitch,yaw` (deg, the paper's
-//!   convention `R = (Rz Ry Rx)ᵀ`); a unit quaternion `qw,qx,qy,qz` (Hamilton, scalar first, of
-//!   `R` itself; norm within 1e-6 of 1); the matrix `r11,r12,…,r33` (row-major, orthonormal
-//!   within 1e-6, determinant +1).
-//! - The translation: `place_range,place_azimuth,place_elevation` (where the true point appears
-//!   in sonar 2: m, deg, deg) or `tx,ty,tz` (m).
+//! - The feature: `range` (m) always. `azimuth` (deg) for an FLS sonar 1 or a placement, and
+//!   `elevation` (deg) for a placement. With `tx,ty,tz` these are optional; when given, they
+//!   complete the feature's true point, which the local precision columns need.
+//! - The rotation `R` of `p2 = R p1 + t`, one of:
+//!   - `roll,pitch,yaw` (deg), in the paper's convention `R = (Rz Ry Rx)ᵀ`;
+//!   - a unit quaternion `qw,qx,qy,qz` of `R` itself (Hamilton, scalar first, norm within 1e-6);
+//!   - the matrix `r11,r12,…,r33` (row-major, orthonormal within 1e-6, determinant +1).
+//! - The translation: `place_range,place_azimuth,place_elevation`, where the true point appears
+//!   in sonar 2 (m, deg, deg), or `tx,ty,tz` (m).
 
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::{Sonar, SonarKind};
@@ -18,8 +17,8 @@ use sonarproj::projection::BatchItem;
 use sonarproj::projection::poses::{PLACEMENT_AXES, TRANSLATION_AXES};
 use sonarproj::sampling::Measurement;
 
-// The pose columns' names, one place: a grid's axes are the engine's ([`PLACEMENT_AXES`],
-// [`TRANSLATION_AXES`]); the other forms of the rotation are the tables' own.
+// A grid's axes name the pose columns ([`PLACEMENT_AXES`], [`TRANSLATION_AXES`]). The other
+// forms of the rotation are the tables' own.
 
 /// The feature's columns: its measurement and true point in sonar 1.
 pub const FEATURE_COLUMNS: [&str; 3] = [PLACEMENT_AXES[0], PLACEMENT_AXES[1], PLACEMENT_AXES[2]];
@@ -29,9 +28,9 @@ pub const RPY_COLUMNS: [&str; 3] = [PLACEMENT_AXES[6], PLACEMENT_AXES[7], PLACEM
 pub const QUATERNION_COLUMNS: [&str; 4] = ["qw", "qx", "qy", "qz"];
 /// The rotation as a matrix, row-major.
 pub const MATRIX_COLUMNS: [&str; 9] = ["r11", "r12", "r13", "r21", "r22", "r23", "r31", "r32", "r33"];
-/// Placement columns (one way to give the translation).
+/// Placement columns: one way to give the translation.
 pub const PLACE_COLUMNS: [&str; 3] = [PLACEMENT_AXES[3], PLACEMENT_AXES[4], PLACEMENT_AXES[5]];
-/// Translation columns (the other way).
+/// Translation columns: the other way.
 pub const TRANSLATION_COLUMNS: [&str; 3] = [TRANSLATION_AXES[3], TRANSLATION_AXES[4], TRANSLATION_AXES[5]];
 
 /// How a table gives the rotation.
@@ -57,8 +56,7 @@ impl RotationForm {
     }
 }
 
-/// Which columns a pose table has, checked once against sonar 1's kind: see the module
-/// documentation.
+/// Which columns a pose table has, checked once against sonar 1's kind (see the module docs).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct PoseColumns {
     /// How the rotation is given.
@@ -103,8 +101,8 @@ impl PoseColumns {
     /// Returns the reading of a table whose columns are `names` for a sonar 1 of kind `source`.
     ///
     /// # Errors
-    /// A message (for the front's header error) naming the missing, mixed or incomplete
-    /// columns. Unknown columns are the front's to refuse ([`allowed_columns`]).
+    /// A message for the front's header error, naming the missing, mixed or incomplete columns.
+    /// Unknown columns are the front's to refuse ([`allowed_columns`]).
     pub fn of(names: &[&str], source: SonarKind) -> Result<Self, String> {
         let has = |c: &str| names.contains(&c);
         let count = |cols: &[&str]| cols.iter().filter(|c| has(c)).count();
@@ -174,8 +172,8 @@ impl PoseColumns {
         })
     }
 
-    /// Returns the columns a row is read from, in the order [`PoseColumns::item`] takes them:
-    /// the feature's (those present), the rotation's, the translation's.
+    /// Returns the columns a row is read from, in the order [`PoseColumns::item`] takes them: the
+    /// feature's that are present, then the rotation's and the translation's.
     #[must_use]
     pub fn columns(&self) -> Vec<&'static str> {
         let mut out = vec!["range"];
@@ -215,10 +213,9 @@ impl PoseColumns {
         1 + usize::from(self.azimuth) + usize::from(self.elevation)
     }
 
-    /// Returns the feature's true point `[range, azimuth, elevation]` (m, deg, deg) of a row
-    /// whose values `v` are in [`PoseColumns::columns`] order, when the table gives its
-    /// `elevation` (a sidescan sonar 1 without `azimuth` has its true point at azimuth 0, as
-    /// [`PoseColumns::item`] places it).
+    /// Returns the feature's true point `[range, azimuth, elevation]` (m, deg, deg) of a row, when
+    /// the table gives `elevation`. `v` is in [`PoseColumns::columns`] order. Without `azimuth`
+    /// (a sidescan sonar 1), the point is at azimuth 0, as [`PoseColumns::item`] places it.
     #[must_use]
     pub fn true_point(&self, v: &[f64]) -> Option<[f64; 3]> {
         let azimuth = if self.azimuth { v[1] } else { 0.0 };
@@ -227,12 +224,11 @@ impl PoseColumns {
     }
 
     /// Returns the projection one row asks for, checked against sonar 1 (`source`), with the
-    /// feature's true point when the row gives it ([`PoseColumns::true_point`]); `v` holds the
-    /// row's values in [`PoseColumns::columns`] order.
+    /// feature's true point when the row gives it. `v` is in [`PoseColumns::columns`] order.
     ///
     /// # Errors
     /// [`sonarproj::Error::InvalidValue`] for a feature outside sonar 1's field of view or an
-    /// invalid pose (a quaternion off unit norm, a matrix that is not a rotation).
+    /// invalid pose, such as a quaternion off unit norm or a matrix that is not a rotation.
     pub fn item(&self, source: &Sonar, v: &[f64]) -> sonarproj::Result<BatchItem> {
         let range = v[0];
         let azimuth = if self.azimuth { v[1] } else { 0.0 };
@@ -302,8 +298,8 @@ mod tests {
         assert!(mixed.unwrap_err().contains("give one rotation"));
         let partial = PoseColumns::of(&["range", "azimuth", "qw", "qx", "qy", "tx", "ty", "tz"], fls);
         assert!(partial.unwrap_err().contains("missing column(s) qz"));
-        // A placement needs the true point; a translation does not, and a sidescan sonar 1 needs
-        // no azimuth then.
+        // A placement needs the true point. A translation does not, and then a sidescan sonar 1
+        // needs no azimuth.
         let place = PoseColumns::of(
             &[
                 "range",

@@ -1,11 +1,12 @@
 //! Recovery CSV files: correspondences in, candidates out, streamed row by row.
 //!
-//! Input header (any order): `first_range,second_range,roll,pitch,yaw,tx,ty,tz`, plus
-//! `first_azimuth` / `second_azimuth` for an FLS (left out, or empty, for an SSS), and optionally
-//! `sigma_range,sigma_azimuth` (m, deg) for the sigmas of the recovered elevation. Output: the
-//! input columns as given, then [`RECOVER_COLUMNS`], one row per candidate (one row with
-//! `candidates` = 0 and the flags when there is none; for SSS + SSS one row per input row with
-//! the curve's length and point count).
+//! The input header, in any order, holds `first_range,second_range,roll,pitch,yaw,tx,ty,tz`.
+//! An FLS adds `first_azimuth` / `second_azimuth`, left out or empty for an SSS. The optional
+//! `sigma_range,sigma_azimuth` (m, deg) give the sigmas of the recovered elevation.
+//!
+//! The output holds the input columns as given, then [`RECOVER_COLUMNS`], one row per
+//! candidate. Without candidates, one row has `candidates` = 0 and the flags. For SSS + SSS,
+//! each input row gives one row with the curve's length and point count.
 
 use std::io::{Read, Write};
 
@@ -110,7 +111,6 @@ impl<R: Read> RecoverReader<R> {
     }
 }
 
-/// Returns the correspondence of the row `fields` of `table`.
 fn item<R: Read>(table: &TableReader<R>, fields: &[String]) -> Result<RecoverItem> {
     let get = |c: &str| table.number(fields, c);
     let rotation = Rotation::RollPitchYaw {
@@ -143,13 +143,13 @@ fn item<R: Read>(table: &TableReader<R>, fields: &[String]) -> Result<RecoverIte
     })
 }
 
-/// Reads the recovery CSV `input`, recovers each row with `recover` and writes the output CSV to
-/// `output` row by row; returns the number of input rows. Memory stays bounded whatever the
-/// input's length. At the first bad row (unreadable, or refused by `recover`), the rows before
-/// it have been written, and its error, naming it, is returned.
+/// Reads the recovery CSV `input`, recovers each row with `recover`, writes the output CSV to
+/// `output` row by row, and returns the number of input rows. Memory stays bounded. At the
+/// first bad row (unreadable, or refused by `recover`), the rows before it are written and its
+/// error, naming it, is returned.
 ///
 /// # Errors
-/// As [`RecoverReader`]; an input without rows; `recover`'s errors, naming the row;
+/// As [`RecoverReader`], an input without rows, `recover`'s errors naming the row, or
 /// [`Error::WriteOutput`](crate::Error::WriteOutput) on I/O failure.
 pub fn recover_csv(
     input: impl Read,
@@ -177,12 +177,11 @@ pub fn recover_csv(
     Ok(rows)
 }
 
-/// Returns the flags joined with `;`.
 fn flags(r: &Recovery) -> String {
     r.flags.iter().map(|f| f.name()).collect::<Vec<_>>().join(";")
 }
 
-/// Returns the output rows (after the input columns) of one recovery.
+/// Returns the output rows of one recovery, the fields after the input columns.
 #[must_use]
 pub fn recovery_rows(r: &Recovery) -> Vec<[String; 21]> {
     let empty = || std::array::from_fn(|_| String::new());

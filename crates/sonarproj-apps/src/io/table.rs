@@ -1,8 +1,7 @@
-//! CSV tables read one row at a time and checked: a header of known, distinct columns, then rows
-//! of the header's width, each with its 1-based row number and its line in the file. A record
-//! (the header included) longer than [`MAX_LINE_BYTES`] is refused before it is held in memory,
-//! so reading a table of any length takes memory bounded by one record and whatever the caller
-//! keeps. Written tables go out row by row through [`CsvOut`].
+//! CSV tables, read one row at a time and checked: a header of known, distinct columns, then
+//! rows of the header's width, each with its 1-based row number and its line in the file.
+//! A record longer than [`MAX_LINE_BYTES`] is refused before it is held, so memory stays
+//! bounded by one record plus what the caller keeps. [`CsvOut`] writes tables row by row.
 
 use std::collections::HashMap;
 use std::io::{Read, Write};
@@ -37,7 +36,7 @@ struct Fence {
     crossed: AtomicBool,
 }
 
-/// A reader that fails once it would pass its fence (set by [`TableReader`] one record ahead).
+/// A reader that fails once it would pass its fence, which [`TableReader`] sets a record ahead.
 struct Fenced<R> {
     inner: R,
     read: u64,
@@ -61,7 +60,7 @@ impl<R: Read> Read for Fenced<R> {
     }
 }
 
-/// The slack between the parser's position and the fence: what its own buffer may hold ahead.
+/// The slack between the parser's position and the fence: what its own buffer may read ahead.
 const READ_AHEAD: u64 = 64 << 10;
 
 /// One row of a table.
@@ -95,13 +94,12 @@ impl<R: Read> std::fmt::Debug for TableReader<R> {
 }
 
 impl<R: Read> TableReader<R> {
-    /// Returns the table of `reader` with its header read and checked: every column in
-    /// `allowed`, none twice (`expected` describes the header for the message about an empty
-    /// input).
+    /// Returns the table of `reader` with its header read and checked: every column in `allowed`,
+    /// none twice. `expected` describes the header in the error for an empty input.
     ///
     /// # Errors
-    /// [`Error::Csv`] for an empty input, an unknown or repeated column or a header longer than
-    /// [`MAX_LINE_BYTES`]; [`Error::ReadInput`] (named `input`) when reading fails.
+    /// [`Error::Csv`] for an empty input, an unknown or repeated column, or a header longer than
+    /// [`MAX_LINE_BYTES`]. [`Error::ReadInput`] (named `input`) when reading fails.
     pub fn new(reader: R, allowed: &[&str], expected: &str) -> Result<Self> {
         let fence = Arc::new(Fence::default());
         fence
@@ -202,11 +200,10 @@ impl<R: Read> TableReader<R> {
         }
     }
 
-    /// Returns the next row with what `parse` makes of its fields, or `None` at the end of the
-    /// input.
+    /// Returns the next row with what `parse` makes of its fields, or `None` at the end.
     ///
     /// # Errors
-    /// As [`TableReader::next_row`]; `parse`'s error, named by the row and its line.
+    /// As [`TableReader::next_row`], or `parse`'s error named by the row and its line.
     pub fn next_parsed<T>(
         &mut self,
         parse: impl FnOnce(&Self, &[String]) -> Result<T>,
@@ -282,9 +279,8 @@ fn read_error(fence: &Fence, context: &str, e: csv::Error) -> Error {
     }
 }
 
-/// A CSV written row by row: a header of given columns and extra columns, then rows of input
-/// fields followed by extra fields. The header goes out with the first row (a table that never
-/// gets a row writes nothing).
+/// A CSV written row by row: the given columns plus extra ones, then rows of input fields plus
+/// extra fields. The header goes out with the first row, so a table without rows writes nothing.
 pub struct CsvOut<'a, W: Write> {
     wtr: csv::Writer<W>,
     header: Option<(&'a [String], &'a [&'a str])>,
@@ -321,7 +317,6 @@ impl<'a, W: Write> CsvOut<'a, W> {
     }
 }
 
-/// Returns a write failure of the output.
 fn write_error(e: impl std::fmt::Display) -> Error {
     Error::WriteOutput {
         path: "output".into(),
@@ -329,8 +324,8 @@ fn write_error(e: impl std::fmt::Display) -> Error {
     }
 }
 
-/// Writes a CSV: `headers` then `extra` as the header, then each row of `rows` (a row's input
-/// fields followed by its extra fields). The header is written even without rows.
+/// Writes a CSV: `headers` then `extra` as the header, then each row of `rows` (input fields,
+/// then extra fields). The header is written even without rows.
 ///
 /// # Errors
 /// [`Error::WriteOutput`] (named `output`) on I/O failure.

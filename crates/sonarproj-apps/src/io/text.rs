@@ -1,6 +1,6 @@
 //! Values written as text on a command line or in a stream: comma-separated numbers (pose
-//! strings), feature measurements, and the JSON lines of a mask stream. Each parser returns
-//! `Ok` or an error naming the field, for any text (property-tested in `tests/parsers.rs`).
+//! strings), feature measurements, and the JSON lines of a mask stream. For any text, each
+//! parser returns `Ok` or an error naming the field (property-tested in `tests/parsers.rs`).
 
 use serde::Deserialize;
 use sonarproj::error::{Field, excerpt};
@@ -9,11 +9,11 @@ use sonarproj::{Measurement, RelativePose, Rotation, Sonar, SonarKind};
 
 use crate::error::{Error, Result};
 
-/// Returns the `N` comma-separated numbers of `text` (a pose string such as `1,2,0.5`).
+/// Returns the `N` comma-separated numbers of `text`, a pose string such as `1,2,0.5`.
 ///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] naming `field` for another count or a field that is not a
-/// number.
+/// [`sonarproj::Error::InvalidValue`] naming `field` for another count or a field that is not
+/// a number.
 pub fn numbers<const N: usize>(field: impl Into<Field> + Clone, text: &str) -> Result<[f64; N]> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != N {
@@ -32,7 +32,7 @@ pub fn numbers<const N: usize>(field: impl Into<Field> + Clone, text: &str) -> R
     Ok(out)
 }
 
-/// Returns `text` as one number (given for all three) or three, named `field`.
+/// Returns `text` as three numbers, or one given for all three, named `field`.
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `field`.
@@ -45,8 +45,8 @@ pub fn one_or_three(field: impl Into<Field> + Clone, text: &str) -> Result<[f64;
     }
 }
 
-/// Returns the measurement of a feature of `source` given as numbers (`R` for a sidescan, `R, A`
-/// for an imaging sonar), or an error saying which form this sonar takes.
+/// Returns the measurement of a feature of `source` given as numbers: `R` for a sidescan, `R, A`
+/// for an imaging sonar. The error says which form this sonar takes.
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming `field`.
@@ -72,8 +72,8 @@ pub fn measurement(source: &Sonar, field: impl Into<Field> + Clone, numbers: &[f
     Measurement::of(source, range, azimuth).map_err(|e| Error::from(e).in_context(field.clone()))
 }
 
-/// Returns the measurement `R` or `R,A` of feature `k` (from 0) in `source`, named
-/// feature `N` (N from 1: the command line's `--feature N`).
+/// Returns the measurement `R` or `R,A` of feature `k` (from 0) in `source`. Errors name it
+/// feature `k + 1`, as in the command line's `--feature N`.
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] naming the feature.
@@ -146,15 +146,15 @@ pub struct MaskRequest {
     pub noise: Option<Noise>,
 }
 
-/// Returns the pose, features and noise of a mask stream line `text` (one JSON object:
-/// `{"pose": {…}, "features": [[R, A], …], "sigma"?: {…}}`), features checked against sonar 1
-/// (`source`).
+/// Returns the pose, features and noise of the mask stream line `text`, with features checked
+/// against sonar 1 (`source`). A line is one JSON object:
+/// `{"pose": {…}, "features": [[R, A], …], "sigma"?: {…}}`.
 ///
 /// # Errors
 /// [`sonarproj::Error::InvalidValue`] or [`sonarproj::Error::Input`] naming the key.
 pub fn parse_mask_line(source: &Sonar, text: &str) -> Result<MaskRequest> {
-    // The parser's whole message (it says what and where; an error cuts a value at 200
-    // characters), and the form of a line for this sonar's features.
+    // The parser's whole message says what and where, cutting a value at 200 characters. Then
+    // comes the form of a line for this sonar's features.
     let features = match source.kind {
         SonarKind::Fls => "[[R, A], …]",
         SonarKind::Sss => "[[R], …]",

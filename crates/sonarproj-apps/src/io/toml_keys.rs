@@ -1,7 +1,6 @@
-//! Reading the keys of a TOML configuration file (a sweep file, its `[summary]`, an advise file
-//! and its `[features]`), one reader for all of them: each error names the file and the key,
-//! then the value and what is allowed (`sweep file "s.toml": rotation.roll.step = 0 is invalid:
-//! must be > 0`).
+//! Reads the keys of TOML configuration files: a sweep file and its `[summary]`, an advise
+//! file and its `[features]`. Each error names the file and key, then the value and what is
+//! allowed: `sweep file "s.toml": rotation.roll.step = 0 is invalid: must be > 0`.
 
 use crate::error::{Error, Result};
 use sonarproj::limits::MAX_AXIS_VALUES;
@@ -90,8 +89,7 @@ impl<'a> ConfigFile<'a> {
         }
     }
 
-    /// Returns the one number of key `key` in `table`, named `name` in messages (`None` when
-    /// left out).
+    /// Returns the number at `key` in `table`, or `None` when left out. Messages call it `name`.
     ///
     /// # Errors
     /// [`sonarproj::Error::InvalidValue`] naming `name` unless it is one finite number.
@@ -103,8 +101,7 @@ impl<'a> ConfigFile<'a> {
         }
     }
 
-    /// Returns `v` of key `name` when it is in `[lo, hi]` (`unit` follows the bounds in the
-    /// message).
+    /// Returns `v` of key `name` when it is in `[lo, hi]`. `unit` follows the bounds in messages.
     ///
     /// # Errors
     /// [`sonarproj::Error::InvalidValue`] naming `name` otherwise.
@@ -116,8 +113,8 @@ impl<'a> ConfigFile<'a> {
         }
     }
 
-    /// Returns the whole number of key `name` (its last part the key in `table`) within
-    /// `[lo, hi]`, `None` when left out.
+    /// Returns the whole number of key `name` within `[lo, hi]`, or `None` when left out. The last
+    /// part of `name` is its key in `table`.
     ///
     /// # Errors
     /// [`sonarproj::Error::InvalidValue`] naming `name` otherwise.
@@ -135,13 +132,11 @@ impl<'a> ConfigFile<'a> {
         }
     }
 
-    /// Returns the values of key `key` given as `v`: a number, a list of numbers or
-    /// `{ start, stop, step }` (start, start + step, … up to stop), at most
-    /// [`MAX_AXIS_VALUES`].
+    /// Returns the values of key `key` given as `v`: a number, a list of numbers, or
+    /// `{ start, stop, step }` for start, start + step, … up to stop. At most [`MAX_AXIS_VALUES`].
     ///
     /// # Errors
-    /// [`sonarproj::Error::InvalidValue`] naming the key (or the element, or the part of the
-    /// range) that is wrong.
+    /// [`sonarproj::Error::InvalidValue`] naming the wrong key, element or part of the range.
     #[expect(
         clippy::cast_possible_truncation,
         clippy::cast_sign_loss,
@@ -211,8 +206,8 @@ impl<'a> ConfigFile<'a> {
     }
 }
 
-/// Returns the numbers of TOML array `v`, `None` unless every element is one (a stray string is
-/// refused, not skipped).
+/// Returns the numbers of TOML array `v`, or `None` unless every element is one. A stray
+/// string is refused, not skipped.
 pub(crate) fn numbers(v: &toml::Value) -> Option<Vec<f64>> {
     #[expect(clippy::cast_precision_loss, reason = "TOML integers taken as numbers")]
     let number = |x: &toml::Value| x.as_float().or(x.as_integer().map(|i| i as f64));
@@ -259,8 +254,8 @@ mod tests {
         );
     }
 
-    /// A range is its start, start + step, … up to its stop (the stop included when it falls on
-    /// a step, within rounding), and a number or a list is itself.
+    /// A range runs start, start + step, … up to its stop, included when it falls on a step
+    /// within rounding. A number or a list is itself.
     #[test]
     fn values_are_numbers_lists_and_ranges() {
         let f = ConfigFile::sweep("s.toml");

@@ -1,11 +1,10 @@
-//! Files written whole or not at all: a temporary file beside the output, renamed over it once
+//! Files written whole or not at all: a temporary beside the output is renamed over it once
 //! everything is written.
 //!
-//! A temporary's name says whose it is: `.sonarproj-HOST-PID-RANDOM.tmp`. The process keeps a
-//! list of the temporaries it has open, so that a signal handler can remove them
-//! ([`remove_live_temporaries`]); a later run removes the temporaries that this host's dead
-//! processes left ([`remove_stale_temporaries`]) and never touches one of a live process or of
-//! another host (shards of one sweep may write to one directory from several machines).
+//! A temporary's name says whose it is: `.sonarproj-HOST-PID-RANDOM.tmp`. A signal handler
+//! removes the process's own ([`remove_live_temporaries`]). A later run removes those this
+//! host's dead processes left ([`remove_stale_temporaries`]), but never a live process's or
+//! another host's: shards of one sweep may write to one directory from several machines.
 
 use sonarproj::error::Field;
 use std::collections::{BTreeMap, BTreeSet};
@@ -19,9 +18,9 @@ use crate::error::{Error, Result};
 static LIVE: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
 /// The directories whose stale temporaries this process has already looked for.
 static SWEPT: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
-/// The files this process reads as inputs, with the path they were given as, by device, inode,
-/// change time and size: a file created later on a freed inode (the input deleted meanwhile)
-/// differs in change time or size and is not mistaken for the input.
+/// The files this process reads as inputs, keyed by device, inode, change time and size, with
+/// the path they were given as. The change time and size keep a new file on a freed inode
+/// (the input deleted meanwhile) from passing for the input.
 static INPUTS: Mutex<BTreeMap<InputKey, PathBuf>> = Mutex::new(BTreeMap::new());
 
 /// Device, inode, change time (s, ns) and size of a file.
@@ -34,9 +33,9 @@ fn input_key(m: &std::fs::Metadata) -> InputKey {
     (m.dev(), m.ino(), m.ctime(), m.ctime_nsec(), m.size())
 }
 
-/// Notes that this process reads the file at `path` (an input CSV, a sonar file, a sweep file):
-/// [`write_atomic`] then refuses to replace it, whatever path or link leads there. Paths that
-/// are not regular files are not noted.
+/// Notes that this process reads the regular file at `path`, such as an input CSV, a sonar file
+/// or a sweep file. [`write_atomic`] then refuses to replace it, whatever path or link leads
+/// there.
 pub fn note_input(path: &Path) {
     #[cfg(unix)]
     if let Ok(m) = std::fs::metadata(path)
@@ -49,8 +48,8 @@ pub fn note_input(path: &Path) {
     let _ = path;
 }
 
-/// Returns the text of the configuration file at `path` (noted as an input, [`note_input`]) and
-/// the folder its relative paths are taken from.
+/// Returns the text of the configuration file at `path`, noted as an input ([`note_input`]),
+/// and the folder its relative paths are taken from.
 ///
 /// # Errors
 /// [`Error::ReadInput`] when it cannot be read, is not UTF-8 or is longer than
@@ -121,19 +120,18 @@ fn host() -> String {
     if safe.is_empty() { "unknown".into() } else { safe }
 }
 
-/// Returns the start of the names of this host's temporaries, `.sonarproj-HOST-`.
 fn host_prefix() -> String {
     format!(".sonarproj-{}-", host())
 }
 
-/// Returns whether process `pid` of this host is alive (true when that cannot be told).
+/// Returns whether process `pid` of this host is alive, or true when that cannot be told.
 fn alive(pid: u32) -> bool {
     #[cfg(unix)]
     {
         let Some(pid) = i32::try_from(pid).ok().and_then(rustix::process::Pid::from_raw) else {
             return true;
         };
-        // ESRCH: no such process. Any other answer (EPERM: another user's) means it exists.
+        // ESRCH means no such process. Any other answer (EPERM: another user's) means it exists.
         !matches!(
             rustix::process::test_kill_process(pid),
             Err(e) if e == rustix::io::Errno::SRCH
@@ -146,8 +144,8 @@ fn alive(pid: u32) -> bool {
     }
 }
 
-/// Removes the temporaries this process has open (they are never renamed afterwards: the caller
-/// is about to exit). Returns how many were removed. Safe to call from a signal-handling thread.
+/// Removes the temporaries this process has open and returns how many. The caller is about to
+/// exit, so they are never renamed. Safe to call from a signal-handling thread.
 pub fn remove_live_temporaries() -> usize {
     let live = match LIVE.lock() {
         Ok(live) => live,
@@ -157,8 +155,8 @@ pub fn remove_live_temporaries() -> usize {
 }
 
 /// Removes from `dir` the temporaries of this host's processes that no longer run, and returns
-/// how many (callers may ignore it: there is nothing to act on). Temporaries of live processes, of other hosts, and files of other names are never
-/// touched.
+/// how many (callers may ignore it). Never touches temporaries of live processes or of other
+/// hosts, nor files of other names.
 #[expect(
     clippy::must_use_candidate,
     reason = "the count is for tests and logs; a caller has nothing to act on"
@@ -197,7 +195,7 @@ fn sweep_once(dir: &Path) {
     }
 }
 
-/// A temporary file on the list of live ones; taken off the list when dropped.
+/// A temporary file on the list of live ones, taken off the list when dropped.
 struct Listed(PathBuf);
 
 impl Drop for Listed {
@@ -211,21 +209,20 @@ impl Drop for Listed {
 /// Where an output path leads, decided before anything is written.
 #[derive(Debug, PartialEq, Eq)]
 enum Target {
-    /// A regular file (or none yet) at this path, replaced atomically: a symlink is followed to
-    /// the file it names, which is replaced, and the link kept.
+    /// A regular file, or none yet, at this path, replaced atomically. A symlink is followed to
+    /// the file it names, which is replaced while the link stays.
     Replace(PathBuf),
     /// A device, FIFO, socket or terminal, or a magic link such as `/proc/self/fd/1` or
-    /// `/dev/stdout`: written straight through, never replaced.
+    /// `/dev/stdout`. Written straight through, never replaced.
     Through,
 }
 
-/// Returns where writing `path` leads.
 fn target(path: &Path) -> Result<Target> {
     if path.as_os_str().is_empty() {
         return Err(Error::invalid("output path", "\"\"", "must name a file"));
     }
-    // Descriptors reached through /proc or /dev/fd are open files of this process or another:
-    // replacing the link's target would detach them from whoever holds them.
+    // Paths under /proc or /dev/fd are open files of this process or another. Replacing the link's
+    // target would detach them from whoever holds them.
     let magic = ["/proc", "/dev/fd", "/dev/stdout", "/dev/stderr", "/dev/stdin"]
         .iter()
         .any(|p| path.starts_with(p));
@@ -255,12 +252,11 @@ fn target(path: &Path) -> Result<Target> {
     }
 }
 
-/// Returns `Ok` when [`write_atomic`] could write `path`: not a directory, not an input of this
-/// process; `field` names it in the error. For commands that write several files and check them
-/// all before writing any.
+/// Returns `Ok` when [`write_atomic`] could write `path`: not a directory, nor an input of this
+/// process. For commands that check all their output files before writing any.
 ///
 /// # Errors
-/// As [`write_atomic`]'s checks, naming `field`.
+/// As [`write_atomic`]'s checks, with `field` naming the path.
 pub fn check_output_file(path: &Path, field: impl Into<Field>) -> Result<()> {
     target(path).map(|_| ()).map_err(|e| match e {
         Error::Engine(e) => Error::Engine(e.in_context(field)),
@@ -268,27 +264,27 @@ pub fn check_output_file(path: &Path, field: impl Into<Field>) -> Result<()> {
     })
 }
 
-/// Writes `path` whole or not at all: `fill` writes into a temporary file beside it
-/// (`.sonarproj-HOST-PID-RANDOM.tmp`, on the list [`remove_live_temporaries`] empties), which is
-/// renamed over `path` only when `fill` succeeded; the first write into a directory removes
-/// the temporaries this host's dead processes left there. A symlink is followed and the file it names is
-/// replaced (the link stays); a special file — a device, FIFO, socket, terminal, or a magic link
-/// such as `/proc/self/fd/1` — is written straight through and never replaced. A file this
-/// process reads as an input ([`note_input`]) is never replaced.
+/// Writes `path` whole or not at all.
+///
+/// 1. `fill` writes into a temporary `.sonarproj-HOST-PID-RANDOM.tmp` beside `path`, listed
+///    for [`remove_live_temporaries`].
+/// 2. Only when `fill` succeeds is the temporary renamed over `path`.
+///
+/// A symlink is followed and the file it names replaced. A special file (device, FIFO, socket,
+/// terminal, or a magic link such as `/proc/self/fd/1`) is written straight through. An input
+/// of this process ([`note_input`]) is never replaced.
 ///
 /// # Errors
-/// [`Error::WriteOutput`] on I/O failure; an input error for an empty path, a directory or an
-/// input file; any
-/// error `fill` returns (a regular file is then not created or changed).
+/// [`Error::WriteOutput`] on I/O failure. An input error for an empty path, a directory or an
+/// input file. Any error of `fill`, which leaves a regular file untouched.
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut (dyn Write + Send)) -> Result<()>) -> Result<()> {
     write_atomic_with(path, true, fill)
 }
 
-/// Writes `path` as [`write_atomic`] does, whole or not at all, but without waiting for its
-/// bytes to reach the disk before the rename: for a file whose reader checks it against a
-/// record (a sweep's chunk and its size and CRC-32), which a crash can leave damaged but never
-/// passed off as whole. Saves a disk flush a file (milliseconds on many disks, a chunk's whole
-/// computation on a GPU).
+/// Writes `path` as [`write_atomic`] does, but without flushing it to disk before the rename.
+/// Only for files whose reader checks them against a record (a sweep's chunk, with its size
+/// and CRC-32): a crash can damage such a file but never pass it off as whole. The flush saved
+/// can cost as much as a chunk's whole computation on a GPU.
 ///
 /// # Errors
 /// As [`write_atomic`].
@@ -299,7 +295,7 @@ pub fn write_atomic_unsynced(
     write_atomic_with(path, false, fill)
 }
 
-/// [`write_atomic`], the temporary file flushed to the disk before the rename when `sync`.
+/// Writes as [`write_atomic`], flushing the temporary to disk before the rename when `sync`.
 fn write_atomic_with(
     path: &Path,
     sync: bool,
@@ -327,8 +323,8 @@ fn write_atomic_with(
         _ => Path::new("."),
     };
     sweep_once(dir);
-    // Listed before it exists and until it is gone (`listed` is dropped after `tmp`), so that a
-    // signal handler finds it; names with this process's id are made by no other live process.
+    // Listed before it exists and until it is gone (`listed` is dropped after `tmp`), so a signal
+    // handler finds it. No other live process makes names with this process's id.
     let mut listed: Option<Listed> = None;
     let mut tmp = tempfile::Builder::new()
         .prefix(&format!("{}{}-", host_prefix(), std::process::id()))
@@ -350,7 +346,7 @@ fn write_atomic_with(
         fill(&mut w)?;
         w.flush().map_err(|e| io_err(&e))?;
     }
-    // The temporary file is created private (0600); the result is an ordinary output file.
+    // The temporary is created private (0600). The result is an ordinary output file.
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;

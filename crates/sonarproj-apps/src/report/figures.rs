@@ -1,8 +1,9 @@
-//! Figures as PNG (plotters, drawn in memory, fonts embedded), from neutral data — series,
-//! grids of cells, labels — so that this module knows nothing of what they show: a grid of line
-//! plots with one legend above the panels ([`line_grid`]), a row of heatmaps each with its own
-//! colour scale, said on its colour bar ([`heatmaps`]), and a sweep's line or heatmap
-//! ([`sweep`]). The paper and the sweep build their titles and data and call these.
+//! Figures as PNG, drawn in memory by plotters with embedded fonts. They take neutral data
+//! (series, grids of cells, labels) and know nothing of what they show. The paper and the sweep
+//! build titles and data and call:
+//! - [`line_grid`]: a grid of line plots with one legend above the panels;
+//! - [`heatmaps`]: a row of heatmaps, each with its own colour scale shown on its colour bar;
+//! - [`sweep`]: a sweep's line or heatmap.
 #![expect(
     clippy::cast_possible_truncation,
     reason = "pixel coordinates, palette indices and colours of images a few thousand pixels wide"
@@ -51,13 +52,13 @@ pub struct LinePanel {
     pub curves: Vec<Vec<(f64, f64)>>,
 }
 
-/// A row of heatmaps over square cells of one size, each panel with its own colour scale from 0
-/// to its largest value.
+/// A row of heatmaps over square cells of one size. Each panel has its own colour scale, from
+/// 0 to its largest value.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HeatmapRow {
     /// The figure's title.
     pub title: String,
-    /// The cells' side (in axis units): cells are centred on their coordinates.
+    /// The cells' side in axis units. Cells are centred on their coordinates.
     pub step: f64,
     /// The range of cell centres on both axes.
     pub axis_range: (f64, f64),
@@ -205,17 +206,16 @@ pub fn heatmaps(row: &HeatmapRow, path: &Path) -> Result<()> {
                     )
                 }))
                 .map_err(plot_error)?;
-            // Colour bar: the value from 0 to this panel's largest (panels may differ by orders
-            // of magnitude: one shared scale would leave some of them one colour).
+            // Each colour bar runs from 0 to its panel's largest value. Panels may differ by orders
+            // of magnitude: one shared scale would leave some of them a single colour.
             colour_bar(&bar, 0.0, vmax, &row.colour_label)?;
         }
         Ok(())
     })
 }
 
-/// Draws a vertical Viridis colour bar from `lo` to `hi` on `area`, with `label` written above
-/// it (not beside it, where it would read as the neighbouring plot's axis) and the values on its
-/// right.
+/// Draws a vertical Viridis colour bar from `lo` to `hi` on `area`, with values on its right.
+/// `label` goes above it, since beside it would read as the neighbouring plot's axis.
 fn colour_bar(area: &Area<'_>, lo: f64, hi: f64, label: &str) -> Result<()> {
     let width = area.dim_in_pixel().0 - 10;
     // A unit stays with its name: "area\u{a0}(m²)".
@@ -248,7 +248,7 @@ fn colour_bar(area: &Area<'_>, lo: f64, hi: f64, label: &str) -> Result<()> {
     Ok(())
 }
 
-/// Returns `(lo, hi)` of `v`, widened so that the range is never empty.
+/// Returns `(lo, hi)` of `v`, widened so the range is never empty.
 fn extent(v: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
         (a.min(x), b.max(x))
@@ -269,17 +269,17 @@ fn cell_edges(values: &[f64]) -> Vec<f64> {
     let mut e = Vec::with_capacity(n + 1);
     let gap = |i: usize| values[i + 1] - values[i];
     e.push(values[0] - if n > 1 { gap(0) / 2.0 } else { 0.5 });
-    // Midpoints between neighbours.
     e.extend(values.windows(2).map(|w| (w[0] + w[1]) / 2.0));
     e.push(values[n - 1] + if n > 1 { gap(n - 2) / 2.0 } else { 0.5 });
     e
 }
 
-/// Writes a sweep's figure to `path`, captioned `caption`: the metric (`label`) against one
-/// varying quantity (a line, broken where a point has no value) or two (a heatmap with a colour
-/// bar; grey where a point has no value, which the bar's note says is `missing`, such as
-/// "nothing visible"), whose axis labels are `axes`. `points` are `(coordinates, metric)` per
-/// pose.
+/// Writes a sweep's figure to `path`: the metric `label` against one or two varying quantities,
+/// with axis labels `axes` and caption `caption`. `points` are `(coordinates, metric)` per pose.
+///
+/// One quantity draws a line, broken where a point has no value. Two draw a heatmap with a
+/// colour bar, grey where a point has no value. The bar's note says what that means: `missing`,
+/// such as "nothing visible".
 ///
 /// # Errors
 /// [`crate::Error::Figure`] or [`crate::Error::WriteOutput`].

@@ -1,9 +1,8 @@
-//! Masks as pictures and arrays: a PNG with sonar 2's image as a person looks at it, by the
-//! picture convention of [`crate::report`] (near range at the bottom, port on the left) — an FLS
-//! as a fan seen from above with range rings and bearing lines beside its raw layout (range bins
-//! × beams), an SSS as one vertical range strip per feature and their union — each feature in
-//! its own colour; and NPY arrays of the raw masks or counts (row 0 = `range_min`, beam 0 =
-//! starboard-most).
+//! Masks as pictures and arrays, each feature in its own colour.
+//! - A PNG of sonar 2's image as a person looks at it, by the picture convention of
+//!   [`crate::report`]. An FLS is a fan seen from above, with range rings and bearing lines,
+//!   beside its raw layout. An SSS is one vertical range strip per feature, plus their union.
+//! - NPY arrays of the raw masks or counts: row 0 = `range_min`, beam 0 = starboard-most.
 #![expect(
     clippy::cast_possible_truncation,
     clippy::cast_possible_wrap,
@@ -45,7 +44,6 @@ pub fn colour(k: usize) -> RGBColor {
     RGBColor(r, g, b)
 }
 
-/// Returns the `(r, g, b)` of feature `k`.
 fn rgb(k: usize) -> (u8, u8, u8) {
     PALETTE[k % PALETTE.len()]
 }
@@ -53,11 +51,10 @@ fn rgb(k: usize) -> (u8, u8, u8) {
 /// Width (px) of a mask picture of an FLS target.
 const FLS_WIDTH: u32 = 1500;
 
-/// Writes the mask picture of `masks` in `layout` to `path` (PNG), whole or not at all;
-/// `title` heads it and `labels` name the features. Near range is at the bottom and port on
-/// the left (the convention of [`crate::report`]): for an FLS target the fan seen from above
-/// beside the raw layout (beam 0, starboard-most, at the right); for an SSS target one
-/// vertical strip per feature and their union.
+/// Writes the mask picture of `masks` in `layout` to `path` as PNG, whole or not at all.
+/// `title` heads it and `labels` name the features. It follows the convention of
+/// [`crate::report`]: an FLS target as the fan beside the raw layout, an SSS target as one
+/// vertical strip per feature plus their union.
 ///
 /// # Errors
 /// [`crate::Error::Figure`] or [`crate::Error::WriteOutput`].
@@ -76,8 +73,8 @@ pub fn write_png(path: &Path, layout: &Layout, masks: &[Mask], title: &str, labe
     canvas.write(path)
 }
 
-/// Draws the legend (a swatch and a label per feature) in rows from `(x, y)` within `width`
-/// px; returns the y under it.
+/// Draws the legend, a swatch and a label per feature, in rows from `(x, y)` within `width`
+/// px. Returns the y under it.
 fn legend_rows(area: &Area<'_>, labels: &[String], (x, y): (i32, i32), width: i32) -> Result<i32> {
     let (mut lx, mut ly) = (x, y);
     for (k, l) in labels.iter().enumerate() {
@@ -103,7 +100,7 @@ fn fls_picture(
     title: &str,
     labels: &[String],
 ) -> Result<Canvas> {
-    // Measure the legend first (it may take several rows) on a scratch canvas.
+    // Measure the legend on a scratch canvas first: it may take several rows.
     let mut scratch = Canvas::new(FLS_WIDTH, 200);
     let mut legend_bottom = 0;
     scratch.draw(|a| {
@@ -192,12 +189,12 @@ fn fls_picture(
     Ok(canvas)
 }
 
-/// The mask picture of an SSS target: one vertical range strip per feature and their union
-/// (for a two-sided sidescan, the port strips then the starboard strips), near range at the
-/// bottom, over the whole range and zoomed on the masks, with the legend and notes beside them.
+/// The mask picture of an SSS target: one vertical range strip per feature plus their union,
+/// over the whole range and zoomed on the masks, with the legend and notes beside them. A
+/// two-sided sidescan shows the port strips, then the starboard strips.
 fn sss_picture(layout: &Layout, masks: &[Mask], title: &str, labels: &[String]) -> Result<Canvas> {
     let n = masks.len();
-    // Per mask its strips in range order: one, or port and starboard.
+    // Each mask's strips in range order: one, or port and starboard.
     let sides: Vec<Vec<(&str, Occupancy)>> = masks
         .iter()
         .map(|m| picture::sidescan_strips(layout, &m.occupancy))
@@ -220,7 +217,7 @@ fn sss_picture(layout: &Layout, masks: &[Mask], title: &str, labels: &[String]) 
         groups.extend((0..n).map(|k| s * n + k..s * n + k + 1));
         groups.push(s * n..(s + 1) * n);
         names.extend((1..=n).map(|k| k.to_string()));
-        // Short names, so that narrow strips keep their labels apart: "all P", "all S".
+        // Short names keep narrow strips' labels apart: "all P", "all S".
         names.push(match side.chars().next() {
             Some(c) => format!("all {}", c.to_ascii_uppercase()),
             None => "all".to_string(),
@@ -309,10 +306,10 @@ fn sss_picture(layout: &Layout, masks: &[Mask], title: &str, labels: &[String]) 
     Ok(canvas)
 }
 
-/// Writes the masks as NPY to `path`: shape `[feature, range_bin, beam]` for an FLS target or
-/// `[feature, range_bin]` for an SSS target (`[feature, 2 × range_bins]` for a two-sided one,
-/// port far to near then starboard near to far); `uint8` 0/1, or `uint32` counts with
-/// `counts`.
+/// Writes the masks as NPY to `path`: `uint8` 0/1, or `uint32` counts with `counts`. The shape
+/// is `[feature, range_bin, beam]` for an FLS target and `[feature, range_bin]` for an SSS
+/// target. A two-sided one has `[feature, 2 × range_bins]`: port far to near, then starboard
+/// near to far.
 ///
 /// # Errors
 /// [`crate::Error::WriteOutput`].

@@ -1,25 +1,25 @@
-//! Reports: files written whole or not at all (`atomic`: a temporary file, then a rename),
-//! output directories, occupancy and masks as PNG and NPY, the figures.
+//! Reports: files written whole or not at all (`atomic`), output directories, occupancy and
+//! masks as PNG and NPY, and the figures.
 //!
 //! # The picture convention
 //!
-//! Every picture of sonar data drawn for people — the fan of an FLS, a raw-layout panel, a
-//! sidescan strip, the occupancy PNG of `project` — shows **near range at the bottom and port
-//! on the left**, and says so in words: "port" and "starboard" are written on it (a sidescan
-//! strip, one beam wide, says that it has no port–starboard axis).
+//! Every picture of sonar data drawn for people shows **near range at the bottom and port on
+//! the left**, and says so with the words "port" and "starboard". This covers the fan of an
+//! FLS, a raw-layout panel, a sidescan strip and the occupancy PNG of `project`. A sidescan
+//! strip, one beam wide, says instead that it has no port–starboard axis.
 //!
 //! - A fan is seen from above: the sonar at the bottom, azimuth 0 straight up, positive azimuth
-//!   (+y, port) to the left; bearing lines carry their signed azimuths.
-//! - A raw-layout panel (range bins × beams) puts range bin 0 (`range_min`) at the bottom and the
-//!   last beam (port-most) on the left, so beam 0 (starboard-most) is at the right; its beam axis
-//!   is labelled with beam indices and its ends with "beam N-1 (port, +A/2)" and "beam 0
-//!   (starboard, -A/2)". Its columns are the NPY's mirrored.
+//!   (+y, port) to the left. Bearing lines carry their signed azimuths.
+//! - A raw-layout panel (range bins × beams) puts range bin 0 (`range_min`) at the bottom and
+//!   the port-most beam on the left, so beam 0 (starboard-most) is at the right. Its columns
+//!   are the NPY's mirrored. Its beam axis shows beam indices, with "beam N-1 (port, +A/2)" and
+//!   "beam 0 (starboard, -A/2)" at the ends.
 //! - A sidescan strip is vertical, range increasing upwards.
-//! - A screen pixel shows every bin or pixel it covers (a mask one bin thin is never lost),
-//!   and masks of a few pixels are circled or pointed at.
+//! - A screen pixel shows every bin it covers, so a mask one bin thin is never lost. Masks of a
+//!   few pixels are circled or pointed at.
 //!
-//! NPY files keep their documented layout: row 0 is `range_min`, column 0 is beam 0, the
-//! starboard-most (`-aperture/2`); `project --flip-range`/`--flip-beams` flip the NPY only and
+//! NPY files keep their documented layout: row 0 is `range_min`, and column 0 is beam 0, the
+//! starboard-most (`-aperture/2`). `project --flip-range`/`--flip-beams` flip the NPY only and
 //! are refused with a PNG.
 //!
 //! Figures (paper, sweep) keep legends and colour-bar labels outside the data area, and say when
@@ -67,9 +67,9 @@ pub fn write_npy<T: npyz::AutoSerialize>(
     writer.finish().map_err(err)
 }
 
-/// Returns `Ok` when `path` (the value of `field`) can be an output directory: a directory, or
-/// nothing yet. Commands call it before any work, and [`output_dir`] once there is something to
-/// write, so that a refused run leaves nothing behind.
+/// Returns `Ok` when `path`, the value of `field`, can be an output directory: a directory or
+/// nothing yet. Commands call it before any work, and [`output_dir`] once there is something
+/// to write, so a refused run leaves nothing behind.
 ///
 /// # Errors
 /// An input error naming `field` when `path` is empty or exists and is not a directory.
@@ -103,10 +103,10 @@ pub fn check_output_dir(path: &Path, field: impl Into<Field>) -> Result<()> {
     }
 }
 
-/// Creates the output directory `path` (the value of `field`) when missing, with its parents.
+/// Creates the output directory `path` (the value of `field`) with its parents, when missing.
 ///
 /// # Errors
-/// As [`check_output_dir`]; [`Error::WriteOutput`] when it cannot be created.
+/// As [`check_output_dir`], or [`Error::WriteOutput`] when it cannot be created.
 pub fn output_dir(path: &Path, field: impl Into<Field>) -> Result<()> {
     check_output_dir(path, field)?;
     std::fs::create_dir_all(path).map_err(|e| Error::WriteOutput {

@@ -1,13 +1,12 @@
 //! Occupancy buffers as files: PNG for a person, NPY for numpy.
 //!
-//! The NPY keeps the layout of README: Conventions: row 0 is `range_min`, column 0 is beam 0 at
-//! `-aperture/2` (starboard, since +azimuth is toward +y, port); `flip_range` puts `range_max` in
-//! row 0 and `flip_beams` puts the port-most beam in column 0.
+//! The NPY keeps the layout of README: Conventions. Row 0 is `range_min`, and column 0 is beam
+//! 0 at `-aperture/2`: starboard, since +azimuth points to +y, port. `flip_range` puts
+//! `range_max` in row 0, and `flip_beams` the port-most beam in column 0.
 //!
-//! The PNG is a small labelled picture by the picture convention of [`crate::report`], whatever
-//! the orientation asked for the NPY: near range at the bottom, port on the left. An FLS is drawn
-//! as its raw layout (range axis in metres, beam axis with beam 0, starboard-most, at the right);
-//! an SSS as a vertical range strip.
+//! The PNG follows the picture convention of [`crate::report`], whatever the NPY's orientation:
+//! near range at the bottom, port on the left. An FLS is drawn as its raw layout, an SSS as a
+//! vertical range strip.
 #![expect(
     clippy::cast_possible_truncation,
     clippy::cast_possible_wrap,
@@ -29,8 +28,8 @@ use sonarproj::occupancy::{Layout, Occupancy};
 /// The colour of occupied pixels in the PNG.
 pub const OCCUPIED: (u8, u8, u8) = (31, 119, 180);
 
-/// Which way the axes of a written NPY occupancy buffer run (the PNG always follows the picture
-/// convention).
+/// Which way the axes of a written NPY occupancy buffer run. The PNG always follows the
+/// picture convention.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Orientation {
     /// Row 0 is `range_max` instead of `range_min`.
@@ -69,12 +68,12 @@ pub fn check_extension(path: &Path) -> Result<Format> {
     }
 }
 
-/// Writes `occ` (drawn in `layout`) to `path` as PNG or NPY, chosen by the extension, whole or
-/// not at all. `orientation` applies to the NPY only; the PNG, headed by `title`, always shows
-/// near range at the bottom and port on the left.
+/// Writes `occ`, drawn in `layout`, to `path` as PNG or NPY by the extension, whole or not at
+/// all. `orientation` applies to the NPY only. The PNG, headed by `title`, always shows near
+/// range at the bottom and port on the left.
 ///
 /// # Errors
-/// [`sonarproj::Error::InvalidValue`] for another extension; [`Error::Figure`] or
+/// [`sonarproj::Error::InvalidValue`] for another extension. [`Error::Figure`] or
 /// [`Error::WriteOutput`] on failure.
 pub fn write(
     path: &Path,
@@ -89,9 +88,9 @@ pub fn write(
     }
 }
 
-/// Returns the labelled picture of `occ`: for an FLS its raw layout, near range at the bottom
-/// and beam 0 (starboard-most) at the right, with a range axis and a beam axis; for an SSS a
-/// vertical range strip with a range axis.
+/// Returns the labelled picture of `occ`. An FLS shows its raw layout with a range axis and a
+/// beam axis, beam 0 (starboard-most) at the right. An SSS shows a vertical range strip with a
+/// range axis. Near range is at the bottom.
 fn picture_of(occ: &Occupancy, layout: &Layout, title: &str) -> Result<Canvas> {
     let layers = [(Pooled::new(occ), OCCUPIED)];
     let occupied = format!(
@@ -208,7 +207,7 @@ fn notes_at(a: &Area<'_>, notes: &[String], (x, mut y): (i32, i32), width: u32) 
     Ok(())
 }
 
-/// Writes a `uint8` NPY array of 0/1: shape `[range_bins, beams]` for an FLS image,
+/// Writes a `uint8` NPY array of 0/1, of shape `[range_bins, beams]` for an FLS image and
 /// `[range_bins]` for an SSS.
 fn write_npy(w: &mut dyn Write, occ: &Occupancy, o: Orientation, path: &Path) -> Result<()> {
     let shape: Vec<u64> = if occ.beams == 1 {
@@ -237,7 +236,7 @@ mod tests {
         let (rows, beams) = (layout.range_bins, layout.beams());
         let occ = one_pixel(&layout, 2.0, 20.0);
         let (i, j) = (layout.range_bin(2.0), layout.beam(20f64.to_radians()));
-        // Port (+azimuth) is in the upper half of the beams: column 0 is starboard.
+        // Port (+azimuth) is in the upper half of the beams, since column 0 is starboard.
         assert!(j > beams / 2);
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("o.npy");

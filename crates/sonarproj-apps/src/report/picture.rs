@@ -1,10 +1,10 @@
-//! The building blocks of the pictures of sonar data drawn for people (the mask PNG, the
-//! occupancy PNG), which follow the picture convention of [`crate::report`]: near range at the
-//! bottom, port on the left.
+//! Building blocks of the pictures of sonar data drawn for people: the mask and occupancy
+//! PNGs. They follow the picture convention of [`crate::report`]: near range at the bottom,
+//! port on the left.
 //!
-//! Data are painted pixel by pixel into an RGB canvas; a screen pixel takes the colours of the
-//! layers that occupy any bin or pixel it covers, so a mask one bin wide is never lost between
-//! two screen pixels. Text and lines are then drawn over it with plotters.
+//! Data are painted pixel by pixel into an RGB canvas. A screen pixel takes the colours of
+//! every layer occupying any bin it covers, so a mask one bin wide is never lost between two
+//! screen pixels. Text and lines are then drawn over it with plotters.
 #![expect(
     clippy::cast_possible_truncation,
     clippy::cast_possible_wrap,
@@ -19,9 +19,8 @@ use crate::error::Result;
 use crate::report::style::{Area, Canvas, EMPTY, GREY, MEDIUM, SMALL, plot_error, text, text_up};
 use sonarproj::occupancy::{Layout, Occupancy};
 
-/// Returns the strips of a sidescan's `occ` (in the order of its data) in range order, near
-/// range first, each named: one unnamed strip, or for a two-sided sidescan its port strip then
-/// its starboard strip (port on the left).
+/// Returns a sidescan's `occ`, given in data order, as named strips in range order (near range
+/// first): one unnamed strip, or the port strip then the starboard strip.
 pub(crate) fn sidescan_strips(layout: &Layout, occ: &Occupancy) -> Vec<(&'static str, Occupancy)> {
     if !layout.two_sided() {
         return vec![("", occ.clone())];
@@ -104,7 +103,7 @@ pub(crate) struct Pooled {
 }
 
 impl Pooled {
-    /// Returns the table of `occ` (at most 2^26 pixels: the counts fit in u32).
+    /// Returns the table of `occ`. It has at most 2^26 pixels, so the counts fit in u32.
     pub(crate) fn new(occ: &Occupancy) -> Self {
         let (rows, beams) = (occ.range_bins, occ.beams);
         let mut sums = vec![0u32; (rows + 1) * (beams + 1)];
@@ -125,8 +124,8 @@ impl Pooled {
     }
 }
 
-/// Returns the bins `lo..hi` that screen pixel `k` of `n` covers when `bins` bins are spread
-/// evenly over the `n` pixels (at least one bin).
+/// Returns the bins `lo..hi` (at least one) that screen pixel `k` of `n` covers, when `bins`
+/// bins are spread evenly over the `n` pixels.
 pub(crate) fn cover(k: u32, n: u32, bins: usize) -> (usize, usize) {
     let (k, n) = (k as usize, n as usize);
     let lo = (k * bins / n).min(bins - 1);
@@ -149,11 +148,9 @@ pub(crate) fn blend<'a>(
     (n > 0).then(|| ((s[0] / n) as u8, (s[1] / n) as u8, (s[2] / n) as u8))
 }
 
-/// Paints a raw layout (`rows` range bins × `beams` beams) of `layers` into `rect` by the
-/// convention: range bin 0 (near) at the bottom, the last beam (port-most) on the left, beam 0
-/// (starboard-most) on the right — the NPY's columns mirrored. An SSS (one beam) is a vertical
-/// strip. Only range bins `rows` are drawn (all for the whole layout). Returns, per layer, the
-/// screen pixels it was painted on.
+/// Paints `layers` of a raw layout into `rect`, and returns the screen pixels each was painted
+/// on. Range bins `rows` are drawn, near at the bottom, and `beams` beams with beam 0
+/// (starboard-most) on the right: the NPY's columns mirrored. An SSS is a vertical strip.
 pub(crate) fn paint_raw(
     canvas: &mut Canvas,
     rect: Rect,
@@ -181,8 +178,8 @@ pub(crate) fn paint_raw(
     extents
 }
 
-/// The fan of an FLS on screen: the sonar at `(ox, oy)` (px), `scale` px per metre, azimuth 0
-/// up and positive azimuth (port, +y) to the LEFT, as seen from above.
+/// The fan of an FLS on screen, seen from above: the sonar at `(ox, oy)` (px), `scale` px per
+/// metre, azimuth 0 up and positive azimuth (port, +y) to the left.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Fan {
     pub ox: f64,
@@ -227,9 +224,9 @@ impl Fan {
         (fx.hypot(fy), fy.atan2(fx))
     }
 
-    /// Paints the field of view of `layout` in `rect` (EMPTY) and the `layers` over it: a screen
-    /// pixel takes the colours of the layers holding any pixel of the range bins and beams it
-    /// covers. Returns, per layer, the screen pixels it was painted on.
+    /// Paints the field of view of `layout` in `rect` with `layers` over it, and returns the screen
+    /// pixels each layer was painted on. A pixel takes the colours of the layers holding any bin
+    /// and beam it covers.
     pub(crate) fn paint(
         self,
         canvas: &mut Canvas,
@@ -270,9 +267,8 @@ impl Fan {
         extents
     }
 
-    /// Draws range rings (labelled along the starboard edge), bearing lines (labelled above the
-    /// arc, positive azimuths on the port side) and the words "port" and "starboard" under the
-    /// fan box `rect`.
+    /// Draws range rings labelled along the starboard edge, bearing lines labelled above the arc
+    /// (positive azimuths to port), and "port" and "starboard" under the fan box `rect`.
     pub(crate) fn annotate(self, area: &Area<'_>, rect: Rect, layout: &Layout) -> Result<()> {
         let (r_max, ha) = (layout.range_max, layout.half_azimuth);
         let step = nice_step(r_max / 5.0);
@@ -329,7 +325,7 @@ impl Fan {
                 VPos::Bottom,
             )?;
         }
-        // Under the fan box; lower when the bearing labels of a wide fan sit at its corners.
+        // Under the fan box, lower when a wide fan's bearing labels sit at its corners.
         let y = rect.bottom() as i32 + if ha > std::f64::consts::FRAC_PI_2 { 26 } else { 8 };
         text(
             area,
@@ -351,9 +347,9 @@ impl Fan {
     }
 }
 
-/// Vertical range strips of an SSS layout, near range at the bottom: one per group of layers
-/// (a feature, or all features together), over the whole range and, when the occupied bins lie
-/// in a small part of it, again zoomed on them.
+/// Vertical range strips of an SSS layout, near range at the bottom, one per group of layers
+/// (a feature, or all together). A second set zooms on the occupied bins when they fill a
+/// small part of the range.
 pub(crate) struct Strips {
     /// Layers drawn in each strip.
     groups: Vec<std::ops::Range<usize>>,
@@ -499,8 +495,8 @@ pub(crate) fn any_circled(extents: &[Option<Extent>]) -> bool {
         .any(|&(x0, y0, x1, y1)| x1 - x0 < SMALL_EXTENT && y1 - y0 < SMALL_EXTENT)
 }
 
-/// Circles, in the layer's colour, each layer painted on fewer than a few pixels both ways, so
-/// that a mask of one bin is seen.
+/// Circles each layer painted on fewer than a few pixels both ways, in its colour, so a mask
+/// of one bin is seen.
 pub(crate) fn circle_small(
     area: &Area<'_>,
     extents: &[Option<Extent>],
@@ -570,7 +566,7 @@ pub(crate) fn range_axis(area: &Area<'_>, rect: Rect, r0: f64, r1: f64) -> Resul
 }
 
 /// Draws the beam axis under `rect` of a raw FLS layout painted by [`paint_raw`]: beam indices
-/// (beam 0, starboard-most, at the right), and at the ends the beam, its side and its outer
+/// with beam 0 (starboard-most) at the right, and at each end the beam, its side and outer
 /// azimuth edge.
 pub(crate) fn beam_axis(area: &Area<'_>, rect: Rect, layout: &Layout) -> Result<()> {
     let n = layout.beams();
@@ -581,7 +577,7 @@ pub(crate) fn beam_axis(area: &Area<'_>, rect: Rect, layout: &Layout) -> Result<
     let mut last = None;
     for j in ticks {
         let x = x_of(j);
-        // Keep labels apart: an index within 40 px of the last end is not labelled.
+        // Keep labels apart: skip an index within 40 px of the last end.
         if j != n - 1 && j != 0 && (x - x_of(n - 1)).abs() < 40 {
             continue;
         }
@@ -632,8 +628,6 @@ pub(crate) fn number(v: f64, step: f64) -> String {
     format!("{v:.decimals$}")
 }
 
-/// Reading pictures back in tests: where the panels of sonar data are (the light grey of
-/// [`EMPTY`]) and where the coloured pixels inside them are.
 #[cfg(test)]
 mod tests {
     use super::*;

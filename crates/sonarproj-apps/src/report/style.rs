@@ -1,7 +1,7 @@
-//! The drawing style every picture and figure shares, and nothing else of the reports: the
-//! embedded font and its sizes, the colours of the picture convention, text set in that font
-//! (anchored, rotated, measured, wrapped), the figure error, and an RGB canvas written out as
-//! PNG. A leaf: it imports no other drawing module.
+//! The drawing style that every picture and figure shares: the embedded font and its sizes,
+//! the colours of the picture convention, text in that font (anchored, rotated, measured,
+//! wrapped), the figure error, and an RGB canvas written as PNG. A leaf module: it imports no
+//! other drawing module.
 use std::path::Path;
 use std::sync::Once;
 
@@ -40,11 +40,10 @@ pub(crate) const GREY: RGBColor = RGBColor(90, 90, 90);
 /// A drawing area over an RGB buffer.
 pub(crate) type Area<'a> = DrawingArea<Glyphs<'a>, Shift>;
 
-/// The bitmap backend with text set glyph by glyph at its pen position plus its left side
-/// bearing. plotters 0.3.7's ab_glyph backend places each glyph's ink at the pen position
-/// itself (it drops `px_bounds().min.x`), so narrow and round letters drift and words run
-/// together ("paper-sssto", "1 5 m"); its layout (advances and kerning) is right and is kept
-/// for anchoring. Everything else is the bitmap backend's own.
+/// The bitmap backend, with each glyph set at its pen position plus its left side bearing.
+/// plotters 0.3.7's ab_glyph backend puts the ink at the pen position itself (it drops
+/// `px_bounds().min.x`), so narrow and round letters drift and words run together
+/// ("paper-sssto", "1 5 m"). Its layout (advances and kerning) is right and kept for anchoring.
 pub(crate) struct Glyphs<'a>(BitMapBackend<'a>);
 
 /// Returns the embedded font as ab_glyph reads it (the bytes [`fonts`] registers).
@@ -133,7 +132,7 @@ impl DrawingBackend for Glyphs<'_> {
         self.0.blit_bitmap(pos, (iw, ih), src)
     }
 
-    /// Draws `text` as plotters anchors and turns it (its layout box, anchor and transform),
+    /// Draws `text` anchored and turned as plotters does (layout box, anchor, transform), with
     /// each glyph's ink at the pen position plus its side bearing.
     #[expect(
         clippy::cast_possible_truncation,
@@ -177,12 +176,12 @@ impl DrawingBackend for Glyphs<'_> {
                 pen += font.kern(p, id);
             }
             previous = Some(id);
-            // Positioned at the pen: the outline's bounds then carry the side bearing and the
-            // pen's fraction of a pixel.
+            // Placed at the pen, the outline's bounds carry the side bearing and the pen's
+            // fraction of a pixel.
             let glyph = id.with_scale_and_position(font.scale(), ab_glyph::point(pen, 0.0));
             if let Some(outline) = font.outline_glyph(glyph) {
                 let bounds = outline.px_bounds();
-                // Vertically as plotters sets it, so that layouts do not move.
+                // Vertically as plotters sets it, so layouts do not move.
                 let (x0, y0) = (bounds.min.x as i32, (size / 2.0 + bounds.min.y) as i32);
                 let mut ink = Vec::new();
                 outline.draw(|x, y, coverage| ink.push((x as i32 + x0, y as i32 + y0, coverage)));
@@ -208,12 +207,12 @@ impl DrawingBackend for Glyphs<'_> {
 pub(crate) fn fonts() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
-        // The bytes are a valid TTF shipped by the crate; failure would be a packaging bug.
+        // The bytes are a valid TTF shipped with the crate. Failure would be a packaging bug.
         let _ = plotters::style::register_font(FONT, FontStyle::Normal, epaint_default_fonts::UBUNTU_LIGHT);
     });
 }
 
-/// Returns a figure error (a failure of this program, exit status 1).
+/// Returns a figure error: a failure of this program (exit status 1).
 pub(crate) fn plot_error(e: impl std::fmt::Display) -> Error {
     Error::Figure(e.to_string())
 }
@@ -240,8 +239,8 @@ pub(crate) fn text_width(area: &Area<'_>, s: &str, size: u32) -> Result<u32> {
     Ok(area.estimate_text_size(s, &style).map_err(plot_error)?.0)
 }
 
-/// Returns `s` broken into lines no wider than `width` px in `size` px, at spaces (a no-break
-/// space holds a number to its unit).
+/// Returns `s` broken at spaces into lines no wider than `width` px in `size` px. A no-break
+/// space keeps a number with its unit.
 pub(crate) fn wrap(area: &Area<'_>, s: &str, size: u32, width: u32) -> Result<Vec<String>> {
     let mut lines: Vec<String> = Vec::new();
     let mut line = String::new();
@@ -315,8 +314,8 @@ mod tests {
     use super::*;
     use ab_glyph::{Font, ScaleFont};
 
-    /// Returns the first column of each run of columns holding ink (a pixel darker than mid
-    /// grey) in `canvas`.
+    /// Returns the first column of each run of columns in `canvas` that holds ink (a pixel darker
+    /// than mid grey).
     fn ink_starts(canvas: &Canvas) -> Vec<i32> {
         let (w, h) = (canvas.w as usize, canvas.h as usize);
         let ink: Vec<bool> = (0..w)
@@ -330,8 +329,8 @@ mod tests {
 
     #[test]
     fn glyphs_sit_at_their_pen_position_plus_their_side_bearing() {
-        // "1" has a wide left side bearing in this font, "5" a narrow one: set without the
-        // bearing (plotters' own renderer), the "5" starts a bearing's difference too early.
+        // In this font "1" has a wide left side bearing and "5" a narrow one. Set without
+        // the bearing, as plotters' own renderer does, the "5" starts too early.
         let size = 200;
         let mut canvas = Canvas::new(600, 320);
         canvas

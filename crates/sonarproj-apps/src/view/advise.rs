@@ -1,5 +1,6 @@
-//! The viewer's advise panel: the rig advisor's score around the scene's pose over two rotation
-//! axes, and its best small move ([`crate::advise`], the same code as `sonarproj advise`).
+//! The viewer's advise panel: the rig advisor's score around the scene's pose over two
+//! rotation axes, and its best small move. It runs the same code as `sonarproj advise`
+//! ([`crate::advise`]).
 
 use serde::Deserialize;
 use serde_json::{Value, json};
@@ -17,8 +18,8 @@ pub const MAX_PANEL_STEPS: usize = 21;
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct AdviseRequest {
-    /// The scene: its sonars, sampling, feature and pose (a placement or a translation is the
-    /// rig while sonar 2 turns).
+    /// The scene: its sonars, sampling, feature and pose. A placement or a translation is the rig
+    /// while sonar 2 turns.
     pub scene: Scene,
     /// `correspondence` or `recovery`.
     #[serde(default = "default_objective")]
@@ -29,10 +30,10 @@ pub struct AdviseRequest {
     /// Half the grid's width on each axis (deg).
     #[serde(default = "default_span")]
     pub span: f64,
-    /// Values per axis (odd, so the pose now is the centre).
+    /// Values per axis: odd, so the current pose is the centre.
     #[serde(default = "default_steps")]
     pub steps: usize,
-    /// Features drawn over the view both sonars share; 0 scores the scene's feature alone.
+    /// Features drawn over the view both sonars share. 0 scores the scene's feature alone.
     #[serde(default = "default_features")]
     pub features: usize,
 }
@@ -69,8 +70,8 @@ impl AdviseRequest {
         serde_json::from_slice(body).map_err(|e| Error::input("request", e.to_string()))
     }
 
-    /// Returns the request's two axes (indices into [`AXES`]), its span, steps and features
-    /// checked.
+    /// Returns the request's two axes (indices into [`AXES`]), after checking its span, steps and
+    /// features.
     ///
     /// # Errors
     /// Bad input naming `axes`, `span`, `steps` or `features`.
@@ -112,12 +113,12 @@ impl AdviseRequest {
 }
 
 impl Viewer {
-    /// Returns the advise panel's answer for `request`: the axes and their values, the score of
-    /// every grid cell (`null` where infeasible), the pose now's score and the best small move,
-    /// as JSON.
+    /// Returns the advise panel's answer for `request` as JSON: the axes and their values, each
+    /// grid cell's score (`null` where infeasible), the current pose's score and the best small
+    /// move.
     ///
     /// # Errors
-    /// Bad input naming the field (objective, axes, span, steps, features; the scene's own);
+    /// Bad input naming the field (objective, axes, span, steps, features, or the scene's own), or
     /// the backend's failures.
     pub fn advise(&self, request: &AdviseRequest) -> Result<Value> {
         let started = std::time::Instant::now();
@@ -199,7 +200,7 @@ impl Viewer {
             }),
         };
         let advice = advise::advise(&config, &self.backend)?;
-        // The cover's scores, the first axis outer (its rows), the second inner.
+        // The cover's scores: the first axis outer (its rows), the second inner.
         let (a, b) = (axes[0], axes[1]);
         let mut scores = Vec::with_capacity(request.steps * request.steps);
         for &x in &config.axes[a] {

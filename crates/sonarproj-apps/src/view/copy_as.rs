@@ -1,7 +1,7 @@
-//! A viewer scene written as what reproduces it elsewhere: a `sonarproj project` command line
-//! (with `recover` and `mask` lines when the scene has a second measurement or noise), a sweep
-//! file of one pose, and a Python snippet. Numbers are written in Rust's shortest round-trip
-//! form, so each text gives back the same `f64`s.
+//! A viewer scene written as what reproduces it elsewhere: a `sonarproj project` command line,
+//! a sweep file of one pose, and a Python snippet. The command adds `recover` and `mask` lines
+//! when the scene has a second measurement or noise. Numbers are written in Rust's shortest
+//! round-trip form, so each text gives back the same `f64`s.
 
 use std::fmt::Write as _;
 
@@ -9,8 +9,8 @@ use sonarproj::{RelativePose, SonarKind};
 
 use super::{Choice, Scene};
 
-/// Returns how `c` is named on a command line: the preset name, or the file's path (quoted
-/// for a POSIX shell when it needs it).
+/// Returns how `c` is named on a command line: the preset name, or the file's path, quoted for
+/// a POSIX shell when needed.
 fn cli_sonar(c: &Choice) -> String {
     match &c.path {
         None => c.label.clone(),
@@ -48,9 +48,9 @@ fn pose_options(scene: &Scene) -> String {
     s
 }
 
-/// Returns the command lines that reproduce `scene`: `project` (metrics and the occupancy),
-/// then `recover` with a second measurement and `mask` with noise. `pose` is the scene's pose:
-/// `mask` places its first feature at elevation 0 (and, for a sidescan, azimuth 0), so for any
+/// Returns the command lines that reproduce `scene`: `project` (metrics and occupancy), then
+/// `recover` with a second measurement and `mask` with noise. `pose` is the scene's pose.
+/// `mask` places its first feature at elevation 0 (and azimuth 0 for a sidescan), so for any
 /// other true point its line gives the translation itself.
 #[must_use]
 pub fn command(scene: &Scene, first: &Choice, second: &Choice, pose: &RelativePose) -> String {
@@ -134,8 +134,8 @@ pub fn command(scene: &Scene, first: &Choice, second: &Choice, pose: &RelativePo
     out
 }
 
-/// Returns `s` in double quotes with `"`, `\\` and control characters escaped (`\\uXXXX`): a
-/// TOML basic string and a Python string literal alike.
+/// Returns `s` in double quotes, escaping `"`, `\\` and control characters (`\\uXXXX`). The
+/// result is both a TOML basic string and a Python string literal.
 fn quoted(s: &str) -> String {
     let mut out = String::from("\"");
     for ch in s.chars() {
@@ -152,8 +152,8 @@ fn quoted(s: &str) -> String {
     out
 }
 
-/// Returns a sweep file of the one pose of `scene` (`sonarproj sweep --config FILE`), the
-/// place to start a grid from: turn any value into a list or a `{ start, stop, step }` range.
+/// Returns a sweep file of the one pose of `scene` (`sonarproj sweep --config FILE`). It is the
+/// place to start a grid: turn any value into a list or a `{ start, stop, step }` range.
 #[must_use]
 pub fn sweep_toml(scene: &Scene, first: &Choice, second: &Choice) -> String {
     let name = |c: &Choice| match &c.path {
@@ -200,7 +200,7 @@ pub fn sweep_toml(scene: &Scene, first: &Choice, second: &Choice) -> String {
     out
 }
 
-/// Returns `v` as a Python float literal (`inf`/`nan` cannot occur: scenes are checked).
+/// Returns `v` as a Python float literal. Scenes are checked, so `inf`/`nan` cannot occur.
 fn py(v: f64) -> String {
     let s = format!("{v}");
     if s.contains(['.', 'e', 'E']) {

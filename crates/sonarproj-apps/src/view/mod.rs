@@ -1,8 +1,10 @@
-//! The viewer's computation: one scene — a sonar pair, a feature seen by sonar 1, the relative
-//! pose, and optionally a second measurement and noise — in, everything the viewer page draws
-//! out (metrics, sonar 2's occupancy and widened mask, the sampled arc or surface in 3-D, the
-//! recovered points, and the same scene as a command line, a sweep file and Python). The HTTP
-//! server of `sonarproj view` is a thin front on [`Viewer::scene`]; the page never names a file.
+//! The viewer's computation: one scene in, everything the viewer page draws out.
+//!
+//! A scene is a sonar pair, a feature seen by sonar 1 and the relative pose, with an optional
+//! second measurement and noise. Out come the metrics, sonar 2's occupancy and widened mask,
+//! the sampled arc or surface in 3-D, the recovered points, and the scene as a command line,
+//! a sweep file and Python. The server of `sonarproj view` is a thin front on
+//! [`Viewer::scene`]. The page never names a file.
 
 pub mod advise;
 pub mod copy_as;
@@ -30,7 +32,7 @@ use crate::io::batch::metrics_json;
 
 /// The most sample points a scene returns for the 3-D view (the metrics count all of them).
 pub const MAX_SHOWN_SAMPLES: usize = 8192;
-/// The largest request body the server reads (bytes); a scene is a few hundred.
+/// The largest request body the server reads, in bytes. A scene takes a few hundred.
 pub const MAX_REQUEST_BYTES: usize = 64 * 1024;
 
 /// A sonar the viewer offers: a preset, or a file named on the command line.
@@ -40,12 +42,12 @@ pub struct Choice {
     pub label: String,
     /// The sonar.
     pub sonar: Sonar,
-    /// The file it was read from (for the "copy as" texts), `None` for a preset.
+    /// The file it was read from, for the "copy as" texts. `None` for a preset.
     pub path: Option<PathBuf>,
 }
 
 impl Choice {
-    /// Returns the choice of `spec`: a preset name or a sonar TOML file (as `--from`/`--to`).
+    /// Returns the choice for `spec`: a preset name or a sonar TOML file, as in `--from`/`--to`.
     ///
     /// # Errors
     /// The engine's error for an unknown preset or a bad file.
@@ -65,8 +67,8 @@ impl Choice {
     }
 }
 
-/// The feature: its true point in sonar 1 (range m, azimuth deg, elevation deg); sonar 1
-/// measures the range (and for an FLS the azimuth), the rest is used by the placement.
+/// The feature's true point in sonar 1. Sonar 1 measures its range, and for an FLS its
+/// azimuth. The placement uses the rest.
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Feature {
@@ -270,8 +272,7 @@ impl Scene {
     }
 }
 
-/// The viewer: the sonars it offers, the backend it projects with, and the mask engines it has
-/// opened (one per sonar pair, kept).
+/// The viewer: the sonars it offers, its backend, and one kept mask engine per sonar pair.
 pub struct Viewer {
     choices: Vec<Choice>,
     backend: Backend,
@@ -290,9 +291,8 @@ impl std::fmt::Debug for Viewer {
 }
 
 impl Viewer {
-    /// Returns a viewer offering every preset and `extra` (files named on the command line),
-    /// projecting with `backend` (opened by the caller, as `choice` with the GPU options `gpu`,
-    /// which the mask engines it opens use too).
+    /// Returns a viewer offering every preset plus `extra`, the files named on the command line.
+    /// The caller opened `backend` as `choice` with GPU options `gpu`. Mask engines use them too.
     #[must_use]
     pub fn new(extra: Vec<Choice>, backend: Backend, choice: BackendChoice, gpu: GpuOptions) -> Viewer {
         let mut choices: Vec<Choice> = Sonar::preset_names()
@@ -352,16 +352,16 @@ impl Viewer {
     /// Returns everything the page draws for `scene`, as JSON.
     ///
     /// # Errors
-    /// Bad input (sonar labels, the feature outside sonar 1's view, the pose, sampling or noise
-    /// out of range, a second measurement outside sonar 2's view), each naming the field; and
-    /// the backend's failures.
+    /// Bad input, naming the field: unknown sonar labels, a feature outside sonar 1's view, a pose,
+    /// sampling or noise out of range, or a second measurement outside sonar 2's view. Also the
+    /// backend's failures.
     pub fn scene(&self, scene: &Scene) -> Result<Value> {
         self.scene_until(scene, Stop::NEVER)
     }
 
-    /// [`Viewer::scene`], given up once `stop` is set: between its stages (projection, mask,
-    /// recovery) and inside the projection as [`Backend::project_until`] does: the server's way
-    /// to drop the work of a client that went away.
+    /// Returns [`Viewer::scene`], but gives up once `stop` is set, as when a client went away.
+    /// `stop` is checked between the stages (projection, mask, recovery) and inside the
+    /// projection, as in [`Backend::project_until`].
     ///
     /// # Errors
     /// As [`Viewer::scene`]; [`sonarproj::Error::Stopped`] when stopped.
@@ -398,8 +398,8 @@ impl Viewer {
             target: target.clone(),
             sampling,
             area_grid: sonarproj::PAPER_AREA_GRID,
-            // The feature's true point: the metrics carry the local precision there (the
-            // default range error), as `project` prints them.
+            // With the true point, the metrics carry the local precision there at the default range
+            // error, as `project` prints them.
             items: vec![BatchItem {
                 true_point: Some([f.range, f.azimuth, f.elevation]),
                 measurement,
@@ -460,8 +460,8 @@ impl Viewer {
         }))
     }
 
-    /// Returns the JSON of the mask of `measurement` under `pose` with noise `n` (the engine of
-    /// the pair `first`, `second` made once and kept): its runs, pixel count and radii.
+    /// Returns the mask of `measurement` under `pose` with noise `n`, as JSON: runs, pixel count
+    /// and radii. Each pair's engine is made once and kept.
     ///
     /// # Errors
     /// As [`MaskEngine::select`] and [`MaskEngine::mask`].
@@ -525,8 +525,9 @@ fn sonar_json(label: &str, s: &Sonar) -> Value {
     })
 }
 
-/// Returns up to [`MAX_SHOWN_SAMPLES`] points of the sampled arc or surface, thinned by one
-/// stride along each angle, in sonar 1's frame (m, rounded to 0.1 mm), with whether sonar 2 sees each.
+/// Returns up to [`MAX_SHOWN_SAMPLES`] points of the sampled arc or surface, with whether
+/// sonar 2 sees each. One stride thins both angles. Points are in sonar 1's frame, in m
+/// rounded to 0.1 mm.
 fn samples(target: &Sonar, m: &Measurement, plan: &SamplingPlan, pose: &RelativePose, base: f64) -> Value {
     let layout = Layout::of(target);
     let (n_az, n_el) = (plan.azimuths.len(), plan.elevations.len());

@@ -22,14 +22,14 @@ pub(super) struct BatchArgs {
     /// Output CSV ('-' for stdout): the input columns, then visible,total,range_min,range_max,
     /// span,azimuth_min,azimuth_max,occupied,occupied_measure,projection_area,
     /// range_per_elevation,sigma_elevation.
-    /// A file is written whole or not at all; on stdout, rows go out as they are computed, and
-    /// a bad input row stops the command (exit status 2) after the rows before it.
+    /// A file is written whole or not at all. On stdout, rows go out as they are computed, and a
+    /// bad input row stops the command (exit status 2) after the rows before it.
     #[arg(long, value_name = "FILE", default_value = "-")]
     output: String,
 }
 
-/// Runs `sonarproj batch`: rows are read, projected and written a chunk at a time; the device is
-/// opened when the first chunk is ready (a bad header or first row never waits for it).
+/// Runs `sonarproj batch`, reading, projecting and writing a chunk of rows at a time. The device
+/// is opened when the first chunk is ready, so a bad header or first row never waits for it.
 pub(super) fn run(a: BatchArgs) -> Result<()> {
     let pair = a.pair.resolve()?;
     let input = open_input(&a.input)?;

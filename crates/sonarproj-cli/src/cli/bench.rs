@@ -45,12 +45,12 @@ pub(super) struct BenchArgs {
     /// What to measure.
     #[arg(value_enum, default_value = "projection")]
     subject: Subject,
-    /// Timed runs per backend and batch (the median is reported, after one warm-up run; at
-    /// most 10000).
+    /// Timed runs per backend and batch, at most 10000. The median is reported, after one
+    /// warm-up run.
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     runs: u32,
     /// The backends to time, comma-separated (projection only): gpu, cpu-fast, cpu. Default:
-    /// all three, the GPU where an adapter exists; naming gpu without one is an error.
+    /// all three, the GPU where an adapter exists. Naming gpu without one is an error.
     #[arg(
         long,
         value_enum,
@@ -64,13 +64,13 @@ pub(super) struct BenchArgs {
     no_reference: bool,
     /// Multiply the standard batches' pose counts (2000 fls→sss, 200 sss→fls) by this, so
     /// that each batch runs long enough to measure (at most 1000). Measured on two cores
-    /// (2-core AMD EPYC, 5 runs): `--scale 500 --backends cpu-fast` takes about 12 s; the CPU
+    /// (2-core AMD EPYC, 5 runs): `--scale 500 --backends cpu-fast` takes about 12 s. The CPU
     /// reference and a software GPU (lavapipe) take minutes more at that scale.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
     scale: u32,
     /// Poses of the sweep (sweep only): roll × pitch 0–99° by 1° and as many yaw values as make
     /// at least this many (at most 10^8). Measured on two cores (2-core AMD EPYC): the default
-    /// takes about 6 s on cpu-fast (`time sonarproj bench sweep --backends cpu-fast`); lavapipe
+    /// takes about 6 s on cpu-fast (`time sonarproj bench sweep --backends cpu-fast`). Lavapipe
     /// takes minutes.
     #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     poses: u64,
@@ -79,9 +79,9 @@ pub(super) struct BenchArgs {
     #[arg(long, default_value_t = 131_072, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     block: u64,
     /// The sweep's measures to take besides the projection, comma-separated (sweep only):
-    /// items, parquet, span, summary. Default: all four (at 10^8 poses the Parquet sweep writes
-    /// 4.7 GB twice and the span's 1.2 GB twice: `--measures summary` takes the projections and
-    /// the summaries alone).
+    /// items, parquet, span, summary. Default: all four. At 10^8 poses the Parquet sweep writes
+    /// 4.7 GB twice and the span's 1.2 GB twice, so `--measures summary` takes the projections
+    /// and the summaries alone.
     #[arg(long, value_delimiter = ',', value_enum)]
     measures: Vec<SweepMeasure>,
     /// The sweep's sampling (sweep only): a step in degrees, `auto` or `exact`. Run it twice,
@@ -216,9 +216,9 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
     Ok(())
 }
 
-/// Prints the times of the benchmark sweep on each of `backends`: the projection with the grid
-/// decoded where the work runs, the per-item path's, and the two sweeps, each also as a
-/// multiple of the projection.
+/// Prints the times of the benchmark sweep on each of `backends`, each also as a multiple of
+/// the projection: the projection (grid decoded where the work runs), the per-item path, and
+/// the two sweeps.
 fn sweep_table(
     backends: &[Backend],
     poses: u64,
@@ -315,8 +315,8 @@ fn sweep_table(
 const PINGS: usize = 10;
 
 /// Prints the median latency of one mask and of a 100-feature ping for each of
-/// [`bench::MASK_CASES`], on the GPU (when an adapter exists) and the CPU engine, as whole masks
-/// and as summaries (each mask's count and box, and the union).
+/// [`bench::MASK_CASES`], as whole masks and as summaries (each mask's count and box, and the
+/// union). Runs on the GPU when an adapter exists, and on the CPU engine.
 fn masks(runs: u32) -> Result<()> {
     let runs = runs.max(20);
     let options = super::gpu_env::gpu_options()?;
@@ -372,9 +372,9 @@ fn masks(runs: u32) -> Result<()> {
                 let cells = summary.features.iter().map(|f| f.cells).sum::<u64>() / n as u64;
                 let seen = summary.features.iter().filter(|f| f.occupied > 0).count();
                 let pixels = summary.features.iter().map(|f| f.occupied).sum::<u64>() / n as u64;
-                // masks: every feature's bits; summary: each mask's pixel count and box, and
-                // the union (on a GPU, all that is read back); pings: summaries of ten pings at
-                // once (two in flight on a GPU), the time a ping.
+                // - masks: every feature's bits.
+                // - summary: each mask's pixel count and box, and the union (all a GPU reads back).
+                // - pings: summaries of ten pings at once (two in flight on a GPU), timed per ping.
                 let pings = vec![(pose, features.clone()); PINGS];
                 for output in ["masks", "summary", "pings"] {
                     let ping = || -> Result<()> {

@@ -1,7 +1,7 @@
-//! The GPU options of the command line, read from its environment variables (the engine reads
-//! none; the variables and their values are [`sonarproj_apps::gpu_env`]'s): the backend or mask
-//! engine a command asks for, opened with them. A value outside the allowed ones is bad input
-//! (exit status 2) naming the variable.
+//! The command line's GPU options, read from its environment variables, and the backend or
+//! mask engine a command asks for, opened with them. The engine reads no environment.
+//! [`sonarproj_apps::gpu_env`] defines the variables and their values. A value outside the
+//! allowed ones is bad input (exit status 2) naming the variable.
 
 use sonarproj::gpu::GpuOptions;
 use sonarproj::{Backend, BackendChoice, MaskEngine, Sonar};
@@ -16,7 +16,7 @@ pub(crate) fn gpu_options() -> Result<GpuOptions> {
 }
 
 /// Returns the options for `choice`: the environment's for a GPU or `auto`, none for a CPU
-/// backend (which never opens a GPU, so a bad variable does not stop it).
+/// backend. A CPU backend never opens a GPU, so a bad variable does not stop it.
 ///
 /// # Errors
 /// As [`gpu_options`].
@@ -27,8 +27,8 @@ pub(crate) fn options_for(choice: BackendChoice) -> Result<GpuOptions> {
     }
 }
 
-/// Returns the backend for `choice` with the environment's GPU options and, when `auto` fell back
-/// to the CPU, its one-line notice in the command line's words.
+/// Returns the backend for `choice` with the environment's GPU options. When `auto` fell back
+/// to the CPU, also returns its one-line notice in the command line's words.
 ///
 /// # Errors
 /// As [`gpu_options`] and [`Backend::select`].

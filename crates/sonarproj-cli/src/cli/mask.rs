@@ -52,16 +52,17 @@ pub(super) struct MaskArgs {
     /// Probability that a widened mask holds the true pixel (with any --sigma-*).
     #[arg(long, value_name = "P", default_value_t = 0.99)]
     coverage: f64,
-    /// Write a PNG for a person, near range at the bottom and port on the left: for an FLS
-    /// target the fan seen from above (+azimuth, port, to the left) beside the raw range × beam
-    /// layout (beam 0, starboard-most, at the right); for an SSS target one vertical range strip
+    /// Write a PNG for a person, near range at the bottom and port on the left. An FLS target
+    /// shows the fan seen from above (+azimuth, port, to the left) beside the raw range × beam
+    /// layout (beam 0, starboard-most, at the right). An SSS target shows one vertical range strip
     /// per feature and their union. One colour per feature.
     #[arg(long, value_name = "FILE.png")]
     out: Option<PathBuf>,
-    /// Write the masks as NPY: [feature][range_bin][beam] (FLS) or [feature][range_bin] (SSS;
-    /// [feature][2 x range_bins], port far to near then starboard near to far, two-sided),
-    /// uint8 0/1 (uint32 counts with --counts); range bin 0 is range_min and beam 0 the
-    /// starboard-most (-aperture/2), the PNG's raw layout with its columns mirrored.
+    /// Write the masks as NPY, uint8 0/1 (uint32 counts with --counts). The shape is
+    /// [feature][range_bin][beam] for an FLS and [feature][range_bin] for an SSS, or
+    /// [feature][2 x range_bins] for a two-sided one (port far to near, then starboard near to
+    /// far). Range bin 0 is range_min and beam 0 the starboard-most (-aperture/2): the PNG's raw
+    /// layout with its columns mirrored.
     #[arg(long, value_name = "FILE.npy")]
     npy: Option<PathBuf>,
     /// Per-pixel counts (how many cells of the back-projected set may land there) instead of
@@ -80,16 +81,16 @@ pub(super) struct MaskArgs {
     /// JSON line per input: per-feature run-length masks, counts and timing.
     #[arg(long, conflicts_with_all = ["feature", "out", "npy", "json"])]
     stream: bool,
-    /// With --stream: leave out each feature's run-length mask (its count and bounding box, and
-    /// the union's runs, stay); on a GPU only the union and 20 bytes a feature are read back.
+    /// With --stream: leave out each feature's run-length mask. Its count and bounding box, and
+    /// the union's runs, stay. On a GPU only the union and 20 bytes a feature are read back.
     #[arg(long, requires = "stream")]
     no_runs: bool,
 }
 
 /// Runs `sonarproj mask`.
 pub(super) fn run(a: MaskArgs) -> Result<()> {
-    // The noise is checked even without a sigma (a coverage that means nothing is still a
-    // mistake), by Noise's own rules, before anything is built.
+    // Check the noise by Noise's own rules before anything is built, even without a sigma: a
+    // coverage that means nothing is still a mistake.
     let any_sigma = a.sigma_rotation.is_some()
         || a.sigma_translation.is_some()
         || a.sigma_range.is_some()
@@ -142,7 +143,7 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
     }
     let start = Instant::now();
     if a.out.is_none() && a.npy.is_none() {
-        // JSON only: the masks' summary is all it prints (on a GPU, all that is read back).
+        // JSON only: the masks' summary is all it prints, and all a GPU reads back.
         let summary = engine.summary(&pose, &features, noise.as_ref())?;
         let elapsed = start.elapsed().as_secs_f64() * 1e3;
         let per_feature = summary_json(&engine, &features, &summary);

@@ -1,8 +1,9 @@
-//! `sonarproj mask --stream`: a JSON line out for every line in. Lines are read and parsed on a
-//! thread of their own; the pings already waiting when one is taken (those that arrived while
-//! the one before was drawn) are drawn together, two in flight on a GPU, each answered as soon
-//! as it is read back. A ping that arrives alone is drawn alone at once: none is held back to
-//! wait for another.
+//! `sonarproj mask --stream`: a JSON line out for every line in.
+//!
+//! A thread of its own reads and parses the lines. When a ping is taken, the pings already
+//! waiting (those that arrived while the one before was drawn) are drawn with it, two in
+//! flight on a GPU. Each is answered as soon as it is read back. A ping that arrives alone is
+//! drawn at once: none is held back to wait for another.
 
 use sonarproj::stream::{Flow, Stop};
 use std::io::Write;
@@ -19,7 +20,7 @@ use sonarproj_apps::{Error, Result};
 
 use super::mask_json::{features_json, summary_json};
 
-/// The most waiting pings drawn together (and the lines read ahead of the one being drawn).
+/// The most waiting pings drawn together, and the most lines read ahead of the one drawn.
 const MAX_BATCH: usize = 64;
 
 /// A ping of the stream: its line number and what the line asks for.
@@ -42,8 +43,8 @@ enum Msg {
     Failed(std::io::Error),
 }
 
-/// Reads stdin line by line, parsing each against sonar 1 `source`, into `tx` (blank lines
-/// skipped); stops at the end of the input, a read error, or when the receiver is gone.
+/// Reads stdin line by line into `tx`, parsing each against sonar 1 `source` and skipping
+/// blank lines. Stops at the end of the input, at a read error, or when the receiver is gone.
 fn read_lines(source: &Sonar, tx: &SyncSender<Msg>) {
     let mut input = std::io::stdin().lock();
     let mut buf = Vec::new();
@@ -83,8 +84,8 @@ fn read_lines(source: &Sonar, tx: &SyncSender<Msg>) {
     }
 }
 
-/// Runs the stream mode: a JSON line out for every line in; a bad line gets `{"line", "error"}`
-/// and the stream goes on (exit status 2 at the end if any line was bad).
+/// Runs the stream mode: a JSON line out for every line in. A bad line gets
+/// `{"line", "error"}` and the stream goes on, with exit status 2 at the end.
 pub(super) fn stream(engine: &MaskEngine, runs: bool) -> Result<()> {
     let (tx, rx) = sync_channel(MAX_BATCH);
     let source = engine.source().clone();
@@ -97,7 +98,7 @@ pub(super) fn stream(engine: &MaskEngine, runs: bool) -> Result<()> {
     let mut held: Option<Msg> = None;
     let lines = loop {
         let Some(msg) = held.take().or_else(|| rx.recv().ok()) else {
-            // The reader stopped without a last message: it cannot, but end as at the input's end.
+            // The reader always sends a last message. Should it not, end as at the input's end.
             break 0;
         };
         match msg {
@@ -122,8 +123,8 @@ pub(super) fn stream(engine: &MaskEngine, runs: bool) -> Result<()> {
     Ok(())
 }
 
-/// Returns `first` and the pings already waiting in `rx` with the same noise (at most
-/// [`MAX_BATCH`] in all), and the first message that cannot join them, if one was taken.
+/// Returns `first` plus the pings already waiting in `rx` with the same noise, at most
+/// [`MAX_BATCH`] in all. Also returns the first message taken that cannot join them.
 fn waiting(first: Ping, rx: &Receiver<Msg>) -> (Vec<Ping>, Option<Msg>) {
     let mut batch = vec![first];
     while batch.len() < MAX_BATCH {
@@ -178,9 +179,9 @@ impl Replies<'_> {
     }
 }
 
-/// Draws `batch` and writes each ping's reply in order: alone, or together (two in flight on a
-/// GPU), each ping's `elapsed_ms` then the time since the reply before. When drawing them
-/// together fails, the pings not yet answered are drawn one by one, so that each bad one gets
+/// Draws `batch` and writes each ping's reply in order, alone or together (two in flight on a
+/// GPU). Together, each ping's `elapsed_ms` is the time since the reply before. When drawing
+/// them together fails, the pings not yet answered are drawn one by one, so each bad one gets
 /// its own error.
 fn draw(engine: &MaskEngine, runs: bool, batch: &[Ping], out: &mut Replies<'_>) -> Result<()> {
     let mut done = 0;
@@ -196,7 +197,7 @@ fn draw(engine: &MaskEngine, runs: bool, batch: &[Ping], out: &mut Replies<'_>) 
                 written = out.answer(p.line, per_feature(p), union, last.elapsed());
                 last = Instant::now();
                 done += 1;
-                // A reply that cannot be written stops the drawing; its error is returned below.
+                // A reply that cannot be written stops the drawing. Its error is returned below.
                 Ok(if written.is_ok() {
                     Flow::Continue(())
                 } else {

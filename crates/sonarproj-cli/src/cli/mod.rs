@@ -138,8 +138,7 @@ pub(crate) struct PairArgs {
 }
 
 impl PairArgs {
-    /// Returns the batch of sonar 1, sonar 2, the sampling and the area grid, checked, with no
-    /// items yet.
+    /// Returns the checked batch of sonar 1, sonar 2, the sampling and the area grid, no items yet.
     fn resolve(&self) -> Result<Batch> {
         let source = resolve_sonar(&self.from)?;
         let target = resolve_sonar(&self.to)?;
@@ -179,8 +178,8 @@ fn parse_step(s: &str) -> std::result::Result<Sampling, String> {
     }
 }
 
-/// Returns the sonar `spec` names (a preset, or a sonar TOML file, which is noted as an input
-/// that no output of this command may replace).
+/// Returns the sonar `spec` names: a preset, or a sonar TOML file. A file is noted as an input
+/// that no output of this command may replace.
 ///
 /// # Errors
 /// As [`Sonar::resolve`].
@@ -229,7 +228,7 @@ pub(crate) fn write_stdout(args: std::fmt::Arguments<'_>) -> Result<()> {
         })
 }
 
-/// Writes the output `path` ('-' for stdout) with `fill`; a file is written whole or not at all.
+/// Writes the output `path` ('-' for stdout) with `fill`. A file is written whole or not at all.
 fn write_output(path: &str, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
     if path == "-" {
         fill(&mut std::io::stdout().lock())

@@ -1,5 +1,5 @@
-//! How the command line names the inputs errors and notices are about ([`Param`]): its flags, and
-//! for the GPU options the environment variables they come from.
+//! How the command line names the inputs that errors and notices are about ([`Param`]): its
+//! flags, and for the GPU options the environment variables they come from.
 
 use sonarproj::error::Param;
 use sonarproj::gpu::options::{ADAPTER, PRECISION, WORKGROUP};

@@ -36,7 +36,7 @@ pub(super) struct PaperArgs {
 pub(super) fn run(a: PaperArgs) -> Result<()> {
     let sampling = a.step.validated()?;
     angles(a.angle_step)?;
-    // A file where the directory should be is refused before any work; the directory itself is
+    // A file where the directory should be is refused before any work. The directory itself is
     // created once the results exist, so a refused run leaves nothing behind.
     check_output_dir(&a.out, "--out")?;
     let (backend, notice) = super::gpu_env::select(a.backend.into())?;

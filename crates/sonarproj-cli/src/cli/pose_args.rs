@@ -75,8 +75,8 @@ impl PoseArgs {
         self.place_range.is_some()
     }
 
-    /// Returns the pose; `feature` is the true point in sonar 1 `[range, azimuth, elevation]`
-    /// (m, deg, deg), used by the placement.
+    /// Returns the pose. `feature` is the true point in sonar 1, `[range, azimuth, elevation]`
+    /// (m, deg, deg), which the placement uses.
     pub(super) fn pose(&self, feature: [f64; 3]) -> Result<RelativePose> {
         let rotation = self.rotation()?;
         match (&self.translation, self.place_range) {

@@ -33,12 +33,12 @@ pub(super) struct ProjectArgs {
     elevation: Option<f64>,
     #[command(flatten)]
     pose: PoseArgs,
-    /// Also write the occupancy buffer: FILE.png, a labelled picture for a person (near range at
-    /// the bottom and port on the left; an FLS as its range × beam layout with beam 0, the
-    /// starboard-most, at the right; an SSS as a vertical range strip), or FILE.npy, uint8 0/1
-    /// for numpy ([range_bin, beam] for an FLS, [range_bin] for an SSS, the row of 2 x range_bins
-    /// for a two-sided one; row 0 is range_min and column 0 is beam 0 at -aperture/2, starboard,
-    /// unless flipped).
+    /// Also write the occupancy buffer, as FILE.png or FILE.npy. FILE.png is a labelled picture
+    /// for a person, near range at the bottom and port on the left: an FLS as its range × beam
+    /// layout with beam 0 (the starboard-most) at the right, an SSS as a vertical range strip.
+    /// FILE.npy is uint8 0/1 for numpy: [range_bin, beam] for an FLS, [range_bin] for an SSS, and
+    /// the row of 2 x range_bins for a two-sided one. Row 0 is range_min and column 0 is beam 0
+    /// at -aperture/2 (starboard), unless flipped.
     #[arg(long, value_name = "FILE")]
     occupancy: Option<PathBuf>,
     /// NPY only: write range_max in row 0 instead of range_min (refused with a .png, which

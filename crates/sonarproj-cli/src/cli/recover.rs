@@ -1,5 +1,5 @@
-//! `sonarproj recover`: the coordinate each sonar loses, from a correspondence (README: Recovering the lost coordinate). One
-//! correspondence (JSON) or a CSV of them (`--input`).
+//! `sonarproj recover`: the coordinate each sonar loses, from one correspondence (JSON) or a
+//! CSV of them (`--input`). See README: Recovering the lost coordinate.
 
 use serde_json::json;
 use sonarproj::recovery::{DEFAULT_CURVE_STEP, Observation, Recovery, Sigmas, recover};

@@ -12,7 +12,7 @@ use sonarproj_apps::report::{check_output_dir, check_output_file, output_dir, wr
 pub(super) enum SonarCommand {
     /// Read a saved Oculus M-series ping (simple ping result, version 1 or 2) into DIR/sonar.toml
     /// (its exact beams and range lines) and DIR/image.npy (uint8 or uint16, ranges × beams,
-    /// row 0 the nearest range, column 0 the starboard-most beam); --to DIR/sonar.toml then
+    /// row 0 the nearest range, column 0 the starboard-most beam). --to DIR/sonar.toml then
     /// works everywhere a sonar file does.
     FromOculus(FromOculusArgs),
 }
@@ -33,7 +33,7 @@ pub(super) struct FromOculusArgs {
     /// 20° at 750 kHz, 1.2 and 3 MHz, 12° at 2.1 MHz).
     #[arg(long, value_name = "DEG")]
     elevation: Option<f64>,
-    /// Also write DIR/gains.npy (float32, one per range line); the ping must carry gains.
+    /// Also write DIR/gains.npy (float32, one per range line). The ping must carry gains.
     #[arg(long)]
     gains: bool,
 }
@@ -60,8 +60,8 @@ fn from_oculus(a: FromOculusArgs) -> Result<()> {
     let toml = a.out.join("sonar.toml");
     let image = a.out.join("image.npy");
     let gains = a.out.join("gains.npy");
-    // Every output checked before any is written; the sonar file last, so that it never stands
-    // beside an image of another ping.
+    // Check every output before writing any. The sonar file goes last, so it never stands beside
+    // an image of another ping.
     for path in [&image, &toml, &gains] {
         check_output_file(path, "--out")?;
     }

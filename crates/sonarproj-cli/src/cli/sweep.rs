@@ -27,7 +27,7 @@ pub(super) struct SweepArgs {
     shard: Option<String>,
     /// Poses per chunk: each finished chunk is kept on disk, so an interrupted run loses at most
     /// one. Default: 131072 (one Parquet row group), 1048576 for summaries only ([summary] rows =
-    /// false); a resumed run keeps the size it started with.
+    /// false). A resumed run keeps the size it started with.
     #[arg(long, value_name = "N")]
     chunk_poses: Option<u64>,
     /// Compute at most N chunks, then stop (for time-limited jobs; re-run to go on).
@@ -146,8 +146,8 @@ pub(super) fn merge(a: MergeArgs) -> Result<()> {
     Ok(())
 }
 
-/// Returns the paths of `files` that are there, as a list in words ("a, b and c"); `None` when
-/// none is.
+/// Returns the paths of `files` that are there as a list in words ("a, b and c"), or `None`
+/// when none is.
 fn listed(files: &[&Option<PathBuf>]) -> Option<String> {
     let names: Vec<String> = files
         .iter()

@@ -1,21 +1,24 @@
-//! `sonarproj view`: the interactive viewer, a local web page served by this binary. The page and
-//! its scripts (three.js included) are inside the binary; each slider move posts a scene to
-//! `/api/scene`, which the engine computes here ([`sonarproj_apps::view::Viewer`]).
+//! `sonarproj view`: the interactive viewer, a local web page served by this binary. The page
+//! and its scripts (three.js included) live inside the binary. Each slider move posts a scene
+//! to `/api/scene`, which the engine computes here ([`sonarproj_apps::view::Viewer`]).
 //!
-//! A local tool, not a web service: it binds loopback unless told otherwise, answers only
-//! requests whose one `Host` (and `Origin`, when sent) name this server by an IP address or
-//! `localhost` (so a web page elsewhere cannot reach it through DNS rebinding), and reads no file
-//! the browser names (sonar files come from the command line).
+//! It is a local tool, not a web service. It binds loopback unless told otherwise. It answers
+//! only requests whose one `Host` (and `Origin`, when sent) names this server by an IP address
+//! or `localhost`, so a web page elsewhere cannot reach it through DNS rebinding. It reads no
+//! file the browser names: sonar files come from the command line.
 //!
-//! The HTTP is hyper's (HTTP/1 on tokio), which enforces the limits on the request head: at most
-//! [`MAX_HEAD_BYTES`] and [`MAX_HEADERS`] headers (431 past them), the head within
-//! [`HEAD_TIMEOUT`] (else the connection is closed), one `Content-Length` (400 for conflicting
-//! ones); a client that stops reading a reply for [`WRITE_TIMEOUT`] is dropped. Each connection is a task
-//! of its own, so a slow client stalls nobody else; a body is read within [`BODY_TIMEOUT`] and
-//! at most [`MAX_REQUEST_BYTES`] of it (413). Scenes are computed on blocking threads, at most
-//! [`computing`] at once with [`MAX_WAITING`] more queued (503 past them), each holding its slots
-//! until its work ends; a client that goes away has its work given up at the next stage (on the
-//! fast CPU path, at the next pose or tile of samples). Every error reply is a short JSON object.
+//! Limits keep any one client from exhausting the server:
+//! - hyper (HTTP/1 on tokio) bounds the request head: [`MAX_HEAD_BYTES`] and [`MAX_HEADERS`]
+//!   (431 past them), [`HEAD_TIMEOUT`] (then the connection closes), and one `Content-Length`
+//!   (400 for conflicting ones).
+//! - A body must arrive within [`BODY_TIMEOUT`] and hold at most [`MAX_REQUEST_BYTES`] (413).
+//! - A client that stops reading a reply for [`WRITE_TIMEOUT`] is dropped.
+//! - Each connection is its own task, so a slow client stalls nobody else.
+//! - Scenes run on blocking threads, at most [`computing`] at once with [`MAX_WAITING`] more
+//!   queued (503 past them). Each holds its slots until its work ends. When its client goes
+//!   away, the work stops at the next stage (on the fast CPU path, the next pose or tile).
+//!
+//! Every error reply is a short JSON object.
 
 use sonarproj::stream::Stop;
 use std::net::{IpAddr, SocketAddr};
@@ -115,18 +118,17 @@ pub(crate) const MAX_HEADERS: usize = 64;
 /// The time a client has to send a request's head, and then its body.
 pub(crate) const HEAD_TIMEOUT: Duration = Duration::from_secs(10);
 pub(crate) const BODY_TIMEOUT: Duration = Duration::from_secs(10);
-/// The time a client has to take each part of a reply (a write that waits longer ends the
-/// connection).
+/// The time a client has to take each part of a reply, before the connection ends.
 pub(crate) const WRITE_TIMEOUT: Duration = Duration::from_secs(30);
-/// The most connections served at once (more wait to be accepted).
+/// The most connections served at once. More wait to be accepted.
 const MAX_CONNECTIONS: usize = 256;
-/// The most scenes waiting for a computing slot (more are answered 503 at once).
+/// The most scenes waiting for a computing slot. More are answered 503 at once.
 const MAX_WAITING: usize = 16;
 /// The most characters of a path an error reply quotes.
 const QUOTED_PATH_CHARS: usize = 80;
 
-/// Returns how many scenes are computed at once: the cores, at least two (each scene's
-/// projection uses every core already; more at once would only share them).
+/// Returns how many scenes are computed at once: the cores, from 2 to 8. Each scene's
+/// projection already uses every core, so more at once would only share them.
 fn computing() -> usize {
     std::thread::available_parallelism().map_or(2, |n| n.get().clamp(2, 8))
 }
@@ -136,7 +138,7 @@ struct Shared {
     viewer: Viewer,
     initial: serde_json::Value,
     port: u16,
-    /// Slots to compute a scene in, and slots to wait for one in; a scene holds its slots until
+    /// Slots to compute a scene in, and slots to wait for one in. A scene holds its slots until
     /// its work has ended, even when its client left before.
     computing: Arc<Semaphore>,
     waiting: Arc<Semaphore>,
@@ -220,10 +222,9 @@ async fn serve(a: ViewArgs, viewer: Viewer, initial: serde_json::Value) -> Resul
                 .header_read_timeout(HEAD_TIMEOUT)
                 .max_buf_size(MAX_HEAD_BYTES)
                 .max_headers(MAX_HEADERS);
-            // An error here is the client's (it went away, sent a bad head or too slowly):
-            // hyper has answered what could be answered.
-            // A client that stops reading a reply is dropped after WRITE_TIMEOUT, so that it
-            // cannot hold its connection slot forever.
+            // An error here is the client's (it left, or sent a bad or slow head), and hyper has
+            // answered what it could. A client that stops reading a reply is dropped after
+            // WRITE_TIMEOUT, so it cannot hold its connection slot forever.
             let mut stream = tokio_io_timeout::TimeoutStream::new(stream);
             stream.set_write_timeout(Some(WRITE_TIMEOUT));
             let _ = http
@@ -238,7 +239,7 @@ async fn serve(a: ViewArgs, viewer: Viewer, initial: serde_json::Value) -> Resul
 /// server: `localhost` or an IP address, with this server's port. A DNS name other than
 /// `localhost` is refused, which is what stops DNS rebinding.
 fn allowed_host(host: &str, port: u16) -> bool {
-    // A browser leaves the default port out: `localhost` or `[::1]` alone mean port 80.
+    // Browsers leave the default port out: `localhost` or `[::1]` alone mean port 80.
     let (name, p) = match host.rsplit_once(':') {
         Some((name, p)) if !p.contains(']') => (name, Some(p)),
         _ => (host, None),
@@ -257,8 +258,8 @@ fn allowed_host(host: &str, port: u16) -> bool {
     name.eq_ignore_ascii_case("localhost") || name.parse::<IpAddr>().is_ok()
 }
 
-/// Returns why `request` is refused, with its status (400 for a doubled header, 403 for a
-/// foreign one), or `None` when its one `Host` and its `Origin` are ours.
+/// Returns why `request` is refused, with its status: 400 for a doubled header, 403 for a
+/// foreign one. `None` when its one `Host` and its `Origin` are ours.
 fn refused(request: &Request<Incoming>, port: u16) -> Option<(StatusCode, String)> {
     let one = |name: hyper::header::HeaderName, shown: &str| {
         let mut all = request.headers().get_all(&name).iter();
@@ -306,8 +307,8 @@ fn quoted(text: &str) -> String {
     }
 }
 
-/// Returns `body` as a response with `status` and `content_type`, and the headers every reply
-/// carries (no caching, no sniffing, the page's content security policy).
+/// Returns `body` as a response with `status` and `content_type`, plus the headers of every
+/// reply: no caching, no sniffing, and the page's content security policy.
 fn reply(status: StatusCode, content_type: &'static str, body: Bytes) -> Response<Full<Bytes>> {
     let mut r = Response::new(Full::new(body));
     *r.status_mut() = status;
@@ -324,7 +325,6 @@ fn reply(status: StatusCode, content_type: &'static str, body: Bytes) -> Respons
     r
 }
 
-/// Returns a JSON reply.
 fn json_reply(status: StatusCode, value: &serde_json::Value) -> Response<Full<Bytes>> {
     reply(
         status,
@@ -338,8 +338,8 @@ fn error_reply(status: StatusCode, message: &str, input: bool) -> Response<Full<
     json_reply(status, &json!({ "error": message, "input": input }))
 }
 
-/// Sets its flag when dropped: the request's future was dropped (its client went away) or it
-/// finished; the scene's blocking work then stops at its next stage.
+/// Sets its flag when dropped: the request finished, or its future was dropped because the
+/// client went away. The scene's blocking work then stops at its next stage.
 struct GoneOnDrop(Arc<AtomicBool>);
 
 impl Drop for GoneOnDrop {
@@ -348,7 +348,6 @@ impl Drop for GoneOnDrop {
     }
 }
 
-/// Answers one request.
 async fn answer(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Full<Bytes>> {
     if let Some((status, why)) = refused(&request, shared.port) {
         return error_reply(status, &why, true);
@@ -406,7 +405,7 @@ async fn body_of(request: Request<Incoming>) -> std::result::Result<Bytes, Respo
 }
 
 /// Answers `POST /api/scene`: reads the body (bounded in size and time), waits for a computing
-/// slot (bounded queue) and computes the scene on a blocking thread.
+/// slot (bounded queue), and computes the scene on a blocking thread.
 async fn scene(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Full<Bytes>> {
     let body = match body_of(request).await {
         Ok(b) => b,
@@ -436,9 +435,9 @@ async fn advise(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Fu
     compute(shared, move |viewer, _| viewer.advise(&asked)).await
 }
 
-/// Runs `work` on a blocking thread once a computing slot is free (a bounded queue of waiting
-/// requests, then 503), with a flag set when the client goes away; replies with its JSON or its
-/// error (400 for bad input).
+/// Runs `work` on a blocking thread once a computing slot is free, and replies with its JSON
+/// or its error (400 for bad input). Waiting requests form a bounded queue, then get 503.
+/// `work` gets a flag that is set when the client goes away.
 async fn compute(
     shared: &Arc<Shared>,
     work: impl FnOnce(&Viewer, &AtomicBool) -> sonarproj_apps::Result<serde_json::Value> + Send + 'static,

@@ -1,7 +1,7 @@
-//! Sweep tables as Parquet: typed columns (integers for the index and counts, doubles for poses
-//! and metrics, null where the CSV leaves a cell empty), Snappy-compressed pages, row groups cut
-//! at fixed multiples of the pose index, so the same rows make the same bytes however they were
-//! chunked, sharded and merged.
+//! Sweep tables as Parquet: typed columns, Snappy-compressed pages, and row groups cut at fixed
+//! multiples of the pose index. The same rows then make the same bytes however they were
+//! chunked, sharded and merged. Integers hold the index and counts, doubles the poses and
+//! metrics, and nulls stand for the CSV's empty cells.
 
 use std::io::Write;
 use std::path::Path;
@@ -22,8 +22,8 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 
-/// Rows of a row group: groups start at the multiples of this pose index (about 20 MiB of
-/// columns in memory while one is assembled).
+/// Rows per row group: groups start at multiples of this pose index. About 20 MiB of columns
+/// are in memory while one is assembled.
 pub const GROUP_ROWS: u64 = 1 << 17;
 
 /// What a column holds.
@@ -98,7 +98,6 @@ impl Column {
         }
     }
 
-    /// Returns an empty column of this one's kind.
     fn empty_like(&self) -> Column {
         match self {
             Column::Int(_) => Column::Int(Vec::new()),
@@ -183,7 +182,6 @@ impl Table {
     }
 }
 
-/// Returns the Parquet schema of columns `names` of `kinds`.
 fn schema(names: &[String], kinds: &[Kind]) -> Result<Arc<Type>> {
     let fields = names
         .iter()
@@ -208,17 +206,17 @@ fn schema(names: &[String], kinds: &[Kind]) -> Result<Arc<Type>> {
         .map_err(|e| Error::invalid("columns", format!("{names:?}"), e.to_string()))
 }
 
-/// How a [`TableWriter`] encodes — one way for every file of a sweep (chunks, shards, results),
-/// so that whole row groups are copied between them as they are: Snappy pages, statistics, and
-/// dictionaries for the columns named (the pose columns, whose values repeat).
+/// How a [`TableWriter`] encodes: Snappy pages, statistics, and dictionaries for the columns
+/// named (the pose columns, whose values repeat). Every file of a sweep (chunks, shards,
+/// results) uses one encoding, so whole row groups copy between them as they are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Encoding<'a> {
     /// The columns to dictionary-encode.
     pub dictionary: &'a [String],
 }
 
-/// Writes a table as Parquet row by row group: rows pushed in index order, row groups cut where
-/// the pose index reaches a multiple of [`GROUP_ROWS`].
+/// Writes a table as Parquet, one row group at a time. Rows are pushed in index order, and a
+/// group ends where the pose index reaches a multiple of [`GROUP_ROWS`].
 pub struct TableWriter<'p, W: Write + Send> {
     inner: SerializedFileWriter<W>,
     pending: Table,
@@ -228,8 +226,8 @@ pub struct TableWriter<'p, W: Write + Send> {
 }
 
 impl<'p, W: Write + Send> TableWriter<'p, W> {
-    /// Returns a writer of columns `names` of `kinds` into `sink` (the file `path`, for
-    /// messages), whose first row has pose index `first`.
+    /// Returns a writer into `sink` of columns `names` of `kinds`, whose first row has pose index
+    /// `first`. `path` names the file in messages.
     ///
     /// # Errors
     /// [`Error::WriteOutput`] when the header cannot be written.
@@ -263,7 +261,7 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
     /// Adds `rows` (the next rows in index order) and writes every row group they complete.
     ///
     /// # Errors
-    /// [`Error::Csv`] when `rows` has other columns; [`Error::WriteOutput`] on I/O failure.
+    /// [`Error::Csv`] when `rows` has other columns. [`Error::WriteOutput`] on I/O failure.
     pub fn push(&mut self, rows: Table) -> Result<()> {
         if rows.names != self.pending.names || rows.kinds() != self.pending.kinds() {
             return Err(Error::Csv {
@@ -275,7 +273,7 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
             });
         }
         if self.pending.rows() == 0 {
-            // Nothing pending: the rows are taken as they are, not copied.
+            // Nothing pending: take the rows as they are, without copying.
             self.pending.columns = rows.columns;
         } else {
             for (a, b) in self.pending.columns.iter_mut().zip(rows.columns) {
@@ -292,9 +290,8 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
         }
     }
 
-    /// Writes the first `n` pending rows as one row group, its columns encoded on all cores
-    /// (each into memory, then spliced into the file in order: the bytes of encoding them one
-    /// after the other).
+    /// Writes the first `n` pending rows as one row group. Its columns are encoded on all cores,
+    /// each into memory, then spliced into the file in order: the bytes of encoding them in turn.
     fn write_group(&mut self, n: usize) -> Result<()> {
         let err = |e: parquet::errors::ParquetError| Error::write_output(self.path, e);
         let group: Vec<Column> = self.pending.columns.iter_mut().map(|c| c.take_front(n)).collect();
@@ -315,12 +312,11 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
         Ok(())
     }
 
-    /// Copies row group `g` of `part` (read with its page indexes) into this file as it is,
-    /// without decoding it, when that makes the bytes encoding its rows would: no rows are
-    /// pending, the group starts at a multiple of [`GROUP_ROWS`] in the pose index, and it is
-    /// whole (or `last`, the last rows of this file). Returns whether it was copied (else the
-    /// caller pushes its rows). The part must have been written by a [`TableWriter`] with this
-    /// one's encoding.
+    /// Copies row group `g` of `part` into this file without decoding it, and returns whether it
+    /// did (else the caller pushes its rows). It copies only when that makes the bytes encoding
+    /// would: no rows pending, the group starting at a multiple of [`GROUP_ROWS`] in the pose
+    /// index, and whole (or `last`, this file's last rows). The part must come from a
+    /// [`TableWriter`] with this one's encoding, read with its page indexes.
     ///
     /// # Errors
     /// [`Error::WriteOutput`] on I/O failure.
@@ -338,8 +334,8 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
         if self.pending.rows() > 0 || !self.next.is_multiple_of(GROUP_ROWS) || !whole {
             return Ok(false);
         }
-        // Only a group this writer's encoding made (compression, statistics) is copied: a part
-        // written otherwise (by an older version, say) is decoded and encoded again.
+        // Only a group made with this writer's encoding (compression, statistics) is copied. A part
+        // written otherwise, say by an older version, is decoded and encoded again.
         let props = self.inner.properties();
         let same = group.columns().iter().all(|c| {
             let path = c.column_path();
@@ -384,10 +380,10 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
     }
 }
 
-/// Returns a column chunk's metadata read back from a file as its writer made it: the reader
-/// marks statistics read from the `min_value`/`max_value` fields as not backwards compatible,
-/// while the writer also fills the deprecated `min`/`max` fields for a signed sort order (every
-/// column here), so they are marked so again.
+/// Returns a column chunk's metadata as its writer made it. The reader marks statistics from
+/// the `min_value`/`max_value` fields as not backwards compatible. The writer also fills the
+/// deprecated `min`/`max` fields for a signed sort order (every column here), so the mark is
+/// restored.
 fn as_written(column: &ColumnChunkMetaData) -> parquet::errors::Result<ColumnChunkMetaData> {
     let signed = column.column_descr().sort_order().is_signed();
     let Some(stats) = column.statistics() else {
@@ -401,8 +397,8 @@ fn as_written(column: &ColumnChunkMetaData) -> parquet::errors::Result<ColumnChu
     column.clone().into_builder().set_statistics(stats).build()
 }
 
-/// Returns column `column` encoded alone into memory with `props`: its bytes and what closing
-/// its writer returned (offsets from the start of the bytes).
+/// Returns `column` encoded alone into memory with `props`: its bytes, and what closing its
+/// writer returned (offsets from the start of the bytes).
 fn encode_column(
     descr: ColumnDescPtr,
     props: WriterPropertiesPtr,
@@ -459,8 +455,7 @@ mod tests {
         Table { names, columns }
     }
 
-    /// Writes `parts` (tables in index order, the first starting at `first`) into one file and
-    /// returns its bytes.
+    /// Writes `parts`, tables in index order from `first`, into one file and returns its bytes.
     fn write_parts(parts: &[Table], first: u64) -> Vec<u8> {
         let t = &parts[0];
         let mut out = Vec::new();
@@ -489,7 +484,7 @@ mod tests {
         let cuts = [0, 7, 20_000, GROUP_ROWS as i64, GROUP_ROWS as i64 + 1, n];
         let parts: Vec<Table> = cuts.windows(2).map(|w| table(w[0], w[1] - w[0])).collect();
         assert_eq!(write_parts(&parts, 0), whole);
-        // Read back: every value, nulls where they were, groups at the multiples of GROUP_ROWS.
+        // Read back: every value, nulls in place, groups at the multiples of GROUP_ROWS.
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.parquet");
         std::fs::write(&path, &whole).unwrap();
@@ -511,8 +506,8 @@ mod tests {
         assert_eq!(all, table(0, n));
     }
 
-    /// Whole row groups copied from parts as they are, and the rest decoded and cut again,
-    /// make the bytes of writing the rows at once (a copied group's metadata is the writer's).
+    /// Whole row groups copied from parts as they are, with the rest decoded and cut again, make
+    /// the bytes of writing the rows at once. A copied group's metadata is the writer's.
     #[test]
     #[expect(clippy::cast_possible_wrap, reason = "GROUP_ROWS is 2^17")]
     fn copied_groups_make_the_bytes_of_encoding_them() {
@@ -559,15 +554,13 @@ mod tests {
                 out.len(),
                 whole.len()
             );
-            // The aligned whole groups were copied: the first part's (when it is one group), the
-            // last group.
+            // Aligned whole groups were copied: the last one, and the first part's if it is one.
             assert!(copied >= 1, "cuts {cuts:?}: nothing copied");
         }
     }
 
-    /// A part written with another encoding (here without the pose column's dictionary) is not
-    /// copied but decoded and encoded again: the joined file is still the bytes of encoding the
-    /// rows at once.
+    /// A part written with another encoding (here without the pose column's dictionary) is decoded
+    /// and encoded again, not copied: the joined file still has the bytes of encoding at once.
     #[test]
     #[expect(clippy::cast_possible_wrap, reason = "GROUP_ROWS is 2^17")]
     fn a_part_of_another_encoding_is_encoded_again() {

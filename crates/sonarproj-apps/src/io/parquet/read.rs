@@ -74,8 +74,8 @@ fn part_of<R: ChunkReader + 'static>(
     names: &[String],
     kinds: &[Kind],
 ) -> Result<Part<R>> {
-    // Every field of the column chunks kept as written (the page encoding statistics as a
-    // list, not the reader's default mask), so a copied group is the bytes encoding it makes.
+    // Keep every field of the column chunks as written (page encoding statistics as a list, not
+    // the reader's default mask), so a copied group matches the bytes of encoding it.
     let options = ReadOptionsBuilder::new()
         .with_page_index()
         .with_encoding_stats_as_mask(false)
@@ -86,7 +86,6 @@ fn part_of<R: ChunkReader + 'static>(
     Ok(Part { file, reader })
 }
 
-/// Returns `path` opened for reading.
 fn open(path: &Path) -> Result<std::fs::File> {
     std::fs::File::open(path).map_err(|source| Error::ReadInput {
         path: path.to_path_buf(),
@@ -94,7 +93,6 @@ fn open(path: &Path) -> Result<std::fs::File> {
     })
 }
 
-/// Returns the error of a file that is not Parquet.
 fn not_parquet(path: &Path, e: &parquet::errors::ParquetError) -> Error {
     Error::Csv {
         context: path.display().to_string(),
@@ -155,8 +153,8 @@ fn read_group<R: parquet::file::reader::ChunkReader + 'static>(
 /// checking that its columns are `names` of `kinds`.
 ///
 /// # Errors
-/// [`Error::ReadInput`] when the file cannot be opened; [`Error::Csv`] naming the file when it is
-/// not Parquet or has other columns.
+/// [`Error::ReadInput`] when the file cannot be opened. [`Error::Csv`] naming the file when it
+/// is not Parquet or has other columns.
 pub fn read_groups<'a>(
     path: &'a Path,
     names: &[String],
