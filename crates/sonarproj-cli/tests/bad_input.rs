@@ -635,3 +635,12 @@ fn bad_gpu_variables_are_bad_input() {
         );
     }
 }
+
+/// Exact sampling solves an imaging sonar's arc: a sidescan sonar 1 is refused, naming the step.
+#[test]
+fn exact_sampling_of_a_sidescan_exits_2() {
+    let args = "project --from paper-sss --to paper-fls --range 5 --roll 0 --pitch 0 --yaw 0 \
+                --place-range 5 --step exact --backend cpu";
+    let args: Vec<&str> = args.split_whitespace().collect();
+    common::rejects(&args, None, &["step = exact", "sidescan"]);
+}
