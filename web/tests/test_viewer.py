@@ -307,6 +307,25 @@ def test_a_sidescan_target_has_one_data_view(page):
     assert not page.d.execute_script(view), "an imaging sonar has the fan and the raw layout"
 
 
+def test_the_exact_box_shows_the_numbers_of_project_step_exact(page, cli, tmp_path):
+    pair, feature, rotation, place = ("paper-fls", "paper-sss"), (5, 0, 0), (0, 0, 0), (15, 0, 0)
+    set_scene(page, pair, feature, rotation, place)
+    page.check("exact", True)
+    try:
+        shown = page.metrics()
+        args = ["project", "--backend", "cpu", "--from", pair[0], "--to", pair[1], "--range", 5, "--azimuth", 0,
+                "--elevation", 0, "--roll", 0, "--pitch", 0, "--yaw", 0, "--place-range", 15, "--place-azimuth", 0,
+                "--place-elevation", 0, "--step", "exact"]
+        expected = json.loads(cli(*args).stdout)["metrics"]
+        assert shown == expected, "the page shows other numbers than `project --step exact`"
+        assert shown["total"] == 0 and 0.07 < shown["visible_fraction"] < 0.08
+        assert "--step exact" in page.answer()["copy"]["command"]
+    finally:
+        page.check("exact", False)
+    assert page.metrics()["total"] > 0
+    assert page.severe_logs() == []
+
+
 def test_noise_draws_a_widened_mask_holding_the_exact_occupancy(page):
     set_scene(page, ("paper-fls", "paper-fls"), (5, 0, 0), (0, 0, 10), (6, 5, 0))
     page.check("noise-on", True)
