@@ -1,14 +1,14 @@
-//! Metrics as columns: one vector per metric of the metric table, so a sweep's results leave
-//! the engine without a per-pose object. Counts are `u64`; reals are `f64`, with NaN where a
-//! metric has no value (nothing visible: the extremes; an SSS target: the projection area).
-//! A caller may keep only the metrics it asks for ([`MetricColumns::only`]): the others stay
-//! empty, and the backends neither write nor (on the GPU) unpack them.
+//! Metrics as columns: one vector per metric of the metric table, so a sweep's results leave the
+//! engine without a per-pose object. Counts are `u64` and reals `f64`. NaN marks a metric without a
+//! value: the extremes when nothing is visible, the projection area for an SSS target. A caller may
+//! keep only the metrics it asks for ([`MetricColumns::only`]). The others stay empty, and the
+//! backends neither write nor (on the GPU) unpack them.
 
 use crate::metrics::{Metric, Metrics};
 
 /// The metrics of many poses, one column per metric (README: Conventions), in pose order. Every
-/// column is kept unless the columns were made by [`MetricColumns::only`]; a column not kept
-/// stays empty whatever the rows.
+/// column is kept unless the columns were made by [`MetricColumns::only`]. A column not kept stays
+/// empty whatever the rows.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MetricColumns {
     /// Samples kept by the clip.
@@ -114,9 +114,9 @@ impl MetricColumns {
         out
     }
 
-    /// Returns empty columns that keep only `metrics` (every other column stays empty): what
-    /// a caller that reduces one metric asks for, so that the backends write, and the GPU
-    /// unpacks, only that one.
+    /// Returns empty columns that keep only `metrics`; every other column stays empty. A caller
+    /// that reduces one metric asks for this, so that the backends write, and the GPU unpacks, only
+    /// that one.
     #[must_use]
     pub fn only(metrics: &[Metric]) -> Self {
         MetricColumns {
@@ -176,13 +176,13 @@ impl MetricColumns {
         self.rows == 0
     }
 
-    /// Empties every column, keeping its memory (so a caller reusing the columns block after
-    /// block allocates once).
+    /// Empties every column but keeps its memory, so a caller reusing the columns block after block
+    /// allocates once.
     pub fn clear(&mut self) {
         self.resize(0);
     }
 
-    /// Sets the number of rows to `n` (new rows of the kept columns are zero).
+    /// Sets the number of rows to `n`. New rows of the kept columns are zero.
     pub(crate) fn resize(&mut self, n: usize) {
         let kept = self.kept;
         for (m, c) in self.counts_mut() {
@@ -270,8 +270,8 @@ impl MetricColumns {
     }
 }
 
-/// Consecutive rows of [`MetricColumns`], mutably: what one thread of a backend fills. A
-/// column not kept is an empty slice, and writes to it are skipped.
+/// Consecutive rows of [`MetricColumns`], mutably: what one thread of a backend fills. A column not
+/// kept is an empty slice, and writes to it are skipped.
 pub(crate) struct MetricSlices<'a> {
     len: usize,
     pub(crate) visible: &'a mut [u64],
@@ -296,7 +296,7 @@ impl<'a> MetricSlices<'a> {
     /// Writes row `k` of the kept columns.
     #[inline]
     pub(crate) fn set(&mut self, k: usize, m: &Metrics) {
-        // A column not kept is empty; a kept one has every row (an index past it panics).
+        // A column not kept is empty. A kept one has every row, so an index past it panics.
         fn put<T>(c: &mut [T], k: usize, v: T) {
             if !c.is_empty() {
                 c[k] = v;
@@ -370,8 +370,8 @@ mod tests {
         Metrics::new(visible, total, extremes, (0, 0.0), None)
     }
 
-    /// A row written and read back is the same metrics, nothing visible included (NaN stands
-    /// for none and comes back as none).
+    /// A row written and read back is the same metrics, nothing visible included. NaN stands for
+    /// none and comes back as none.
     #[test]
     fn rows_round_trip() {
         let mut c = MetricColumns::with_capacity(4);

@@ -1,33 +1,36 @@
-//! Block culling, the geometry the fast CPU path and the splat shader share: a plan's samples cut
-//! into blocks of consecutive samples, each block's unit directions held in a ball (centre,
-//! radius) and near a chord (its first and last unit, and how far the others lie from it), and
-//! the tests that put a moved block wholly outside or wholly inside sonar 2's field of view.
+//! Block culling: the geometry the fast CPU path and the splat shader share.
 //!
-//! Each clip bound is a 1-Lipschitz function of the point (the range; the azimuth half-planes'
-//! signed distances; the elevation cone's `|z| cos e − ρ sin e`), so its value at a ball's centre
-//! moves by at most the radius over the ball ([`ball_side`]). A ball is often wider than a thin
-//! field of view (a sidescan's sheet) while its samples, on an arc, stay within a hair of the
-//! chord: the outside is a union of convex parts on each of which a concave, 1-Lipschitz function
-//! is positive, and a concave function on a segment is at least its smaller end value, so a
-//! chord whose two ends lie beyond one part by more than the samples' reach lies wholly in it
-//! ([`chord_outside`]). The slacks that make these tests safe under rounding are
-//! [`crate::clip::CULL_SLACK`] (f64) and [`crate::clip::F32_SLACK`] (the shader's f32).
+//! A plan's samples are cut into blocks of consecutive samples. Each block's unit directions are
+//! held in a ball (centre, radius) and near a chord (its first and last unit, and how far the
+//! others lie from it). Tests then put a moved block wholly outside or wholly inside sonar 2's
+//! field of view. They are sound because:
 //!
-//! The shader's twins are `block_side` and `chord_outside` in `shaders/shared/clip.wgsl`; its
-//! table of balls and reaches is built by [`block_bounds`].
+//! 1. Each clip bound is a 1-Lipschitz function of the point: the range, the azimuth half-planes'
+//!    signed distances, and the elevation cone's `|z| cos e − ρ sin e`. So its value at a ball's
+//!    centre moves by at most the radius over the ball ([`ball_side`]).
+//! 2. A ball is often wider than a thin field of view (a sidescan's sheet), while its samples, on
+//!    an arc, stay within a hair of the chord. The outside is a union of convex parts, on each of
+//!    which a concave, 1-Lipschitz function is positive. A concave function on a segment is at
+//!    least its smaller end value. So a chord whose two ends lie beyond one part by more than the
+//!    samples' reach lies wholly in it ([`chord_outside`]).
+//! 3. The slacks that keep these tests safe under rounding are [`crate::clip::CULL_SLACK`] (f64)
+//!    and [`crate::clip::F32_SLACK`] (the shader's f32).
+//!
+//! The shader's twins are `block_side` and `chord_outside` in `shaders/shared/clip.wgsl`. Its table
+//! of balls and reaches is built by [`block_bounds`].
 
 use glam::DVec3;
 
 use crate::clip::Clip;
 
-/// Samples per culling block of the splat shader (consecutive in the plan's order, azimuth index
-/// fastest; WGSL `BLOCK`). The fast path's blocks have as many.
+/// Samples per culling block of the splat shader (WGSL `BLOCK`). A block's samples are consecutive
+/// in the plan's order, azimuth index fastest. The fast path's blocks have as many.
 pub(crate) const BLOCK: usize = 16;
 
-/// Returns, per block of [`BLOCK`] consecutive samples of the plan with these azimuth offsets and
-/// elevations (rad), the centre and radius of a ball holding the block's unit directions, and the
-/// largest distance of those from the block's chord (the segment from its first unit direction to
-/// its last): the splat shader's culling balls and chords.
+/// Returns the splat shader's culling balls and chords, per block of [`BLOCK`] consecutive samples
+/// of the plan with these azimuth offsets and elevations (rad). Each block gets the centre and
+/// radius of a ball holding its unit directions, and the largest distance of those from its chord
+/// (the segment from its first unit direction to its last).
 pub(crate) fn block_bounds(azimuths: &[f64], elevations: &[f64]) -> (Vec<(DVec3, f64)>, Vec<f64>) {
     let units = unit_directions(azimuths, elevations);
     let reaches = chords(&units, BLOCK)
@@ -78,7 +81,7 @@ fn distance_to_segment(p: DVec3, a: DVec3, b: DVec3) -> f64 {
 }
 
 /// Returns, per block of `size` of `units`, its chord (first and last unit) and the largest
-/// distance of its units from the chord: a block of a plan's arc (one azimuth, or one elevation
+/// distance of its units from the chord. A block of a plan's arc (one azimuth, or one elevation
 /// row) lies within its sagitta of the chord, far closer than to its ball's centre.
 pub(crate) fn chords(units: &[DVec3], size: usize) -> Vec<(DVec3, DVec3, f64)> {
     units
@@ -94,9 +97,9 @@ pub(crate) fn chords(units: &[DVec3], size: usize) -> Vec<(DVec3, DVec3, f64)> {
         .collect()
 }
 
-/// Returns whether the ball of `radius` around `c` lies wholly outside the field of view and
-/// whether wholly inside it (else across a bound): its value at `c` of each clip bound, less and
-/// plus the radius. The splat shader's `block_side`; branch-free, so that it vectorises over
+/// Returns whether the ball of `radius` around `c` lies wholly outside the field of view, and
+/// whether wholly inside it (else it straddles a bound). Each clip bound is taken at `c`, less and
+/// plus the radius. The splat shader's `block_side`. It is branch-free so that it vectorises over
 /// blocks.
 #[inline(always)]
 pub(crate) fn ball_side(clip: &Clip<'_>, c: [f64; 3], radius: f64) -> (bool, bool) {
@@ -124,11 +127,14 @@ pub(crate) fn ball_side(clip: &Clip<'_>, c: [f64; 3], radius: f64) -> (bool, boo
 }
 
 /// Returns whether every point within `margin` of the segment `[a, b]` lies outside the field of
-/// view, without the range bounds (the ball test has them): past one azimuth half-plane (its
-/// signed distance; for apertures over 180° both, the larger of the two), above the elevation
-/// sheet (`z cos e − ρ sin e`, concave as `ρ` is convex) or below it (`−z cos e − ρ sin e`), both
-/// ends beyond `margin`. The splat shader's `chord_outside`; branch-free, so that it vectorises
-/// over blocks.
+/// view, range bounds aside (the ball test has them). It holds when both ends lie beyond `margin`
+/// of one of:
+///
+/// - one azimuth half-plane, by its signed distance (for apertures over 180°, the larger of both);
+/// - above the elevation sheet, `z cos e − ρ sin e` (concave, as `ρ` is convex);
+/// - below it, `−z cos e − ρ sin e`.
+///
+/// The splat shader's `chord_outside`. It is branch-free so that it vectorises over blocks.
 #[inline(always)]
 pub(crate) fn chord_outside(clip: &Clip<'_>, a: [f64; 3], b: [f64; 3], margin: f64) -> bool {
     let (s, co) = clip.sin_cos_half_el;

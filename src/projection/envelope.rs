@@ -1,17 +1,19 @@
 //! How far the GPU may honestly differ from the f64 reference (README: How the GPU is checked).
 //!
-//! Every sample is given a tolerance of [`RELATIVE_TOLERANCE`] × its range in sonar 2 (plus
-//! [`INPUT_TOLERANCE`] × (`range + |t|`), for the pose and directions reaching the GPU as f32 hi +
-//! lo pairs; [`DOUBLE_F32_TOLERANCE`] for a GPU deciding in double-f32): an interval of ranges,
-//! and the matching intervals of azimuth (divided by the distance from sonar 2's z axis; an
-//! azimuth interval reaching ±π wraps, so such a sample, near a full circle's seam or the z axis,
-//! may be reported anywhere from −π to π) and elevation (divided by the range). The GPU transforms
-//! and decides in f64 (or double-f32), far inside this, and reports ranges and azimuths rounded to
-//! f32 (1e-7 relative). A sample whose intervals straddle a clip bound or a bin edge may land
-//! either way; all other samples must land exactly where the reference puts them. This module
-//! returns, for one pose, the *certain* occupancy (pixels set by samples far from every edge), the
-//! *possible* occupancy (every pixel a sample could reach within its tolerance), and matching
-//! intervals for every metric. A correct GPU result lies inside all of them.
+//! 1. Each sample gets a range tolerance of [`RELATIVE_TOLERANCE`] × its range in sonar 2. Add
+//!    [`INPUT_TOLERANCE`] × (`range + |t|`), since the pose and directions reach the GPU as f32
+//!    hi + lo pairs. A GPU deciding in double-f32 uses [`DOUBLE_F32_TOLERANCE`] instead.
+//! 2. The matching azimuth interval divides it by the distance from sonar 2's z axis, and the
+//!    elevation interval by the range. An azimuth interval reaching ±π wraps: such a sample, near a
+//!    full circle's seam or the z axis, may be reported anywhere from −π to π.
+//! 3. The GPU transforms and decides in f64 (or double-f32), far inside this. It reports ranges and
+//!    azimuths rounded to f32 (1e-7 relative).
+//! 4. A sample whose intervals straddle a clip bound or a bin edge may land either way. Every other
+//!    sample must land exactly where the reference puts it.
+//!
+//! For one pose, this module returns the *certain* occupancy (pixels set by samples far from every
+//! edge), the *possible* occupancy (every pixel a sample could reach within its tolerance), and
+//! matching intervals for every metric. A correct GPU result lies inside all of them.
 
 use crate::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
 use crate::gpu::Precision;
@@ -40,8 +42,8 @@ pub struct Bounds {
     pub visible_max: u64,
     /// Samples within tolerance of a clip bound or bin edge.
     pub near_edge: u64,
-    /// Pixels set by samples far from every edge: a correct result sets all of them (in the
-    /// order of the sonar's data, as the backends' occupancy).
+    /// Pixels set by samples far from every edge: a correct result sets all of them. In the order
+    /// of the sonar's data, as the backends' occupancy.
     pub certain: Occupancy,
     /// Pixels any sample could reach: a correct result sets none outside.
     pub possible: Occupancy,
@@ -54,14 +56,14 @@ pub struct Bounds {
     /// Interval of the largest visible azimuth (deg).
     pub azimuth_max: (f64, f64),
     /// Projection-area cells set by samples far from every cell edge and clip bound: a correct
-    /// result counts at least these (empty without an area grid).
+    /// result counts at least these. Empty without an area grid.
     pub cells_certain: Occupancy,
     /// Projection-area cells any sample could reach: a correct result counts no more.
     pub cells_possible: Occupancy,
 }
 
-/// Returns the envelope of one pose for results decided in f64 (the CPU paths, a GPU with f64):
-/// see the module documentation.
+/// Returns the envelope of one pose for results decided in f64 (the CPU paths, a GPU with f64). See
+/// the module documentation.
 #[must_use]
 pub fn bounds(
     layout: &Layout,
@@ -73,8 +75,8 @@ pub fn bounds(
     bounds_with(layout, plan, base_azimuth, range, pose, INPUT_TOLERANCE)
 }
 
-/// Returns the envelope of one pose with `input_tolerance` (relative to `range + |t|`) in place
-/// of [`INPUT_TOLERANCE`]: [`input_tolerance`] gives it for a GPU's precision.
+/// Returns the envelope of one pose with `input_tolerance` (relative to `range + |t|`) in place of
+/// [`INPUT_TOLERANCE`]. [`input_tolerance`] gives it for a GPU's precision.
 #[must_use]
 pub fn bounds_with(
     layout: &Layout,
@@ -122,10 +124,9 @@ pub fn bounds_with(
             let bins =
                 layout.range_bin(r_lo.max(layout.range_min))..=layout.range_bin(r_hi.min(layout.range_max));
             let beams = candidate_beams(layout, az, d_az);
-            // Reported azimuths lie in [−π, π]: an interval reaching ±π wraps (a sample near the
-            // seam of a full circle, or near the z axis), and the sample may be reported
-            // anywhere from −π to π (within its tolerance, which covers an f32 π) as far as the
-            // extremes go.
+            // Reported azimuths lie in [−π, π]. An interval reaching ±π wraps (a sample near the
+            // seam of a full circle, or near the z axis). For the extremes, such a sample may be
+            // reported anywhere from −π to π, within its tolerance, which covers an f32 π.
             let (az_lo, az_hi) = if az - d_az <= -PI || az + d_az >= PI {
                 (-PI - d_az, PI + d_az)
             } else {
@@ -155,8 +156,8 @@ pub fn bounds_with(
                 }
             }
             if let Some(grid) = &layout.area_grid {
-                // The image point r (cos az, sin az) moves by at most tol along the range and
-                // r · d_az across it, plus the GPU's f32 cell arithmetic (CELL_SLACK).
+                // The image point r (cos az, sin az) moves by at most tol along the range and r ·
+                // d_az across it, plus the GPU's f32 cell arithmetic (CELL_SLACK).
                 let e = tol + r * d_az + CELL_SLACK * layout.range_max;
                 let (x, y) = (r * az.cos(), r * az.sin());
                 let (i0, j0) = grid.cell_of(x - e, y - e);
@@ -183,8 +184,8 @@ pub fn bounds_with(
     }
 }
 
-/// Returns the beams a sample at azimuth `az` ± `d_az` (rad) can fall in, wrapping around ±π
-/// when the aperture is the full circle.
+/// Returns the beams a sample at azimuth `az` ± `d_az` (rad) can fall in. It wraps around ±π when
+/// the aperture is the full circle.
 fn candidate_beams(layout: &Layout, az: f64, d_az: f64) -> Vec<usize> {
     let h = layout.half_azimuth;
     let span = |lo: f64, hi: f64| -> Vec<usize> {
@@ -220,7 +221,7 @@ impl Bounds {
         (sum(&self.certain), sum(&self.possible))
     }
 
-    /// Returns the interval `(certain, possible)` of the projection area (m²) under `layout`;
+    /// Returns the interval `(certain, possible)` of the projection area (m²) under `layout`, or
     /// `None` without an area grid.
     #[must_use]
     pub fn projection_area(&self, layout: &Layout) -> Option<(f64, f64)> {

@@ -1,16 +1,17 @@
-//! Projecting a batch of measurements into sonar 2: the batch and its preparation ([`batch`]),
-//! the three backends — the f64 reference ([`reference`](mod@reference)), the fast CPU path ([`fast`]) and the
-//! GPU ([`gpu`]) — behind one [`Backend`] with one selection policy ([`backend`]), and the
-//! envelope an f32 result may honestly lie in ([`envelope`]).
+//! Projects a batch of measurements into sonar 2.
+//!
+//! [`batch`] holds the batch and its preparation. The three backends are the f64 reference
+//! ([`reference`](mod@reference)), the fast CPU path ([`fast`]) and the GPU ([`gpu`]). One
+//! [`Backend`] selects among them ([`backend`]). [`envelope`] is the envelope an f32 result may
+//! honestly lie in.
 //!
 //! The API is [`Backend`]: a [`Batch`] of items, or a [`PoseSweep`] of a grid or list, into
-//! projections or [`MetricColumns`]. What lies under it — a batch prepared
-//! ([`Batch::prepare`]), and each backend's own call on it (`fast::project`,
-//! `reference::project`, `GpuBackend::project`) — is hidden from the documentation: the tests
-//! and benches reach it to hold the backends against each other and to time them apart from the
-//! preparation; its shape may change with the engine.
+//! projections or [`MetricColumns`]. The prepared batch ([`Batch::prepare`]) and each backend's own
+//! call (`fast::project`, `reference::project`, `GpuBackend::project`) are hidden from the docs and
+//! may change. Tests and benches use them to compare the backends and to time them without the
+//! preparation.
 //!
-//! Stages are twins: `reference::splat` and `reference::reduce`, `fast::project`'s splat and
+//! The stages are twins: `reference::splat` and `reference::reduce`, `fast::project`'s splat and
 //! reduce steps, and `shaders/splat.wgsl` and `shaders/reduce.wgsl` take the same inputs in the
 //! same order.
 

@@ -1,7 +1,7 @@
-//! Pose sources: the poses of a sweep given as a grid (decoded from its index where the work
-//! runs) or a list, so that a million poses cost no million objects. [`PoseGrid::item`] is the
-//! definition of a grid's pose `i`; the decoder the fast path runs (`GridTables`) builds the
-//! same pose from tables made once per grid, bit for bit (a unit test holds it to that).
+//! Pose sources: a sweep's poses as a grid or a list, so that a million poses cost no million
+//! objects. A grid is decoded from the pose index where the work runs. [`PoseGrid::item`] defines a
+//! grid's pose `i`. The fast path's decoder (`GridTables`) builds the same pose from tables made
+//! once per grid, bit for bit. A unit test holds it to that.
 
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
@@ -15,8 +15,8 @@ use crate::occupancy::Layout;
 use crate::projection::{Batch, BatchItem};
 use crate::sampling::{Measurement, Sampling, SamplingPlan};
 
-/// The names of a grid's nine axes, in [`PoseGrid`] order, with a placement (the second three
-/// are where the feature appears in sonar 2).
+/// The names of a grid's nine axes with a placement, in [`PoseGrid`] order. The second three are
+/// where the feature appears in sonar 2.
 pub const PLACEMENT_AXES: [&str; 9] = [
     "range",
     "azimuth",
@@ -42,8 +42,8 @@ pub const TRANSLATION_AXES: [&str; 9] = [
     "yaw",
 ];
 
-/// Returns the error of a grid of `axes` (name, values) with more than [`MAX_POSES`] poses,
-/// naming `field`, the axes that multiply and their product.
+/// Returns the error for a grid of `axes` (name, values) with more than [`MAX_POSES`] poses. It
+/// names `field`, the axes that multiply and their product.
 #[must_use]
 pub fn too_many_poses(field: &str, axes: &[(&str, usize)]) -> Error {
     let sizes: Vec<String> = axes
@@ -51,7 +51,7 @@ pub fn too_many_poses(field: &str, axes: &[(&str, usize)]) -> Error {
         .filter(|(_, n)| *n > 1)
         .map(|(name, n)| format!("{name} {n}"))
         .collect();
-    // As a float: the product may pass u64.
+    // A float, since the product may overflow u64.
     #[expect(clippy::cast_precision_loss, reason = "an order of magnitude to show")]
     let total: f64 = axes.iter().map(|(_, n)| *n as f64).product();
     Error::invalid(
@@ -64,10 +64,11 @@ pub fn too_many_poses(field: &str, axes: &[(&str, usize)]) -> Error {
     )
 }
 
-/// A grid of poses: every combination of nine axes' values, the last axis fastest (mixed
-/// radix). The axes are the feature's true point in sonar 1 (range m, azimuth deg, elevation
-/// deg), then its place in sonar 2 (range, azimuth, elevation) or the translation `t` (m), then
-/// roll, pitch and yaw (deg, [`Rotation::RollPitchYaw`]).
+/// A grid of poses: every combination of nine axes' values, the last axis fastest (mixed radix).
+/// The axes are, in order:
+/// - the feature's true point in sonar 1: range (m), azimuth (deg), elevation (deg);
+/// - its place in sonar 2 (range, azimuth, elevation), or the translation `t` (m);
+/// - roll, pitch and yaw (deg, [`Rotation::RollPitchYaw`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PoseGrid {
     axes: [Vec<f64>; 9],
@@ -115,12 +116,12 @@ impl PoseSource<'_> {
 }
 
 impl PoseGrid {
-    /// Returns the grid over `axes` (in the order of [`PLACEMENT_AXES`] when `placement`, else
-    /// of [`TRANSLATION_AXES`]) after checking it against sonar 1 `source`: every axis has 1 to
-    /// [`MAX_AXIS_VALUES`] finite values, the grid at most [`MAX_POSES`] poses, every feature
-    /// point lies in `source`'s field of view, and every translation is within
-    /// [`MAX_TRANSLATION`] (for a placement: the largest place range plus the largest feature
-    /// range is, so that no pose of the grid can fail).
+    /// Returns the grid over `axes` after checking it against sonar 1 `source`, so that no pose of
+    /// the grid can fail. The axes are in the order of [`PLACEMENT_AXES`] when `placement`, else of
+    /// [`TRANSLATION_AXES`]. Every axis must have 1 to [`MAX_AXIS_VALUES`] finite values, and the
+    /// grid at most [`MAX_POSES`] poses. Every feature point must lie in `source`'s field of view.
+    /// Every translation must be within [`MAX_TRANSLATION`]. For a placement, the largest place
+    /// range plus the largest feature range must be within it.
     ///
     /// # Errors
     /// [`Error::InvalidValue`] naming the axis, the value and the allowed range.
@@ -180,8 +181,8 @@ impl PoseGrid {
     /// # Errors
     /// [`Error::InvalidValue`] naming the axis.
     fn check_features(&self, source: &Sonar) -> Result<()> {
-        // Bounds are per coordinate, so checking each value with the others at their first
-        // values covers every combination.
+        // Bounds are per coordinate, so checking each value with the others at their first values
+        // covers every combination.
         for k in 0..3 {
             for &v in &self.axes[k] {
                 let mut p = [self.axes[0][0], self.axes[1][0], self.axes[2][0]];
@@ -272,8 +273,8 @@ impl PoseGrid {
         std::array::from_fn(|k| self.axes[k][idx[k]])
     }
 
-    /// Returns pose `i` as a batch item (measured by `source`, the sonar the grid was checked
-    /// against): the definition the decoders are held to.
+    /// Returns pose `i` as a batch item, measured by `source` (the sonar the grid was checked
+    /// against). This is the definition the decoders are held to.
     ///
     /// # Errors
     /// As [`item_of`] (none for a grid checked by [`PoseGrid::new`] against `source`).
@@ -282,8 +283,8 @@ impl PoseGrid {
     }
 }
 
-/// Returns the batch item of one grid row `v` (the nine values in [`PoseGrid`] order): the
-/// measurement of the feature `(v[0], v[1])` by `source`, and the pose with roll/pitch/yaw
+/// Returns the batch item of one grid row `v` (the nine values in [`PoseGrid`] order). The item is
+/// the measurement of the feature `(v[0], v[1])` by `source`, and the pose with roll/pitch/yaw
 /// `v[6..9]` and the placement (or translation) `v[3..6]`.
 ///
 /// # Errors
@@ -306,9 +307,9 @@ pub fn item_of(source: &Sonar, v: &[f64; 9], placement: bool) -> Result<BatchIte
     })
 }
 
-/// A sweep: one sonar pair, one sampling rule and an area grid (as a [`Batch`]'s), and poses
-/// from a source. [`Backend::project_columns`](crate::Backend::project_columns) projects any
-/// range of its poses into metric columns.
+/// A sweep: one sonar pair, one sampling rule and an area grid (as a [`Batch`]'s), and poses from a
+/// source. [`Backend::project_columns`](crate::Backend::project_columns) projects any range of its
+/// poses into metric columns.
 #[derive(Clone, Debug)]
 pub struct PoseSweep<'a> {
     /// Sonar 1, which measured the features.
@@ -324,8 +325,7 @@ pub struct PoseSweep<'a> {
 }
 
 impl PoseSweep<'_> {
-    /// Returns the batch of poses `range` (their items, in order): what the per-item backends
-    /// run.
+    /// Returns the batch of poses `range`, their items in order. The per-item backends run it.
     ///
     /// # Errors
     /// As [`PoseSource::item`].
@@ -338,10 +338,10 @@ impl PoseSweep<'_> {
         })
     }
 
-    /// Returns the local precision (`recover`'s first-order model, [`local_precision`](crate::local_precision::local_precision)) of
-    /// poses `range` of a grid at each feature's true point, for range error `sigma` (m), into
-    /// `range_per_elevation` and `sigma_elevation` (their rows replaced; NaN where there is no
-    /// value), on all cores.
+    /// Computes the local precision of poses `range` of a grid, at each feature's true point, for
+    /// range error `sigma` (m), on all cores. The model is `recover`'s first-order one
+    /// ([`local_precision`](crate::local_precision::local_precision)). The rows of
+    /// `range_per_elevation` and `sigma_elevation` are replaced, with NaN where there is no value.
     ///
     /// # Errors
     /// [`Error::Input`] for a list of poses (its items carry their own true points: their
@@ -400,7 +400,7 @@ impl PoseSweep<'_> {
         Ok(())
     }
 
-    /// Returns a batch of this sweep's sonars and sampling without items.
+    /// Returns a batch of this sweep's sonars and sampling, without items.
     fn empty_batch(&self) -> Batch {
         Batch {
             sigma_range: None,
@@ -412,9 +412,9 @@ impl PoseSweep<'_> {
         }
     }
 
-    /// Returns grid `grid` prepared for the fast path: the pair and sampling checked, the grid's
-    /// features checked against sonar 1, one plan per distinct sample count of the feature's
-    /// range axis.
+    /// Returns grid `grid` prepared for the fast path. The pair and sampling are checked, and the
+    /// grid's features checked against sonar 1. There is one plan per distinct sample count of the
+    /// feature's range axis.
     ///
     /// # Errors
     /// As [`Batch::checker`] and [`ItemChecker::check`](crate::projection::ItemChecker::check).
@@ -425,8 +425,8 @@ impl PoseSweep<'_> {
         let layout = Layout::of(&self.target).with_area_grid(self.area_grid)?;
         let mut plans: Vec<(usize, usize)> = Vec::new();
         let mut plan_of_range = Vec::with_capacity(grid.axes[0].len());
-        // Sample counts depend on the measured range only (auto sampling), so one item per
-        // range value tells them.
+        // Sample counts depend only on the measured range (auto sampling), so one item per range
+        // value tells them.
         let stride: u64 = grid.axes[1..].iter().map(|a| a.len() as u64).product();
         for r in 0..grid.axes[0].len() as u64 {
             let counts = checker.check(&grid.item(&self.source, r * stride)?)?;
@@ -463,19 +463,19 @@ pub(crate) struct PreparedGrid<'a> {
 }
 
 impl PreparedGrid<'_> {
-    /// Returns the index of pose `i`'s range value (one division: the range axis is the
-    /// slowest).
+    /// Returns the index of pose `i`'s range value. One division suffices: the range axis is the
+    /// slowest.
     #[expect(clippy::cast_possible_truncation, reason = "an index into the range axis")]
     pub(crate) fn range_index(&self, i: u64) -> usize {
         (i / self.range_stride) as usize
     }
 }
 
-/// A grid's tables, built once in f64 so that decoding a pose takes no trigonometry: the axis
-/// rotations per roll, pitch and yaw value, the rotation about z by each feature azimuth (the
-/// arc's base azimuth, an FLS source), and the cosines and sines of the spherical angles.
-/// Decoding composes them in the operations [`item_of`] runs, so a decoded pose equals the
-/// item's bit for bit.
+/// A grid's tables, built once in f64 so that decoding a pose takes no trigonometry. They hold the
+/// axis rotations per roll, pitch and yaw value, the rotation about z by each feature azimuth (the
+/// arc's base azimuth, an FLS source), and the cosines and sines of the spherical angles. Decoding
+/// composes them in the operations [`item_of`] runs, so a decoded pose equals the item's bit for
+/// bit.
 pub(crate) struct GridTables<'a> {
     grid: &'a PoseGrid,
     rx: Vec<DMat3>,
@@ -488,8 +488,7 @@ pub(crate) struct GridTables<'a> {
     range_stride: u64,
 }
 
-/// One decoded pose: `R`, `t`, the measured range and the rotation about z by the base
-/// azimuth.
+/// One decoded pose: `R`, `t`, the measured range and the rotation about z by the base azimuth.
 pub(crate) struct DecodedPose {
     pub(crate) rotation: DMat3,
     pub(crate) translation: DVec3,
@@ -549,7 +548,6 @@ impl<'a> GridTables<'a> {
         (i / self.range_stride) as usize
     }
 
-    /// Returns pose `i`, decoded.
     #[inline]
     pub(crate) fn decode(&self, i: u64) -> DecodedPose {
         let g = self.grid;
@@ -575,7 +573,7 @@ impl<'a> GridTables<'a> {
     }
 }
 
-/// Returns `sph_to_cart` of `(r, az, el)` in degrees (the grid's placement points, for tests).
+/// Returns `sph_to_cart` of `(r, az, el)` in degrees, for the grid's placement points in tests.
 #[cfg(test)]
 fn sph_deg(r: f64, az: f64, el: f64) -> DVec3 {
     crate::geometry::pose::sph_to_cart(r, az.to_radians(), el.to_radians())

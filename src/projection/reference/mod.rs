@@ -1,5 +1,5 @@
-//! The CPU reference: plain f64 loops, written to be obviously right, one module per shader stage
-//! (`splat` ↔ `shaders/splat.wgsl`, `reduce` ↔ `shaders/reduce.wgsl`). How far an f32
+//! The CPU reference: plain f64 loops, written to be obviously right. Each module twins a shader
+//! stage: `splat` ↔ `shaders/splat.wgsl`, `reduce` ↔ `shaders/reduce.wgsl`. How far an f32
 //! implementation may honestly differ from it is [`crate::projection::envelope`].
 
 pub mod reduce;
@@ -9,8 +9,8 @@ use crate::metrics::Metrics;
 use crate::occupancy::Occupancy;
 use crate::projection::{Output, PreparedBatch, Projection};
 
-/// Returns the projections of every item of `prepared`, computed in f64 one sample at a time;
-/// with [`Output::WithOccupancy`] each carries its occupancy buffer.
+/// Returns the projections of every item of `prepared`, computed in f64 one sample at a time. With
+/// [`Output::WithOccupancy`] each carries its occupancy buffer.
 #[must_use]
 pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> {
     let keep_occupancy = output == Output::WithOccupancy;

@@ -1,7 +1,9 @@
-//! The reference's reduce stage (the GPU's is `shaders/reduce.wgsl`, its fast CPU twin the
-//! reduce step of `projection::fast`): one pose's occupancy buffer becomes the occupied count and
-//! the occupied measure (bin widths for an SSS, true pixel areas for an FLS: README: Conventions),
-//! and its projection-area cells become the projection area.
+//! The reference's reduce stage. Its twins are `shaders/reduce.wgsl` and the reduce step of
+//! `projection::fast`.
+//!
+//! One pose's occupancy buffer becomes the occupied count and the occupied measure. The measure is
+//! bin widths for an SSS and true pixel areas for an FLS (README: Conventions). The pose's
+//! projection-area cells become the projection area.
 
 use crate::occupancy::{Layout, Occupancy};
 
@@ -18,7 +20,7 @@ pub fn reduce(layout: &Layout, occupancy: &Occupancy) -> (u64, f64) {
 }
 
 /// Returns the projection area (m²) of the grid `cells` drawn in `layout`: their count times a
-/// cell's area; `None` for a layout without an area grid (an SSS).
+/// cell's area. Returns `None` for a layout without an area grid (an SSS).
 #[must_use]
 pub fn projection_area(layout: &Layout, cells: &Occupancy) -> Option<f64> {
     layout.area_grid.map(|g| g.area(cells.count()))

@@ -1,17 +1,15 @@
-//! The reference's splat stage, written to be obviously right (trigonometry, one sample at a
-//! time): every sample of one pose is placed in sonar 1, moved into sonar 2 (`R p + t`),
-//! clipped to its field of view and set in the occupancy buffer. The GPU's `shaders/splat.wgsl`
-//! and its CPU twin `projection::fast` run a faster algorithm that tests hold to this one.
-//! Arguments: sonar 2's layout, the plan (sample directions), the feature's base azimuth and
-//! range, the pose, and the occupancy and projection-area cells it writes; it returns what the
-//! shader accumulates in `metrics` (visible count, extremes).
+//! The reference's splat stage, written to be obviously right: trigonometry, one sample at a time.
+//!
+//! Every sample of one pose is placed in sonar 1, moved into sonar 2 (`R p + t`), clipped to its
+//! field of view and set in the occupancy buffer. `shaders/splat.wgsl` and its CPU twin
+//! `projection::fast` run a faster algorithm, and tests hold them to this one.
 
 use crate::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
 use crate::metrics::Extremes;
 use crate::occupancy::{Layout, Occupancy};
 use crate::sampling::SamplingPlan;
 
-/// What splatting one pose produced besides the occupancy bits.
+/// The result of splatting one pose, besides the occupancy bits.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SplatResult {
     /// Samples kept by the clip.
@@ -20,10 +18,10 @@ pub struct SplatResult {
     pub extremes: Extremes,
 }
 
-/// Splats the samples of `plan` (measured at `range`, azimuths offset by `base_azimuth`) through
-/// `pose` into `occupancy` (and, for a layout with an area grid, each visible sample's grid cell
-/// at `x = r cos az`, `y = r sin az` into `cells`), and returns the visible count and the
-/// extremes.
+/// Splats the samples of `plan` through `pose` into `occupancy`, and returns the visible count and
+/// the extremes. The samples are measured at `range`, their azimuths offset by `base_azimuth`. For
+/// a layout with an area grid, each visible sample also sets its grid cell (`x = r cos az`, `y = r
+/// sin az`) in `cells`.
 pub fn splat(
     layout: &Layout,
     plan: &SamplingPlan,
