@@ -1,5 +1,5 @@
-//! One interface over the three backends, so every caller (CLI, Python, tests, benches) can run
-//! any of them, and the one policy that picks where a choice runs.
+//! One interface over the three backends, so every caller (CLI, Python, tests, benches) can run any
+//! of them, and the one policy that picks where a choice runs.
 
 use crate::error::{Error, Param, Result};
 use crate::gpu::{GpuContext, GpuOptions, context};
@@ -11,34 +11,34 @@ use crate::stream::{Flow, Stop};
 /// Which backend a user asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BackendChoice {
-    /// The GPU when a hardware adapter exists, else the fast CPU path (with a one-line notice;
-    /// a software adapter such as lavapipe is slower than the CPU path on the same cores).
+    /// The GPU when a hardware adapter exists, else the fast CPU path with a one-line notice. A
+    /// software adapter such as lavapipe is slower than the CPU path on the same cores.
     Auto,
     /// The CPU reference (f64, one core, written to be obviously right).
     Cpu,
     /// The fast CPU path: the GPU's algorithm in f64 on every core.
     CpuFast,
-    /// The GPU (WGSL through wgpu); fails when no adapter exists.
+    /// The GPU (WGSL through wgpu). Fails when no adapter exists.
     Gpu,
 }
 
-/// Returns where a [`BackendChoice`] runs: the CPU (with the notice saying why when `auto` fell
-/// back to it) or a GPU device, which projections ([`Backend`]) and masks
-/// ([`crate::masks::MaskEngine`]) can share.
+/// Where a [`BackendChoice`] runs: the CPU, or a GPU device that projections ([`Backend`]) and
+/// masks ([`crate::masks::MaskEngine`]) can share. When `auto` fell back to the CPU, it says why.
 #[derive(Debug)]
 pub enum Device {
-    /// The CPU; the notice when `auto` found no usable GPU.
+    /// The CPU, with the notice when `auto` found no usable GPU.
     Cpu(Option<Notice>),
     /// A GPU device.
     Gpu(Box<GpuContext>),
 }
 
 impl BackendChoice {
-    /// Returns the device this choice runs on: the one selection policy of projections and
-    /// masks. `auto` takes a hardware GPU adapter and otherwise the CPU, saying why: a software
-    /// adapter (lavapipe, llvmpipe, WARP) runs on the same cores as the CPU path and measured
-    /// several times slower than it (BENCHMARKS.md). A GPU is the process's one context for
-    /// `gpu` ([`GpuContext::open`]); the CPU choices never look at `gpu`.
+    /// Returns the device this choice runs on: the one selection policy of projections and masks.
+    ///
+    /// `auto` takes a hardware GPU adapter, else the CPU and says why. A software adapter
+    /// (lavapipe, llvmpipe, WARP) runs on the same cores as the CPU path and measured several times
+    /// slower than it (BENCHMARKS.md). A GPU is the process's one context for `gpu`
+    /// ([`GpuContext::open`]). The CPU choices never look at `gpu`.
     ///
     /// # Errors
     /// [`Error::NoAdapter`], [`Error::InvalidValue`] (an option) or [`Error::Gpu`] when `Gpu`
@@ -61,16 +61,16 @@ impl BackendChoice {
     }
 }
 
-/// Why a choice runs on the CPU although `auto` looked for a GPU: a value each front says in one
-/// line its own way ([`Notice::render`]; `Display` names the GPU options neutrally).
+/// Why a choice runs on the CPU although `auto` looked for a GPU. Each front says it in one line
+/// its own way ([`Notice::render`]). `Display` names the GPU options neutrally.
 #[derive(Clone, Debug)]
 #[non_exhaustive]
 pub enum Notice {
-    /// The only GPU adapter is a software one (its name), slower than the CPU path.
+    /// The only GPU adapter is a software one (named), slower than the CPU path.
     SoftwareAdapter(String),
     /// wgpu found no adapter.
     NoAdapter,
-    /// The GPU could not be had (an adapter name that matches none, a device that failed).
+    /// The GPU could not be had: an adapter name that matches none, or a device that failed.
     GpuUnavailable(std::sync::Arc<Error>),
     /// The GPU mask engine does not take this sonar pair (a field of view of 180° or wider).
     MasksOnCpu(std::sync::Arc<Error>),
@@ -103,7 +103,7 @@ impl std::fmt::Display for Notice {
 /// What a projection returns besides its metrics.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Output {
-    /// The metrics only (the occupancy buffers are not kept, or read back from the GPU).
+    /// The metrics only. The occupancy buffers are not kept, nor read back from the GPU.
     MetricsOnly,
     /// The metrics and each item's occupancy buffer.
     WithOccupancy,
@@ -121,8 +121,8 @@ pub enum Backend {
 }
 
 impl Backend {
-    /// Returns the backend for `choice` (a GPU opened with `gpu`) and, when `auto` fell back to
-    /// the CPU, a one-line notice saying why.
+    /// Returns the backend for `choice` (a GPU opened with `gpu`). When `auto` fell back to the
+    /// CPU, it also returns a one-line notice saying why.
     ///
     /// # Errors
     /// As [`BackendChoice::device`]; [`Error::Gpu`] when the device refuses a stage.
@@ -168,7 +168,7 @@ impl Backend {
         }
     }
 
-    /// Returns the name for tables: [`Backend::name`], with `gpu-sw` for a software adapter
+    /// Returns the name for tables: [`Backend::name`], or `gpu-sw` for a software adapter
     /// (lavapipe, llvmpipe, WARP), whose speed says nothing of a real GPU's.
     #[must_use]
     pub fn label(&self) -> &'static str {
@@ -194,9 +194,9 @@ impl Backend {
         }
     }
 
-    /// Returns what of this backend decides its numbers, as `(name, value)` pairs: the backend,
-    /// and for a GPU its adapter (name, API, driver), the splat stage's precision and its
-    /// options. Results with equal settings (and equal inputs) are equal; the fast CPU path's
+    /// Returns the settings that decide this backend's numbers, as `(name, value)` pairs. They are
+    /// the backend and, for a GPU, its adapter (name, API, driver), the splat stage's precision and
+    /// its options. Equal settings and equal inputs give equal results. The fast CPU path's results
     /// do not depend on its thread count.
     #[must_use]
     pub fn settings(&self) -> Vec<(&'static str, String)> {
@@ -251,7 +251,7 @@ impl Backend {
 }
 
 /// Poses the per-item backends (the reference, the GPU) take at a time from a pose source in
-/// [`Backend::project_columns`]: their items and results stay small whatever the range.
+/// [`Backend::project_columns`]. Their items and results stay small whatever the range.
 const ITEMS_AT_ONCE: u64 = 1 << 16;
 
 impl Backend {
@@ -303,8 +303,8 @@ impl Backend {
         let mut start = range.start;
         while start < range.end {
             let end = range.end.min(start + ITEMS_AT_ONCE);
-            // Metrics alone: the items' true points (a list's) would cost a local precision
-            // the columns do not hold.
+            // Metrics alone: a list's true points would cost a local precision the columns do not
+            // hold.
             let mut batch = sweep.batch(start..end)?;
             batch.items.iter_mut().for_each(|i| i.true_point = None);
             for p in self.project_until(&batch, Output::MetricsOnly, stop)? {
@@ -390,9 +390,9 @@ pub fn cpu_device() -> String {
 mod tests {
     use super::*;
 
-    /// A bad option is an input error naming it, for `gpu` and for `auto` alike (which falls
-    /// back to the CPU only when no usable GPU exists, not on bad input), before any adapter is
-    /// looked for; the CPU choices never look at the options.
+    /// A bad option is an input error naming it, before any adapter is looked for. This holds for
+    /// `gpu` and for `auto` alike: `auto` falls back to the CPU only when no usable GPU exists, not
+    /// on bad input. The CPU choices never look at the options.
     #[test]
     fn bad_gpu_options_are_input_errors() {
         let bad = GpuOptions {

@@ -1,6 +1,6 @@
 //! A batch of projections: one sonar pair, one sampling rule, many (measurement, pose) items.
-//! Preparing it turns every measurement into a sampling plan, shared between items with the same
-//! sample counts, which is what both backends consume.
+//! Preparing it turns every measurement into a sampling plan, which both backends consume. Items
+//! with the same sample counts share a plan.
 
 use std::collections::HashMap;
 
@@ -21,8 +21,8 @@ pub struct BatchItem {
     pub measurement: Measurement,
     /// The pose mapping sonar-1 to sonar-2 coordinates.
     pub pose: RelativePose,
-    /// The feature's true point in sonar 1, `[range m, azimuth deg, elevation deg]`, when known:
-    /// its projection then carries the local precision there ([`Projection::local`]).
+    /// The feature's true point in sonar 1, `[range m, azimuth deg, elevation deg]`, when known.
+    /// Its projection then carries the local precision there ([`Projection::local`]).
     pub true_point: Option<[f64; 3]>,
 }
 
@@ -35,11 +35,11 @@ pub struct Batch {
     pub target: Sonar,
     /// How the back-projected sets are sampled.
     pub sampling: Sampling,
-    /// The cell side (m) of the grid the projection area is counted in (FLS target; the paper's
-    /// is [`PAPER_AREA_GRID`](crate::PAPER_AREA_GRID)): see [`AreaGrid`](crate::occupancy::AreaGrid).
+    /// The cell side (m) of the grid the projection area is counted in (FLS target). The paper's is
+    /// [`PAPER_AREA_GRID`](crate::PAPER_AREA_GRID). See [`AreaGrid`](crate::occupancy::AreaGrid).
     pub area_grid: f64,
-    /// The range error (m) the local precision of an item with a true point is computed for;
-    /// `None`: [`default_sigma_range`](crate::local_precision::default_sigma_range).
+    /// The range error (m) the local precision of an item with a true point is computed for. `None`
+    /// means [`default_sigma_range`](crate::local_precision::default_sigma_range).
     pub sigma_range: Option<f64>,
     /// The projections, in order.
     pub items: Vec<BatchItem>,
@@ -52,16 +52,16 @@ pub struct Projection {
     pub metrics: Metrics,
     /// The occupancy buffer, when it was asked for.
     pub occupancy: Option<Occupancy>,
-    /// The projection-area cells (an FLS target: the layout's
-    /// [`AreaGrid`](crate::occupancy::AreaGrid), `nx` rows of `ny`), when the occupancy was asked
-    /// for.
+    /// The projection-area cells, when the occupancy was asked for. An FLS target only: the
+    /// layout's [`AreaGrid`](crate::occupancy::AreaGrid), `nx` rows of `ny`.
     pub cells: Option<Occupancy>,
-    /// The local precision at the item's true point, when the item gives one (else none).
+    /// The local precision at the item's true point, when the item gives one.
     pub local: LocalPrecision,
 }
 
-/// A batch made ready for a backend: sonar 2's layout and the distinct sampling plans. Hidden:
-/// the backends' own calls take it ([`Backend`](crate::Backend) prepares for its callers).
+/// A batch made ready for a backend: sonar 2's layout and the distinct sampling plans. It is
+/// hidden: the backends' own calls take it, and [`Backend`](crate::Backend) prepares it for its
+/// callers.
 #[doc(hidden)]
 #[derive(Clone, Debug)]
 pub struct PreparedBatch<'a> {
@@ -80,16 +80,16 @@ pub struct PreparedBatch<'a> {
 /// Which plan of [`PreparedBatch::plans`] each item has.
 #[derive(Clone, Debug)]
 enum PlanOf {
-    /// Every item the first (step sampling: the counts do not depend on the item).
+    /// Every item has the first. Step sampling: the counts do not depend on the item.
     First,
-    /// For each item, the index of its plan (4 bytes an item: a million-pose batch touches
-    /// few pages).
+    /// For each item, the index of its plan. At 4 bytes an item, a million-pose batch touches few
+    /// pages.
     Each(Vec<u32>),
 }
 
 impl PreparedBatch<'_> {
     /// Sets each projection's local precision at its item's true point, for the items that give
-    /// one (on all cores): what every backend's projections carry through [`crate::Backend`].
+    /// one, on all cores. Every backend's projections carry it through [`crate::Backend`].
     pub(crate) fn add_local_precision(&self, projections: &mut [Projection]) {
         let b = self.batch;
         if b.items.iter().all(|item| item.true_point.is_none()) {
@@ -108,7 +108,7 @@ impl PreparedBatch<'_> {
         self.batch
     }
 
-    /// Returns whether the batch is solved exactly ([`Sampling::Exact`]): it then has no plans.
+    /// Returns whether the batch is solved exactly ([`Sampling::Exact`]). It then has no plans.
     #[must_use]
     pub fn is_exact(&self) -> bool {
         self.batch.sampling == Sampling::Exact
@@ -160,7 +160,7 @@ impl PreparedBatch<'_> {
         }
     }
 
-    /// Returns the distinct sampling plans (items with equal sample counts share one).
+    /// Returns the distinct sampling plans. Items with equal sample counts share one.
     #[must_use]
     pub fn plans(&self) -> &[SamplingPlan] {
         &self.plans
@@ -176,9 +176,9 @@ impl PreparedBatch<'_> {
     }
 }
 
-/// The checks of items against one sonar pair and sampling, which were validated once when it
-/// was made ([`Batch::checker`]); [`Batch::prepare`] checks its items with one, and a reader
-/// that streams items through small batches checks each row as it comes.
+/// The checks of items against one sonar pair and sampling, validated once when it was made
+/// ([`Batch::checker`]). [`Batch::prepare`] checks its items with one. A reader that streams items
+/// through small batches checks each row as it comes.
 #[derive(Clone, Copy, Debug)]
 pub struct ItemChecker<'a> {
     batch: &'a Batch,
@@ -190,8 +190,8 @@ pub struct ItemChecker<'a> {
 
 impl ItemChecker<'_> {
     /// Returns `item`'s sample counts `(azimuths, elevations)` when it could be an item of the
-    /// batch: its measurement valid for sonar 1, its pose valid and its sampling plan within
-    /// [`MAX_SAMPLES_PER_POSE`](crate::sampling::MAX_SAMPLES_PER_POSE).
+    /// batch. Its measurement must be valid for sonar 1, its pose valid, and its sampling plan
+    /// within [`MAX_SAMPLES_PER_POSE`](crate::sampling::MAX_SAMPLES_PER_POSE).
     ///
     /// # Errors
     /// [`Error::InvalidValue`](crate::Error::InvalidValue) for an invalid measurement or pose,
@@ -201,8 +201,8 @@ impl ItemChecker<'_> {
         self.counts(item)
     }
 
-    /// Returns `Ok` when `item`'s measurement is valid for sonar 1, its pose valid and its true
-    /// point, when it gives one, finite.
+    /// Returns `Ok` when `item`'s measurement is valid for sonar 1, its pose valid, and its true
+    /// point (if any) finite.
     fn validate(&self, item: &BatchItem) -> Result<()> {
         item.measurement.validate(&self.batch.source)?;
         item.pose.validate()?;
@@ -231,8 +231,8 @@ impl ItemChecker<'_> {
 }
 
 impl Batch {
-    /// Returns the checker of items for this batch's sonars and sampling, after validating them
-    /// (once, however many items are checked).
+    /// Returns the checker of items for this batch's sonars and sampling. It validates them once,
+    /// however many items are checked.
     ///
     /// # Errors
     /// [`Error::InvalidValue`](crate::Error::InvalidValue) for an invalid sonar, sampling or
@@ -263,16 +263,15 @@ impl Batch {
     pub fn prepare(&self) -> Result<PreparedBatch<'_>> {
         let checker = self.checker()?;
         let layout = Layout::of(&self.target).with_area_grid(self.area_grid)?;
-        // Every item checked on all cores; on a failure, the first failing item (in order) is
-        // the one named, as a check item by item would find.
+        // Every item is checked on all cores. On a failure, `first_error` names the first failing
+        // item in order, as a check item by item would.
         let check = |k: usize, item: &BatchItem| -> Result<(usize, usize)> {
-            // An invalid item is named; a plan too large is the sampling's fault, not the item's.
+            // An invalid item is named. A plan too large is the sampling's fault, not the item's.
             checker
                 .validate(item)
                 .map_err(|e| e.in_context(format!("item {k}")))?;
             checker.counts(item)
         };
-        // The first failing item (in order) is named, as a check item by item would find.
         let first_error = || {
             let first = self
                 .items
@@ -295,8 +294,9 @@ impl Batch {
             });
         }
         if let Sampling::Step(_) = checker.sampling {
-            // Step sampling counts do not depend on the item: counted once (with the first
-            // item's check), every item then validated on all cores, nothing kept per item.
+            // Step sampling counts do not depend on the item. They are counted once, with the first
+            // item's check. Every item is then validated on all cores, and nothing is kept per
+            // item.
             let plans = match self.items.first() {
                 None => Vec::new(),
                 Some(item) => {
@@ -326,8 +326,8 @@ impl Batch {
         else {
             return Err(first_error());
         };
-        // Plans are drawn once per distinct sample count, not once per item (neighbouring items
-        // mostly share one: the last is tried before the map).
+        // Plans are drawn once per distinct sample count, not once per item. Neighbouring items
+        // mostly share one, so the last is tried before the map.
         let mut plans = Vec::new();
         let mut index: HashMap<u64, u32> = HashMap::new();
         let mut last: Option<(u64, u32)> = None;
@@ -392,8 +392,8 @@ mod tests {
         }
     }
 
-    /// Items are checked on all cores, yet the error names the first invalid item, as a check
-    /// item by item would; plans are shared by items with equal sample counts, in any order.
+    /// Items are checked on all cores, yet the error names the first invalid item, as a check item
+    /// by item would. Plans are shared by items with equal sample counts, in any order.
     #[test]
     fn prepare_names_the_first_invalid_item_and_shares_plans() {
         let items = (0..5000).map(|k| item(1.0 + f64::from(k % 7), 0.0)).collect();
@@ -416,10 +416,9 @@ mod tests {
         assert!(err.contains("item 2500") && !err.contains("item 3000"), "{err}");
     }
 
-    /// Step sampling counts once and keeps nothing per item, with the same answers: every
-    /// item has the one plan, the error names the first invalid item, and a plan too large is
-    /// refused as the sampling's fault unless item 0 is invalid (a check item by item meets that
-    /// first).
+    /// Step sampling counts once and keeps nothing per item, with the same answers. Every item has
+    /// the one plan, and the error names the first invalid item. A plan too large is refused as the
+    /// sampling's fault, unless item 0 is invalid: a check item by item meets that first.
     #[test]
     fn step_sampling_shares_one_plan_and_names_the_first_invalid_item() {
         let mut batch = fls_to_sss(Sampling::Step(0.5), vec![item(5.0, 10.0); 3000]);
