@@ -1,8 +1,8 @@
 //! The GPU backend: WGSL compute shaders through wgpu. A batch is cut into chunks that fit the
-//! device; each chunk is one submission of two stages (splat, reduce) and reads back the metric
-//! slots the caller's columns need, at most 32 bytes a pose (plus the bitsets only when
-//! occupancy is asked for). The CPU twin of the two stages is [`crate::projection::fast`],
-//! block culling included.
+//! device. Each chunk is one submission of two stages (splat, reduce). It reads back the metric
+//! slots the caller's columns need, at most 32 bytes a pose, and the bitsets only when occupancy is
+//! asked for. The CPU twin of the two stages, block culling included, is
+//! [`crate::projection::fast`].
 #![expect(
     clippy::cast_possible_truncation,
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose and counts are bounded by the device limits checked before packing"
@@ -64,40 +64,40 @@ pub(crate) const POSES_WORKGROUP: u64 = 64;
 
 /// Most workgroups one pose's samples are spread over in the splat stage.
 const MAX_TILES: u64 = 1024;
-/// Most bytes one chunk's largest buffer (its bitsets, or its poses) may hold (also capped by
-/// the device's binding size); two chunks are in flight.
+/// Most bytes one chunk's largest buffer (its bitsets, or its poses) may hold. The device's binding
+/// size also caps it. Two chunks are in flight.
 const MAX_CHUNK_BUFFER_BYTES: u64 = 128 << 20;
-/// Chunks a call of many poses (at least 4 × [`MIN_OVERLAP_POSES`]) is cut into at least, so
-/// that the device has the next chunk to project while the host reads one back.
+/// Fewest chunks a call of many poses (at least 4 × [`MIN_OVERLAP_POSES`]) is cut into, so that the
+/// device has the next chunk to project while the host reads one back.
 const OVERLAP_CHUNKS: usize = 4;
-/// Fewest poses a chunk is cut to for that overlap (a submission's fixed cost stays small beside
-/// its work).
+/// Fewest poses a chunk is cut to for that overlap, so a submission's fixed cost stays small beside
+/// its work.
 const MIN_OVERLAP_POSES: usize = 16_384;
 
-/// Variants of the splat stage, chosen when its pipeline is built (WGSL `override` constants), so
-/// that one build can measure each on a GPU.
+/// Variants of the splat stage, chosen when its pipeline is built (WGSL `override` constants). One
+/// build can then measure each on a GPU.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SplatOptions {
-    /// Skip blocks of samples whose ball lies wholly outside sonar 2's view, and the clip tests
-    /// of those wholly inside (the fast CPU path always does). Results are the same either way.
+    /// Skip blocks of samples whose ball lies wholly outside sonar 2's view, and the clip tests of
+    /// those wholly inside. The fast CPU path always does. Results are the same either way.
     pub cull: bool,
-    /// Decide each sample in f32 first, with a slack far above the f32 roundings, and in `Real`
-    /// (f64 or double-f32) only the samples f32 leaves undecided (near a clip bound or a bin or
-    /// beam edge); a hidden sample then takes no `Real` operation, a visible one only its
+    /// Decide each sample in f32 first, with a slack far above the f32 roundings. Only the samples
+    /// f32 leaves undecided (near a clip bound, a bin or a beam edge) are decided in `Real` (f64 or
+    /// double-f32). A hidden sample then takes no `Real` operation, and a visible one only its
     /// `Real` point (the reported range and azimuth). Results are the same either way.
     pub filter: bool,
-    /// Threads a workgroup, one of [`SPLAT_WORKGROUPS`]: a workgroup takes this many
-    /// consecutive samples of a pose at a time. Results are the same whatever it is.
+    /// Threads a workgroup, one of [`SPLAT_WORKGROUPS`]. A workgroup takes this many consecutive
+    /// samples of a pose at a time. Results are the same whatever it is.
     pub workgroup: u32,
 }
 
 impl SplatOptions {
-    /// Returns the variant `options` ask for on `ctx`'s adapter, with the engine's choice where
-    /// they leave one open: culling and the f32 filter on a hardware GPU, where `Real`
-    /// arithmetic costs many f32 operations (f64 on consumer GPUs, double-f32), and neither on
-    /// a software adapter such as lavapipe, measured slower there with each (BENCHMARKS.md);
-    /// workgroups of [`SPLAT_WORKGROUP`] threads. Of `options`, only `cull`, `filter` and
-    /// `workgroup` are read (the device is `ctx`).
+    /// Returns the variant `options` ask for on `ctx`'s adapter. Where they leave a choice open,
+    /// the engine culls and filters in f32 on a hardware GPU, where `Real` arithmetic (f64 on
+    /// consumer GPUs, double-f32) costs many f32 operations. On a software adapter such as lavapipe
+    /// it does neither: each measured slower there (BENCHMARKS.md). Workgroups have
+    /// [`SPLAT_WORKGROUP`] threads. Only `cull`, `filter` and `workgroup` of `options` are read;
+    /// the device is `ctx`.
     #[must_use]
     pub fn for_adapter(ctx: &GpuContext, options: &GpuOptions) -> Self {
         let hardware = !ctx.is_software();
@@ -131,10 +131,10 @@ impl SplatOptions {
     }
 }
 
-/// The GPU backend: a device and the two pipelines, built once, and the chunk buffers, kept
-/// between calls and grown to the largest batch seen ([`GpuBackend::kept_bytes`] says how much
-/// GPU memory that is, [`GpuBackend::release_buffers`] frees it). Calls from several threads at
-/// once are allowed: one uses the kept buffers, the others allocate their own.
+/// The GPU backend: a device, its pipelines built once, and the chunk buffers. The buffers are kept
+/// between calls and grown to the largest batch seen. [`GpuBackend::kept_bytes`] says how much GPU
+/// memory that is, and [`GpuBackend::release_buffers`] frees it. Calls from several threads at once
+/// are allowed: one uses the kept buffers, the others allocate their own.
 #[derive(Debug)]
 pub struct GpuBackend {
     ctx: GpuContext,
@@ -167,7 +167,6 @@ impl GpuBackend {
         Self::build(ctx, options)
     }
 
-    /// Returns the backend on `ctx` with valid `options`.
     fn build(ctx: GpuContext, options: SplatOptions) -> Result<Self> {
         let splat = Stage::with_constants(
             ctx.device(),
@@ -206,13 +205,13 @@ impl GpuBackend {
     }
 
     /// Starts (clearing the sum) or stops timing this backend's compute passes on the device's
-    /// clock; without timestamp queries on the adapter nothing is timed.
+    /// clock. Without timestamp queries on the adapter, nothing is timed.
     pub fn time_device(&self, on: bool) {
         self.clock.set(on);
     }
 
     /// Returns the device time of the compute passes (pose decoding, splat, reduce) since
-    /// [`GpuBackend::time_device`] started timing, or `None` when the adapter has no timestamp
+    /// [`GpuBackend::time_device`] started timing. `None` when the adapter has no timestamp
     /// queries.
     #[must_use]
     pub fn device_time(&self) -> Option<std::time::Duration> {
@@ -223,9 +222,9 @@ impl GpuBackend {
             .then(|| self.clock.total(Timed::Device))
     }
 
-    /// Returns the time the host spent, since [`GpuBackend::time_device`] started timing,
-    /// waiting for chunks to finish on the device and unpacking their results (what a call
-    /// costs beside the device's passes, with two chunks in flight).
+    /// Returns the host's time since [`GpuBackend::time_device`] started timing: waiting for chunks
+    /// to finish on the device, and unpacking their results. It is what a call costs beside the
+    /// device's passes, with two chunks in flight.
     #[must_use]
     pub fn host_time(&self) -> HostTime {
         HostTime {
@@ -240,8 +239,8 @@ impl GpuBackend {
         self.options
     }
 
-    /// Returns the backend with chunks of at most `poses` poses (results do not depend on it;
-    /// tests use it to prove so).
+    /// Returns the backend with chunks of at most `poses` poses. Results do not depend on it, and
+    /// tests use it to prove so.
     #[must_use]
     pub fn with_max_chunk_poses(mut self, poses: usize) -> Self {
         self.max_chunk_poses = Some(poses.max(1));
@@ -252,14 +251,14 @@ impl GpuBackend {
     /// u32 each.
     fn chunk_poses(&self, words: usize, total: usize) -> usize {
         let limits = self.ctx.limits();
-        // The largest of a chunk's buffers a pose: its bitsets, or its packed pose (which also
-        // holds more than its 32 bytes of metrics).
+        // The largest of a chunk's buffers, per pose: its bitsets, or its packed pose (which is
+        // larger than its 32 bytes of metrics).
         let bytes_per_pose = (words as u64 * 4).max(size_of::<PoseGpu>() as u64);
         let budget = MAX_CHUNK_BUFFER_BYTES
             .min(limits.max_storage_buffer_binding_size)
             .min(limits.max_buffer_size);
         let by_memory = (budget / bytes_per_pose).max(1) as usize;
-        // Poses are spread over two dispatch dimensions (splat: y and z; reduce: x and y); the
+        // Poses are spread over two dispatch dimensions (splat: y and z; reduce: x and y). The
         // poses stage takes POSES_WORKGROUP a workgroup along x.
         let dim = u64::from(limits.max_compute_workgroups_per_dimension);
         let by_dispatch = usize::try_from((dim * POSES_WORKGROUP).min(dim * dim)).unwrap_or(usize::MAX);
@@ -271,8 +270,8 @@ impl GpuBackend {
         n
     }
 
-    /// Returns the projections of every item of `prepared`; with [`Output::WithOccupancy`] each
-    /// carries its occupancy buffer (read back from the GPU).
+    /// Returns the projections of every item of `prepared`. With [`Output::WithOccupancy`] each
+    /// carries its occupancy buffer, read back from the GPU.
     ///
     /// # Errors
     /// [`Error::Gpu`] when the device fails or a bitset does not fit in one binding.
@@ -297,7 +296,7 @@ impl GpuBackend {
     }
 
     /// Returns the projections of poses `range` of a prepared grid decoded on the device, with
-    /// their occupancy when `keep_occupancy` (what the tests hold to the envelope).
+    /// their occupancy when `keep_occupancy`. The tests hold these to the envelope.
     ///
     /// # Errors
     /// As [`GpuBackend::project_grid`].
@@ -331,12 +330,12 @@ impl GpuBackend {
         Ok(out)
     }
 
-    /// Projects poses `blocks` of a prepared grid (ranges in increasing order, none empty) block
-    /// by block into `out` (its rows replaced by each block's), handing each block's columns to
-    /// `each` as soon as its last chunk is unpacked: each chunk's poses decoded on the device by the poses
-    /// stage (`shaders/poses.wgsl`) from tables built once in f64, none packed or uploaded by
-    /// the host, and the next block's first chunk already on the device while `each` runs (the
-    /// device does not wait between blocks). Returns `Break` as soon as `each` does.
+    /// Projects poses `blocks` of a prepared grid block by block into `out`, and hands each block's
+    /// columns to `each` once its last chunk is unpacked. Returns `Break` as soon as `each` does.
+    /// `blocks` are ranges in increasing order, none empty; each replaces `out`'s rows. The poses
+    /// stage (`shaders/poses.wgsl`) decodes the poses on the device from tables built once in f64,
+    /// so the host packs and uploads none. The next block's first chunk is already on the device
+    /// while `each` runs, so the device does not wait between blocks.
     ///
     /// # Errors
     /// [`Error::Gpu`] when the device fails or a bitset does not fit in one binding.
@@ -365,9 +364,9 @@ impl GpuBackend {
                 if u.start == run.start {
                     out.resize(run.len());
                 }
-                // Straight into the columns, on all cores, no per-pose object; pieces small
-                // enough for every core to take several (a chunk of 32 768 poses in 4096-row
-                // pieces left half of 16 cores idle).
+                // Straight into the columns, on all cores, with no per-pose object. Pieces are
+                // small enough for every core to take several: a chunk of 32 768 poses in 4096-row
+                // pieces left half of 16 cores idle.
                 let piece = (u.count / (4 * rayon::current_num_threads())).clamp(256, 4096);
                 let rows = u.start - run.start..u.start - run.start + u.count;
                 let rows = out.slices(rows).chunks(piece);
@@ -383,7 +382,7 @@ impl GpuBackend {
         })
     }
 
-    /// Returns the metric columns of poses `range` of a prepared grid into `out` (its rows
+    /// Writes the metric columns of poses `range` of a prepared grid into `out` (its rows
     /// replaced), as [`GpuBackend::project_grid_blocks`] does for one block.
     ///
     /// # Errors
@@ -394,8 +393,8 @@ impl GpuBackend {
         range: std::ops::Range<u64>,
         out: &mut MetricColumns,
     ) -> Result<()> {
-        // No rows for no poses (a block is never empty); else the block's first chunk sets them,
-        // the rows kept from the last call not zeroed first.
+        // No rows for no poses (a block is never empty). Otherwise the block's first chunk sets
+        // them; the rows kept from the last call are not zeroed first.
         if range.is_empty() {
             out.resize(0);
             return Ok(());
@@ -404,28 +403,26 @@ impl GpuBackend {
             .map(|_| ())
     }
 
-    /// Returns the bytes of GPU memory the backend keeps between calls (its chunk buffers, two
-    /// sets once a call had two chunks or more, grown to the largest batch seen so far).
+    /// Returns the bytes of GPU memory the backend keeps between calls: its chunk buffers, grown to
+    /// the largest batch seen so far. There are two sets once a call had two chunks or more.
     #[must_use]
     pub fn kept_bytes(&self) -> u64 {
         self.pool.bytes()
     }
 
-    /// Frees the buffers kept between calls (the next call allocates them again).
+    /// Frees the buffers kept between calls. The next call allocates them again.
     pub fn release_buffers(&self) {
         self.pool.clear();
     }
 
-    /// Projects poses `runs` of `source` (ranges of its poses, in increasing order, each cut into
-    /// chunks of its own) with the buffers of `pool`, handing each chunk's results as read back
-    /// (metric `read_slots`, and the bitsets when `keep_occupancy`) to `emit`, in order, until
-    /// `emit` returns `Break` (returned; the chunk then in flight is left unread). Two chunks are
-    /// in flight: the device projects one while the host reads back, unpacks and hands out the
-    /// one before (and, for items, packs the one after).
+    /// Projects poses `runs` of `source` with the buffers of `pool`, and hands each chunk's results
+    /// to `emit` in order as they are read back. `runs` are ranges of poses in increasing order,
+    /// each cut into its own chunks. The results are the metric `read_slots`, and the bitsets when
+    /// `keep_occupancy`. Stops when `emit` returns `Break`, and returns it; the chunk then in
+    /// flight is left unread.
     ///
-    /// The call in steps: plan the chunks ([`GpuBackend::chunks_of`]), upload sonar 2's tables
-    /// once ([`CallTables::upload`]), take the slots' buffers, then for each chunk submit it
-    /// ([`GpuBackend::submit_chunk`]) and read back the one before ([`GpuBackend::read_back`]).
+    /// Two chunks are in flight: the device projects one while the host reads back, unpacks and
+    /// hands out the one before (and, for items, packs the one after).
     fn project_with(
         &self,
         pool: &mut BufferPool,
@@ -457,7 +454,7 @@ impl GpuBackend {
             grid: tables.grid.is_some(),
             occupancy: keep_occupancy,
         };
-        // The second slot only when there is a second chunk.
+        // A second slot only when there is a second chunk.
         let timed = self.clock.on();
         let slots: Vec<Slot> = (0..chunks.len().clamp(1, 2))
             .map(|s| Slot::new(&self.ctx, pool, &SLOT_LABELS[s], &sizes, limit, timed))
@@ -501,7 +498,7 @@ impl GpuBackend {
         }
     }
 
-    /// Returns the chunks of `runs`: each run cut into chunks of the size its own length gives
+    /// Returns the chunks of `runs`. Each run is cut into chunks of the size its own length gives
     /// ([`GpuBackend::chunk_poses`], bitsets of `words` a pose).
     fn chunks_of(&self, words: usize, runs: &[std::ops::Range<usize>]) -> Vec<std::ops::Range<usize>> {
         runs.iter()
@@ -512,9 +509,8 @@ impl GpuBackend {
             .collect()
     }
 
-    /// Waits for chunk `chunk` in `slot`, adds its device time when timed, and hands its results
-    /// to `emit`: the metric slots read back, unpacked where they were mapped (no copy of them
-    /// first).
+    /// Waits for chunk `chunk` in `slot`, adds its device time when timed, and hands its results to
+    /// `emit`. The metric slots read back are unpacked where they were mapped, without a copy.
     fn read_back(
         &self,
         slot: &Slot,
