@@ -1,5 +1,5 @@
-//! What a chunk in flight owns: two sets of buffers (slots), so that the device projects one
-//! chunk while the host reads back the chunk before; the direction table the chunks share.
+//! What a chunk in flight owns. There are two sets of buffers (slots), so that the device projects
+//! one chunk while the host reads back the chunk before. The chunks share the direction table.
 
 use std::collections::HashMap;
 
@@ -56,7 +56,7 @@ pub(super) const SLOT_LABELS: [SlotLabels; 2] = [
 ];
 
 /// What a slot must hold: the chunk's poses, its bitsets' and metrics' bytes, whether poses are
-/// decoded from a grid and whether the bitsets are read back.
+/// decoded from a grid, and whether the bitsets are read back.
 pub(super) struct SlotSizes {
     pub(super) chunk: usize,
     pub(super) bits: u64,
@@ -79,8 +79,8 @@ pub(super) struct Slot {
 }
 
 impl Slot {
-    /// Returns the slot named by `labels`, its buffers from `pool` (at most `limit` bytes each)
-    /// for chunks of `sizes`, with a pass timer when `timed`.
+    /// Returns the slot named by `labels` for chunks of `sizes`, with a pass timer when `timed`.
+    /// Its buffers come from `pool`, at most `limit` bytes each.
     pub(super) fn new(
         ctx: &GpuContext,
         pool: &mut BufferPool,
@@ -111,8 +111,8 @@ impl Slot {
     }
 }
 
-/// A chunk submitted and not yet read back: its slot, its submission, its first pose and its
-/// number of poses.
+/// A chunk submitted and not yet read back: its slot, its submission, its first pose and its number
+/// of poses.
 pub(super) struct InFlight {
     pub(super) slot: usize,
     pub(super) index: wgpu::SubmissionIndex,
@@ -133,9 +133,9 @@ pub(super) struct Shape<'a> {
 }
 
 impl Shape<'_> {
-    /// Records into `enc` the copy of a chunk of `n` poses' metric slots that are read back,
-    /// from `metrics` (slot-major) to `staging` (the slots one after the other): one copy when
-    /// every slot is, else one a slot.
+    /// Records into `enc` the copy of the read-back metric slots of a chunk of `n` poses, from
+    /// `metrics` (slot-major) to `staging` (the slots one after the other). It is one copy when
+    /// every slot is read back, else one a slot.
     pub(super) fn copy_slots(
         &self,
         enc: &mut wgpu::CommandEncoder,
@@ -179,9 +179,9 @@ pub(super) struct Directions {
 }
 
 impl Directions {
-    /// Returns the direction table of plans `used` of `source`, written into the pool's buffer
-    /// (in queue order: a chunk in flight reads the table it was submitted with), and for a
-    /// grid the plan entries of each range value.
+    /// Returns the direction table of plans `used` of `source`, written into the pool's buffer,
+    /// and, for a grid, the plan entries of each range value. Writes go in queue order, so a chunk
+    /// in flight reads the table it was submitted with.
     #[expect(
         clippy::cast_possible_truncation,
         reason = "a plan's azimuths and elevations are bounded by the sample limit (u32)"

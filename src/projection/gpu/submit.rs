@@ -1,6 +1,6 @@
-//! One chunk of a GPU projection call put on the device: its direction table, its poses (packed
-//! by the host for items, decoded on the device for a grid), the passes encoded (poses, splat,
-//! reduce) and the copies of what is read back, in one submission.
+//! One chunk of a GPU projection call put on the device, in one submission: its direction table,
+//! its poses, the passes encoded (poses, splat, reduce) and the copies of what is read back. The
+//! host packs the poses of items; the device decodes those of a grid.
 
 use bytemuck::Zeroable;
 use rayon::prelude::*;
@@ -16,8 +16,8 @@ use super::types::{GridParams, PoseGpu, TargetParams, beam_edges, range_edges_sq
 use super::unpack::Source;
 use super::{GpuBackend, MAX_TILES, POSES_WORKGROUP};
 
-/// What every chunk of one call shares on the device: sonar 2's tables (written once a call, a
-/// few KiB) and, for a grid, its axis table with each axis's offset in it.
+/// What every chunk of one call shares on the device: sonar 2's tables, written once a call (a few
+/// KiB), and for a grid its axis table with each axis's offset in it.
 pub(super) struct CallTables {
     edges: wgpu::Buffer,
     weights: wgpu::Buffer,
@@ -67,9 +67,9 @@ pub(super) struct Chunk {
 }
 
 impl GpuBackend {
-    /// Returns the direction table of the plans `chunk` uses: `kept` when it holds the same
-    /// plans, else a new one (written in queue order, after the chunk in flight has read the
-    /// old one).
+    /// Returns the direction table of the plans `chunk` uses. It is `kept` when that holds the same
+    /// plans. Otherwise it is a new one, written in queue order after the chunk in flight has read
+    /// the old one.
     pub(super) fn directions_for(
         &self,
         pool: &mut BufferPool,
@@ -85,9 +85,9 @@ impl GpuBackend {
         }
     }
 
-    /// Puts `chunk` on the device in its slot and returns its submission: its poses, sonar 2's
-    /// parameters for its pose count, the passes (poses for a grid, splat, reduce) with the
-    /// buffers cleared first, and the copies of what is read back.
+    /// Puts `chunk` on the device in its slot and returns its submission. The submission holds its
+    /// poses, sonar 2's parameters for its pose count, the passes (poses for a grid, splat, reduce)
+    /// with the buffers cleared first, and the copies of what is read back.
     pub(super) fn submit_chunk(
         &self,
         pool: &mut BufferPool,
@@ -103,7 +103,7 @@ impl GpuBackend {
         let decode = self.chunk_poses_on_device(pool, shape, tables, slot, directions, chunk);
         let params = TargetParams::new(shape.layout, n as u32);
         queue.write_buffer(&slot.params, 0, bytemuck::bytes_of(&params));
-        // The groups are kept with the pool's buffers: made again only when one was grown.
+        // The groups are kept with the pool's buffers and made again only when one was grown.
         let splat_group = pool.bind(
             device,
             labels.splat_group,
@@ -175,10 +175,11 @@ impl GpuBackend {
         queue.submit([enc.finish()])
     }
 
-    /// Writes `chunk`'s poses where the splat stage reads them, and returns the poses stage's
-    /// bind group when they are decoded on the device. Items: packed on all cores (serial, this
-    /// loop and the unpacking took 80–180 ns a pose, BENCHMARKS.md). A grid: the digits of the
-    /// chunk's first pose, the poses decoded by the poses stage.
+    /// Writes `chunk`'s poses where the splat stage reads them. Returns the poses stage's bind
+    /// group when they are decoded on the device.
+    /// - Items are packed on all cores. Serially, this loop and the unpacking took 80–180 ns a pose
+    ///   (BENCHMARKS.md).
+    /// - A grid writes the digits of the chunk's first pose, and the poses stage decodes the poses.
     fn chunk_poses_on_device(
         &self,
         pool: &mut BufferPool,

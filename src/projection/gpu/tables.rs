@@ -1,5 +1,5 @@
-//! The tables the GPU stages read, built on the host in f64: a grid's axes for the poses stage,
-//! the sampling plans' directions and culling balls for the splat stage, and a batch item's pose.
+//! The tables the GPU stages read, built on the host in f64. They are a grid's axes for the poses
+//! stage, the sampling plans' directions and culling balls for the splat stage, and an item's pose.
 
 use std::collections::HashMap;
 
@@ -12,10 +12,9 @@ use crate::sampling::SamplingPlan;
 
 use super::types::{PoseGpu, split};
 
-/// Returns a grid's table for the poses stage — per axis value, three double-f32 entries built
-/// in f64: the value, and the cosine and sine of the value in degrees (angles' axes; the
-/// placement's and translation's lengths use the value alone) — and where each axis's entries
-/// start.
+/// Returns a grid's table for the poses stage, and where each axis's entries start. Each axis value
+/// has three double-f32 entries built in f64: the value, and the cosine and sine of the value in
+/// degrees. The axes of lengths (placement, translation) use the value alone.
 pub(super) fn grid_table(grid: &PoseGrid) -> (Vec<[f32; 2]>, [u32; 9]) {
     let pair = |v: f64| {
         let (hi, lo) = split(v);
@@ -33,12 +32,14 @@ pub(super) fn grid_table(grid: &PoseGrid) -> (Vec<[f32; 2]>, [u32; 9]) {
     (table, offsets)
 }
 
-/// Returns the direction table of the plans in `used` — azimuths then elevations of each, each
-/// entry `(cos hi, sin hi, cos lo, sin lo)` in double-f32, then the plan's culling balls
-/// (`culling::block_bounds`: centre xyz, radius w, in f32 with the radius rounded up past the
-/// centre's rounding) right after its elevations, then its blocks' reaches from their chords
-/// (`culling::block_bounds`, four an entry, rounded up past the shader's roundings of the chord's
-/// ends) — and per plan the offsets of its azimuth and elevation entries.
+/// Returns the direction table of the plans in `used`, and per plan the offsets of its azimuth and
+/// elevation entries. Each plan has, in order:
+/// 1. its azimuths, then its elevations: each entry `(cos hi, sin hi, cos lo, sin lo)` in
+///    double-f32;
+/// 2. its culling balls (`culling::block_bounds`): centre xyz and radius w, in f32, the radius
+///    rounded up past the centre's rounding;
+/// 3. its blocks' reaches from their chords (`culling::block_bounds`), four an entry, rounded up
+///    past the shader's roundings of the chord's ends.
 pub(super) fn direction_table(
     plans: &[SamplingPlan],
     used: &[usize],
@@ -56,7 +57,7 @@ pub(super) fn direction_table(
         let el_off = table.len() as u32;
         table.extend(plan.elevations.iter().map(entry));
         // The shader finds block b of this plan at el_off + n_el + b. Rounding the centre to f32
-        // moves it by at most F32_CENTRE_ERROR; the radius grows by that and rounds up.
+        // moves it by at most F32_CENTRE_ERROR. The radius grows by that and rounds up.
         let (balls, reaches) = culling::block_bounds(&plan.azimuths, &plan.elevations);
         table.extend(balls.into_iter().map(|(c, r)| {
             [
@@ -66,9 +67,9 @@ pub(super) fn direction_table(
                 ((r + F32_CENTRE_ERROR) * (1.0 + F32_ROUND_UP)) as f32,
             ]
         }));
-        // Then the blocks' reaches, four an entry: block b's at el_off + n_el + blocks + b / 4,
+        // Then the blocks' reaches, four an entry: block b's is at el_off + n_el + blocks + b / 4,
         // component b % 4. The shader computes the chord's ends in f32 from the hi parts, within
-        // F32_UNIT_ERROR of the units; the reach grows by that and rounds up.
+        // F32_UNIT_ERROR of the units. The reach grows by that and rounds up.
         table.extend(reaches.chunks(4).map(|r| {
             std::array::from_fn(|k| {
                 r.get(k)
@@ -80,7 +81,7 @@ pub(super) fn direction_table(
     (table, offsets)
 }
 
-/// Returns the GPU pose: rows of `range · R · Rz(base_azimuth)` (computed in f64) with the
+/// Returns the GPU pose: the rows of `range · R · Rz(base_azimuth)` (computed in f64) with the
 /// translation in `w`, split into f32 hi + lo pairs, and the plan.
 pub(super) fn pose_gpu(r: &DMat3, t: [f64; 3], range: f64, base_azimuth: f64, plan: [u32; 4]) -> PoseGpu {
     let m = *r * DMat3::from_rotation_z(base_azimuth) * range;

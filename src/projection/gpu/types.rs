@@ -1,5 +1,6 @@
-//! GPU-side structs, internal to the engine. Keep in sync with `shaders/shared/types.wgsl` (sizes
-//! asserted here and checked against naga's layout of the WGSL in `source_tests.rs`).
+//! GPU-side structs, internal to the engine. Keep them in sync with `shaders/shared/types.wgsl`.
+//! Their sizes are asserted here, and `source_tests.rs` checks them against naga's layout of the
+//! WGSL.
 #![expect(
     clippy::cast_possible_truncation,
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose and counts are bounded by the device limits checked before packing"
@@ -26,7 +27,6 @@ pub(crate) struct TargetParams {
     pub(crate) half_az: f32,
     /// `beams / aperture` (1/rad).
     pub(crate) inv_beam_width: f32,
-    /// Number of range bins.
     pub(crate) range_bins: u32,
     /// Number of beams (1 for an SSS).
     pub(crate) beams: u32,
@@ -34,15 +34,12 @@ pub(crate) struct TargetParams {
     pub(crate) beams_uniform: u32,
     /// u32 words of one pose's bitset.
     pub(crate) words_per_pose: u32,
-    /// Poses in this chunk.
     pub(crate) pose_count: u32,
-    /// 1 when the GPU sums the occupied area (FLS); 0 for an SSS (measure = count × Δ on the CPU).
+    /// 1 when the GPU sums the occupied area (FLS). 0 for an SSS: measure = count × Δ on the CPU.
     pub(crate) measure_area: u32,
     /// 0 when the elevation aperture is 180° (nothing to clip), else 1.
     pub(crate) clip_elevation: u32,
-    /// `range_min²`.
     pub(crate) range_min_sq: [f32; 2],
-    /// `range_max²`.
     pub(crate) range_max_sq: [f32; 2],
     /// `sin(h)`, h half the azimuth aperture; exactly 0 when `h = π`.
     pub(crate) sin_half_az: [f32; 2],
@@ -68,9 +65,9 @@ pub(crate) struct TargetParams {
 }
 const _: () = assert!(std::mem::size_of::<TargetParams>() == 128);
 
-/// One pose of a chunk (WGSL `Pose`): rows of `M = range · R · Rz(base azimuth)` with the
-/// translation in `w`, as double-f32 (`hi + lo`), and the plan
-/// `(azimuth offset, n_az, elevation offset, n_el)` into the direction table.
+/// One pose of a chunk (WGSL `Pose`). It holds the rows of `M = range · R · Rz(base azimuth)`, with
+/// the translation in `w`, as double-f32 (`hi + lo`). It also holds the plan `(azimuth offset,
+/// n_az, elevation offset, n_el)` into the direction table.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub(crate) struct PoseGpu {
@@ -84,8 +81,8 @@ pub(crate) struct PoseGpu {
 const _: () = assert!(std::mem::size_of::<PoseGpu>() == 112);
 
 /// The grid of a chunk's poses as the poses stage decodes it (WGSL `GridParams`,
-/// `shaders/poses.wgsl`): the first pose's digits, the axes' lengths and where each axis's
-/// entries start in the grid table, nine each in three `vec4<u32>`.
+/// `shaders/poses.wgsl`). It holds the first pose's digits, the axes' lengths, and where each
+/// axis's entries start in the grid table, nine each in three `vec4<u32>`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub(crate) struct GridParams {
@@ -95,7 +92,6 @@ pub(crate) struct GridParams {
     pub(crate) lens: [u32; 12],
     /// Where each axis's entries (value, cos, sin: three an axis value) start in the table.
     pub(crate) offsets: [u32; 12],
-    /// Poses in the chunk.
     pub(crate) count: u32,
     /// 1 when the second three axes are a placement, 0 for a translation.
     pub(crate) placement: u32,
@@ -112,14 +108,13 @@ pub(crate) fn split(v: f64) -> (f32, f32) {
     (hi, (v - f64::from(hi)) as f32)
 }
 
-/// A beam edge (WGSL `BeamEdge`): angle (rad), width of the beam starting here, and the angle's
-/// cos and sin as double-f32.
+/// A beam edge (WGSL `BeamEdge`): its angle (rad), the width of the beam starting here, and the
+/// angle's cos and sin as double-f32.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub(crate) struct BeamEdgeGpu {
-    /// Angle (rad).
     pub(crate) angle: f32,
-    /// Width (rad) of the beam whose lower edge this is; 0 for the last edge.
+    /// Width (rad) of the beam whose lower edge this is. 0 for the last edge.
     pub(crate) width: f32,
     /// cos(angle), double-f32.
     pub(crate) cos_angle: [f32; 2],
@@ -132,7 +127,7 @@ const _: () = assert!(std::mem::size_of::<BeamEdgeGpu>() == 32);
 
 /// u32 slots per pose in the metrics buffer (WGSL `METRIC_STRIDE`).
 pub(crate) const METRIC_STRIDE: usize = 8;
-/// Returns the GPU slot the metric table gives `metric` (a compile-time check that it has one).
+/// Returns the GPU slot the metric table gives `metric`. A compile-time check that it has one.
 const fn slot(metric: Metric) -> usize {
     match metric.gpu_slot() {
         Some(s) => s,
@@ -156,15 +151,15 @@ pub(crate) const METRIC_OCCUPIED_MEASURE: usize = slot(Metric::OccupiedMeasure);
 /// Slot of the count of projection-area cells.
 pub(crate) const METRIC_PROJECTION_AREA: usize = slot(Metric::ProjectionArea);
 
-/// A set of metric slots, bit `s` for slot `s`: which slots of a chunk's metrics are copied
-/// back (the metrics buffer is slot-major, one contiguous run of a chunk's poses a slot).
+/// A set of metric slots, bit `s` for slot `s`: which slots of a chunk's metrics are copied back.
+/// The metrics buffer is slot-major: one contiguous run of a chunk's poses a slot.
 pub(crate) type Slots = u8;
 
 /// Every metric slot.
 pub(crate) const ALL_SLOTS: Slots = u8::MAX >> (8 - METRIC_STRIDE);
 
-/// Returns the slots the columns of `metrics` are made of (the visible count with each
-/// extreme, which is none where nothing is seen; nothing for the plan's total), never empty.
+/// Returns the slots the columns of `metrics` are made of, never empty. Each extreme needs the
+/// visible count too, as it is none where nothing is seen. The plan's total needs no slot.
 pub(crate) fn slots_of(metrics: impl IntoIterator<Item = Metric>) -> Slots {
     let bit = |s: usize| 1 << s;
     metrics.into_iter().fold(bit(METRIC_VISIBLE), |set, m| {
@@ -175,7 +170,7 @@ pub(crate) fn slots_of(metrics: impl IntoIterator<Item = Metric>) -> Slots {
             Metric::Span => bit(METRIC_RANGE_MIN_NOT) | bit(METRIC_RANGE_MAX),
             Metric::AzimuthMin => bit(METRIC_AZIMUTH_MIN_NOT),
             Metric::AzimuthMax => bit(METRIC_AZIMUTH_MAX),
-            // An SSS's measure is its count × the bin width, an FLS's summed on the device.
+            // An SSS's measure is its count × the bin width. An FLS's is summed on the device.
             Metric::Occupied => bit(METRIC_OCCUPIED),
             Metric::OccupiedMeasure => bit(METRIC_OCCUPIED) | bit(METRIC_OCCUPIED_MEASURE),
             Metric::ProjectionArea => bit(METRIC_PROJECTION_AREA),
@@ -193,8 +188,8 @@ pub(crate) fn from_order_key(key: u32) -> f32 {
     }
 }
 
-/// Returns the u32 words of one pose's bitset for `layout`: its pixels' words, then (an FLS with
-/// an area grid) its projection-area cells' words.
+/// Returns the u32 words of one pose's bitset for `layout`: its pixels' words, then its
+/// projection-area cells' words (an FLS with an area grid).
 #[must_use]
 pub(crate) fn words_per_pose(layout: &Layout) -> usize {
     pixel_words(layout) + cell_words(layout)
@@ -212,7 +207,6 @@ pub(crate) fn cell_words(layout: &Layout) -> usize {
     layout.area_grid.map_or(0, |g| g.cells().div_ceil(32))
 }
 
-/// Returns `v` as a double-f32 pair.
 fn df(v: f64) -> [f32; 2] {
     let (hi, lo) = split(v);
     [hi, lo]
@@ -284,8 +278,8 @@ pub(crate) fn range_edges_sq(layout: &Layout) -> Vec<[f32; 2]> {
         .collect()
 }
 
-/// Returns the per-row weights `(r_{i+1}² − r_i²)/2` of a layout: a pixel's area is its beam
-/// width times its row's weight.
+/// Returns the per-row weights `(r_{i+1}² − r_i²)/2` of a layout. A pixel's area is its beam width
+/// times its row's weight.
 #[must_use]
 pub(crate) fn row_weights(layout: &Layout) -> Vec<f32> {
     (0..layout.range_bins)

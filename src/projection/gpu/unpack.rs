@@ -1,5 +1,5 @@
-//! A chunk's results as read back and unpacked on the host, and where a call's poses come from
-//! (a batch's items or a grid's range).
+//! A chunk's results as read back and unpacked on the host, and where a call's poses come from: a
+//! batch's items or a grid's range.
 
 use rayon::prelude::*;
 
@@ -13,8 +13,8 @@ use crate::sampling::SamplingPlan;
 
 use super::types::*;
 
-/// A chunk's results as read back: what each pose's projection or metrics are made of, on the
-/// host, a pose at a time (in parallel, and for a grid's columns with no per-pose object).
+/// A chunk's results as read back: what each pose's projection or metrics are made of. The host
+/// unpacks them a pose at a time, in parallel. A grid's columns take no per-pose object.
 pub(super) struct Unpack<'a> {
     pub(super) source: &'a Source<'a>,
     pub(super) plans: &'a [SamplingPlan],
@@ -65,9 +65,9 @@ impl Unpack<'_> {
         Metrics::new(visible, total, extremes, (occupied, measure), area)
     }
 
-    /// Writes the kept columns of `rows`, the metrics of the chunk's poses `first..` (the
-    /// values of [`Unpack::metrics`], bit for bit), column by column from the slots read back:
-    /// a column not kept costs nothing, so a caller reducing one metric unpacks only that one.
+    /// Writes the kept columns of `rows`: the metrics of the chunk's poses `first..`, bit for bit
+    /// the values of [`Unpack::metrics`]. It goes column by column from the slots read back. A
+    /// column not kept costs nothing, so a caller reducing one metric unpacks only that one.
     pub(super) fn fill(&self, rows: MetricSlices<'_>, first: usize) {
         let n = rows.len();
         let slot = |s: usize| &self.slot(s)[first..first + n];
