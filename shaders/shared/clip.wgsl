@@ -1,18 +1,18 @@
 // The splat stage's decisions: field of view, range bin and beam (in Real, and first in f32 with
-// the f32 filter), block culling, and the slack of every f32 decision. The Rust twins are
-// src/clip.rs (Clip: in_view, range_bin, at_or_above, beam; the tolerances, with their
-// derivations) and src/projection/culling.rs (ball_side, chord_outside); read them side by side.
-// A prelude of splat.wgsl (after types.wgsl and real_*.wgsl). It declares the splat stage's
-// first three bindings, sonar 2 as its decisions read it (params, beam_edges, range_edges_sq),
-// so that no part reads a global declared after it. The mask stage (mask.wgsl) tests balls
-// instead and is self-contained.
+// the f32 filter), block culling, and the slack of every f32 decision. Read it side by side with
+// its Rust twins: src/clip.rs (Clip: in_view, range_bin, at_or_above, beam; the tolerances, with
+// their derivations) and src/projection/culling.rs (ball_side, chord_outside). A prelude of
+// splat.wgsl, after types.wgsl and real_*.wgsl. It declares the splat stage's first three bindings,
+// sonar 2 as its decisions read it (params, beam_edges, range_edges_sq), so that no part reads a
+// global declared after it. The mask stage (mask.wgsl) tests balls instead and is self-contained.
 
 // Generated from src/clip.rs and src/projection/culling.rs and put before this file
-// (src/projection/gpu/source.rs): F32_SLACK, the relative slack of the f32 decisions against
-// range + |t| + range_max (a point moved in f32 lies within 4e-6 * (range + |t|) of the Real one,
-// a clip or edge function adds a few roundings, a double-f32 Real left at f32 precision by its
-// driver 1e-6 * (range + |t|)); F32_WIDEN, the relative widening of an f32 culling radius or
-// reach; BLOCK, the samples of a culling block (consecutive in the plan's order).
+// (src/projection/gpu/source.rs):
+// - F32_SLACK: the relative slack of the f32 decisions against range + |t| + range_max. A point
+//   moved in f32 lies within 4e-6 * (range + |t|) of the Real one. A clip or edge function adds a
+//   few roundings. A double-f32 Real left at f32 precision by its driver adds 1e-6 * (range + |t|).
+// - F32_WIDEN: the relative widening of an f32 culling radius or reach.
+// - BLOCK: the samples of a culling block, consecutive in the plan's order.
 
 // Sonar 2: bindings 0-2 of the splat stage (see splat.wgsl for the others).
 @group(0) @binding(0) var<uniform> params: TargetParams;
@@ -24,14 +24,14 @@
 const OUTSIDE: u32 = 0u;
 const ACROSS: u32 = 1u;
 const INSIDE: u32 = 2u;
-// What the f32 decisions return: a sample outside the view, inside it, or left to Real (which
-// a bin or beam decision returns too).
+// What the f32 decisions return: a sample outside the view, inside it, or left to Real. A bin or
+// beam decision returns UNSURE too.
 const HIDDEN: u32 = 0u;
 const VISIBLE: u32 = 1u;
 const UNSURE: u32 = 0xffffffffu;
 
-// Returns the range bin of a point at range r (f32) and squared range r2: a first guess
-// floor((r - range_min) / width), then the exact side of the guessed bin's squared edges.
+// Returns the range bin of a point at range r (f32) and squared range r2. A first guess floor((r -
+// range_min) / width), then the exact side of the guessed bin's squared edges.
 fn range_bin(r: f32, r2: Real) -> u32 {
     let last = i32(params.range_bins) - 1;
     var i = clamp(i32(floor((r - params.range_min) * params.inv_range_bin)), 0, last);
@@ -49,9 +49,9 @@ fn at_or_above(x: Real, y: Real, e: BeamEdge) -> bool {
     return r_ge(r_mul(y, real(e.cos_angle)), r_mul(x, real(e.sin_angle)));
 }
 
-// Returns the first guess of the beam at azimuth az (f32, inside the aperture; more than one
-// beam): direct for uniform beams, else a binary search of the edges' f32 angles. Within a beam
-// of the right one.
+// Returns the first guess of the beam at azimuth az (f32, inside the aperture, more than one beam).
+// Direct for uniform beams, else a binary search of the edges' f32 angles. It is within a beam of
+// the right one.
 fn beam_guess(az: f32) -> i32 {
     let beams = i32(params.beams);
     var j: i32;
@@ -73,7 +73,7 @@ fn beam_guess(az: f32) -> i32 {
     return clamp(j, 0, beams - 1);
 }
 
-// Returns the beam of the point (x, y) (inside the aperture) at azimuth az (f32): a first guess,
+// Returns the beam of the point (x, y) (inside the aperture) at azimuth az (f32). A first guess,
 // then the exact side of the guessed beam's edges.
 fn beam_of(x: Real, y: Real, az: f32) -> u32 {
     let beams = i32(params.beams);
@@ -114,10 +114,10 @@ fn in_view(x: Real, y: Real, z: Real, r2: Real) -> bool {
 
 // Returns where the block's ball (unit directions within ball.w of ball.xyz) lies once the pose
 // moves it: wholly outside sonar 2's field of view, wholly inside, or across a bound. Twin of
-// projection::culling's ball_side: each clip bound is a 1-Lipschitz function of the point, so
-// its value at the centre moves by at most the radius over the ball. Decided in f32 from the
-// pose's hi parts, with slack the pose's f32_slack (F32_SLACK * (range + |t| + range_max), over a
-// hundred times the f32 roundings here), so a culled sample is one the Real test rejects and a
+// projection::culling's ball_side. Each clip bound is a 1-Lipschitz function of the point, so its
+// value at the centre moves by at most the radius over the ball. It is decided in f32 from the
+// pose's hi parts, with slack the pose's f32_slack: F32_SLACK * (range + |t| + range_max), over a
+// hundred times the f32 roundings here. So a culled sample is one the Real test rejects, and a
 // sample of an INSIDE block one it keeps.
 fn block_side(pose: Pose, ball: vec4<f32>, slack: f32) -> u32 {
     let c = moved(pose, ball.xyz);
@@ -162,8 +162,8 @@ fn moved(pose: Pose, p: vec3<f32>) -> vec3<f32> {
     );
 }
 
-// Per end of a chord: beyond the upper and the lower azimuth half-plane, the pair of them,
-// above and below the elevation sheet, each by more than margin.
+// Per end of a chord: beyond the upper and the lower azimuth half-plane, the pair of them, above
+// and below the elevation sheet, each by more than margin.
 struct Beyond {
     upper: bool,
     lower: bool,
@@ -181,13 +181,13 @@ fn beyond(p: vec3<f32>, margin: f32) -> Beyond {
         (z - rho > margin), (-z - rho > margin));
 }
 
-// Returns whether every unit within reach of the chord from the unit first to the unit last
-// (f32, from the direction table's hi parts: unit_f32 in splat.wgsl), once the pose moves it, lies outside sonar 2's field of view (range bounds aside: block_side has
-// them). Twin of projection::culling's chord_outside: the outside is a union of parts on
-// each of which a concave, 1-Lipschitz function is positive (past an azimuth half-plane, or both
-// for apertures over 180 deg; above the elevation sheet, z cos e - rho sin e; below it), and a
-// concave function on a segment is at least its smaller value at the ends. In f32 with
-// block_side's slack.
+// Returns whether every unit within reach of the chord from the unit first to the unit last lies
+// outside sonar 2's field of view once the pose moves it. Range bounds aside: block_side has them.
+// The ends are f32, from the direction table's hi parts (unit_f32 in splat.wgsl). Twin of
+// projection::culling's chord_outside, in f32 with block_side's slack. The outside is a union of
+// parts, on each of which a concave, 1-Lipschitz function is positive: past an azimuth half-plane
+// (or both, for apertures over 180 deg), above the elevation sheet (z cos e - rho sin e), or below
+// it. A concave function on a segment is at least its smaller value at the ends.
 fn chord_outside(pose: Pose, first: vec3<f32>, last: vec3<f32>, reach: f32, slack: f32) -> bool {
     let margin = length(pose.hi0.xyz) * reach * (1.0 + F32_WIDEN) + slack;
     let a = beyond(moved(pose, first), margin);
@@ -200,15 +200,15 @@ fn chord_outside(pose: Pose, first: vec3<f32>, last: vec3<f32>, reach: f32, slac
     return azimuth || elevation;
 }
 
-// The f32 decisions of a sample (FILTER): p is the sample moved in f32 (from the hi parts),
-// within f32_slack of the Real point, and every bound and edge is a 1-Lipschitz function of the
-// point (range; x sin h - |y| cos h; |z| cos e - rho sin e; y cos a - x sin a for a beam edge at
-// angle a). So where f32 finds p farther than the slack from a bound or an edge, the Real point
-// lies on the same side of it, and f32 decides as Real would, in far fewer operations on GPUs
-// with slow f64 or in double-f32. Where it does not, the Real decisions of draw decide.
+// The f32 decisions of a sample (FILTER). p is the sample moved in f32 (from the hi parts), within
+// f32_slack of the Real point. Every bound and edge is a 1-Lipschitz function of the point: range;
+// x sin h - |y| cos h; |z| cos e - rho sin e; y cos a - x sin a for a beam edge at angle a. So
+// where f32 finds p farther than the slack from a bound or an edge, the Real point lies on the same
+// side of it. Then f32 decides as Real would, in far fewer operations on GPUs with slow f64 or in
+// double-f32. Elsewhere the Real decisions of draw decide.
 
 // Returns HIDDEN when p lies outside sonar 2's field of view by more than slack (beyond some
-// bound), VISIBLE when it lies inside by more than slack from every bound, else UNSURE.
+// bound). Returns VISIBLE when it lies inside, more than slack from every bound. Else UNSURE.
 fn view_f32(p: vec3<f32>, r: f32, slack: f32) -> u32 {
     let az = p.x * params.sin_half_az.x - abs(p.y) * params.cos_half_az.x;
     var el = -3.0e38;
@@ -224,9 +224,9 @@ fn view_f32(p: vec3<f32>, r: f32, slack: f32) -> u32 {
     return UNSURE;
 }
 
-// Returns the range bin of a sample in view at f32 range r, or UNSURE when r lies within slack
-// of the bin's inner edges (in bin units; the outer edges of the first and last bins are the
-// range bounds, which the view decides).
+// Returns the range bin of a sample in view at f32 range r, or UNSURE when r lies within slack of
+// the bin's inner edges (in bin units). The outer edges of the first and last bins are the range
+// bounds, which the view decides.
 fn range_bin_f32(r: f32, slack: f32) -> u32 {
     let u = (r - params.range_min) * params.inv_range_bin;
     let last = i32(params.range_bins) - 1;
