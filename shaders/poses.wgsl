@@ -1,13 +1,12 @@
-// Stage 0 of a grid sweep: each pose of the chunk decoded from its index where it is drawn, so
-// no pose is packed or uploaded by the host. CPU twin: GridTables::decode
-// (src/projection/poses.rs), the same composition in f64.
-// The grid's index is mixed radix over nine axes, the last fastest: the feature's range, azimuth,
-// elevation in sonar 1; the place's range, azimuth, elevation in sonar 2 (or the translation
-// tx, ty, tz); roll, pitch, yaw. The host gives the chunk's first pose as its nine digits, and
-// per axis value three Real entries built in f64 (value, cos, sin of the value in degrees), so no
-// trigonometry runs here. A pose is written as the splat stage reads it: rows of
-// M = range * R * Rz(base azimuth) and t, as hi + lo pairs, and its plan.
-// Dispatch (ceil(count / 64), 1, 1): thread c decodes pose first + c.
+// Stage 0 of a grid sweep: each pose of the chunk is decoded from its index where it is drawn, so
+// the host packs and uploads no pose. CPU twin: GridTables::decode (src/projection/poses.rs), the
+// same composition in f64. The grid's index is mixed radix over nine axes, the last fastest: the
+// feature's range, azimuth, elevation in sonar 1; the place's range, azimuth, elevation in sonar 2
+// (or the translation tx, ty, tz); roll, pitch, yaw. The host gives the chunk's first pose as its
+// nine digits. Per axis value it gives three Real entries built in f64 (value, cos, sin of the
+// value in degrees), so no trigonometry runs here. A pose is written as the splat stage reads it:
+// rows of M = range * R * Rz(base azimuth) and t, as hi + lo pairs, and its plan. Dispatch
+// (ceil(count / 64), 1, 1): thread c decodes pose first + c.
 
 struct GridParams {
     // digits of the chunk's first pose, axis k at [k / 4][k % 4]
@@ -26,8 +25,8 @@ struct GridParams {
 
 @group(0) @binding(0) var<uniform> grid: GridParams;
 @group(0) @binding(1) var<storage, read> table: array<vec2<f32>>;
-// the plan of each value of the feature's range axis: (azimuth offset, azimuth count, elevation
-// offset, elevation count) in the chunk's direction table
+// the plan of each value of the feature's range axis, in the chunk's direction table: (azimuth
+// offset, azimuth count, elevation offset, elevation count)
 @group(0) @binding(2) var<storage, read> plans: array<vec4<u32>>;
 @group(0) @binding(3) var<storage, read_write> poses: array<Pose>;
 

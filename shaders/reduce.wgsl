@@ -1,9 +1,9 @@
 // Stage 2: one pose's bitset becomes its occupied count and occupied measure, and its
-// projection-area cells (FLS) their count.
-// CPU twin: the reduce step of src/projection/fast/scratch.rs (counts and, for an FLS, per-row areas summed in
-// row order); the plain reference is src/projection/reference/reduce.rs. Dispatch (across, rows, 1), across * rows >= poses:
-// workgroup (x, y) reduces pose x + y * across; each thread
-// takes words (SSS) or range rows (FLS) l, l + 64, ... and the workgroup sums their results.
+// projection-area cells (FLS) their count. CPU twin: the reduce step of
+// src/projection/fast/scratch.rs, which sums counts and, for an FLS, per-row areas in row order.
+// The plain reference is src/projection/reference/reduce.rs. Dispatch (across, rows, 1), across *
+// rows >= poses. Workgroup (x, y) reduces pose x + y * across. Each thread takes words (SSS) or
+// range rows (FLS) l, l + 64, ..., and the workgroup sums their results.
 
 @group(0) @binding(0) var<uniform> params: TargetParams;
 @group(0) @binding(1) var<storage, read> beam_edges: array<BeamEdge>;
@@ -32,7 +32,7 @@ fn main(
     // A workgroup past the chunk's poses reads and writes nothing.
     let valid = pose_index < params.pose_count;
     if params.measure_area == 0u {
-        // SSS: the count is all; the CPU derives the measure from it exactly.
+        // SSS: the count is all. The CPU derives the measure from it exactly.
         let words = select(0u, params.pixel_words, valid);
         for (var w = lid; w < words; w += WORKGROUP) {
             count += countOneBits(bits[base_word + w]);

@@ -1,29 +1,29 @@
-// Stage 1: transform, clip, bin, splat. CPU twin: src/projection/fast/ (the same algorithm in f64,
-// block culling included; the reference src/projection/reference/splat.rs stays plain). The
-// decisions (field of view, bins, beams, culling, f32 slack) are the prelude shared/clip.wgsl's.
-// The transform and every decision use Real (f64, or double-f32 where the adapter has no f64:
-// shared/real_*.wgsl), so a sample lands where the f64 reference puts it unless it lies within
-// about 1e-12 (relative) of a bound or edge. With FILTER, f32 takes the decisions it cannot get
-// wrong (those far from every bound and edge) and Real the rest: the same bits, fewer Real
-// operations (this stage only: on a CPU, f64 costs at most twice f32).
-// Dispatch (tiles, across, rows), across * rows >= poses: workgroup (x, y, z) handles samples
-// x*WORKGROUP + l, stepping by tiles*WORKGROUP, of pose y + z * across. Each visible sample sets its pixel's bit with atomicOr; the workgroup
-// then folds its visible count and range/azimuth extremes into the pose's metric slots.
+// Stage 1: transform, clip, bin, splat. The CPU twin is src/projection/fast/, the same algorithm in
+// f64, block culling included. The reference src/projection/reference/splat.rs stays plain. The
+// decisions (field of view, bins, beams, culling, f32 slack) are those of the prelude
+// shared/clip.wgsl. The transform and every decision use Real: f64, or double-f32 where the adapter
+// has no f64 (shared/real_*.wgsl). So a sample lands where the f64 reference puts it, unless it
+// lies within about 1e-12 (relative) of a bound or edge. With FILTER, f32 takes the decisions it
+// cannot get wrong (those far from every bound and edge) and Real the rest. The bits are the same,
+// with fewer Real operations. This helps this stage only: on a CPU, f64 costs at most twice f32.
+// Dispatch (tiles, across, rows), across * rows >= poses. Workgroup (x, y, z) handles samples
+// x*WORKGROUP + l, stepping by tiles*WORKGROUP, of pose y + z * across. Each visible sample sets
+// its pixel's bit with atomicOr. The workgroup then folds its visible count and range/azimuth
+// extremes into the pose's metric slots.
 
 // Bindings 0-2 (params, beam_edges, range_edges_sq: sonar 2) are declared by shared/clip.wgsl,
-// put before this file, which reads them.
+// which is put before this file.
 @group(0) @binding(3) var<storage, read> poses: array<Pose>;
-// (cos hi, sin hi, cos lo, sin lo) of the plans' azimuth offsets and elevations; after each
-// plan's elevations, one culling ball per block of BLOCK samples (centre xyz, radius w, f32),
-// then per block the largest distance of its units from its chord (first unit to last), four an
-// entry
+// (cos hi, sin hi, cos lo, sin lo) of the plans' azimuth offsets and elevations. After each plan's
+// elevations: one culling ball per block of BLOCK samples (centre xyz, radius w, f32), then per
+// block the largest distance of its units from its chord (first unit to last), four an entry.
 @group(0) @binding(4) var<storage, read> directions: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> bits: array<atomic<u32>>;
 @group(0) @binding(6) var<storage, read_write> metrics: array<atomic<u32>>;
 
-// Pipeline constants (gpu::SplatOptions). WORKGROUP: threads a workgroup, a multiple of BLOCK.
-// CULL false draws every sample with every clip test; FILTER false decides every sample in
-// Real, true first in f32 where it can (view_f32).
+// Pipeline constants (gpu::SplatOptions). WORKGROUP: threads a workgroup, a multiple of BLOCK. CULL
+// false draws every sample with every clip test. FILTER false decides every sample in Real; true
+// decides first in f32 where it can (view_f32).
 override WORKGROUP: u32 = 64u;
 override CULL: bool = true;
 override FILTER: bool = true;
@@ -37,8 +37,8 @@ var<workgroup> wg_range_max: atomic<u32>;
 var<workgroup> wg_azimuth_min_not: atomic<u32>;
 var<workgroup> wg_azimuth_max: atomic<u32>;
 
-// Returns the unit direction of sample k of the pose's plan in f32 from the hi parts (within
-// 4e-7 of the f64 unit; the reaches are widened by that).
+// Returns the unit direction of sample k of the pose's plan in f32, from the hi parts. It is within
+// 4e-7 of the f64 unit, and the reaches are widened by that.
 fn unit_f32(pose: Pose, k: u32) -> vec3<f32> {
     let a = directions[pose.plan.x + k % pose.plan.y];
     let e = directions[pose.plan.z + k / pose.plan.y];
@@ -60,10 +60,10 @@ struct Drawn {
     az: f32,
 }
 
-// Draws sample k of the pose: transform, clip (unless its block lies wholly inside), bins, and
-// the pixel's bit in the pose's bitset. With FILTER, f32 decides first where it can (view_f32,
-// range_bin_f32, beam_f32, with the pose's f32_slack): a hidden sample costs no Real operation,
-// a decided one only the Real point its reported range and azimuth come from.
+// Draws sample k of the pose: transform, clip (unless its block lies wholly inside), bins, and the
+// pixel's bit in the pose's bitset. With FILTER, f32 decides first where it can (view_f32,
+// range_bin_f32, beam_f32, with the pose's f32_slack). A hidden sample then costs no Real
+// operation, and a decided one only the Real point its reported range and azimuth come from.
 fn draw(pose: Pose, k: u32, inside: bool, base_word: u32, slack: f32) -> Drawn {
     let n_az = pose.plan.y;
     let a = directions[pose.plan.x + k % n_az];
@@ -120,9 +120,9 @@ fn draw(pose: Pose, k: u32, inside: bool, base_word: u32, slack: f32) -> Drawn {
     return Drawn(true, r, az);
 }
 
-// Sets the projection-area cell of a visible sample at range r (f32) whose point has x, y
-// (rounded to f32): its image point (x, y) scaled to length r, (r, 0) on the z axis, in f32
-// (within clip.rs's CELL_SLACK of the f64 cell decision; CPU twin AreaGrid::flat_cell).
+// Sets the projection-area cell of a visible sample at range r (f32) whose point has x, y (rounded
+// to f32). The image point is (x, y) scaled to length r, or (r, 0) on the z axis, in f32. It is
+// within clip.rs's CELL_SLACK of the f64 cell decision. CPU twin: AreaGrid::flat_cell.
 fn set_cell(r: f32, x: f32, y: f32, base_word: u32) {
     let rho = sqrt(x * x + y * y);
     var cx = r;
@@ -168,8 +168,8 @@ fn main(
     var r_max = -3.0e38;
     var az_min = 3.0e38;
     var az_max = -3.0e38;
-    // The workgroup takes WORKGROUP consecutive samples at a time, BLOCKS_PER_STEP blocks: their
-    // sides are decided once, by the first lanes, and shared.
+    // The workgroup takes WORKGROUP consecutive samples at a time, BLOCKS_PER_STEP blocks. The
+    // first lanes decide the blocks' sides once and share them.
     for (var base = wid.x * WORKGROUP; base < n; base += nwg.x * WORKGROUP) {
         var side = ACROSS;
         if CULL {
