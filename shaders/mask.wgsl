@@ -1,23 +1,23 @@
-// Correspondence masks on the GPU: the same cells and balls as src/masks/ (read the two side by
-// side), in f32: blocks of cells culled by their ball, then each cell's ball marked. Each
-// mask's bounds (its first and last range bin and beam) are kept as the spans are set: exactly
-// what the CPU twin of the reduce stage finds walking the bits, so that the reduce stage
-// (mask_reduce.wgsl) reads only the rows between them. Every rounding error is absorbed by a
-// slack the CPU adds to each job's radii (src/masks/gpu/mod.rs), so a mask can only grow, never
-// miss a pixel; beams are decided by the side of each beam edge the
-// ball lies on (cross products, no trigonometry), the edges compared walked to from a guess that
-// an angle makes (edges_with_cross_above: the guess saves steps, the comparisons decide).
+// Correspondence masks on the GPU, in f32: the same cells and balls as src/masks/ (read the two
+// side by side). Blocks of cells are culled by their ball, then each cell's ball is marked. Each
+// mask's bounds (its first and last range bin and beam) are kept as the spans are set. They are
+// exactly what the CPU twin of the reduce stage finds walking the bits, so the reduce stage
+// (mask_reduce.wgsl) reads only the rows between them. A slack the CPU adds to each job's radii
+// (src/masks/gpu/mod.rs) absorbs every rounding error, so a mask can only grow, never miss a pixel.
+// Beams are decided by the side of each beam edge the ball lies on (cross products, no
+// trigonometry). The edges compared are walked to from a guess that an angle makes
+// (edges_with_cross_above): the guess saves steps, the comparisons decide.
 //
-// Structs: keep in sync with src/masks/gpu/mod.rs (sizes asserted there, layout checked in
-// src/masks/gpu/source_tests.rs).
+// Structs: keep in sync with src/masks/gpu/mod.rs. Sizes are asserted there, and the layout is
+// checked in src/masks/gpu/source_tests.rs.
 
 // MaskParams is shaders/shared/mask_params.wgsl, put before this file (src/masks/gpu/source.rs).
 
-// One mask to draw: the rows of R with t in .w, the set's range, the ball radius of a cell (cell +
-// noise + rounding slack) and of a block of cells around its middle point (block + noise +
-// rounding slack), the cell tables (offsets into dirs of the azimuth and elevation cells'
-// directions, each table followed by the directions of its blocks' middles, one per block_a
-// azimuths or 64 / block_a elevations) and the block's cells along the azimuth (block_a; 64 /
+// One mask to draw: the rows of R with t in .w, and the set's range. Then the ball radius of a cell
+// (cell + noise + rounding slack), and of a block of cells around its middle point (block + noise +
+// rounding slack). Then the cell tables: offsets into dirs of the azimuth and elevation cells'
+// directions. Each table is followed by the directions of its blocks' middles, one per block_a
+// azimuths or 64 / block_a elevations. Last, block_a, the block's cells along the azimuth (64 /
 // block_a along the elevation: src/masks/gpu/tables.rs, block_shape).
 struct MaskJob {
     row0: vec4<f32>,
@@ -41,16 +41,16 @@ struct MaskJob {
 @group(0) @binding(3) var<storage, read> dirs: array<vec2<f32>>;
 // One bitset of words_per_mask words per job, in sonar 2's layout (pixel i * beams + j).
 @group(0) @binding(4) var<storage, read_write> bits: array<atomic<u32>>;
-// Five words per job, zeroed before the pass, laid out as mask_reduce.wgsl's: this stage sets
-// the bounds (words 1 to 4: !first range bin, last range bin, !first beam, last beam), the
-// reduce stage adds the pixel count (word 0).
+// Five words per job, zeroed before the pass, laid out as mask_reduce.wgsl's. This stage sets the
+// bounds (words 1 to 4: !first range bin, last range bin, !first beam, last beam). The reduce stage
+// adds the pixel count (word 0).
 @group(0) @binding(5) var<storage, read_write> summaries: array<atomic<u32>>;
 
-// The workgroup (CELLS threads) is one block of block_a x (CELLS / block_a) cells (BLOCK x BLOCK
-// unless the grid is thin along one axis). CELLS (BLOCK x BLOCK, from masks::plan::BLOCK) is
+// The workgroup (CELLS threads) is one block of block_a x (CELLS / block_a) cells: BLOCK x BLOCK,
+// unless the grid is thin along one axis. CELLS (BLOCK x BLOCK, from masks::plan::BLOCK) is
 // generated and put before this file (src/masks/gpu/source.rs).
 
-// Returns false only when no point within r of q lies in sonar 2's field of view: the twin of
+// Returns false only when no point within r of q lies in sonar 2's field of view. The twin of
 // clip::View::may_meet (src/clip.rs).
 fn may_meet_view(q: vec3<f32>, d: f32, r: f32) -> bool {
     if d - r > params.range_max || d + r < params.range_min {
@@ -66,13 +66,13 @@ fn may_meet_view(q: vec3<f32>, d: f32, r: f32) -> bool {
     return true;
 }
 
-// Returns the number of beam edges k with cross_k(q) > limit, where cross_k = rho sin(az(q) - e_k)
-// is the signed distance of q from edge k's line: a prefix of the edges while
-// radius < rho cos(half_az) (then |az(q) - e_k| stays below 180 deg - asin(radius / rho)). The
-// count is first guessed from `guess`, the angle az(q) - asin(limit / rho) the edges are compared
-// with, on edges spread evenly from `first` (rad) by 1 / `per` (the beams' mean spacing), then
-// walked to the exact count by the same comparisons a binary search makes: the guess only saves
-// steps (a software adapter pays for each, all lanes together), never changes the answer.
+// Returns the number of beam edges k with cross_k(q) > limit. Here cross_k = rho sin(az(q) - e_k)
+// is the signed distance of q from edge k's line. These edges are a prefix of the edges while
+// radius < rho cos(half_az): then |az(q) - e_k| stays below 180 deg - asin(radius / rho). The count
+// is first guessed from `guess`, the angle az(q) - asin(limit / rho) the edges are compared with,
+// on edges spread evenly from `first` (rad) by 1 / `per` (the beams' mean spacing). It is then
+// walked to the exact count by the same comparisons a binary search makes. The guess only saves
+// steps (a software adapter pays for each, all lanes together); it never changes the answer.
 fn edges_with_cross_above(q: vec3<f32>, limit: f32, guess: f32, first: f32, per: f32) -> u32 {
     let n = params.beams + 1u;
     // Within 0..=n whatever the guess (NaN included: the comparison is false).
@@ -117,7 +117,7 @@ fn set_bits(base: u32, first: u32, last: u32) {
         if n < 32u {
             m = ((1u << n) - 1u) << b;
         }
-        // Neighbouring cells mostly mark pixels already marked: a load is cheaper than the
+        // Neighbouring cells mostly mark pixels already marked. A load is cheaper than the
         // read-modify-write, which only runs when a bit is still missing.
         let at = base + k / 32u;
         if (atomicLoad(&bits[at]) & m) != m {
@@ -127,7 +127,7 @@ fn set_bits(base: u32, first: u32, last: u32) {
     }
 }
 
-// Returns the point at range `range` in the direction of azimuth `a` and elevation `e` (cos, sin)
+// Returns the point at range `range` in the direction of azimuth `a` and elevation `e` (cos, sin),
 // moved into sonar 2 by the job's pose.
 fn moved(job: MaskJob, a: vec2<f32>, e: vec2<f32>) -> vec3<f32> {
     let p = job.range * vec3<f32>(e.x * a.x, e.x * a.y, e.y);
@@ -139,10 +139,10 @@ fn moved(job: MaskJob, a: vec2<f32>, e: vec2<f32>) -> vec3<f32> {
 }
 
 // Marks the pixels of the ball of radius `r` around cell (ia, ie) of `job` in the mask at word
-// `base`, when it may meet the view; `first` and `per` place the beam edges for the searches'
-// guesses; `bounds` (first and last range bin, first and last beam) takes in the spans set.
-// Nested conditions rather than early exits: a software adapter runs a workgroup's lanes
-// together and skips a branch only when no lane takes it.
+// `base`, when it may meet the view. `first` and `per` place the beam edges for the searches'
+// guesses. `bounds` (first and last range bin, first and last beam) takes in the spans set. It uses
+// nested conditions rather than early exits: a software adapter runs a workgroup's lanes together,
+// and skips a branch only when no lane takes it.
 fn draw_cell(job: MaskJob, base: u32, ia: u32, ie: u32, r: f32, first: f32, per: f32,
              bounds: ptr<function, vec4<u32>>) {
     let q = moved(job, dirs[job.az_offset + ia], dirs[job.el_offset + ie]);
@@ -181,9 +181,9 @@ fn draw_cell(job: MaskJob, base: u32, ia: u32, ie: u32, r: f32, first: f32, per:
     }
 }
 
-// A workgroup per block of cells (blocks strided by the workgroups along x), a job
-// per workgroup row (y): the block's ball is tested first (every thread computes the same
-// test, so the branch is uniform) and, when it may meet the view, each thread draws one cell.
+// A workgroup per block of cells (blocks strided by the workgroups along x), a job per workgroup
+// row (y). The block's ball is tested first. Every thread computes the same test, so the branch is
+// uniform. When the ball may meet the view, each thread draws one cell.
 @compute @workgroup_size(64)
 fn main(
     @builtin(workgroup_id) group: vec3<u32>,
@@ -201,8 +201,8 @@ fn main(
     // The beam edges' first angle and mean spacing, for the searches' first guesses.
     let first_edge = atan2(edges[0].y, edges[0].x);
     let per_edge = f32(params.beams) / (atan2(edges[params.beams].y, edges[params.beams].x) - first_edge);
-    // The block's place and the thread's cell in it, stepped without a division a block (a
-    // software adapter divides lane by lane).
+    // The block's place and the thread's cell in it, stepped without a division a block (a software
+    // adapter divides lane by lane).
     let lane_a = local % job.block_a;
     let lane_e = local / job.block_a;
     let step_a = groups.x % blocks_a;
@@ -231,8 +231,8 @@ fn main(
             }
         }
     }
-    // The thread's bounds into the job's summary (the firsts inverted, so that atomicMax
-    // finds every bound).
+    // The thread's bounds into the job's summary. The firsts are inverted, so that atomicMax finds
+    // every bound.
     if bounds.x <= bounds.y {
         let at = group.y * 5u;
         atomicMax(&summaries[at + 1u], ~bounds.x);

@@ -1,11 +1,10 @@
-// A ping's masks reduced on the GPU, so that a ping reads back their union and five words a
-// feature instead of every bitset: per mask the pixels set and the range-bin and beam bounds of
-// its box, and the union of all masks. Its CPU twin is masks::summary::mask_reduce
-// (src/masks/summary.rs), which walks every word of a mask for its bounds; here the draw stage
-// (mask.wgsl) has already set them, exactly, from the spans it set, so this stage reads only the
-// words of the rows between them (a mask is a few rows of sonar 2's image) and adds the count
-// and the union. Integer atomics only (add, or), so the result does not depend on the order the
-// GPU runs in.
+// A ping's masks reduced on the GPU, so that a ping reads back their union and five words a feature
+// instead of every bitset. Per mask: the pixels set, and the range-bin and beam bounds of its box.
+// Also the union of all masks. Its CPU twin is masks::summary::mask_reduce (src/masks/summary.rs),
+// which walks every word of a mask for its bounds. Here the draw stage (mask.wgsl) has already set
+// them exactly, from the spans it set. So this stage reads only the words of the rows between them
+// (a mask is a few rows of sonar 2's image), and adds the count and the union. It uses integer
+// atomics only (add, or), so the result does not depend on the order the GPU runs in.
 //
 // MaskParams is shaders/shared/mask_params.wgsl, put before this file (src/masks/gpu/source.rs).
 
@@ -13,15 +12,15 @@
 // The masks drawn by mask.wgsl: words_per_mask words each, pixel i * beams + j.
 @group(0) @binding(1) var<storage, read> bits: array<u32>;
 // Five words per mask, zeroed before the draw stage: pixels set (added here), !first range bin,
-// last range bin, !first beam, last beam (set by the draw stage; the firsts inverted so that one
-// atomicMax finds every bound; a mask with no pixel keeps its zeros).
+// last range bin, !first beam, last beam. The draw stage sets the bounds. The firsts are inverted
+// so that one atomicMax finds every bound. A mask with no pixel keeps its zeros.
 @group(0) @binding(2) var<storage, read_write> summaries: array<atomic<u32>>;
 // The union of the ping's masks, zeroed before the pass.
 @group(0) @binding(3) var<storage, read_write> union_bits: array<atomic<u32>>;
 
 const WORKGROUP: u32 = 64u;
 
-// A mask per workgroup row (y); the words of its rows strided over the row's workgroups (x) and
+// A mask per workgroup row (y). The words of its rows are strided over the row's workgroups (x) and
 // threads.
 @compute @workgroup_size(64)
 fn main(
@@ -32,8 +31,8 @@ fn main(
     let at = group.y * 5u;
     let first_row = ~atomicLoad(&summaries[at + 1u]);
     let last_row = atomicLoad(&summaries[at + 2u]);
-    // The words holding pixels first_row * beams ..= last_row * beams + beams - 1; none for a
-    // mask with no pixel (its first row reads as 0xffffffff).
+    // The words holding pixels first_row * beams ..= last_row * beams + beams - 1. None for a mask
+    // with no pixel: its first row reads as 0xffffffff.
     var start = 0u;
     var end = 0u;
     if first_row <= last_row {
@@ -49,8 +48,9 @@ fn main(
             pixels += countOneBits(m);
         }
     }
-    // Each thread's count straight into the mask's (no workgroup barrier: a software adapter
-    // pays for each; the threads that add are those of the mask's few rows).
+    // Each thread's count goes straight into the mask's, with no workgroup barrier. A software
+    // adapter pays for each barrier, and the threads that add are only those of the mask's few
+    // rows.
     if pixels > 0u {
         atomicAdd(&summaries[at], pixels);
     }

@@ -1,5 +1,6 @@
-// Sonar 2 as both mask stages see it (mask.wgsl draws, mask_reduce.wgsl reduces). Keep in sync
-// with MaskParams in src/masks/gpu/mod.rs (size and offsets checked in src/masks/gpu/source_tests.rs).
+// Sonar 2 as both mask stages see it (mask.wgsl draws, mask_reduce.wgsl reduces). Keep in sync with
+// MaskParams in src/masks/gpu/mod.rs. Size and offsets are checked in
+// src/masks/gpu/source_tests.rs.
 struct MaskParams {
     range_min: f32,
     range_max: f32,
@@ -9,8 +10,8 @@ struct MaskParams {
     beams: u32,
     words_per_mask: u32,
     _pad0: u32,
-    // 1 when sonar 2 has more than one beam (an FLS, or a two-sided sidescan), 0 for range
-    // bins only
+    // 1 when sonar 2 has more than one beam (an FLS, or a two-sided sidescan), 0 for range bins
+    // only
     beamed: u32,
     // tan of half the elevation aperture; < 0 when the aperture is 180 deg (no test)
     tan_half_el: f32,

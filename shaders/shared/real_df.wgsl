@@ -1,7 +1,7 @@
 // Real arithmetic in double-f32 (hi + lo, about 44 significant bits), for adapters without
-// SHADER_F64. Same functions as real_f64.wgsl. It relies on IEEE f32 addition without
-// reassociation and on a fused fma; a driver that breaks either (lavapipe does, but it has f64)
-// silently gives f32 precision instead.
+// SHADER_F64. Same functions as real_f64.wgsl. It relies on IEEE f32 addition without reassociation
+// and on a fused fma. A driver that breaks either silently gives f32 precision instead (lavapipe
+// does, but it has f64).
 
 alias Real = vec2<f32>;
 

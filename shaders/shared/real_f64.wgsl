@@ -1,5 +1,5 @@
-// Real arithmetic in f64, for adapters with SHADER_F64 (lavapipe, most desktop GPUs).
-// Same functions as real_df.wgsl; the stages use only these.
+// Real arithmetic in f64, for adapters with SHADER_F64 (lavapipe, most desktop GPUs). Same
+// functions as real_df.wgsl; the stages use only these.
 
 alias Real = f64;
 
@@ -40,8 +40,8 @@ fn r_f32(a: Real) -> f32 {
     return f32(a);
 }
 
-// Returns a as the pair (hi, lo): hi = a rounded to f32, lo = the rest rounded to f32 (the
-// host's split of an f64).
+// Returns a as the pair (hi, lo): hi = a rounded to f32, lo = the rest rounded to f32. This is the
+// host's split of an f64.
 fn r_pair(a: Real) -> vec2<f32> {
     let hi = f32(a);
     return vec2<f32>(hi, f32(a - f64(hi)));
