@@ -1,50 +1,51 @@
-//! The fast CPU path: the GPU's algorithm (`shaders/splat.wgsl`, `shaders/reduce.wgsl`) in f64
-//! on every core (rayon), so a machine without a GPU is still fast. Unit directions are computed
-//! once per plan, a sample costs `M u + t` and trigonometry-free clip and bin decisions; only
-//! the samples that may be an azimuth extreme take a libm `atan2`. The reference stays the
-//! checker: `tests/agreement.rs` holds this path to the same envelope as the GPU.
+//! The fast CPU path: the GPU's algorithm (`shaders/splat.wgsl`, `shaders/reduce.wgsl`) in f64 on
+//! every core (rayon), so a machine without a GPU is still fast. Unit directions are computed once
+//! per plan. A sample costs `M u + t` and trigonometry-free clip and bin decisions. Only the
+//! samples that may be an azimuth extreme take a libm `atan2`. The reference stays the checker:
+//! `tests/agreement.rs` holds this path to the same envelope as the GPU.
 //!
-//! What makes it fast changes no result (a unit test holds it to the plain sample-by-sample
-//! loop, bit for bit, in every build the processor runs):
+//! What makes it fast changes no result. A unit test holds it to the plain sample-by-sample loop,
+//! bit for bit, in every build the processor runs.
 //!
-//! - **Blocks that cannot be seen are skipped.** A plan's samples are cut into blocks of
-//!   16 consecutive samples; each block's unit directions lie in a ball (centre `c`,
-//!   radius `ρ`, computed once per plan). The pose maps it to the ball `M c + t`, radius
-//!   `range · ρ` (a rotation keeps distances), and a block whose ball lies wholly outside sonar 2's
-//!   field of view, by more than a slack far above every rounding, is not visited: each clip
+//! - **Blocks that cannot be seen are skipped.** A plan's samples are cut into blocks of 16
+//!   consecutive samples. Each block's unit directions lie in a ball (centre `c`, radius `ρ`,
+//!   computed once per plan). The pose maps it to the ball `M c + t` of radius `range · ρ`, since a
+//!   rotation keeps distances. A block whose ball lies wholly outside sonar 2's field of view, by
+//!   more than a slack far above every rounding, is not visited. This is safe because each clip
 //!   bound is a 1-Lipschitz function of the point (range; the azimuth half-planes; the elevation
-//!   cone's `|z| cos e − ρ sin e`), so its value at the centre less the radius bounds it over the
-//!   ball. Every skipped sample is one the per-sample test would have rejected; a block wholly
-//!   inside skips the clip tests. Eight blocks' balls are tested together. A ball can be far
-//!   wider than a thin field of view (a sidescan's sheet) while its block's samples, on an arc,
-//!   stay close to the chord between its first and last: when a ball lies across a bound, the
-//!   chord (widened by the samples' largest distance from it) is tested against the convex parts
-//!   of the outside, and a block whose chord lies wholly in one is skipped too.
+//!   cone's `|z| cos e − ρ sin e`). So its value at the centre less the radius bounds it over the
+//!   ball, and every skipped sample is one the per-sample test would have rejected. A block wholly
+//!   inside skips the clip tests. Eight blocks' balls are tested together.
+//! - **Chords catch thin views.** A ball can be far wider than a thin field of view (a sidescan's
+//!   sheet), while its block's samples, on an arc, stay close to the chord between its first and
+//!   last. When a ball lies across a bound, the chord, widened by the samples' largest distance
+//!   from it, is tested against the convex parts of the outside. A block whose chord lies wholly in
+//!   one is skipped too.
 //! - **One lane stage.** A visited block is transformed, clipped and binned over its lanes in
-//!   structure-of-arrays form, branch-free, in the same IEEE operations as the scalar code: the
-//!   range bin from a guess and the squared edges around it, the beam from an azimuth guessed by
-//!   a polynomial `atan2` (within 1e-11 rad) and kept only when it lies farther from the beam's
-//!   edges than that error (else the edge tests decide, as the plain loop does). The whole pose
-//!   loop is built for baseline x86-64, AVX2 and AVX-512, and the widest the processor runs is
-//!   chosen at run time (the binary itself targets baseline x86-64).
-//! - **Sidescan bins by runs.** When sonar 2 is a sidescan and no two consecutive samples of the
+//!   structure-of-arrays form, branch-free, in the same IEEE operations as the scalar code. The
+//!   range bin comes from a guess and the squared edges around it. The beam comes from an azimuth
+//!   guessed by a polynomial `atan2` (within 1e-11 rad). The guess is kept only when it lies
+//!   farther from the beam's edges than that error; otherwise the edge tests decide, as the plain
+//!   loop does. The whole pose loop is built for baseline x86-64, AVX2 and AVX-512, and the widest
+//!   the processor runs is chosen at run time. The binary itself targets baseline x86-64.
+//! - **Sidescan bins by runs.** Say sonar 2 is a sidescan and no two consecutive samples of the
 //!   plan lie a range bin apart once moved (an arc sampled finer than the bins, as automatic
-//!   sampling always is), consecutive samples' bins are equal or adjacent, so a run of
-//!   consecutive visible samples covers exactly the bins between its nearest and farthest
-//!   sample. A pose whose visible samples form one run (an arc crossing the sheet once) takes no
-//!   range bin per sample: the lane stage keeps only the squared range's extremes, and the bins
-//!   are those of its two ends; a pose with several runs bins each visible sample. (This path
-//!   only: the splat shader bins every visible sample, which costs the GPU little of the
-//!   fls→sss row, whose time goes per pose: BENCHMARKS.md.)
-//! - **Few `atan2`.** An exact `atan2` is taken only for the samples whose azimuth key (the
-//!   guessed azimuth, or `y / x` for a sidescan) lies within its error of the pose's extremes.
+//!   sampling always is). Then consecutive samples' bins are equal or adjacent, so a run of
+//!   consecutive visible samples covers exactly the bins between its nearest and farthest sample. A
+//!   pose whose visible samples form one run (an arc crossing the sheet once) takes no range bin
+//!   per sample. The lane stage keeps only the squared range's extremes, and the bins are those of
+//!   its two ends. A pose with several runs bins each visible sample. Only this path does this. The
+//!   splat shader bins every visible sample, which costs the GPU little of the fls→sss row, whose
+//!   time goes per pose (BENCHMARKS.md).
+//! - **Few `atan2`.** An exact `atan2` is taken only for the samples whose azimuth key (the guessed
+//!   azimuth, or `y / x` for a sidescan) lies within its error of the pose's extremes.
 //! - **Occupancy is reused and counted sparsely.** Each thread keeps one occupancy buffer and a
-//!   one-bit-per-word summary of it; counting, the area sum (in row-major order, as the plain loop
+//!   one-bit-per-word summary of it. Counting, the area sum (in row-major order, as the plain loop
 //!   sums it) and clearing visit the touched words only.
 //!
-//! The decisions are [`crate::clip`]'s, the culling geometry `projection::culling`'s;
-//! here are the per-plan tables (`tables`), the lane stage (`lanes`), drawing a pose (`pose`),
-//! the reduce stage and a thread's state (`scratch`) and the choice of instruction set (`isa`).
+//! The decisions are [`crate::clip`]'s, and the culling geometry is `projection::culling`'s. The
+//! modules: the per-plan tables (`tables`), the lane stage (`lanes`), drawing a pose (`pose`), the
+//! reduce stage and a thread's state (`scratch`), and the choice of instruction set (`isa`).
 
 mod isa;
 mod lanes;
@@ -79,11 +80,11 @@ const BALLS: usize = 8;
 /// The arguments of [`Scratch::draw_pose`]: `(M, t, range, slack)`.
 type PoseArgs = (DMat3, DVec3, f64, f64);
 
-/// Sonar 2 as the fast path draws into it: the trigonometry-free decisions ([`Clip`], which
-/// this dereferences to) and what the lane stage and the reduce stage add to them.
+/// Sonar 2 as the fast path draws into it: the trigonometry-free decisions ([`Clip`], which this
+/// dereferences to), and what the lane stage and the reduce stage add to them.
 struct Geometry<'a> {
     clip: Clip<'a>,
-    /// Half of each beam's width `Δa_j / 2` and each row's `r_{i+1}² − r_i²`: their product is
+    /// Half of each beam's width `Δa_j / 2`, and each row's `r_{i+1}² − r_i²`. Their product is
     /// [`Layout::pixel_measure`], bit for bit.
     half_beam_widths: Vec<f64>,
     row_areas: Vec<f64>,
@@ -95,8 +96,8 @@ struct Geometry<'a> {
     cells: Option<CellGrid>,
 }
 
-/// The projection-area grid for the lane stage: [`crate::occupancy::AreaGrid`]'s corner and
-/// cell, its largest indices as floats (for the clamp) and its row length.
+/// The projection-area grid for the lane stage: [`crate::occupancy::AreaGrid`]'s corner and cell,
+/// its largest indices as floats (for the clamp), and its row length.
 #[derive(Clone, Copy)]
 struct CellGrid {
     x0: f64,
@@ -153,15 +154,15 @@ impl<'a> std::ops::Deref for Geometry<'a> {
     }
 }
 
-/// Returns the projections of every item of `prepared` on all cores; with
+/// Returns the projections of every item of `prepared`, on all cores. With
 /// [`Output::WithOccupancy`] each carries its occupancy buffer.
 #[must_use]
 pub fn project(prepared: &PreparedBatch<'_>, output: Output) -> Vec<Projection> {
     project_with(prepared, Keep::all(output), Isa::detect())
 }
 
-/// [`project`], given up (`None`) once `stop` is set: it is asked before each pose and
-/// each tile of a large sampling.
+/// Returns [`project`]'s projections, or `None` once `stop` is set. It is asked before each pose
+/// and each tile of a large sampling.
 #[must_use]
 pub fn project_until(
     prepared: &PreparedBatch<'_>,
@@ -171,13 +172,13 @@ pub fn project_until(
     project_tiled_batch(prepared, Keep::all(output), Isa::detect(), TILE_SAMPLES, stop)
 }
 
-/// The most samples whose tables (about 60 bytes a sample) are built at once. A plan with
-/// more is drawn in tiles of this many consecutive samples, its poses a few at a time, so that
-/// one pose of the largest plan (2^26 samples) peaks near 100 MB (95 MB measured with glibc's
-/// allocator, 121 MB with the command line's mimalloc), not 5 GB.
+/// The most samples whose tables (about 60 bytes a sample) are built at once. A plan with more is
+/// drawn in tiles of this many consecutive samples, its poses a few at a time. So one pose of the
+/// largest plan (2^26 samples) peaks near 100 MB, not 5 GB: 95 MB measured with glibc's allocator,
+/// 121 MB with the command line's mimalloc.
 pub(crate) const TILE_SAMPLES: usize = 1 << 20;
 
-/// [`project`], with the lane stage built for `isa` (tests run every build).
+/// Returns [`project`]'s projections, with the lane stage built for `isa`. Tests run every build.
 fn project_with(prepared: &PreparedBatch<'_>, keep: Keep, isa: Isa) -> Vec<Projection> {
     project_tiled_batch(prepared, keep, isa, TILE_SAMPLES, Stop::NEVER).expect("never stopped")
 }
@@ -187,13 +188,13 @@ fn project_with(prepared: &PreparedBatch<'_>, keep: Keep, isa: Isa) -> Vec<Proje
 struct Keep {
     /// Each pose's occupancy buffer (and cells), returned with its metrics.
     occupancy: bool,
-    /// The azimuths' extremes: their exact `atan2`s take a tenth of a sidescan sweep's time,
-    /// for nothing when no one reads them.
+    /// The azimuths' extremes. Their exact `atan2`s take a tenth of a sidescan sweep's time, for
+    /// nothing when no one reads them.
     azimuths: bool,
 }
 
 impl Keep {
-    /// Returns what a batch keeps: every metric, the occupancy when `output` asks for it.
+    /// Returns what a batch keeps: every metric, and the occupancy when `output` asks for it.
     fn all(output: Output) -> Self {
         Keep {
             occupancy: output == Output::WithOccupancy,
@@ -202,10 +203,9 @@ impl Keep {
     }
 }
 
-/// The poses a projection draws, whatever their source: how many, each one's plan, and each
-/// one's arguments (built from a batch item, or decoded from a grid's index).
+/// The poses a projection draws, whatever their source: how many, each one's plan, and each one's
+/// arguments. The arguments are built from a batch item, or decoded from a grid's index.
 trait PoseTable: Sync {
-    /// Returns the number of poses.
     fn count(&self) -> usize;
     /// Returns the index of pose `n`'s plan.
     fn plan_index(&self, n: usize) -> usize;
@@ -281,9 +281,9 @@ impl Slots for MetricSlices<'_> {
 /// Poses a thread takes at a time.
 const POSE_BLOCK: usize = 256;
 
-/// Returns the metric columns of poses `range` of `grid` (prepared by [`PreparedGrid`]) into
-/// `out`, its rows replaced (its memory kept), on all cores; `None` once `stop` is set
-/// (asked before each pose and each tile of a large sampling).
+/// Writes the metric columns of poses `range` of `grid` (prepared by [`PreparedGrid`]) into `out`,
+/// on all cores. Its rows are replaced and its memory kept. Returns `None` once `stop` is set,
+/// which is asked before each pose and each tile of a large sampling.
 pub(crate) fn project_grid(
     prepared: &PreparedGrid<'_>,
     range: std::ops::Range<u64>,
@@ -320,9 +320,9 @@ pub(crate) fn project_grid(
     Some(())
 }
 
-/// Draws one pose (or one tile of it) into `scratch`: a sidescan's one beam by runs of range
-/// bins; beams (an FLS, or a two-sided sidescan's two sides) sample by sample. The azimuths'
-/// extremes are left out unless `keep` asks for them.
+/// Draws one pose, or one tile of it, into `scratch`. A sidescan's one beam is drawn by runs of
+/// range bins. Beams (an FLS, or a two-sided sidescan's two sides) are drawn sample by sample. The
+/// azimuths' extremes are left out unless `keep` asks for them.
 fn draw(
     isa: Isa,
     scratch: &mut Scratch,
@@ -357,8 +357,8 @@ fn reduced(
     }
 }
 
-/// [`project_with`] with tiles of `tile` samples (tests make them small), given up (`None`)
-/// once `stop` is set.
+/// Returns [`project_with`]'s projections with tiles of `tile` samples (tests make them small), or
+/// `None` once `stop` is set.
 fn project_tiled_batch(
     prepared: &PreparedBatch<'_>,
     keep: Keep,
@@ -384,9 +384,9 @@ fn project_tiled_batch(
     Some(out.into_iter().map(|p| p.expect("every item drawn")).collect())
 }
 
-/// Draws every pose of `poses` into `blocks` (consecutive blocks of [`POSE_BLOCK`] poses),
-/// each on one thread, and returns the projections of the poses whose plan has more than
-/// `tile` samples, drawn tile by tile; `None` once `stop` is set.
+/// Draws every pose of `poses` into `blocks` (consecutive blocks of [`POSE_BLOCK`] poses), each on
+/// one thread. Poses whose plan has more than `tile` samples are drawn tile by tile, and their
+/// projections returned. Returns `None` once `stop` is set.
 #[expect(clippy::too_many_arguments, reason = "the parts of one projection, named")]
 fn project_tiled<T: PoseTable, S: Slots>(
     poses: &T,
@@ -408,7 +408,8 @@ fn project_tiled<T: PoseTable, S: Slots>(
     };
     let geo = Geometry::new(layout);
     let samples = |p: usize| plans[p].azimuths.len() * plans[p].elevations.len();
-    // Plans up to a tile: their tables once, shared by their poses, each pose on one thread.
+    // Plans up to a tile: their tables are built once and shared by their poses, each pose on one
+    // thread.
     let directions: Vec<Option<Directions>> = (0..plans.len())
         .map(|p| {
             let plan = &plans[p];
@@ -449,8 +450,8 @@ fn project_tiled<T: PoseTable, S: Slots>(
             },
         )
         .collect();
-    // Larger plans: tile by tile, each tile's tables built once for a group of poses drawn on
-    // all cores, every pose keeping its own buffers and running sums until its last tile.
+    // Larger plans go tile by tile. Each tile's tables are built once for a group of poses drawn on
+    // all cores. Every pose keeps its own buffers and running sums until its last tile.
     if halt() {
         return None;
     }
