@@ -1,6 +1,6 @@
 //! Which build of the pose loop runs: baseline x86-64, AVX2 or AVX-512, the widest the processor
-//! runs, detected at run time (the binary itself targets baseline x86-64). Every build gives the
-//! same bits: Rust never fuses a multiply and an add.
+//! runs, detected at run time. The binary itself targets baseline x86-64. Every build gives the
+//! same bits, since Rust never fuses a multiply and an add.
 
 use super::scratch::Scratch;
 use super::tables::Directions;
@@ -18,8 +18,7 @@ pub(super) enum Isa {
 }
 
 impl Isa {
-    /// Returns the widest build this processor runs (detected at run time: the binary itself
-    /// targets baseline x86-64).
+    /// Returns the widest build this processor runs, detected at run time.
     pub(super) fn detect() -> Self {
         #[cfg(target_arch = "x86_64")]
         {
@@ -53,8 +52,8 @@ impl Isa {
     }
 }
 
-/// [`Scratch::draw_pose`] compiled for AVX2 (four f64 lanes a vector): the same IEEE operations
-/// (Rust never fuses a multiply and an add), so the same bits.
+/// [`Scratch::draw_pose`] compiled for AVX2 (four f64 lanes a vector). The IEEE operations are the
+/// same (Rust never fuses a multiply and an add), so the bits are the same.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn draw_pose_avx2<const BEAMS: bool>(
@@ -80,8 +79,8 @@ fn draw_pose_avx512<const BEAMS: bool>(
     s.draw_pose::<BEAMS>(geo, dirs, pose, azimuths)
 }
 
-/// Runs [`Scratch::draw_pose`] in the build `isa` names (which this processor runs:
-/// [`Isa::detect`]).
+/// Runs [`Scratch::draw_pose`] in the build `isa` names, which this processor runs
+/// ([`Isa::detect`]).
 pub(super) fn draw_pose<const BEAMS: bool>(
     isa: Isa,
     s: &mut Scratch,

@@ -1,6 +1,7 @@
-//! The lane stage: one block of a pose transformed, clipped and binned as structure-of-arrays
-//! over its [`LANES`] lanes, branch-free, in the same IEEE operations as the scalar decisions of
-//! [`crate::clip::Clip`] (so the same bits), and the polynomial `atan2` its beam guess uses.
+//! The lane stage, and the polynomial `atan2` its beam guess uses. One block of a pose is
+//! transformed, clipped and binned as structure-of-arrays over its [`LANES`] lanes, branch-free. It
+//! uses the same IEEE operations as the scalar decisions of [`crate::clip::Clip`], so it gives the
+//! same bits.
 
 use glam::DVec3;
 
@@ -26,9 +27,9 @@ pub(super) struct Lanes {
     pub(super) x: [f64; LANES],
     pub(super) y: [f64; LANES],
     pub(super) z: [f64; LANES],
-    /// An azimuth key, ordered as the azimuth: sonar 2 with beams, the approximate azimuth
-    /// ([`approx_atan2`]); an SSS, `y / x`, NaN where `x ≤ 0` (such samples always get an exact
-    /// `atan2`).
+    /// An azimuth key, ordered as the azimuth. With beams, it is the approximate azimuth
+    /// ([`approx_atan2`]). For an SSS it is `y / x`, NaN where `x ≤ 0`; such samples always get an
+    /// exact `atan2`.
     pub(super) key: [f64; LANES],
     /// The pixel `i · beams + j`, its beam `j` guessed from the approximate azimuth.
     pub(super) pixel: [i32; LANES],
@@ -36,8 +37,8 @@ pub(super) struct Lanes {
     pub(super) sure: [bool; LANES],
     /// Whether the sample is visible.
     pub(super) keep: [bool; LANES],
-    /// The projection-area cell `i · ny + j` (an FLS target with a grid): the operations of
-    /// [`crate::occupancy::AreaGrid::flat_cell`], so the same cell.
+    /// The projection-area cell `i · ny + j` (an FLS target with a grid). It uses the operations of
+    /// [`crate::occupancy::AreaGrid::flat_cell`], so it is the same cell.
     pub(super) cell: [i32; LANES],
 }
 
@@ -87,9 +88,9 @@ impl Running {
         self.key_max = [f64::NEG_INFINITY; LANES];
     }
 
-    /// Returns the pose's `(range_min, range_max, key_min, key_max)` over its visible samples
-    /// (halving the lanes each step, so that it vectorises; neither a range nor a key is NaN or
-    /// a signed zero that the order of a fold could tell apart, where it matters).
+    /// Returns the pose's `(range_min, range_max, key_min, key_max)` over its visible samples. It
+    /// halves the lanes each step, so that it vectorises. Where it matters, neither a range nor a
+    /// key is NaN or a signed zero that the order of a fold could tell apart.
     #[inline(always)]
     pub(super) fn extremes(&self) -> (f64, f64, f64, f64) {
         fn fold(v: &[f64; LANES], f: fn(f64, f64) -> f64) -> f64 {
@@ -113,8 +114,8 @@ impl Running {
 }
 
 /// Returns `atan2(y, x)` within [`ATAN_ERROR`] (NaN where `x = y = 0`), branch-free so that it
-/// vectorises: the angle of `min(|x|, |y|) / max(|x|, |y|)` in `[0, π/4]` (folded about π/8 so the
-/// polynomial sees `|t| ≤ tan(π/8)`), then placed in its octant.
+/// vectorises. It takes the angle of `min(|x|, |y|) / max(|x|, |y|)` in `[0, π/4]`, folded about
+/// π/8 so the polynomial sees `|t| ≤ tan(π/8)`. Then it places the angle in its octant.
 #[inline(always)]
 pub(super) fn approx_atan2(y: f64, x: f64) -> f64 {
     use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, SQRT_2};
@@ -134,25 +135,27 @@ pub(super) fn approx_atan2(y: f64, x: f64) -> f64 {
     a.copysign(y)
 }
 
-/// Returns the distance (in beams) from a beam edge within which the lane stage's beam guess is
-/// settled by the edge tests instead: the azimuth's error [`ATAN_ERROR`] in beams, the beams'
-/// departure from uniform (each width within [`UNIFORM_BEAMS`] of the mean:
-/// [`crate::occupancy::Layout::uniform_beam_width`]) summed over the beams, and the roundings of
-/// the guess and the edge tests (below [`F64_ROUNDINGS`] rad and beams a beam), doubled, plus
-/// [`GUESS_SLACK_FLOOR`].
+/// Returns the distance (in beams) from a beam edge within which the edge tests, not the lane
+/// stage's beam guess, settle the beam. It adds up the azimuth's error [`ATAN_ERROR`] in beams, the
+/// beams' departure from uniform summed over the beams, and the roundings of the guess and the edge
+/// tests (below [`F64_ROUNDINGS`] rad and beams a beam). Each beam's width is within
+/// [`UNIFORM_BEAMS`] of the mean ([`crate::occupancy::Layout::uniform_beam_width`]). The sum is
+/// doubled, plus [`GUESS_SLACK_FLOOR`].
 pub(super) fn guess_slack(beams: usize, inv_beam_width: Option<f64>) -> f64 {
     let scale = inv_beam_width.unwrap_or(0.0);
     2.0 * ((ATAN_ERROR + F64_ROUNDINGS) * scale + beams as f64 * (UNIFORM_BEAMS + F64_ROUNDINGS))
         + GUESS_SLACK_FLOOR
 }
 
-/// The lane stage of one block, branch-free over the lanes so that it vectorises: `p = M u + t`
-/// in the operation order of glam's `DMat3 * DVec3` and `length_squared`; the clip of
-/// [`crate::clip::Clip::in_view`] (skipped when `inside`); the range bin of [`crate::clip::Clip::range_bin`]; the azimuth key; with beams (`BEAMS`) the beam guessed
-/// from the approximate azimuth, sure when farther than `guess_slack` from the beam's edges (the
-/// edge tests then find the same beam); the running extremes over visible lanes (lanes past the
-/// block's length repeat its last unit, so they change none). Returns the visible lanes as a bit
-/// mask. `m` is `M`'s columns then `t`.
+/// The lane stage of one block, branch-free over the lanes so that it vectorises. Returns the
+/// visible lanes as a bit mask; `m` is `M`'s columns then `t`. Per lane:
+/// - `p = M u + t`, in the operation order of glam's `DMat3 * DVec3` and `length_squared`;
+/// - the clip of [`crate::clip::Clip::in_view`] (skipped when `inside`), the range bin of
+///   [`crate::clip::Clip::range_bin`], and the azimuth key;
+/// - with beams (`BEAMS`), the beam guessed from the approximate azimuth. It is sure when farther
+///   than `guess_slack` from the beam's edges: the edge tests then find the same beam;
+/// - the running extremes over visible lanes. Lanes past the block's length repeat its last unit,
+///   so they change none.
 #[inline(always)]
 pub(super) fn draw_lanes<const BEAMS: bool>(
     geo: &Geometry<'_>,
@@ -164,7 +167,7 @@ pub(super) fn draw_lanes<const BEAMS: bool>(
 ) -> u32 {
     let beams = geo.beams;
     let cells = if BEAMS { geo.cells } else { None };
-    // NaN without uniform beams: no guess is ever sure.
+    // NaN without uniform beams, so no guess is ever sure.
     let guess_scale = geo.inv_beam_width.unwrap_or(f64::NAN);
     for k in 0..LANES {
         let (ux, uy, uz) = (u.x[k], u.y[k], u.z[k]);
@@ -206,8 +209,8 @@ pub(super) fn draw_lanes<const BEAMS: bool>(
         }
         out.key[k] = key;
         out.keep[k] = keep;
-        // A compare and a select (NaN, for a lane not kept, never wins): ranges are positive
-        // and keys only set thresholds, so which of equal values is kept does not matter.
+        // A compare and a select; NaN, for a lane not kept, never wins. Ranges are positive and
+        // keys only set thresholds, so which of equal values is kept does not matter.
         let (r_in, key_in) = if keep { (r, key) } else { (f64::NAN, f64::NAN) };
         let lo = |a: f64, b: f64| if b < a { b } else { a };
         let hi = |a: f64, b: f64| if b > a { b } else { a };
@@ -216,8 +219,8 @@ pub(super) fn draw_lanes<const BEAMS: bool>(
         run.key_min[k] = lo(run.key_min[k], key_in);
         run.key_max[k] = hi(run.key_max[k], key_in);
     }
-    // Eight flags (bytes 0 or 1) at a time gathered into a byte by one multiplication: byte
-    // `i` times byte `7 − i` of the constant lands on bit `56 + i`, no two terms on one bit.
+    // Eight flags (bytes 0 or 1) at a time are gathered into a byte by one multiplication. Byte `i`
+    // times byte `7 − i` of the constant lands on bit `56 + i`, and no two terms land on one bit.
     const { assert!(LANES.is_multiple_of(8) && LANES <= 32) };
     let mut mask = 0;
     for k in (0..LANES).step_by(8) {
@@ -227,11 +230,11 @@ pub(super) fn draw_lanes<const BEAMS: bool>(
     mask
 }
 
-/// The lane stage of one block of a pose drawn by runs ([`Scratch::draw_runs`], sonar 2 an
-/// SSS): `p = M u + t`, its squared range, the clip (skipped when `inside`) and the azimuth key
-/// `y / x` as [`draw_lanes`] computes them, stored at block `b` of `out`; the running extremes
-/// of the squared range (the range's are their square roots: `sqrt` is monotone and correctly
-/// rounded) and of the key. No range bin. Returns the visible lanes as a bit mask.
+/// The lane stage of one block of a pose drawn by runs ([`Scratch::draw_runs`], sonar 2 an SSS).
+/// Returns the visible lanes as a bit mask. No range bin is taken. It stores at block `b` of `out`
+/// what [`draw_lanes`] computes: `p = M u + t`, its squared range, the clip (skipped when `inside`)
+/// and the azimuth key `y / x`. It keeps the running extremes of the key and of the squared range.
+/// The range's extremes are their square roots, since `sqrt` is monotone and correctly rounded.
 #[inline(always)]
 pub(super) fn draw_lanes_runs(
     geo: &Geometry<'_>,
@@ -278,8 +281,8 @@ pub(super) fn draw_lanes_runs(
     mask
 }
 
-/// The lane stage's results for every block of a pose drawn by runs, one array per quantity
-/// (block `b`'s lanes at `b · LANES..`), and each block's visible lanes (0 when culled).
+/// The lane stage's results for every block of a pose drawn by runs: one array per quantity (block
+/// `b`'s lanes at `b · LANES..`), and each block's visible lanes (0 when culled).
 #[derive(Default)]
 pub(super) struct RunLanes {
     pub(super) x: Vec<f64>,

@@ -1,7 +1,7 @@
-//! Drawing one pose: its blocks culled eight at a time, each visited block through the lane
-//! stage, the visible samples' pixels set a word at a time, and the exact azimuth extremes taken
-//! only for the samples that may be one; a sidescan target sampled finer than its bins is drawn
-//! by runs. The fast path's twin of `shaders/splat.wgsl`.
+//! Drawing one pose; the fast path's twin of `shaders/splat.wgsl`. Its blocks are culled eight at a
+//! time, and each visited block goes through the lane stage. The visible samples' pixels are set a
+//! word at a time. The exact azimuth extremes are taken only for the samples that may be one. A
+//! sidescan target sampled finer than its bins is drawn by runs.
 
 use glam::DVec3;
 
@@ -13,11 +13,11 @@ use crate::clip::{ATAN_ERROR, F64_WIDEN, KEY_TOLERANCE};
 use crate::metrics::Extremes;
 
 impl Scratch {
-    /// Draws one pose: `m` is `M = R · Rz(base azimuth) · range` and `t` the translation,
-    /// `slack` the culling slack. Returns the visible count and the extremes, the pixels set in
-    /// the occupancy buffer. `BEAMS`: sonar 2 has beams to find (an FLS, or a two-sided
-    /// sidescan); without, a sidescan's range bins may be drawn by runs. The azimuths' extremes
-    /// are left empty (infinite) unless `azimuths`.
+    /// Draws one pose, and returns the visible count and the extremes, with the pixels set in the
+    /// occupancy buffer. `m` is `M = R · Rz(base azimuth) · range`, `t` the translation and `slack`
+    /// the culling slack. `BEAMS` says sonar 2 has beams to find (an FLS, or a two-sided sidescan).
+    /// Without, a sidescan's range bins may be drawn by runs. The azimuths' extremes are left empty
+    /// (infinite) unless `azimuths`.
     #[inline(always)]
     pub(super) fn draw_pose<const BEAMS: bool>(
         &mut self,
@@ -42,8 +42,8 @@ impl Scratch {
         let grid = BEAMS && geo.cells.is_some();
         // The last cell set: neighbouring samples mostly share one.
         let mut last_cell = usize::MAX;
-        // Room for every sample of the plan, made before the pose loop: a push that may grow
-        // the vector would be a call there, around which the loop's constants leave registers.
+        // Room for every sample of the plan, made before the pose loop. A push that may grow the
+        // vector would be a call there, around which the loop's constants leave registers.
         if seen.len() < dirs.units.len() {
             seen.resize(dirs.units.len(), Seen::default());
         }
@@ -103,9 +103,9 @@ impl Scratch {
             }
         }
         set(occ, summary, word, bits);
-        // The extremes: ranges folded over the lanes; exact azimuths for the samples that may
-        // be an extreme, in sample order (the fold then equals the fold over every sample: the
-        // others' azimuths are strictly inside).
+        // The extremes: ranges folded over the lanes, and exact azimuths for the samples that may
+        // be an extreme, in sample order. The fold then equals the fold over every sample, since
+        // the others' azimuths are strictly inside.
         let (range_min, range_max, key_min, key_max) = running.extremes();
         let mut extremes = Extremes {
             range_min,
@@ -130,14 +130,17 @@ impl Scratch {
         (n_seen as u64, extremes)
     }
 
-    /// Draws one pose into an SSS whose range bins are wider than the step from any sample of
-    /// the plan to the next (moved by the pose, a step keeps its length `range · |u' − u|`; the
-    /// caller checks it with the culling slack as margin). Two consecutive samples' ranges then
-    /// differ by less than a bin, so their bins are equal or adjacent, and a run of consecutive
-    /// visible samples covers exactly the bins from its nearest sample's to its farthest's. When
-    /// the visible samples form one run (an arc crossing the sonar's sheet once), the bins are
-    /// those of the two ends of the range; otherwise each visible sample's bin is taken. The same
-    /// results as [`Scratch::draw_pose`].
+    /// Draws one pose into an SSS whose range bins are wider than the step from any sample of the
+    /// plan to the next. The results are those of [`Scratch::draw_pose`].
+    /// 1. Moved by the pose, a step keeps its length `range · |u' − u|`. The caller checks it
+    ///    against the bin width, with the culling slack as margin.
+    /// 2. So two consecutive samples' ranges differ by less than a bin, and their bins are equal or
+    ///    adjacent.
+    /// 3. So a run of consecutive visible samples covers exactly the bins from its nearest sample's
+    ///    to its farthest's.
+    ///
+    /// When the visible samples form one run (an arc crossing the sonar's sheet once), the bins are
+    /// those of the two ends of the range. Otherwise each visible sample's bin is taken.
     #[inline(always)]
     pub(super) fn draw_runs(
         &mut self,

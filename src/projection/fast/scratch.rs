@@ -1,4 +1,4 @@
-//! One thread's working state (occupancy buffer, its summary, the lanes of the block being drawn)
+//! One thread's working state (occupancy buffer, its summary, the lanes of the block being drawn),
 //! and the reduce stage over it: the fast path's twin of `shaders/reduce.wgsl`.
 
 use glam::DMat3;
@@ -17,14 +17,14 @@ pub(super) struct Seen {
     pub(super) key: f64,
 }
 
-/// One thread's occupancy buffer and a summary of it: one bit per occupancy word, set when the
-/// word is, so that counting, summing and clearing visit the touched words only, in row-major
-/// order, without sorting.
+/// One thread's occupancy buffer and a summary of it: one bit per occupancy word, set when the word
+/// is. So counting, summing and clearing visit the touched words only, in row-major order, without
+/// sorting.
 pub(super) struct Scratch {
     pub(super) occ: Occupancy,
     pub(super) summary: Vec<u64>,
-    /// The visible samples of the pose being drawn (as many slots as the longest plan drawn
-    /// so far has samples).
+    /// The visible samples of the pose being drawn, with as many slots as the longest plan drawn so
+    /// far has samples.
     pub(super) seen: Vec<Seen>,
     /// The block being drawn.
     pub(super) lanes: Box<Lanes>,
@@ -32,10 +32,10 @@ pub(super) struct Scratch {
     pub(super) running: Box<Running>,
     /// The blocks of a pose drawn by runs.
     pub(super) runs: RunLanes,
-    /// The bins `lo..=hi` a pose drawn as one run covers, not yet set in `occ`: counted without
-    /// touching it unless the occupancy is kept.
+    /// The bins `lo..=hi` a pose drawn as one run covers, not yet set in `occ`. They are counted
+    /// without touching it unless the occupancy is kept.
     pub(super) span: Option<(usize, usize)>,
-    /// The last base azimuth's bits and its rotation `Rz` (neighbouring items mostly share it).
+    /// The last base azimuth's bits and its rotation `Rz`. Neighbouring items mostly share it.
     pub(super) rz: Option<(u64, DMat3)>,
     /// The projection-area cells of the pose being drawn (an FLS target), and their summary.
     pub(super) cells: Occupancy,
@@ -43,7 +43,6 @@ pub(super) struct Scratch {
 }
 
 impl Scratch {
-    /// Returns an empty state for `layout`.
     pub(super) fn new(layout: &crate::occupancy::Layout) -> Self {
         let occ = Occupancy::new(layout.range_bins, layout.beams());
         let summary = vec![0; occ.words.len().div_ceil(64)];
@@ -63,8 +62,8 @@ impl Scratch {
         }
     }
 
-    /// Sets the bins of a pose drawn as one run into the occupancy buffer, so that the next
-    /// tile of the same pose adds to them.
+    /// Sets the bins of a pose drawn as one run into the occupancy buffer, so that the next tile of
+    /// the same pose adds to them.
     pub(super) fn settle_span(&mut self) {
         if let Some((lo, hi)) = self.span.take() {
             set_span(&mut self.occ, &mut self.summary, lo, hi);
@@ -84,9 +83,9 @@ impl Scratch {
         }
     }
 
-    /// Returns `(occupied, occupied_measure)` (the reduce shader's work, over the touched words
-    /// in row-major order, so the area sums in the order of the plain loop) and the occupancy
-    /// when asked for, leaving the buffer empty.
+    /// Returns `(occupied, occupied_measure)`, and the occupancy when asked for, leaving the buffer
+    /// empty. This is the reduce shader's work. It runs over the touched words in row-major order,
+    /// so the area sums in the order of the plain loop.
     #[inline]
     pub(super) fn reduce(&mut self, geo: &Geometry<'_>, keep: bool) -> (u64, f64, Option<Occupancy>) {
         let layout = geo.layout;
@@ -133,9 +132,9 @@ impl Scratch {
 }
 
 impl Scratch {
-    /// Returns the projection area (m²) of the cells drawn (`None` without an area grid: an SSS
-    /// target) and the cells when asked for, leaving the cells empty: the count over the
-    /// touched words.
+    /// Returns the projection area (m²) of the cells drawn, and the cells when asked for, leaving
+    /// the cells empty. It counts over the touched words. `None` without an area grid (an SSS
+    /// target).
     #[inline]
     pub(super) fn reduce_cells(
         &mut self,
@@ -169,7 +168,7 @@ pub(super) fn set_span(occ: &mut Occupancy, summary: &mut [u64], lo: usize, hi: 
     }
 }
 
-/// Sets `bits` in word `w` of `occ`, marking the word in `summary` (when any bit is set).
+/// Sets `bits` in word `w` of `occ`, and marks the word in `summary` when any bit is set.
 #[inline(always)]
 pub(super) fn set(occ: &mut Occupancy, summary: &mut [u64], w: usize, bits: u32) {
     if bits != 0 {

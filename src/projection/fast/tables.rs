@@ -1,6 +1,6 @@
 //! The per-plan tables of the fast path: a plan's unit directions block by block in
 //! structure-of-arrays form, and its blocks' culling balls and chords
-//! ([`crate::projection::culling`]) eight blocks at a time, with the test of a pose's moved balls.
+//! ([`crate::projection::culling`]) eight blocks at a time. Also the test of a pose's moved balls.
 
 use glam::{DMat3, DVec3};
 
@@ -8,16 +8,16 @@ use super::{BALLS, Geometry, LANES};
 use crate::clip::F64_WIDEN;
 use crate::projection::culling::{ball_side, balls, chord_outside, chords, unit_directions};
 
-/// A plan's unit directions (azimuth index fastest) and, per block of [`LANES`] of them, the
-/// centre and radius of a ball holding them.
+/// A plan's unit directions (azimuth index fastest) and, per block of [`LANES`] of them, the centre
+/// and radius of a ball holding them.
 pub(super) struct Directions {
     pub(super) units: Vec<DVec3>,
     /// The same units block by block in structure-of-arrays form, for the lane stage.
     pub(super) lanes: Vec<BlockUnits>,
     /// The largest distance between consecutive units (0 for a single sample).
     pub(super) max_step: f64,
-    /// The balls, [`BALLS`] blocks at a time in structure-of-arrays form (the last chunk padded
-    /// with copies of the last ball).
+    /// The balls, [`BALLS`] blocks at a time in structure-of-arrays form. The last chunk is padded
+    /// with copies of the last ball.
     pub(super) ball_chunks: Vec<BallChunk>,
 }
 
@@ -28,14 +28,14 @@ pub(super) struct BallChunk {
     pub(super) y: [f64; BALLS],
     pub(super) z: [f64; BALLS],
     pub(super) r: [f64; BALLS],
-    /// The blocks' chords: their first and last units (`x`, `y`, `z` arrays) and how far the
+    /// The blocks' chords: their first and last units (`x`, `y`, `z` arrays), and how far the
     /// blocks' units lie from them.
     pub(super) first: [[f64; BALLS]; 3],
     pub(super) last: [[f64; BALLS]; 3],
     pub(super) reach: [f64; BALLS],
 }
 
-/// The unit directions of one block, one array per coordinate; lanes past `len` repeat the last
+/// The unit directions of one block, one array per coordinate. Lanes past `len` repeat the last
 /// unit and are never kept.
 #[derive(Clone)]
 pub(super) struct BlockUnits {
@@ -52,7 +52,7 @@ impl Directions {
     }
 
     /// Returns the tables of samples `samples` (azimuth index fastest) of the plan with these
-    /// azimuth offsets and elevations (rad): each unit the same bits as in [`Directions::of`].
+    /// azimuth offsets and elevations (rad). Each unit has the same bits as in [`Directions::of`].
     pub(super) fn of_samples(azimuths: &[f64], elevations: &[f64], samples: std::ops::Range<usize>) -> Self {
         let n = azimuths.len();
         let units = samples
@@ -65,7 +65,6 @@ impl Directions {
         Directions::from_units(units)
     }
 
-    /// Returns the tables of `units`.
     fn from_units(units: Vec<DVec3>) -> Self {
         let blocks = balls(&units, LANES);
         let lanes = units
@@ -111,8 +110,8 @@ impl Directions {
     }
 }
 
-/// Returns `M u + t` (`m` is `M`'s columns then `t`) in the operation order of glam's
-/// `DMat3 * DVec3`.
+/// Returns `M u + t` in the operation order of glam's `DMat3 * DVec3`. `m` is `M`'s columns then
+/// `t`.
 #[inline(always)]
 pub(super) fn moved(m: &[f64; 12], [ux, uy, uz]: [f64; 3]) -> [f64; 3] {
     [
@@ -130,12 +129,11 @@ pub(super) fn pose_columns(m: DMat3, t: DVec3) -> [f64; 12] {
     std::array::from_fn(|k| columns[k / 3][k % 3])
 }
 
-/// Returns, for the [`BALLS`] blocks of `chunk`, bit masks of those whose balls (moved by the
-/// pose: `m` is `M`'s columns then `t`; radii scaled by `range`, widened by `slack` and a
-/// relative 1e-12) lie wholly outside and wholly inside the field of view
-/// ([`ball_side`]), tested together so that it vectorises; when some ball lies across
-/// a bound, the blocks' chords widened the same way ([`chord_outside`]) may show more
-/// blocks wholly outside.
+/// Returns bit masks of the [`BALLS`] blocks of `chunk` whose balls lie wholly outside, and wholly
+/// inside, the field of view ([`ball_side`]). The balls are moved by the pose (`m` is `M`'s columns
+/// then `t`), their radii scaled by `range` and widened by `slack` and a relative 1e-12. They are
+/// tested together so that it vectorises. When some ball lies across a bound, the blocks' chords,
+/// widened the same way ([`chord_outside`]), may show more blocks wholly outside.
 #[inline(always)]
 pub(super) fn ball_sides(
     geo: &Geometry<'_>,
@@ -155,9 +153,10 @@ pub(super) fn ball_sides(
     if out | ins == (1 << BALLS) - 1 {
         return (out, ins);
     }
-    // A ball lies across a bound: its block's chord, moved by the pose (a rotation and the
-    // scale `range`, so distances scale by `range`), may still show the block outside — as for
-    // a thin sheet, whose bounds a block's ball straddles while its arc stays on one side.
+    // A ball lies across a bound, but its block's chord, moved by the pose, may still show the
+    // block outside. The pose is a rotation and the scale `range`, so distances scale by `range`.
+    // This happens for a thin sheet, whose bounds a block's ball straddles while its arc stays on
+    // one side.
     let mut far = [false; BALLS];
     for (k, far) in far.iter_mut().enumerate() {
         let end = |e: &[[f64; BALLS]; 3]| moved(m, [e[0][k], e[1][k], e[2][k]]);
