@@ -1,5 +1,5 @@
-//! The fast path against the plain sample-by-sample loop: bit for bit, in every build the
-//! processor runs, with runs and culling; the polynomial `atan2` within its bound.
+//! The fast path against the plain sample-by-sample loop: bit for bit, in every build the processor
+//! runs, with runs and culling. Also the polynomial `atan2` within its bound.
 
 use crate::stream::Stop;
 use rand::{RngExt, SeedableRng};
@@ -18,9 +18,9 @@ use crate::projection::culling::{ball_side, balls, chord_outside, chords};
 use crate::projection::{Batch, BatchItem};
 use crate::sampling::{Measurement, Sampling};
 
-/// Returns the projections drawn sample by sample with every clip test: no culling, no
-/// walking beams, no sparse reduce, `atan2` for every visible sample. The fast path must give
-/// exactly these results.
+/// Returns the projections drawn sample by sample with every clip test: no culling, no walking
+/// beams, no sparse reduce, `atan2` for every visible sample. The fast path must give exactly these
+/// results.
 fn project_plainly(prepared: &PreparedBatch<'_>) -> Vec<(Metrics, Occupancy)> {
     let layout = &prepared.layout;
     let geo = Geometry::new(layout);
@@ -88,8 +88,8 @@ fn random_item(s1: &Sonar, s2: &Sonar, rng: &mut ChaCha8Rng) -> BatchItem {
     }
 }
 
-/// Returns an imaging sonar that sees everything: 360° of beams (edges behind a point), and
-/// arcs of 180° (which cross a sidescan's sheet twice).
+/// Returns an imaging sonar that sees everything: 360° of beams (edges behind a point), and arcs of
+/// 180°, which cross a sidescan's sheet twice.
 fn omni() -> Sonar {
     Sonar::from_toml_str(
         "omni",
@@ -99,11 +99,10 @@ fn omni() -> Sonar {
     .unwrap()
 }
 
-/// Poses drawn by runs (an arc into a sidescan, sampled finer than its range bins, as
-/// automatic sampling always is) give the plain loop's results in every build, with and
-/// without the occupancy, whether
-/// their visible samples form one run (bins from the range's two ends) or several (each
-/// sample's bin); both occur, and every pose here is drawn by runs.
+/// Poses drawn by runs give the plain loop's results in every build, with and without the
+/// occupancy. They are arcs into a sidescan, sampled finer than its range bins, as automatic
+/// sampling always is. Both cases occur, and every pose here is drawn by runs: visible samples in
+/// one run (bins from the range's two ends) or in several (each sample's bin).
 #[test]
 fn runs_change_no_result() {
     let mut rng = ChaCha8Rng::seed_from_u64(33);
@@ -182,8 +181,8 @@ fn runs_change_no_result() {
     );
 }
 
-/// The azimuth guess keeps within `ATAN_ERROR` of libm's `atan2` in every octant, near the
-/// axes and diagonals, over many magnitudes; NaN only at the origin.
+/// The azimuth guess keeps within `ATAN_ERROR` of libm's `atan2` in every octant, near the axes and
+/// diagonals, over many magnitudes. It is NaN only at the origin.
 #[test]
 fn approx_atan2_is_within_its_bound() {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
@@ -219,10 +218,10 @@ fn approx_atan2_is_within_its_bound() {
     assert!(approx_atan2(0.0, 0.0).is_nan() && approx_atan2(-0.0, -0.0).is_nan());
 }
 
-/// A block the chord test skips has no visible sample (the plain test, sample by sample),
-/// and the chord test skips blocks the balls keep — most of them where a sidescan's thin
-/// sheet is the bound — on random placements of a feature in sonar 2's view (its arc then
-/// crosses the bounds). `ball_sides` returns the balls' decisions with the chords' added.
+/// A block the chord test skips has no visible sample (by the plain test, sample by sample). The
+/// chord test also skips blocks the balls keep, most of them where a sidescan's thin sheet is the
+/// bound. The poses are random placements of a feature in sonar 2's view, so its arc crosses the
+/// bounds. `ball_sides` returns the balls' decisions with the chords' added.
 #[test]
 fn chords_skip_only_blocks_without_a_visible_sample() {
     let mut rng = ChaCha8Rng::seed_from_u64(21);
@@ -294,12 +293,12 @@ fn chords_skip_only_blocks_without_a_visible_sample() {
     }
 }
 
-/// Culling, the lane stage's guessed bins and beams, exact `atan2` only for extreme
-/// candidates, the sparse reduce and every build of the pose loop (baseline, AVX2, AVX-512,
-/// as the processor runs them) change no bit of any result: the fast path against the plain
-/// loop on random placements (features anywhere in sonar 1's view, placed anywhere in sonar
-/// 2's, random rotations) for every preset pair, a 360° sonar and one with non-uniform
-/// beams, in both sampling modes.
+/// The speed-ups change no bit of any result: culling, the lane stage's guessed bins and beams,
+/// exact `atan2` only for extreme candidates, the sparse reduce, and every build of the pose loop
+/// (baseline, AVX2, AVX-512, as the processor runs them). The fast path is held to the plain loop
+/// on random placements (features anywhere in sonar 1's view, placed anywhere in sonar 2's, random
+/// rotations). This runs for every preset pair, a 360° sonar and one with non-uniform beams, in
+/// both sampling modes.
 #[test]
 fn culling_changes_no_result() {
     let mut rng = ChaCha8Rng::seed_from_u64(9);
@@ -364,10 +363,10 @@ fn culling_changes_no_result() {
     }
 }
 
-/// Plans larger than a tile are drawn tile by tile, their poses a few at a time: the same bits
-/// as drawing them whole, whatever the tile (a block's worth, an odd number of samples, one
-/// sample short of the plan), with and without the occupancy, for sidescan targets (by runs:
-/// one run split across tiles) and imaging ones (beams, cells), on every build.
+/// Plans larger than a tile are drawn tile by tile, their poses a few at a time, with the same bits
+/// as drawing them whole. This holds whatever the tile (a block's worth, an odd number of samples,
+/// one sample short of the plan), with and without the occupancy, on every build. It covers
+/// sidescan targets (by runs: one run split across tiles) and imaging ones (beams, cells).
 #[test]
 fn tiles_change_no_result() {
     let mut rng = ChaCha8Rng::seed_from_u64(44);
@@ -422,8 +421,8 @@ fn tiles_change_no_result() {
                         tiled, whole,
                         "{a} -> {b}: tile {tile}, {isa:?}, occupancy {occupancy}"
                     );
-                    // Without the azimuths' extremes: every other result the same, those left
-                    // empty (infinite where something is visible).
+                    // Without the azimuths' extremes, every other result is the same. Those
+                    // extremes are left empty (infinite where something is visible).
                     let lean = Keep {
                         azimuths: false,
                         ..keep
