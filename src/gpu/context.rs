@@ -1,7 +1,7 @@
-//! The wgpu instance, adapter, device and queue. Kept apart from the work so tests and callers
-//! can bring their own device. A process opens one context per device its [`GpuOptions`] ask for
-//! and shares it ([`GpuContext::open`]): instances created and dropped by many threads at once
-//! crashed NVIDIA's Vulkan driver.
+//! The wgpu instance, adapter, device and queue. They are kept apart from the work, so tests and
+//! callers can bring their own device. A process opens one context per device its [`GpuOptions`]
+//! ask for, and shares it ([`GpuContext::open`]). Instances created and dropped by many threads at
+//! once crashed NVIDIA's Vulkan driver.
 
 use std::sync::{Mutex, PoisonError};
 
@@ -9,11 +9,11 @@ use crate::error::{Error, Result, excerpt};
 use crate::gpu::options::GpuOptions;
 use crate::gpu::precision::Precision;
 
-/// Timeout for one wait on the GPU; lavapipe can be slow on big batches.
+/// Timeout for one wait on the GPU. Lavapipe can be slow on big batches.
 pub const WAIT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(600);
 
 /// A device ready for compute work, with the adapter it came from. Cloning it shares the device.
-/// What runs on it (the splat stage's variant) is the backend's, not the device's.
+/// What runs on it (the splat stage's variant) belongs to the backend, not the device.
 #[derive(Clone, Debug)]
 pub struct GpuContext {
     device: wgpu::Device,
@@ -23,8 +23,8 @@ pub struct GpuContext {
     precision: Precision,
 }
 
-/// What tells two devices apart: the backends, the adapter asked for and the precision asked
-/// for ([`GpuOptions`] without the splat stage's variant).
+/// What tells two devices apart: the backends, the adapter asked for and the precision asked for.
+/// That is [`GpuOptions`] without the splat stage's variant.
 type DeviceKey = (Option<wgpu::Backends>, Option<String>, Option<Precision>);
 
 /// Returns the device `options` ask for.
@@ -97,18 +97,19 @@ impl GpuContext {
         &self.queue
     }
 
-    /// Returns whether the adapter is a software one (lavapipe, llvmpipe, WARP): it runs on the
+    /// Returns whether the adapter is a software one (lavapipe, llvmpipe, WARP), which runs on the
     /// CPU's cores.
     #[must_use]
     pub fn is_software(&self) -> bool {
         self.info.device_type == wgpu::DeviceType::Cpu
     }
 
-    /// Returns the process's context for `options`: opened on the first call (the adapter
-    /// `options.adapter` names, else the high-performance adapter of the backends, a software one
-    /// such as lavapipe included) and shared by every later call that asks for the same device
-    /// (the same backends, adapter and precision), as an application shares its device. The
-    /// splat stage's variant in `options` is not the device's: a backend takes it
+    /// Returns the process's context for `options`, shared as an application shares its device.
+    ///
+    /// The first call opens it, on the adapter `options.adapter` names, else on the
+    /// high-performance adapter of the backends (a software one such as lavapipe included). Every
+    /// later call that asks for the same device (the same backends, adapter and precision) shares
+    /// it. The splat stage's variant in `options` is not the device's: a backend takes it
     /// ([`crate::projection::gpu::SplatOptions::for_adapter`]).
     ///
     /// # Errors
@@ -127,9 +128,9 @@ impl GpuContext {
         Ok(ctx)
     }
 
-    /// Returns how many contexts this process has opened with [`GpuContext::open`]: one per
-    /// device asked for (backends, adapter, precision), however often, from however many threads
-    /// and with whichever variant of the splat stage.
+    /// Returns how many contexts this process has opened with [`GpuContext::open`]. There is one
+    /// per device asked for (backends, adapter, precision), however often, from however many
+    /// threads and with whichever variant of the splat stage.
     #[must_use]
     pub fn opened() -> usize {
         OPENED.lock().unwrap_or_else(PoisonError::into_inner).len()
@@ -174,9 +175,9 @@ impl GpuContext {
         Self::from_adapter(&adapter, options.precision)
     }
 
-    /// Returns a new context on `adapter` (not shared), asking for the larger buffer limits it
-    /// offers; the projection computes in f64 where the adapter has it, unless `precision` asks
-    /// for double-f32.
+    /// Returns a new context on `adapter`, not shared, asking for the larger buffer limits it
+    /// offers. The projection computes in f64 where the adapter has it, unless `precision` asks for
+    /// double-f32.
     ///
     /// # Errors
     /// [`Error::InvalidValue`] when `precision` asks for f64 on an adapter without it;
@@ -184,7 +185,7 @@ impl GpuContext {
     pub fn from_adapter(adapter: &wgpu::Adapter, precision: Option<Precision>) -> Result<Self> {
         let offered = adapter.limits();
         let mut limits = wgpu::Limits::default();
-        // Ask for up to 1 GiB bindings where the adapter has them; chunks are sized from these.
+        // Ask for up to 1 GiB bindings where the adapter has them. Chunks are sized from these.
         limits.max_storage_buffer_binding_size = offered.max_storage_buffer_binding_size.min(1 << 30);
         limits.max_buffer_size = offered.max_buffer_size.min(1 << 30);
         limits.max_storage_buffers_per_shader_stage = limits
@@ -207,7 +208,7 @@ impl GpuContext {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("sonarproj"),
             required_limits: limits.clone(),
-            // Timestamp queries where the adapter has them: `bench` reports the device's time.
+            // Timestamp queries where the adapter has them, so `bench` reports the device's time.
             required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY
                 | if f64_ok {
                     wgpu::Features::SHADER_F64

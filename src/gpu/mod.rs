@@ -1,8 +1,8 @@
-//! The GPU plumbing shared by the projection and the mask pipelines: the device
-//! ([`GpuContext`], opened once per process for the [`GpuOptions`] the fronts give), its
-//! arithmetic ([`Precision`]), compute stages and their binding tables (`pipeline`), buffers kept
-//! between calls (`pool`), the device's own time of a pass (`timing`) and reading buffers back.
-//! A leaf: it imports nothing of the engine but its errors; each pipeline assembles its own WGSL
+//! The GPU plumbing shared by the projection and the mask pipelines: the device ([`GpuContext`],
+//! opened once per process for the [`GpuOptions`] the fronts give), its arithmetic ([`Precision`]),
+//! compute stages and their binding tables (`pipeline`), buffers kept between calls (`pool`), the
+//! device's own time of a pass (`timing`), and reading buffers back. It is a leaf: it imports
+//! nothing of the engine but its errors. Each pipeline assembles its own WGSL
 //! (`projection/gpu/source.rs`, `masks/gpu/source.rs`).
 
 pub mod context;
@@ -21,9 +21,9 @@ pub use context::GpuContext;
 pub use options::GpuOptions;
 pub use precision::Precision;
 
-/// Returns what `f` makes of the first `size` bytes of the mappable `buffer` as u32s, read in
-/// place while the buffer is mapped (no copy), once submission `index` (and those before it) has
-/// finished, or every submission when `None`: later submissions can go on running.
+/// Returns what `f` makes of the first `size` bytes of the mappable `buffer` as u32s. It waits for
+/// submission `index` and those before it, or for every submission when `None`; later submissions
+/// can go on running. The bytes are read in place while the buffer is mapped, without a copy.
 pub(crate) fn read_after<T>(
     ctx: &GpuContext,
     buffer: &wgpu::Buffer,

@@ -1,6 +1,6 @@
-//! How the GPU is opened and the splat stage built, as a value the fronts build and pass in: the
-//! command line from its environment variables, Python from keyword arguments, a Rust caller by
-//! hand. The engine itself reads no environment variable.
+//! How the GPU is opened and the splat stage built, as a value the fronts build and pass in. The
+//! command line builds it from its environment variables, Python from keyword arguments, and a Rust
+//! caller by hand. The engine itself reads no environment variable.
 
 use crate::error::{Error, Param, Result};
 use crate::gpu::precision::Precision;
@@ -12,36 +12,36 @@ pub const PRECISION: Param = Param::new("GPU precision");
 /// The splat stage's workgroup option ([`GpuOptions::workgroup`]) as errors name it.
 pub const WORKGROUP: Param = Param::new("GPU workgroup");
 
-/// The splat stage's workgroup sizes [`GpuOptions::workgroup`] may take: multiples of the culling
-/// block (16 samples) that every adapter runs (at least 256 threads a workgroup).
+/// The splat stage's workgroup sizes [`GpuOptions::workgroup`] may take. They are multiples of the
+/// culling block (16 samples) that every adapter runs (at least 256 threads a workgroup).
 pub const SPLAT_WORKGROUPS: [u32; 4] = [32, 64, 128, 256];
 
-/// Threads per workgroup of the splat stage by default (the WGSL `override WORKGROUP` in
-/// splat.wgsl; checked in the shader tests).
+/// Threads per workgroup of the splat stage by default: the WGSL `override WORKGROUP` in
+/// splat.wgsl, checked in the shader tests.
 pub const SPLAT_WORKGROUP: u32 = 64;
 
-/// The options of the GPU: which adapter, which arithmetic, which variant of the splat stage.
-/// Every field left `None` takes the engine's choice; [`GpuOptions::default`] leaves them all.
-/// Results do not depend on `cull`, `filter` or `workgroup` (tested); `precision` changes only
-/// the last bits of the GPU's f32 output, within the envelope of "How the GPU is checked".
+/// The options of the GPU: which adapter, which arithmetic, which variant of the splat stage. Each
+/// field left `None` takes the engine's choice, and [`GpuOptions::default`] leaves them all.
+/// Results do not depend on `cull`, `filter` or `workgroup` (tested). `precision` changes only the
+/// last bits of the GPU's f32 output, within the envelope of "How the GPU is checked".
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct GpuOptions {
-    /// The wgpu backends adapters are looked for on; `None`: the primary ones (Vulkan, Metal,
-    /// DX12). Empty: none (every GPU request then finds no adapter).
+    /// The wgpu backends adapters are looked for on. `None`: the primary ones (Vulkan, Metal,
+    /// DX12). Empty: none, so every GPU request finds no adapter.
     pub backends: Option<wgpu::Backends>,
-    /// Part of the adapter's name, case-insensitive; `None`: the high-performance adapter of the
+    /// Part of the adapter's name, case-insensitive. `None`: the high-performance adapter of the
     /// backends (a software one such as lavapipe counts).
     pub adapter: Option<String>,
-    /// The splat stage's arithmetic; `None`: f64 where the adapter has it, else double-f32.
+    /// The splat stage's arithmetic. `None`: f64 where the adapter has it, else double-f32.
     /// `Some(DoubleF32)` measures the path of GPUs without f64 on one that has it.
     pub precision: Option<Precision>,
-    /// Block culling in the splat stage; `None`: on for a hardware adapter, off for a software
-    /// one (measured slower there).
+    /// Block culling in the splat stage. `None`: on for a hardware adapter, off for a software one
+    /// (measured slower there).
     pub cull: Option<bool>,
-    /// The splat stage's f32 filter (each sample decided in f32 first, in f64 or double-f32 only
-    /// near a bound or an edge); `None`: on for a hardware adapter, off for a software one.
+    /// The splat stage's f32 filter: each sample is decided in f32 first, and in f64 or double-f32
+    /// only near a bound or an edge. `None`: on for a hardware adapter, off for a software one.
     pub filter: Option<bool>,
-    /// Threads a workgroup of the splat stage, one of [`SPLAT_WORKGROUPS`]; `None`:
+    /// Threads a workgroup of the splat stage, one of [`SPLAT_WORKGROUPS`]. `None`:
     /// [`SPLAT_WORKGROUP`].
     pub workgroup: Option<u32>,
 }

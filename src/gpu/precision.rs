@@ -6,7 +6,7 @@
 pub enum Precision {
     /// `f64` (needs `wgpu::Features::SHADER_F64`): agrees with the CPU reference to ~1e-15.
     F64,
-    /// Double-f32 (`hi + lo`): ~1e-13 where the driver keeps IEEE f32 semantics and fuses fma,
+    /// Double-f32 (`hi + lo`): ~1e-13 where the driver keeps IEEE f32 semantics and fuses fma, and
     /// f32 (~1e-7) where it does not.
     DoubleF32,
 }
@@ -21,8 +21,8 @@ impl Precision {
         }
     }
 
-    /// Returns the precision `text` names: `f64`, or `double-f32` (also `df`); `None` for any
-    /// other text. The one spelling every front accepts.
+    /// Returns the precision `text` names: `f64`, or `double-f32` (also `df`). `None` for any other
+    /// text. This is the one spelling every front accepts.
     #[must_use]
     pub fn parse(text: &str) -> Option<Precision> {
         match text.trim() {
