@@ -1,4 +1,4 @@
-//! Pipelines of the two stages, built once per backend. Binding order follows the WGSL files.
+//! Pipelines of the stages, built once per backend. Binding order follows the WGSL files.
 #![expect(
     clippy::cast_possible_truncation,
     reason = "buffer sizes and counts bounded by the device limits checked before packing"
@@ -36,7 +36,6 @@ pub(crate) enum Binding {
 /// A compute pipeline with its bind-group layout.
 #[derive(Debug)]
 pub(crate) struct Stage {
-    /// The pipeline.
     pub(crate) pipeline: wgpu::ComputePipeline,
     /// Layout of its one bind group.
     pub(crate) layout: wgpu::BindGroupLayout,
@@ -52,8 +51,8 @@ impl Stage {
     }
 
     /// Returns the pipeline as [`Stage::new`], with the WGSL `override` constants set to
-    /// `constants` (name, value). The shader module and the pipeline are made inside error
-    /// scopes, so a driver's refusal is an error with wgpu's as its source, not a panic.
+    /// `constants` (name, value). The shader module and the pipeline are made inside error scopes,
+    /// so a driver's refusal is an error with wgpu's as its source, not a panic.
     ///
     /// # Errors
     /// [`Error::Gpu`] when the device refuses the shader or the pipeline (validation, an internal

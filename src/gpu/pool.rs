@@ -1,7 +1,7 @@
-//! Buffers kept between calls: a stage asks for a buffer by name and size and gets the one it
-//! used last time when it is large enough, or a new one grown to the next power of two (within
-//! the device's limit), so that a stream of calls of similar size allocates nothing; and the
-//! bind groups made of them, kept while they bind the pool's current buffers.
+//! Buffers kept between calls, and the bind groups made of them. A stage asks for a buffer by name
+//! and size. It gets the one it used last time when that is large enough, or else a new one grown
+//! to the next power of two (within the device's limit). So a stream of calls of similar size
+//! allocates nothing. Bind groups are kept while they bind the pool's current buffers.
 
 use std::collections::HashMap;
 use std::sync::{Mutex, MutexGuard};
@@ -17,10 +17,11 @@ pub(crate) struct BufferPool {
 }
 
 impl BufferPool {
-    /// Returns the pool's buffer `label` of at least `size` bytes with `usage`: the one kept from
-    /// an earlier call when it is large enough, otherwise a new one of `size` rounded up to a
-    /// power of two but at most `limit` bytes (never less than `size`), kept for later calls.
-    /// The contents are whatever an earlier call left: callers write or clear what they read.
+    /// Returns the pool's buffer `label` of at least `size` bytes with `usage`. It is the one kept
+    /// from an earlier call when that is large enough. Otherwise it is a new one, kept for later
+    /// calls, of `size` rounded up to a power of two but at most `limit` bytes (never less than
+    /// `size`). The contents are whatever an earlier call left: callers write or clear what they
+    /// read.
     pub(crate) fn get(
         &mut self,
         device: &wgpu::Device,
@@ -43,7 +44,7 @@ impl BufferPool {
             usage,
             mapped_at_creation: false,
         });
-        // A replaced buffer is freed: the groups that bound it go with it.
+        // A replaced buffer is freed, and the groups that bound it go with it.
         if let Some(old) = self.buffers.insert(label, buffer.clone()) {
             self.groups.retain(|_, (kept, _)| !kept.contains(&old));
         }
@@ -55,9 +56,9 @@ impl BufferPool {
         self.buffers.values().map(wgpu::Buffer::size).sum()
     }
 
-    /// Returns the pool's bind group `label` of `stage` over `buffers` (in binding order): the
-    /// one kept from an earlier call when it binds the same buffers, otherwise a new one, kept
-    /// (a label names one stage's group: callers never bind one label to two stages).
+    /// Returns the pool's bind group `label` of `stage` over `buffers` (in binding order). It is
+    /// the one kept from an earlier call when it binds the same buffers, else a new one, kept. A
+    /// label names one stage's group: callers never bind one label to two stages.
     pub(crate) fn bind(
         &mut self,
         device: &wgpu::Device,
@@ -83,9 +84,9 @@ impl BufferPool {
 pub(crate) struct SharedPool(Mutex<BufferPool>);
 
 impl SharedPool {
-    /// Runs `f` with the shared pool, or with a fresh pool when another thread holds it (calls on
-    /// one backend from several threads then allocate instead of waiting). When `f` fails the
-    /// kept buffers are dropped, since a failed readback may leave one mapped.
+    /// Runs `f` with the shared pool, or with a fresh pool when another thread holds it. Calls on
+    /// one backend from several threads then allocate instead of waiting. When `f` fails, the kept
+    /// buffers are dropped, since a failed readback may leave one mapped.
     pub(crate) fn with<T, E>(&self, f: impl FnOnce(&mut BufferPool) -> Result<T, E>) -> Result<T, E> {
         let mut guard: MutexGuard<'_, BufferPool> = match self.0.try_lock() {
             Ok(guard) => guard,
@@ -104,12 +105,12 @@ impl SharedPool {
         result
     }
 
-    /// Returns the bytes of GPU memory the shared pool holds (0 while another call uses it).
+    /// Returns the bytes of GPU memory the shared pool holds, or 0 while another call uses it.
     pub(crate) fn bytes(&self) -> u64 {
         self.0.try_lock().map_or(0, |pool| pool.bytes())
     }
 
-    /// Drops every kept buffer (they are rebuilt on the next call).
+    /// Drops every kept buffer. They are rebuilt on the next call.
     pub(crate) fn clear(&self) {
         if let Ok(mut pool) = self.0.lock() {
             *pool = BufferPool::default();

@@ -1,5 +1,5 @@
 //! GPU time of compute passes, from the device's own clock (timestamp queries, where the adapter
-//! has them): what `bench sweep` reports as device time beside the host's.
+//! has them). `bench sweep` reports it as device time beside the host's.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Duration;
@@ -7,8 +7,8 @@ use std::time::Duration;
 use crate::error::Result;
 use crate::gpu::{GpuContext, read_after};
 
-/// Two timestamps around one compute pass: the query set, where they are resolved and where
-/// they are read back.
+/// Two timestamps around one compute pass: the query set, where they are resolved, and where they
+/// are read back.
 pub(crate) struct PassTimer {
     queries: wgpu::QuerySet,
     resolved: wgpu::Buffer,
@@ -55,15 +55,15 @@ impl PassTimer {
         }
     }
 
-    /// Records, after the pass, the copy of its timestamps to where [`PassTimer::elapsed`]
-    /// reads them.
+    /// Records, after the pass, the copy of its timestamps to where [`PassTimer::elapsed`] reads
+    /// them.
     pub(crate) fn resolve(&self, enc: &mut wgpu::CommandEncoder) {
         enc.resolve_query_set(&self.queries, 0..2, &self.resolved, 0);
         enc.copy_buffer_to_buffer(&self.resolved, 0, &self.staging, 0, 16);
     }
 
-    /// Returns the time between the pass's two timestamps, once submission `index` (the one
-    /// that resolved them; every submission when `None`) has finished.
+    /// Returns the time between the pass's two timestamps, once submission `index` has finished.
+    /// That is the submission that resolved them; `None` waits for every submission.
     ///
     /// # Errors
     /// [`crate::Error::Gpu`] when the readback fails.
@@ -78,8 +78,8 @@ impl PassTimer {
     }
 }
 
-/// The device time a backend's passes took while timing was on, summed; and the host's time
-/// beside them: waiting for chunks to finish, and unpacking what they read back.
+/// The summed device time of a backend's passes while timing was on, and the host's time beside
+/// them: waiting for chunks to finish, and unpacking what they read back.
 #[derive(Debug, Default)]
 pub(crate) struct DeviceClock {
     on: AtomicBool,
@@ -99,7 +99,7 @@ pub(crate) enum Timed {
 }
 
 impl DeviceClock {
-    /// Starts or stops timing; starting clears the sums.
+    /// Starts or stops timing. Starting clears the sums.
     pub(crate) fn set(&self, on: bool) {
         if on {
             for n in &self.ns {

@@ -1,13 +1,13 @@
-//! What the shader tests of both pipelines read of a WGSL stage through naga: the module
-//! (parsed and validated), a struct's members and size, a constant, the bindings and workgroup
-//! size of its entry point. Test-only.
+//! What the shader tests of both pipelines read of a WGSL stage through naga: the module (parsed
+//! and validated), a struct's members and size, a constant, and the bindings and workgroup size of
+//! its entry point. Test-only.
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 
 use crate::gpu::pipeline::Binding;
 
-/// Returns `source` parsed and validated (with the f64 capability), panicking with `name` and
-/// naga's message when it does not.
+/// Returns `source` parsed and validated with the f64 capability. Panics with `name` and naga's
+/// message when it is not.
 pub(crate) fn module(source: &str, name: &str) -> naga::Module {
     let module = naga::front::wgsl::parse_str(source)
         .unwrap_or_else(|e| panic!("{name}.wgsl does not parse:\n{}", e.emit_to_string(source)));
@@ -17,8 +17,8 @@ pub(crate) fn module(source: &str, name: &str) -> naga::Module {
     module
 }
 
-/// Returns `source` validated without the f64 capability (the variant adapters without f64 run),
-/// panicking with `name` when it needs one.
+/// Validates `source` without the f64 capability, as adapters without f64 run it. Panics with
+/// `name` when it needs the capability.
 pub(crate) fn validate_without_f64(source: &str, name: &str) {
     let m = naga::front::wgsl::parse_str(source).unwrap();
     Validator::new(ValidationFlags::all(), Capabilities::empty())
@@ -164,8 +164,8 @@ fn identifiers(part: &str) -> std::collections::HashSet<String> {
         .collect()
 }
 
-/// Asserts that no part of `parts` (named WGSL pieces, in the order a stage is assembled) uses a
-/// module-scope name that only a later part declares.
+/// Asserts that no part of `parts` uses a module-scope name that only a later part declares.
+/// `parts` are named WGSL pieces, in the order a stage is assembled.
 pub(crate) fn assert_declared_before_use(parts: &[(&str, String)]) {
     for (i, (name, part)) in parts.iter().enumerate() {
         let before: std::collections::HashSet<String> =
