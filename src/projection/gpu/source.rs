@@ -31,15 +31,15 @@ fn real(precision: Precision) -> &'static str {
     }
 }
 
-/// Returns the WGSL name of a metric's slot: `METRIC_` and its name in capitals, with `_NOT` for
-/// a minimum (stored as the bitwise NOT of its order key).
+/// Returns the WGSL name of a metric's slot: `METRIC_` and its name in capitals. A minimum, stored
+/// as the bitwise NOT of its order key, adds `_NOT`.
 fn slot_name(name: &str, reduce: Reduce) -> String {
     let not = if reduce == Reduce::Min { "_NOT" } else { "" };
     format!("METRIC_{}{not}", name.to_uppercase())
 }
 
-/// Returns the WGSL constants of the metric slots: `METRIC_STRIDE` (slots a pose) and one slot
-/// per metric the GPU reduces, from the metric table ([`METRICS`]).
+/// Returns the WGSL constants of the metric slots, from the metric table ([`METRICS`]):
+/// `METRIC_STRIDE` (slots a pose), and one slot per metric the GPU reduces.
 fn metric_slots() -> String {
     let mut out = format!("const METRIC_STRIDE: u32 = {METRIC_STRIDE}u;\n");
     for m in METRICS.iter() {
@@ -50,8 +50,8 @@ fn metric_slots() -> String {
     out
 }
 
-/// Returns the WGSL constants of the splat stage's decisions, from the Rust ones: the f32 slack
-/// and widening ([`crate::clip::F32_SLACK`], [`crate::clip::F32_WIDEN`]) and the culling block
+/// Returns the WGSL constants of the splat stage's decisions, from the Rust ones: the f32 slack and
+/// widening ([`crate::clip::F32_SLACK`], [`crate::clip::F32_WIDEN`]), and the culling block
 /// ([`crate::projection::culling::BLOCK`]).
 fn clip_constants() -> String {
     #[expect(

@@ -1,5 +1,5 @@
-//! The projection's WGSL stages parse and validate, and the structs, constants, bindings and
-//! workgroup sizes they share with Rust are the same on both sides.
+//! The projection's WGSL stages parse and validate. The structs, constants, bindings and workgroup
+//! sizes they share with Rust are the same on both sides.
 #![expect(
     clippy::cast_possible_truncation,
     reason = "WGSL constants are small integers or f32 values, read back as f64"
@@ -28,7 +28,7 @@ fn every_stage_parses_and_validates() {
     for (name, source, needs_f64) in all() {
         module(&source, name);
         if !needs_f64 {
-            // Without the f64 capability too: adapters that lack it run this variant.
+            // Also without the f64 capability, since adapters that lack it run this variant.
             validate_without_f64(&source, name);
         }
     }
@@ -174,14 +174,14 @@ fn clip_constants_match() {
 }
 
 /// The binding tables the pipelines are built with, and the workgroup sizes the dispatches are
-/// computed with, are the WGSL's (they were kept in sync by comments only).
+/// computed with, are the WGSL's.
 #[test]
 fn binding_tables_and_workgroup_sizes_match_the_wgsl() {
     use crate::projection::gpu::{
         POSES_BINDINGS, POSES_WORKGROUP, REDUCE_BINDINGS, SPLAT_BINDINGS, SPLAT_WORKGROUP,
     };
-    // The reduce stage runs one workgroup per pose whatever its size: its 64 threads are the
-    // WGSL's own, said here so that a change is seen.
+    // The reduce stage runs one workgroup per pose whatever its size. Its 64 threads are the WGSL's
+    // own, said here so that a change is seen.
     const REDUCE_WORKGROUP: u64 = 64;
     for precision in [Precision::F64, Precision::DoubleF32] {
         let (b, w) = interface(&module(&splat(precision), "splat"));
@@ -198,9 +198,8 @@ fn binding_tables_and_workgroup_sizes_match_the_wgsl() {
     assert_eq!(u64::from(w), REDUCE_WORKGROUP, "reduce.wgsl workgroup size");
 }
 
-/// No part of a stage reads a module-scope name that a later part declares: each part's names
-/// are declared in it or in a part before it (WGSL allows either order; a reader of the parts
-/// one by one should not have to look ahead).
+/// No part of a stage reads a module-scope name that a later part declares. WGSL allows either
+/// order, but a reader of the parts one by one should not have to look ahead.
 #[test]
 fn no_part_reads_a_name_declared_after_it() {
     let parts_of = |precision| {
