@@ -27,12 +27,10 @@ pub struct GpuContext {
 /// That is [`GpuOptions`] without the splat stage's variant.
 type DeviceKey = (Option<wgpu::Backends>, Option<String>, Option<Precision>);
 
-/// Returns the device `options` ask for.
 fn device_key(options: &GpuOptions) -> DeviceKey {
     (options.backends, options.adapter.clone(), options.precision)
 }
 
-/// Returns a wgpu instance over `backends`.
 fn instance(backends: wgpu::Backends) -> wgpu::Instance {
     let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
     desc.backends = backends;
@@ -87,12 +85,10 @@ impl GpuContext {
         self.device.features()
     }
 
-    /// Returns the device.
     pub(crate) fn device(&self) -> &wgpu::Device {
         &self.device
     }
 
-    /// Returns the device's queue.
     pub(crate) fn queue(&self) -> &wgpu::Queue {
         &self.queue
     }

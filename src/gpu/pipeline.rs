@@ -8,7 +8,6 @@ use std::borrow::Cow;
 
 use crate::error::{Error, Result};
 
-/// Returns a bind-group layout entry for a compute-visible buffer at `binding`.
 fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,

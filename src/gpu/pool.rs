@@ -51,7 +51,6 @@ impl BufferPool {
         buffer
     }
 
-    /// Returns the bytes of GPU memory the pool holds.
     pub(crate) fn bytes(&self) -> u64 {
         self.buffers.values().map(wgpu::Buffer::size).sum()
     }

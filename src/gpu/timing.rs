@@ -109,12 +109,10 @@ impl DeviceClock {
         self.on.store(on, Ordering::Relaxed);
     }
 
-    /// Returns whether passes are to be timed.
     pub(crate) fn on(&self) -> bool {
         self.on.load(Ordering::Relaxed)
     }
 
-    /// Adds `t` to the sum of `what`.
     #[expect(
         clippy::cast_possible_truncation,
         reason = "nanoseconds of a run fit in u64 (584 years)"

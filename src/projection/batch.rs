@@ -65,13 +65,10 @@ pub struct Projection {
 #[doc(hidden)]
 #[derive(Clone, Debug)]
 pub struct PreparedBatch<'a> {
-    /// The batch itself.
     pub(crate) batch: &'a Batch,
     /// Sonar 2's data layout.
     pub(crate) layout: Layout,
-    /// The distinct sampling plans.
     pub(crate) plans: Vec<SamplingPlan>,
-    /// Which plan each item has.
     plan_of: PlanOf,
     /// The range error (m) of the items' local precision.
     sigma: f64,
@@ -380,7 +377,6 @@ mod tests {
         }
     }
 
-    /// Returns a paper-fls → paper-sss batch of `items`.
     fn fls_to_sss(sampling: Sampling, items: Vec<BatchItem>) -> Batch {
         Batch {
             sigma_range: None,

@@ -33,16 +33,13 @@ pub struct MetricColumns {
     pub occupied_measure: Vec<f64>,
     /// The projection area (m², FLS target); NaN for an SSS target.
     pub projection_area: Vec<f64>,
-    /// The number of rows.
     rows: usize,
     /// Which columns are kept, bit `metric as usize` for each metric.
     kept: u16,
 }
 
-/// Every metric's bit set.
 const ALL: u16 = (1 << crate::metrics::METRICS.len()) - 1;
 
-/// Returns whether the set of columns `kept` holds `metric`'s.
 fn has(kept: u16, metric: Metric) -> bool {
     kept & 1 << metric as u16 != 0
 }
@@ -141,7 +138,6 @@ impl MetricColumns {
         }
     }
 
-    /// Returns the count columns with their metrics.
     fn counts_mut(&mut self) -> [(Metric, &mut Vec<u64>); 3] {
         [
             (Metric::Visible, &mut self.visible),
@@ -150,7 +146,6 @@ impl MetricColumns {
         ]
     }
 
-    /// Returns the real columns with their metrics.
     fn reals_mut(&mut self) -> [(Metric, &mut Vec<f64>); 8] {
         [
             (Metric::VisibleFraction, &mut self.visible_fraction),
@@ -288,7 +283,6 @@ pub(crate) struct MetricSlices<'a> {
 }
 
 impl<'a> MetricSlices<'a> {
-    /// Returns the number of rows.
     pub(crate) fn len(&self) -> usize {
         self.len
     }

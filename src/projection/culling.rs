@@ -68,7 +68,6 @@ pub(crate) fn balls(units: &[DVec3], size: usize) -> Vec<(DVec3, f64)> {
         .collect()
 }
 
-/// Returns the distance from `p` to the segment `[a, b]`.
 fn distance_to_segment(p: DVec3, a: DVec3, b: DVec3) -> f64 {
     let ab = b - a;
     let len2 = ab.length_squared();

@@ -400,7 +400,6 @@ impl PoseSweep<'_> {
         Ok(())
     }
 
-    /// Returns a batch of this sweep's sonars and sampling, without items.
     fn empty_batch(&self) -> Batch {
         Batch {
             sigma_range: None,
@@ -497,7 +496,6 @@ pub(crate) struct DecodedPose {
 }
 
 impl<'a> GridTables<'a> {
-    /// Returns the tables of `grid` measured by `source`.
     pub(crate) fn new(grid: &'a PoseGrid, source: &Sonar) -> Self {
         let rad = |a: &[f64]| a.iter().map(|v| v.to_radians()).collect::<Vec<_>>();
         let cs = |a: &[f64]| {
@@ -538,7 +536,6 @@ impl<'a> GridTables<'a> {
         }
     }
 
-    /// Returns the index of pose `i`'s value on the feature's range axis.
     #[inline]
     #[expect(
         clippy::cast_possible_truncation,

@@ -207,7 +207,6 @@ impl Keep {
 /// arguments. The arguments are built from a batch item, or decoded from a grid's index.
 trait PoseTable: Sync {
     fn count(&self) -> usize;
-    /// Returns the index of pose `n`'s plan.
     fn plan_index(&self, n: usize) -> usize;
     /// Returns the arguments of pose `n`: `M = R · Rz(base azimuth) · range`, `t`, the range and
     /// the culling slack.

@@ -28,7 +28,6 @@ pub(super) struct Scratch {
     pub(super) seen: Vec<Seen>,
     /// The block being drawn.
     pub(super) lanes: Box<Lanes>,
-    /// The pose's running extremes.
     pub(super) running: Box<Running>,
     /// The blocks of a pose drawn by runs.
     pub(super) runs: RunLanes,

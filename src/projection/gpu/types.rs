@@ -195,7 +195,6 @@ pub(crate) fn words_per_pose(layout: &Layout) -> usize {
     pixel_words(layout) + cell_words(layout)
 }
 
-/// Returns the u32 words of one pose's pixels.
 #[must_use]
 pub(crate) fn pixel_words(layout: &Layout) -> usize {
     layout.pixels().div_ceil(32)
@@ -213,7 +212,6 @@ fn df(v: f64) -> [f32; 2] {
 }
 
 impl TargetParams {
-    /// Returns the parameters of `layout` for a chunk of `pose_count` poses.
     #[must_use]
     pub(crate) fn new(layout: &Layout, pose_count: u32) -> Self {
         let (sin_half_az, cos_half_az) = layout.azimuth_clip();
@@ -251,7 +249,6 @@ impl TargetParams {
     }
 }
 
-/// Returns the beam edges of `layout` for the GPU.
 #[must_use]
 pub(crate) fn beam_edges(layout: &Layout) -> Vec<BeamEdgeGpu> {
     let e = &layout.beam_edges;

@@ -211,7 +211,6 @@ impl Source<'_> {
         }
     }
 
-    /// Returns the index of pose `k`'s plan.
     pub(super) fn plan_index(&self, k: usize) -> usize {
         match self {
             Source::Items(p) => p.plan_index(k),
