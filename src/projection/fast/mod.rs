@@ -8,19 +8,13 @@
 //! bit for bit, in every build the processor runs.
 //!
 //! - **Blocks that cannot be seen are skipped.** A plan's samples are cut into blocks of 16
-//!   consecutive samples. Each block's unit directions lie in a ball (centre `c`, radius `ρ`,
-//!   computed once per plan). The pose maps it to the ball `M c + t` of radius `range · ρ`, since a
-//!   rotation keeps distances. A block whose ball lies wholly outside sonar 2's field of view, by
-//!   more than a slack far above every rounding, is not visited. This is safe because each clip
-//!   bound is a 1-Lipschitz function of the point (range; the azimuth half-planes; the elevation
-//!   cone's `|z| cos e − ρ sin e`). So its value at the centre less the radius bounds it over the
-//!   ball, and every skipped sample is one the per-sample test would have rejected. A block wholly
-//!   inside skips the clip tests. Eight blocks' balls are tested together.
-//! - **Chords catch thin views.** A ball can be far wider than a thin field of view (a sidescan's
-//!   sheet), while its block's samples, on an arc, stay close to the chord between its first and
-//!   last. When a ball lies across a bound, the chord, widened by the samples' largest distance
-//!   from it, is tested against the convex parts of the outside. A block whose chord lies wholly in
-//!   one is skipped too.
+//!   consecutive samples, each held in a ball and near a chord (computed once per plan). The pose
+//!   maps a ball (centre `c`, radius `ρ`) to the ball `M c + t` of radius `range · ρ`, since a
+//!   rotation keeps distances. A block whose ball, or whose widened chord, lies wholly outside
+//!   sonar 2's field of view by more than a slack far above every rounding is not visited. A block
+//!   wholly inside skips the clip tests. Eight blocks' balls are tested together.
+//!   `projection::culling` shows why every skipped sample is one the per-sample test would have
+//!   rejected.
 //! - **One lane stage.** A visited block is transformed, clipped and binned over its lanes in
 //!   structure-of-arrays form, branch-free, in the same IEEE operations as the scalar code. The
 //!   range bin comes from a guess and the squared edges around it. The beam comes from an azimuth
@@ -28,15 +22,12 @@
 //!   farther from the beam's edges than that error; otherwise the edge tests decide, as the plain
 //!   loop does. The whole pose loop is built for baseline x86-64, AVX2 and AVX-512, and the widest
 //!   the processor runs is chosen at run time. The binary itself targets baseline x86-64.
-//! - **Sidescan bins by runs.** Say sonar 2 is a sidescan and no two consecutive samples of the
-//!   plan lie a range bin apart once moved (an arc sampled finer than the bins, as automatic
-//!   sampling always is). Then consecutive samples' bins are equal or adjacent, so a run of
-//!   consecutive visible samples covers exactly the bins between its nearest and farthest sample. A
+//! - **Sidescan bins by runs.** When sonar 2 is a sidescan and the moved plan is sampled finer than
+//!   its bins (as automatic sampling always is), a run of consecutive visible samples covers
+//!   exactly the bins between its nearest and farthest sample (`Scratch::draw_runs` shows why). A
 //!   pose whose visible samples form one run (an arc crossing the sheet once) takes no range bin
-//!   per sample. The lane stage keeps only the squared range's extremes, and the bins are those of
-//!   its two ends. A pose with several runs bins each visible sample. Only this path does this. The
-//!   splat shader bins every visible sample, which costs the GPU little of the fls→sss row, whose
-//!   time goes per pose (BENCHMARKS.md).
+//!   per sample. Only this path does this. The splat shader bins every visible sample, which costs
+//!   the GPU little of the fls→sss row, whose time goes per pose (BENCHMARKS.md).
 //! - **Few `atan2`.** An exact `atan2` is taken only for the samples whose azimuth key (the guessed
 //!   azimuth, or `y / x` for a sidescan) lies within its error of the pose's extremes.
 //! - **Occupancy is reused and counted sparsely.** Each thread keeps one occupancy buffer and a
