@@ -1,9 +1,7 @@
-//! The reference's reduce stage. Its twins are `shaders/reduce.wgsl` and the reduce step of
-//! `projection::fast`.
-//!
-//! One pose's occupancy buffer becomes the occupied count and the occupied measure. The measure is
-//! bin widths for an SSS and true pixel areas for an FLS (README: Conventions). The pose's
-//! projection-area cells become the projection area.
+//! The reference's reduce stage; its twins are `shaders/reduce.wgsl` and `projection::fast`'s
+//! reduce step. One pose's occupancy buffer becomes the occupied count and the occupied measure:
+//! bin widths for an SSS, true pixel areas for an FLS (README: Conventions). Its projection-area
+//! cells become the projection area.
 
 use crate::occupancy::{Layout, Occupancy};
 
