@@ -303,8 +303,7 @@ impl Backend {
         let mut start = range.start;
         while start < range.end {
             let end = range.end.min(start + ITEMS_AT_ONCE);
-            // Metrics alone: a list's true points would cost a local precision the columns do not
-            // hold.
+            // Metrics alone: a list's true points would cost a local precision the columns lack.
             let mut batch = sweep.batch(start..end)?;
             batch.items.iter_mut().for_each(|i| i.true_point = None);
             for p in self.project_until(&batch, Output::MetricsOnly, stop)? {

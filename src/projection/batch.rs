@@ -291,8 +291,8 @@ impl Batch {
             });
         }
         if let Sampling::Step(_) = checker.sampling {
-            // Step sampling counts do not depend on the item. They are counted once, with the first
-            // item's check. Every item is then validated on all cores, and nothing is kept per
+            // Step sampling counts do not depend on the item, so they are counted once, with the
+            // first item's check. Every item is then validated on all cores; nothing is kept per
             // item.
             let plans = match self.items.first() {
                 None => Vec::new(),

@@ -398,8 +398,7 @@ fn project_tiled<T: PoseTable, S: Slots>(
     };
     let geo = Geometry::new(layout);
     let samples = |p: usize| plans[p].azimuths.len() * plans[p].elevations.len();
-    // Plans up to a tile: their tables are built once and shared by their poses, each pose on one
-    // thread.
+    // Plans up to a tile: tables built once, shared by their poses, each pose on one thread.
     let directions: Vec<Option<Directions>> = (0..plans.len())
         .map(|p| {
             let plan = &plans[p];

@@ -153,10 +153,9 @@ pub(super) fn ball_sides(
     if out | ins == (1 << BALLS) - 1 {
         return (out, ins);
     }
-    // A ball lies across a bound, but its block's chord, moved by the pose, may still show the
-    // block outside. The pose is a rotation and the scale `range`, so distances scale by `range`.
-    // This happens for a thin sheet, whose bounds a block's ball straddles while its arc stays on
-    // one side.
+    // A ball across a bound: its block's chord, moved by the pose, may still show the block
+    // outside, as for a thin sheet that the ball straddles while the arc stays on one side. The
+    // pose is a rotation and the scale `range`, so distances scale by `range`.
     let mut far = [false; BALLS];
     for (k, far) in far.iter_mut().enumerate() {
         let end = |e: &[[f64; BALLS]; 3]| moved(m, [e[0][k], e[1][k], e[2][k]]);
