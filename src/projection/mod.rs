@@ -1,9 +1,9 @@
 //! Projects a batch of measurements into sonar 2.
 //!
-//! [`batch`] holds the batch and its preparation. The three backends are the f64 reference
-//! ([`reference`](mod@reference)), the fast CPU path ([`fast`]) and the GPU ([`gpu`]). One
-//! [`Backend`] selects among them ([`backend`]). [`envelope`] is the envelope an f32 result may
-//! honestly lie in.
+//! [`batch`] holds the batch and its preparation. The backends are the f64 reference
+//! ([`reference`](mod@reference)), the fast CPU path ([`fast`]) and the GPU ([`gpu`]), behind one
+//! [`Backend`] with one selection policy ([`backend`]). [`envelope`] bounds where an f32 result may
+//! honestly lie.
 //!
 //! The API is [`Backend`]: a [`Batch`] of items, or a [`PoseSweep`] of a grid or list, into
 //! projections or [`MetricColumns`]. The prepared batch ([`Batch::prepare`]) and each backend's own
