@@ -306,3 +306,19 @@ fn pose_lists_and_sweep_files_past_their_limits_are_refused_while_read() {
         "{e}"
     );
 }
+
+/// Exact mode leaves the projection area empty: an exact sweep into an imaging sonar draws the
+/// span by default, and one that names `metric = "projection_area"` is refused.
+#[test]
+fn exact_sweeps_draw_the_span_of_an_imaging_sonar_2() {
+    let text = "from = \"paper-fls\"\nto = \"paper-fls\"\nstep = \"exact\"\n[feature]\nrange = 5\n[place]\n\
+                range = 6\n[rotation]\nyaw = { start = 0, stop = 10, step = 5 }\n";
+    let config = SweepConfig::parse("exact.toml", text, Path::new(".")).unwrap();
+    assert_eq!(config.sampling, sonarproj::Sampling::Exact);
+    assert_eq!(config.metric, sonarproj::Metric::Span);
+    let named = format!("metric = \"projection_area\"\n{text}");
+    let e = SweepConfig::parse("exact.toml", &named, Path::new("."))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("projection_area") && e.contains("exact"), "{e}");
+}

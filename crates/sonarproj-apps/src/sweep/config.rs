@@ -143,10 +143,24 @@ impl SweepConfig {
             Some(v) => columns::result_columns(f, v)?,
         };
         let named = named_metric(f, &top, target.kind)?;
+        let exact = sampling == Sampling::Exact;
+        if exact && named == Some(Metric::ProjectionArea) {
+            return Err(f.error(
+                "metric",
+                "\"projection_area\"",
+                "has no value with step = \"exact\" (it counts grid cells holding samples): \
+                 choose span, occupied_measure or another metric, or a sampling step",
+            ));
+        }
+        // Exact mode leaves the projection area empty: an FLS sonar 2's figure draws the span.
+        let default = |kept: &[&str]| match columns::default_metric(target.kind, kept) {
+            Metric::ProjectionArea if exact => Metric::Span,
+            m => m,
+        };
         // The figure draws from the table, so a metric the file does not name must be kept.
         // A summary reduces any metric: by default the file's metric, or the sonar's.
-        let metric = named.unwrap_or_else(|| columns::default_metric(target.kind, &result_columns));
-        let by = named.unwrap_or_else(|| columns::default_metric(target.kind, &crate::io::METRIC_COLUMNS));
+        let metric = named.unwrap_or_else(|| default(&result_columns));
+        let by = named.unwrap_or_else(|| default(&crate::io::METRIC_COLUMNS));
         let poses = match f.string(&top, "poses")? {
             Some(list) => Poses::List(pose_list(f, &top, base, list, &source)?),
             None => Poses::Grid(Grid::read(f, &top, &source)?),
