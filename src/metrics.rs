@@ -368,11 +368,9 @@ impl Metrics {
         visible: u64,
         total: u64,
         ex: Extremes,
-        (occupied, measure): (u64, f64),
+        occupancy: (u64, f64),
         projection_area: Option<f64>,
     ) -> Self {
-        let seen = visible > 0;
-        let some = |v: f64| seen.then_some(v);
         Metrics {
             visible,
             total,
@@ -381,6 +379,35 @@ impl Metrics {
             } else {
                 0.0
             },
+            ..Metrics::seen_as(visible > 0, ex, occupancy, projection_area)
+        }
+    }
+
+    /// Returns the metrics of an arc solved exactly: no samples (`visible` and `total` 0), the
+    /// visible fraction, the extremes (m, rad) and the occupancy summary; extremes are `None`
+    /// and the span 0 when nothing is visible. The projection area, a count of grid cells
+    /// holding samples, has no exact form: `None`.
+    #[must_use]
+    pub fn exact(visible_fraction: f64, ex: Extremes, occupancy: (u64, f64)) -> Self {
+        Metrics {
+            visible_fraction,
+            ..Metrics::seen_as(visible_fraction > 0.0, ex, occupancy, None)
+        }
+    }
+
+    /// Returns the metrics after the sample counts: the extremes (m, rad) when something is
+    /// `seen` (else none, and the span 0), the occupancy summary and the projection area.
+    fn seen_as(
+        seen: bool,
+        ex: Extremes,
+        (occupied, measure): (u64, f64),
+        projection_area: Option<f64>,
+    ) -> Self {
+        let some = |v: f64| seen.then_some(v);
+        Metrics {
+            visible: 0,
+            total: 0,
+            visible_fraction: 0.0,
             range_min: some(ex.range_min),
             range_max: some(ex.range_max),
             span: if seen { ex.range_max - ex.range_min } else { 0.0 },
@@ -394,29 +421,6 @@ impl Metrics {
 }
 
 impl Metrics {
-    /// Returns the metrics of an arc solved exactly: no samples (`visible` and `total` 0), the
-    /// visible fraction, the extremes (m, rad) and the occupancy summary; extremes are `None`
-    /// and the span 0 when nothing is visible. The projection area, a count of grid cells
-    /// holding samples, has no exact form: `None`.
-    #[must_use]
-    pub fn exact(visible_fraction: f64, ex: Extremes, (occupied, measure): (u64, f64)) -> Self {
-        let seen = visible_fraction > 0.0;
-        let some = |v: f64| seen.then_some(v);
-        Metrics {
-            visible: 0,
-            total: 0,
-            visible_fraction,
-            range_min: some(ex.range_min),
-            range_max: some(ex.range_max),
-            span: if seen { ex.range_max - ex.range_min } else { 0.0 },
-            azimuth_min: some(ex.azimuth_min.to_degrees()),
-            azimuth_max: some(ex.azimuth_max.to_degrees()),
-            occupied,
-            occupied_measure: measure,
-            projection_area: None,
-        }
-    }
-
     /// Returns the value of `metric`.
     #[must_use]
     pub fn get(&self, metric: Metric) -> Value {

@@ -140,6 +140,22 @@ pub(crate) fn poly_roots(p: &Poly, lo: f64, hi: f64, out: &mut List) {
     }
 }
 
+/// Starts a search for a root of `f` in `[a, b]` from its end values `fa`, `fb`: `Ok` with
+/// whether `f(a) < 0` when a root lies inside, `Err` with the answer when the ends settle it
+/// (an end where `f` is 0 is the root; no sign change, or a NaN end, has none).
+fn bracket(a: f64, b: f64, fa: f64, fb: f64) -> Result<bool, Option<f64>> {
+    if fa == 0.0 {
+        return Err(Some(a));
+    }
+    if fb == 0.0 {
+        return Err(Some(b));
+    }
+    if (fa < 0.0) == (fb < 0.0) || a.is_nan() || b.is_nan() {
+        return Err(None);
+    }
+    Ok(fa < 0.0)
+}
+
 /// Returns the root of `f` in `[a, b]` when `f` changes sign across it (an end where `f` is 0
 /// counts); `f` gives its value and derivative and is taken as monotone there.
 ///
@@ -148,16 +164,11 @@ pub(crate) fn poly_roots(p: &Poly, lo: f64, hi: f64, out: &mut List) {
 /// steps near a simple root.
 pub(crate) fn newton_root(f: &dyn Fn(f64) -> (f64, f64), a: f64, b: f64) -> Option<f64> {
     let (fa, fb) = (f(a).0, f(b).0);
-    if fa == 0.0 {
-        return Some(a);
-    }
-    if fb == 0.0 {
-        return Some(b);
-    }
-    if (fa < 0.0) == (fb < 0.0) || a.is_nan() || b.is_nan() {
-        return None;
-    }
-    let (mut lo, mut hi, lo_negative) = (a, b, fa < 0.0);
+    let lo_negative = match bracket(a, b, fa, fb) {
+        Ok(negative) => negative,
+        Err(settled) => return settled,
+    };
+    let (mut lo, mut hi) = (a, b);
     // The secant's point as the start.
     let mut x = (a - fa * (b - a) / (fb - fa)).clamp(a, b);
     let mut last_step = b - a;
@@ -201,16 +212,11 @@ pub(crate) fn newton_root(f: &dyn Fn(f64) -> (f64, f64), a: f64, b: f64) -> Opti
 /// counts), found by bisection to the last bit; `f` is taken as monotone there.
 pub(crate) fn monotone_root(f: &dyn Fn(f64) -> f64, a: f64, b: f64) -> Option<f64> {
     let (fa, fb) = (f(a), f(b));
-    if fa == 0.0 {
-        return Some(a);
-    }
-    if fb == 0.0 {
-        return Some(b);
-    }
-    if (fa < 0.0) == (fb < 0.0) || a.is_nan() || b.is_nan() {
-        return None;
-    }
-    let (mut lo, mut hi, lo_negative) = (a, b, fa < 0.0);
+    let lo_negative = match bracket(a, b, fa, fb) {
+        Ok(negative) => negative,
+        Err(settled) => return settled,
+    };
+    let (mut lo, mut hi) = (a, b);
     // Each step halves the bracket; 200 steps reach adjacent floats from any start.
     for _ in 0..200 {
         let mid = 0.5 * (lo + hi);
