@@ -14,9 +14,11 @@ use rand_chacha::ChaCha8Rng;
 use glam::{DMat3, DVec3};
 use sonarproj::exact::{Arc, visible_arc, visible_cells};
 use sonarproj::geometry::{cart_to_sph, sph_to_cart};
+use sonarproj::projection::PoseGrid;
+use sonarproj::stream::Stop;
 use sonarproj::{
-    Backend, Batch, BatchItem, BeamLayout, Layout, Measurement, Occupancy, Output, RelativePose, Rotation,
-    Sampling, Sonar,
+    Backend, Batch, BatchItem, BeamLayout, Layout, Measurement, Metric, MetricColumns, Occupancy, Output,
+    PoseSource, PoseSweep, RelativePose, Rotation, Sampling, Sonar,
 };
 
 /// Grid points of the model over the arc.
@@ -346,7 +348,7 @@ fn cells_hold_every_cell_the_dense_walk_meets() {
 /// `tangent` there. `n` is the bound's normal pointing out of the field of view; the circle's
 /// centre lies on the visible side when `visible_side`, so the arc stays in view (or out of it)
 /// except at `q0`.
-fn grazing(q0: DVec3, n: DVec3, tangent: DVec3, visible_side: bool) -> Arc {
+fn grazing(q0: DVec3, n: DVec3, tangent: DVec3, visible_side: bool) -> RelativePose {
     let r = 1.0;
     let u = if visible_side { n } else { -n };
     let w = tangent.normalize();
@@ -357,14 +359,57 @@ fn grazing(q0: DVec3, n: DVec3, tangent: DVec3, visible_side: bool) -> Arc {
     };
     let arc = Arc::new(r, 0.0, 6f64.to_radians(), &pose);
     assert!((arc.at(0.0) - q0).length() < 1e-14);
-    arc
+    pose
+}
+
+/// What a solver finds of an arc: the visible fraction, the range and azimuth (rad) extremes
+/// (infinite when nothing is seen).
+#[derive(Debug)]
+struct Answer {
+    fraction: f64,
+    range: [f64; 2],
+    azimuth: [f64; 2],
+}
+
+/// Returns the reference's and the fast twin's answers (through `Backend::CpuFast`) for the
+/// feature at `r` (m), `az` (rad) of `source`, moved into `target` by `pose`.
+fn answers(
+    source: &Sonar,
+    target: &Sonar,
+    r: f64,
+    az: f64,
+    pose: RelativePose,
+) -> [(&'static str, Answer); 2] {
+    let seen = visible_arc(
+        &Arc::new(r, az, source.half_elevation(), &pose),
+        &Layout::of(target),
+    );
+    let ex = seen.extremes;
+    let reference = Answer {
+        fraction: seen.visible_fraction,
+        range: [ex.range_min, ex.range_max],
+        azimuth: [ex.azimuth_min, ex.azimuth_max],
+    };
+    let b = batch(source, target, Sampling::Exact, &[(r, az, pose)]);
+    let m = &Backend::CpuFast.project(&b, Output::MetricsOnly).unwrap()[0].metrics;
+    let or = |v: Option<f64>, none: f64| v.unwrap_or(none);
+    let fast = Answer {
+        fraction: m.visible_fraction,
+        range: [or(m.range_min, f64::INFINITY), or(m.range_max, f64::NEG_INFINITY)],
+        azimuth: [
+            or(m.azimuth_min, f64::INFINITY).to_radians(),
+            or(m.azimuth_max, f64::NEG_INFINITY).to_radians(),
+        ],
+    };
+    [("reference", reference), ("fast", fast)]
 }
 
 fn dir(az_deg: f64, el_deg: f64) -> DVec3 {
     sph_to_cart(1.0, az_deg.to_radians(), el_deg.to_radians())
 }
 
-/// Arcs that touch each bound, from the visible and the invisible side. At a tangency the
+/// Arcs that touch each bound, from the visible and the invisible side, for the reference and the
+/// fast twin. At a tangency the
 /// bound's function is quadratic in the elevation, so rounding (1e-16 of it) decides the
 /// verdict over a sliver of width about √1e-16 = 1e-8 rad around the touching point: the
 /// visible fraction is allowed 1e-6 there. The touched bound is reached to 1e-9 from the
@@ -437,54 +482,54 @@ fn arcs_grazing_each_bound() {
     for (name, target, q0, n, tangent) in cases {
         let layout = Layout::of(target);
         let r0 = q0.length();
-        let seen = visible_arc(&grazing(q0, n, tangent, true), &layout);
-        assert!(
-            seen.visible_fraction >= 1.0 - 1e-6,
-            "{name}, visible side: {seen:?}"
-        );
-        let ex = seen.extremes;
-        let touched = match name {
-            "range max" => ex.range_max - layout.range_max,
-            "range min" => ex.range_min - layout.range_min,
-            n if n.starts_with("azimuth") => (ex.azimuth_max - layout.half_azimuth) * r0,
-            // The elevation's extremes are not reported; the fraction says it all.
-            _ => 0.0,
-        };
-        assert!(
-            touched.abs() <= 1e-9,
-            "{name}: the bound is reached to {touched}: {seen:?}"
-        );
-        let unseen = visible_arc(&grazing(q0, n, tangent, false), &layout);
-        assert!(
-            unseen.visible_fraction <= 1e-6,
-            "{name}, invisible side: {unseen:?}"
-        );
+        for (solver, seen) in answers(&fls, target, 1.0, 0.0, grazing(q0, n, tangent, true)) {
+            assert!(
+                seen.fraction >= 1.0 - 1e-6,
+                "{name}, visible side, {solver}: {seen:?}"
+            );
+            let touched = match name {
+                "range max" => seen.range[1] - layout.range_max,
+                "range min" => seen.range[0] - layout.range_min,
+                n if n.starts_with("azimuth") => (seen.azimuth[1] - layout.half_azimuth) * r0,
+                // The elevation's extremes are not reported; the fraction says it all.
+                _ => 0.0,
+            };
+            assert!(
+                touched.abs() <= 1e-9,
+                "{name}, {solver}: the bound is reached to {touched}: {seen:?}"
+            );
+        }
+        for (solver, unseen) in answers(&fls, target, 1.0, 0.0, grazing(q0, n, tangent, false)) {
+            assert!(
+                unseen.fraction <= 1e-6,
+                "{name}, invisible side, {solver}: {unseen:?}"
+            );
+        }
     }
 }
 
-/// Degenerate poses: sonar 2 is sonar 1 (the arc's ends on the elevation bounds, the range
-/// constant); an arc through sonar 2's origin; an arc wholly behind it. Where the arc's ends sit
-/// on a bound, rounding may drop a sliver of a few 1e-17 rad there: fractions are held to 1e-12.
+/// Degenerate poses, for the reference and the fast twin: sonar 2 is sonar 1 (the arc's ends on
+/// the elevation bounds, the range constant); an arc through sonar 2's origin; an arc wholly
+/// behind it. Where the arc's ends sit on a bound, rounding may drop a sliver of a few 1e-17 rad
+/// there: fractions are held to 1e-12.
 #[test]
 fn degenerate_poses() {
     let fls = Sonar::preset("paper-fls").unwrap();
-    let layout = Layout::of(&fls);
     let same = RelativePose {
         rotation: DMat3::IDENTITY,
         translation: DVec3::ZERO,
     };
-    let arc = Arc::new(5.0, 0.2, fls.half_elevation(), &same);
-    let seen = visible_arc(&arc, &layout);
-    assert!((seen.visible_fraction - 1.0).abs() < 1e-12, "{seen:?}");
-    let ex = seen.extremes;
-    assert!(
-        (ex.range_min - 5.0).abs() < 1e-14 && (ex.range_max - 5.0).abs() < 1e-14,
-        "{ex:?}"
-    );
-    assert!(
-        (ex.azimuth_min - 0.2).abs() < 1e-14 && (ex.azimuth_max - 0.2).abs() < 1e-14,
-        "{ex:?}"
-    );
+    for (solver, seen) in answers(&fls, &fls, 5.0, 0.2, same) {
+        assert!((seen.fraction - 1.0).abs() < 1e-12, "{solver}: {seen:?}");
+        assert!(
+            (seen.range[0] - 5.0).abs() < 1e-14 && (seen.range[1] - 5.0).abs() < 1e-14,
+            "{solver}: {seen:?}"
+        );
+        assert!(
+            (seen.azimuth[0] - 0.2).abs() < 1e-14 && (seen.azimuth[1] - 0.2).abs() < 1e-14,
+            "{solver}: {seen:?}"
+        );
+    }
 
     let mut open = fls.clone();
     (open.azimuth_aperture, open.elevation_aperture, open.range_min) = (360.0, 180.0, 0.0);
@@ -496,22 +541,29 @@ fn degenerate_poses() {
     };
     let arc = Arc::new(3.0, 0.0, fls.half_elevation(), &through);
     assert_eq!(arc.at(0.0), DVec3::ZERO);
-    let seen = visible_arc(&arc, &open_layout);
-    let m = model(&arc, &open_layout, &seen.pieces);
-    assert!((seen.visible_fraction - 1.0).abs() < 1e-12, "{seen:?}");
-    assert!(seen.extremes.range_min.abs() < 1e-12, "{seen:?}");
-    assert!(
-        (seen.extremes.range_max - m.range.unwrap()[1]).abs() < 1e-12,
-        "{seen:?} {m:?}"
-    );
+    let m = model(&arc, &open_layout, &visible_arc(&arc, &open_layout).pieces);
+    for (solver, seen) in answers(&fls, &open, 3.0, 0.0, through) {
+        assert!((seen.fraction - 1.0).abs() < 1e-12, "{solver}: {seen:?}");
+        assert!(seen.range[0].abs() < 1e-12, "{solver}: {seen:?}");
+        assert!(
+            (seen.range[1] - m.range.unwrap()[1]).abs() < 1e-12,
+            "{solver}: {seen:?} {m:?}"
+        );
+    }
 
     let behind = RelativePose {
         rotation: DMat3::IDENTITY,
         translation: DVec3::new(-20.0, 0.0, 0.0),
     };
-    let seen = visible_arc(&Arc::new(5.0, 0.0, fls.half_elevation(), &behind), &layout);
-    assert_eq!(seen.visible_fraction, 0.0);
-    assert!(seen.pieces.is_empty() && seen.extremes.range_min.is_infinite());
+    for (solver, seen) in answers(&fls, &fls, 5.0, 0.0, behind) {
+        assert_eq!(seen.fraction, 0.0, "{solver}");
+        assert!(seen.range[0].is_infinite(), "{solver}: {seen:?}");
+    }
+    let seen = visible_arc(
+        &Arc::new(5.0, 0.0, fls.half_elevation(), &behind),
+        &Layout::of(&fls),
+    );
+    assert!(seen.pieces.is_empty());
 }
 
 fn batch(source: &Sonar, target: &Sonar, sampling: Sampling, cases: &[(f64, f64, RelativePose)]) -> Batch {
@@ -631,21 +683,197 @@ fn sampled_lies_within_exact_and_converges_to_it() {
     }
 }
 
-/// Exact mode is the same solver on every backend: the reference, the fast path and the GPU
-/// backend (which runs it on the CPU) give the same bits; through a pose grid too.
+/// Returns whether a cell verdict of `arc` may turn on rounding: a visible piece's end or a
+/// range or azimuth extreme (the reference's) within `METRES` of a range-bin edge, or within the
+/// azimuth tolerance of a beam edge. Two exact solvers that agree to rounding may then disagree on
+/// a cell touched at that point alone.
+fn near_an_edge(arc: &Arc, layout: &Layout, target: &Sonar) -> bool {
+    let seen = visible_arc(arc, layout);
+    let az_tol = METRES / target.range_max.max(1.0) * 100.0;
+    let mut points: Vec<(f64, f64)> = seen
+        .pieces
+        .iter()
+        .flat_map(|&[a, b]| [a, b])
+        .map(|phi| {
+            let (r, az, _) = cart_to_sph(arc.at(phi));
+            (r, az)
+        })
+        .collect();
+    let ex = seen.extremes;
+    points.extend([(ex.range_min, ex.azimuth_min), (ex.range_max, ex.azimuth_max)]);
+    // Inner edges only: the field of view's own bounds end the pieces, and a cell there is in
+    // on both sides.
+    let beams = layout.beam_edges.len() - 1;
+    points.iter().any(|&(r, az)| {
+        (1..layout.range_bins).any(|i| (r - layout.range_edge(i)).abs() <= METRES)
+            || layout.beam_edges[1..beams]
+                .iter()
+                .any(|e| (az - e).abs() <= az_tol)
+    })
+}
+
+/// The fast twin (cpu-fast, and the GPU backend, which runs it on the CPU) against the reference
+/// on every target, from two sonar 1s: visible lengths, range and azimuth extremes to `METRES`,
+/// as each is held to the dense model. Both find the same roots to rounding, from different
+/// formulas (φ and `tan(φ/2)`), so their cells are equal, except where a piece's end or an
+/// extreme sits on an edge (`near_an_edge`; none of these 3600 poses, one in a thousand allowed).
 #[test]
-fn every_backend_gives_the_exact_solvers_bits() {
+fn fast_twin_agrees_with_the_reference() {
+    let sources = [
+        Sonar::preset("paper-fls").unwrap(),
+        Sonar::preset("oculus-m750d").unwrap(),
+    ];
+    let (mut seen, mut on_edges, mut cases_all) = (0, 0, 0);
+    for (k, target) in targets().iter().enumerate() {
+        let layout = Layout::of(target);
+        for (l, source) in sources.iter().enumerate() {
+            let mut rng = ChaCha8Rng::seed_from_u64(1000 + (10 * k + l) as u64);
+            let cases: Vec<_> = (0..200).map(|_| random_case(&mut rng, source, target)).collect();
+            let b = batch(source, target, Sampling::Exact, &cases);
+            let want = Backend::Cpu.project(&b, Output::WithOccupancy).unwrap();
+            let got = Backend::CpuFast.project(&b, Output::WithOccupancy).unwrap();
+            for (n, ((w, g), &(r, az, pose))) in want.iter().zip(&got).zip(&cases).enumerate() {
+                cases_all += 1;
+                let arc = Arc::new(r, az, source.half_elevation(), &pose);
+                let ctx = || {
+                    format!(
+                        "{} → {} case {n}: r {r} az {az} pose {pose:?}\nreference {:?}\nfast {:?}",
+                        source.name, target.name, w.metrics, g.metrics
+                    )
+                };
+                let (wm, gm) = (&w.metrics, &g.metrics);
+                let metres = |f: f64| f * 2.0 * arc.half() * r;
+                assert!(
+                    metres((wm.visible_fraction - gm.visible_fraction).abs()) <= METRES,
+                    "visible fraction: {}",
+                    ctx()
+                );
+                if wm.visible_fraction == 0.0 || gm.visible_fraction == 0.0 {
+                    // Both see nothing, or one a sliver the other missed (its length checked above).
+                    if wm.range_min.is_some() != gm.range_min.is_some() {
+                        on_edges += 1;
+                    }
+                    continue;
+                }
+                seen += 1;
+                let close = |a: Option<f64>, b: Option<f64>, tol: f64| (a.unwrap() - b.unwrap()).abs() <= tol;
+                assert!(close(wm.range_min, gm.range_min, METRES), "range_min: {}", ctx());
+                assert!(close(wm.range_max, gm.range_max, METRES), "range_max: {}", ctx());
+                let az_tol = (METRES / target.range_max.max(1.0) * 100.0).to_degrees();
+                assert!(
+                    close(wm.azimuth_min, gm.azimuth_min, az_tol),
+                    "azimuth_min: {}",
+                    ctx()
+                );
+                assert!(
+                    close(wm.azimuth_max, gm.azimuth_max, az_tol),
+                    "azimuth_max: {}",
+                    ctx()
+                );
+                if w.occupancy != g.occupancy {
+                    assert!(
+                        near_an_edge(&arc, &layout, target),
+                        "cells differ off the edges: {}",
+                        ctx()
+                    );
+                    on_edges += 1;
+                } else {
+                    assert_eq!(wm.occupied, gm.occupied, "{}", ctx());
+                    assert_eq!(
+                        wm.occupied_measure.to_bits(),
+                        gm.occupied_measure.to_bits(),
+                        "{}",
+                        ctx()
+                    );
+                }
+            }
+        }
+    }
+    assert!(
+        seen > cases_all / 5,
+        "only {seen} of {cases_all} poses see anything"
+    );
+    println!("{seen} of {cases_all} poses see something; {on_edges} differ on an edge");
+    assert!(
+        on_edges * 1000 <= cases_all,
+        "{on_edges} of {cases_all} poses differ on an edge"
+    );
+}
+
+/// The fast twin is one solver on every path: the GPU backend gives cpu-fast's bits; metrics alone
+/// equal those computed with the occupancy; a pose grid decoded where it is solved gives its
+/// items' bits, with every column or a few.
+#[test]
+fn fast_twin_gives_the_same_bits_on_every_path() {
     let fls = Sonar::preset("paper-fls").unwrap();
-    let sss = Sonar::preset("paper-sss").unwrap();
-    let mut rng = ChaCha8Rng::seed_from_u64(9);
-    let cases: Vec<_> = (0..200).map(|_| random_case(&mut rng, &fls, &sss)).collect();
-    let b = batch(&fls, &sss, Sampling::Exact, &cases);
-    let want = Backend::Cpu.project(&b, Output::WithOccupancy).unwrap();
-    let mut backends = vec![Backend::CpuFast];
-    backends.extend(sonarproj_testkit::gpu().map(|g| Backend::Gpu(Box::new(g))));
-    for backend in backends {
-        let got = backend.project(&b, Output::WithOccupancy).unwrap();
-        assert_eq!(got, want, "{}", backend.name());
+    for target in [
+        Sonar::preset("paper-sss").unwrap(),
+        Sonar::preset("oculus-m750d").unwrap(),
+    ] {
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let cases: Vec<_> = (0..200).map(|_| random_case(&mut rng, &fls, &target)).collect();
+        let b = batch(&fls, &target, Sampling::Exact, &cases);
+        let want = Backend::CpuFast.project(&b, Output::WithOccupancy).unwrap();
+        let alone = Backend::CpuFast.project(&b, Output::MetricsOnly).unwrap();
+        for (w, a) in want.iter().zip(&alone) {
+            assert_eq!(w.metrics, a.metrics);
+        }
+        if let Some(g) = sonarproj_testkit::gpu() {
+            let got = Backend::Gpu(Box::new(g))
+                .project(&b, Output::WithOccupancy)
+                .unwrap();
+            assert_eq!(got, want, "gpu");
+        }
+        // A grid: every rotation of a few features placed about sonar 2's view.
+        let axes = [
+            vec![2.0, 7.5],
+            vec![-20.0, 0.0, 25.0],
+            vec![0.0, 3.0],
+            vec![0.5 * target.range_max],
+            vec![0.0, 10.0],
+            vec![0.0, 0.1],
+            vec![0.0, 37.0, 90.0, 181.0],
+            vec![-20.0, 0.0, 65.0],
+            vec![0.0, 12.5, 180.0],
+        ];
+        let grid = PoseGrid::new(axes, true, &fls).unwrap();
+        let sweep = PoseSweep {
+            source: fls.clone(),
+            target: target.clone(),
+            sampling: Sampling::Exact,
+            area_grid: sonarproj::PAPER_AREA_GRID,
+            poses: PoseSource::Grid(&grid),
+        };
+        let items = sweep.batch(0..grid.len()).unwrap();
+        let per_item = Backend::CpuFast.project(&items, Output::MetricsOnly).unwrap();
+        assert!(per_item.iter().any(|p| p.metrics.visible_fraction > 0.0));
+        let mut backends = vec![Backend::CpuFast];
+        backends.extend(sonarproj_testkit::gpu().map(|g| Backend::Gpu(Box::new(g))));
+        for backend in &backends {
+            for kept in [None, Some(vec![Metric::Span, Metric::VisibleFraction])] {
+                let mut out = match &kept {
+                    None => MetricColumns::default(),
+                    Some(m) => MetricColumns::only(m),
+                };
+                backend
+                    .project_columns(&sweep, 0..grid.len(), &mut out, Stop::NEVER)
+                    .unwrap();
+                for (k, p) in per_item.iter().enumerate() {
+                    match &kept {
+                        None => assert_eq!(out.get(k), p.metrics, "{} pose {k}", backend.name()),
+                        Some(_) => {
+                            let f = |m: Metric| out.column(m).f64(k).map(f64::to_bits);
+                            assert_eq!(f(Metric::Span), Some(p.metrics.span.to_bits()), "pose {k}");
+                            assert_eq!(
+                                f(Metric::VisibleFraction),
+                                Some(p.metrics.visible_fraction.to_bits()),
+                                "pose {k}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
 }
 

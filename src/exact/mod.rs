@@ -33,7 +33,10 @@
 //! tangency). It has no length and moves no extreme, so it decides no metric except, at most,
 //! one cell touched at that point alone.
 
+mod fast;
 mod roots;
+
+pub(crate) use fast::{project as project_fast, project_grid};
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -168,7 +171,12 @@ fn cuts(arc: &Arc, layout: &Layout) -> List {
 /// `side`: a point on the `y = 0` plane behind sonar 2 reads `+π` from `y > 0` and `−π` from
 /// `y < 0`, the limits along the piece.
 fn azimuth_from(arc: &Arc, phi: f64, side: f64) -> f64 {
-    let q = arc.at(phi);
+    azimuth_of(arc.at(phi), side)
+}
+
+/// Returns the azimuth (rad) of the arc's point `q` as [`azimuth_from`] reads it from a piece
+/// whose `y` has the sign of `side`.
+fn azimuth_of(q: DVec3, side: f64) -> f64 {
     // In front of sonar 2 (x ≥ 0) the azimuth is continuous across y = 0: nothing to force.
     let y = if q.x >= 0.0 || side == 0.0 || q.y * side > 0.0 {
         q.y

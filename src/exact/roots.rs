@@ -63,27 +63,27 @@ impl Poly {
 }
 
 /// A short list of reals kept on the stack: the roots and cuts of one arc (at most a few
-/// dozen), so solving a pose allocates nothing.
+/// dozen), so solving a pose allocates nothing. `N` values at most (32 by default).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct List {
-    values: [f64; List::CAPACITY],
+pub(crate) struct List<const N: usize = 32> {
+    values: [f64; N],
     len: usize,
 }
 
-impl Default for List {
+impl<const N: usize> Default for List<N> {
     fn default() -> Self {
         List {
-            values: [0.0; List::CAPACITY],
+            values: [0.0; N],
             len: 0,
         }
     }
 }
 
-impl List {
-    /// The most values a list holds: an arc has at most 2 ends, 2 × 2 range roots, 2 × 2
-    /// azimuth roots, 2 × 2 axis-plane roots and 4 elevation roots (18), and a piece at most
-    /// 2 ends and 4 stationary points.
-    pub(crate) const CAPACITY: usize = 32;
+impl<const N: usize> List<N> {
+    /// The most values the default list holds: an arc has at most 2 ends, 2 × 2 range roots,
+    /// 2 × 2 azimuth roots, 2 × 2 axis-plane roots and 4 elevation roots (18), and a piece at
+    /// most 2 ends and 4 stationary points.
+    pub(crate) const CAPACITY: usize = N;
 
     /// Appends `x` unless it repeats the last value.
     pub(crate) fn push(&mut self, x: f64) {
@@ -162,15 +162,36 @@ fn bracket(a: f64, b: f64, fa: f64, fb: f64) -> Result<bool, Option<f64>> {
 /// Newton's method kept inside the bracket: a step that would leave it, or that does not
 /// shrink, is replaced by a bisection, so it converges as bisection does at worst and in a few
 /// steps near a simple root.
-pub(crate) fn newton_root(f: &dyn Fn(f64) -> (f64, f64), a: f64, b: f64) -> Option<f64> {
-    let (fa, fb) = (f(a).0, f(b).0);
+pub(crate) fn newton_root(f: &impl Fn(f64) -> (f64, f64), a: f64, b: f64) -> Option<f64> {
+    newton_root_between(f, [a, b], [f(a).0, f(b).0], None, SETTLED)
+}
+
+/// The step, relative to the bracket's ends, at which [`newton_root`] stops: a few
+/// roundings, so its roots are exact to the last bits.
+pub(crate) const SETTLED: f64 = 4.0 * f64::EPSILON;
+
+/// Returns [`newton_root`]'s root of `f` in `[a, b]`, from `start` when it lies inside (a
+/// closed form's guess) else from the secant's point, given `f`'s values `[fa, fb]` at the
+/// ends (a caller that has them saves two evaluations), stopping at a step of `settle` relative
+/// to the bracket's ends. Newton's error squares at each step near a simple root, so a step of
+/// `1e-8` leaves an error of the order of `1e-16`: a looser `settle` saves the last evaluation.
+#[inline]
+pub(crate) fn newton_root_between(
+    f: &impl Fn(f64) -> (f64, f64),
+    [a, b]: [f64; 2],
+    [fa, fb]: [f64; 2],
+    start: Option<f64>,
+    settle: f64,
+) -> Option<f64> {
     let lo_negative = match bracket(a, b, fa, fb) {
         Ok(negative) => negative,
         Err(settled) => return settled,
     };
     let (mut lo, mut hi) = (a, b);
-    // The secant's point as the start.
-    let mut x = (a - fa * (b - a) / (fb - fa)).clamp(a, b);
+    let mut x = match start {
+        Some(s) if s > a && s < b => s,
+        _ => (a - fa * (b - a) / (fb - fa)).clamp(a, b),
+    };
     let mut last_step = b - a;
     for _ in 0..200 {
         let (fx, dx) = f(x);
@@ -184,8 +205,8 @@ pub(crate) fn newton_root(f: &dyn Fn(f64) -> (f64, f64), a: f64, b: f64) -> Opti
         }
         let newton = x - fx / dx;
         let step = (newton - x).abs();
-        // A step of a few roundings of the bracket's size: converged (Newton now only jitters).
-        if newton > lo && newton < hi && step <= 4.0 * f64::EPSILON * lo.abs().max(hi.abs()) {
+        // A step of `settle` of the bracket's size: converged (by default Newton now only jitters).
+        if newton > lo && newton < hi && step <= settle * lo.abs().max(hi.abs()) {
             return Some(newton);
         }
         let next = if dx != 0.0 && newton > lo && newton < hi && step < 0.5 * last_step {

@@ -235,11 +235,13 @@ impl Backend {
         let prepared = batch.prepare()?;
         stop.check()?;
         let mut projected = match self {
-            // Exact mode has one f64 solver, on the CPU whichever backend was chosen.
-            _ if prepared.is_exact() => {
-                crate::exact::project(&prepared, output, !matches!(self, Backend::Cpu), stop)
-                    .ok_or(Error::Stopped)?
+            // Exact mode runs on the CPU: the reference's solver on one core, its fast twin on
+            // every core for the fast path and the GPU backend alike.
+            _ if prepared.is_exact() => match self {
+                Backend::Cpu => crate::exact::project(&prepared, output, false, stop),
+                _ => crate::exact::project_fast(&prepared, output, stop),
             }
+            .ok_or(Error::Stopped)?,
             Backend::Cpu => reference::project(&prepared, output),
             Backend::CpuFast => fast::project_until(&prepared, output, stop).ok_or(Error::Stopped)?,
             Backend::Gpu(g) => g.project(&prepared, output)?,
@@ -283,7 +285,16 @@ impl Backend {
                 format!("must lie within the sweep's {n} poses"),
             ));
         }
-        // Exact mode takes the items path: its solver runs per item on the CPU.
+        // Exact mode on a grid: the fast twin decodes the poses on the CPU's cores (the GPU
+        // backend too); the reference takes the items path.
+        if let (PoseSource::Grid(grid), true, false) = (
+            sweep.poses,
+            sweep.sampling == Sampling::Exact,
+            matches!(self, Backend::Cpu),
+        ) {
+            let prepared = sweep.prepare_grid(grid)?;
+            return crate::exact::project_grid(&prepared, range, out, stop).ok_or(Error::Stopped);
+        }
         if let (PoseSource::Grid(grid), false) = (sweep.poses, sweep.sampling == Sampling::Exact) {
             match self {
                 Backend::CpuFast => {

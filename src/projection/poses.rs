@@ -493,6 +493,8 @@ pub(crate) struct DecodedPose {
     pub(crate) translation: DVec3,
     pub(crate) range: f64,
     pub(crate) base: DMat3,
+    /// `(cos, sin)` of the feature's azimuth.
+    pub(crate) azimuth: (f64, f64),
 }
 
 impl<'a> GridTables<'a> {
@@ -566,6 +568,7 @@ impl<'a> GridTables<'a> {
             translation,
             range,
             base: self.base[k[1]],
+            azimuth: self.trig[0][k[1]],
         }
     }
 }

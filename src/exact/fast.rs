@@ -1,0 +1,791 @@
+//! The fast twin of the exact solver: the same arc, pieces and metrics as [`super::visible_arc`],
+//! with every bound written as a polynomial in `s = tan(φ/2)`.
+//!
+//! With `cos φ = (1 − s²)/(1 + s²)` and `sin φ = 2s/(1 + s²)`, a first-degree trigonometric
+//! function `a + b cos φ + c sin φ` times `1 + s²` is the quadratic `(a + b) + 2c s + (a − b) s²`,
+//! of the same sign. So the range and azimuth bounds, the axis planes, the stationary points and
+//! the crossings of bin and beam edges are roots of quadratics, and the elevation bound
+//! (`r² sin² e − z² ≥ 0`) those of a quartic: no root takes a trigonometric call. Pieces are
+//! judged by the bounds' signs at inner points (the inequalities [`Layout::inside`] tests with
+//! angles), the extremes come from points of the arc, and only the visible length (`atan`) and the
+//! azimuths (`atan2`) take trigonometry.
+//!
+//! Before any root, the arc's range, height and the azimuth bound's half-planes are bounded in
+//! closed form over the whole arc (a first-degree function's extremes lie at the ends or at one
+//! known point). An arc that clearly misses the field of view is answered at once, and an arc
+//! clearly inside the elevation bound skips the quartic. "Clearly" keeps a margin of 1e-12 of the
+//! values compared, far above their rounding, so nothing visible is culled.
+//!
+//! Against the reference the pieces' ends, extremes and lengths agree to rounding (both find
+//! roots to the last bits, from different formulas): see `tests/exact.rs` for the envelope.
+
+use std::f64::consts::{FRAC_PI_2, PI};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::roots::{List, newton_root_between};
+use super::{Arc, azimuth_of};
+use crate::SonarKind;
+use crate::metrics::{Extremes, Metrics};
+use crate::occupancy::{Layout, Occupancy};
+use crate::projection::columns::MetricColumns;
+use crate::projection::poses::{GridTables, PreparedGrid};
+use crate::projection::{Output, PreparedBatch, Projection};
+use crate::stream::Stop;
+
+/// The margin (relative) by which a bound must be missed over the whole arc for a cull.
+const CULL_MARGIN: f64 = 1e-12;
+
+/// Where the roots' Newton's method stops ([`newton_root_between`]): a step of 1e-8 leaves an
+/// error of the order of 1e-16 near a simple root, without the reference's last evaluation.
+const SETTLE: f64 = 1e-8;
+
+/// Poses a thread takes at a time on a grid.
+const POSE_BLOCK: usize = 256;
+
+/// The metrics a caller keeps beyond the ranges: the visible fraction, the azimuths' extremes and
+/// the cells cost the most.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Keep {
+    /// The visible fraction (an `atan` a run of the arc); without, a seen arc's fraction is
+    /// left at 1, the metrics' sign that it is seen.
+    pub(crate) fraction: bool,
+    pub(crate) azimuths: bool,
+    pub(crate) cells: bool,
+}
+
+/// Sonar 2's bounds as the solver tests them, and sonar 1's elevation interval, set once per batch.
+pub(crate) struct Solver<'l> {
+    layout: &'l Layout,
+    /// `range_min²` (0 without a minimum range) and `range_max²`.
+    r2_min: f64,
+    r2_max: f64,
+    /// `(sin h, cos h)` of the half azimuth aperture `h`, when it clips (`h < π`).
+    azimuth: Option<(f64, f64)>,
+    /// `sin² e` of the half elevation aperture `e`, when it clips (`e < π/2`).
+    elevation: Option<f64>,
+    /// Sonar 1's half elevation aperture `H`, `tan(H/2)`, `cos H`, `sin H`.
+    half: f64,
+    end: f64,
+    cos_half: f64,
+    sin_half: f64,
+    /// Whether the field of view reaches behind sonar 2 (`x ≤ 0`: a half azimuth aperture of
+    /// π/2 or more). Only then can a visible piece cross the `y = 0` plane behind, where the
+    /// azimuth jumps, so only then are pieces cut at the axis planes, as the reference cuts them.
+    behind: bool,
+    /// `(sin, cos)` of each beam edge, for more than one beam.
+    edges: Vec<(f64, f64)>,
+    /// For a sidescan, whose bins all measure their width: the sums of 0, 1, 2, … widths added one
+    /// by one, as the reduce stage adds an occupancy buffer's bins (the same bits for any `n`).
+    bin_sums: Option<Vec<f64>>,
+    keep: Keep,
+}
+
+/// Which of sonar 2's bounds an arc may cross ([`Solver::screen`]): the others hold, or fail,
+/// all along it, and need no roots.
+#[derive(Clone, Copy, Debug)]
+struct Screen {
+    range_min: bool,
+    range_max: bool,
+    /// The azimuth bound's half-planes on the `y ≥ 0` and the `y ≤ 0` side.
+    sides: [bool; 2],
+    elevation: bool,
+}
+
+/// One arc's cells, gathered before they are counted (room reused from pose to pose).
+#[derive(Default)]
+pub(crate) struct Cells {
+    cells: Vec<(usize, usize)>,
+    /// Range-bin intervals of a one-beam layout.
+    bins: Vec<(usize, usize)>,
+}
+
+/// `(1 + s²)(a + b cos φ + c sin φ)` as the coefficients of `1, s, s²`.
+fn quadratic(a: f64, b: f64, c: f64) -> [f64; 3] {
+    [a + b, 2.0 * c, a - b]
+}
+
+/// Returns the value and the derivative of `c[0] + c[1] x + … ` (degree `n`) at `x`.
+#[inline]
+fn horner(c: &[f64; 5], n: usize, x: f64) -> (f64, f64) {
+    let (mut v, mut d) = (c[n], 0.0);
+    for k in (0..n).rev() {
+        d = d * x + v;
+        v = v * x + c[k];
+    }
+    (v, d)
+}
+
+/// Appends the roots in `[lo, hi]` of `c[0] + c[1] s + c[2] s²` where it changes sign, in
+/// increasing order. The closed form's roots start a bracketed Newton's method on each monotone
+/// side of the vertex, which makes them exact to the last bits.
+fn quadratic_roots<const N: usize>(c: [f64; 3], lo: f64, hi: f64, out: &mut List<N>) {
+    let [c0, c1, c2] = c;
+    if c2 == 0.0 {
+        if c1 != 0.0 {
+            let x = -c0 / c1;
+            if (lo..=hi).contains(&x) {
+                out.push(x);
+            }
+        }
+        return;
+    }
+    let f = |x: f64| ((c2 * x + c1) * x + c0, 2.0 * c2 * x + c1);
+    let vertex = -c1 / (2.0 * c2);
+    let d = c1 * c1 - 4.0 * c2 * c0;
+    let (g0, g1) = if d > 0.0 {
+        // The stable form: no cancellation in either root.
+        let q = -0.5 * (c1 + d.sqrt().copysign(c1));
+        let (x, y) = (q / c2, c0 / q);
+        (x.min(y), x.max(y))
+    } else {
+        (vertex, vertex)
+    };
+    let mut push = |r: Option<f64>| {
+        if let Some(x) = r {
+            out.push(x);
+        }
+    };
+    let (f_lo, f_hi) = (f(lo).0, f(hi).0);
+    if vertex > lo && vertex < hi {
+        let f_vertex = f(vertex).0;
+        push(newton_root_between(
+            &f,
+            [lo, vertex],
+            [f_lo, f_vertex],
+            Some(g0),
+            SETTLE,
+        ));
+        push(newton_root_between(
+            &f,
+            [vertex, hi],
+            [f_vertex, f_hi],
+            Some(g1),
+            SETTLE,
+        ));
+    } else {
+        let g = if (lo..=hi).contains(&g0) { g0 } else { g1 };
+        push(newton_root_between(&f, [lo, hi], [f_lo, f_hi], Some(g), SETTLE));
+    }
+}
+
+/// Appends the roots in `[lo, hi]` of the polynomial `g` of degree at most 4 where it changes
+/// sign, in increasing order.
+///
+/// The roots of `g''` (a quadratic, closed form) cut the interval into pieces where `g'` is
+/// monotone, so `g` turns at most once in each. Where `g'` has the same sign at a piece's ends,
+/// `g` is monotone there and a sign change brackets its one root. Otherwise the turning point
+/// (the root of `g'`) splits the piece into two monotone halves. Every root is then found by a
+/// bracketed Newton's method, to the last bits; only the pieces that turn need `g'`'s root.
+/// `hints` are guesses of turning points (NaN for none): only starts, never trusted.
+fn quartic_roots(g: &[f64; 5], lo: f64, hi: f64, hints: [f64; 2], out: &mut List) {
+    let mut d1 = [0.0; 5];
+    for k in 1..5 {
+        d1[k - 1] = g[k] * k as f64;
+    }
+    let d2 = [d1[1], 2.0 * d1[2], 3.0 * d1[3]];
+    // The ends, and the second derivative's two roots at most.
+    let mut cuts = List::<4>::default();
+    cuts.push(lo);
+    quadratic_roots(d2, lo, hi, &mut cuts);
+    cuts.push(hi);
+    let value = |x: f64| horner(g, 4, x);
+    let slope = |x: f64| {
+        let (v, _) = horner(&d1, 3, x);
+        (v, (d2[2] * x + d2[1]) * x + d2[0])
+    };
+    let mut push = |r: Option<f64>| {
+        if let Some(x) = r {
+            out.push(x);
+        }
+    };
+    let cut = cuts.as_slice();
+    let mut left = (cut[0], value(cut[0]));
+    for &b in &cut[1..] {
+        let right = (b, value(b));
+        let ((a, (ga, da)), (_, (gb, db))) = (left, right);
+        left = right;
+        if b <= a {
+            continue;
+        }
+        if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+            // g turns once inside, at a maximum when it rises first (else a minimum): split the
+            // piece there into two halves, each with at most one root.
+            let peak = da > 0.0;
+            // A point beyond which g turns back serves as well as the turning point: where g is
+            // above 0 at a maximum (below at a minimum), each half's ends differ in sign exactly
+            // when the half holds a root, and holds one. A thin fan's bound has its maximum near
+            // the height's zero, where g = sin² e ρ² > 0: so the hint spares the turning point.
+            let hinted = hints.into_iter().find(|&h| h > a && h < b).and_then(|h| {
+                let gh = value(h).0;
+                (if peak { gh > 0.0 } else { gh < 0.0 }).then_some((h, gh))
+            });
+            let split = hinted.or_else(|| {
+                // The turning point itself; it only splits the piece: 1e-6 leaves it within ~1e-12.
+                let m = newton_root_between(&slope, [a, b], [da, db], None, 1e-6)?;
+                Some((m, value(m).0))
+            });
+            let Some((m, gm)) = split else {
+                continue;
+            };
+            // Near m, g ≈ g(m) + g'(m) d + g''(m) d²/2: its roots start the searches.
+            let (d1m, d2m) = slope(m);
+            let [l, r] = closed_form_roots([gm, d1m, 0.5 * d2m]).map(|d| m + d);
+            let start = |x: f64| x.is_finite().then_some(x);
+            let (l, r) = (l.min(r), l.max(r));
+            push(newton_root_between(&value, [a, m], [ga, gm], start(l), SETTLE));
+            push(newton_root_between(&value, [m, b], [gm, gb], start(r), SETTLE));
+        } else {
+            push(newton_root_between(&value, [a, b], [ga, gb], None, SETTLE));
+        }
+    }
+}
+
+/// Returns the closed form's roots of `c[0] + c[1] s + c[2] s²` (NaN where there are none),
+/// unpolished: guesses.
+fn closed_form_roots([c0, c1, c2]: [f64; 3]) -> [f64; 2] {
+    let d = c1 * c1 - 4.0 * c2 * c0;
+    if d.is_nan() || d < 0.0 {
+        return [f64::NAN; 2];
+    }
+    let q = -0.5 * (c1 + d.sqrt().copysign(c1));
+    [q / c2, c0 / q]
+}
+
+/// Returns the end of `[a, b]` where the quadratic `c` is nearer 0: where an edge that the ends'
+/// cells say is crossed has no root inside, it sits on an end (a piece cut there, its root
+/// rounded just outside).
+fn nearer_end(c: [f64; 3], a: f64, b: f64) -> f64 {
+    let at = |x: f64| ((c[2] * x + c[1]) * x + c[0]).abs();
+    if at(a) <= at(b) { a } else { b }
+}
+
+/// Returns `atan e − atan s`, half the elevation from `s` to `e` (both in `(−1, 1]`, so
+/// `1 + s e > 0`), with one `atan`.
+fn arc_angle(s: f64, e: f64) -> f64 {
+    ((e - s) / (1.0 + s * e)).atan()
+}
+
+/// Returns the point of `arc` at `s = tan(φ/2)`.
+#[inline]
+fn point(arc: &Arc, s: f64) -> DVec3 {
+    let k = 1.0 / (1.0 + s * s);
+    arc.u * ((1.0 - s * s) * k) + arc.w * (2.0 * s * k) + arc.t
+}
+
+impl<'l> Solver<'l> {
+    /// Returns the solver for arcs of a sonar 1 whose half elevation aperture is `half` (rad) into
+    /// `layout`, keeping what `keep` says.
+    pub(crate) fn new(layout: &'l Layout, half: f64, keep: Keep) -> Self {
+        let edges = if layout.beams() > 1 {
+            layout.beam_edges.iter().map(|e| e.sin_cos()).collect()
+        } else {
+            Vec::new()
+        };
+        let bin_sums = (layout.kind == SonarKind::Sss).then(|| {
+            let w = layout.range_bin_width;
+            std::iter::successors(Some(0.0), |&sum| Some(sum + w))
+                .take(layout.range_bins * layout.beams() + 1)
+                .collect()
+        });
+        Solver {
+            layout,
+            bin_sums,
+            behind: layout.half_azimuth >= FRAC_PI_2,
+            r2_min: layout.range_min.powi(2),
+            r2_max: layout.range_max.powi(2),
+            azimuth: (layout.half_azimuth < PI).then(|| layout.half_azimuth.sin_cos()),
+            elevation: (layout.half_elevation < FRAC_PI_2).then(|| layout.half_elevation.sin().powi(2)),
+            half,
+            end: (half / 2.0).tan(),
+            cos_half: half.cos(),
+            sin_half: half.sin(),
+            edges,
+            keep,
+        }
+    }
+
+    /// Returns the least and the largest value of `a + b cos φ + c sin φ` over `[−H, H]`.
+    fn bounds(&self, a: f64, b: f64, c: f64) -> (f64, f64) {
+        let m = (b * b + c * c).sqrt();
+        let e0 = a + b * self.cos_half - c * self.sin_half;
+        let e1 = a + b * self.cos_half + c * self.sin_half;
+        // The largest value sits at the direction (b, c)/m, the least at its opposite.
+        let hi = if b >= m * self.cos_half { a + m } else { e0.max(e1) };
+        let lo = if -b >= m * self.cos_half {
+            a - m
+        } else {
+            e0.min(e1)
+        };
+        (lo, hi)
+    }
+
+    /// Returns whether the arc's point at `s` lies in the field of view ([`Layout::inside`]'s
+    /// bounds as inequalities without angles: bounds inclusive, the origin outside), and whether
+    /// that verdict is clear: every bound held, or one failed, by more than 1e-9 of its terms.
+    ///
+    /// The point is taken times `k = 1 + s²`, which spares a division: the azimuth and elevation
+    /// bounds do not change with a positive scale, and the range bounds are scaled by `k²`.
+    #[inline]
+    fn inside_scaled(&self, arc: &Arc, s: f64) -> (bool, bool) {
+        const CLEAR: f64 = 1e-9;
+        let k = 1.0 + s * s;
+        let q = arc.u * (1.0 - s * s) + arc.w * (2.0 * s) + arc.t * k;
+        let (r2, k2) = (q.length_squared(), k * k);
+        // Each bound as (value, scale of its terms): held where the value is ≥ 0.
+        let (lo, hi) = (self.r2_min * k2, self.r2_max * k2);
+        let mut bounds = [(r2 - lo, r2 + lo), (hi - r2, hi + r2), (1.0, 1.0), (1.0, 1.0)];
+        if let Some((sh, ch)) = self.azimuth {
+            bounds[2] = (q.x * sh - q.y.abs() * ch, q.x.abs() + q.y.abs());
+        }
+        if let Some(se2) = self.elevation {
+            let z2 = q.z * q.z;
+            bounds[3] = (r2 * se2 - z2, r2 * se2 + z2);
+        }
+        let inside = r2 > 0.0 && bounds.iter().all(|&(v, _)| v >= 0.0);
+        let clear = if inside {
+            bounds.iter().all(|&(v, m)| v > CLEAR * m)
+        } else {
+            r2 > 0.0 && bounds.iter().any(|&(v, m)| v < -CLEAR * m)
+        };
+        (inside, clear)
+    }
+
+    /// Returns whether the piece `[a, b]` (in `s`) is in view. No bound changes sign inside it,
+    /// so a clear verdict at its middle settles it. Else three points vote, as in the reference,
+    /// since a point where the arc only touches a bound may sit at the middle.
+    fn piece_inside(&self, arc: &Arc, a: f64, b: f64) -> bool {
+        let inside = |f: f64| self.inside_scaled(arc, a + f * (b - a));
+        let (middle, clear) = inside(0.5);
+        if clear {
+            return middle;
+        }
+        match (middle, inside(0.309_017).0) {
+            (x, y) if x == y => x,
+            _ => inside(0.723_607).0,
+        }
+    }
+
+    /// Returns the sign of `y` along the piece `[a, b]`, as the reference's `side_of`.
+    fn side_of(arc: &Arc, a: f64, b: f64) -> f64 {
+        let y = [0.5, 0.309_017, 0.723_607].map(|f| point(arc, a + f * (b - a)).y);
+        let far = y
+            .into_iter()
+            .fold(0.0f64, |m, v| if v.abs() > m.abs() { v } else { m });
+        far.signum()
+    }
+
+    /// Returns `None` when the arc surely misses the field of view, else which bounds it may
+    /// cross: from bounds of its range, its height and the azimuth's half-planes over the whole
+    /// arc, each compared with a margin.
+    fn screen(&self, arc: &Arc) -> Option<Screen> {
+        // Surely below 0 (`lo`, `hi`: bounds of a function; `scale`: of its terms).
+        let below = |hi: f64, scale: f64| hi < -CULL_MARGIN * scale;
+        let above = |lo: f64, scale: f64| lo > CULL_MARGIN * scale;
+        let (a, b, c) = arc.range_sq();
+        let (r2_lo, r2_hi) = self.bounds(a, b, c);
+        let scale = a.abs() + (b * b + c * c).sqrt();
+        if below(r2_hi - self.r2_min, scale) || above(r2_lo - self.r2_max, scale) || r2_hi <= 0.0 {
+            return None;
+        }
+        let mut screen = Screen {
+            range_min: self.r2_min > 0.0 && !above(r2_lo - self.r2_min, scale),
+            range_max: !below(r2_hi - self.r2_max, scale),
+            sides: [false; 2],
+            elevation: false,
+        };
+        if let Some((sh, ch)) = self.azimuth {
+            let (x, y) = (arc.coord(0), arc.coord(1));
+            let mut missed = [false; 2];
+            for (k, side) in [1.0, -1.0].into_iter().enumerate() {
+                let f = |p: f64, q: f64| p * sh - side * q * ch;
+                let (fa, fb, fc) = (f(x.0, y.0), f(x.1, y.1), f(x.2, y.2));
+                let (lo, hi) = self.bounds(fa, fb, fc);
+                let scale = fa.abs() + (fb * fb + fc * fc).sqrt();
+                missed[k] = below(hi, scale);
+                screen.sides[k] = !missed[k] && !above(lo, scale);
+            }
+            // Within π/2 the bound is both half-planes; beyond, either.
+            let missed = if ch > 0.0 {
+                missed[0] || missed[1]
+            } else {
+                missed[0] && missed[1]
+            };
+            if missed {
+                return None;
+            }
+        }
+        if let Some(se2) = self.elevation {
+            let (za, zb, zc) = arc.coord(2);
+            let (z_lo, z_hi) = self.bounds(za, zb, zc);
+            let z2_max = z_lo.powi(2).max(z_hi.powi(2));
+            let z2_min = if z_lo <= 0.0 && z_hi >= 0.0 {
+                0.0
+            } else {
+                z_lo.powi(2).min(z_hi.powi(2))
+            };
+            let scale = r2_hi * se2 + z2_max;
+            // r² sin² e − z² over the arc lies in [r²_lo sin² e − z²_max, r²_hi sin² e − z²_min].
+            if below(r2_hi * se2 - z2_min, scale) {
+                return None;
+            }
+            screen.elevation = !above(r2_lo * se2 - z2_max, scale);
+        }
+        Some(screen)
+    }
+
+    /// Returns the elevations (as `s`) where the arc may enter or leave the field of view, or
+    /// cross sonar 2's `x = 0` or `y = 0` plane, with both ends; sorted, without repeats.
+    fn cuts(&self, arc: &Arc, screen: Screen) -> List {
+        let (lo, hi) = (-self.end, self.end);
+        let mut cuts = List::default();
+        cuts.push(lo);
+        let (a, b, c) = arc.range_sq();
+        if screen.range_min {
+            quadratic_roots(quadratic(a - self.r2_min, b, c), lo, hi, &mut cuts);
+        }
+        if screen.range_max {
+            quadratic_roots(quadratic(a - self.r2_max, b, c), lo, hi, &mut cuts);
+        }
+        let (x, y, z) = (arc.coord(0), arc.coord(1), arc.coord(2));
+        let (qx, qy, qz) = (
+            quadratic(x.0, x.1, x.2),
+            quadratic(y.0, y.1, y.2),
+            quadratic(z.0, z.1, z.2),
+        );
+        if self.behind {
+            quadratic_roots(qx, lo, hi, &mut cuts);
+            quadratic_roots(qy, lo, hi, &mut cuts);
+        }
+        if let Some((sh, ch)) = self.azimuth {
+            for (k, side) in [1.0, -1.0].into_iter().enumerate() {
+                if screen.sides[k] {
+                    let f = |k: usize| qx[k] * sh - side * qy[k] * ch;
+                    quadratic_roots([f(0), f(1), f(2)], lo, hi, &mut cuts);
+                }
+            }
+        }
+        if let (Some(se2), true) = (self.elevation, screen.elevation) {
+            // (1 + s²)² (r² sin² e − z²) = sin² e (1 + s²) R(s) − Z(s)², R and Z the quadratics
+            // of r² and z.
+            let r = quadratic(a, b, c);
+            let r1 = [r[0], r[1], r[0] + r[2], r[1], r[2]];
+            let z2 = [
+                qz[0] * qz[0],
+                2.0 * qz[0] * qz[1],
+                qz[1] * qz[1] + 2.0 * qz[0] * qz[2],
+                2.0 * qz[1] * qz[2],
+                qz[2] * qz[2],
+            ];
+            let g = std::array::from_fn(|k| se2 * r1[k] - z2[k]);
+            // The height's zeros: a thin fan's bound turns near them.
+            quartic_roots(&g, lo, hi, closed_form_roots(qz), &mut cuts);
+        }
+        cuts.push(hi);
+        cuts.sort();
+        cuts
+    }
+
+    /// Returns the stationary points (as `s`) of the range and, when `azimuths`, of the azimuth,
+    /// over the whole arc.
+    fn stationary(&self, arc: &Arc, azimuths: bool) -> List<4> {
+        let (lo, hi) = (-self.end, self.end);
+        let mut out = List::default();
+        let mut add = |c: [f64; 3]| {
+            // Unpolished: a stationary point off by δ moves its value by δ² only.
+            for s in closed_form_roots(c) {
+                if s > lo && s < hi {
+                    out.push(s);
+                }
+            }
+        };
+        let (_, rb, rc) = arc.range_sq();
+        // d|q|²/dφ = −b sin φ + c cos φ.
+        add(quadratic(0.0, rc, -rb));
+        if azimuths {
+            let (u, w, t) = (arc.u, arc.w, arc.t);
+            add(quadratic(
+                u.x * w.y - u.y * w.x,
+                t.x * w.y - t.y * w.x,
+                t.y * u.x - t.x * u.y,
+            ));
+        }
+        out.sort();
+        out
+    }
+
+    /// Returns the metrics of `arc`, setting its cells in `occupancy` when one is given (else
+    /// counting them in `cells` when kept).
+    pub(crate) fn solve(&self, arc: &Arc, cells: &mut Cells, occupancy: Option<&mut Occupancy>) -> Metrics {
+        let Some(screen) = self.screen(arc) else {
+            return Metrics::exact(0.0, Extremes::default(), (0, 0.0));
+        };
+        let cuts = self.cuts(arc, screen);
+        let beams = self.layout.beams() > 1;
+        let want_cells = self.keep.cells || occupancy.is_some();
+        let azimuths = self.keep.azimuths || (want_cells && beams);
+        let turns = self.stationary(arc, azimuths);
+        let mut extremes = Extremes::default();
+        let mut length = 0.0;
+        let mut run: Option<[f64; 2]> = None;
+        cells.cells.clear();
+        cells.bins.clear();
+        for w in cuts.as_slice().windows(2) {
+            let [a, b] = [w[0], w[1]];
+            if b <= a || !self.piece_inside(arc, a, b) {
+                continue;
+            }
+            // Touching visible pieces make one run of the arc: one `atan` pair for its length.
+            run = match run {
+                Some([s, e]) if e == a => Some([s, b]),
+                Some([s, e]) => {
+                    if self.keep.fraction {
+                        length += arc_angle(s, e);
+                    }
+                    Some([a, b])
+                }
+                None => Some([a, b]),
+            };
+            let side = if azimuths && self.behind {
+                Self::side_of(arc, a, b)
+            } else {
+                0.0
+            };
+            // The piece's ends and inner turning points, in order: the range and the azimuth are
+            // monotone between them.
+            // The ends and 4 stationary points at most.
+            let mut at = List::<6>::default();
+            at.push(a);
+            for &s in turns.as_slice() {
+                if s > a && s < b {
+                    at.push(s);
+                }
+            }
+            at.push(b);
+            let mut prev: Option<(f64, usize, f64, f64)> = None;
+            let (mut piece_lo, mut piece_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for &s in at.as_slice() {
+                let q = point(arc, s);
+                let r = q.length();
+                extremes.add_range(r);
+                piece_lo = piece_lo.min(r);
+                piece_hi = piece_hi.max(r);
+                let az = if azimuths { azimuth_of(q, side) } else { 0.0 };
+                if self.keep.azimuths {
+                    extremes.add_azimuth(az);
+                }
+                if want_cells && beams {
+                    let i = self.layout.range_bin(r);
+                    if let Some((s0, i0, r0, az0)) = prev {
+                        self.staircase(arc, (s0, i0, r0, az0), (s, i, r, az), &mut |i, j| {
+                            cells.cells.push((i, j));
+                        });
+                    }
+                    prev = Some((s, i, r, az));
+                }
+            }
+            if want_cells && !beams {
+                let (i0, i1) = (self.layout.range_bin(piece_lo), self.layout.range_bin(piece_hi));
+                cells.bins.push((i0, i1));
+            }
+        }
+        let fraction = match run {
+            None => return Metrics::exact(0.0, Extremes::default(), (0, 0.0)),
+            // The whole arc: 1, not its rounding through atan.
+            Some([s, e]) if (s == -self.end && e == self.end) || !self.keep.fraction => 1.0,
+            // φ = 2 atan s: each run's length over the arc's 2H.
+            Some([s, e]) => ((length + arc_angle(s, e)) / self.half).min(1.0),
+        };
+        let summary = if let Some(occ) = occupancy {
+            for &(i, j) in &cells.cells {
+                occ.set(i, j);
+            }
+            for &(i0, i1) in &cells.bins {
+                (i0..=i1).for_each(|i| occ.set(i, 0));
+            }
+            crate::projection::reference::reduce::reduce(self.layout, occ)
+        } else if !self.keep.cells {
+            (0, 0.0)
+        } else if !beams {
+            // One beam: the union of the pieces' bin intervals, summed bin by bin in order as the
+            // reduce stage sums an occupancy buffer.
+            let bins = &mut cells.bins;
+            bins.sort_unstable();
+            let (mut count, mut measure, mut next) = (0, 0.0, 0);
+            for &(i0, i1) in bins.iter() {
+                let from = i0.max(next);
+                if self.bin_sums.is_some() {
+                    count += (i1 + 1).saturating_sub(from);
+                } else {
+                    for i in from..=i1 {
+                        count += 1;
+                        measure += self.layout.pixel_measure(i, 0);
+                    }
+                }
+                next = next.max(i1 + 1);
+            }
+            if let Some(sums) = &self.bin_sums {
+                measure = sums[count];
+            }
+            (count as u64, measure)
+        } else {
+            let c = &mut cells.cells;
+            c.sort_unstable();
+            c.dedup();
+            let measure = c
+                .iter()
+                .fold(0.0, |sum, &(i, j)| sum + self.layout.pixel_measure(i, j));
+            (c.len() as u64, measure)
+        };
+        Metrics::exact(fraction, extremes, summary)
+    }
+
+    /// Hands `cell` the cells of the arc between two points where its range and azimuth are both
+    /// monotone: `(s, range bin, range, azimuth)` at each end.
+    fn staircase(
+        &self,
+        arc: &Arc,
+        (a, i0, _, az0): (f64, usize, f64, f64),
+        (b, i1, _, az1): (f64, usize, f64, f64),
+        cell: &mut dyn FnMut(usize, usize),
+    ) {
+        let layout = self.layout;
+        let (j0, j1) = (layout.beam(az0), layout.beam(az1));
+        if i0 == i1 || j0 == j1 {
+            for i in i0.min(i1)..=i0.max(i1) {
+                for j in j0.min(j1)..=j0.max(j1) {
+                    cell(i, j);
+                }
+            }
+            return;
+        }
+        // Both change: the edges are crossed in the order of their roots, each the one root on
+        // [a, b] of a quadratic (the range's, or the beam edge's plane in front of sonar 2).
+        let (ra, rb, rc) = arc.range_sq();
+        let (x, y) = (arc.coord(0), arc.coord(1));
+        let mut events: Vec<(f64, bool)> = Vec::new();
+        for i in i0.min(i1) + 1..=i0.max(i1) {
+            let e2 = layout.range_edge(i).powi(2);
+            let c = quadratic(ra - e2, rb, rc);
+            let mut roots = List::<2>::default();
+            quadratic_roots(c, a, b, &mut roots);
+            let root = roots.as_slice().first().copied();
+            events.push((root.unwrap_or_else(|| nearer_end(c, a, b)), true));
+        }
+        for j in j0.min(j1) + 1..=j0.max(j1) {
+            let (se, ce) = self.edges[j];
+            let f = |p: f64, q: f64| p * se - q * ce;
+            let c = quadratic(f(x.0, y.0), f(x.1, y.1), f(x.2, y.2));
+            let mut roots = List::<2>::default();
+            quadratic_roots(c, a, b, &mut roots);
+            // The plane holds the edge's direction and its opposite: the root in front.
+            let root = roots.as_slice().iter().copied().find(|&s| {
+                let q = point(arc, s);
+                q.x * ce + q.y * se > 0.0
+            });
+            events.push((root.unwrap_or_else(|| nearer_end(c, a, b)), false));
+        }
+        events.sort_by(|p, q| p.0.total_cmp(&q.0));
+        let (mut i, mut j) = (i0, j0);
+        cell(i, j);
+        for (_, is_range) in events {
+            if is_range {
+                i = if i1 > i0 { i + 1 } else { i - 1 };
+            } else {
+                j = if j1 > j0 { j + 1 } else { j - 1 };
+            }
+            cell(i, j);
+        }
+    }
+}
+
+/// Returns the projections of every item of `prepared` (an exact batch), on all cores, each with
+/// its occupancy buffer for [`Output::WithOccupancy`]; `None` once `stop` is set (asked before
+/// each item).
+pub(crate) fn project(
+    prepared: &PreparedBatch<'_>,
+    output: Output,
+    stop: Stop<'_>,
+) -> Option<Vec<Projection>> {
+    let batch = prepared.batch();
+    let layout = prepared.layout();
+    let solver = Solver::new(
+        layout,
+        batch.source.half_elevation(),
+        Keep {
+            fraction: true,
+            azimuths: true,
+            cells: true,
+        },
+    );
+    (0..batch.items.len())
+        .into_par_iter()
+        .map_init(Cells::default, |cells, k| {
+            if stop.is_set() {
+                return None;
+            }
+            let item = &batch.items[k];
+            let arc = Arc::new(
+                item.measurement.range,
+                item.measurement.azimuth.to_radians(),
+                batch.source.half_elevation(),
+                &item.pose,
+            );
+            let mut occupancy =
+                (output == Output::WithOccupancy).then(|| Occupancy::new(layout.range_bins, layout.beams()));
+            let metrics = solver.solve(&arc, cells, occupancy.as_mut());
+            Some(Projection {
+                metrics,
+                occupancy: occupancy.map(|o| layout.to_data_order(o)),
+                cells: None,
+                local: Default::default(),
+            })
+        })
+        .collect()
+}
+
+/// Writes the metric columns of poses `range` of `grid` (an exact sweep, prepared by
+/// [`PreparedGrid`]) into `out`, each pose decoded from its index where it is solved; `None` once
+/// `stop` is set (asked before each block of poses).
+pub(crate) fn project_grid(
+    prepared: &PreparedGrid<'_>,
+    range: std::ops::Range<u64>,
+    out: &mut MetricColumns,
+    stop: Stop<'_>,
+) -> Option<()> {
+    let count = usize::try_from(range.end - range.start).expect("a block of poses in memory");
+    out.resize(count);
+    let keep = Keep {
+        fraction: out.keeps(crate::Metric::VisibleFraction),
+        azimuths: out.keeps(crate::Metric::AzimuthMin) || out.keeps(crate::Metric::AzimuthMax),
+        cells: out.keeps(crate::Metric::Occupied) || out.keeps(crate::Metric::OccupiedMeasure),
+    };
+    let tables = GridTables::new(prepared.grid, &prepared.source);
+    let half = prepared.source.half_elevation();
+    let solver = Solver::new(&prepared.layout, half, keep);
+    let blocks = out.slices(0..count).chunks(POSE_BLOCK);
+    let done: Vec<bool> = blocks
+        .into_par_iter()
+        .enumerate()
+        .map_init(Cells::default, |cells, (b, mut slots)| {
+            if stop.is_set() {
+                return false;
+            }
+            let first = range.start + (b * POSE_BLOCK) as u64;
+            for k in 0..slots.len() {
+                let d = tables.decode(first + k as u64);
+                let (ca, sa) = d.azimuth;
+                let arc = Arc {
+                    u: d.rotation * DVec3::new(d.range * ca, d.range * sa, 0.0),
+                    w: d.rotation * DVec3::new(0.0, 0.0, d.range),
+                    t: d.translation,
+                    half,
+                };
+                slots.set(k, &solver.solve(&arc, cells, None));
+            }
+            true
+        })
+        .collect();
+    done.into_iter().all(|d| d).then_some(())
+}
