@@ -622,15 +622,33 @@ pub(crate) fn nice_step(x: f64) -> f64 {
         .unwrap_or(10.0 * p)
 }
 
-/// Returns `v` written with as many decimals as `step` needs.
+/// Returns `v` written with as many decimals as `step` needs; zero is never "-0.0".
 pub(crate) fn number(v: f64, step: f64) -> String {
     let decimals = (-step.log10().floor()).max(0.0) as usize;
-    format!("{v:.decimals$}")
+    // Adding 0.0 turns -0.0 (a tick at k = -0.0 steps) into 0.0.
+    let v = v + 0.0;
+    let text = format!("{v:.decimals$}");
+    // A value that rounds to zero is written without its sign too.
+    if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+        text.trim_start_matches('-').to_string()
+    } else {
+        text
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_zero_tick_has_no_sign() {
+        // The range axis from 0 m starts at ceil(0 / step - 1e-9) = -0.0 steps.
+        let k = (0.0f64 / 0.5 - 1e-9).ceil();
+        assert_eq!(number(k * 0.5, 0.5), "0.0");
+        assert_eq!(number(-0.0001, 0.5), "0.0");
+        assert_eq!(number(-0.5, 0.5), "-0.5");
+        assert_eq!(number(2.0, 1.0), "2");
+    }
 
     #[test]
     fn cover_spreads_bins_over_pixels_without_gaps() {

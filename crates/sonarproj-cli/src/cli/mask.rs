@@ -11,9 +11,33 @@ use sonarproj_apps::io::text::{feature, one_or_three};
 use sonarproj_apps::report::mask_image;
 use sonarproj_apps::{Error, Result};
 
-use super::BackendArg;
 use super::mask_json::{features_json, summary_json};
 use super::pose_args::PoseArgs;
+
+/// Where `sonarproj mask` draws: `--backend auto|cpu|cpu-fast|gpu`, described as masks use it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum MaskBackendArg {
+    /// A hardware GPU when one exists, else the CPU (with a one-line notice). The CPU also draws
+    /// --counts and pings too small to gain from the GPU.
+    Auto,
+    /// The CPU: f64 on every core, the one CPU engine of masks.
+    Cpu,
+    /// The same CPU engine as cpu.
+    CpuFast,
+    /// The GPU (WGSL through wgpu); fails when no adapter exists.
+    Gpu,
+}
+
+impl From<MaskBackendArg> for sonarproj::BackendChoice {
+    fn from(a: MaskBackendArg) -> sonarproj::BackendChoice {
+        match a {
+            MaskBackendArg::Auto => sonarproj::BackendChoice::Auto,
+            MaskBackendArg::Cpu => sonarproj::BackendChoice::Cpu,
+            MaskBackendArg::CpuFast => sonarproj::BackendChoice::CpuFast,
+            MaskBackendArg::Gpu => sonarproj::BackendChoice::Gpu,
+        }
+    }
+}
 
 /// Options of `sonarproj mask`.
 #[derive(Debug, clap::Args)]
@@ -73,10 +97,10 @@ pub(super) struct MaskArgs {
     /// --out nor --npy is given.
     #[arg(long)]
     json: bool,
-    /// Where to draw: auto (a hardware GPU, else the CPU), gpu, or cpu (cpu-fast is the same
-    /// engine for masks: f64 on every core).
+    /// Where to draw. Masks have one CPU engine (f64, every core): cpu and cpu-fast both choose
+    /// it.
     #[arg(long, value_enum, default_value = "auto")]
-    backend: BackendArg,
+    backend: MaskBackendArg,
     /// Read one JSON object per line from stdin (pose, features, optional sigma) and write one
     /// JSON line per input: per-feature run-length masks, counts and timing.
     #[arg(long, conflicts_with_all = ["feature", "out", "npy", "json"])]
