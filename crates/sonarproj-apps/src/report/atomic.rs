@@ -429,3 +429,39 @@ fn write_in(
     tmp.persist(path).map_err(|e| io_err(&e.error))?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::write_atomic;
+    use std::io::Write;
+
+    #[test]
+    fn a_file_creates_its_folders_and_a_failed_fill_takes_them_away() {
+        let dir = tempfile::tempdir().unwrap();
+        let kept = dir.path().join("kept");
+        std::fs::create_dir(&kept).unwrap();
+        // A fill that fails: no file, and none of the folders made for it.
+        let failed = kept.join("a/b/c.txt");
+        let e = write_atomic(&failed, |_| Err(crate::Error::invalid("x", 1, "fails")));
+        assert!(e.is_err());
+        assert!(!kept.join("a").exists(), "a failed write left its folders");
+        assert!(kept.is_dir(), "a folder that was there is kept");
+        // A fill that succeeds: the folders and the whole file.
+        let written = kept.join("a/b/c.txt");
+        write_atomic(&written, |w| {
+            w.write_all(b"whole")
+                .map_err(|e| crate::Error::write_output(&written, e))
+        })
+        .unwrap();
+        assert_eq!(std::fs::read_to_string(&written).unwrap(), "whole");
+        // A file in the way of a folder is bad input, and stays.
+        let blocker = dir.path().join("blocker");
+        std::fs::write(&blocker, "keep").unwrap();
+        let e = write_atomic(&blocker.join("x/y.txt"), |_| Ok(())).unwrap_err();
+        assert!(
+            e.is_input() && e.to_string().contains("is a file, not a directory"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read_to_string(&blocker).unwrap(), "keep");
+    }
+}

@@ -82,6 +82,14 @@ pub(super) struct MaskArgs {
     /// per feature and their union. One colour per feature.
     #[arg(long, value_name = "FILE.png")]
     out: Option<PathBuf>,
+    /// Draw the --out picture over this image of sonar 2 (NPY, range bins × beams, row 0 the
+    /// nearest range, column 0 the starboard-most beam: the image.npy of `sonar from-oculus`).
+    /// Default: the image.npy beside --to's sonar file, when there is one.
+    #[arg(long, value_name = "FILE.npy", requires = "out")]
+    image: Option<PathBuf>,
+    /// Draw the --out picture without an image, even with an image.npy beside --to.
+    #[arg(long, requires = "out", conflicts_with = "image")]
+    no_image: bool,
     /// Write the masks as NPY, uint8 0/1 (uint32 counts with --counts). The shape is
     /// [feature][range_bin][beam] for an FLS and [feature][range_bin] for an SSS, or
     /// [feature][2 x range_bins] for a two-sided one (port far to near, then starboard near to
@@ -165,6 +173,10 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
             ));
         }
     }
+    let image = match (&a.out, ping_image(&a, engine.target().kind)) {
+        (Some(_), Some(path)) => Some(mask_image::PingImage::read(&path, engine.layout(), "--image")?),
+        _ => None,
+    };
     let start = Instant::now();
     if a.out.is_none() && a.npy.is_none() {
         // JSON only: the masks' summary is all it prints, and all a GPU reads back.
@@ -201,7 +213,13 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
                 .map(|n| format!(", widened to {} coverage", n.coverage))
                 .unwrap_or_default()
         );
-        mask_image::write_png(path, engine.layout(), &set.masks, &title, &labels)?;
+        mask_image::write_png(
+            path,
+            engine.layout(),
+            &set.masks,
+            (&title, &labels),
+            image.as_ref(),
+        )?;
     }
     if let Some(path) = &a.npy {
         mask_image::write_npy(path, engine.layout(), &set.masks, a.counts)?;
@@ -218,6 +236,22 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
         )?;
     }
     Ok(())
+}
+
+/// Returns the image the --out picture is drawn over: --image, else the image.npy beside --to
+/// when --to is the file of an imaging sonar 2 (of `kind`), as `sonar from-oculus` writes them,
+/// else none. The image is an input no output may replace.
+fn ping_image(a: &MaskArgs, kind: SonarKind) -> Option<PathBuf> {
+    if a.no_image {
+        return None;
+    }
+    let path = a.image.clone().or_else(|| {
+        let is_file = sonarproj::Sonar::preset(&a.to).is_none();
+        let beside = std::path::Path::new(&a.to).parent()?.join("image.npy");
+        (is_file && kind == SonarKind::Fls && beside.is_file()).then_some(beside)
+    })?;
+    sonarproj_apps::report::note_input(&path);
+    Some(path)
 }
 
 /// Prints the JSON of one `sonarproj mask` run: the sonars, pose, noise and device, the
