@@ -440,7 +440,15 @@ fn the_picture_is_drawn_over_the_ping_image_beside_the_sonar_file() {
         sonarproj()
             .args(["mask", "--from", "paper-sss", "--to"])
             .arg(&toml)
-            .args(["--feature", "20", "--backend", "cpu", "--out"])
+            .args([
+                "--translation",
+                "0,0,0",
+                "--feature",
+                "20",
+                "--backend",
+                "cpu",
+                "--out",
+            ])
             .arg(png)
             .args(extra)
             .assert()
@@ -481,7 +489,15 @@ fn the_picture_is_drawn_over_the_ping_image_beside_the_sonar_file() {
         let assert = sonarproj()
             .args(["mask", "--from", "paper-sss", "--to"])
             .arg(to)
-            .args(["--feature", "20", "--backend", "cpu", "--image"])
+            .args([
+                "--translation",
+                "0,0,0",
+                "--feature",
+                "20",
+                "--backend",
+                "cpu",
+                "--image",
+            ])
             .arg(&wrong)
             .arg("--out")
             .arg(dir.path().join("no.png"))

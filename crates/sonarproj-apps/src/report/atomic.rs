@@ -433,7 +433,6 @@ fn write_in(
 #[cfg(test)]
 mod tests {
     use super::write_atomic;
-    use std::io::Write;
 
     #[test]
     fn a_file_creates_its_folders_and_a_failed_fill_takes_them_away() {

@@ -198,6 +198,9 @@ impl Backdrop {
     }
 }
 
+/// What a picture paints: the layers, each with its colour, and the image under them if any.
+pub(crate) type Ground<'a> = (&'a [(Pooled, (u8, u8, u8))], Option<&'a Backdrop>);
+
 /// Returns the colour of a pixel: the layers' blend, over the backdrop's grey when there is
 /// one (three parts colour, one part image), else the layers' blend or [`EMPTY`].
 fn pixel(
@@ -226,7 +229,7 @@ fn pixel(
 pub(crate) fn paint_raw(
     canvas: &mut Canvas,
     rect: Rect,
-    (layers, backdrop): (&[(Pooled, (u8, u8, u8))], Option<&Backdrop>),
+    (layers, backdrop): Ground<'_>,
     rows: std::ops::Range<usize>,
     beams: usize,
 ) -> Vec<Option<Extent>> {
@@ -303,7 +306,7 @@ impl Fan {
         canvas: &mut Canvas,
         rect: Rect,
         layout: &Layout,
-        (layers, backdrop): (&[(Pooled, (u8, u8, u8))], Option<&Backdrop>),
+        (layers, backdrop): Ground<'_>,
     ) -> Vec<Option<Extent>> {
         let mut extents = vec![None; layers.len()];
         let (r_min, r_max, ha) = (layout.range_min, layout.range_max, layout.half_azimuth);

@@ -290,6 +290,8 @@ fn a_single_file_output_creates_its_folder_as_a_directory_output_does() {
             "paper-sss",
             "--to",
             "paper-fls",
+            "--translation",
+            "1,0,0",
             "--feature",
             "5",
             "--out",
