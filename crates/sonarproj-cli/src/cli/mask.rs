@@ -84,7 +84,8 @@ pub(super) struct MaskArgs {
     out: Option<PathBuf>,
     /// Draw the --out picture over this image of sonar 2 (NPY, range bins × beams, row 0 the
     /// nearest range, column 0 the starboard-most beam: the image.npy of `sonar from-oculus`).
-    /// Default: the image.npy beside --to's sonar file, when there is one.
+    /// Default: the image.npy beside --to's sonar file, when sonar 2 is an imaging sonar and
+    /// there is one.
     #[arg(long, value_name = "FILE.npy", requires = "out")]
     image: Option<PathBuf>,
     /// Draw the --out picture without an image, even with an image.npy beside --to.
