@@ -8,6 +8,7 @@ use sonarproj::{
 };
 
 fn main() -> Result<(), sonarproj::Error> {
+    quiet_headless_vulkan();
     // The paper's pair: a feature seen by the FLS, looked for in the sidescan.
     let fls = Sonar::preset("paper-fls").expect("a preset");
     let sss = Sonar::preset("paper-sss").expect("a preset");
@@ -66,4 +67,16 @@ fn main() -> Result<(), sonarproj::Error> {
         }
     }
     Ok(())
+}
+
+/// On a headless machine (no `XDG_RUNTIME_DIR`), Mesa's Vulkan device-select layer tries to reach
+/// a Wayland display and prints `error: XDG_RUNTIME_DIR is invalid or not set` for every GPU
+/// instance. It only reorders adapters, so a program switches it off there (`NODEVICE_SELECT=1`)
+/// before opening a GPU, unless its user set that variable, as the command line and the Python
+/// package do. The engine reads no environment: this is the program's choice.
+fn quiet_headless_vulkan() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() && std::env::var_os("NODEVICE_SELECT").is_none() {
+        // SAFETY: called first thing in main, before any other thread exists.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
 }

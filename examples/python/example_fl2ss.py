@@ -157,7 +157,12 @@ def main() -> None:
         ax.set_yticks([])
         ax.set_xlabel("sidescan range (m)")
     top.set_xlim(0, sss.range_max + 0.5)
-    top.set_title("FLS feature (5 m, 0°) in the sidescan: roll 0°, pitch 90°, yaw 0°")
+    # The authors' configuration, not the paper's presets: its FLS elevation aperture is 10°, so
+    # the span is the chord 2·5·sin 5° = 0.872 m, where the README's row (paper-fls, 12°) has
+    # 2·5·sin 6° = 1.045 m.
+    top.set_title(f"The authors' example_fl2ss configuration (FLS elevation aperture "
+                  f"{c['fl_elevation_aperture']:g}°, not the paper-fls preset's 12°):\n"
+                  f"FLS feature (5 m, 0°) in the sidescan, roll 0°, pitch 90°, yaw 0°", fontsize=10)
     pad = 0.15
     zoom.set_xlim(m["range_min"] - pad, m["range_max"] + pad)
     zoom.fill_betweenx([-0.3, 0.3], m["range_min"], m["range_max"], color="tab:orange", alpha=0.3,

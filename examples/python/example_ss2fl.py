@@ -98,18 +98,28 @@ def pixel_centres(sonar: sonarproj.Sonar, occupancy: np.ndarray) -> tuple[np.nda
 
 
 def draw_fan(ax, sonar: sonarproj.Sonar, n_range_lines: int = 5, n_bearing_lines: int = 5) -> None:
-    """The FLS's field of view from above, forward up and port on the left (horizontal axis =
-    -y, to starboard), with dashed range arcs and bearing lines as the authors' plot."""
+    """The FLS's field of view from above in sonarproj's frame, x forward (up) and y to port:
+    the horizontal axis is y, drawn increasing to the left (see `port_left`), so port is on the
+    left as seen from above. Dashed range arcs and bearing lines as the authors' plot."""
     half = sonar.azimuth_aperture / 2
     az = np.radians(np.linspace(-half, half, 200))
     for k, r in enumerate(np.linspace(sonar.range_min, sonar.range_max, n_range_lines + 2)):
         edge = k in (0, n_range_lines + 1)
-        ax.plot(-r * np.sin(az), r * np.cos(az), c="k", lw=1 if edge else 0.6, ls="-" if edge else "--")
+        ax.plot(r * np.sin(az), r * np.cos(az), c="k", lw=1 if edge else 0.6, ls="-" if edge else "--")
     for k, a in enumerate(np.linspace(-half, half, n_bearing_lines + 2)):
         edge = k in (0, n_bearing_lines + 1)
         r = np.array([sonar.range_min, sonar.range_max])
-        ax.plot(-r * np.sin(np.radians(a)), r * np.cos(np.radians(a)), c="k",
+        ax.plot(r * np.sin(np.radians(a)), r * np.cos(np.radians(a)), c="k",
                 lw=1 if edge else 0.6, ls="-" if edge else "--")
+
+
+def port_left(ax) -> None:
+    """Labels a view from above in sonarproj's frame: y (positive to port) on the horizontal
+    axis, increasing to the left so that port is on the left; x (forward) up."""
+    if not ax.xaxis_inverted():
+        ax.invert_xaxis()
+    ax.set_xlabel("y (m, + port)      ← port | starboard →")
+    ax.set_ylabel("x (m, forward)")
 
 
 def main() -> None:
@@ -179,30 +189,29 @@ def main() -> None:
           f"projection area {auto['projection_area']:.6f} m²")
 
     # Their plot: the fan from above (forward up) with the visible points; ours from the
-    # occupied pixels' centres. Port (+azimuth, +y) is drawn on the left as seen from above.
-    # (Their scatter draws (y, x) over a fan rotated to (-y, x), mirroring the points across the
-    # boresight; with a symmetric fan outline the mirror is easy to miss.)
-    lateral = -r_pix * np.sin(np.radians(az_pix))  # to starboard (m)
+    # occupied pixels' centres, at (y, x) of sonarproj's frame. Port (+azimuth, +y) is drawn on
+    # the left as seen from above, so the y axis increases to the left. (Their scatter draws
+    # (y, x) over a fan rotated to (-y, x), mirroring the points across the boresight; with a
+    # symmetric fan outline the mirror is easy to miss.)
+    lateral = r_pix * np.sin(np.radians(az_pix))  # y, to port (m)
     forward = r_pix * np.cos(np.radians(az_pix))
     fig, (ax, zoom) = plt.subplots(1, 2, figsize=(11, 5.2), constrained_layout=True,
                                    gridspec_kw={"width_ratios": [1.25, 1]})
     draw_fan(ax, fls)
     ax.scatter(lateral, forward, c="r", s=4, zorder=10, label=f"occupied pixels ({m['occupied']})")
     ax.set_aspect("equal")
-    ax.set_xlabel("← port      lateral (m)      starboard →")
-    ax.set_ylabel("forward (m)")
+    port_left(ax)
     ax.set_title("SSS feature (15 m) in the FLS: roll 45°, yaw 45°")
     ax.legend(loc="lower right", fontsize=8)
 
     ra, aa = pixel_centres(fls, auto["occupancy"])
-    zoom.scatter(-ra * np.sin(np.radians(aa)), ra * np.cos(np.radians(aa)), c="0.7", s=6,
+    zoom.scatter(ra * np.sin(np.radians(aa)), ra * np.cos(np.radians(aa)), c="0.7", s=6,
                  label=f"auto sampling: {auto['occupied']} pixels")
     zoom.scatter(lateral, forward, c="r", s=6, label=f"step 0.1°: {m['occupied']} pixels")
     zoom.legend(loc="upper right", fontsize=8, markerscale=2)
     zoom.set_aspect("equal")
     zoom.margins(0.15)
-    zoom.set_xlabel("← port      lateral (m)      starboard →")
-    zoom.set_ylabel("forward (m)")
+    port_left(zoom)
     zoom.set_title(f"zoom: range {m['range_min']:.2f}–{m['range_max']:.2f} m, "
                    f"projection area {m['projection_area']:.4f} m²", fontsize=10)
     zoom.grid(alpha=0.3)

@@ -106,7 +106,7 @@ def main() -> None:
         at = dict(pts)
         print(f"  {place:9g}  {spans[best]:12.6f}  {angles[best]:9g}°  {at[0.0]:10.6f}  {at[90.0]:11.6f}")
         ax.plot(angles, spans, color=cmap(k / (len(curves) - 1)), lw=1.6,
-                label=f"{place:g} m ({place / SSS_RANGE_MAX:.1f} r_max)")
+                label=f"{place:g} m ({place / SSS_RANGE_MAX:.1f} × {SSS_RANGE_MAX:g} m)")
 
     ax.set_xlabel(f"{args.angle} (deg)")
     ax.set_ylabel("range span in the sidescan (m)")
@@ -116,7 +116,7 @@ def main() -> None:
     ax.grid(alpha=0.3)
     ax.set_title(f"FLS feature at {FEATURE_RANGE:g} m seen by the sidescan: span against {args.angle}")
     # The legend goes outside the axes so it never hides a curve.
-    ax.legend(title="feature distance\nfrom the sidescan", loc="upper left",
+    ax.legend(title="feature distance from the\nsidescan (× its maximum range)", loc="upper left",
               bbox_to_anchor=(1.01, 1.0), fontsize=8, title_fontsize=8)
     png = os.path.join(args.out, f"fig4_{args.angle}.png")
     fig.savefig(png, dpi=120)

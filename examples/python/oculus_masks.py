@@ -89,11 +89,12 @@ def write_synthetic_ping(path: str, seed: int = 3) -> None:
 
 def fan(ax, values, sonar, **kwargs):
     """Draws `values` ((range_bins, beams), column 0 the starboard-most) as a fan seen from
-    above: x = −r sin(az) (port, +az, on the left), y = r cos(az) (forward up)."""
+    above in sonarproj's frame: y = r sin(az) on the horizontal axis (positive to port; the
+    axis increases to the left so port is on the left), x = r cos(az) forward, up."""
     r = sonar.range_min + np.arange(sonar.range_bins + 1) * (sonar.range_max - sonar.range_min) / sonar.range_bins
     az = np.radians(np.asarray(sonar.beam_edges))
     R, AZ = np.meshgrid(r, az, indexing="ij")
-    return ax.pcolormesh(-R * np.sin(AZ), R * np.cos(AZ), values, shading="flat", **kwargs)
+    return ax.pcolormesh(R * np.sin(AZ), R * np.cos(AZ), values, shading="flat", **kwargs)
 
 
 def main() -> None:
@@ -139,10 +140,11 @@ def main() -> None:
                              label=f"{r:g} m: σ-widened ({int(wide.masks[k].sum())} px)"))
     half = np.radians(fls.azimuth_aperture / 2)
     ax.set_aspect("equal")
-    ax.set_xlim(-fls.range_max * np.sin(half) * 1.05, fls.range_max * np.sin(half) * 1.05)
+    # y increases to the left: port (+y) on the left, as seen from above.
+    ax.set_xlim(fls.range_max * np.sin(half) * 1.05, -fls.range_max * np.sin(half) * 1.05)
     ax.set_ylim(0, fls.range_max * 1.03)
-    ax.set_xlabel("across (m): port ◀ | ▶ starboard")
-    ax.set_ylabel("forward (m)")
+    ax.set_xlabel("y (m, + port)      ◀ port | starboard ▶")
+    ax.set_ylabel("x (m, forward)")
     ax.text(0.01, 0.99, "◀ port", transform=ax.transAxes, ha="left", va="top", fontsize=10)
     ax.text(0.99, 0.99, "starboard ▶", transform=ax.transAxes, ha="right", va="top", fontsize=10)
     ax.set_title(f"Oculus ping {ping.ping_id} ({ping.frequency / 1e6:.1f} MHz), seen from above; masks of "

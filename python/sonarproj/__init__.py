@@ -103,9 +103,15 @@ _PLAUSIBLE_ROTATION_SIGMA_DEG = 20.0
 
 
 class BackendNotice(UserWarning):
-    """Warned when ``backend="auto"`` runs on the CPU, saying why (no GPU adapter, or only a
-    software one, which is slower than the CPU path)."""
+    """Warned once per process when ``backend="auto"`` runs on the CPU, saying why (no GPU
+    adapter, or only a software one, which is slower than the CPU path). It is shown as one
+    line, ``sonarproj: note: …``, without the source line. ``backend="cpu-fast"`` chooses the
+    CPU and is not warned; ``warnings.filterwarnings("ignore", category=sonarproj.BackendNotice)``
+    silences it otherwise."""
 
+
+_SILENCE = '; backend="cpu-fast" skips this note'
+"""What every BackendNotice ends with: how to choose the CPU and be told nothing."""
 
 _warned: set[str] = set()
 
@@ -114,7 +120,21 @@ def _warn(notice: Optional[str]) -> None:
     """Warns `notice` once per process (the backends are opened once and kept)."""
     if notice and notice not in _warned:
         _warned.add(notice)
-        _warnings.warn(notice.removeprefix("note: "), BackendNotice, stacklevel=3)
+        _warnings.warn(notice.removeprefix("note: ") + _SILENCE, BackendNotice, stacklevel=3)
+
+
+_formatwarning = _warnings.formatwarning
+
+
+def _format_notice(message, category, filename, lineno, line=None):  # type: ignore[no-untyped-def]
+    """Formats a BackendNotice as one line, ``sonarproj: note: …``: where the call was says
+    nothing of the machine. Every other warning is formatted as before."""
+    if isinstance(category, type) and issubclass(category, BackendNotice):
+        return f"sonarproj: note: {message}\n"
+    return _formatwarning(message, category, filename, lineno, line)
+
+
+_warnings.formatwarning = _format_notice
 
 
 def _sonar(parameter: str, value: Any) -> Sonar:

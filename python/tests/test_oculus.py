@@ -117,6 +117,17 @@ def test_an_unknown_frequency_takes_the_elevation_given(tmp_path):
     assert p.sonar.elevation_aperture == 15.0
 
 
+def test_a_ping_and_its_sonar_print_in_a_few_words(tmp_path):
+    # 256 measured beams: the sonar's repr summarises them instead of printing 257 edges.
+    f = tmp_path / "ping.raw"
+    bearings = [round(-3000 + 6000 * k / 255) for k in range(256)]
+    f.write_bytes(ping_message(2, bearings, 5, 1, False, frequency=2098880.597))
+    [p] = sonarproj.read_oculus(f)
+    assert repr(p) == "<OculusPing 7 at byte 0 (v2): 5 ranges × 256 beams, 2.099 MHz>"
+    text = repr(p.sonar)
+    assert text.startswith("<Sonar 'oculus-ping-7': fls, 0–0.05 m in 5 range bins, 256 beams, edges -30.") and len(text) < 150, text
+
+
 def test_the_command_line_writes_the_same_sonar_and_image(tmp_path, cli):
     f = tmp_path / "pings.raw"
     f.write_bytes(ping_message(1, BEARINGS, 4, 1, False, ping_id=1) + ping_message(2, BEARINGS, 6, 2, True, ping_id=2))
@@ -128,6 +139,8 @@ def test_the_command_line_writes_the_same_sonar_and_image(tmp_path, cli):
     image = np.load(out / "image.npy")
     assert image.dtype == np.uint16 and np.array_equal(image, p.image)
     assert np.array_equal(np.load(out / "gains.npy"), p.gains)
+    # The sonar file's header gives the frequency as a person reads it.
+    assert "2.1 MHz" in (out / "sonar.toml").read_text().splitlines()[0]
     # The sonar file works wherever one does.
     done = cli("project", "--from", "paper-sss", "--to", out / "sonar.toml", "--range", "5", "--place-range", "0.05")
     assert '"visible"' in done.stdout

@@ -77,19 +77,20 @@ pub enum Notice {
 }
 
 impl Notice {
-    /// Returns the notice's line, `note: …`, with each GPU option named by `name`.
+    /// Returns the notice's line, `note: …`, short, with each GPU option named by `name`. Each
+    /// front adds how its user chooses the CPU and so silences it.
     #[must_use]
     pub fn render(&self, name: &dyn Fn(Param) -> String) -> String {
         match self {
+            // The adapter's name without its details: `llvmpipe (LLVM 15.0.6, 256 bits)` is
+            // llvmpipe.
             Notice::SoftwareAdapter(adapter) => format!(
-                "note: the only GPU adapter is a software one ({adapter}), slower than the CPU path; \
-                 running on the CPU (all cores; choosing the GPU backend uses the adapter anyway)"
+                "note: running on the CPU: the only GPU adapter ({}) is a software one, slower",
+                adapter.split(" (").next().unwrap_or(adapter)
             ),
-            Notice::NoAdapter => "note: no GPU adapter found, running on the CPU (all cores; for the GPU \
-                                  path install a Vulkan driver)"
-                .to_string(),
-            Notice::GpuUnavailable(e) => format!("note: {}; running on the CPU (all cores)", e.render(name)),
-            Notice::MasksOnCpu(e) => format!("note: {}; drawing masks on the CPU", e.render(name)),
+            Notice::NoAdapter => "note: running on the CPU: no GPU adapter found".to_string(),
+            Notice::GpuUnavailable(e) => format!("note: running on the CPU: {}", e.render(name)),
+            Notice::MasksOnCpu(e) => format!("note: drawing masks on the CPU: {}", e.render(name)),
         }
     }
 }

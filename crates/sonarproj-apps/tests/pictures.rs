@@ -46,7 +46,7 @@ fn drawn(layout: &Layout, masks: &[Mask]) -> Picture {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m.png");
     let labels: Vec<String> = (1..=masks.len()).map(|k| k.to_string()).collect();
-    mask_image::write_png(&path, layout, masks, "test", &labels).unwrap();
+    mask_image::write_png(&path, layout, masks, ("test", &labels), None).unwrap();
     Picture::read(&path)
 }
 

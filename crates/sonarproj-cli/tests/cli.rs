@@ -380,6 +380,92 @@ fn devices_lists_adapters_and_the_choice() {
     }
 }
 
+#[test]
+fn the_cpu_notice_is_one_short_line_saying_how_to_silence_it() {
+    // No wgpu backend to look on: `auto` runs on the CPU whatever the machine, and says so.
+    let project = [
+        "project",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--range",
+        "5",
+        "--pitch",
+        "90",
+        "--place-range",
+        "15",
+    ];
+    let out = common::sonarproj()
+        .args(project)
+        .env("WGPU_BACKEND", "none")
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    let err = String::from_utf8(out.stderr).unwrap();
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    assert!(lines[0].starts_with("note: running on the CPU"), "{err}");
+    assert!(
+        lines[0].ends_with("; --backend cpu-fast skips this note"),
+        "{err}"
+    );
+    assert!(
+        lines[0].chars().count() <= 100,
+        "{} characters: {err}",
+        lines[0].len()
+    );
+    // As it says: choosing the CPU prints nothing.
+    let out = common::sonarproj()
+        .args(project)
+        .args(["--backend", "cpu-fast"])
+        .env("WGPU_BACKEND", "none")
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    assert!(out.stderr.is_empty(), "{}", String::from_utf8_lossy(&out.stderr));
+    // `devices` gives the reason alone, without the hint meant for a command's stderr.
+    let out = common::sonarproj()
+        .arg("devices")
+        .env("WGPU_BACKEND", "none")
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("running on the CPU") && !text.contains("skips this note"),
+        "{text}"
+    );
+}
+
+#[test]
+fn mask_help_says_one_thing_of_the_cpu_backends() {
+    // Masks have one CPU engine, f64 on every core: the help never calls `cpu` the one-core
+    // reference there, as the projecting commands rightly do.
+    let help = |command: &str| {
+        let out = common::sonarproj()
+            .args([command, "--help"])
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        String::from_utf8(out).unwrap()
+    };
+    let mask = help("mask");
+    assert!(!mask.contains("one core"), "{mask}");
+    assert!(mask.contains("one CPU engine"), "{mask}");
+    let cpu_line = mask
+        .lines()
+        .find(|l| l.trim_start().starts_with("- cpu:"))
+        .expect("the cpu value");
+    assert!(cpu_line.contains("every core"), "{cpu_line}");
+    assert!(help("project").contains("one core"));
+}
+
 /// Returns the candidates' `point_first` of `sonarproj recover` run with `args`.
 fn recover_points(args: &[&str]) -> (Value, Vec<[f64; 3]>) {
     let out = common::sonarproj()

@@ -377,3 +377,134 @@ fn bad_mask_input_names_the_option() {
         assert!(err.contains(needle), "{args:?}: expected {needle:?} in {err}");
     }
 }
+
+/// Returns an NPY file's bytes: a 2-D array of `descr` ("|u1", "<f4") in C or Fortran order.
+fn npy(descr: &str, fortran: bool, shape: (usize, usize), data: &[u8]) -> Vec<u8> {
+    let mut header = format!(
+        "{{'descr': '{descr}', 'fortran_order': {}, 'shape': ({}, {}), }}",
+        if fortran { "True" } else { "False" },
+        shape.0,
+        shape.1
+    );
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut out = b"\x93NUMPY\x01\x00".to_vec();
+    out.extend(u16::try_from(header.len()).unwrap().to_le_bytes());
+    out.extend(header.as_bytes());
+    out.extend(data);
+    out
+}
+
+/// Returns the RGB pixel at `(x, y)` of the PNG at `path`.
+fn pixels(path: &std::path::Path) -> impl Fn(usize, usize) -> [u8; 3] {
+    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut reader = png::Decoder::new(file).read_info().unwrap();
+    let mut rgb = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut rgb).unwrap();
+    let w = info.width as usize;
+    move |x, y| {
+        let k = (y * w + x) * 3;
+        [rgb[k], rgb[k + 1], rgb[k + 2]]
+    }
+}
+
+#[test]
+fn the_picture_is_drawn_over_the_ping_image_beside_the_sonar_file() {
+    // An imaging sonar 2 as `sonar from-oculus` leaves it: DIR/sonar.toml and DIR/image.npy, the
+    // image bright on the port half (beams 16–31, +azimuth) and black on the starboard half.
+    let dir = tempfile::tempdir().unwrap();
+    let toml = dir.path().join("sonar.toml");
+    std::fs::write(
+        &toml,
+        "kind = \"fls\"\nrange_min = 0.5\nrange_max = 5.0\nazimuth_aperture = 60.0\n\
+         elevation_aperture = 12.0\nrange_bins = 40\nbeams = 32\n",
+    )
+    .unwrap();
+    let (rows, beams) = (40, 32);
+    let bright = |j: usize| if j >= beams / 2 { 255u8 } else { 0 };
+    let c_order: Vec<u8> = (0..rows * beams).map(|k| bright(k % beams)).collect();
+    std::fs::write(
+        dir.path().join("image.npy"),
+        npy("|u1", false, (rows, beams), &c_order),
+    )
+    .unwrap();
+    // The same image as float32 in Fortran order (columns one after the other), elsewhere.
+    let f_order: Vec<u8> = (0..rows * beams)
+        .flat_map(|k| f32::from(bright(k / rows)).to_le_bytes())
+        .collect();
+    let other = dir.path().join("frame.npy");
+    std::fs::write(&other, npy("<f4", true, (rows, beams), &f_order)).unwrap();
+    let run = |png: &std::path::Path, extra: &[&std::ffi::OsStr]| {
+        sonarproj()
+            .args(["mask", "--from", "paper-sss", "--to"])
+            .arg(&toml)
+            .args([
+                "--translation",
+                "0,0,0",
+                "--feature",
+                "20",
+                "--backend",
+                "cpu",
+                "--out",
+            ])
+            .arg(png)
+            .args(extra)
+            .assert()
+            .success();
+    };
+    let plain = dir.path().join("plain.png");
+    run(&plain, &["--no-image".as_ref()]);
+    // The raw panel, the light grey of the empty field of view without an image.
+    let panels = Picture::read(&plain).panels();
+    assert_eq!(panels.len(), 2, "{panels:?}");
+    let raw = panels[1];
+    let (left, right, mid) = (
+        raw.x0 + (raw.x1 - raw.x0) / 4,
+        raw.x1 - (raw.x1 - raw.x0) / 4,
+        (raw.y0 + raw.y1) / 2,
+    );
+    let over = dir.path().join("over.png");
+    run(&over, &[]);
+    let explicit = dir.path().join("explicit.png");
+    run(&explicit, &["--image".as_ref(), other.as_os_str()]);
+    for png in [&over, &explicit] {
+        let px = pixels(png);
+        // Port, the bright half, on the left of the raw panel; starboard, black, on the right.
+        assert_eq!(px(left, mid), [255, 255, 255], "{}", png.display());
+        assert_eq!(px(right, mid), [0, 0, 0], "{}", png.display());
+    }
+    // An image of another shape, or under a sidescan's masks, is refused naming --image.
+    let wrong = dir.path().join("wrong.npy");
+    std::fs::write(
+        &wrong,
+        npy("|u1", false, (rows, beams + 1), &vec![0; rows * (beams + 1)]),
+    )
+    .unwrap();
+    for (to, needle) in [
+        (toml.as_os_str(), "shape (40, 33)"),
+        ("paper-sss".as_ref(), "sidescan"),
+    ] {
+        let assert = sonarproj()
+            .args(["mask", "--from", "paper-sss", "--to"])
+            .arg(to)
+            .args([
+                "--translation",
+                "0,0,0",
+                "--feature",
+                "20",
+                "--backend",
+                "cpu",
+                "--image",
+            ])
+            .arg(&wrong)
+            .arg("--out")
+            .arg(dir.path().join("no.png"))
+            .assert()
+            .code(2);
+        let err = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+        assert!(err.contains("--image") && err.contains(needle), "{err}");
+    }
+    assert!(!dir.path().join("no.png").exists());
+}

@@ -22,7 +22,7 @@ pub(crate) struct PyOculusPing {
     gains: Option<Py<PyAny>>,
     /// The bearings (deg, positive to port).
     bearings: Vec<f64>,
-    /// The ping's id, frequency (Hz), metres per range line.
+    /// The ping's id, frequency (Hz; its repr says MHz), metres per range line.
     ping_id: u32,
     frequency: f64,
     range_resolution: f64,
@@ -36,13 +36,13 @@ impl PyOculusPing {
     fn __repr__(&self, py: Python<'_>) -> String {
         let s = self.sonar.bind(py).borrow();
         format!(
-            "<OculusPing {} at byte {} (v{}): {} ranges × {} beams, {} Hz>",
+            "<OculusPing {} at byte {} (v{}): {} ranges × {} beams, {}>",
             self.ping_id,
             self.offset,
             self.version,
             s.inner.range_bins,
             s.inner.beam_count(),
-            self.frequency
+            sonarproj_apps::io::oculus::megahertz(self.frequency)
         )
     }
 }

@@ -21,6 +21,77 @@ use crate::values::arg;
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PyPose {
     pub(crate) inner: RelativePose,
+    /// The call that made it, which its repr writes again.
+    made: Made,
+}
+
+/// The call that made a pose, by its numbers as given.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Made {
+    /// `Pose(roll, pitch, yaw, t=…)`.
+    RollPitchYaw([f64; 3]),
+    /// `Pose.from_quat_xyzw(q, t=…)`.
+    Quaternion([f64; 4]),
+    /// `Pose.placement(feature, place, …)` with its rotation given as roll/pitch/yaw, a quaternion
+    /// or a matrix.
+    Placement {
+        feature: [f64; 3],
+        place: [f64; 3],
+        rotation: Given,
+    },
+    /// Any other: `Pose.from_matrix(R, t=…)` with the pose's own matrix.
+    Matrix,
+}
+
+/// A rotation as it was given.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Given {
+    RollPitchYaw([f64; 3]),
+    Quaternion([f64; 4]),
+    Matrix([[f64; 3]; 3]),
+}
+
+impl Made {
+    /// Returns this call as a kind and its numbers, for pickling (`Pose._from_parts`).
+    fn to_parts(self) -> (&'static str, Vec<f64>) {
+        let flat = |m: [[f64; 3]; 3]| m.iter().flatten().copied().collect::<Vec<f64>>();
+        match self {
+            Made::RollPitchYaw(a) => ("rpy", a.to_vec()),
+            Made::Quaternion(q) => ("quat", q.to_vec()),
+            Made::Placement {
+                feature,
+                place,
+                rotation,
+            } => {
+                let (kind, r) = match rotation {
+                    Given::RollPitchYaw(a) => ("placement-rpy", a.to_vec()),
+                    Given::Quaternion(q) => ("placement-quat", q.to_vec()),
+                    Given::Matrix(m) => ("placement-matrix", flat(m)),
+                };
+                (kind, feature.iter().chain(&place).chain(&r).copied().collect())
+            }
+            Made::Matrix => ("matrix", Vec::new()),
+        }
+    }
+
+    /// Returns the call of `kind` and `numbers` ([`Made::to_parts`]), or `Matrix` when they do
+    /// not describe one.
+    fn from_parts(kind: &str, v: &[f64]) -> Made {
+        let three = |k: usize| [v[k], v[k + 1], v[k + 2]];
+        let given = match (kind, v.len()) {
+            ("rpy", 3) => return Made::RollPitchYaw(three(0)),
+            ("quat", 4) => return Made::Quaternion([v[0], v[1], v[2], v[3]]),
+            ("placement-rpy", 9) => Given::RollPitchYaw(three(6)),
+            ("placement-quat", 10) => Given::Quaternion([v[6], v[7], v[8], v[9]]),
+            ("placement-matrix", 15) => Given::Matrix([three(6), three(9), three(12)]),
+            _ => return Made::Matrix,
+        };
+        Made::Placement {
+            feature: three(0),
+            place: three(3),
+            rotation: given,
+        }
+    }
 }
 
 /// Returns the rotation given by at most one of roll/pitch/yaw (non-zero), `quat_xyzw` and
@@ -68,6 +139,7 @@ impl PyPose {
         let r = Rotation::RollPitchYaw { roll, pitch, yaw };
         Ok(PyPose {
             inner: RelativePose::new(r, t).map_err(translation_error)?,
+            made: Made::RollPitchYaw([roll, pitch, yaw]),
         })
     }
 
@@ -82,6 +154,7 @@ impl PyPose {
         let r = rotation([0.0; 3], Some(quat_xyzw), None)?;
         Ok(PyPose {
             inner: RelativePose::new(r, t).map_err(translation_error)?,
+            made: Made::Quaternion(quat_xyzw),
         })
     }
 
@@ -94,6 +167,7 @@ impl PyPose {
     ) -> PyResult<Self> {
         Ok(PyPose {
             inner: RelativePose::new(Rotation::Matrix(matrix), t).map_err(translation_error)?,
+            made: Made::Matrix,
         })
     }
 
@@ -111,8 +185,18 @@ impl PyPose {
         #[pyo3(from_py_with = arg::opt_matrix)] matrix: Option<[[f64; 3]; 3]>,
     ) -> PyResult<Self> {
         let r = rotation([roll, pitch, yaw], quat_xyzw, matrix)?;
+        let given = match (quat_xyzw, matrix) {
+            (Some(q), _) => Given::Quaternion(q),
+            (None, Some(m)) => Given::Matrix(m),
+            (None, None) => Given::RollPitchYaw([roll, pitch, yaw]),
+        };
         Ok(PyPose {
             inner: RelativePose::placement(r, feature, place).map_err(errors::engine)?,
+            made: Made::Placement {
+                feature,
+                place,
+                rotation: given,
+            },
         })
     }
 
@@ -121,6 +205,7 @@ impl PyPose {
     fn from_mounts(first: &PyMount, second: &PyMount) -> PyResult<Self> {
         Ok(PyPose {
             inner: rig::relative_pose(&first.inner, &second.inner).map_err(errors::engine)?,
+            made: Made::Matrix,
         })
     }
 
@@ -180,14 +265,47 @@ impl PyPose {
             .into_pyarray(py))
     }
 
-    /// Returns the call that makes this pose: `Pose.from_matrix(R rows, t=…)`, every number
-    /// to the last digit.
+    /// Returns the call that made this pose, every number to the last digit: `Pose(pitch=90.0,
+    /// t=[1.0, 2.0, 3.0])` for `Pose(0, 90, 0, t=(1, 2, 3))`, likewise `Pose.from_quat_xyzw` and
+    /// `Pose.placement`, and `Pose.from_matrix(R rows, t=…)` for any other.
     fn __repr__(&self) -> String {
-        format!(
-            "Pose.from_matrix({}, t={})",
-            rows_text(&self.rows()),
-            list_text(&self.inner.translation.to_array())
-        )
+        let t = self.inner.translation.to_array();
+        let t_arg = if t.iter().all(|v| *v == 0.0) {
+            String::new()
+        } else {
+            format!("t={}", list_text(&t))
+        };
+        let join = |parts: Vec<String>| {
+            parts
+                .into_iter()
+                .filter(|p| !p.is_empty())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        match self.made {
+            Made::RollPitchYaw(a) => format!("Pose({})", join(vec![angles_text(a), t_arg])),
+            Made::Quaternion(q) => format!("Pose.from_quat_xyzw({})", join(vec![list_text(&q), t_arg])),
+            Made::Placement {
+                feature,
+                place,
+                rotation,
+            } => {
+                let r = match rotation {
+                    Given::RollPitchYaw(a) => angles_text(a),
+                    Given::Quaternion(q) => format!("quat_xyzw={}", list_text(&q)),
+                    Given::Matrix(m) => format!("matrix={}", rows_text(&m)),
+                };
+                format!(
+                    "Pose.placement({})",
+                    join(vec![
+                        format!("feature={}", list_text(&feature)),
+                        format!("place={}", list_text(&place)),
+                        r
+                    ])
+                )
+            }
+            Made::Matrix => format!("Pose.from_matrix({})", join(vec![rows_text(&self.rows()), t_arg])),
+        }
     }
 
     /// Poses compare by value: the same rotation matrix and translation, number for number.
@@ -215,10 +333,35 @@ impl PyPose {
         slf
     }
 
-    /// Pickles as `Pose.from_matrix(R, t)`, which gives back the same numbers.
-    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<Reduced<'py, (Rows, [f64; 3])>> {
-        let make = py.get_type::<PyPose>().getattr("from_matrix")?;
-        Ok((make, (self.rows(), self.inner.translation.to_array())))
+    /// Pickles as its matrix and translation, which give back the same numbers, and the call
+    /// that made it, which its repr writes.
+    #[expect(clippy::type_complexity, reason = "the arguments of _from_parts")]
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Reduced<'py, (Rows, [f64; 3], (&'static str, Vec<f64>))>> {
+        let make = py.get_type::<PyPose>().getattr("_from_parts")?;
+        Ok((
+            make,
+            (
+                self.rows(),
+                self.inner.translation.to_array(),
+                self.made.to_parts(),
+            ),
+        ))
+    }
+
+    /// Returns the pose of `matrix` and `t`, made by the call `made` (for pickling).
+    #[staticmethod]
+    fn _from_parts(
+        #[pyo3(from_py_with = arg::matrix)] matrix: [[f64; 3]; 3],
+        #[pyo3(from_py_with = arg::t)] t: [f64; 3],
+        made: (String, Vec<f64>),
+    ) -> PyResult<Self> {
+        Ok(PyPose {
+            inner: RelativePose::new(Rotation::Matrix(matrix), t).map_err(translation_error)?,
+            made: Made::from_parts(&made.0, &made.1),
+        })
     }
 }
 
@@ -240,6 +383,17 @@ pub(crate) type Reduced<'py, A> = (Bound<'py, PyAny>, A);
 pub(crate) fn list_text(values: &[f64]) -> String {
     let parts: Vec<String> = values.iter().map(|v| format!("{v:?}")).collect();
     format!("[{}]", parts.join(", "))
+}
+
+/// Returns roll, pitch and yaw as keyword arguments, those that are zero left out.
+fn angles_text(a: [f64; 3]) -> String {
+    ["roll", "pitch", "yaw"]
+        .iter()
+        .zip(a)
+        .filter(|(_, v)| *v != 0.0)
+        .map(|(name, v)| format!("{name}={v:?}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Returns `rows` as a nested Python list literal.

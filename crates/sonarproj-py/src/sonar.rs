@@ -31,6 +31,20 @@ pub(crate) struct PySonar {
     pub(crate) inner: Sonar,
 }
 
+/// The most beam edges a sonar's repr lists; a sonar of more is summarised.
+const REPR_EDGES: usize = 17;
+
+/// Returns `v` to six decimals at most, without trailing zeros: `1.96`, `-29.37`, `0`.
+fn short(v: f64) -> String {
+    let text = format!("{v:.6}");
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    if text == "-0" {
+        "0".to_string()
+    } else {
+        text.to_string()
+    }
+}
+
 #[pymethods]
 impl PySonar {
     /// Returns a sonar from its fields (see the Python docstring of `sonarproj.Sonar`).
@@ -340,16 +354,34 @@ impl PySonar {
         if self.inner.two_sided() { 2 } else { 1 }
     }
 
-    /// Returns the call that makes this sonar, every number to the last digit.
+    /// Returns the call that makes this sonar, every number to the last digit. A sonar of more
+    /// than [`REPR_EDGES`] beam edges (a real sonar's measured beams) is summarised instead:
+    /// `<Sonar 'name': fls, 0–1.96 m in 700 range bins, 256 beams, edges -30.21° to 30.21°, …>`.
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
         let s = &self.inner;
+        let name = pyo3::types::PyString::new(py, &s.name).repr()?;
+        if let BeamLayout::Edges(edges) = &s.beams
+            && edges.len() > REPR_EDGES
+        {
+            return Ok(format!(
+                "<Sonar {name}: {}, {}–{} m in {} range bins, {} beams, edges {}° to {}°, \
+                 elevation aperture {}°>",
+                s.kind.name(),
+                short(s.range_min),
+                short(s.range_max),
+                s.range_bins,
+                edges.len() - 1,
+                short(edges[0]),
+                short(edges[edges.len() - 1]),
+                short(s.elevation_aperture)
+            ));
+        }
         let layout = match (&s.kind, &s.beams) {
             (SonarKind::Fls, BeamLayout::Uniform { count }) => format!(", beams={count}"),
             (_, BeamLayout::Edges(edges)) => format!(", beam_edges={}", list_text(edges)),
             (SonarKind::Sss, _) if s.two_sided() => ", sides=2".to_string(),
             (SonarKind::Sss, _) => String::new(),
         };
-        let name = pyo3::types::PyString::new(py, &s.name).repr()?;
         Ok(format!(
             "Sonar({:?}, range_min={:?}, range_max={:?}, azimuth_aperture={:?}, elevation_aperture={:?}, range_bins={}{layout}, name={name})",
             s.kind.name(),

@@ -244,25 +244,21 @@ fn landscape(
         .filter(|(stage, s)| *stage == Stage::Cover && others.iter().all(|&k| s.params()[k] == fixed[k]))
         .map(|(_, s)| (vec![s.params()[axes[0]], s.params()[axes[1]]], s.score))
         .collect();
-    let name = |k: usize| format!("{} ({})", AXES[k], unit(k));
-    let what = match config.objective {
-        Objective::Correspondence => format!("mean {}", advice.metric),
-        Objective::Recovery => "median elevation sigma (deg)".to_string(),
-        Objective::Mix { .. } => "mixed score".to_string(),
-    };
+    let what = landscape_quantity(config, advice);
     let held: Vec<String> = others
         .iter()
         .filter(|&&k| config.axes[k].len() > 1 || k < 3)
-        .map(|&k| format!("{} {}", AXES[k], fixed[k]))
+        .map(|&k| axis_value(k, fixed[k]))
         .collect();
     let caption = format!(
-        "{} -> {}: {what} at {} (best {})",
+        "{} -> {}: {} at {} (best {})",
         config.source.name,
         config.target.name,
+        crate::report::figures::without_unit(&what),
         held.join(", "),
         (0..6)
             .filter(|&k| k < 3 || config.axes[k].len() > 1)
-            .map(|k| format!("{} {:.2}", AXES[k], at[k]))
+            .map(|k| axis_value(k, (at[k] * 100.0).round() / 100.0))
             .collect::<Vec<_>>()
             .join(", ")
     );
@@ -270,9 +266,54 @@ fn landscape(
     crate::report::figures::sweep(
         path,
         &caption,
-        &[name(axes[0]), name(axes[1])],
+        &[axis_words(axes[0]), axis_words(axes[1])],
         &what,
         &missing,
         &points,
     )
+}
+
+/// Returns axis `k` of [`AXES`] in words with its unit: "roll (deg)", "offset x (m)".
+fn axis_words(k: usize) -> String {
+    if k < 3 {
+        format!("{} ({})", AXES[k], unit(k))
+    } else {
+        format!("offset {} ({})", AXES[k], unit(k))
+    }
+}
+
+/// Returns axis `k` at `value` in words: "roll 90°", "offset x 0.5 m".
+fn axis_value(k: usize, value: f64) -> String {
+    if k < 3 {
+        format!("{} {value}°", AXES[k])
+    } else {
+        format!("offset {} {value} {}", AXES[k], unit(k))
+    }
+}
+
+/// Returns what the landscape's colour shows, in words with its unit: "mean range span (m)".
+fn landscape_quantity(config: &AdviseConfig, advice: &Advice) -> String {
+    match config.objective {
+        Objective::Correspondence => {
+            let label = sonarproj::Metric::from_name(advice.metric)
+                .and_then(|m| m.label(config.target.kind))
+                .unwrap_or(advice.metric);
+            format!("mean {label}")
+        }
+        Objective::Recovery => "median elevation sigma (deg)".to_string(),
+        Objective::Mix { .. } => "mixed score".to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{axis_value, axis_words};
+
+    #[test]
+    fn landscape_axes_are_words_with_units() {
+        assert_eq!(axis_words(1), "pitch (deg)");
+        assert_eq!(axis_words(3), "offset x (m)");
+        assert_eq!(axis_value(2, 45.0), "yaw 45°");
+        assert_eq!(axis_value(5, 0.25), "offset z 0.25 m");
+    }
 }

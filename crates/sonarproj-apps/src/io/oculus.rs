@@ -139,6 +139,15 @@ fn elevation_of(frequency: f64, aperture: f64) -> Option<f64> {
 /// The finest range resolution read (m): a micrometre, far below every unit's millimetres.
 const MIN_RANGE_RESOLUTION: f64 = 1e-6;
 
+/// Returns a frequency in Hz as a person reads an Oculus one: megahertz to the kilohertz,
+/// without trailing zeros (`2.1 MHz`, `2.099 MHz`, `0.75 MHz`).
+#[must_use]
+pub fn megahertz(hz: f64) -> String {
+    let text = format!("{:.3}", hz / 1e6);
+    let text = text.trim_end_matches('0').trim_end_matches('.');
+    format!("{text} MHz")
+}
+
 /// Which pings of a file to keep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pick {
@@ -529,6 +538,15 @@ fn ping(m: &Reader<'_>, version: u16, elevation: Option<f64>) -> Result<OculusPi
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn frequencies_read_in_megahertz() {
+        assert_eq!(super::megahertz(2_098_880.597), "2.099 MHz");
+        assert_eq!(super::megahertz(2.1e6), "2.1 MHz");
+        assert_eq!(super::megahertz(750e3), "0.75 MHz");
+        assert_eq!(super::megahertz(1.2e6), "1.2 MHz");
+    }
+
     use super::*;
 
     /// Returns a simple ping result message of `version`, built field by field from the SDK

@@ -33,6 +33,29 @@ pub const PLACE_COLUMNS: [&str; 3] = [PLACEMENT_AXES[3], PLACEMENT_AXES[4], PLAC
 /// Translation columns: the other way.
 pub const TRANSLATION_COLUMNS: [&str; 3] = [TRANSLATION_AXES[3], TRANSLATION_AXES[4], TRANSLATION_AXES[5]];
 
+/// Returns pose column `c` in words with its unit, for a figure's axis: `place_range` is
+/// "feature range in sonar 2 (m)", `roll` "roll (deg)". A column of no known meaning is
+/// returned as it is.
+#[must_use]
+pub fn column_words(c: &str) -> String {
+    let words = match c {
+        "range" => "feature range in sonar 1 (m)",
+        "azimuth" => "feature azimuth in sonar 1 (deg)",
+        "elevation" => "feature elevation in sonar 1 (deg)",
+        "place_range" => "feature range in sonar 2 (m)",
+        "place_azimuth" => "feature azimuth in sonar 2 (deg)",
+        "place_elevation" => "feature elevation in sonar 2 (deg)",
+        "roll" => "roll (deg)",
+        "pitch" => "pitch (deg)",
+        "yaw" => "yaw (deg)",
+        "tx" => "translation x (m)",
+        "ty" => "translation y (m)",
+        "tz" => "translation z (m)",
+        other => other,
+    };
+    words.to_string()
+}
+
 /// How a table gives the rotation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RotationForm {
@@ -321,5 +344,20 @@ mod tests {
         .unwrap();
         assert_eq!(sss.columns(), ["range", "roll", "pitch", "yaw", "tx", "ty", "tz"]);
         assert!(PoseColumns::of(&["range", "roll", "pitch", "yaw", "tx", "ty", "tz"], fls).is_err());
+    }
+
+    /// Every axis a sweep grid can vary is named in words with its unit on a figure.
+    #[test]
+    fn every_grid_axis_has_words_and_a_unit() {
+        use sonarproj::projection::poses::{PLACEMENT_AXES, TRANSLATION_AXES};
+        for c in PLACEMENT_AXES.iter().chain(&TRANSLATION_AXES) {
+            let words = super::column_words(c);
+            assert!(!words.contains('_'), "{c}: {words}");
+            assert!(
+                words.ends_with(" (m)") || words.ends_with(" (deg)"),
+                "{c}: {words}"
+            );
+        }
+        assert_eq!(super::column_words("place_range"), "feature range in sonar 2 (m)");
     }
 }

@@ -7,12 +7,13 @@ use crate::report::figures::{HeatmapPanel, HeatmapRow, LineGrid, LinePanel};
 
 const ANGLE_NAMES: [&str; 3] = ["roll", "pitch", "yaw"];
 
-/// Returns the distances text of scenario `s` (which sonar's distance is the fraction).
+/// Returns the distances text of scenario `s`: which sonar's feature distance is the fraction
+/// f of its maximum range.
 fn distances_text(s: u8) -> &'static str {
     match s {
-        1..=3 => "sonar 1 at 0.5 r_max, sonar 2 at f r_max",
-        4..=6 => "sonar 1 at f r_max, sonar 2 at 0.5 r_max",
-        _ => "both at 0.5 r_max",
+        1..=3 => "f in sonar 2, 0.5 in sonar 1",
+        4..=6 => "f in sonar 1, 0.5 in sonar 2",
+        _ => "0.5 in both",
     }
 }
 
@@ -71,7 +72,7 @@ pub(super) fn lines(run: &DirectionRun) -> LineGrid {
         title: format!("{} ({})", metric_title(run.direction), sampling_text(run)),
         shape: (2, 3),
         y_label: run.direction.metric_label().to_string(),
-        legend_lead: "distance fraction f (same in every panel):".to_string(),
+        legend_lead: "f, the feature's distance over the sonar's maximum range (every panel):".to_string(),
         legend: FRACTIONS.iter().map(|f| format!("{f:.1}")).collect(),
         panels,
     }
@@ -104,7 +105,7 @@ pub(super) fn heatmaps(run: &DirectionRun, angles: &[f64]) -> HeatmapRow {
         .collect();
     HeatmapRow {
         title: format!(
-            "{}, both features at 0.5 r_max ({}; each panel its own colour scale)",
+            "{}, both features at half their sonar's maximum range ({}; each panel its own colour scale)",
             metric_title(run.direction),
             sampling_text(run)
         ),
@@ -112,5 +113,52 @@ pub(super) fn heatmaps(run: &DirectionRun, angles: &[f64]) -> HeatmapRow {
         axis_range: (0.0, 180.0),
         colour_label: format!("colour: {}, this panel's own scale", run.direction.metric_label()),
         panels,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::paper::{findings, findings_markdown, run};
+    use sonarproj::{Backend, Sampling};
+
+    /// The figures and findings speak in words with units: no variable or column names.
+    #[test]
+    fn figures_and_findings_are_in_words_with_units() {
+        let runs = run(&Backend::CpuFast, 90.0, Sampling::Step(1.0)).unwrap();
+        for r in &runs {
+            let lines = super::lines(r);
+            let heat = super::heatmaps(r, &[0.0, 90.0, 180.0]);
+            let mut texts = vec![
+                lines.title,
+                lines.y_label,
+                lines.legend_lead,
+                heat.title,
+                heat.colour_label,
+            ];
+            for p in &lines.panels {
+                texts.extend([p.caption.clone(), p.x_label.clone()]);
+            }
+            for p in &heat.panels {
+                texts.extend([p.caption.clone(), p.x_label.clone(), p.y_label.clone()]);
+            }
+            for t in texts {
+                assert!(!t.contains('_'), "{t}");
+            }
+        }
+        // Every row of a table of means says its metric's unit: a span in m, an area in m².
+        let md = findings_markdown(&findings(&runs), 90.0, Sampling::Step(1.0));
+        let rows: Vec<&str> = md
+            .lines()
+            .filter(|l| l.starts_with("| fls-to-sss") || l.starts_with("| sss-to-fls"))
+            .collect();
+        assert_eq!(rows.len(), 2 + 12, "{md}");
+        for row in rows {
+            let unit = if row.starts_with("| fls-to-sss") {
+                "| range span (m) |"
+            } else {
+                "| projection area (m²) |"
+            };
+            assert!(row.contains(unit), "{row}");
+        }
     }
 }

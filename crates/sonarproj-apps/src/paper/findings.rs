@@ -116,7 +116,7 @@ pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
     let mut ev = format!(
         "Mean over scenario 7's roll × pitch grid with both features at {NEAR_FRACTION} of their \
          sonar's maximum range, against the same grid at 0.5 (scenario 7 itself):\n\n\
-         | direction | mean, both near | mean, both at 0.5 |\n|---|---|---|\n"
+         | direction | metric | mean, both near | mean, both at 0.5 |\n|---|---|---|---|\n"
     );
     let mut shrinks = true;
     for run in [fs, sf] {
@@ -127,17 +127,27 @@ pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
             .collect();
         let (near, half) = (mean(&near), mean(&run.values(7, None)));
         shrinks &= near < half;
-        let _ = writeln!(ev, "| {} | {near:.6} | {half:.6} |", run.direction.stem());
+        let _ = writeln!(
+            ev,
+            "| {} | {} | {near:.6} | {half:.6} |",
+            run.direction.stem(),
+            run.direction.metric_label()
+        );
     }
     ev.push_str(
         "\nWith one feature distance moved at a time (scenarios 1–3 move it in sonar 2, 4–6 in \
          sonar 1), the mean over the swept angle at f = 0.1 and f = 0.9:\n\n\
-         | direction | scenario | mean at f = 0.1 | mean at f = 0.9 |\n|---|---|---|---|\n",
+         | direction | metric | scenario | mean at f = 0.1 | mean at f = 0.9 |\n|---|---|---|---|---|\n",
     );
     for run in [fs, sf] {
         for s in 1..=6u8 {
             let (lo, hi) = (mean(&run.values(s, Some(0.1))), mean(&run.values(s, Some(0.9))));
-            let _ = writeln!(ev, "| {} | {s} | {lo:.6} | {hi:.6} |", run.direction.stem());
+            let _ = writeln!(
+                ev,
+                "| {} | {} | {s} | {lo:.6} | {hi:.6} |",
+                run.direction.stem(),
+                run.direction.metric_label()
+            );
         }
     }
     out.push(Finding {

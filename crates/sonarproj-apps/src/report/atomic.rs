@@ -246,14 +246,60 @@ fn target(path: &Path) -> Result<Target> {
                 Some(dir) if dest.is_relative() => dir.join(dest),
                 _ => dest,
             };
+            creatable_parent(path, &dest)?;
             Ok(Target::Replace(dest))
         }
-        Err(_) => Ok(Target::Replace(path.to_path_buf())),
+        Err(_) => {
+            creatable_parent(path, path)?;
+            Ok(Target::Replace(path.to_path_buf()))
+        }
+    }
+}
+
+/// Returns `Ok` when the folder of `file` (where output `path` leads) exists or can be created:
+/// no part of it is a file.
+fn creatable_parent(path: &Path, file: &Path) -> Result<()> {
+    let nearest = file
+        .ancestors()
+        .skip(1)
+        .find(|a| !a.as_os_str().is_empty() && std::fs::metadata(a).is_ok());
+    match nearest {
+        Some(a) if !a.is_dir() => Err(Error::invalid(
+            "output path",
+            path.display(),
+            format!("cannot be created: {} is a file, not a directory", a.display()),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Creates the missing folders above `file` and returns them, the deepest first, for
+/// [`remove_created`] to take away should nothing be written.
+fn create_parents(file: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let missing: Vec<PathBuf> = file
+        .ancestors()
+        .skip(1)
+        .take_while(|a| !a.as_os_str().is_empty() && std::fs::symlink_metadata(a).is_err())
+        .map(Path::to_path_buf)
+        .collect();
+    if let Some(deepest) = missing.first() {
+        std::fs::create_dir_all(deepest)?;
+    }
+    Ok(missing)
+}
+
+/// Removes the folders [`create_parents`] made, the deepest first, each only while empty.
+fn remove_created(created: &[PathBuf]) {
+    for dir in created {
+        if std::fs::remove_dir(dir).is_err() {
+            break;
+        }
     }
 }
 
 /// Returns `Ok` when [`write_atomic`] could write `path`: not a directory, nor an input of this
-/// process. For commands that check all their output files before writing any.
+/// process, nor under a file. For commands that check all their output files before writing
+/// any.
 ///
 /// # Errors
 /// As [`write_atomic`]'s checks, with `field` naming the path.
@@ -264,7 +310,7 @@ pub fn check_output_file(path: &Path, field: impl Into<Field>) -> Result<()> {
     })
 }
 
-/// Writes `path` whole or not at all.
+/// Writes `path` whole or not at all, creating its folder when missing.
 ///
 /// 1. `fill` writes into a temporary `.sonarproj-HOST-PID-RANDOM.tmp` beside `path`, listed
 ///    for [`remove_live_temporaries`].
@@ -272,11 +318,13 @@ pub fn check_output_file(path: &Path, field: impl Into<Field>) -> Result<()> {
 ///
 /// A symlink is followed and the file it names replaced. A special file (device, FIFO, socket,
 /// terminal, or a magic link such as `/proc/self/fd/1`) is written straight through. An input
-/// of this process ([`note_input`]) is never replaced.
+/// of this process ([`note_input`]) is never replaced. Missing folders above the file are
+/// created, and removed again when `fill` fails.
 ///
 /// # Errors
-/// [`Error::WriteOutput`] on I/O failure. An input error for an empty path, a directory or an
-/// input file. Any error of `fill`, which leaves a regular file untouched.
+/// [`Error::WriteOutput`] on I/O failure. An input error for an empty path, a directory, an
+/// input file or a folder that cannot be created (a file is in the way). Any error of `fill`,
+/// which leaves a regular file untouched.
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut (dyn Write + Send)) -> Result<()>) -> Result<()> {
     write_atomic_with(path, true, fill)
 }
@@ -305,6 +353,7 @@ fn write_atomic_with(
         path: path.to_path_buf(),
         message: e.to_string(),
     };
+    let shown = path;
     let path = match target(path)? {
         Target::Replace(p) => p,
         Target::Through => {
@@ -321,6 +370,27 @@ fn write_atomic_with(
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
+    };
+    // The folder is created when missing, as output directories are, and taken away again
+    // when nothing is written there.
+    let created = create_parents(path).map_err(|e| io_err(&e))?;
+    let written = write_in((shown, path, dir), sync, fill);
+    if written.is_err() {
+        remove_created(&created);
+    }
+    written
+}
+
+/// Writes `path` in its existing folder `dir` through a temporary, as [`write_atomic_with`];
+/// errors name the output as it was `shown`.
+fn write_in(
+    (shown, path, dir): (&Path, &Path, &Path),
+    sync: bool,
+    fill: impl FnOnce(&mut (dyn Write + Send)) -> Result<()>,
+) -> Result<()> {
+    let io_err = |e: &dyn std::fmt::Display| Error::WriteOutput {
+        path: shown.to_path_buf(),
+        message: e.to_string(),
     };
     sweep_once(dir);
     // Listed before it exists and until it is gone (`listed` is dropped after `tmp`), so a signal
@@ -358,4 +428,39 @@ fn write_atomic_with(
     }
     tmp.persist(path).map_err(|e| io_err(&e.error))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::write_atomic;
+
+    #[test]
+    fn a_file_creates_its_folders_and_a_failed_fill_takes_them_away() {
+        let dir = tempfile::tempdir().unwrap();
+        let kept = dir.path().join("kept");
+        std::fs::create_dir(&kept).unwrap();
+        // A fill that fails: no file, and none of the folders made for it.
+        let failed = kept.join("a/b/c.txt");
+        let e = write_atomic(&failed, |_| Err(crate::Error::invalid("x", 1, "fails")));
+        assert!(e.is_err());
+        assert!(!kept.join("a").exists(), "a failed write left its folders");
+        assert!(kept.is_dir(), "a folder that was there is kept");
+        // A fill that succeeds: the folders and the whole file.
+        let written = kept.join("a/b/c.txt");
+        write_atomic(&written, |w| {
+            w.write_all(b"whole")
+                .map_err(|e| crate::Error::write_output(&written, e))
+        })
+        .unwrap();
+        assert_eq!(std::fs::read_to_string(&written).unwrap(), "whole");
+        // A file in the way of a folder is bad input, and stays.
+        let blocker = dir.path().join("blocker");
+        std::fs::write(&blocker, "keep").unwrap();
+        let e = write_atomic(&blocker.join("x/y.txt"), |_| Ok(())).unwrap_err();
+        assert!(
+            e.is_input() && e.to_string().contains("is a file, not a directory"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read_to_string(&blocker).unwrap(), "keep");
+    }
 }

@@ -177,20 +177,22 @@ pub fn heatmaps(row: &HeatmapRow, path: &Path) -> Result<()> {
             let (map, bar) = panel.split_horizontally(panel.dim_in_pixel().0 as i32 - 170);
             let lo = row.axis_range.0 - step / 2.0;
             let hi = row.axis_range.1 + step / 2.0;
+            // Ticks from end to end of the cell centres: 0 to 180° shows 180.
+            let ticks = even_ticks(row.axis_range.0, row.axis_range.1);
             let mut chart = ChartBuilder::on(&map)
                 .caption(&data.caption, (FONT, CAPTION))
                 .margin(12)
                 .x_label_area_size(50)
                 .y_label_area_size(64)
-                .build_cartesian_2d(lo..hi, lo..hi)
+                .build_cartesian_2d(Ticked::new(lo..hi, &ticks), Ticked::new(lo..hi, &ticks))
                 .map_err(plot_error)?;
             chart
                 .configure_mesh()
                 .disable_mesh()
                 .x_desc(&data.x_label)
                 .y_desc(&data.y_label)
-                .x_labels(7)
-                .y_labels(7)
+                .x_labels(ticks.len())
+                .y_labels(ticks.len())
                 .x_label_formatter(&|v| format!("{v:.0}"))
                 .y_label_formatter(&|v| format!("{v:.0}"))
                 .label_style((FONT, TICKS))
@@ -212,6 +214,68 @@ pub fn heatmaps(row: &HeatmapRow, path: &Path) -> Result<()> {
         }
         Ok(())
     })
+}
+
+/// Returns `label` without its trailing unit: "range span (m)" is "range span".
+pub(crate) fn without_unit(label: &str) -> &str {
+    match label.rfind(" (") {
+        Some(i) if label.ends_with(')') => &label[..i],
+        _ => label,
+    }
+}
+
+/// A linear f64 axis whose ticks are given, not chosen by plotters.
+struct Ticked {
+    inner: plotters::coord::types::RangedCoordf64,
+    ticks: Vec<f64>,
+}
+
+impl Ticked {
+    /// Returns the axis over `range` ticked at `ticks`.
+    fn new(range: std::ops::Range<f64>, ticks: &[f64]) -> Self {
+        Ticked {
+            inner: range.into(),
+            ticks: ticks.to_vec(),
+        }
+    }
+}
+
+impl plotters::coord::ranged1d::Ranged for Ticked {
+    type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        self.inner.map(value, limit)
+    }
+
+    fn key_points<Hint: plotters::coord::ranged1d::KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        if hint.weight().allow_light_points() {
+            Vec::new()
+        } else {
+            self.ticks.clone()
+        }
+    }
+
+    fn range(&self) -> std::ops::Range<f64> {
+        self.inner.range()
+    }
+}
+
+/// Returns ticks from `lo` to `hi`, both included, at most 7, spaced by a step that divides
+/// the span (angles: 30° over 0–180°); the two ends alone when none does.
+fn even_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let span = hi - lo;
+    let steps = [
+        1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 30.0, 45.0, 60.0, 90.0, 100.0, 180.0, 360.0,
+    ];
+    let divides = |s: f64| ((span / s) - (span / s).round()).abs() < 1e-9;
+    match steps.iter().find(|&&s| span / s <= 6.0 + 1e-9 && divides(s)) {
+        Some(&s) => {
+            let n = (span / s).round() as usize;
+            (0..=n).map(|k| lo + s * k as f64).collect()
+        }
+        None => vec![lo, hi],
+    }
 }
 
 /// Draws a vertical Viridis colour bar from `lo` to `hi` on `area`, with values on its right.
@@ -370,4 +434,29 @@ pub fn sweep(
             .map_err(plot_error)?;
         colour_bar(&bar, vlo, vhi, &format!("colour: {label}; grey: {missing}"))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{even_ticks, without_unit};
+
+    #[test]
+    fn a_unit_is_taken_off_a_label() {
+        assert_eq!(without_unit("mean range span (m)"), "mean range span");
+        assert_eq!(without_unit("mixed score"), "mixed score");
+    }
+
+    #[test]
+    fn angle_axes_are_ticked_to_their_ends() {
+        assert_eq!(
+            even_ticks(0.0, 180.0),
+            [0.0, 30.0, 60.0, 90.0, 120.0, 150.0, 180.0]
+        );
+        assert_eq!(even_ticks(0.0, 90.0), [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0]);
+        assert_eq!(
+            even_ticks(-90.0, 90.0),
+            [-90.0, -60.0, -30.0, 0.0, 30.0, 60.0, 90.0]
+        );
+        assert_eq!(even_ticks(0.0, 7.3), [0.0, 7.3]);
+    }
 }

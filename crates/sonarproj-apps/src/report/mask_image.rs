@@ -16,7 +16,7 @@ use plotters::style::text_anchor::{HPos, VPos};
 
 use crate::error::Result;
 use crate::report;
-use crate::report::picture::{self, Fan, Pooled, Rect};
+use crate::report::picture::{self, Backdrop, Fan, Pooled, Rect};
 use crate::report::style::{Area, Canvas, LARGE, MEDIUM, SMALL, plot_error, text, text_width, wrap};
 use crate::report::write_atomic;
 use sonarproj::geometry::sonar::SonarKind;
@@ -51,14 +51,103 @@ fn rgb(k: usize) -> (u8, u8, u8) {
 /// Width (px) of a mask picture of an FLS target.
 const FLS_WIDTH: u32 = 1500;
 
+/// An image of an imaging sonar 2 to draw its masks over: the ping they are drawn for, read
+/// from an NPY file in the raw layout (`sonar from-oculus` writes one beside its sonar file).
+pub struct PingImage {
+    backdrop: Backdrop,
+    /// The file, for the picture's notes.
+    source: String,
+}
+
+impl PingImage {
+    /// Returns the image in the NPY file `path` for the imaging sonar of `layout`: a 2-D array
+    /// `(range_bins, beams)` of integers (8 to 64 bits) or floats, row 0 the nearest range and
+    /// column 0 the starboard-most beam. `field` names the input in errors.
+    ///
+    /// # Errors
+    /// [`crate::Error::ReadInput`] when the file cannot be read or is not NPY. An input error
+    /// naming `field` when sonar 2 is a sidescan, or the array's shape or type does not fit.
+    pub fn read(path: &Path, layout: &Layout, field: &str) -> Result<PingImage> {
+        use npyz::{DType, TypeChar};
+        let invalid = |why: String| crate::Error::invalid(field, path.display(), why);
+        if layout.kind != SonarKind::Fls {
+            return Err(invalid(
+                "sonar 2 is a sidescan: an image is drawn under an imaging sonar's masks only".into(),
+            ));
+        }
+        let read_err = |source: std::io::Error| crate::Error::ReadInput {
+            path: path.to_path_buf(),
+            source,
+        };
+        let file = std::fs::File::open(path).map_err(read_err)?;
+        let npy = npyz::NpyFile::new(std::io::BufReader::new(file)).map_err(read_err)?;
+        let (rows, beams) = (layout.range_bins, layout.beams());
+        let shape = npy.shape().to_vec();
+        if shape != [rows as u64, beams as u64] {
+            let shape: Vec<String> = shape.iter().map(ToString::to_string).collect();
+            return Err(invalid(format!(
+                "has shape ({}); sonar 2's image is (range_bins, beams) = ({rows}, {beams})",
+                shape.join(", ")
+            )));
+        }
+        let fortran = npy.order() == npyz::Order::Fortran;
+        let kind = match npy.dtype() {
+            DType::Plain(t) => Some((t.type_char(), t.size_field())),
+            _ => None,
+        };
+        let values: Vec<f64> = match kind {
+            Some((TypeChar::Uint, 1)) => widen(npy.into_vec::<u8>(), f64::from),
+            Some((TypeChar::Uint, 2)) => widen(npy.into_vec::<u16>(), f64::from),
+            Some((TypeChar::Uint, 4)) => widen(npy.into_vec::<u32>(), f64::from),
+            Some((TypeChar::Uint, 8)) => widen(npy.into_vec::<u64>(), |v| v as f64),
+            Some((TypeChar::Int, 1)) => widen(npy.into_vec::<i8>(), f64::from),
+            Some((TypeChar::Int, 2)) => widen(npy.into_vec::<i16>(), f64::from),
+            Some((TypeChar::Int, 4)) => widen(npy.into_vec::<i32>(), f64::from),
+            Some((TypeChar::Int, 8)) => widen(npy.into_vec::<i64>(), |v| v as f64),
+            Some((TypeChar::Float, 4)) => widen(npy.into_vec::<f32>(), f64::from),
+            Some((TypeChar::Float, 8)) => widen(npy.into_vec::<f64>(), |v| v),
+            _ => {
+                return Err(invalid(format!(
+                    "holds {}: an image is integers (8 to 64 bits) or floats (32 or 64 bits)",
+                    npy.dtype().descr()
+                )));
+            }
+        }
+        .map_err(read_err)?;
+        // A Fortran-ordered array lists its columns one after the other.
+        let values = if fortran {
+            (0..rows * beams)
+                .map(|k| values[(k % beams) * rows + k / beams])
+                .collect()
+        } else {
+            values
+        };
+        Ok(PingImage {
+            backdrop: Backdrop::new(rows, beams, &values),
+            source: path.display().to_string(),
+        })
+    }
+}
+
+/// Returns `values` read from an NPY file as f64.
+fn widen<T>(values: std::io::Result<Vec<T>>, f: impl Fn(T) -> f64) -> std::io::Result<Vec<f64>> {
+    values.map(|v| v.into_iter().map(f).collect())
+}
+
 /// Writes the mask picture of `masks` in `layout` to `path` as PNG, whole or not at all.
 /// `title` heads it and `labels` name the features. It follows the convention of
-/// [`crate::report`]: an FLS target as the fan beside the raw layout, an SSS target as one
-/// vertical strip per feature plus their union.
+/// [`crate::report`]: an FLS target as the fan beside the raw layout, drawn over `image` when
+/// given, an SSS target as one vertical strip per feature plus their union.
 ///
 /// # Errors
 /// [`crate::Error::Figure`] or [`crate::Error::WriteOutput`].
-pub fn write_png(path: &Path, layout: &Layout, masks: &[Mask], title: &str, labels: &[String]) -> Result<()> {
+pub fn write_png(
+    path: &Path,
+    layout: &Layout,
+    masks: &[Mask],
+    (title, labels): (&str, &[String]),
+    image: Option<&PingImage>,
+) -> Result<()> {
     let canvas = match layout.kind {
         SonarKind::Fls => {
             let layers: Vec<(Pooled, (u8, u8, u8))> = masks
@@ -66,7 +155,7 @@ pub fn write_png(path: &Path, layout: &Layout, masks: &[Mask], title: &str, labe
                 .enumerate()
                 .map(|(k, m)| (Pooled::new(&m.occupancy), rgb(k)))
                 .collect();
-            fls_picture(layout, &layers, title, labels)?
+            fls_picture(layout, &layers, (title, labels), image)?
         }
         SonarKind::Sss => sss_picture(layout, masks, title, labels)?,
     };
@@ -93,12 +182,12 @@ fn legend_rows(area: &Area<'_>, labels: &[String], (x, y): (i32, i32), width: i3
     Ok(ly + 26)
 }
 
-/// The mask picture of an FLS target: the fan and the raw layout.
+/// The mask picture of an FLS target: the fan and the raw layout, over `image` when given.
 fn fls_picture(
     layout: &Layout,
     layers: &[(Pooled, (u8, u8, u8))],
-    title: &str,
-    labels: &[String],
+    (title, labels): (&str, &[String]),
+    image: Option<&PingImage>,
 ) -> Result<Canvas> {
     // Measure the legend on a scratch canvas first: it may take several rows.
     let mut scratch = Canvas::new(FLS_WIDTH, 200);
@@ -123,10 +212,19 @@ fn fls_picture(
         h: fh.clamp(480, 720),
     };
     let bottom = fan_rect.bottom().max(raw.bottom());
-    let mut canvas = Canvas::new(FLS_WIDTH, bottom + 160);
+    // A line more of notes under a picture drawn over an image.
+    let notes = if image.is_some() { 186 } else { 160 };
+    let mut canvas = Canvas::new(FLS_WIDTH, bottom + notes);
     let fan = Fan::in_box(layout, fan_rect, scale);
-    let fan_extents = fan.paint(&mut canvas, fan_rect, layout, layers);
-    let raw_extents = picture::paint_raw(&mut canvas, raw, layers, 0..layout.range_bins, layout.beams());
+    let backdrop = image.map(|i| &i.backdrop);
+    let fan_extents = fan.paint(&mut canvas, fan_rect, layout, (layers, backdrop));
+    let raw_extents = picture::paint_raw(
+        &mut canvas,
+        raw,
+        (layers, backdrop),
+        0..layout.range_bins,
+        layout.beams(),
+    );
     let colours: Vec<(u8, u8, u8)> = layers.iter().map(|l| l.1).collect();
     canvas.draw(|a| {
         text(a, title, (40, 16), LARGE, HPos::Left, VPos::Top)?;
@@ -173,18 +271,28 @@ fn fls_picture(
             VPos::Top,
         )?;
         let circled = picture::any_circled(&fan_extents) || picture::any_circled(&raw_extents);
-        text(
-            a,
+        let colours = format!(
+            "One colour per feature, mixed where masks overlap{}",
             if circled {
-                "Light grey: the field of view, empty. One colour per feature, mixed where masks overlap; masks of a few pixels are circled."
+                "; masks of a few pixels are circled."
             } else {
-                "Light grey: the field of view, empty. One colour per feature, mixed where masks overlap."
-            },
-            (40, y + 52),
-            SMALL,
-            HPos::Left,
-            VPos::Top,
-        )
+                "."
+            }
+        );
+        let lines = match image {
+            Some(i) => vec![
+                format!(
+                    "Under the masks: the ping's image {} (black to white: its 0.5th to 99.5th percentile).",
+                    i.source
+                ),
+                colours,
+            ],
+            None => vec![format!("Light grey: the field of view, empty. {colours}")],
+        };
+        for (k, line) in lines.iter().enumerate() {
+            text(a, line, (40, y + 52 + 26 * k as i32), SMALL, HPos::Left, VPos::Top)?;
+        }
+        Ok(())
     })?;
     Ok(canvas)
 }

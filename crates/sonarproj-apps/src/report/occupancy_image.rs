@@ -156,7 +156,7 @@ fn picture_of(occ: &Occupancy, layout: &Layout, title: &str) -> Result<Canvas> {
     };
     let (w, h) = ((plot.right() + 60).max(660), plot.bottom() + 140);
     let mut canvas = Canvas::new(w, h);
-    let extents = picture::paint_raw(&mut canvas, plot, &layers, 0..occ.range_bins, occ.beams);
+    let extents = picture::paint_raw(&mut canvas, plot, (&layers, None), 0..occ.range_bins, occ.beams);
     canvas.draw(|a| {
         title_lines(a, title, w)?;
         text(

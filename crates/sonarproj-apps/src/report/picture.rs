@@ -148,13 +148,88 @@ pub(crate) fn blend<'a>(
     (n > 0).then(|| ((s[0] / n) as u8, (s[1] / n) as u8, (s[2] / n) as u8))
 }
 
+/// A sonar image drawn in grey under the layers: the ping the masks are drawn for. Its values
+/// run black to white from their 0.5th to their 99.5th percentile (the brightest few pixels of a
+/// sonar image would otherwise leave the rest dark).
+pub(crate) struct Backdrop {
+    beams: usize,
+    /// `sums[(i * (beams + 1)) + j]`: summed grey levels of rows `< i`, beams `< j`.
+    sums: Vec<u64>,
+}
+
+impl Backdrop {
+    /// Returns the backdrop of `values`, `rows × beams` in the raw layout (row 0 the nearest
+    /// range, column 0 the starboard-most beam). A value that is not finite is black.
+    pub(crate) fn new(rows: usize, beams: usize, values: &[f64]) -> Self {
+        let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+        finite.sort_by(f64::total_cmp);
+        let at = |q: f64| {
+            finite
+                .get(((finite.len().saturating_sub(1)) as f64 * q).round() as usize)
+                .copied()
+                .unwrap_or(0.0)
+        };
+        let (lo, hi) = (at(0.005), at(0.995));
+        let span = if hi > lo { hi - lo } else { 1.0 };
+        let grey = |v: f64| {
+            if v.is_finite() {
+                (255.0 * ((v - lo) / span).clamp(0.0, 1.0)).round() as u64
+            } else {
+                0
+            }
+        };
+        let mut sums = vec![0u64; (rows + 1) * (beams + 1)];
+        for i in 0..rows {
+            let mut row = 0u64;
+            for j in 0..beams {
+                row += grey(values[i * beams + j]);
+                sums[(i + 1) * (beams + 1) + j + 1] = sums[i * (beams + 1) + j + 1] + row;
+            }
+        }
+        Backdrop { beams, sums }
+    }
+
+    /// Returns the mean grey of rows `i0..i1` and beams `j0..j1` as a colour.
+    fn colour(&self, (i0, i1): (usize, usize), (j0, j1): (usize, usize)) -> (u8, u8, u8) {
+        let s = |i: usize, j: usize| self.sums[i * (self.beams + 1) + j];
+        let n = ((i1 - i0) * (j1 - j0)).max(1) as u64;
+        let g = ((s(i1, j1) + s(i0, j0) - s(i0, j1) - s(i1, j0)) / n) as u8;
+        (g, g, g)
+    }
+}
+
+/// What a picture paints: the layers, each with its colour, and the image under them if any.
+pub(crate) type Ground<'a> = (&'a [(Pooled, (u8, u8, u8))], Option<&'a Backdrop>);
+
+/// Returns the colour of a pixel: the layers' blend, over the backdrop's grey when there is
+/// one (three parts colour, one part image), else the layers' blend or [`EMPTY`].
+fn pixel(
+    layers: &[(Pooled, (u8, u8, u8))],
+    backdrop: Option<&Backdrop>,
+    bins: (usize, usize),
+    cols: (usize, usize),
+) -> (u8, u8, u8) {
+    let layer = blend(layers.iter(), |p| p.any(bins, cols));
+    match (layer, backdrop) {
+        (Some(c), None) => c,
+        (None, None) => EMPTY,
+        (None, Some(b)) => b.colour(bins, cols),
+        (Some(c), Some(b)) => {
+            let g = b.colour(bins, cols);
+            let mix = |a: u8, b: u8| ((3 * u16::from(a) + u16::from(b)) / 4) as u8;
+            (mix(c.0, g.0), mix(c.1, g.1), mix(c.2, g.2))
+        }
+    }
+}
+
 /// Paints `layers` of a raw layout into `rect`, and returns the screen pixels each was painted
 /// on. Range bins `rows` are drawn, near at the bottom, and `beams` beams with beam 0
-/// (starboard-most) on the right: the NPY's columns mirrored. An SSS is a vertical strip.
+/// (starboard-most) on the right: the NPY's columns mirrored. An SSS is a vertical strip. A
+/// `backdrop` is drawn under the layers.
 pub(crate) fn paint_raw(
     canvas: &mut Canvas,
     rect: Rect,
-    layers: &[(Pooled, (u8, u8, u8))],
+    (layers, backdrop): Ground<'_>,
     rows: std::ops::Range<usize>,
     beams: usize,
 ) -> Vec<Option<Extent>> {
@@ -171,8 +246,7 @@ pub(crate) fn paint_raw(
                     grow(&mut extents[k], sx, sy);
                 }
             }
-            let c = blend(layers.iter(), |p| p.any(bins, cols)).unwrap_or(EMPTY);
-            canvas.put(sx, sy, c);
+            canvas.put(sx, sy, pixel(layers, backdrop, bins, cols));
         }
     }
     extents
@@ -226,13 +300,13 @@ impl Fan {
 
     /// Paints the field of view of `layout` in `rect` with `layers` over it, and returns the screen
     /// pixels each layer was painted on. A pixel takes the colours of the layers holding any bin
-    /// and beam it covers.
+    /// and beam it covers, over the `backdrop` when there is one.
     pub(crate) fn paint(
         self,
         canvas: &mut Canvas,
         rect: Rect,
         layout: &Layout,
-        layers: &[(Pooled, (u8, u8, u8))],
+        (layers, backdrop): Ground<'_>,
     ) -> Vec<Option<Extent>> {
         let mut extents = vec![None; layers.len()];
         let (r_min, r_max, ha) = (layout.range_min, layout.range_max, layout.half_azimuth);
@@ -261,7 +335,7 @@ impl Fan {
                         grow(&mut extents[k], x, y);
                     }
                 }
-                canvas.put(x, y, blend(layers.iter(), |p| p.any(bins, cols)).unwrap_or(EMPTY));
+                canvas.put(x, y, pixel(layers, backdrop, bins, cols));
             }
         }
         extents
@@ -416,7 +490,7 @@ impl Strips {
         panels.extend(self.zoom.clone());
         for (rects, window) in panels {
             for (rect, group) in rects.iter().zip(&self.groups) {
-                let extents = paint_raw(canvas, *rect, &layers[group.clone()], window.clone(), 1);
+                let extents = paint_raw(canvas, *rect, (&layers[group.clone()], None), window.clone(), 1);
                 for (e, layer) in extents.iter().zip(&layers[group.clone()]) {
                     if let Some(e) = e.filter(|e| e.3 - e.1 < SMALL_EXTENT) {
                         self.thin.push((e, layer.1));
@@ -622,15 +696,33 @@ pub(crate) fn nice_step(x: f64) -> f64 {
         .unwrap_or(10.0 * p)
 }
 
-/// Returns `v` written with as many decimals as `step` needs.
+/// Returns `v` written with as many decimals as `step` needs; zero is never "-0.0".
 pub(crate) fn number(v: f64, step: f64) -> String {
     let decimals = (-step.log10().floor()).max(0.0) as usize;
-    format!("{v:.decimals$}")
+    // Adding 0.0 turns -0.0 (a tick at k = -0.0 steps) into 0.0.
+    let v = v + 0.0;
+    let text = format!("{v:.decimals$}");
+    // A value that rounds to zero is written without its sign too.
+    if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+        text.trim_start_matches('-').to_string()
+    } else {
+        text
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_zero_tick_has_no_sign() {
+        // The range axis from 0 m starts at ceil(0 / step - 1e-9) = -0.0 steps.
+        let k = (0.0f64 / 0.5 - 1e-9).ceil();
+        assert_eq!(number(k * 0.5, 0.5), "0.0");
+        assert_eq!(number(-0.0001, 0.5), "0.0");
+        assert_eq!(number(-0.5, 0.5), "-0.5");
+        assert_eq!(number(2.0, 1.0), "2");
+    }
 
     #[test]
     fn cover_spreads_bins_over_pixels_without_gaps() {

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::io::parquet::read_groups;
+use crate::io::pose_columns::column_words;
 use crate::report::figures;
 use crate::sweep::columns::column_kinds;
 use crate::sweep::parts::is_regular;
@@ -98,25 +99,20 @@ pub(crate) fn figure(table: &Path, format: Format, d: &Descriptor) -> Result<Opt
     draw(dir, d, &points).map(Some)
 }
 
-/// Draws `DIR/sweep-METRIC.png` of `points` (axis values, metric) and returns its path.
+/// Draws `DIR/sweep-METRIC.png` of `points` (axis values, metric) and returns its path. Axes
+/// and caption name the columns in words, with units.
 fn draw(dir: &Path, d: &Descriptor, points: &[(Vec<f64>, Option<f64>)]) -> Result<PathBuf> {
     let path = dir.join(format!("sweep-{}.png", d.metric));
-    let caption = match d.varying.as_slice() {
-        [x] => format!("{}: {} against {x}", d.title, d.metric_label),
+    let axes: Vec<String> = d.varying.iter().map(|c| column_words(c)).collect();
+    let caption = match axes.as_slice() {
+        [x] => format!(
+            "{}: {} against {}",
+            d.title,
+            figures::without_unit(&d.metric_label),
+            figures::without_unit(x)
+        ),
         _ => format!("{}: {}", d.title, d.metric_label),
     };
-    let axes: Vec<String> = d.varying.iter().map(|c| column_label(c)).collect();
     figures::sweep(&path, &caption, &axes, &d.metric_label, "nothing visible", points)?;
     Ok(path)
-}
-
-/// Returns the axis label of sweep column `c`, with its unit.
-fn column_label(c: &str) -> String {
-    use crate::io::pose_columns::{FEATURE_COLUMNS, PLACE_COLUMNS, TRANSLATION_COLUMNS};
-    let metres = [FEATURE_COLUMNS[0], PLACE_COLUMNS[0]]
-        .into_iter()
-        .chain(TRANSLATION_COLUMNS)
-        .any(|m| m == c);
-    let unit = if metres { "m" } else { "deg" };
-    format!("{c} ({unit})")
 }

@@ -21,7 +21,11 @@ pub(super) fn run() -> Result<()> {
     let (backend, notice) = super::gpu_env::select(BackendChoice::Auto)?;
     outln!("auto uses: {}", backend.device())?;
     if let Some(n) = notice {
-        outln!("  {}", n.trim_start_matches("note: "))?;
+        outln!(
+            "  {}",
+            n.trim_start_matches("note: ")
+                .trim_end_matches(super::gpu_env::SILENCE)
+        )?;
     }
     Ok(())
 }

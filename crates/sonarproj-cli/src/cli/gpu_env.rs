@@ -27,6 +27,15 @@ pub(crate) fn options_for(choice: BackendChoice) -> Result<GpuOptions> {
     }
 }
 
+/// What every notice of `auto` running on the CPU ends with: how to choose the CPU and be told
+/// nothing.
+pub(crate) const SILENCE: &str = "; --backend cpu-fast skips this note";
+
+/// Returns `notice`'s line in the command line's words, ending in [`SILENCE`].
+fn line(notice: &sonarproj::projection::backend::Notice) -> String {
+    format!("{}{SILENCE}", notice.render(&super::names::name))
+}
+
 /// Returns the backend for `choice` with the environment's GPU options. When `auto` fell back
 /// to the CPU, also returns its one-line notice in the command line's words.
 ///
@@ -35,7 +44,7 @@ pub(crate) fn options_for(choice: BackendChoice) -> Result<GpuOptions> {
 pub(crate) fn select(choice: BackendChoice) -> Result<(Backend, Option<String>)> {
     let gpu = options_for(choice)?;
     let (backend, notice) = Backend::select(choice, &gpu)?;
-    Ok((backend, notice.map(|n| n.render(&super::names::name))))
+    Ok((backend, notice.as_ref().map(line)))
 }
 
 /// Returns the mask engine for `choice` with the environment's GPU options, as [`select`].
@@ -50,5 +59,5 @@ pub(crate) fn select_masks(
 ) -> Result<(MaskEngine, Option<String>)> {
     let gpu = options_for(choice)?;
     let (engine, notice) = MaskEngine::select(source, target, choice, counts, &gpu)?;
-    Ok((engine, notice.map(|n| n.render(&super::names::name))))
+    Ok((engine, notice.as_ref().map(line)))
 }

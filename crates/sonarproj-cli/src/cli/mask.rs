@@ -11,9 +11,33 @@ use sonarproj_apps::io::text::{feature, one_or_three};
 use sonarproj_apps::report::mask_image;
 use sonarproj_apps::{Error, Result};
 
-use super::BackendArg;
 use super::mask_json::{features_json, summary_json};
 use super::pose_args::PoseArgs;
+
+/// Where `sonarproj mask` draws: `--backend auto|cpu|cpu-fast|gpu`, described as masks use it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum MaskBackendArg {
+    /// A hardware GPU when one exists, else the CPU (with a one-line notice). The CPU also draws
+    /// --counts and pings too small to gain from the GPU.
+    Auto,
+    /// The CPU: f64 on every core, the one CPU engine of masks.
+    Cpu,
+    /// The same CPU engine as cpu.
+    CpuFast,
+    /// The GPU (WGSL through wgpu); fails when no adapter exists.
+    Gpu,
+}
+
+impl From<MaskBackendArg> for sonarproj::BackendChoice {
+    fn from(a: MaskBackendArg) -> sonarproj::BackendChoice {
+        match a {
+            MaskBackendArg::Auto => sonarproj::BackendChoice::Auto,
+            MaskBackendArg::Cpu => sonarproj::BackendChoice::Cpu,
+            MaskBackendArg::CpuFast => sonarproj::BackendChoice::CpuFast,
+            MaskBackendArg::Gpu => sonarproj::BackendChoice::Gpu,
+        }
+    }
+}
 
 /// Options of `sonarproj mask`.
 #[derive(Debug, clap::Args)]
@@ -58,6 +82,15 @@ pub(super) struct MaskArgs {
     /// per feature and their union. One colour per feature.
     #[arg(long, value_name = "FILE.png")]
     out: Option<PathBuf>,
+    /// Draw the --out picture over this image of sonar 2 (NPY, range bins × beams, row 0 the
+    /// nearest range, column 0 the starboard-most beam: the image.npy of `sonar from-oculus`).
+    /// Default: the image.npy beside --to's sonar file, when sonar 2 is an imaging sonar and
+    /// there is one.
+    #[arg(long, value_name = "FILE.npy", requires = "out")]
+    image: Option<PathBuf>,
+    /// Draw the --out picture without an image, even with an image.npy beside --to.
+    #[arg(long, requires = "out", conflicts_with = "image")]
+    no_image: bool,
     /// Write the masks as NPY, uint8 0/1 (uint32 counts with --counts). The shape is
     /// [feature][range_bin][beam] for an FLS and [feature][range_bin] for an SSS, or
     /// [feature][2 x range_bins] for a two-sided one (port far to near, then starboard near to
@@ -73,10 +106,10 @@ pub(super) struct MaskArgs {
     /// --out nor --npy is given.
     #[arg(long)]
     json: bool,
-    /// Where to draw: auto (a hardware GPU, else the CPU), gpu, or cpu (cpu-fast is the same
-    /// engine for masks: f64 on every core).
+    /// Where to draw. Masks have one CPU engine (f64, every core): cpu and cpu-fast both choose
+    /// it.
     #[arg(long, value_enum, default_value = "auto")]
-    backend: BackendArg,
+    backend: MaskBackendArg,
     /// Read one JSON object per line from stdin (pose, features, optional sigma) and write one
     /// JSON line per input: per-feature run-length masks, counts and timing.
     #[arg(long, conflicts_with_all = ["feature", "out", "npy", "json"])]
@@ -141,6 +174,10 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
             ));
         }
     }
+    let image = match (&a.out, ping_image(&a, engine.target().kind)) {
+        (Some(_), Some(path)) => Some(mask_image::PingImage::read(&path, engine.layout(), "--image")?),
+        _ => None,
+    };
     let start = Instant::now();
     if a.out.is_none() && a.npy.is_none() {
         // JSON only: the masks' summary is all it prints, and all a GPU reads back.
@@ -177,7 +214,13 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
                 .map(|n| format!(", widened to {} coverage", n.coverage))
                 .unwrap_or_default()
         );
-        mask_image::write_png(path, engine.layout(), &set.masks, &title, &labels)?;
+        mask_image::write_png(
+            path,
+            engine.layout(),
+            &set.masks,
+            (&title, &labels),
+            image.as_ref(),
+        )?;
     }
     if let Some(path) = &a.npy {
         mask_image::write_npy(path, engine.layout(), &set.masks, a.counts)?;
@@ -194,6 +237,22 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
         )?;
     }
     Ok(())
+}
+
+/// Returns the image the --out picture is drawn over: --image, else the image.npy beside --to
+/// when --to is the file of an imaging sonar 2 (of `kind`), as `sonar from-oculus` writes them,
+/// else none. The image is an input no output may replace.
+fn ping_image(a: &MaskArgs, kind: SonarKind) -> Option<PathBuf> {
+    if a.no_image {
+        return None;
+    }
+    let path = a.image.clone().or_else(|| {
+        let is_file = sonarproj::Sonar::preset(&a.to).is_none();
+        let beside = std::path::Path::new(&a.to).parent()?.join("image.npy");
+        (is_file && kind == SonarKind::Fls && beside.is_file()).then_some(beside)
+    })?;
+    sonarproj_apps::report::note_input(&path);
+    Some(path)
 }
 
 /// Prints the JSON of one `sonarproj mask` run: the sonars, pose, noise and device, the

@@ -77,13 +77,13 @@ fn from_oculus(a: FromOculusArgs) -> Result<()> {
         write_atomic(&gains, |w| write_npy(w, &[shape[0]], g.iter().copied(), &gains))?;
     }
     let header = format!(
-        "# Oculus ping {} of {:?} (message at byte {}, layout version {}): {} Hz, {} m per range line.\n\
+        "# Oculus ping {} of {:?} (message at byte {}, layout version {}): {}, {} m per range line.\n\
          # Bearings as the ping gives them (deg, positive to port): the beam centres.\n",
         p.ping_id,
         a.file.display().to_string(),
         p.offset,
         p.version,
-        p.frequency,
+        sonarproj_apps::io::oculus::megahertz(p.frequency),
         p.range_resolution
     );
     let text = format!("{header}{}", p.sonar.to_toml());

@@ -240,6 +240,69 @@ fn a_file_given_as_an_output_directory_is_bad_input() {
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
 }
 
+#[test]
+fn a_single_file_output_creates_its_folder_as_a_directory_output_does() {
+    let dir = tempfile::tempdir().unwrap();
+    // Missing folders are created, as `--out DIR` creates its directory.
+    let nested = dir.path().join("new/deeper/metrics.csv");
+    common::sonarproj().args(batch_to(&nested)).assert().success();
+    assert!(std::fs::read_to_string(&nested).unwrap().starts_with("range,"));
+    // A run that fails while writing leaves no folder behind: its file is written whole or not
+    // at all, and so are the folders made for it.
+    let input = dir.path().join("poses.csv");
+    std::fs::write(
+        &input,
+        "range,azimuth,elevation,roll,pitch,yaw,tx,ty,tz\n5,0,0,0,0,0,1,0,0\n5,0,0,0,0,0,1,0,abc\n",
+    )
+    .unwrap();
+    let refused = dir.path().join("other/sub/metrics.csv");
+    common::sonarproj()
+        .args([
+            "batch",
+            "--from",
+            "paper-fls",
+            "--to",
+            "paper-sss",
+            "--backend",
+            "cpu-fast",
+            "--input",
+        ])
+        .arg(&input)
+        .arg("--output")
+        .arg(&refused)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("row 2"));
+    assert!(!dir.path().join("other").exists(), "a failed run left its folder");
+    // A file in the way of the folder is bad input, named, and stays as it was.
+    let file = dir.path().join("results");
+    std::fs::write(&file, "keep me").unwrap();
+    common::sonarproj()
+        .args(batch_to(&file.join("metrics.csv")))
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("is a file, not a directory"));
+    let mask = file.join("sub/m.png");
+    common::sonarproj()
+        .args([
+            "mask",
+            "--from",
+            "paper-sss",
+            "--to",
+            "paper-fls",
+            "--translation",
+            "1,0,0",
+            "--feature",
+            "5",
+            "--out",
+        ])
+        .arg(&mask)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("is a file, not a directory"));
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
+}
+
 /// Returns this host's name as temporary file names carry it.
 fn host() -> String {
     let out = Command::new("uname").arg("-n").output().unwrap();
