@@ -163,16 +163,3 @@ def test_the_fl2ss_example_says_it_is_the_authors_configuration(tmp_path, monkey
     title = plt.gcf().axes[0].get_title()
     assert "authors' example_fl2ss configuration" in title and "10°" in title, title
     plt.close("all")
-
-
-def test_the_rust_example_prints_no_mesa_noise_headless(root):
-    binary = root / "target" / "release" / "examples" / "project_every_backend"
-    if not binary.exists():
-        message = f"{binary} is not built (cargo build --release --examples)"
-        if os.environ.get("CI") == "true":
-            pytest.fail(message)
-        pytest.skip(message)
-    env = {k: v for k, v in os.environ.items() if k not in ("XDG_RUNTIME_DIR", "NODEVICE_SELECT")}
-    done = subprocess.run([str(binary)], env=env, capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stderr
-    assert "XDG_RUNTIME_DIR" not in done.stderr and "error" not in done.stderr, done.stderr
