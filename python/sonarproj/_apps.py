@@ -138,6 +138,8 @@ def paper(
     paper``) and writes ``fls-to-sss.csv``, ``sss-to-fls.csv``, the figures and ``findings.md``
     into `out_dir`. ``step="auto"`` is the smooth version: arcs every 0.001°, surfaces with auto
     sampling (the default 0.1° reproduces the published code, staircases included).
+    ``step="exact"`` solves the FLS arcs in closed form and samples the SSS surfaces, which have
+    no exact mode, at 0.1°.
 
     Returns a dict: ``findings`` (a list of dicts: ``claim``, ``holds``, ``evidence``),
     ``poses``, ``seconds`` (compute time), ``device``, ``out_dir``.

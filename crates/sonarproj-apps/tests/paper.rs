@@ -166,3 +166,24 @@ fn the_smooth_version_has_no_staircase() {
         assert!(*s >= t - 1e-12 && s - t < stair, "{s} vs {t}, stair {stair}");
     }
 }
+
+#[test]
+fn the_exact_version_bounds_the_smooth_one() {
+    // Exact arcs: the span of the whole visible part, so at or above every sampling of it (the
+    // 0.001° samples lie on the arc), and rising at every roll as the smooth version does. Each
+    // end of the visible part lies within one sample step of a sample, along an arc of radius
+    // 1 m (the feature at 0.1 of the FLS's 10 m), whose range moves no faster than the point:
+    // the spans differ by less than twice the step's arc length.
+    let exact = scenario_4_spans(Sampling::Exact);
+    let smooth = scenario_4_spans(Sampling::Auto);
+    assert!(exact.windows(2).all(|w| w[1] > w[0]), "{exact:?}");
+    let bound = 2.0 * 1.0 * paper::SMOOTH_ARC_STEP.to_radians();
+    for (e, s) in exact.iter().zip(&smooth) {
+        assert!(*e >= s - 1e-12 && e - s <= bound, "{e} vs {s}, bound {bound}");
+    }
+    // The sidescan's surfaces have no exact mode: the published step, not auto's dense one.
+    assert_eq!(
+        paper::direction_sampling(paper::Direction::SssToFls, Sampling::Exact),
+        Sampling::Step(paper::PUBLISHED_STEP)
+    );
+}

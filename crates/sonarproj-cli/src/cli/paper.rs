@@ -24,7 +24,7 @@ pub(super) struct PaperArgs {
     /// Sampling step (deg) of the arcs and surfaces: 0.1 as the published code (its curves are
     /// staircases, as the authors' are), `auto` for smooth curves (neighbouring samples less
     /// than half a bin and half a beam apart in sonar 2), or `exact` (FLS arcs solved in closed
-    /// form, SSS surfaces sampled as `auto`).
+    /// form, SSS surfaces, which have no exact mode, sampled at 0.1).
     #[arg(long, value_name = "DEG|auto|exact", default_value = "0.1", value_parser = super::parse_step)]
     step: Sampling,
     /// Where to compute.
