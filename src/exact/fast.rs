@@ -1,5 +1,6 @@
 //! The fast twin of the exact solver: the same arc, pieces and metrics as [`super::visible_arc`],
-//! with every bound written as a polynomial in `s = tan(φ/2)`.
+//! with every bound written as a polynomial in `s = tan(φ/2)`. `cpu-fast` and the GPU backend run
+//! it on every core; on a pose grid each pose is decoded where it is solved ([`project_grid`]).
 //!
 //! With `cos φ = (1 − s²)/(1 + s²)` and `sin φ = 2s/(1 + s²)`, a first-degree trigonometric
 //! function `a + b cos φ + c sin φ` times `1 + s²` is the quadratic `(a + b) + 2c s + (a − b) s²`,
@@ -7,17 +8,25 @@
 //! the crossings of bin and beam edges are roots of quadratics, and the elevation bound
 //! (`r² sin² e − z² ≥ 0`) those of a quartic: no root takes a trigonometric call. Pieces are
 //! judged by the bounds' signs at inner points (the inequalities [`Layout::inside`] tests with
-//! angles), the extremes come from points of the arc, and only the visible length (`atan`) and the
-//! azimuths (`atan2`) take trigonometry.
+//! angles), the extremes come from points of the arc, and only the visible length (`atan`) and
+//! the azimuths (`atan2`) take trigonometry.
 //!
-//! Before any root, the arc's range, height and the azimuth bound's half-planes are bounded in
-//! closed form over the whole arc (a first-degree function's extremes lie at the ends or at one
-//! known point). An arc that clearly misses the field of view is answered at once, and an arc
-//! clearly inside the elevation bound skips the quartic. "Clearly" keeps a margin of 1e-12 of the
-//! values compared, far above their rounding, so nothing visible is culled.
+//! What makes it fast, besides the polynomials:
+//! - Before any root, the arc's range, height and the azimuth bound's half-planes are bounded in
+//!   closed form over the whole arc (a first-degree function's extremes lie at the ends or at one
+//!   known point). An arc that clearly misses the field of view is answered at once, and a bound
+//!   that clearly holds, or fails, all along the arc needs no roots. "Clearly" keeps a margin of
+//!   1e-12 of the values compared, far above their rounding, so nothing visible is culled.
+//! - The quartic's roots are bracketed by its turning points, and a thin fan's turning point is
+//!   replaced by the height's zero, where the bound clearly holds ([`quartic_roots`]).
+//! - Newton's method stops one evaluation earlier than the reference's ([`SETTLE`]).
+//! - A piece whose middle is clearly in or out of view takes one point, not the reference's vote.
+//! - The axis-plane cuts, which keep the azimuth continuous along a piece, are made only for a
+//!   field of view that reaches behind sonar 2, where the azimuth can jump.
 //!
-//! Against the reference the pieces' ends, extremes and lengths agree to rounding (both find
-//! roots to the last bits, from different formulas): see `tests/exact.rs` for the envelope.
+//! Against the reference, lengths, ranges and azimuths agree to rounding (both find the same
+//! roots, from different formulas), and cells agree but where a piece's end or an extreme sits on
+//! a bin or beam edge: `tests/exact.rs` holds the two to that.
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -119,7 +128,7 @@ fn horner(c: &[f64; 5], n: usize, x: f64) -> (f64, f64) {
 
 /// Appends the roots in `[lo, hi]` of `c[0] + c[1] s + c[2] s²` where it changes sign, in
 /// increasing order. The closed form's roots start a bracketed Newton's method on each monotone
-/// side of the vertex, which makes them exact to the last bits.
+/// side of the vertex, which takes them to within a rounding or two.
 fn quadratic_roots<const N: usize>(c: [f64; 3], lo: f64, hi: f64, out: &mut List<N>) {
     let [c0, c1, c2] = c;
     if c2 == 0.0 {
