@@ -309,24 +309,27 @@ fn every_code_block_of_the_readme_and_the_guide_runs() {
                     );
                 }
                 "toml" if has("cargo") => {
-                    if !(b.code.contains("[dependencies]") && b.code.contains("sonarproj = { path = ")) {
-                        problems.push(format!(
+                    let by_path =
+                        b.code.contains("[dependencies]") && b.code.contains("sonarproj = { path = ");
+                    problems.extend((!by_path).then(|| {
+                        format!(
                             "{}: the Cargo fragment does not depend on sonarproj by path",
                             b.at()
-                        ));
-                    }
+                        )
+                    }));
                 }
                 "toml" => problems.push(format!(
                     "{}: say what the TOML is (sonar, sweep or cargo) so that it is checked",
                     b.at()
                 )),
                 "rust" => {
-                    if !lib.contains(&format!("include_str!(\"../{file}\")")) {
-                        problems.push(format!(
+                    let included = lib.contains(&format!("include_str!(\"../{file}\")"));
+                    problems.extend((!included).then(|| {
+                        format!(
                             "{}: a Rust block, but src/lib.rs does not include {file} as doctests",
                             b.at()
-                        ));
-                    }
+                        )
+                    }));
                 }
                 _ if has("output") => match &last_stdout {
                     Some(stdout) if *stdout == b.code => {}
