@@ -74,3 +74,14 @@ pub use projection::{
     Projection,
 };
 pub use sampling::{Measurement, Sampling, SamplingPlan};
+
+/// The README's Rust code blocks, compiled and run as doctests (with
+/// `crates/sonarproj-cli/tests/docs.rs`, which runs its other blocks).
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;
+
+/// The guide's Rust code blocks (`docs/rust.md`), compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../docs/rust.md")]
+struct RustGuideDoctests;

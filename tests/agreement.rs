@@ -1,7 +1,7 @@
 //! CPU reference vs GPU and fast CPU path on random poses: for each of the four sonar pairs and
 //! several presets, 1000 random configurations, every result inside the envelope the reference
 //! computes for it
-//! (README: How the GPU is checked: bin-exact except samples within 1e-5 relative of a clip bound or bin edge), and
+//! (docs/gpu.md, "How the GPU is checked": bin-exact except samples within 1e-5 relative of a clip bound or bin edge), and
 //! the number of pixels where the two differ never above the number of such samples.
 
 use sonarproj_testkit as common;

@@ -1,6 +1,6 @@
 //! Cases worked out by hand, checked on the CPU reference and (where an adapter exists) the GPU.
 //! None of the samples here sits near a bin edge or clip bound, so counts are exact on both;
-//! ranges and angles from the GPU carry f32 rounding, allowed at 1e-5 relative (README: How the GPU is checked).
+//! ranges and angles from the GPU carry f32 rounding, allowed at 1e-5 relative (docs/gpu.md, "How the GPU is checked").
 
 use sonarproj_testkit as common;
 

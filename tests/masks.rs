@@ -42,7 +42,7 @@ fn cart(r: f64, az: f64, el: f64) -> DVec3 {
 }
 
 /// Returns the bin or pixel `(row, column)` of the point `p` in sonar `s`'s data, written here
-/// from the sonar's definition (README: Conventions), not taken from the library: bins
+/// from the sonar's definition (docs/conventions.md), not taken from the library: bins
 /// `[edge_i, edge_i+1)` with the last one closed, beams likewise; a two-sided sidescan's row
 /// holds port bin `i` at `range_bins − 1 − i` (azimuth ≥ 0) and starboard bin `i` at
 /// `range_bins + i`.

@@ -1,4 +1,4 @@
-//! Recovering the lost coordinate (README): random scenes seen by both sonars, for every pair and
+//! Recovering the lost coordinate (docs/recover.md): random scenes seen by both sonars, for every pair and
 //! several presets, with exact measurements (truth among the candidates to 1e-9 m) and noisy ones
 //! (truth within the predicted sigmas at the Gaussian rates); degenerate geometry is reported.
 

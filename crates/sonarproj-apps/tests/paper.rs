@@ -1,4 +1,4 @@
-//! The paper's simulations (README): every scenario has the right poses, the distances follow
+//! The paper's simulations (docs/paper.md): every scenario has the right poses, the distances follow
 //! the table, and the paper's qualitative findings hold at a coarse angle step.
 
 use sonarproj::Output;

@@ -1,5 +1,5 @@
 //! Reliability from the outside: what the binary does with special output files, symlinks, bad
-//! output paths, bad lines in a stream and bad rows in long CSV inputs (README: Reliability).
+//! output paths, bad lines in a stream and bad rows in long CSV inputs (docs/reliability.md).
 //! Inputs — bad, endless, or the same file as an output — are `inputs`.
 
 mod inputs;
