@@ -422,6 +422,10 @@ def test_without_webgl_the_2d_view_and_metrics_still_work(viewer):
     try:
         page = Page(driver, viewer.url)
         assert driver.execute_script("return !document.getElementById('no-webgl').hidden")
+        # the note shows: nothing (such as the blank canvas) lies over it
+        assert driver.execute_script(
+            "const p = document.getElementById('no-webgl'), r = p.getBoundingClientRect();"
+            "return r.height > 0 && p.contains(document.elementFromPoint((r.left + r.right) / 2, (r.top + r.bottom) / 2))")
         page.slide("rotation.pitch", 90)
         assert page.metrics()["visible"] > 0
         assert len(red_pixels(page)[0]) > 0

@@ -293,7 +293,9 @@ function render(r, roundTrip) {
     ? `${r.mask.count} ${r.to.kind === "fls" ? "pixels" : "bins"} (ball radius ${fmt(r.mask.radius, 3)} m)`
     : "— (turn on noise)";
   $("m-recovery").textContent = recoveryText(r.recovery);
-  $("m-time").textContent = `${r.compute_ms.toFixed(1)} ms in the engine (${r.device}), ${roundTrip.toFixed(1)} ms round trip`;
+  // (the device is named in the header; one short line keeps the panels' sizes still)
+  $("m-time").textContent = `${r.compute_ms.toFixed(1)} ms in the engine, ${roundTrip.toFixed(1)} ms round trip`;
+  $("m-time").title = `computed on ${r.device}`;
   $("copy-text").textContent = r.copy[state.copy];
   drawData();
   update3d(r);
@@ -595,6 +597,7 @@ async function init3d() {
     $("three-canvas").hidden = true;
     $("three-overlay").hidden = true;
     $("no-webgl").hidden = false;
+    $("fit").disabled = $("fit-all").disabled = true;
   }
 }
 
