@@ -294,7 +294,7 @@ function render(r, roundTrip) {
     : "— (turn on noise)";
   $("m-recovery").textContent = recoveryText(r.recovery);
   // (the device is named in the header; one short line keeps the panels' sizes still)
-  $("m-time").textContent = `${r.compute_ms.toFixed(1)} ms in the engine, ${roundTrip.toFixed(1)} ms round trip`;
+  $("m-time").textContent = `${r.compute_ms.toFixed(1)} ms engine, ${roundTrip.toFixed(1)} ms round trip`;
   $("m-time").title = `computed on ${r.device}`;
   $("copy-text").textContent = r.copy[state.copy];
   drawData();
