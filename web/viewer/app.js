@@ -100,9 +100,6 @@ function clamp(v, lo, hi) { return Math.min(hi, Math.max(lo, v)); }
 
 function sonar(which) { return state.sonars.get($(which).value); }
 
-// Slider steps: a round step near span / parts, so that a dragged slider gives round values.
-function sliderStep(span, parts) { return niceStep(span, parts); }
-
 // Returns v where it lies in [lo, hi]; else the round value nearest v a tenth of the span inside
 // the interval (15 m in a 0.1–10 m sonar gives 9 m).
 function keepInside(v, lo, hi) {
@@ -128,17 +125,18 @@ function configurePair(first) {
   const a1 = s1.azimuth_aperture / 2, e1 = s1.elevation_aperture / 2;
   const a2 = s2.azimuth_aperture / 2, e2 = s2.elevation_aperture / 2;
   const reach = Math.max(s1.range_max, s2.range_max);
+  // [min, max, slider step]: a round step, so that a dragged slider gives round values
   const ranges = {
-    "feature.range": [s1.range_min, s1.range_max, sliderStep(r1, 1000)],
-    "feature.azimuth": [-a1, a1, sliderStep(2 * a1, 1000)],
-    "feature.elevation": [-e1, e1, sliderStep(2 * e1, 1000)],
-    "place.range": [s2.range_min, s2.range_max, sliderStep(r2, 1000)],
-    "place.azimuth": [-a2, a2, sliderStep(2 * a2, 1000)],
-    "place.elevation": [-e2, e2, sliderStep(2 * e2, 1000)],
-    "second.range": [s2.range_min, s2.range_max, sliderStep(r2, 1000)],
-    "second.azimuth": [-a2, a2, sliderStep(2 * a2, 1000)],
+    "feature.range": [s1.range_min, s1.range_max, niceStep(r1, 1000)],
+    "feature.azimuth": [-a1, a1, niceStep(2 * a1, 1000)],
+    "feature.elevation": [-e1, e1, niceStep(2 * e1, 1000)],
+    "place.range": [s2.range_min, s2.range_max, niceStep(r2, 1000)],
+    "place.azimuth": [-a2, a2, niceStep(2 * a2, 1000)],
+    "place.elevation": [-e2, e2, niceStep(2 * e2, 1000)],
+    "second.range": [s2.range_min, s2.range_max, niceStep(r2, 1000)],
+    "second.azimuth": [-a2, a2, niceStep(2 * a2, 1000)],
   };
-  for (const k of ["x", "y", "z"]) ranges["translation." + k] = [-reach, reach, sliderStep(2 * reach, 2000)];
+  for (const k of ["x", "y", "z"]) ranges["translation." + k] = [-reach, reach, niceStep(2 * reach, 2000)];
   for (const k of ["roll", "pitch", "yaw"]) ranges["rotation." + k] = [-180, 180, 0.5];
   for (const [key, [lo, hi, step]] of Object.entries(ranges)) setRange(key, lo, hi, step);
   fields.get("second.azimuth").div.hidden = s2.kind !== "fls";
@@ -647,7 +645,6 @@ function fanSheet(THREE, s, colour) {
   const mesh = new THREE.Mesh(geom, new THREE.MeshBasicMaterial({
     color: colour, transparent: true, opacity: 0.1, side: THREE.DoubleSide, depthWrite: false,
   }));
-  mesh.userData.sheet = true;
   return mesh;
 }
 
