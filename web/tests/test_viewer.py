@@ -228,23 +228,45 @@ def assert_framed(page, what):
     assert fill > 0.8, (what, "the scene is small on the canvas", e)
 
 
+def assert_feature_framed(page, what):
+    """The sampled arc or surface and the true point are on the 3-D canvas, the arc across at
+    least 40 % of it (and at most 90 %: there is room around it)."""
+    e = page.d.execute_script("return window.sonarprojFraming('samples')")
+    assert e is not None and e["points"] > 50, (what, e)
+    assert -1 <= e["left"] and e["right"] <= 1 and -1 <= e["bottom"] and e["top"] <= 1, (what, "off the canvas", e)
+    fill = max(e["right"] - e["left"], e["top"] - e["bottom"]) / 2
+    assert 0.4 <= fill <= 0.9, (what, "the arc's share of the canvas", e)
+    t = page.d.execute_script("return window.sonarprojFraming('truth')")
+    assert t["points"] == 1 and abs(t["left"]) <= 1 and abs(t["bottom"]) <= 1, (what, "the true point", t)
+
+
+def click(page, element_id):
+    page.d.execute_script("document.getElementById(arguments[0]).click()", element_id)
+
+
 @pytest.mark.parametrize("pair", [("oculus-m750d", "holoocean-sidescan"), ("holoocean-sidescan", "oculus-m750d")])
-def test_the_3d_view_is_fitted_to_the_scene_at_load(pair):
+def test_the_3d_view_opens_on_the_feature_and_whole_scene_frames_everything(pair):
     # Long ranges (120 m and 35 m fields of view around a feature at 5 m) on a page that was
-    # never touched: the first scene is framed whole.
+    # never touched: the feature is framed, not the fields of view; "whole scene" frames them.
     server = Server("--backend", "cpu-fast", "--from", pair[0], "--to", pair[1])
     driver = chrome()
     try:
-        assert_framed(Page(driver, server.url), pair)
+        page = Page(driver, server.url)
+        assert_feature_framed(page, pair)
+        e = page.d.execute_script("return window.sonarprojFraming()")
+        assert max(e["right"] - e["left"], e["top"] - e["bottom"]) / 2 > 2, ("the fields of view reach past it", e)
+        click(page, "fit-all")
+        assert_framed(page, (pair, "whole scene"))
     finally:
         driver.quit()
         server.stop()
 
 
-def test_the_fit_button_frames_the_scene_again(page):
+def test_the_fit_buttons_frame_the_feature_and_the_scene_again(page):
     set_scene(page, ("paper-sss", "paper-fls"), (5, 0, 0), (20, 30, 40), (5, 5, 0))
-    assert_framed(page, "a new pair")
-    # Moving sonar 2 100 m up keeps the camera (a person is looking); "fit" frames it again.
+    assert_feature_framed(page, "a new pair")
+    # Moving sonar 2 100 m up keeps the camera (a person is looking); "whole scene" frames it
+    # all, and "frame the feature" the feature again.
     page.mode("translation")
     for key in ("rotation.roll", "rotation.pitch", "rotation.yaw"):
         page.slide(key, 0)
@@ -252,8 +274,10 @@ def test_the_fit_button_frames_the_scene_again(page):
     assert page.error() is None, page.error()
     e = page.d.execute_script("return window.sonarprojFraming()")
     assert e["left"] < -1 or e["right"] > 1 or e["bottom"] < -1 or e["top"] > 1, ("still framed?", e)
-    page.d.execute_script("document.getElementById('fit').click()")
-    assert_framed(page, "after fit")
+    click(page, "fit-all")
+    assert_framed(page, "after whole scene")
+    click(page, "fit")
+    assert_feature_framed(page, "after frame the feature")
 
 
 def test_a_bad_value_shows_the_engines_message_and_nothing_breaks(page, cli):
@@ -398,6 +422,10 @@ def test_without_webgl_the_2d_view_and_metrics_still_work(viewer):
     try:
         page = Page(driver, viewer.url)
         assert driver.execute_script("return !document.getElementById('no-webgl').hidden")
+        # the note shows: nothing (such as the blank canvas) lies over it
+        assert driver.execute_script(
+            "const p = document.getElementById('no-webgl'), r = p.getBoundingClientRect();"
+            "return r.height > 0 && p.contains(document.elementFromPoint((r.left + r.right) / 2, (r.top + r.bottom) / 2))")
         page.slide("rotation.pitch", 90)
         assert page.metrics()["visible"] > 0
         assert len(red_pixels(page)[0]) > 0

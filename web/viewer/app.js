@@ -16,7 +16,7 @@ const METRICS = ["visible", "total", "visible_fraction", "range_min", "range_max
   "sigma_elevation"];
 
 const $ = (id) => document.getElementById(id);
-const state = { sonars: new Map(), last: null, copy: "command", fitted: false };
+const state = { sonars: new Map(), last: null, copy: "command", fitted: false, cameraMoved: false };
 // Where the last 2-D picture put sonar 2's data (canvas pixels), for tests.
 window.sonarprojDrawn = null;
 // What a test harness or benchmark reads: one entry per answered update.
@@ -100,20 +100,45 @@ function clamp(v, lo, hi) { return Math.min(hi, Math.max(lo, v)); }
 
 function sonar(which) { return state.sonars.get($(which).value); }
 
-function configurePair(reset) {
+// Returns v where it lies in [lo, hi]; else the round value nearest v a tenth of the span inside
+// the interval (15 m in a 0.1–10 m sonar gives 9 m).
+function keepInside(v, lo, hi) {
+  if (v >= lo && v <= hi) return v;
+  const span = hi - lo, step = niceStep(span, 20);
+  const r = Math.round(clamp(v, lo + 0.1 * span, hi - 0.1 * span) / step) * step;
+  return Number(clamp(r, lo, hi).toPrecision(12));
+}
+
+// Returns a starting value: `preferred` where it lies in [lo, hi], else the middle, rounded.
+function startInside(preferred, lo, hi) {
+  if (preferred >= lo && preferred <= hi) return preferred;
+  const step = niceStep(hi - lo, 20);
+  return Number(clamp(Math.round((lo + hi) / 2 / step) * step, lo, hi).toPrecision(12));
+}
+
+// Sets the fields' ranges for the chosen pair. At the start every field takes its starting
+// value; on a change of sonar the values that still apply stay (the pose always; a range or
+// an angle while the new sonar's limits hold it, else the nearest round value inside them, or 0°).
+function configurePair(first) {
   const s1 = sonar("from"), s2 = sonar("to");
   const r1 = s1.range_max - s1.range_min, r2 = s2.range_max - s2.range_min;
-  setRange("feature.range", s1.range_min, s1.range_max, r1 / 2000);
-  setRange("feature.azimuth", -s1.azimuth_aperture / 2, s1.azimuth_aperture / 2, s1.azimuth_aperture / 1200);
-  setRange("feature.elevation", -s1.elevation_aperture / 2, s1.elevation_aperture / 2, s1.elevation_aperture / 1200);
-  for (const k of ["roll", "pitch", "yaw"]) setRange("rotation." + k, -180, 180, 0.5);
-  setRange("place.range", s2.range_min, s2.range_max, r2 / 2000);
-  setRange("place.azimuth", -s2.azimuth_aperture / 2, s2.azimuth_aperture / 2, s2.azimuth_aperture / 1200);
-  setRange("place.elevation", -s2.elevation_aperture / 2, s2.elevation_aperture / 2, s2.elevation_aperture / 1200);
+  const a1 = s1.azimuth_aperture / 2, e1 = s1.elevation_aperture / 2;
+  const a2 = s2.azimuth_aperture / 2, e2 = s2.elevation_aperture / 2;
   const reach = Math.max(s1.range_max, s2.range_max);
-  for (const k of ["x", "y", "z"]) setRange("translation." + k, -reach, reach, reach / 2000);
-  setRange("second.range", s2.range_min, s2.range_max, r2 / 2000);
-  setRange("second.azimuth", -s2.azimuth_aperture / 2, s2.azimuth_aperture / 2, s2.azimuth_aperture / 1200);
+  // [min, max, slider step]: a round step, so that a dragged slider gives round values
+  const ranges = {
+    "feature.range": [s1.range_min, s1.range_max, niceStep(r1, 1000)],
+    "feature.azimuth": [-a1, a1, niceStep(2 * a1, 1000)],
+    "feature.elevation": [-e1, e1, niceStep(2 * e1, 1000)],
+    "place.range": [s2.range_min, s2.range_max, niceStep(r2, 1000)],
+    "place.azimuth": [-a2, a2, niceStep(2 * a2, 1000)],
+    "place.elevation": [-e2, e2, niceStep(2 * e2, 1000)],
+    "second.range": [s2.range_min, s2.range_max, niceStep(r2, 1000)],
+    "second.azimuth": [-a2, a2, niceStep(2 * a2, 1000)],
+  };
+  for (const k of ["x", "y", "z"]) ranges["translation." + k] = [-reach, reach, niceStep(2 * reach, 2000)];
+  for (const k of ["roll", "pitch", "yaw"]) ranges["rotation." + k] = [-180, 180, 0.5];
+  for (const [key, [lo, hi, step]] of Object.entries(ranges)) setRange(key, lo, hi, step);
   fields.get("second.azimuth").div.hidden = s2.kind !== "fls";
   fields.get("feature.azimuth").div.querySelector("label").textContent =
     s1.kind === "fls" ? "azimuth" : "azimuth*";
@@ -121,20 +146,29 @@ function configurePair(reset) {
     ? "An FLS measures range and azimuth; the elevation is lost (the arc)."
     : "A sidescan measures only the range; azimuth* and elevation place the true point on the surface.";
   $("pair-note").textContent = `${s1.kind.toUpperCase()} → ${s2.kind.toUpperCase()}`;
-  if (reset) {
-    setValue("feature.range", clamp(Math.min(5, s1.range_min + r1 / 2), s1.range_min, s1.range_max));
+  if (first) {
+    setValue("feature.range", startInside(5, s1.range_min, s1.range_max));
     setValue("feature.azimuth", 0);
     setValue("feature.elevation", 0);
     for (const k of ["roll", "pitch", "yaw"]) setValue("rotation." + k, 0);
-    setValue("place.range", clamp(Math.min(15, s2.range_min + r2 / 2), s2.range_min, s2.range_max));
+    setValue("place.range", startInside(15, s2.range_min, s2.range_max));
     setValue("place.azimuth", 0);
     setValue("place.elevation", 0);
     for (const k of ["x", "y", "z"]) setValue("translation." + k, 0);
     setValue("translation.x", -1);
     setValue("second.range", fields.get("place.range").number.value);
     setValue("second.azimuth", 0);
-    state.fitted = false;
+  } else {
+    for (const [key, [lo, hi]] of Object.entries(ranges)) {
+      if (key.startsWith("rotation.")) continue;
+      const v = Number(fields.get(key).last);
+      if (!Number.isFinite(v)) continue;  // a field being typed into keeps its text
+      const angle = /azimuth|elevation/.test(key);
+      const kept = angle ? (v >= lo && v <= hi ? v : 0) : keepInside(v, lo, hi);
+      if (kept !== v) setValue(key, kept);
+    }
   }
+  state.fitted = false;
 }
 
 // ---------------------------------------------------------------- the scene sent
@@ -257,7 +291,9 @@ function render(r, roundTrip) {
     ? `${r.mask.count} ${r.to.kind === "fls" ? "pixels" : "bins"} (ball radius ${fmt(r.mask.radius, 3)} m)`
     : "— (turn on noise)";
   $("m-recovery").textContent = recoveryText(r.recovery);
-  $("m-time").textContent = `${r.compute_ms.toFixed(1)} ms in the engine (${r.device}), ${roundTrip.toFixed(1)} ms round trip`;
+  // (the device is named in the header; one short line keeps the panels' sizes still)
+  $("m-time").textContent = `${r.compute_ms.toFixed(1)} ms engine, ${roundTrip.toFixed(1)} ms round trip`;
+  $("m-time").title = `computed on ${r.device}`;
   $("copy-text").textContent = r.copy[state.copy];
   drawData();
   update3d(r);
@@ -465,7 +501,7 @@ function rangeAxis(ctx, s, p, title) {
     ctx.fillText(`${+q.toPrecision(6)} m`, p.l - 6, yy + 4);
   }
   ctx.save();
-  ctx.translate(14, p.t + p.h / 2);
+  ctx.translate(Math.max(14, p.l - 50), p.t + p.h / 2);
   ctx.rotate(-Math.PI / 2);
   ctx.textAlign = "center";
   ctx.fillText(title, 0, 0);
@@ -474,21 +510,28 @@ function rangeAxis(ctx, s, p, title) {
 
 function drawStrip(ctx, canvas, r) {
   const s = r.to;
-  const p = { l: 150, r: 150, t: 30, b: 56 };
-  p.w = canvas.width - p.l - p.r;
+  // A two-sided sidescan's data is one row: port far to near (index n - 1 - bin), then
+  // starboard near to far (n + bin); it is drawn as a port strip left of a starboard strip.
+  // A one-sided channel is one strip. Strips are at most 240 pixels wide, centred.
+  const twoSided = s.beams === 2;
+  const gap = twoSided ? 24 : 0;
+  const room = canvas.width - 2 * 110;
+  const sw = Math.max(40, Math.min(240, twoSided ? (room - gap) / 2 : room));
+  const p = { t: 30, b: 56, w: twoSided ? 2 * sw + gap : sw };
+  p.l = Math.round((canvas.width - p.w) / 2);
   p.h = canvas.height - p.t - p.b;
   const n = s.range_bins;
   const rh = p.h / n;
-  // A two-sided sidescan's data is one row: port far to near (index n - 1 - bin), then
-  // starboard near to far (n + bin); it is drawn as a port strip left of a starboard strip.
-  const twoSided = s.beams === 2;
-  const gap = twoSided ? 24 : 0;
-  const sw = twoSided ? (p.w - gap) / 2 : p.w;
   const strips = twoSided ? [p.l, p.l + sw + gap] : [p.l];
   ctx.fillStyle = "#e8eef7";
   for (const x of strips) ctx.fillRect(x, p.t, sw, p.h);
-  // Paints range bins [b0, b1) of strip x.
-  const bins = (x, b0, b1) => snapRect(ctx, x, p.t + p.h - b1 * rh, sw, (b1 - b0) * rh);
+  // Paints range bins [b0, b1) of strip x, at least 3 pixels high (centred), so that one bin
+  // of thousands stays visible.
+  const bins = (x, b0, b1) => {
+    const h = (b1 - b0) * rh, y = p.t + p.h - b1 * rh;
+    if (h >= 3) snapRect(ctx, x, y, sw, h);
+    else snapRect(ctx, x, y + h / 2 - 1.5, sw, 3);
+  };
   const paint = (runs, fill) => {
     ctx.fillStyle = fill;
     for (const [start, len] of runs) {
@@ -506,19 +549,21 @@ function drawStrip(ctx, canvas, r) {
   rangeAxis(ctx, s, p, "range (near range at the bottom)");
   ctx.fillStyle = "#374151";
   ctx.textAlign = "center";
+  const mid = canvas.width / 2;
   if (twoSided) {
     ctx.fillText("port", strips[0] + sw / 2, p.t + p.h + 18);
     ctx.fillText("starboard", strips[1] + sw / 2, p.t + p.h + 18);
-    ctx.fillText("a two-sided sidescan: each side's range bins", p.l + p.w / 2, p.t + p.h + 34);
+    ctx.fillText("a two-sided sidescan: each side's range bins", mid, p.t + p.h + 34);
+    // Which side is which, where both are drawn.
+    ctx.font = "bold 14px system-ui, sans-serif";
+    ctx.textAlign = "left";
+    ctx.fillText("◀ port", 8, canvas.height - 8);
+    ctx.textAlign = "right";
+    ctx.fillText("starboard ▶", canvas.width - 8, canvas.height - 8);
   } else {
-    ctx.fillText("one sidescan channel: range bins only", p.l + p.w / 2, p.t + p.h + 18);
-    ctx.fillText("(port and starboard are separate channels)", p.l + p.w / 2, p.t + p.h + 34);
+    ctx.fillText("one sidescan channel: range bins only", mid, p.t + p.h + 18);
+    ctx.fillText("(port and starboard are separate channels)", mid, p.t + p.h + 34);
   }
-  ctx.font = "bold 14px system-ui, sans-serif";
-  ctx.textAlign = "left";
-  ctx.fillText("◀ port", 8, canvas.height - 8);
-  ctx.textAlign = "right";
-  ctx.fillText("starboard ▶", canvas.width - 8, canvas.height - 8);
 }
 
 // ---------------------------------------------------------------- 3-D
@@ -534,20 +579,37 @@ async function init3d() {
     if (!canvas.getContext("webgl2") && !canvas.getContext("webgl")) throw new Error("no WebGL");
     const renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
     renderer.setPixelRatio(window.devicePixelRatio || 1);
-    renderer.setSize(canvas.width, canvas.height, false);
+    renderer.setSize(canvas.clientWidth || canvas.width, canvas.clientHeight || canvas.height, false);
     renderer.setClearColor(0xffffff);
     const scene = new THREE.Scene();
-    const camera = new THREE.PerspectiveCamera(45, canvas.width / canvas.height, 0.01, 5000);
+    const camera = new THREE.PerspectiveCamera(45, (canvas.clientWidth || canvas.width) / (canvas.clientHeight || canvas.height), 0.01, 5000);
     camera.up.set(0, 0, 1);  // the sonars' z is up
     camera.position.set(-8, -8, 6);
     const controls = new OrbitControls(camera, canvas);
-    controls.addEventListener("change", () => renderer.render(scene, camera));
+    controls.addEventListener("change", draw3d);
+    // The person moved the camera: a resize keeps it where they put it.
+    controls.addEventListener("start", () => { state.cameraMoved = true; });
     scene.add(new THREE.AxesHelper(1));
-    Object.assign(three, { ok: true, THREE, renderer, scene, camera, controls, dynamic: [] });
+    Object.assign(three, { ok: true, THREE, renderer, scene, camera, controls, dynamic: [], ring: ringTexture(THREE) });
   } catch (e) {
     $("three-canvas").hidden = true;
+    $("three-overlay").hidden = true;
     $("no-webgl").hidden = false;
+    $("fit").disabled = $("fit-all").disabled = true;
   }
+}
+
+// Returns a texture of a ring: the true point is drawn as one, so that the samples under it show.
+function ringTexture(THREE) {
+  const c = document.createElement("canvas");
+  c.width = c.height = 64;
+  const ctx = c.getContext("2d");
+  ctx.strokeStyle = "#111";
+  ctx.lineWidth = 6;
+  ctx.beginPath();
+  ctx.arc(32, 32, 28, 0, 2 * Math.PI);
+  ctx.stroke();
+  return new THREE.CanvasTexture(c);
 }
 
 function fovLines(THREE, s, colour) {
@@ -566,13 +628,45 @@ function fovLines(THREE, s, colour) {
   return new THREE.LineSegments(geom, new THREE.LineBasicMaterial({ color: colour, transparent: true, opacity: 0.7 }));
 }
 
+// Returns a sidescan's thin fan as a faint sheet (its middle elevation), so that where it cuts
+// the arc shows; null for an imaging sonar, whose field of view is a volume.
+function fanSheet(THREE, s, colour) {
+  if (s.kind !== "sss") return null;
+  const half = s.azimuth_aperture / 2 * Math.PI / 180, n = 64;
+  const pos = [];
+  for (let i = 0; i < n; i++) {
+    const a0 = -half + 2 * half * i / n, a1 = -half + 2 * half * (i + 1) / n;
+    const p = (r, a) => [r * Math.cos(a), r * Math.sin(a), 0];
+    const [q0, q1, q2, q3] = [p(s.range_min, a0), p(s.range_max, a0), p(s.range_max, a1), p(s.range_min, a1)];
+    pos.push(...q0, ...q1, ...q2, ...q0, ...q2, ...q3);
+  }
+  const geom = new THREE.BufferGeometry();
+  geom.setAttribute("position", new THREE.Float32BufferAttribute(pos, 3));
+  const mesh = new THREE.Mesh(geom, new THREE.MeshBasicMaterial({
+    color: colour, transparent: true, opacity: 0.1, side: THREE.DoubleSide, depthWrite: false,
+  }));
+  return mesh;
+}
+
+function points(THREE, positions, material, kind) {
+  const geom = new THREE.BufferGeometry();
+  geom.setAttribute("position", new THREE.Float32BufferAttribute(positions, 3));
+  const o = new THREE.Points(geom, material);
+  o.userData.kind = kind;
+  return o;
+}
+
 function update3d(r) {
   if (!three.ok) return;
   const { THREE, scene } = three;
-  for (const o of three.dynamic) { scene.remove(o); o.geometry && o.geometry.dispose(); }
+  for (const o of three.dynamic) {
+    scene.remove(o);
+    o.traverse((c) => { c.geometry && c.geometry.dispose(); c.material && c.material.dispose(); });
+  }
   three.dynamic = [];
-  const add = (o) => { scene.add(o); three.dynamic.push(o); return o; };
+  const add = (o) => { if (o) { scene.add(o); three.dynamic.push(o); } return o; };
   add(fovLines(THREE, r.from, COLOURS.s1));
+  add(fanSheet(THREE, r.from, COLOURS.s1));
   // sonar 2's frame in sonar 1's: p1 = Rᵀ (p2 − t); rotation[i] is row i of R.
   const R = r.pose.rotation, t = r.pose.translation;
   const m = new THREE.Matrix4();
@@ -580,43 +674,49 @@ function update3d(r) {
   m.set(R[0][0], R[1][0], R[2][0], rt[0], R[0][1], R[1][1], R[2][1], rt[1], R[0][2], R[1][2], R[2][2], rt[2], 0, 0, 0, 1);
   const g2 = new THREE.Group();
   g2.add(fovLines(THREE, r.to, COLOURS.s2));
+  const sheet2 = fanSheet(THREE, r.to, COLOURS.s2);
+  if (sheet2) g2.add(sheet2);
   g2.add(new THREE.AxesHelper(0.6));
   g2.matrixAutoUpdate = false;
   g2.matrix.copy(m);
   add(g2);
+  three.origins = [new THREE.Vector3(0, 0, 0), new THREE.Vector3(...rt)];
+  // The samples: those sonar 2 sees larger, and drawn over everything else.
   const pos = r.samples.first, vis = r.samples.visible;
-  const colours = new Float32Array(vis.length * 3);
-  const seen = new THREE.Color(COLOURS.seen), unseen = new THREE.Color(COLOURS.unseen);
-  vis.forEach((v, k) => (v ? seen : unseen).toArray(colours, 3 * k));
-  const geom = new THREE.BufferGeometry();
-  geom.setAttribute("position", new THREE.Float32BufferAttribute(pos, 3));
-  geom.setAttribute("color", new THREE.Float32BufferAttribute(colours, 3));
-  add(new THREE.Points(geom, new THREE.PointsMaterial({ size: 3, sizeAttenuation: false, vertexColors: true })));
+  const seenPos = [], unseenPos = [];
+  vis.forEach((v, k) => (v ? seenPos : unseenPos).push(pos[3 * k], pos[3 * k + 1], pos[3 * k + 2]));
+  add(points(THREE, unseenPos, new THREE.PointsMaterial({ size: 3, sizeAttenuation: false, color: COLOURS.unseen }), "samples"));
+  const seen = add(points(THREE, seenPos, new THREE.PointsMaterial({
+    size: 5, sizeAttenuation: false, color: COLOURS.seen, depthTest: false,
+  }), "samples"));
+  seen.renderOrder = 2;
   const f = readSceneSafe();
   if (f) {
     const e = f.feature.elevation * Math.PI / 180, a = f.feature.azimuth * Math.PI / 180;
     const p = [f.feature.range * Math.cos(e) * Math.cos(a), f.feature.range * Math.cos(e) * Math.sin(a), f.feature.range * Math.sin(e)];
-    const tg = new THREE.BufferGeometry();
-    tg.setAttribute("position", new THREE.Float32BufferAttribute(p, 3));
-    add(new THREE.Points(tg, new THREE.PointsMaterial({ size: 9, sizeAttenuation: false, color: COLOURS.truth })));
+    const truth = add(points(THREE, p, new THREE.PointsMaterial({
+      size: 21, sizeAttenuation: false, map: three.ring, transparent: true, alphaTest: 0.3, depthTest: false,
+    }), "truth"));
+    truth.renderOrder = 3;
   }
   if (r.recovery && r.recovery.candidates.length) {
     const rp = r.recovery.candidates.flatMap((c) => c.point_first);
-    const rg = new THREE.BufferGeometry();
-    rg.setAttribute("position", new THREE.Float32BufferAttribute(rp, 3));
-    add(new THREE.Points(rg, new THREE.PointsMaterial({ size: 8, sizeAttenuation: false, color: COLOURS.rec })));
+    const rec = add(points(THREE, rp, new THREE.PointsMaterial({ size: 8, sizeAttenuation: false, color: COLOURS.rec, depthTest: false }), "recovered"));
+    rec.renderOrder = 1;
   }
-  if (!state.fitted) fit();
-  three.renderer.render(scene, three.camera);
+  if (!state.fitted) fit(false);
+  draw3d();
 }
 
 function readSceneSafe() { try { return readScene(); } catch (e) { return null; } }
 
-// Calls `each(v)` with every drawn vertex (both fields of view, the sampled set, the truth and the
-// recovered points) in world coordinates; `v` is reused between calls.
-function eachVertex(each) {
+// Calls `each(v)` with every drawn vertex of the objects `which` accepts (default: all, both
+// fields of view, the sampled set, the truth and the recovered points) in world coordinates;
+// `v` is reused between calls.
+function eachVertex(each, which) {
   const v = new three.THREE.Vector3();
   for (const o of three.dynamic) {
+    if (which && !which(o)) continue;
     o.updateMatrixWorld(true);
     o.traverse((c) => {
       const pos = c.geometry && c.geometry.getAttribute("position");
@@ -626,55 +726,185 @@ function eachVertex(each) {
   }
 }
 
-// Returns the extent of every drawn vertex on the 3-D canvas in normalised device coordinates
+// Returns the extent of the given points on the 3-D canvas in normalised device coordinates
 // (−1 to 1 is on the canvas).
-function framing() {
+function extent(pts) {
   const { camera } = three;
   camera.updateMatrixWorld();
   const e = { left: Infinity, right: -Infinity, bottom: Infinity, top: -Infinity, points: 0 };
-  eachVertex((v) => {
-    v.project(camera);
+  const v = new three.THREE.Vector3();
+  for (const p of pts) {
+    v.copy(p).project(camera);
     e.left = Math.min(e.left, v.x); e.right = Math.max(e.right, v.x);
     e.bottom = Math.min(e.bottom, v.y); e.top = Math.max(e.top, v.y);
     e.points += 1;
-  });
+  }
   return e;
 }
-window.sonarprojFraming = () => (three.ok ? framing() : null);
 
-// Frames everything drawn: the camera looks from the usual side at the sphere around the drawn
-// vertices, from as far back as that sphere needs, then closes in on what the canvas shows (a
-// few steps, never nearer than the sphere's radius, so that nothing falls behind the camera).
-function fit() {
+// Returns the vertices of the drawn objects of a kind ("samples", "truth", "recovered"), or of
+// all drawn objects.
+function vertices(kind) {
+  const out = [];
+  eachVertex((v) => out.push(v.clone()), kind ? (o) => o.userData.kind === kind : null);
+  return out;
+}
+
+// For tests: the extent on the canvas of everything drawn, or of one kind of points.
+window.sonarprojFraming = (kind) => (three.ok ? extent(vertices(kind)) : null);
+
+// Returns what "frame the feature" shows: the sampled arc or surface, the true point and the
+// recovered points (`focus`), and the sonars whose origins are near them (`context`: within
+// three times the focus's radius; a farther sonar's label points to it from the edge).
+function featurePoints() {
+  const focus = [...vertices("samples"), ...vertices("truth"), ...vertices("recovered")];
+  if (!focus.length) return { focus: vertices(), context: [] };
+  const sphere = new three.THREE.Sphere().setFromPoints(focus);
+  const near = Math.max(3 * sphere.radius, 0.5);
+  return { focus, context: three.origins.filter((o) => o.distanceTo(sphere.center) <= near) };
+}
+
+// Returns the direction from the orbit centre to the camera: from behind, starboard and above
+// for the whole scene; for the feature, mostly square to the plane through sonar 1 and the arc
+// (an imaging sonar's arc is seen from its side, a sidescan's from above), tilted that way.
+function viewDirection(whole) {
+  const THREE = three.THREE;
+  const usual = new THREE.Vector3(-0.6, -0.9, 0.7).normalize();
+  const samples = vertices("samples");
+  if (whole || samples.length < 2) return usual;
+  const centroid = new THREE.Vector3();
+  for (const p of samples) centroid.add(p);
+  centroid.divideScalar(samples.length);
+  const farthest = (from) => samples.reduce((a, p) => (p.distanceToSquared(from) > a.distanceToSquared(from) ? p : a));
+  const a = farthest(centroid), b = farthest(a);
+  const o1 = three.origins[0];
+  const n = new THREE.Vector3().crossVectors(a.clone().sub(o1), b.clone().sub(o1));
+  const scale = a.distanceTo(o1) * b.distanceTo(o1);
+  if (!(n.length() > 1e-3 * scale)) return usual;  // the arc points at sonar 1: no plane
+  n.normalize();
+  if (n.dot(usual) < 0) n.negate();
+  return n.addScaledVector(usual, 0.5).normalize();
+}
+
+// Frames the feature (or, `whole`, everything drawn): the camera looks from `viewDirection` at
+// the sphere around the framed points, from as far back as that sphere needs, then closes in
+// (a few steps, never nearer than the sphere's radius, so that nothing framed falls behind the
+// camera) until the framed points fill 90 % of the canvas, the feature at most 55 %: the arc is
+// large, with room around it for the fields of view that cross it.
+function fit(whole) {
   if (!three.ok || !three.dynamic.length) return;
   const { THREE, camera, controls } = three;
-  const points = [];
-  eachVertex((v) => points.push(v.clone()));
-  const sphere = new THREE.Sphere().setFromPoints(points);
-  const radius = Math.max(sphere.radius, 0.5);
+  const { focus, context } = whole ? { focus: [], context: vertices() } : featurePoints();
+  const pts = [...focus, ...context];
+  const sphere = new THREE.Sphere().setFromPoints(pts);
+  const all = new THREE.Sphere().setFromPoints(vertices());
+  const radius = Math.max(sphere.radius, 0.25);
   const tanV = Math.tan(camera.fov * Math.PI / 360), tanH = tanV * camera.aspect;
-  const towards = new THREE.Vector3(-0.6, -0.9, 0.7).normalize();
+  const towards = viewDirection(whole);
   let distance = 1.05 * radius / Math.sin(Math.atan(Math.min(tanV, tanH)));
-  camera.near = radius / 1000;
-  camera.far = distance * 10;
   controls.target.copy(sphere.center);
   camera.position.copy(sphere.center).addScaledVector(towards, distance);
   camera.lookAt(controls.target);
-  camera.updateProjectionMatrix();
-  for (let step = 0; step < 4; step++) {
-    const e = framing();
+  const halfOf = (e) => Math.max(e.right - e.left, e.top - e.bottom) / 2;
+  for (let step = 0; step < 5; step++) {
+    const e = extent(pts);
     const right = new THREE.Vector3().setFromMatrixColumn(camera.matrixWorld, 0);
     const up = new THREE.Vector3().setFromMatrixColumn(camera.matrixWorld, 1);
     const shift = right.multiplyScalar((e.left + e.right) / 2 * distance * tanH)
       .add(up.multiplyScalar((e.bottom + e.top) / 2 * distance * tanV));
-    const half = Math.max(e.right - e.left, e.top - e.bottom) / 2;
-    distance = Math.max(1.01 * radius, distance * half / 0.92);
+    const ratio = Math.max(halfOf(e) / 0.9, focus.length ? halfOf(extent(focus)) / 0.55 : 0);
+    distance = Math.max(1.01 * radius, distance * ratio);
     controls.target.add(shift);
     camera.position.copy(controls.target).addScaledVector(towards, distance);
     camera.lookAt(controls.target);
   }
+  // Near and far planes that hold everything drawn, not only what is framed.
+  camera.near = Math.max(radius, 0.05) / 1000;
+  camera.far = (distance + camera.position.distanceTo(all.center) + all.radius) * 1.5;
+  camera.updateProjectionMatrix();
   controls.update();
   state.fitted = true;
+  state.cameraMoved = false;
+}
+
+// Draws the 3-D view and what lies over it: a scale bar (its length at the orbit centre) and the
+// two sonars' labels, at their origins or, where one is off the canvas, at the edge towards it.
+function draw3d() {
+  if (!three.ok) return;
+  three.renderer.render(three.scene, three.camera);
+  const { camera, controls } = three;
+  const canvas = $("three-canvas");
+  const W = canvas.clientWidth, H = canvas.clientHeight;
+  const distance = camera.position.distanceTo(controls.target);
+  const perMetre = H / (2 * distance * Math.tan(camera.fov * Math.PI / 360));
+  const metres = niceStep(60 / perMetre, 1);
+  const bar = $("scale-bar");
+  bar.querySelector(".bar").style.width = `${(metres * perMetre).toFixed(1)}px`;
+  $("scale-label").textContent = metres >= 1 ? `${+metres.toPrecision(3)} m` : `${+(100 * metres).toPrecision(3)} cm`;
+  bar.dataset.metres = String(metres);
+  bar.dataset.pixels = String(metres * perMetre);
+  if (!three.origins) return;
+  const truth = vertices("truth")[0];
+  three.origins.forEach((o, k) => placeLabel($(`origin-${k + 1}`), `sonar ${k + 1}`, o, truth, W, H));
+  // Two labels on one spot: the second moves below the first.
+  const [l1, l2] = [$("origin-1"), $("origin-2")];
+  const b1 = l1.getBoundingClientRect(), b2 = l2.getBoundingClientRect();
+  if (b1.left < b2.right && b2.left < b1.right && b1.top < b2.bottom && b2.top < b1.bottom) {
+    l2.style.top = `${(parseFloat(l2.style.top) + (b1.bottom - b2.top) + 2).toFixed(1)}px`;
+  }
+}
+
+const ARROWS = ["→", "↗", "↑", "↖", "←", "↙", "↓", "↘"];
+
+function placeLabel(el, name, p, truth, W, H) {
+  const { camera } = three;
+  const c = p.clone().applyMatrix4(camera.matrixWorldInverse);  // camera space: −z ahead
+  const ndc = p.clone().project(camera);
+  const inFront = c.z < -camera.near;
+  if (inFront && Math.abs(ndc.x) <= 1 && Math.abs(ndc.y) <= 1) {
+    el.textContent = name;
+    el.style.left = `${((ndc.x + 1) / 2 * W + 6).toFixed(1)}px`;
+    el.style.top = `${((1 - ndc.y) / 2 * H - 8).toFixed(1)}px`;
+    el.style.transform = "";
+    el.dataset.where = "on";
+    return;
+  }
+  // Off the canvas: at the edge, in the direction of the sonar from the centre.
+  let dx = inFront ? ndc.x : c.x, dy = inFront ? ndc.y : c.y;
+  if (!inFront && dx === 0 && dy === 0) dy = -1;
+  const k = Math.max(Math.abs(dx), Math.abs(dy)) / 0.92;
+  dx /= k; dy /= k;
+  const angle = Math.atan2(dy * H, dx * W);
+  const arrow = ARROWS[((Math.round(angle / (Math.PI / 4)) % 8) + 8) % 8];
+  const away = truth ? `, ${+p.distanceTo(truth).toPrecision(3)} m away` : "";
+  el.textContent = `${arrow} ${name}${away}`;
+  el.style.left = `${((dx + 1) / 2 * W).toFixed(1)}px`;
+  el.style.top = `${((1 - dy) / 2 * H).toFixed(1)}px`;
+  // keep the label inside: anchored by its side towards the centre
+  el.style.transform = `translate(${(-50 - 50 * dx).toFixed(0)}%, ${(-50 + 50 * dy).toFixed(0)}%)`;
+  el.dataset.where = "edge";
+}
+
+// Sizes the canvases' drawing buffers to what the layout gives them and draws again (the 3-D
+// view framed again while the person has not moved its camera).
+function sizeCanvases() {
+  const data = $("data-canvas");
+  const w = Math.round(data.clientWidth), h = Math.round(data.clientHeight);
+  if (w > 0 && h > 0 && (data.width !== w || data.height !== h)) {
+    data.width = w;
+    data.height = h;
+    drawData();
+  }
+  if (!three.ok) return;
+  const c3 = $("three-canvas");
+  const w3 = Math.round(c3.clientWidth), h3 = Math.round(c3.clientHeight);
+  if (w3 <= 0 || h3 <= 0 || (three.size && three.size[0] === w3 && three.size[1] === h3)) return;
+  three.size = [w3, h3];
+  three.renderer.setSize(w3, h3, false);
+  three.camera.aspect = w3 / h3;
+  three.camera.updateProjectionMatrix();
+  if (state.last && !state.cameraMoved) fit(false);
+  draw3d();
 }
 
 // ---------------------------------------------------------------- start
@@ -682,6 +912,9 @@ function fit() {
 async function start() {
   buildFields();
   await init3d();
+  sizeCanvases();
+  const resized = new ResizeObserver(sizeCanvases);
+  for (const stage of document.querySelectorAll(".stage")) resized.observe(stage);
   let init;
   try {
     init = await (await fetch("/api/init")).json();
@@ -695,7 +928,7 @@ async function start() {
     const sel = $(id);
     for (const s of init.sonars) sel.add(new Option(`${s.label} (${s.kind})`, s.label));
     sel.value = init.initial[id];
-    sel.addEventListener("change", () => { configurePair(true); changed(); });
+    sel.addEventListener("change", () => { configurePair(false); changed(); });
   }
   configurePair(true);
   for (const el of document.querySelectorAll("input[name=mode]")) {
@@ -723,7 +956,8 @@ async function start() {
     changed();
   });
   $("layout-view").addEventListener("change", drawData);
-  $("fit").addEventListener("click", () => { fit(); three.ok && three.renderer.render(three.scene, three.camera); });
+  $("fit").addEventListener("click", () => { fit(false); draw3d(); });
+  $("fit-all").addEventListener("click", () => { fit(true); draw3d(); });
   for (const b of document.querySelectorAll(".tabs button[data-copy]")) {
     b.addEventListener("click", () => {
       state.copy = b.dataset.copy;
