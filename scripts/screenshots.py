@@ -77,7 +77,7 @@ def cli_pictures(out):
         for f in figures:
             shutil.copy(f, out / f"paper-{f.name}")
     with tempfile.TemporaryDirectory() as tmp:
-        # the smooth version, shown beside the reproduction in the README
+        # the smooth version, shown beside the reproduction in docs/paper.md
         subprocess.run([sonarproj, "paper", "--out", tmp, "--step", "auto"], check=True, capture_output=True)
         smooth = pathlib.Path(tmp) / "fls-to-sss-lines.png"
         shutil.copy(smooth, out / "paper-fls-to-sss-lines-smooth.png")

@@ -84,7 +84,7 @@ for example in examples/python/*.py; do
         status=1
     fi
 done
-# The README's Slurm recipe on a real single-node cluster started and stopped by the script.
+# The guide's Slurm recipe (docs/sweeps.md) on a real single-node cluster started and stopped by the script.
 stage slurm bash scripts/test_slurm.sh "$target_dir/release/sonarproj"
 # The viewer (`sonarproj view`) driven in headless Chromium.
 stage browser env SONARPROJ_BIN="$target_dir/release/sonarproj" "$venv/bin/pytest" -q web/tests

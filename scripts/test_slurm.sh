@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runs the README's Slurm recipe on a real single-node Slurm cluster started here by hand (munge,
+# Runs the guide's Slurm recipe (docs/sweeps.md) on a real single-node Slurm cluster started here by hand (munge,
 # slurmctld, slurmd from Debian's packages; no systemd), and checks that the merged sweep is byte
 # for byte what one run writes. Everything lives in a temporary directory with its own munge
 # socket and ports, and is stopped and removed on exit whatever happens.
@@ -103,7 +103,7 @@ done
 echo "test_slurm: Slurm $(sinfo -V | cut -d' ' -f2) up on $node" >&2
 
 # The sweep: 5 shards on an array of 2 tasks (more shards than array tasks), then the merge as a
-# job that waits for the array, as the README says.
+# job that waits for the array, as docs/sweeps.md says.
 cp data/example-sweep.toml "$work/sweep.toml"
 out="$work/out"
 cd "$work"

@@ -1,11 +1,11 @@
 //! How well a match pins the coordinate a sonar loses, at the feature's true point: the local
-//! counterpart of the range span (README: Metrics).
+//! counterpart of the range span (docs/conventions.md).
 //!
 //! The span is the range extent of the whole clipped arc: how far along sonar 2's range a
 //! match must be searched for. How precisely a match then fixes the lost coordinate depends on
 //! the slope at the true point. Where the other sonar's range changes fast along the arc, a
 //! range error moves the recovered elevation little. The model is the first-order one of
-//! [`crate::recovery`] (README: Recovering the lost coordinate):
+//! [`crate::recovery`] (docs/recover.md):
 //!
 //! - FLS sonar 1: its arc `p(el) = sph(r, az, el)` is seen by sonar 2 at range
 //!   `d(el) = |R p(el) + t|`. Then `range_per_elevation = ∂d/∂el` (m/deg) at the true

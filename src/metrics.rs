@@ -272,7 +272,7 @@ impl Serialize for Value {
     }
 }
 
-/// The metrics of one projection (README: Conventions), ranges in metres and azimuths in degrees.
+/// The metrics of one projection (docs/conventions.md), ranges in metres and azimuths in degrees.
 ///
 /// Serialised (JSON) as an object keyed by the [`METRICS`] names in table order, with `null` for
 /// an extreme when nothing is visible. The default is a projection with nothing visible: zeros,

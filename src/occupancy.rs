@@ -1,4 +1,4 @@
-//! Sonar 2's data layout (range bins and beams; README: Conventions) and the occupancy bitset
+//! Sonar 2's data layout (range bins and beams; docs/conventions.md) and the occupancy bitset
 //! drawn in it. [`crate::clip`] decides which bin and beam a point falls in, and whether it is
 //! in view.
 

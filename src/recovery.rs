@@ -1,5 +1,5 @@
-//! Recovering the coordinate a sonar loses, from a correspondence between two sonars (README:
-//! Recovering the lost coordinate).
+//! Recovering the coordinate a sonar loses, from a correspondence between two sonars
+//! (docs/recover.md).
 //!
 //! An FLS measurement `(r, az)` leaves the elevation free: the point lies on the arc
 //! `p(el) = sph(r, az, el)`. The other sonar's range `d` puts it on the sphere of radius `d`

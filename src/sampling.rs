@@ -1,5 +1,5 @@
-//! Measurements, the 3D set each back-projects to (an FLS arc or an SSS surface; README:
-//! Commands, `--step`), and the sampling plan that draws points from that set.
+//! Measurements, the 3D set each back-projects to (an FLS arc or an SSS surface; docs/commands.md,
+//! `--step`), and the sampling plan that draws points from that set.
 
 use crate::error::{Error, Result, finite};
 use crate::geometry::sonar::{Sonar, SonarKind};
@@ -50,7 +50,7 @@ pub enum Sampling {
     /// `linspace(-A/2, A/2, n)`.
     Step(f64),
     /// Steps chosen so neighbouring samples land less than half a range bin and half a beam
-    /// apart in sonar 2 (README: Commands, `--step`): see [`auto_spacing`].
+    /// apart in sonar 2 (docs/commands.md, `--step`): see [`auto_spacing`].
     Auto,
     /// No samples: an FLS feature's arc solved in closed form ([`crate::exact`]). Sonar 1 must
     /// be an FLS.

@@ -115,7 +115,7 @@ def main() -> None:
     )
 
     # Their arc: n = round(10 / 0.1) = 100 elevations, made odd -> 101, linspace(-5, 5, 101).
-    # sonarproj's `step=` samples the same way (README: "step sampling as the published code").
+    # sonarproj's `step=` samples the same way (docs/commands.md: "step sampling as the published code").
     # The FLS measures (range, azimuth); the elevation only served the placement above.
     # (Their arc builder appends [feat_range, feat_elevation, elevation], i.e. it puts the
     # feature's elevation where its azimuth belongs; with both 0 in this config that changes

@@ -31,7 +31,7 @@ FRACTIONS = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]  # of the sidescan's r
 SSS_RANGE_MAX = 30.0  # paper-sss: 0.1 - 30 m
 FEATURE_RANGE = 5.0   # 0.5 x paper-fls's 10 m
 
-# The sweep file (README "Sweeps"; data/example-sweep.toml is the commented example). `from`/`to`
+# The sweep file (docs/sweeps.md; data/example-sweep.toml is the commented example). `from`/`to`
 # are presets; `[feature]` is the true point in sonar 1, `[place]` where it appears in sonar 2,
 # `[rotation]` roll, pitch, yaw (deg, R = (Rz Ry Rx)^T). Every combination of the keys' values is
 # a pose; keys left out are 0.

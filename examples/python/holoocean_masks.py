@@ -8,7 +8,7 @@ exactly (pose and ranges taken as true), then widened for uncertain pose and ran
 The frame is synthetic: speckle plus one bright blob, placed where a true point of the 5.5 m
 sidescan feature really lies, so the masks can be checked against it. It is a numpy array of
 shape (range_bins, beams) = (512, 512) as HoloOcean's ImagingSonar returns it: row 0 is
-range_min, column 0 the starboard-most beam (README "Conventions"); sonarproj's masks use the
+range_min, column 0 the starboard-most beam (docs/conventions.md); sonarproj's masks use the
 same layout, so they overlay the frame index for index.
 
 The picture is the raw layout as a person reads it: near range at the bottom, port on the left

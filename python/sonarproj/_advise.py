@@ -1,4 +1,4 @@
-"""The rig advisor, ``sonarproj.advise`` (README: Rig advisor)."""
+"""The rig advisor, ``sonarproj.advise`` (docs/advise.md)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Sweeps, merges and the paper's simulations: ``sonarproj.sweep``, ``merge`` and ``paper``
-(README: Sweeps, The paper's simulations), the command line's code behind each."""
+(docs/sweeps.md, docs/paper.md), the command line's code behind each."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-//! Relative poses between two sonars (README: Conventions): `p2 = R p1 + t`.
+//! Relative poses between two sonars (docs/conventions.md): `p2 = R p1 + t`.
 
 use glam::{DMat3, DQuat, DVec3};
 
@@ -42,14 +42,14 @@ pub enum Rotation {
     Matrix([[f64; 3]; 3]),
 }
 
-/// Returns the Cartesian point of spherical `(r, az, el)` (radians; README: Conventions).
+/// Returns the Cartesian point of spherical `(r, az, el)` (radians; docs/conventions.md).
 #[must_use]
 pub fn sph_to_cart(r: f64, az: f64, el: f64) -> DVec3 {
     DVec3::new(r * el.cos() * az.cos(), r * el.cos() * az.sin(), r * el.sin())
 }
 
 /// Returns `(r, az, el)` (radians) of a Cartesian point: `r = |p|`, `az = atan2(y, x)`,
-/// `el = asin(z / r)` (README: Conventions); `el = 0` at the origin.
+/// `el = asin(z / r)` (docs/conventions.md); `el = 0` at the origin.
 #[must_use]
 pub fn cart_to_sph(p: DVec3) -> (f64, f64, f64) {
     let r = p.length();
@@ -81,7 +81,7 @@ impl Rotation {
                     finite("pitch", pitch)?.to_radians(),
                     finite("yaw", yaw)?.to_radians(),
                 );
-                // R = (Rz Ry Rx)ᵀ: the passive rotation (README: Conventions).
+                // R = (Rz Ry Rx)ᵀ: the passive rotation (docs/conventions.md).
                 let (rx, ry, rz) = (
                     DMat3::from_rotation_x(roll),
                     DMat3::from_rotation_y(pitch),
@@ -177,7 +177,7 @@ impl RelativePose {
         })
     }
 
-    /// Returns the placement pose (README: Conventions): the feature's true point `sph(first)` in
+    /// Returns the placement pose (docs/conventions.md): the feature's true point `sph(first)` in
     /// sonar 1 appears at `sph(second)` in sonar 2, so `t = sph(second) − R sph(first)`. Both are
     /// `[range (m), azimuth (deg), elevation (deg)]`.
     ///

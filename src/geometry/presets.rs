@@ -1,4 +1,4 @@
-//! The preset sonars (README: Sonars): the paper's pair, makers' data sheets and simulators'
+//! The preset sonars (docs/sonars.md): the paper's pair, makers' data sheets and simulators'
 //! defaults, each row with its source, and the constructors that read them
 //! ([`Sonar::preset`], [`Sonar::preset_names`], [`Sonar::preset_source`]).
 
@@ -17,7 +17,7 @@ type PresetRow = (
     &'static str,
 );
 
-/// The presets (README: Sonars). Sources are kept beside each row.
+/// The presets (docs/sonars.md). Sources are kept beside each row.
 const PRESETS: &[PresetRow] = &[
     // Paper Table I; layout ours: 1 cm range bins, 512 beams.
     (

@@ -1,4 +1,4 @@
-//! Sonars: kind, field of view and data layout (README: Sonars), the presets, and sonar TOML files.
+//! Sonars: kind, field of view and data layout (docs/sonars.md), the presets, and sonar TOML files.
 
 use serde::Deserialize;
 
@@ -68,7 +68,7 @@ pub struct Sonar {
 pub use crate::limits::{MAX_BEAMS, MAX_PIXELS, MAX_RANGE, MAX_RANGE_BINS, MAX_SONAR_FILE_BYTES};
 
 impl Sonar {
-    /// Returns the sonar when every field holds (README: Sonars). Use it to check a sonar built by
+    /// Returns the sonar when every field holds (docs/sonars.md). Use it to check a sonar built by
     /// hand.
     ///
     /// ```
@@ -96,7 +96,7 @@ impl Sonar {
         Ok(self)
     }
 
-    /// Returns `Ok(())` when every field holds (README: Sonars).
+    /// Returns `Ok(())` when every field holds (docs/sonars.md).
     ///
     /// # Errors
     /// [`Error::InvalidValue`] naming the sonar, the field, its value and the allowed range.

@@ -3,7 +3,7 @@
 //!
 //! Masks are conservative, so the true pixel is never missed. A mask is drawn in three steps:
 //!
-//! 1. The back-projected set (an FLS arc or an SSS surface; README: Commands, `--step`) is cut
+//! 1. The back-projected set (an FLS arc or an SSS surface; docs/commands.md, `--step`) is cut
 //!    into cells of an angle grid that tiles sonar 1's aperture exactly. At range `r` there are
 //!    `n_e` elevation cells, and for an SSS also `n_a` azimuth cells. Every point of a cell lies
 //!    within `h = r·√((Δa/2)² + (Δe/2)²)` of the cell's centre point. The path along the sphere

@@ -48,7 +48,7 @@ pub struct Batch {
 /// The result of one projection.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Projection {
-    /// The metrics (README: Conventions).
+    /// The metrics (docs/conventions.md).
     pub metrics: Metrics,
     /// The occupancy buffer, when it was asked for.
     pub occupancy: Option<Occupancy>,

@@ -6,7 +6,7 @@
 
 use crate::metrics::{Metric, Metrics};
 
-/// The metrics of many poses, one column per metric (README: Conventions), in pose order. Every
+/// The metrics of many poses, one column per metric (docs/conventions.md), in pose order. Every
 /// column is kept unless the columns were made by [`MetricColumns::only`]. A column not kept stays
 /// empty whatever the rows.
 #[derive(Clone, Debug, PartialEq)]

@@ -1,4 +1,4 @@
-//! How far the GPU may honestly differ from the f64 reference (README: How the GPU is checked).
+//! How far the GPU may honestly differ from the f64 reference (docs/gpu.md).
 //!
 //! 1. Each sample gets a range tolerance of [`RELATIVE_TOLERANCE`] × its range in sonar 2. Add
 //!    [`INPUT_TOLERANCE`] × (`range + |t|`), since the pose and directions reach the GPU as f32

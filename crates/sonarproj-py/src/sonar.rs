@@ -157,7 +157,7 @@ impl PySonar {
     /// Returns the sonar HoloOcean simulates for `sensor`. That is a scenario's sensor entry (a
     /// dict with `sensor_type` and, optionally, `configuration`), or a `configuration` block with
     /// `sensor_type` given apart. Its layout is the frame HoloOcean returns, index for index
-    /// (README: Sonars).
+    /// (docs/sonars.md).
     #[staticmethod]
     #[pyo3(signature = (sensor, sensor_type=None, name=None))]
     fn from_holoocean(

@@ -291,7 +291,7 @@ pub fn proptest_config() -> proptest::test_runner::Config {
     }
 }
 
-/// A decoded picture the CLI wrote, read by the picture convention of the README and the
+/// A decoded picture the CLI wrote, read by the picture convention of docs/conventions.md and the
 /// `report` module: panels of sonar data are the light grey (235, 235, 235) areas, the empty
 /// field of view. Masks and occupied pixels are coloured.
 pub struct Picture {

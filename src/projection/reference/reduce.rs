@@ -1,6 +1,6 @@
 //! The reference's reduce stage; its twins are `shaders/reduce.wgsl` and `projection::fast`'s
 //! reduce step. One pose's occupancy buffer becomes the occupied count and the occupied measure:
-//! bin widths for an SSS, true pixel areas for an FLS (README: Conventions). Its projection-area
+//! bin widths for an SSS, true pixel areas for an FLS (docs/conventions.md). Its projection-area
 //! cells become the projection area.
 
 use crate::occupancy::{Layout, Occupancy};

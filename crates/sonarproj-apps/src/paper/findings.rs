@@ -20,7 +20,7 @@ fn quantile(v: &[f64], q: f64) -> f64 {
 /// The verdict on one of the paper's qualitative findings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Finding {
-    /// The finding in the paper's words (README: The paper's simulations).
+    /// The finding in the paper's words (docs/paper.md).
     pub claim: &'static str,
     /// Whether the numbers bear it out.
     pub holds: bool,
@@ -28,7 +28,7 @@ pub struct Finding {
     pub evidence: String,
 }
 
-/// Returns the paper's four findings (README: The paper's simulations) checked against `runs`.
+/// Returns the paper's four findings (docs/paper.md) checked against `runs`.
 /// `runs` holds both directions, with every fraction and 0°, 90° and 180° among the angles.
 pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
     let get = |d: Direction| {

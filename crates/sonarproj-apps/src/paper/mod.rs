@@ -1,4 +1,4 @@
-//! The paper's simulations (see the README): builds the poses, runs them on a backend, and checks
+//! The paper's simulations (see docs/paper.md): builds the poses, runs them on a backend, and checks
 //! the paper's qualitative findings against the numbers. Both directions (fls→sss, sss→fls) use
 //! the paper presets, a feature at azimuth and elevation 0 in both sonars, placement poses, and
 //! nine scenarios of swept rotations and feature distances.

@@ -1,6 +1,6 @@
 //! Occupancy buffers as files: PNG for a person, NPY for numpy.
 //!
-//! The NPY keeps the layout of README: Conventions. Row 0 is `range_min`, and column 0 is beam
+//! The NPY keeps the layout of docs/conventions.md. Row 0 is `range_min`, and column 0 is beam
 //! 0 at `-aperture/2`: starboard, since +azimuth points to +y, port. `flip_range` puts
 //! `range_max` in row 0, and `flip_beams` the port-most beam in column 0.
 //!

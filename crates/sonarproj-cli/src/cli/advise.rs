@@ -12,7 +12,7 @@ use sonarproj_apps::advise::{self, AdviseConfig};
 #[derive(Debug, clap::Args)]
 pub(super) struct AdviseArgs {
     /// The advise file (TOML): sonar pair, objective, [features], [rig], [search] and an optional
-    /// [from_pose]. See README "Rig advisor" and data/example-advise.toml.
+    /// [from_pose]. See docs/advise.md and data/example-advise.toml.
     #[arg(long, value_name = "FILE.toml")]
     config: PathBuf,
     /// Output directory: best.json (the ranked poses, the next-best move), candidates.parquet

@@ -54,7 +54,7 @@ enum Command {
     Project(project::ProjectArgs),
     /// Project every row of a CSV of poses; write a CSV of metrics.
     Batch(batch::BatchArgs),
-    /// Run the paper's simulations (README): CSV, figures and the findings, checked.
+    /// Run the paper's simulations (docs/paper.md): CSV, figures and the findings, checked.
     Paper(paper::PaperArgs),
     /// Run a sweep file (grids of rotations, distances and placements, or pose lists) in
     /// resumable chunks, optionally as one shard of N; write the table (CSV or Parquet), the

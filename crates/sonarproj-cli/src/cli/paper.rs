@@ -1,4 +1,4 @@
-//! `sonarproj paper`: the paper's simulations (README), CSV, figures and findings.
+//! `sonarproj paper`: the paper's simulations (docs/paper.md), CSV, figures and findings.
 
 use std::path::PathBuf;
 

@@ -1,5 +1,5 @@
 //! `sonarproj recover`: the coordinate each sonar loses, from one correspondence (JSON) or a
-//! CSV of them (`--input`). See README: Recovering the lost coordinate.
+//! CSV of them (`--input`). See docs/recover.md.
 
 use serde_json::json;
 use sonarproj::recovery::{DEFAULT_CURVE_STEP, Observation, Recovery, Sigmas, recover};
@@ -54,7 +54,7 @@ pub(super) struct RecoverArgs {
     /// SSS + SSS: spacing (m) of the points returned along the curve.
     #[arg(long, value_name = "M", default_value_t = DEFAULT_CURVE_STEP)]
     curve_step: f64,
-    /// Batch mode: a CSV of correspondences ('-' for stdin); columns in the README.
+    /// Batch mode: a CSV of correspondences ('-' for stdin); columns in docs/recover.md.
     #[arg(long, value_name = "FILE",
           conflicts_with_all = ["first", "second", "translation", "place_range", "quaternion", "matrix"])]
     input: Option<String>,

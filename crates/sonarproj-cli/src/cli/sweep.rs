@@ -14,7 +14,7 @@ use sonarproj_apps::sweep::{self, Event, Options, Shard, SweepConfig};
 #[derive(Debug, clap::Args)]
 pub(super) struct SweepArgs {
     /// The sweep file (TOML): sonar pair, sampling, and a grid ([feature], [place] or
-    /// [translation], [rotation]) or `poses = "FILE.csv"`. See README "Sweeps".
+    /// [translation], [rotation]) or `poses = "FILE.csv"`. See docs/sweeps.md.
     #[arg(long, value_name = "FILE.toml")]
     config: PathBuf,
     /// Output directory: sweep.csv or sweep.parquet (or shard-K-of-N.csv/.parquet), summary.json
