@@ -545,7 +545,7 @@ impl<'l> Solver<'l> {
             if b <= a || !self.piece_inside(arc, a, b) {
                 continue;
             }
-            // Touching visible pieces make one run of the arc: one `atan` pair for its length.
+            // Touching visible pieces make one run of the arc: one `atan` for its length.
             run = match run {
                 Some([s, e]) if e == a => Some([s, b]),
                 Some([s, e]) => {
@@ -561,9 +561,8 @@ impl<'l> Solver<'l> {
             } else {
                 0.0
             };
-            // The piece's ends and inner turning points, in order: the range and the azimuth are
-            // monotone between them.
-            // The ends and 4 stationary points at most.
+            // The piece's ends and inner turning points (4 at most), in order: the range and the
+            // azimuth are monotone between them.
             let mut at = List::<6>::default();
             at.push(a);
             for &s in turns.as_slice() {
