@@ -605,7 +605,15 @@ impl<'l> Solver<'l> {
             // φ = 2 atan s: each run's length over the arc's 2H.
             Some([s, e]) => ((length + arc_angle(s, e)) / self.half).min(1.0),
         };
-        let summary = if let Some(occ) = occupancy {
+        let summary = self.count_cells(cells, occupancy, beams);
+        Metrics::exact(fraction, extremes, summary)
+    }
+
+    /// Returns `(occupied, occupied_measure)` of the cells [`Solver::solve`] gathered in `cells`,
+    /// setting them in `occupancy` when one is given (its reduce stage then counts them); `(0, 0)`
+    /// when the cells are not kept.
+    fn count_cells(&self, cells: &mut Cells, occupancy: Option<&mut Occupancy>, beams: bool) -> (u64, f64) {
+        if let Some(occ) = occupancy {
             for &(i, j) in &cells.cells {
                 occ.set(i, j);
             }
@@ -645,8 +653,7 @@ impl<'l> Solver<'l> {
                 .iter()
                 .fold(0.0, |sum, &(i, j)| sum + self.layout.pixel_measure(i, j));
             (c.len() as u64, measure)
-        };
-        Metrics::exact(fraction, extremes, summary)
+        }
     }
 
     /// Hands `cell` the cells of the arc between two points where its range and azimuth are both

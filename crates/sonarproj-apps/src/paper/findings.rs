@@ -30,6 +30,7 @@ pub struct Finding {
 
 /// Returns the paper's four findings (docs/paper.md) checked against `runs`.
 /// `runs` holds both directions, with every fraction and 0°, 90° and 180° among the angles.
+#[must_use]
 pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
     let get = |d: Direction| {
         runs.iter()
@@ -37,9 +38,16 @@ pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
             .expect("both directions run")
     };
     let (fs, sf) = (get(Direction::FlsToSss), get(Direction::SssToFls));
-    let mut out = Vec::new();
+    vec![
+        short_spans(fs),
+        long_spans(fs),
+        small_areas(sf),
+        near_minimum_range(fs, sf),
+    ]
+}
 
-    // 1. fls→sss spans short with all angles 0 or 180°: corners of the (roll, pitch) grid.
+/// Finding 1: fls→sss spans are short with all angles 0 or 180° (the corners of scenario 7's grid).
+fn short_spans(fs: &DirectionRun) -> Finding {
     let grid = fs.values(7, None);
     let (p10, p90) = (quantile(&grid, 0.1), quantile(&grid, 0.9));
     let corners: Vec<(f64, f64, f64)> = [(0.0, 0.0), (0.0, 180.0), (180.0, 0.0), (180.0, 180.0)]
@@ -53,13 +61,17 @@ pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
     for (r, p, v) in &corners {
         let _ = writeln!(ev, "| {r} | {p} | {v:.6} |");
     }
-    out.push(Finding {
+    Finding {
         claim: "fls→sss: range spans are short when all angles are 0 or 180°",
         holds: !corners.is_empty() && corners.iter().all(|c| c.2 <= p10),
         evidence: ev,
-    });
+    }
+}
 
-    // 2. fls→sss spans long for roll 0/180° with pitch 90°.
+/// Finding 2: fls→sss spans are long for roll 0° or 180° with pitch 90°.
+fn long_spans(fs: &DirectionRun) -> Finding {
+    let grid = fs.values(7, None);
+    let p90 = quantile(&grid, 0.9);
     let long: Vec<(f64, f64)> = [0.0, 180.0]
         .iter()
         .filter_map(|&r| fs.at(7, None, [r, 90.0, 0.0]).map(|v| (r, v)))
@@ -72,13 +84,15 @@ pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
     for (r, v) in &long {
         let _ = writeln!(ev, "| {r} | 90 | {v:.6} |");
     }
-    out.push(Finding {
+    Finding {
         claim: "fls→sss: range spans are long for roll 0° or 180° with pitch 90°",
         holds: long.len() == 2 && long.iter().all(|l| l.1 >= p90),
         evidence: ev,
-    });
+    }
+}
 
-    // 3. sss→fls areas smallest for roll 90° with pitch and yaw at 0 or 180°.
+/// Finding 3: sss→fls areas are smallest for roll 90° with pitch and yaw at 0 or 180°.
+fn small_areas(sf: &DirectionRun) -> Finding {
     let rp = sf.values(7, None);
     let yr = sf.values(9, None);
     let (rp10, yr10) = (quantile(&rp, 0.1), quantile(&yr, 0.1));
@@ -104,12 +118,15 @@ pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
             );
         }
     }
-    out.push(Finding {
+    Finding {
         claim: "sss→fls: projection areas are smallest for roll 90° with pitch and yaw at 0 or 180°",
         holds: seen == 4 && all_small,
         evidence: ev,
-    });
+    }
+}
 
+/// Finding 4: both metrics shrink near the minimum range of both sonars.
+fn near_minimum_range(fs: &DirectionRun, sf: &DirectionRun) -> Finding {
     // 4. Both shrink when the feature is near the minimum range of both sonars: scenario 7's
     // grid with both features at NEAR_FRACTION of r_max against the same grid at 0.5 r_max.
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
@@ -150,12 +167,11 @@ pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
             );
         }
     }
-    out.push(Finding {
+    Finding {
         claim: "both metrics shrink when the feature is near the minimum range of both sonars",
         holds: shrinks,
         evidence: ev,
-    });
-    out
+    }
 }
 
 /// Returns `findings.md`: each finding, whether the numbers bear it out, and the numbers.
