@@ -34,7 +34,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::roots::{List, newton_root_between};
-use super::{Arc, azimuth_of};
+use super::{Arc, VOTES, azimuth_of, by_vote, farthest_sign, rectangle, walk};
 use crate::SonarKind;
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::{Layout, Occupancy};
@@ -366,23 +366,16 @@ impl<'l> Solver<'l> {
     /// since a point where the arc only touches a bound may sit at the middle.
     fn piece_inside(&self, arc: &Arc, a: f64, b: f64) -> bool {
         let inside = |f: f64| self.inside_scaled(arc, a + f * (b - a));
-        let (middle, clear) = inside(0.5);
+        let (middle, clear) = inside(VOTES[0]);
         if clear {
             return middle;
         }
-        match (middle, inside(0.309_017).0) {
-            (x, y) if x == y => x,
-            _ => inside(0.723_607).0,
-        }
+        by_vote(middle, |f| inside(f).0)
     }
 
     /// Returns the sign of `y` along the piece `[a, b]`, as the reference's `side_of`.
     fn side_of(arc: &Arc, a: f64, b: f64) -> f64 {
-        let y = [0.5, 0.309_017, 0.723_607].map(|f| point(arc, a + f * (b - a)).y);
-        let far = y
-            .into_iter()
-            .fold(0.0f64, |m, v| if v.abs() > m.abs() { v } else { m });
-        far.signum()
+        farthest_sign(VOTES.map(|f| point(arc, a + f * (b - a)).y))
     }
 
     /// Returns `None` when the arc surely misses the field of view, else which bounds it may
@@ -668,11 +661,7 @@ impl<'l> Solver<'l> {
         let layout = self.layout;
         let (j0, j1) = (layout.beam(az0), layout.beam(az1));
         if i0 == i1 || j0 == j1 {
-            for i in i0.min(i1)..=i0.max(i1) {
-                for j in j0.min(j1)..=j0.max(j1) {
-                    cell(i, j);
-                }
-            }
+            rectangle((i0, i1), (j0, j1), cell);
             return;
         }
         // Both change: the edges are crossed in the order of their roots, each the one root on
@@ -701,17 +690,7 @@ impl<'l> Solver<'l> {
             });
             events.push((root.unwrap_or_else(|| nearer_end(c, a, b)), false));
         }
-        events.sort_by(|p, q| p.0.total_cmp(&q.0));
-        let (mut i, mut j) = (i0, j0);
-        cell(i, j);
-        for (_, is_range) in events {
-            if is_range {
-                i = if i1 > i0 { i + 1 } else { i - 1 };
-            } else {
-                j = if j1 > j0 { j + 1 } else { j - 1 };
-            }
-            cell(i, j);
-        }
+        walk((i0, i1), (j0, j1), &mut events, cell);
     }
 }
 

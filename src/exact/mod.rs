@@ -190,11 +190,28 @@ fn azimuth_of(q: DVec3, side: f64) -> f64 {
 /// cut where it does) but may touch 0: the sign at whichever of three inner points lies
 /// farthest from `y = 0`.
 fn side_of(arc: &Arc, a: f64, b: f64) -> f64 {
-    let y = [0.5, 0.309_017, 0.723_607].map(|f| arc.at(a + f * (b - a)).y);
+    farthest_sign(VOTES.map(|f| arc.at(a + f * (b - a)).y))
+}
+
+/// Where in a piece `[a, b]` (as fractions of it) its verdicts are taken: the middle, then two
+/// points that no symmetry of the piece maps onto the middle or each other.
+const VOTES: [f64; 3] = [0.5, 0.309_017, 0.723_607];
+
+/// Returns the sign of whichever of `y` lies farthest from 0 (0 when all are).
+fn farthest_sign(y: [f64; 3]) -> f64 {
     let far = y
         .into_iter()
         .fold(0.0f64, |m, v| if v.abs() > m.abs() { v } else { m });
     far.signum()
+}
+
+/// Returns the piece's verdict from `first`, the verdict at its middle, and `inside` at the other
+/// points of [`VOTES`]: two agreeing votes settle it, a third breaks a tie.
+fn by_vote(first: bool, inside: impl Fn(f64) -> bool) -> bool {
+    match (first, inside(VOTES[1])) {
+        (x, y) if x == y => x,
+        _ => inside(VOTES[2]),
+    }
 }
 
 /// Returns the elevations in `[a, b]` where the range or the azimuth is stationary.
@@ -222,12 +239,7 @@ fn piece_inside(arc: &Arc, layout: &Layout, a: f64, b: f64) -> bool {
         let (r, az, el) = cart_to_sph(arc.at(a + f * (b - a)));
         layout.inside(r, az, el)
     };
-    let first = inside(0.5);
-    // Two agreeing votes settle it; a third breaks a tie.
-    match (first, inside(0.309_017)) {
-        (x, y) if x == y => x,
-        _ => inside(0.723_607),
-    }
+    by_vote(inside(VOTES[0]), inside)
 }
 
 /// Returns what of `arc` lies in `layout`'s field of view.
@@ -290,18 +302,13 @@ fn staircase(arc: &Arc, layout: &Layout, side: f64, a: f64, b: f64, cell: &mut d
     let (i0, i1) = (layout.range_bin(range(a)), layout.range_bin(range(b)));
     let (j0, j1) = (layout.beam(azimuth(a)), layout.beam(azimuth(b)));
     if i0 == i1 || j0 == j1 {
-        for i in i0.min(i1)..=i0.max(i1) {
-            for j in j0.min(j1)..=j0.max(j1) {
-                cell(i, j);
-            }
-        }
+        rectangle((i0, i1), (j0, j1), cell);
         return;
     }
     // Both change: the order in which bin and beam edges are crossed decides the cells. Each
     // crossing is the one root of a monotone function on [a, b].
     let crossing = |f: &dyn Fn(f64) -> f64| monotone_root(f, a, b).unwrap_or(a);
     let mut events: Vec<(f64, bool)> = Vec::new();
-    let step_i = if i1 > i0 { 1 } else { 0 };
     for i in i0.min(i1) + 1..=i0.max(i1) {
         let edge = layout.range_edge(i);
         events.push((crossing(&|phi| range(phi) - edge), true));
@@ -310,12 +317,33 @@ fn staircase(arc: &Arc, layout: &Layout, side: f64, a: f64, b: f64, cell: &mut d
         let edge = layout.beam_edges[j];
         events.push((crossing(&|phi| azimuth(phi) - edge), false));
     }
+    walk((i0, i1), (j0, j1), &mut events, cell);
+}
+
+/// Hands `cell` every cell of the rectangle of range bins `i0..=i1` and beams `j0..=j1` (either
+/// order): the cells of a stretch where one of the two does not change.
+fn rectangle((i0, i1): (usize, usize), (j0, j1): (usize, usize), cell: &mut dyn FnMut(usize, usize)) {
+    for i in i0.min(i1)..=i0.max(i1) {
+        for j in j0.min(j1)..=j0.max(j1) {
+            cell(i, j);
+        }
+    }
+}
+
+/// Hands `cell` the cells a stretch walks from `(i0, j0)` to `(i1, j1)`, given its crossings of
+/// bin edges (`true`) and beam edges (`false`) at their positions along the arc, in any order.
+fn walk(
+    (i0, i1): (usize, usize),
+    (j0, j1): (usize, usize),
+    events: &mut [(f64, bool)],
+    cell: &mut dyn FnMut(usize, usize),
+) {
     events.sort_by(|x, y| x.0.total_cmp(&y.0));
     let (mut i, mut j) = (i0, j0);
     cell(i, j);
-    for (_, is_range) in events {
+    for &(_, is_range) in events.iter() {
         if is_range {
-            i = if step_i == 1 { i + 1 } else { i - 1 };
+            i = if i1 > i0 { i + 1 } else { i - 1 };
         } else {
             j = if j1 > j0 { j + 1 } else { j - 1 };
         }

@@ -361,18 +361,22 @@ fn every_code_block_of_the_readme_and_the_guide_runs() {
     );
 }
 
+/// Returns the lines of `text` outside its fenced code blocks (the fences' own lines too left out).
+fn outside_fences(text: &str) -> impl Iterator<Item = &str> {
+    let mut fenced = false;
+    text.lines().filter(move |line| {
+        if line.trim_start().starts_with("```") {
+            fenced = !fenced;
+            return false;
+        }
+        !fenced
+    })
+}
+
 /// Returns `text` without its fenced blocks and inline code spans, where `](` is not a link.
 fn prose(text: &str) -> String {
     let mut out = String::new();
-    let mut fenced = false;
-    for line in text.lines() {
-        if line.trim_start().starts_with("```") {
-            fenced = !fenced;
-            continue;
-        }
-        if fenced {
-            continue;
-        }
+    for line in outside_fences(text) {
         let mut rest = line;
         while let Some(start) = rest.find('`') {
             out.push_str(&rest[..start]);
@@ -414,15 +418,7 @@ fn slug(heading: &str) -> String {
 fn anchors(text: &str) -> HashSet<String> {
     let mut seen: HashMap<String, usize> = HashMap::new();
     let mut out = HashSet::new();
-    let mut fenced = false;
-    for line in text.lines() {
-        if line.trim_start().starts_with("```") {
-            fenced = !fenced;
-            continue;
-        }
-        if fenced {
-            continue;
-        }
+    for line in outside_fences(text) {
         if let Some(heading) = line.strip_prefix('#') {
             let base = slug(heading.trim_start_matches('#').trim());
             let n = seen.entry(base.clone()).or_insert(0);
