@@ -69,8 +69,38 @@ fn the_example_writes_its_files_and_batch_recomputes_the_best_score() {
     let sum: f64 = rows.iter().map(|row| row[area].parse::<f64>().unwrap()).sum();
     #[expect(clippy::cast_precision_loss, reason = "a thousand features")]
     let mean = sum / rows.len() as f64;
-    assert_eq!(top["metric"]["mean"].as_f64().unwrap(), mean, "the score by hand");
-    assert_eq!(top["score"].as_f64().unwrap(), mean);
+    assert_eq!(top["metric"]["mean"].as_f64().unwrap(), mean, "the areas by hand");
+    // The score: each pool point examined costs its area when both sonars see it, else a blind
+    // search of sonar 2's whole sector (paper-fls: 60 deg, 0.1-10 m).
+    let blind = 60f64.to_radians() / 2.0 * (10f64.powi(2) - 0.1f64.powi(2));
+    assert_eq!(best["objective"]["blind_cost"].as_f64().unwrap(), blind);
+    let examined = top["examined"].as_u64().unwrap() as f64;
+    let unseen = examined - rows.len() as f64;
+    let cost = (rows
+        .iter()
+        .map(|row| row[area].parse::<f64>().unwrap().min(blind))
+        .sum::<f64>()
+        + unseen * blind)
+        / examined;
+    let score = top["score"].as_f64().unwrap();
+    assert!(
+        (score - cost).abs() <= 1e-12 * cost,
+        "{score} against {cost} by hand"
+    );
+    assert_eq!(best["score_unit"], "m²");
+    // The ties, the recommended pose and the Pareto front are reported.
+    let tied = best["tied"].as_u64().unwrap();
+    assert!(tied >= 1 && best["recommended"]["tied"] == true, "{best}");
+    assert!(
+        err.contains(&format!("{tied} candidate(s) tied with the best")),
+        "{err}"
+    );
+    let pareto = std::fs::read_to_string(out.join("pareto.csv")).unwrap();
+    assert_eq!(
+        pareto.lines().count() as u64,
+        1 + best["pareto"].as_u64().unwrap()
+    );
+    assert!(pareto.starts_with("index,roll,pitch,yaw,x,y,z,shared,shared_se,ambiguity_m²"));
 }
 
 /// Returns the rows whose true points sonar 2 (paper-fls) sees under `top`'s pose.

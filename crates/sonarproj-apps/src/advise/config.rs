@@ -5,7 +5,7 @@
 //! from = "paper-fls"            # sonar 1: preset or sonar TOML file (relative to this file)
 //! to = "paper-sss"              # sonar 2
 //! step = 0.1                    # sampling step (deg); leave out for auto sampling
-//! objective = "correspondence"  # or "recovery", or "mix" (with [mix])
+//! objective = "correspondence"  # or "ambiguity", "recovery", or "mix" (with [mix])
 //! min_shared = 0.1              # the least fraction of the features both sonars must see
 //!
 //! [features]                    # 1000 features both sonars see, a seeded draw ...
@@ -49,16 +49,27 @@ use crate::error::{Error, Result};
 use crate::io::toml_keys::{ConfigFile, numbers};
 use crate::sweep::config::resolve_sonar;
 
-/// What the advisor minimises.
+/// What the advisor minimises, each with its standard error over the feature draw (`score_se`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Objective {
-    /// The mean projection metric over the shared features: range span for an SSS sonar 2,
-    /// projection area for an FLS. Small means a feature's match is easy to find.
+    /// The expected cost of finding a feature's match in sonar 2's data, per point of the
+    /// features' pool: a point both sonars see costs its projection metric (range span m for an
+    /// SSS sonar 2, projection area m² for an FLS; at most the blind cost), one sonar 2 does not
+    /// see costs a blind search of sonar 2's whole data (its range extent, or its field of view's
+    /// area). Sharing fewer features never lowers it: each feature lost trades its metric for the
+    /// blind cost. Error: the costs' standard deviation over `√(points examined)`.
     Correspondence,
+    /// The mean projection metric over the shared features alone: how hard a match is to find
+    /// once both sonars see the feature. It improves when sonar 2 clips more of each arc, so it
+    /// rewards sharing fewer features; use it with `min_shared`, or read it on the Pareto front.
+    /// Error: the standard deviation over `√(shared features)`.
+    Ambiguity,
     /// The median first-order elevation sigma (deg) of the recovered coordinate, over the shared
-    /// features that have one. Small means recovery is precise.
+    /// features that have one. Small means recovery is precise. Error: the order statistics'
+    /// interval for the median ([`crate::advise::Stats::median_se`]).
     Recovery,
-    /// `weight · metric mean / metric_scale + (1 − weight) · sigma median / sigma_scale`.
+    /// `weight · correspondence / metric_scale + (1 − weight) · sigma median / sigma_scale`.
+    /// Error: the two parts' errors combined as if independent.
     Mix {
         /// The weight of correspondence, in `[0, 1]`.
         weight: f64,
@@ -372,6 +383,7 @@ fn sampling(f: ConfigFile<'_>, top: &toml::Table) -> Result<Sampling> {
 fn objective(f: ConfigFile<'_>, top: &toml::Table) -> Result<Objective> {
     let objective = match f.string(top, "objective")?.unwrap_or("correspondence") {
         "correspondence" => Objective::Correspondence,
+        "ambiguity" => Objective::Ambiguity,
         "recovery" => Objective::Recovery,
         "mix" => {
             let mix = f.table(top, "mix")?.ok_or_else(|| {
@@ -399,7 +411,7 @@ fn objective(f: ConfigFile<'_>, top: &toml::Table) -> Result<Objective> {
             return Err(f.error(
                 "objective",
                 format!("{other:?}"),
-                "must be \"correspondence\", \"recovery\" or \"mix\"",
+                "must be \"correspondence\", \"ambiguity\", \"recovery\" or \"mix\"",
             ));
         }
     };

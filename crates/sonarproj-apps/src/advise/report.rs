@@ -10,10 +10,11 @@ use serde_json::json;
 use crate::advise::Advice;
 use crate::advise::config::{AXES, AdviseConfig, Objective, Rig, unit};
 use crate::advise::features::Features;
-use crate::advise::score::{Pool, Score};
+use crate::advise::score::{Params, Pool, Score};
 use crate::advise::search::Stage;
 use crate::error::{Error, Result};
 use crate::io::parquet::{Column, Encoding, Kind, Table, TableWriter};
+use crate::report::figures::Mark;
 use crate::report::{check_output_file, output_dir, write_atomic};
 
 /// The files [`write()`] wrote.
@@ -25,6 +26,8 @@ pub struct Written {
     pub candidates: PathBuf,
     /// `DIR/features.csv`.
     pub features: PathBuf,
+    /// `DIR/pareto.csv`.
+    pub pareto: PathBuf,
     /// `DIR/landscape.png`, when two axes vary.
     pub landscape: Option<PathBuf>,
 }
@@ -32,7 +35,7 @@ pub struct Written {
 /// How many ranked poses `best.json` lists.
 pub(crate) const RANKED: usize = 10;
 
-const COLUMNS: [&str; 22] = [
+const COLUMNS: [&str; 26] = [
     "index",
     "stage",
     "roll",
@@ -45,6 +48,8 @@ const COLUMNS: [&str; 22] = [
     "ty",
     "tz",
     "shared",
+    "shared_se",
+    "examined",
     "features",
     "metric_mean",
     "metric_median",
@@ -55,6 +60,8 @@ const COLUMNS: [&str; 22] = [
     "sigma_p10",
     "sigma_p90",
     "score",
+    "score_se",
+    "tied",
 ];
 
 /// Writes the advisor's files into `dir` (created when missing), each whole or not at all.
@@ -66,11 +73,17 @@ pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Writt
         best: dir.join("best.json"),
         candidates: dir.join("candidates.parquet"),
         features: dir.join("features.csv"),
+        pareto: dir.join("pareto.csv"),
         landscape: config.landscape.map(|_| dir.join("landscape.png")),
     };
-    for f in [&written.best, &written.candidates, &written.features]
-        .into_iter()
-        .chain(written.landscape.as_ref())
+    for f in [
+        &written.best,
+        &written.candidates,
+        &written.features,
+        &written.pareto,
+    ]
+    .into_iter()
+    .chain(written.landscape.as_ref())
     {
         check_output_file(f, crate::params::OUT)?;
     }
@@ -86,8 +99,10 @@ pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Writt
         let kinds: Vec<Kind> = COLUMNS
             .iter()
             .map(|c| match *c {
-                "index" | "stage" | "features" => Kind::Int,
-                c if c.starts_with("metric") || c.starts_with("sigma") || c == "score" => Kind::Optional,
+                "index" | "stage" | "features" | "examined" | "tied" => Kind::Int,
+                c if c.starts_with("metric") || c.starts_with("sigma") || c.starts_with("score") => {
+                    Kind::Optional
+                }
                 _ => Kind::Real,
             })
             .collect();
@@ -132,6 +147,9 @@ pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Writt
         }
         out.flush().map_err(|e| Error::write_output(&written.features, e))
     })?;
+    write_atomic(&written.pareto, |w| {
+        pareto_csv(config, advice, w, &written.pareto)
+    })?;
     if let (Some(path), Some(axes)) = (&written.landscape, config.landscape) {
         landscape(config, advice, axes, &best, path)?;
     }
@@ -161,6 +179,8 @@ fn candidates_table(names: &[String], kinds: &[Kind], advice: &Advice) -> Table 
         real(&|s| s.translation[1]),
         real(&|s| s.translation[2]),
         real(&|s| s.shared),
+        real(&|s| s.shared_se),
+        Column::Int(c.iter().map(|(_, s)| s.examined as i64).collect()),
         Column::Int(c.iter().map(|(_, s)| s.features as i64).collect()),
         optional(&|s| s.metric.mean),
         optional(&|s| s.metric.median),
@@ -171,23 +191,53 @@ fn candidates_table(names: &[String], kinds: &[Kind], advice: &Advice) -> Table 
         optional(&|s| s.sigma.p10),
         optional(&|s| s.sigma.p90),
         optional(&|s| s.score),
+        optional(&|s| s.score_se),
+        Column::Int(c.iter().map(|(_, s)| i64::from(s.tied)).collect()),
     ];
     t
 }
 
+/// Returns the unit of the projection metric (`m` for a sidescan's span, `m²` for an imaging
+/// sonar's area) and of the score.
+pub(crate) fn units(config: &AdviseConfig) -> (&'static str, &'static str) {
+    let metric = match config.target.kind {
+        sonarproj::SonarKind::Sss => "m",
+        sonarproj::SonarKind::Fls => "m²",
+    };
+    let score = match config.objective {
+        Objective::Correspondence | Objective::Ambiguity => metric,
+        Objective::Recovery => "deg",
+        Objective::Mix { .. } => "1",
+    };
+    (metric, score)
+}
+
 fn best_json(config: &AdviseConfig, advice: &Advice) -> serde_json::Value {
+    let (metric_unit, unit) = units(config);
+    let blind = crate::advise::Scorer::blind_cost(&config.target);
+    let correspondence = format!(
+        "mean search cost per feature: its {} ({metric_unit}) when both sonars see it, else a blind search of sonar 2 ({blind} {metric_unit})",
+        advice.metric
+    );
     let objective = match config.objective {
         Objective::Correspondence => {
-            json!({ "name": "correspondence", "minimises": format!("mean {}", advice.metric) })
+            json!({ "name": "correspondence", "minimises": correspondence, "unit": unit, "blind_cost": blind })
         }
-        Objective::Recovery => json!({ "name": "recovery", "minimises": "median sigma_elevation (deg)" }),
+        Objective::Ambiguity => {
+            json!({ "name": "ambiguity", "minimises": format!("mean {} of the shared features ({metric_unit})", advice.metric), "unit": unit })
+        }
+        Objective::Recovery => {
+            json!({ "name": "recovery", "minimises": "median sigma_elevation (deg)", "unit": unit })
+        }
         Objective::Mix {
             weight,
             metric_scale,
             sigma_scale,
         } => json!({
             "name": "mix",
-            "minimises": format!("{weight} * mean {} / {metric_scale} + {} * median sigma_elevation / {sigma_scale}", advice.metric, 1.0 - weight),
+            "minimises": format!("{weight} * ({correspondence}) / {metric_scale} {metric_unit} + {} * median sigma_elevation / {sigma_scale} deg", 1.0 - weight),
+            "unit": unit,
+            "blind_cost": blind,
             "weight": weight, "metric_scale": metric_scale, "sigma_scale": sigma_scale,
         }),
     };
@@ -214,9 +264,71 @@ fn best_json(config: &AdviseConfig, advice: &Advice) -> serde_json::Value {
         },
         "candidates": { "cover": count(Stage::Cover), "refine": count(Stage::Refine), "move": count(Stage::Move) },
         "feasible": advice.ranked.len(),
+        "tied": advice.ranked.iter().filter(|&&i| advice.candidates[i].1.tied).count(),
+        "recommended": advice.recommended.map(|i| advice.candidates[i].1),
+        "recommended_because": recommended_rule(config),
+        "pareto": advice.pareto.len(),
+        "score_unit": unit,
+        "metric_unit": metric_unit,
         "ranked": advice.ranked.iter().take(RANKED).map(|&i| advice.candidates[i].1).collect::<Vec<_>>(),
         "next_move": advice.next,
+        "warnings": advice.warnings,
     })
+}
+
+/// Returns the rule that picked the recommended candidate among the ties, in words.
+pub(crate) fn recommended_rule(config: &AdviseConfig) -> &'static str {
+    if config.from_pose.is_some() {
+        "of the candidates tied with the best (within 2 standard errors), the nearest to from_pose"
+    } else {
+        "of the candidates tied with the best (within 2 standard errors), the one with the roundest angles and offsets"
+    }
+}
+
+/// Writes `pareto.csv`: the candidates of the Pareto front ([`crate::advise::pareto`]) with the
+/// three quantities, their standard errors and their score.
+fn pareto_csv(config: &AdviseConfig, advice: &Advice, w: &mut dyn std::io::Write, path: &Path) -> Result<()> {
+    let mut out = csv::Writer::from_writer(w);
+    let err = |e: csv::Error| Error::write_output(path, e);
+    let (metric_unit, unit) = units(config);
+    let header = [
+        "index".to_string(),
+        "roll".into(),
+        "pitch".into(),
+        "yaw".into(),
+        "x".into(),
+        "y".into(),
+        "z".into(),
+        "shared".into(),
+        "shared_se".into(),
+        format!("ambiguity_{metric_unit}"),
+        format!("ambiguity_se_{metric_unit}"),
+        "sigma_median_deg".into(),
+        "sigma_median_se_deg".into(),
+        format!("score_{unit}"),
+        format!("score_se_{unit}"),
+        "tied".into(),
+    ];
+    out.write_record(&header).map_err(err)?;
+    let text = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+    for &i in &advice.pareto {
+        let s = &advice.candidates[i].1;
+        let mut row: Vec<String> = vec![i.to_string()];
+        row.extend(s.params().iter().map(ToString::to_string));
+        row.extend([
+            s.shared.to_string(),
+            s.shared_se.to_string(),
+            text(s.metric.mean),
+            text(s.metric.mean_se),
+            text(s.sigma.median),
+            text(s.sigma.median_se),
+            text(s.score),
+            text(s.score_se),
+            u8::from(s.tied).to_string(),
+        ]);
+        out.write_record(&row).map_err(err)?;
+    }
+    out.flush().map_err(|e| Error::write_output(path, e))
 }
 
 /// Draws the score over `axes` (of [`AXES`]), each other axis at the cover value nearest the
@@ -263,13 +375,32 @@ fn landscape(
             .join(", ")
     );
     let missing = format!("infeasible (under {} % shared)", 100.0 * config.min_shared);
-    crate::report::figures::sweep(
+    let on = |p: Params| [p[axes[0]], p[axes[1]]];
+    let mut marks = vec![Mark::Disc {
+        label: "best".into(),
+        at: on(at),
+    }];
+    if let Some(m) = &advice.next {
+        marks.push(Mark::Square {
+            label: "pose now".into(),
+            at: on(m.now.params()),
+        });
+        if let (Some(b), false) = (&m.best, m.stay) {
+            marks.push(Mark::Arrow {
+                label: "next move".into(),
+                from: on(m.now.params()),
+                to: on(b.params()),
+            });
+        }
+    }
+    crate::report::figures::sweep_marked(
         path,
         &caption,
         &[axis_words(axes[0]), axis_words(axes[1])],
         &what,
         &missing,
         &points,
+        &marks,
     )
 }
 
@@ -291,17 +422,19 @@ fn axis_value(k: usize, value: f64) -> String {
     }
 }
 
-/// Returns what the landscape's colour shows, in words with its unit: "mean range span (m)".
+/// Returns what the landscape's colour shows, in words with its unit: "mean search cost (m²)".
 fn landscape_quantity(config: &AdviseConfig, advice: &Advice) -> String {
+    let (metric_unit, _) = units(config);
     match config.objective {
-        Objective::Correspondence => {
+        Objective::Correspondence => format!("mean search cost per feature ({metric_unit})"),
+        Objective::Ambiguity => {
             let label = sonarproj::Metric::from_name(advice.metric)
                 .and_then(|m| m.label(config.target.kind))
                 .unwrap_or(advice.metric);
-            format!("mean {label}")
+            format!("mean {label} of the shared features")
         }
         Objective::Recovery => "median elevation sigma (deg)".to_string(),
-        Objective::Mix { .. } => "mixed score".to_string(),
+        Objective::Mix { .. } => "mixed score (no unit)".to_string(),
     }
 }
 

@@ -16,14 +16,21 @@ use crate::advise::config::{AdviseConfig, Objective};
 use crate::advise::features::{Features, draw_features};
 use crate::error::Result;
 
-/// Mean, median and 10th/90th percentiles of a set of values, `None` when empty.
-/// The mean sums in feature order. Percentiles interpolate linearly at `q · (n − 1)`, like numpy.
+/// Mean, median and 10th/90th percentiles of a set of values, with the standard errors of the
+/// mean and the median over the draw of the values; `None` when empty (the errors also for a
+/// single value). The mean sums in feature order. Percentiles interpolate linearly at
+/// `q · (n − 1)`, like numpy.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct Stats {
     /// The mean.
     pub mean: Option<f64>,
+    /// The mean's standard error: the sample standard deviation over `√n`.
+    pub mean_se: Option<f64>,
     /// The median.
     pub median: Option<f64>,
+    /// The median's standard error, free of any assumed distribution: the width of the order
+    /// statistics' 95 % interval for the median (ranks `n/2 ∓ 1.96 √n / 2`) over `2 × 1.96`.
+    pub median_se: Option<f64>,
     /// The 10th percentile.
     pub p10: Option<f64>,
     /// The 90th percentile.
@@ -53,9 +60,34 @@ impl Stats {
             let j = (i + 1).min(sorted.len() - 1);
             sorted[i] + (pos - i as f64) * (sorted[j] - sorted[i])
         };
+        let n = sorted.len();
+        let (mean_se, median_se) = if n < 2 {
+            (None, None)
+        } else {
+            #[expect(clippy::cast_precision_loss, reason = "feature counts below 2^53")]
+            let nf = n as f64;
+            let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (nf - 1.0);
+            let half = 1.96 * nf.sqrt() / 2.0;
+            #[expect(
+                clippy::cast_possible_truncation,
+                clippy::cast_sign_loss,
+                reason = "ranks within 1..=n"
+            )]
+            let rank = |r: f64| (r.clamp(1.0, nf) as usize) - 1;
+            let (lo, hi) = (
+                rank((nf / 2.0 - half).floor()),
+                rank((nf / 2.0 + half).ceil() + 1.0),
+            );
+            (
+                Some((variance / nf).sqrt()),
+                Some((sorted[hi] - sorted[lo]) / (2.0 * 1.96)),
+            )
+        };
         Stats {
             mean: Some(mean),
+            mean_se,
             median: Some(quantile(0.5)),
+            median_se,
             p10: Some(quantile(0.1)),
             p90: Some(quantile(0.9)),
         }
@@ -78,6 +110,10 @@ pub struct Score {
     /// The share of the pool sonar's view the other sonar sees: kept features over pool points
     /// examined. For given points, those sonar 2 sees over all.
     pub shared: f64,
+    /// The standard error of `shared` over the draw: `√(shared (1 − shared) / examined)`.
+    pub shared_se: f64,
+    /// How many points of the pool were examined (the shared share's denominator).
+    pub examined: usize,
     /// How many features were scored: those both sonars see.
     pub features: usize,
     /// The projection metric over the shared features (range span m, or projection area m²).
@@ -87,6 +123,12 @@ pub struct Score {
     /// The objective's value, smaller is better. `None` when infeasible: shared features below
     /// `min_shared`, none at all, or no value to score.
     pub score: Option<f64>,
+    /// The score's standard error over the feature draw ([`Objective`]'s documentation says how
+    /// each is computed); `None` with the score, or with a single feature.
+    pub score_se: Option<f64>,
+    /// Whether the score lies within 2 standard errors (the best's `score_se`) of the best
+    /// feasible score: the draw cannot tell it from the best. Set when the candidates are ranked.
+    pub tied: bool,
 }
 
 impl Score {
@@ -240,6 +282,8 @@ pub struct Scorer<'a> {
     backend: &'a Backend,
     sigma_range: f64,
     pool: Pool,
+    /// [`Scorer::blind_cost`] of sonar 2.
+    blind: f64,
 }
 
 /// A candidate's points of the pool examined, and its shared features with their measurements.
@@ -273,6 +317,7 @@ impl<'a> Scorer<'a> {
             backend,
             sigma_range,
             pool: Pool::new(config),
+            blind: Self::blind_cost(&config.target),
         })
     }
 
@@ -280,6 +325,41 @@ impl<'a> Scorer<'a> {
     #[must_use]
     pub fn pool(&self) -> &Pool {
         &self.pool
+    }
+
+    /// Returns the correspondence objective's value and its standard error over the pool points
+    /// `examined`, of which the shared ones have `metrics`: the mean search cost of a point,
+    /// its metric (at most the blind cost) when both sonars see it, else the blind cost.
+    fn search_cost(&self, metrics: &[f64], examined: usize) -> (Option<f64>, Option<f64>) {
+        let blind = self.blind;
+        let n = examined.max(metrics.len());
+        if n == 0 {
+            return (None, None);
+        }
+        let unseen = n - metrics.len();
+        #[expect(clippy::cast_precision_loss, reason = "pool sizes below 2^53")]
+        let (nf, uf) = (n as f64, unseen as f64);
+        let cost = |m: f64| m.min(blind);
+        let mean = (metrics.iter().map(|&m| cost(m)).sum::<f64>() + uf * blind) / nf;
+        if n < 2 {
+            return (Some(mean), None);
+        }
+        let squares =
+            metrics.iter().map(|&m| (cost(m) - mean).powi(2)).sum::<f64>() + uf * (blind - mean).powi(2);
+        (Some(mean), Some((squares / (nf - 1.0) / nf).sqrt()))
+    }
+
+    /// Returns what searching for a match with no help costs in sonar 2's data: its whole range
+    /// (m) for a sidescan, its whole field of view's area on the image plane (m²) for an FLS.
+    #[must_use]
+    pub fn blind_cost(target: &sonarproj::Sonar) -> f64 {
+        match target.kind {
+            SonarKind::Sss => target.range_max - target.range_min,
+            SonarKind::Fls => {
+                let aperture = target.azimuth_aperture.min(360.0).to_radians();
+                aperture / 2.0 * (target.range_max.powi(2) - target.range_min.powi(2))
+            }
+        }
     }
 
     fn metric(&self, m: &Metrics) -> f64 {
@@ -368,27 +448,43 @@ impl<'a> Scorer<'a> {
         }
         .shared();
         let (metric, sigma) = (Stats::of(metrics), Stats::of(&sigmas));
-        let value = match c.objective {
-            Objective::Correspondence => metric.mean,
-            Objective::Recovery => sigma.median,
+        let cost = self.search_cost(metrics, examined);
+        let (value, se) = match c.objective {
+            Objective::Correspondence => cost,
+            Objective::Ambiguity => (metric.mean, metric.mean_se),
+            Objective::Recovery => (sigma.median, sigma.median_se),
             Objective::Mix {
                 weight,
                 metric_scale,
                 sigma_scale,
-            } => metric
-                .mean
-                .zip(sigma.median)
-                .map(|(m, s)| weight * m / metric_scale + (1.0 - weight) * s / sigma_scale),
+            } => {
+                let (a, b) = (weight / metric_scale, (1.0 - weight) / sigma_scale);
+                let value = cost.0.zip(sigma.median).map(|(m, s)| a * m + b * s);
+                // The two parts' errors as if independent.
+                let se = cost.1.zip(sigma.median_se).map(|(m, s)| (a * m).hypot(b * s));
+                (value, se)
+            }
         };
+        #[expect(clippy::cast_precision_loss, reason = "pool sizes below 2^53")]
+        let shared_se = if examined == 0 {
+            0.0
+        } else {
+            (fraction * (1.0 - fraction) / examined as f64).sqrt()
+        };
+        let feasible = !features.is_empty() && fraction >= c.min_shared;
         Score {
             rotation: [params[0], params[1], params[2]],
             offset: [params[3], params[4], params[5]],
             translation: pose.translation.to_array(),
             shared: fraction,
+            shared_se,
+            examined,
             features: features.len(),
             metric,
             sigma,
-            score: value.filter(|_| !features.is_empty() && fraction >= c.min_shared),
+            score: value.filter(|_| feasible),
+            score_se: se.filter(|_| feasible && value.is_some()),
+            tied: false,
         }
     }
 }

@@ -355,6 +355,51 @@ pub fn sweep(
     missing: &str,
     points: &[(Vec<f64>, Option<f64>)],
 ) -> Result<()> {
+    sweep_marked(path, caption, axes, label, missing, points, &[])
+}
+
+/// A point marked on a heatmap, with its legend entry.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Mark {
+    /// A filled white disc ringed in black.
+    Disc {
+        /// The legend's words.
+        label: String,
+        /// Where, in the axes' units.
+        at: [f64; 2],
+    },
+    /// An open square.
+    Square {
+        /// The legend's words.
+        label: String,
+        /// Where.
+        at: [f64; 2],
+    },
+    /// An arrow from one point to another.
+    Arrow {
+        /// The legend's words.
+        label: String,
+        /// Where it starts and ends.
+        from: [f64; 2],
+        /// Where it ends.
+        to: [f64; 2],
+    },
+}
+
+/// As [`sweep`], with `marks` drawn over a heatmap (and listed in its legend); a mark outside
+/// the heatmap is drawn at its edge. A line plot (one quantity) draws none.
+///
+/// # Errors
+/// As [`sweep`].
+pub fn sweep_marked(
+    path: &Path,
+    caption: &str,
+    axes: &[String],
+    label: &str,
+    missing: &str,
+    points: &[(Vec<f64>, Option<f64>)],
+    marks: &[Mark],
+) -> Result<()> {
     let (vlo, vhi) = extent(points.iter().filter_map(|p| p.1));
     if axes.len() == 1 {
         let (xlo, xhi) = extent(points.iter().map(|p| p.0[0]));
@@ -432,6 +477,53 @@ pub fn sweep(
                 Rectangle::new([(xe[i], ye[j]), (xe[i + 1], ye[j + 1])], colour.filled())
             }))
             .map_err(plot_error)?;
+        let clamp = |p: [f64; 2]| (p[0].clamp(xe[0], xe[xv.len()]), p[1].clamp(ye[0], ye[yv.len()]));
+        let ring = BLACK.stroke_width(3);
+        for mark in marks {
+            match mark {
+                Mark::Disc { label, at } => {
+                    let at = clamp(*at);
+                    chart
+                        .draw_series([Circle::new(at, 11, WHITE.filled()), Circle::new(at, 11, ring)])
+                        .map_err(plot_error)?
+                        .label(label)
+                        .legend(move |(x, y)| Circle::new((x + 10, y), 8, ring));
+                }
+                Mark::Square { label, at } => {
+                    let (x, y) = clamp(*at);
+                    let square = EmptyElement::at((x, y))
+                        + Rectangle::new([(-10, -10), (10, 10)], RED.stroke_width(4));
+                    chart
+                        .draw_series([square])
+                        .map_err(plot_error)?
+                        .label(label)
+                        .legend(|(x, y)| {
+                            Rectangle::new([(x + 2, y - 8), (x + 18, y + 8)], RED.stroke_width(3))
+                        });
+                }
+                Mark::Arrow { label, from, to } => {
+                    let (a, b) = (clamp(*from), clamp(*to));
+                    chart
+                        .draw_series([PathElement::new(vec![a, b], RED.stroke_width(4))])
+                        .map_err(plot_error)?
+                        .label(label)
+                        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(4)));
+                    chart
+                        .draw_series([Circle::new(b, 7, RED.filled())])
+                        .map_err(plot_error)?;
+                }
+            }
+        }
+        if !marks.is_empty() {
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font((FONT, TICKS))
+                .draw()
+                .map_err(plot_error)?;
+        }
         colour_bar(&bar, vlo, vhi, &format!("colour: {label}; grey: {missing}"))
     })
 }

@@ -15,9 +15,11 @@ pub(super) struct AdviseArgs {
     /// [from_pose]. See docs/advise.md and data/example-advise.toml.
     #[arg(long, value_name = "FILE.toml")]
     config: PathBuf,
-    /// Output directory: best.json (the ranked poses, the next-best move), candidates.parquet
-    /// (every candidate evaluated), features.csv (the features with the best pose, batch's
-    /// columns) and landscape.png (the score over two axes).
+    /// Output directory: best.json (the ranked poses, ties, the recommended pose, the next-best
+    /// move), candidates.parquet (every candidate evaluated), pareto.csv (the feasible candidates
+    /// no other beats on shared share, ambiguity and recovery sigma at once), features.csv (the
+    /// features with the best pose, batch's columns) and landscape.png (the score over two axes,
+    /// the best, the pose now and the move marked).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Where to compute.
@@ -36,14 +38,32 @@ pub(super) fn run(a: AdviseArgs) -> Result<()> {
     let advice = advise::advise(&config, &backend)?;
     let seconds = start.elapsed().as_secs_f64();
     let written = advise::write(&config, &advice, &a.out)?;
+    let unit = advise::score_unit(&config);
+    let with_se = |v: Option<f64>, se: Option<f64>| match (v, se) {
+        (Some(v), Some(se)) => format!("{v:.6} ± {se:.6} {unit}"),
+        (Some(v), None) => format!("{v:.6} {unit}"),
+        _ => "infeasible".to_string(),
+    };
+    let pose = |s: &advise::Score| {
+        format!(
+            "roll {}, pitch {}, yaw {} deg{}",
+            s.rotation[0],
+            s.rotation[1],
+            s.rotation[2],
+            if s.offset == [0.0; 3] {
+                String::new()
+            } else {
+                format!(", offset {:?} m", s.offset)
+            }
+        )
+    };
     let best = match advice.best() {
         Some(b) => format!(
-            "best roll {}, pitch {}, yaw {} deg: score {:.6}, {:.0} % of the features shared",
-            b.rotation[0],
-            b.rotation[1],
-            b.rotation[2],
-            b.score.unwrap_or(f64::NAN),
-            100.0 * b.shared
+            "best {}: score {}, {:.0} ± {:.0} % of the features shared",
+            pose(b),
+            with_se(b.score, b.score_se),
+            100.0 * b.shared,
+            100.0 * b.shared_se
         ),
         None => "no candidate is feasible (see min_shared)".to_string(),
     };
@@ -58,32 +78,48 @@ pub(super) fn run(a: AdviseArgs) -> Result<()> {
         backend.device(),
         written.best.display()
     );
+    let tied = advice
+        .ranked
+        .iter()
+        .filter(|&&i| advice.candidates[i].1.tied)
+        .count();
+    if let Some(r) = advice.recommended.map(|i| &advice.candidates[i].1) {
+        eprintln!(
+            "advise: {tied} candidate(s) tied with the best (within 2 standard errors); recommended: {} (score {}), {}",
+            pose(r),
+            with_se(r.score, r.score_se),
+            advise::recommended_rule(&config)
+        );
+    }
     if let Some(m) = &advice.next {
         let now = format!(
-            "from roll {}, pitch {}, yaw {}",
-            m.now.rotation[0], m.now.rotation[1], m.now.rotation[2]
+            "from {} (score {})",
+            pose(&m.now),
+            with_se(m.now.score, m.now.score_se)
         );
-        match (&m.best, m.gain) {
-            (Some(b), gain) => eprintln!(
-                "advise: {now}: move to roll {:.3}, pitch {:.3}, yaw {:.3}{} ({})",
-                b.rotation[0],
-                b.rotation[1],
-                b.rotation[2],
-                if b.offset == m.now.offset {
-                    String::new()
-                } else {
-                    format!(", offset {:?} m", b.offset)
-                },
-                gain.map_or(
-                    "the pose now is infeasible; this one is not".to_string(),
-                    |g| format!("gain {g:.6}")
-                )
+        let gain = match (m.gain, m.gain_se) {
+            (Some(g), Some(se)) => format!("gain {g:.6} ± {se:.6} {unit}"),
+            (Some(g), None) => format!("gain {g:.6} {unit}"),
+            (None, _) => "the pose now is infeasible; this one is not".to_string(),
+        };
+        match (&m.best, m.stay) {
+            (Some(b), false) => eprintln!(
+                "advise: {now}: move to {}: {} ({gain})",
+                pose(b),
+                m.words.as_deref().unwrap_or("")
+            ),
+            (Some(_), true) => eprintln!(
+                "advise: {now}: stay; the best move within {} deg ({} m) scores better by less than twice its standard error ({gain})",
+                m.step[0], m.step[3]
             ),
             (None, _) => eprintln!(
-                "advise: {now}: no move within {} deg ({} m) scores better",
+                "advise: {now}: stay; no move within {} deg ({} m) scores better",
                 m.step[0], m.step[3]
             ),
         }
+    }
+    for w in &advice.warnings {
+        eprintln!("advise: warning: {w}");
     }
     Ok(())
 }
