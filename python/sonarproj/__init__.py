@@ -66,6 +66,7 @@ from ._sonarproj import (
 
 __all__ = [
     "PAPER_AREA_GRID",
+    "AdviceWarning",
     "BackendNotice",
     "InputError",
     "InputTypeError",
@@ -100,6 +101,12 @@ PAPER_AREA_GRID = 0.08
 _SIGMA_KEYS = ("roll", "pitch", "yaw", "tx", "ty", "tz", "range", "azimuth")
 _PLAUSIBLE_ROTATION_SIGMA_DEG = 20.0
 """Above this 1-σ rotation (deg), a covariance is probably in deg² rather than rad²: warned."""
+
+
+class AdviceWarning(UserWarning):
+    """Warned by :func:`advise` for each thing the advisor cannot help with, such as an objective
+    its search cannot move (the recovery sigma of a rig whose sonar 2 only turns about a fixed
+    origin); the same words are in the result's ``warnings``."""
 
 
 class BackendNotice(UserWarning):

@@ -66,3 +66,43 @@ def test_bad_advise_input_names_the_parameter_or_key(tmp_path, root):
         sonarproj.advise(bad)
     with pytest.raises(sonarproj.InputError, match="cannot read"):
         sonarproj.advise(tmp_path / "missing.toml")
+
+
+def test_advise_reports_its_uncertainty_ties_and_front(tmp_path, root):
+    result = sonarproj.advise(root / "data" / "example-advise.toml", tmp_path, backend="cpu-fast")
+    columns, best = result["candidates"], json.loads((tmp_path / "best.json").read_text())
+    ranked = result["ranked"]
+    # Ties: the ranked candidates within two of the best's standard errors, as best.json counts.
+    limit = result["best"]["score"] + 2 * result["best"]["score_se"]
+    tied = columns["tied"][ranked]
+    assert tied.dtype == bool
+    np.testing.assert_array_equal(tied, columns["score"][ranked] <= limit)
+    assert result["tied"] == best["tied"] == int(tied.sum())
+    assert result["recommended"] == best["recommended"]
+    assert columns["tied"][result["recommended_index"]]
+    # The shared share's standard error is the binomial one over the points examined.
+    p, n = columns["shared"], columns["examined"]
+    np.testing.assert_allclose(columns["shared_se"], np.sqrt(p * (1 - p) / n), rtol=1e-12)
+    # The Pareto front: no feasible candidate shares more with less ambiguity and sigma.
+    front = result["pareto"]
+    assert len(front) == best["pareto"] >= 1
+    s, a, g = columns["shared"], columns["metric_mean"], columns["sigma_median"]
+    for i in front:
+        better = (s[ranked] >= s[i]) & (a[ranked] <= a[i]) & (g[ranked] <= g[i])
+        strictly = (s[ranked] > s[i]) | (a[ranked] < a[i]) | (g[ranked] < g[i])
+        assert not np.any(better & strictly), i
+    move = result["next_move"]
+    assert move["stay"] == (move["gain"] <= 2 * move["gain_se"])
+    assert result["score_unit"] == "m²" and result["warnings"] == []
+
+
+def test_advise_warns_when_the_objective_cannot_move(tmp_path):
+    config = tmp_path / "origin.toml"
+    config.write_text(
+        'from = "paper-fls"\nto = "paper-fls"\nobjective = "recovery"\nmin_shared = 0.1\n'
+        "[features]\ncount = 50\n[rig]\norigin = [0, 0, -0.5]\n"
+        "[search]\nroll = [-10, 0, 10]\nrefine = 0\n"
+    )
+    with pytest.warns(sonarproj.AdviceWarning, match="baseline"):
+        result = sonarproj.advise(config, backend="cpu-fast")
+    assert len(result["warnings"]) == 1

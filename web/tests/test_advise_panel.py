@@ -32,11 +32,14 @@ def test_the_panel_scores_around_the_pose_and_applies_the_move(page, cli, tmp_pa
     assert a["values"][0][4] == rotation[0] and a["values"][1][4] == rotation[1]
     move = a["move"]
     assert move["now"]["rotation"] == list(rotation)
-    assert move["best"] is not None and move["gain"] > 0
+    assert move["best"] is not None and move["gain"] > 2 * move["gain_se"] and not move["stay"]
     drawn = page.d.execute_script("return window.sonarprojAdviceDrawn")
     assert drawn["to"] is not None and drawn["to"] != drawn["from"]
     text = page.d.find_element("id", "advise-text").text
-    assert "Best move" in text and "gain" in text
+    # The numbers with their units and errors, the ties, the move in words.
+    assert a["unit"] == "m²" and a["tied"] >= 1
+    assert "Best move" in text and move["words"] in text and "gain" in text and "m²" in text and "±" in text, text
+    assert f"{a['tied']} pose" in text and "tied with the best" in text, text
 
     # The command line on the same rig, features and grid.
     config = tmp_path / "advise.toml"
@@ -51,6 +54,7 @@ def test_the_panel_scores_around_the_pose_and_applies_the_move(page, cli, tmp_pa
     best = json.loads((tmp_path / "out" / "best.json").read_text())
     assert best["next_move"]["best"]["rotation"] == move["best"]["rotation"]
     assert best["next_move"]["gain"] == move["gain"]
+    assert best["next_move"]["gain_se"] == move["gain_se"] and best["tied"] == a["tied"]
 
     # Apply: the sliders move there and the scene is computed again.
     before = page.updates()

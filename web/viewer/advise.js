@@ -62,7 +62,7 @@ function draw(a) {
   ctx.arc(from[0], from[1], 5, 0, 2 * Math.PI);
   ctx.stroke();
   window.sonarprojAdviceDrawn = { from, to: null };
-  if (a.move.best) {
+  if (a.move.best && !a.move.stay) {
     const to = [px(a.move.best.rotation[ka]), py(a.move.best.rotation[kb])];
     const ang = Math.atan2(to[1] - from[1], to[0] - from[0]);
     ctx.strokeStyle = "#d62728";
@@ -84,20 +84,26 @@ function draw(a) {
 
 function describe(a) {
   const fmt = (v) => (v === null || v === undefined ? "—" : Number(v).toPrecision(4));
-  const what = a.objective === "recovery" ? "median elevation σ (°)" : `mean ${a.metric}`;
+  const unit = a.unit === "1" ? "" : ` ${a.unit}`;
+  const withSe = (v, se) => (v === null || v === undefined ? "infeasible" : `${fmt(v)}${se != null ? ` ± ${fmt(se)}` : ""}${unit}`);
+  const what = {
+    correspondence: "mean search cost per feature",
+    ambiguity: `mean ${a.metric} of the shared features`,
+    recovery: "median elevation σ",
+  }[a.objective];
   const m = a.move;
-  let text = `Colour: ${what}, dark lower (better) to yellow higher; grey: nothing shared; ○ the pose now. `;
-  text += `Now: ${fmt(m.now.score)} (${Math.round(100 * m.now.shared)} % shared).`;
-  if (m.best) {
-    const d = m.best.rotation.map((v, k) => v - m.now.rotation[k]);
-    const turns = ["roll", "pitch", "yaw"]
-      .map((n, k) => (Math.abs(d[k]) > 1e-9 ? `${n} ${d[k] > 0 ? "+" : ""}${d[k].toFixed(2)}°` : null))
-      .filter(Boolean)
-      .join(", ");
-    text += ` Best move: ${turns} → ${fmt(m.best.score)}` + (m.gain !== null ? ` (gain ${fmt(m.gain)}).` : ".");
+  let text = `Colour: ${what} (${a.unit === "1" ? "no unit" : a.unit}), dark lower (better) to yellow higher; grey: nothing shared; ○ the pose now. `;
+  text += `Now: ${withSe(m.now.score, m.now.score_se)} (${Math.round(100 * m.now.shared)} ± ${Math.round(100 * m.now.shared_se)} % shared).`;
+  text += ` ${a.tied} pose${a.tied === 1 ? "" : "s"} tied with the best (within 2 standard errors).`;
+  if (m.best && !m.stay) {
+    const gain = m.gain !== null ? ` (gain ${withSe(m.gain, m.gain_se)})` : " (the pose now is infeasible)";
+    text += ` Best move: ${m.words} → ${withSe(m.best.score, m.best.score_se)}${gain}.`;
+  } else if (m.best) {
+    text += ` Stay: the best move gains ${withSe(m.gain, m.gain_se)}, within twice its standard error.`;
   } else {
-    text += " No move within one cell scores better.";
+    text += " Stay: no move within one cell scores better.";
   }
+  for (const w of a.warnings) text += ` Note: ${w}.`;
   return text;
 }
 
@@ -132,14 +138,14 @@ export function setupAdvise({ readScene, setValue, changed, showError }) {
       window.sonarprojAdvice = body;
       draw(body);
       $("advise-text").textContent = describe(body);
-      $("advise-apply").disabled = !body.move.best;
+      $("advise-apply").disabled = !body.move.best || body.move.stay;
     } catch (e) {
       $("advise-text").textContent = `no answer from the viewer's server (${e.message})`;
     }
   });
   $("advise-apply").addEventListener("click", () => {
     const a = window.sonarprojAdvice;
-    if (!a || !a.move.best) return;
+    if (!a || !a.move.best || a.move.stay) return;
     const [roll, pitch, yaw] = a.move.best.rotation;
     setValue("rotation.roll", roll);
     setValue("rotation.pitch", pitch);

@@ -95,6 +95,20 @@ fn the_example_writes_its_files_and_batch_recomputes_the_best_score() {
         err.contains(&format!("{tied} candidate(s) tied with the best")),
         "{err}"
     );
+    // The README's worked example quotes these numbers.
+    let readme = std::fs::read_to_string(common::repository().join("README.md")).unwrap();
+    let quoted = [
+        format!(
+            "shares {:.0} % of the features",
+            100.0 * top["shared"].as_f64().unwrap()
+        ),
+        format!("at {:.4} m² each", top["metric"]["mean"].as_f64().unwrap()),
+        format!("the blind search is {blind:.2} m²"),
+        format!("≈ {score:.2} m²"),
+    ];
+    for q in &quoted {
+        assert!(readme.contains(q.as_str()), "the README should say {q:?}");
+    }
     let pareto = std::fs::read_to_string(out.join("pareto.csv")).unwrap();
     assert_eq!(
         pareto.lines().count() as u64,

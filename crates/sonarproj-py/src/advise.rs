@@ -70,6 +70,14 @@ pub(crate) fn advise_run<'py>(
         columns.set_item(name, real(&|s| s.translation[k]).into_pyarray(py))?;
     }
     columns.set_item("shared", real(&|s| s.shared).into_pyarray(py))?;
+    columns.set_item("shared_se", real(&|s| s.shared_se).into_pyarray(py))?;
+    columns.set_item(
+        "examined",
+        c.iter()
+            .map(|(_, s)| s.examined as u64)
+            .collect::<Vec<u64>>()
+            .into_pyarray(py),
+    )?;
     columns.set_item(
         "features",
         c.iter()
@@ -97,6 +105,14 @@ pub(crate) fn advise_run<'py>(
         )?;
     }
     columns.set_item("score", real(&|s| nan(s.score)).into_pyarray(py))?;
+    columns.set_item("score_se", real(&|s| nan(s.score_se)).into_pyarray(py))?;
+    columns.set_item(
+        "tied",
+        c.iter()
+            .map(|(_, s)| s.tied)
+            .collect::<Vec<bool>>()
+            .into_pyarray(py),
+    )?;
     let d = PyDict::new(py);
     d.set_item("candidates", columns)?;
     d.set_item(
@@ -114,11 +130,39 @@ pub(crate) fn advise_run<'py>(
         advice.next.as_ref().map(|m| json(py, m)).transpose()?,
     )?;
     d.set_item("metric", advice.metric)?;
+    d.set_item(
+        "recommended",
+        advice
+            .recommended
+            .map(|i| json(py, &advice.candidates[i].1))
+            .transpose()?,
+    )?;
+    d.set_item("recommended_index", advice.recommended.map(|i| i as u64))?;
+    d.set_item(
+        "tied",
+        advice
+            .ranked
+            .iter()
+            .filter(|&&i| advice.candidates[i].1.tied)
+            .count(),
+    )?;
+    d.set_item(
+        "pareto",
+        advice
+            .pareto
+            .iter()
+            .map(|&i| i as u64)
+            .collect::<Vec<u64>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item("score_unit", advise::score_unit(&config))?;
+    d.set_item("warnings", advice.warnings.clone())?;
     let files = PyDict::new(py);
     if let Some(w) = written {
         files.set_item("best", w.best)?;
         files.set_item("candidates", w.candidates)?;
         files.set_item("features", w.features)?;
+        files.set_item("pareto", w.pareto)?;
         files.set_item("landscape", w.landscape)?;
     }
     d.set_item("files", files)?;

@@ -21,7 +21,7 @@ pub struct AdviseRequest {
     /// The scene: its sonars, sampling, feature and pose. A placement or a translation is the rig
     /// while sonar 2 turns.
     pub scene: Scene,
-    /// `correspondence` or `recovery`.
+    /// `correspondence`, `ambiguity` or `recovery`.
     #[serde(default = "default_objective")]
     pub objective: String,
     /// The two rotation axes of the grid (`roll`, `pitch`, `yaw`).
@@ -130,12 +130,13 @@ impl Viewer {
         scene.pose()?;
         let objective = match request.objective.as_str() {
             "correspondence" => Objective::Correspondence,
+            "ambiguity" => Objective::Ambiguity,
             "recovery" => Objective::Recovery,
             other => {
                 return Err(Error::invalid(
                     "objective",
                     format!("{other:?}"),
-                    "must be \"correspondence\" or \"recovery\"",
+                    "must be \"correspondence\", \"ambiguity\" or \"recovery\"",
                 ));
             }
         };
@@ -221,6 +222,10 @@ impl Viewer {
             "scores": scores,
             "metric": advice.metric,
             "objective": request.objective,
+            "unit": advise::score_unit(&config),
+            "tied": advice.ranked.iter().filter(|&&i| advice.candidates[i].1.tied).count(),
+            "recommended": advice.recommended.map(|i| advice.candidates[i].1),
+            "warnings": advice.warnings,
             "move": advice.next,
             "compute_ms": started.elapsed().as_secs_f64() * 1e3,
         }))
