@@ -47,9 +47,9 @@ def test_advise_columns_are_the_candidates_file(tmp_path, root):
 
 def test_advise_in_memory_writes_nothing(tmp_path, root, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    result = sonarproj.advise(root / "data" / "example-advise.toml", backend="cpu")
+    result = sonarproj.advise(root / "data" / "example-advise.toml", backend="cpu-fast")
     assert result["files"] == {} and list(tmp_path.iterdir()) == []
-    assert result["metric"] == "projection_area"
+    assert result["metric"] == "occupied_measure"
     assert result["next_move"]["gain"] > 0
 
 

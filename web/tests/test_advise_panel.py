@@ -44,7 +44,7 @@ def test_the_panel_scores_around_the_pose_and_applies_the_move(page, cli, tmp_pa
     # The command line on the same rig, features and grid.
     config = tmp_path / "advise.toml"
     config.write_text(
-        f'from = "{pair[0]}"\nto = "{pair[1]}"\nobjective = "correspondence"\n'
+        f'from = "{pair[0]}"\nto = "{pair[1]}"\nstep = "auto"\nobjective = "correspondence"\n'
         "[features]\ncount = 200\nseed = 1\n"
         f"[rig]\ntranslation = {list(t)}\n"
         f"[search]\nroll = {a['values'][0]}\npitch = {a['values'][1]}\nyaw = 0\nrefine = 0\n"

@@ -164,9 +164,10 @@ fn a_reported_score_is_the_score_of_its_pose_by_hand() {
             .project(&batch, Output::MetricsOnly)
             .unwrap()
             .iter()
-            .map(|p| match c.target.kind {
-                SonarKind::Fls => p.metrics.projection_area.unwrap(),
-                SonarKind::Sss => p.metrics.span,
+            .map(|p| match (c.target.kind, c.sampling) {
+                (SonarKind::Fls, sonarproj::sampling::Sampling::Exact) => p.metrics.occupied_measure,
+                (SonarKind::Fls, _) => p.metrics.projection_area.unwrap(),
+                (SonarKind::Sss, _) => p.metrics.span,
             })
             .collect();
         assert_eq!(s.features, shared.len());

@@ -229,6 +229,39 @@ fn the_example_offers_a_move_only_beyond_its_noise() {
     }
 }
 
+#[test]
+fn the_move_is_the_same_across_seeds_within_its_error() {
+    // The example's move from its pose now, found with four feature seeds. Each seed's move,
+    // scored with every other seed's features, gains what that seed's own move gains, within
+    // twice that gain's standard error: the move does not depend on the draw.
+    let text =
+        std::fs::read_to_string(sonarproj_testkit::repository().join("data/example-advise.toml")).unwrap();
+    let configs: Vec<AdviseConfig> = (1..=4)
+        .map(|seed| config(&text.replace("seed = 1", &format!("seed = {seed}"))))
+        .collect();
+    let moves: Vec<advise::Move> = configs
+        .iter()
+        .map(|c| advise::advise(c, &Backend::CpuFast).unwrap().next.unwrap())
+        .collect();
+    for (j, c) in configs.iter().enumerate() {
+        let own = &moves[j];
+        assert!(!own.stay, "seed {}: {own:?}", j + 1);
+        let scorer = advise::Scorer::new(c, &Backend::CpuFast).unwrap();
+        for (i, m) in moves.iter().enumerate() {
+            let moved = scorer.score_all(&[m.best.unwrap().params()]).unwrap()[0];
+            let gain = own.now.score.unwrap() - moved.score.unwrap();
+            assert!(
+                gain >= own.gain.unwrap() - 2.0 * own.gain_se.unwrap(),
+                "seed {}'s move gains {gain} with seed {}'s features, whose own gains {} ± {}",
+                i + 1,
+                j + 1,
+                own.gain.unwrap(),
+                own.gain_se.unwrap()
+            );
+        }
+    }
+}
+
 /// Returns sonar 2's axes in sonar 1's frame for roll, pitch, yaw (deg): the columns of
 /// `Q = Rᵀ`, the rows of the pose rotation `R` as the documented convention defines it.
 fn axes_of(r: [f64; 3]) -> [glam::DVec3; 3] {

@@ -24,7 +24,7 @@ fn the_example_writes_its_files_and_batch_recomputes_the_best_score() {
         serde_json::from_slice(&std::fs::read(out.join("best.json")).unwrap()).unwrap();
     let top = &best["ranked"][0];
     assert!(top["score"].as_f64().unwrap() > 0.0, "{best}");
-    assert_eq!(best["metric"], "projection_area");
+    assert_eq!(best["metric"], "occupied_measure");
     assert!(best["next_move"]["now"]["rotation"].is_array());
     assert!(std::fs::metadata(out.join("candidates.parquet")).unwrap().len() > 1000);
     let picture = common::Picture::read(&out.join("landscape.png"));
@@ -34,8 +34,8 @@ fn the_example_writes_its_files_and_batch_recomputes_the_best_score() {
         picture.w,
         picture.h
     );
-    // features.csv through `batch`: the features both sonars see, their projection areas' mean
-    // is the best pose's score, to the bit (the shared ones: a visible sample at the feature).
+    // features.csv through `batch`: the features both sonars see, their exact arcs' pixel areas'
+    // mean is the best pose's metric, to the bit.
     let metrics = dir.path().join("metrics.csv");
     common::sonarproj()
         .args([
@@ -45,7 +45,7 @@ fn the_example_writes_its_files_and_batch_recomputes_the_best_score() {
             "--to",
             "paper-fls",
             "--step",
-            "0.1",
+            "exact",
             "--backend",
             "cpu-fast",
             "--input",
@@ -65,7 +65,7 @@ fn the_example_writes_its_files_and_batch_recomputes_the_best_score() {
         shared_rows(&rows, col("range"), col("azimuth"), col("elevation"), top).len(),
         rows.len()
     );
-    let area = col("projection_area");
+    let area = col("occupied_measure");
     let sum: f64 = rows.iter().map(|row| row[area].parse::<f64>().unwrap()).sum();
     #[expect(clippy::cast_precision_loss, reason = "a thousand features")]
     let mean = sum / rows.len() as f64;
@@ -97,6 +97,7 @@ fn the_example_writes_its_files_and_batch_recomputes_the_best_score() {
     );
     // The README's worked example quotes these numbers.
     let readme = std::fs::read_to_string(common::repository().join("README.md")).unwrap();
+    let readme = readme.split_whitespace().collect::<Vec<_>>().join(" ");
     let quoted = [
         format!(
             "shares {:.0} % of the features",

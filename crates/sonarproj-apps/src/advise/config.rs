@@ -4,7 +4,8 @@
 //! ```toml
 //! from = "paper-fls"            # sonar 1: preset or sonar TOML file (relative to this file)
 //! to = "paper-sss"              # sonar 2
-//! step = 0.1                    # sampling step (deg); leave out for auto sampling
+//! step = 0.1                    # sampling step (deg), "auto", or "exact"; left out: exact for an
+//!                               # imaging sonar 1's arcs, auto for a sidescan's surfaces
 //! objective = "correspondence"  # or "ambiguity", "recovery", or "mix" (with [mix])
 //! min_shared = 0.1              # the least fraction of the features both sonars must see
 //!
@@ -250,13 +251,19 @@ impl AdviseConfig {
             resolve_sonar(spec, base)
         };
         let (source, target) = (sonar("from")?, sonar("to")?);
-        let sampling = sampling(f, &top)?;
-        if sampling == Sampling::Exact && target.kind == sonarproj::SonarKind::Fls {
+        // FLS features (arcs) are solved exactly unless a step is given; a sidescan's features
+        // (surfaces) have no exact form here.
+        let sampling = sampling(f, &top)?.unwrap_or(if source.kind == sonarproj::SonarKind::Fls {
+            Sampling::Exact
+        } else {
+            Sampling::Auto
+        });
+        if sampling == Sampling::Exact && source.kind == sonarproj::SonarKind::Sss {
             return Err(f.error(
                 "step",
                 "\"exact\"",
-                "an imaging sonar 2 is scored by the projection area, a count of grid cells holding \
-                 samples, which has no exact form: give a step (deg) or \"auto\"",
+                "exact mode solves an imaging sonar 1's arcs; a sidescan sonar 1's features are \
+                 surfaces, which are sampled: give a step (deg) or \"auto\"",
             ));
         }
         let area_grid = f
@@ -362,20 +369,21 @@ impl AdviseConfig {
     }
 }
 
-/// Returns the sampling `step` gives: a step > 0 (deg), `"exact"`, or `"auto"` (the default).
-fn sampling(f: ConfigFile<'_>, top: &toml::Table) -> Result<Sampling> {
+/// Returns the sampling `step` gives: a step > 0 (deg), `"exact"`, or `"auto"`; `None` when
+/// `step` is not given.
+fn sampling(f: ConfigFile<'_>, top: &toml::Table) -> Result<Option<Sampling>> {
     match top.get("step") {
-        Some(toml::Value::String(s)) if s == "auto" => Ok(Sampling::Auto),
-        Some(toml::Value::String(s)) if s == "exact" => Ok(Sampling::Exact),
+        Some(toml::Value::String(s)) if s == "auto" => Ok(Some(Sampling::Auto)),
+        Some(toml::Value::String(s)) if s == "exact" => Ok(Some(Sampling::Exact)),
         Some(_) => match f.number(top, "step", "step")? {
-            Some(s) if s > 0.0 => Ok(Sampling::Step(s)),
+            Some(s) if s > 0.0 => Ok(Some(Sampling::Step(s))),
             other => Err(f.error(
                 "step",
                 format!("{other:?}"),
                 "must be > 0 (deg), \"auto\" or \"exact\"",
             )),
         },
-        None => Ok(Sampling::Auto),
+        None => Ok(None),
     }
 }
 

@@ -9,7 +9,7 @@ use sonarproj::geometry::sonar::SonarKind;
 use sonarproj::local_precision::{local_precision, resolve_sigma_range};
 use sonarproj::occupancy::Layout;
 use sonarproj::projection::{Backend, Batch, BatchItem};
-use sonarproj::sampling::Measurement;
+use sonarproj::sampling::{Measurement, Sampling};
 use sonarproj::{Metrics, Output};
 
 use crate::advise::config::{AdviseConfig, Objective};
@@ -144,9 +144,12 @@ impl Score {
 /// Returns the name of the projection metric the advisor scores for sonar 2's kind.
 #[must_use]
 pub fn metric_name(config: &AdviseConfig) -> &'static str {
-    match config.target.kind {
-        SonarKind::Sss => "span",
-        SonarKind::Fls => "projection_area",
+    match (config.target.kind, config.sampling) {
+        (SonarKind::Sss, _) => "span",
+        // The authors' area counts grid cells holding samples, which has no exact form; the
+        // exact arc gives the polar pixels it meets (the same region in sonar 2's own cells).
+        (SonarKind::Fls, Sampling::Exact) => "occupied_measure",
+        (SonarKind::Fls, _) => "projection_area",
     }
 }
 
@@ -363,9 +366,10 @@ impl<'a> Scorer<'a> {
     }
 
     fn metric(&self, m: &Metrics) -> f64 {
-        match self.config.target.kind {
-            SonarKind::Sss => m.span,
-            SonarKind::Fls => m.projection_area.unwrap_or(0.0),
+        match (self.config.target.kind, self.config.sampling) {
+            (SonarKind::Sss, _) => m.span,
+            (SonarKind::Fls, Sampling::Exact) => m.occupied_measure,
+            (SonarKind::Fls, _) => m.projection_area.unwrap_or(0.0),
         }
     }
 

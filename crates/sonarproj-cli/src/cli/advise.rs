@@ -44,16 +44,18 @@ pub(super) fn run(a: AdviseArgs) -> Result<()> {
         (Some(v), None) => format!("{v:.6} {unit}"),
         _ => "infeasible".to_string(),
     };
+    // Angles to a thousandth of a degree, offsets to a tenth of a millimetre: best.json has
+    // every digit.
+    let round = |v: f64, to: f64| (v / to).round() * to + 0.0;
     let pose = |s: &advise::Score| {
+        let [r, p, y] = s.rotation.map(|v| round(v, 1e-3));
+        let offset = s.offset.map(|v| round(v, 1e-4));
         format!(
-            "roll {}, pitch {}, yaw {} deg{}",
-            s.rotation[0],
-            s.rotation[1],
-            s.rotation[2],
-            if s.offset == [0.0; 3] {
+            "roll {r}, pitch {p}, yaw {y} deg{}",
+            if offset == [0.0; 3] {
                 String::new()
             } else {
-                format!(", offset {:?} m", s.offset)
+                format!(", offset {offset:?} m")
             }
         )
     };
