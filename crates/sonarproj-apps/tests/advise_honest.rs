@@ -262,6 +262,88 @@ fn the_move_is_the_same_across_seeds_within_its_error() {
     }
 }
 
+#[test]
+fn the_ranking_is_a_brute_force_ranking() {
+    // A 5 × 5 grid of the example's pair, 100 features: every candidate scored here from the
+    // draw itself (the first 100 points sonar 2 sees, in order, each projected alone) with the
+    // cost written out, then ranked; the advisor's ranking and scores must be the same.
+    let c = config(
+        "from = \"paper-fls\"\nto = \"paper-fls\"\nmin_shared = 0.3\n\
+         [features]\ncount = 100\nseed = 4\n[rig]\norigin = [0, 0, -0.5]\n\
+         [search]\nroll = { start = -20, stop = 20, step = 10 }\npitch = { start = -10, stop = 10, step = 5 }\n\
+         yaw = 0\nrefine = 0\n",
+    );
+    let a = advise::advise(&c, &Backend::CpuFast).unwrap();
+    let draw = advise::features::draw_features(&c.source, 100 * 100, 4);
+    let layout = Layout::of(&c.target);
+    let blind = 60f64.to_radians() / 2.0 * (10f64.powi(2) - 0.1f64.powi(2));
+    let mut by_hand: Vec<(f64, [f64; 6])> = Vec::new();
+    for roll in [-20.0, -10.0, 0.0, 10.0, 20.0] {
+        for pitch in [-10.0, -5.0, 0.0, 5.0, 10.0] {
+            let params = [roll, pitch, 0.0, 0.0, 0.0, 0.0];
+            let pose = c.pose_of(params).unwrap();
+            let (mut examined, mut kept) = (0, Vec::new());
+            for (i, f) in draw.iter().enumerate() {
+                if kept.len() == 100 {
+                    break;
+                }
+                examined = i + 1;
+                let p = sph_to_cart(f[0], f[1].to_radians(), f[2].to_radians());
+                let (r, az, el) = cart_to_sph(pose.apply(p));
+                if layout.inside(r, az, el) {
+                    kept.push(*f);
+                }
+            }
+            if kept.len() < 100 {
+                examined = draw.len();
+            }
+            let items: Vec<sonarproj::projection::BatchItem> = kept
+                .iter()
+                .filter_map(|f| sonarproj::sampling::Measurement::of(&c.source, f[0], f[1]).ok())
+                .map(|measurement| sonarproj::projection::BatchItem {
+                    true_point: None,
+                    measurement,
+                    pose,
+                })
+                .collect();
+            let shared = items.len() as f64 / examined as f64;
+            if items.is_empty() || shared < 0.3 {
+                continue;
+            }
+            let batch = sonarproj::projection::Batch {
+                sigma_range: None,
+                source: c.source.clone(),
+                target: c.target.clone(),
+                sampling: sonarproj::sampling::Sampling::Exact,
+                area_grid: c.area_grid,
+                items,
+            };
+            let projected = Backend::CpuFast
+                .project(&batch, sonarproj::Output::MetricsOnly)
+                .unwrap();
+            let seen: f64 = projected
+                .iter()
+                .map(|p| p.metrics.occupied_measure.min(blind))
+                .sum();
+            let unseen = (examined - projected.len()) as f64 * blind;
+            by_hand.push(((seen + unseen) / examined as f64, params));
+        }
+    }
+    by_hand.sort_by(|x, y| x.0.total_cmp(&y.0));
+    assert!(by_hand.len() >= 10, "{} feasible", by_hand.len());
+    assert_eq!(a.ranked.len(), by_hand.len());
+    for (k, &i) in a.ranked.iter().enumerate() {
+        let s = &a.candidates[i].1;
+        assert_eq!(s.params(), by_hand[k].1, "rank {k}");
+        let score = s.score.unwrap();
+        assert!(
+            (score - by_hand[k].0).abs() <= 1e-12 * score,
+            "rank {k}: {score} against {}",
+            by_hand[k].0
+        );
+    }
+}
+
 /// Returns sonar 2's axes in sonar 1's frame for roll, pitch, yaw (deg): the columns of
 /// `Q = Rᵀ`, the rows of the pose rotation `R` as the documented convention defines it.
 fn axes_of(r: [f64; 3]) -> [glam::DVec3; 3] {
