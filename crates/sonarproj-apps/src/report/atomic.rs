@@ -48,6 +48,26 @@ pub fn note_input(path: &Path) {
     let _ = path;
 }
 
+/// Notes that this process reads standard input, when it is a regular file (`< file`): no
+/// output may then replace that file, whatever path or link leads there (`/dev/stdin`,
+/// `/proc/self/fd/0`, the file's own name).
+pub fn note_stdin() {
+    #[cfg(unix)]
+    {
+        use std::os::fd::AsFd;
+        let file = std::io::stdin()
+            .as_fd()
+            .try_clone_to_owned()
+            .map(std::fs::File::from);
+        if let Ok(m) = file.and_then(|f| f.metadata())
+            && m.is_file()
+            && let Ok(mut inputs) = INPUTS.lock()
+        {
+            inputs.insert(input_key(&m), PathBuf::from("read on standard input"));
+        }
+    }
+}
+
 /// Returns the text of the configuration file at `path`, noted as an input ([`note_input`]),
 /// and the folder its relative paths are taken from.
 ///
@@ -232,7 +252,14 @@ fn target(path: &Path) -> Result<Target> {
             path.display(),
             "is a directory; give a file path",
         )),
-        Ok(m) if !m.is_file() || magic => Ok(Target::Through),
+        // A magic link to a regular file (`/dev/stdin` read from a file) leads to that file:
+        // never to an input.
+        Ok(m) if !m.is_file() || magic => {
+            if m.is_file() {
+                refuse_input(path, &m)?;
+            }
+            Ok(Target::Through)
+        }
         Ok(m) => {
             refuse_input(path, &m)?;
             Ok(Target::Replace(

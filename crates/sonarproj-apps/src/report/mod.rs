@@ -38,8 +38,8 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 pub use atomic::{
-    check_output_file, note_input, read_config, remove_live_temporaries, remove_stale_temporaries,
-    write_atomic, write_atomic_unsynced,
+    check_output_file, note_input, note_stdin, read_config, remove_live_temporaries,
+    remove_stale_temporaries, write_atomic, write_atomic_unsynced,
 };
 
 /// Writes `values` to `w` as an NPY array of `shape` (named `path` in errors).

@@ -197,6 +197,7 @@ pub(crate) fn resolve_sonar(spec: &str) -> Result<Sonar> {
 /// [`Error::ReadInput`] naming the file when it cannot be opened or is a directory.
 fn open_input(path: &str) -> Result<Box<dyn Read>> {
     if path == "-" {
+        sonarproj_apps::report::note_stdin();
         return Ok(Box::new(std::io::stdin().lock()));
     }
     let path = PathBuf::from(path);

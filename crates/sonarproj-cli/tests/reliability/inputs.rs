@@ -27,6 +27,65 @@ fn refused_as_input(dir: &Path, args: &[&str], input: &str, before: &[u8]) {
 }
 
 #[test]
+fn an_output_that_is_the_file_read_on_stdin_is_refused() {
+    // `< in.csv` with the output named as the file, as /dev/stdin or as /proc/self/fd/0, for
+    // batch and recover: refused, the file kept. From a pipe, stdin is no file: writing the
+    // named file is fine.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let poses = std::fs::read(common::repository().join("data/example-poses.csv")).unwrap();
+    std::fs::write(d.join("in.csv"), &poses).unwrap();
+    let pairs = b"first_range,first_azimuth,second_range,roll,pitch,yaw,tx,ty,tz\n5,0,5.5,0,0,0,-10,0,0\n";
+    std::fs::write(d.join("pairs.csv"), pairs).unwrap();
+    let batch = [
+        "batch",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--backend",
+        "cpu-fast",
+    ];
+    let recover = ["recover", "--from", "paper-fls", "--to", "paper-sss"];
+    for (command, input, before) in [
+        (&batch[..], "in.csv", &poses[..]),
+        (&recover[..], "pairs.csv", &pairs[..]),
+    ] {
+        for out in [input, "/dev/stdin", "/proc/self/fd/0"] {
+            // A real file as stdin (not a pipe fed from it).
+            let out_run = std::process::Command::new(assert_cmd::cargo::cargo_bin!("sonarproj"))
+                .current_dir(d)
+                .env("NODEVICE_SELECT", "1")
+                .args(command)
+                .args(["--input", "-", "--output", out])
+                .stdin(std::fs::File::open(d.join(input)).unwrap())
+                .output()
+                .unwrap();
+            assert_eq!(out_run.status.code(), Some(2), "{command:?} {out}");
+            let err = String::from_utf8_lossy(&out_run.stderr);
+            assert!(
+                err.contains("is the input file read on standard input")
+                    && err.contains("give another output path"),
+                "{command:?} {out}: {err}"
+            );
+            assert_eq!(
+                std::fs::read(d.join(input)).unwrap(),
+                before,
+                "{out} changed {input}"
+            );
+        }
+    }
+    common::sonarproj()
+        .current_dir(d)
+        .args(batch)
+        .args(["--input", "-", "--output", "out.csv"])
+        .write_stdin(poses.clone())
+        .assert()
+        .success();
+    assert!(std::fs::metadata(d.join("out.csv")).unwrap().len() > 0);
+}
+
+#[test]
 fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
