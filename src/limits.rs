@@ -11,6 +11,12 @@ pub const MAX_RANGE: f64 = 10_000.0;
 pub const MAX_TRANSLATION: f64 = 1_000_000.0;
 /// The largest standard deviation of an angle (deg): half a turn. A wider one means nothing.
 pub const MAX_SIGMA_ANGLE: f64 = 180.0;
+/// The largest standard deviation of a range (m): 1 000 km, a hundred times the longest range.
+/// It keeps every sigma derived from it finite.
+pub const MAX_SIGMA_RANGE: f64 = 1_000_000.0;
+/// The largest cell of the projection area's grid (m): 20 km, a sonar image's widest extent
+/// (twice [`MAX_RANGE`]); a larger cell is one cell still, and its area could overflow.
+pub const MAX_AREA_GRID: f64 = 20_000.0;
 /// The largest number of range bins a sonar may have.
 pub const MAX_RANGE_BINS: u32 = 1 << 20;
 /// The largest number of beams a sonar may have.

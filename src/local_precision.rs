@@ -60,8 +60,12 @@ pub fn resolve_sigma_range(source: &Sonar, target: &Sonar, sigma_range: Option<f
     match sigma_range {
         Some(s) => {
             finite("sigma_range", s)?;
-            if s <= 0.0 {
-                return Err(Error::invalid("sigma_range", s, "must be > 0 m"));
+            if s <= 0.0 || s > crate::limits::MAX_SIGMA_RANGE {
+                return Err(Error::invalid(
+                    "sigma_range",
+                    s,
+                    format!("must be > 0 m and at most {} m", crate::limits::MAX_SIGMA_RANGE),
+                ));
             }
             Ok(s)
         }
@@ -131,7 +135,10 @@ impl TruePoint {
             }
         };
         let per_degree = slope * PI / 180.0;
-        let sigma_elevation = (slope.abs() > GEOMETRY_TOLERANCE * arc_r).then(|| sigma / per_degree.abs());
+        // Empty where the slope is too small for a finite sigma (a point all but at an origin).
+        let sigma_elevation = (slope.abs() > GEOMETRY_TOLERANCE * arc_r)
+            .then(|| sigma / per_degree.abs())
+            .filter(|s| s.is_finite());
         LocalPrecision {
             range_per_elevation: Some(per_degree),
             sigma_elevation,
@@ -215,9 +222,38 @@ mod tests {
         let fls = Sonar::preset("paper-fls").unwrap();
         let sigma = resolve_sigma_range(&fls, &sss, None).unwrap();
         assert!((sigma - 0.01 / 12f64.sqrt()).abs() < 1e-12);
-        for bad in [-1.0, 0.0, f64::NAN] {
+        for bad in [-1.0, 0.0, f64::NAN, 1.000_001e6, 1e308] {
             let e = resolve_sigma_range(&fls, &sss, Some(bad)).unwrap_err();
             assert!(e.to_string().contains("sigma_range"), "{e}");
         }
+        assert_eq!(resolve_sigma_range(&fls, &sss, Some(1e6)).unwrap(), 1e6);
+    }
+
+    #[test]
+    fn a_sigma_is_finite_or_empty_however_near_the_origin() {
+        // A point a hair from sonar 1's origin: the slope is tiny, the largest range error
+        // allowed would make the sigma overflow; it is empty instead, never infinite.
+        let (fls, sss) = (
+            Sonar::preset("paper-fls").unwrap(),
+            Sonar::preset("paper-sss").unwrap(),
+        );
+        let pose = RelativePose::new(
+            Rotation::RollPitchYaw {
+                roll: 0.0,
+                pitch: 90.0,
+                yaw: 0.0,
+            },
+            [0.0, 0.0, 5.0],
+        )
+        .unwrap();
+        for r in [1e-306, 1e-304, 1e-302, 1e-300, 1e-200, 1e-12, 1.0] {
+            let lp = local_precision(&fls, &sss, [r, 10.0, 3.0], &pose, 1e6);
+            assert!(lp.sigma_elevation.is_none_or(f64::is_finite), "{r}: {lp:?}");
+        }
+        assert!(
+            local_precision(&fls, &sss, [1.0, 10.0, 3.0], &pose, 1e6)
+                .sigma_elevation
+                .is_some()
+        );
     }
 }

@@ -65,8 +65,12 @@ impl AreaGrid {
     /// the grid would have more than [`MAX_AREA_CELLS`] cells.
     pub fn over(layout: &Layout, cell: f64) -> Result<Option<AreaGrid>> {
         finite("area_grid", cell)?;
-        if cell <= 0.0 {
-            return Err(Error::invalid("area_grid", cell, "must be > 0 m"));
+        if cell <= 0.0 || cell > crate::limits::MAX_AREA_GRID {
+            return Err(Error::invalid(
+                "area_grid",
+                cell,
+                format!("must be > 0 m and at most {} m", crate::limits::MAX_AREA_GRID),
+            ));
         }
         if layout.kind == SonarKind::Sss {
             return Ok(None);

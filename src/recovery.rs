@@ -305,10 +305,14 @@ pub fn recover(
     check("first", sonar1, &first)?;
     check("second", sonar2, &second)?;
     if let Some(s) = sigmas {
-        for (name, v) in [("sigma range", s.range), ("sigma azimuth", s.azimuth)] {
+        use crate::limits::{MAX_SIGMA_ANGLE, MAX_SIGMA_RANGE};
+        for (name, v, max, unit) in [
+            ("sigma range", s.range, MAX_SIGMA_RANGE, "m"),
+            ("sigma azimuth", s.azimuth, MAX_SIGMA_ANGLE, "deg"),
+        ] {
             finite(name, v)?;
-            if v < 0.0 {
-                return Err(Error::invalid(name, v, "must be >= 0"));
+            if !(0.0..=max).contains(&v) {
+                return Err(Error::invalid(name, v, format!("must be in [0, {max}] {unit}")));
             }
         }
     }
@@ -466,7 +470,8 @@ impl Context<'_> {
             let var = (by_r * s.range).powi(2)
                 + (by_az * s.azimuth.to_radians()).powi(2)
                 + (by_d * s.range).powi(2);
-            Some(var.sqrt().to_degrees())
+            // Empty where the slope is too small for a finite sigma.
+            Some(var.sqrt().to_degrees()).filter(|s| s.is_finite())
         });
         (dg_del, sigma)
     }

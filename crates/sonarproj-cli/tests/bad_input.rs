@@ -236,6 +236,92 @@ fn an_area_grid_too_fine_for_the_image_names_the_smallest_cell() {
 }
 
 #[test]
+fn parameters_whose_results_would_overflow_are_refused_naming_the_largest() {
+    // A range sigma or a grid cell large enough to make a sigma or an area infinite: refused,
+    // naming the parameter and the largest value that works, before any output.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.csv");
+    let out = out.to_str().unwrap();
+    let batch = |extra: &[&'static str]| -> Vec<String> {
+        [
+            "batch",
+            "--from",
+            "paper-sss",
+            "--to",
+            "paper-fls",
+            "--input",
+            "data/example-poses.csv",
+            "--output",
+            out,
+        ]
+        .iter()
+        .chain(extra)
+        .map(ToString::to_string)
+        .collect()
+    };
+    for (args, said) in [
+        (
+            batch(&["--sigma-range", "1e308"]),
+            ["sigma_range = 1e308", "at most 1000000 m"],
+        ),
+        (
+            batch(&["--area-grid", "1e300"]),
+            ["area_grid = 1e300", "at most 20000 m"],
+        ),
+    ] {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        common::rejects(&args, None, &said);
+        assert!(!std::path::Path::new(out).exists());
+    }
+    common::rejects(
+        &[
+            "recover",
+            "--from",
+            "paper-fls",
+            "--to",
+            "paper-sss",
+            "--pitch",
+            "90",
+            "--place-range",
+            "15",
+            "--feature-elevation",
+            "3",
+            "--first",
+            "5,0",
+            "--second",
+            "15",
+            "--sigma-range",
+            "1e308",
+            "--sigma-azimuth",
+            "0.1",
+        ],
+        None,
+        &["sigma range = 1e308", "[0, 1000000] m"],
+    );
+    // An advise file's mix scales: a denormal one would make the score infinite.
+    let config = dir.path().join("mix.toml");
+    std::fs::write(
+        &config,
+        "from = \"paper-fls\"\nto = \"paper-fls\"\nobjective = \"mix\"\n[mix]\nweight = 0.5\n\
+         metric_scale = 1e-310\nsigma_scale = 1\n[features]\ncount = 10\n[rig]\norigin = [0, 0, -0.5]\n",
+    )
+    .unwrap();
+    let advise_out = dir.path().join("advise");
+    common::rejects(
+        &[
+            "advise",
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            advise_out.to_str().unwrap(),
+        ],
+        None,
+        &["mix.metric_scale = 1e-310", "[1e-6, 1e6]"],
+    );
+    assert!(!advise_out.exists());
+}
+
+#[test]
 fn bad_batch_input_exits_2_naming_the_row_and_leaves_no_file() {
     let dir = tempfile::tempdir().unwrap();
     let output = dir.path().join("out.csv");

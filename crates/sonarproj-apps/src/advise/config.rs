@@ -401,11 +401,16 @@ fn objective(f: ConfigFile<'_>, top: &toml::Table) -> Result<Objective> {
                 )
             })?;
             f.only("mix.", mix, &["weight", "metric_scale", "sigma_scale"])?;
+            // A scale divides the score's parts: within [1e-6, 1e6] the mix stays finite.
             let positive = |k: &str| -> Result<f64> {
                 let name = format!("mix.{k}");
                 match f.number(mix, &name, k)? {
-                    Some(v) if v > 0.0 && v.is_finite() => Ok(v),
-                    other => Err(f.error(&name, format!("{other:?}"), "must be a number > 0")),
+                    Some(v) if (1e-6..=1e6).contains(&v) => Ok(v),
+                    other => Err(f.error(
+                        &name,
+                        other.map_or("missing".into(), |v| v.to_string()),
+                        "must be a number in [1e-6, 1e6]",
+                    )),
                 }
             };
             let weight = f.number(mix, "mix.weight", "weight")?.unwrap_or(0.5);

@@ -475,7 +475,8 @@ impl<'a> Scorer<'a> {
         } else {
             (fraction * (1.0 - fraction) / examined as f64).sqrt()
         };
-        let feasible = !features.is_empty() && fraction >= c.min_shared;
+        // Every part is finite (bounded inputs); a score that still is not is no score.
+        let feasible = !features.is_empty() && fraction >= c.min_shared && value.is_none_or(f64::is_finite);
         Score {
             rotation: [params[0], params[1], params[2]],
             offset: [params[3], params[4], params[5]],
