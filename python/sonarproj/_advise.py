@@ -32,8 +32,8 @@ def advise(
     ``score_se``, ``tied``; NaN where there is no value, and for the score of an infeasible
     candidate), ``ranked`` (the feasible candidates' rows, best first), ``best`` (the best
     candidate as a dict, or None), ``tied`` (how many ranked candidates are tied with the best),
-    ``recommended`` and ``recommended_index`` (the candidate the advisor recommends among the
-    ties, and its row), ``pareto`` (the rows of the Pareto front), ``next_move`` (a dict:
+    ``recommended``, ``recommended_index`` and ``recommended_because`` (the candidate the
+    advisor recommends among the ties, its row, and the rule that chose it), ``pareto`` (the rows of the Pareto front), ``next_move`` (a dict:
     ``now``, ``gradient``, ``best``, ``gain``, ``gain_se``, ``stay``, ``words``; None without
     ``[from_pose]``), ``metric``, ``score_unit`` ("m", "m²", "deg" or "1"), ``warnings``,
     ``files`` (the paths written), ``seconds`` and ``device``.

@@ -37,7 +37,7 @@ def test_the_panel_scores_around_the_pose_and_applies_the_move(page, cli, tmp_pa
     assert drawn["to"] is not None and drawn["to"] != drawn["from"]
     text = page.d.find_element("id", "advise-text").text
     # The numbers with their units and errors, the ties, the move in words.
-    assert a["unit"] == "m²" and a["tied"] >= 1
+    assert a["score_unit"] == "m²" and a["tied"] >= 1
     assert "Best move" in text and move["words"] in text and "gain" in text and "m²" in text and "±" in text, text
     assert f"{a['tied']} pose" in text and "tied with the best" in text, text
 

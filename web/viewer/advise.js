@@ -84,15 +84,15 @@ function draw(a) {
 
 function describe(a) {
   const fmt = (v) => (v === null || v === undefined ? "—" : Number(v).toPrecision(4));
-  const unit = a.unit === "1" ? "" : ` ${a.unit}`;
+  const unit = a.score_unit === "1" ? "" : ` ${a.score_unit}`;
   const withSe = (v, se) => (v === null || v === undefined ? "infeasible" : `${fmt(v)}${se != null ? ` ± ${fmt(se)}` : ""}${unit}`);
   const what = {
-    correspondence: "mean search cost per feature",
+    correspondence: "mean search cost per point drawn",
     ambiguity: `mean ${a.metric} of the shared features`,
     recovery: "median elevation σ",
   }[a.objective];
   const m = a.move;
-  let text = `Colour: ${what} (${a.unit === "1" ? "no unit" : a.unit}), dark lower (better) to yellow higher; grey: nothing shared; ○ the pose now. `;
+  let text = `Colour: ${what} (${a.score_unit === "1" ? "no unit" : a.score_unit}), dark lower (better) to yellow higher; grey: nothing shared; ○ the pose now. `;
   text += `Now: ${withSe(m.now.score, m.now.score_se)} (${Math.round(100 * m.now.shared)} ± ${Math.round(100 * m.now.shared_se)} % shared).`;
   text += ` ${a.tied} pose${a.tied === 1 ? "" : "s"} tied with the best (within 2 standard errors).`;
   if (m.best && !m.stay) {

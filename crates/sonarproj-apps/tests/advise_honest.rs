@@ -15,8 +15,14 @@ fn config(text: &str) -> AdviseConfig {
 /// The example's sonar pair and rig, one candidate (roll 5, pitch −5), `count` features of
 /// `seed`, objective `objective`.
 fn one_pose(objective: &str, count: usize, seed: u64) -> AdviseConfig {
+    // A mix whose two parts weigh about alike at 300 features.
+    let mix = if objective == "mix" {
+        "[mix]\nweight = 0.5\nmetric_scale = 1\nsigma_scale = 0.0001\n"
+    } else {
+        ""
+    };
     config(&format!(
-        "from = \"paper-fls\"\nto = \"paper-fls\"\nstep = 0.1\nobjective = \"{objective}\"\n\
+        "from = \"paper-fls\"\nto = \"paper-fls\"\nstep = 0.1\nobjective = \"{objective}\"\n{mix}\
          [features]\ncount = {count}\nseed = {seed}\n[rig]\norigin = [0, 0, -0.5]\n\
          [search]\nroll = 5\npitch = -5\nyaw = 0\nrefine = 0\n"
     ))
@@ -36,7 +42,12 @@ fn standard_errors_match_the_spread_over_feature_seeds() {
     // estimates from one seed. With 40 seeds the deviation itself is known to about ±11 % (1/√80),
     // so the two agree within a factor 1.4 unless the estimate is wrong (a missing √n, the shared
     // features' count in place of the points examined, would be off by 1.05–30×).
-    for (objective, band) in [("correspondence", 1.4), ("ambiguity", 1.4), ("recovery", 1.6)] {
+    for (objective, band) in [
+        ("correspondence", 1.4),
+        ("ambiguity", 1.4),
+        ("recovery", 1.6),
+        ("mix", 1.6),
+    ] {
         let (mut scores, mut ses, mut shared, mut shared_ses) = (vec![], vec![], vec![], vec![]);
         for seed in 1..=40 {
             let a = advise::advise(&one_pose(objective, 300, seed), &Backend::CpuFast).unwrap();
@@ -171,6 +182,11 @@ fn a_flat_objective_ties_everything_says_stay_and_warns() {
     assert!(m.stay && m.words.is_none(), "{m:?}");
     assert_eq!(a.warnings.len(), 1);
     assert!(a.warnings[0].contains("baseline"), "{}", a.warnings[0]);
+    // Without a pose now, the tie goes to the roundest angles: level.
+    let mut c = c;
+    c.from_pose = None;
+    let a2 = advise::advise(&c, &Backend::CpuFast).unwrap();
+    assert_eq!(a2.candidates[a2.recommended.unwrap()].1.rotation, [0.0, 0.0, 0.0]);
     // The refinement stops at once: no move gains a standard error.
     assert!(
         a.candidates
@@ -344,62 +360,120 @@ fn the_ranking_is_a_brute_force_ranking() {
     }
 }
 
-/// Returns sonar 2's axes in sonar 1's frame for roll, pitch, yaw (deg): the columns of
-/// `Q = Rᵀ`, the rows of the pose rotation `R` as the documented convention defines it.
-fn axes_of(r: [f64; 3]) -> [glam::DVec3; 3] {
-    let m = Rotation::RollPitchYaw {
+/// Returns sonar 2's orientation in sonar 1's frame for roll, pitch, yaw (deg): `Q = Rᵀ`, the
+/// transpose of the pose rotation the documented convention defines.
+fn orientation(r: [f64; 3]) -> glam::DMat3 {
+    Rotation::RollPitchYaw {
         roll: r[0],
         pitch: r[1],
         yaw: r[2],
     }
     .to_matrix()
     .unwrap()
-    .transpose();
-    [m.x_axis, m.y_axis, m.z_axis]
+    .transpose()
+}
+
+/// Returns the rotation by `angle` (deg) about the unit `axis`, Rodrigues' formula.
+fn about(axis: glam::DVec3, angle: f64) -> glam::DMat3 {
+    let (s, c) = angle.to_radians().sin_cos();
+    let k = glam::DMat3::from_cols(
+        glam::DVec3::new(0.0, axis.z, -axis.y),
+        glam::DVec3::new(-axis.z, 0.0, axis.x),
+        glam::DVec3::new(axis.y, -axis.x, 0.0),
+    );
+    glam::DMat3::IDENTITY + k * s + k * k * (1.0 - c)
 }
 
 #[test]
 fn moves_in_words_agree_with_the_documented_frames() {
-    // From a pose off every axis, a +5° change of one angle, applied to the rotation the
-    // convention defines, moves sonar 2's axes as the words say (x forward, y port, z up).
-    let from = [10.0, -20.0, 30.0];
-    for k in 0..3 {
-        for sign in [1.0, -1.0] {
-            let mut to = from;
-            to[k] += sign * 5.0;
-            let [x0, y0, _] = axes_of(from);
-            let [x1, y1, _] = axes_of(to);
+    // From level, off-axis, upside-down and boresight-vertical poses (the paper's sidescan
+    // mount), one-angle and combined changes: the motion's tilt, turn and roll rebuild the new
+    // orientation from the old (tilt the boresight, turn it about the vertical, roll about it),
+    // and the words say each part with its direction.
+    let starts = [
+        [0.0, 0.0, 0.0],
+        [10.0, -20.0, 30.0],
+        [180.0, 0.0, 0.0],
+        [0.0, 90.0, 0.0],
+        [45.0, 60.0, -120.0],
+    ];
+    let steps = [
+        [5.0, 0.0, 0.0],
+        [0.0, 5.0, 0.0],
+        [0.0, 0.0, 5.0],
+        [-3.0, 4.0, -2.0],
+    ];
+    for from in starts {
+        for step in steps {
+            let to = [from[0] + step[0], from[1] + step[1], from[2] + step[2]];
+            let m = advise::search::motion(from, to);
+            let (q0, q1) = (orientation(from), orientation(to));
+            let (b0, b1) = (q0.x_axis, q1.x_axis);
+            // The boresight: its elevation and heading, from the matrices.
+            let el = |b: glam::DVec3| b.z.atan2(b.x.hypot(b.y)).to_degrees();
+            assert!(
+                (m.tilt - (el(b1) - el(b0))).abs() < 1e-9,
+                "{from:?} -> {to:?}: {m:?}"
+            );
+            // Rebuild: the shortest turn of the boresight (about b0 × b1), then the roll about b1.
+            let axis = b0.cross(b1);
+            let shortest = if axis.length() < 1e-12 {
+                glam::DMat3::IDENTITY
+            } else {
+                about(axis.normalize(), b0.dot(b1).clamp(-1.0, 1.0).acos().to_degrees())
+            };
+            let rebuilt = about(b1, m.roll) * shortest * q0;
+            for (a, b) in [
+                (rebuilt.x_axis, q1.x_axis),
+                (rebuilt.y_axis, q1.y_axis),
+                (rebuilt.z_axis, q1.z_axis),
+            ] {
+                assert!(
+                    (a - b).length() < 1e-9,
+                    "{from:?} -> {to:?}: {m:?} rebuilds {a} for {b}"
+                );
+            }
+            if let Some(turn) = m.turn {
+                let heading = |b: glam::DVec3| b.y.atan2(b.x).to_degrees();
+                let d = (heading(b1) - heading(b0) + 540.0).rem_euclid(360.0) - 180.0;
+                assert!((turn - d).abs() < 1e-9);
+            } else {
+                assert!(b0.z.abs() > 0.9998 || b1.z.abs() > 0.9998);
+            }
             let words = advise::search::move_words(
                 [from[0], from[1], from[2], 0.0, 0.0, 0.0],
                 [to[0], to[1], to[2], 0.0, 0.0, 0.0],
             );
             let said = |w: &str| words.contains(w);
-            match k {
-                // Roll: the port side (+y) rises for +, the starboard side for −.
-                0 => assert_eq!(y1.z > y0.z, said("port side up"), "{words}"),
-                // Pitch: the nose (+x) goes down for +.
-                1 => assert_eq!(x1.z < x0.z, said("nose down"), "{words}"),
-                // Yaw: the nose turns toward port (+y, counter-clockwise seen from above) for +.
-                _ => {
-                    let turn = x0.x * x1.y - x0.y * x1.x;
-                    assert_eq!(turn > 0.0, said("to port"), "{words}");
-                }
-            }
+            assert_eq!(said("tilts down"), m.tilt < -5e-4, "{words}");
+            assert_eq!(said("tilts up"), m.tilt > 5e-4, "{words}");
+            assert_eq!(said("to port"), m.turn.is_some_and(|t| t > 5e-4), "{words}");
+            assert_eq!(said(" clockwise"), m.roll > 5e-4, "{words}");
+            assert_eq!(said("counter-clockwise"), m.roll < -5e-4, "{words}");
         }
     }
-    // The example's comment describes its pose now in the same words: pitch −5 points the nose up.
+    // The sidescan mount (boresight straight down): a yaw turns it about its own boresight.
+    let m = advise::search::motion([0.0, 90.0, 0.0], [0.0, 90.0, 5.0]);
+    assert!(
+        m.tilt.abs() < 1e-9 && m.turn.is_none() && (m.roll.abs() - 5.0).abs() < 1e-9,
+        "{m:?}"
+    );
+    // The example's comment describes its pose now in the same words.
     let text =
         std::fs::read_to_string(sonarproj_testkit::repository().join("data/example-advise.toml")).unwrap();
     let c = config(&text);
     let p = c.from_pose.unwrap().rotation;
     let words = advise::search::move_words([0.0; 6], [p[0], p[1], p[2], 0.0, 0.0, 0.0]);
-    for part in words.split(", ") {
-        let plain = part[part.find('(').unwrap() + 1..part.rfind(')').unwrap()].to_string();
-        assert!(
-            text.contains(&plain),
-            "the example should say {plain:?} ({words})"
-        );
-    }
+    let effects = &words[words.find(": ").unwrap() + 2..];
+    let comment: String = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("# "))
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(
+        comment.contains(effects),
+        "the example should say {effects:?} ({words})"
+    );
 }
 
 #[test]

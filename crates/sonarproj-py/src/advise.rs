@@ -156,6 +156,7 @@ pub(crate) fn advise_run<'py>(
             .into_pyarray(py),
     )?;
     d.set_item("score_unit", advise::score_unit(&config))?;
+    d.set_item("recommended_because", advise::recommended_rule(&config))?;
     d.set_item("warnings", advice.warnings.clone())?;
     let files = PyDict::new(py);
     if let Some(w) = written {

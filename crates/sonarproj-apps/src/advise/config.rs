@@ -55,8 +55,9 @@ use crate::sweep::config::resolve_sonar;
 pub enum Objective {
     /// The expected cost of finding a feature's match in sonar 2's data, per point of the
     /// features' pool: a point both sonars see costs its projection metric (range span m for an
-    /// SSS sonar 2, projection area m² for an FLS; at most the blind cost), one sonar 2 does not
-    /// see costs a blind search of sonar 2's whole data (its range extent, or its field of view's
+    /// SSS sonar 2, projection area m² for an FLS; at most the blind cost), one the other sonar
+    /// misses (the pool is drawn over the sonar with the thinner elevation aperture) costs a
+    /// blind search of sonar 2's whole data (its range extent, or its field of view's
     /// area). Sharing fewer features never lowers it: each feature lost trades its metric for the
     /// blind cost. Error: the costs' standard deviation over `√(points examined)`.
     Correspondence,

@@ -223,7 +223,10 @@ fn warnings(config: &AdviseConfig) -> Vec<String> {
         Objective::Correspondence | Objective::Ambiguity => false,
     };
     let offsets_fixed = config.axes[3..].iter().all(|a| a.len() < 2);
-    if recovery && offsets_fixed && matches!(config.rig, Rig::Origin(_)) {
+    // With an imaging sonar 1 the sigma depends on sonar 2's origin alone (the slope of its
+    // range along sonar 1's arc); a sidescan sonar 1's depends on sonar 2's own arc, which turns.
+    let fls_source = config.source.kind == sonarproj::SonarKind::Fls;
+    if recovery && offsets_fixed && fls_source && matches!(config.rig, Rig::Origin(_)) {
         vec![
             "the recovery sigma cannot change with sonar 2's rotation here: with its origin fixed \
              (rig origin), the ranges sonar 2 measures do not depend on how it turns, and only \
@@ -243,9 +246,8 @@ fn ranking(candidates: &[(Stage, Score)]) -> Vec<usize> {
         .collect();
     order.sort_by(|&a, &b| {
         let (x, y) = (candidates[a].1.score, candidates[b].1.score);
-        x.partial_cmp(&y)
-            .unwrap_or(std::cmp::Ordering::Equal)
-            .then(a.cmp(&b))
+        let value = |v: Option<f64>| v.unwrap_or(f64::INFINITY);
+        value(x).total_cmp(&value(y)).then(a.cmp(&b))
     });
     let mut seen = std::collections::HashSet::new();
     order.retain(|&i| seen.insert(candidates[i].1.params().map(f64::to_bits)));

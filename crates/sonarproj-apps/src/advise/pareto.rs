@@ -12,7 +12,7 @@ use crate::advise::score::Score;
 pub fn front(scores: &[Score], ranked: &[usize]) -> Vec<usize> {
     let key = |i: usize| {
         let s = &scores[i];
-        let worst = |v: Option<f64>| v.unwrap_or(f64::INFINITY);
+        let worst = |v: Option<f64>| v.filter(|v| !v.is_nan()).unwrap_or(f64::INFINITY);
         (-s.shared, worst(s.metric.mean), worst(s.sigma.median))
     };
     let mut order: Vec<usize> = ranked.to_vec();
@@ -37,4 +37,69 @@ pub fn front(scores: &[Score], ranked: &[usize]) -> Vec<usize> {
         }
     }
     kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::front;
+    use crate::advise::score::{Score, Stats};
+
+    fn score(shared: f64, ambiguity: Option<f64>, sigma: Option<f64>) -> Score {
+        Score {
+            rotation: [0.0; 3],
+            offset: [0.0; 3],
+            translation: [0.0; 3],
+            shared,
+            shared_se: 0.0,
+            examined: 100,
+            features: 1,
+            metric: Stats {
+                mean: ambiguity,
+                ..Stats::default()
+            },
+            sigma: Stats {
+                median: sigma,
+                ..Stats::default()
+            },
+            score: Some(0.0),
+            score_se: None,
+            tied: false,
+        }
+    }
+
+    #[test]
+    fn the_front_is_what_brute_force_finds() {
+        // Random candidates on a coarse lattice (many ties), some without a sigma or ambiguity:
+        // a candidate is on the front exactly when no other dominates it, checked pair by pair.
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        for _ in 0..50 {
+            let n = rng.random_range(1..60);
+            let pick = |rng: &mut rand_chacha::ChaCha8Rng| {
+                let v = f64::from(rng.random_range(0..5u8));
+                (rng.random_range(0..8u8) > 0).then_some(v)
+            };
+            let scores: Vec<Score> = (0..n)
+                .map(|_| {
+                    let shared = f64::from(rng.random_range(1..5u8)) / 4.0;
+                    score(shared, pick(&mut rng), pick(&mut rng))
+                })
+                .collect();
+            let ranked: Vec<usize> = (0..n).collect();
+            let mut got = front(&scores, &ranked);
+            got.sort_unstable();
+            let key = |s: &Score| {
+                let w = |v: Option<f64>| v.unwrap_or(f64::INFINITY);
+                (s.shared, w(s.metric.mean), w(s.sigma.median))
+            };
+            let dominates = |a: &Score, b: &Score| {
+                let (x, y) = (key(a), key(b));
+                x.0 >= y.0 && x.1 <= y.1 && x.2 <= y.2 && (x.0 > y.0 || x.1 < y.1 || x.2 < y.2)
+            };
+            let want: Vec<usize> = (0..n)
+                .filter(|&i| !(0..n).any(|j| dominates(&scores[j], &scores[i])))
+                .collect();
+            assert_eq!(got, want);
+        }
+    }
 }

@@ -216,7 +216,7 @@ fn best_json(config: &AdviseConfig, advice: &Advice) -> serde_json::Value {
     let (metric_unit, unit) = units(config);
     let blind = crate::advise::Scorer::blind_cost(&config.target);
     let correspondence = format!(
-        "mean search cost per feature: its {} ({metric_unit}) when both sonars see it, else a blind search of sonar 2 ({blind} {metric_unit})",
+        "mean search cost per point examined: its {} ({metric_unit}) when both sonars see it, else a blind search of sonar 2 ({blind} {metric_unit})",
         advice.metric
     );
     let objective = match config.objective {
@@ -381,8 +381,15 @@ fn landscape(
         at: on(at),
     }];
     if let Some(m) = &advice.next {
+        // The pose now and its move may lie off this slice (another value of a held axis).
+        let now = m.now.params();
+        let on_slice = others.iter().all(|&k| (now[k] - fixed[k]).abs() < 1e-9);
         marks.push(Mark::Square {
-            label: "pose now".into(),
+            label: if on_slice {
+                "pose now".into()
+            } else {
+                "pose now (off this slice)".into()
+            },
             at: on(m.now.params()),
         });
         if let (Some(b), false) = (&m.best, m.stay) {
@@ -426,7 +433,7 @@ fn axis_value(k: usize, value: f64) -> String {
 fn landscape_quantity(config: &AdviseConfig, advice: &Advice) -> String {
     let (metric_unit, _) = units(config);
     match config.objective {
-        Objective::Correspondence => format!("mean search cost per feature ({metric_unit})"),
+        Objective::Correspondence => format!("mean search cost ({metric_unit})"),
         Objective::Ambiguity => {
             let label = sonarproj::Metric::from_name(advice.metric)
                 .and_then(|m| m.label(config.target.kind))

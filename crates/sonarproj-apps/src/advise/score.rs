@@ -29,7 +29,8 @@ pub struct Stats {
     /// The median.
     pub median: Option<f64>,
     /// The median's standard error, free of any assumed distribution: the width of the order
-    /// statistics' 95 % interval for the median (ranks `n/2 ∓ 1.96 √n / 2`) over `2 × 1.96`.
+    /// statistics' 95 % interval for the median (1-based ranks `⌊n/2 − 1.96 √n / 2⌋` and
+    /// `⌈n/2 + 1.96 √n / 2⌉ + 1`, within `1..=n`) over `2 × 1.96`.
     pub median_se: Option<f64>,
     /// The 10th percentile.
     pub p10: Option<f64>,
@@ -464,8 +465,11 @@ impl<'a> Scorer<'a> {
             } => {
                 let (a, b) = (weight / metric_scale, (1.0 - weight) / sigma_scale);
                 let value = cost.0.zip(sigma.median).map(|(m, s)| a * m + b * s);
-                // The two parts' errors as if independent.
-                let se = cost.1.zip(sigma.median_se).map(|(m, s)| (a * m).hypot(b * s));
+                // The two parts' errors as if independent; a missing one (a single value) as 0.
+                let se = match (cost.1, sigma.median_se) {
+                    (None, None) => None,
+                    (m, s) => Some((a * m.unwrap_or(0.0)).hypot(b * s.unwrap_or(0.0))),
+                };
                 (value, se)
             }
         };

@@ -70,7 +70,8 @@ pub fn rotation_angle(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// Returns how plain a candidate's values are, smaller being plainer: for each value, the
 /// position in a list of ever finer steps (90°, 45°, 30°, 15°, 10°, 5°, 1°, 0.5°, 0.1°, … for
 /// angles; 1, 0.5, 0.25, 0.1, 0.05, 0.01 m, … for offsets) of the first it is a multiple of,
-/// summed; then the sum of the values' sizes (in units of the finest step) breaks equal counts.
+/// summed; then the values' sizes (angles over 540°, offsets over 3000 m, below 1 in all)
+/// break equal counts.
 #[must_use]
 pub fn roundness(params: &Params) -> f64 {
     const ANGLES: [f64; 12] = [
@@ -267,7 +268,7 @@ pub struct Move {
     /// best move from the pose now). A move out of an infeasible pose to a feasible one is
     /// always offered.
     pub stay: bool,
-    /// The move in words about sonar 1's axes ("pitch +5° (tilt sonar 2's nose down)"), when one
+    /// The move in words ([`move_words`]: "pitch +5°: its boresight tilts down 5°"), when one
     /// is offered.
     pub words: Option<String>,
 }
@@ -337,7 +338,11 @@ pub fn next_move(
         })
         .copied();
     let gain = best.and_then(|b| now.score.zip(b.score).map(|(n, b)| n - b));
-    let gain_se = best.and_then(|b| now.score_se.zip(b.score_se).map(|(n, b)| n.hypot(b)));
+    // A missing error (a single feature) counts as 0; none at all when both are missing.
+    let gain_se = best.and_then(|b| match (now.score_se, b.score_se) {
+        (None, None) => None,
+        (n, b) => Some(n.unwrap_or(0.0).hypot(b.unwrap_or(0.0))),
+    });
     let stay = match (best, gain) {
         (None, _) => true,
         (Some(_), None) => false,
@@ -362,46 +367,114 @@ pub fn next_move(
     ))
 }
 
-/// Returns the move from `from` to `to` in words a rig builder follows, each changed axis with
-/// its signed change: roll turns about sonar 1's x axis (+ lifts sonar 2's port side: it rolls
-/// to starboard), pitch about its y axis (+ tilts sonar 2's nose down, for pitch within ±90°),
-/// yaw about its z axis (+ turns the nose to port), as the documented frames (x forward, y port,
-/// z up) and `Q = Rz(yaw) Ry(pitch) Rx(roll)` give them; the offsets move the rig's origin (or
-/// translation) along x, y, z.
+/// What a move does to sonar 2, in sonar 1's frame (x forward, y port, z up): how far its
+/// boresight (+x, the middle of its field of view) tilts up and turns to port, and how far it
+/// then rolls about that boresight (+ clockwise as seen from behind, looking along the
+/// boresight: an upright sonar's port side rises), all in degrees.
+/// The move is the boresight's shortest turn followed by the roll, whatever the angles it starts
+/// from; `turn` is `None` where the boresight is within 1° of vertical (no heading to turn).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Motion {
+    /// The boresight's change of elevation (deg, + up).
+    pub tilt: f64,
+    /// The boresight's change of heading (deg, + to port).
+    pub turn: Option<f64>,
+    /// The roll about the boresight after its shortest turn (deg, + clockwise from behind).
+    pub roll: f64,
+}
+
+/// Returns sonar 2's orientation `Q = Rz(yaw) Ry(pitch) Rx(roll)` in sonar 1's frame for roll,
+/// pitch, yaw in degrees.
+fn orientation(r: [f64; 3]) -> glam::DQuat {
+    glam::DQuat::from_euler(
+        glam::EulerRot::ZYX,
+        r[2].to_radians(),
+        r[1].to_radians(),
+        r[0].to_radians(),
+    )
+}
+
+/// Returns what the rotation from `from` to `to` (roll, pitch, yaw in degrees) does to sonar 2.
+#[must_use]
+pub fn motion(from: [f64; 3], to: [f64; 3]) -> Motion {
+    use glam::{DQuat, DVec3};
+    let (q0, q1) = (orientation(from), orientation(to));
+    let (b0, b1) = (q0 * DVec3::X, q1 * DVec3::X);
+    let elevation = |b: DVec3| b.z.atan2(b.x.hypot(b.y)).to_degrees();
+    let level = 1f64.to_radians().sin();
+    let flat = |b: DVec3| b.x.hypot(b.y) > level;
+    let turn = (flat(b0) && flat(b1)).then(|| {
+        let d = b1.y.atan2(b1.x) - b0.y.atan2(b0.x);
+        // Into (−180°, 180°].
+        (d.to_degrees() + 180.0).rem_euclid(360.0) - 180.0
+    });
+    // The boresight's shortest turn, then the roll about it that brings the port axis home.
+    let shortest = DQuat::from_rotation_arc(b0, b1);
+    let (y_turned, y1) = (shortest * (q0 * DVec3::Y), q1 * DVec3::Y);
+    let roll = b1.dot(y_turned.cross(y1)).atan2(y_turned.dot(y1)).to_degrees();
+    Motion {
+        tilt: elevation(b1) - elevation(b0),
+        turn,
+        roll,
+    }
+}
+
+/// Returns the move from `from` to `to` in words a rig builder follows: the changed values
+/// ("roll +5°, pitch −2.5°", offsets in m), then what the rotation does to sonar 2 in sonar 1's
+/// frame ([`motion`]): "its boresight tilts down 2.5° and turns 1° to port; it rolls 5°
+/// clockwise as seen from behind". Parts under 0.0005 are left out; "stay" when nothing changes.
 #[must_use]
 pub fn move_words(from: Params, to: Params) -> String {
-    let mut parts = Vec::new();
+    let shown = |v: f64| (v * 1000.0).round() / 1000.0 + 0.0;
+    let mut changes = Vec::new();
     for k in 0..6 {
-        let d = to[k] - from[k];
+        let d = shown(to[k] - from[k]);
         if d == 0.0 {
             continue;
         }
-        let size = (d.abs() * 1000.0).round() / 1000.0;
-        let signed = if d > 0.0 {
-            format!("+{size}")
+        let sign = if d > 0.0 { "+" } else { "" };
+        let unit = if k < 3 { "°" } else { " m" };
+        let name = if k < 3 {
+            crate::advise::config::AXES[k].to_string()
         } else {
-            format!("-{size}")
+            format!("offset {}", crate::advise::config::AXES[k])
         };
-        parts.push(match k {
-            0 => format!(
-                "roll {signed}° (roll sonar 2 {size}° to {}: its {} side up)",
-                if d > 0.0 { "starboard" } else { "port" },
-                if d > 0.0 { "port" } else { "starboard" }
-            ),
-            1 => format!(
-                "pitch {signed}° (tilt sonar 2's nose {} {size}°)",
-                if d > 0.0 { "down" } else { "up" }
-            ),
-            2 => format!(
-                "yaw {signed}° (turn sonar 2's nose {size}° to {})",
-                if d > 0.0 { "port" } else { "starboard" }
-            ),
-            _ => format!("offset {} {signed} m", crate::advise::config::AXES[k]),
-        });
+        changes.push(format!("{name} {sign}{d}{unit}"));
     }
-    if parts.is_empty() {
-        "stay".to_string()
-    } else {
-        parts.join(", ")
+    if changes.is_empty() {
+        return "stay".to_string();
     }
+    let m = motion([from[0], from[1], from[2]], [to[0], to[1], to[2]]);
+    let mut boresight = Vec::new();
+    let tilt = shown(m.tilt);
+    if tilt != 0.0 {
+        boresight.push(format!(
+            "tilts {} {}°",
+            if tilt < 0.0 { "down" } else { "up" },
+            tilt.abs()
+        ));
+    }
+    if let Some(turn) = m.turn.map(shown).filter(|&t| t != 0.0) {
+        let side = if turn > 0.0 { "port" } else { "starboard" };
+        boresight.push(format!("turns {}° to {side}", turn.abs()));
+    }
+    let mut effects = Vec::new();
+    if !boresight.is_empty() {
+        effects.push(format!("its boresight {}", boresight.join(" and ")));
+    }
+    let roll = shown(m.roll);
+    if roll != 0.0 {
+        let way = if roll > 0.0 {
+            "clockwise"
+        } else {
+            "counter-clockwise"
+        };
+        effects.push(format!("it rolls {}° {way} as seen from behind", roll.abs()));
+    }
+    let mut words = changes.join(", ");
+    if !effects.is_empty() {
+        words.push_str(": ");
+        words.push_str(&effects.join("; "));
+    }
+    words
 }

@@ -222,7 +222,7 @@ impl Viewer {
             "scores": scores,
             "metric": advice.metric,
             "objective": request.objective,
-            "unit": advise::score_unit(&config),
+            "score_unit": advise::score_unit(&config),
             "tied": advice.ranked.iter().filter(|&&i| advice.candidates[i].1.tied).count(),
             "recommended": advice.recommended.map(|i| advice.candidates[i].1),
             "warnings": advice.warnings,

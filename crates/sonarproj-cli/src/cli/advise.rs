@@ -38,18 +38,22 @@ pub(super) fn run(a: AdviseArgs) -> Result<()> {
     let advice = advise::advise(&config, &backend)?;
     let seconds = start.elapsed().as_secs_f64();
     let written = advise::write(&config, &advice, &a.out)?;
-    let unit = advise::score_unit(&config);
+    // A mix has no unit ("1"): nothing is printed after its numbers.
+    let unit = match advise::score_unit(&config) {
+        "1" => String::new(),
+        u => format!(" {u}"),
+    };
     let with_se = |v: Option<f64>, se: Option<f64>| match (v, se) {
-        (Some(v), Some(se)) => format!("{v:.6} ± {se:.6} {unit}"),
-        (Some(v), None) => format!("{v:.6} {unit}"),
+        (Some(v), Some(se)) => format!("{v:.6} ± {se:.6}{unit}"),
+        (Some(v), None) => format!("{v:.6}{unit}"),
         _ => "infeasible".to_string(),
     };
     // Angles to a thousandth of a degree, offsets to a tenth of a millimetre: best.json has
     // every digit.
-    let round = |v: f64, to: f64| (v / to).round() * to + 0.0;
+    let round = |v: f64, per: f64| (v * per).round() / per + 0.0;
     let pose = |s: &advise::Score| {
-        let [r, p, y] = s.rotation.map(|v| round(v, 1e-3));
-        let offset = s.offset.map(|v| round(v, 1e-4));
+        let [r, p, y] = s.rotation.map(|v| round(v, 1e3));
+        let offset = s.offset.map(|v| round(v, 1e4));
         format!(
             "roll {r}, pitch {p}, yaw {y} deg{}",
             if offset == [0.0; 3] {
@@ -100,8 +104,8 @@ pub(super) fn run(a: AdviseArgs) -> Result<()> {
             with_se(m.now.score, m.now.score_se)
         );
         let gain = match (m.gain, m.gain_se) {
-            (Some(g), Some(se)) => format!("gain {g:.6} ± {se:.6} {unit}"),
-            (Some(g), None) => format!("gain {g:.6} {unit}"),
+            (Some(g), Some(se)) => format!("gain {g:.6} ± {se:.6}{unit}"),
+            (Some(g), None) => format!("gain {g:.6}{unit}"),
             (None, _) => "the pose now is infeasible; this one is not".to_string(),
         };
         match (&m.best, m.stay) {
