@@ -308,7 +308,7 @@ pub fn excerpt(text: &str) -> String {
 /// Returns `value` as an error shows it. A long number takes exponent form (`1e308`). Anything
 /// else is whole up to [`MAX_VALUE_CHARS`](crate::limits::MAX_VALUE_CHARS) characters, else
 /// cut there and marked with its length.
-fn shortened(value: &str) -> String {
+pub(crate) fn shortened(value: &str) -> String {
     // A huge or tiny number formats with all its digits (1e308 has 309). Say it as Rust reads it.
     if value.len() > 24
         && let Ok(v) = value.parse::<f64>()

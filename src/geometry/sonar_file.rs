@@ -141,7 +141,8 @@ impl Sonar {
             });
         }
         Err(Error::UnknownSonar {
-            name: spec.to_string(),
+            // A long name is cut: an error never echoes a long input whole.
+            name: crate::error::shortened(spec),
             presets: Sonar::preset_names().join(", "),
         })
     }

@@ -236,6 +236,33 @@ fn an_area_grid_too_fine_for_the_image_names_the_smallest_cell() {
 }
 
 #[test]
+fn a_long_unknown_sonar_name_is_cut_in_the_error() {
+    let long = "x".repeat(5000);
+    let out = common::sonarproj()
+        .args([
+            "project",
+            "--from",
+            "paper-fls",
+            "--to",
+            &long,
+            "--range",
+            "5",
+            "--place-range",
+            "5",
+        ])
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("unknown sonar") && err.contains("(5000 bytes)"),
+        "{err}"
+    );
+    assert!(err.len() < 600, "{} bytes of error", err.len());
+}
+
+#[test]
 fn parameters_whose_results_would_overflow_are_refused_naming_the_largest() {
     // A range sigma or a grid cell large enough to make a sigma or an area infinite: refused,
     // naming the parameter and the largest value that works, before any output.

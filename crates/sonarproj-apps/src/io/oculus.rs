@@ -465,9 +465,18 @@ fn image(m: &Reader<'_>, h: &Header) -> Result<(OculusImage, Option<Vec<f32>>)> 
     let rows = &m.bytes[image_offset..image_offset + image_size];
     let mut gains = gain.then(|| Vec::with_capacity(n_ranges));
     let (mut u8s, mut u16s) = (Vec::new(), Vec::new());
-    for row in rows.chunks_exact(stride) {
+    for (line, row) in rows.chunks_exact(stride).enumerate() {
         let samples = if let Some(g) = &mut gains {
-            g.push(f32::from_le_bytes(row[..4].try_into().expect("4 bytes")));
+            let value = f32::from_le_bytes(row[..4].try_into().expect("4 bytes"));
+            // A gain scales a range line's samples: one that is not a number is damage.
+            if !value.is_finite() {
+                return Err(m.bad(
+                    image_offset + line * stride,
+                    "gain",
+                    format!("range line {line}'s gain is {value}: a gain must be a finite number"),
+                ));
+            }
+            g.push(value);
             &row[4..]
         } else {
             row
@@ -747,6 +756,14 @@ mod tests {
             &message(1, &[1000, 2000, 3000], 4, 1, false, 750e3),
             &["bearings", "not centred"],
         );
+        // A gain that is not a number (line 2's, written as 1002.0).
+        let mut nan_gain = message(2, &[-100, 0, 100], 4, 1, true, 750e3);
+        let at = nan_gain
+            .windows(4)
+            .position(|w| w == 1002f32.to_le_bytes())
+            .unwrap();
+        nan_gain[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        refused(&nan_gain, &["gain", "range line 2's gain is NaN", "finite"]);
         let mut tiny = good.clone();
         tiny[98..106].copy_from_slice(&1e-300f64.to_le_bytes());
         refused(&tiny, &["offset 98: rangeResolution", "1e-300"]);
