@@ -197,7 +197,7 @@ def _real_array(parameter: str, value: Any) -> _np.ndarray:
     except Exception as e:  # ragged sequences and the like
         raise InputError(f"{parameter}: not an array of numbers ({e})") from None
     if a.dtype.kind not in "fiu":
-        raise InputError(
+        raise InputTypeError(
             f"{parameter}: dtype {a.dtype} is not a real number type; give float or integer values"
         )
     return _np.ascontiguousarray(a, dtype=_np.float64)
@@ -212,8 +212,8 @@ def _column(parameter: str, value: Any) -> _np.ndarray:
 
 def _backend(value: Any) -> str:
     if not isinstance(value, str):
-        raise InputError(
-            f'backend: expected "auto", "gpu", "cpu-fast" or "cpu", got {value!r}'
+        raise InputTypeError(
+            f'backend: expected "auto", "gpu", "cpu-fast" or "cpu", got {value!r} ({type(value).__name__})'
         )
     return value
 
@@ -282,9 +282,12 @@ def _step(value: Any) -> Union[None, float, str]:
 def _columns_of(parameter: str, table: Any) -> tuple[list[str], Callable[[str], Any]]:
     """Returns the column names of a mapping or DataFrame and a getter."""
     if hasattr(table, "keys") and hasattr(table, "__getitem__"):
-        names = [str(k) for k in table.keys()]
-        return names, lambda k: table[k]
-    raise InputError(
+        keys = list(table.keys())
+        for k in keys:
+            if not isinstance(k, str):
+                raise InputTypeError(f"{parameter}: column names must be strings, got {k!r} ({type(k).__name__})")
+        return keys, lambda k: table[k]
+    raise InputTypeError(
         f"{parameter}: expected a mapping of column name to 1-D array (a dict or a pandas DataFrame), "
         f"got {type(table).__name__}"
     )
@@ -439,7 +442,7 @@ def _sigma(sigma: Any, covariance: Any) -> Optional[list[float]]:
     values = dict.fromkeys(_SIGMA_KEYS, 0.0)
     if sigma is not None:
         if not isinstance(sigma, Mapping):
-            raise InputError(
+            raise InputTypeError(
                 f"sigma: expected a dict with keys among {', '.join(_SIGMA_KEYS)}, got {type(sigma).__name__}"
             )
         for k, v in sigma.items():

@@ -78,6 +78,9 @@ def test_only_the_public_api_is_visible():
         assert hasattr(sonarproj, name), name
 
 
+POSES = {"range": [5.0], "azimuth": [0.0], "roll": [0.0], "pitch": [90.0], "yaw": [0.0],
+         "tx": [0.0], "ty": [0.0], "tz": [0.0]}
+
 WRONG_TYPES = [
     (lambda: Pose(roll=True), "roll"),
     (lambda: Pose(yaw="10"), "yaw"),
@@ -99,6 +102,15 @@ WRONG_TYPES = [
     (lambda: sonarproj.masks("paper-fls", "paper-sss", Pose(), [[5.0, 0.0]], counts=1), "counts"),
     (lambda: sonarproj.MaskEngine("paper-fls", "paper-sss", counts="yes"), "counts"),
     (lambda: sonarproj.project("paper-fls", "paper-sss", Pose(), (5.0, 0.0), step=True), "step"),
+    (lambda: Sonar(1, 0.1, 10, 60, 12, 100, beams=8), "kind"),
+    (lambda: Sonar("fls", 0.1, 10, 60, 12, 100, beams=8, name=5), "name"),
+    (lambda: Pose.from_mounts(1, 2), "first"),
+    (lambda: Pose.from_mounts(Mount((0, 0, 0)), "m"), "second"),
+    (lambda: Sonar.from_projected_sonar_image([[0, 0, 1]], [1.0, 2.0], "12"), "elevation_aperture"),
+    (lambda: sonarproj.batch("paper-fls", "paper-sss", {**POSES, "range": np.array([True])}), "poses['range']"),
+    (lambda: sonarproj.batch("paper-fls", "paper-sss", {**POSES, "range": np.array([5 + 0j])}), "poses['range']"),
+    (lambda: sonarproj.batch("paper-fls", "paper-sss", {**POSES, 3: [0.0]}), "poses"),
+    (lambda: sonarproj.batch("paper-fls", "paper-sss", POSES, backend=3), "backend"),
 ]
 
 
@@ -120,6 +132,9 @@ BAD_VALUES = [
     (lambda: Mount((0, 0, 0), rpy=(1, 2, 3, 4)), "rpy", "(4,)"),
     (lambda: Pose().apply(np.zeros((2, 4))), "p", "(2, 4)"),
     (lambda: sonarproj.paper("/tmp/x", angle_step=1000), "angle_step", "1000"),
+    # A ping's features, as the command line's limit (2^16), though the calls are chunked.
+    (lambda: sonarproj.masks("paper-fls", "paper-sss", Pose(), np.tile([5.0, 0.0], (65537, 1)), dense=False),
+     "features", "at most 65536"),
 ]
 
 

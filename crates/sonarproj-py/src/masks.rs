@@ -359,6 +359,15 @@ impl PyMaskEngine {
     /// Returns the measurements of `ranges` and `azimuths` (deg; `None` for a sidescan), each
     /// checked against sonar 1 and named by its index.
     fn features(&self, ranges: &[f64], azimuths: Option<&[f64]>) -> PyResult<Vec<Measurement>> {
+        // A ping's limit, as the command line's: the calls below are cut into chunks, so the
+        // engine alone would not see it.
+        let most = sonarproj::limits::MAX_PING_FEATURES;
+        if ranges.len() > most {
+            return Err(errors::input(
+                "features",
+                format!("{} features: at most {most} a ping; split it", ranges.len()),
+            ));
+        }
         ranges
             .iter()
             .enumerate()

@@ -202,7 +202,17 @@ impl PyPose {
 
     /// Returns the pose of sonar 2 relative to sonar 1 from their mounts in a common frame.
     #[staticmethod]
-    fn from_mounts(first: &PyMount, second: &PyMount) -> PyResult<Self> {
+    fn from_mounts(first: &Bound<'_, PyAny>, second: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let mount = |name: &str, ob: &Bound<'_, PyAny>| -> PyResult<PyMount> {
+            ob.cast::<PyMount>().map(|m| *m.get()).map_err(|_| {
+                crate::values::wrong_type(
+                    ob.py(),
+                    name,
+                    format!("expected a sonarproj.Mount, got {}", crate::values::shown(ob)),
+                )
+            })
+        };
+        let (first, second) = (mount("first", first)?, mount("second", second)?);
         Ok(PyPose {
             inner: rig::relative_pose(&first.inner, &second.inner).map_err(errors::engine)?,
             made: Made::Matrix,

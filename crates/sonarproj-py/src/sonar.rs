@@ -52,7 +52,7 @@ impl PySonar {
     #[pyo3(signature = (kind, range_min, range_max, azimuth_aperture, elevation_aperture, range_bins, beams=None, beam_edges=None, beam_centres=None, name=None, sides=None))]
     #[expect(clippy::too_many_arguments, reason = "the sonar's fields, as Python keywords")]
     fn new(
-        kind: &str,
+        #[pyo3(from_py_with = arg::kind)] kind: String,
         #[pyo3(from_py_with = arg::range_min)] range_min: f64,
         #[pyo3(from_py_with = arg::range_max)] range_max: f64,
         #[pyo3(from_py_with = arg::azimuth_aperture)] azimuth_aperture: f64,
@@ -61,10 +61,10 @@ impl PySonar {
         #[pyo3(from_py_with = arg::beams)] beams: Option<u32>,
         #[pyo3(from_py_with = arg::beam_edges)] beam_edges: Option<Vec<f64>>,
         #[pyo3(from_py_with = arg::beam_centres)] beam_centres: Option<Vec<f64>>,
-        name: Option<String>,
+        #[pyo3(from_py_with = arg::opt_name)] name: Option<String>,
         #[pyo3(from_py_with = arg::sides)] sides: Option<u32>,
     ) -> PyResult<Self> {
-        let kind = match kind {
+        let kind = match kind.as_str() {
             "fls" => SonarKind::Fls,
             "sss" => SonarKind::Sss,
             other => {
@@ -265,8 +265,8 @@ impl PySonar {
         py: Python<'py>,
         beam_directions: &Bound<'py, PyAny>,
         ranges: &Bound<'py, PyAny>,
-        elevation_aperture: f64,
-        name: Option<String>,
+        #[pyo3(from_py_with = arg::elevation_aperture)] elevation_aperture: f64,
+        #[pyo3(from_py_with = arg::opt_name)] name: Option<String>,
     ) -> PyResult<(Self, Bound<'py, numpy::PyArray1<usize>>)> {
         use numpy::IntoPyArray;
         let dirs: Vec<[f64; 3]> = beam_directions.extract().map_err(|_| {

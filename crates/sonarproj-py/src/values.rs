@@ -45,7 +45,7 @@ pub(crate) fn wrong_type(py: Python<'_>, name: &str, message: impl std::fmt::Dis
 }
 
 /// Returns `ob` shown for a message: its repr (cut to 60 characters) and its type.
-fn shown(ob: &Bound<'_, PyAny>) -> String {
+pub(crate) fn shown(ob: &Bound<'_, PyAny>) -> String {
     let repr = ob.repr().map_or_else(|_| "?".to_string(), |r| r.to_string());
     let repr = if repr.chars().count() > 60 {
         format!("{}…", repr.chars().take(60).collect::<String>())
@@ -70,6 +70,18 @@ fn numpy_kind(ob: &Bound<'_, PyAny>) -> Option<char> {
     let kind: String = dtype.getattr("kind").ok()?.extract().ok()?;
     let ndim: usize = ob.getattr("ndim").ok()?.extract().ok()?;
     (ndim == 0).then(|| kind.chars().next()).flatten()
+}
+
+/// Returns `ob` as a string for argument `name`; an `InputTypeError` naming it for anything else.
+pub(crate) fn text(name: &str, ob: &Bound<'_, PyAny>) -> PyResult<String> {
+    if ob.is_instance_of::<PyString>() {
+        return ob.extract();
+    }
+    Err(wrong_type(
+        ob.py(),
+        name,
+        format!("expected a string, got {}", shown(ob)),
+    ))
 }
 
 /// Returns `ob` as a real number for argument `name`.
@@ -256,6 +268,20 @@ pub(crate) mod arg {
     optional_vectors!(opt_quat_xyzw = "quat_xyzw": 4, rpy = "rpy": 3);
     optional_counts!(beams, sides);
     optional_lists!(beam_edges, beam_centres);
+
+    /// Reads the string `kind`.
+    pub(crate) fn kind(ob: &Bound<'_, PyAny>) -> PyResult<String> {
+        super::text("kind", ob)
+    }
+
+    /// Reads the optional string `name`.
+    pub(crate) fn opt_name(ob: &Bound<'_, PyAny>) -> PyResult<Option<String>> {
+        if ob.is_none() {
+            Ok(None)
+        } else {
+            super::text("name", ob).map(Some)
+        }
+    }
 
     /// Reads the count `range_bins`.
     pub(crate) fn range_bins(ob: &Bound<'_, PyAny>) -> PyResult<u32> {
