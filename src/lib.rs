@@ -45,6 +45,7 @@
 pub mod clip;
 pub mod error;
 pub mod exact;
+pub mod files;
 pub mod geometry;
 pub mod gpu;
 pub mod limits;

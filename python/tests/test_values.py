@@ -154,6 +154,13 @@ def test_a_sonar_file_that_is_not_one_is_refused_without_reading_it(tmp_path):
     big.write_bytes(b"#" * (5 << 20))
     with pytest.raises(InputError, match="longer than"):
         Sonar.from_toml(big)
+    # A FIFO with no writer: refused at once (in a process of its own; the limit only guards
+    # against the wait it used to be).
+    fifo = tmp_path / "sonar.fifo"
+    os.mkfifo(fifo)
+    script = f"import sonarproj\ntry:\n    sonarproj.Sonar.from_toml({str(fifo)!r})\nexcept sonarproj.InputError as e:\n    print(e)"
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=30)
+    assert "not a regular file" in done.stdout, done.stdout + done.stderr
 
 
 def test_preset_beam_edges_are_the_documented_numbers():

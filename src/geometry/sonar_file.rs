@@ -18,13 +18,16 @@ fn read_small_text(path: &Path, limit: u64) -> Result<String> {
         path: path.to_path_buf(),
         source,
     };
-    let file = std::fs::File::open(path).map_err(fail)?;
-    let meta = file.metadata().map_err(fail)?;
-    if !meta.is_file() {
-        return Err(fail(std::io::Error::other(
-            "not a regular file (a device, a FIFO or a directory); give a sonar TOML file",
-        )));
-    }
+    // Opened without waiting on a FIFO, and refused when not a regular file.
+    let file = crate::files::open_regular(path).map_err(|e| {
+        if e.to_string() == crate::files::NOT_REGULAR {
+            fail(std::io::Error::other(
+                "not a regular file (a device, a FIFO or a directory); give a sonar TOML file",
+            ))
+        } else {
+            fail(e)
+        }
+    })?;
     let mut bytes = Vec::new();
     file.take(limit + 1).read_to_end(&mut bytes).map_err(fail)?;
     if bytes.len() as u64 > limit {

@@ -83,7 +83,7 @@ pub fn read_config(path: &Path) -> Result<(String, std::path::PathBuf)> {
         source,
     };
     let mut bytes = Vec::new();
-    std::fs::File::open(path)
+    sonarproj::files::open_regular(path)
         .and_then(|f| f.take(MAX_CONFIG_BYTES + 1).read_to_end(&mut bytes))
         .map_err(fail)?;
     if bytes.len() as u64 > MAX_CONFIG_BYTES {

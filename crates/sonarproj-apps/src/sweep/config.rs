@@ -451,7 +451,7 @@ fn pose_list(
         }
     }
     let path = base.join(list);
-    let opened = std::fs::File::open(&path).map_err(|source| Error::ReadInput {
+    let opened = sonarproj::files::open_regular(&path).map_err(|source| Error::ReadInput {
         path: path.clone(),
         source,
     })?;

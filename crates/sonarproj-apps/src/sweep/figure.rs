@@ -19,10 +19,12 @@ pub(crate) fn figure_of_marginal(dir: &Path, d: &Descriptor, summary: &Path) -> 
     if d.varying.is_empty() || d.varying.len() > 2 || !is_regular(summary) {
         return Ok(None);
     }
-    let bytes = std::fs::read(summary).map_err(|source| Error::ReadInput {
-        path: summary.to_path_buf(),
-        source,
-    })?;
+    let bytes = sonarproj::files::read_regular(summary, crate::sweep::records::MAX_RECORD_BYTES).map_err(
+        |source| Error::ReadInput {
+            path: summary.to_path_buf(),
+            source,
+        },
+    )?;
     let s: Summary = serde_json::from_slice(&bytes).map_err(|e| Error::Csv {
         context: summary.display().to_string(),
         message: e.to_string(),

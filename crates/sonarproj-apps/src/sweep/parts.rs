@@ -110,7 +110,31 @@ pub fn write_chunk(
     expected: Expected<'_>,
     fill: impl FnOnce(&mut (dyn Write + Send)) -> Result<()>,
 ) -> Result<()> {
+    state_file(file)?;
+    state_file(&record_path(file))?;
     write_with(file, expected, false, fill)
+}
+
+/// Returns an error when `path`, a file of a run's state, exists and is not a regular file (a
+/// FIFO, a device, a link): the state holds only files the run wrote, and writing through such
+/// a one would wait on a FIFO or feed a device.
+///
+/// # Errors
+/// [`Error::WriteOutput`] naming it.
+pub(crate) fn state_file(path: &Path) -> Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if !m.file_type().is_file() => Err(Error::WriteOutput {
+            path: path.to_path_buf(),
+            message: format!(
+                "{}: a run's state holds only the files it wrote; remove it (or the whole {}) to \
+                 go on",
+                sonarproj::files::NOT_REGULAR,
+                path.parent()
+                    .map_or_else(String::new, |p| p.display().to_string())
+            ),
+        }),
+        _ => Ok(()),
+    }
 }
 
 /// Writes like [`write()`], flushing to disk only when `sync`.
@@ -169,10 +193,12 @@ fn write_json_with<T: Serialize>(path: &Path, value: &T, sync: bool) -> Result<(
 
 fn check_record(file: &Path, expected: Expected<'_>) -> std::result::Result<PartRecord, String> {
     let path = record_path(file);
-    let text = std::fs::read(&path).map_err(|e| match e.kind() {
-        std::io::ErrorKind::NotFound => format!("its record {} is missing", name(&path)),
-        _ => format!("its record {} cannot be read ({e})", name(&path)),
-    })?;
+    let text = sonarproj::files::read_regular(&path, crate::sweep::records::MAX_RECORD_BYTES).map_err(
+        |e| match e.kind() {
+            std::io::ErrorKind::NotFound => format!("its record {} is missing", name(&path)),
+            _ => format!("its record {} cannot be read ({e})", name(&path)),
+        },
+    )?;
     let record: PartRecord =
         serde_json::from_slice(&text).map_err(|e| format!("its record {} is not one ({e})", name(&path)))?;
     if record.fingerprint != expected.fingerprint {
@@ -249,12 +275,13 @@ pub fn check(file: &Path, expected: Expected<'_>) -> Status {
 
 /// Returns the record of part `part`, or `None` when it is missing or unreadable.
 fn record_of(part: &Path) -> Option<PartRecord> {
-    let text = std::fs::read(record_path(part)).ok()?;
+    let text =
+        sonarproj::files::read_regular(&record_path(part), crate::sweep::records::MAX_RECORD_BYTES).ok()?;
     serde_json::from_slice(&text).ok()
 }
 
 fn sums(file: &Path) -> std::io::Result<(u64, u32)> {
-    let mut r = BufReader::with_capacity(1 << 16, std::fs::File::open(file)?);
+    let mut r = BufReader::with_capacity(1 << 16, sonarproj::files::open_regular(file)?);
     let mut hasher = crc32fast::Hasher::new();
     let mut bytes = 0u64;
     loop {
@@ -297,7 +324,7 @@ pub fn join(
             };
             let record =
                 record_of(part).ok_or_else(|| damaged("its record is missing or unreadable".into()))?;
-            let f = std::fs::File::open(part).map_err(|source| Error::ReadInput {
+            let f = sonarproj::files::open_regular(part).map_err(|source| Error::ReadInput {
                 path: part.clone(),
                 source,
             })?;

@@ -73,9 +73,15 @@ pub(crate) fn settings_path(file: &Path) -> PathBuf {
     parts::beside(file, "run.json")
 }
 
+/// The most bytes a run's JSON record (a manifest, a part's record or settings) may have.
+pub(crate) const MAX_RECORD_BYTES: u64 = 64 << 20;
+/// The most bytes a part read whole may have.
+const MAX_PART_BYTES: u64 = 1 << 30;
+
 /// Returns the JSON in `path`, or `None` when the file does not exist.
 pub(crate) fn read_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<Option<T>> {
-    match std::fs::read(path) {
+    // Only a regular file, bounded: a FIFO or a device there is refused, never waited on.
+    match sonarproj::files::read_regular(path, MAX_RECORD_BYTES) {
         Ok(bytes) => serde_json::from_slice(&bytes).map(Some).map_err(|e| Error::Csv {
             context: path.display().to_string(),
             message: format!(
@@ -149,7 +155,7 @@ pub(crate) fn read_part<T: for<'de> Deserialize<'de>>(
     path: &Path,
     expected: parts::Expected<'_>,
 ) -> Result<T> {
-    let bytes = std::fs::read(path).map_err(|source| Error::ReadInput {
+    let bytes = sonarproj::files::read_regular(path, MAX_PART_BYTES).map_err(|source| Error::ReadInput {
         path: path.to_path_buf(),
         source,
     })?;

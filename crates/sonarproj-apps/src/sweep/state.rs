@@ -299,13 +299,23 @@ fn first_manifest_difference(old: &Manifest, new: &Manifest) -> (Field, String, 
 fn lock_state(state: &Path) -> Result<Option<std::fs::File>> {
     #[cfg(unix)]
     {
+        use std::os::unix::fs::OpenOptionsExt;
         let path = state.join("lock");
+        crate::sweep::parts::state_file(&path)?;
+        // Without waiting on a FIFO; anything but a regular file is refused.
         let file = std::fs::OpenOptions::new()
             .create(true)
             .truncate(false)
             .write(true)
+            .custom_flags(rustix::fs::OFlags::NONBLOCK.bits().cast_signed())
             .open(&path)
             .map_err(|e| Error::write_output(&path, e))?;
+        if !file.metadata().is_ok_and(|m| m.is_file()) {
+            return Err(Error::write_output(
+                &path,
+                std::io::Error::other(sonarproj::files::NOT_REGULAR),
+            ));
+        }
         match rustix::fs::flock(&file, rustix::fs::FlockOperation::NonBlockingLockExclusive) {
             Ok(()) => Ok(Some(file)),
             Err(e) if e == rustix::io::Errno::WOULDBLOCK => Err(Error::WriteOutput {

@@ -3,6 +3,7 @@
 //! Inputs — bad, endless, or the same file as an output — are `inputs`.
 
 mod inputs;
+mod state;
 
 use sonarproj_testkit as common;
 
