@@ -266,13 +266,21 @@ fn target(path: &Path) -> Result<Target> {
                 std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()),
             ))
         }
-        // A link to nothing yet: the file is created where the link points.
-        Err(_) if path.is_symlink() => {
+        // A link to nothing yet: the file is created where the link points. A loop of links, or
+        // a link to another link that leads nowhere, is refused: writing would replace a link.
+        Err(e) if path.is_symlink() => {
             let dest = std::fs::read_link(path).unwrap_or_else(|_| path.to_path_buf());
             let dest = match path.parent() {
                 Some(dir) if dest.is_relative() => dir.join(dest),
                 _ => dest,
             };
+            if e.kind() != std::io::ErrorKind::NotFound || dest.is_symlink() {
+                return Err(Error::invalid(
+                    "output path",
+                    path.display(),
+                    "is a link that leads to no file (a loop or a chain of links); give a file path",
+                ));
+            }
             creatable_parent(path, &dest)?;
             Ok(Target::Replace(dest))
         }

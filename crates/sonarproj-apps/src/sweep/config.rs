@@ -451,6 +451,8 @@ fn pose_list(
         }
     }
     let path = base.join(list);
+    // An input: no output of the sweep may replace it, whatever its name or place.
+    crate::report::note_input(&path);
     let opened = sonarproj::files::open_regular(&path).map_err(|source| Error::ReadInput {
         path: path.clone(),
         source,

@@ -189,6 +189,10 @@ fn check_shards(dir: &Path, desc: &Descriptor, rows: bool, format: Format, n: u6
         }
         let (bad, status) = first_not_good(&checked, expected);
         let bad = bad.to_path_buf();
+        // A shard is read: no output (through a link, say) may replace it.
+        for f in &checked {
+            crate::report::note_input(f);
+        }
         match status {
             parts::Status::Good => found.push(Found {
                 file,

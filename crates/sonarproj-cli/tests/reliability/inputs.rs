@@ -434,3 +434,89 @@ fn a_bad_recover_row_stops_after_the_rows_before_it() {
         .code(2);
     assert!(!output.exists());
 }
+
+#[test]
+fn outputs_never_reach_the_runs_inputs_through_links() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // merge: sweep.csv a link to a shard it reads.
+    std::fs::write(
+        d.join("s.toml"),
+        "from = \"paper-fls\"\nto = \"paper-sss\"\nstep = 0.5\n[feature]\nrange = 5\n\
+         [place]\nrange = { start = 2, stop = 18, step = 4 }\n",
+    )
+    .unwrap();
+    for k in ["1/2", "2/2"] {
+        common::sonarproj()
+            .current_dir(d)
+            .args([
+                "sweep",
+                "--config",
+                "s.toml",
+                "--out",
+                "out",
+                "--backend",
+                "cpu-fast",
+                "--shard",
+                k,
+            ])
+            .assert()
+            .success();
+    }
+    let shard = std::fs::read(d.join("out/shard-1-of-2.csv")).unwrap();
+    std::os::unix::fs::symlink("shard-1-of-2.csv", d.join("out/sweep.csv")).unwrap();
+    let out = common::sonarproj()
+        .current_dir(d)
+        .args(["merge", "out"])
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("is the input file") && err.contains("shard-1-of-2.csv"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(d.join("out/shard-1-of-2.csv")).unwrap(), shard);
+
+    // A sweep's pose list inside its own output directory, named as its table.
+    std::fs::create_dir(d.join("listed")).unwrap();
+    let poses = std::fs::read(common::repository().join("data/example-poses.csv")).unwrap();
+    std::fs::write(d.join("listed/sweep.csv"), &poses).unwrap();
+    std::fs::write(
+        d.join("list.toml"),
+        "from = \"paper-fls\"\nto = \"paper-sss\"\nposes = \"listed/sweep.csv\"\n",
+    )
+    .unwrap();
+    let out = common::sonarproj()
+        .current_dir(d)
+        .args([
+            "sweep",
+            "--config",
+            "list.toml",
+            "--out",
+            "listed",
+            "--backend",
+            "cpu-fast",
+        ])
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("is the input file"), "{err}");
+    assert_eq!(std::fs::read(d.join("listed/sweep.csv")).unwrap(), poses);
+
+    // An output path that is a loop of links: refused, both links kept.
+    std::os::unix::fs::symlink("b.csv", d.join("a.csv")).unwrap();
+    std::os::unix::fs::symlink("a.csv", d.join("b.csv")).unwrap();
+    let out = common::sonarproj()
+        .args(batch_to(&d.join("a.csv")))
+        .assert()
+        .code(2)
+        .get_output()
+        .clone();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("leads to no file"), "{err}");
+    assert!(d.join("a.csv").is_symlink() && d.join("b.csv").is_symlink());
+}
