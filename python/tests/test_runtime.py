@@ -94,6 +94,33 @@ def test_recover_many_stops_on_ctrl_c():
     assert done.stdout.strip() == "interrupted", done.stderr
 
 
+@pytest.mark.parametrize("to_disk", [True, False])
+def test_ctrl_c_stops_a_sweep_inside_its_chunk(tmp_path, to_disk):
+    # One chunk of 2 M summary-only poses at 0.0002 deg (605 001 samples each, the arc in
+    # view): about 7 minutes on two cores. SIGINT arrives 0.5 s in; the sweep must stop inside
+    # the chunk with KeyboardInterrupt (the 120 s limit only guards against the wait for the
+    # chunk's end it used to be).
+    config = tmp_path / "long.toml"
+    config.write_text(
+        'from = "paper-fls"\nto = "paper-sss"\nstep = 0.0002\n[summary]\nrows = false\n'
+        "[feature]\nrange = 5\n[place]\nrange = 15\n"
+        "[rotation]\nroll = { start = 0, stop = 9.99, step = 0.00001 }\npitch = { start = 89, stop = 91, step = 1 }\n"
+    )
+    out = repr(str(tmp_path / "out")) if to_disk else "None"
+    script = textwrap.dedent(f"""
+        import os, signal, threading, sonarproj
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+        try:
+            sonarproj.sweep({str(config)!r}, {out}, chunk_poses=1 << 21, backend="cpu-fast")
+            print("finished")
+        except KeyboardInterrupt:
+            print("interrupted")
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.stdout.strip() == "interrupted", done.stderr
+
+
 def test_another_thread_runs_while_masks_are_drawn():
     engine = MaskEngine("holoocean-sidescan", "holoocean-imaging", backend="cpu-fast")
     features = np.linspace(2, 30, 3000)

@@ -341,9 +341,13 @@ pub fn time_sweep(
             max_chunks: None,
             format: Format::Parquet,
         };
-        let result = run(config, backend, &opts, &mut |_| {
-            std::ops::ControlFlow::Continue(())
-        });
+        let result = run(
+            config,
+            backend,
+            &opts,
+            sonarproj::stream::Stop::NEVER,
+            &mut |_| std::ops::ControlFlow::Continue(()),
+        );
         let _ = std::fs::remove_dir_all(&out);
         result.map(drop)
     };

@@ -39,7 +39,7 @@ fn events_of(
     stop_at: &dyn Fn(&Event) -> bool,
 ) -> Vec<Event> {
     let mut seen = Vec::new();
-    run(config, backend, opts, &mut |e| {
+    run(config, backend, opts, sonarproj::stream::Stop::NEVER, &mut |e| {
         let stop = stop_at(&e);
         seen.push(e);
         if stop {

@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use sonarproj::stream::Stop;
 use sonarproj_apps::paper;
 use sonarproj_apps::report::check_output_dir;
 use sonarproj_apps::sweep::{self, Event, Options, Shard, SweepConfig};
@@ -75,7 +76,9 @@ pub(crate) fn sweep_run<'py>(
     // or the calling thread saw Ctrl-C.
     let mut raised: Option<PyErr> = None;
     let outcome = crate::runtime::detach_watching(py, |stop| {
-        sweep::run(&config, &backend, &opts, &mut |event| {
+        // Ctrl-C is polled inside the chunks too, not only between them.
+        let signal = || stop.load(std::sync::atomic::Ordering::Relaxed);
+        sweep::run(&config, &backend, &opts, Stop::when(&signal), &mut |event| {
             on_event(event, stop, progress.as_ref(), &mut raised)
         })
     })?;
@@ -127,9 +130,15 @@ pub(crate) fn sweep_memory<'py>(
     let start = Instant::now();
     let mut raised: Option<PyErr> = None;
     let result = crate::runtime::detach_watching(py, |stop| {
-        sweep::run_in_memory(&config, &backend, shard, chunk_poses, &mut |event| {
-            on_event(event, stop, progress.as_ref(), &mut raised)
-        })
+        let signal = || stop.load(std::sync::atomic::Ordering::Relaxed);
+        sweep::run_in_memory(
+            &config,
+            &backend,
+            shard,
+            chunk_poses,
+            Stop::when(&signal),
+            &mut |event| on_event(event, stop, progress.as_ref(), &mut raised),
+        )
     })?;
     if let Some(e) = raised {
         return Err(e);

@@ -42,6 +42,7 @@ pub fn run_in_memory(
     backend: &Backend,
     shard: Option<Shard>,
     chunk_poses: Option<u64>,
+    stop: sonarproj::stream::Stop<'_>,
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Option<InMemory>> {
     if let Some(cp) = chunk_poses {
@@ -91,7 +92,7 @@ pub fn run_in_memory(
     while c < plan.chunks {
         let todo = c..(c + run).min(plan.chunks);
         if plan
-            .compute(&work, backend, &mut metrics, todo.clone(), &mut add)?
+            .compute(&work, backend, &mut metrics, todo.clone(), stop, &mut add)?
             .is_break()
         {
             return Ok(None);

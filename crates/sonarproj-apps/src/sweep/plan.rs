@@ -173,7 +173,8 @@ impl<'a> Plan<'a> {
         metric_columns(table, self.by)
     }
 
-    /// Computes chunks `todo` on `backend` and hands each to `sink` in order, until it breaks.
+    /// Computes chunks `todo` on `backend` and hands each to `sink` in order, until it breaks
+    /// or `stop` is set (polled inside the chunks too: a chunk cut short is not handed on).
     /// A grid's chunks go in one run of blocks ([`Backend::project_blocks`]), so the device never
     /// waits between them. A list's go one at a time. `metrics` is reused between chunks.
     ///
@@ -185,6 +186,7 @@ impl<'a> Plan<'a> {
         backend: &Backend,
         metrics: &mut MetricColumns,
         todo: Range<u64>,
+        stop: Stop<'_>,
         sink: &mut dyn FnMut(Computed, &MetricColumns) -> Result<ControlFlow<()>>,
     ) -> Result<ControlFlow<()>> {
         let rows = self.rows;
@@ -192,7 +194,12 @@ impl<'a> Plan<'a> {
         let Some(sweep) = work.sweep() else {
             for chunk in todo {
                 let poses = self.chunk(chunk);
-                let table = work.block(backend, poses.clone(), rows, metrics, Stop::NEVER)?;
+                let table = match work.block(backend, poses.clone(), rows, metrics, stop) {
+                    Err(crate::Error::Engine(sonarproj::Error::Stopped)) => {
+                        return Ok(ControlFlow::Break(()));
+                    }
+                    other => other?,
+                };
                 let values = values_of(metrics);
                 let computed = Computed {
                     chunk,
@@ -209,7 +216,7 @@ impl<'a> Plan<'a> {
         let blocks: Vec<Range<u64>> = todo.clone().map(|c| self.chunk(c)).collect();
         let mut chunk = todo.start;
         let mut failed = None;
-        let flow = backend.project_blocks(&sweep, &blocks, metrics, Stop::NEVER, &mut |poses, metrics| {
+        let flow = backend.project_blocks(&sweep, &blocks, metrics, stop, &mut |poses, metrics| {
             let this = chunk;
             chunk += 1;
             let step = || -> Result<ControlFlow<()>> {

@@ -16,6 +16,7 @@
 //!   A re-run skips finished chunks whose bytes match their records and recomputes the others,
 //!   saying so. The directory is removed once the result file is written.
 
+use sonarproj::stream::Stop;
 use std::ops::ControlFlow;
 use std::path::PathBuf;
 
@@ -116,6 +117,7 @@ pub fn run(
     config: &SweepConfig,
     backend: &Backend,
     opts: &Options,
+    stop: Stop<'_>,
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
 ) -> Result<Outcome> {
     // Plan. Everything is checked before the directory is made, so a refused run leaves nothing.
@@ -148,7 +150,17 @@ pub fn run(
     };
     let _lock = files.open_state(&manifest)?;
     // Compute and write.
-    if compute_and_write(&files, backend, opts, &manifest.settings, events, &mut outcome)?.is_break() {
+    if compute_and_write(
+        &files,
+        backend,
+        opts,
+        &manifest.settings,
+        stop,
+        events,
+        &mut outcome,
+    )?
+    .is_break()
+    {
         return Ok(outcome);
     }
     // Finish.
@@ -276,6 +288,7 @@ fn compute_and_write(
     backend: &Backend,
     opts: &Options,
     settings: &Settings,
+    stop: Stop<'_>,
     events: &mut dyn FnMut(Event) -> ControlFlow<()>,
     outcome: &mut Outcome,
 ) -> Result<ControlFlow<()>> {
@@ -350,11 +363,21 @@ fn compute_and_write(
                 }))
             };
             let flow = if csv {
+                // A CSV chunk streams its rows to disk: the stop is looked at between chunks.
+                if stop.is_set() {
+                    writer.settle()?;
+                    return Ok(ControlFlow::Break(()));
+                }
                 accept(csv_chunk(files, backend, c)?)?
             } else {
-                plan.compute(&work, backend, &mut metrics, todo.clone(), &mut |computed, _| {
-                    accept(computed)
-                })?
+                plan.compute(
+                    &work,
+                    backend,
+                    &mut metrics,
+                    todo.clone(),
+                    stop,
+                    &mut |computed, _| accept(computed),
+                )?
             };
             if flow.is_break() {
                 writer.settle()?;

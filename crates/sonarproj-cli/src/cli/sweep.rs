@@ -90,23 +90,29 @@ pub(super) fn run(a: SweepArgs) -> Result<()> {
             ),
     );
     let start = Instant::now();
-    let outcome = sweep::run(&config, &backend, &opts, &mut |event| match event {
-        Event::Progress { done, total } => {
-            bar.set_length(total);
-            bar.set_position(done);
-            ControlFlow::Continue(())
-        }
-        Event::Recomputing { file, reason } => {
-            bar.suspend(|| {
-                eprintln!(
-                    "sweep: {} is damaged ({reason}); computing it again",
-                    file.display()
-                );
-            });
-            ControlFlow::Continue(())
-        }
-        _ => ControlFlow::Continue(()),
-    });
+    let outcome = sweep::run(
+        &config,
+        &backend,
+        &opts,
+        sonarproj::stream::Stop::NEVER,
+        &mut |event| match event {
+            Event::Progress { done, total } => {
+                bar.set_length(total);
+                bar.set_position(done);
+                ControlFlow::Continue(())
+            }
+            Event::Recomputing { file, reason } => {
+                bar.suspend(|| {
+                    eprintln!(
+                        "sweep: {} is damaged ({reason}); computing it again",
+                        file.display()
+                    );
+                });
+                ControlFlow::Continue(())
+            }
+            _ => ControlFlow::Continue(()),
+        },
+    );
     bar.finish_and_clear();
     let outcome = outcome?;
     let secs = start.elapsed().as_secs_f64();
