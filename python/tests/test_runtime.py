@@ -121,6 +121,28 @@ def test_ctrl_c_stops_a_sweep_inside_its_chunk(tmp_path, to_disk):
     assert done.stdout.strip() == "interrupted", done.stderr
 
 
+def test_ctrl_c_stops_the_advisor_between_batches(tmp_path, root):
+    # The advisor's benchmark at a hundred times the samples and three times the features:
+    # minutes (17 s at ten times).
+    # SIGINT arrives 0.5 s in; the advisor must stop at its next batch of projections (the 120 s
+    # limit only guards against the wait for the whole run it used to be).
+    text = (root / "data" / "bench-advise.toml").read_text()
+    config = tmp_path / "long-advise.toml"
+    config.write_text(text.replace("step = 0.1", "step = 0.001").replace("count = 1000", "count = 3000"))
+    script = textwrap.dedent(f"""
+        import os, signal, threading, sonarproj
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+        try:
+            sonarproj.advise({str(config)!r}, backend="cpu-fast")
+            print("finished")
+        except KeyboardInterrupt:
+            print("interrupted")
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.stdout.strip() == "interrupted", done.stderr
+
+
 def test_another_thread_runs_while_masks_are_drawn():
     engine = MaskEngine("holoocean-sidescan", "holoocean-imaging", backend="cpu-fast")
     features = np.linspace(2, 30, 3000)

@@ -40,14 +40,16 @@ pub(crate) fn advise_run<'py>(
     }
     let (backend, notice) = backend::get(backend_name)?;
     let start = Instant::now();
-    let (advice, written) = crate::runtime::detach(py, || -> sonarproj_apps::Result<_> {
-        let advice = advise::advise(&config, &backend)?;
+    // Ctrl-C is looked at before each batch of projections.
+    let (advice, written) = crate::runtime::detach_watching(py, |stop| -> sonarproj_apps::Result<_> {
+        let signal = || stop.load(std::sync::atomic::Ordering::Relaxed);
+        let advice = advise::advise_until(&config, &backend, sonarproj::stream::Stop::when(&signal))?;
         let written = match &out_dir {
             Some(dir) => Some(advise::write(&config, &advice, dir)?),
             None => None,
         };
         Ok((advice, written))
-    })
+    })?
     .map_err(error)?;
     let c = &advice.candidates;
     let real = |f: &dyn Fn(&Score) -> f64| c.iter().map(|(_, s)| f(s)).collect::<Vec<f64>>();

@@ -73,7 +73,20 @@ impl Advice {
 /// # Errors
 /// As [`Scorer::score_all`].
 pub fn advise(config: &AdviseConfig, backend: &Backend) -> Result<Advice> {
-    let scorer = Scorer::new(config, backend)?;
+    advise_until(config, backend, sonarproj::stream::Stop::NEVER)
+}
+
+/// Runs the advisor as [`advise()`] does, ending with [`sonarproj::Error::Stopped`] once `stop`
+/// is set (looked at before each batch of projections).
+///
+/// # Errors
+/// As [`advise()`], and [`sonarproj::Error::Stopped`].
+pub fn advise_until(
+    config: &AdviseConfig,
+    backend: &Backend,
+    stop: sonarproj::stream::Stop<'_>,
+) -> Result<Advice> {
+    let scorer = Scorer::new(config, backend)?.until(stop);
     let cover = search::candidates(config);
     let mut candidates: Vec<(Stage, Score)> = scorer
         .score_all(&cover)?

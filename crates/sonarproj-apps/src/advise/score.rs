@@ -10,6 +10,7 @@ use sonarproj::local_precision::{local_precision, resolve_sigma_range};
 use sonarproj::occupancy::Layout;
 use sonarproj::projection::{Backend, Batch, BatchItem};
 use sonarproj::sampling::{Measurement, Sampling};
+use sonarproj::stream::Stop;
 use sonarproj::{Metrics, Output};
 
 use crate::advise::config::{AdviseConfig, Objective};
@@ -288,6 +289,9 @@ pub struct Scorer<'a> {
     pool: Pool,
     /// [`Scorer::blind_cost`] of sonar 2.
     blind: f64,
+    /// Looked at before each batch of projections: set, the scoring ends with
+    /// [`sonarproj::Error::Stopped`].
+    stop: Stop<'a>,
 }
 
 /// A candidate's points of the pool examined, and its shared features with their measurements.
@@ -322,7 +326,15 @@ impl<'a> Scorer<'a> {
             sigma_range,
             pool: Pool::new(config),
             blind: Self::blind_cost(&config.target),
+            stop: Stop::NEVER,
         })
+    }
+
+    /// Returns this scorer, ending its scoring with [`sonarproj::Error::Stopped`] once `stop` is
+    /// set (looked at before each batch of projections, a fraction of a second of work).
+    #[must_use]
+    pub fn until(self, stop: Stop<'a>) -> Self {
+        Scorer { stop, ..self }
     }
 
     /// Returns the feature pool.
@@ -389,6 +401,7 @@ impl<'a> Scorer<'a> {
         // measurements (see `kept`), one batch of items, then each candidate reduced.
         let block = (ITEMS_AT_ONCE / self.pool.want.max(1)).clamp(1, 4096);
         for (b, poses) in poses.chunks(block).enumerate() {
+            self.stop.check()?;
             let rotations = &rotations[b * block..b * block + poses.len()];
             let selections: Vec<Kept> = poses
                 .par_iter()
