@@ -269,3 +269,36 @@ fn init_lists_every_preset_and_the_devices() {
         fls["beams"].as_u64().unwrap() + 1
     );
 }
+
+#[test]
+fn the_advise_panel_refuses_what_would_take_long_and_stops_when_asked() {
+    use sonarproj_apps::view::advise::AdviseRequest;
+    let v = viewer();
+    let ask = |features: usize, steps: usize| {
+        AdviseRequest::parse(
+            format!(
+                r#"{{"scene":{{"from":"paper-sss","to":"paper-fls","feature":{{"range":5}},"rotation":{{"pitch":30}},"place":{{"range":5}}}},"features":{features},"steps":{steps}}}"#
+            )
+            .as_bytes(),
+        )
+        .unwrap()
+    };
+    // 441 cells × 2000 sidescan features of thousands of samples each: refused, naming the knob.
+    let e = v.advise(&ask(2000, 21)).unwrap_err();
+    assert!(e.is_input(), "{e}");
+    let text = e.to_string();
+    assert!(
+        text.contains("features = 2000") && text.contains("lower features or steps"),
+        "{text}"
+    );
+    // A small one, its client gone before it starts: given up, not computed.
+    let gone = || true;
+    let e = v
+        .advise_until(&ask(20, 3), sonarproj::stream::Stop::when(&gone))
+        .unwrap_err();
+    assert!(
+        matches!(e, sonarproj_apps::Error::Engine(sonarproj::Error::Stopped)),
+        "{e}"
+    );
+    assert!(v.advise(&ask(20, 3)).is_ok());
+}

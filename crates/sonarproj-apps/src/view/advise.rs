@@ -13,6 +13,39 @@ use crate::view::{Scene, Viewer};
 pub const MAX_PANEL_FEATURES: usize = 2000;
 /// The most values per axis of the panel's grid.
 pub const MAX_PANEL_STEPS: usize = 21;
+/// The most samples a panel's answer may project (an exact arc counts as 100): a few seconds
+/// of a laptop's cores. More is refused, naming what to lower.
+pub const MAX_PANEL_SAMPLES: u64 = 2_000_000_000;
+
+/// Returns an error when the panel's grid of `config`, asked by `request`, would project more
+/// than [`MAX_PANEL_SAMPLES`] samples (each feature counted at sonar 1's longest range, where
+/// automatic sampling is densest), naming the knobs that lower it.
+fn check_cost(config: &AdviseConfig, request: &AdviseRequest) -> Result<()> {
+    use sonarproj::sampling::{Measurement, Sampling, SamplingPlan};
+    let s = &config.source;
+    let far = Measurement::of(s, s.range_max, 0.0)?;
+    let per_feature = match config.sampling {
+        Sampling::Exact => 100,
+        sampling => {
+            let (n_az, n_el) = SamplingPlan::counts(s, &config.target, &far, sampling, None)?;
+            n_az as u64 * n_el as u64
+        }
+    };
+    let cells = (request.steps * request.steps) as u64;
+    let samples = cells * request.features.max(1) as u64 * per_feature;
+    if samples > MAX_PANEL_SAMPLES {
+        return Err(Error::invalid(
+            "features",
+            request.features,
+            format!(
+                "with {cells} grid cells and up to {per_feature} samples a feature, the panel would \
+                 project about {samples:.1e} samples, more than its {MAX_PANEL_SAMPLES:.0e} (a few \
+                 seconds): lower features or steps, or sample more coarsely"
+            ),
+        ));
+    }
+    Ok(())
+}
 
 /// What the page asks the panel for (JSON).
 #[derive(Clone, Debug, Deserialize, PartialEq)]
@@ -121,6 +154,15 @@ impl Viewer {
     /// Bad input naming the field (objective, axes, span, steps, features, or the scene's own), or
     /// the backend's failures.
     pub fn advise(&self, request: &AdviseRequest) -> Result<Value> {
+        self.advise_until(request, sonarproj::stream::Stop::NEVER)
+    }
+
+    /// Returns the advise panel's answer as [`Viewer::advise`] does, given up once `stop` is set
+    /// (a client gone), at the next batch of projections.
+    ///
+    /// # Errors
+    /// As [`Viewer::advise`]; [`sonarproj::Error::Stopped`] when stopped.
+    pub fn advise_until(&self, request: &AdviseRequest, stop: sonarproj::stream::Stop<'_>) -> Result<Value> {
         let started = std::time::Instant::now();
         let scene = &request.scene;
         let source = self.choice("from", &scene.from)?.sonar.clone();
@@ -200,7 +242,8 @@ impl Viewer {
                 gradient_step_m: 0.01,
             }),
         };
-        let advice = advise::advise(&config, &self.backend)?;
+        check_cost(&config, request)?;
+        let advice = advise::advise_until(&config, &self.backend, stop)?;
         // The cover's scores: the first axis outer (its rows), the second inner.
         let (a, b) = (axes[0], axes[1]);
         let mut scores = Vec::with_capacity(request.steps * request.steps);

@@ -432,7 +432,12 @@ async fn advise(shared: &Arc<Shared>, request: Request<Incoming>) -> Response<Fu
         Ok(a) => a,
         Err(e) => return error_reply(StatusCode::BAD_REQUEST, &e.to_string(), true),
     };
-    compute(shared, move |viewer, _| viewer.advise(&asked)).await
+    compute(shared, move |viewer, gone| {
+        // Given up, as a scene is, once the client has gone.
+        let gone = || gone.load(Ordering::Relaxed);
+        viewer.advise_until(&asked, Stop::when(&gone))
+    })
+    .await
 }
 
 /// Runs `work` on a blocking thread once a computing slot is free, and replies with its JSON
