@@ -143,6 +143,49 @@ def test_ctrl_c_stops_the_advisor_between_batches(tmp_path, root):
     assert done.stdout.strip() == "interrupted", done.stderr
 
 
+def test_a_child_forked_after_a_gpu_call_is_told_not_left_waiting():
+    # A GPU batch, then a fork: the child cannot open the GPU driver again (it would wait
+    # forever). backend="gpu" there is refused naming the way out; "auto" runs on the CPU with a
+    # notice; a GPU mask engine likewise. In a process of its own; the alarm only guards against
+    # the wait it used to be.
+    script = textwrap.dedent("""
+        import os, signal, warnings, sonarproj
+        cols = {k: [v] for k, v in dict(range=5.0, azimuth=0.0, roll=0.0, pitch=90.0, yaw=0.0, tx=0.0, ty=0.0, tz=0.0).items()}
+        try:
+            sonarproj.batch("paper-fls", "paper-sss", cols, backend="gpu")
+        except RuntimeError as e:
+            print("no gpu", e)
+            raise SystemExit(0)
+        pid = os.fork()
+        if pid == 0:
+            signal.alarm(60)
+            try:
+                sonarproj.batch("paper-fls", "paper-sss", cols, backend="gpu")
+                print("child: gpu ran")
+            except sonarproj.InputError as e:
+                print("child: gpu refused:", e)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                sonarproj.batch("paper-fls", "paper-sss", cols, backend="auto")
+            print("child: auto notice:", " ".join(str(w.message) for w in caught))
+            engine = sonarproj.MaskEngine("paper-fls", "paper-sss", backend="auto")
+            print("child: masks on", engine.device)
+            os._exit(0)
+        _, status = os.waitpid(pid, 0)
+        print("child status", status)
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    if done.stdout.startswith("no gpu"):
+        if os.environ.get("CI") == "true":
+            raise AssertionError(done.stdout)
+        pytest.skip(done.stdout)
+    out = done.stdout
+    assert "child status 0" in out, out + done.stderr
+    assert "child: gpu refused: backend" in out and 'multiprocessing\'s "spawn"' in out, out
+    assert "forked from one that had opened a GPU driver" in out.split("auto notice:")[1], out
+    assert "child: masks on CPU" in out, out
+
+
 def test_another_thread_runs_while_masks_are_drawn():
     engine = MaskEngine("holoocean-sidescan", "holoocean-imaging", backend="cpu-fast")
     features = np.linspace(2, 30, 3000)

@@ -3,6 +3,7 @@
 //! GPU options come from `sonarproj.configure_gpu`'s keyword arguments.
 
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 
 use pyo3::prelude::*;
@@ -23,6 +24,47 @@ const NAMES: [(&str, BackendChoice); 4] = [
 type Opened = (u32, HashMap<&'static str, (Arc<Backend>, Option<String>)>);
 
 static OPENED: Mutex<Option<Opened>> = Mutex::new(None);
+
+/// The process that first opened or probed a GPU driver (a `gpu` or `auto` backend or mask
+/// engine), 0 while none has. A forked child inherits the value, not the driver's threads.
+static GPU_TOUCHED_BY: AtomicU32 = AtomicU32::new(0);
+
+/// Notes that this process opened or probed a GPU driver for `choice`.
+pub(crate) fn touched(choice: BackendChoice) {
+    if matches!(choice, BackendChoice::Auto | BackendChoice::Gpu) {
+        let _ = GPU_TOUCHED_BY.compare_exchange(0, std::process::id(), Ordering::Relaxed, Ordering::Relaxed);
+    }
+}
+
+/// Returns the choice this process can open for `choice`, and the notice of a change. A
+/// process forked from one that had opened a GPU driver cannot open one again (the driver's
+/// threads were not copied: it would wait forever), so `gpu` is refused naming the way out and
+/// `auto` runs on the CPU with a notice.
+///
+/// # Errors
+/// An `InputError` naming `backend` for `gpu` after such a fork.
+pub(crate) fn after_fork(choice: BackendChoice) -> PyResult<(BackendChoice, Option<String>)> {
+    let by = GPU_TOUCHED_BY.load(Ordering::Relaxed);
+    if by == 0 || crate::runtime::same_process(by) {
+        return Ok((choice, None));
+    }
+    let why = "this process was forked from one that had opened a GPU driver, which a forked \
+               child cannot use";
+    match choice {
+        BackendChoice::Gpu => Err(errors::input(
+            "backend",
+            format!(
+                "\"gpu\": {why}; start workers with multiprocessing's \"spawn\" or \
+                 \"forkserver\" method, or use backend=\"cpu-fast\""
+            ),
+        )),
+        BackendChoice::Auto => Ok((
+            BackendChoice::CpuFast,
+            Some(format!("note: running on the CPU: {why}")),
+        )),
+        other => Ok((other, None)),
+    }
+}
 
 /// The GPU options every backend and mask engine of this process is opened with.
 static OPTIONS: Mutex<Option<GpuOptions>> = Mutex::new(None);
@@ -115,7 +157,7 @@ pub(crate) fn choice(name: &str) -> PyResult<BackendChoice> {
 /// Returns the backend named `name` (opened on the first call) and the notice of its selection
 /// (`auto` falling back to the CPU says why).
 pub(crate) fn get(name: &str) -> PyResult<(Arc<Backend>, Option<String>)> {
-    let c = choice(name)?;
+    let (c, forked) = after_fork(choice(name)?)?;
     let key = NAMES
         .iter()
         .find(|(_, k)| *k == c)
@@ -133,10 +175,11 @@ pub(crate) fn get(name: &str) -> PyResult<(Arc<Backend>, Option<String>)> {
     }
     let (_, map) = opened.get_or_insert_with(|| (std::process::id(), HashMap::new()));
     if let Some((b, notice)) = map.get(key) {
-        return Ok((Arc::clone(b), notice.clone()));
+        return Ok((Arc::clone(b), forked.or_else(|| notice.clone())));
     }
+    touched(c);
     let (backend, notice) = Backend::select(c, &options()).map_err(errors::engine)?;
-    let notice = notice.map(|n| n.render(&errors::name));
+    let notice = forked.or_else(|| notice.map(|n| n.render(&errors::name)));
     let backend = Arc::new(backend);
     map.insert(key, (Arc::clone(&backend), notice.clone()));
     Ok((backend, notice))

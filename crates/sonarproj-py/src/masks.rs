@@ -594,7 +594,8 @@ impl PyMaskEngine {
     #[new]
     #[pyo3(signature = (first, second, backend="auto", counts=false))]
     fn new(py: Python<'_>, first: &PySonar, second: &PySonar, backend: &str, counts: bool) -> PyResult<Self> {
-        let choice = backend::choice(backend)?;
+        let (choice, forked) = backend::after_fork(backend::choice(backend)?)?;
+        backend::touched(choice);
         let want = if counts { Counts::Draw } else { Counts::Skip };
         let (source, target) = (first.inner.clone(), second.inner.clone());
         let (engine, notice) = crate::runtime::detach(py, || {
@@ -603,7 +604,7 @@ impl PyMaskEngine {
         .map_err(errors::engine)?;
         Ok(PyMaskEngine {
             engine,
-            notice: notice.map(|n| n.render(&errors::name)),
+            notice: forked.or_else(|| notice.map(|n| n.render(&errors::name))),
             owner: std::process::id(),
         })
     }
