@@ -212,7 +212,12 @@ pub(crate) fn paper_run<'py>(
     check_output_dir(&out_dir, "out_dir").map_err(error)?;
     let (backend, notice) = backend::get(backend_name)?;
     let start = Instant::now();
-    let runs = crate::runtime::detach(py, || paper::run(&backend, angle_step, sampling)).map_err(error)?;
+    // Ctrl-C is polled while each grid is projected.
+    let runs = crate::runtime::detach_watching(py, |stop| {
+        let signal = || stop.load(std::sync::atomic::Ordering::Relaxed);
+        paper::run_until(&backend, angle_step, sampling, Stop::when(&signal))
+    })?
+    .map_err(error)?;
     let seconds = start.elapsed().as_secs_f64();
     let findings = crate::runtime::detach(py, || {
         paper::write(&out_dir, "out_dir", &runs, angle_step, sampling)

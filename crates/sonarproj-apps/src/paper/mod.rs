@@ -283,6 +283,20 @@ pub fn direction_sampling(direction: Direction, sampling: Sampling) -> Sampling 
 /// # Errors
 /// As [`scenario_poses`] and [`Backend::project`].
 pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec<DirectionRun>> {
+    run_until(backend, angle_step, sampling, Stop::NEVER)
+}
+
+/// Returns both directions as [`run`] does, ending with [`sonarproj::Error::Stopped`] once
+/// `stop` is set (polled while each grid is projected).
+///
+/// # Errors
+/// As [`run`], and [`sonarproj::Error::Stopped`].
+pub fn run_until(
+    backend: &Backend,
+    angle_step: f64,
+    sampling: Sampling,
+    stop: Stop<'_>,
+) -> Result<Vec<DirectionRun>> {
     let poses = scenario_poses(angle_step)?;
     let grid: Vec<ScenarioPose> = poses.iter().filter(|p| p.scenario == 7).copied().collect();
     Direction::both()
@@ -290,11 +304,11 @@ pub fn run(backend: &Backend, angle_step: f64, sampling: Sampling) -> Result<Vec
         .map(|direction| {
             let sampling = direction_sampling(direction, sampling);
             let (source, target) = direction.sonars();
-            let results = project_grids(backend, direction, &poses, sampling, |p| {
+            let results = project_grids(backend, direction, &poses, sampling, stop, |p| {
                 distances(p, &source, &target)
             })?;
             let near = (NEAR_FRACTION * source.range_max, NEAR_FRACTION * target.range_max);
-            let near_both = project_grids(backend, direction, &grid, sampling, |_| near)?;
+            let near_both = project_grids(backend, direction, &grid, sampling, stop, |_| near)?;
             Ok(DirectionRun {
                 direction,
                 sampling,
@@ -314,6 +328,7 @@ fn project_grids(
     direction: Direction,
     poses: &[ScenarioPose],
     sampling: Sampling,
+    stop: Stop<'_>,
     at: impl Fn(&ScenarioPose) -> (f64, f64),
 ) -> Result<Vec<Projection>> {
     let (source, target) = direction.sonars();
@@ -351,7 +366,7 @@ fn project_grids(
             area_grid: sonarproj::PAPER_AREA_GRID,
             poses: sonarproj::PoseSource::Grid(&grid),
         };
-        backend.project_columns(&sweep, 0..grid.len(), &mut columns, Stop::NEVER)?;
+        backend.project_columns(&sweep, 0..grid.len(), &mut columns, stop)?;
         sweep.local_precision_columns(0..grid.len(), sigma, &mut rpe, &mut sig)?;
         // A pose's place in the grid (scenario 9 sweeps yaw outside roll, the grid roll first).
         for p in run {
