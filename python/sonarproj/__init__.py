@@ -103,12 +103,6 @@ _PLAUSIBLE_ROTATION_SIGMA_DEG = 20.0
 """Above this 1-σ rotation (deg), a covariance is probably in deg² rather than rad²: warned."""
 
 
-class AdviceWarning(UserWarning):
-    """Warned by :func:`advise` for each thing the advisor cannot help with, such as an objective
-    its search cannot move (the recovery sigma of a rig whose sonar 2 only turns about a fixed
-    origin); the same words are in the result's ``warnings``."""
-
-
 class BackendNotice(UserWarning):
     """Warned once per process when ``backend="auto"`` runs on the CPU, saying why (no GPU
     adapter, or only a software one, which is slower than the CPU path). It is shown as one
@@ -780,25 +774,8 @@ def recover_many(
     )
 
 
-def read_oculus(path: Union[str, "_os.PathLike[str]"], *, elevation: Optional[float] = None) -> list[OculusPing]:
-    """Returns the pings of a saved Oculus (Blueprint Subsea M-series) file: its simple ping
-    results, version 1 or 2, other messages skipped. Each :class:`OculusPing` has ``.sonar`` (a
-    :class:`Sonar` with the ping's exact beams and its range lines as bins from 0) and
-    ``.image`` (numpy ``(ranges, beams)``, uint8 or uint16: row 0 the nearest range line,
-    column 0 the starboard-most beam, which is the image as the sonar sends it: a positive
-    Oculus bearing is to port), ``.gains`` (uint32 per range line, or None), ``.bearings``
-    (deg), ``.ping_id``, ``.frequency`` (Hz), ``.range_resolution`` (m), ``.offset`` and
-    ``.version``. `elevation` (deg) is the elevation aperture for a frequency whose aperture is
-    not known (20° at 750 kHz, 1.2 and 3 MHz, 12° at 2.1 MHz).
-
-    Raises InputError naming the byte offset and the field for a foreign or truncated file.
-    """
-    if not isinstance(path, (str, _os.PathLike)):
-        raise InputTypeError(f"path: expected a path, got {path!r} ({type(path).__name__})")
-    return _native.read_oculus(_os.fspath(path), _number("elevation", elevation, optional=True))
-
-
-from ._advise import advise  # noqa: E402
+from ._advise import AdviceWarning, advise  # noqa: E402
+from ._readers import read_oculus  # noqa: E402
 from ._apps import merge, paper, sweep  # noqa: E402
 
 

@@ -6,6 +6,14 @@ import os as _os
 from typing import Any, Optional, Union
 
 
+class AdviceWarning(UserWarning):
+    """Warned by :func:`advise` for each thing the advisor cannot help with, such as an objective
+    its search cannot move (the recovery sigma of a rig whose sonar 2 only turns about a fixed
+    origin); the same words are in the result's ``warnings``."""
+
+    __module__ = "sonarproj"
+
+
 def advise(
     config: Union[str, "_os.PathLike[str]"],
     out_dir: Optional[Union[str, "_os.PathLike[str]"]] = None,
@@ -46,8 +54,6 @@ def advise(
     )
     _warn(notice)
     import warnings
-
-    from . import AdviceWarning
 
     for text in result["warnings"]:
         warnings.warn(text, AdviceWarning, stacklevel=2)
