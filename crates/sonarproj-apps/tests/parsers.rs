@@ -294,10 +294,20 @@ fn pose_lists_and_sweep_files_past_their_limits_are_refused_while_read() {
             && e.contains(&format!("at most {} rows", rows - 1)),
         "{e}"
     );
+    // An endless device is no sweep file: refused before a byte is read.
     let e = SweepConfig::load(Path::new("/dev/zero"))
         .err()
         .unwrap()
         .to_string();
+    assert!(e.contains("/dev/zero") && e.contains("not a regular file"), "{e}");
+    // A file past the limit (sparse: no disk) is read no deeper than the limit.
+    let dir = tempfile::tempdir().unwrap();
+    let long = dir.path().join("long.toml");
+    std::fs::File::create(&long)
+        .unwrap()
+        .set_len(sonarproj_apps::limits::MAX_CONFIG_BYTES + 1)
+        .unwrap();
+    let e = SweepConfig::load(&long).err().unwrap().to_string();
     assert!(
         e.contains(&format!(
             "longer than {} bytes",
