@@ -15,7 +15,7 @@ def test_advise_writes_what_the_command_line_writes(tmp_path, cli, root):
     config = root / "data" / "example-advise.toml"
     cli("advise", "--config", config, "--out", tmp_path / "cli", "--backend", "cpu-fast")
     result = sonarproj.advise(config, tmp_path / "py", backend="cpu-fast")
-    for name in ("best.json", "candidates.parquet", "features.csv", "landscape.png"):
+    for name in ("best.json", "candidates.parquet", "pareto.csv", "features.csv", "landscape.png"):
         assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
     assert result["files"]["best"] == tmp_path / "py" / "best.json"
     best = json.loads((tmp_path / "py" / "best.json").read_text())

@@ -1,12 +1,16 @@
 //! The rig advisor: which relative rotation of two sonars makes correspondence easy or recovery
 //! precise, and which small move improves the current pose.
 //!
-//! Candidates are scored over a fixed set of sonar 1 features, drawn or given. The shared
-//! features are those sonar 2 also sees. Each is projected (range span for an SSS sonar 2,
-//! projection area for an FLS) and gets its recovered coordinate's first-order sigma. The
-//! objective (`config`) reduces these for correspondence, recovery or a mix. `search` covers the
-//! asked rotations, refines the best by pattern search, and finds the best small move from a
-//! given pose. `report` writes everything evaluated, so `sonarproj batch` can recompute a score.
+//! Candidates are scored over a fixed draw of features (or given points). The shared features
+//! are those both sonars see. Each is projected (range span for an SSS sonar 2; for an FLS the
+//! pixels its exact arc meets, or the projection area when sampled) and gets its recovered
+//! coordinate's first-order sigma. The objective (`config`) reduces these, with a standard error
+//! over the draw: correspondence (the mean cost of finding a match, a blind search for a
+//! feature not shared), ambiguity, recovery or a mix. `search` covers the asked rotations,
+//! refines the best by pattern search, and finds the best small move from a given pose; the
+//! candidates within two standard errors of the best are tied, and `pareto` keeps those no
+//! other beats on shared share, ambiguity and sigma at once. `report` writes everything
+//! evaluated, so `sonarproj batch` can recompute a score.
 
 pub mod config;
 pub mod features;
@@ -18,6 +22,8 @@ pub mod search;
 pub use config::{AdviseConfig, FromPose, Objective, Rig};
 pub use features::Features;
 pub use report::{Written, write};
+pub use score::{Params, Score, Scorer, Stats};
+pub use search::{Move, Stage};
 
 /// Returns the unit of `config`'s score: `m` or `m²` (the metric's), `deg` (recovery) or `1` (mix).
 #[must_use]
@@ -30,8 +36,6 @@ pub fn score_unit(config: &AdviseConfig) -> &'static str {
 pub fn recommended_rule(config: &AdviseConfig) -> &'static str {
     report::recommended_rule(config)
 }
-pub use score::{Params, Score, Scorer, Stats};
-pub use search::{Move, Stage};
 
 use sonarproj::projection::Backend;
 
@@ -55,7 +59,8 @@ pub struct Advice {
     pub warnings: Vec<String>,
     /// The next-best move, when the advise file gives a pose.
     pub next: Option<Move>,
-    /// The metric scored: `span` or `projection_area`.
+    /// The metric scored: `span`, `occupied_measure` (exact, an imaging sonar 2) or
+    /// `projection_area`.
     pub metric: &'static str,
 }
 
