@@ -264,7 +264,7 @@ pub fn time_sweep(
     measures: SweepMeasures,
     sampling: Sampling,
 ) -> Result<SweepTiming> {
-    use crate::sweep::{Format, Options, Poses, run};
+    use crate::sweep::Poses;
     if !(1..=MAX_RUNS).contains(&runs) {
         return Err(Error::invalid(
             "runs",
@@ -332,25 +332,7 @@ pub fn time_sweep(
         })
         .transpose()?;
     let scratch = tempfile::tempdir().map_err(|e| Error::write_output(&std::env::temp_dir(), e))?;
-    let sweep_into = |config: &crate::sweep::SweepConfig| {
-        let out = scratch.path().join("bench-sweep");
-        let opts = Options {
-            out: out.clone(),
-            shard: None,
-            chunk_poses: None,
-            max_chunks: None,
-            format: Format::Parquet,
-        };
-        let result = run(
-            config,
-            backend,
-            &opts,
-            sonarproj::stream::Stop::NEVER,
-            &mut |_| std::ops::ControlFlow::Continue(()),
-        );
-        let _ = std::fs::remove_dir_all(&out);
-        result.map(drop)
-    };
+    let sweep_into = |config: &crate::sweep::SweepConfig| sweep_once(config, backend, scratch.path());
     let parquet = measures
         .parquet
         .then(|| median(runs, &mut || sweep_into(&rows)))
@@ -378,6 +360,31 @@ pub fn time_sweep(
         host,
         summary_gpu,
     })
+}
+
+/// Runs the sweep of `config` once as Parquet into a folder of `scratch`, then removes it.
+///
+/// # Errors
+/// As [`crate::sweep::run()`].
+fn sweep_once(
+    config: &crate::sweep::SweepConfig,
+    backend: &Backend,
+    scratch: &std::path::Path,
+) -> Result<()> {
+    use crate::sweep::{Format, Options, run};
+    let out = scratch.join("bench-sweep");
+    let opts = Options {
+        out: out.clone(),
+        shard: None,
+        chunk_poses: None,
+        max_chunks: None,
+        format: Format::Parquet,
+    };
+    let result = run(config, backend, &opts, Stop::NEVER, &mut |_| {
+        std::ops::ControlFlow::Continue(())
+    });
+    let _ = std::fs::remove_dir_all(&out);
+    result.map(drop)
 }
 
 /// Returns the device's time (`None` without timestamp queries) and the host's time of one

@@ -51,7 +51,69 @@ pub(crate) fn advise_run<'py>(
         Ok((advice, written))
     })?
     .map_err(error)?;
-    let c = &advice.candidates;
+    let columns = candidate_columns(py, &advice.candidates)?;
+    let d = PyDict::new(py);
+    d.set_item("candidates", columns)?;
+    d.set_item(
+        "ranked",
+        advice
+            .ranked
+            .iter()
+            .map(|&i| i as u64)
+            .collect::<Vec<u64>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item("best", advice.best().map(|b| json(py, b)).transpose()?)?;
+    d.set_item(
+        "next_move",
+        advice.next.as_ref().map(|m| json(py, m)).transpose()?,
+    )?;
+    d.set_item("metric", advice.metric)?;
+    d.set_item(
+        "recommended",
+        advice
+            .recommended
+            .map(|i| json(py, &advice.candidates[i].1))
+            .transpose()?,
+    )?;
+    d.set_item("recommended_index", advice.recommended.map(|i| i as u64))?;
+    d.set_item(
+        "tied",
+        advice
+            .ranked
+            .iter()
+            .filter(|&&i| advice.candidates[i].1.tied)
+            .count(),
+    )?;
+    d.set_item(
+        "pareto",
+        advice
+            .pareto
+            .iter()
+            .map(|&i| i as u64)
+            .collect::<Vec<u64>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item("score_unit", advise::score_unit(&config))?;
+    d.set_item("recommended_because", advise::recommended_rule(&config))?;
+    d.set_item("warnings", advice.warnings.clone())?;
+    let files = PyDict::new(py);
+    if let Some(w) = written {
+        files.set_item("best", w.best)?;
+        files.set_item("candidates", w.candidates)?;
+        files.set_item("features", w.features)?;
+        files.set_item("pareto", w.pareto)?;
+        files.set_item("landscape", w.landscape)?;
+    }
+    d.set_item("files", files)?;
+    d.set_item("seconds", start.elapsed().as_secs_f64())?;
+    d.set_item("device", backend.device())?;
+    Ok((d, notice))
+}
+
+/// Returns every candidate's columns as numpy arrays (NaN where there is no value), the
+/// candidates file's columns but its index.
+fn candidate_columns<'py>(py: Python<'py>, c: &[(advise::Stage, Score)]) -> PyResult<Bound<'py, PyDict>> {
     let real = |f: &dyn Fn(&Score) -> f64| c.iter().map(|(_, s)| f(s)).collect::<Vec<f64>>();
     let nan = |v: Option<f64>| v.unwrap_or(f64::NAN);
     let columns = PyDict::new(py);
@@ -115,61 +177,5 @@ pub(crate) fn advise_run<'py>(
             .collect::<Vec<bool>>()
             .into_pyarray(py),
     )?;
-    let d = PyDict::new(py);
-    d.set_item("candidates", columns)?;
-    d.set_item(
-        "ranked",
-        advice
-            .ranked
-            .iter()
-            .map(|&i| i as u64)
-            .collect::<Vec<u64>>()
-            .into_pyarray(py),
-    )?;
-    d.set_item("best", advice.best().map(|b| json(py, b)).transpose()?)?;
-    d.set_item(
-        "next_move",
-        advice.next.as_ref().map(|m| json(py, m)).transpose()?,
-    )?;
-    d.set_item("metric", advice.metric)?;
-    d.set_item(
-        "recommended",
-        advice
-            .recommended
-            .map(|i| json(py, &advice.candidates[i].1))
-            .transpose()?,
-    )?;
-    d.set_item("recommended_index", advice.recommended.map(|i| i as u64))?;
-    d.set_item(
-        "tied",
-        advice
-            .ranked
-            .iter()
-            .filter(|&&i| advice.candidates[i].1.tied)
-            .count(),
-    )?;
-    d.set_item(
-        "pareto",
-        advice
-            .pareto
-            .iter()
-            .map(|&i| i as u64)
-            .collect::<Vec<u64>>()
-            .into_pyarray(py),
-    )?;
-    d.set_item("score_unit", advise::score_unit(&config))?;
-    d.set_item("recommended_because", advise::recommended_rule(&config))?;
-    d.set_item("warnings", advice.warnings.clone())?;
-    let files = PyDict::new(py);
-    if let Some(w) = written {
-        files.set_item("best", w.best)?;
-        files.set_item("candidates", w.candidates)?;
-        files.set_item("features", w.features)?;
-        files.set_item("pareto", w.pareto)?;
-        files.set_item("landscape", w.landscape)?;
-    }
-    d.set_item("files", files)?;
-    d.set_item("seconds", start.elapsed().as_secs_f64())?;
-    d.set_item("device", backend.device())?;
-    Ok((d, notice))
+    Ok(columns)
 }

@@ -402,43 +402,7 @@ pub fn sweep_marked(
 ) -> Result<()> {
     let (vlo, vhi) = extent(points.iter().filter_map(|p| p.1));
     if axes.len() == 1 {
-        let (xlo, xhi) = extent(points.iter().map(|p| p.0[0]));
-        let pad = 0.05 * (vhi - vlo);
-        let (ylo, yhi) = (if vlo >= 0.0 { 0.0 } else { vlo - pad }, vhi + pad);
-        return render(path, (1200, 800), |root| {
-            let mut chart = ChartBuilder::on(root)
-                .caption(caption, (FONT, TITLE))
-                .margin(20)
-                .margin_right(40)
-                .x_label_area_size(60)
-                .y_label_area_size(100)
-                .build_cartesian_2d(xlo..xhi, ylo..yhi)
-                .map_err(plot_error)?;
-            chart
-                .configure_mesh()
-                .x_desc(&axes[0])
-                .y_desc(label)
-                .label_style((FONT, TICKS))
-                .axis_desc_style((FONT, AXES))
-                .draw()
-                .map_err(plot_error)?;
-            let mut sorted: Vec<(f64, Option<f64>)> = points.iter().map(|p| (p.0[0], p.1)).collect();
-            sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let colour = ViridisRGB::get_color_normalized(0.2, 0.0, 1.0);
-            for run in sorted.split(|p| p.1.is_none()).filter(|r| !r.is_empty()) {
-                let pts: Vec<(f64, f64)> = run.iter().map(|p| (p.0, p.1.expect("split"))).collect();
-                if pts.len() == 1 {
-                    chart
-                        .draw_series(std::iter::once(Circle::new(pts[0], 3, colour.filled())))
-                        .map_err(plot_error)?;
-                } else {
-                    chart
-                        .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
-                        .map_err(plot_error)?;
-                }
-            }
-            Ok(())
-        });
+        return sweep_line(path, caption, &axes[0], label, points, (vlo, vhi));
     }
     let distinct = |k: usize| {
         let mut v: Vec<f64> = points.iter().map(|p| p.0[k]).collect();
@@ -525,6 +489,55 @@ pub fn sweep_marked(
                 .map_err(plot_error)?;
         }
         colour_bar(&bar, vlo, vhi, &format!("colour: {label}; grey: {missing}"))
+    })
+}
+
+/// Draws [`sweep`]'s line of the metric `label` against one quantity, values `(vlo, vhi)`,
+/// broken where a point has no value.
+fn sweep_line(
+    path: &Path,
+    caption: &str,
+    axis: &str,
+    label: &str,
+    points: &[(Vec<f64>, Option<f64>)],
+    (vlo, vhi): (f64, f64),
+) -> Result<()> {
+    let (xlo, xhi) = extent(points.iter().map(|p| p.0[0]));
+    let pad = 0.05 * (vhi - vlo);
+    let (ylo, yhi) = (if vlo >= 0.0 { 0.0 } else { vlo - pad }, vhi + pad);
+    render(path, (1200, 800), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(caption, (FONT, TITLE))
+            .margin(20)
+            .margin_right(40)
+            .x_label_area_size(60)
+            .y_label_area_size(100)
+            .build_cartesian_2d(xlo..xhi, ylo..yhi)
+            .map_err(plot_error)?;
+        chart
+            .configure_mesh()
+            .x_desc(axis)
+            .y_desc(label)
+            .label_style((FONT, TICKS))
+            .axis_desc_style((FONT, AXES))
+            .draw()
+            .map_err(plot_error)?;
+        let mut sorted: Vec<(f64, Option<f64>)> = points.iter().map(|p| (p.0[0], p.1)).collect();
+        sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let colour = ViridisRGB::get_color_normalized(0.2, 0.0, 1.0);
+        for run in sorted.split(|p| p.1.is_none()).filter(|r| !r.is_empty()) {
+            let pts: Vec<(f64, f64)> = run.iter().map(|p| (p.0, p.1.expect("split"))).collect();
+            if pts.len() == 1 {
+                chart
+                    .draw_series(std::iter::once(Circle::new(pts[0], 3, colour.filled())))
+                    .map_err(plot_error)?;
+            } else {
+                chart
+                    .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                    .map_err(plot_error)?;
+            }
+        }
+        Ok(())
     })
 }
 
