@@ -564,6 +564,45 @@ mod gpu {
         assert!(seen > 100 && empty > 10, "{seen} seen, {empty} empty");
     }
 
+    /// A ping of more features than one dispatch holds (64 MiB of bitsets) goes in several
+    /// dispatches: its summary is still its masks' (counts, boxes and union), and the CPU
+    /// engine's agree.
+    #[test]
+    fn a_ping_past_one_dispatch_is_summarised_whole() {
+        let Some(ctx) = common::gpu_context() else {
+            return;
+        };
+        // The preset with the largest image as sonar 2, seen by an FLS.
+        let s1 = Sonar::preset("oculus-m750d").unwrap();
+        let s2 = Sonar::preset_names()
+            .iter()
+            .map(|n| Sonar::preset(n).unwrap())
+            .max_by_key(|s| MaskEngine::new(s1.clone(), s.clone()).unwrap().bitset_bytes())
+            .unwrap();
+        let gpu = MaskEngine::on_gpu(s1.clone(), s2.clone(), ctx).unwrap();
+        let cpu = MaskEngine::new(s1.clone(), s2.clone()).unwrap();
+        let per_dispatch = (64u64 << 20) / gpu.bitset_bytes();
+        let n = usize::try_from(per_dispatch).unwrap() + 37;
+        let mut rng = ChaCha8Rng::seed_from_u64(4242);
+        let pose = scene(&mut rng, &s1, &s2).pose;
+        let features: Vec<Measurement> = (0..n).map(|_| scene(&mut rng, &s1, &s2).measurement).collect();
+        let set = gpu.masks(&pose, &features, None, Counts::Skip).unwrap();
+        let (want, union) = expected(&gpu, &set);
+        let summary = gpu.summary(&pose, &features, None).unwrap();
+        let got: Vec<_> = summary
+            .features
+            .iter()
+            .map(|f| (f.occupied, f.bounding_box))
+            .collect();
+        assert_eq!(got.len(), n);
+        assert_eq!(got, want, "{} features into {}", n, s2.name);
+        assert_eq!(summary.union, union);
+        assert!(union.count() > 0);
+        let on_cpu = cpu.summary(&pose, &features, None).unwrap();
+        assert!(on_cpu.union.is_subset_of(&summary.union));
+        eprintln!("{n} features into {} ({per_dispatch} a dispatch)", s2.name);
+    }
+
     /// Pings drawn with two in flight (`summaries_of_pings`) give each ping's own summary: 70
     /// pings (two groups of 64 and the rest), some empty, on the GPU and the CPU engine; a bad
     /// feature is named with its ping.

@@ -142,7 +142,7 @@ def paper(
     no exact mode, at 0.1°.
 
     Returns a dict: ``findings`` (a list of dicts: ``claim``, ``holds``, ``evidence``),
-    ``poses``, ``seconds`` (compute time), ``device``, ``out_dir``.
+    ``poses``, ``seconds`` (the run's time, its files written as it goes), ``device``, ``out_dir``.
     """
     result, notice = _native.paper_run(
         _path("out_dir", out_dir), _number("angle_step", angle_step), _paper_step(step), _backend(backend)

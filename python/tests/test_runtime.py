@@ -146,19 +146,22 @@ def test_ctrl_c_stops_the_advisor_between_batches(tmp_path, root):
 def test_ctrl_c_stops_the_paper_inside_its_grids(tmp_path):
     # The paper at 1 deg with 0.001 deg sampling: several minutes (2 deg takes over 1.5 on two
     # cores). SIGINT arrives 0.5 s in; the run must stop while it projects a grid (the 120 s
-    # limit only guards against the wait for the whole run it used to be).
+    # limit only guards against the wait for the whole run it used to be). The CSVs it was
+    # streaming are dropped, and the directory it made with them.
+    out = tmp_path / "made" / "paper"
     script = textwrap.dedent(f"""
         import os, signal, threading, sonarproj
         signal.signal(signal.SIGINT, signal.default_int_handler)
         threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
         try:
-            sonarproj.paper({str(tmp_path / "paper")!r}, angle_step=1, step=0.001, backend="cpu-fast")
+            sonarproj.paper({str(out)!r}, angle_step=1, step=0.001, backend="cpu-fast")
             print("finished")
         except KeyboardInterrupt:
             print("interrupted")
     """)
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert done.stdout.strip() == "interrupted", done.stderr
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_child_forked_after_a_gpu_call_is_told_not_left_waiting():

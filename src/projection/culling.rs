@@ -32,12 +32,26 @@ pub(crate) const BLOCK: usize = 16;
 /// radius of a ball holding its unit directions, and the largest distance of those from its chord
 /// (the segment from its first unit direction to its last).
 pub(crate) fn block_bounds(azimuths: &[f64], elevations: &[f64]) -> (Vec<(DVec3, f64)>, Vec<f64>) {
-    let units = unit_directions(azimuths, elevations);
-    let reaches = chords(&units, BLOCK)
-        .into_iter()
-        .map(|(_, _, reach)| reach)
-        .collect();
-    (balls(&units, BLOCK), reaches)
+    // Block by block: a plan may have 2^26 samples, whose unit directions alone would take 1.6 GB.
+    let azimuths: Vec<(f64, f64)> = azimuths.iter().map(|a| (a.cos(), a.sin())).collect();
+    let elevations: Vec<(f64, f64)> = elevations.iter().map(|e| (e.cos(), e.sin())).collect();
+    let n = azimuths.len() * elevations.len();
+    let unit = |k: usize| {
+        let ((ca, sa), (ce, se)) = (azimuths[k % azimuths.len()], elevations[k / azimuths.len()]);
+        DVec3::new(ce * ca, ce * sa, se)
+    };
+    let mut bounds = (
+        Vec::with_capacity(n.div_ceil(BLOCK)),
+        Vec::with_capacity(n.div_ceil(BLOCK)),
+    );
+    let mut block = Vec::with_capacity(BLOCK);
+    for start in (0..n).step_by(BLOCK) {
+        block.clear();
+        block.extend((start..(start + BLOCK).min(n)).map(unit));
+        bounds.0.push(ball(&block));
+        bounds.1.push(chord(&block).2);
+    }
+    bounds
 }
 
 /// Returns the unit directions of the plan with these azimuth offsets and elevations (rad),
@@ -58,14 +72,14 @@ pub(crate) fn unit_directions(azimuths: &[f64], elevations: &[f64]) -> Vec<DVec3
 /// Returns, per block of `size` of `units`, the centre (their mean) and radius of a ball
 /// holding them.
 pub(crate) fn balls(units: &[DVec3], size: usize) -> Vec<(DVec3, f64)> {
-    units
-        .chunks(size)
-        .map(|b| {
-            let centre = b.iter().sum::<DVec3>() / b.len() as f64;
-            let radius = b.iter().map(|u| (*u - centre).length()).fold(0.0, f64::max);
-            (centre, radius)
-        })
-        .collect()
+    units.chunks(size).map(ball).collect()
+}
+
+/// Returns the centre (the mean) and radius of a ball holding the units of block `b`.
+fn ball(b: &[DVec3]) -> (DVec3, f64) {
+    let centre = b.iter().sum::<DVec3>() / b.len() as f64;
+    let radius = b.iter().map(|u| (*u - centre).length()).fold(0.0, f64::max);
+    (centre, radius)
 }
 
 fn distance_to_segment(p: DVec3, a: DVec3, b: DVec3) -> f64 {
@@ -83,17 +97,18 @@ fn distance_to_segment(p: DVec3, a: DVec3, b: DVec3) -> f64 {
 /// distance of its units from the chord. A block of a plan's arc (one azimuth, or one elevation
 /// row) lies within its sagitta of the chord, far closer than to its ball's centre.
 pub(crate) fn chords(units: &[DVec3], size: usize) -> Vec<(DVec3, DVec3, f64)> {
-    units
-        .chunks(size)
-        .map(|b| {
-            let (first, last) = (b[0], b[b.len() - 1]);
-            let reach = b
-                .iter()
-                .map(|u| distance_to_segment(*u, first, last))
-                .fold(0.0, f64::max);
-            (first, last, reach)
-        })
-        .collect()
+    units.chunks(size).map(chord).collect()
+}
+
+/// Returns the chord of block `b` (its first and last unit) and the largest distance of its
+/// units from it.
+fn chord(b: &[DVec3]) -> (DVec3, DVec3, f64) {
+    let (first, last) = (b[0], b[b.len() - 1]);
+    let reach = b
+        .iter()
+        .map(|u| distance_to_segment(*u, first, last))
+        .fold(0.0, f64::max);
+    (first, last, reach)
 }
 
 /// Returns whether the ball of `radius` around `c` lies wholly outside the field of view, and
@@ -158,4 +173,26 @@ pub(crate) fn chord_outside(clip: &Clip<'_>, a: [f64; 3], b: [f64; 3], margin: f
         both(2)
     };
     azimuth | (clip.clip_elevation & (both(3) | both(4)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{BLOCK, balls, block_bounds, chords, unit_directions};
+
+    /// The bounds built block by block are those of the plan's unit directions built whole,
+    /// bit for bit, whether or not the samples fill the last block.
+    #[test]
+    fn block_bounds_are_those_of_the_whole_plan() {
+        for (na, ne) in [(1, 1), (1, 121), (7, 3), (16, 16), (33, 17), (130, 1)] {
+            let azimuths: Vec<f64> = (0..na).map(|k| -0.5 + 0.013 * f64::from(k)).collect();
+            let elevations: Vec<f64> = (0..ne).map(|k| -0.3 + 0.007 * f64::from(k)).collect();
+            let units = unit_directions(&azimuths, &elevations);
+            let reaches: Vec<f64> = chords(&units, BLOCK).into_iter().map(|c| c.2).collect();
+            assert_eq!(
+                block_bounds(&azimuths, &elevations),
+                (balls(&units, BLOCK), reaches),
+                "{na} × {ne}"
+            );
+        }
+    }
 }

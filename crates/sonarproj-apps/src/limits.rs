@@ -12,8 +12,8 @@ pub const MAX_CHUNKS: u64 = 1_000_000;
 /// The most poses of one sweep chunk (`--chunk-poses`, 2 097 152). A chunk's metrics, table and
 /// summary values are held in memory together, about 0.5 KB a pose with rows.
 pub const MAX_CHUNK_POSES: u64 = 1 << 21;
-/// The finest angle step of the paper's simulations (deg). It gives 18 001 angles, about 3
-/// million poses a direction, whose results are held in memory.
+/// The finest angle step of the paper's simulations (deg). It gives 18 001 angles, about a
+/// billion poses a direction, run a block at a time in bounded memory.
 pub const MIN_ANGLE_STEP: f64 = 0.01;
 /// The most bytes of dense masks one Python call returns (1 GiB), at one byte a pixel a
 /// feature plus four with counts. More features at once take the sparse form (runs).

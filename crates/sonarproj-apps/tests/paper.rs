@@ -92,14 +92,30 @@ fn the_feature_is_always_seen_where_it_was_placed() {
 /// outside yaw) put back in the scenario's order (yaw outside roll).
 #[test]
 fn the_scenarios_as_grids_are_the_per_item_results() {
-    let runs = paper::run(&Backend::CpuFast, 15.0, Sampling::Step(0.1)).unwrap();
-    for run in &runs {
-        let batch = paper::batch(run.direction, &run.poses, run.sampling).unwrap();
+    for direction in Direction::both() {
+        let (mut poses, mut results) = (Vec::new(), Vec::new());
+        let run = paper::project_direction(
+            &Backend::CpuFast,
+            direction,
+            15.0,
+            Sampling::Step(0.1),
+            sonarproj::stream::Stop::NEVER,
+            &mut |p, r| {
+                poses.extend_from_slice(p);
+                results.extend_from_slice(r);
+                Ok(())
+            },
+        )
+        .unwrap();
+        // The sink saw every pose of the scenarios, in their order.
+        assert_eq!(poses, scenario_poses(15.0).unwrap());
+        assert_eq!(run.poses, poses.len() as u64);
+        let batch = paper::batch(direction, &poses, run.sampling).unwrap();
         let items = Backend::CpuFast.project(&batch, Output::MetricsOnly).unwrap();
         let sigma = sonarproj::local_precision::default_sigma_range(&batch.source, &batch.target);
-        assert_eq!(items.len(), run.results.len());
-        for (k, (p, (a, b))) in run.poses.iter().zip(items.iter().zip(&run.results)).enumerate() {
-            assert_eq!(a.metrics, b.metrics, "{:?} pose {k} {p:?}", run.direction);
+        assert_eq!(items.len(), results.len());
+        for (k, (p, (a, b))) in poses.iter().zip(items.iter().zip(&results)).enumerate() {
+            assert_eq!(a.metrics, b.metrics, "{direction:?} pose {k} {p:?}");
             let local = sonarproj::local_precision::local_precision(
                 &batch.source,
                 &batch.target,
@@ -107,8 +123,33 @@ fn the_scenarios_as_grids_are_the_per_item_results() {
                 &batch.items[k].pose,
                 sigma,
             );
-            assert_eq!(local, run.results[k].local, "{:?} pose {k} {p:?}", run.direction);
+            assert_eq!(local, results[k].local, "{direction:?} pose {k} {p:?}");
         }
+        // The reductions are those of the results: each curve and grid, in the poses' order.
+        let metric = |k: usize| direction.metric(&items[k].metrics);
+        for (k, p) in poses.iter().enumerate() {
+            assert_eq!(
+                run.at(p.scenario, p.fraction, p.angles).is_some(),
+                p.scenario <= 6 || {
+                    let axes = paper::swept(p.scenario);
+                    axes.iter().all(|&a| [0.0, 90.0, 180.0].contains(&p.angles[a]))
+                }
+            );
+            if let Some(v) = run.at(p.scenario, p.fraction, p.angles) {
+                assert_eq!(v, metric(k), "{p:?}");
+            }
+        }
+        for s in 7..=9u8 {
+            let grid: Vec<f64> = (0..poses.len())
+                .filter(|&k| poses[k].scenario == s)
+                .map(metric)
+                .collect();
+            assert_eq!(run.values(s, None), grid);
+            let g = run.grid(s).unwrap();
+            assert_eq!(g.sum, grid.iter().sum::<f64>());
+            assert_eq!(g.count, grid.len() as u64);
+        }
+        assert_eq!(run.samples, items.iter().map(|r| r.metrics.total).sum::<u64>());
     }
 }
 
@@ -186,4 +227,81 @@ fn the_exact_version_bounds_the_smooth_one() {
         paper::direction_sampling(paper::Direction::SssToFls, Sampling::Exact),
         Sampling::Step(paper::PUBLISHED_STEP)
     );
+}
+
+/// A paper run writes its CSVs as the poses run; stopped half way (here in the second
+/// direction), it leaves neither CSV nor the directories it made, and says it was stopped.
+#[test]
+fn a_stopped_paper_run_leaves_nothing_behind() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("made").join("paper");
+    let polls = AtomicUsize::new(0);
+    // Stop after the first direction's polls: the first CSV is whole by then.
+    let (first, _) = {
+        let count = AtomicUsize::new(0);
+        let signal = || {
+            count.fetch_add(1, Ordering::Relaxed);
+            false
+        };
+        let run = paper::project_direction(
+            &Backend::CpuFast,
+            Direction::FlsToSss,
+            30.0,
+            Sampling::Step(1.0),
+            sonarproj::stream::Stop::when(&signal),
+            &mut |_, _| Ok(()),
+        )
+        .unwrap();
+        (count.load(Ordering::Relaxed), run)
+    };
+    let signal = || polls.fetch_add(1, Ordering::Relaxed) > first;
+    let err = paper::run_to(
+        &out,
+        "--out",
+        &Backend::CpuFast,
+        30.0,
+        Sampling::Step(1.0),
+        sonarproj::stream::Stop::when(&signal),
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("stopped"), "{err}");
+    assert!(
+        polls.load(Ordering::Relaxed) > first,
+        "stopped in the second direction"
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    // Not stopped, the same call writes every file.
+    let (runs, found) = paper::run_to(
+        &out,
+        "--out",
+        &Backend::CpuFast,
+        30.0,
+        Sampling::Step(1.0),
+        sonarproj::stream::Stop::NEVER,
+    )
+    .unwrap();
+    assert_eq!((runs.len(), found.len()), (2, 4));
+    let mut files: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    files.sort();
+    assert_eq!(
+        files,
+        [
+            "findings.md",
+            "fls-to-sss-heatmaps.png",
+            "fls-to-sss-lines.png",
+            "fls-to-sss.csv",
+            "sss-to-fls-heatmaps.png",
+            "sss-to-fls-lines.png",
+            "sss-to-fls.csv"
+        ]
+    );
+    let rows = std::fs::read_to_string(out.join("sss-to-fls.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert_eq!(rows as u64, 1 + runs[1].poses);
 }

@@ -212,17 +212,20 @@ pub(crate) fn paper_run<'py>(
     check_output_dir(&out_dir, "out_dir").map_err(error)?;
     let (backend, notice) = backend::get(backend_name)?;
     let start = Instant::now();
-    // Ctrl-C is polled while each grid is projected.
-    let runs = crate::runtime::detach_watching(py, |stop| {
+    // Ctrl-C is polled while each block of poses is projected.
+    let (runs, findings) = crate::runtime::detach_watching(py, |stop| {
         let signal = || stop.load(std::sync::atomic::Ordering::Relaxed);
-        paper::run_until(&backend, angle_step, sampling, Stop::when(&signal))
+        paper::run_to(
+            &out_dir,
+            "out_dir",
+            &backend,
+            angle_step,
+            sampling,
+            Stop::when(&signal),
+        )
     })?
     .map_err(error)?;
     let seconds = start.elapsed().as_secs_f64();
-    let findings = crate::runtime::detach(py, || {
-        paper::write(&out_dir, "out_dir", &runs, angle_step, sampling)
-    })
-    .map_err(error)?;
     let d = PyDict::new(py);
     let list = findings
         .iter()
@@ -235,7 +238,7 @@ pub(crate) fn paper_run<'py>(
         })
         .collect::<PyResult<Vec<_>>>()?;
     d.set_item("findings", list)?;
-    d.set_item("poses", runs.iter().map(|r| r.poses.len()).sum::<usize>())?;
+    d.set_item("poses", runs.iter().map(|r| r.poses).sum::<u64>())?;
     d.set_item("seconds", seconds)?;
     d.set_item("device", backend.device())?;
     d.set_item("out_dir", out_dir)?;

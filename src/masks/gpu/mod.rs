@@ -125,6 +125,21 @@ const SUMMARY_WORDS: usize = 5;
 const MAX_TILES: u64 = 4096;
 /// The most direction-table entries kept between pings (8 MiB). Past it, the tables start afresh.
 const MAX_TABLE_ENTRIES: usize = 1 << 20;
+/// The most bytes of mask bitsets one dispatch holds on the device (64 MiB). A ping of many
+/// features goes in several dispatches, two in flight, so a summary holds at most twice this
+/// whatever its number of features.
+const MAX_DISPATCH_BITSET_BYTES: u64 = 64 << 20;
+
+/// Returns how many masks of `words` 32-bit words one dispatch takes: within the y limit, with
+/// the bitsets and what is read back of them (union, summaries, bitsets) in one binding of
+/// `limit` bytes, and the bitsets within [`MAX_DISPATCH_BITSET_BYTES`]. One at least.
+#[expect(clippy::cast_possible_truncation, reason = "at most 65 535")]
+fn jobs_per_dispatch(words: u64, limit: u64) -> usize {
+    let per_mask = words * 4 + SUMMARY_WORDS as u64 * 4;
+    let by_binding = limit.saturating_sub(words * 4) / per_mask;
+    let by_budget = MAX_DISPATCH_BITSET_BYTES / (words * 4).max(1);
+    65_535u64.min(by_binding).min(by_budget).max(1) as usize
+}
 
 /// Returns the most workgroups a mask gets along x in the draw and the reduce stage.
 ///
@@ -441,10 +456,7 @@ impl GpuMasks {
         let limit = self.binding_limit();
         // The most entries the tables' binding holds. A job's, and a dispatch's, must fit.
         let tables_cap = (limit / 8) as usize;
-        // Jobs per dispatch: within the y limit, and with the bitsets and what is read back of them
-        // (union, summaries, bitsets) in one binding.
-        let per_mask = words * 4 + SUMMARY_WORDS as u64 * 4;
-        let per_dispatch = (65_535u64).min(limit.saturating_sub(words * 4) / per_mask).max(1) as usize;
+        let per_dispatch = jobs_per_dispatch(words, limit);
         let mut out = Vec::new();
         let (mut start, mut entries) = (0, 0);
         for (k, job) in jobs.iter().enumerate() {
@@ -657,7 +669,25 @@ fn pack_jobs(tables: &mut Tables, layout: &Layout, jobs: &[Job]) -> (Vec<MaskJob
 
 #[cfg(test)]
 mod tests {
-    use super::rows_of_jobs;
+    use super::{MAX_DISPATCH_BITSET_BYTES, jobs_per_dispatch, rows_of_jobs};
+
+    /// A dispatch's bitsets stay within the budget and its binding, whatever the mask's size
+    /// (one word to 1 GiB), and it takes one mask at least.
+    #[test]
+    fn a_dispatch_holds_a_bounded_number_of_masks() {
+        for words in [1u64, 7, 1000, 8192, 1 << 16, 1 << 20, 1 << 28] {
+            for limit in [128u64 << 20, 256 << 20, 2 << 30] {
+                let n = jobs_per_dispatch(words, limit) as u64;
+                assert!((1..=65_535).contains(&n), "{words} words: {n}");
+                if n > 1 {
+                    assert!(n * words * 4 <= MAX_DISPATCH_BITSET_BYTES, "{words} words: {n}");
+                    assert!(n * (words * 4 + 20) + words * 4 <= limit, "{words} words: {n}");
+                }
+            }
+        }
+        // 32 KiB masks (a 512 × 512 image): 2048 a dispatch, 64 MiB.
+        assert_eq!(jobs_per_dispatch(8192, 256 << 20), 2048);
+    }
 
     /// Every job gets a row of its own, and every run of a tenth, quarter or half of the rows holds
     /// jobs from all over the ping. Their mean index is within an eighth of the middle (in job

@@ -47,14 +47,7 @@ pub(super) fn lines(run: &DirectionRun) -> LineGrid {
             let axis = swept(s)[0];
             let curves = FRACTIONS
                 .iter()
-                .map(|&f| {
-                    run.poses
-                        .iter()
-                        .zip(&run.results)
-                        .filter(|(p, _)| p.scenario == s && p.fraction == Some(f))
-                        .map(|(p, r)| (p.angles[axis], run.direction.metric(&r.metrics)))
-                        .collect()
-                })
+                .map(|&f| run.line(s, f).map(|l| l.points.clone()).unwrap_or_default())
                 .collect();
             LinePanel {
                 caption: format!(
@@ -78,27 +71,29 @@ pub(super) fn lines(run: &DirectionRun) -> LineGrid {
     }
 }
 
-/// Returns scenarios 7–9 of `run` as a row of heatmaps over the swept `angles` (deg, evenly
-/// spaced from 0 to 180°), each panel with its own colour scale.
-pub(super) fn heatmaps(run: &DirectionRun, angles: &[f64]) -> HeatmapRow {
-    let step = if angles.len() > 1 {
-        angles[1] - angles[0]
-    } else {
-        1.0
-    };
-    let panels = (7..=9u8)
-        .map(|s| {
+/// Returns scenarios 7–9 of `run` as a row of heatmaps over their lattice of swept angles
+/// (deg, evenly spaced from 0 to 180°), each panel with its own colour scale.
+pub(super) fn heatmaps(run: &DirectionRun) -> HeatmapRow {
+    let mut step = 1.0;
+    let panels = run
+        .grids
+        .iter()
+        .map(|g| {
+            let s = g.scenario;
             let [ax, ay] = [swept(s)[0], swept(s)[1]];
+            if g.lattice.len() > 1 {
+                step = g.lattice[1] - g.lattice[0];
+            }
+            let m = g.lattice.len();
             HeatmapPanel {
                 caption: format!("Scenario {s}: {} × {}", ANGLE_NAMES[ax], ANGLE_NAMES[ay]),
                 x_label: format!("{} (deg)", ANGLE_NAMES[ax]),
                 y_label: format!("{} (deg)", ANGLE_NAMES[ay]),
-                cells: run
-                    .poses
+                cells: g
+                    .values
                     .iter()
-                    .zip(&run.results)
-                    .filter(|(p, _)| p.scenario == s)
-                    .map(|(p, r)| (p.angles[ax], p.angles[ay], run.direction.metric(&r.metrics)))
+                    .enumerate()
+                    .map(|(k, &v)| (g.lattice[k / m], g.lattice[k % m], v))
                     .collect(),
             }
         })
@@ -127,7 +122,7 @@ mod tests {
         let runs = run(&Backend::CpuFast, 90.0, Sampling::Step(1.0)).unwrap();
         for r in &runs {
             let lines = super::lines(r);
-            let heat = super::heatmaps(r, &[0.0, 90.0, 180.0]);
+            let heat = super::heatmaps(r);
             let mut texts = vec![
                 lines.title,
                 lines.y_label,

@@ -17,6 +17,23 @@ fn quantile(v: &[f64], q: f64) -> f64 {
     s[((s.len() - 1) as f64 * q).round() as usize]
 }
 
+/// Returns the words that say a grid's percentiles are taken on its lattice (empty when the
+/// lattice is the whole grid): ` (on a 1801 × 1801 lattice, one swept angle in 10, of its
+/// 18001 × 18001 poses)`.
+#[expect(clippy::cast_precision_loss, reason = "a count of poses, far below 2^53")]
+fn lattice_words(run: &DirectionRun, scenario: u8) -> String {
+    match run.grid(scenario) {
+        Some(g) if g.stride > 1 => {
+            let (m, n) = (g.lattice.len(), (g.count as f64).sqrt().round());
+            format!(
+                " (on a {m} × {m} lattice, one swept angle in {}, of its {n} × {n} poses)",
+                g.stride
+            )
+        }
+        _ => String::new(),
+    }
+}
+
 /// The verdict on one of the paper's qualitative findings.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Finding {
@@ -50,13 +67,14 @@ pub fn findings(runs: &[DirectionRun]) -> Vec<Finding> {
 fn short_spans(fs: &DirectionRun) -> Finding {
     let grid = fs.values(7, None);
     let (p10, p90) = (quantile(&grid, 0.1), quantile(&grid, 0.9));
+    let over = lattice_words(fs, 7);
     let corners: Vec<(f64, f64, f64)> = [(0.0, 0.0), (0.0, 180.0), (180.0, 0.0), (180.0, 180.0)]
         .iter()
         .filter_map(|&(r, p)| fs.at(7, None, [r, p, 0.0]).map(|v| (r, p, v)))
         .collect();
     let mut ev = format!(
-        "Scenario 7 (roll × pitch, yaw 0): 10th percentile of the span over the grid {p10:.4} m, \
-         90th {p90:.4} m.\n\n| roll | pitch | span (m) |\n|---|---|---|\n"
+        "Scenario 7 (roll × pitch, yaw 0): 10th percentile of the span over the grid{over} \
+         {p10:.4} m, 90th {p90:.4} m.\n\n| roll | pitch | span (m) |\n|---|---|---|\n"
     );
     for (r, p, v) in &corners {
         let _ = writeln!(ev, "| {r} | {p} | {v:.6} |");
@@ -77,9 +95,10 @@ fn long_spans(fs: &DirectionRun) -> Finding {
         .filter_map(|&r| fs.at(7, None, [r, 90.0, 0.0]).map(|v| (r, v)))
         .collect();
     let max = grid.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let over = lattice_words(fs, 7);
     let mut ev = format!(
-        "Scenario 7 (roll × pitch): largest span over the grid {max:.4} m, 90th percentile \
-         {p90:.4} m.\n\n| roll | pitch | span (m) |\n|---|---|---|\n"
+        "Scenario 7 (roll × pitch): largest span over the grid{over} {max:.4} m, 90th \
+         percentile {p90:.4} m.\n\n| roll | pitch | span (m) |\n|---|---|---|\n"
     );
     for (r, v) in &long {
         let _ = writeln!(ev, "| {r} | 90 | {v:.6} |");
@@ -96,9 +115,10 @@ fn small_areas(sf: &DirectionRun) -> Finding {
     let rp = sf.values(7, None);
     let yr = sf.values(9, None);
     let (rp10, yr10) = (quantile(&rp, 0.1), quantile(&yr, 0.1));
+    let (o7, o9) = (lattice_words(sf, 7), lattice_words(sf, 9));
     let mut ev = format!(
-        "10th percentile of the area: scenario 7 (roll × pitch) {rp10:.6} m², scenario 9 \
-         (yaw × roll) {yr10:.6} m².\n\n| scenario | roll | pitch | yaw | area (m²) |\n|---|---|---|---|---|\n"
+        "10th percentile of the area: scenario 7 (roll × pitch){o7} {rp10:.6} m², scenario 9 \
+         (yaw × roll){o9} {yr10:.6} m².\n\n| scenario | roll | pitch | yaw | area (m²) |\n|---|---|---|---|---|\n"
     );
     let mut all_small = true;
     let mut seen = 0;
@@ -137,12 +157,8 @@ fn near_minimum_range(fs: &DirectionRun, sf: &DirectionRun) -> Finding {
     );
     let mut shrinks = true;
     for run in [fs, sf] {
-        let near: Vec<f64> = run
-            .near_both
-            .iter()
-            .map(|r| run.direction.metric(&r.metrics))
-            .collect();
-        let (near, half) = (mean(&near), mean(&run.values(7, None)));
+        let half = run.grid(7).map_or(f64::NAN, super::Grid::mean);
+        let near = run.near_both.mean();
         shrinks &= near < half;
         let _ = writeln!(
             ev,

@@ -36,23 +36,25 @@ pub(super) struct PaperArgs {
 pub(super) fn run(a: PaperArgs) -> Result<()> {
     let sampling = a.step.validated()?;
     angles(a.angle_step)?;
-    // A file where the directory should be is refused before any work. The directory itself is
-    // created once the results exist, so a refused run leaves nothing behind.
+    // A file where the directory should be is refused before any work. A run that fails leaves
+    // no CSV behind, nor the directory when it made it.
     check_output_dir(&a.out, "--out")?;
     let (backend, notice) = super::gpu_env::select(a.backend.into())?;
     if let Some(n) = notice {
         eprintln!("{n}");
     }
     let start = Instant::now();
-    let runs = paper::run(&backend, a.angle_step, sampling)?;
+    let (runs, findings) = paper::run_to(
+        &a.out,
+        "--out",
+        &backend,
+        a.angle_step,
+        sampling,
+        sonarproj::stream::Stop::NEVER,
+    )?;
     let computed = start.elapsed();
-    let findings = paper::write(&a.out, "--out", &runs, a.angle_step, sampling)?;
-    let poses: usize = runs.iter().map(|r| r.poses.len()).sum();
-    let samples: u64 = runs
-        .iter()
-        .flat_map(|r| &r.results)
-        .map(|r| r.metrics.total)
-        .sum();
+    let poses: u64 = runs.iter().map(|r| r.poses).sum();
+    let samples: u64 = runs.iter().map(|r| r.samples).sum();
     outln!(
         "paper: {poses} poses ({} per direction, {samples} samples) on {} in {:.2} s; findings borne out: {}/{}; wrote {}",
         poses / 2,
