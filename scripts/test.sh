@@ -64,7 +64,7 @@ venv="$target_dir/python-venv"
 wheels="$target_dir/wheels"
 rm -rf "$venv" "$wheels"
 "${PYTHON:-python3}" -m venv "$venv"
-"$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" numpy pytest matplotlib "selenium>=4.20,<5" pyarrow
+"$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" numpy pytest matplotlib "selenium>=4.20,<5" pyarrow "mcap-ros2-support>=0.5,<1"
 "$venv/bin/maturin" build --release --quiet "${checks[@]}" -o "$wheels"
 "$venv/bin/pip" install -q --disable-pip-version-check --no-deps "$wheels"/sonarproj-*.whl
 stage python env SONARPROJ_BIN="$target_dir/release/sonarproj" "$venv/bin/pytest" -q python/tests

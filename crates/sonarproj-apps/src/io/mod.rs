@@ -4,6 +4,7 @@
 //! - values given as text: pose strings, features, mask stream lines (`text`);
 //! - sweep tables as Parquet (`parquet`).
 
+pub mod bag;
 pub mod batch;
 pub mod oculus;
 pub mod parquet;

@@ -1,5 +1,5 @@
 //! `sonarproj sonar`: sonars read from what their owners have. `from-oculus` reads a saved
-//! Oculus ping into a sonar file and the ping's image.
+//! Oculus ping, `from-bag` a ROS 2 bag's ping, into a sonar file and the ping's image.
 
 use std::path::PathBuf;
 
@@ -15,6 +15,31 @@ pub(super) enum SonarCommand {
     /// row 0 the nearest range, column 0 the starboard-most beam). --to DIR/sonar.toml then
     /// works everywhere a sonar file does.
     FromOculus(FromOculusArgs),
+    /// Read a ping of a ROS 2 bag (MCAP) into DIR/sonar.toml and DIR/image.npy, as from-oculus
+    /// does: a `marine_acoustic_msgs/msg/ProjectedSonarImage` message of --topic (its beam
+    /// directions, range bins and image; uint8, uint16 or float32 samples).
+    FromBag(FromBagArgs),
+}
+
+/// Options of `sonarproj sonar from-bag`.
+#[derive(Debug, clap::Args)]
+pub(super) struct FromBagArgs {
+    /// The bag: an MCAP file (ROS 2's default storage).
+    #[arg(value_name = "BAG")]
+    file: PathBuf,
+    /// The topic of the pings (by default the bag's first topic of ProjectedSonarImage).
+    #[arg(long, value_name = "TOPIC")]
+    topic: Option<String>,
+    /// Which ping of the topic (0 for the first).
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    ping: usize,
+    /// Elevation aperture (deg), when the message's ping_info.tx_beamwidths does not give it
+    /// (their largest is taken otherwise).
+    #[arg(long, value_name = "DEG")]
+    elevation: Option<f64>,
+    /// Output directory (created when missing).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
 }
 
 /// Options of `sonarproj sonar from-oculus`.
@@ -42,7 +67,66 @@ pub(super) struct FromOculusArgs {
 pub(super) fn run(c: SonarCommand) -> Result<()> {
     match c {
         SonarCommand::FromOculus(a) => from_oculus(a),
+        SonarCommand::FromBag(a) => from_bag(a),
     }
+}
+
+fn from_bag(a: FromBagArgs) -> Result<()> {
+    use sonarproj_apps::io::bag::{BagImage, read_bag};
+    check_output_dir(&a.out, "--out")?;
+    let toml = a.out.join("sonar.toml");
+    let image = a.out.join("image.npy");
+    for path in [&image, &toml] {
+        check_output_file(path, "--out")?;
+    }
+    let mut pings = read_bag(&a.file, a.topic.as_deref(), a.elevation)?;
+    let mut found = None;
+    for p in pings.by_ref() {
+        let p = p?;
+        if p.index == a.ping {
+            found = Some(p);
+            break;
+        }
+    }
+    let Some(p) = found else {
+        return Err(sonarproj_apps::Error::invalid(
+            "--ping",
+            a.ping,
+            "past the topic's last ping (counted from 0)",
+        ));
+    };
+    output_dir(&a.out, "--out")?;
+    let shape = [u64::from(p.sonar.range_bins), u64::from(p.sonar.beam_count())];
+    write_atomic(&image, |w| match &p.image {
+        BagImage::U8(v) => write_npy(w, &shape, v.iter().copied(), &image),
+        BagImage::U16(v) => write_npy(w, &shape, v.iter().copied(), &image),
+        BagImage::F32(v) => write_npy(w, &shape, v.iter().copied(), &image),
+    })?;
+    let header = format!(
+        "# Ping {} of topic {:?} in {:?}: frame {:?}, stamp {}.{:09} s.\n",
+        p.index,
+        a.topic.as_deref().unwrap_or(&p.sonar.name),
+        a.file.display().to_string(),
+        p.frame_id,
+        p.stamp_ns.div_euclid(1_000_000_000),
+        p.stamp_ns.rem_euclid(1_000_000_000)
+    );
+    let text = format!("{header}{}", p.sonar.to_toml());
+    write_atomic(&toml, |w| {
+        w.write_all(text.as_bytes())
+            .map_err(|e| sonarproj_apps::Error::write_output(&toml, e))
+    })?;
+    outln!(
+        "ping {}: {} ranges × {} beams, {:.4}–{:.4} m, frame {:?}; wrote {}, {}",
+        p.index,
+        shape[0],
+        shape[1],
+        p.sonar.range_min,
+        p.sonar.range_max,
+        p.frame_id,
+        toml.display(),
+        image.display()
+    )
 }
 
 fn from_oculus(a: FromOculusArgs) -> Result<()> {

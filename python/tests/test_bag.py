@@ -1,0 +1,119 @@
+"""Sonar pings read from ROS 2 bags written by an independent library: `mcap-ros2-support`
+serialises the messages from the real `marine_acoustic_msgs` definitions (its own CDR encoder,
+not the engine's), and `sonarproj sonar from-bag` must give back each ping's sonar (as the beam
+table reader makes it) and its image in the sonar's beam order."""
+
+import math
+
+import mcap_ros2.writer as mcap_ros2_writer
+import numpy as np
+import pytest
+
+import sonarproj
+
+# The definitions as the ROS 2 packages give them (marine_acoustic_msgs 2.x, std_msgs,
+# builtin_interfaces, geometry_msgs), in the form a bag's schema holds them.
+SEPARATOR = "=" * 80
+DEFINITION = "\n".join(
+    [
+        "std_msgs/Header header\nPingInfo ping_info\ngeometry_msgs/Vector3[] beam_directions\n"
+        "float32[] ranges\nSonarImageData image",
+        SEPARATOR,
+        "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id",
+        SEPARATOR,
+        "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec",
+        SEPARATOR,
+        "MSG: marine_acoustic_msgs/PingInfo\nfloat32 frequency\nfloat32 sound_speed\n"
+        "float32[] tx_beamwidths\nfloat32[] rx_beamwidths",
+        SEPARATOR,
+        "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z",
+        SEPARATOR,
+        "MSG: marine_acoustic_msgs/SonarImageData\nbool is_bigendian\nuint32 DTYPE_UINT8=0\n"
+        "uint32 DTYPE_UINT16=2\nuint32 dtype\nuint32 beam_count\nuint8[] data",
+    ]
+)
+
+
+def fan(beams, bins, half=0.5):
+    """Beams from +half to -half rad of azimuth (port to starboard: the message's Y, to starboard,
+    increasing), uneven like a real driver's; bins of 2 cm from 0.51 m."""
+    az = [half * math.sin(math.pi / 2 * (1 - 2 * k / (beams - 1))) for k in range(beams)]
+    directions = [(0.0, -math.sin(a), math.cos(a)) for a in az]
+    ranges = [0.51 + 0.02 * i for i in range(bins)]
+    return directions, ranges
+
+
+def message(sec, directions, ranges, image, frame="sonar_link"):
+    beams = len(directions)
+    big = image.dtype.byteorder == ">"
+    return {
+        "header": {"stamp": {"sec": sec, "nanosec": 5}, "frame_id": frame},
+        "ping_info": {
+            "frequency": 1.2e6,
+            "sound_speed": 1500.0,
+            "tx_beamwidths": [math.radians(20.0)] * beams,
+            "rx_beamwidths": [math.radians(0.6)] * beams,
+        },
+        "beam_directions": [{"x": x, "y": y, "z": z} for x, y, z in directions],
+        "ranges": ranges,
+        "image": {
+            "is_bigendian": big,
+            "dtype": 0 if image.dtype.itemsize == 1 else 2,
+            "beam_count": beams,
+            "data": image.tobytes(),
+        },
+    }
+
+
+def write_bag(path, topic, messages):
+    with open(path, "wb") as f:
+        writer = mcap_ros2_writer.Writer(f)
+        schema = writer.register_msgdef("marine_acoustic_msgs/msg/ProjectedSonarImage", DEFINITION)
+        for k, m in enumerate(messages):
+            writer.write_message(topic=topic, schema=schema, message=m, log_time=k, publish_time=k)
+        writer.finish()
+
+
+def test_from_bag_reads_each_ping_as_the_beam_table_reader_does(cli, tmp_path):
+    rng = np.random.default_rng(5)
+    d1, r1 = fan(64, 40)
+    d2, r2 = fan(96, 70, half=0.6)
+    images = [
+        rng.integers(0, 256, (40, 64), dtype=np.uint8),
+        rng.integers(0, 65536, (70, 96), dtype=np.uint16).astype(">u2"),
+        rng.integers(0, 65536, (70, 96), dtype=np.uint16),
+    ]
+    tables = [(d1, r1), (d2, r2), (d2, r2)]
+    bag = tmp_path / "log.mcap"
+    write_bag(bag, "/oculus/sonar_image", [message(100 + k, *t, im) for k, (t, im) in enumerate(zip(tables, images))])
+    for k, ((directions, ranges), image) in enumerate(zip(tables, images)):
+        out = tmp_path / f"ping{k}"
+        done = cli("sonar", "from-bag", str(bag), "--ping", str(k), "--out", str(out))
+        assert f"ping {k}: {len(ranges)} ranges × {len(directions)} beams" in done.stdout
+        # The message's ranges are float32: the reader sees what the bag holds.
+        held = np.asarray(ranges, dtype=np.float32).astype(float)
+        want, columns = sonarproj.Sonar.from_projected_sonar_image(
+            directions, held, math.degrees(np.float32(math.radians(20.0))), name="oculus/sonar_image"
+        )
+        got = sonarproj.Sonar.from_toml(out / "sonar.toml")
+        assert (got.range_bins, got.beams) == (want.range_bins, want.beams)
+        assert got.range_min == pytest.approx(want.range_min, abs=1e-12)
+        assert got.range_max == pytest.approx(want.range_max, abs=1e-12)
+        assert got.elevation_aperture == pytest.approx(want.elevation_aperture, abs=1e-12)
+        np.testing.assert_allclose(got.beam_edges, want.beam_edges, rtol=0, atol=1e-12)
+        # Beams listed port to starboard: the sonar's beam 0 (starboard-most) is the last column.
+        assert list(columns) == list(range(len(directions)))[::-1]
+        np.testing.assert_array_equal(np.load(out / "image.npy"), image[:, columns].astype(image.dtype.newbyteorder("=")))
+
+
+def test_from_bag_refuses_a_missing_topic_naming_the_ones_there_are(cli, tmp_path):
+    d, r = fan(16, 10)
+    bag = tmp_path / "log.mcap"
+    write_bag(bag, "/sonar", [message(1, d, r, np.zeros((10, 16), dtype=np.uint8))])
+    done = cli("sonar", "from-bag", str(bag), "--topic", "/other", "--out", str(tmp_path / "o"), check=False)
+    assert done.returncode == 2, done.stderr
+    assert 'no topic "/other"' in done.stderr and '"/sonar"' in done.stderr, done.stderr
+    assert not (tmp_path / "o").exists()
+    done = cli("sonar", "from-bag", str(bag), "--ping", "1", "--out", str(tmp_path / "o"), check=False)
+    assert done.returncode == 2 and "--ping" in done.stderr, done.stderr
+    assert not (tmp_path / "o").exists()
