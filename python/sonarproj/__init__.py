@@ -52,6 +52,8 @@ from ._sonarproj import (
     DEFAULT_CHUNK_POSES,
     DEFAULT_SUMMARY_CHUNK_POSES,
     METRIC_COLUMNS,
+    BagPing,
+    BagPings,
     InputError,
     InputTypeError,
     MaskSet,
@@ -68,6 +70,8 @@ __all__ = [
     "PAPER_AREA_GRID",
     "AdviceWarning",
     "BackendNotice",
+    "BagPing",
+    "BagPings",
     "InputError",
     "InputTypeError",
     "MaskEngine",
@@ -86,6 +90,7 @@ __all__ = [
     "paper",
     "presets",
     "project",
+    "read_bag",
     "read_oculus",
     "recover",
     "recover_many",
@@ -775,7 +780,7 @@ def recover_many(
 
 
 from ._advise import AdviceWarning, advise  # noqa: E402
-from ._readers import read_oculus  # noqa: E402
+from ._readers import read_bag, read_oculus  # noqa: E402
 from ._apps import merge, paper, sweep  # noqa: E402
 
 

@@ -1,11 +1,12 @@
-"""Readers of recorded sonar data: ``sonarproj.read_oculus`` (docs/sonars.md)."""
+"""Readers of recorded sonar data: ``sonarproj.read_oculus`` and ``sonarproj.read_bag``
+(docs/sonars.md)."""
 
 from __future__ import annotations
 
 import os as _os
 from typing import Optional, Union
 
-from ._sonarproj import OculusPing
+from ._sonarproj import BagPing, BagPings, OculusPing
 
 
 def read_oculus(path: Union[str, "_os.PathLike[str]"], *, elevation: Optional[float] = None) -> list[OculusPing]:
@@ -26,3 +27,28 @@ def read_oculus(path: Union[str, "_os.PathLike[str]"], *, elevation: Optional[fl
     if not isinstance(path, (str, _os.PathLike)):
         raise InputTypeError(f"path: expected a path, got {path!r} ({type(path).__name__})")
     return _native.read_oculus(_os.fspath(path), _number("elevation", elevation, optional=True))
+
+
+def read_bag(
+    path: Union[str, "_os.PathLike[str]"], topic: Optional[str] = None, *, elevation: Optional[float] = None
+) -> BagPings:
+    """Returns the pings of a ROS 2 bag (MCAP): the ``marine_acoustic_msgs/ProjectedSonarImage``
+    messages of `topic` (the bag's first topic of them when None), read one at a time as the
+    loop asks for them, so memory stays bounded whatever the bag's size. Each :class:`BagPing`
+    has ``.sonar`` (a :class:`Sonar` from the message's beam table and ranges; pings of the same
+    table share it), ``.image`` (numpy ``(ranges, beams)``, uint8, uint16 or float32: row 0 the
+    nearest range, column 0 the starboard-most beam), ``.time`` (the header's stamp, s),
+    ``.stamp_ns``, ``.log_time`` (ns), ``.frame_id`` and ``.index``. `elevation` (deg) is the
+    elevation aperture when the messages' ``ping_info.tx_beamwidths`` do not give it.
+
+    Raises InputError naming the bag, topic and message for a missing topic (with the topics
+    there are), a topic of another type, a truncated or foreign file, or a message that makes no
+    sonar or image; the loop ends at the first error.
+    """
+    from . import InputTypeError, _native, _number
+
+    if not isinstance(path, (str, _os.PathLike)):
+        raise InputTypeError(f"path: expected a path, got {path!r} ({type(path).__name__})")
+    if topic is not None and not isinstance(topic, str):
+        raise InputTypeError(f"topic: expected a string or None, got {topic!r} ({type(topic).__name__})")
+    return _native.read_bag(_os.fspath(path), topic, _number("elevation", elevation, optional=True))

@@ -350,3 +350,24 @@ class OculusPing:
     version: int
 
 def read_oculus(path: str, elevation: Optional[float] = None) -> list[OculusPing]: ...
+
+class BagPing:
+    """One ping of a ROS 2 bag's topic (see :func:`sonarproj.read_bag`)."""
+
+    index: int
+    time: float
+    """The header's stamp, seconds since the epoch."""
+    stamp_ns: int
+    log_time: int
+    frame_id: str
+    sonar: Sonar
+    image: npt.NDArray[Any]
+    """uint8, uint16 or float32, ``(ranges, beams)``: row 0 the nearest range, column 0 the starboard-most beam."""
+
+class BagPings:
+    """The pings of one topic of a bag, read as they are asked for."""
+
+    def __iter__(self) -> BagPings: ...
+    def __next__(self) -> BagPing: ...
+
+def read_bag(path: str, topic: Optional[str] = None, elevation: Optional[float] = None) -> BagPings: ...

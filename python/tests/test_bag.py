@@ -117,3 +117,45 @@ def test_from_bag_refuses_a_missing_topic_naming_the_ones_there_are(cli, tmp_pat
     done = cli("sonar", "from-bag", str(bag), "--ping", "1", "--out", str(tmp_path / "o"), check=False)
     assert done.returncode == 2 and "--ping" in done.stderr, done.stderr
     assert not (tmp_path / "o").exists()
+
+
+def test_read_bag_streams_the_pings_as_the_command_line_reads_them(cli, tmp_path):
+    rng = np.random.default_rng(8)
+    d, r = fan(48, 30)
+    images = [rng.integers(0, 256, (30, 48), dtype=np.uint8) for _ in range(5)]
+    bag = tmp_path / "log.mcap"
+    write_bag(bag, "/fls", [message(200 + k, d, r, im, frame="fls_link") for k, im in enumerate(images)])
+    pings = sonarproj.read_bag(bag)
+    assert iter(pings) is pings
+    got = list(pings)
+    assert [p.index for p in got] == list(range(5))
+    assert [p.stamp_ns for p in got] == [(200 + k) * 10**9 + 5 for k in range(5)]
+    assert [p.time for p in got] == pytest.approx([200 + k + 5e-9 for k in range(5)], abs=1e-6)
+    assert {p.frame_id for p in got} == {"fls_link"}
+    # One table, one sonar object; the image in the sonar's beam order.
+    assert all(p.sonar is got[0].sonar for p in got)
+    for p, image in zip(got, images):
+        np.testing.assert_array_equal(p.image, image[:, ::-1])
+    out = tmp_path / "ping3"
+    cli("sonar", "from-bag", str(bag), "--topic", "/fls", "--ping", "3", "--out", str(out))
+    np.testing.assert_array_equal(np.load(out / "image.npy"), got[3].image)
+    assert sonarproj.Sonar.from_toml(out / "sonar.toml").beam_edges.tolist() == got[3].sonar.beam_edges.tolist()
+    assert "BagPing 3" in repr(got[3]) and "30 ranges × 48 beams" in repr(got[3])
+
+
+def test_read_bag_refuses_bad_input_naming_it(tmp_path):
+    d, r = fan(16, 10)
+    bag = tmp_path / "log.mcap"
+    write_bag(bag, "/sonar", [message(1, d, r, np.zeros((10, 16), dtype=np.uint8))])
+    with pytest.raises(sonarproj.InputError, match='no topic "/x".*"/sonar"'):
+        list(sonarproj.read_bag(bag, "/x"))
+    with pytest.raises(sonarproj.InputTypeError, match="topic"):
+        sonarproj.read_bag(bag, 5)
+    with pytest.raises(sonarproj.InputTypeError, match="path"):
+        sonarproj.read_bag(5)
+    with pytest.raises(sonarproj.InputError, match="elevation"):
+        sonarproj.read_bag(bag, elevation=-1)
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(bag.read_bytes()[:200])
+    with pytest.raises(sonarproj.InputError, match="MCAP"):
+        list(sonarproj.read_bag(cut))

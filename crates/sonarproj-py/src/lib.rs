@@ -10,6 +10,7 @@ mod advise;
 mod apps;
 mod arrays;
 mod backend;
+mod bag;
 mod batch;
 #[cfg(feature = "bench")]
 mod bench;
@@ -41,6 +42,9 @@ fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<masks::PyMaskSet>()?;
     m.add_class::<masks::PyMaskSummary>()?;
     m.add_class::<oculus::PyOculusPing>()?;
+    m.add_class::<bag::PyBagPing>()?;
+    m.add_class::<bag::PyBagPings>()?;
+    m.add_function(wrap_pyfunction!(bag::read_bag, m)?)?;
     m.add_function(wrap_pyfunction!(oculus::read_oculus, m)?)?;
     m.add_function(wrap_pyfunction!(sonar::presets, m)?)?;
     m.add_function(wrap_pyfunction!(backend::configure_gpu, m)?)?;
