@@ -299,3 +299,195 @@ fn bad_bags_are_refused_naming_what_is_wrong() {
     let e = read_bag(&path, None, Some(0.0)).err().unwrap().to_string();
     assert!(e.contains("elevation") && e.contains("(0, 180)"), "{e}");
 }
+
+mod tf {
+    use super::*;
+    use glam::{DMat3, DMat4, DQuat, DVec3};
+    use sonarproj_apps::io::bag::Vector3;
+    use sonarproj_apps::io::tf::{
+        Axes, Frames, Quaternion, TF_MESSAGE, TF_MESSAGE_DEFINITION, TfMessage, Transform, TransformStamped,
+    };
+
+    /// Returns the transform message of `child` in `parent` at `ns`: rotation about z by
+    /// `yaw` then y by `pitch` (deg), and translation `t`.
+    fn link(parent: &str, child: &str, ns: i64, yaw: f64, pitch: f64, t: [f64; 3]) -> TransformStamped {
+        let q = DQuat::from_rotation_z(yaw.to_radians()) * DQuat::from_rotation_y(pitch.to_radians());
+        TransformStamped {
+            header: Header {
+                stamp: Time {
+                    sec: (ns / 1_000_000_000) as i32,
+                    nanosec: (ns % 1_000_000_000) as u32,
+                },
+                frame_id: parent.into(),
+            },
+            child_frame_id: child.into(),
+            transform: Transform {
+                translation: Vector3 {
+                    x: t[0],
+                    y: t[1],
+                    z: t[2],
+                },
+                rotation: Quaternion {
+                    x: q.x,
+                    y: q.y,
+                    z: q.z,
+                    w: q.w,
+                },
+            },
+        }
+    }
+
+    /// The homogeneous matrix of the same transform, built from rotation matrices.
+    fn matrix(yaw: f64, pitch: f64, t: [f64; 3]) -> DMat4 {
+        let r = DMat3::from_rotation_z(yaw.to_radians()) * DMat3::from_rotation_y(pitch.to_radians());
+        DMat4::from_cols(
+            r.x_axis.extend(0.0),
+            r.y_axis.extend(0.0),
+            r.z_axis.extend(0.0),
+            DVec3::from(t).extend(1.0),
+        )
+    }
+
+    fn write(path: &Path, messages: &[(&str, TfMessage)]) {
+        let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+        let mut w = mcap::Writer::new(file).unwrap();
+        let schema = w
+            .add_schema(TF_MESSAGE, "ros2msg", TF_MESSAGE_DEFINITION.as_bytes())
+            .unwrap();
+        let mut channels = BTreeMap::new();
+        for (k, (topic, m)) in messages.iter().enumerate() {
+            let id = *channels
+                .entry(*topic)
+                .or_insert_with(|| w.add_channel(schema, topic, "cdr", &BTreeMap::new()).unwrap());
+            let header = mcap::records::MessageHeader {
+                channel_id: id,
+                sequence: k as u32,
+                log_time: k as u64,
+                publish_time: k as u64,
+            };
+            w.write_to_known_channel(&header, &m.to_cdr().unwrap()).unwrap();
+        }
+        w.finish().unwrap();
+    }
+
+    /// A rig: the sidescan fixed under base_link, the FLS on a pan joint that turns from 0° to
+    /// 40° of yaw in a second (and moves 0.2 m) on /tf. At 0.25 s the joint is at 10° and 0.05 m:
+    /// a turn about one axis interpolates linearly in its angle. The relative pose is the
+    /// product of the homogeneous matrices, in either sonar's axes.
+    #[test]
+    fn the_rig_comes_from_the_logs_transforms() {
+        let (dir, path) = tmp("tf.mcap");
+        let statics = TfMessage {
+            transforms: vec![
+                link("base_link", "sss_link", 0, -90.0, 0.0, [0.1, -0.4, -0.2]),
+                link("pan_link", "fls_link", 0, 0.0, 25.0, [0.3, 0.0, 0.05]),
+            ],
+        };
+        let at = |ns, yaw, x| TfMessage {
+            transforms: vec![link("base_link", "pan_link", ns, yaw, 0.0, [x, 0.2, 0.0])],
+        };
+        write(
+            &path,
+            &[
+                ("/tf_static", statics),
+                ("/tf", at(0, 0.0, 0.5)),
+                ("/tf", at(1_000_000_000, 40.0, 0.7)),
+            ],
+        );
+        let frames = Frames::read(&path).unwrap();
+        let base_sss = matrix(-90.0, 0.0, [0.1, -0.4, -0.2]);
+        let pan_fls = matrix(0.0, 25.0, [0.3, 0.0, 0.05]);
+        for (ns, yaw, x) in [
+            (0, 0.0, 0.5),
+            (250_000_000, 10.0, 0.55),
+            (1_000_000_000, 40.0, 0.7),
+        ] {
+            let base_pan = matrix(yaw, 0.0, [x, 0.2, 0.0]);
+            let sss_fls = base_sss.inverse() * base_pan * pan_fls;
+            let r = DMat3::from_mat4(sss_fls);
+            let t = sss_fls.w_axis.truncate();
+            let image = DMat3::from_cols(DVec3::Z, DVec3::NEG_Y, DVec3::X);
+            for (axes, want_r, want_t) in [
+                (Axes::ForwardLeftUp, r, t),
+                // A point of the FLS's image frame is M p in its own axes.
+                (Axes::SonarImage, r * image, t),
+            ] {
+                let pose = frames
+                    .relative_pose(("fls_link", axes), ("sss_link", Axes::ForwardLeftUp), ns)
+                    .unwrap();
+                assert!(
+                    (pose.rotation - want_r)
+                        .to_cols_array()
+                        .iter()
+                        .all(|d| d.abs() < 1e-12),
+                    "{ns} {axes:?}: {:?} vs {want_r:?}",
+                    pose.rotation
+                );
+                assert!(
+                    (pose.translation - want_t).length() < 1e-12,
+                    "{ns}: {:?}",
+                    pose.translation
+                );
+            }
+        }
+        // Before the first sample and after the last: no extrapolation.
+        for ns in [-1, 1_000_000_001] {
+            let e = frames
+                .relative_pose(
+                    ("fls_link", Axes::ForwardLeftUp),
+                    ("sss_link", Axes::ForwardLeftUp),
+                    ns,
+                )
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("no transform from \"base_link\" to \"pan_link\""),
+                "{e}"
+            );
+        }
+        let e = frames
+            .relative_pose(
+                ("fls_link", Axes::ForwardLeftUp),
+                ("camera", Axes::ForwardLeftUp),
+                0,
+            )
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("not connected") && e.contains("\"camera\" is in no transform"),
+            "{e}"
+        );
+        // A frame given two parents, and a rotation that is not one.
+        let two = dir.path().join("two.mcap");
+        write(
+            &two,
+            &[(
+                "/tf_static",
+                TfMessage {
+                    transforms: vec![
+                        link("a", "c", 0, 0.0, 0.0, [0.0; 3]),
+                        link("b", "c", 0, 0.0, 0.0, [0.0; 3]),
+                    ],
+                },
+            )],
+        );
+        let e = Frames::read(&two).unwrap_err().to_string();
+        assert!(
+            e.contains("frame \"c\" has two parents") && e.contains("transforms[1]"),
+            "{e}"
+        );
+        let mut squashed = link("a", "c", 0, 0.0, 0.0, [0.0; 3]);
+        squashed.transform.rotation.w = 2.0;
+        write(
+            &two,
+            &[(
+                "/tf_static",
+                TfMessage {
+                    transforms: vec![squashed],
+                },
+            )],
+        );
+        let e = Frames::read(&two).unwrap_err().to_string();
+        assert!(e.contains("norm is 2"), "{e}");
+    }
+}

@@ -146,15 +146,38 @@ impl ProjectedSonarImage {
     /// # Errors
     /// [`Error::WriteOutput`] should the encoder fail.
     pub fn to_cdr(&self) -> Result<Vec<u8>> {
-        let body =
-            cdr_encoding::to_vec::<_, byteorder::LittleEndian>(self).map_err(|e| Error::WriteOutput {
-                path: "message".into(),
-                message: e.to_string(),
-            })?;
-        let mut out = vec![0, 1, 0, 0];
-        out.extend(body);
-        Ok(out)
+        to_cdr(self)
     }
+}
+
+/// Returns `value` CDR-encoded as a ROS 2 bag holds a message: the little-endian encapsulation
+/// header, then the fields.
+pub(crate) fn to_cdr<T: Serialize>(value: &T) -> Result<Vec<u8>> {
+    let body = cdr_encoding::to_vec::<_, byteorder::LittleEndian>(value).map_err(|e| Error::WriteOutput {
+        path: "message".into(),
+        message: e.to_string(),
+    })?;
+    let mut out = vec![0, 1, 0, 0];
+    out.extend(body);
+    Ok(out)
+}
+
+/// Returns the message `T` decoded from `data` (a CDR encapsulation header, then the fields in
+/// either byte order), or why not.
+pub(crate) fn from_cdr<T: serde::de::DeserializeOwned>(data: &[u8]) -> std::result::Result<T, String> {
+    let name = std::any::type_name::<T>()
+        .rsplit("::")
+        .next()
+        .unwrap_or("message");
+    let body = data.get(4..).ok_or("shorter than its 4-byte CDR header")?;
+    let decoded = match data[..2] {
+        [0, 1] => cdr_encoding::from_bytes::<T, byteorder::LittleEndian>(body),
+        [0, 0] => cdr_encoding::from_bytes::<T, byteorder::BigEndian>(body),
+        _ => return Err(format!("CDR header {:02x?}: not plain CDR", &data[..4])),
+    };
+    decoded
+        .map(|d| d.0)
+        .map_err(|e| format!("does not decode as {name}: {e}"))
 }
 
 /// A ping's image, ranges × beams, row 0 the nearest range and column 0 the sonar's beam 0 (the
@@ -257,18 +280,8 @@ impl BagPings {
             self.index
         );
         let bad = |what: String| Error::from(sonarproj::Error::input(at.clone(), what));
-        let data = &message.data;
-        let body = data
-            .get(4..)
-            .ok_or_else(|| bad("shorter than its 4-byte CDR header".into()))?;
-        let decoded = match data[..2] {
-            [0, 1] => cdr_encoding::from_bytes::<ProjectedSonarImage, byteorder::LittleEndian>(body),
-            [0, 0] => cdr_encoding::from_bytes::<ProjectedSonarImage, byteorder::BigEndian>(body),
-            _ => return Err(bad(format!("CDR header {:02x?}: not plain CDR", &data[..4]))),
-        };
-        let msg = decoded
-            .map_err(|e| bad(format!("does not decode as {PROJECTED_SONAR_IMAGE}: {e}")))?
-            .0;
+        let msg: ProjectedSonarImage = from_cdr(&message.data)
+            .map_err(|e| bad(e.replace("as ProjectedSonarImage", &format!("as {PROJECTED_SONAR_IMAGE}"))))?;
         let elevation = match self.elevation {
             Some(e) => e,
             None => {

@@ -12,6 +12,7 @@ pub mod pose_columns;
 pub mod recover;
 pub mod table;
 pub mod text;
+pub mod tf;
 pub(crate) mod toml_keys;
 
 pub use batch::{
