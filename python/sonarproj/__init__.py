@@ -156,7 +156,7 @@ def _sonar(parameter: str, value: Any) -> Sonar:
         raise InputError(
             f"{parameter}: {text!r} is neither a preset ({', '.join(presets())}) nor a sonar TOML file"
         )
-    raise InputError(
+    raise InputTypeError(
         f"{parameter}: expected a Sonar, a preset name or a sonar file path, got {type(value).__name__}"
     )
 
@@ -164,7 +164,7 @@ def _sonar(parameter: str, value: Any) -> Sonar:
 def _pose(parameter: str, value: Any) -> Pose:
     if isinstance(value, Pose):
         return value
-    raise InputError(
+    raise InputTypeError(
         f"{parameter}: expected a sonarproj.Pose (Pose(roll, pitch, yaw, t=...), Pose.from_quat_xyzw, "
         f"Pose.from_matrix, Pose.placement or Pose.from_mounts), got {type(value).__name__}"
     )
@@ -241,29 +241,32 @@ def configure_gpu(
     * ``backends``: the wgpu backends to look on, e.g. ``["vulkan"]``; default Vulkan, Metal and
       DX12.
 
-    Returns a short description of the options set. Raises :class:`InputError` naming the
-    argument when a value is not allowed.
+    Returns a short description of the options set. Raises :class:`InputTypeError` naming the
+    argument for a value of the wrong type, :class:`InputError` for one not allowed.
 
     >>> sonarproj.configure_gpu(workgroup=128)
     '128 threads a workgroup'
     """
     if adapter is not None and not isinstance(adapter, str):
-        raise InputError(f"adapter: expected a string or None, got {adapter!r}")
+        raise InputTypeError(f"adapter: expected a string or None, got {adapter!r}")
     if precision is not None and not isinstance(precision, str):
-        raise InputError(f'precision: expected "f64", "double-f32" or None, got {precision!r}')
+        raise InputTypeError(f'precision: expected "f64", "double-f32" or None, got {precision!r}')
     for name, value in (("cull", cull), ("filter", filter)):
-        if value is not None and not isinstance(value, bool):
-            raise InputError(f"{name}: expected True, False or None, got {value!r}")
+        if value is not None and not isinstance(value, (bool, _np.bool_)):
+            raise InputTypeError(f"{name}: expected True, False or None, got {value!r}")
+    cull, filter = (None if v is None else bool(v) for v in (cull, filter))
     sizes = _native.SPLAT_WORKGROUPS
-    if workgroup is not None and (
-        isinstance(workgroup, bool) or not isinstance(workgroup, (int, _np.integer)) or int(workgroup) not in sizes
-    ):
+    if workgroup is not None and (isinstance(workgroup, bool) or not isinstance(workgroup, (int, _np.integer))):
+        raise InputTypeError(f"workgroup: expected one of {', '.join(map(str, sizes))} or None, got {workgroup!r}")
+    if workgroup is not None and int(workgroup) not in sizes:
         raise InputError(f"workgroup: expected one of {', '.join(map(str, sizes))} or None, got {workgroup!r}")
     names: Optional[list[str]] = None
     if backends is not None:
-        if isinstance(backends, str) or not all(isinstance(b, str) for b in backends):
-            raise InputError(f'backends: expected a list of names such as ["vulkan"], got {backends!r}')
+        if isinstance(backends, str) or not hasattr(backends, "__iter__"):
+            raise InputTypeError(f'backends: expected a list of names such as ["vulkan"], got {backends!r}')
         names = list(backends)
+        if not all(isinstance(b, str) for b in names):
+            raise InputTypeError(f'backends: expected a list of names such as ["vulkan"], got {backends!r}')
     return _native.configure_gpu(
         names, adapter, precision, cull, filter, None if workgroup is None else int(workgroup)
     )
@@ -474,6 +477,13 @@ def _sigma(sigma: Any, covariance: Any) -> Optional[list[float]]:
         # worst direction, sqrt of its largest eigenvalue.
         st = float(_np.sqrt(max(_np.linalg.eigvalsh(c[:3, :3])[-1], 0.0)))
         sr = float(_np.degrees(_np.sqrt(max(_np.linalg.eigvalsh(c[3:, 3:])[-1], 0.0))))
+        # The engine's bounds on the sigmas these become, said in the covariance's own terms.
+        for block, sd, most, unit in (("rotation", sr, 180.0, "°"), ("translation", st, 10_000.0, " m")):
+            if sd > most:
+                raise InputError(
+                    f"covariance: its {block} block's largest standard deviation is {sd:.4g}{unit}, "
+                    f"more than the {most:g}{unit} a sigma may be"
+                )
         if sr > _PLAUSIBLE_ROTATION_SIGMA_DEG:
             largest = float(_np.max(_np.diag(c)[3:]))
             _warnings.warn(

@@ -14,7 +14,9 @@ from . import InputError, InputTypeError, _backend, _native, _number, _warn  # d
 def _count(parameter: str, value: Any, *, optional: bool = False) -> Optional[int]:
     if value is None and optional:
         return None
-    if isinstance(value, (bool, _np.bool_)) or not isinstance(value, (int, _np.integer)) or value < 1:
+    if isinstance(value, (bool, _np.bool_)) or not isinstance(value, (int, _np.integer)):
+        raise InputTypeError(f"{parameter}: expected a whole number >= 1, got {value!r} ({type(value).__name__})")
+    if value < 1:
         raise InputError(f"{parameter}: expected a whole number >= 1, got {value!r}")
     if value > 2**64 - 1:
         raise InputError(f"{parameter}: {value} is too large (at most {2**64 - 1})")
@@ -75,12 +77,14 @@ def sweep(
     config = _path("config", config)
     if out_dir is not None:
         out_dir = _path("out_dir", out_dir)
+    if not isinstance(format, str):
+        raise InputTypeError(f'format: expected "csv" or "parquet", got {format!r} ({type(format).__name__})')
     if format not in ("csv", "parquet"):
         raise InputError(f'format: expected "csv" or "parquet", got {format!r}')
     if progress is not None and not callable(progress):
-        raise InputError(f"progress: expected a callable (done, total), got {type(progress).__name__}")
+        raise InputTypeError(f"progress: expected a callable (done, total), got {type(progress).__name__}")
     if shard is not None and not isinstance(shard, str):
-        raise InputError(f'shard: expected "K/N", e.g. "1/4", got {shard!r}')
+        raise InputTypeError(f'shard: expected "K/N", e.g. "1/4", got {shard!r} ({type(shard).__name__})')
     if out_dir is None:
         if max_chunks is not None:
             raise InputError("max_chunks: needs out_dir (a sweep in memory keeps nothing to resume)")

@@ -324,3 +324,31 @@ def test_ctrl_c_stops_a_sweep_between_chunks(tmp_path):
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
     assert done.stdout.strip() == "interrupted", done.stderr
     assert not (tmp_path / "out" / "sweep.csv").exists()
+
+
+def test_ctrl_c_stops_a_reference_batch_and_recover_many_inside_their_chunks():
+    # Each row of these costs a millisecond or more: a chunk (65 536 batch rows at a 0.001°
+    # sampling on the reference, 16 384 recover rows of a sidescan pair) took 14–29 s on two
+    # cores, and Ctrl-C waited for it. The work now asks before each row: SIGINT 0.5 s in stops
+    # both within a second or so (the 10 s limit is that wait with room to spare, not a speed).
+    for call in (
+        'sonarproj.batch("paper-fls", "paper-sss", {k: np.full(65536, v) for k, v in '
+        'dict(range=5.0, azimuth=0.0, roll=0.0, pitch=5.0, yaw=0.0, tx=0.0, ty=0.0, tz=0.0).items()}, '
+        'step=0.001, backend="cpu")',
+        'sonarproj.recover_many("holoocean-sidescan", "holoocean-sidescan", sonarproj.Pose(0, 0, 0, t=[1, 0, 0]), '
+        '{"first_range": np.full(16384, 5.0), "second_range": np.full(16384, 5.0)})',
+    ):
+        script = textwrap.dedent(f"""
+            import os, signal, threading
+            import numpy as np
+            import sonarproj
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+            try:
+                {call}
+                print("finished")
+            except KeyboardInterrupt:
+                print("interrupted")
+        """)
+        done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=10)
+        assert done.stdout.strip() == "interrupted", (call, done.stderr)

@@ -247,3 +247,32 @@ def test_a_projected_sonar_image_beam_table_reads_as_a_sonar_and_its_columns():
         Sonar.from_projected_sonar_image([[0, 0, 1], [0.5, 0, 1], [0, 0.2, 1]], ranges, 20.0)
     with pytest.raises(InputTypeError, match="ranges"):
         Sonar.from_projected_sonar_image(directions, "abc", 20.0)
+
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: sonarproj.project(5, "paper-sss", sonarproj.Pose(0, 0, 0), (5, 10)), "first"),
+        (lambda: sonarproj.project("paper-fls", "paper-sss", {"roll": 0}, (5, 10)), "pose"),
+        (lambda: sonarproj.MaskEngine("paper-fls", 5), "second"),
+        (lambda: sonarproj.sweep("x.toml", "out", chunk_poses="10"), "chunk_poses"),
+        (lambda: sonarproj.sweep("x.toml", "out", progress="yes"), "progress"),
+        (lambda: sonarproj.configure_gpu(adapter=5), "adapter"),
+        (lambda: sonarproj.configure_gpu(workgroup="64"), "workgroup"),
+        (lambda: sonarproj.configure_gpu(cull="yes"), "cull"),
+        (lambda: sonarproj.configure_gpu(precision=64), "precision"),
+        (lambda: sonarproj.configure_gpu(backends=[1]), "backends"),
+        (lambda: sonarproj.Sonar.preset(5), "name"),
+        (lambda: sonarproj.Sonar.from_toml(5), "path"),
+    ],
+)
+def test_a_value_of_the_wrong_type_is_an_input_type_error_naming_its_parameter(call, name):
+    with pytest.raises(sonarproj.InputTypeError, match=f"^{name}"):
+        call()
+
+
+def test_a_covariance_past_the_sigmas_bounds_is_refused_naming_it():
+    pose = sonarproj.Pose(0, 5, 10, t=[0.3, 0.2, -0.1])
+    for cov in (np.eye(6) * 1e308, np.diag([1e9, 1e9, 1e9, 0.01, 0.01, 0.01])):
+        with pytest.raises(sonarproj.InputError, match="^covariance: its .* block's largest standard deviation"):
+            sonarproj.masks("holoocean-sidescan", "holoocean-imaging", pose, [4], covariance=cov, backend="cpu-fast")

@@ -243,7 +243,7 @@ impl Backend {
                 _ => crate::exact::project_fast(&prepared, output, stop),
             }
             .ok_or(Error::Stopped)?,
-            Backend::Cpu => reference::project(&prepared, output),
+            Backend::Cpu => reference::project_until(&prepared, output, stop).ok_or(Error::Stopped)?,
             Backend::CpuFast => fast::project_until(&prepared, output, stop).ok_or(Error::Stopped)?,
             Backend::Gpu(g) => g.project(&prepared, output)?,
         };

@@ -18,9 +18,11 @@ pub const MIN_ANGLE_STEP: f64 = 0.01;
 /// The most bytes of dense masks one Python call returns (1 GiB), at one byte a pixel a
 /// feature plus four with counts. More features at once take the sparse form (runs).
 pub const MAX_DENSE_MASK_BYTES: u64 = 1 << 30;
-/// The longest sweep or advise file read (64 MiB). A longer one, even a device or FIFO, is
-/// refused after that many bytes.
-pub const MAX_CONFIG_BYTES: u64 = 64 << 20;
+/// The longest sweep or advise file read (8 MiB: an axis of a million values listed one by one
+/// fits; `{ start, stop, step }` takes a few bytes). A longer one, even a device or FIFO, is
+/// refused after that many bytes. The TOML parser holds about a hundred times the file while it
+/// reads it, so this bounds a run's memory to about 1 GB.
+pub const MAX_CONFIG_BYTES: u64 = 8 << 20;
 /// The most poses of a sweep's pose list (1 000 000), held in memory at about 1 KB a pose.
 /// Split longer lists into several sweeps, or give a grid.
 pub const MAX_LIST_POSES: usize = 1_000_000;

@@ -494,6 +494,25 @@ fn bad_recover_input_exits_2() {
     for (args, needles) in cases {
         common::rejects(&[&base[..], args].concat(), None, needles);
     }
+    // A NaN range is named as the option it came in, even when the placement is built from it.
+    let placed = [
+        "recover",
+        "--from",
+        "paper-fls",
+        "--to",
+        "paper-sss",
+        "--pitch",
+        "90",
+        "--place-range",
+        "15",
+        "--feature-elevation",
+        "3",
+        "--first",
+        "nan,0",
+        "--second",
+        "15",
+    ];
+    common::rejects(&placed, None, &["--first = nan,0", "finite"]);
     let batch = [
         "recover",
         "--from",

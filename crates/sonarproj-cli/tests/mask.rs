@@ -506,5 +506,31 @@ fn the_picture_is_drawn_over_the_ping_image_beside_the_sonar_file() {
         let err = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
         assert!(err.contains("--image") && err.contains(needle), "{err}");
     }
+    // A FIFO given as --image is refused unread (no writer ever comes: it must not wait).
+    let fifo = dir.path().join("fifo.npy");
+    sonarproj_testkit::mkfifo(&fifo);
+    let assert = sonarproj()
+        .args(["mask", "--from", "paper-sss", "--to"])
+        .arg(&toml)
+        .args([
+            "--translation",
+            "0,0,0",
+            "--feature",
+            "20",
+            "--backend",
+            "cpu",
+            "--image",
+        ])
+        .arg(&fifo)
+        .arg("--out")
+        .arg(dir.path().join("no.png"))
+        .timeout(std::time::Duration::from_secs(60))
+        .assert()
+        .code(2);
+    let err = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+    assert!(
+        err.contains("fifo.npy") && err.contains("not a regular file"),
+        "{err}"
+    );
     assert!(!dir.path().join("no.png").exists());
 }

@@ -136,17 +136,22 @@ pub(crate) fn batch_columns<'py>(
     let mut start = 0;
     while start < len {
         let end = (start + CHUNK_POSES).min(len);
-        let results = crate::runtime::detach(py, || -> sonarproj::Result<()> {
+        // Ctrl-C is watched while the chunk runs: the backend stops within an item or a tile.
+        let results = crate::runtime::detach_watching(py, |stop| -> sonarproj::Result<()> {
+            let signal = || stop.load(std::sync::atomic::Ordering::Relaxed);
             chunk.items = items(&pair.source, &reading, &cols, start..end, &checker)?;
-            let projected = backend.project(&chunk, Output::MetricsOnly)?;
+            let projected = backend.project_until(
+                &chunk,
+                Output::MetricsOnly,
+                sonarproj::stream::Stop::when(&signal),
+            )?;
             for p in projected {
                 metrics.push(p.metrics);
                 locals.push(p.local);
             }
             Ok(())
-        });
+        })?;
         results.map_err(errors::engine)?;
-        py.check_signals()?;
         start = end;
     }
     Ok((metric_dict(py, &metrics, &locals)?, notice))

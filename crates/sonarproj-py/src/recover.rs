@@ -89,15 +89,19 @@ pub(crate) fn recover_columns<'py>(
     }
     let pose_of = |k: usize| &poses[if poses.len() == 1 { 0 } else { k }];
     let s = sigmas(sigma_range, sigma_azimuth);
-    // Chunks of rows run on all cores without the GIL. Ctrl-C is checked between chunks.
+    // Chunks of rows run on all cores without the GIL. Ctrl-C is watched while a chunk runs,
+    // and each row asks whether it was pressed (a row can take milliseconds).
     let mut results: Vec<Recovery> = Vec::with_capacity(len);
     let mut start = 0;
     while start < len {
         let end = (start + RECOVER_CHUNK_ROWS).min(len);
-        let part = crate::runtime::detach(py, || {
+        let part = crate::runtime::detach_watching(py, |stop| {
             (start..end)
                 .into_par_iter()
                 .map(|k| {
+                    if stop.load(std::sync::atomic::Ordering::Relaxed) {
+                        return Err(sonarproj::Error::Stopped);
+                    }
                     recovery::recover(
                         &first.inner,
                         &second.inner,
@@ -113,10 +117,9 @@ pub(crate) fn recover_columns<'py>(
                 // In row order, so the error is the first bad row's whatever the threads did.
                 .into_iter()
                 .collect::<sonarproj::Result<Vec<_>>>()
-        })
+        })?
         .map_err(errors::engine)?;
         results.extend(part);
-        py.check_signals()?;
         start = end;
     }
     let dict = PyDict::new(py);

@@ -134,21 +134,23 @@ impl PySonar {
 
     /// Returns the preset called `name` (see `sonarproj.presets()`).
     #[staticmethod]
-    fn preset(name: &str) -> PyResult<Self> {
-        Sonar::preset(name).map(|inner| PySonar { inner }).ok_or_else(|| {
-            errors::input(
-                "name",
-                format!(
-                    "{name:?} is not a preset; the presets are {}",
-                    Sonar::preset_names().join(", ")
-                ),
-            )
-        })
+    fn preset(#[pyo3(from_py_with = arg::name)] name: String) -> PyResult<Self> {
+        Sonar::preset(&name)
+            .map(|inner| PySonar { inner })
+            .ok_or_else(|| {
+                errors::input(
+                    "name",
+                    format!(
+                        "{name:?} is not a preset; the presets are {}",
+                        Sonar::preset_names().join(", ")
+                    ),
+                )
+            })
     }
 
     /// Returns the sonar described by the TOML file at `path`.
     #[staticmethod]
-    fn from_toml(path: PathBuf) -> PyResult<Self> {
+    fn from_toml(#[pyo3(from_py_with = arg::path)] path: PathBuf) -> PyResult<Self> {
         Sonar::from_toml_file(&path)
             .map(|inner| PySonar { inner })
             .map_err(errors::engine)

@@ -274,6 +274,22 @@ pub(crate) mod arg {
         super::text("kind", ob)
     }
 
+    /// Reads the preset `name`.
+    pub(crate) fn name(ob: &Bound<'_, PyAny>) -> PyResult<String> {
+        super::text("name", ob)
+    }
+
+    /// Reads the file `path`: a string or an `os.PathLike`.
+    pub(crate) fn path(ob: &Bound<'_, PyAny>) -> PyResult<std::path::PathBuf> {
+        ob.extract().map_err(|_| {
+            super::wrong_type(
+                ob.py(),
+                "path",
+                format!("expected a path (str or os.PathLike), got {}", super::shown(ob)),
+            )
+        })
+    }
+
     /// Reads the optional string `name`.
     pub(crate) fn opt_name(ob: &Bound<'_, PyAny>) -> PyResult<Option<String>> {
         if ob.is_none() {

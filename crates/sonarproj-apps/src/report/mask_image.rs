@@ -79,7 +79,8 @@ impl PingImage {
             path: path.to_path_buf(),
             source,
         };
-        let file = std::fs::File::open(path).map_err(read_err)?;
+        // A FIFO or device is refused unread, never waited on.
+        let file = sonarproj::files::open_regular(path).map_err(read_err)?;
         let npy = npyz::NpyFile::new(std::io::BufReader::new(file)).map_err(read_err)?;
         let (rows, beams) = (layout.range_bins, layout.beams());
         let shape = npy.shape().to_vec();

@@ -66,6 +66,17 @@ pub(super) struct RecoverArgs {
 /// Returns the observation `text` (`R` or `R,A`) of `which` sonar.
 fn observation(which: &str, text: &str) -> Result<Observation> {
     let field = format!("--{which}");
+    // Checked here, before a placement built from --first could name its own option.
+    if text
+        .split(',')
+        .any(|v| v.trim().parse::<f64>().is_ok_and(|v| !v.is_finite()))
+    {
+        return Err(sonarproj_apps::Error::invalid(
+            field,
+            text,
+            "must be finite numbers",
+        ));
+    }
     match text.split(',').count() {
         1 => Ok(Observation {
             range: numbers::<1>(&field, text)?[0],
