@@ -90,6 +90,7 @@ __all__ = [
     "paper",
     "presets",
     "project",
+    "masks_of_bag",
     "read_bag",
     "read_oculus",
     "recover",
@@ -790,7 +791,7 @@ def recover_many(
 
 
 from ._advise import AdviceWarning, advise  # noqa: E402
-from ._readers import read_bag, read_oculus  # noqa: E402
+from ._readers import masks_of_bag, read_bag, read_oculus  # noqa: E402
 from ._apps import merge, paper, sweep  # noqa: E402
 
 

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import os as _os
-from typing import Optional, Union
+from typing import Any, Mapping, Optional, Union
 
 from ._sonarproj import BagPing, BagPings, OculusPing
 
@@ -52,3 +52,56 @@ def read_bag(
     if topic is not None and not isinstance(topic, str):
         raise InputTypeError(f"topic: expected a string or None, got {topic!r} ({type(topic).__name__})")
     return _native.read_bag(_os.fspath(path), topic, _number("elevation", elevation, optional=True))
+
+
+def masks_of_bag(
+    bag: Union[str, "_os.PathLike[str]"],
+    first: Any,
+    from_frame: str,
+    features: Union[str, "_os.PathLike[str]"],
+    out: Union[str, "_os.PathLike[str]"],
+    *,
+    topic: Optional[str] = None,
+    to_frame: Optional[str] = None,
+    elevation: Optional[float] = None,
+    sigma: Optional[Mapping[str, float]] = None,
+    covariance: Any = None,
+    coverage: float = 0.99,
+    backend: str = "auto",
+) -> dict[str, Any]:
+    """Writes `out` (an MCAP): for every ProjectedSonarImage ping of the bag's `topic`, the union
+    of the masks of the features sonar `first` measured at the ping's stamp, as a ``mono8``
+    ``sensor_msgs/Image`` (255 inside a mask; the ping's rows and columns, stamp and frame) on
+    ``TOPIC/masks``, so Foxglove shows it beside the pings. The pose comes from the bag's
+    ``/tf_static`` and ``/tf`` at each stamp: `from_frame` is sonar 1's frame (x forward,
+    y left, z up); sonar 2's is each ping's own (the message's axes: X up, Z forward), or
+    `to_frame` (x forward, y left, z up). `features` is a CSV of ``stamp`` (s) or ``stamp_ns``,
+    ``range`` and, for an imaging `first`, ``azimuth``; a feature belongs to the ping of its
+    stamp (within 1 µs). `sigma`/`covariance` and `coverage` widen the masks as in
+    :func:`masks`. The same as ``sonarproj mask --bag``.
+
+    Returns a dict: ``topic``, ``masks_topic``, ``pings``, ``pings_with_features``,
+    ``features`` (drawn) and ``unmatched`` (features of no ping's stamp). Raises InputError
+    naming the bag, ping or features row; `out` is written whole or not at all.
+    """
+    from . import InputTypeError, _backend, _coverage, _native, _number, _sigma, _sonar, _warn
+    from ._apps import _path
+
+    for name, value in (("from_frame", from_frame), ("topic", topic), ("to_frame", to_frame)):
+        if value is not None and not isinstance(value, str):
+            raise InputTypeError(f"{name}: expected a string, got {value!r} ({type(value).__name__})")
+    result, notice = _native.masks_of_bag(
+        _path("bag", bag),
+        _sonar("first", first),
+        from_frame,
+        _path("features", features),
+        _path("out", out),
+        topic,
+        to_frame,
+        _number("elevation", elevation, optional=True),
+        _sigma(sigma, covariance),
+        _coverage(coverage),
+        _backend(backend),
+    )
+    _warn(notice)
+    return result

@@ -371,3 +371,17 @@ class BagPings:
     def __next__(self) -> BagPing: ...
 
 def read_bag(path: str, topic: Optional[str] = None, elevation: Optional[float] = None) -> BagPings: ...
+
+def masks_of_bag(
+    bag: str,
+    first: Sonar,
+    from_frame: str,
+    features: str,
+    out: str,
+    topic: Optional[str],
+    to_frame: Optional[str],
+    elevation: Optional[float],
+    sigma: Optional[list[float]],
+    coverage: float,
+    backend_name: str,
+) -> tuple[dict[str, Any], Optional[str]]: ...

@@ -159,3 +159,114 @@ def test_read_bag_refuses_bad_input_naming_it(tmp_path):
     cut.write_bytes(bag.read_bytes()[:200])
     with pytest.raises(sonarproj.InputError, match="MCAP"):
         list(sonarproj.read_bag(cut))
+
+
+TF_DEFINITION = "\n".join(
+    [
+        "geometry_msgs/TransformStamped[] transforms",
+        SEPARATOR,
+        "MSG: geometry_msgs/TransformStamped\nstd_msgs/Header header\nstring child_frame_id\nTransform transform",
+        SEPARATOR,
+        "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id",
+        SEPARATOR,
+        "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec",
+        SEPARATOR,
+        "MSG: geometry_msgs/Transform\nVector3 translation\nQuaternion rotation",
+        SEPARATOR,
+        "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z",
+        SEPARATOR,
+        "MSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1",
+    ]
+)
+
+
+def quaternion_xyzw(r):
+    """The unit quaternion (x, y, z, w) of rotation matrix `r`, from its largest component."""
+    t = np.trace(r)
+    k = int(np.argmax([t, r[0, 0], r[1, 1], r[2, 2]]))
+    if k == 0:
+        w = math.sqrt(1 + t) / 2
+        return [(r[2, 1] - r[1, 2]) / (4 * w), (r[0, 2] - r[2, 0]) / (4 * w), (r[1, 0] - r[0, 1]) / (4 * w), w]
+    i, j, l = [(0, 1, 2), (1, 2, 0), (2, 0, 1)][k - 1]
+    q = [0.0, 0.0, 0.0]
+    q[i] = math.sqrt(1 + r[i, i] - r[j, j] - r[l, l]) / 2
+    q[j] = (r[j, i] + r[i, j]) / (4 * q[i])
+    q[l] = (r[l, i] + r[i, l]) / (4 * q[i])
+    w = (r[l, j] - r[j, l]) / (4 * q[i])
+    return [*q, w]
+
+
+def test_masks_of_bag_draws_each_pings_features_under_the_logged_rig(cli, tmp_path):
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    # Sonar 2 (the pings' frame "oculus", X up and Z forward) looks forward like base_link;
+    # sonar 1 (paper-fls, REP 103 axes) sits 0.3 m to port, yawed 4° to starboard.
+    d, r = fan(40, 80, half=0.5)
+    r = [1.0 + 0.1 * i for i in range(80)]
+    image_axes = np.array([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])
+    yaw = math.radians(-4.0)
+    r_fls = np.array([[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0], [0, 0, 1]])
+    t_fls = np.array([0.0, 0.3, 0.0])
+
+    def stamped(child, rot, t):
+        x, y, z, w = quaternion_xyzw(rot)
+        return {
+            "header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": "base_link"},
+            "child_frame_id": child,
+            "transform": {"translation": {"x": t[0], "y": t[1], "z": t[2]}, "rotation": {"x": x, "y": y, "z": z, "w": w}},
+        }
+
+    bag = tmp_path / "log.mcap"
+    with open(bag, "wb") as f:
+        writer = mcap_ros2_writer.Writer(f)
+        tf = writer.register_msgdef("tf2_msgs/msg/TFMessage", TF_DEFINITION)
+        sonar = writer.register_msgdef("marine_acoustic_msgs/msg/ProjectedSonarImage", DEFINITION)
+        # The oculus frame's axes in base_link: the image axes' matrix itself (X_o up, Z_o forward).
+        transforms = {"transforms": [stamped("fls_link", r_fls, t_fls), stamped("oculus", image_axes.T, [0, 0, 0])]}
+        writer.write_message(topic="/tf_static", schema=tf, message=transforms, log_time=0, publish_time=0)
+        for k in range(3):
+            m = message(10 + k, d, r, np.zeros((80, 40), dtype=np.uint8), frame="oculus")
+            writer.write_message(topic="/sonar", schema=sonar, message=m, log_time=k + 1, publish_time=k + 1)
+        writer.finish()
+    features = tmp_path / "features.csv"
+    features.write_text("stamp_ns,range,azimuth\n10000000005,5,0\n10000000005,3,10\n12000000005,6,-15\n")
+    got = sonarproj.masks_of_bag(bag, "paper-fls", "fls_link", features, tmp_path / "py.mcap", backend="cpu-fast")
+    assert got == {
+        "topic": "/sonar",
+        "masks_topic": "/sonar/masks",
+        "pings": 3,
+        "pings_with_features": 2,
+        "features": 3,
+        "unmatched": 0,
+    }
+    done = cli(
+        "mask", "--from", "paper-fls", "--bag", str(bag), "--from-frame", "fls_link",
+        "--features", str(features), "--out", str(tmp_path / "cli.mcap"), "--backend", "cpu-fast",
+    )
+    assert "3 pings of \"/sonar\" (2 with features, 3 features drawn, 0 matched no ping)" in done.stdout
+    # The pose in this project's convention, from the matrices: sonar 1 → base_link → oculus,
+    # then the oculus axes into this project's.
+    rot = image_axes @ image_axes @ r_fls  # oculus in base_link is image_axesᵀ; its inverse is image_axes
+    pose = sonarproj.Pose.from_matrix(rot, t=(image_axes @ image_axes @ t_fls).tolist())
+    ping = next(iter(sonarproj.read_bag(bag)))
+    want = {
+        0: [(5.0, 0.0), (3.0, 10.0)],
+        2: [(6.0, -15.0)],
+    }
+    for name in ("py.mcap", "cli.mcap"):
+        with open(tmp_path / name, "rb") as f:
+            decoded = list(make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages())
+        assert len(decoded) == 3
+        for k, (schema, channel, msg, image) in enumerate(decoded):
+            assert (schema.name, channel.topic) == ("sensor_msgs/msg/Image", "/sonar/masks")
+            assert (image.header.stamp.sec, image.header.frame_id) == (10 + k, "oculus")
+            assert (image.height, image.width, image.step, image.encoding) == (80, 40, 40, "mono8")
+            pixels = np.frombuffer(bytes(image.data), dtype=np.uint8).reshape(80, 40)
+            if k in want:
+                union = sonarproj.masks("paper-fls", ping.sonar, pose, want[k], backend="cpu-fast").union
+                # The image is in the message's columns: beam b is column 39 − b.
+                np.testing.assert_array_equal(pixels[:, ::-1] == 255, union.astype(bool), err_msg=f"{name} ping {k}")
+                assert union.any()
+            else:
+                assert not pixels.any()

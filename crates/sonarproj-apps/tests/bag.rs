@@ -491,3 +491,201 @@ mod tf {
         assert!(e.contains("norm is 2"), "{e}");
     }
 }
+
+mod masks {
+    use super::*;
+    use glam::{DMat3, DQuat, DVec3};
+    use sonarproj::masks::MaskEngine;
+    use sonarproj::{Measurement, RelativePose, Rotation};
+    use sonarproj_apps::io::bag::{Vector3, from_cdr};
+    use sonarproj_apps::io::bag_masks::{BagMasks, IMAGE, Image, masks_of_bag};
+    use sonarproj_apps::io::tf::{
+        Quaternion, TF_MESSAGE, TF_MESSAGE_DEFINITION, TfMessage, Transform, TransformStamped,
+    };
+
+    /// The message's axes in this project's (and REP 103's): X up, Y starboard, Z forward.
+    fn image_axes() -> DMat3 {
+        DMat3::from_cols(DVec3::Z, DVec3::NEG_Y, DVec3::X)
+    }
+
+    fn transform(parent: &str, child: &str, r: DMat3, t: [f64; 3]) -> TransformStamped {
+        let q = DQuat::from_mat3(&r);
+        TransformStamped {
+            header: Header {
+                stamp: Time::default(),
+                frame_id: parent.into(),
+            },
+            child_frame_id: child.into(),
+            transform: Transform {
+                translation: Vector3 {
+                    x: t[0],
+                    y: t[1],
+                    z: t[2],
+                },
+                rotation: Quaternion {
+                    x: q.x,
+                    y: q.y,
+                    z: q.z,
+                    w: q.w,
+                },
+            },
+        }
+    }
+
+    /// A ping of a 32-beam, ±30° sonar with 10 cm bins from 1 m to 10 m, at `sec` s + 0.25 s.
+    fn long_ping(sec: i32) -> ProjectedSonarImage {
+        let mut p = ping(sec, 32, 90, false);
+        p.ranges = (0..90).map(|i| 1.05 + 0.1 * i as f32).collect();
+        p.header.frame_id = "oculus".into();
+        p
+    }
+
+    /// For every ping, the mask image is the union of the masks the engine draws for the
+    /// features of its stamp under the pose the rig's matrices give (built here from the
+    /// rotation matrices, with the FLS's frame in the message's axes), laid out in the message's
+    /// columns. A ping without features gets an empty image; a feature of no ping's stamp is
+    /// counted apart.
+    #[test]
+    fn every_ping_gets_the_masks_of_its_features_under_the_rig_of_the_log() {
+        let (dir, path) = tmp("log.mcap");
+        // Sonar 1 (paper-fls) 0.4 m to port of base_link, pitched 10° down; sonar 2 (the
+        // pings' oculus frame, X up and Z forward) at the origin, yawed 5° to port.
+        let r_fls = DMat3::from_rotation_z(0.0) * DMat3::from_rotation_y(10f64.to_radians());
+        let r_oculus = DMat3::from_rotation_z(5f64.to_radians()) * image_axes();
+        let (t_fls, t_oculus) = ([0.1, 0.4, 0.0], [0.0, 0.0, -0.05]);
+        let pings = [long_ping(100), long_ping(101), long_ping(102)];
+        {
+            let file = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+            let mut w = mcap::Writer::new(file).unwrap();
+            let tf_schema = w
+                .add_schema(TF_MESSAGE, "ros2msg", TF_MESSAGE_DEFINITION.as_bytes())
+                .unwrap();
+            let tf = w
+                .add_channel(tf_schema, "/tf_static", "cdr", &BTreeMap::new())
+                .unwrap();
+            let schema = w
+                .add_schema(
+                    PROJECTED_SONAR_IMAGE,
+                    "ros2msg",
+                    PROJECTED_SONAR_IMAGE_DEFINITION.as_bytes(),
+                )
+                .unwrap();
+            let sonar = w
+                .add_channel(schema, "/oculus/sonar_image", "cdr", &BTreeMap::new())
+                .unwrap();
+            let statics = TfMessage {
+                transforms: vec![
+                    transform("base_link", "fls_link", r_fls, t_fls),
+                    transform("base_link", "oculus", r_oculus, t_oculus),
+                ],
+            };
+            let header = |channel_id, k: u64| mcap::records::MessageHeader {
+                channel_id,
+                sequence: k as u32,
+                log_time: 50 + k,
+                publish_time: 50 + k,
+            };
+            w.write_to_known_channel(&header(tf, 0), &statics.to_cdr().unwrap())
+                .unwrap();
+            for (k, p) in pings.iter().enumerate() {
+                w.write_to_known_channel(&header(sonar, k as u64), &p.to_cdr().unwrap())
+                    .unwrap();
+            }
+            w.finish().unwrap();
+        }
+        // Ping 0: two features; ping 1: none; ping 2: one, its stamp written in ns; and one
+        // feature at a stamp of no ping.
+        let features = dir.path().join("features.csv");
+        std::fs::write(
+            &features,
+            "stamp,range,azimuth\n100.25,5,0\n100.25,7.5,-12\n102.25,4,20\n150.0,5,0\n",
+        )
+        .unwrap();
+        let source = Sonar::preset("paper-fls").unwrap();
+        let job = BagMasks {
+            bag: &path,
+            topic: None,
+            elevation: None,
+            source: &source,
+            from_frame: "fls_link",
+            to_frame: None,
+            features: &features,
+            noise: None,
+        };
+        let out = dir.path().join("masks.mcap");
+        let engine = |target: Sonar| Ok(MaskEngine::new(source.clone(), target)?);
+        let report = masks_of_bag(&job, &engine, &out).unwrap();
+        assert_eq!(
+            (
+                report.pings,
+                report.pings_with_features,
+                report.features,
+                report.unmatched
+            ),
+            (3, 2, 3, 1)
+        );
+        assert_eq!(report.masks_topic, "/oculus/sonar_image/masks");
+        // The pose: p2 = M⁻¹-free form: sonar 2's axes are the message's, so a point of sonar 1
+        // (REP 103) goes to base_link, then into the oculus frame, then into this project's axes.
+        let r = image_axes() * r_oculus.transpose() * r_fls;
+        let t = image_axes() * (r_oculus.transpose() * (DVec3::from(t_fls) - DVec3::from(t_oculus)));
+        let pose = RelativePose::new(Rotation::Matrix(r.transpose().to_cols_array_2d()), t).unwrap();
+        let bagged = read_all(&path, None).unwrap();
+        let target = (*bagged[0].sonar).clone();
+        let reference = MaskEngine::new(source.clone(), target).unwrap();
+        let want_features: [Vec<Measurement>; 3] = [
+            vec![
+                Measurement::of(&source, 5.0, 0.0).unwrap(),
+                Measurement::of(&source, 7.5, -12.0).unwrap(),
+            ],
+            vec![],
+            vec![Measurement::of(&source, 4.0, 20.0).unwrap()],
+        ];
+        let file = std::fs::File::open(&out).unwrap();
+        let mut seen = 0;
+        for (k, message) in mcap::io::MessageReader::new(std::io::BufReader::new(file)).enumerate() {
+            let message = message.unwrap();
+            assert_eq!(message.channel.schema.as_ref().unwrap().name, IMAGE);
+            assert_eq!(message.log_time, 50 + k as u64);
+            let image: Image = from_cdr(&message.data).unwrap();
+            assert_eq!(image.header.stamp, pings[k].header.stamp);
+            assert_eq!(image.header.frame_id, "oculus");
+            assert_eq!((image.height, image.width, image.step), (90, 32, 32));
+            assert_eq!(image.encoding, "mono8");
+            let union = if want_features[k].is_empty() {
+                sonarproj::Occupancy::new(90, 32)
+            } else {
+                reference
+                    .masks(&pose, &want_features[k], None, sonarproj::masks::Counts::Skip)
+                    .unwrap()
+                    .union
+            };
+            // Beam b of the sonar is the message's column 31 − b (the beams are listed port first).
+            for i in 0..90 {
+                for b in 0..32 {
+                    let v = image.data[i * 32 + (31 - b)];
+                    assert_eq!(v == 255, union.get(i, b), "ping {k} pixel ({i}, {b})");
+                    assert!(v == 0 || v == 255);
+                }
+            }
+            if k != 1 {
+                assert!(union.count() > 0, "ping {k}'s features are seen");
+            }
+            seen += 1;
+        }
+        assert_eq!(seen, 3);
+        // A sonar 1 frame the transforms do not hold: refused naming it, and no file left.
+        let other = dir.path().join("other.mcap");
+        let bad = BagMasks {
+            from_frame: "camera",
+            ..job
+        };
+        let e = masks_of_bag(&bad, &engine, &other).unwrap_err().to_string();
+        assert!(e.contains("ping 0") && e.contains("\"camera\""), "{e}");
+        assert!(!other.exists());
+        // A features file without stamps.
+        std::fs::write(&features, "range,azimuth\n5,0\n").unwrap();
+        let e = masks_of_bag(&job, &engine, &other).unwrap_err().to_string();
+        assert!(e.contains("features file") && e.contains("stamp"), "{e}");
+    }
+}

@@ -118,3 +118,68 @@ pub(crate) fn read_bag(path: PathBuf, topic: Option<String>, elevation: Option<f
         last: None,
     })
 }
+
+/// Writes into `out` a mask image for every ping of the bag (see `sonarproj mask --bag`) and
+/// returns what was written: `topic`, `masks_topic`, `pings`, `pings_with_features`,
+/// `features`, `unmatched`, and the notice of the backend's selection.
+#[pyfunction]
+#[pyo3(signature = (bag, first, from_frame, features, out, topic, to_frame, elevation, sigma, coverage, backend_name))]
+#[expect(clippy::too_many_arguments, reason = "the Python function's parameters")]
+pub(crate) fn masks_of_bag<'py>(
+    py: Python<'py>,
+    bag: PathBuf,
+    first: &PySonar,
+    from_frame: String,
+    features: PathBuf,
+    out: PathBuf,
+    topic: Option<String>,
+    to_frame: Option<String>,
+    elevation: Option<f64>,
+    sigma: Option<[f64; 8]>,
+    coverage: f64,
+    backend_name: &str,
+) -> PyResult<(Bound<'py, pyo3::types::PyDict>, Option<String>)> {
+    use sonarproj::masks::{Counts, MaskEngine};
+    use sonarproj_apps::io::bag_masks::{BagMasks, masks_of_bag as run};
+    let noise = crate::masks::noise(sigma, coverage)?;
+    let (choice, forked) = crate::backend::after_fork(crate::backend::choice(backend_name)?)?;
+    crate::backend::touched(choice);
+    let source = first.inner.clone();
+    let notice = std::sync::Mutex::new(forked);
+    let engine = |target: Sonar| -> sonarproj_apps::Result<MaskEngine> {
+        let (engine, n) = MaskEngine::select(
+            source.clone(),
+            target,
+            choice,
+            Counts::Skip,
+            &crate::backend::options(),
+        )?;
+        let mut held = notice.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if held.is_none() {
+            *held = n.map(|n| n.render(&errors::name));
+        }
+        Ok(engine)
+    };
+    let job = BagMasks {
+        bag: &bag,
+        topic: topic.as_deref(),
+        elevation,
+        source: &source,
+        from_frame: &from_frame,
+        to_frame: to_frame.as_deref(),
+        features: &features,
+        noise,
+    };
+    let report = crate::runtime::detach(py, || run(&job, &engine, &out)).map_err(errors::apps)?;
+    let d = pyo3::types::PyDict::new(py);
+    d.set_item("topic", report.topic)?;
+    d.set_item("masks_topic", report.masks_topic)?;
+    d.set_item("pings", report.pings)?;
+    d.set_item("pings_with_features", report.pings_with_features)?;
+    d.set_item("features", report.features)?;
+    d.set_item("unmatched", report.unmatched)?;
+    let notice = notice
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    Ok((d, notice))
+}

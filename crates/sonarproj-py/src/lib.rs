@@ -45,6 +45,7 @@ fn _sonarproj(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<bag::PyBagPing>()?;
     m.add_class::<bag::PyBagPings>()?;
     m.add_function(wrap_pyfunction!(bag::read_bag, m)?)?;
+    m.add_function(wrap_pyfunction!(bag::masks_of_bag, m)?)?;
     m.add_function(wrap_pyfunction!(oculus::read_oculus, m)?)?;
     m.add_function(wrap_pyfunction!(sonar::presets, m)?)?;
     m.add_function(wrap_pyfunction!(backend::configure_gpu, m)?)?;

@@ -566,7 +566,7 @@ impl PyMaskEngine {
 
 /// Returns the noise of `sigma` = [roll, pitch, yaw (deg), tx, ty, tz (m), range (m), azimuth
 /// (deg)] at `coverage`.
-fn noise(sigma: Option<[f64; 8]>, coverage: f64) -> PyResult<Option<Noise>> {
+pub(crate) fn noise(sigma: Option<[f64; 8]>, coverage: f64) -> PyResult<Option<Noise>> {
     let Some(s) = sigma else {
         if !(coverage > 0.0 && coverage < 1.0) {
             return Err(errors::input(

@@ -152,7 +152,10 @@ impl ProjectedSonarImage {
 
 /// Returns `value` CDR-encoded as a ROS 2 bag holds a message: the little-endian encapsulation
 /// header, then the fields.
-pub(crate) fn to_cdr<T: Serialize>(value: &T) -> Result<Vec<u8>> {
+///
+/// # Errors
+/// [`Error::WriteOutput`] should the encoder fail.
+pub fn to_cdr<T: Serialize>(value: &T) -> Result<Vec<u8>> {
     let body = cdr_encoding::to_vec::<_, byteorder::LittleEndian>(value).map_err(|e| Error::WriteOutput {
         path: "message".into(),
         message: e.to_string(),
@@ -163,8 +166,11 @@ pub(crate) fn to_cdr<T: Serialize>(value: &T) -> Result<Vec<u8>> {
 }
 
 /// Returns the message `T` decoded from `data` (a CDR encapsulation header, then the fields in
-/// either byte order), or why not.
-pub(crate) fn from_cdr<T: serde::de::DeserializeOwned>(data: &[u8]) -> std::result::Result<T, String> {
+/// either byte order).
+///
+/// # Errors
+/// Why not, in words: too short, not plain CDR, or not a `T`.
+pub fn from_cdr<T: serde::de::DeserializeOwned>(data: &[u8]) -> std::result::Result<T, String> {
     let name = std::any::type_name::<T>()
         .rsplit("::")
         .next()
@@ -195,6 +201,8 @@ pub enum BagImage {
 /// One ping of a bag's topic.
 #[derive(Clone, Debug)]
 pub struct BagPing {
+    /// The topic it came on.
+    pub topic: String,
     /// The ping's place among the topic's messages, from 0.
     pub index: usize,
     /// The header's stamp (ns since the epoch).
@@ -207,6 +215,8 @@ pub struct BagPing {
     pub sonar: Arc<Sonar>,
     /// The image in the sonar's layout.
     pub image: BagImage,
+    /// Beam `k` of the sonar is column `columns[k]` of the message's image.
+    pub columns: Vec<usize>,
 }
 
 /// The pings of one topic of a bag, read as they come ([`read_bag`]).
@@ -324,12 +334,14 @@ impl BagPings {
         let image = reorder(&msg.image, msg.ranges.len(), &columns).map_err(bad)?;
         let stamp = &msg.header.stamp;
         Ok(BagPing {
+            topic: message.channel.topic.clone(),
             index: self.index,
             stamp_ns: i64::from(stamp.sec) * 1_000_000_000 + i64::from(stamp.nanosec),
             log_time: message.log_time,
             frame_id: msg.header.frame_id,
             sonar,
             image,
+            columns,
         })
     }
 }

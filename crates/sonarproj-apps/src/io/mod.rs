@@ -5,6 +5,7 @@
 //! - sweep tables as Parquet (`parquet`).
 
 pub mod bag;
+pub mod bag_masks;
 pub mod batch;
 pub mod oculus;
 pub mod parquet;

@@ -46,9 +46,15 @@ pub(super) struct MaskArgs {
     /// Sonar 1 (measured the features): a preset name or a sonar TOML file.
     #[arg(long, value_name = "SONAR")]
     from: String,
-    /// Sonar 2 (where the masks are drawn): a preset name or a sonar TOML file.
-    #[arg(long, value_name = "SONAR")]
-    to: String,
+    /// Sonar 2 (where the masks are drawn): a preset name or a sonar TOML file. With --bag,
+    /// each ping's own sonar.
+    #[arg(
+        long,
+        value_name = "SONAR",
+        required_unless_present = "bag",
+        conflicts_with = "bag"
+    )]
+    to: Option<String>,
     #[command(flatten)]
     pose: PoseArgs,
     /// A feature measured by sonar 1: `R` (m) for a sidescan, `R,A` (m, deg) for an imaging
@@ -58,7 +64,7 @@ pub(super) struct MaskArgs {
         long,
         value_name = "R[,A]",
         allow_hyphen_values = true,
-        required_unless_present = "stream"
+        required_unless_present_any = ["stream", "bag"]
     )]
     feature: Vec<String>,
     /// Standard deviation of roll, pitch, yaw (deg): one value for all three, or three.
@@ -118,6 +124,36 @@ pub(super) struct MaskArgs {
     /// the union's runs, stay. On a GPU only the union and 20 bytes a feature are read back.
     #[arg(long, requires = "stream")]
     no_runs: bool,
+    /// Draw masks for every ping of a ROS 2 bag (MCAP): ProjectedSonarImage pings of --topic
+    /// are sonar 2, the features of --features measured by --from at each ping's stamp, the
+    /// pose from the bag's /tf_static and /tf between --from-frame and the pings' frame. Writes
+    /// --out LOG-masks.mcap: a mono8 sensor_msgs/Image per ping on TOPIC/masks.
+    #[arg(
+        long,
+        value_name = "LOG.mcap",
+        requires_all = ["features", "from_frame", "out"],
+        conflicts_with_all = ["feature", "stream", "npy", "json", "image", "no_image", "counts",
+            "roll", "pitch", "yaw", "quaternion", "matrix", "translation", "place_range",
+            "place_azimuth", "place_elevation"]
+    )]
+    bag: Option<PathBuf>,
+    /// With --bag: the topic of the pings (by default the bag's first ProjectedSonarImage topic).
+    #[arg(long, value_name = "TOPIC", requires = "bag")]
+    topic: Option<String>,
+    /// With --bag: sonar 1's frame in the bag's transforms (x forward, y left, z up).
+    #[arg(long, value_name = "FRAME", requires = "bag")]
+    from_frame: Option<String>,
+    /// With --bag: sonar 2's frame (x forward, y left, z up); by default each ping's own frame,
+    /// in the message's axes (X up, Y starboard, Z forward).
+    #[arg(long, value_name = "FRAME", requires = "bag")]
+    to_frame: Option<String>,
+    /// With --bag: the features, a CSV of `stamp` (s) or `stamp_ns`, `range` (m) and, for an
+    /// imaging sonar 1, `azimuth` (deg); a feature belongs to the ping of its stamp (within 1 µs).
+    #[arg(long, value_name = "FILE.csv", requires = "bag")]
+    features: Option<PathBuf>,
+    /// With --bag: the pings' elevation aperture (deg) when their tx_beamwidths do not give it.
+    #[arg(long, value_name = "DEG", requires = "bag")]
+    elevation: Option<f64>,
 }
 
 /// Runs `sonarproj mask`.
@@ -145,7 +181,11 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
     .map_err(|e| Error::from(e).in_context("noise (--sigma-*, --coverage)"))?;
     let noise = any_sigma.then_some(noise);
     let source = super::resolve_sonar(&a.from)?;
-    let target = super::resolve_sonar(&a.to)?;
+    if let Some(bag) = &a.bag {
+        return run_bag(&a, bag, source, noise);
+    }
+    let to = a.to.as_deref().expect("clap requires --to without --bag");
+    let target = super::resolve_sonar(to)?;
     let counts = if a.counts { Counts::Draw } else { Counts::Skip };
     let (engine, notice) = super::gpu_env::select_masks(source, target, a.backend.into(), counts)?;
     if let Some(n) = notice {
@@ -247,8 +287,9 @@ fn ping_image(a: &MaskArgs, kind: SonarKind) -> Option<PathBuf> {
         return None;
     }
     let path = a.image.clone().or_else(|| {
-        let is_file = sonarproj::Sonar::preset(&a.to).is_none();
-        let beside = std::path::Path::new(&a.to).parent()?.join("image.npy");
+        let to = a.to.as_deref()?;
+        let is_file = sonarproj::Sonar::preset(to).is_none();
+        let beside = std::path::Path::new(to).parent()?.join("image.npy");
         (is_file && kind == SonarKind::Fls && beside.is_file()).then_some(beside)
     })?;
     sonarproj_apps::report::note_input(&path);
@@ -283,4 +324,64 @@ fn print_json(
         serde_json::to_string_pretty(&out).expect("plain JSON values")
     )?;
     Ok(())
+}
+
+/// Runs `sonarproj mask --bag`: a mask image for every ping of the bag, into --out.
+fn run_bag(
+    a: &MaskArgs,
+    bag: &std::path::Path,
+    source: sonarproj::Sonar,
+    noise: Option<Noise>,
+) -> Result<()> {
+    use sonarproj_apps::io::bag_masks::{BagMasks, masks_of_bag};
+    let out = a.out.as_ref().expect("clap requires --out with --bag");
+    if out.extension().and_then(|e| e.to_str()) != Some("mcap") {
+        return Err(Error::invalid(
+            "--out",
+            out.display(),
+            "must end in .mcap with --bag",
+        ));
+    }
+    sonarproj_apps::report::check_output_file(out, "--out")?;
+    let job = BagMasks {
+        bag,
+        topic: a.topic.as_deref(),
+        elevation: a.elevation,
+        source: &source,
+        from_frame: a
+            .from_frame
+            .as_deref()
+            .expect("clap requires --from-frame with --bag"),
+        to_frame: a.to_frame.as_deref(),
+        features: a
+            .features
+            .as_deref()
+            .expect("clap requires --features with --bag"),
+        noise,
+    };
+    // The engine's notice (a CPU fallback) once, however many sonars the pings have.
+    let noticed = std::cell::Cell::new(false);
+    let engine = |target: sonarproj::Sonar| -> Result<MaskEngine> {
+        let (engine, notice) =
+            super::gpu_env::select_masks(source.clone(), target, a.backend.into(), Counts::Skip)?;
+        if let Some(n) = notice
+            && !noticed.replace(true)
+        {
+            eprintln!("{n}");
+        }
+        Ok(engine)
+    };
+    let start = Instant::now();
+    let report = masks_of_bag(&job, &engine, out)?;
+    outln!(
+        "{} pings of {:?} ({} with features, {} features drawn, {} matched no ping) in {:.2} s; wrote {} ({:?})",
+        report.pings,
+        report.topic,
+        report.pings_with_features,
+        report.features,
+        report.unmatched,
+        start.elapsed().as_secs_f64(),
+        out.display(),
+        report.masks_topic
+    )
 }
