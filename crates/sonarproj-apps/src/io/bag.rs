@@ -24,15 +24,11 @@ pub const PROJECTED_SONAR_IMAGE: &str = "marine_acoustic_msgs/msg/ProjectedSonar
 /// claiming more is refused before it is held.
 pub const MAX_BAG_RECORD_BYTES: usize = 512 << 20;
 
-/// The definition of [`PROJECTED_SONAR_IMAGE`] with the messages it uses, in the `ros2msg` form
-/// an MCAP schema holds (marine_acoustic_msgs 2.x, std_msgs, geometry_msgs, builtin_interfaces).
-pub const PROJECTED_SONAR_IMAGE_DEFINITION: &str = "\
-std_msgs/Header header
-PingInfo ping_info
-geometry_msgs/Vector3[] beam_directions
-float32[] ranges
-SonarImageData image
-================================================================================
+/// Expands to the definitions of `std_msgs/Header` and `builtin_interfaces/Time` as an MCAP
+/// schema lists the messages a message uses, each after its separator line.
+macro_rules! header_definitions {
+    () => {
+        "================================================================================
 MSG: std_msgs/Header
 builtin_interfaces/Time stamp
 string frame_id
@@ -40,7 +36,22 @@ string frame_id
 MSG: builtin_interfaces/Time
 int32 sec
 uint32 nanosec
-================================================================================
+"
+    };
+}
+pub(crate) use header_definitions;
+
+/// The definition of [`PROJECTED_SONAR_IMAGE`] with the messages it uses, in the `ros2msg` form
+/// an MCAP schema holds (marine_acoustic_msgs 2.x, std_msgs, geometry_msgs, builtin_interfaces).
+pub const PROJECTED_SONAR_IMAGE_DEFINITION: &str = concat!(
+    "std_msgs/Header header
+PingInfo ping_info
+geometry_msgs/Vector3[] beam_directions
+float32[] ranges
+SonarImageData image
+",
+    header_definitions!(),
+    "================================================================================
 MSG: marine_acoustic_msgs/PingInfo
 float32 frequency
 float32 sound_speed
@@ -67,7 +78,8 @@ uint32 DTYPE_FLOAT64=9
 uint32 dtype
 uint32 beam_count
 uint8[] data
-";
+"
+);
 
 /// `builtin_interfaces/Time`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

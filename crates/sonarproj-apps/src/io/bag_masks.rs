@@ -19,23 +19,17 @@ use crate::error::{Error, Result};
 pub const IMAGE: &str = "sensor_msgs/msg/Image";
 
 /// The definition of [`IMAGE`] with the messages it uses, as an MCAP schema holds it.
-pub const IMAGE_DEFINITION: &str = "\
-std_msgs/Header header
+pub const IMAGE_DEFINITION: &str = concat!(
+    "std_msgs/Header header
 uint32 height
 uint32 width
 string encoding
 uint8 is_bigendian
 uint32 step
 uint8[] data
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-";
+",
+    super::bag::header_definitions!()
+);
 
 /// The most features a features file may hold (10 000 000): they are held, grouped by stamp.
 pub const MAX_BAG_FEATURES: usize = 10_000_000;

@@ -25,22 +25,16 @@ pub const TF_MESSAGE: &str = "tf2_msgs/msg/TFMessage";
 pub const MAX_TF_SAMPLES: usize = 1 << 24;
 
 /// The definition of [`TF_MESSAGE`] with the messages it uses, as an MCAP schema holds it.
-pub const TF_MESSAGE_DEFINITION: &str = "\
-geometry_msgs/TransformStamped[] transforms
+pub const TF_MESSAGE_DEFINITION: &str = concat!(
+    "geometry_msgs/TransformStamped[] transforms
 ================================================================================
 MSG: geometry_msgs/TransformStamped
 std_msgs/Header header
 string child_frame_id
 Transform transform
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-================================================================================
+",
+    super::bag::header_definitions!(),
+    "================================================================================
 MSG: geometry_msgs/Transform
 Vector3 translation
 Quaternion rotation
@@ -55,7 +49,8 @@ float64 x 0
 float64 y 0
 float64 z 0
 float64 w 1
-";
+"
+);
 
 /// `geometry_msgs/Quaternion`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]

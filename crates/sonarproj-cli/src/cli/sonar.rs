@@ -111,11 +111,7 @@ fn from_bag(a: FromBagArgs) -> Result<()> {
         p.stamp_ns.div_euclid(1_000_000_000),
         p.stamp_ns.rem_euclid(1_000_000_000)
     );
-    let text = format!("{header}{}", p.sonar.to_toml());
-    write_atomic(&toml, |w| {
-        w.write_all(text.as_bytes())
-            .map_err(|e| sonarproj_apps::Error::write_output(&toml, e))
-    })?;
+    write_sonar_file(&toml, &header, &p.sonar)?;
     outln!(
         "ping {}: {} ranges × {} beams, {:.4}–{:.4} m, frame {:?}; wrote {}, {}",
         p.index,
@@ -170,11 +166,7 @@ fn from_oculus(a: FromOculusArgs) -> Result<()> {
         sonarproj_apps::io::oculus::megahertz(p.frequency),
         p.range_resolution
     );
-    let text = format!("{header}{}", p.sonar.to_toml());
-    write_atomic(&toml, |w| {
-        w.write_all(text.as_bytes())
-            .map_err(|e| sonarproj_apps::Error::write_output(&toml, e))
-    })?;
+    write_sonar_file(&toml, &header, &p.sonar)?;
     outln!(
         "ping {}: {} ranges × {} beams ({}-bit), {:.4}–{:.4} m, beams {:.2}° to {:.2}°; wrote {}, {}{}",
         a.ping,
@@ -197,4 +189,13 @@ fn from_oculus(a: FromOculusArgs) -> Result<()> {
             String::new()
         }
     )
+}
+
+/// Writes `sonar`'s file at `path`, `header` (comment lines) first.
+fn write_sonar_file(path: &std::path::Path, header: &str, sonar: &sonarproj::Sonar) -> Result<()> {
+    let text = format!("{header}{}", sonar.to_toml());
+    write_atomic(path, |w| {
+        w.write_all(text.as_bytes())
+            .map_err(|e| sonarproj_apps::Error::write_output(path, e))
+    })
 }
