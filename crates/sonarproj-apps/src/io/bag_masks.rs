@@ -31,8 +31,9 @@ uint8[] data
     super::bag::header_definitions!()
 );
 
-/// The most features a features file may hold (10 000 000): they are held, grouped by stamp.
-pub const MAX_BAG_FEATURES: usize = 10_000_000;
+/// The most features a features file may hold (1 000 000, about 50 MB): they are held, grouped
+/// by stamp.
+pub const MAX_BAG_FEATURES: usize = 1_000_000;
 
 /// A feature's stamp matches a ping's within this many nanoseconds (a microsecond: the
 /// resolution of a stamp in seconds written as a decimal).
@@ -145,11 +146,11 @@ fn read_features(path: &Path, source: &Sonar) -> Result<BTreeMap<i64, Vec<Measur
             }
             (None, Some(i)) => {
                 let s = field(i, "stamp")?;
-                #[expect(clippy::cast_possible_truncation, reason = "checked to fit below")]
-                let ns = (s * 1e9).round() as i64;
                 if s.abs() > 9e9 {
                     return Err(bad(format!("{row}: stamp = {s} s is past the year 2255")));
                 }
+                #[expect(clippy::cast_possible_truncation, reason = "within ±9e18 ns, checked above")]
+                let ns = (s * 1e9).round() as i64;
                 ns
             }
             (None, None) => unreachable!("one stamp column, checked above"),

@@ -20,9 +20,9 @@ use crate::error::{Error, Result};
 /// The schema name of the transforms read.
 pub const TF_MESSAGE: &str = "tf2_msgs/msg/TFMessage";
 
-/// The most transform samples kept from one bag (16 777 216, about 1 GiB): a longer `/tf` is
-/// refused.
-pub const MAX_TF_SAMPLES: usize = 1 << 24;
+/// The most transform samples kept from one bag (8 388 608, about 0.5 GiB: over 20 hours of
+/// ten joints at 100 Hz): a longer `/tf` is refused.
+pub const MAX_TF_SAMPLES: usize = 1 << 23;
 
 /// The definition of [`TF_MESSAGE`] with the messages it uses, as an MCAP schema holds it.
 pub const TF_MESSAGE_DEFINITION: &str = concat!(
