@@ -30,7 +30,13 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use glam::DVec3;
 use serde::Serialize;
 
-use crate::error::{Error, Result, finite};
+use crate::error::{Error, Param, Result, finite};
+
+/// The range error of the two measurements (m), as the fronts name it (`--sigma-range`,
+/// `sigma_range`).
+pub const SIGMA_RANGE: Param = Param::new("sigma_range");
+/// The azimuth error of the two measurements (deg), as the fronts name it.
+pub const SIGMA_AZIMUTH: Param = Param::new("sigma_azimuth");
 use crate::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
 use crate::geometry::sonar::{Sonar, SonarKind};
 
@@ -307,10 +313,9 @@ pub fn recover(
     if let Some(s) = sigmas {
         use crate::limits::{MAX_SIGMA_ANGLE, MAX_SIGMA_RANGE};
         for (name, v, max, unit) in [
-            ("sigma range", s.range, MAX_SIGMA_RANGE, "m"),
-            ("sigma azimuth", s.azimuth, MAX_SIGMA_ANGLE, "deg"),
+            (SIGMA_RANGE, s.range, MAX_SIGMA_RANGE, "m"),
+            (SIGMA_AZIMUTH, s.azimuth, MAX_SIGMA_ANGLE, "deg"),
         ] {
-            finite(name, v)?;
             if !(0.0..=max).contains(&v) {
                 return Err(Error::invalid(name, v, format!("must be in [0, {max}] {unit}")));
             }

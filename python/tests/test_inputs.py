@@ -88,7 +88,7 @@ def batch(cols, **kw):
     (lambda: sonarproj.masks("paper-sss", "paper-fls", Pose(), [4.0], covariance=np.triu(np.ones((6, 6)))), ["covariance", "symmetric"]),
     (lambda: sonarproj.masks("paper-sss", "paper-fls", Pose(), [4.0], covariance=-np.eye(6)), ["covariance", "negative eigenvalue"]),
     (lambda: sonarproj.recover("paper-fls", "paper-sss", Pose(), (5.0, 0.0), (5.0, 1.0)), ["second_obs", "no azimuth"]),
-    (lambda: sonarproj.recover("paper-fls", "paper-sss", Pose(), (5.0, 0.0), 5.0, sigma_range=-1), ["sigma range", "-1"]),
+    (lambda: sonarproj.recover("paper-fls", "paper-sss", Pose(), (5.0, 0.0), 5.0, sigma_range=-1), ["sigma_range = -1"]),
     (lambda: sonarproj.recover_many("paper-fls", "paper-sss", Pose(), {"first_range": [1.0], "second_range": [1.0]}), ["missing column", "first_azimuth"]),
     (lambda: sonarproj.recover_many("paper-fls", "paper-sss", Pose(), {"first_range": [1.0, 2.0], "first_azimuth": [0.0], "second_range": [1.0, 2.0]}), ["different lengths", "first_range: 2", "first_azimuth: 1"]),
     (lambda: sonarproj.sweep("/nonexistent/sweep.toml", "/tmp/x"), ["/nonexistent/sweep.toml"]),

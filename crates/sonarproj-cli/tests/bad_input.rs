@@ -323,7 +323,7 @@ fn parameters_whose_results_would_overflow_are_refused_naming_the_largest() {
             "0.1",
         ],
         None,
-        &["sigma range = 1e308", "[0, 1000000] m"],
+        &["--sigma-range = 1e308", "[0, 1000000] m"],
     );
     // An advise file's mix scales: a denormal one would make the score infinite.
     let config = dir.path().join("mix.toml");
@@ -484,7 +484,7 @@ fn bad_recover_input_exits_2() {
         (&["--first", "5,x", "--second", "5"], &["--first", "\"x\""]),
         (
             &["--first", "5,0", "--second", "5", "--sigma-range", "-1"],
-            &["sigma range = -1"],
+            &["--sigma-range = -1"],
         ),
         (
             &["--first", "5,0", "--second", "5", "--curve-step", "0"],

@@ -21,6 +21,8 @@ pub(crate) fn name(param: Param) -> String {
         p if p == params::ANGLE_STEP => "--angle-step",
         p if p == params::OCCUPANCY => "--occupancy",
         p if p == params::FEATURE => "--feature",
+        p if p == sonarproj::recovery::SIGMA_RANGE => "--sigma-range",
+        p if p == sonarproj::recovery::SIGMA_AZIMUTH => "--sigma-azimuth",
         other => other.name(),
     };
     name.to_string()
