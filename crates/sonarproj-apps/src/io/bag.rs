@@ -315,7 +315,7 @@ impl BagPings {
                     .fold(f32::NAN, f32::max);
                 if !(widest.is_finite() && widest > 0.0) {
                     return Err(bad(
-                        "ping_info.tx_beamwidths gives no elevation aperture: give it (--elevation DEG)"
+                        "ping_info.tx_beamwidths gives no elevation aperture: give it (--elevation DEG, or elevation= from Python)"
                             .into(),
                     ));
                 }
