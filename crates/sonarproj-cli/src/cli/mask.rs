@@ -85,7 +85,8 @@ pub(super) struct MaskArgs {
     /// Write a PNG for a person, near range at the bottom and port on the left. An FLS target
     /// shows the fan seen from above (+azimuth, port, to the left) beside the raw range × beam
     /// layout (beam 0, starboard-most, at the right). An SSS target shows one vertical range strip
-    /// per feature and their union. One colour per feature.
+    /// per feature and their union. One colour per feature. With --bag: the MCAP of the masks
+    /// (FILE.mcap).
     #[arg(long, value_name = "FILE.png")]
     out: Option<PathBuf>,
     /// Draw the --out picture over this image of sonar 2 (NPY, range bins × beams, row 0 the
