@@ -300,41 +300,53 @@ fn bad_bags_are_refused_naming_what_is_wrong() {
     assert!(e.contains("elevation") && e.contains("(0, 180)"), "{e}");
 }
 
+/// Returns the transform message of `child` in `parent` at `ns`: rotation `q`, translation `t`.
+fn stamped(
+    parent: &str,
+    child: &str,
+    ns: i64,
+    q: glam::DQuat,
+    t: [f64; 3],
+) -> sonarproj_apps::io::tf::TransformStamped {
+    use sonarproj_apps::io::bag::Vector3;
+    use sonarproj_apps::io::tf::{Quaternion, Transform, TransformStamped};
+    TransformStamped {
+        header: Header {
+            stamp: Time {
+                sec: (ns / 1_000_000_000) as i32,
+                nanosec: (ns % 1_000_000_000) as u32,
+            },
+            frame_id: parent.into(),
+        },
+        child_frame_id: child.into(),
+        transform: Transform {
+            translation: Vector3 {
+                x: t[0],
+                y: t[1],
+                z: t[2],
+            },
+            rotation: Quaternion {
+                x: q.x,
+                y: q.y,
+                z: q.z,
+                w: q.w,
+            },
+        },
+    }
+}
+
 mod tf {
     use super::*;
     use glam::{DMat3, DMat4, DQuat, DVec3};
-    use sonarproj_apps::io::bag::Vector3;
     use sonarproj_apps::io::tf::{
-        Axes, Frames, Quaternion, TF_MESSAGE, TF_MESSAGE_DEFINITION, TfMessage, Transform, TransformStamped,
+        Axes, Frames, TF_MESSAGE, TF_MESSAGE_DEFINITION, TfMessage, TransformStamped,
     };
 
     /// Returns the transform message of `child` in `parent` at `ns`: rotation about z by
     /// `yaw` then y by `pitch` (deg), and translation `t`.
     fn link(parent: &str, child: &str, ns: i64, yaw: f64, pitch: f64, t: [f64; 3]) -> TransformStamped {
         let q = DQuat::from_rotation_z(yaw.to_radians()) * DQuat::from_rotation_y(pitch.to_radians());
-        TransformStamped {
-            header: Header {
-                stamp: Time {
-                    sec: (ns / 1_000_000_000) as i32,
-                    nanosec: (ns % 1_000_000_000) as u32,
-                },
-                frame_id: parent.into(),
-            },
-            child_frame_id: child.into(),
-            transform: Transform {
-                translation: Vector3 {
-                    x: t[0],
-                    y: t[1],
-                    z: t[2],
-                },
-                rotation: Quaternion {
-                    x: q.x,
-                    y: q.y,
-                    z: q.z,
-                    w: q.w,
-                },
-            },
-        }
+        super::stamped(parent, child, ns, q, t)
     }
 
     /// The homogeneous matrix of the same transform, built from rotation matrices.
@@ -497,11 +509,9 @@ mod masks {
     use glam::{DMat3, DQuat, DVec3};
     use sonarproj::masks::MaskEngine;
     use sonarproj::{Measurement, RelativePose, Rotation};
-    use sonarproj_apps::io::bag::{Vector3, from_cdr};
+    use sonarproj_apps::io::bag::from_cdr;
     use sonarproj_apps::io::bag_masks::{BagMasks, IMAGE, Image, masks_of_bag};
-    use sonarproj_apps::io::tf::{
-        Quaternion, TF_MESSAGE, TF_MESSAGE_DEFINITION, TfMessage, Transform, TransformStamped,
-    };
+    use sonarproj_apps::io::tf::{TF_MESSAGE, TF_MESSAGE_DEFINITION, TfMessage, TransformStamped};
 
     /// The message's axes in this project's (and REP 103's): X up, Y starboard, Z forward.
     fn image_axes() -> DMat3 {
@@ -509,27 +519,7 @@ mod masks {
     }
 
     fn transform(parent: &str, child: &str, r: DMat3, t: [f64; 3]) -> TransformStamped {
-        let q = DQuat::from_mat3(&r);
-        TransformStamped {
-            header: Header {
-                stamp: Time::default(),
-                frame_id: parent.into(),
-            },
-            child_frame_id: child.into(),
-            transform: Transform {
-                translation: Vector3 {
-                    x: t[0],
-                    y: t[1],
-                    z: t[2],
-                },
-                rotation: Quaternion {
-                    x: q.x,
-                    y: q.y,
-                    z: q.z,
-                    w: q.w,
-                },
-            },
-        }
+        super::stamped(parent, child, 0, DQuat::from_mat3(&r), t)
     }
 
     /// A ping of a 32-beam, ±30° sonar with 10 cm bins from 1 m to 10 m, at `sec` s + 0.25 s.

@@ -157,10 +157,10 @@ pub(super) struct MaskArgs {
     elevation: Option<f64>,
 }
 
-/// Runs `sonarproj mask`.
-pub(super) fn run(a: MaskArgs) -> Result<()> {
-    // Check the noise by Noise's own rules before anything is built, even without a sigma: a
-    // coverage that means nothing is still a mistake.
+/// Returns the noise the --sigma-* options and --coverage give, or `None` without a sigma.
+/// The noise is checked by its own rules even without a sigma: a coverage that means nothing is
+/// still a mistake.
+fn noise_of(a: &MaskArgs) -> Result<Option<Noise>> {
     let any_sigma = a.sigma_rotation.is_some()
         || a.sigma_translation.is_some()
         || a.sigma_range.is_some()
@@ -180,7 +180,13 @@ pub(super) fn run(a: MaskArgs) -> Result<()> {
     }
     .validated()
     .map_err(|e| Error::from(e).in_context("noise (--sigma-*, --coverage)"))?;
-    let noise = any_sigma.then_some(noise);
+    Ok(any_sigma.then_some(noise))
+}
+
+/// Runs `sonarproj mask`.
+pub(super) fn run(a: MaskArgs) -> Result<()> {
+    // Checked before anything is built.
+    let noise = noise_of(&a)?;
     let source = super::resolve_sonar(&a.from)?;
     if let Some(bag) = &a.bag {
         return run_bag(&a, bag, source, noise);
