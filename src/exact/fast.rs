@@ -64,25 +64,50 @@ pub(crate) struct Keep {
     pub(crate) cells: bool,
 }
 
-/// Sonar 2's bounds as the solver tests them, and sonar 1's elevation interval, set once per batch.
-pub(crate) struct Solver<'l> {
-    layout: &'l Layout,
+/// Sonar 2's bounds as the solver tests them, and sonar 1's elevation interval: the constants the
+/// fast twin and the GPU's exact stage (`shaders/exact.wgsl`) share, set once per batch.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SolverConstants {
     /// `range_min²` (0 without a minimum range) and `range_max²`.
-    r2_min: f64,
-    r2_max: f64,
+    pub(crate) r2_min: f64,
+    pub(crate) r2_max: f64,
     /// `(sin h, cos h)` of the half azimuth aperture `h`, when it clips (`h < π`).
-    azimuth: Option<(f64, f64)>,
+    pub(crate) azimuth: Option<(f64, f64)>,
     /// `sin² e` of the half elevation aperture `e`, when it clips (`e < π/2`).
-    elevation: Option<f64>,
+    pub(crate) elevation: Option<f64>,
     /// Sonar 1's half elevation aperture `H`, `tan(H/2)`, `cos H`, `sin H`.
-    half: f64,
-    end: f64,
-    cos_half: f64,
-    sin_half: f64,
+    pub(crate) half: f64,
+    pub(crate) end: f64,
+    pub(crate) cos_half: f64,
+    pub(crate) sin_half: f64,
     /// Whether the field of view reaches behind sonar 2 (`x ≤ 0`: a half azimuth aperture of
     /// π/2 or more). Only then can a visible piece cross the `y = 0` plane behind, where the
     /// azimuth jumps, so only then are pieces cut at the axis planes, as the reference cuts them.
-    behind: bool,
+    pub(crate) behind: bool,
+}
+
+impl SolverConstants {
+    /// Returns the constants of arcs of a sonar 1 whose half elevation aperture is `half` (rad)
+    /// into `layout`.
+    pub(crate) fn new(layout: &Layout, half: f64) -> Self {
+        SolverConstants {
+            behind: layout.half_azimuth >= FRAC_PI_2,
+            r2_min: layout.range_min.powi(2),
+            r2_max: layout.range_max.powi(2),
+            azimuth: (layout.half_azimuth < PI).then(|| layout.half_azimuth.sin_cos()),
+            elevation: (layout.half_elevation < FRAC_PI_2).then(|| layout.half_elevation.sin().powi(2)),
+            half,
+            end: (half / 2.0).tan(),
+            cos_half: half.cos(),
+            sin_half: half.sin(),
+        }
+    }
+}
+
+/// The fast twin's solver: the constants, sonar 2's beam edges and what the caller keeps.
+pub(crate) struct Solver<'l> {
+    layout: &'l Layout,
+    k: SolverConstants,
     /// `(sin, cos)` of each beam edge, for more than one beam.
     edges: Vec<(f64, f64)>,
     /// For a sidescan, whose bins all measure their width: the sums of 0, 1, 2, … widths added one
@@ -300,16 +325,8 @@ impl<'l> Solver<'l> {
         });
         Solver {
             layout,
+            k: SolverConstants::new(layout, half),
             bin_sums,
-            behind: layout.half_azimuth >= FRAC_PI_2,
-            r2_min: layout.range_min.powi(2),
-            r2_max: layout.range_max.powi(2),
-            azimuth: (layout.half_azimuth < PI).then(|| layout.half_azimuth.sin_cos()),
-            elevation: (layout.half_elevation < FRAC_PI_2).then(|| layout.half_elevation.sin().powi(2)),
-            half,
-            end: (half / 2.0).tan(),
-            cos_half: half.cos(),
-            sin_half: half.sin(),
             edges,
             keep,
         }
@@ -318,11 +335,15 @@ impl<'l> Solver<'l> {
     /// Returns the least and the largest value of `a + b cos φ + c sin φ` over `[−H, H]`.
     fn bounds(&self, a: f64, b: f64, c: f64) -> (f64, f64) {
         let m = (b * b + c * c).sqrt();
-        let e0 = a + b * self.cos_half - c * self.sin_half;
-        let e1 = a + b * self.cos_half + c * self.sin_half;
+        let e0 = a + b * self.k.cos_half - c * self.k.sin_half;
+        let e1 = a + b * self.k.cos_half + c * self.k.sin_half;
         // The largest value sits at the direction (b, c)/m, the least at its opposite.
-        let hi = if b >= m * self.cos_half { a + m } else { e0.max(e1) };
-        let lo = if -b >= m * self.cos_half {
+        let hi = if b >= m * self.k.cos_half {
+            a + m
+        } else {
+            e0.max(e1)
+        };
+        let lo = if -b >= m * self.k.cos_half {
             a - m
         } else {
             e0.min(e1)
@@ -343,12 +364,12 @@ impl<'l> Solver<'l> {
         let q = arc.u * (1.0 - s * s) + arc.w * (2.0 * s) + arc.t * k;
         let (r2, k2) = (q.length_squared(), k * k);
         // Each bound as (value, scale of its terms): held where the value is ≥ 0.
-        let (lo, hi) = (self.r2_min * k2, self.r2_max * k2);
+        let (lo, hi) = (self.k.r2_min * k2, self.k.r2_max * k2);
         let mut bounds = [(r2 - lo, r2 + lo), (hi - r2, hi + r2), (1.0, 1.0), (1.0, 1.0)];
-        if let Some((sh, ch)) = self.azimuth {
+        if let Some((sh, ch)) = self.k.azimuth {
             bounds[2] = (q.x * sh - q.y.abs() * ch, q.x.abs() + q.y.abs());
         }
-        if let Some(se2) = self.elevation {
+        if let Some(se2) = self.k.elevation {
             let z2 = q.z * q.z;
             bounds[3] = (r2 * se2 - z2, r2 * se2 + z2);
         }
@@ -388,16 +409,16 @@ impl<'l> Solver<'l> {
         let (a, b, c) = arc.range_sq();
         let (r2_lo, r2_hi) = self.bounds(a, b, c);
         let scale = a.abs() + (b * b + c * c).sqrt();
-        if below(r2_hi - self.r2_min, scale) || above(r2_lo - self.r2_max, scale) || r2_hi <= 0.0 {
+        if below(r2_hi - self.k.r2_min, scale) || above(r2_lo - self.k.r2_max, scale) || r2_hi <= 0.0 {
             return None;
         }
         let mut screen = Screen {
-            range_min: self.r2_min > 0.0 && !above(r2_lo - self.r2_min, scale),
-            range_max: !below(r2_hi - self.r2_max, scale),
+            range_min: self.k.r2_min > 0.0 && !above(r2_lo - self.k.r2_min, scale),
+            range_max: !below(r2_hi - self.k.r2_max, scale),
             sides: [false; 2],
             elevation: false,
         };
-        if let Some((sh, ch)) = self.azimuth {
+        if let Some((sh, ch)) = self.k.azimuth {
             let (x, y) = (arc.coord(0), arc.coord(1));
             let mut missed = [false; 2];
             for (k, side) in [1.0, -1.0].into_iter().enumerate() {
@@ -418,7 +439,7 @@ impl<'l> Solver<'l> {
                 return None;
             }
         }
-        if let Some(se2) = self.elevation {
+        if let Some(se2) = self.k.elevation {
             let (za, zb, zc) = arc.coord(2);
             let (z_lo, z_hi) = self.bounds(za, zb, zc);
             let z2_max = z_lo.powi(2).max(z_hi.powi(2));
@@ -440,15 +461,15 @@ impl<'l> Solver<'l> {
     /// Returns the elevations (as `s`) where the arc may enter or leave the field of view, or
     /// cross sonar 2's `x = 0` or `y = 0` plane, with both ends; sorted, without repeats.
     fn cuts(&self, arc: &Arc, screen: Screen) -> List {
-        let (lo, hi) = (-self.end, self.end);
+        let (lo, hi) = (-self.k.end, self.k.end);
         let mut cuts = List::default();
         cuts.push(lo);
         let (a, b, c) = arc.range_sq();
         if screen.range_min {
-            quadratic_roots(quadratic(a - self.r2_min, b, c), lo, hi, &mut cuts);
+            quadratic_roots(quadratic(a - self.k.r2_min, b, c), lo, hi, &mut cuts);
         }
         if screen.range_max {
-            quadratic_roots(quadratic(a - self.r2_max, b, c), lo, hi, &mut cuts);
+            quadratic_roots(quadratic(a - self.k.r2_max, b, c), lo, hi, &mut cuts);
         }
         let (x, y, z) = (arc.coord(0), arc.coord(1), arc.coord(2));
         let (qx, qy, qz) = (
@@ -456,11 +477,11 @@ impl<'l> Solver<'l> {
             quadratic(y.0, y.1, y.2),
             quadratic(z.0, z.1, z.2),
         );
-        if self.behind {
+        if self.k.behind {
             quadratic_roots(qx, lo, hi, &mut cuts);
             quadratic_roots(qy, lo, hi, &mut cuts);
         }
-        if let Some((sh, ch)) = self.azimuth {
+        if let Some((sh, ch)) = self.k.azimuth {
             for (k, side) in [1.0, -1.0].into_iter().enumerate() {
                 if screen.sides[k] {
                     let f = |k: usize| qx[k] * sh - side * qy[k] * ch;
@@ -468,7 +489,7 @@ impl<'l> Solver<'l> {
                 }
             }
         }
-        if let (Some(se2), true) = (self.elevation, screen.elevation) {
+        if let (Some(se2), true) = (self.k.elevation, screen.elevation) {
             // (1 + s²)² (r² sin² e − z²) = sin² e (1 + s²) R(s) − Z(s)², R and Z the quadratics
             // of r² and z.
             let r = quadratic(a, b, c);
@@ -492,7 +513,7 @@ impl<'l> Solver<'l> {
     /// Returns the stationary points (as `s`) of the range and, when `azimuths`, of the azimuth,
     /// over the whole arc.
     fn stationary(&self, arc: &Arc, azimuths: bool) -> List<4> {
-        let (lo, hi) = (-self.end, self.end);
+        let (lo, hi) = (-self.k.end, self.k.end);
         let mut out = List::default();
         let mut add = |c: [f64; 3]| {
             // Unpolished: a stationary point off by δ moves its value by δ² only.
@@ -549,7 +570,7 @@ impl<'l> Solver<'l> {
                 }
                 None => Some([a, b]),
             };
-            let side = if azimuths && self.behind {
+            let side = if azimuths && self.k.behind {
                 Self::side_of(arc, a, b)
             } else {
                 0.0
@@ -594,9 +615,9 @@ impl<'l> Solver<'l> {
         let fraction = match run {
             None => return Metrics::exact(0.0, Extremes::default(), (0, 0.0)),
             // The whole arc: 1, not its rounding through atan.
-            Some([s, e]) if (s == -self.end && e == self.end) || !self.keep.fraction => 1.0,
+            Some([s, e]) if (s == -self.k.end && e == self.k.end) || !self.keep.fraction => 1.0,
             // φ = 2 atan s: each run's length over the arc's 2H.
-            Some([s, e]) => ((length + arc_angle(s, e)) / self.half).min(1.0),
+            Some([s, e]) => ((length + arc_angle(s, e)) / self.k.half).min(1.0),
         };
         let summary = self.count_cells(cells, occupancy, beams);
         Metrics::exact(fraction, extremes, summary)

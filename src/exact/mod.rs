@@ -36,7 +36,7 @@
 mod fast;
 mod roots;
 
-pub(crate) use fast::{project as project_fast, project_grid};
+pub(crate) use fast::{SolverConstants, project as project_fast, project_grid};
 
 use std::f64::consts::{FRAC_PI_2, PI};
 

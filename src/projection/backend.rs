@@ -236,10 +236,11 @@ impl Backend {
         let prepared = batch.prepare()?;
         stop.check()?;
         let mut projected = match self {
-            // Exact mode runs on the CPU: the reference's solver on one core, its fast twin on
-            // every core for the fast path and the GPU backend alike.
+            // Exact mode: the reference's solver on one core, its fast twin on every core, and the
+            // GPU's exact stage where the device has f64 (else the fast twin).
             _ if prepared.is_exact() => match self {
                 Backend::Cpu => crate::exact::project(&prepared, output, false, stop),
+                Backend::Gpu(g) if g.solves_exact() => Some(g.project(&prepared, output)?),
                 _ => crate::exact::project_fast(&prepared, output, stop),
             }
             .ok_or(Error::Stopped)?,
@@ -286,17 +287,19 @@ impl Backend {
                 format!("must lie within the sweep's {n} poses"),
             ));
         }
-        // Exact mode on a grid: the fast twin decodes the poses on the CPU's cores (the GPU
-        // backend too); the reference takes the items path.
-        if let (PoseSource::Grid(grid), true, false) = (
-            sweep.poses,
-            sweep.sampling == Sampling::Exact,
-            matches!(self, Backend::Cpu),
-        ) {
-            let prepared = sweep.prepare_grid(grid)?;
-            return crate::exact::project_grid(&prepared, range, out, stop).ok_or(Error::Stopped);
+        // Exact mode on a grid: the fast twin decodes the poses on the CPU's cores, the GPU's
+        // poses stage on the device (as sampled); the reference takes the items path.
+        if let (PoseSource::Grid(grid), true) = (sweep.poses, sweep.sampling == Sampling::Exact) {
+            match self {
+                Backend::Gpu(g) if g.solves_exact() => {}
+                Backend::Gpu(_) | Backend::CpuFast => {
+                    let prepared = sweep.prepare_grid(grid)?;
+                    return crate::exact::project_grid(&prepared, range, out, stop).ok_or(Error::Stopped);
+                }
+                Backend::Cpu => {}
+            }
         }
-        if let (PoseSource::Grid(grid), false) = (sweep.poses, sweep.sampling == Sampling::Exact) {
+        if let PoseSource::Grid(grid) = sweep.poses {
             match self {
                 Backend::CpuFast => {
                     let prepared = sweep.prepare_grid(grid)?;
@@ -364,8 +367,8 @@ impl Backend {
         if blocks.is_empty() {
             return Ok(Flow::Continue(()));
         }
-        if let (Backend::Gpu(g), PoseSource::Grid(grid), false) =
-            (self, sweep.poses, sweep.sampling == Sampling::Exact)
+        if let (Backend::Gpu(g), PoseSource::Grid(grid)) = (self, sweep.poses)
+            && (sweep.sampling != Sampling::Exact || g.solves_exact())
         {
             let prepared = sweep.prepare_grid(grid)?;
             if stop.is_set() {

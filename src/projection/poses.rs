@@ -437,6 +437,7 @@ impl PoseSweep<'_> {
         }
         Ok(PreparedGrid {
             grid,
+            exact: self.sampling == Sampling::Exact,
             plans: plans
                 .into_iter()
                 .map(|(n_az, n_el)| SamplingPlan::with_counts(&self.source, n_az, n_el))
@@ -453,6 +454,8 @@ impl PoseSweep<'_> {
 /// each feature range.
 pub(crate) struct PreparedGrid<'a> {
     pub(crate) grid: &'a PoseGrid,
+    /// Whether the grid's arcs are solved exactly ([`Sampling::Exact`]): its plans are then unused.
+    pub(crate) exact: bool,
     pub(crate) source: Sonar,
     pub(crate) layout: Layout,
     pub(crate) plans: Vec<SamplingPlan>,

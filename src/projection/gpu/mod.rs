@@ -62,6 +62,9 @@ pub(crate) const POSES_BINDINGS: [Binding; 4] =
 /// Threads a workgroup of the poses stage (one pose each).
 pub(crate) const POSES_WORKGROUP: u64 = 64;
 
+/// Threads a workgroup of the exact stage (one pose each) on a hardware GPU.
+pub(crate) const EXACT_WORKGROUP: u32 = 64;
+
 /// Most workgroups one pose's samples are spread over in the splat stage.
 const MAX_TILES: u64 = 1024;
 /// Most bytes one chunk's largest buffer (its bitsets, or its poses) may hold. The device's binding
@@ -139,6 +142,8 @@ impl SplatOptions {
 pub struct GpuBackend {
     ctx: GpuContext,
     splat: Stage,
+    /// The exact stage, built on first use (f64 devices only).
+    exact: std::sync::OnceLock<Stage>,
     reduce: Stage,
     poses: Stage,
     options: SplatOptions,
@@ -189,6 +194,7 @@ impl GpuBackend {
         Ok(GpuBackend {
             ctx,
             splat,
+            exact: std::sync::OnceLock::new(),
             reduce,
             poses,
             options,
@@ -202,6 +208,39 @@ impl GpuBackend {
     #[must_use]
     pub fn context(&self) -> &GpuContext {
         &self.ctx
+    }
+
+    /// Returns whether this device solves exact calls (`--step exact`) itself: it needs f64 in
+    /// shaders ([`Precision::F64`](crate::gpu::Precision::F64)). Where it does not, the backend
+    /// runs the fast CPU twin for them.
+    #[must_use]
+    pub fn solves_exact(&self) -> bool {
+        self.ctx.precision() == crate::gpu::Precision::F64
+    }
+
+    /// Returns the threads a workgroup of the exact stage: [`EXACT_WORKGROUP`], or one on a
+    /// software adapter (see `shaders/exact.wgsl`).
+    fn exact_workgroup(&self) -> u32 {
+        if self.ctx.is_software() {
+            1
+        } else {
+            EXACT_WORKGROUP
+        }
+    }
+
+    /// Returns the exact stage, building it on first use.
+    fn exact_stage(&self) -> Result<&Stage> {
+        if let Some(stage) = self.exact.get() {
+            return Ok(stage);
+        }
+        let stage = Stage::with_constants(
+            self.ctx.device(),
+            "exact",
+            &source::exact(),
+            &SPLAT_BINDINGS,
+            &[("WORKGROUP", f64::from(self.exact_workgroup()))],
+        )?;
+        Ok(self.exact.get_or_init(|| stage))
     }
 
     /// Starts (clearing the sum) or stops timing this backend's compute passes on the device's
@@ -476,7 +515,7 @@ impl GpuBackend {
             };
             directions = Some(self.directions_for(pool, &shape, &chunk, directions, limit));
             let directions = directions.as_ref().expect("set above");
-            let index = self.submit_chunk(pool, &shape, &tables, &slots, directions, &chunk);
+            let index = self.submit_chunk(pool, &shape, &tables, &slots, directions, &chunk)?;
             // While the device projects this chunk, the one before is read back and handed out.
             let before = in_flight.replace(InFlight {
                 slot: chunk.slot,
@@ -552,6 +591,7 @@ impl GpuBackend {
                 pixel_words: types::pixel_words(shape.layout),
                 start: chunk.start,
                 count: chunk.count,
+                exact: shape.source.exact_half().is_some(),
             });
             if timed {
                 self.clock.add(Timed::Unpack, unpacking.elapsed());

@@ -10,13 +10,14 @@ use crate::occupancy::Layout;
 use crate::sampling::SamplingPlan;
 
 use super::Source;
-use super::tables::direction_table;
+use super::tables::{direction_table, exact_table};
 use super::types::{ALL_SLOTS, GridParams, METRIC_STRIDE, PoseGpu, Slots, TargetParams};
 
 /// The pool's names of one slot's buffers and bind groups.
 pub(super) struct SlotLabels {
     pub(super) poses_group: &'static str,
     pub(super) splat_group: &'static str,
+    pub(super) exact_group: &'static str,
     pub(super) reduce_group: &'static str,
     params: &'static str,
     grid_params: &'static str,
@@ -32,6 +33,7 @@ pub(super) const SLOT_LABELS: [SlotLabels; 2] = [
     SlotLabels {
         poses_group: "poses stage 0",
         splat_group: "splat stage 0",
+        exact_group: "exact stage 0",
         reduce_group: "reduce stage 0",
         params: "params 0",
         grid_params: "grid_params 0",
@@ -44,6 +46,7 @@ pub(super) const SLOT_LABELS: [SlotLabels; 2] = [
     SlotLabels {
         poses_group: "poses stage 1",
         splat_group: "splat stage 1",
+        exact_group: "exact stage 1",
         reduce_group: "reduce stage 1",
         params: "params 1",
         grid_params: "grid_params 1",
@@ -169,7 +172,8 @@ impl Shape<'_> {
 }
 
 /// The direction table uploaded for a chunk: which plans it holds, the buffer, and per plan the
-/// offsets of its azimuth and elevation entries.
+/// offsets of its azimuth and elevation entries. An exact call's table holds the exact stage's
+/// constants instead, and no plan.
 pub(super) struct Directions {
     pub(super) plans: Vec<usize>,
     pub(super) buffer: wgpu::Buffer,
@@ -195,7 +199,11 @@ impl Directions {
     ) -> Directions {
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         let plans = source.plans();
-        let (table, offsets) = direction_table(plans, &used);
+        // An exact call has no plans: the table holds the exact stage's constants.
+        let (table, offsets) = match source.exact_half() {
+            Some(half) => (exact_table(source.layout(), half), HashMap::new()),
+            None => direction_table(plans, &used),
+        };
         let bytes: &[u8] = bytemuck::cast_slice(&table);
         let buffer = pool.get(ctx.device(), "directions", bytes.len() as u64, limit, storage);
         ctx.queue().write_buffer(&buffer, 0, bytes);

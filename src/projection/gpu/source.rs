@@ -1,4 +1,4 @@
-//! The WGSL sources of the projection's three stages. WGSL has no includes, so each stage is
+//! The WGSL sources of the projection's stages (poses, splat or exact, reduce). WGSL has no includes, so each stage is
 //! assembled here from its parts, each part after the ones it reads:
 //!
 //! 1. the metric slots, generated from the metric table;
@@ -6,7 +6,8 @@
 //! 3. the shared structs (`shaders/shared/types.wgsl`);
 //! 4. the `Real` arithmetic of the device's precision (`shaders/shared/real_*.wgsl`);
 //! 5. the splat stage's decisions (`shaders/shared/clip.wgsl`, twin of `src/clip.rs`);
-//! 6. the stage itself.
+//! 6. for the exact stage, its roots and `atan` in f64 (`shaders/shared/roots_f64.wgsl`);
+//! 7. the stage itself.
 //!
 //! The WGSL lives in the package (`shaders/`), so `cargo package` ships it.
 
@@ -75,6 +76,21 @@ pub(crate) fn splat(precision: Precision) -> String {
         clip_constants(),
         real(precision),
         include_str!("../../../shaders/splat.wgsl")
+    )
+}
+
+/// The exact stage's root finding and `atan` in f64 (`shaders/shared/roots_f64.wgsl`).
+const ROOTS: &str = include_str!("../../../shaders/shared/roots_f64.wgsl");
+
+/// Returns the full source of the exact stage (`shaders/exact.wgsl`). It needs f64: the splat
+/// stage's decisions (`clip.wgsl`) take `Real` as f64, and the roots are f64's.
+pub(crate) fn exact() -> String {
+    format!(
+        "{}{}\n{SHARED}\n{}\n{CLIP}\n{ROOTS}\n{}",
+        metric_slots(),
+        clip_constants(),
+        real(Precision::F64),
+        include_str!("../../../shaders/exact.wgsl")
     )
 }
 

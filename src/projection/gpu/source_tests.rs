@@ -7,7 +7,7 @@
 
 use std::mem::offset_of;
 
-use super::{poses, reduce, splat};
+use super::{exact, poses, reduce, splat};
 use crate::gpu::Precision;
 use crate::gpu::wgsl_checks::{constant, interface, module, struct_size, validate_without_f64, wgsl_members};
 use crate::projection::gpu::types::{self, BeamEdgeGpu, GridParams, PoseGpu, TargetParams};
@@ -17,6 +17,7 @@ fn all() -> Vec<(&'static str, String, bool)> {
     vec![
         ("splat (f64)", splat(Precision::F64), true),
         ("splat (double-f32)", splat(Precision::DoubleF32), false),
+        ("exact", exact(), true),
         ("reduce", reduce(), false),
         ("poses (f64)", poses(Precision::F64), true),
         ("poses (double-f32)", poses(Precision::DoubleF32), false),
@@ -188,6 +189,14 @@ fn binding_tables_and_workgroup_sizes_match_the_wgsl() {
         assert_eq!(b, SPLAT_BINDINGS, "splat.wgsl bindings");
         assert_eq!(w, SPLAT_WORKGROUP, "splat.wgsl workgroup size");
     }
+    // The exact stage binds what the splat stage binds, one pose a thread.
+    let (b, w) = interface(&module(&exact(), "exact"));
+    assert_eq!(b, SPLAT_BINDINGS, "exact.wgsl bindings");
+    assert_eq!(
+        w,
+        crate::projection::gpu::EXACT_WORKGROUP,
+        "exact.wgsl workgroup size"
+    );
     for precision in [Precision::F64, Precision::DoubleF32] {
         let (b, w) = interface(&module(&poses(precision), "poses"));
         assert_eq!(b, POSES_BINDINGS, "poses.wgsl bindings");
@@ -229,10 +238,42 @@ fn no_part_reads_a_name_declared_after_it() {
     ]);
     crate::gpu::wgsl_checks::assert_declared_before_use(&[
         ("metric slots", super::metric_slots()),
+        ("clip constants", super::clip_constants()),
+        ("types.wgsl", super::SHARED.to_string()),
+        ("real", super::real(Precision::F64).to_string()),
+        ("clip.wgsl", super::CLIP.to_string()),
+        ("roots_f64.wgsl", super::ROOTS.to_string()),
+        (
+            "exact.wgsl",
+            include_str!("../../../shaders/exact.wgsl").to_string(),
+        ),
+    ]);
+    crate::gpu::wgsl_checks::assert_declared_before_use(&[
+        ("metric slots", super::metric_slots()),
         ("types.wgsl", super::SHARED.to_string()),
         (
             "reduce.wgsl",
             include_str!("../../../shaders/reduce.wgsl").to_string(),
         ),
     ]);
+}
+
+/// The exact stage takes its pipeline constant: wgpu rebuilds the module with it through naga,
+/// which refused constructs the plain validation accepts (a constant array in `atan_f64`).
+#[test]
+fn the_exact_stage_takes_its_workgroup_size() {
+    let m = module(&exact(), "exact");
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::FLOAT64,
+    )
+    .validate(&m)
+    .unwrap();
+    for threads in [1.0, 64.0] {
+        let mut constants = naga::back::PipelineConstants::default();
+        constants.insert("WORKGROUP".to_string(), threads);
+        if let Err(e) = naga::back::pipeline_constants::process_overrides(&m, &info, None, &constants) {
+            panic!("WORKGROUP = {threads}: {e:#?}");
+        }
+    }
 }

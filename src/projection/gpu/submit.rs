@@ -86,8 +86,11 @@ impl GpuBackend {
     }
 
     /// Puts `chunk` on the device in its slot and returns its submission. The submission holds its
-    /// poses, sonar 2's parameters for its pose count, the passes (poses for a grid, splat, reduce)
-    /// with the buffers cleared first, and the copies of what is read back.
+    /// poses, sonar 2's parameters for its pose count, the passes (poses for a grid, splat or
+    /// exact, reduce) with the buffers cleared first, and the copies of what is read back.
+    ///
+    /// # Errors
+    /// [`crate::Error::Gpu`] when the device refuses the exact stage (built on first use).
     pub(super) fn submit_chunk(
         &self,
         pool: &mut BufferPool,
@@ -96,7 +99,7 @@ impl GpuBackend {
         slots: &[Slot],
         directions: &Directions,
         chunk: &Chunk,
-    ) -> wgpu::SubmissionIndex {
+    ) -> crate::Result<wgpu::SubmissionIndex> {
         let (device, queue) = (self.ctx.device(), self.ctx.queue());
         let (slot, labels) = (&slots[chunk.slot], &SLOT_LABELS[chunk.slot]);
         let n = chunk.poses.len();
@@ -104,10 +107,17 @@ impl GpuBackend {
         let params = TargetParams::new(shape.layout, n as u32);
         queue.write_buffer(&slot.params, 0, bytemuck::bytes_of(&params));
         // The groups are kept with the pool's buffers and made again only when one was grown.
+        // An exact call runs the exact stage in the splat stage's place, on the same buffers.
+        let exact = shape.source.exact_half().is_some();
+        let (stage, group_label) = if exact {
+            (self.exact_stage()?, labels.exact_group)
+        } else {
+            (&self.splat, labels.splat_group)
+        };
         let splat_group = pool.bind(
             device,
-            labels.splat_group,
-            &self.splat,
+            group_label,
+            stage,
             &[
                 &slot.params,
                 &tables.edges,
@@ -158,9 +168,16 @@ impl GpuBackend {
                 pass.set_bind_group(0, group, &[]);
                 pass.dispatch_workgroups((n as u64).div_ceil(POSES_WORKGROUP) as u32, 1, 1);
             }
-            pass.set_pipeline(&self.splat.pipeline);
+            pass.set_pipeline(&stage.pipeline);
             pass.set_bind_group(0, &splat_group, &[]);
-            pass.dispatch_workgroups(tiles, across, rows);
+            if exact {
+                // One pose a thread, over two dimensions of workgroups.
+                let groups = (n as u64).div_ceil(u64::from(self.exact_workgroup())) as u32;
+                let across = groups.clamp(1, dim);
+                pass.dispatch_workgroups(across, groups.div_ceil(across), 1);
+            } else {
+                pass.dispatch_workgroups(tiles, across, rows);
+            }
             pass.set_pipeline(&self.reduce.pipeline);
             pass.set_bind_group(0, &reduce_group, &[]);
             pass.dispatch_workgroups(across, rows, 1);
@@ -172,7 +189,7 @@ impl GpuBackend {
         if let Some(t) = &slot.timer {
             t.resolve(&mut enc);
         }
-        queue.submit([enc.finish()])
+        Ok(queue.submit([enc.finish()]))
     }
 
     /// Writes `chunk`'s poses where the splat stage reads them. Returns the poses stage's bind
@@ -199,23 +216,30 @@ impl GpuBackend {
         ) {
             (Source::Items(prepared), _, _, _) => {
                 let items = &prepared.batch.items;
+                let exact = prepared.is_exact();
                 let pose_data: Vec<PoseGpu> = (start..end)
                     .into_par_iter()
                     .map(|k| {
-                        let plan_index = prepared.plan_index(k);
-                        let plan = &prepared.plans[plan_index];
-                        let [az_off, el_off] = directions.offsets[&plan_index];
-                        pose_gpu(
-                            &items[k].pose.rotation,
-                            items[k].pose.translation.to_array(),
-                            items[k].measurement.range,
-                            prepared.base_azimuth(k),
+                        // An exact call has no plans: the exact stage reads the arc alone.
+                        let plan = if exact {
+                            [0; 4]
+                        } else {
+                            let plan_index = prepared.plan_index(k);
+                            let plan = &prepared.plans[plan_index];
+                            let [az_off, el_off] = directions.offsets[&plan_index];
                             [
                                 az_off,
                                 plan.azimuths.len() as u32,
                                 el_off,
                                 plan.elevations.len() as u32,
-                            ],
+                            ]
+                        };
+                        pose_gpu(
+                            &items[k].pose.rotation,
+                            items[k].pose.translation.to_array(),
+                            items[k].measurement.range,
+                            prepared.base_azimuth(k),
+                            plan,
                         )
                     })
                     .collect();

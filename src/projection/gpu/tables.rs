@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use glam::DMat3;
 
 use crate::clip::{F32_CENTRE_ERROR, F32_ROUND_UP, F32_UNIT_ERROR};
+use crate::occupancy::Layout;
 use crate::projection::culling;
 use crate::projection::poses::PoseGrid;
 use crate::sampling::SamplingPlan;
@@ -79,6 +80,32 @@ pub(super) fn direction_table(
         offsets.insert(p, [az_off, el_off]);
     }
     (table, offsets)
+}
+
+/// Returns the exact stage's constants (`shaders/exact.wgsl`, binding 4) for arcs of a sonar 1
+/// whose half elevation aperture is `half` (rad) into `layout`: the fast twin's
+/// ([`crate::exact::SolverConstants`]), each an f32 hi + lo pair, then three flags (1 or 0).
+pub(super) fn exact_table(layout: &Layout, half: f64) -> Vec<[f32; 4]> {
+    let c = crate::exact::SolverConstants::new(layout, half);
+    let two = |a: f64, b: f64| {
+        let (a, b) = (split(a), split(b));
+        [a.0, a.1, b.0, b.1]
+    };
+    let flag = |on: bool| f32::from(u8::from(on));
+    let (sh, ch) = c.azimuth.unwrap_or((0.0, -1.0));
+    vec![
+        two(c.end, c.half),
+        two(c.cos_half, c.sin_half),
+        two(c.r2_min, c.r2_max),
+        two(sh, ch),
+        two(c.elevation.unwrap_or(1.0), 0.0),
+        [
+            flag(c.behind),
+            flag(c.azimuth.is_some()),
+            flag(c.elevation.is_some()),
+            0.0,
+        ],
+    ]
 }
 
 /// Returns the GPU pose: the rows of `range · R · Rz(base_azimuth)` (computed in f64) with the

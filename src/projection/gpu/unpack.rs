@@ -29,6 +29,8 @@ pub(super) struct Unpack<'a> {
     /// The chunk's first pose and its number of poses.
     pub(super) start: usize,
     pub(super) count: usize,
+    /// Whether the call is solved exactly (its metric slots are the exact stage's).
+    pub(super) exact: bool,
 }
 
 impl Unpack<'_> {
@@ -46,7 +48,6 @@ impl Unpack<'_> {
     pub(super) fn metrics(&self, c: usize) -> Metrics {
         let layout = self.layout;
         let at = |s: usize| self.slot(s)[c];
-        let total = self.plans[self.source.plan_index(self.start + c)].total() as u64;
         let extremes = Extremes {
             range_min: f64::from(from_order_key(!at(METRIC_RANGE_MIN_NOT))),
             range_max: f64::from(from_order_key(at(METRIC_RANGE_MAX))),
@@ -58,6 +59,12 @@ impl Unpack<'_> {
             SonarKind::Sss => occupied as f64 * layout.range_bin_width,
             SonarKind::Fls => f64::from(f32::from_bits(at(METRIC_OCCUPIED_MEASURE))),
         };
+        if self.exact {
+            // The exact stage's visible slot holds the visible fraction's f32 bits.
+            let fraction = f64::from(f32::from_bits(at(METRIC_VISIBLE)));
+            return Metrics::exact(fraction, extremes, (occupied, measure));
+        }
+        let total = self.plans[self.source.plan_index(self.start + c)].total() as u64;
         let area = layout
             .area_grid
             .map(|g| g.area(u64::from(at(METRIC_PROJECTION_AREA))));
@@ -80,16 +87,25 @@ impl Unpack<'_> {
                 *v = if seen > 0 { value(k) } else { f64::NAN };
             }
         }
-        for (v, &k) in rows.visible.iter_mut().zip(visible) {
-            *v = u64::from(k);
-        }
-        for (k, v) in rows.total.iter_mut().enumerate() {
-            *v = self.plans[self.source.plan_index(self.start + first + k)].total() as u64;
-        }
-        if !rows.visible_fraction.is_empty() {
+        let total_of = |k: usize| self.plans[self.source.plan_index(self.start + first + k)].total();
+        if self.exact {
+            // As `Metrics::exact`: no samples, and the visible fraction's f32 bits in the visible
+            // slot (0 exactly where nothing is seen).
+            rows.visible.fill(0);
+            rows.total.fill(0);
+            for (v, &k) in rows.visible_fraction.iter_mut().zip(visible) {
+                *v = f64::from(f32::from_bits(k));
+            }
+        } else {
+            for (v, &k) in rows.visible.iter_mut().zip(visible) {
+                *v = u64::from(k);
+            }
+            for (k, v) in rows.total.iter_mut().enumerate() {
+                *v = total_of(k) as u64;
+            }
             // As `Metrics::new`: visible over total.
             for (k, (v, &seen)) in rows.visible_fraction.iter_mut().zip(visible).enumerate() {
-                let total = self.plans[self.source.plan_index(self.start + first + k)].total();
+                let total = total_of(k);
                 *v = if total > 0 {
                     f64::from(seen) / total as f64
                 } else {
@@ -142,7 +158,7 @@ impl Unpack<'_> {
         }
         if !rows.projection_area.is_empty() {
             let out = rows.projection_area.iter_mut();
-            match layout.area_grid {
+            match layout.area_grid.filter(|_| !self.exact) {
                 Some(g) => {
                     for (v, &k) in out.zip(slot(METRIC_PROJECTION_AREA)) {
                         *v = g.area(u64::from(k));
@@ -204,6 +220,15 @@ impl Source<'_> {
         }
     }
 
+    /// Returns sonar 1's half elevation aperture (rad) when the call is solved exactly (it then has
+    /// no plans), else `None`.
+    pub(super) fn exact_half(&self) -> Option<f64> {
+        match self {
+            Source::Items(p) => p.is_exact().then(|| p.batch.source.half_elevation()),
+            Source::Grid { prepared, .. } => prepared.exact.then(|| prepared.source.half_elevation()),
+        }
+    }
+
     pub(super) fn plans(&self) -> &[SamplingPlan] {
         match self {
             Source::Items(p) => &p.plans,
@@ -222,6 +247,9 @@ impl Source<'_> {
 
     /// Returns the plans poses `range` use, in increasing order.
     pub(super) fn plans_used(&self, range: std::ops::Range<usize>) -> Vec<usize> {
+        if self.exact_half().is_some() {
+            return Vec::new();
+        }
         let mut used = vec![false; self.plans().len()];
         match self {
             Source::Items(_) => {
