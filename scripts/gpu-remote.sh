@@ -6,7 +6,8 @@
 #   scripts/gpu-remote.sh run       # there, from the repository root, with .gpu/ copied along:
 #                                   # Vulkan loader, NVIDIA ICD, GPU tests, benches, paper,
 #                                   # 1 M-pose sweeps (Parquet, summaries) on GPU and CPU,
-#                                   # `bench sweep` on 10 M poses (10^8 with summaries only),
+#                                   # `bench sweep` on 10 M poses (10^8 with summaries only; exact
+#                                   # arcs against 0.1° sampling),
 #                                   # mask --stream with 2000 waiting pings, the advisor's benchmark;
 #                                   # summary.txt and logs.tar.gz into $OUT (or .gpu/out)
 #
@@ -30,7 +31,7 @@ prepare() {
     # The GPU test and bench binaries, as cargo names them (hash suffixes included).
     cargo test --release --no-run --message-format=json \
         --test agreement --test masks --test gpu_errors --test cli --test bad_input --test mask \
-        --test sweep --test pose_sources --bench projection --bench masks 2>/dev/null |
+        --test sweep --test pose_sources --test exact --bench projection --bench masks 2>/dev/null |
         python3 -c '
 import json, sys
 for line in sys.stdin:
@@ -94,6 +95,7 @@ run() {
     step test-mask-cli "$bin/mask"
     step test-sweep "$bin/sweep"
     step test-pose-sources "$bin/pose_sources"
+    step test-exact "$bin/exact"
     # shellcheck disable=SC2086
     step bench-projection "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
     # shellcheck disable=SC2086
@@ -133,6 +135,10 @@ run() {
     # 10^8 poses with summaries only against their projection (the sweep issue's 1.1x), without
     # the per-item path and the 4.7 GB Parquet sweep.
     step bench-sweep-1e8 "$bin/sonarproj" bench sweep --backends gpu,cpu-fast --poses 100000000 --runs 1 --measures summary
+    # Exact arcs against 0.1° sampling, summaries only: the exact stage's speed on the device.
+    for sampling in 0.1 exact; do
+        step "bench-sweep-step-$sampling" "$bin/sonarproj" bench sweep --backends gpu,cpu-fast --poses 10000000 --runs 3 --measures summary --step "$sampling"
+    done
     # mask --stream given 2000 pings of 100 features at once (all waiting): drawn together, two
     # in flight on a GPU; the wall time a ping.
     local pings="$bundle/stream-pings.jsonl" feats="" k
