@@ -1,16 +1,22 @@
 // Stage 1 of an exact call: each thread solves one pose's arc in closed form, with no samples. CPU
 // twin: src/exact/fast.rs (Solver), the same steps in the same order; read them side by side:
 // screen, cuts (quadratic_roots, quartic_roots), stationary, piece_inside, side_of, the pieces'
-// extremes and the staircase of cells. The arc of a pose is q(s) = (u (1 - s^2) + 2 w s) / (1 + s^2)
+// extremes and the staircase of cells. Two steps differ in form, not in answer away from edges: a
+// point's range bin and beam are decided as the splat stage decides them (shared/clip.wgsl:
+// squared edges, and the sides of beam edges by cross products, where the CPU compares the range
+// and the azimuth), and a staircase's bin and beam crossings are merged as two ordered streams
+// (a range edge first on a tie), where the CPU sorts them together. The arc of a pose is q(s) = (u (1 - s^2) + 2 w s) / (1 + s^2)
 // + t with s = tan(phi / 2): u and w are columns 0 and 2 of the pose's M (range * R * Rz(azimuth)),
 // t its translation.
 //
 // It needs f64 (SHADER_F64): the roots are polished by Newton's method to about 1e-16, which
 // double-f32 cannot hold. WGSL has no f64 trigonometry, so the two angles the CPU takes with atan
 // (the visible fraction, from each run's half-angle, and the azimuths) come from fdlibm's atan,
-// in shared/roots_f64.wgsl: a GPU's f32 atan may err by thousands of ulps (Vulkan allows 4096). Every number
-// and decision (a piece in or out of view, a bin, a beam, the order of edge crossings) is f64;
-// the reported values are then rounded to f32, as every GPU metric.
+// in shared/roots_f64.wgsl: a GPU's f32 atan may err by thousands of ulps (Vulkan allows 4096).
+// Every number and decision (a piece in or out of view, a bin, a beam, the order of edge
+// crossings) is computed in f64, from a pose and constants that arrive as f32 hi + lo pairs
+// (about 1e-14 relative), so a decision within that of a tie may go the other way. The reported
+// values are then rounded to f32, as every GPU metric.
 //
 // Writes the pose's metric slots: METRIC_VISIBLE holds the bits of the visible fraction (f32, 0
 // exactly when nothing is seen), the extremes their order keys; and sets the bits of the cells the
@@ -296,7 +302,7 @@ fn piece_inside(a: f64, b: f64) -> bool {
 }
 
 // Returns the sign of y along the piece [a, b]: that of whichever of the three vote points lies
-// farthest from y = 0 (0 when all lie on it).
+// farthest from y = 0 (+1 when all lie on it, as the CPU's signum of 0).
 fn side_of(a: f64, b: f64) -> f64 {
     var far = f64(0.0);
     for (var k = 0u; k < 3u; k++) {
@@ -305,13 +311,10 @@ fn side_of(a: f64, b: f64) -> f64 {
             far = y;
         }
     }
-    if far > 0.0 {
-        return f64(1.0);
-    }
     if far < 0.0 {
         return f64(-1.0);
     }
-    return f64(0.0);
+    return f64(1.0);
 }
 
 // Returns the azimuth (rad) of the point q as seen from a piece whose y has the sign of side: a
@@ -436,10 +439,13 @@ fn load(p: u32) {
     ELEVATION = directions[5].z != 0.0;
 }
 
-// Threads a workgroup (gpu::EXACT_WORKGROUP): 64 on hardware, 1 on a software adapter. lavapipe
-// runs a workgroup's invocations as lanes of one SIMD loop, and there this stage's invocations
-// changed each other's results (a pose's answer depended on which poses shared its group), which
-// independent invocations cannot do; one invocation a workgroup gives the CPU twin's answers.
+// Threads a workgroup (gpu::EXACT_WORKGROUP): 64 on hardware, 1 on a software adapter. Observed
+// on lavapipe (Mesa 22.3.6, which runs a workgroup's invocations as lanes of 8-wide SIMD loops):
+// with 64, a pose's answer changed with the poses that shared its group (a batch of poses 56-63
+// of one test lost most of pose 59's cells; pose 59 alone, with copies of itself, or with any one
+// of the others, was right), although no invocation reads what another writes. With one
+// invocation a workgroup every test pose agrees with the CPU twin. CI runs that setting; the
+// hardware's 64 runs only where a real GPU runs the tests (scripts/gpu-remote.sh).
 override WORKGROUP: u32 = 64u;
 
 @compute @workgroup_size(WORKGROUP)

@@ -303,8 +303,11 @@ fn quartic_roots(list: ptr<function, List>, g: array<f64, 5>, lo: f64, hi: f64, 
                 l = r;
                 has_l = true;
             }
-            push_found(list, newton(g, 4, a0, m, ga, gm, has_l, l, settle()));
-            push_found(list, newton(g, 4, m, b, gm, gb, has_r, r, settle()));
+            // Without a split (the turning point's search found none), no root: as the CPU.
+            if split {
+                push_found(list, newton(g, 4, a0, m, ga, gm, has_l, l, settle()));
+                push_found(list, newton(g, 4, m, b, gm, gb, has_r, r, settle()));
+            }
         } else {
             push_found(list, newton(g, 4, a0, b, ga, gb, false, a0, settle()));
         }

@@ -1,6 +1,7 @@
 //! The fast twin of the exact solver: the same arc, pieces and metrics as [`super::visible_arc`],
-//! with every bound written as a polynomial in `s = tan(φ/2)`. `cpu-fast` and the GPU backend run
-//! it on every core; on a pose grid each pose is decoded where it is solved ([`project_grid`]).
+//! with every bound written as a polynomial in `s = tan(φ/2)`. `cpu-fast` runs it on every core
+//! (and the GPU backend of a device without f64; with f64 the GPU runs its WGSL twin,
+//! `shaders/exact.wgsl`); on a pose grid each pose is decoded where it is solved ([`project_grid`]).
 //!
 //! With `cos φ = (1 − s²)/(1 + s²)` and `sin φ = 2s/(1 + s²)`, a first-degree trigonometric
 //! function `a + b cos φ + c sin φ` times `1 + s²` is the quadratic `(a + b) + 2c s + (a − b) s²`,
@@ -26,7 +27,7 @@
 //!
 //! Against the reference, lengths, ranges and azimuths agree to rounding (both find the same
 //! roots, from different formulas), and cells agree but where a piece's end or an extreme sits on
-//! a bin or beam edge: `tests/exact.rs` holds the two to that.
+//! a bin or beam edge: `tests/exact/main.rs` holds the two to that.
 
 use std::f64::consts::{FRAC_PI_2, PI};
 

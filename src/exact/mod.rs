@@ -197,7 +197,8 @@ fn side_of(arc: &Arc, a: f64, b: f64) -> f64 {
 /// points that no symmetry of the piece maps onto the middle or each other.
 const VOTES: [f64; 3] = [0.5, 0.309_017, 0.723_607];
 
-/// Returns the sign of whichever of `y` lies farthest from 0 (0 when all are).
+/// Returns the sign of whichever of `y` lies farthest from 0 (+1 when all are 0: the signum of
+/// +0).
 fn farthest_sign(y: [f64; 3]) -> f64 {
     let far = y
         .into_iter()

@@ -2,14 +2,13 @@
 //! stage's envelope. It runs on lavapipe in CI, which has f64; a device without f64 runs the twin
 //! itself (`main.rs` holds that path to the twin's bits).
 //!
-//! The envelope, metric by metric. The stage takes every decision in f64, as the twin, from poses
-//! and constants that reach it as f32 hi + lo pairs (about 1e-14 relative); it reports in f32, as
-//! every GPU metric:
-//! - range extremes: the twin's, rounded to f32. One f32 ulp is allowed: the device's f64 differs
-//!   from the CPU's in the last bits, which may cross a rounding boundary;
-//! - span: the difference of those two, so within an ulp of each;
-//! - azimuths: f32 `atan2` of the point rounded to f32: within `AZIMUTH_RAD`;
-//! - visible fraction: f32 `atan` of each run's half-angle, summed in f32: within `FRACTION`;
+//! The envelope, metric by metric. The stage computes every number in f64, as the twin, its
+//! `atan` included (fdlibm's), from poses and constants that reach it as f32 hi + lo pairs (about
+//! 1e-14 relative); it reports in f32, as every GPU metric:
+//! - range extremes, azimuths and the visible fraction: the twin's, rounded to f32. One f32 ulp
+//!   of the value is allowed (`ulp`): the device's f64 differs from the CPU's in the last bits,
+//!   which may cross a rounding boundary;
+//! - span: the difference of the two range extremes, so within an ulp of each;
 //! - cells: equal, but where a piece's end or an extreme sits on a bin or beam edge, as the twin
 //!   against the reference (`near_an_edge`);
 //! - occupied measure: an FLS's pixel areas are summed in f32 by the reduce stage
@@ -27,13 +26,11 @@ use sonarproj::{
 };
 use sonarproj_testkit::F32_AREA_SUM_RELATIVE;
 
-/// The visible fraction's allowance: a few f32 roundings of values at most 1 (2⁻²⁴ ≈ 6e-8 each)
-/// from `atan`, its argument, the sum and the division by H.
-const FRACTION: f64 = 1e-6;
-
-/// The azimuths' allowance (rad): the point's coordinates rounded to f32 move its angle by about
-/// 2⁻²⁴, and f32 `atan2` adds a few ulps of values up to π (2.4e-7 each).
-const AZIMUTH_RAD: f64 = 1e-6;
+/// Returns one f32 ulp of `v` (at least that of the smallest normal f32), the rounding the stage's
+/// values may add to the twin's.
+fn ulp(v: f64) -> f64 {
+    f64::from(f32::EPSILON) * v.abs().max(f64::from(f32::MIN_POSITIVE))
+}
 
 /// Returns the GPU backend of the tests' device when it solves exact calls itself. In CI the
 /// device is lavapipe, which has f64, so this never skips there.
@@ -59,15 +56,14 @@ fn within(
     cells_differ: bool,
     edge: &dyn Fn() -> bool,
 ) -> Result<bool, String> {
-    let ulp = |v: f64| f64::from(f32::EPSILON) * v.abs();
-    if (fast.visible_fraction - gpu.visible_fraction).abs() > FRACTION {
+    if (fast.visible_fraction - gpu.visible_fraction).abs() > ulp(fast.visible_fraction) {
         return Err("visible fraction".into());
     }
     if (gpu.visible, gpu.total) != (0, 0) || gpu.projection_area.is_some() {
         return Err("sample counts or projection area in exact mode".into());
     }
     let (Some(_), Some(_)) = (fast.range_min, gpu.range_min) else {
-        // One sees a sliver the other missed: its length is within FRACTION (checked above).
+        // One sees a sliver the other missed: its fraction is within an ulp (checked above).
         return Ok(fast.range_min.is_some() != gpu.range_min.is_some());
     };
     for (name, f, g) in [
@@ -91,7 +87,9 @@ fn within(
         ("azimuth_min", fast.azimuth_min, gpu.azimuth_min),
         ("azimuth_max", fast.azimuth_max, gpu.azimuth_max),
     ] {
-        if (f.unwrap() - g.unwrap()).abs() > AZIMUTH_RAD.to_degrees() {
+        // Reported in degrees: the f32 radians' ulp, converted.
+        let (f, g) = (f.unwrap(), g.unwrap());
+        if (f - g).abs() > ulp(f.to_radians()).to_degrees() * (1.0 + 1e-9) {
             return Err(name.into());
         }
     }
@@ -133,6 +131,10 @@ fn the_exact_stage_agrees_with_its_cpu_twin() {
                 seen += usize::from(w.metrics.range_min.is_some());
                 let arc = Arc::new(r, az, source.half_elevation(), &pose);
                 let edge = || near_an_edge(&arc, &layout, target);
+                assert!(
+                    g.cells.is_none() && w.cells.is_none(),
+                    "no grid cells in exact mode"
+                );
                 match within(&w.metrics, &g.metrics, w.occupancy != g.occupancy, &edge) {
                     Ok(on_edge) => on_edges += usize::from(on_edge),
                     Err(what) => panic!(

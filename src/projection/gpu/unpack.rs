@@ -180,7 +180,9 @@ impl Unpack<'_> {
                 words_of.to_vec(),
             ))
         });
-        let cells = self.raw_bits.zip(layout.area_grid).map(|(b, g)| {
+        // Exact mode has no projection area, so no grid cells (as `Metrics::exact`).
+        let grid = layout.area_grid.filter(|_| !self.exact);
+        let cells = self.raw_bits.zip(grid).map(|(b, g)| {
             let words_of = &b[c * words + pixel_words..(c + 1) * words];
             Occupancy::from_words(g.nx, g.ny, words_of.to_vec())
         });
