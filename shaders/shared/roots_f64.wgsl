@@ -1,5 +1,5 @@
-// Root finding and atan in f64 for the exact stage (exact.wgsl), put before it. CPU twins: the
-// roots of src/exact/fast.rs (quadratic_roots, quartic_roots, closed_form_roots) and of
+// Root finding and atan in f64 for the exact stage (exact.wgsl), put before it. CPU twins:
+// src/exact/fast_roots.rs (quadratic_roots, quartic_roots, closed_form_roots, horner) and
 // src/exact/roots.rs (newton_root_between, List). Needs f64.
 
 // A short list of elevations (as s): an arc's cuts, or its stationary points.

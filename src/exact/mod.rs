@@ -34,6 +34,7 @@
 //! one cell touched at that point alone.
 
 mod fast;
+mod fast_roots;
 mod roots;
 
 pub(crate) use fast::{SolverConstants, project as project_fast, project_grid};
