@@ -14,7 +14,7 @@
 //! - occupied measure: an FLS's pixel areas are summed in f32 by the reduce stage
 //!   (`F32_AREA_SUM_RELATIVE`); a sidescan's comes from the exact count.
 
-use super::{batch, near_an_edge, random_case, targets};
+use super::{batch, grid_axes, near_an_edge, random_case, targets};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sonarproj::exact::Arc;
@@ -164,19 +164,8 @@ fn the_exact_stage_solves_grids_decoded_on_the_device() {
         Sonar::preset("paper-sss").unwrap(),
         Sonar::preset("oculus-m750d").unwrap(),
     ] {
-        let axes = [
-            vec![2.0, 7.5],
-            vec![-20.0, 0.0, 25.0],
-            vec![0.0, 3.0],
-            // Off the bin edges: a round placement puts the arcs' extremes on them.
-            vec![0.5 * target.range_max + 0.0037],
-            vec![0.0, 10.0],
-            vec![0.0, 0.1],
-            vec![0.0, 37.0, 90.0, 181.0],
-            vec![-20.0, 0.0, 65.0],
-            vec![0.0, 12.5, 180.0],
-        ];
-        let grid = PoseGrid::new(axes, true, &fls).unwrap();
+        // Off the bin edges: a round placement puts the arcs' extremes on them.
+        let grid = PoseGrid::new(grid_axes(0.5 * target.range_max + 0.0037), true, &fls).unwrap();
         let sweep = PoseSweep {
             source: fls.clone(),
             target: target.clone(),

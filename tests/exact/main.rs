@@ -821,18 +821,7 @@ fn fast_twin_gives_the_same_bits_on_every_path() {
             assert_eq!(w.metrics, a.metrics);
         }
         // A grid: every rotation of a few features placed about sonar 2's view.
-        let axes = [
-            vec![2.0, 7.5],
-            vec![-20.0, 0.0, 25.0],
-            vec![0.0, 3.0],
-            vec![0.5 * target.range_max],
-            vec![0.0, 10.0],
-            vec![0.0, 0.1],
-            vec![0.0, 37.0, 90.0, 181.0],
-            vec![-20.0, 0.0, 65.0],
-            vec![0.0, 12.5, 180.0],
-        ];
-        let grid = PoseGrid::new(axes, true, &fls).unwrap();
+        let grid = PoseGrid::new(grid_axes(0.5 * target.range_max), true, &fls).unwrap();
         let sweep = PoseSweep {
             source: fls.clone(),
             target: target.clone(),
@@ -876,6 +865,22 @@ fn fast_twin_gives_the_same_bits_on_every_path() {
             }
         }
     }
+}
+
+/// Returns the axes of a test grid: a few features of sonar 1 placed at `place` (m) in front of
+/// sonar 2, under rotations that turn their arcs every way (1 728 poses).
+fn grid_axes(place: f64) -> [Vec<f64>; 9] {
+    [
+        vec![2.0, 7.5],
+        vec![-20.0, 0.0, 25.0],
+        vec![0.0, 3.0],
+        vec![place],
+        vec![0.0, 10.0],
+        vec![0.0, 0.1],
+        vec![0.0, 37.0, 90.0, 181.0],
+        vec![-20.0, 0.0, 65.0],
+        vec![0.0, 12.5, 180.0],
+    ]
 }
 
 /// Exact mode asks for an FLS sonar 1; a sidescan's is refused naming the step.
