@@ -14,7 +14,7 @@
 //! - occupied measure: an FLS's pixel areas are summed in f32 by the reduce stage
 //!   (`F32_AREA_SUM_RELATIVE`); a sidescan's comes from the exact count.
 
-use super::{batch, grid_axes, near_an_edge, random_case, targets};
+use super::{RandomBatch, batch, grid_axes, near_an_edge, random_batches, random_case};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use sonarproj::exact::Arc;
@@ -113,35 +113,32 @@ fn within(
 #[test]
 fn the_exact_stage_agrees_with_its_cpu_twin() {
     let Some(gpu) = exact_gpu() else { return };
-    let sources = [
-        Sonar::preset("paper-fls").unwrap(),
-        Sonar::preset("oculus-m750d").unwrap(),
-    ];
     let (mut seen, mut on_edges, mut all) = (0, 0, 0);
-    for (k, target) in targets().iter().enumerate() {
-        let layout = Layout::of(target);
-        for (l, source) in sources.iter().enumerate() {
-            let mut rng = ChaCha8Rng::seed_from_u64(5000 + (10 * k + l) as u64);
-            let cases: Vec<_> = (0..200).map(|_| random_case(&mut rng, source, target)).collect();
-            let b = batch(source, target, Sampling::Exact, &cases);
-            let want = Backend::CpuFast.project(&b, Output::WithOccupancy).unwrap();
-            let got = gpu.project(&b, Output::WithOccupancy).unwrap();
-            for (n, ((w, g), &(r, az, pose))) in want.iter().zip(&got).zip(&cases).enumerate() {
-                all += 1;
-                seen += usize::from(w.metrics.range_min.is_some());
-                let arc = Arc::new(r, az, source.half_elevation(), &pose);
-                let edge = || near_an_edge(&arc, &layout, target);
-                assert!(
-                    g.cells.is_none() && w.cells.is_none(),
-                    "no grid cells in exact mode"
-                );
-                match within(&w.metrics, &g.metrics, w.occupancy != g.occupancy, &edge) {
-                    Ok(on_edge) => on_edges += usize::from(on_edge),
-                    Err(what) => panic!(
-                        "{what}: {} → {} case {n}: r {r} az {az} pose {pose:?}\nfast {:?}\ngpu {:?}",
-                        source.name, target.name, w.metrics, g.metrics
-                    ),
-                }
+    for RandomBatch {
+        source,
+        target,
+        cases,
+        batch: b,
+    } in random_batches(5000)
+    {
+        let (source, target, layout) = (&source, &target, Layout::of(&target));
+        let want = Backend::CpuFast.project(&b, Output::WithOccupancy).unwrap();
+        let got = gpu.project(&b, Output::WithOccupancy).unwrap();
+        for (n, ((w, g), &(r, az, pose))) in want.iter().zip(&got).zip(&cases).enumerate() {
+            all += 1;
+            seen += usize::from(w.metrics.range_min.is_some());
+            let arc = Arc::new(r, az, source.half_elevation(), &pose);
+            let edge = || near_an_edge(&arc, &layout, target);
+            assert!(
+                g.cells.is_none() && w.cells.is_none(),
+                "no grid cells in exact mode"
+            );
+            match within(&w.metrics, &g.metrics, w.occupancy != g.occupancy, &edge) {
+                Ok(on_edge) => on_edges += usize::from(on_edge),
+                Err(what) => panic!(
+                    "{what}: {} → {} case {n}: r {r} az {az} pose {pose:?}\nfast {:?}\ngpu {:?}",
+                    source.name, target.name, w.metrics, g.metrics
+                ),
             }
         }
     }

@@ -721,73 +721,70 @@ fn near_an_edge(arc: &Arc, layout: &Layout, target: &Sonar) -> bool {
 /// extreme sits on an edge (`near_an_edge`; none of these 3600 poses, one in a thousand allowed).
 #[test]
 fn fast_twin_agrees_with_the_reference() {
-    let sources = [
-        Sonar::preset("paper-fls").unwrap(),
-        Sonar::preset("oculus-m750d").unwrap(),
-    ];
     let (mut seen, mut on_edges, mut cases_all) = (0, 0, 0);
-    for (k, target) in targets().iter().enumerate() {
-        let layout = Layout::of(target);
-        for (l, source) in sources.iter().enumerate() {
-            let mut rng = ChaCha8Rng::seed_from_u64(1000 + (10 * k + l) as u64);
-            let cases: Vec<_> = (0..200).map(|_| random_case(&mut rng, source, target)).collect();
-            let b = batch(source, target, Sampling::Exact, &cases);
-            let want = Backend::Cpu.project(&b, Output::WithOccupancy).unwrap();
-            let got = Backend::CpuFast.project(&b, Output::WithOccupancy).unwrap();
-            for (n, ((w, g), &(r, az, pose))) in want.iter().zip(&got).zip(&cases).enumerate() {
-                cases_all += 1;
-                let arc = Arc::new(r, az, source.half_elevation(), &pose);
-                let ctx = || {
-                    format!(
-                        "{} → {} case {n}: r {r} az {az} pose {pose:?}\nreference {:?}\nfast {:?}",
-                        source.name, target.name, w.metrics, g.metrics
-                    )
-                };
-                let (wm, gm) = (&w.metrics, &g.metrics);
-                let metres = |f: f64| f * 2.0 * arc.half() * r;
-                assert!(
-                    metres((wm.visible_fraction - gm.visible_fraction).abs()) <= METRES,
-                    "visible fraction: {}",
-                    ctx()
-                );
-                if wm.visible_fraction == 0.0 || gm.visible_fraction == 0.0 {
-                    // Both see nothing, or one a sliver the other missed (its length checked above).
-                    if wm.range_min.is_some() != gm.range_min.is_some() {
-                        on_edges += 1;
-                    }
-                    continue;
-                }
-                seen += 1;
-                let close = |a: Option<f64>, b: Option<f64>, tol: f64| (a.unwrap() - b.unwrap()).abs() <= tol;
-                assert!(close(wm.range_min, gm.range_min, METRES), "range_min: {}", ctx());
-                assert!(close(wm.range_max, gm.range_max, METRES), "range_max: {}", ctx());
-                let az_tol = (METRES / target.range_max.max(1.0) * 100.0).to_degrees();
-                assert!(
-                    close(wm.azimuth_min, gm.azimuth_min, az_tol),
-                    "azimuth_min: {}",
-                    ctx()
-                );
-                assert!(
-                    close(wm.azimuth_max, gm.azimuth_max, az_tol),
-                    "azimuth_max: {}",
-                    ctx()
-                );
-                if w.occupancy != g.occupancy {
-                    assert!(
-                        near_an_edge(&arc, &layout, target),
-                        "cells differ off the edges: {}",
-                        ctx()
-                    );
+    for RandomBatch {
+        source,
+        target,
+        cases,
+        batch: b,
+    } in random_batches(1000)
+    {
+        let (source, target, layout) = (&source, &target, Layout::of(&target));
+        let want = Backend::Cpu.project(&b, Output::WithOccupancy).unwrap();
+        let got = Backend::CpuFast.project(&b, Output::WithOccupancy).unwrap();
+        for (n, ((w, g), &(r, az, pose))) in want.iter().zip(&got).zip(&cases).enumerate() {
+            cases_all += 1;
+            let arc = Arc::new(r, az, source.half_elevation(), &pose);
+            let ctx = || {
+                format!(
+                    "{} → {} case {n}: r {r} az {az} pose {pose:?}\nreference {:?}\nfast {:?}",
+                    source.name, target.name, w.metrics, g.metrics
+                )
+            };
+            let (wm, gm) = (&w.metrics, &g.metrics);
+            let metres = |f: f64| f * 2.0 * arc.half() * r;
+            assert!(
+                metres((wm.visible_fraction - gm.visible_fraction).abs()) <= METRES,
+                "visible fraction: {}",
+                ctx()
+            );
+            if wm.visible_fraction == 0.0 || gm.visible_fraction == 0.0 {
+                // Both see nothing, or one a sliver the other missed (its length checked above).
+                if wm.range_min.is_some() != gm.range_min.is_some() {
                     on_edges += 1;
-                } else {
-                    assert_eq!(wm.occupied, gm.occupied, "{}", ctx());
-                    assert_eq!(
-                        wm.occupied_measure.to_bits(),
-                        gm.occupied_measure.to_bits(),
-                        "{}",
-                        ctx()
-                    );
                 }
+                continue;
+            }
+            seen += 1;
+            let close = |a: Option<f64>, b: Option<f64>, tol: f64| (a.unwrap() - b.unwrap()).abs() <= tol;
+            assert!(close(wm.range_min, gm.range_min, METRES), "range_min: {}", ctx());
+            assert!(close(wm.range_max, gm.range_max, METRES), "range_max: {}", ctx());
+            let az_tol = (METRES / target.range_max.max(1.0) * 100.0).to_degrees();
+            assert!(
+                close(wm.azimuth_min, gm.azimuth_min, az_tol),
+                "azimuth_min: {}",
+                ctx()
+            );
+            assert!(
+                close(wm.azimuth_max, gm.azimuth_max, az_tol),
+                "azimuth_max: {}",
+                ctx()
+            );
+            if w.occupancy != g.occupancy {
+                assert!(
+                    near_an_edge(&arc, &layout, target),
+                    "cells differ off the edges: {}",
+                    ctx()
+                );
+                on_edges += 1;
+            } else {
+                assert_eq!(wm.occupied, gm.occupied, "{}", ctx());
+                assert_eq!(
+                    wm.occupied_measure.to_bits(),
+                    gm.occupied_measure.to_bits(),
+                    "{}",
+                    ctx()
+                );
             }
         }
     }
@@ -865,6 +862,37 @@ fn fast_twin_gives_the_same_bits_on_every_path() {
             }
         }
     }
+}
+
+/// 200 random exact poses of one sonar pair ([`random_batches`]).
+struct RandomBatch {
+    source: Sonar,
+    target: Sonar,
+    cases: Vec<(f64, f64, RelativePose)>,
+    batch: Batch,
+}
+
+/// Returns 200 random poses ([`random_case`]) into every target ([`targets`]) from each of two
+/// sonar 1s (`paper-fls`, `oculus-m750d`), as exact batches; `seed` picks the draw.
+fn random_batches(seed: u64) -> Vec<RandomBatch> {
+    let sources = [
+        Sonar::preset("paper-fls").unwrap(),
+        Sonar::preset("oculus-m750d").unwrap(),
+    ];
+    let mut out = Vec::new();
+    for (k, target) in targets().into_iter().enumerate() {
+        for (l, source) in sources.iter().enumerate() {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed + (10 * k + l) as u64);
+            let cases: Vec<_> = (0..200).map(|_| random_case(&mut rng, source, &target)).collect();
+            out.push(RandomBatch {
+                batch: batch(source, &target, Sampling::Exact, &cases),
+                source: source.clone(),
+                target: target.clone(),
+                cases,
+            });
+        }
+    }
+    out
 }
 
 /// Returns the axes of a test grid: a few features of sonar 1 placed at `place` (m) in front of
