@@ -7,7 +7,8 @@
 #                                   # Vulkan loader, NVIDIA ICD, GPU tests, benches, paper,
 #                                   # 1 M-pose sweeps (Parquet, summaries) on GPU and CPU,
 #                                   # `bench sweep` on 10 M poses (10^8 with summaries only; exact
-#                                   # arcs against 0.1° sampling),
+#                                   # arcs against 0.1° sampling; each variant's device time a
+#                                   # stage),
 #                                   # mask --stream with 2000 waiting pings, the advisor's benchmark;
 #                                   # summary.txt and logs.tar.gz into $OUT (or .gpu/out)
 #
@@ -139,6 +140,19 @@ run() {
     for sampling in 0.1 exact; do
         step "bench-sweep-step-$sampling" "$bin/sonarproj" bench sweep --backends gpu,cpu-fast --poses 10000000 --runs 3 --measures summary --step "$sampling"
     done
+    # Where the device's time goes, per stage (poses, splat, reduce: a pass each when timed), for
+    # the splat stage's variants on the same 10 M-pose summaries-only sweep.
+    local v
+    for v in f64 df wg32 wg128 wg256 nocull nofilter; do
+        local vars=()
+        case $v in
+        df) vars=(SONARPROJ_GPU_PRECISION=df) ;;
+        wg*) vars=(SONARPROJ_GPU_WORKGROUP=${v#wg}) ;;
+        nocull) vars=(SONARPROJ_GPU_CULL=0) ;;
+        nofilter) vars=(SONARPROJ_GPU_FILTER=0) ;;
+        esac
+        step "bench-stages-$v" env "${vars[@]}" "$bin/sonarproj" bench sweep --backends gpu --poses 10000000 --runs 3 --measures summary
+    done
     # mask --stream given 2000 pings of 100 features at once (all waiting): drawn together, two
     # in flight on a GPU; the wall time a ping.
     local pings="$bundle/stream-pings.jsonl" feats="" k
@@ -161,6 +175,8 @@ run() {
     grep -h "sweep:" "$logs"/sweep-*.log >>"$logs/summary.txt" || true
     grep -h "stream:" "$logs"/stream-*.log >>"$logs/summary.txt" || true
     grep -hE "^(gpu|cpu-fast) " "$logs"/bench-sweep*.log >>"$logs/summary.txt" || true
+    # With the file names: which variant each stage split is.
+    grep -E "^gpu |one more timed run" "$logs"/bench-stages-*.log >>"$logs/summary.txt" || true
     grep -h "paper:" "$logs"/paper-*.log >>"$logs/summary.txt" || true
     # With the file names: which variant each row is.
     grep -- "->" "$logs"/bench-projection*.log >>"$logs/summary.txt" || true

@@ -450,7 +450,8 @@ fn a_chunk_of_more_poses_than_one_dispatch_dimension_holds() {
 /// nothing is counted before timing starts, a projection then counts a positive time no longer
 /// than the call took on the host's clock, and stopping keeps the sum (lavapipe has timestamp
 /// queries; an adapter without them reports none). The host's waits and unpacking beside them
-/// (`host_time`) are counted the same way, and together fit in the call too.
+/// (`host_time`) are counted the same way, and together fit in the call too. The device time is
+/// split by stage (`device_stages`), and timing does not change the results.
 #[test]
 fn device_time_is_counted_only_while_asked_and_within_the_call() {
     let Some(gpu) = common::gpu() else {
@@ -487,19 +488,32 @@ fn device_time_is_counted_only_while_asked_and_within_the_call() {
         .unwrap();
     let wall = start.elapsed();
     let (device, host) = (g.device_time().unwrap(), g.host_time());
+    let stages = g.device_stages().unwrap();
     g.time_device(false);
     assert!(
         device > std::time::Duration::ZERO && device <= wall,
         "device {device:?}, call {wall:?}"
     );
+    // A pass a stage, each between its own timestamps: the grid's poses decoded, the samples
+    // splatted, the bits reduced. Together they are the device time.
+    let zero = std::time::Duration::ZERO;
+    assert!(
+        stages.poses > zero && stages.splat > zero && stages.reduce > zero,
+        "{stages:?}"
+    );
+    assert_eq!(stages.total(), device, "{stages:?}");
+    // Timing splits the passes, and the results are the same (Debug: NaN, where nothing is
+    // seen, is equal to itself there).
+    let timed = format!("{out:?}");
+    gpu.project_columns(&s, 0..grid.len(), &mut out, Stop::NEVER)
+        .unwrap();
+    assert!(timed == format!("{out:?}"), "timing changed the results");
     assert!(
         host.wait > std::time::Duration::ZERO
             && host.unpack > std::time::Duration::ZERO
             && host.wait + host.unpack <= wall,
         "host {host:?}, call {wall:?}"
     );
-    gpu.project_columns(&s, 0..grid.len(), &mut out, Stop::NEVER)
-        .unwrap();
     assert_eq!(g.device_time(), Some(device), "counted while stopped");
     assert_eq!(g.host_time(), host, "host time counted while stopped");
 }

@@ -7,8 +7,15 @@ use std::time::Duration;
 use crate::error::Result;
 use crate::gpu::{GpuContext, read_after};
 
-/// Two timestamps around one compute pass: the query set, where they are resolved, and where they
-/// are read back.
+/// The compute passes a projection chunk is timed in: pose decoding, the splat (or exact) stage,
+/// the reduce stage.
+pub(crate) const STAGES: usize = 3;
+/// The timestamps of a chunk: two a stage.
+const QUERIES: u32 = 6;
+const _: () = assert!(QUERIES as usize == 2 * STAGES);
+
+/// Two timestamps around each of a chunk's [`STAGES`] compute passes: the query set, where they
+/// are resolved, and where they are read back.
 pub(crate) struct PassTimer {
     queries: wgpu::QuerySet,
     resolved: wgpu::Buffer,
@@ -24,7 +31,7 @@ impl PassTimer {
         let buffer = |label, usage| {
             ctx.device().create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
-                size: 16,
+                size: 16 * STAGES as u64,
                 usage,
                 mapped_at_creation: false,
             })
@@ -33,7 +40,7 @@ impl PassTimer {
             queries: ctx.device().create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("pass timer"),
                 ty: wgpu::QueryType::Timestamp,
-                count: 2,
+                count: QUERIES,
             }),
             resolved: buffer(
                 "pass timer resolved",
@@ -46,35 +53,40 @@ impl PassTimer {
         })
     }
 
-    /// Returns the timestamp writes of a pass: one at its beginning, one at its end.
-    pub(crate) fn writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
+    /// Returns the timestamp writes of stage `stage`'s pass: one at its beginning, one at its end.
+    pub(crate) fn writes(&self, stage: u32) -> wgpu::ComputePassTimestampWrites<'_> {
+        let first = 2 * stage;
         wgpu::ComputePassTimestampWrites {
             query_set: &self.queries,
-            beginning_of_pass_write_index: Some(0),
-            end_of_pass_write_index: Some(1),
+            beginning_of_pass_write_index: Some(first),
+            end_of_pass_write_index: Some(first + 1),
         }
     }
 
     /// Records, after the pass, the copy of its timestamps to where [`PassTimer::elapsed`] reads
     /// them.
     pub(crate) fn resolve(&self, enc: &mut wgpu::CommandEncoder) {
-        enc.resolve_query_set(&self.queries, 0..2, &self.resolved, 0);
-        enc.copy_buffer_to_buffer(&self.resolved, 0, &self.staging, 0, 16);
+        enc.resolve_query_set(&self.queries, 0..QUERIES, &self.resolved, 0);
+        enc.copy_buffer_to_buffer(&self.resolved, 0, &self.staging, 0, 16 * STAGES as u64);
     }
 
-    /// Returns the time between the pass's two timestamps, once submission `index` has finished.
-    /// That is the submission that resolved them; `None` waits for every submission.
+    /// Returns the time between each stage's two timestamps, once submission `index` has
+    /// finished. That is the submission that resolved them; `None` waits for every submission.
     ///
     /// # Errors
     /// [`crate::Error::Gpu`] when the readback fails.
-    pub(crate) fn elapsed(&self, ctx: &GpuContext, index: Option<wgpu::SubmissionIndex>) -> Result<Duration> {
-        let words = read_after(ctx, &self.staging, 16, index, <[u32]>::to_vec)?;
-        let (begin, end) = (
-            u64::from(words[0]) | (u64::from(words[1]) << 32),
-            u64::from(words[2]) | (u64::from(words[3]) << 32),
-        );
-        let ns = end.saturating_sub(begin) as f64 * f64::from(ctx.queue().get_timestamp_period());
-        Ok(Duration::from_secs_f64(ns / 1e9))
+    pub(crate) fn elapsed(
+        &self,
+        ctx: &GpuContext,
+        index: Option<wgpu::SubmissionIndex>,
+    ) -> Result<[Duration; STAGES]> {
+        let words = read_after(ctx, &self.staging, 16 * STAGES as u64, index, <[u32]>::to_vec)?;
+        let period = f64::from(ctx.queue().get_timestamp_period());
+        Ok(std::array::from_fn(|s| {
+            let at = |k: usize| u64::from(words[k]) | (u64::from(words[k + 1]) << 32);
+            let ns = at(4 * s + 2).saturating_sub(at(4 * s)) as f64 * period;
+            Duration::from_secs_f64(ns / 1e9)
+        }))
     }
 }
 
@@ -83,8 +95,9 @@ impl PassTimer {
 #[derive(Debug, Default)]
 pub(crate) struct DeviceClock {
     on: AtomicBool,
-    /// Nanoseconds of the device's passes, of the host's waits, of the host's unpacking.
-    ns: [AtomicU64; 3],
+    /// Nanoseconds of the device's passes, of the host's waits, of the host's unpacking, then of
+    /// each of the device's [`STAGES`].
+    ns: [AtomicU64; 3 + STAGES],
 }
 
 /// What a [`DeviceClock`] sums.
@@ -96,6 +109,17 @@ pub(crate) enum Timed {
     Wait = 1,
     /// The host unpacking a chunk's results.
     Unpack = 2,
+    /// The device's pose decoding pass (a grid's poses), on its own clock.
+    Poses = 3,
+    /// The device's splat (or exact) stage pass.
+    Splat = 4,
+    /// The device's reduce stage pass.
+    Reduce = 5,
+}
+
+impl Timed {
+    /// The device's passes in the order a chunk runs them (stage `s` of [`PassTimer::writes`]).
+    pub(crate) const STAGES: [Timed; STAGES] = [Timed::Poses, Timed::Splat, Timed::Reduce];
 }
 
 impl DeviceClock {

@@ -10,6 +10,7 @@ use crate::sweep::plan::RUN_BLOCKS;
 use sonarproj::geometry::pose::{RelativePose, Rotation};
 use sonarproj::geometry::sonar::Sonar;
 use sonarproj::projection::Backend;
+use sonarproj::projection::gpu::DeviceStages;
 use sonarproj::projection::{Batch, BatchItem};
 use sonarproj::sampling::{Measurement, Sampling};
 
@@ -213,15 +214,15 @@ pub struct SweepTiming {
     pub span_parquet: Option<Duration>,
     /// The whole sweep with summaries only (`rows = false`). `None` when not asked for.
     pub summaries: Option<Duration>,
-    /// The GPU compute passes' part of `decoded`, on the device's clock, from one more run. `None`
-    /// on the CPU backends and on adapters without timestamp queries.
-    pub device: Option<Duration>,
+    /// The GPU compute passes' part of `decoded`, on the device's clock, from one more run (a
+    /// pass a stage). `None` on the CPU backends and on adapters without timestamp queries.
+    pub device: Option<DeviceStages>,
     /// In that run, the host's time waiting for the GPU's chunks and unpacking their metrics.
     /// `None` on the CPU backends.
     pub host: Option<sonarproj::projection::gpu::HostTime>,
     /// The device's and host's times of one more summaries-only sweep. `None` on the CPU backends
     /// or when summaries are not measured.
-    pub summary_gpu: Option<(Option<Duration>, sonarproj::projection::gpu::HostTime)>,
+    pub summary_gpu: Option<(Option<DeviceStages>, sonarproj::projection::gpu::HostTime)>,
 }
 
 /// Which of `bench sweep`'s measures to take besides the projection (`true`: taken).
@@ -387,18 +388,18 @@ fn sweep_once(
     result.map(drop)
 }
 
-/// Returns the device's time (`None` without timestamp queries) and the host's time of one
-/// more call of `f` on the GPU. `None` on the CPU backends.
+/// Returns the device's time a stage (`None` without timestamp queries) and the host's time of
+/// one more call of `f` on the GPU. `None` on the CPU backends.
 fn on_gpu_clock(
     backend: &Backend,
     f: &mut dyn FnMut() -> Result<()>,
-) -> Result<Option<(Option<Duration>, sonarproj::projection::gpu::HostTime)>> {
+) -> Result<Option<(Option<DeviceStages>, sonarproj::projection::gpu::HostTime)>> {
     let Backend::Gpu(g) = backend else {
         return Ok(None);
     };
     g.time_device(true);
     let run = f();
-    let (device, host) = (g.device_time(), g.host_time());
+    let (device, host) = (g.device_stages(), g.host_time());
     g.time_device(false);
     run.map(|()| Some((device, host)))
 }

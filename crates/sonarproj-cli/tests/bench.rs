@@ -132,6 +132,16 @@ fn bench_sweep_times_each_measure_and_the_gpus_summary_sweep() {
             .find(|l| l.starts_with(&note))
             .unwrap_or_else(|| panic!("{text}"));
         assert!(line.contains(", wait ") && line.contains(", unpack "), "{line}");
+        // The projection's timed run, split by stage, where the adapter has timestamp queries.
+        let note = format!("{label} project, one more timed run: device ");
+        let line = text.lines().find(|l| l.starts_with(&note));
+        assert_eq!(line.is_some(), device, "{text}");
+        if let Some(line) = line {
+            assert!(
+                line.contains("(poses ") && line.contains(", splat ") && line.contains(", reduce "),
+                "{line}"
+            );
+        }
     } else {
         assert!(!text.contains("summary sweep, one more timed run"), "{text}");
     }

@@ -261,6 +261,18 @@ impl GpuBackend {
             .then(|| self.clock.total(Timed::Device))
     }
 
+    /// Returns the device time of each compute pass since [`GpuBackend::time_device`] started
+    /// timing. `None` when the adapter has no timestamp queries. Timed chunks run a pass a stage
+    /// where untimed ones run one pass for all three.
+    #[must_use]
+    pub fn device_stages(&self) -> Option<DeviceStages> {
+        self.device_time().map(|_| DeviceStages {
+            poses: self.clock.total(Timed::Poses),
+            splat: self.clock.total(Timed::Splat),
+            reduce: self.clock.total(Timed::Reduce),
+        })
+    }
+
     /// Returns the host's time since [`GpuBackend::time_device`] started timing: waiting for chunks
     /// to finish on the device, and unpacking their results. It is what a call costs beside the
     /// device's passes, with two chunks in flight.
@@ -561,7 +573,11 @@ impl GpuBackend {
         let timed = self.clock.on();
         let waiting = std::time::Instant::now();
         if let Some(t) = &slot.timer {
-            self.clock.add(Timed::Device, t.elapsed(&self.ctx, index())?);
+            let stages = t.elapsed(&self.ctx, index())?;
+            for (what, time) in Timed::STAGES.into_iter().zip(stages) {
+                self.clock.add(what, time);
+                self.clock.add(Timed::Device, time);
+            }
         }
         let (used_bits, _) = shape.bytes(chunk.count);
         let raw_bits: Option<Vec<u32>> = match &slot.bits_staging {
@@ -598,6 +614,26 @@ impl GpuBackend {
             }
             flow
         })?
+    }
+}
+
+/// The device's time in each compute pass while a [`GpuBackend`] was timed
+/// ([`GpuBackend::device_stages`]), on the device's own clock.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DeviceStages {
+    /// The poses stage: a grid's poses decoded from their index (nothing for items).
+    pub poses: std::time::Duration,
+    /// The splat stage (samples transformed, clipped and binned), or the exact stage.
+    pub splat: std::time::Duration,
+    /// The reduce stage: occupancy bits counted into metrics.
+    pub reduce: std::time::Duration,
+}
+
+impl DeviceStages {
+    /// Returns the three passes' time together.
+    #[must_use]
+    pub fn total(&self) -> std::time::Duration {
+        self.poses + self.splat + self.reduce
     }
 }
 

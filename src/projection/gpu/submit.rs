@@ -8,7 +8,6 @@ use rayon::prelude::*;
 use crate::geometry::SonarKind;
 use crate::gpu::GpuContext;
 use crate::gpu::pool::BufferPool;
-use crate::gpu::timing::PassTimer;
 
 use super::slots::{Directions, SLOT_LABELS, Shape, Slot};
 use super::tables::{grid_table, pose_gpu};
@@ -159,14 +158,25 @@ impl GpuBackend {
         enc.clear_buffer(&slot.bits, 0, Some(used_bits));
         enc.clear_buffer(&slot.metrics, 0, Some(used_metrics));
         {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: None,
-                timestamp_writes: slot.timer.as_ref().map(PassTimer::writes),
-            });
+            // One pass for the three stages; a timed chunk takes a pass a stage (the poses pass
+            // empty for items), each between its own timestamps.
+            let timer = slot.timer.as_ref();
+            let begin = |enc: &mut wgpu::CommandEncoder, stage: u32| {
+                enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: None,
+                    timestamp_writes: timer.map(|t| t.writes(stage)),
+                })
+                .forget_lifetime()
+            };
+            let mut pass = begin(&mut enc, 0);
             if let Some(group) = &decode {
                 pass.set_pipeline(&self.poses.pipeline);
                 pass.set_bind_group(0, group, &[]);
                 pass.dispatch_workgroups((n as u64).div_ceil(POSES_WORKGROUP) as u32, 1, 1);
+            }
+            if timer.is_some() {
+                drop(pass);
+                pass = begin(&mut enc, 1);
             }
             pass.set_pipeline(&stage.pipeline);
             pass.set_bind_group(0, &splat_group, &[]);
@@ -177,6 +187,10 @@ impl GpuBackend {
                 pass.dispatch_workgroups(across, groups.div_ceil(across), 1);
             } else {
                 pass.dispatch_workgroups(tiles, across, rows);
+            }
+            if timer.is_some() {
+                drop(pass);
+                pass = begin(&mut enc, 2);
             }
             pass.set_pipeline(&self.reduce.pipeline);
             pass.set_bind_group(0, &reduce_group, &[]);

@@ -249,8 +249,25 @@ fn sweep_table(
     let mut notes = Vec::new();
     for b in backends {
         let t = bench::time_sweep(b, poses, block, runs, measures, step)?;
+        // A timed run's device passes: their sum, then each stage's part.
+        let stages = |d: &sonarproj::projection::gpu::DeviceStages| {
+            format!(
+                "{:.3} s (poses {:.3}, splat {:.3}, reduce {:.3})",
+                d.total().as_secs_f64(),
+                d.poses.as_secs_f64(),
+                d.splat.as_secs_f64(),
+                d.reduce.as_secs_f64()
+            )
+        };
+        if let Some(d) = &t.device {
+            notes.push(format!(
+                "{} project, one more timed run: device {}",
+                b.label(),
+                stages(d)
+            ));
+        }
         if let Some((device, host)) = t.summary_gpu {
-            let device = device.map_or("-".to_string(), |d| format!("{:.3} s", d.as_secs_f64()));
+            let device = device.as_ref().map_or("-".to_string(), stages);
             notes.push(format!(
                 "{} summary sweep, one more timed run: device {device}, wait {:.3} s, unpack {:.3} s",
                 b.label(),
@@ -279,7 +296,7 @@ fn sweep_table(
             t.poses,
             rate.map_or("-".to_string(), |r| format!("{r:.3e}")),
             secs(t.decoded),
-            time(t.device),
+            time(t.device.map(|d| d.total())),
             time(t.host.map(|h| h.wait)),
             time(t.host.map(|h| h.unpack)),
             time(t.per_item),
@@ -298,7 +315,8 @@ fn sweep_table(
     }
     outln!(
         "\nproject: the grid decoded where the work runs, metric columns out; device: of project, \
-         the GPU's compute passes on its own clock (timestamp queries); wait and unpack: of the \
+         the GPU's compute passes on its own clock (timestamp queries; a timed run takes a pass a \
+         stage, split below); wait and unpack: of the \
          same timed run, the host waiting for the GPU's chunks and unpacking their metrics (two \
          chunks in flight: the device works during an unpack); per item: the same \
          poses as batches of items built, packed and unpacked by the host (host ns/pose: the \
