@@ -441,3 +441,30 @@ fn marginals_match_each_pose_put_in_its_cell() {
         }
     }
 }
+
+/// A value too large for the marginals' exact sums is refused, naming the first pose that has
+/// one, whichever marginal's task finds it and however the rest is cut into pieces.
+#[test]
+fn a_value_too_large_for_exact_sums_names_its_first_pose() {
+    let g = grid();
+    let spec = spec();
+    let mut v = vec![0.5; 100_000];
+    v[90_000] = 2f64.powi(41);
+    v[70_000] = -2f64.powi(45);
+    for _ in 0..3 {
+        let e = spec.partial(Some(&g), 11, &v).unwrap_err().to_string();
+        assert!(e.contains("summary of span at pose 70011"), "{e}");
+        assert!(e.contains("too large for the marginals' exact sums"), "{e}");
+    }
+    // Below 2^40 the sums stay exact, and nothing is refused.
+    v[90_000] = 2f64.powi(39);
+    v[70_000] = -2f64.powi(39);
+    assert!(spec.partial(Some(&g), 11, &v).is_ok());
+    // Without marginals no sum is kept, and no value is too large.
+    let bare = SummarySpec {
+        marginals: Vec::new(),
+        ..spec
+    };
+    v[70_000] = 2f64.powi(100);
+    assert!(bare.partial(Some(&g), 11, &v).is_ok());
+}
