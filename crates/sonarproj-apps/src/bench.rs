@@ -372,20 +372,47 @@ fn sweep_once(
     backend: &Backend,
     scratch: &std::path::Path,
 ) -> Result<()> {
-    use crate::sweep::{Format, Options, run};
     let out = scratch.join("bench-sweep");
+    let result = sweep_into(config, backend, &out);
+    let _ = std::fs::remove_dir_all(&out);
+    result.map(drop)
+}
+
+/// Runs the sweep of `config` once as Parquet into folder `out`. Returns its result file.
+fn sweep_into(
+    config: &crate::sweep::SweepConfig,
+    backend: &Backend,
+    out: &std::path::Path,
+) -> Result<Option<std::path::PathBuf>> {
+    use crate::sweep::{Format, Options, run};
     let opts = Options {
-        out: out.clone(),
+        out: out.to_path_buf(),
         shard: None,
         chunk_poses: None,
         max_chunks: None,
         format: Format::Parquet,
     };
-    let result = run(config, backend, &opts, Stop::NEVER, &mut |_| {
+    let outcome = run(config, backend, &opts, Stop::NEVER, &mut |_| {
         std::ops::ControlFlow::Continue(())
-    });
-    let _ = std::fs::remove_dir_all(&out);
-    result.map(drop)
+    })?;
+    Ok(outcome.file)
+}
+
+/// Runs the benchmark sweep ([`sweep_config`], its whole table) of about `poses` poses once
+/// as Parquet into folder `out`, and returns its Parquet file: the table a peer writer (pyarrow,
+/// say) writes again, to set the sweep's time against.
+///
+/// # Errors
+/// As [`sweep_config`] and [`crate::sweep::run()`].
+pub fn parquet_table(
+    backend: &Backend,
+    poses: u64,
+    sampling: Sampling,
+    out: &std::path::Path,
+) -> Result<std::path::PathBuf> {
+    let config = sweep_config(poses, SweepOutput::Table, sampling)?;
+    sweep_into(&config, backend, out)?
+        .ok_or_else(|| Error::write_output(out, "the sweep left no result file"))
 }
 
 /// Returns the device's time a stage (`None` without timestamp queries) and the host's time of

@@ -146,3 +146,113 @@ fn bench_sweep_times_each_measure_and_the_gpus_summary_sweep() {
         assert!(!text.contains("summary sweep, one more timed run"), "{text}");
     }
 }
+
+/// Returns an executable shell script in `dir` named `name` with body `body`: a stand-in for the
+/// Python interpreter `--pyarrow` runs as `PYTHON -c SCRIPT TABLE OUT RUNS`.
+fn stand_in(dir: &std::path::Path, name: &str, body: &str) -> std::path::PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    let path = dir.join(name);
+    std::fs::write(&path, format!("#!/bin/sh\n{body}\n")).unwrap();
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+    path
+}
+
+/// `bench sweep --pyarrow PYTHON` hands the interpreter the sweep's Parquet table and sets the
+/// Parquet sweep against the projection plus the write it reports; an interpreter that cannot
+/// run, fails (no pyarrow) or prints no seconds is bad input naming `--pyarrow`. (The real
+/// pyarrow runs in the Python tests, where it is installed.)
+#[test]
+fn bench_sweep_sets_parquet_against_the_peer_writer() {
+    let dir = tempfile::tempdir().unwrap();
+    // Reports 0.25 s, after checking that it was handed a Parquet file and one run.
+    let peer = stand_in(
+        dir.path(),
+        "peer",
+        r#"[ "$1" = -c ] && [ "$(head -c 4 "$3")" = PAR1 ] && [ "$5" = 1 ] || exit 3
+echo 0.25"#,
+    );
+    let args = [
+        "bench",
+        "sweep",
+        "--backends",
+        "cpu-fast",
+        "--poses",
+        "2000",
+        "--runs",
+        "1",
+    ];
+    let out = common::sonarproj()
+        .args(args)
+        .args(["--measures", "parquet", "--pyarrow"])
+        .arg(&peer)
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    let row: Vec<&str> = text
+        .lines()
+        .find(|l| l.starts_with("cpu-fast  "))
+        .unwrap_or_else(|| panic!("{text}"))
+        .split_whitespace()
+        .collect();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("cpu-fast parquet against pyarrow: "))
+        .unwrap_or_else(|| panic!("{text}"));
+    // "Q s, Rx of project P s + pyarrow's write of the same table W s", from the table's row.
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let number = |w: &str| w.trim_end_matches(['x', ',']).parse::<f64>().unwrap();
+    let (q, ratio, p, w) = (
+        number(words[4]),
+        number(words[6]),
+        number(words[9]),
+        number(words[18]),
+    );
+    assert_eq!((words[4], words[9]), (row[9], row[3]), "{line}\n{text}");
+    assert_eq!(w, 0.25, "{line}");
+    // Each figure is printed to 0.5 ms (the ratio to 0.005): the ratio lies within what those
+    // roundings allow.
+    let (low, high) = ((q - 5e-4) / (p + w + 1e-3), (q + 5e-4) / (p + w - 1e-3));
+    assert!(low - 0.005 <= ratio && ratio <= high + 0.005, "{line}");
+    // Bad interpreters, and the peer without the Parquet measure.
+    let failing = stand_in(
+        dir.path(),
+        "no-pyarrow",
+        "echo \"ModuleNotFoundError: No module named 'pyarrow'\" >&2; exit 1",
+    );
+    let talking = stand_in(dir.path(), "talking", "echo hello");
+    let missing = dir.path().join("missing");
+    for (python, why) in [
+        (&missing, "cannot run it"),
+        (&failing, "No module named 'pyarrow'"),
+        (&talking, "it printed \"hello\""),
+    ] {
+        let err = common::sonarproj()
+            .args(args)
+            .args(["--measures", "parquet", "--pyarrow"])
+            .arg(python)
+            .assert()
+            .code(2)
+            .get_output()
+            .stderr
+            .clone();
+        let err = String::from_utf8(err).unwrap();
+        assert!(err.contains("--pyarrow") && err.contains(why), "{err}");
+    }
+    let err = common::sonarproj()
+        .args(args)
+        .args(["--measures", "summary", "--pyarrow"])
+        .arg(&peer)
+        .assert()
+        .code(2)
+        .get_output()
+        .stderr
+        .clone();
+    assert!(
+        String::from_utf8(err)
+            .unwrap()
+            .contains("needs the parquet measure")
+    );
+}

@@ -88,6 +88,12 @@ pub(super) struct BenchArgs {
     /// `--step 0.1` and `--step exact`, to compare the two side by side.
     #[arg(long, value_name = "DEG|auto|exact", default_value = "0.1", value_parser = super::parse_step)]
     step: sonarproj::Sampling,
+    /// Also time pyarrow writing the Parquet sweep's table again, with this Python interpreter
+    /// (sweep only, with the parquet measure): the table of one more sweep read back and written
+    /// with Snappy and pyarrow's other defaults, `--runs` times. Each backend's Parquet sweep is then
+    /// set against its projection plus that write.
+    #[arg(long, value_name = "PYTHON")]
+    pyarrow: Option<std::path::PathBuf>,
 }
 
 /// The values of `--measures`.
@@ -152,7 +158,15 @@ pub(super) fn run(a: BenchArgs) -> Result<()> {
                 summaries: a.measures.contains(&SweepMeasure::Summary),
             }
         };
-        return sweep_table(&backends, a.poses, a.block, a.runs, measures, a.step.validated()?);
+        if a.pyarrow.is_some() && !measures.parquet {
+            return Err(sonarproj_apps::Error::input(
+                "--pyarrow",
+                "times pyarrow against the Parquet sweep: it needs the parquet measure",
+            ));
+        }
+        let step = a.step.validated()?;
+        let peer = a.pyarrow.as_deref().map(|python| (python, step, a.runs));
+        return sweep_table(&backends, a.poses, a.block, a.runs, measures, step, peer);
     }
     outln!(
         "{:28} {:8} {:>8} {:>12} {:>14} {:>14} {:>12}",
@@ -226,7 +240,15 @@ fn sweep_table(
     runs: u32,
     measures: bench::SweepMeasures,
     step: sonarproj::Sampling,
+    pyarrow: Option<(&std::path::Path, sonarproj::Sampling, u32)>,
 ) -> Result<()> {
+    // The peer's write first: a Python without pyarrow is refused before the long timings.
+    let peer = match (pyarrow, backends.first()) {
+        (Some((python, step, runs)), Some(b)) => {
+            Some(super::peer::pyarrow_write(python, b, poses, step, runs)?)
+        }
+        _ => None,
+    };
     outln!(
         "{:9} {:>9} {:>10} {:>12} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>13} {:>13} {:>7} {:>12} {:>7}",
         "backend",
@@ -249,6 +271,18 @@ fn sweep_table(
     let mut notes = Vec::new();
     for b in backends {
         let t = bench::time_sweep(b, poses, block, runs, measures, step)?;
+        if let (Some(write), Some(parquet)) = (peer, t.parquet) {
+            let (p, w, q) = (
+                t.decoded.as_secs_f64(),
+                write.as_secs_f64(),
+                parquet.as_secs_f64(),
+            );
+            notes.push(format!(
+                "{} parquet against pyarrow: {q:.3} s, {:.2}x of project {p:.3} s + pyarrow's write of the same table {w:.3} s",
+                b.label(),
+                q / (p + w)
+            ));
+        }
         // A timed run's device passes: their sum, then each stage's part.
         let stages = |d: &sonarproj::projection::gpu::DeviceStages| {
             format!(

@@ -21,6 +21,7 @@ mod mask_json;
 mod mask_stream;
 mod names;
 mod paper;
+mod peer;
 mod pose_args;
 mod project;
 mod recover;
