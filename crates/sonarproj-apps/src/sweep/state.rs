@@ -195,8 +195,14 @@ impl<'a> Files<'a> {
         let mut written = Written::default();
         if let Some(table) = table {
             let path = self.chunk_path(c);
-            let mut bytes = Vec::new();
             let columns = &plan.desc.columns;
+            // Room for the table uncompressed, 8 bytes a value (at most 256 MiB, the size of the
+            // table in memory at the largest chunk): the encoded chunk grows into it without a
+            // copy, and pages the encoding leaves untouched cost no memory.
+            let raw = usize::try_from(r.end - r.start)
+                .unwrap_or(usize::MAX)
+                .saturating_mul(8 * columns.len());
+            let mut bytes = Vec::with_capacity(raw.saturating_add(1 << 16).min(1 << 28));
             let mut t = TableWriter::new(
                 &mut bytes,
                 columns,
