@@ -7,6 +7,7 @@
 //! the chunking, threads or shards. Ties go to the lower pose index, histograms count, and means
 //! divide a fixed-point sum (an integer of 2^-[`FIXED_BITS`] units).
 
+mod cells;
 mod part;
 mod spec;
 #[cfg(test)]
@@ -21,6 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 use crate::sweep::grid::Grid;
+use cells::{Cells, Odometer, add_to_marginal};
 use spec::edges;
 
 /// The fixed-point resolution of the marginals' sums: 2^-40 of the metric's unit.
@@ -193,6 +195,9 @@ struct Best<const ASCENDING: bool> {
     k: usize,
     /// The `k`-th after the last trim, when there were `k`.
     bound: Option<Ranked>,
+    /// The bound's total-order key ([`cells::key`]), or the key no value passes without a bound.
+    /// A pose whose key is past it is behind the bound: the caller need not offer it.
+    cut: i64,
 }
 
 impl<const ASCENDING: bool> Best<ASCENDING> {
@@ -206,7 +211,13 @@ impl<const ASCENDING: bool> Best<ASCENDING> {
 
     /// Returns the best `k`, starting from `list`, itself the best of earlier poses.
     fn new(list: Vec<Ranked>, k: usize) -> Self {
-        let mut best = Best { list, k, bound: None };
+        let cut = if ASCENDING { i64::MAX } else { i64::MIN };
+        let mut best = Best {
+            list,
+            k,
+            bound: None,
+            cut,
+        };
         best.trim();
         best
     }
@@ -241,6 +252,7 @@ impl<const ASCENDING: bool> Best<ASCENDING> {
         self.list = first_in_order(std::mem::take(&mut self.list), self.k, Self::order);
         if self.list.len() == self.k {
             self.bound = self.list.last().copied();
+            self.cut = self.bound.map_or(self.cut, |b| cells::key(b.value));
         }
     }
 
@@ -249,128 +261,6 @@ impl<const ASCENDING: bool> Best<ASCENDING> {
         self.trim();
         self.list
     }
-}
-
-/// A marginal's cell over consecutive poses, stepped without a division per pose.
-/// Each axis is a digit: `[poses a value lasts, values, weight in the cell, place within the
-/// value, the value]`.
-struct Odometer(Vec<[u64; 5]>);
-
-impl Odometer {
-    fn new(grid: &Grid, axes: &[String], first: u64) -> Odometer {
-        let mut digits = Vec::with_capacity(axes.len());
-        let mut weight = 1u64;
-        for a in axes.iter().rev() {
-            let k = grid
-                .axes
-                .iter()
-                .position(|x| x.column == a)
-                .expect("checked axis");
-            let stride: u64 = grid.axes[k + 1..].iter().map(|x| x.values.len() as u64).product();
-            let n = grid.axes[k].values.len() as u64;
-            digits.push([stride, n, weight, first % stride, (first / stride) % n]);
-            weight *= n;
-        }
-        Odometer(digits)
-    }
-
-    /// Returns the cell of the current pose.
-    fn cell(&self) -> usize {
-        let cell: u64 = self.0.iter().map(|d| d[4] * d[2]).sum();
-        #[expect(clippy::cast_possible_truncation, reason = "below the cell count")]
-        let cell = cell as usize;
-        cell
-    }
-
-    /// Returns the length (1 to `left`) of the run of poses from the current one whose cell
-    /// rises by a fixed step per pose, and that step (0: one cell). Within the run, slow axes
-    /// hold their value and per-pose axes do not wrap.
-    fn segment(&self, left: usize) -> (usize, usize) {
-        let mut len = left as u64;
-        let mut step = 0;
-        for d in &self.0 {
-            if d[0] == 1 {
-                len = len.min(d[1] - d[4]);
-                step += d[2];
-            } else {
-                len = len.min(d[0] - d[3]);
-            }
-        }
-        #[expect(
-            clippy::cast_possible_truncation,
-            reason = "at most left, and below the cell count"
-        )]
-        let out = (len as usize, step as usize);
-        out
-    }
-
-    /// Steps `by` poses: the length of the current [`Odometer::segment`] or less.
-    fn advance(&mut self, by: u64) {
-        for d in &mut self.0 {
-            if d[0] == 1 {
-                d[4] += by;
-                if d[4] == d[1] {
-                    d[4] = 0;
-                }
-            } else {
-                d[3] += by;
-                if d[3] == d[0] {
-                    d[3] = 0;
-                    d[4] = if d[4] + 1 == d[1] { 0 } else { d[4] + 1 };
-                }
-            }
-        }
-    }
-}
-
-/// Adds poses with metric `values` (NaN: no value), from `odometer`'s pose, to marginal `m`.
-/// A segment in one cell (slow axes) is reduced first and added once. A segment whose cell steps
-/// every pose is added value by value. `fixed_of(k, v)` is value `k`'s exact term.
-fn add_to_marginal(
-    m: &mut Marginal,
-    mut odometer: Odometer,
-    values: &[f64],
-    fixed_of: impl Fn(usize, f64) -> Result<i128>,
-) -> Result<()> {
-    let mut k = 0;
-    while k < values.len() {
-        let (len, step) = odometer.segment(values.len() - k);
-        let base = odometer.cell();
-        let segment = &values[k..k + len];
-        if step == 0 {
-            let (mut count, mut sum) = (0u64, 0i128);
-            let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
-            for (i, &v) in segment.iter().enumerate() {
-                if v.is_nan() {
-                    continue;
-                }
-                sum += fixed_of(k + i, v)?;
-                count += 1;
-                min = least(min, v);
-                max = greatest(max, v);
-            }
-            if count > 0 {
-                m.count[base] += count;
-                m.sum[base] += sum;
-                m.min[base] = Some(m.min[base].map_or(min, |x| least(x, min)));
-                m.max[base] = Some(m.max[base].map_or(max, |x| greatest(x, max)));
-            }
-        } else {
-            for (i, &v) in segment.iter().enumerate() {
-                if v.is_nan() {
-                    continue;
-                }
-                let c = base + i * step;
-                m.count[c] += 1;
-                m.sum[c] += fixed_of(k + i, v)?;
-                m.min[c] = Some(m.min[c].map_or(v, |x| least(x, v)));
-                m.max[c] = Some(m.max[c].map_or(v, |x| greatest(x, v)));
-            }
-        }
-        odometer.advance(len as u64);
-        k += len;
-    }
-    Ok(())
 }
 
 impl SummarySpec {
@@ -466,31 +356,28 @@ impl SummarySpec {
         let cells = m.count.len().max(1);
         let pieces = (values.len() / (8 * cells).max(1 << 14)).clamp(1, rayon::current_num_threads());
         let piece = values.len().div_ceil(pieces).max(1);
-        let one = |k: usize, v: &[f64]| -> Result<Marginal> {
-            let mut m = m.clone();
+        let n = m.count.len();
+        let one = |k: usize, v: &[f64]| -> Result<Cells> {
+            let mut c = Cells::new(n);
             let from = first + (k * piece) as u64;
             let odometer = Odometer::new(grid, &m.axes, from);
-            add_to_marginal(&mut m, odometer, v, |i, x| self.fixed_of(from, i, x))?;
-            Ok(m)
+            add_to_marginal(&mut c, odometer, v, |i, x| self.fixed_of(from, i, x))?;
+            Ok(c)
         };
         if pieces == 1 {
-            return one(0, values);
+            return Ok(one(0, values)?.into_marginal(m));
         }
         // The first error in pose order, whichever piece finds it first.
-        let parts: Vec<Result<Marginal>> = values
+        let parts: Vec<Result<Cells>> = values
             .par_chunks(piece)
             .enumerate()
             .map(|(k, v)| one(k, v))
             .collect();
-        let mut total: Option<Marginal> = None;
+        let mut total = Cells::new(n);
         for part in parts {
-            let part = part?;
-            match &mut total {
-                None => total = Some(part),
-                Some(t) => add_cells(t, &part),
-            }
+            total.add(&part?);
         }
-        Ok(total.unwrap_or(m))
+        Ok(total.into_marginal(m))
     }
 
     /// Returns the summary of `values` from pose `first`, but for its marginals (left empty):
@@ -537,10 +424,13 @@ impl SummarySpec {
     /// holds none of them yet. One thread: a pass per marginal, then one for the rest.
     #[cfg(test)]
     fn add(&self, s: &mut Summary, grid: Option<&Grid>, first: u64, values: &[f64]) -> Result<()> {
-        for m in &mut s.marginals {
+        for (k, m) in s.marginals.iter_mut().enumerate() {
             let grid = grid.expect("marginals are checked to need a grid");
             let odometer = Odometer::new(grid, &m.axes, first);
-            add_to_marginal(m, odometer, values, |k, v| self.fixed_of(first, k, v))?;
+            let mut cells = Cells::new(m.count.len());
+            add_to_marginal(&mut cells, odometer, values, |k, v| self.fixed_of(first, k, v))?;
+            let empty = self.empty(Some(grid)).marginals.swap_remove(k);
+            add_cells(m, &cells.into_marginal(empty));
         }
         self.add_rest(s, first, values);
         Ok(())
@@ -554,28 +444,31 @@ impl SummarySpec {
         let mut largest = Best::<false>::new(std::mem::take(&mut s.largest), self.top);
         #[expect(clippy::cast_precision_loss, reason = "bin counts are small")]
         let histogram = self.histogram.map(|h| (h, h.bins as f64 / (h.max - h.min)));
+        // This piece's extremes: the first pose with the least key, and with the greatest.
+        let (mut low, mut low_at, mut high, mut high_at) = (i64::MAX, 0, i64::MIN, 0);
+        let mut seen = 0u64;
         for (k, &value) in values.iter().enumerate() {
             if value.is_nan() {
                 continue;
             }
-            let r = Ranked {
+            seen += 1;
+            let key = cells::key(value);
+            if key < low {
+                (low, low_at) = (key, k);
+            }
+            if key > high {
+                (high, high_at) = (key, k);
+            }
+            let r = || Ranked {
                 index: first + k as u64,
                 value,
             };
-            s.with_value += 1;
-            // Floats compare first (no NaN here, -0 == +0 only ties); total order breaks ties.
-            if s.min
-                .is_none_or(|m| value < m.value || (value == m.value && ascending(&r, &m).is_lt()))
-            {
-                s.min = Some(r);
+            if key <= smallest.cut {
+                smallest.offer(r());
             }
-            if s.max
-                .is_none_or(|m| value > m.value || (value == m.value && descending(&r, &m).is_lt()))
-            {
-                s.max = Some(r);
+            if key >= largest.cut {
+                largest.offer(r());
             }
-            smallest.offer(r);
-            largest.offer(r);
             if let (Some(h), Some((spec, per))) = (&mut s.histogram, histogram) {
                 if value < spec.min {
                     h.below += 1;
@@ -602,6 +495,28 @@ impl SummarySpec {
         }
         s.smallest = smallest.finish();
         s.largest = largest.finish();
+        if seen > 0 {
+            // No value's key is i64::MAX or MIN (those are NaNs), so both were found.
+            let at = |k: usize| first + k as u64;
+            let (min, max) = (values[low_at], values[high_at]);
+            let (min, max) = (
+                Ranked {
+                    index: at(low_at),
+                    value: min,
+                },
+                Ranked {
+                    index: at(high_at),
+                    value: max,
+                },
+            );
+            s.with_value += seen;
+            if s.min.is_none_or(|m| ascending(&min, &m).is_lt()) {
+                s.min = Some(min);
+            }
+            if s.max.is_none_or(|m| descending(&max, &m).is_lt()) {
+                s.max = Some(max);
+            }
+        }
     }
 
     /// Returns `a` and `b`, summaries of this spec over disjoint poses, combined.

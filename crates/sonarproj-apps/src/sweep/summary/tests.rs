@@ -468,3 +468,46 @@ fn a_value_too_large_for_exact_sums_names_its_first_pose() {
     v[70_000] = 2f64.powi(100);
     assert!(bare.partial(Some(&g), 11, &v).is_ok());
 }
+
+/// Values too large for the quick exact term (2^22 and more) but within 2^40 take the checked
+/// way, in both kinds of segment, to the sums, counts and extremes a pose-by-pose count gives.
+#[test]
+fn large_values_take_the_checked_way_to_the_same_cells() {
+    let g = grid();
+    let spec = spec();
+    let first = 7u64;
+    let v: Vec<f64> = (0..50_000u32)
+        .map(|i| match i % 11 {
+            0 => 2f64.powi(39) - f64::from(i),
+            3 => -(2f64.powi(30)) + 0.3,
+            5 => f64::NAN,
+            7 => -0.0,
+            _ => f64::from(i % 97) * 0.013,
+        })
+        .collect();
+    let s = spec.partial(Some(&g), first, &v).unwrap();
+    // Pose p: roll (3 values) is p / 4 % 3, pitch (4 values) p % 4. The marginals are roll,
+    // and pitch × roll (roll fastest).
+    let cell = |p: u64| usize::try_from(p % 4 * 3 + p / 4 % 3).unwrap();
+    for (j, m) in s.marginals.iter().enumerate() {
+        let cell_of = |p: u64| if j == 0 { cell(p) % 3 } else { cell(p) };
+        let n = m.count.len();
+        let (mut count, mut sum) = (vec![0u64; n], vec![0i128; n]);
+        let (mut min, mut max) = (vec![None::<f64>; n], vec![None::<f64>; n]);
+        for (k, &x) in v.iter().enumerate() {
+            if x.is_nan() {
+                continue;
+            }
+            let c = cell_of(first + k as u64);
+            count[c] += 1;
+            sum[c] += fixed(x).unwrap();
+            min[c] = Some(min[c].map_or(x, |y: f64| if x.total_cmp(&y).is_lt() { x } else { y }));
+            max[c] = Some(max[c].map_or(x, |y: f64| if x.total_cmp(&y).is_gt() { x } else { y }));
+        }
+        assert_eq!(m.count, count, "{:?}", m.axes);
+        assert_eq!(m.sum, sum, "{:?}", m.axes);
+        let bits = |v: &[Option<f64>]| v.iter().map(|x| x.map(f64::to_bits)).collect::<Vec<_>>();
+        assert_eq!(bits(&m.min), bits(&min), "{:?}", m.axes);
+        assert_eq!(bits(&m.max), bits(&max), "{:?}", m.axes);
+    }
+}
