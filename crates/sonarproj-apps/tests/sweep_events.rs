@@ -124,3 +124,45 @@ fn a_resumed_run_reports_its_chunks_in_order_and_stops_where_told() {
         assert_eq!(got[..5], ["P10", "P20", "P30", "R3", "P40"], "{}", backend.name());
     }
 }
+
+/// A run's last chunk goes straight into its results, not into its state: a run told to stop at
+/// the news of it has kept every chunk before it and not that one, and the next run computes
+/// that chunk alone, to the same table and summaries as a run never stopped.
+#[test]
+fn a_run_stopped_at_its_last_chunk_loses_that_chunk_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!("{GRID}[summary]\ntop = 3\nmarginals = [\"roll\"]\n");
+    let config = SweepConfig::parse("grid.toml", &text, dir.path()).unwrap();
+    let backend = Backend::CpuFast;
+    let whole = dir.path().join("whole");
+    events_of(&config, &backend, &options(&whole, None), &|_| false);
+    let cut = dir.path().join("cut");
+    let got: Vec<String> = events_of(&config, &backend, &options(&cut, None), &|e| {
+        matches!(e, Event::Progress { done: 100, .. })
+    })
+    .iter()
+    .map(name)
+    .collect();
+    assert_eq!(got.last().map(String::as_str), Some("P100"));
+    let state = cut.join(".partial-sweep");
+    for c in 0..10 {
+        for ext in ["parquet", "summary.json"] {
+            let file = state.join(format!("chunk-{c:08}.{ext}"));
+            assert_eq!(file.exists(), c < 9, "{}", file.display());
+        }
+    }
+    assert!(!cut.join("summary.json").exists());
+    let outcome = run(
+        &config,
+        &backend,
+        &options(&cut, None),
+        sonarproj::stream::Stop::NEVER,
+        &mut |_| ControlFlow::Continue(()),
+    )
+    .unwrap();
+    assert_eq!((outcome.resumed, outcome.computed), (90, 10));
+    for file in ["sweep.parquet", "summary.json"] {
+        let read = |d: &Path| std::fs::read(d.join(file)).unwrap();
+        assert!(read(&cut) == read(&whole), "{file} differs");
+    }
+}

@@ -128,9 +128,12 @@ pub(crate) fn claim(dir: &Path, d: &Descriptor) -> Result<()> {
 
 /// Writes the summaries `total` to `path` as pretty JSON, with its record for `expected`.
 pub(crate) fn write_summary(path: &Path, expected: parts::Expected<'_>, total: &Summary) -> Result<()> {
+    // Encoded whole first: serde_json writes token by token, and each small write through the
+    // checksumming writer costs more than the encoding (10 ms against 2 for a 1 MB summary).
+    let mut bytes = serde_json::to_vec_pretty(total).map_err(|e| Error::write_output(path, e))?;
+    bytes.push(b'\n');
     parts::write(path, expected, |w| {
-        serde_json::to_writer_pretty(&mut *w, total).map_err(|e| Error::write_output(path, e))?;
-        w.write_all(b"\n").map_err(|e| Error::write_output(path, e))
+        w.write_all(&bytes).map_err(|e| Error::write_output(path, e))
     })
 }
 

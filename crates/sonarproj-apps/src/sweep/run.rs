@@ -354,7 +354,8 @@ fn compute_and_write(
                     return Ok(ControlFlow::Break(()));
                 }
                 let n = computed.poses.end - computed.poses.start;
-                writer.write(computed)?;
+                let last = computed.chunk + 1 == plan.chunks;
+                writer.write(computed, last)?;
                 outcome.computed += n;
                 done += n;
                 Ok(events(Event::Progress {

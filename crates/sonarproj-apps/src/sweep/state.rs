@@ -184,12 +184,14 @@ impl<'a> Files<'a> {
 
     /// Writes chunk `c` (poses `r`): its Parquet table, if any, and the summary of its `values`,
     /// if asked. Returns both: the table encoded for the result's join, the summary for the total.
+    /// Unless `keep`, neither is kept on disk in the run's state, only returned.
     pub(crate) fn write_chunk(
         &self,
         c: u64,
         r: Range<u64>,
         table: Option<Table>,
         values: Option<Vec<f64>>,
+        keep: bool,
     ) -> Result<Written> {
         let plan = self.plan;
         let mut written = Written::default();
@@ -213,18 +215,24 @@ impl<'a> Files<'a> {
             )?;
             t.push(table)?;
             t.finish()?;
-            parts::write_chunk(&path, self.expected(&r), |w| {
-                w.write_all(&bytes).map_err(|e| Error::write_output(&path, e))
-            })?;
+            if keep {
+                parts::write_chunk(&path, self.expected(&r), |w| {
+                    w.write_all(&bytes).map_err(|e| Error::write_output(&path, e))
+                })?;
+            }
             written.table = Some(bytes::Bytes::from(bytes));
         }
         if let (Some(spec), Some(values)) = (plan.spec, values) {
             let summary = spec.partial(plan.grid, r.start, &values)?;
-            let part = summary.to_part();
-            let sum_path = self.chunk_summary(c);
-            parts::write_chunk(&sum_path, self.expected(&r), |w| {
-                serde_json::to_writer(&mut *w, &part).map_err(|e| Error::write_output(&sum_path, e))
-            })?;
+            if keep {
+                let part = summary.to_part();
+                let sum_path = self.chunk_summary(c);
+                // Encoded whole first, as the summary is (records::write_summary).
+                let bytes = serde_json::to_vec(&part).map_err(|e| Error::write_output(&sum_path, e))?;
+                parts::write_chunk(&sum_path, self.expected(&r), |w| {
+                    w.write_all(&bytes).map_err(|e| Error::write_output(&sum_path, e))
+                })?;
+            }
             written.summary = Some(summary);
         }
         Ok(written)

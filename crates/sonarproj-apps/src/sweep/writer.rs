@@ -70,7 +70,12 @@ impl<'s, 'e> Writer<'s, 'e> {
     }
 
     /// Settles the chunk before, then starts writing `computed` on a thread of its own.
-    pub(crate) fn write(&mut self, computed: Computed) -> Result<()> {
+    ///
+    /// The run's `last` chunk leaves no files in the run's state where the results are made
+    /// from memory: its summary goes straight into the total, its table (when joined as chunks
+    /// finish) straight into the result. The results are written next, so an interruption loses
+    /// at most this chunk, as it may any other.
+    pub(crate) fn write(&mut self, computed: Computed, last: bool) -> Result<()> {
         self.settle()?;
         let files = self.files;
         let Computed {
@@ -79,9 +84,10 @@ impl<'s, 'e> Writer<'s, 'e> {
             table,
             values,
         } = computed;
+        let keep = !(last && (table.is_none() || self.joins()));
         let handle = self
             .scope
-            .spawn(move || files.write_chunk(chunk, poses, table, values));
+            .spawn(move || files.write_chunk(chunk, poses, table, values, keep));
         self.writing = Some((chunk, handle));
         Ok(())
     }
