@@ -13,8 +13,11 @@
 //! - `sweep-METRIC.png`: the metric against the varying axes (whole runs and merges only).
 //! - `.partial-sweep/` or `.partial-shard-K-of-N/` while unfinished: `manifest.json` and one
 //!   `chunk-NNNNNNNN.csv` per finished chunk with its record, each written whole or not at all.
+//!   The run's last chunk keeps what the results take from memory out of it (its summary part,
+//!   and its Parquet table when joined as chunks finish): the results are written next.
 //!   A re-run skips finished chunks whose bytes match their records and recomputes the others,
-//!   saying so. The directory is removed once the result file is written.
+//!   saying so (the last chunk too, when a run stopped before its results). The directory is
+//!   removed once the result file is written.
 
 use sonarproj::stream::Stop;
 use std::ops::ControlFlow;

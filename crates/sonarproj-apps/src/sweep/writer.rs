@@ -71,10 +71,11 @@ impl<'s, 'e> Writer<'s, 'e> {
 
     /// Settles the chunk before, then starts writing `computed` on a thread of its own.
     ///
-    /// The run's `last` chunk leaves no files in the run's state where the results are made
-    /// from memory: its summary goes straight into the total, its table (when joined as chunks
-    /// finish) straight into the result. The results are written next, so an interruption loses
-    /// at most this chunk, as it may any other.
+    /// The run's `last` chunk keeps out of the run's state what the results take from memory:
+    /// its summary part (the summary goes straight into the total) and, when the result is
+    /// joined as chunks finish, its Parquet table (straight into the result). A CSV chunk, or a
+    /// Parquet one joined from the files at the end, is still written. The results are written
+    /// next, so an interruption loses at most this chunk, as it may any other.
     pub(crate) fn write(&mut self, computed: Computed, last: bool) -> Result<()> {
         self.settle()?;
         let files = self.files;

@@ -222,3 +222,45 @@ fn a_parquet_sweep_resumes_redoes_damaged_chunks_and_keeps_its_format() {
         .code(2)
         .stderr(predicates::str::contains("as CSV and as Parquet"));
 }
+
+/// A Parquet table into a FIFO is joined from the chunk files at the end, not as chunks finish,
+/// so every chunk's file is kept, the last one too: what comes through the FIFO is, byte for
+/// byte, the table a run into a regular file writes.
+#[test]
+fn a_parquet_table_into_a_fifo_holds_every_chunk() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = file(dir.path(), "1d.toml", GRID_1D);
+    let args = [
+        "--backend",
+        "cpu-fast",
+        "--format",
+        "parquet",
+        "--chunk-poses",
+        "10",
+    ];
+    let want = sweep(&cfg, &dir.path().join("file"), &args, "sweep.parquet");
+    let out = dir.path().join("fifo");
+    std::fs::create_dir(&out).unwrap();
+    let fifo = out.join("sweep.parquet");
+    common::mkfifo(&fifo);
+    let reader = std::thread::spawn({
+        let fifo = fifo.clone();
+        move || std::fs::read(fifo).unwrap()
+    });
+    common::sonarproj()
+        .args(["sweep", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .args(args)
+        .timeout(std::time::Duration::from_secs(60))
+        .assert()
+        .success();
+    let got = reader.join().unwrap();
+    assert!(
+        got == want,
+        "{} bytes through the FIFO, {} in the file",
+        got.len(),
+        want.len()
+    );
+}

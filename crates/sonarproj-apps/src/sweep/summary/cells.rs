@@ -174,7 +174,8 @@ impl Odometer {
 /// Adds poses with metric `values` (NaN: no value), from `odometer`'s pose, to `cells`.
 /// A segment in one cell (slow axes) is reduced first and added once. A segment whose cell steps
 /// every pose is added value by value. `fixed_of(k, v)` is value `k`'s exact term, or the error
-/// naming it; it is called only for a value too large for the quick term.
+/// naming it; it is called only where a value is too large for the quick term: for that value
+/// in a stepping segment, for every value of a one-cell segment holding one.
 pub(super) fn add_to_marginal(
     cells: &mut Cells,
     mut odometer: Odometer,
