@@ -271,78 +271,8 @@ fn sweep_table(
     let mut notes = Vec::new();
     for b in backends {
         let t = bench::time_sweep(b, poses, block, runs, measures, step)?;
-        if let (Some(write), Some(parquet)) = (peer, t.parquet) {
-            let (p, w, q) = (
-                t.decoded.as_secs_f64(),
-                write.as_secs_f64(),
-                parquet.as_secs_f64(),
-            );
-            notes.push(format!(
-                "{} parquet against pyarrow: {q:.3} s, {:.2}x of project {p:.3} s + pyarrow's write of the same table {w:.3} s",
-                b.label(),
-                q / (p + w)
-            ));
-        }
-        // A timed run's device passes: their sum, then each stage's part.
-        let stages = |d: &sonarproj::projection::gpu::DeviceStages| {
-            format!(
-                "{:.3} s (poses {:.3}, splat {:.3}, reduce {:.3})",
-                d.total().as_secs_f64(),
-                d.poses.as_secs_f64(),
-                d.splat.as_secs_f64(),
-                d.reduce.as_secs_f64()
-            )
-        };
-        if let Some(d) = &t.device {
-            notes.push(format!(
-                "{} project, one more timed run: device {}",
-                b.label(),
-                stages(d)
-            ));
-        }
-        if let Some((device, host)) = t.summary_gpu {
-            let device = device.as_ref().map_or("-".to_string(), stages);
-            notes.push(format!(
-                "{} summary sweep, one more timed run: device {device}, wait {:.3} s, unpack {:.3} s",
-                b.label(),
-                host.wait.as_secs_f64(),
-                host.unpack.as_secs_f64()
-            ));
-        }
-        let secs = |d: std::time::Duration| d.as_secs_f64();
-        // A measure's seconds and its multiple of the projection ("-" where not taken).
-        let time = |d: Option<std::time::Duration>| d.map_or("-".to_string(), |d| format!("{:.3}", secs(d)));
-        let ratio = |d: Option<std::time::Duration>, of: Option<std::time::Duration>| match (d, of) {
-            (Some(d), Some(of)) => format!("{:.2}x", secs(d) / secs(of)),
-            _ => "-".to_string(),
-        };
-        #[expect(clippy::cast_precision_loss, reason = "pose and sample counts below 2^53")]
-        let (per_pose, rate) = (
-            t.per_item.map_or("-".to_string(), |p| {
-                format!("{:.0}", (secs(p) - secs(t.decoded)) * 1e9 / t.poses as f64)
-            }),
-            // Exact mode draws no samples: no rate.
-            (t.samples > 0).then(|| t.samples as f64 / secs(t.decoded)),
-        );
-        outln!(
-            "{:9} {:>9} {:>10} {:>12.3} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>13} {:>13} {:>7} {:>12} {:>7}",
-            b.label(),
-            t.poses,
-            rate.map_or("-".to_string(), |r| format!("{r:.3e}")),
-            secs(t.decoded),
-            time(t.device.map(|d| d.total())),
-            time(t.host.map(|h| h.wait)),
-            time(t.host.map(|h| h.unpack)),
-            time(t.per_item),
-            per_pose,
-            time(t.parquet),
-            ratio(t.parquet, Some(t.decoded)),
-            time(t.span_decoded),
-            time(t.span_parquet),
-            ratio(t.span_parquet, t.span_decoded),
-            time(t.summaries),
-            ratio(t.summaries, t.span_decoded)
-        )?;
+        notes.extend(sweep_notes(b, &t, peer));
+        sweep_row(b, &t)?;
     }
     for note in notes {
         outln!("{note}")?;
@@ -359,6 +289,90 @@ fn sweep_table(
          pq: the sweep to Parquet keeping the span alone of the result columns, and summary: the \
          sweep with summaries of the span only (ratios: their multiples of span proj); - where not measured (no timestamp queries, or left out of \
          --measures); medians of the runs after one warm-up"
+    )?;
+    Ok(())
+}
+
+/// Returns the lines printed under the sweep table for backend `b`'s times `t`: its Parquet
+/// sweep against the `peer`'s write, and a timed run's device time by stage.
+fn sweep_notes(b: &Backend, t: &bench::SweepTiming, peer: Option<std::time::Duration>) -> Vec<String> {
+    let mut notes = Vec::new();
+    if let (Some(write), Some(parquet)) = (peer, t.parquet) {
+        let (p, w, q) = (
+            t.decoded.as_secs_f64(),
+            write.as_secs_f64(),
+            parquet.as_secs_f64(),
+        );
+        notes.push(format!(
+            "{} parquet against pyarrow: {q:.3} s, {:.2}x of project {p:.3} s + pyarrow's write of the same table {w:.3} s",
+            b.label(),
+            q / (p + w)
+        ));
+    }
+    // A timed run's device passes: their sum, then each stage's part.
+    let stages = |d: &sonarproj::projection::gpu::DeviceStages| {
+        format!(
+            "{:.3} s (poses {:.3}, splat {:.3}, reduce {:.3})",
+            d.total().as_secs_f64(),
+            d.poses.as_secs_f64(),
+            d.splat.as_secs_f64(),
+            d.reduce.as_secs_f64()
+        )
+    };
+    if let Some(d) = &t.device {
+        notes.push(format!(
+            "{} project, one more timed run: device {}",
+            b.label(),
+            stages(d)
+        ));
+    }
+    if let Some((device, host)) = t.summary_gpu {
+        let device = device.as_ref().map_or("-".to_string(), stages);
+        notes.push(format!(
+            "{} summary sweep, one more timed run: device {device}, wait {:.3} s, unpack {:.3} s",
+            b.label(),
+            host.wait.as_secs_f64(),
+            host.unpack.as_secs_f64()
+        ));
+    }
+    notes
+}
+
+/// Prints backend `b`'s row of the sweep table from its times `t`.
+fn sweep_row(b: &Backend, t: &bench::SweepTiming) -> Result<()> {
+    let secs = |d: std::time::Duration| d.as_secs_f64();
+    // A measure's seconds and its multiple of the projection ("-" where not taken).
+    let time = |d: Option<std::time::Duration>| d.map_or("-".to_string(), |d| format!("{:.3}", secs(d)));
+    let ratio = |d: Option<std::time::Duration>, of: Option<std::time::Duration>| match (d, of) {
+        (Some(d), Some(of)) => format!("{:.2}x", secs(d) / secs(of)),
+        _ => "-".to_string(),
+    };
+    #[expect(clippy::cast_precision_loss, reason = "pose and sample counts below 2^53")]
+    let (per_pose, rate) = (
+        t.per_item.map_or("-".to_string(), |p| {
+            format!("{:.0}", (secs(p) - secs(t.decoded)) * 1e9 / t.poses as f64)
+        }),
+        // Exact mode draws no samples: no rate.
+        (t.samples > 0).then(|| t.samples as f64 / secs(t.decoded)),
+    );
+    outln!(
+        "{:9} {:>9} {:>10} {:>12.3} {:>11} {:>9} {:>11} {:>13} {:>13} {:>12} {:>7} {:>13} {:>13} {:>7} {:>12} {:>7}",
+        b.label(),
+        t.poses,
+        rate.map_or("-".to_string(), |r| format!("{r:.3e}")),
+        secs(t.decoded),
+        time(t.device.map(|d| d.total())),
+        time(t.host.map(|h| h.wait)),
+        time(t.host.map(|h| h.unpack)),
+        time(t.per_item),
+        per_pose,
+        time(t.parquet),
+        ratio(t.parquet, Some(t.decoded)),
+        time(t.span_decoded),
+        time(t.span_parquet),
+        ratio(t.span_parquet, t.span_decoded),
+        time(t.summaries),
+        ratio(t.summaries, t.span_decoded)
     )?;
     Ok(())
 }
