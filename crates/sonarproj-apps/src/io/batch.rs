@@ -12,7 +12,6 @@
 use std::io::{Read, Write};
 
 use crate::error::Result;
-use crate::io::field;
 use crate::io::pose_columns::{PoseColumns, allowed_columns, expected_columns};
 use crate::io::table::{CsvOut, Row, TableReader, header_error, row_error};
 use sonarproj::geometry::sonar::Sonar;
@@ -260,12 +259,30 @@ pub fn metric_fields(m: &Metrics, local: &LocalPrecision) -> Vec<String> {
 /// When `k` is not below `METRIC_COLUMNS.len()`.
 #[must_use]
 pub fn metric_field(m: &Metrics, local: &LocalPrecision, k: usize) -> String {
-    match METRICS.get(k) {
+    let mut out = String::new();
+    push_metric_field(&mut out, m, local, k);
+    out
+}
+
+/// Appends result field `k` of [`METRIC_COLUMNS`] for one projection to `out`: the text of
+/// [`metric_field`], without a string of its own (the paper's CSV formats millions of them).
+///
+/// # Panics
+/// When `k` is not below `METRIC_COLUMNS.len()`.
+pub fn push_metric_field(out: &mut String, m: &Metrics, local: &LocalPrecision, k: usize) {
+    use std::fmt::Write;
+    let v = match METRICS.get(k) {
         Some(info) => match m.get(info.metric) {
-            Value::Count(n) => n.to_string(),
-            Value::Real(v) => v.to_string(),
-            Value::Optional(v) => field(v),
+            Value::Count(n) => {
+                write!(out, "{n}").expect("a String takes every write");
+                return;
+            }
+            Value::Real(v) => Some(v),
+            Value::Optional(v) => v,
         },
-        None => field([local.range_per_elevation, local.sigma_elevation][k - METRICS.len()]),
+        None => [local.range_per_elevation, local.sigma_elevation][k - METRICS.len()],
+    };
+    if let Some(v) = v {
+        crate::io::number::push_f64(out, v);
     }
 }

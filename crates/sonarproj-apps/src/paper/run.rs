@@ -8,8 +8,8 @@ use std::io::Write;
 use std::path::Path;
 
 use super::{
-    Direction, Finding, NEAR_FRACTION, ScenarioPose, angles, direction_sampling, distances, figures,
-    findings, findings_markdown, run_poses, scenario_runs, swept,
+    Direction, FRACTIONS, Finding, NEAR_FRACTION, ScenarioPose, angles, direction_sampling, distances,
+    figures, findings, findings_markdown, run_poses, swept,
 };
 use crate::error::{Error, Result};
 use sonarproj::local_precision::{LocalPrecision, default_sigma_range};
@@ -208,18 +208,40 @@ fn in_blocks(
         near_both: Grid::new(7, &a),
     };
     let at = |p: &ScenarioPose| distances(p, &source, &target);
-    for (s, fraction) in scenario_runs() {
-        let mut line = Line {
-            scenario: s,
-            fraction: fraction.unwrap_or(0.0),
-            points: Vec::with_capacity(a.len()),
-        };
+    // Scenarios 1–6: the curves of as many fractions as a block holds go as one grid (a call
+    // of 181 poses costs as much again in preparing the sampling as in drawing).
+    let per_call = (block / a.len()).clamp(1, FRACTIONS.len());
+    for s in 1..=6 {
+        for fractions in FRACTIONS.chunks(per_call) {
+            let poses: Vec<ScenarioPose> = fractions
+                .iter()
+                .flat_map(|&f| run_poses(s, Some(f), &a, 0..1))
+                .collect();
+            let results = project_block(backend, direction, &poses, sampling, stop, &at)?;
+            let curves = poses.chunks(a.len()).zip(results.chunks(a.len()));
+            for (&fraction, (poses, results)) in fractions.iter().zip(curves) {
+                sink(poses, results)?;
+                let mut line = Line {
+                    scenario: s,
+                    fraction,
+                    points: Vec::with_capacity(a.len()),
+                };
+                for (p, r) in poses.iter().zip(results) {
+                    run.poses += 1;
+                    run.samples += r.metrics.total;
+                    line.points
+                        .push((p.angles[swept(s)[0]], direction.metric(&r.metrics)));
+                }
+                run.lines.push(line);
+            }
+        }
+    }
+    for s in 7..=9 {
         let mut grid = Grid::new(s, &a);
-        let (b, f) = (block, fraction);
         each_block(
             backend,
             direction,
-            (s, f, b),
+            (s, block),
             &a,
             sampling,
             stop,
@@ -229,26 +251,19 @@ fn in_blocks(
                 for (k, (p, r)) in poses.iter().zip(results).enumerate() {
                     run.poses += 1;
                     run.samples += r.metrics.total;
-                    let v = direction.metric(&r.metrics);
-                    match fraction {
-                        Some(_) => line.points.push((p.angles[swept(s)[0]], v)),
-                        None => grid.add(r0 + k / a.len(), k % a.len(), p, v),
-                    }
+                    grid.add(r0 + k / a.len(), k % a.len(), p, direction.metric(&r.metrics));
                 }
                 Ok(())
             },
         )?;
-        match fraction {
-            Some(_) => run.lines.push(line),
-            None => run.grids.push(grid),
-        }
+        run.grids.push(grid);
     }
     let near = (NEAR_FRACTION * source.range_max, NEAR_FRACTION * target.range_max);
     let mut near_both = Grid::new(7, &a);
     each_block(
         backend,
         direction,
-        (7, None, block),
+        (7, block),
         &a,
         sampling,
         stop,
@@ -264,36 +279,34 @@ fn in_blocks(
     Ok(run)
 }
 
-/// Projects the poses of scenario `s` at `fraction` over the swept angles `a`, at most `block`
+/// Projects the poses of grid scenario `s` (7–9) over the swept angles `a`, at most `block`
 /// poses (whole rows, one at least) at a time, with feature distances from `at`. Calls
 /// `each(first row, poses, projections)` per block, in order.
 #[expect(clippy::too_many_arguments, reason = "one run of a scenario, named in full")]
 fn each_block(
     backend: &Backend,
     direction: Direction,
-    (s, fraction, block): (u8, Option<f64>, usize),
+    (s, block): (u8, usize),
     a: &[f64],
     sampling: Sampling,
     stop: Stop<'_>,
     at: &dyn Fn(&ScenarioPose) -> (f64, f64),
     mut each: impl FnMut(usize, &[ScenarioPose], &[Projection]) -> Result<()>,
 ) -> Result<()> {
-    let (rows, per_block) = match swept(s).len() {
-        1 => (1, 1),
-        _ => (a.len(), (block / a.len()).max(1)),
-    };
+    let (rows, per_block) = (a.len(), (block / a.len()).max(1));
     for r0 in (0..rows).step_by(per_block) {
-        let poses = run_poses(s, fraction, a, r0..(r0 + per_block).min(rows));
+        let poses = run_poses(s, None, a, r0..(r0 + per_block).min(rows));
         let results = project_block(backend, direction, &poses, sampling, stop, at)?;
         each(r0, &poses, &results)?;
     }
     Ok(())
 }
 
-/// Returns the projections of `poses` (one scenario and fraction, whole rows of its angles)
-/// for `direction`, in order, with feature distances from `at`. They run as a grid decoded
-/// where the work runs ([`Backend::project_columns`]); results, local precision included,
-/// match the batch items' ([`super::batch`]).
+/// Returns the projections of `poses` (one scenario, whole rows of its angles, one fraction or
+/// several) for `direction`, in order, with feature distances from `at`. They run as a grid
+/// decoded where the work runs ([`Backend::project_columns`]): its axes are the values the
+/// poses take of each distance and angle. Results, local precision included, match the batch
+/// items' ([`super::batch`]).
 fn project_block(
     backend: &Backend,
     direction: Direction,
@@ -302,28 +315,33 @@ fn project_block(
     stop: Stop<'_>,
     at: &dyn Fn(&ScenarioPose) -> (f64, f64),
 ) -> Result<Vec<Projection>> {
-    let Some(first) = poses.first() else {
+    if poses.is_empty() {
         return Ok(Vec::new());
-    };
+    }
     let (source, target) = direction.sonars();
     let sigma = default_sigma_range(&source, &target);
     let mut columns = sonarproj::MetricColumns::default();
     let (mut rpe, mut sig) = (Vec::new(), Vec::new());
     let optional = |v: f64| Some(v).filter(|v| !v.is_nan());
-    let (d1, d2) = at(first);
-    // Each rotation axis over the values the block takes (sorted), the distances fixed.
-    let rotations: [Vec<f64>; 3] = std::array::from_fn(|k| {
-        let mut v: Vec<f64> = poses.iter().map(|p| p.angles[k]).collect();
+    // A pose's varying values: its two feature distances, roll, pitch and yaw.
+    let key = |p: &ScenarioPose| {
+        let (d1, d2) = at(p);
+        [d1, d2, p.angles[0], p.angles[1], p.angles[2]]
+    };
+    let keys: Vec<[f64; 5]> = poses.iter().map(key).collect();
+    // Each over the values the block takes (sorted).
+    let values: [Vec<f64>; 5] = std::array::from_fn(|k| {
+        let mut v: Vec<f64> = keys.iter().map(|key| key[k]).collect();
         v.sort_by(f64::total_cmp);
         v.dedup();
         v
     });
-    let [roll, pitch, yaw] = rotations.clone();
+    let [d1, d2, roll, pitch, yaw] = values.clone();
     let axes = [
-        vec![d1],
+        d1,
         vec![0.0],
         vec![0.0],
-        vec![d2],
+        d2,
         vec![0.0],
         vec![0.0],
         roll,
@@ -341,12 +359,11 @@ fn project_block(
     backend.project_columns(&sweep, 0..grid.len(), &mut columns, stop)?;
     sweep.local_precision_columns(0..grid.len(), sigma, &mut rpe, &mut sig)?;
     // A pose's place in the grid (scenario 9 sweeps yaw outside roll, the grid roll first).
-    Ok(poses
+    Ok(keys
         .iter()
-        .map(|p| {
-            let index = (0..3).fold(0, |i, k| {
-                let values = &rotations[k];
-                i * values.len() + values.partition_point(|&v| v < p.angles[k])
+        .map(|key| {
+            let index = (0..5).fold(0, |i, k| {
+                i * values[k].len() + values[k].partition_point(|&v| v < key[k])
             });
             Projection {
                 metrics: columns.get(index),
@@ -442,22 +459,43 @@ fn write_header(w: &mut (dyn Write + Send)) -> Result<()> {
     wtr.flush().map_err(csv_error)
 }
 
-/// Writes one block of rows, formatted in parallel.
+/// Writes one block of rows, formatted in parallel. Each piece of rows goes into a buffer sized
+/// for it, a field at a time through one reused string.
 fn write_block(w: &mut (dyn Write + Send), poses: &[ScenarioPose], results: &[Projection]) -> Result<()> {
+    use crate::io::number::push_f64;
     use rayon::prelude::*;
+    use std::fmt::Write as _;
+    /// Enough for nearly every row: the longest hold 18 fields of at most 24 characters.
+    const ROW_BYTES: usize = 256;
     let pieces = poses
         .par_chunks(4096)
         .zip(results.par_chunks(4096))
         .map(|(poses, results)| {
-            let mut wtr = csv::Writer::from_writer(Vec::new());
+            let mut wtr = csv::WriterBuilder::new()
+                .has_headers(false)
+                .from_writer(Vec::with_capacity(poses.len() * ROW_BYTES));
+            let mut text = String::with_capacity(32);
+            let field = |wtr: &mut csv::Writer<Vec<u8>>, text: &mut String| {
+                let done = wtr.write_field(text.as_bytes());
+                text.clear();
+                done
+            };
             for (p, r) in poses.iter().zip(results) {
-                let mut fields = vec![
-                    p.scenario.to_string(),
-                    p.fraction.map(|f| f.to_string()).unwrap_or_default(),
-                ];
-                fields.extend(p.angles.iter().map(f64::to_string));
-                fields.extend(crate::io::metric_fields(&r.metrics, &r.local));
-                wtr.write_record(&fields).map_err(csv_error)?;
+                write!(text, "{}", p.scenario).expect("a String takes every write");
+                field(&mut wtr, &mut text).map_err(csv_error)?;
+                if let Some(f) = p.fraction {
+                    push_f64(&mut text, f);
+                }
+                field(&mut wtr, &mut text).map_err(csv_error)?;
+                for a in p.angles {
+                    push_f64(&mut text, a);
+                    field(&mut wtr, &mut text).map_err(csv_error)?;
+                }
+                for k in 0..crate::io::METRIC_COLUMNS.len() {
+                    crate::io::batch::push_metric_field(&mut text, &r.metrics, &r.local, k);
+                    field(&mut wtr, &mut text).map_err(csv_error)?;
+                }
+                wtr.write_record(std::iter::empty::<&[u8]>()).map_err(csv_error)?;
             }
             wtr.into_inner().map_err(csv_error)
         })
