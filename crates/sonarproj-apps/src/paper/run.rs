@@ -427,10 +427,28 @@ pub fn run_to(
     check_output_dir(out, field)?;
     let [first, second] = Direction::both();
     let csv = |d: Direction| out.join(format!("{}.csv", d.stem()));
+    // A direction's rows go to its file from a thread of their own, while the next block is
+    // projected; at most two blocks of rows wait.
     let csv_run = |d: Direction, w: &mut (dyn Write + Send)| {
         write_header(w)?;
-        project_direction(backend, d, angle_step, sampling, stop, &mut |poses, results| {
-            write_block(w, poses, results)
+        std::thread::scope(|scope| {
+            let (rows, to_write) = std::sync::mpsc::sync_channel::<Vec<String>>(2);
+            let writer = scope.spawn(move || {
+                to_write
+                    .iter()
+                    .try_for_each(|pieces| pieces.iter().try_for_each(|p| w.write_all(p.as_bytes())))
+                    .map_err(csv_error)
+            });
+            let run = project_direction(backend, d, angle_step, sampling, stop, &mut |poses, results| {
+                // A send fails only when the writer has stopped on an error, reported below.
+                rows.send(format_block(poses, results))
+                    .map_err(|_| csv_error("the writer stopped"))
+            });
+            drop(rows);
+            let written = writer
+                .join()
+                .unwrap_or_else(|_| Err(csv_error("the writer panicked")));
+            written.and(run)
         })
     };
     let mut runs = Vec::with_capacity(2);
@@ -459,51 +477,47 @@ fn write_header(w: &mut (dyn Write + Send)) -> Result<()> {
     wtr.flush().map_err(csv_error)
 }
 
-/// Writes one block of rows, formatted in parallel. Each piece of rows goes into a buffer sized
-/// for it, a field at a time through one reused string.
+/// Writes one block of rows ([`format_block`]).
+#[cfg(test)]
 fn write_block(w: &mut (dyn Write + Send), poses: &[ScenarioPose], results: &[Projection]) -> Result<()> {
+    format_block(poses, results)
+        .iter()
+        .try_for_each(|piece| w.write_all(piece.as_bytes()))
+        .map_err(csv_error)
+}
+
+/// Returns one block of rows, formatted in parallel, in pieces. Every field is a number or
+/// empty, which CSV never quotes, so each piece of rows is plain text written straight into a
+/// string sized for it (a test holds the rows to the `csv` crate's).
+fn format_block(poses: &[ScenarioPose], results: &[Projection]) -> Vec<String> {
     use crate::io::number::push_f64;
     use rayon::prelude::*;
     use std::fmt::Write as _;
     /// Enough for nearly every row: the longest hold 18 fields of at most 24 characters.
     const ROW_BYTES: usize = 256;
-    let pieces = poses
+    poses
         .par_chunks(4096)
         .zip(results.par_chunks(4096))
         .map(|(poses, results)| {
-            let mut wtr = csv::WriterBuilder::new()
-                .has_headers(false)
-                .from_writer(Vec::with_capacity(poses.len() * ROW_BYTES));
-            let mut text = String::with_capacity(32);
-            let field = |wtr: &mut csv::Writer<Vec<u8>>, text: &mut String| {
-                let done = wtr.write_field(text.as_bytes());
-                text.clear();
-                done
-            };
+            let mut rows = String::with_capacity(poses.len() * ROW_BYTES);
             for (p, r) in poses.iter().zip(results) {
-                write!(text, "{}", p.scenario).expect("a String takes every write");
-                field(&mut wtr, &mut text).map_err(csv_error)?;
+                write!(rows, "{},", p.scenario).expect("a String takes every write");
                 if let Some(f) = p.fraction {
-                    push_f64(&mut text, f);
+                    push_f64(&mut rows, f);
                 }
-                field(&mut wtr, &mut text).map_err(csv_error)?;
                 for a in p.angles {
-                    push_f64(&mut text, a);
-                    field(&mut wtr, &mut text).map_err(csv_error)?;
+                    rows.push(',');
+                    push_f64(&mut rows, a);
                 }
                 for k in 0..crate::io::METRIC_COLUMNS.len() {
-                    crate::io::batch::push_metric_field(&mut text, &r.metrics, &r.local, k);
-                    field(&mut wtr, &mut text).map_err(csv_error)?;
+                    rows.push(',');
+                    crate::io::batch::push_metric_field(&mut rows, &r.metrics, &r.local, k);
                 }
-                wtr.write_record(std::iter::empty::<&[u8]>()).map_err(csv_error)?;
+                rows.push('\n');
             }
-            wtr.into_inner().map_err(csv_error)
+            rows
         })
-        .collect::<Result<Vec<Vec<u8>>>>()?;
-    pieces
-        .iter()
-        .try_for_each(|piece| w.write_all(piece))
-        .map_err(csv_error)
+        .collect()
 }
 
 fn csv_error(e: impl std::fmt::Display) -> Error {
@@ -574,6 +588,52 @@ mod tests {
             assert_eq!(
                 whole_csv.iter().filter(|&&b| b == b'\n').count() as u64,
                 whole.poses
+            );
+        }
+    }
+
+    /// The rows are those the `csv` crate writes for the same fields: the poses' numbers and
+    /// [`crate::io::metric_fields`], empty ones included.
+    #[test]
+    fn rows_are_the_csv_writers() {
+        for direction in Direction::both() {
+            let mut poses = Vec::new();
+            let mut results = Vec::new();
+            let (_, csv) = {
+                let mut csv = Vec::new();
+                let run = in_blocks(
+                    &Backend::CpuFast,
+                    direction,
+                    45.0,
+                    Sampling::Step(1.0),
+                    Stop::NEVER,
+                    BLOCK_POSES,
+                    &mut |p, r| {
+                        poses.extend_from_slice(p);
+                        results.extend_from_slice(r);
+                        write_block(&mut csv, p, r)
+                    },
+                )
+                .unwrap();
+                (run, csv)
+            };
+            let mut wtr = csv::Writer::from_writer(Vec::new());
+            for (p, r) in poses.iter().zip(&results) {
+                let mut fields = vec![
+                    p.scenario.to_string(),
+                    p.fraction.map(|f| f.to_string()).unwrap_or_default(),
+                ];
+                fields.extend(p.angles.iter().map(f64::to_string));
+                fields.extend(crate::io::metric_fields(&r.metrics, &r.local));
+                wtr.write_record(&fields).unwrap();
+            }
+            let expected = wtr.into_inner().unwrap();
+            // Empty fields: the grids' fraction, and the local precision off its true point's view.
+            assert!(poses.iter().any(|p| p.fraction.is_none()));
+            assert!(results.iter().any(|r| r.local.sigma_elevation.is_none()));
+            assert_eq!(
+                String::from_utf8(csv).unwrap(),
+                String::from_utf8(expected).unwrap()
             );
         }
     }
