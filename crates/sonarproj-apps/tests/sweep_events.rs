@@ -166,3 +166,41 @@ fn a_run_stopped_at_its_last_chunk_loses_that_chunk_alone() {
         assert!(read(&cut) == read(&whole), "{file} differs");
     }
 }
+
+/// A damaged last chunk, recomputed straight into the results, leaves the run's state with it:
+/// a run stopped at its news holds no file of that chunk, and the next run has nothing of it to
+/// report damaged.
+#[test]
+fn a_damaged_last_chunk_recomputed_leaves_the_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!("{GRID}[summary]\ntop = 3\n");
+    let config = SweepConfig::parse("grid.toml", &text, dir.path()).unwrap();
+    let backend = Backend::CpuFast;
+    let out = dir.path().join("out");
+    let at_the_end = |e: &Event| matches!(e, Event::Progress { done: 100, .. });
+    events_of(&config, &backend, &options(&out, None), &at_the_end);
+    let state = out.join(".partial-sweep");
+    let last: Vec<_> = ["parquet", "summary.json"]
+        .iter()
+        .map(|ext| state.join(format!("chunk-00000009.{ext}")))
+        .collect();
+    for file in &last {
+        std::fs::write(file, b"not a chunk").unwrap();
+    }
+    let got: Vec<String> = events_of(&config, &backend, &options(&out, None), &at_the_end)
+        .iter()
+        .map(name)
+        .collect();
+    let resumed: Vec<String> = (1..10).map(|k| format!("P{}", 10 * k)).collect();
+    assert_eq!(got[..9], resumed[..]);
+    assert_eq!(got[9..], ["R9", "P100"]);
+    for file in &last {
+        assert!(!file.exists(), "{} left behind", file.display());
+    }
+    let got: Vec<String> = events_of(&config, &backend, &options(&out, None), &|_| false)
+        .iter()
+        .map(name)
+        .collect();
+    assert_eq!(got[..9], resumed[..]);
+    assert_eq!(got[9..], ["P100"]);
+}

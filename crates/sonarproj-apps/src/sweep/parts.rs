@@ -495,6 +495,17 @@ pub fn final_encoding(columns: &[String]) -> crate::io::parquet::Encoding<'_> {
     }
 }
 
+/// Removes part `file` and its record, left by an earlier run, where this run keeps the part in
+/// memory instead. Special files there are refused, as [`write_chunk`] refuses them.
+///
+/// # Errors
+/// As [`state_file`] and [`remove`].
+pub(crate) fn remove_stale(file: &Path) -> Result<()> {
+    state_file(file)?;
+    state_file(&record_path(file))?;
+    remove(file)
+}
+
 /// Removes part `file` and its record, when they exist.
 ///
 /// # Errors

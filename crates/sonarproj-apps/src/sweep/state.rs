@@ -219,19 +219,25 @@ impl<'a> Files<'a> {
                 parts::write_chunk(&path, self.expected(&r), |w| {
                     w.write_all(&bytes).map_err(|e| Error::write_output(&path, e))
                 })?;
+            } else {
+                // A damaged part of this chunk from an earlier run goes: the chunk now lives in
+                // memory until the results hold it.
+                parts::remove_stale(&path)?;
             }
             written.table = Some(bytes::Bytes::from(bytes));
         }
         if let (Some(spec), Some(values)) = (plan.spec, values) {
             let summary = spec.partial(plan.grid, r.start, &values)?;
+            let sum_path = self.chunk_summary(c);
             if keep {
                 let part = summary.to_part();
-                let sum_path = self.chunk_summary(c);
                 // Encoded whole first, as the summary is (records::write_summary).
                 let bytes = serde_json::to_vec(&part).map_err(|e| Error::write_output(&sum_path, e))?;
                 parts::write_chunk(&sum_path, self.expected(&r), |w| {
                     w.write_all(&bytes).map_err(|e| Error::write_output(&sum_path, e))
                 })?;
+            } else {
+                parts::remove_stale(&sum_path)?;
             }
             written.summary = Some(summary);
         }
