@@ -283,6 +283,6 @@ pub fn push_metric_field(out: &mut String, m: &Metrics, local: &LocalPrecision, 
         None => [local.range_per_elevation, local.sigma_elevation][k - METRICS.len()],
     };
     if let Some(v) = v {
-        crate::io::number::push_f64(out, v);
+        write!(out, "{v}").expect("a String takes every write");
     }
 }

@@ -7,7 +7,6 @@
 pub mod bag;
 pub mod bag_masks;
 pub mod batch;
-pub mod number;
 pub mod oculus;
 pub mod parquet;
 pub mod pose_columns;
@@ -25,11 +24,7 @@ pub use batch::{
 /// Returns `v` in its shortest exact form, or an empty field for `None`.
 #[must_use]
 pub fn field(v: Option<f64>) -> String {
-    let mut out = String::new();
-    if let Some(v) = v {
-        number::push_f64(&mut out, v);
-    }
-    out
+    v.map(|x| x.to_string()).unwrap_or_default()
 }
 
 pub use crate::limits::MAX_LINE_BYTES;

@@ -490,7 +490,6 @@ fn write_block(w: &mut (dyn Write + Send), poses: &[ScenarioPose], results: &[Pr
 /// empty, which CSV never quotes, so each piece of rows is plain text written straight into a
 /// string sized for it (a test holds the rows to the `csv` crate's).
 fn format_block(poses: &[ScenarioPose], results: &[Projection]) -> Vec<String> {
-    use crate::io::number::push_f64;
     use rayon::prelude::*;
     use std::fmt::Write as _;
     /// Enough for nearly every row: the longest hold 18 fields of at most 24 characters.
@@ -503,11 +502,11 @@ fn format_block(poses: &[ScenarioPose], results: &[Projection]) -> Vec<String> {
             for (p, r) in poses.iter().zip(results) {
                 write!(rows, "{},", p.scenario).expect("a String takes every write");
                 if let Some(f) = p.fraction {
-                    push_f64(&mut rows, f);
+                    write!(rows, "{f}").expect("a String takes every write");
                 }
                 for a in p.angles {
                     rows.push(',');
-                    push_f64(&mut rows, a);
+                    write!(rows, "{a}").expect("a String takes every write");
                 }
                 for k in 0..crate::io::METRIC_COLUMNS.len() {
                     rows.push(',');
