@@ -428,17 +428,21 @@ pub fn run_to(
     let [first, second] = Direction::both();
     let csv = |d: Direction| out.join(format!("{}.csv", d.stem()));
     // A direction's rows go to its file from a thread of their own, while the next block is
-    // projected; at most two blocks of rows wait.
+    // projected: at most two blocks of rows queued, so four in memory (one being written, one
+    // being formatted).
     let csv_run = |d: Direction, w: &mut (dyn Write + Send)| {
         write_header(w)?;
         std::thread::scope(|scope| {
             let (rows, to_write) = std::sync::mpsc::sync_channel::<Vec<String>>(2);
-            let writer = scope.spawn(move || {
-                to_write
-                    .iter()
-                    .try_for_each(|pieces| pieces.iter().try_for_each(|p| w.write_all(p.as_bytes())))
-                    .map_err(csv_error)
-            });
+            let writer = std::thread::Builder::new()
+                .name("paper-csv".into())
+                .spawn_scoped(scope, move || {
+                    to_write
+                        .iter()
+                        .try_for_each(|pieces| pieces.iter().try_for_each(|p| w.write_all(p.as_bytes())))
+                        .map_err(csv_error)
+                })
+                .map_err(csv_error)?;
             let run = project_direction(backend, d, angle_step, sampling, stop, &mut |poses, results| {
                 // A send fails only when the writer has stopped on an error, reported below.
                 rows.send(format_block(poses, results))
@@ -492,7 +496,8 @@ fn write_block(w: &mut (dyn Write + Send), poses: &[ScenarioPose], results: &[Pr
 fn format_block(poses: &[ScenarioPose], results: &[Projection]) -> Vec<String> {
     use rayon::prelude::*;
     use std::fmt::Write as _;
-    /// Enough for nearly every row: the longest hold 18 fields of at most 24 characters.
+    /// Room for a typical row (at 1° they are 206 bytes on average, 226 at most); a longer one
+    /// grows the string.
     const ROW_BYTES: usize = 256;
     poses
         .par_chunks(4096)
