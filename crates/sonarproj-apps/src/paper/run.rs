@@ -561,7 +561,16 @@ mod tests {
     /// Returns the run of `direction` at 20° projected `block` poses at a time, with every
     /// row its sink received.
     fn rows(direction: Direction, block: usize) -> (DirectionRun, Vec<u8>) {
-        let mut csv = Vec::new();
+        let (run, csv, _) = rows_and_results(direction, block);
+        (run, csv)
+    }
+
+    /// Returns [`rows`]'s run and rows, with the poses and projections the sink received.
+    fn rows_and_results(
+        direction: Direction,
+        block: usize,
+    ) -> (DirectionRun, Vec<u8>, Vec<(ScenarioPose, Projection)>) {
+        let (mut csv, mut received) = (Vec::new(), Vec::new());
         let run = in_blocks(
             &Backend::CpuFast,
             direction,
@@ -569,10 +578,13 @@ mod tests {
             Sampling::Step(1.0),
             Stop::NEVER,
             block,
-            &mut |poses, results| write_block(&mut csv, poses, results),
+            &mut |poses, results| {
+                received.extend(poses.iter().copied().zip(results.iter().cloned()));
+                write_block(&mut csv, poses, results)
+            },
         )
         .unwrap();
-        (run, csv)
+        (run, csv, received)
     }
 
     /// Blocks of one row (scenario 9's yaw-outside-roll order rebuilt in each) give the rows,
@@ -601,28 +613,9 @@ mod tests {
     #[test]
     fn rows_are_the_csv_writers() {
         for direction in Direction::both() {
-            let mut poses = Vec::new();
-            let mut results = Vec::new();
-            let (_, csv) = {
-                let mut csv = Vec::new();
-                let run = in_blocks(
-                    &Backend::CpuFast,
-                    direction,
-                    45.0,
-                    Sampling::Step(1.0),
-                    Stop::NEVER,
-                    BLOCK_POSES,
-                    &mut |p, r| {
-                        poses.extend_from_slice(p);
-                        results.extend_from_slice(r);
-                        write_block(&mut csv, p, r)
-                    },
-                )
-                .unwrap();
-                (run, csv)
-            };
+            let (_, csv, received) = rows_and_results(direction, BLOCK_POSES);
             let mut wtr = csv::Writer::from_writer(Vec::new());
-            for (p, r) in poses.iter().zip(&results) {
+            for (p, r) in &received {
                 let mut fields = vec![
                     p.scenario.to_string(),
                     p.fraction.map(|f| f.to_string()).unwrap_or_default(),
@@ -633,8 +626,8 @@ mod tests {
             }
             let expected = wtr.into_inner().unwrap();
             // Empty fields: the grids' fraction, and the local precision off its true point's view.
-            assert!(poses.iter().any(|p| p.fraction.is_none()));
-            assert!(results.iter().any(|r| r.local.sigma_elevation.is_none()));
+            assert!(received.iter().any(|(p, _)| p.fraction.is_none()));
+            assert!(received.iter().any(|(_, r)| r.local.sigma_elevation.is_none()));
             assert_eq!(
                 String::from_utf8(csv).unwrap(),
                 String::from_utf8(expected).unwrap()
