@@ -209,7 +209,7 @@ fn in_blocks(
     };
     let at = |p: &ScenarioPose| distances(p, &source, &target);
     // Scenarios 1–6: the curves of as many fractions as a block holds go as one grid (a call
-    // of 181 poses costs as much again in preparing the sampling as in drawing).
+    // of 181 poses leaves cores idle: 6 µs a pose, against 2 µs in a grid's call).
     let per_call = (block / a.len()).clamp(1, FRACTIONS.len());
     for s in 1..=6 {
         for fractions in FRACTIONS.chunks(per_call) {
