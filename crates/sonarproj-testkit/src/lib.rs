@@ -47,22 +47,25 @@ pub fn mkfifo(path: &std::path::Path) {
     assert!(made.success(), "mkfifo {}", path.display());
 }
 
-/// Returns a thread that opens the FIFO at `path` and reads what a writer put through it.
+/// Returns a thread that opens the FIFO at `path` and reads what a writer put through it, as
+/// text.
+///
+/// # Panics
+/// The thread panics when the FIFO cannot be read, or what came through is not UTF-8.
+#[must_use]
+pub fn read_fifo(path: &std::path::Path) -> std::thread::JoinHandle<String> {
+    let path = path.to_path_buf();
+    std::thread::spawn(move || std::fs::read_to_string(path).unwrap())
+}
+
+/// Returns a thread that opens the FIFO at `path` and reads the bytes a writer put through it.
 ///
 /// # Panics
 /// The thread panics when the FIFO cannot be read.
 #[must_use]
-pub fn read_fifo(path: &std::path::Path) -> std::thread::JoinHandle<String> {
-    use std::io::Read;
+pub fn read_fifo_bytes(path: &std::path::Path) -> std::thread::JoinHandle<Vec<u8>> {
     let path = path.to_path_buf();
-    std::thread::spawn(move || {
-        let mut text = String::new();
-        std::fs::File::open(path)
-            .unwrap()
-            .read_to_string(&mut text)
-            .unwrap();
-        text
-    })
+    std::thread::spawn(move || std::fs::read(path).unwrap())
 }
 
 /// Runs the binary with `args` and `stdin`. Expects exit status 2 (bad input), no panic, and a

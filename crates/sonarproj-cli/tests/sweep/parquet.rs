@@ -243,10 +243,7 @@ fn a_parquet_table_into_a_fifo_holds_every_chunk() {
     std::fs::create_dir(&out).unwrap();
     let fifo = out.join("sweep.parquet");
     common::mkfifo(&fifo);
-    let reader = std::thread::spawn({
-        let fifo = fifo.clone();
-        move || std::fs::read(fifo).unwrap()
-    });
+    let reader = common::read_fifo_bytes(&fifo);
     common::sonarproj()
         .args(["sweep", "--config"])
         .arg(&cfg)
