@@ -5,6 +5,8 @@
 use sonarproj::stream::Stop;
 use std::ops::Range;
 
+use rayon::prelude::*;
+
 use sonarproj::Output;
 use sonarproj::projection::{Backend, ColumnRef, MetricColumns, PoseGrid, PoseSource, PoseSweep};
 
@@ -162,7 +164,8 @@ fn grid_table(
         .map(|k| axes[k + 1..].iter().map(|a| a.len() as u64).product())
         .collect();
     let mut table = Table::new(columns, kinds);
-    for (j, column) in table.columns.iter_mut().enumerate() {
+    // Column by column on all cores: the next block's projection waits for this table.
+    table.columns.par_iter_mut().enumerate().for_each(|(j, column)| {
         *column = if j == 0 {
             Column::Int(r.clone().map(|i| i as i64).collect())
         } else if j <= 9 {
@@ -180,7 +183,7 @@ fn grid_table(
                 Fill::SigmaElevation => optional(sig),
             }
         };
-    }
+    });
     table
 }
 

@@ -1,7 +1,9 @@
-//! Writes a run's chunks while the next is computed, one write in flight on its own thread.
-//! Parquet encoding and summaries thus overlap the next projection. A write's error stops the
-//! run. As chunks finish, summaries join the total and a Parquet result is joined on its thread.
+//! Writes a run's chunks while the next are computed, up to [`IN_FLIGHT`] writes in flight, each
+//! on its own thread. Parquet encoding and summaries thus overlap the next projections, and a
+//! write finishing late (a file, the join) does not hold the next projection up. A write's error
+//! stops the run. As chunks finish, summaries join the total and a Parquet result is joined on its thread.
 
+use std::collections::VecDeque;
 use std::thread::{Scope, ScopedJoinHandle};
 
 use crate::error::{Error, Result};
@@ -10,12 +12,15 @@ use crate::sweep::records::read_part;
 use crate::sweep::state::{Files, ToJoin, Written};
 use crate::sweep::summary::{PartSummary, Summary};
 
-/// The writing side of a run: the chunk being written, the Parquet join thread (if any), and
+/// The most chunks being written at once. Each holds its table and encoded bytes in memory.
+const IN_FLIGHT: usize = 2;
+
+/// The writing side of a run: the chunks being written, oldest first, the Parquet join thread (if any), and
 /// the summary of the chunks finished so far, this run's and earlier runs'.
 pub(crate) struct Writer<'s, 'e> {
     scope: &'s Scope<'s, 'e>,
     files: &'e Files<'e>,
-    writing: Option<(u64, ScopedJoinHandle<'s, Result<Written>>)>,
+    writing: VecDeque<(u64, ScopedJoinHandle<'s, Result<Written>>)>,
     joiner: Option<Joiner<'s>>,
     /// The total so far. Its means are derived once at the end.
     pub(crate) total: Option<Summary>,
@@ -39,7 +44,7 @@ impl<'s, 'e> Writer<'s, 'e> {
         Writer {
             scope,
             files,
-            writing: None,
+            writing: VecDeque::new(),
             joiner,
             total: template.clone(),
             template,
@@ -51,10 +56,19 @@ impl<'s, 'e> Writer<'s, 'e> {
         self.joiner.is_some()
     }
 
-    /// Waits for the chunk being written, then adds its summary to the total and its table to
-    /// the result's join.
+    /// Waits for every chunk being written, in order, adding each one's summary to the total and
+    /// its table to the result's join.
     pub(crate) fn settle(&mut self) -> Result<()> {
-        let Some((c, h)) = self.writing.take() else {
+        while !self.writing.is_empty() {
+            self.settle_oldest()?;
+        }
+        Ok(())
+    }
+
+    /// Waits for the oldest chunk being written, if any, then adds its summary to the total and
+    /// its table to the result's join.
+    fn settle_oldest(&mut self) -> Result<()> {
+        let Some((c, h)) = self.writing.pop_front() else {
             return Ok(());
         };
         let written = h
@@ -69,7 +83,8 @@ impl<'s, 'e> Writer<'s, 'e> {
         }
     }
 
-    /// Settles the chunk before, then starts writing `computed` on a thread of its own.
+    /// Settles the oldest chunk while [`IN_FLIGHT`] are being written, then starts writing
+    /// `computed` on a thread of its own.
     ///
     /// The run's `last` chunk keeps out of the run's state what the results take from memory:
     /// its summary part (the summary goes straight into the total) and, when the result is
@@ -77,7 +92,9 @@ impl<'s, 'e> Writer<'s, 'e> {
     /// Parquet one joined from the files at the end, is still written. The results are written
     /// next, so an interruption loses at most this chunk, as it may any other.
     pub(crate) fn write(&mut self, computed: Computed, last: bool) -> Result<()> {
-        self.settle()?;
+        while self.writing.len() >= IN_FLIGHT {
+            self.settle_oldest()?;
+        }
         let files = self.files;
         let Computed {
             chunk,
@@ -89,7 +106,7 @@ impl<'s, 'e> Writer<'s, 'e> {
         let handle = self
             .scope
             .spawn(move || files.write_chunk(chunk, poses, table, values, keep));
-        self.writing = Some((chunk, handle));
+        self.writing.push_back((chunk, handle));
         Ok(())
     }
 
