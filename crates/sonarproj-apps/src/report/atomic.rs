@@ -12,6 +12,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
+use super::writeback::WritingBack;
 use crate::error::{Error, Result};
 
 /// The temporaries this process has open.
@@ -447,7 +448,9 @@ fn write_in(
         })
         .map_err(|e| io_err(&e))?;
     {
-        let mut w = std::io::BufWriter::new(tmp.as_file_mut());
+        // When it is flushed below, handed to the disk as it is written: the flush then waits
+        // for the end only.
+        let mut w = std::io::BufWriter::new(WritingBack::new(tmp.as_file_mut(), sync));
         fill(&mut w)?;
         w.flush().map_err(|e| io_err(&e))?;
     }

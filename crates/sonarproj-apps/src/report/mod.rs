@@ -31,6 +31,7 @@ pub mod mask_image;
 pub mod occupancy_image;
 mod picture;
 mod style;
+mod writeback;
 
 use sonarproj::error::Field;
 use std::io::Write;
