@@ -15,6 +15,10 @@ use std::sync::Mutex;
 use super::writeback::WritingBack;
 use crate::error::{Error, Result};
 
+/// Bytes a file is written in. Copies into it (a Parquet join's row groups, a CSV join's chunks)
+/// come in pieces of 8 KiB; gathered here, a 47 MB result takes 45 writes instead of 5 800.
+const BUFFER: usize = 1 << 20;
+
 /// The temporaries this process has open.
 static LIVE: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
 /// The directories whose stale temporaries this process has already looked for.
@@ -450,7 +454,7 @@ fn write_in(
     {
         // When it is flushed below, handed to the disk as it is written: the flush then waits
         // for the end only.
-        let mut w = std::io::BufWriter::new(WritingBack::new(tmp.as_file_mut(), sync));
+        let mut w = std::io::BufWriter::with_capacity(BUFFER, WritingBack::new(tmp.as_file_mut(), sync));
         fill(&mut w)?;
         w.flush().map_err(|e| io_err(&e))?;
     }
