@@ -111,7 +111,10 @@ pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Writt
             &names,
             &kinds,
             0,
-            Encoding { dictionary: &[] },
+            Encoding {
+                dictionary: &[],
+                delta: &[],
+            },
             &written.candidates,
         )?;
         t.push(candidates_table(&names, &kinds, advice))?;

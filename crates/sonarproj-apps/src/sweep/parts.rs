@@ -486,12 +486,15 @@ impl<'a, W: Write + Send> ParquetJoin<'a, W> {
 }
 
 /// Returns the encoding shared by a sweep's chunks, shards and result, so row groups copy as-is.
-/// It uses Snappy pages, statistics, and dictionaries for the pose columns, whose values repeat.
+/// It uses Snappy pages, statistics, dictionaries for the pose columns, whose values repeat, and
+/// deltas for the index (the first column), which rises by one a row: a few bytes a row group
+/// instead of half a megabyte.
 #[must_use]
 pub fn final_encoding(columns: &[String]) -> crate::io::parquet::Encoding<'_> {
     let poses = crate::sweep::columns::pose_column_count(columns);
     crate::io::parquet::Encoding {
         dictionary: columns.get(1..1 + poses).unwrap_or_default(),
+        delta: columns.get(..1).filter(|c| c[0] == "index").unwrap_or_default(),
     }
 }
 

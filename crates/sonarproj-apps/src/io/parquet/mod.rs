@@ -7,7 +7,7 @@ use std::io::Write;
 use std::path::Path;
 use std::sync::Arc;
 
-use parquet::basic::{Compression, Repetition, Type as Physical};
+use parquet::basic::{Compression, Encoding as ParquetEncoding, Repetition, Type as Physical};
 use parquet::column::writer::{ColumnCloseResult, get_column_writer, get_typed_column_writer_mut};
 use parquet::data_type::{DoubleType, Int64Type};
 use parquet::file::metadata::ColumnChunkMetaData;
@@ -206,13 +206,16 @@ fn schema(names: &[String], kinds: &[Kind]) -> Result<Arc<Type>> {
         .map_err(|e| Error::invalid("columns", format!("{names:?}"), e.to_string()))
 }
 
-/// How a [`TableWriter`] encodes: Snappy pages, statistics, and dictionaries for the columns
-/// named (the pose columns, whose values repeat). Every file of a sweep (chunks, shards,
-/// results) uses one encoding, so whole row groups copy between them as they are.
+/// How a [`TableWriter`] encodes: Snappy pages, statistics, dictionaries for the columns named
+/// (the pose columns, whose values repeat) and deltas for the whole-number columns named (the
+/// index, which rises by one a row). Every file of a sweep (chunks, shards, results) uses one
+/// encoding, so whole row groups copy between them as they are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Encoding<'a> {
     /// The columns to dictionary-encode.
     pub dictionary: &'a [String],
+    /// The whole-number columns to encode as deltas (`DELTA_BINARY_PACKED`).
+    pub delta: &'a [String],
 }
 
 /// Writes a table as Parquet, one row group at a time. Rows are pushed in index order, and a
@@ -246,6 +249,12 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
         props = props.set_compression(Compression::SNAPPY);
         for name in encoding.dictionary {
             props = props.set_column_dictionary_enabled(ColumnPath::from(name.as_str()), true);
+        }
+        for name in encoding.delta {
+            props = props.set_column_encoding(
+                ColumnPath::from(name.as_str()),
+                ParquetEncoding::DELTA_BINARY_PACKED,
+            );
         }
         let props = props.build();
         let inner = SerializedFileWriter::new(sink, schema(names, kinds)?, Arc::new(props))
@@ -334,14 +343,18 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
         if self.pending.rows() > 0 || !self.next.is_multiple_of(GROUP_ROWS) || !whole {
             return Ok(false);
         }
-        // Only a group made with this writer's encoding (compression, statistics) is copied. A part
-        // written otherwise, say by an older version, is decoded and encoded again.
+        // Only a group made with this writer's encoding (compression, statistics, dictionaries,
+        // deltas) is copied. A part written otherwise, say by an older version, is decoded and
+        // encoded again.
         let props = self.inner.properties();
         let same = group.columns().iter().all(|c| {
             let path = c.column_path();
+            let delta =
+                |c: &ColumnChunkMetaData| c.encodings().any(|e| e == ParquetEncoding::DELTA_BINARY_PACKED);
             c.compression() == props.compression(path)
                 && c.statistics().is_some()
                 && c.dictionary_page_offset().is_some() == props.dictionary_enabled(path)
+                && delta(c) == (props.encoding(path) == Some(ParquetEncoding::DELTA_BINARY_PACKED))
         });
         if !same {
             return Ok(false);
@@ -416,7 +429,9 @@ fn encode_column(
             }
             Column::Optional(v) => {
                 let levels: Vec<i16> = v.iter().map(|x| i16::from(x.is_some())).collect();
-                let values: Vec<f64> = v.iter().flatten().copied().collect();
+                // Sized once: a flattened iterator would grow the vector by doubling.
+                let mut values = Vec::with_capacity(v.len());
+                values.extend(v.iter().flatten());
                 get_typed_column_writer_mut::<DoubleType>(&mut w).write_batch(
                     &values,
                     Some(&levels),
@@ -455,15 +470,23 @@ mod tests {
         Table { names, columns }
     }
 
+    /// The tests' encoding: the index as deltas, `roll` with a dictionary.
+    fn encoding<'a>(delta: &'a [String], dictionary: &'a [String]) -> Encoding<'a> {
+        Encoding { dictionary, delta }
+    }
+
     /// Writes `parts`, tables in index order from `first`, into one file and returns its bytes.
     fn write_parts(parts: &[Table], first: u64) -> Vec<u8> {
         let t = &parts[0];
+        let (delta, dictionary) = ([t.names[0].clone()], [t.names[1].clone()]);
+        write_encoded(parts, first, encoding(&delta, &dictionary))
+    }
+
+    /// Writes `parts` as [`write_parts`] does, with `encoding`.
+    fn write_encoded(parts: &[Table], first: u64, encoding: Encoding<'_>) -> Vec<u8> {
+        let t = &parts[0];
         let mut out = Vec::new();
         let path = Path::new("test.parquet");
-        let dictionary = [t.names[1].clone()];
-        let encoding = Encoding {
-            dictionary: &dictionary,
-        };
         let mut w = TableWriter::new(&mut out, &t.names, &t.kinds(), first, encoding, path).unwrap();
         for p in parts {
             w.push(p.clone()).unwrap();
@@ -516,7 +539,7 @@ mod tests {
         let whole = write_parts(&[table(0, n)], 0);
         let dir = tempfile::tempdir().unwrap();
         let t = table(0, 1);
-        let dictionary = [t.names[1].clone()];
+        let (delta, dictionary) = ([t.names[0].clone()], [t.names[1].clone()]);
         for cuts in [vec![0, g, g + 7, n], vec![0, g, 2 * g, n], vec![0, 5, n]] {
             let files: Vec<std::path::PathBuf> = cuts
                 .windows(2)
@@ -529,9 +552,7 @@ mod tests {
                 .collect();
             let mut out = Vec::new();
             let path = Path::new("joined.parquet");
-            let encoding = Encoding {
-                dictionary: &dictionary,
-            };
+            let encoding = encoding(&delta, &dictionary);
             let mut w = TableWriter::new(&mut out, &t.names, &t.kinds(), 0, encoding, path).unwrap();
             let mut copied = 0;
             for (k, file) in files.iter().enumerate() {
@@ -559,8 +580,9 @@ mod tests {
         }
     }
 
-    /// A part written with another encoding (here without the pose column's dictionary) is decoded
-    /// and encoded again, not copied: the joined file still has the bytes of encoding at once.
+    /// A part written with another encoding (without the pose column's dictionary, or without
+    /// the index's deltas) is decoded and encoded again, not copied: the joined file still has
+    /// the bytes of encoding at once.
     #[test]
     #[expect(clippy::cast_possible_wrap, reason = "GROUP_ROWS is 2^17")]
     fn a_part_of_another_encoding_is_encoded_again() {
@@ -568,44 +590,37 @@ mod tests {
         let whole = write_parts(&[table(0, g + 10)], 0);
         let dir = tempfile::tempdir().unwrap();
         let t = table(0, 1);
-        let foreign = dir.path().join("foreign.parquet");
-        let mut bytes = Vec::new();
-        let mut w = TableWriter::new(
-            &mut bytes,
-            &t.names,
-            &t.kinds(),
-            0,
-            Encoding { dictionary: &[] },
-            &foreign,
-        )
-        .unwrap();
-        w.push(table(0, g + 10)).unwrap();
-        w.finish().unwrap();
-        std::fs::write(&foreign, &bytes).unwrap();
-        assert_ne!(bytes, whole);
-        let dictionary = [t.names[1].clone()];
-        let mut out = Vec::new();
-        let path = Path::new("joined.parquet");
-        let mut w = TableWriter::new(
-            &mut out,
-            &t.names,
-            &t.kinds(),
-            0,
-            Encoding {
-                dictionary: &dictionary,
-            },
-            path,
-        )
-        .unwrap();
-        let part = open_part(&foreign, &t.names, &t.kinds()).unwrap();
-        for group in 0..part.group_rows().len() {
-            let last = group + 1 == part.group_rows().len();
-            assert!(!w.copy_group(&part, group, last).unwrap(), "group {group} copied");
-            w.push(part.group(group, &foreign, &t.names, &t.kinds()).unwrap())
-                .unwrap();
+        let (delta, dictionary) = ([t.names[0].clone()], [t.names[1].clone()]);
+        for (k, other) in [encoding(&delta, &[]), encoding(&[], &dictionary)]
+            .into_iter()
+            .enumerate()
+        {
+            let foreign = dir.path().join(format!("foreign-{k}.parquet"));
+            let bytes = write_encoded(&[table(0, g + 10)], 0, other);
+            std::fs::write(&foreign, &bytes).unwrap();
+            assert_ne!(bytes, whole);
+            let mut out = Vec::new();
+            let path = Path::new("joined.parquet");
+            let mine = encoding(&delta, &dictionary);
+            let mut w = TableWriter::new(&mut out, &t.names, &t.kinds(), 0, mine, path).unwrap();
+            let part = open_part(&foreign, &t.names, &t.kinds()).unwrap();
+            for group in 0..part.group_rows().len() {
+                let last = group + 1 == part.group_rows().len();
+                assert!(
+                    !w.copy_group(&part, group, last).unwrap(),
+                    "{other:?}: group {group} copied"
+                );
+                w.push(part.group(group, &foreign, &t.names, &t.kinds()).unwrap())
+                    .unwrap();
+            }
+            w.finish().unwrap();
+            assert!(
+                out == whole,
+                "{other:?}: {} bytes against {}",
+                out.len(),
+                whole.len()
+            );
         }
-        w.finish().unwrap();
-        assert!(out == whole, "{} bytes against {}", out.len(), whole.len());
     }
 
     #[test]
