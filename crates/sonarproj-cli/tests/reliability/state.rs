@@ -10,6 +10,11 @@ const GRID: &str = "from = \"paper-fls\"\nto = \"paper-sss\"\nstep = 0.5\n[featu
 /// Runs the sweep of `config` into `out` in chunks of 100 poses, at most `max` of them; returns
 /// the exit status and stderr. The 60 s limit only guards against a hang.
 fn run(config: &Path, out: &Path, max: Option<&str>) -> (Option<i32>, String) {
+    run_as(config, out, max, "csv")
+}
+
+/// Runs as [`run`] does, writing `format`.
+fn run_as(config: &Path, out: &Path, max: Option<&str>, format: &str) -> (Option<i32>, String) {
     let mut cmd = common::sonarproj();
     cmd.args([
         "sweep",
@@ -17,6 +22,8 @@ fn run(config: &Path, out: &Path, max: Option<&str>) -> (Option<i32>, String) {
         "cpu-fast",
         "--chunk-poses",
         "100",
+        "--format",
+        format,
         "--config",
     ])
     .arg(config)
@@ -64,5 +71,29 @@ fn special_files_in_a_runs_state_are_refused_never_waited_on() {
             "{name}: {err}"
         );
         assert!(!out.join("sweep.csv").exists(), "{name}");
+    }
+}
+
+/// A Parquet chunk whose file cannot be written, in the middle of a run with writes in flight
+/// behind it, stops the run with an error naming it: no hang, no panic, no result, and the
+/// chunks finished before it stay for the next run.
+#[test]
+fn a_chunk_write_failing_while_others_are_in_flight_stops_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("s.toml");
+    std::fs::write(&config, GRID).unwrap();
+    let out = dir.path().join("o");
+    assert_eq!(run_as(&config, &out, Some("2"), "parquet").0, Some(0));
+    let state = out.join(".partial-sweep");
+    // Chunk 2 of 6 is next: its file is a FIFO, so writing it fails while chunk 3 is written.
+    let name = "chunk-00000002.parquet";
+    common::mkfifo(&state.join(name));
+    let (code, err) = run_as(&config, &out, None, "parquet");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(matches!(code, Some(1 | 2)), "{code:?} {err}");
+    assert!(err.contains(name) && err.contains("not a regular file"), "{err}");
+    assert!(!out.join("sweep.parquet").exists());
+    for kept in ["chunk-00000000.parquet", "chunk-00000001.parquet"] {
+        assert!(state.join(kept).is_file(), "{kept}");
     }
 }
