@@ -10,7 +10,8 @@ pub const MAX_SHARDS: u64 = 100_000;
 /// `--chunk-poses` or more shards.
 pub const MAX_CHUNKS: u64 = 1_000_000;
 /// The most poses of one sweep chunk (`--chunk-poses`, 2 097 152). A chunk's metrics, table and
-/// summary values are held in memory together, about 0.5 KB a pose with rows.
+/// summary values are held in memory together, about 0.5 KB a pose with rows; with chunks of
+/// up to two row groups, two chunks are written while the next is computed, so up to three.
 pub const MAX_CHUNK_POSES: u64 = 1 << 21;
 /// The finest angle step of the paper's simulations (deg). It gives 18 001 angles, about a
 /// billion poses a direction, run a block at a time in bounded memory.

@@ -15,8 +15,9 @@ use std::sync::Mutex;
 use super::writeback::WritingBack;
 use crate::error::{Error, Result};
 
-/// Bytes a file is written in. Copies into it (a Parquet join's row groups, a CSV join's chunks)
-/// come in pieces of 8 KiB; gathered here, a 47 MB result takes 45 writes instead of 5 800.
+/// Bytes a file written through a temporary is written in. Copies into it (a Parquet join's row
+/// groups) come in pieces of 8 KiB, each a `write` of its own with a smaller buffer: a 1 M-pose
+/// Parquet sweep made 5 865 writes, now 65 (every file of the run, `strace -c -e write`).
 const BUFFER: usize = 1 << 20;
 
 /// The temporaries this process has open.

@@ -108,7 +108,7 @@ pub enum Event {
 /// The run has four phases:
 /// 1. Plan: check everything, write nothing.
 /// 2. Lock: claim the directory, lock the run's state and check its manifest.
-/// 3. Compute and write: chunk after chunk, each written while the next is computed.
+/// 3. Compute and write: chunk after chunk, each written while the next are computed.
 /// 4. Finish: join the result from the chunks, remove the state, draw the figure.
 ///
 /// # Errors
@@ -283,7 +283,7 @@ fn finished_before(
     Ok(ControlFlow::Break(()))
 }
 
-/// Computes the unfinished chunks, writing each while the next is computed.
+/// Computes the unfinished chunks, writing each while the next are computed ([`Writer`]).
 /// Once all are done, writes the settings record, the result and the summaries.
 /// Returns `Break` when the run stopped first (`max_chunks`, or `events`).
 fn compute_and_write(

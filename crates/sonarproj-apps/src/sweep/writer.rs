@@ -1,7 +1,8 @@
-//! Writes a run's chunks while the next are computed, up to [`IN_FLIGHT`] writes in flight, each
-//! on its own thread. Parquet encoding and summaries thus overlap the next projections, and a
-//! write finishing late (a file, the join) does not hold the next projection up. A write's error
-//! stops the run. As chunks finish, summaries join the total and a Parquet result is joined on its thread.
+//! Writes a run's chunks while the next are computed, up to two writes in flight (one for chunks
+//! of large tables), each on its own thread. Parquet encoding and summaries thus overlap the
+//! next projections, and a chunk's file being written does not hold the next projection up; a
+//! join that falls a chunk behind still does. A write's error stops the run. As chunks finish,
+//! summaries join the total and a Parquet result is joined on its thread.
 
 use std::collections::VecDeque;
 use std::thread::{Scope, ScopedJoinHandle};
@@ -15,12 +16,19 @@ use crate::sweep::summary::{PartSummary, Summary};
 /// The most chunks being written at once. Each holds its table and encoded bytes in memory.
 const IN_FLIGHT: usize = 2;
 
+/// The largest chunk of rows written two at a time: two row groups (about 60 MB of tables and
+/// bytes). Larger chunks (`--chunk-poses` up to 2^21) are written one at a time, so that one more
+/// in memory is at most that much.
+const TWO_IN_FLIGHT_ROWS: u64 = 2 * crate::io::parquet::GROUP_ROWS;
+
 /// The writing side of a run: the chunks being written, oldest first, the Parquet join thread (if any), and
 /// the summary of the chunks finished so far, this run's and earlier runs'.
 pub(crate) struct Writer<'s, 'e> {
     scope: &'s Scope<'s, 'e>,
     files: &'e Files<'e>,
     writing: VecDeque<(u64, ScopedJoinHandle<'s, Result<Written>>)>,
+    /// The most chunks written at once: [`IN_FLIGHT`], or 1 for large chunks of rows.
+    in_flight: usize,
     joiner: Option<Joiner<'s>>,
     /// The total so far. Its means are derived once at the end.
     pub(crate) total: Option<Summary>,
@@ -41,10 +49,12 @@ impl<'s, 'e> Writer<'s, 'e> {
         });
         let plan = files.plan;
         let template = plan.spec.map(|s| s.empty(plan.grid));
+        let large = plan.rows && plan.chunk_poses > TWO_IN_FLIGHT_ROWS;
         Writer {
             scope,
             files,
             writing: VecDeque::new(),
+            in_flight: if large { 1 } else { IN_FLIGHT },
             joiner,
             total: template.clone(),
             template,
@@ -66,8 +76,19 @@ impl<'s, 'e> Writer<'s, 'e> {
     }
 
     /// Waits for the oldest chunk being written, if any, then adds its summary to the total and
-    /// its table to the result's join.
+    /// its table to the result's join. On an error, the writes after it are waited for too (their
+    /// results, even a panic, set aside), and the first error is returned.
     fn settle_oldest(&mut self) -> Result<()> {
+        let settled = self.settle_one();
+        if settled.is_err() {
+            for (_, h) in self.writing.drain(..) {
+                let _ = h.join();
+            }
+        }
+        settled
+    }
+
+    fn settle_one(&mut self) -> Result<()> {
         let Some((c, h)) = self.writing.pop_front() else {
             return Ok(());
         };
@@ -83,8 +104,8 @@ impl<'s, 'e> Writer<'s, 'e> {
         }
     }
 
-    /// Settles the oldest chunk while [`IN_FLIGHT`] are being written, then starts writing
-    /// `computed` on a thread of its own.
+    /// Settles the oldest chunk while the most are being written, then starts writing `computed`
+    /// on a thread of its own.
     ///
     /// The run's `last` chunk keeps out of the run's state what the results take from memory:
     /// its summary part (the summary goes straight into the total) and, when the result is
@@ -92,7 +113,7 @@ impl<'s, 'e> Writer<'s, 'e> {
     /// Parquet one joined from the files at the end, is still written. The results are written
     /// next, so an interruption loses at most this chunk, as it may any other.
     pub(crate) fn write(&mut self, computed: Computed, last: bool) -> Result<()> {
-        while self.writing.len() >= IN_FLIGHT {
+        while self.writing.len() >= self.in_flight {
             self.settle_oldest()?;
         }
         let files = self.files;
