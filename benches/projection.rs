@@ -6,8 +6,9 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use rayon::prelude::*;
 use sonarproj::gpu::GpuContext;
 use sonarproj::metrics::{Extremes, Metrics};
-use sonarproj::projection::{Projection, fast, reference};
-use sonarproj::{Output, Sonar};
+use sonarproj::projection::{PoseGrid, Projection, fast, reference};
+use sonarproj::stream::Stop;
+use sonarproj::{Backend, MetricColumns, Output, PoseSource, PoseSweep, Sampling, Sonar};
 use sonarproj_apps::bench;
 
 fn projection(c: &mut Criterion) {
@@ -111,10 +112,51 @@ fn small_calls(c: &mut Criterion) {
     group.finish();
 }
 
+/// Grid calls on the fast CPU path, small (181 poses: a figure's curve, a viewer's scene) and
+/// large (16 384): poses a second, so the two read side by side. A small call is cut into blocks
+/// small enough to keep every core busy.
+fn grid_calls(c: &mut Criterion) {
+    let (source, target) = (Sonar::preset("paper-fls").unwrap(), Sonar::preset("paper-sss").unwrap());
+    for n in [181usize, 16_384] {
+        let roll: Vec<f64> = (0..n).map(|k| k as f64 * 180.0 / n as f64).collect();
+        let axes = [
+            vec![5.0],
+            vec![0.0],
+            vec![0.0],
+            vec![10.0],
+            vec![0.0],
+            vec![0.0],
+            roll,
+            vec![0.0],
+            vec![0.0],
+        ];
+        let grid = PoseGrid::new(axes, true, &source).unwrap();
+        let sweep = PoseSweep {
+            source: source.clone(),
+            target: target.clone(),
+            sampling: Sampling::Step(0.1),
+            area_grid: sonarproj::PAPER_AREA_GRID,
+            poses: PoseSource::Grid(&grid),
+        };
+        let mut out = MetricColumns::default();
+        let mut group = c.benchmark_group(format!("cpu-fast grid call x{n}"));
+        group.sample_size(20);
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_function("project_columns", |bench| {
+            bench.iter(|| {
+                Backend::CpuFast
+                    .project_columns(&sweep, 0..n as u64, &mut out, Stop::NEVER)
+                    .unwrap()
+            })
+        });
+        group.finish();
+    }
+}
+
 criterion_group! {
     name = benches;
     // No HTML plots: plotters is built with only our embedded font, which criterion does not load.
     config = Criterion::default().without_plots();
-    targets = projection, prepare, results, small_calls
+    targets = projection, prepare, results, small_calls, grid_calls
 }
 criterion_main!(benches);
