@@ -116,7 +116,10 @@ fn small_calls(c: &mut Criterion) {
 /// large (16 384): poses a second, so the two read side by side. A small call is cut into blocks
 /// small enough to keep every core busy.
 fn grid_calls(c: &mut Criterion) {
-    let (source, target) = (Sonar::preset("paper-fls").unwrap(), Sonar::preset("paper-sss").unwrap());
+    let (source, target) = (
+        Sonar::preset("paper-fls").unwrap(),
+        Sonar::preset("paper-sss").unwrap(),
+    );
     for n in [181usize, 16_384] {
         let roll: Vec<f64> = (0..n).map(|k| k as f64 * 180.0 / n as f64).collect();
         let axes = [

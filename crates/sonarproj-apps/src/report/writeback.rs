@@ -1,13 +1,12 @@
 //! A file that hands its bytes to the disk while it is still being written, so that the flush
 //! before its rename waits for the last few megabytes only, not the whole file.
 //!
-//! Without it, a large result (a 1 M-pose Parquet sweep is 47 MB) sits in the page cache until
-//! the final `fsync`, which then writes all of it while the run waits. Every [`STEP`] bytes the
-//! file asks Linux to start writing the bytes so far (`sync_file_range` with
+//! Without it, a large result (a 1 M-pose Parquet sweep is over 40 MB) sits in the page cache
+//! until the final `fsync`, which then writes all of it while the run waits. Every [`STEP`] bytes
+//! the file asks Linux to start writing the bytes so far (`sync_file_range` with
 //! `SYNC_FILE_RANGE_WRITE`: it starts the writes and returns, waiting only when the disk's queue
-//! is full). That is only a hint: the final
-//! flush still checks every byte, and an error from the hint is left to it. Elsewhere it writes
-//! through and does nothing more.
+//! is full). That is only a hint: the final flush still checks every byte, and an error from the
+//! hint is left to it. Elsewhere it writes through and does nothing more.
 
 use std::fs::File;
 use std::io::Write;
