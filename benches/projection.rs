@@ -113,8 +113,8 @@ fn small_calls(c: &mut Criterion) {
 }
 
 /// Grid calls on the fast CPU path, small (181 poses: a figure's curve, a viewer's scene) and
-/// large (16 384): poses a second, so the two read side by side. A small call is cut into blocks
-/// small enough to keep every core busy.
+/// large (16 384): poses a second, so the two read side by side. A small call pays for waking
+/// the pool's threads and building its tables, so its rate is lower.
 fn grid_calls(c: &mut Criterion) {
     let (source, target) = (
         Sonar::preset("paper-fls").unwrap(),

@@ -349,12 +349,11 @@ impl<'p, W: Write + Send> TableWriter<'p, W> {
         let props = self.inner.properties();
         let same = group.columns().iter().all(|c| {
             let path = c.column_path();
-            let delta =
-                |c: &ColumnChunkMetaData| c.encodings().any(|e| e == ParquetEncoding::DELTA_BINARY_PACKED);
+            let delta = c.encodings().any(|e| e == ParquetEncoding::DELTA_BINARY_PACKED);
             c.compression() == props.compression(path)
                 && c.statistics().is_some()
                 && c.dictionary_page_offset().is_some() == props.dictionary_enabled(path)
-                && delta(c) == (props.encoding(path) == Some(ParquetEncoding::DELTA_BINARY_PACKED))
+                && delta == (props.encoding(path) == Some(ParquetEncoding::DELTA_BINARY_PACKED))
         });
         if !same {
             return Ok(false);
@@ -470,7 +469,8 @@ mod tests {
         Table { names, columns }
     }
 
-    /// The tests' encoding: the index as deltas, `roll` with a dictionary.
+    /// Returns the encoding with the `delta` and `dictionary` columns named (the tests' own: the
+    /// index as deltas, `roll` with a dictionary).
     fn encoding<'a>(delta: &'a [String], dictionary: &'a [String]) -> Encoding<'a> {
         Encoding { dictionary, delta }
     }
