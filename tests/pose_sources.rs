@@ -558,3 +558,37 @@ fn device_grid_in_envelope(
     }
     (got, want)
 }
+
+/// Only a GPU with 64-bit atomics reduces on the device. The CPU backends say so, naming what to
+/// do instead, and never panic.
+#[test]
+fn the_cpu_backends_do_not_reduce_on_the_device() {
+    use sonarproj::projection::reduction::MetricReduction;
+    let source = Sonar::preset("paper-fls").unwrap();
+    let target = Sonar::preset("paper-sss").unwrap();
+    let g = grid(&source, &target, true);
+    let s = sweep(&source, &target, Sampling::Step(5.0), PoseSource::Grid(&g));
+    let reduction = MetricReduction {
+        metric: Metric::Span,
+        top: 1,
+        histogram: None,
+        cells: Vec::new(),
+    };
+    for backend in [Backend::Cpu, Backend::CpuFast] {
+        assert!(!backend.reduces_on_device(&s));
+        let e = backend
+            .reduce_blocks(
+                &s,
+                std::slice::from_ref(&(0..10)),
+                &reduction,
+                Stop::NEVER,
+                &mut |_, _| std::ops::ControlFlow::Continue(()),
+            )
+            .unwrap_err();
+        assert!(matches!(e, Error::Input { .. }), "{e}");
+        assert!(
+            e.to_string().contains("project its columns and reduce them"),
+            "{e}"
+        );
+    }
+}

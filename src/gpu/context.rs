@@ -201,18 +201,30 @@ impl GpuContext {
             }
         };
         let f64_ok = precision == Precision::F64;
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("sonarproj"),
-            required_limits: limits.clone(),
-            // Timestamp queries where the adapter has them, so `bench` reports the device's time.
-            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY
-                | if f64_ok {
-                    wgpu::Features::SHADER_F64
-                } else {
-                    wgpu::Features::empty()
-                },
-            ..Default::default()
-        }))
+        let (device, queue) = pollster::block_on(
+            adapter.request_device(&wgpu::DeviceDescriptor {
+                label: Some("sonarproj"),
+                required_limits: limits.clone(),
+                // Timestamp queries where the adapter has them, so `bench` reports the device's time.
+                // The summary stage's features where the adapter has them all (it reduces on the
+                // device only then).
+                required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY
+                    | if adapter
+                        .features()
+                        .contains(crate::projection::gpu::SUMMARY_FEATURES)
+                    {
+                        crate::projection::gpu::SUMMARY_FEATURES
+                    } else {
+                        wgpu::Features::empty()
+                    }
+                    | if f64_ok {
+                        wgpu::Features::SHADER_F64
+                    } else {
+                        wgpu::Features::empty()
+                    },
+                ..Default::default()
+            }),
+        )
         .map_err(|e| Error::gpu("cannot create a device", e))?;
         Ok(GpuContext {
             device,

@@ -9,9 +9,14 @@ use crate::gpu::pipeline::Binding;
 /// Returns `source` parsed and validated with the f64 capability. Panics with `name` and naga's
 /// message when it is not.
 pub(crate) fn module(source: &str, name: &str) -> naga::Module {
+    module_with(source, name, Capabilities::FLOAT64)
+}
+
+/// Returns `source` parsed and validated with `capabilities`, as [`module`] does.
+pub(crate) fn module_with(source: &str, name: &str, capabilities: Capabilities) -> naga::Module {
     let module = naga::front::wgsl::parse_str(source)
         .unwrap_or_else(|e| panic!("{name}.wgsl does not parse:\n{}", e.emit_to_string(source)));
-    Validator::new(ValidationFlags::all(), Capabilities::FLOAT64)
+    Validator::new(ValidationFlags::all(), capabilities)
         .validate(&module)
         .unwrap_or_else(|e| panic!("{name}.wgsl does not validate: {e:?}"));
     module

@@ -4,6 +4,7 @@
 use crate::error::{Error, Param, Result};
 use crate::gpu::{GpuContext, GpuOptions, context};
 use crate::projection::gpu::{GpuBackend, SplatOptions};
+use crate::projection::reduction::{MetricReduction, Reduction};
 use crate::projection::{Batch, MetricColumns, PoseSource, PoseSweep, Projection, fast, reference};
 use crate::sampling::Sampling;
 use crate::stream::{Flow, Stop};
@@ -352,18 +353,7 @@ impl Backend {
         stop: Stop<'_>,
         each: &mut dyn FnMut(std::ops::Range<u64>, &MetricColumns) -> Flow,
     ) -> Result<Flow> {
-        let n = sweep.poses.len();
-        let mut end = 0;
-        for b in blocks {
-            if b.start < end || b.start >= b.end || b.end > n {
-                return Err(Error::invalid(
-                    "pose blocks",
-                    format!("{}..{}", b.start, b.end),
-                    format!("must be non-empty, in increasing order and within the sweep's {n} poses"),
-                ));
-            }
-            end = b.end;
-        }
+        check_blocks(sweep, blocks)?;
         if blocks.is_empty() {
             return Ok(Flow::Continue(()));
         }
@@ -390,6 +380,84 @@ impl Backend {
         }
         Ok(Flow::Continue(()))
     }
+}
+
+impl Backend {
+    /// Returns whether [`Backend::reduce_blocks`] reduces `sweep` here: on a GPU whose device has
+    /// f64, 64-bit integers and their atomics in shaders, over a grid (solved exactly only where the
+    /// GPU solves exact calls itself). Elsewhere a caller projects columns and reduces them.
+    #[must_use]
+    pub fn reduces_on_device(&self, sweep: &PoseSweep<'_>) -> bool {
+        match (self, sweep.poses) {
+            (Backend::Gpu(g), PoseSource::Grid(_)) => {
+                g.reduces() && (sweep.sampling != Sampling::Exact || g.solves_exact())
+            }
+            _ => false,
+        }
+    }
+
+    /// Reduces one metric over poses `blocks` of `sweep` on the device, block by block, and hands
+    /// each block's [`Reduction`] to `each` as soon as it is done. No per-pose metric is read back:
+    /// only the block's counts, histogram, cells and its smallest and largest poses.
+    ///
+    /// `blocks` are as [`Backend::project_blocks`] takes them. The stream ends early, returning
+    /// `Break`, when `each` answers `Break` or `stop` is set (looked at between chunks).
+    ///
+    /// # Errors
+    /// [`Error::Input`] where [`Backend::reduces_on_device`] is false; as
+    /// [`MetricReduction::validate`]; as [`Backend::project_blocks`].
+    pub fn reduce_blocks(
+        &self,
+        sweep: &PoseSweep<'_>,
+        blocks: &[std::ops::Range<u64>],
+        reduction: &MetricReduction,
+        stop: Stop<'_>,
+        each: &mut dyn FnMut(std::ops::Range<u64>, &Reduction) -> Flow,
+    ) -> Result<Flow> {
+        let (Backend::Gpu(g), PoseSource::Grid(grid), true) =
+            (self, sweep.poses, self.reduces_on_device(sweep))
+        else {
+            return Err(Error::Input {
+                field: "reduce_blocks".into(),
+                message: format!(
+                    "{} cannot reduce this sweep on the device: project its columns and reduce them",
+                    self.device()
+                ),
+            });
+        };
+        check_blocks(sweep, blocks)?;
+        if blocks.is_empty() {
+            return Ok(Flow::Continue(()));
+        }
+        let prepared = sweep.prepare_grid(grid)?;
+        if stop.is_set() {
+            return Ok(Flow::Break(()));
+        }
+        g.reduce_grid_blocks(&prepared, blocks, reduction, &mut |b, r| {
+            stop.flow()?;
+            each(b, r)
+        })
+    }
+}
+
+/// Checks that `blocks` are non-empty, in increasing order and within `sweep`'s poses.
+///
+/// # Errors
+/// [`Error::InvalidValue`] naming the first block that is not.
+fn check_blocks(sweep: &PoseSweep<'_>, blocks: &[std::ops::Range<u64>]) -> Result<()> {
+    let n = sweep.poses.len();
+    let mut end = 0;
+    for b in blocks {
+        if b.start < end || b.start >= b.end || b.end > n {
+            return Err(Error::invalid(
+                "pose blocks",
+                format!("{}..{}", b.start, b.end),
+                format!("must be non-empty, in increasing order and within the sweep's {n} poses"),
+            ));
+        }
+        end = b.end;
+    }
+    Ok(())
 }
 
 /// Returns the description of the CPU cores the fast path and the CPU mask engine run on:

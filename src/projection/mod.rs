@@ -24,6 +24,7 @@ pub mod envelope;
 pub mod fast;
 pub mod gpu;
 pub mod poses;
+pub mod reduction;
 #[doc(hidden)]
 pub mod reference;
 
@@ -33,3 +34,4 @@ pub use batch::PreparedBatch;
 pub use batch::{Batch, BatchItem, ItemChecker, Projection};
 pub use columns::{ColumnRef, MetricColumns};
 pub use poses::{PoseGrid, PoseSource, PoseSweep};
+pub use reduction::{MetricReduction, Reduction};

@@ -11,6 +11,7 @@
 mod slots;
 mod source;
 mod submit;
+mod summary;
 mod tables;
 pub(crate) mod types;
 mod unpack;
@@ -31,6 +32,8 @@ use crate::projection::poses::PreparedGrid;
 use crate::projection::{Output, PreparedBatch, Projection};
 use slots::{Directions, InFlight, SLOT_LABELS, Shape, Slot, SlotSizes};
 use submit::{CallTables, Chunk};
+pub(crate) use summary::FEATURES as SUMMARY_FEATURES;
+use summary::SummaryRun;
 use types::*;
 use unpack::{Source, Unpack};
 
@@ -52,6 +55,18 @@ pub(crate) const REDUCE_BINDINGS: [Binding; 5] = [
     Binding::Read,
     Binding::Read,
     Binding::Read,
+    Binding::ReadWrite,
+];
+
+/// Bindings of `shaders/summary.wgsl`: params, metrics, poses, edges, marginal table,
+/// accumulators, candidates.
+pub(crate) const SUMMARY_BINDINGS: [Binding; 7] = [
+    Binding::Uniform,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::Read,
+    Binding::ReadWrite,
     Binding::ReadWrite,
 ];
 
@@ -144,6 +159,8 @@ pub struct GpuBackend {
     splat: Stage,
     /// The exact stage, built on first use (f64 devices only).
     exact: std::sync::OnceLock<Stage>,
+    /// The summary stage, built on first use (devices with 64-bit integer atomics only).
+    summary: std::sync::OnceLock<Stage>,
     reduce: Stage,
     poses: Stage,
     options: SplatOptions,
@@ -195,6 +212,7 @@ impl GpuBackend {
             ctx,
             splat,
             exact: std::sync::OnceLock::new(),
+            summary: std::sync::OnceLock::new(),
             reduce,
             poses,
             options,
@@ -241,6 +259,20 @@ impl GpuBackend {
             &[("WORKGROUP", f64::from(self.exact_workgroup()))],
         )?;
         Ok(self.exact.get_or_init(|| stage))
+    }
+
+    /// Returns the summary stage, building it on first use.
+    fn summary_stage(&self) -> Result<&Stage> {
+        if let Some(stage) = self.summary.get() {
+            return Ok(stage);
+        }
+        let stage = Stage::new(
+            self.ctx.device(),
+            "summary",
+            &source::summary(),
+            &SUMMARY_BINDINGS,
+        )?;
+        Ok(self.summary.get_or_init(|| stage))
     }
 
     /// Starts (clearing the sum) or stops timing this backend's compute passes on the device's
@@ -336,6 +368,7 @@ impl GpuBackend {
                 output == Output::WithOccupancy,
                 ALL_SLOTS,
                 std::slice::from_ref(&(0..prepared.batch.items.len())),
+                None,
                 &mut |u| {
                     out.extend(u.projections());
                     Ok(ControlFlow::Continue(()))
@@ -371,6 +404,7 @@ impl GpuBackend {
                     keep_occupancy,
                     ALL_SLOTS,
                     std::slice::from_ref(&(0..count)),
+                    None,
                     &mut |u| {
                         out.extend(u.projections());
                         Ok(ControlFlow::Continue(()))
@@ -410,7 +444,7 @@ impl GpuBackend {
         let slots = slots_of(crate::Metric::all().filter(|&m| out.keeps(m)));
         let mut block = 0;
         self.pool.with(|pool| {
-            self.project_with(pool, &source, false, slots, &runs, &mut |u| {
+            self.project_with(pool, &source, false, slots, &runs, None, &mut |u| {
                 let run = runs[block].clone();
                 if u.start == run.start {
                     out.resize(run.len());
@@ -474,6 +508,11 @@ impl GpuBackend {
     ///
     /// Two chunks are in flight: the device projects one while the host reads back, unpacks and
     /// hands out the one before (and, for items, packs the one after).
+    ///
+    /// With a `summary` run, the summary stage reduces each chunk on the device and no metric slot
+    /// is read back (`read_slots` is empty): `emit` gets the chunk's candidates, and at each run's
+    /// end its accumulators.
+    #[expect(clippy::too_many_arguments, reason = "the call's shape, one argument each")]
     fn project_with(
         &self,
         pool: &mut BufferPool,
@@ -481,6 +520,7 @@ impl GpuBackend {
         keep_occupancy: bool,
         read_slots: Slots,
         runs: &[std::ops::Range<usize>],
+        summary: Option<&SummaryRun>,
         emit: &mut dyn FnMut(&Unpack<'_>) -> Result<ControlFlow<()>>,
     ) -> Result<ControlFlow<()>> {
         let layout = source.layout();
@@ -504,6 +544,7 @@ impl GpuBackend {
             metrics: (chunk * METRIC_STRIDE * 4) as u64,
             grid: tables.grid.is_some(),
             occupancy: keep_occupancy,
+            summary: summary.map(|s| (s.candidate_bytes(chunk), s.acc_bytes)),
         };
         // A second slot only when there is a second chunk.
         let timed = self.clock.on();
@@ -517,6 +558,7 @@ impl GpuBackend {
             words,
             bits_per_pose_bytes,
             slots: read_slots,
+            summary,
         };
         let mut directions: Option<Directions> = None;
         let mut in_flight: Option<InFlight> = None;
@@ -524,6 +566,8 @@ impl GpuBackend {
             let chunk = Chunk {
                 slot: i % 2,
                 poses: poses.clone(),
+                first_in_run: runs.iter().any(|r| r.start == poses.start),
+                last_in_run: runs.iter().any(|r| r.end == poses.end),
             };
             directions = Some(self.directions_for(pool, &shape, &chunk, directions, limit));
             let directions = directions.as_ref().expect("set above");
@@ -534,6 +578,7 @@ impl GpuBackend {
                 index,
                 start: poses.start,
                 count: poses.len(),
+                last_in_run: chunk.last_in_run,
             });
             if let Some(before) = before
                 && self
@@ -590,8 +635,33 @@ impl GpuBackend {
             )?),
             None => None,
         };
+        // A summary run reads back its candidates, and at a run's end its accumulators.
+        let summary = match (shape.summary, &slot.summary) {
+            (Some(run), Some(s)) => {
+                let candidates = read_after(
+                    &self.ctx,
+                    &s.candidates_staging,
+                    run.candidate_bytes(chunk.count),
+                    index(),
+                    <[u32]>::to_vec,
+                )?;
+                let acc = if chunk.last_in_run {
+                    Some(read_after(
+                        &self.ctx,
+                        &s.acc_staging,
+                        run.acc_bytes,
+                        index(),
+                        <[u32]>::to_vec,
+                    )?)
+                } else {
+                    None
+                };
+                Some((candidates, acc))
+            }
+            _ => None,
+        };
         let read = shape.read_bytes(chunk.count);
-        read_after(&self.ctx, &slot.metrics_staging, read, index(), |raw| {
+        let mut unpack = |raw: &[u32]| {
             let unpacking = std::time::Instant::now();
             if timed {
                 self.clock.add(Timed::Wait, unpacking - waiting);
@@ -608,12 +678,20 @@ impl GpuBackend {
                 start: chunk.start,
                 count: chunk.count,
                 exact: shape.source.exact_half().is_some(),
+                summary: summary.as_ref().map(|(candidates, acc)| summary::ChunkSummary {
+                    candidates,
+                    acc: acc.as_deref(),
+                }),
             });
             if timed {
                 self.clock.add(Timed::Unpack, unpacking.elapsed());
             }
             flow
-        })?
+        };
+        if read == 0 {
+            return unpack(&[]);
+        }
+        read_after(&self.ctx, &slot.metrics_staging, read, index(), unpack)?
     }
 }
 

@@ -10,8 +10,9 @@ use crate::occupancy::Layout;
 use crate::sampling::SamplingPlan;
 
 use super::Source;
+use super::summary::SummaryRun;
 use super::tables::{direction_table, exact_table};
-use super::types::{ALL_SLOTS, GridParams, METRIC_STRIDE, PoseGpu, Slots, TargetParams};
+use super::types::{ALL_SLOTS, GridParams, METRIC_STRIDE, PoseGpu, Slots, SummaryParams, TargetParams};
 
 /// The pool's names of one slot's buffers and bind groups.
 pub(super) struct SlotLabels {
@@ -26,6 +27,11 @@ pub(super) struct SlotLabels {
     metrics: &'static str,
     metrics_staging: &'static str,
     bits_staging: &'static str,
+    pub(super) summary_group: &'static str,
+    summary_params: &'static str,
+    candidates: &'static str,
+    candidates_staging: &'static str,
+    acc_staging: &'static str,
 }
 
 /// The names of the two slots' buffers and bind groups.
@@ -42,6 +48,11 @@ pub(super) const SLOT_LABELS: [SlotLabels; 2] = [
         metrics: "metrics 0",
         metrics_staging: "metrics_staging 0",
         bits_staging: "bits_staging 0",
+        summary_group: "summary stage 0",
+        summary_params: "summary_params 0",
+        candidates: "candidates 0",
+        candidates_staging: "candidates_staging 0",
+        acc_staging: "accumulators_staging 0",
     },
     SlotLabels {
         poses_group: "poses stage 1",
@@ -55,6 +66,11 @@ pub(super) const SLOT_LABELS: [SlotLabels; 2] = [
         metrics: "metrics 1",
         metrics_staging: "metrics_staging 1",
         bits_staging: "bits_staging 1",
+        summary_group: "summary stage 1",
+        summary_params: "summary_params 1",
+        candidates: "candidates 1",
+        candidates_staging: "candidates_staging 1",
+        acc_staging: "accumulators_staging 1",
     },
 ];
 
@@ -66,6 +82,17 @@ pub(super) struct SlotSizes {
     pub(super) metrics: u64,
     pub(super) grid: bool,
     pub(super) occupancy: bool,
+    /// For a summary run: the bytes of a chunk's candidates and of the accumulators.
+    pub(super) summary: Option<(u64, u64)>,
+}
+
+/// A slot's buffers for the summary stage: its parameters, its chunk's candidates, and where they
+/// and the accumulators are read back.
+pub(super) struct SummarySlot {
+    pub(super) params: wgpu::Buffer,
+    pub(super) candidates: wgpu::Buffer,
+    pub(super) candidates_staging: wgpu::Buffer,
+    pub(super) acc_staging: wgpu::Buffer,
 }
 
 /// The buffers of one chunk in flight.
@@ -77,6 +104,8 @@ pub(super) struct Slot {
     pub(super) metrics: wgpu::Buffer,
     pub(super) metrics_staging: wgpu::Buffer,
     pub(super) bits_staging: Option<wgpu::Buffer>,
+    /// The summary stage's buffers, in a summary run.
+    pub(super) summary: Option<SummarySlot>,
     /// The device's clock around the chunk's pass, when timed.
     pub(super) timer: Option<PassTimer>,
 }
@@ -109,6 +138,12 @@ impl Slot {
             bits_staging: sizes
                 .occupancy
                 .then(|| get(labels.bits_staging, sizes.bits, readback)),
+            summary: sizes.summary.map(|(candidates, acc)| SummarySlot {
+                params: get(labels.summary_params, size_of::<SummaryParams>() as u64, uniform),
+                candidates: get(labels.candidates, candidates, storage | copy_src),
+                candidates_staging: get(labels.candidates_staging, candidates, readback),
+                acc_staging: get(labels.acc_staging, acc, readback),
+            }),
             timer: if timed { PassTimer::new(ctx) } else { None },
         }
     }
@@ -121,6 +156,8 @@ pub(super) struct InFlight {
     pub(super) index: wgpu::SubmissionIndex,
     pub(super) start: usize,
     pub(super) count: usize,
+    /// Whether the chunk ends its run (a summary run then reads back the accumulators).
+    pub(super) last_in_run: bool,
 }
 
 /// What every chunk of one call shares: where the poses come from, sonar 2's layout, the plans,
@@ -131,8 +168,10 @@ pub(super) struct Shape<'a> {
     pub(super) plans: &'a [SamplingPlan],
     pub(super) words: usize,
     pub(super) bits_per_pose_bytes: u64,
-    /// The metric slots copied back.
+    /// The metric slots copied back (none in a summary run).
     pub(super) slots: Slots,
+    /// The reduction on the device, in a summary run.
+    pub(super) summary: Option<&'a SummaryRun>,
 }
 
 impl Shape<'_> {
@@ -147,6 +186,9 @@ impl Shape<'_> {
         n: usize,
     ) {
         let run = (n * 4) as u64;
+        if self.slots == 0 {
+            return;
+        }
         if self.slots == ALL_SLOTS {
             enc.copy_buffer_to_buffer(metrics, 0, staging, 0, run * METRIC_STRIDE as u64);
             return;

@@ -1,4 +1,4 @@
-//! The WGSL sources of the projection's stages (poses, splat or exact, reduce). WGSL has no includes, so each stage is
+//! The WGSL sources of the projection's stages (poses, splat or exact, reduce, summary). WGSL has no includes, so each stage is
 //! assembled here from its parts, each part after the ones it reads:
 //!
 //! 1. the metric slots, generated from the metric table;
@@ -8,6 +8,9 @@
 //! 5. the splat stage's decisions (`shaders/shared/clip.wgsl`, twin of `src/clip.rs`);
 //! 6. for the exact stage, its roots and `atan` in f64 (`shaders/shared/roots_f64.wgsl`);
 //! 7. the stage itself.
+//!
+//! The summary stage takes the metric slots, the metrics' numbers (their order in the metric
+//! table), the shared structs and itself.
 //!
 //! The WGSL lives in the package (`shaders/`), so `cargo package` ships it.
 
@@ -47,6 +50,16 @@ fn metric_slots() -> String {
         if let Some(slot) = m.gpu_slot {
             let _ = writeln!(out, "const {}: u32 = {slot}u;", slot_name(m.name, m.reduce));
         }
+    }
+    out
+}
+
+/// Returns the WGSL numbers of the metrics, `METRIC_ORDER_` and the name in capitals: their
+/// order in the metric table ([`crate::Metric::all`]), as the summary stage's host side numbers them.
+fn metric_order() -> String {
+    let mut out = String::new();
+    for (k, m) in crate::Metric::all().enumerate() {
+        let _ = writeln!(out, "const METRIC_ORDER_{}: u32 = {k}u;", m.name().to_uppercase());
     }
     out
 }
@@ -110,6 +123,17 @@ pub(crate) fn reduce() -> String {
         "{}\n{SHARED}\n{}",
         metric_slots(),
         include_str!("../../../shaders/reduce.wgsl")
+    )
+}
+
+/// Returns the full source of the summary stage (`shaders/summary.wgsl`). It needs f64, 64-bit
+/// integers and their atomics.
+pub(crate) fn summary() -> String {
+    format!(
+        "{}{}\n{SHARED}\n{}",
+        metric_slots(),
+        metric_order(),
+        include_str!("../../../shaders/summary.wgsl")
     )
 }
 

@@ -7,7 +7,7 @@
 
 use std::mem::offset_of;
 
-use super::{exact, poses, reduce, splat};
+use super::{exact, poses, reduce, splat, summary};
 use crate::gpu::Precision;
 use crate::gpu::wgsl_checks::{constant, interface, module, struct_size, validate_without_f64, wgsl_members};
 use crate::projection::gpu::types::{self, BeamEdgeGpu, GridParams, PoseGpu, TargetParams};
@@ -33,6 +33,87 @@ fn every_stage_parses_and_validates() {
             validate_without_f64(&source, name);
         }
     }
+}
+
+/// The capabilities the summary stage needs: f64, 64-bit integers and their atomics.
+fn summary_capabilities() -> naga::valid::Capabilities {
+    use naga::valid::Capabilities as C;
+    C::FLOAT64 | C::SHADER_INT64 | C::SHADER_INT64_ATOMIC_MIN_MAX | C::SHADER_INT64_ATOMIC_ALL_OPS
+}
+
+#[test]
+fn the_summary_stage_parses_and_validates() {
+    crate::gpu::wgsl_checks::module_with(&summary(), "summary", summary_capabilities());
+    // The capabilities are the features the backend asks the device for.
+    use wgpu::Features as F;
+    assert_eq!(
+        crate::projection::gpu::SUMMARY_FEATURES,
+        F::SHADER_F64 | F::SHADER_INT64 | F::SHADER_INT64_ATOMIC_MIN_MAX | F::SHADER_INT64_ATOMIC_ALL_OPS
+    );
+}
+
+/// The summary stage's structs, bindings, workgroup and metric numbers are the Rust side's.
+#[test]
+fn the_summary_stage_matches_its_host_side() {
+    use crate::projection::gpu::types::{MarginalGpu, SummaryParams};
+    let m = crate::gpu::wgsl_checks::module_with(&summary(), "summary", summary_capabilities());
+    assert_eq!(struct_size(&m, "SummaryParams"), size_of::<SummaryParams>());
+    assert_eq!(struct_size(&m, "MarginalGpu"), size_of::<MarginalGpu>());
+    let params = [
+        ("range_bin_width", offset_of!(SummaryParams, range_bin_width)),
+        ("cell", offset_of!(SummaryParams, cell)),
+        ("degrees", offset_of!(SummaryParams, degrees)),
+        ("histogram_min", offset_of!(SummaryParams, histogram_min)),
+        ("histogram_max", offset_of!(SummaryParams, histogram_max)),
+        ("count", offset_of!(SummaryParams, count)),
+        ("metric", offset_of!(SummaryParams, metric)),
+        ("exact", offset_of!(SummaryParams, exact)),
+        ("sss", offset_of!(SummaryParams, sss)),
+        ("has_area", offset_of!(SummaryParams, has_area)),
+        ("bins", offset_of!(SummaryParams, bins)),
+        ("marginals", offset_of!(SummaryParams, marginals)),
+        ("keep", offset_of!(SummaryParams, keep)),
+        ("first_lo", offset_of!(SummaryParams, first_lo)),
+        ("first_hi", offset_of!(SummaryParams, first_hi)),
+        ("cells_at", offset_of!(SummaryParams, cells_at)),
+        ("_pad", offset_of!(SummaryParams, _pad)),
+    ];
+    let pad = offset_of!(MarginalGpu, _pad);
+    let marginal = [
+        ("cell_offset", offset_of!(MarginalGpu, cell_offset)),
+        ("axes", offset_of!(MarginalGpu, axes)),
+        ("_pad0", pad),
+        ("_pad1", pad + 4),
+        ("digit", offset_of!(MarginalGpu, digit)),
+    ];
+    for (name, rust) in [("SummaryParams", &params[..]), ("MarginalGpu", &marginal[..])] {
+        let rust: Vec<(String, usize)> = rust.iter().map(|(n, o)| (n.to_string(), *o)).collect();
+        assert_eq!(
+            wgsl_members(&m, name),
+            rust,
+            "{name}: WGSL (left) and Rust (right)"
+        );
+    }
+    let (b, w) = interface(&m);
+    assert_eq!(
+        b,
+        crate::projection::gpu::SUMMARY_BINDINGS,
+        "summary.wgsl bindings"
+    );
+    assert_eq!(
+        w as usize,
+        super::super::summary::SUMMARY_WORKGROUP,
+        "summary.wgsl workgroup size"
+    );
+    // The metric numbers are the metric table's order, as the host numbers them.
+    for (k, metric) in crate::Metric::all().enumerate() {
+        let name = format!("METRIC_ORDER_{}", metric.name().to_uppercase());
+        assert_eq!(constant(&m, &name) as usize, k, "{name}");
+    }
+    assert!(
+        !include_str!("../../../shaders/summary.wgsl").contains("const METRIC_"),
+        "a hand-written metric number or slot"
+    );
 }
 
 #[test]
@@ -246,6 +327,15 @@ fn no_part_reads_a_name_declared_after_it() {
         (
             "exact.wgsl",
             include_str!("../../../shaders/exact.wgsl").to_string(),
+        ),
+    ]);
+    crate::gpu::wgsl_checks::assert_declared_before_use(&[
+        ("metric slots", super::metric_slots()),
+        ("metric order", super::metric_order()),
+        ("types.wgsl", super::SHARED.to_string()),
+        (
+            "summary.wgsl",
+            include_str!("../../../shaders/summary.wgsl").to_string(),
         ),
     ]);
     crate::gpu::wgsl_checks::assert_declared_before_use(&[

@@ -10,8 +10,11 @@ use crate::gpu::GpuContext;
 use crate::gpu::pool::BufferPool;
 
 use super::slots::{Directions, SLOT_LABELS, Shape, Slot};
+use super::summary::SUMMARY_WORKGROUP;
 use super::tables::{grid_table, pose_gpu};
-use super::types::{GridParams, PoseGpu, TargetParams, beam_edges, range_edges_sq, row_weights};
+use super::types::{
+    GridParams, PoseGpu, SummaryParams, TargetParams, beam_edges, range_edges_sq, row_weights,
+};
 use super::unpack::Source;
 use super::{GpuBackend, MAX_TILES, POSES_WORKGROUP};
 
@@ -63,6 +66,9 @@ impl CallTables {
 pub(super) struct Chunk {
     pub(super) slot: usize,
     pub(super) poses: std::ops::Range<usize>,
+    /// Whether the chunk starts its run, and whether it ends it (a summary run's block).
+    pub(super) first_in_run: bool,
+    pub(super) last_in_run: bool,
 }
 
 impl GpuBackend {
@@ -155,6 +161,38 @@ impl GpuBackend {
         let rows = (n as u32).div_ceil(across);
 
         let mut enc = device.create_command_encoder(&Default::default());
+        let summary_group = match (shape.summary, &slot.summary) {
+            (Some(run), Some(s)) => {
+                // A block's accumulators start from zero (queue order: after the block before
+                // was copied out).
+                if chunk.first_in_run {
+                    enc.clear_buffer(&run.acc, 0, None);
+                }
+                let first = shape.source.first_pose() + chunk.poses.start as u64;
+                let params = SummaryParams {
+                    count: n as u32,
+                    first_lo: first as u32,
+                    first_hi: (first >> 32) as u32,
+                    ..run.params
+                };
+                queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params));
+                Some(pool.bind(
+                    device,
+                    labels.summary_group,
+                    self.summary_stage()?,
+                    &[
+                        &s.params,
+                        &slot.metrics,
+                        &slot.poses,
+                        &run.edges,
+                        &run.table,
+                        &run.acc,
+                        &s.candidates,
+                    ],
+                ))
+            }
+            _ => None,
+        };
         enc.clear_buffer(&slot.bits, 0, Some(used_bits));
         enc.clear_buffer(&slot.metrics, 0, Some(used_metrics));
         {
@@ -195,6 +233,20 @@ impl GpuBackend {
             pass.set_pipeline(&self.reduce.pipeline);
             pass.set_bind_group(0, &reduce_group, &[]);
             pass.dispatch_workgroups(across, rows, 1);
+            // A summary run reduces the metric in the same pass (timed with the reduce stage).
+            if let Some(group) = &summary_group {
+                let groups = n.div_ceil(SUMMARY_WORKGROUP) as u32;
+                let across = groups.clamp(1, dim);
+                pass.set_pipeline(&self.summary_stage()?.pipeline);
+                pass.set_bind_group(0, group, &[]);
+                pass.dispatch_workgroups(across, groups.div_ceil(across), 1);
+            }
+        }
+        if let (Some(run), Some(s)) = (shape.summary, &slot.summary) {
+            enc.copy_buffer_to_buffer(&s.candidates, 0, &s.candidates_staging, 0, run.candidate_bytes(n));
+            if chunk.last_in_run {
+                enc.copy_buffer_to_buffer(&run.acc, 0, &s.acc_staging, 0, run.acc_bytes);
+            }
         }
         shape.copy_slots(&mut enc, &slot.metrics, &slot.metrics_staging, n);
         if let Some(staging) = &slot.bits_staging {

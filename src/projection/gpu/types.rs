@@ -101,6 +101,43 @@ pub(crate) struct GridParams {
 }
 const _: () = assert!(std::mem::size_of::<GridParams>() == 160);
 
+/// The summary stage's parameters for one chunk (WGSL `SummaryParams`, `shaders/summary.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(crate) struct SummaryParams {
+    pub(crate) range_bin_width: f64,
+    pub(crate) cell: f64,
+    pub(crate) degrees: f64,
+    pub(crate) histogram_min: f64,
+    pub(crate) histogram_max: f64,
+    pub(crate) count: u32,
+    /// The metric (the order of [`Metric::all`]).
+    pub(crate) metric: u32,
+    pub(crate) exact: u32,
+    pub(crate) sss: u32,
+    pub(crate) has_area: u32,
+    pub(crate) bins: u32,
+    pub(crate) marginals: u32,
+    pub(crate) keep: u32,
+    pub(crate) first_lo: u32,
+    pub(crate) first_hi: u32,
+    pub(crate) cells_at: u32,
+    pub(crate) _pad: u32,
+}
+const _: () = assert!(std::mem::size_of::<SummaryParams>() == 88);
+
+/// One set of cells of the summary stage (WGSL `MarginalGpu`): its first cell, its digits, and
+/// per digit `[stride low word, stride high word, len, weight]`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(crate) struct MarginalGpu {
+    pub(crate) cell_offset: u32,
+    pub(crate) axes: u32,
+    pub(crate) _pad: [u32; 2],
+    pub(crate) digit: [[u32; 4]; 2],
+}
+const _: () = assert!(std::mem::size_of::<MarginalGpu>() == 48);
+
 /// Returns `v` as double-f32 `(hi, lo)`: `hi = f32(v)`, `lo = f32(v − hi)`.
 #[must_use]
 pub(crate) fn split(v: f64) -> (f32, f32) {

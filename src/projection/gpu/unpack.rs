@@ -31,6 +31,8 @@ pub(super) struct Unpack<'a> {
     pub(super) count: usize,
     /// Whether the call is solved exactly (its metric slots are the exact stage's).
     pub(super) exact: bool,
+    /// In a summary run, what the chunk's summary stage read back (and no metric slot).
+    pub(super) summary: Option<super::summary::ChunkSummary<'a>>,
 }
 
 impl Unpack<'_> {
@@ -219,6 +221,14 @@ impl Source<'_> {
         match self {
             Source::Items(p) => &p.layout,
             Source::Grid { prepared, .. } => &prepared.layout,
+        }
+    }
+
+    /// Returns the index in the sweep of the call's first pose (0 for items).
+    pub(super) fn first_pose(&self) -> u64 {
+        match self {
+            Source::Items(_) => 0,
+            Source::Grid { first, .. } => *first,
         }
     }
 

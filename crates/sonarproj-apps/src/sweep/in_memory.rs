@@ -73,7 +73,7 @@ pub fn run_in_memory(
             table.append(part)?;
         }
         if let (Some(spec), Some(values), Some(total)) = (plan.spec, computed.values, &mut summary) {
-            let part = spec.partial(plan.grid, computed.poses.start, &values)?;
+            let part = values.into_part(spec, plan.grid, computed.poses.start)?;
             spec.merge_into(total, &part, "in memory")?;
         }
         Ok(events(Event::Progress {

@@ -9,7 +9,7 @@ use sonarproj::MetricColumns;
 use sonarproj::error::Field;
 use sonarproj::local_precision::resolve_sigma_range;
 use sonarproj::metrics::Metric;
-use sonarproj::projection::Backend;
+use sonarproj::projection::{Backend, MetricReduction, PoseSweep};
 
 use crate::error::{Error, Result};
 use crate::io::parquet::{Kind, Table};
@@ -19,7 +19,7 @@ use crate::sweep::compute::{Work, metric_columns, values};
 use crate::sweep::config::{Grid, Poses, SweepConfig};
 use crate::sweep::records::Descriptor;
 use crate::sweep::shard::Shard;
-use crate::sweep::summary::SummarySpec;
+use crate::sweep::summary::{Summary, SummarySpec};
 
 /// The most chunks projected in one run of blocks ([`Backend::project_blocks`]).
 /// The device goes from one to the next without waiting, and the run's lists stay small.
@@ -85,7 +85,29 @@ pub(crate) struct Computed {
     pub(crate) chunk: u64,
     pub(crate) poses: Range<u64>,
     pub(crate) table: Option<Table>,
-    pub(crate) values: Option<Vec<f64>>,
+    pub(crate) values: Option<ForSummary>,
+}
+
+/// What a chunk's summary is made from: its metric values, or its summary part reduced on the
+/// device.
+pub(crate) enum ForSummary {
+    /// The metric's values (NaN: no value).
+    Values(Vec<f64>),
+    /// The summary part (no means), as [`SummarySpec::partial`] would make it from the values.
+    Reduced(Summary),
+}
+
+impl ForSummary {
+    /// Returns the summary part (no means) of the chunk from pose `first`, by `spec` over `grid`.
+    ///
+    /// # Errors
+    /// As [`SummarySpec::partial`].
+    pub(crate) fn into_part(self, spec: &SummarySpec, grid: Option<&Grid>, first: u64) -> Result<Summary> {
+        match self {
+            ForSummary::Values(values) => spec.partial(grid, first, &values),
+            ForSummary::Reduced(part) => Ok(part),
+        }
+    }
 }
 
 impl<'a> Plan<'a> {
@@ -190,7 +212,7 @@ impl<'a> Plan<'a> {
         sink: &mut dyn FnMut(Computed, &MetricColumns) -> Result<ControlFlow<()>>,
     ) -> Result<ControlFlow<()>> {
         let rows = self.rows;
-        let values_of = |m: &MetricColumns| self.by.map(|by| values(m, by));
+        let values_of = |m: &MetricColumns| self.by.map(|by| ForSummary::Values(values(m, by)));
         let Some(sweep) = work.sweep() else {
             for chunk in todo {
                 let poses = self.chunk(chunk);
@@ -214,6 +236,9 @@ impl<'a> Plan<'a> {
             return Ok(ControlFlow::Continue(()));
         };
         let blocks: Vec<Range<u64>> = todo.clone().map(|c| self.chunk(c)).collect();
+        if let Some(reduction) = self.device_reduction(backend, &sweep) {
+            return self.reduce(backend, &sweep, &reduction, metrics, todo, stop, sink);
+        }
         let mut chunk = todo.start;
         let mut failed = None;
         let flow = backend.project_blocks(&sweep, &blocks, metrics, stop, &mut |poses, metrics| {
@@ -238,6 +263,68 @@ impl<'a> Plan<'a> {
                 failed = Some(e);
                 ControlFlow::Break(())
             })
+        })?;
+        failed.map_or(Ok(flow), Err)
+    }
+
+    /// Returns the reduction of this plan's summary when `backend` reduces `sweep` on the device:
+    /// a summaries-only grid sweep on a GPU with 64-bit atomics, within the device's bounds (a
+    /// `top` of at most 256, 2^21 marginal cells). Elsewhere the host reduces the metric columns.
+    fn device_reduction(&self, backend: &Backend, sweep: &PoseSweep<'_>) -> Option<MetricReduction> {
+        if self.rows || !backend.reduces_on_device(sweep) {
+            return None;
+        }
+        self.spec?.reduction(self.grid).filter(|r| r.validate().is_ok())
+    }
+
+    /// Summarises chunks `todo` of a grid on the device ([`Backend::reduce_blocks`]), handing each
+    /// chunk's summary part to `sink` as [`Plan::compute`] does. A chunk holding a value too large
+    /// for the device's exact sums is projected again and reduced on the host (`metrics`).
+    #[expect(clippy::too_many_arguments, reason = "compute's arguments and the reduction")]
+    fn reduce(
+        &self,
+        backend: &Backend,
+        sweep: &PoseSweep<'_>,
+        reduction: &MetricReduction,
+        metrics: &mut MetricColumns,
+        todo: Range<u64>,
+        stop: Stop<'_>,
+        sink: &mut dyn FnMut(Computed, &MetricColumns) -> Result<ControlFlow<()>>,
+    ) -> Result<ControlFlow<()>> {
+        let (spec, by) = (
+            self.spec.expect("a reduction has a summary"),
+            self.by.expect("a summary has a metric"),
+        );
+        let blocks: Vec<Range<u64>> = todo.clone().map(|c| self.chunk(c)).collect();
+        let mut chunk = todo.start;
+        let mut failed = None;
+        let flow = backend.reduce_blocks(sweep, &blocks, reduction, stop, &mut |poses, reduced| {
+            let this = chunk;
+            chunk += 1;
+            let mut step = || -> Result<ControlFlow<()>> {
+                let values = match spec.part_of_reduction(self.grid, reduced) {
+                    Some(part) => ForSummary::Reduced(part),
+                    None => {
+                        backend.project_columns(sweep, poses.clone(), metrics, stop)?;
+                        ForSummary::Values(values(metrics, by))
+                    }
+                };
+                let computed = Computed {
+                    chunk: this,
+                    poses: poses.clone(),
+                    table: None,
+                    values: Some(values),
+                };
+                sink(computed, metrics)
+            };
+            match step() {
+                Err(Error::Engine(sonarproj::Error::Stopped)) => ControlFlow::Break(()),
+                Err(e) => {
+                    failed = Some(e);
+                    ControlFlow::Break(())
+                }
+                Ok(flow) => flow,
+            }
         })?;
         failed.map_or(Ok(flow), Err)
     }

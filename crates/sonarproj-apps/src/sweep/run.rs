@@ -429,7 +429,7 @@ fn csv_chunk(files: &Files<'_>, backend: &Backend, c: u64) -> Result<Computed> {
         chunk: c,
         poses,
         table: None,
-        values,
+        values: values.map(crate::sweep::plan::ForSummary::Values),
     })
 }
 

@@ -190,7 +190,7 @@ impl<'a> Files<'a> {
         c: u64,
         r: Range<u64>,
         table: Option<Table>,
-        values: Option<Vec<f64>>,
+        values: Option<crate::sweep::plan::ForSummary>,
         keep: bool,
     ) -> Result<Written> {
         let plan = self.plan;
@@ -227,7 +227,7 @@ impl<'a> Files<'a> {
             written.table = Some(bytes::Bytes::from(bytes));
         }
         if let (Some(spec), Some(values)) = (plan.spec, values) {
-            let summary = spec.partial(plan.grid, r.start, &values)?;
+            let summary = values.into_part(spec, plan.grid, r.start)?;
             let sum_path = self.chunk_summary(c);
             if keep {
                 let part = summary.to_part();

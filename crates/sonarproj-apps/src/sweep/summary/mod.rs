@@ -8,6 +8,9 @@
 //! divide a fixed-point sum (an integer of 2^-[`FIXED_BITS`] units).
 
 mod cells;
+mod device;
+#[cfg(test)]
+mod device_tests;
 mod part;
 mod spec;
 #[cfg(test)]
