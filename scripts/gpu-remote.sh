@@ -4,7 +4,8 @@
 #
 #   scripts/gpu-remote.sh prepare   # here: build, strip and pack everything into .gpu/ (< 64 MiB)
 #   scripts/gpu-remote.sh run       # there, from the repository root, with .gpu/ copied along:
-#                                   # Vulkan loader, NVIDIA ICD, GPU tests, benches, paper,
+#                                   # Vulkan loader, NVIDIA ICD, GPU tests (the summaries reduced
+#                                   # on the device among them), benches, paper,
 #                                   # 1 M-pose sweeps (Parquet, summaries) on GPU and CPU,
 #                                   # `bench sweep` on 10 M poses (10^8 with summaries only; exact
 #                                   # arcs against 0.1° sampling; each variant's device time a
@@ -41,6 +42,17 @@ for line in sys.stdin:
         print(m["target"]["name"] + ("-bench" if m["target"]["kind"] == ["bench"] else "") + " " + m["executable"])
 ' | while read -r name exe; do
         strip -o "$bundle/bin/$name" "$exe"
+    done
+    # The applications' unit tests, for the summaries reduced on the device.
+    cargo test --release --no-run --message-format=json -p sonarproj-apps --lib 2>/dev/null |
+        python3 -c '
+import json, sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m.get("executable"):
+        print(m["executable"])
+' | while read -r exe; do
+        strip -o "$bundle/bin/apps" "$exe"
     done
     strip -o "$bundle/bin/sonarproj" target/release/sonarproj
     # The Vulkan loader and GLVND: the remote machine has the NVIDIA driver and its ICD file, not
@@ -97,6 +109,7 @@ run() {
     step test-sweep "$bin/sweep"
     step test-pose-sources "$bin/pose_sources"
     step test-exact "$bin/exact"
+    step test-summary-device "$bin/apps" device_tests
     # shellcheck disable=SC2086
     step bench-projection "$bin/sonarproj" bench ${GPU_REMOTE_BENCH:---scale 200} --no-reference
     # shellcheck disable=SC2086

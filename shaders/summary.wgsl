@@ -3,12 +3,15 @@
 // (crates/sonarproj-apps/src/sweep/summary/mod.rs), whose summaries these must equal byte for byte.
 //
 // A thread takes one pose (workgroup w, thread l: pose 256 w + l of the chunk). It derives the
-// metric's value from the metric slots with the host's operations (f64 add, sub and mul, correctly
-// rounded; the visible fraction by an integer division rounded once), then:
+// metric's value from the metric slots with the host's operations (f32 widened by integer
+// operations; f64 add, sub and mul, correctly rounded; the visible fraction by an integer division
+// rounded once), then:
 // - counts it, bins it in the histogram and adds it to its cell of each marginal with 64-bit
 //   atomics: counts, an exact fixed-point sum (128 bits as two words with a carry), the least and
 //   greatest value as order keys. Integer addition, min and max are order-free, so the result does
-//   not depend on which thread comes first;
+//   not depend on which thread comes first. The workgroup adds up what would contend first: its
+//   count, a histogram of at most SHARED_BINS bins, and a marginal's cell when all its values
+//   fall in one, so each goes out in one atomic a workgroup;
 // - sorts the workgroup's values twice (ascending, then descending; ties to the lower pose) and
 //   writes the first `keep` of each order: every pose of the sweep's top k (and its extremes) is
 //   among some workgroup's first k, so the host finds them among these candidates.
@@ -81,12 +84,32 @@ const SIGN: u64 = 0x8000000000000000lu;
 
 // The metric's number: METRIC_ORDER_* (generated from the metric table, in its order).
 
+// Histograms of at most this many bins are counted in the workgroup first.
+const SHARED_BINS: u32 = 512u;
+// A histogram bin number standing for below (and BELOW + 1 for above) the histogram.
+const BELOW: u32 = 0xfffffffeu;
+const ABOVE: u32 = 0xffffffffu;
+const NO_CELL: u32 = 0xffffffffu;
+
+// The candidates' sort, and the greatest key of a marginal's one-cell tree.
 var<workgroup> sort_key: array<u64, 256>;
 var<workgroup> sort_at: array<u32, 256>;
+// The workgroup's poses with a value, and its histogram's bins (then below, above).
+var<workgroup> seen: atomic<u32>;
+var<workgroup> bin_count: array<atomic<u32>, 514>;
+// A marginal's cells in the workgroup: the least and greatest, whether they are one.
+var<workgroup> cell_least: atomic<u32>;
+var<workgroup> cell_most: atomic<u32>;
+var<workgroup> one_cell: u32;
+// A marginal's one-cell tree: counts, 128-bit sums, NOT the least key.
+var<workgroup> sum_count: array<u32, 256>;
+var<workgroup> sum_low: array<u64, 256>;
+var<workgroup> sum_high: array<u64, 256>;
+var<workgroup> least_not: array<u64, 256>;
 
-// Returns the f32 whose order key (shared/types.wgsl order_key) is k.
-fn from_order_key(k: u32) -> f32 {
-    return select(bitcast<f32>(~k), bitcast<f32>(k & 0x7fffffffu), (k & 0x80000000u) != 0u);
+// Returns the f32 bits whose order key (shared/types.wgsl order_key) is k.
+fn from_order_key(k: u32) -> u32 {
+    return select(~k, k & 0x7fffffffu, (k & 0x80000000u) != 0u);
 }
 
 // Returns slot s of the chunk's pose p.
@@ -128,7 +151,7 @@ fn fraction(a: u32, b: u32) -> f64 {
         q += 1lu;
     }
     // q is exact in f64 (at most 2^53); the power of two scales it exactly.
-    return ldexp(f64(q), -i32(shift + 52u));
+    return f64(q) * power_of_two(-i32(shift + 52u));
 }
 
 // Returns whether the chunk's pose p has a value of the metric, and the value (the host's
@@ -149,7 +172,7 @@ fn value_of(p: u32) -> vec2<f64> {
             let plan = poses[p].plan;
             let total = plan.y * plan.w;
             if exact {
-                v = select(0.0lf, f64(bitcast<f32>(visible)), m == METRIC_ORDER_VISIBLE_FRACTION);
+                v = select(0.0lf, widen(visible), m == METRIC_ORDER_VISIBLE_FRACTION);
             } else if m == METRIC_ORDER_TOTAL {
                 v = f64(total);
             } else if total == 0u || visible == 0u {
@@ -162,24 +185,24 @@ fn value_of(p: u32) -> vec2<f64> {
         }
         case METRIC_ORDER_RANGE_MIN: {
             has = seen;
-            v = f64(from_order_key(~slot(METRIC_RANGE_MIN_NOT, p)));
+            v = widen(from_order_key(~slot(METRIC_RANGE_MIN_NOT, p)));
         }
         case METRIC_ORDER_RANGE_MAX: {
             has = seen;
-            v = f64(from_order_key(slot(METRIC_RANGE_MAX, p)));
+            v = widen(from_order_key(slot(METRIC_RANGE_MAX, p)));
         }
         case METRIC_ORDER_SPAN: {
-            let low = f64(from_order_key(~slot(METRIC_RANGE_MIN_NOT, p)));
-            let high = f64(from_order_key(slot(METRIC_RANGE_MAX, p)));
+            let low = widen(from_order_key(~slot(METRIC_RANGE_MIN_NOT, p)));
+            let high = widen(from_order_key(slot(METRIC_RANGE_MAX, p)));
             v = select(0.0lf, high - low, seen);
         }
         case METRIC_ORDER_AZIMUTH_MIN: {
             has = seen;
-            v = f64(from_order_key(~slot(METRIC_AZIMUTH_MIN_NOT, p))) * params.degrees;
+            v = widen(from_order_key(~slot(METRIC_AZIMUTH_MIN_NOT, p))) * params.degrees;
         }
         case METRIC_ORDER_AZIMUTH_MAX: {
             has = seen;
-            v = f64(from_order_key(slot(METRIC_AZIMUTH_MAX, p))) * params.degrees;
+            v = widen(from_order_key(slot(METRIC_AZIMUTH_MAX, p))) * params.degrees;
         }
         case METRIC_ORDER_OCCUPIED: {
             v = f64(slot(METRIC_OCCUPIED, p));
@@ -188,7 +211,7 @@ fn value_of(p: u32) -> vec2<f64> {
             if params.sss != 0u {
                 v = f64(slot(METRIC_OCCUPIED, p)) * params.range_bin_width;
             } else {
-                v = f64(bitcast<f32>(slot(METRIC_OCCUPIED_MEASURE, p)));
+                v = widen(slot(METRIC_OCCUPIED_MEASURE, p));
             }
         }
         default: {
@@ -283,6 +306,80 @@ fn sort(lid: u32) {
     }
 }
 
+// Adds this thread's value (when `has`: its key and fixed-point term) to its cell of marginal m.
+// Where every value of the workgroup falls in one cell (a slow axis: the common case, and the one
+// where threads would contend for the cell), the workgroup adds them up first and one thread
+// adds the total. Else each thread adds its own.
+fn add_to_marginal(m: u32, lid: u32, index: u64, has: bool, key: u64, term: i64) {
+    let g = marginal_table[m];
+    var c = NO_CELL;
+    if has {
+        c = g.cell_offset;
+        for (var a = 0u; a < g.axes; a++) {
+            let d = g.digit[a];
+            let stride = u64(d.y) << 32u | u64(d.x);
+            c += u32((index / stride) % u64(d.z)) * d.w;
+        }
+    }
+    if lid == 0u {
+        atomicStore(&cell_least, NO_CELL);
+        atomicStore(&cell_most, 0u);
+    }
+    workgroupBarrier();
+    if has {
+        atomicMin(&cell_least, c);
+        atomicMax(&cell_most, c);
+    }
+    workgroupBarrier();
+    if lid == 0u {
+        let least = atomicLoad(&cell_least);
+        // 0: no value; 1: one cell; 2: several
+        one_cell = select(select(2u, 1u, least == atomicLoad(&cell_most)), 0u, least == NO_CELL);
+    }
+    let shape = workgroupUniformLoad(&one_cell);
+    if shape == 2u {
+        if has {
+            add_to_cell(c, key, term);
+        }
+        return;
+    }
+    if shape == 0u {
+        return;
+    }
+    // One cell: a tree over the workgroup, the sum as 128 bits (low word, high word).
+    sum_count[lid] = select(0u, 1u, has);
+    sum_low[lid] = select(0lu, bitcast<u64>(term), has);
+    sum_high[lid] = select(0lu, select(0lu, NONE, term < 0li), has);
+    least_not[lid] = select(0lu, ~key, has);
+    sort_key[lid] = select(0lu, key, has);
+    workgroupBarrier();
+    for (var stride = WORKGROUP / 2u; stride > 0u; stride >>= 1u) {
+        if lid < stride {
+            let o = lid + stride;
+            sum_count[lid] += sum_count[o];
+            let low = sum_low[lid] + sum_low[o];
+            sum_high[lid] += sum_high[o] + select(0lu, 1lu, low < sum_low[o]);
+            sum_low[lid] = low;
+            least_not[lid] = max(least_not[lid], least_not[o]);
+            sort_key[lid] = max(sort_key[lid], sort_key[o]);
+        }
+        workgroupBarrier();
+    }
+    if lid == 0u {
+        let at = params.cells_at + 5u * atomicLoad(&cell_least);
+        atomicAdd(&acc[at], u64(sum_count[0]));
+        let low = sum_low[0];
+        let old = atomicAdd(&acc[at + 1u], low);
+        let high = sum_high[0] + select(0lu, 1lu, old + low < old);
+        if high != 0lu {
+            atomicAdd(&acc[at + 2u], high);
+        }
+        atomicMax(&acc[at + 3u], least_not[0]);
+        atomicMax(&acc[at + 4u], sort_key[0]);
+    }
+    workgroupBarrier();
+}
+
 @compute @workgroup_size(256)
 fn main(
     @builtin(workgroup_id) wid: vec3<u32>,
@@ -292,43 +389,75 @@ fn main(
     let group = wid.x + wid.y * nwg.x;
     let p = group * WORKGROUP + lid;
     let groups = (params.count + WORKGROUP - 1u) / WORKGROUP;
+    // A workgroup past the chunk's (the dispatch's rectangle) writes nothing.
+    if group >= groups {
+        return;
+    }
+    let first = u64(params.first_hi) << 32u | u64(params.first_lo);
+    let index = first + u64(p);
+    let small_histogram = params.bins <= SHARED_BINS;
+    if lid == 0u {
+        atomicStore(&seen, 0u);
+    }
+    for (var b = lid; b < SHARED_BINS + 2u; b += WORKGROUP) {
+        atomicStore(&bin_count[b], 0u);
+    }
+    workgroupBarrier();
     var has = false;
     var key = NONE;
+    var term = 0li;
+    var exact = true;
     if p < params.count {
         let hv = value_of(p);
         let v = hv.y;
         has = hv.x != 0.0lf && !is_nan(v);
         key = key_of(v);
-        let index = (u64(params.first_hi) << 32u | u64(params.first_lo)) + u64(p);
         if has {
-            atomicAdd(&acc[0], 1lu);
+            atomicAdd(&seen, 1u);
             if params.bins > 0u {
+                // Below, above, or a bin: counted in the workgroup first when the bins are few.
+                var b = BELOW;
                 if v < params.histogram_min {
-                    atomicAdd(&acc[2], 1lu);
+                    b = BELOW;
                 } else if v > params.histogram_max {
-                    atomicAdd(&acc[3], 1lu);
+                    b = ABOVE;
                 } else {
-                    atomicAdd(&acc[4u + bin_of(v)], 1lu);
+                    b = bin_of(v);
+                }
+                if small_histogram {
+                    atomicAdd(&bin_count[select(b, params.bins + b - BELOW, b >= BELOW)], 1u);
+                } else {
+                    atomicAdd(&acc[select(4u + b, 2u + b - BELOW, b >= BELOW)], 1lu);
                 }
             }
             if params.marginals > 0u {
-                let term = fixed_of(v);
-                if term.y == 0li {
+                let t = fixed_of(v);
+                term = t.x;
+                exact = t.y != 0li;
+                if !exact {
                     atomicMax(&acc[1], ~index);
-                } else {
-                    for (var m = 0u; m < params.marginals; m++) {
-                        let g = marginal_table[m];
-                        var c = g.cell_offset;
-                        for (var a = 0u; a < g.axes; a++) {
-                            let d = g.digit[a];
-                            let stride = u64(d.y) << 32u | u64(d.x);
-                            c += u32((index / stride) % u64(d.z)) * d.w;
-                        }
-                        add_to_cell(c, key, term.x);
-                    }
                 }
             }
         }
+    }
+    workgroupBarrier();
+    // The workgroup's counts go out once: poses with a value, and the histogram's bins.
+    if lid == 0u {
+        let n = atomicLoad(&seen);
+        if n > 0u {
+            atomicAdd(&acc[0], u64(n));
+        }
+    }
+    if small_histogram && params.bins > 0u {
+        for (var b = lid; b < params.bins + 2u; b += WORKGROUP) {
+            let n = atomicLoad(&bin_count[b]);
+            if n > 0u {
+                atomicAdd(&acc[select(4u + b, 2u + b - params.bins, b >= params.bins)], u64(n));
+            }
+        }
+    }
+    for (var m = 0u; m < params.marginals; m++) {
+        add_to_marginal(m, lid, index, has && exact, key, term);
     }
     // The candidates: ascending by key, then by descending value (the key's complement); ties and
     // poses without a value (NONE) go by their place.
@@ -337,7 +466,6 @@ fn main(
     sort_at[lid] = lid;
     workgroupBarrier();
     sort(lid);
-    let first = u64(params.first_hi) << 32u | u64(params.first_lo);
     let base = u64(group * WORKGROUP) + first;
     if lid < keep {
         let k = sort_key[lid];

@@ -802,3 +802,48 @@ fn the_true_point_in_gives_the_local_precision_out() {
         assert!(e.contains("item 5") && e.contains("true point range"), "{e}");
     }
 }
+
+/// The summary stage widens f32 bits to f64 with integer operations, so that a device flushing
+/// subnormals in its conversion still gets the host's value: every class of f32 (zeros, the
+/// subnormals the exact stage writes, normals, the extremes, infinities, a NaN) widens to the
+/// bits of `f64::from`.
+#[test]
+fn f32_bits_widen_on_the_device_as_on_the_host() {
+    let Some(ctx) = common::gpu_context() else { return };
+    if !ctx
+        .features()
+        .contains(wgpu::Features::SHADER_F64 | wgpu::Features::SHADER_INT64)
+    {
+        assert!(
+            std::env::var("CI").is_err(),
+            "CI's lavapipe has f64 and 64-bit integers"
+        );
+        eprintln!("skipped: this device has no f64 or 64-bit integers in shaders");
+        return;
+    }
+    let mut bits: Vec<u32> = vec![
+        0,
+        0x8000_0000,
+        1,
+        0x8000_0001,
+        0x007f_ffff,
+        0x0080_0000,
+        0x3f80_0000,
+        0xbf80_0001,
+        0x7f7f_ffff,
+        0xff7f_ffff,
+        0x7f80_0000,
+        0xff80_0000,
+    ];
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    bits.extend((0..4000).map(|_| rng.random::<u32>()));
+    let widened = sonarproj::test_support::widen_on_device(&ctx, &bits).unwrap();
+    for (&b, &w) in bits.iter().zip(&widened) {
+        let want = f64::from(f32::from_bits(b));
+        if want.is_nan() {
+            assert!(w.is_nan(), "{b:#010x}: {w} is not a NaN");
+        } else {
+            assert_eq!(w.to_bits(), want.to_bits(), "{b:#010x}: {w:e} against {want:e}");
+        }
+    }
+}

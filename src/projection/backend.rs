@@ -401,7 +401,7 @@ impl Backend {
     /// only the block's counts, histogram, cells and its smallest and largest poses.
     ///
     /// `blocks` are as [`Backend::project_blocks`] takes them. The stream ends early, returning
-    /// `Break`, when `each` answers `Break` or `stop` is set (looked at between chunks).
+    /// `Break`, when `each` answers `Break` or `stop` is set (looked at between blocks).
     ///
     /// # Errors
     /// [`Error::Input`] where [`Backend::reduces_on_device`] is false; as

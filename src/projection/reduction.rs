@@ -12,9 +12,10 @@ use crate::metrics::Metric;
 /// The fixed-point resolution of cell sums: 2^-40 of the metric's unit.
 pub const FIXED_BITS: i32 = 40;
 
-/// The most poses [`MetricReduction::top`] may ask for at each end. The device keeps that many
-/// candidates for every 256 poses, so more would read back more than the metric itself.
-pub const MAX_DEVICE_TOP: usize = 256;
+/// The most poses [`MetricReduction::top`] may ask for at each end. The device hands back that
+/// many candidates each way for every 256 poses, 16 bytes each: `top / 8` bytes a pose, at most
+/// 4 here, no more than reading back the metric itself (4 to 12 bytes a pose).
+pub const MAX_DEVICE_TOP: usize = 32;
 
 /// What to reduce: one metric's values over a sweep's poses.
 #[derive(Clone, Debug, PartialEq)]
@@ -223,7 +224,7 @@ mod tests {
         let message = |r: MetricReduction| r.validate().unwrap_err().to_string();
         let mut r = reduction();
         r.top = MAX_DEVICE_TOP + 1;
-        assert!(message(r).contains("reduction top = 257"));
+        assert!(message(r).contains("reduction top = 33"));
         let mut r = reduction();
         r.histogram.as_mut().unwrap().edges = vec![0.0];
         assert!(message(r).contains("reduction histogram edges = 1"));

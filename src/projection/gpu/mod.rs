@@ -31,6 +31,7 @@ use crate::projection::columns::MetricColumns;
 use crate::projection::poses::PreparedGrid;
 use crate::projection::{Output, PreparedBatch, Projection};
 use slots::{Directions, InFlight, SLOT_LABELS, Shape, Slot, SlotSizes};
+pub(crate) use source::WIDEN;
 use submit::{CallTables, Chunk};
 pub(crate) use summary::FEATURES as SUMMARY_FEATURES;
 use summary::SummaryRun;

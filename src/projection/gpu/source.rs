@@ -10,7 +10,8 @@
 //! 7. the stage itself.
 //!
 //! The summary stage takes the metric slots, the metrics' numbers (their order in the metric
-//! table), the shared structs and itself.
+//! table), the shared structs, the exact widening of f32 bits (`shaders/shared/widen.wgsl`) and
+//! itself.
 //!
 //! The WGSL lives in the package (`shaders/`), so `cargo package` ships it.
 
@@ -126,11 +127,14 @@ pub(crate) fn reduce() -> String {
     )
 }
 
+/// f32 bits widened to f64 exactly, without the device's conversion (`shaders/shared/widen.wgsl`).
+pub(crate) const WIDEN: &str = include_str!("../../../shaders/shared/widen.wgsl");
+
 /// Returns the full source of the summary stage (`shaders/summary.wgsl`). It needs f64, 64-bit
 /// integers and their atomics.
 pub(crate) fn summary() -> String {
     format!(
-        "{}{}\n{SHARED}\n{}",
+        "{}{}\n{SHARED}\n{WIDEN}\n{}",
         metric_slots(),
         metric_order(),
         include_str!("../../../shaders/summary.wgsl")

@@ -333,6 +333,7 @@ fn no_part_reads_a_name_declared_after_it() {
         ("metric slots", super::metric_slots()),
         ("metric order", super::metric_order()),
         ("types.wgsl", super::SHARED.to_string()),
+        ("widen.wgsl", super::WIDEN.to_string()),
         (
             "summary.wgsl",
             include_str!("../../../shaders/summary.wgsl").to_string(),

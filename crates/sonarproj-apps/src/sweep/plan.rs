@@ -235,10 +235,15 @@ impl<'a> Plan<'a> {
             }
             return Ok(ControlFlow::Continue(()));
         };
-        let blocks: Vec<Range<u64>> = todo.clone().map(|c| self.chunk(c)).collect();
+        // A summaries-only run on a device that reduces: the host takes over where it cannot.
+        let mut todo = todo;
         if let Some(reduction) = self.device_reduction(backend, &sweep) {
-            return self.reduce(backend, &sweep, &reduction, metrics, todo, stop, sink);
+            match self.reduce(backend, &sweep, &reduction, todo.clone(), stop, sink)? {
+                Ok(flow) => return Ok(flow),
+                Err(c) => todo = c..todo.end,
+            }
         }
+        let blocks: Vec<Range<u64>> = todo.clone().map(|c| self.chunk(c)).collect();
         let mut chunk = todo.start;
         let mut failed = None;
         let flow = backend.project_blocks(&sweep, &blocks, metrics, stop, &mut |poses, metrics| {
@@ -269,7 +274,7 @@ impl<'a> Plan<'a> {
 
     /// Returns the reduction of this plan's summary when `backend` reduces `sweep` on the device:
     /// a summaries-only grid sweep on a GPU with 64-bit atomics, within the device's bounds (a
-    /// `top` of at most 256, 2^21 marginal cells). Elsewhere the host reduces the metric columns.
+    /// `top` of at most 32, 2^21 marginal cells). Elsewhere the host reduces the metric columns.
     fn device_reduction(&self, backend: &Backend, sweep: &PoseSweep<'_>) -> Option<MetricReduction> {
         if self.rows || !backend.reduces_on_device(sweep) {
             return None;
@@ -278,54 +283,48 @@ impl<'a> Plan<'a> {
     }
 
     /// Summarises chunks `todo` of a grid on the device ([`Backend::reduce_blocks`]), handing each
-    /// chunk's summary part to `sink` as [`Plan::compute`] does. A chunk holding a value too large
-    /// for the device's exact sums is projected again and reduced on the host (`metrics`).
-    #[expect(clippy::too_many_arguments, reason = "compute's arguments and the reduction")]
+    /// chunk's summary part to `sink` as [`Plan::compute`] does. Returns `Err(c)` when chunks
+    /// `c..todo.end` are left to the host: chunk `c` holds a value too large for the device's
+    /// exact sums, or the device could not start the reduction (its stage refused).
     fn reduce(
         &self,
         backend: &Backend,
         sweep: &PoseSweep<'_>,
         reduction: &MetricReduction,
-        metrics: &mut MetricColumns,
         todo: Range<u64>,
         stop: Stop<'_>,
         sink: &mut dyn FnMut(Computed, &MetricColumns) -> Result<ControlFlow<()>>,
-    ) -> Result<ControlFlow<()>> {
-        let (spec, by) = (
-            self.spec.expect("a reduction has a summary"),
-            self.by.expect("a summary has a metric"),
-        );
+    ) -> Result<std::result::Result<ControlFlow<()>, u64>> {
+        let spec = self.spec.expect("a reduction has a summary");
         let blocks: Vec<Range<u64>> = todo.clone().map(|c| self.chunk(c)).collect();
         let mut chunk = todo.start;
-        let mut failed = None;
+        let (mut failed, mut to_host) = (None, None);
+        let none = MetricColumns::default();
         let flow = backend.reduce_blocks(sweep, &blocks, reduction, stop, &mut |poses, reduced| {
             let this = chunk;
             chunk += 1;
-            let mut step = || -> Result<ControlFlow<()>> {
-                let values = match spec.part_of_reduction(self.grid, reduced) {
-                    Some(part) => ForSummary::Reduced(part),
-                    None => {
-                        backend.project_columns(sweep, poses.clone(), metrics, stop)?;
-                        ForSummary::Values(values(metrics, by))
-                    }
-                };
-                let computed = Computed {
-                    chunk: this,
-                    poses: poses.clone(),
-                    table: None,
-                    values: Some(values),
-                };
-                sink(computed, metrics)
+            let Some(part) = spec.part_of_reduction(self.grid, reduced) else {
+                to_host = Some(this);
+                return ControlFlow::Break(());
             };
-            match step() {
-                Err(Error::Engine(sonarproj::Error::Stopped)) => ControlFlow::Break(()),
-                Err(e) => {
-                    failed = Some(e);
-                    ControlFlow::Break(())
-                }
-                Ok(flow) => flow,
-            }
-        })?;
-        failed.map_or(Ok(flow), Err)
+            let computed = Computed {
+                chunk: this,
+                poses,
+                table: None,
+                values: Some(ForSummary::Reduced(part)),
+            };
+            sink(computed, &none).unwrap_or_else(|e| {
+                failed = Some(e);
+                ControlFlow::Break(())
+            })
+        });
+        match flow {
+            // The device refused before any chunk was done: the host takes them all.
+            Err(sonarproj::Error::Gpu { .. }) if chunk == todo.start => Ok(Err(todo.start)),
+            Err(e) => Err(e.into()),
+            Ok(_) if failed.is_some() => Err(failed.expect("just checked")),
+            Ok(_) if to_host.is_some() => Ok(Err(to_host.expect("just checked"))),
+            Ok(flow) => Ok(Ok(flow)),
+        }
     }
 }

@@ -198,7 +198,7 @@ fn an_fls_target_reduces_on_the_device_as_on_the_host() {
         "paper-fls",
         "paper-fls",
         Sampling::Step(2.0),
-        &[0, 3, 256],
+        &[0, 3, 32],
     );
 }
 
