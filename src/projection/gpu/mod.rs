@@ -2,7 +2,8 @@
 //! device. Each chunk is one submission of two stages (splat, reduce). It reads back the metric
 //! slots the caller's columns need, at most 32 bytes a pose, and the bitsets only when occupancy is
 //! asked for. The CPU twin of the two stages, block culling included, is
-//! [`crate::projection::fast`].
+//! [`crate::projection::fast`]. A summaries-only sweep adds a third stage and reads back no metric
+//! slot (`summary.rs`, twin of the applications' summaries).
 #![expect(
     clippy::cast_possible_truncation,
     reason = "GPU buffers hold f32 and u32: values are rounded to f32 on purpose and counts are bounded by the device limits checked before packing"
@@ -249,31 +250,27 @@ impl GpuBackend {
 
     /// Returns the exact stage, building it on first use.
     fn exact_stage(&self) -> Result<&Stage> {
-        if let Some(stage) = self.exact.get() {
-            return Ok(stage);
-        }
-        let stage = Stage::with_constants(
-            self.ctx.device(),
-            "exact",
-            &source::exact(),
-            &SPLAT_BINDINGS,
-            &[("WORKGROUP", f64::from(self.exact_workgroup()))],
-        )?;
-        Ok(self.exact.get_or_init(|| stage))
+        built(&self.exact, || {
+            Stage::with_constants(
+                self.ctx.device(),
+                "exact",
+                &source::exact(),
+                &SPLAT_BINDINGS,
+                &[("WORKGROUP", f64::from(self.exact_workgroup()))],
+            )
+        })
     }
 
     /// Returns the summary stage, building it on first use.
     fn summary_stage(&self) -> Result<&Stage> {
-        if let Some(stage) = self.summary.get() {
-            return Ok(stage);
-        }
-        let stage = Stage::new(
-            self.ctx.device(),
-            "summary",
-            &source::summary(),
-            &SUMMARY_BINDINGS,
-        )?;
-        Ok(self.summary.get_or_init(|| stage))
+        built(&self.summary, || {
+            Stage::new(
+                self.ctx.device(),
+                "summary",
+                &source::summary(),
+                &SUMMARY_BINDINGS,
+            )
+        })
     }
 
     /// Starts (clearing the sum) or stops timing this backend's compute passes on the device's
@@ -432,15 +429,10 @@ impl GpuBackend {
         out: &mut MetricColumns,
         each: &mut dyn FnMut(std::ops::Range<u64>, &MetricColumns) -> ControlFlow<()>,
     ) -> Result<ControlFlow<()>> {
-        let Some(first) = blocks.first() else {
+        let Some((first, runs)) = runs_of(blocks) else {
             return Ok(ControlFlow::Continue(()));
         };
-        let at = |i: u64| usize::try_from(i - first.start).expect("blocks of poses in memory");
-        let runs: Vec<std::ops::Range<usize>> = blocks.iter().map(|b| at(b.start)..at(b.end)).collect();
-        let source = Source::Grid {
-            prepared,
-            first: first.start,
-        };
+        let source = Source::Grid { prepared, first };
         // Only the slots of the columns kept are copied back.
         let slots = slots_of(crate::Metric::all().filter(|&m| out.keeps(m)));
         let mut block = 0;
@@ -696,6 +688,24 @@ impl GpuBackend {
     }
 }
 
+/// Returns the stage in `cell`, built by `build` on first use (a failed build is tried again
+/// next time).
+fn built(cell: &std::sync::OnceLock<Stage>, build: impl FnOnce() -> Result<Stage>) -> Result<&Stage> {
+    if let Some(stage) = cell.get() {
+        return Ok(stage);
+    }
+    let stage = build()?;
+    Ok(cell.get_or_init(|| stage))
+}
+
+/// Returns the first pose of `blocks` and the blocks as runs of a call from it, or `None` for no
+/// block.
+fn runs_of(blocks: &[std::ops::Range<u64>]) -> Option<(u64, Vec<std::ops::Range<usize>>)> {
+    let first = blocks.first()?.start;
+    let at = |i: u64| usize::try_from(i - first).expect("blocks of poses in memory");
+    Some((first, blocks.iter().map(|b| at(b.start)..at(b.end)).collect()))
+}
+
 /// The device's time in each compute pass while a [`GpuBackend`] was timed
 /// ([`GpuBackend::device_stages`]), on the device's own clock.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -704,7 +714,8 @@ pub struct DeviceStages {
     pub poses: std::time::Duration,
     /// The splat stage (samples transformed, clipped and binned), or the exact stage.
     pub splat: std::time::Duration,
-    /// The reduce stage: occupancy bits counted into metrics.
+    /// The reduce stage: occupancy bits counted into metrics (and, in a summaries-only sweep
+    /// reduced on the device, the summary stage after it, in the same pass).
     pub reduce: std::time::Duration,
 }
 

@@ -221,15 +221,10 @@ impl GpuBackend {
                 self.ctx.info().name
             )));
         }
-        let Some(first) = blocks.first() else {
+        let Some((first, runs)) = super::runs_of(blocks) else {
             return Ok(ControlFlow::Continue(()));
         };
-        let at = |i: u64| usize::try_from(i - first.start).expect("blocks of poses in memory");
-        let runs: Vec<std::ops::Range<usize>> = blocks.iter().map(|b| at(b.start)..at(b.end)).collect();
-        let source = Source::Grid {
-            prepared,
-            first: first.start,
-        };
+        let source = Source::Grid { prepared, first };
         let limit = self
             .ctx
             .limits()

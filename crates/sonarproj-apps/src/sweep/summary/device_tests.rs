@@ -3,6 +3,7 @@
 //! metric, sampled and exact, with blocks cut across chunks and workgroups. On lavapipe in CI.
 
 use sonarproj::projection::PoseGrid;
+use sonarproj::projection::poses::PLACEMENT_AXES;
 use sonarproj::stream::Stop;
 use sonarproj::{Backend, Metric, MetricColumns, PoseSource, PoseSweep, Sampling, Sonar};
 
@@ -10,19 +11,6 @@ use super::{HistogramSpec, Summary, SummarySpec};
 use crate::sweep::compute::values;
 use crate::sweep::config::Axis;
 use crate::sweep::grid::Grid;
-
-/// The grid's columns, in the engine's axis order.
-const COLUMNS: [&str; 9] = [
-    "range",
-    "azimuth",
-    "elevation",
-    "place_range",
-    "place_azimuth",
-    "place_elevation",
-    "roll",
-    "pitch",
-    "yaw",
-];
 
 /// Returns the axes of a grid of `source` → `target` poses: three feature ranges (three sampling
 /// plans), placements over sonar 2's view, and rotations that see the set from many sides.
@@ -47,7 +35,7 @@ fn axes(source: &Sonar, target: &Sonar) -> [Vec<f64>; 9] {
 /// Returns the apps' grid of `axes` (every axis, so its index is the engine's).
 fn apps_grid(axes: &[Vec<f64>; 9]) -> Grid {
     Grid {
-        axes: COLUMNS
+        axes: PLACEMENT_AXES
             .iter()
             .zip(axes)
             .map(|(&column, values)| Axis {
@@ -280,4 +268,37 @@ fn a_value_too_large_for_the_device_is_summed_on_the_host() {
         serde_json::to_string(&run(false)).unwrap(),
         serde_json::to_string(&want).unwrap()
     );
+}
+
+/// A stop set while a run of blocks is reduced ends it before the next block: the call returns
+/// `Break` after the blocks already handed out.
+#[test]
+fn a_stop_ends_the_reduction_between_blocks() {
+    let Some(backend) = device() else { return };
+    let source = Sonar::preset("paper-fls").unwrap();
+    let target = Sonar::preset("paper-sss").unwrap();
+    let a = axes(&source, &target);
+    let poses = PoseGrid::new(a.clone(), true, &source).unwrap();
+    let grid = apps_grid(&a);
+    let s = sweep(&source, &target, Sampling::Step(2.0), &poses);
+    let spec = spec(Metric::Span, 2, &[0.0, 1.0]);
+    let reduction = spec.reduction(Some(&grid)).unwrap();
+    let stopped = std::sync::atomic::AtomicBool::new(false);
+    let signal = || stopped.load(std::sync::atomic::Ordering::Relaxed);
+    let mut handed = 0;
+    let flow = backend
+        .reduce_blocks(
+            &s,
+            &[0..1000, 1000..2000, 2000..3000],
+            &reduction,
+            Stop::when(&signal),
+            &mut |_, _| {
+                handed += 1;
+                stopped.store(true, std::sync::atomic::Ordering::Relaxed);
+                std::ops::ControlFlow::Continue(())
+            },
+        )
+        .unwrap();
+    assert!(flow.is_break());
+    assert_eq!(handed, 1, "no block after the stop");
 }
