@@ -9,7 +9,7 @@ use crate::geometry::SonarKind;
 use crate::gpu::GpuContext;
 use crate::gpu::pool::BufferPool;
 
-use super::slots::{Directions, SLOT_LABELS, Shape, Slot};
+use super::slots::{Directions, SLOT_LABELS, Shape, Slot, SlotLabels};
 use super::summary::SUMMARY_WORKGROUP;
 use super::tables::{grid_table, pose_gpu};
 use super::types::{
@@ -92,10 +92,12 @@ impl GpuBackend {
 
     /// Puts `chunk` on the device in its slot and returns its submission. The submission holds its
     /// poses, sonar 2's parameters for its pose count, the passes (poses for a grid, splat or
-    /// exact, reduce) with the buffers cleared first, and the copies of what is read back.
+    /// exact, reduce, and summary in a summary run) with the buffers cleared first, and the copies
+    /// of what is read back.
     ///
     /// # Errors
-    /// [`crate::Error::Gpu`] when the device refuses the exact stage (built on first use).
+    /// [`crate::Error::Gpu`] when the device refuses the exact or summary stage (built on first
+    /// use).
     pub(super) fn submit_chunk(
         &self,
         pool: &mut BufferPool,
@@ -145,15 +147,7 @@ impl GpuBackend {
                 &slot.metrics,
             ],
         );
-        let plans = shape.plans;
-        let max_samples = directions
-            .plans
-            .iter()
-            .map(|&p| plans[p].total() as u64)
-            .fold(1, u64::max);
-        let tiles = max_samples
-            .div_ceil(u64::from(self.options.workgroup))
-            .clamp(1, MAX_TILES) as u32;
+        let tiles = self.tiles(shape, directions);
         let (used_bits, used_metrics) = shape.bytes(n);
         // The chunk's poses over two dimensions of workgroups.
         let dim = self.ctx.limits().max_compute_workgroups_per_dimension.max(1);
@@ -161,38 +155,7 @@ impl GpuBackend {
         let rows = (n as u32).div_ceil(across);
 
         let mut enc = device.create_command_encoder(&Default::default());
-        let summary_group = match (shape.summary, &slot.summary) {
-            (Some(run), Some(s)) => {
-                // A block's accumulators start from zero (queue order: after the block before
-                // was copied out).
-                if chunk.first_in_run {
-                    enc.clear_buffer(&run.acc, 0, None);
-                }
-                let first = shape.source.first_pose() + chunk.poses.start as u64;
-                let params = SummaryParams {
-                    count: n as u32,
-                    first_lo: first as u32,
-                    first_hi: (first >> 32) as u32,
-                    ..run.params
-                };
-                queue.write_buffer(&s.params, 0, bytemuck::bytes_of(&params));
-                Some(pool.bind(
-                    device,
-                    labels.summary_group,
-                    self.summary_stage()?,
-                    &[
-                        &s.params,
-                        &slot.metrics,
-                        &slot.poses,
-                        &run.edges,
-                        &run.table,
-                        &run.acc,
-                        &s.candidates,
-                    ],
-                ))
-            }
-            _ => None,
-        };
+        let summary_group = self.summary_group(pool, &mut enc, shape, slot, labels, chunk)?;
         enc.clear_buffer(&slot.bits, 0, Some(used_bits));
         enc.clear_buffer(&slot.metrics, 0, Some(used_metrics));
         {
@@ -242,12 +205,7 @@ impl GpuBackend {
                 pass.dispatch_workgroups(across, groups.div_ceil(across), 1);
             }
         }
-        if let (Some(run), Some(s)) = (shape.summary, &slot.summary) {
-            enc.copy_buffer_to_buffer(&s.candidates, 0, &s.candidates_staging, 0, run.candidate_bytes(n));
-            if chunk.last_in_run {
-                enc.copy_buffer_to_buffer(&run.acc, 0, &s.acc_staging, 0, run.acc_bytes);
-            }
-        }
+        copy_summary(&mut enc, shape, slot, chunk);
         shape.copy_slots(&mut enc, &slot.metrics, &slot.metrics_staging, n);
         if let Some(staging) = &slot.bits_staging {
             enc.copy_buffer_to_buffer(&slot.bits, 0, staging, 0, used_bits);
@@ -256,6 +214,66 @@ impl GpuBackend {
             t.resolve(&mut enc);
         }
         Ok(queue.submit([enc.finish()]))
+    }
+
+    /// Returns the workgroups across a pose of the splat stage: enough for the most samples a plan
+    /// of the chunk's `directions` draws, at most [`MAX_TILES`].
+    fn tiles(&self, shape: &Shape<'_>, directions: &Directions) -> u32 {
+        let max_samples = directions
+            .plans
+            .iter()
+            .map(|&p| shape.plans[p].total() as u64)
+            .fold(1, u64::max);
+        max_samples
+            .div_ceil(u64::from(self.options.workgroup))
+            .clamp(1, MAX_TILES) as u32
+    }
+
+    /// Returns the summary stage's bind group for `chunk` in a summary run (`None` outside one),
+    /// its parameters written, and a block's accumulators cleared in `enc` at its first chunk
+    /// (queue order: after the block before was copied out).
+    ///
+    /// # Errors
+    /// [`crate::Error::Gpu`] when the device refuses the summary stage (built on first use).
+    fn summary_group(
+        &self,
+        pool: &mut BufferPool,
+        enc: &mut wgpu::CommandEncoder,
+        shape: &Shape<'_>,
+        slot: &Slot,
+        labels: &SlotLabels,
+        chunk: &Chunk,
+    ) -> crate::Result<Option<wgpu::BindGroup>> {
+        let (Some(run), Some(s)) = (shape.summary, &slot.summary) else {
+            return Ok(None);
+        };
+        if chunk.first_in_run {
+            enc.clear_buffer(&run.acc, 0, None);
+        }
+        let first = shape.source.first_pose() + chunk.poses.start as u64;
+        let params = SummaryParams {
+            count: chunk.poses.len() as u32,
+            first_lo: first as u32,
+            first_hi: (first >> 32) as u32,
+            ..run.params
+        };
+        self.ctx
+            .queue()
+            .write_buffer(&s.params, 0, bytemuck::bytes_of(&params));
+        Ok(Some(pool.bind(
+            self.ctx.device(),
+            labels.summary_group,
+            self.summary_stage()?,
+            &[
+                &s.params,
+                &slot.metrics,
+                &slot.poses,
+                &run.edges,
+                &run.table,
+                &run.acc,
+                &s.candidates,
+            ],
+        )))
     }
 
     /// Writes `chunk`'s poses where the splat stage reads them. Returns the poses stage's bind
@@ -340,6 +358,18 @@ impl GpuBackend {
                 ))
             }
             _ => unreachable!("a grid has its tables"),
+        }
+    }
+}
+
+/// Records into `enc` the copies a summary run reads back of `chunk`: its candidates, and at its
+/// block's end the accumulators. Nothing outside a summary run.
+fn copy_summary(enc: &mut wgpu::CommandEncoder, shape: &Shape<'_>, slot: &Slot, chunk: &Chunk) {
+    if let (Some(run), Some(s)) = (shape.summary, &slot.summary) {
+        let bytes = run.candidate_bytes(chunk.poses.len());
+        enc.copy_buffer_to_buffer(&s.candidates, 0, &s.candidates_staging, 0, bytes);
+        if chunk.last_in_run {
+            enc.copy_buffer_to_buffer(&run.acc, 0, &s.acc_staging, 0, run.acc_bytes);
         }
     }
 }

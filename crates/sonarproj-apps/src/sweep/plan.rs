@@ -318,13 +318,13 @@ impl<'a> Plan<'a> {
                 ControlFlow::Break(())
             })
         });
-        match flow {
+        match (flow, failed, to_host) {
             // The device refused before any chunk was done: the host takes them all.
-            Err(sonarproj::Error::Gpu { .. }) if chunk == todo.start => Ok(Err(todo.start)),
-            Err(e) => Err(e.into()),
-            Ok(_) if failed.is_some() => Err(failed.expect("just checked")),
-            Ok(_) if to_host.is_some() => Ok(Err(to_host.expect("just checked"))),
-            Ok(flow) => Ok(Ok(flow)),
+            (Err(sonarproj::Error::Gpu { .. }), _, _) if chunk == todo.start => Ok(Err(todo.start)),
+            (Err(e), _, _) => Err(e.into()),
+            (Ok(_), Some(e), _) => Err(e),
+            (Ok(_), None, Some(c)) => Ok(Err(c)),
+            (Ok(flow), None, None) => Ok(Ok(flow)),
         }
     }
 }
