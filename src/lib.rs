@@ -71,8 +71,8 @@ pub use masks::{Counts, MaskEngine};
 pub use metrics::{Metric, Metrics};
 pub use occupancy::{AreaGrid, Layout, Occupancy, PAPER_AREA_GRID};
 pub use projection::{
-    Backend, BackendChoice, Batch, BatchItem, MetricColumns, Output, PoseGrid, PoseSource, PoseSweep,
-    Projection,
+    Backend, BackendChoice, Batch, BatchItem, MetricColumns, Output, PoseGrid, PosePairs, PoseSource,
+    PoseSweep, Projection,
 };
 pub use sampling::{Measurement, Sampling, SamplingPlan};
 

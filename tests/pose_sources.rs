@@ -592,3 +592,129 @@ fn the_cpu_backends_do_not_reduce_on_the_device() {
         );
     }
 }
+
+/// Returns pairs over some of `g`'s poses and features, in a scrambled order with repeats (a
+/// pose with several features, a feature from several poses), and the items they stand for.
+fn pairs_of(g: &PoseGrid, source: &Sonar, n: u64) -> (sonarproj::PosePairs, Vec<sonarproj::BatchItem>) {
+    let items: Vec<_> = (0..g.len()).map(|i| g.item(source, i).unwrap()).collect();
+    let poses: Vec<_> = items.iter().step_by(7).map(|i| i.pose).collect();
+    let features: Vec<_> = items.iter().step_by(5).map(|i| i.measurement).collect();
+    let (np, nf) = (poses.len() as u64, features.len() as u64);
+    // Two co-prime strides walk every pose and feature in a mixed order.
+    let pairs: Vec<[u32; 2]> = (0..n)
+        .map(|k| [(k * 11 + k / 3) % np, (k * 7 + k / 5) % nf].map(|i| u32::try_from(i).unwrap()))
+        .collect();
+    let list = pairs
+        .iter()
+        .map(|&[p, f]| sonarproj::BatchItem {
+            true_point: None,
+            measurement: features[f as usize],
+            pose: poses[p as usize],
+        })
+        .collect();
+    (sonarproj::PosePairs::new(poses, features, pairs).unwrap(), list)
+}
+
+/// Pairs of poses and features project as the items they stand for, bit for bit, on every
+/// backend (the GPU in one chunk and in chunks of 7): every preset pair of the paper's sonars
+/// and the field's, step and automatic sampling (several plans: features at several ranges),
+/// all columns and one column alone, whole, in cut ranges and in blocks.
+#[test]
+fn pairs_project_as_their_items_on_every_backend() {
+    use std::ops::ControlFlow;
+    let backends = every_backend();
+    let mut visible = 0;
+    for (a, b) in [
+        ("paper-fls", "paper-sss"),
+        ("paper-sss", "paper-fls"),
+        ("paper-fls", "paper-fls"),
+        ("holoocean-imaging", "holoocean-sidescan"),
+    ] {
+        let (source, target) = (common::preset(a), common::preset(b));
+        let g = grid(&source, &target, false);
+        let (pairs, items) = pairs_of(&g, &source, 240);
+        for sampling in [Sampling::Step(1.0), Sampling::Auto] {
+            if sampling == Sampling::Auto && source.kind == sonarproj::SonarKind::Sss {
+                continue;
+            }
+            let s = sweep(&source, &target, sampling, PoseSource::Pairs(&pairs));
+            let list = sweep(&source, &target, sampling, PoseSource::List(&items));
+            for backend in &backends {
+                let what = format!("{a} -> {b}, {sampling:?}, {}", backend.name());
+                let want = per_item(backend, &list);
+                let mut got = MetricColumns::default();
+                backend
+                    .project_columns(&s, 0..pairs.len(), &mut got, Stop::NEVER)
+                    .unwrap();
+                same_bits(&got, &want, &what);
+                visible += got.visible.iter().filter(|&&v| v > 0).count();
+                // A column alone, in ranges cut anywhere and in blocks.
+                let mut part = MetricColumns::only(&[Metric::Span]);
+                for r in [0..1, 1..100, 100..240] {
+                    backend
+                        .project_columns(&s, r.clone(), &mut part, Stop::NEVER)
+                        .unwrap();
+                    let mut rows = MetricColumns::only(&[Metric::Span]);
+                    r.clone()
+                        .for_each(|k| rows.push(&want.get(usize::try_from(k).unwrap())));
+                    same_column(&part, &rows, Metric::Span, &format!("{what}: {r:?}"));
+                }
+                let blocks = [0..3, 3..150, 151..240];
+                let mut seen = 0;
+                let flow = backend
+                    .project_blocks(&s, &blocks, &mut part, Stop::NEVER, &mut |r, columns| {
+                        let mut rows = MetricColumns::only(&[Metric::Span]);
+                        r.clone()
+                            .for_each(|k| rows.push(&want.get(usize::try_from(k).unwrap())));
+                        same_column(columns, &rows, Metric::Span, &format!("{what}: block {r:?}"));
+                        seen += 1;
+                        ControlFlow::Continue(())
+                    })
+                    .unwrap();
+                assert!(flow.is_continue() && seen == 3, "{what}: {seen} blocks");
+            }
+        }
+    }
+    // The pairs see their sets from many sides: most see something.
+    assert!(visible > 500, "{visible} pairs saw anything");
+}
+
+/// Pairs name what is wrong with them: an index past its table when made, a pose or a feature
+/// the sonars refuse when projected (by its index in its table), on every backend.
+#[test]
+fn bad_pairs_name_their_index() {
+    let (source, target) = (common::preset("paper-fls"), common::preset("paper-sss"));
+    let g = grid(&source, &target, false);
+    let (pairs, _) = pairs_of(&g, &source, 20);
+    let (poses, features) = (pairs.poses().to_vec(), pairs.features().to_vec());
+    let mut bad = pairs.pairs().to_vec();
+    bad[3][1] = u32::try_from(features.len()).unwrap();
+    let e = sonarproj::PosePairs::new(poses.clone(), features.clone(), bad).unwrap_err();
+    assert!(
+        e.is_input() && e.to_string().contains("pairs[3] feature index"),
+        "{e}"
+    );
+    // The first pair's pose and feature, made invalid.
+    let [p0, f0] = pairs.pairs()[0].map(|i| i as usize);
+    let mut wide = features.clone();
+    wide[f0].azimuth = 170.0;
+    let mut skewed = poses.clone();
+    skewed[p0].rotation *= 1.5;
+    for (p, f, field) in [
+        (poses.clone(), wide, format!("features[{f0}]")),
+        (skewed, features.clone(), format!("poses[{p0}]")),
+    ] {
+        let pairs = sonarproj::PosePairs::new(p, f, pairs.pairs().to_vec()).unwrap();
+        let s = sweep(&source, &target, Sampling::Step(1.0), PoseSource::Pairs(&pairs));
+        for backend in every_backend() {
+            let e = backend
+                .project_columns(&s, 0..pairs.len(), &mut MetricColumns::default(), Stop::NEVER)
+                .unwrap_err();
+            assert!(e.is_input(), "{}: {e}", backend.name());
+            // The reference checks the items themselves, the tables each pose and feature once.
+            if !matches!(backend, Backend::Cpu) {
+                assert!(e.to_string().contains(&field), "{}: {e}", backend.name());
+            }
+        }
+    }
+}

@@ -315,6 +315,21 @@ impl Backend {
                 Backend::Cpu => {}
             }
         }
+        if let (PoseSource::Pairs(pairs), true) = (sweep.poses, sweep.pairs_from_tables()) {
+            match self {
+                Backend::CpuFast => {
+                    let prepared = sweep.prepare_pairs(pairs)?;
+                    return fast::project_pairs(&prepared, range, out, stop).ok_or(Error::Stopped);
+                }
+                Backend::Gpu(g) => {
+                    let prepared = sweep.prepare_pairs(pairs)?;
+                    stop.check()?;
+                    g.project_pairs(&prepared, range, out)?;
+                    return stop.check();
+                }
+                Backend::Cpu => {}
+            }
+        }
         out.clear();
         let mut start = range.start;
         while start < range.end {
@@ -365,6 +380,18 @@ impl Backend {
                 return Ok(Flow::Break(()));
             }
             return g.project_grid_blocks(&prepared, blocks, out, &mut |b, columns| {
+                stop.flow()?;
+                each(b, columns)
+            });
+        }
+        if let (Backend::Gpu(g), PoseSource::Pairs(pairs), true) =
+            (self, sweep.poses, sweep.pairs_from_tables())
+        {
+            let prepared = sweep.prepare_pairs(pairs)?;
+            if stop.is_set() {
+                return Ok(Flow::Break(()));
+            }
+            return g.project_pairs_blocks(&prepared, blocks, out, &mut |b, columns| {
                 stop.flow()?;
                 each(b, columns)
             });

@@ -5,7 +5,7 @@
 //! [`Backend`] with one selection policy ([`backend`]). [`envelope`] bounds where an f32 result may
 //! honestly lie.
 //!
-//! The API is [`Backend`]: a [`Batch`] of items, or a [`PoseSweep`] of a grid or list, into
+//! The API is [`Backend`]: a [`Batch`] of items, or a [`PoseSweep`] of a grid, a list or pairs of poses and features, into
 //! projections or [`MetricColumns`]. The prepared batch ([`Batch::prepare`]) and each backend's own
 //! call (`fast::project`, `reference::project`, `GpuBackend::project`) are hidden from the docs and
 //! may change. Tests and benches use them to compare the backends and to time them without the
@@ -23,6 +23,7 @@ pub mod envelope;
 #[doc(hidden)]
 pub mod fast;
 pub mod gpu;
+pub mod pairs;
 pub mod poses;
 pub mod reduction;
 #[doc(hidden)]
@@ -33,5 +34,6 @@ pub use backend::{Backend, BackendChoice, Device, Notice, Output, cpu_device};
 pub use batch::PreparedBatch;
 pub use batch::{Batch, BatchItem, ItemChecker, Projection};
 pub use columns::{ColumnRef, MetricColumns};
+pub use pairs::PosePairs;
 pub use poses::{PoseGrid, PoseSource, PoseSweep};
 pub use reduction::{MetricReduction, Reduction};

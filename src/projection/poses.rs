@@ -12,6 +12,7 @@ use crate::geometry::sonar::{Sonar, SonarKind};
 use crate::limits::{MAX_AXIS_VALUES, MAX_POSES, MAX_TRANSLATION};
 use crate::local_precision::TruePoint;
 use crate::occupancy::Layout;
+use crate::projection::pairs::PosePairs;
 use crate::projection::{Batch, BatchItem};
 use crate::sampling::{Measurement, Sampling, SamplingPlan};
 
@@ -82,6 +83,8 @@ pub enum PoseSource<'a> {
     Grid(&'a PoseGrid),
     /// An explicit list of items.
     List(&'a [BatchItem]),
+    /// Poses paired with features, each pair an item.
+    Pairs(&'a PosePairs),
 }
 
 impl PoseSource<'_> {
@@ -91,6 +94,7 @@ impl PoseSource<'_> {
         match self {
             PoseSource::Grid(g) => g.len(),
             PoseSource::List(l) => l.len() as u64,
+            PoseSource::Pairs(p) => p.len(),
         }
     }
 
@@ -105,12 +109,14 @@ impl PoseSource<'_> {
     /// # Errors
     /// As [`PoseGrid::item`]; [`Error::InvalidValue`] for an index past the end.
     pub fn item(&self, source: &Sonar, i: u64) -> Result<BatchItem> {
+        let past = |n: u64| Error::invalid("pose index", i, format!("must be below {n}"));
         match self {
             PoseSource::Grid(g) => g.item(source, i),
+            PoseSource::Pairs(p) => p.item(i).ok_or_else(|| past(p.len())),
             PoseSource::List(l) => usize::try_from(i)
                 .ok()
                 .and_then(|k| l.get(k).copied())
-                .ok_or_else(|| Error::invalid("pose index", i, format!("must be below {}", l.len()))),
+                .ok_or_else(|| past(l.len() as u64)),
         }
     }
 }
@@ -400,7 +406,7 @@ impl PoseSweep<'_> {
         Ok(())
     }
 
-    fn empty_batch(&self) -> Batch {
+    pub(crate) fn empty_batch(&self) -> Batch {
         Batch {
             sigma_range: None,
             source: self.source.clone(),

@@ -54,6 +54,7 @@ use crate::geometry::sonar::SonarKind;
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::Layout;
 use crate::projection::columns::{MetricColumns, MetricSlices};
+use crate::projection::pairs::PreparedPairs;
 use crate::projection::poses::{GridTables, PreparedGrid};
 use crate::projection::{Output, PreparedBatch, Projection};
 use crate::sampling::SamplingPlan;
@@ -287,6 +288,62 @@ pub(crate) fn project_grid(
         count,
         plan_of_range: &prepared.plan_of_range,
     };
+    project_into(&poses, &prepared.plans, &prepared.layout, out, stop)
+}
+
+/// Pairs `first..first + count` of prepared pairs, their poses composed from the tables.
+struct PairPoses<'a> {
+    prepared: &'a PreparedPairs<'a>,
+    first: usize,
+    count: usize,
+}
+
+impl PoseTable for PairPoses<'_> {
+    fn count(&self) -> usize {
+        self.count
+    }
+
+    fn plan_index(&self, n: usize) -> usize {
+        self.prepared.pose(self.first + n).3
+    }
+
+    /// The composition of [`PreparedBatch`]'s, so a pair's pose is its item's bit for bit.
+    #[inline]
+    fn pose_args(&self, scratch: &mut Scratch, layout: &Layout, n: usize) -> PoseArgs {
+        let (pose, range, base, _) = self.prepared.pose(self.first + n);
+        let m = pose.rotation * scratch.rotation_z(base) * range;
+        let t = pose.translation;
+        (m, t, range, cull_slack(range, t, layout))
+    }
+}
+
+/// Writes the metric columns of pairs `range` (prepared by [`PreparedPairs`]) into `out`, as
+/// [`project_grid`] does for a grid.
+pub(crate) fn project_pairs(
+    prepared: &PreparedPairs<'_>,
+    range: std::ops::Range<u64>,
+    out: &mut MetricColumns,
+    stop: Stop<'_>,
+) -> Option<()> {
+    let first = usize::try_from(range.start).expect("pairs are in memory");
+    let count = usize::try_from(range.end - range.start).expect("pairs are in memory");
+    let poses = PairPoses {
+        prepared,
+        first,
+        count,
+    };
+    project_into(&poses, &prepared.plans, &prepared.layout, out, stop)
+}
+
+/// Writes the metric columns of `poses` into `out` on all cores, its rows replaced.
+fn project_into<T: PoseTable>(
+    poses: &T,
+    plans: &[SamplingPlan],
+    layout: &Layout,
+    out: &mut MetricColumns,
+    stop: Stop<'_>,
+) -> Option<()> {
+    let count = poses.count();
     out.resize(count);
     let keep = Keep {
         occupancy: false,
@@ -294,9 +351,9 @@ pub(crate) fn project_grid(
     };
     let blocks = out.slices(0..count).chunks(POSE_BLOCK);
     let large = project_tiled(
-        &poses,
-        &prepared.plans,
-        &prepared.layout,
+        poses,
+        plans,
+        layout,
         blocks,
         keep,
         Isa::detect(),

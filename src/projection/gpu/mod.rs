@@ -29,6 +29,7 @@ use crate::gpu::pool::{BufferPool, SharedPool};
 use crate::gpu::timing::{DeviceClock, Timed};
 use crate::gpu::{GpuContext, GpuOptions, read_after};
 use crate::projection::columns::MetricColumns;
+use crate::projection::pairs::PreparedPairs;
 use crate::projection::poses::PreparedGrid;
 use crate::projection::{Output, PreparedBatch, Projection};
 use slots::{Directions, InFlight, SLOT_LABELS, Shape, Slot, SlotSizes};
@@ -429,10 +430,38 @@ impl GpuBackend {
         out: &mut MetricColumns,
         each: &mut dyn FnMut(std::ops::Range<u64>, &MetricColumns) -> ControlFlow<()>,
     ) -> Result<ControlFlow<()>> {
+        self.project_source_blocks(&|first| Source::Grid { prepared, first }, blocks, out, each)
+    }
+
+    /// Projects pairs `blocks` (prepared) block by block into `out`, as
+    /// [`GpuBackend::project_grid_blocks`] does for a grid. The host composes each pair's pose from
+    /// the tables on all cores, as it packs a batch's items, and no item object is built.
+    ///
+    /// # Errors
+    /// As [`GpuBackend::project_grid_blocks`].
+    pub(crate) fn project_pairs_blocks(
+        &self,
+        prepared: &PreparedPairs<'_>,
+        blocks: &[std::ops::Range<u64>],
+        out: &mut MetricColumns,
+        each: &mut dyn FnMut(std::ops::Range<u64>, &MetricColumns) -> ControlFlow<()>,
+    ) -> Result<ControlFlow<()>> {
+        self.project_source_blocks(&|first| Source::Pairs { prepared, first }, blocks, out, each)
+    }
+
+    /// Projects `blocks` of the source that `source_from` gives for the blocks' first pose, block
+    /// by block into `out`, handing each block's columns to `each`.
+    fn project_source_blocks<'s>(
+        &self,
+        source_from: &dyn Fn(u64) -> Source<'s>,
+        blocks: &[std::ops::Range<u64>],
+        out: &mut MetricColumns,
+        each: &mut dyn FnMut(std::ops::Range<u64>, &MetricColumns) -> ControlFlow<()>,
+    ) -> Result<ControlFlow<()>> {
         let Some((first, runs)) = runs_of(blocks) else {
             return Ok(ControlFlow::Continue(()));
         };
-        let source = Source::Grid { prepared, first };
+        let source = source_from(first);
         // Only the slots of the columns kept are copied back.
         let slots = slots_of(crate::Metric::all().filter(|&m| out.keeps(m)));
         let mut block = 0;
@@ -478,6 +507,25 @@ impl GpuBackend {
             return Ok(());
         }
         self.project_grid_blocks(prepared, &[range], out, &mut |_, _| ControlFlow::Continue(()))
+            .map(|_| ())
+    }
+
+    /// Writes the metric columns of pairs `range` (prepared) into `out` (its rows replaced), as
+    /// [`GpuBackend::project_pairs_blocks`] does for one block.
+    ///
+    /// # Errors
+    /// As [`GpuBackend::project_grid_blocks`].
+    pub(crate) fn project_pairs(
+        &self,
+        prepared: &PreparedPairs<'_>,
+        range: std::ops::Range<u64>,
+        out: &mut MetricColumns,
+    ) -> Result<()> {
+        if range.is_empty() {
+            out.resize(0);
+            return Ok(());
+        }
+        self.project_pairs_blocks(prepared, &[range], out, &mut |_, _| ControlFlow::Continue(()))
             .map(|_| ())
     }
 

@@ -251,7 +251,7 @@ impl Directions {
         ctx.queue().write_buffer(&buffer, 0, bytes);
         // A grid's poses find their plan by their range value.
         let range_plans = match source {
-            Source::Items(_) => None,
+            Source::Items(_) | Source::Pairs { .. } => None,
             Source::Grid { prepared, .. } => {
                 let entries: Vec<[u32; 4]> = prepared
                     .plan_of_range

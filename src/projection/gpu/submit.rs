@@ -15,7 +15,7 @@ use super::tables::{grid_table, pose_gpu};
 use super::types::{
     GridParams, PoseGpu, SummaryParams, TargetParams, beam_edges, range_edges_sq, row_weights,
 };
-use super::unpack::Source;
+use super::unpack::{Source, pair_index};
 use super::{GpuBackend, MAX_TILES, POSES_WORKGROUP};
 
 /// What every chunk of one call shares on the device: sonar 2's tables, written once a call (a few
@@ -47,7 +47,7 @@ impl CallTables {
         let weights = upload("row_weights", bytemuck::cast_slice(&row_weights(layout)));
         let edges_sq = upload("range_edges_sq", bytemuck::cast_slice(&range_edges_sq(layout)));
         let grid = match source {
-            Source::Items(_) => None,
+            Source::Items(_) | Source::Pairs { .. } => None,
             Source::Grid { prepared, .. } => {
                 let (table, offsets) = grid_table(prepared.grid);
                 Some((upload("grid_table", bytemuck::cast_slice(&table)), offsets))
@@ -325,6 +325,25 @@ impl GpuBackend {
                             prepared.base_azimuth(k),
                             plan,
                         )
+                    })
+                    .collect();
+                queue.write_buffer(&slot.poses, 0, bytemuck::cast_slice(&pose_data));
+                None
+            }
+            (Source::Pairs { prepared, first }, _, _, _) => {
+                let pose_data: Vec<PoseGpu> = (start..end)
+                    .into_par_iter()
+                    .map(|k| {
+                        let (pose, range, base, plan_index) = prepared.pose(pair_index(*first, k));
+                        let plan = &prepared.plans[plan_index];
+                        let [az_off, el_off] = directions.offsets[&plan_index];
+                        let plan = [
+                            az_off,
+                            plan.azimuths.len() as u32,
+                            el_off,
+                            plan.elevations.len() as u32,
+                        ];
+                        pose_gpu(&pose.rotation, pose.translation.to_array(), range, base, plan)
                     })
                     .collect();
                 queue.write_buffer(&slot.poses, 0, bytemuck::cast_slice(&pose_data));

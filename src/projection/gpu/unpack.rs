@@ -7,6 +7,7 @@ use crate::geometry::SonarKind;
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::{Layout, Occupancy};
 use crate::projection::columns::MetricSlices;
+use crate::projection::pairs::PreparedPairs;
 use crate::projection::poses::PreparedGrid;
 use crate::projection::{PreparedBatch, Projection};
 use crate::sampling::SamplingPlan;
@@ -205,6 +206,11 @@ impl Unpack<'_> {
     }
 }
 
+/// Returns the index in its table of pair `k` of a call whose first pair is `first`.
+pub(super) fn pair_index(first: u64, k: usize) -> usize {
+    usize::try_from(first).expect("pairs are in memory") + k
+}
+
 /// Where the poses of a projection come from.
 pub(super) enum Source<'a> {
     /// A batch's items, packed by the host.
@@ -214,6 +220,11 @@ pub(super) enum Source<'a> {
         prepared: &'a PreparedGrid<'a>,
         first: u64,
     },
+    /// Pairs from `first` on, their poses composed and packed by the host from the pairs' tables.
+    Pairs {
+        prepared: &'a PreparedPairs<'a>,
+        first: u64,
+    },
 }
 
 impl Source<'_> {
@@ -221,6 +232,7 @@ impl Source<'_> {
         match self {
             Source::Items(p) => &p.layout,
             Source::Grid { prepared, .. } => &prepared.layout,
+            Source::Pairs { prepared, .. } => &prepared.layout,
         }
     }
 
@@ -228,7 +240,7 @@ impl Source<'_> {
     pub(super) fn first_pose(&self) -> u64 {
         match self {
             Source::Items(_) => 0,
-            Source::Grid { first, .. } => *first,
+            Source::Grid { first, .. } | Source::Pairs { first, .. } => *first,
         }
     }
 
@@ -238,6 +250,8 @@ impl Source<'_> {
         match self {
             Source::Items(p) => p.is_exact().then(|| p.batch.source.half_elevation()),
             Source::Grid { prepared, .. } => prepared.exact.then(|| prepared.source.half_elevation()),
+            // Exact pairs go through a batch of their items.
+            Source::Pairs { .. } => None,
         }
     }
 
@@ -245,6 +259,7 @@ impl Source<'_> {
         match self {
             Source::Items(p) => &p.plans,
             Source::Grid { prepared, .. } => &prepared.plans,
+            Source::Pairs { prepared, .. } => &prepared.plans,
         }
     }
 
@@ -254,6 +269,7 @@ impl Source<'_> {
             Source::Grid { prepared, first, .. } => {
                 prepared.plan_of_range[prepared.range_index(first + k as u64)] as usize
             }
+            Source::Pairs { prepared, first } => prepared.pose(pair_index(*first, k)).3,
         }
     }
 
@@ -264,7 +280,7 @@ impl Source<'_> {
         }
         let mut used = vec![false; self.plans().len()];
         match self {
-            Source::Items(_) => {
+            Source::Items(_) | Source::Pairs { .. } => {
                 for k in range {
                     used[self.plan_index(k)] = true;
                 }
