@@ -216,14 +216,13 @@ impl ItemChecker<'_> {
 
     /// Returns the sample counts of `item`'s plan, refused past the per-pose limit.
     fn counts(&self, item: &BatchItem) -> Result<(usize, usize)> {
+        self.measurement_counts(&item.measurement)
+    }
+
+    /// Returns the sample counts of the plan of measurement `m`, refused past the per-pose limit.
+    pub(crate) fn measurement_counts(&self, m: &Measurement) -> Result<(usize, usize)> {
         let b = self.batch;
-        SamplingPlan::counts(
-            &b.source,
-            &b.target,
-            &item.measurement,
-            self.sampling,
-            self.spacing,
-        )
+        SamplingPlan::counts(&b.source, &b.target, m, self.sampling, self.spacing)
     }
 }
 

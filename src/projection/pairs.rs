@@ -6,6 +6,8 @@
 
 use std::collections::HashMap;
 
+use rayon::prelude::*;
+
 use crate::error::{Error, Result};
 use crate::geometry::pose::RelativePose;
 use crate::occupancy::Layout;
@@ -137,33 +139,39 @@ impl PoseSweep<'_> {
         let batch = self.empty_batch();
         let checker = batch.checker()?;
         let layout = Layout::of(&self.target).with_area_grid(self.area_grid)?;
-        // Any valid pose and feature stand in for the other half of an item while one half is
-        // checked: the checks of a measurement do not depend on the pose, nor the reverse.
-        let identity = RelativePose {
-            rotation: glam::DMat3::IDENTITY,
-            translation: glam::DVec3::ZERO,
-        };
-        let measurement = |m: &Measurement| BatchItem {
-            true_point: None,
-            measurement: *m,
-            pose: identity,
-        };
         for (i, pose) in pairs.poses.iter().enumerate() {
             pose.validate().map_err(|e| e.in_context(format!("poses[{i}]")))?;
         }
+        // Each feature checked and its plan counted on all cores, the first error in order kept.
+        let counts = pairs
+            .features
+            .par_iter()
+            .enumerate()
+            .map(|(i, m)| {
+                m.validate(&self.source)
+                    .and_then(|()| checker.measurement_counts(m))
+                    .map_err(|e| e.in_context(format!("features[{i}]")))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        // One plan per distinct count. Neighbouring features mostly share one, so the last is
+        // tried before the map.
         let mut plans = Vec::new();
         let mut index: HashMap<(usize, usize), u32> = HashMap::new();
-        let mut plan_of_feature = Vec::with_capacity(pairs.features.len());
-        for (i, m) in pairs.features.iter().enumerate() {
-            let counts = checker
-                .check(&measurement(m))
-                .map_err(|e| e.in_context(format!("features[{i}]")))?;
-            let plan = *index.entry(counts).or_insert_with(|| {
-                plans.push(SamplingPlan::with_counts(&self.source, counts.0, counts.1));
-                u32::try_from(plans.len() - 1).expect("fewer plans than features")
-            });
-            plan_of_feature.push(plan);
-        }
+        let mut last: Option<((usize, usize), u32)> = None;
+        let plan_of_feature = counts
+            .into_iter()
+            .map(|key| match last {
+                Some((l, k)) if l == key => k,
+                _ => {
+                    let k = *index.entry(key).or_insert_with(|| {
+                        plans.push(SamplingPlan::with_counts(&self.source, key.0, key.1));
+                        u32::try_from(plans.len() - 1).expect("fewer plans than features")
+                    });
+                    last = Some((key, k));
+                    k
+                }
+            })
+            .collect();
         Ok(PreparedPairs {
             pairs,
             layout,

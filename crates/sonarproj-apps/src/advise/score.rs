@@ -4,14 +4,14 @@
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
+use sonarproj::Metric;
 use sonarproj::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
 use sonarproj::geometry::sonar::SonarKind;
 use sonarproj::local_precision::{local_precision, resolve_sigma_range};
 use sonarproj::occupancy::Layout;
-use sonarproj::projection::{Backend, Batch, BatchItem};
+use sonarproj::projection::{Backend, MetricColumns, PosePairs, PoseSource, PoseSweep};
 use sonarproj::sampling::{Measurement, Sampling};
 use sonarproj::stream::Stop;
-use sonarproj::{Metrics, Output};
 
 use crate::advise::config::{AdviseConfig, Objective};
 use crate::advise::features::{Features, draw_features};
@@ -310,7 +310,7 @@ pub fn kept(source: &sonarproj::Sonar, pool: &Pool, pose: &RelativePose) -> Kept
     (sel.examined, kept)
 }
 
-/// Items (feature × candidate) projected in one batch.
+/// Pairs (candidate × feature) projected in one call.
 const ITEMS_AT_ONCE: usize = 1 << 16;
 
 impl<'a> Scorer<'a> {
@@ -378,27 +378,30 @@ impl<'a> Scorer<'a> {
         }
     }
 
-    fn metric(&self, m: &Metrics) -> f64 {
+    /// Returns the metric the advisor scores for sonar 2's kind ([`metric_name`]).
+    fn metric(&self) -> Metric {
         match (self.config.target.kind, self.config.sampling) {
-            (SonarKind::Sss, _) => m.span,
-            (SonarKind::Fls, Sampling::Exact) => m.occupied_measure,
-            (SonarKind::Fls, _) => m.projection_area.unwrap_or(0.0),
+            (SonarKind::Sss, _) => Metric::Span,
+            (SonarKind::Fls, Sampling::Exact) => Metric::OccupiedMeasure,
+            (SonarKind::Fls, _) => Metric::ProjectionArea,
         }
     }
 
-    /// Returns the scores of candidates `rotations`, in order, projecting many per batch.
+    /// Returns the scores of candidates `rotations`, in order, projecting many per call.
     /// Each one's shared features are projected, then their metrics and sigmas reduced.
     ///
     /// # Errors
-    /// As [`AdviseConfig::pose_of`] and [`Backend::project`].
+    /// As [`AdviseConfig::pose_of`] and [`Backend::project_columns`].
     pub fn score_all(&self, rotations: &[Params]) -> Result<Vec<Score>> {
         let poses = rotations
             .par_iter()
             .map(|&r| self.config.pose_of(r))
             .collect::<sonarproj::Result<Vec<_>>>()?;
         let mut out = Vec::with_capacity(rotations.len());
+        let metric = self.metric();
+        let mut columns = MetricColumns::only(&[metric]);
         // A block of candidates at a time, so memory stays bounded: their shared features and
-        // measurements (see `kept`), one batch of items, then each candidate reduced.
+        // measurements (see `kept`), the block's pairs, then each candidate reduced.
         let block = (ITEMS_AT_ONCE / self.pool.want.max(1)).clamp(1, 4096);
         for (b, poses) in poses.chunks(block).enumerate() {
             self.stop.check()?;
@@ -407,36 +410,34 @@ impl<'a> Scorer<'a> {
                 .par_iter()
                 .map(|p| kept(&self.config.source, &self.pool, p))
                 .collect();
-            let batch = Batch {
-                sigma_range: None,
+            // Candidate c's features are pairs starts[c].. in order, each with a feature of its own.
+            let mut starts = Vec::with_capacity(poses.len() + 1);
+            let mut pairs = Vec::new();
+            for (c, sel) in selections.iter().enumerate() {
+                starts.push(pairs.len());
+                let c = u32::try_from(c).expect("a block has at most 4096 candidates");
+                pairs.extend(
+                    (pairs.len()..pairs.len() + sel.1.len())
+                        .map(|f| [c, u32::try_from(f).expect("a block's features are below 2^32")]),
+                );
+            }
+            starts.push(pairs.len());
+            let features = selections.iter().flat_map(|s| s.1.iter().map(|x| x.1)).collect();
+            let pairs = PosePairs::new(poses.to_vec(), features, pairs)?;
+            let sweep = PoseSweep {
                 source: self.config.source.clone(),
                 target: self.config.target.clone(),
                 sampling: self.config.sampling,
                 area_grid: self.config.area_grid,
-                items: poses
-                    .iter()
-                    .zip(&selections)
-                    .flat_map(|(&pose, sel)| {
-                        sel.1.iter().map(move |&(_, measurement)| BatchItem {
-                            true_point: None,
-                            measurement,
-                            pose,
-                        })
-                    })
-                    .collect(),
+                poses: PoseSource::Pairs(&pairs),
             };
-            let results = self.backend.project(&batch, Output::MetricsOnly)?;
-            let mut starts = Vec::with_capacity(poses.len());
-            let mut at = 0;
-            for sel in &selections {
-                starts.push(at);
-                at += sel.1.len();
-            }
+            self.backend
+                .project_columns(&sweep, 0..pairs.len(), &mut columns, self.stop)?;
+            let column = columns.column(metric);
             out.par_extend((0..poses.len()).into_par_iter().map(|c| {
-                let n = selections[c].1.len();
-                let metrics: Vec<f64> = results[starts[c]..starts[c] + n]
-                    .iter()
-                    .map(|p| self.metric(&p.metrics))
+                // No projection area (none visible) scores as none seen: 0.
+                let metrics: Vec<f64> = (starts[c]..starts[c + 1])
+                    .map(|k| column.f64(k).unwrap_or(0.0))
                     .collect();
                 let features: Vec<[f64; 3]> = selections[c].1.iter().map(|x| x.0).collect();
                 self.reduce(rotations[c], &poses[c], selections[c].0, &features, &metrics)
