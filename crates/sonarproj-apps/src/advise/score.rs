@@ -170,6 +170,63 @@ pub struct Pool {
     drawn: usize,
     source: Layout,
     target: Layout,
+    /// [`Outside`] of sonar 1's view and of sonar 2's.
+    outside: [Outside; 2],
+}
+
+/// A quick test of points far outside a sonar's field of view, free of trigonometry: a point it
+/// refuses lies farther than [`Outside::MARGIN`] outside the view (relative in range, radians in
+/// angle), so [`Layout::inside`] refuses it too, whatever the roundings of `atan2` and `asin`.
+/// The points it lets through take the exact test. Most of a pool is far from a candidate's view,
+/// so most points skip the trigonometry, and no decision changes.
+#[derive(Clone, Copy, Debug)]
+struct Outside {
+    /// Squared range bounds, widened by the margin.
+    r2_min: f64,
+    r2_max: f64,
+    /// `sin` and `cos` of the half azimuth aperture, when the azimuth is bounded (below π).
+    azimuth: Option<(f64, f64)>,
+    /// `sin²` and `cos²` of the half elevation aperture, when it is bounded (below π/2).
+    elevation: Option<(f64, f64)>,
+}
+
+impl Outside {
+    /// How far outside (relative range, or angle in radians) a refused point lies at least: far
+    /// above the few roundings (about 1e-15 relative) of the tests below.
+    const MARGIN: f64 = 1e-9;
+
+    fn of(layout: &Layout) -> Outside {
+        let m = Self::MARGIN;
+        let (ha, he) = (layout.half_azimuth, layout.half_elevation);
+        Outside {
+            r2_min: (layout.range_min * (1.0 - m)).powi(2),
+            r2_max: (layout.range_max * (1.0 + m)).powi(2),
+            azimuth: (ha < std::f64::consts::PI).then(|| ha.sin_cos()),
+            elevation: (he < std::f64::consts::FRAC_PI_2).then(|| (he.sin().powi(2), he.cos().powi(2))),
+        }
+    }
+
+    /// Returns true when `q` surely lies outside the view.
+    ///
+    /// - Range: `r²` beyond the widened squared bounds.
+    /// - Azimuth: `x sin h − |y| cos h = ρ sin(h − |az|)` (`ρ` the horizontal distance), below
+    ///   `−MARGIN · r` means `|az| > h + MARGIN`.
+    /// - Elevation: `z² cos² h − ρ² sin² h = r² sin(|el| − h) sin(|el| + h)`, above
+    ///   `MARGIN · r²` means `|el| > h + MARGIN`.
+    #[inline]
+    fn surely(&self, q: DVec3) -> bool {
+        let rho2 = q.x * q.x + q.y * q.y;
+        let r2 = rho2 + q.z * q.z;
+        if r2 > self.r2_max || r2 < self.r2_min {
+            return true;
+        }
+        if let Some((s, c)) = self.azimuth
+            && q.x * s - q.y.abs() * c < -Self::MARGIN * r2.sqrt()
+        {
+            return true;
+        }
+        matches!(self.elevation, Some((s2, c2)) if q.z * q.z * c2 - rho2 * s2 > Self::MARGIN * r2)
+    }
 }
 
 /// The most points a drawn pool holds (48 MB): a pool of `count` features draws a hundred times
@@ -226,13 +283,15 @@ impl Pool {
                 d - reach <= other.range_max * (1.0 + 1e-9) && d + reach >= other.range_min * (1.0 - 1e-9)
             })
             .collect();
+        let (source, target) = (Layout::of(&config.source), Layout::of(&config.target));
         Pool {
             in_target,
             points,
             want,
             drawn,
-            source: Layout::of(&config.source),
-            target: Layout::of(&config.target),
+            outside: [Outside::of(&source), Outside::of(&target)],
+            source,
+            target,
         }
     }
 
@@ -257,20 +316,25 @@ impl Pool {
             // Every point of the draw up to this one counts as examined. Those left out of the
             // pool could not have been kept.
             out.examined = index + 1;
-            let (p1, other, layout) = if self.in_target {
-                (inverse * (p - pose.translation), p, &self.source)
-            } else {
-                (p, pose.apply(p), &self.target)
-            };
             // The other sonar sees it; the point in sonar 1 is the feature.
-            let (r, az, el) = cart_to_sph(if self.in_target { p1 } else { other });
+            let (p1, seen, layout, outside) = if self.in_target {
+                let p1 = inverse * (p - pose.translation);
+                (p1, p1, &self.source, &self.outside[0])
+            } else {
+                (p, pose.apply(p), &self.target, &self.outside[1])
+            };
+            if outside.surely(seen) {
+                continue;
+            }
+            let (r, az, el) = cart_to_sph(seen);
             if !layout.inside(r, az, el) {
                 continue;
             }
-            let (r1, az1, el1) = cart_to_sph(p1);
-            if self.in_target && !self.source.inside(r1, az1, el1) {
-                continue;
-            }
+            let (r1, az1, el1) = if self.in_target {
+                (r, az, el)
+            } else {
+                cart_to_sph(p1)
+            };
             out.features.push([r1, az1.to_degrees(), el1.to_degrees()]);
         }
         // Short of the count: the whole draw was examined.
@@ -508,6 +572,88 @@ impl<'a> Scorer<'a> {
             score: value.filter(|_| feasible),
             score_se: se.filter(|_| feasible && value.is_some()),
             tied: false,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use sonarproj::Sonar;
+
+    /// Returns points about `layout`'s view: on its bounds, just inside and outside them (by
+    /// 1e-12 to 1e-6, relative or in radians), and anywhere, at random.
+    fn points_about(layout: &Layout, rng: &mut ChaCha8Rng) -> Vec<DVec3> {
+        let (ha, he) = (layout.half_azimuth, layout.half_elevation);
+        let ranges = [
+            layout.range_min,
+            layout.range_max,
+            0.5 * (layout.range_min + layout.range_max),
+        ];
+        let mut out = Vec::new();
+        for _ in 0..20_000 {
+            let nudge = |v: f64, rng: &mut ChaCha8Rng| {
+                let d = [0.0, 1e-12, 1e-10, 5e-10, 1e-9, 2e-9, 1e-6, 0.1][rng.random_range(0..8)];
+                v + if rng.random::<bool>() { d } else { -d }
+            };
+            let r = if rng.random::<bool>() {
+                nudge(ranges[rng.random_range(0..3)], rng)
+                    * if rng.random::<bool>() { 1.0 } else { 1.0 + 1e-9 }
+            } else {
+                rng.random_range(0.0..2.0 * layout.range_max)
+            };
+            let az = match rng.random_range(0..3) {
+                0 => nudge(ha, rng),
+                1 => -nudge(ha, rng),
+                _ => rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
+            };
+            let el = match rng.random_range(0..3) {
+                0 => nudge(he, rng),
+                1 => -nudge(he, rng),
+                _ => rng.random_range(-1.5..1.5),
+            };
+            out.push(sph_to_cart(r.max(0.0), az, el.clamp(-1.57, 1.57)));
+        }
+        out
+    }
+
+    /// What the quick test refuses, the exact test refuses, for every preset's view; and it does
+    /// refuse points plainly outside in range, azimuth and elevation.
+    #[test]
+    fn the_quick_test_refuses_only_what_the_exact_test_refuses() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for name in Sonar::preset_names() {
+            let layout = Layout::of(&Sonar::preset(name).unwrap());
+            let outside = Outside::of(&layout);
+            let mut refused = 0;
+            for q in points_about(&layout, &mut rng) {
+                let (r, az, el) = cart_to_sph(q);
+                if outside.surely(q) {
+                    assert!(!layout.inside(r, az, el), "{name}: {q:?} refused but inside");
+                    refused += 1;
+                }
+            }
+            assert!(refused > 1000, "{name}: {refused} refused");
+            let (ha, he) = (layout.half_azimuth, layout.half_elevation);
+            let mid = 0.5 * (layout.range_min + layout.range_max);
+            assert!(
+                outside.surely(sph_to_cart(layout.range_max * 1.01, 0.0, 0.0)),
+                "{name}: range"
+            );
+            if ha < 3.0 {
+                assert!(
+                    outside.surely(sph_to_cart(mid, ha + 0.01, 0.0)),
+                    "{name}: azimuth"
+                );
+            }
+            if he < 1.5 {
+                assert!(
+                    outside.surely(sph_to_cart(mid, 0.0, -he - 0.01)),
+                    "{name}: elevation"
+                );
+            }
         }
     }
 }
