@@ -374,6 +374,18 @@ pub fn kept(source: &sonarproj::Sonar, pool: &Pool, pose: &RelativePose) -> Kept
     (sel.examined, kept)
 }
 
+/// A block of candidates on its way through [`Scorer::score_all`]: their features chosen and
+/// paired with them, to be projected and then reduced.
+struct Block {
+    /// The candidates, as indices into the call's.
+    range: std::ops::Range<usize>,
+    /// Each candidate's points examined and shared features ([`kept`]).
+    selections: Vec<Kept>,
+    /// Where each candidate's pairs start, and the end of the last.
+    starts: Vec<usize>,
+    pairs: PosePairs,
+}
+
 /// Pairs (candidate × feature) projected in one call.
 const ITEMS_AT_ONCE: usize = 1 << 16;
 
@@ -454,6 +466,10 @@ impl<'a> Scorer<'a> {
     /// Returns the scores of candidates `rotations`, in order, projecting many per call.
     /// Each one's shared features are projected, then their metrics and sigmas reduced.
     ///
+    /// Candidates go a block at a time, so memory stays bounded, in a pipeline of three steps:
+    /// while one block is projected, the block before is reduced and the features of the block
+    /// after are chosen. On a GPU the host's two steps then run while the device projects.
+    ///
     /// # Errors
     /// As [`AdviseConfig::pose_of`] and [`Backend::project_columns`].
     pub fn score_all(&self, rotations: &[Params]) -> Result<Vec<Score>> {
@@ -461,53 +477,111 @@ impl<'a> Scorer<'a> {
             .par_iter()
             .map(|&r| self.config.pose_of(r))
             .collect::<sonarproj::Result<Vec<_>>>()?;
-        let mut out = Vec::with_capacity(rotations.len());
+        let size = (ITEMS_AT_ONCE / self.pool.want.max(1)).clamp(1, 4096);
+        let blocks: Vec<std::ops::Range<usize>> = (0..poses.len())
+            .step_by(size)
+            .map(|s| s..(s + size).min(poses.len()))
+            .collect();
         let metric = self.metric();
-        let mut columns = MetricColumns::only(&[metric]);
-        // A block of candidates at a time, so memory stays bounded: their shared features and
-        // measurements (see `kept`), the block's pairs, then each candidate reduced.
-        let block = (ITEMS_AT_ONCE / self.pool.want.max(1)).clamp(1, 4096);
-        for (b, poses) in poses.chunks(block).enumerate() {
+        let mut columns = [MetricColumns::only(&[metric]), MetricColumns::only(&[metric])];
+        let mut out = Vec::with_capacity(rotations.len());
+        let mut next = blocks
+            .first()
+            .map(|b| self.choose(&poses, b.clone()))
+            .transpose()?;
+        // The block projected last, waiting to be reduced; its columns are the other set's.
+        let mut projected: Option<Block> = None;
+        for i in 0..blocks.len() {
             self.stop.check()?;
-            let rotations = &rotations[b * block..b * block + poses.len()];
-            let selections: Vec<Kept> = poses
-                .par_iter()
-                .map(|p| kept(&self.config.source, &self.pool, p))
-                .collect();
-            // Candidate c's features are pairs starts[c].. in order, each with a feature of its own.
-            let mut starts = Vec::with_capacity(poses.len() + 1);
-            let mut pairs = Vec::new();
-            for (c, sel) in selections.iter().enumerate() {
-                starts.push(pairs.len());
-                let c = u32::try_from(c).expect("a block has at most 4096 candidates");
-                pairs.extend(
-                    (pairs.len()..pairs.len() + sel.1.len())
-                        .map(|f| [c, u32::try_from(f).expect("a block's features are below 2^32")]),
-                );
-            }
-            starts.push(pairs.len());
-            let features = selections.iter().flat_map(|s| s.1.iter().map(|x| x.1)).collect();
-            let pairs = PosePairs::new(poses.to_vec(), features, pairs)?;
-            let sweep = PoseSweep {
-                source: self.config.source.clone(),
-                target: self.config.target.clone(),
-                sampling: self.config.sampling,
-                area_grid: self.config.area_grid,
-                poses: PoseSource::Pairs(&pairs),
-            };
-            self.backend
-                .project_columns(&sweep, 0..pairs.len(), &mut columns, self.stop)?;
-            let column = columns.column(metric);
-            out.par_extend((0..poses.len()).into_par_iter().map(|c| {
-                // No projection area (none visible) scores as none seen: 0.
-                let metrics: Vec<f64> = (starts[c]..starts[c + 1])
-                    .map(|k| column.f64(k).unwrap_or(0.0))
-                    .collect();
-                let features: Vec<[f64; 3]> = selections[c].1.iter().map(|x| x.0).collect();
-                self.reduce(rotations[c], &poses[c], selections[c].0, &features, &metrics)
-            }));
+            let block = next.take().expect("chosen in the step before");
+            let [a, b] = &mut columns;
+            let (now, before) = if i % 2 == 0 { (a, b) } else { (b, a) };
+            let (done, (scores, chosen)) = rayon::join(
+                || self.project(&block, now),
+                || {
+                    let scores = projected
+                        .as_ref()
+                        .map(|p| self.reduce_block(rotations, &poses, p, before));
+                    let chosen = blocks.get(i + 1).map(|b| self.choose(&poses, b.clone()));
+                    (scores, chosen)
+                },
+            );
+            done?;
+            out.extend(scores.into_iter().flatten());
+            next = chosen.transpose()?;
+            projected = Some(block);
+        }
+        if let Some(p) = projected {
+            out.extend(self.reduce_block(rotations, &poses, &p, &columns[(blocks.len() - 1) % 2]));
         }
         Ok(out)
+    }
+
+    /// Returns block `range` of `poses` with each candidate's features chosen ([`kept`]) and
+    /// paired with it.
+    fn choose(&self, poses: &[RelativePose], range: std::ops::Range<usize>) -> Result<Block> {
+        let selections: Vec<Kept> = poses[range.clone()]
+            .par_iter()
+            .map(|p| kept(&self.config.source, &self.pool, p))
+            .collect();
+        // Candidate c's features are pairs starts[c].. in order, each with a feature of its own.
+        let mut starts = Vec::with_capacity(range.len() + 1);
+        let mut pairs = Vec::new();
+        for (c, sel) in selections.iter().enumerate() {
+            starts.push(pairs.len());
+            let c = u32::try_from(c).expect("a block has at most 4096 candidates");
+            pairs.extend(
+                (pairs.len()..pairs.len() + sel.1.len())
+                    .map(|f| [c, u32::try_from(f).expect("a block's features are below 2^32")]),
+            );
+        }
+        starts.push(pairs.len());
+        let features = selections.iter().flat_map(|s| s.1.iter().map(|x| x.1)).collect();
+        let pairs = PosePairs::new(poses[range.clone()].to_vec(), features, pairs)?;
+        Ok(Block {
+            range,
+            selections,
+            starts,
+            pairs,
+        })
+    }
+
+    /// Projects `block`'s pairs into `columns` (the one metric scored).
+    fn project(&self, block: &Block, columns: &mut MetricColumns) -> Result<()> {
+        let sweep = PoseSweep {
+            source: self.config.source.clone(),
+            target: self.config.target.clone(),
+            sampling: self.config.sampling,
+            area_grid: self.config.area_grid,
+            poses: PoseSource::Pairs(&block.pairs),
+        };
+        self.backend
+            .project_columns(&sweep, 0..block.pairs.len(), columns, self.stop)?;
+        Ok(())
+    }
+
+    /// Returns the scores of `block`'s candidates from its projected `columns`.
+    fn reduce_block(
+        &self,
+        rotations: &[Params],
+        poses: &[RelativePose],
+        block: &Block,
+        columns: &MetricColumns,
+    ) -> Vec<Score> {
+        let column = columns.column(self.metric());
+        (0..block.range.len())
+            .into_par_iter()
+            .map(|c| {
+                // No projection area (none visible) scores as none seen: 0.
+                let metrics: Vec<f64> = (block.starts[c]..block.starts[c + 1])
+                    .map(|k| column.f64(k).unwrap_or(0.0))
+                    .collect();
+                let sel = &block.selections[c];
+                let features: Vec<[f64; 3]> = sel.1.iter().map(|x| x.0).collect();
+                let i = block.range.start + c;
+                self.reduce(rotations[i], &poses[i], sel.0, &features, &metrics)
+            })
+            .collect()
     }
 
     /// Returns the score of candidate `params` at `pose`, from the pool points `examined`, the
