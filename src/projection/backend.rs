@@ -270,6 +270,11 @@ impl Backend {
     /// - the GPU decodes them in its poses stage (within the envelope of its per-item results);
     /// - the reference, and every backend for a list, takes the items 65 536 at a time.
     ///
+    /// Pairs of poses and features ([`PosePairs`](crate::PosePairs)) take no per-pair object on
+    /// the fast path, which composes each pose from the tables in its loop, nor on the GPU, which
+    /// packs them a chunk at a time (both the same bits as the pairs' items); the reference, and
+    /// exact sampling, take their items 65 536 at a time.
+    ///
     /// # Errors
     /// As [`Backend::project`]; [`Error::InvalidValue`] for a range past the sweep's poses;
     /// [`Error::Stopped`] when `stop` was set (asked as [`Backend::project_until`] asks it).
@@ -353,8 +358,8 @@ impl Backend {
     /// `blocks` are ranges in increasing order, none empty. `out` holds each block's rows in
     /// turn; they are [`Backend::project_columns`]'s for the same block. The stream ends early,
     /// returning `Break`, when `each` answers `Break` or `stop` is set ([`crate::stream`]). On
-    /// the GPU a grid's next block is already on the device while `each` runs: the device does
-    /// not wait for the host between blocks.
+    /// the GPU the next block of a grid or of pairs is already on the device while `each` runs:
+    /// the device does not wait for the host between blocks. Pairs are prepared once a call.
     ///
     /// # Errors
     /// As [`Backend::project_columns`], but a set `stop` returns `Break` instead of
@@ -395,6 +400,20 @@ impl Backend {
                 stop.flow()?;
                 each(b, columns)
             });
+        }
+        // The fast path prepares pairs once, not once a block.
+        if let (Backend::CpuFast, PoseSource::Pairs(pairs), true) =
+            (self, sweep.poses, sweep.pairs_from_tables())
+        {
+            let prepared = sweep.prepare_pairs(pairs)?;
+            for b in blocks {
+                if fast::project_pairs(&prepared, b.clone(), out, stop).is_none()
+                    || each(b.clone(), out).is_break()
+                {
+                    return Ok(Flow::Break(()));
+                }
+            }
+            return Ok(Flow::Continue(()));
         }
         for b in blocks {
             match self.project_columns(sweep, b.clone(), out, stop) {

@@ -142,17 +142,29 @@ impl PoseSweep<'_> {
         for (i, pose) in pairs.poses.iter().enumerate() {
             pose.validate().map_err(|e| e.in_context(format!("poses[{i}]")))?;
         }
-        // Each feature checked and its plan counted on all cores, the first error in order kept.
-        let counts = pairs
+        // Each feature checked and its plan counted on all cores. An invalid feature is named;
+        // a plan too large is the sampling's fault, not the feature's. On a failure the features
+        // are gone through again in order, so the error is the first one's, whichever thread
+        // met one first.
+        let check = |i: usize, m: &Measurement| -> Result<(usize, usize)> {
+            m.validate(&self.source)
+                .map_err(|e| e.in_context(format!("features[{i}]")))?;
+            checker.measurement_counts(m)
+        };
+        let Ok(counts) = pairs
             .features
             .par_iter()
             .enumerate()
-            .map(|(i, m)| {
-                m.validate(&self.source)
-                    .and_then(|()| checker.measurement_counts(m))
-                    .map_err(|e| e.in_context(format!("features[{i}]")))
-            })
-            .collect::<Result<Vec<_>>>()?;
+            .map(|(i, m)| check(i, m))
+            .collect::<Result<Vec<_>>>()
+        else {
+            return Err(pairs
+                .features
+                .iter()
+                .enumerate()
+                .find_map(|(i, m)| check(i, m).err())
+                .expect("a feature failed its check"));
+        };
         // One plan per distinct count. Neighbouring features mostly share one, so the last is
         // tried before the map.
         let mut plans = Vec::new();

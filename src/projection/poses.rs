@@ -363,7 +363,8 @@ impl PoseSweep<'_> {
         let PoseSource::Grid(grid) = self.poses else {
             return Err(Error::input(
                 "local precision",
-                "needs a grid of poses: a list's projections carry their own (Projection::local)",
+                "needs a grid of poses: a list's projections carry their own (Projection::local), \
+                 and pairs have no true points",
             ));
         };
         if range.start > range.end || range.end > grid.len() {

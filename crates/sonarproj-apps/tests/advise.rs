@@ -393,3 +393,38 @@ fn the_pose_now_is_scored_over_the_features_it_sees_far_from_the_search() {
     let again = scorer.score_all(&[now.params()]).unwrap()[0];
     assert_eq!(again, now);
 }
+
+/// Candidates scored together, in blocks that go through the scorer's pipeline (projected while
+/// the block before is reduced, two column sets taken in turn), score as each scored alone: 20 000
+/// features a candidate make blocks of three, so seven candidates take three blocks and end on
+/// the first column set.
+#[test]
+fn candidates_scored_in_blocks_score_as_each_alone() {
+    let c = config(
+        "from = \"paper-fls\"\nto = \"paper-fls\"\nstep = 2\nobjective = \"ambiguity\"\n\
+         [features]\ncount = 20000\nseed = 5\n[rig]\norigin = [0, 0.5, 0]\n\
+         [search]\nroll = [0, 10]\nrefine = 0\n",
+    );
+    let scorer = advise::Scorer::new(&c, &Backend::CpuFast).unwrap();
+    let candidates: Vec<advise::Params> = (0..7)
+        .map(|k| {
+            [
+                f64::from(k) * 7.0,
+                f64::from(k) * -3.0,
+                f64::from(k),
+                0.0,
+                0.0,
+                0.0,
+            ]
+        })
+        .collect();
+    let together = scorer.score_all(&candidates).unwrap();
+    assert_eq!(together.len(), 7);
+    for (k, p) in candidates.iter().enumerate() {
+        let alone = scorer.score_all(&[*p]).unwrap()[0];
+        assert_eq!(together[k], alone, "candidate {k}");
+    }
+    // Distinct candidates score differently, so a block reduced with another's columns shows.
+    let scores: Vec<f64> = together.iter().map(|s| s.metric.mean.unwrap()).collect();
+    assert!(scores.windows(2).all(|w| w[0] != w[1]), "{scores:?}");
+}

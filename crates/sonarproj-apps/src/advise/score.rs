@@ -686,9 +686,29 @@ mod tests {
             let el = match rng.random_range(0..3) {
                 0 => nudge(he, rng),
                 1 => -nudge(he, rng),
-                _ => rng.random_range(-1.5..1.5),
+                _ => rng.random_range(-std::f64::consts::FRAC_PI_2..std::f64::consts::FRAC_PI_2),
             };
-            out.push(sph_to_cart(r.max(0.0), az, el.clamp(-1.57, 1.57)));
+            out.push(sph_to_cart(r.max(0.0), az, el));
+        }
+        // The origin, points on the axes, and values no view holds.
+        out.extend([DVec3::ZERO, DVec3::X, DVec3::NEG_X, DVec3::Z, DVec3::NEG_Z]);
+        out.extend([f64::NAN, f64::INFINITY, 1e300].map(|v| DVec3::new(v, 0.0, 0.0)));
+        out
+    }
+
+    /// Returns the presets, and sonars wider than any: azimuth apertures of 200°, 359.9° and
+    /// 360°, elevation apertures of 170°, 179.99° and 180°, a range from 0.
+    fn sonars() -> Vec<Sonar> {
+        let mut out: Vec<Sonar> = Sonar::preset_names()
+            .iter()
+            .map(|n| Sonar::preset(n).unwrap())
+            .collect();
+        let base = Sonar::preset("paper-fls").unwrap();
+        for (az, el) in [(200.0, 170.0), (359.9, 179.99), (360.0, 180.0), (90.0, 180.0)] {
+            let mut s = base.clone();
+            (s.name, s.azimuth_aperture, s.elevation_aperture, s.range_min) =
+                (format!("wide {az} x {el}"), az, el, 0.0);
+            out.push(s);
         }
         out
     }
@@ -698,8 +718,9 @@ mod tests {
     #[test]
     fn the_quick_test_refuses_only_what_the_exact_test_refuses() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
-        for name in Sonar::preset_names() {
-            let layout = Layout::of(&Sonar::preset(name).unwrap());
+        for sonar in sonars() {
+            let name = &sonar.name;
+            let layout = Layout::of(&sonar);
             let outside = Outside::of(&layout);
             let mut refused = 0;
             for q in points_about(&layout, &mut rng) {
