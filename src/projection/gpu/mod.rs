@@ -500,14 +500,7 @@ impl GpuBackend {
         range: std::ops::Range<u64>,
         out: &mut MetricColumns,
     ) -> Result<()> {
-        // No rows for no poses (a block is never empty). Otherwise the block's first chunk sets
-        // them; the rows kept from the last call are not zeroed first.
-        if range.is_empty() {
-            out.resize(0);
-            return Ok(());
-        }
-        self.project_grid_blocks(prepared, &[range], out, &mut |_, _| ControlFlow::Continue(()))
-            .map(|_| ())
+        self.project_source(&|first| Source::Grid { prepared, first }, range, out)
     }
 
     /// Writes the metric columns of pairs `range` (prepared) into `out` (its rows replaced), as
@@ -521,11 +514,24 @@ impl GpuBackend {
         range: std::ops::Range<u64>,
         out: &mut MetricColumns,
     ) -> Result<()> {
+        self.project_source(&|first| Source::Pairs { prepared, first }, range, out)
+    }
+
+    /// Writes the metric columns of poses `range` of the source that `source_from` gives for its
+    /// first pose into `out`, its rows replaced.
+    fn project_source<'s>(
+        &self,
+        source_from: &dyn Fn(u64) -> Source<'s>,
+        range: std::ops::Range<u64>,
+        out: &mut MetricColumns,
+    ) -> Result<()> {
+        // No rows for no poses (a block is never empty). Otherwise the block's first chunk sets
+        // them; the rows kept from the last call are not zeroed first.
         if range.is_empty() {
             out.resize(0);
             return Ok(());
         }
-        self.project_pairs_blocks(prepared, &[range], out, &mut |_, _| ControlFlow::Continue(()))
+        self.project_source_blocks(source_from, &[range], out, &mut |_, _| ControlFlow::Continue(()))
             .map(|_| ())
     }
 
