@@ -242,16 +242,22 @@ pub struct Selection {
     pub features: Vec<[f64; 3]>,
 }
 
+/// Returns the share `kept / examined` of the pool points examined that were kept (0 for none
+/// examined).
+#[expect(clippy::cast_precision_loss, reason = "pool sizes below 2^53")]
+fn shared_share(kept: usize, examined: usize) -> f64 {
+    if examined == 0 {
+        0.0
+    } else {
+        kept as f64 / examined as f64
+    }
+}
+
 impl Selection {
     /// Returns the share of the pool sonar's view the other sonar sees, from the examined points.
     #[must_use]
-    #[expect(clippy::cast_precision_loss, reason = "pool sizes below 2^53")]
     pub fn shared(&self) -> f64 {
-        if self.examined == 0 {
-            0.0
-        } else {
-            self.features.len() as f64 / self.examined as f64
-        }
+        shared_share(self.features.len(), self.examined)
     }
 }
 
@@ -577,33 +583,31 @@ impl<'a> Scorer<'a> {
                     .map(|k| column.f64(k).unwrap_or(0.0))
                     .collect();
                 let sel = &block.selections[c];
-                let features: Vec<[f64; 3]> = sel.1.iter().map(|x| x.0).collect();
                 let i = block.range.start + c;
-                self.reduce(rotations[i], &poses[i], sel.0, &features, &metrics)
+                self.reduce(rotations[i], &poses[i], sel.0, &sel.1, &metrics)
             })
             .collect()
     }
 
     /// Returns the score of candidate `params` at `pose`, from the pool points `examined`, the
-    /// shared `features` (in sonar 1) and their `metrics`.
+    /// shared `features` (their true points in sonar 1, with their measurements) and their
+    /// `metrics`.
     fn reduce(
         &self,
         params: Params,
         pose: &RelativePose,
         examined: usize,
-        features: &[[f64; 3]],
+        features: &[([f64; 3], Measurement)],
         metrics: &[f64],
     ) -> Score {
         let c = self.config;
         let sigmas: Vec<f64> = features
             .iter()
-            .filter_map(|&f| local_precision(&c.source, &c.target, f, pose, self.sigma_range).sigma_elevation)
+            .filter_map(|&(f, _)| {
+                local_precision(&c.source, &c.target, f, pose, self.sigma_range).sigma_elevation
+            })
             .collect();
-        let fraction = Selection {
-            examined,
-            features: features.to_vec(),
-        }
-        .shared();
+        let fraction = shared_share(features.len(), examined);
         let (metric, sigma) = (Stats::of(metrics), Stats::of(&sigmas));
         let cost = self.search_cost(metrics, examined);
         let (value, se) = match c.objective {
