@@ -41,6 +41,7 @@ use crate::SonarKind;
 use crate::metrics::{Extremes, Metrics};
 use crate::occupancy::{Layout, Occupancy};
 use crate::projection::columns::MetricColumns;
+use crate::projection::pairs::PreparedPairs;
 use crate::projection::poses::{GridTables, PreparedGrid};
 use crate::projection::{Output, PreparedBatch, Projection};
 use crate::stream::Stop;
@@ -620,6 +621,50 @@ pub(crate) fn project_grid(
     out: &mut MetricColumns,
     stop: Stop<'_>,
 ) -> Option<()> {
+    let tables = GridTables::new(prepared.grid, &prepared.source);
+    let half = prepared.source.half_elevation();
+    solve_into(&prepared.layout, half, range, out, stop, |i| {
+        let d = tables.decode(i);
+        let (ca, sa) = d.azimuth;
+        Arc {
+            u: d.rotation * DVec3::new(d.range * ca, d.range * sa, 0.0),
+            w: d.rotation * DVec3::new(0.0, 0.0, d.range),
+            t: d.translation,
+            half,
+        }
+    })
+}
+
+/// Writes the metric columns of pairs `range` of `prepared` (an exact sweep's pairs, prepared by
+/// [`PreparedPairs`]) into `out`, each pair's arc made from its pose and feature as a batch item's
+/// is ([`project`]), so the metrics are an item's bit for bit; `None` once `stop` is set (asked
+/// before each block of pairs).
+pub(crate) fn project_pairs(
+    prepared: &PreparedPairs<'_>,
+    range: std::ops::Range<u64>,
+    out: &mut MetricColumns,
+    stop: Stop<'_>,
+) -> Option<()> {
+    let half = prepared.source.half_elevation();
+    let pairs = prepared.pairs;
+    solve_into(&prepared.layout, half, range, out, stop, |k| {
+        let [p, f] = pairs.pairs()[usize::try_from(k).expect("a pair index in memory")];
+        let m = &pairs.features()[f as usize];
+        Arc::new(m.range, m.azimuth.to_radians(), half, &pairs.poses()[p as usize])
+    })
+}
+
+/// Writes the metric columns of poses `range` into `out`, solving the arc `arc(i)` of each pose
+/// index `i` on all cores, a block of poses at a time; only the metrics `out` keeps are worked
+/// out. `None` once `stop` is set (asked before each block).
+fn solve_into(
+    layout: &Layout,
+    half: f64,
+    range: std::ops::Range<u64>,
+    out: &mut MetricColumns,
+    stop: Stop<'_>,
+    arc: impl Fn(u64) -> Arc + Sync,
+) -> Option<()> {
     let count = usize::try_from(range.end - range.start).expect("a block of poses in memory");
     out.resize(count);
     let keep = Keep {
@@ -627,9 +672,7 @@ pub(crate) fn project_grid(
         azimuths: out.keeps(crate::Metric::AzimuthMin) || out.keeps(crate::Metric::AzimuthMax),
         cells: out.keeps(crate::Metric::Occupied) || out.keeps(crate::Metric::OccupiedMeasure),
     };
-    let tables = GridTables::new(prepared.grid, &prepared.source);
-    let half = prepared.source.half_elevation();
-    let solver = Solver::new(&prepared.layout, half, keep);
+    let solver = Solver::new(layout, half, keep);
     let blocks = out.slices(0..count).chunks(POSE_BLOCK);
     let done: Vec<bool> = blocks
         .into_par_iter()
@@ -640,15 +683,7 @@ pub(crate) fn project_grid(
             }
             let first = range.start + (b * POSE_BLOCK) as u64;
             for k in 0..slots.len() {
-                let d = tables.decode(first + k as u64);
-                let (ca, sa) = d.azimuth;
-                let arc = Arc {
-                    u: d.rotation * DVec3::new(d.range * ca, d.range * sa, 0.0),
-                    w: d.rotation * DVec3::new(0.0, 0.0, d.range),
-                    t: d.translation,
-                    half,
-                };
-                slots.set(k, &solver.solve(&arc, cells, None));
+                slots.set(k, &solver.solve(&arc(first + k as u64), cells, None));
             }
             true
         })

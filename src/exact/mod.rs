@@ -37,7 +37,7 @@ mod fast;
 mod fast_roots;
 mod roots;
 
-pub(crate) use fast::{SolverConstants, project as project_fast, project_grid};
+pub(crate) use fast::{SolverConstants, project as project_fast, project_grid, project_pairs};
 
 use std::f64::consts::{FRAC_PI_2, PI};
 

@@ -320,6 +320,18 @@ impl Backend {
                 Backend::Cpu => {}
             }
         }
+        // Exact mode on pairs: as on a grid, the fast twin solves each pair from the tables;
+        // a GPU that solves exact calls, and the reference, take the items path.
+        if let (PoseSource::Pairs(pairs), false) = (sweep.poses, sweep.pairs_from_tables()) {
+            match self {
+                Backend::Gpu(g) if g.solves_exact() => {}
+                Backend::Gpu(_) | Backend::CpuFast => {
+                    let prepared = sweep.prepare_pairs(pairs)?;
+                    return crate::exact::project_pairs(&prepared, range, out, stop).ok_or(Error::Stopped);
+                }
+                Backend::Cpu => {}
+            }
+        }
         if let (PoseSource::Pairs(pairs), true) = (sweep.poses, sweep.pairs_from_tables()) {
             match self {
                 Backend::CpuFast => {

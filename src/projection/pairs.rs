@@ -1,8 +1,8 @@
 //! Poses paired with features: a sweep's items as indices into a table of poses and a table of
 //! measurements, so that many features seen from many poses (a rig advisor's candidates, each
 //! scored over its own features) cost no item object each. [`PosePairs::item`] defines item `k`;
-//! the fast path and the GPU compose the same pose from the tables, bit for bit, and a test holds
-//! both to projecting the items themselves.
+//! the fast path (sampled or exact) and the GPU (sampled) compose the same pose from the tables,
+//! bit for bit, and a test holds them to projecting the items themselves.
 
 use std::collections::HashMap;
 
@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::geometry::pose::RelativePose;
+use crate::geometry::sonar::Sonar;
 use crate::occupancy::Layout;
 use crate::projection::BatchItem;
 use crate::projection::poses::PoseSweep;
@@ -106,6 +107,7 @@ impl PosePairs {
 /// feature's plan and base azimuth (rad).
 pub(crate) struct PreparedPairs<'a> {
     pub(crate) pairs: &'a PosePairs,
+    pub(crate) source: Sonar,
     pub(crate) layout: Layout,
     pub(crate) plans: Vec<SamplingPlan>,
     pub(crate) plan_of_feature: Vec<u32>,
@@ -186,6 +188,7 @@ impl PoseSweep<'_> {
             .collect();
         Ok(PreparedPairs {
             pairs,
+            source: self.source.clone(),
             layout,
             plans,
             plan_of_feature,
@@ -197,8 +200,10 @@ impl PoseSweep<'_> {
         })
     }
 
-    /// Returns whether the fast path and the GPU take this sweep's pairs from their tables: every
-    /// sampling but [`Sampling::Exact`], whose items go through a batch.
+    /// Returns whether this sweep's pairs are sampled, so that the fast path and the GPU draw them
+    /// from their tables: every sampling but [`Sampling::Exact`]. Exact arcs are solved from the
+    /// tables by the exact fast twin, and go through batches of items on a GPU that solves exact
+    /// calls itself.
     pub(crate) fn pairs_from_tables(&self) -> bool {
         self.sampling != Sampling::Exact
     }
