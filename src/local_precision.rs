@@ -120,15 +120,22 @@ impl TruePoint {
     /// error `sigma` (m): [`local_precision`]'s.
     #[must_use]
     pub fn at(&self, pose: &RelativePose, sigma: f64) -> LocalPrecision {
+        self.seen_from(&Viewpoint::of(pose), sigma)
+    }
+
+    /// Returns [`TruePoint::at`] the pose of `viewpoint`, bit for bit, without the pose's own
+    /// arithmetic: for many true points seen from one pose.
+    #[must_use]
+    pub fn seen_from(&self, viewpoint: &Viewpoint, sigma: f64) -> LocalPrecision {
+        let pose = &viewpoint.pose;
         // The slope of the other sonar's range along the arc at the true point, and the arc's
         // radius.
         let (slope, arc_r) = match self.kinds {
             (SonarKind::Sss, SonarKind::Sss) => return LocalPrecision::default(),
-            (SonarKind::Fls, _) => {
-                // Sonar 2's origin in sonar 1's frame: −Rᵀ t.
-                let o = -(pose.rotation.transpose() * pose.translation);
-                ((self.p - o).normalize_or_zero().dot(self.dp), self.r)
-            }
+            (SonarKind::Fls, _) => (
+                (self.p - viewpoint.origin).normalize_or_zero().dot(self.dp),
+                self.r,
+            ),
             (SonarKind::Sss, SonarKind::Fls) => {
                 let (r2, az2, el2) = cart_to_sph(pose.apply(self.p));
                 (slope_per_radian(r2, az2, el2, pose.translation), r2)
@@ -142,6 +149,26 @@ impl TruePoint {
         LocalPrecision {
             range_per_elevation: Some(per_degree),
             sigma_elevation,
+        }
+    }
+}
+
+/// A relative pose with what [`TruePoint::seen_from`] needs of it alone, computed once for the
+/// many true points one pose sees.
+#[derive(Clone, Copy, Debug)]
+pub struct Viewpoint {
+    pose: RelativePose,
+    /// Sonar 2's origin in sonar 1's frame: `−Rᵀ t`.
+    origin: DVec3,
+}
+
+impl Viewpoint {
+    /// Returns the viewpoint of `pose`.
+    #[must_use]
+    pub fn of(pose: &RelativePose) -> Viewpoint {
+        Viewpoint {
+            pose: *pose,
+            origin: -(pose.rotation.transpose() * pose.translation),
         }
     }
 }

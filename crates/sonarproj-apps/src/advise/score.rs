@@ -7,7 +7,7 @@ use serde::Serialize;
 use sonarproj::Metric;
 use sonarproj::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
 use sonarproj::geometry::sonar::SonarKind;
-use sonarproj::local_precision::{local_precision, resolve_sigma_range};
+use sonarproj::local_precision::{TruePoint, Viewpoint, resolve_sigma_range};
 use sonarproj::occupancy::Layout;
 use sonarproj::projection::{Backend, MetricColumns, PosePairs, PoseSource, PoseSweep};
 use sonarproj::sampling::{Measurement, Sampling};
@@ -610,10 +610,13 @@ impl<'a> Scorer<'a> {
         metrics: &[f64],
     ) -> Score {
         let c = self.config;
+        let viewpoint = Viewpoint::of(pose);
         let sigmas: Vec<f64> = features
             .iter()
             .filter_map(|&(f, _)| {
-                local_precision(&c.source, &c.target, f, pose, self.sigma_range).sigma_elevation
+                TruePoint::new(&c.source, &c.target, f)
+                    .seen_from(&viewpoint, self.sigma_range)
+                    .sigma_elevation
             })
             .collect();
         let fraction = shared_share(features.len(), examined);
