@@ -271,9 +271,9 @@ impl Backend {
     /// - the reference, and every backend for a list, takes the items 65 536 at a time.
     ///
     /// Pairs of poses and features ([`PosePairs`](crate::PosePairs)) take no per-pair object on
-    /// the fast path, which composes each pose from the tables in its loop, nor on the GPU, which
-    /// packs them a chunk at a time (both the same bits as the pairs' items); the reference, and
-    /// exact sampling, take their items 65 536 at a time.
+    /// the fast path and its exact twin, which compose each pose from the tables in their loops,
+    /// nor on the GPU, which packs them a chunk at a time for its splat or exact stage (all the
+    /// same bits as the pairs' items); the reference takes their items 65 536 at a time.
     ///
     /// # Errors
     /// As [`Backend::project`]; [`Error::InvalidValue`] for a range past the sweep's poses;
@@ -320,29 +320,25 @@ impl Backend {
                 Backend::Cpu => {}
             }
         }
-        // Exact mode on pairs: as on a grid, the fast twin solves each pair from the tables;
-        // a GPU that solves exact calls, and the reference, take the items path.
-        if let (PoseSource::Pairs(pairs), false) = (sweep.poses, sweep.pairs_from_tables()) {
+        // Pairs from their tables: sampled, or solved exactly by a GPU with f64 and elsewhere by
+        // the exact fast twin (as a grid); the reference takes the items path.
+        if let PoseSource::Pairs(pairs) = sweep.poses {
+            let exact = sweep.sampling == Sampling::Exact;
             match self {
-                Backend::Gpu(g) if g.solves_exact() => {}
-                Backend::Gpu(_) | Backend::CpuFast => {
-                    let prepared = sweep.prepare_pairs(pairs)?;
-                    return crate::exact::project_pairs(&prepared, range, out, stop).ok_or(Error::Stopped);
-                }
-                Backend::Cpu => {}
-            }
-        }
-        if let (PoseSource::Pairs(pairs), true) = (sweep.poses, sweep.pairs_from_tables()) {
-            match self {
-                Backend::CpuFast => {
-                    let prepared = sweep.prepare_pairs(pairs)?;
-                    return fast::project_pairs(&prepared, range, out, stop).ok_or(Error::Stopped);
-                }
-                Backend::Gpu(g) => {
+                Backend::Gpu(g) if !exact || g.solves_exact() => {
                     let prepared = sweep.prepare_pairs(pairs)?;
                     stop.check()?;
                     g.project_pairs(&prepared, range, out)?;
                     return stop.check();
+                }
+                Backend::Gpu(_) | Backend::CpuFast => {
+                    let prepared = sweep.prepare_pairs(pairs)?;
+                    let done = if exact {
+                        crate::exact::project_pairs(&prepared, range, out, stop)
+                    } else {
+                        fast::project_pairs(&prepared, range, out, stop)
+                    };
+                    return done.ok_or(Error::Stopped);
                 }
                 Backend::Cpu => {}
             }
@@ -401,8 +397,8 @@ impl Backend {
                 each(b, columns)
             });
         }
-        if let (Backend::Gpu(g), PoseSource::Pairs(pairs), true) =
-            (self, sweep.poses, sweep.pairs_from_tables())
+        if let (Backend::Gpu(g), PoseSource::Pairs(pairs)) = (self, sweep.poses)
+            && (sweep.sampling != Sampling::Exact || g.solves_exact())
         {
             let prepared = sweep.prepare_pairs(pairs)?;
             if stop.is_set() {
@@ -413,15 +409,17 @@ impl Backend {
                 each(b, columns)
             });
         }
-        // The fast path prepares pairs once, not once a block.
-        if let (Backend::CpuFast, PoseSource::Pairs(pairs), true) =
-            (self, sweep.poses, sweep.pairs_from_tables())
-        {
+        // The CPU's twins prepare pairs once, not once a block.
+        if let (Backend::CpuFast | Backend::Gpu(_), PoseSource::Pairs(pairs)) = (self, sweep.poses) {
             let prepared = sweep.prepare_pairs(pairs)?;
+            let exact = sweep.sampling == Sampling::Exact;
             for b in blocks {
-                if fast::project_pairs(&prepared, b.clone(), out, stop).is_none()
-                    || each(b.clone(), out).is_break()
-                {
+                let done = if exact {
+                    crate::exact::project_pairs(&prepared, b.clone(), out, stop)
+                } else {
+                    fast::project_pairs(&prepared, b.clone(), out, stop)
+                };
+                if done.is_none() || each(b.clone(), out).is_break() {
                     return Ok(Flow::Break(()));
                 }
             }

@@ -1,8 +1,8 @@
 //! Poses paired with features: a sweep's items as indices into a table of poses and a table of
 //! measurements, so that many features seen from many poses (a rig advisor's candidates, each
 //! scored over its own features) cost no item object each. [`PosePairs::item`] defines item `k`;
-//! the fast path (sampled or exact) and the GPU (sampled) compose the same pose from the tables,
-//! bit for bit, and a test holds them to projecting the items themselves.
+//! the fast path, its exact twin and the GPU compose the same pose from the tables, bit for bit,
+//! and a test holds them to projecting the items themselves.
 
 use std::collections::HashMap;
 
@@ -107,6 +107,8 @@ impl PosePairs {
 /// feature's plan and base azimuth (rad).
 pub(crate) struct PreparedPairs<'a> {
     pub(crate) pairs: &'a PosePairs,
+    /// Whether the pairs' arcs are solved exactly ([`Sampling::Exact`]): the plans are then unused.
+    pub(crate) exact: bool,
     pub(crate) source: Sonar,
     pub(crate) layout: Layout,
     pub(crate) plans: Vec<SamplingPlan>,
@@ -188,6 +190,7 @@ impl PoseSweep<'_> {
             .collect();
         Ok(PreparedPairs {
             pairs,
+            exact: self.sampling == Sampling::Exact,
             source: self.source.clone(),
             layout,
             plans,
@@ -198,13 +201,5 @@ impl PoseSweep<'_> {
                 .map(|m| base_azimuth(&self.source, m))
                 .collect(),
         })
-    }
-
-    /// Returns whether this sweep's pairs are sampled, so that the fast path and the GPU draw them
-    /// from their tables: every sampling but [`Sampling::Exact`]. Exact arcs are solved from the
-    /// tables by the exact fast twin, and go through batches of items on a GPU that solves exact
-    /// calls itself.
-    pub(crate) fn pairs_from_tables(&self) -> bool {
-        self.sampling != Sampling::Exact
     }
 }

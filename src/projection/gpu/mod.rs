@@ -434,8 +434,9 @@ impl GpuBackend {
     }
 
     /// Projects pairs `blocks` (prepared) block by block into `out`, as
-    /// [`GpuBackend::project_grid_blocks`] does for a grid. The host composes each pair's pose from
-    /// the tables on all cores, as it packs a batch's items, and no item object is built.
+    /// [`GpuBackend::project_grid_blocks`] does for a grid, sampled or (on a device that
+    /// [`GpuBackend::solves_exact`]) exact. The host composes each pair's pose from the tables on
+    /// all cores, as it packs a batch's items, and no item object is built.
     ///
     /// # Errors
     /// As [`GpuBackend::project_grid_blocks`].

@@ -335,14 +335,19 @@ impl GpuBackend {
                     .into_par_iter()
                     .map(|k| {
                         let (pose, range, base, plan_index) = prepared.pose(pair_index(*first, k));
-                        let plan = &prepared.plans[plan_index];
-                        let [az_off, el_off] = directions.offsets[&plan_index];
-                        let plan = [
-                            az_off,
-                            plan.azimuths.len() as u32,
-                            el_off,
-                            plan.elevations.len() as u32,
-                        ];
+                        // An exact call has no plans: the exact stage reads the arc alone.
+                        let plan = if prepared.exact {
+                            [0; 4]
+                        } else {
+                            let plan = &prepared.plans[plan_index];
+                            let [az_off, el_off] = directions.offsets[&plan_index];
+                            [
+                                az_off,
+                                plan.azimuths.len() as u32,
+                                el_off,
+                                plan.elevations.len() as u32,
+                            ]
+                        };
                         pose_gpu(&pose.rotation, pose.translation.to_array(), range, base, plan)
                     })
                     .collect();

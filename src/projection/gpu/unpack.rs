@@ -250,8 +250,7 @@ impl Source<'_> {
         match self {
             Source::Items(p) => p.is_exact().then(|| p.batch.source.half_elevation()),
             Source::Grid { prepared, .. } => prepared.exact.then(|| prepared.source.half_elevation()),
-            // Exact pairs go through a batch of their items.
-            Source::Pairs { .. } => None,
+            Source::Pairs { prepared, .. } => prepared.exact.then(|| prepared.source.half_elevation()),
         }
     }
 
