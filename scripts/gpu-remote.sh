@@ -179,10 +179,12 @@ run() {
             awk -v n="$n" -v s="$start" -v e="$(date +%s.%N)" -v b="$2" "BEGIN { printf \"stream: %s %d pings answered, %.3f ms a ping\\n\", b, n, (e - s) * 1000 / n }"' \
             "$bin/sonarproj" "$pings" "$b"
     done
-    # The rig advisor's target (10 000 rotations x 1000 features x 121 samples) on both.
+    # The rig advisor's target (10 000 rotations x 1000 features x 121 samples) on both, and
+    # the same candidates in its default mode (exact arcs).
     for b in gpu cpu-fast; do
-        rm -rf "$bundle/advise-$b"
+        rm -rf "$bundle/advise-$b" "$bundle/advise-exact-$b"
         step "advise-$b" "$bin/sonarproj" advise --config data/bench-advise.toml --out "$bundle/advise-$b" --backend "$b"
+        step "advise-exact-$b" "$bin/sonarproj" advise --config data/bench-advise-exact.toml --out "$bundle/advise-exact-$b" --backend "$b"
     done
     grep -h "advise:" "$logs"/advise-*.log >>"$logs/summary.txt" || true
     grep -h "sweep:" "$logs"/sweep-*.log >>"$logs/summary.txt" || true

@@ -428,3 +428,33 @@ fn candidates_scored_in_blocks_score_as_each_alone() {
     let scores: Vec<f64> = together.iter().map(|s| s.metric.mean.unwrap()).collect();
     assert!(scores.windows(2).all(|w| w[0] != w[1]), "{scores:?}");
 }
+
+/// The advisor's two benchmark files are the same 10 000 candidates over the same 1000 features,
+/// one sampled at 0.1° and the other in the default mode (exact arcs), as BENCHMARKS.md says.
+#[test]
+fn the_benchmark_files_differ_only_in_the_sampling() {
+    let read = |name: &str| {
+        let path = sonarproj_testkit::repository().join("data").join(name);
+        AdviseConfig::parse(
+            name,
+            &std::fs::read_to_string(&path).unwrap(),
+            std::path::Path::new("."),
+        )
+        .unwrap()
+    };
+    let (sampled, exact) = (read("bench-advise.toml"), read("bench-advise-exact.toml"));
+    assert_eq!(sampled.sampling, sonarproj::Sampling::Step(0.1));
+    assert_eq!(exact.sampling, sonarproj::Sampling::Exact);
+    let candidates: usize = sampled.axes.iter().map(|a| a.len().max(1)).product();
+    assert_eq!(candidates, 10_000);
+    assert_eq!(
+        format!(
+            "{:?}",
+            AdviseConfig {
+                sampling: exact.sampling,
+                ..sampled
+            }
+        ),
+        format!("{exact:?}")
+    );
+}
