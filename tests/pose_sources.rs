@@ -615,15 +615,33 @@ fn pairs_of(g: &PoseGrid, source: &Sonar, n: u64) -> (sonarproj::PosePairs, Vec<
     (sonarproj::PosePairs::new(poses, features, pairs).unwrap(), list)
 }
 
+/// Returns the GPU opened without f64 in its shaders (double-f32) where an adapter exists: its
+/// exact calls go to the fast CPU twin, as a device without f64 sends them.
+fn gpu_without_f64() -> Option<Backend> {
+    common::gpu_context()?;
+    let options = sonarproj::GpuOptions {
+        precision: Some(sonarproj::gpu::Precision::DoubleF32),
+        ..common::gpu_options()
+    };
+    let ctx = sonarproj::gpu::GpuContext::open(&options).expect("the adapter opens in double-f32");
+    let gpu = common::gpu_backend_on(ctx);
+    assert!(
+        !gpu.solves_exact(),
+        "double-f32 solves no exact call on the device"
+    );
+    Some(Backend::Gpu(Box::new(gpu)))
+}
+
 /// Pairs of poses and features project as the items they stand for, bit for bit, on every
-/// backend (the GPU in one chunk and in chunks of 7): every preset pair of the paper's sonars
-/// and the field's, step and automatic sampling (several plans: features at several ranges) and
-/// exact arcs (an imaging sonar 1's), all columns and one column alone, whole, in cut ranges and
-/// in blocks.
+/// backend (the GPU in one chunk and in chunks of 7, and opened without f64): every preset pair of
+/// the paper's sonars and the field's, step and automatic sampling (several plans: features at
+/// several ranges) and exact arcs (an imaging sonar 1's), all columns and each column alone,
+/// whole, in cut ranges and in blocks (across the fast paths' blocks of 256 poses).
 #[test]
 fn pairs_project_as_their_items_on_every_backend() {
     use std::ops::ControlFlow;
-    let backends = every_backend();
+    let mut backends = every_backend();
+    backends.extend(gpu_without_f64());
     let mut visible = 0;
     for (a, b) in [
         ("paper-fls", "paper-sss"),
@@ -633,7 +651,7 @@ fn pairs_project_as_their_items_on_every_backend() {
     ] {
         let (source, target) = (common::preset(a), common::preset(b));
         let g = grid(&source, &target, false);
-        let (pairs, items) = pairs_of(&g, &source, 240);
+        let (pairs, items) = pairs_of(&g, &source, 600);
         for sampling in [Sampling::Step(1.0), Sampling::Auto, Sampling::Exact] {
             if sampling != Sampling::Step(1.0) && source.kind == sonarproj::SonarKind::Sss {
                 continue;
@@ -649,9 +667,17 @@ fn pairs_project_as_their_items_on_every_backend() {
                     .unwrap();
                 same_bits(&got, &want, &what);
                 visible += got.visible.iter().filter(|&&v| v > 0).count();
+                // Each column alone: what a solver leaves out changes none of it.
+                for metric in Metric::all() {
+                    let mut alone = MetricColumns::only(&[metric]);
+                    backend
+                        .project_columns(&s, 0..pairs.len(), &mut alone, Stop::NEVER)
+                        .unwrap();
+                    same_column(&alone, &want, metric, &format!("{what}: {} alone", metric.name()));
+                }
                 // A column alone, in ranges cut anywhere and in blocks.
                 let mut part = MetricColumns::only(&[Metric::Span]);
-                for r in [0..1, 1..100, 100..240] {
+                for r in [0..1, 1..300, 300..600] {
                     backend
                         .project_columns(&s, r.clone(), &mut part, Stop::NEVER)
                         .unwrap();
@@ -660,7 +686,7 @@ fn pairs_project_as_their_items_on_every_backend() {
                         .for_each(|k| rows.push(&want.get(usize::try_from(k).unwrap())));
                     same_column(&part, &rows, Metric::Span, &format!("{what}: {r:?}"));
                 }
-                let blocks = [0..3, 3..150, 151..240];
+                let blocks = [0..3, 3..300, 301..600];
                 let mut seen = 0;
                 let flow = backend
                     .project_blocks(&s, &blocks, &mut part, Stop::NEVER, &mut |r, columns| {

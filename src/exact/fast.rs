@@ -1,7 +1,8 @@
 //! The fast twin of the exact solver: the same arc, pieces and metrics as [`super::visible_arc`],
 //! with every bound written as a polynomial in `s = tan(φ/2)`. `cpu-fast` runs it on every core
 //! (and the GPU backend of a device without f64; with f64 the GPU runs its WGSL twin,
-//! `shaders/exact.wgsl`); on a pose grid each pose is decoded where it is solved ([`project_grid`]).
+//! `shaders/exact.wgsl`); on a pose grid each pose is decoded where it is solved ([`project_grid`]),
+//! and pairs of poses and features are looked up in their tables ([`project_pairs`]).
 //!
 //! With `cos φ = (1 − s²)/(1 + s²)` and `sin φ = 2s/(1 + s²)`, a first-degree trigonometric
 //! function `a + b cos φ + c sin φ` times `1 + s²` is the quadratic `(a + b) + 2c s + (a − b) s²`,
@@ -645,6 +646,7 @@ pub(crate) fn project_pairs(
     out: &mut MetricColumns,
     stop: Stop<'_>,
 ) -> Option<()> {
+    debug_assert!(prepared.exact, "pairs prepared for sampling");
     let half = prepared.source.half_elevation();
     let pairs = prepared.pairs;
     solve_into(&prepared.layout, half, range, out, stop, |k| {

@@ -366,8 +366,9 @@ impl Backend {
     /// `blocks` are ranges in increasing order, none empty. `out` holds each block's rows in
     /// turn; they are [`Backend::project_columns`]'s for the same block. The stream ends early,
     /// returning `Break`, when `each` answers `Break` or `stop` is set ([`crate::stream`]). On
-    /// the GPU the next block of a grid or of pairs is already on the device while `each` runs:
-    /// the device does not wait for the host between blocks. Pairs are prepared once a call.
+    /// the GPU the next block of a grid or of pairs is already on the device while `each` runs
+    /// (when the device does the work: sampled, or exact on a device with f64): the device does
+    /// not wait for the host between blocks. Pairs are prepared once a call.
     ///
     /// # Errors
     /// As [`Backend::project_columns`], but a set `stop` returns `Break` instead of

@@ -325,6 +325,7 @@ pub(crate) fn project_pairs(
     out: &mut MetricColumns,
     stop: Stop<'_>,
 ) -> Option<()> {
+    debug_assert!(!prepared.exact, "pairs prepared for the exact solver");
     let first = usize::try_from(range.start).expect("pairs are in memory");
     let count = usize::try_from(range.end - range.start).expect("pairs are in memory");
     let poses = PairPoses {
