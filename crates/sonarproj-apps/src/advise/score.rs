@@ -372,11 +372,12 @@ pub type Kept = (usize, Vec<([f64; 3], Measurement)>);
 #[must_use]
 pub fn kept(source: &sonarproj::Sonar, pool: &Pool, pose: &RelativePose) -> Kept {
     let sel = pool.select(pose);
-    let kept = sel
-        .features
-        .iter()
-        .filter_map(|f| Measurement::of(source, f[0], f[1]).ok().map(|m| (*f, m)))
-        .collect();
+    let mut kept = Vec::with_capacity(sel.features.len());
+    kept.extend(
+        sel.features
+            .iter()
+            .filter_map(|f| Measurement::of(source, f[0], f[1]).ok().map(|m| (*f, m))),
+    );
     (sel.examined, kept)
 }
 
@@ -540,8 +541,9 @@ impl<'a> Scorer<'a> {
             .map(|p| kept(&self.config.source, &self.pool, p))
             .collect();
         // Candidate c's features are pairs starts[c].. in order, each with a feature of its own.
+        let total = selections.iter().map(|s| s.1.len()).sum();
         let mut starts = Vec::with_capacity(range.len() + 1);
-        let mut pairs = Vec::new();
+        let mut pairs = Vec::with_capacity(total);
         for (c, sel) in selections.iter().enumerate() {
             starts.push(pairs.len());
             let c = u32::try_from(c).expect("a block has at most 4096 candidates");
@@ -551,7 +553,8 @@ impl<'a> Scorer<'a> {
             );
         }
         starts.push(pairs.len());
-        let features = selections.iter().flat_map(|s| s.1.iter().map(|x| x.1)).collect();
+        let mut features = Vec::with_capacity(total);
+        features.extend(selections.iter().flat_map(|s| s.1.iter().map(|x| x.1)));
         let pairs = PosePairs::new(poses[range.clone()].to_vec(), features, pairs)?;
         Ok(Block {
             range,
