@@ -393,15 +393,16 @@ struct Block {
     pairs: PosePairs,
 }
 
-/// Returns how many pairs (candidate × feature) `backend` projects in one call. A GPU takes four
-/// times the CPU's: a GPU call has a fixed cost (its setup and the wait for its last chunk), and on
-/// an H200 sweep calls of 131 072 poses cost its host 1.7 times as much a pose as calls of a
-/// million (BENCHMARKS.md, "Where a GPU projection call's host time goes"). Three blocks are in
-/// memory at once, about 90 bytes a pair each.
-fn pairs_at_once(backend: &Backend) -> usize {
+/// Returns how many pairs (candidate × feature) `backend` projects in one call with `sampling`. A
+/// GPU's device takes four times the CPU's: a GPU call has a fixed cost (its setup and the wait
+/// for its last chunk), and on an H200 sweep calls of 131 072 poses cost its host 1.7 times as
+/// much a pose as calls of a million (BENCHMARKS.md, "Where a GPU projection call's host time
+/// goes"). A GPU without f64 solves exact arcs with the CPU's twin, in the CPU's blocks. Three
+/// blocks are in memory at once, about 90 bytes a pair each.
+fn pairs_at_once(backend: &Backend, sampling: Sampling) -> usize {
     match backend {
-        Backend::Gpu(_) => 1 << 18,
-        Backend::Cpu | Backend::CpuFast => 1 << 16,
+        Backend::Gpu(g) if sampling != Sampling::Exact || g.solves_exact() => 1 << 18,
+        Backend::Gpu(_) | Backend::Cpu | Backend::CpuFast => 1 << 16,
     }
 }
 
@@ -493,7 +494,7 @@ impl<'a> Scorer<'a> {
             .par_iter()
             .map(|&r| self.config.pose_of(r))
             .collect::<sonarproj::Result<Vec<_>>>()?;
-        let size = (pairs_at_once(self.backend) / self.pool.want.max(1)).clamp(1, 4096);
+        let size = (pairs_at_once(self.backend, self.config.sampling) / self.pool.want.max(1)).clamp(1, 4096);
         let blocks: Vec<std::ops::Range<usize>> = (0..poses.len())
             .step_by(size)
             .map(|s| s..(s + size).min(poses.len()))
