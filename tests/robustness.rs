@@ -11,8 +11,10 @@ use sonarproj::Output;
 use sonarproj::masks::{Counts, MaskEngine, Noise};
 use sonarproj::recovery::{Observation, Sigmas, recover};
 use sonarproj::rig::{Mount, relative_pose, sidescan_pair};
+use sonarproj::stream::Stop;
 use sonarproj::{
-    Backend, Batch, BatchItem, BeamLayout, Measurement, RelativePose, Rotation, Sampling, Sonar, SonarKind,
+    Backend, Batch, BatchItem, BeamLayout, Measurement, MetricColumns, PosePairs, PoseSource, PoseSweep,
+    RelativePose, Rotation, Sampling, Sonar, SonarKind,
 };
 
 /// Returns a strategy over the floats that break code: specials, signs, extremes, and plain
@@ -111,6 +113,7 @@ fn pose() -> impl Strategy<Value = RelativePose> {
 fn sampling() -> impl Strategy<Value = Sampling> {
     prop_oneof![
         Just(Sampling::Auto),
+        Just(Sampling::Exact),
         wild().prop_map(Sampling::Step),
         (0.05..5.0f64).prop_map(Sampling::Step)
     ]
@@ -211,6 +214,42 @@ proptest! {
                 let out = backend.project(&batch, Output::WithOccupancy).expect("a prepared batch projects");
                 prop_assert_eq!(out.len(), 1);
                 prop_assert!(out[0].metrics.visible <= out[0].metrics.total);
+            }
+        }
+    }
+
+    /// A pose paired with a feature ([`PosePairs`]) is refused exactly when its item is, and
+    /// otherwise projects, through the columns, to its item's metrics bit for bit, on both CPU
+    /// backends (the fast path from the tables, sampled or exact).
+    #[test]
+    fn pairs_project_or_refuse_as_their_item(source in sonar(), target in sonar(), sampling in sampling(),
+                                             range in coordinate(), azimuth in coordinate(), pose in pose()) {
+        let range = within(range, source.range_min, source.range_max);
+        let azimuth = within(azimuth, -source.azimuth_aperture / 2.0, source.azimuth_aperture / 2.0);
+        let measurement = Measurement { range, azimuth };
+        let batch = Batch { sigma_range: None,
+            source: source.clone(),
+            target: target.clone(),
+            sampling,
+            area_grid: sonarproj::PAPER_AREA_GRID,
+            items: vec![BatchItem { true_point: None, measurement, pose }],
+        };
+        let pairs = PosePairs::new(vec![pose], vec![measurement], vec![[0, 0]]).expect("indices within their tables");
+        let sweep = PoseSweep { source, target, sampling, area_grid: sonarproj::PAPER_AREA_GRID,
+                                poses: PoseSource::Pairs(&pairs) };
+        let prepared = batch.prepare();
+        if prepared.as_ref().is_ok_and(|p| p.total_samples() > TEST_SAMPLES) {
+            return Ok(());
+        }
+        for backend in [Backend::Cpu, Backend::CpuFast] {
+            let mut columns = MetricColumns::default();
+            let got = backend.project_columns(&sweep, 0..1, &mut columns, Stop::NEVER);
+            prop_assert_eq!(got.is_ok(), prepared.is_ok(), "{}: pairs {:?}, item {:?}",
+                            backend.name(), got.as_ref().err(), prepared.as_ref().err());
+            if got.is_ok() {
+                let item = backend.project(&batch, Output::MetricsOnly).expect("a prepared batch projects");
+                prop_assert_eq!(format!("{:?}", columns.get(0)), format!("{:?}", item[0].metrics),
+                                "{}", backend.name());
             }
         }
     }
