@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use crate::geometry::SonarKind;
 use crate::gpu::GpuContext;
 use crate::gpu::pool::BufferPool;
+use crate::sampling::SamplingPlan;
 
 use super::slots::{Directions, SLOT_LABELS, Shape, Slot, SlotLabels};
 use super::summary::SUMMARY_WORKGROUP;
@@ -304,20 +305,8 @@ impl GpuBackend {
                 let pose_data: Vec<PoseGpu> = (start..end)
                     .into_par_iter()
                     .map(|k| {
-                        // An exact call has no plans: the exact stage reads the arc alone.
-                        let plan = if exact {
-                            [0; 4]
-                        } else {
-                            let plan_index = prepared.plan_index(k);
-                            let plan = &prepared.plans[plan_index];
-                            let [az_off, el_off] = directions.offsets[&plan_index];
-                            [
-                                az_off,
-                                plan.azimuths.len() as u32,
-                                el_off,
-                                plan.elevations.len() as u32,
-                            ]
-                        };
+                        let plan = (!exact).then(|| prepared.plan_index(k));
+                        let plan = plan_reference(directions, &prepared.plans, plan);
                         pose_gpu(
                             &items[k].pose.rotation,
                             items[k].pose.translation.to_array(),
@@ -335,19 +324,8 @@ impl GpuBackend {
                     .into_par_iter()
                     .map(|k| {
                         let (pose, range, base, plan_index) = prepared.pose(pair_index(*first, k));
-                        // An exact call has no plans: the exact stage reads the arc alone.
-                        let plan = if prepared.exact {
-                            [0; 4]
-                        } else {
-                            let plan = &prepared.plans[plan_index];
-                            let [az_off, el_off] = directions.offsets[&plan_index];
-                            [
-                                az_off,
-                                plan.azimuths.len() as u32,
-                                el_off,
-                                plan.elevations.len() as u32,
-                            ]
-                        };
+                        let plan = (!prepared.exact).then_some(plan_index);
+                        let plan = plan_reference(directions, &prepared.plans, plan);
                         pose_gpu(&pose.rotation, pose.translation.to_array(), range, base, plan)
                     })
                     .collect();
@@ -384,6 +362,23 @@ impl GpuBackend {
             _ => unreachable!("a grid has its tables"),
         }
     }
+}
+
+/// Returns a pose's reference to its sampling plan `plan` (an index into `plans`) in the
+/// direction table: the offsets of its azimuth and elevation entries and their counts. An exact
+/// call has no plan (`None`): its stage reads the arc alone, and the reference is zeros.
+fn plan_reference(directions: &Directions, plans: &[SamplingPlan], plan: Option<usize>) -> [u32; 4] {
+    let Some(index) = plan else {
+        return [0; 4];
+    };
+    let [az_off, el_off] = directions.offsets[&index];
+    let plan = &plans[index];
+    [
+        az_off,
+        plan.azimuths.len() as u32,
+        el_off,
+        plan.elevations.len() as u32,
+    ]
 }
 
 /// Records into `enc` the copies a summary run reads back of `chunk`: its candidates, and at its
