@@ -648,11 +648,10 @@ pub(crate) fn project_pairs(
 ) -> Option<()> {
     debug_assert!(prepared.exact, "pairs prepared for sampling");
     let half = prepared.source.half_elevation();
-    let pairs = prepared.pairs;
     solve_into(&prepared.layout, half, range, out, stop, |k| {
-        let [p, f] = pairs.pairs()[usize::try_from(k).expect("a pair index in memory")];
-        let m = &pairs.features()[f as usize];
-        Arc::new(m.range, m.azimuth.to_radians(), half, &pairs.poses()[p as usize])
+        // An imaging sonar 1's base azimuth is its measured azimuth in radians, an item's.
+        let (pose, range, azimuth, _) = prepared.pose(usize::try_from(k).expect("a pair index in memory"));
+        Arc::new(range, azimuth, half, pose)
     })
 }
 
