@@ -145,8 +145,9 @@ fn a_reported_score_is_the_score_of_its_pose_by_hand() {
                 cart_to_sph(pose.apply(sph_to_cart(f[0], f[1].to_radians(), f[2].to_radians())));
             Layout::of(&c.target).inside(r, az, el)
         }));
+        // The features are their own true points: their local precision gives the sigmas.
         let batch = Batch {
-            sigma_range: None,
+            sigma_range: c.sigma_range,
             source: c.source.clone(),
             target: c.target.clone(),
             sampling: c.sampling,
@@ -154,15 +155,20 @@ fn a_reported_score_is_the_score_of_its_pose_by_hand() {
             items: shared
                 .iter()
                 .map(|f| BatchItem {
-                    true_point: None,
+                    true_point: Some(**f),
                     measurement: Measurement::of(&c.source, f[0], f[1]).unwrap(),
                     pose,
                 })
                 .collect(),
         };
-        let metrics: Vec<f64> = Backend::CpuFast
-            .project(&batch, Output::MetricsOnly)
-            .unwrap()
+        let projections = Backend::CpuFast.project(&batch, Output::MetricsOnly).unwrap();
+        let sigmas: Vec<f64> = projections
+            .iter()
+            .filter_map(|p| p.local.sigma_elevation)
+            .collect();
+        assert_eq!(s.sigma, Stats::of(&sigmas), "{:?}", s.rotation);
+        assert!(sigmas.len() > 100);
+        let metrics: Vec<f64> = projections
             .iter()
             .map(|p| match (c.target.kind, c.sampling) {
                 (SonarKind::Fls, sonarproj::sampling::Sampling::Exact) => p.metrics.occupied_measure,

@@ -1,10 +1,11 @@
 //! Scores a candidate rotation over the features: which ones both sonars see, their projection
 //! metric and recovery sigma, the statistics of both, and the objective.
 
+use std::sync::OnceLock;
+
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
-use sonarproj::Metric;
 use sonarproj::geometry::pose::{RelativePose, cart_to_sph, sph_to_cart};
 use sonarproj::geometry::sonar::SonarKind;
 use sonarproj::local_precision::{TruePoint, Viewpoint, resolve_sigma_range};
@@ -12,6 +13,7 @@ use sonarproj::occupancy::Layout;
 use sonarproj::projection::{Backend, MetricColumns, PosePairs, PoseSource, PoseSweep};
 use sonarproj::sampling::{Measurement, Sampling};
 use sonarproj::stream::Stop;
+use sonarproj::{Metric, Sonar};
 
 use crate::advise::config::{AdviseConfig, Objective};
 use crate::advise::features::{Features, draw_features};
@@ -172,6 +174,25 @@ pub struct Pool {
     target: Layout,
     /// [`Outside`] of sonar 1's view and of sonar 2's.
     outside: [Outside; 2],
+    /// Sonar 1 and sonar 2.
+    sonars: (Sonar, Sonar),
+    /// For a pool in sonar 1's frame, [`Known`] of its points ([`Pool::known`]), a chunk of
+    /// [`KNOWN_CHUNK`] worked out the first time a candidate keeps one of them; empty for a
+    /// pool in sonar 2's frame, whose points move with the candidate.
+    known: Vec<OnceLock<Box<[Option<Known>]>>>,
+}
+
+/// How many points of a pool [`Pool::known`] works out at once.
+const KNOWN_CHUNK: usize = 4096;
+
+/// A point of a pool in sonar 1's frame, with what scoring a candidate needs of it alone: the same
+/// for every candidate that keeps it, so worked out once, bit for bit as for each candidate.
+#[derive(Clone, Copy, Debug)]
+struct Known {
+    /// Its measurement by sonar 1.
+    measurement: Measurement,
+    /// Its true point, for the recovery sigma.
+    truth: TruePoint,
 }
 
 /// A quick test of points far outside a sonar's field of view, free of trigonometry: a point it
@@ -281,7 +302,7 @@ impl Pool {
         let reach = config.reach();
         let other = if in_target { &config.source } else { &config.target };
         let drawn = points.len();
-        let points = points
+        let points: Vec<(usize, DVec3)> = points
             .into_iter()
             .enumerate()
             .filter(|(_, p): &(usize, DVec3)| {
@@ -290,6 +311,11 @@ impl Pool {
             })
             .collect();
         let (source, target) = (Layout::of(&config.source), Layout::of(&config.target));
+        let chunks = if in_target {
+            0
+        } else {
+            points.len().div_ceil(KNOWN_CHUNK)
+        };
         Pool {
             in_target,
             points,
@@ -298,7 +324,31 @@ impl Pool {
             outside: [Outside::of(&source), Outside::of(&target)],
             source,
             target,
+            sonars: (config.source.clone(), config.target.clone()),
+            known: std::iter::repeat_with(OnceLock::new).take(chunks).collect(),
         }
+    }
+
+    /// Returns what scoring needs of the point at `position` in a pool in sonar 1's frame, or
+    /// `None` where sonar 1's measurement check refuses it (on a bound, by rounding): what
+    /// [`kept`] works out for it under each candidate. Its chunk is worked out on first use.
+    fn known(&self, position: usize) -> Option<&Known> {
+        let chunk = position / KNOWN_CHUNK;
+        let known = self.known[chunk].get_or_init(|| {
+            let end = ((chunk + 1) * KNOWN_CHUNK).min(self.points.len());
+            self.points[chunk * KNOWN_CHUNK..end]
+                .iter()
+                .map(|&(_, p)| {
+                    let f = in_degrees(cart_to_sph(p));
+                    let (source, target) = &self.sonars;
+                    Measurement::of(source, f[0], f[1]).ok().map(|measurement| Known {
+                        measurement,
+                        truth: TruePoint::new(source, target, f),
+                    })
+                })
+                .collect()
+        });
+        known[position % KNOWN_CHUNK].as_ref()
     }
 
     /// Returns whether the pool is drawn over sonar 2's view (else sonar 1's).
@@ -310,18 +360,27 @@ impl Pool {
     /// Returns the pool's features both sonars see under `pose`, in order, up to the count asked.
     #[must_use]
     pub fn select(&self, pose: &RelativePose) -> Selection {
+        let mut features = Vec::with_capacity(self.want);
+        let examined = self.scan(pose, |_, p1, seen| {
+            features.push(in_degrees(if self.in_target { seen } else { cart_to_sph(p1) }));
+        });
+        Selection { examined, features }
+    }
+
+    /// Walks the pool's points in order under `pose` and hands `take` each one both sonars see,
+    /// up to the count asked: its position in the pool, the point in sonar 1's frame, and its
+    /// range, azimuth and elevation (rad) as the sonar the pool is not drawn over sees it.
+    /// Returns how many points of the draw were examined.
+    fn scan(&self, pose: &RelativePose, mut take: impl FnMut(usize, DVec3, (f64, f64, f64))) -> usize {
         let inverse = pose.rotation.transpose();
-        let mut out = Selection {
-            examined: 0,
-            features: Vec::with_capacity(self.want),
-        };
-        for &(index, p) in &self.points {
-            if out.features.len() == self.want {
+        let (mut examined, mut taken) = (0, 0);
+        for (position, &(index, p)) in self.points.iter().enumerate() {
+            if taken == self.want {
                 break;
             }
             // Every point of the draw up to this one counts as examined. Those left out of the
             // pool could not have been kept.
-            out.examined = index + 1;
+            examined = index + 1;
             // The other sonar sees it; the point in sonar 1 is the feature.
             let (p1, seen, layout, outside) = if self.in_target {
                 let p1 = inverse * (p - pose.translation);
@@ -336,19 +395,36 @@ impl Pool {
             if !layout.inside(r, az, el) {
                 continue;
             }
-            let (r1, az1, el1) = if self.in_target {
-                (r, az, el)
-            } else {
-                cart_to_sph(p1)
-            };
-            out.features.push([r1, az1.to_degrees(), el1.to_degrees()]);
+            take(position, p1, (r, az, el));
+            taken += 1;
         }
         // Short of the count: the whole draw was examined.
-        if out.features.len() < self.want {
-            out.examined = self.drawn;
+        if taken < self.want {
+            examined = self.drawn;
         }
-        out
+        examined
     }
+
+    /// Returns the pool points examined for `pose`, and its shared features: [`kept`]'s, with
+    /// what a pool in sonar 1's frame knows of its points taken from [`Pool::known`].
+    fn shared(&self, pose: &RelativePose) -> (usize, Shared) {
+        if self.in_target {
+            let (examined, kept) = kept(&self.sonars.0, self, pose);
+            return (examined, Shared::Own(kept));
+        }
+        let mut kept = Vec::with_capacity(self.want);
+        let examined = self.scan(pose, |position, _, _| {
+            if self.known(position).is_some() {
+                kept.push(position);
+            }
+        });
+        (examined, Shared::Pool(kept))
+    }
+}
+
+/// Returns `[range, azimuth, elevation]` (m, deg, deg) of a point's range and angles (rad).
+fn in_degrees((r, az, el): (f64, f64, f64)) -> [f64; 3] {
+    [r, az.to_degrees(), el.to_degrees()]
 }
 
 /// Scores candidates over the features on a backend.
@@ -381,13 +457,31 @@ pub fn kept(source: &sonarproj::Sonar, pool: &Pool, pose: &RelativePose) -> Kept
     (sel.examined, kept)
 }
 
+/// A candidate's shared features ([`kept`]'s).
+enum Shared {
+    /// Of a pool in sonar 1's frame: the features' positions in the pool, their [`Pool::known`].
+    Pool(Vec<usize>),
+    /// Of a pool in sonar 2's frame: the features with their measurements.
+    Own(Vec<([f64; 3], Measurement)>),
+}
+
+impl Shared {
+    /// Returns how many features are shared.
+    fn len(&self) -> usize {
+        match self {
+            Shared::Pool(positions) => positions.len(),
+            Shared::Own(kept) => kept.len(),
+        }
+    }
+}
+
 /// A block of candidates on its way through [`Scorer::score_all`]: their features chosen and
 /// paired with them, to be projected and then reduced.
 struct Block {
     /// The candidates, as indices into the call's.
     range: std::ops::Range<usize>,
-    /// Each candidate's points examined and shared features ([`kept`]).
-    selections: Vec<Kept>,
+    /// Each candidate's points examined and shared features ([`Pool::shared`]).
+    selections: Vec<(usize, Shared)>,
     /// Where each candidate's pairs start, and the end of the last.
     starts: Vec<usize>,
     pairs: PosePairs,
@@ -537,25 +631,30 @@ impl<'a> Scorer<'a> {
     /// Returns block `range` of `poses` with each candidate's features chosen ([`kept`]) and
     /// paired with it.
     fn choose(&self, poses: &[RelativePose], range: std::ops::Range<usize>) -> Result<Block> {
-        let selections: Vec<Kept> = poses[range.clone()]
+        let selections: Vec<(usize, Shared)> = poses[range.clone()]
             .par_iter()
-            .map(|p| kept(&self.config.source, &self.pool, p))
+            .map(|p| self.pool.shared(p))
             .collect();
         // Candidate c's features are pairs starts[c].. in order, each with a feature of its own.
         let total = selections.iter().map(|s| s.1.len()).sum();
         let mut starts = Vec::with_capacity(range.len() + 1);
         let mut pairs = Vec::with_capacity(total);
-        for (c, sel) in selections.iter().enumerate() {
+        let mut features = Vec::with_capacity(total);
+        for (c, (_, shared)) in selections.iter().enumerate() {
             starts.push(pairs.len());
             let c = u32::try_from(c).expect("a block has at most 4096 candidates");
             pairs.extend(
-                (pairs.len()..pairs.len() + sel.1.len())
+                (pairs.len()..pairs.len() + shared.len())
                     .map(|f| [c, u32::try_from(f).expect("a block's features are below 2^32")]),
             );
+            match shared {
+                Shared::Pool(positions) => {
+                    features.extend(positions.iter().map(|&k| self.known(k).measurement));
+                }
+                Shared::Own(kept) => features.extend(kept.iter().map(|x| x.1)),
+            }
         }
         starts.push(pairs.len());
-        let mut features = Vec::with_capacity(total);
-        features.extend(selections.iter().flat_map(|s| s.1.iter().map(|x| x.1)));
         let pairs = PosePairs::new(poses[range.clone()].to_vec(), features, pairs)?;
         Ok(Block {
             range,
@@ -563,6 +662,12 @@ impl<'a> Scorer<'a> {
             starts,
             pairs,
         })
+    }
+
+    /// Returns what the pool knows of the kept point at `position` ([`Pool::shared`] keeps only
+    /// points that have it).
+    fn known(&self, position: usize) -> &Known {
+        self.pool.known(position).expect("a kept point has a measurement")
     }
 
     /// Projects `block`'s pairs into `columns` (the one metric scored).
@@ -595,36 +700,39 @@ impl<'a> Scorer<'a> {
                 let metrics: Vec<f64> = (block.starts[c]..block.starts[c + 1])
                     .map(|k| column.f64(k).unwrap_or(0.0))
                     .collect();
-                let sel = &block.selections[c];
+                let (examined, shared) = &block.selections[c];
                 let i = block.range.start + c;
-                self.reduce(rotations[i], &poses[i], sel.0, &sel.1, &metrics)
+                let c = self.config;
+                let viewpoint = Viewpoint::of(&poses[i]);
+                let sigma = |t: &TruePoint| t.seen_from(&viewpoint, self.sigma_range).sigma_elevation;
+                let sigmas: Vec<f64> = match shared {
+                    Shared::Pool(positions) => positions
+                        .iter()
+                        .filter_map(|&k| sigma(&self.known(k).truth))
+                        .collect(),
+                    Shared::Own(kept) => kept
+                        .iter()
+                        .filter_map(|&(f, _)| sigma(&TruePoint::new(&c.source, &c.target, f)))
+                        .collect(),
+                };
+                self.reduce(rotations[i], &poses[i], *examined, &metrics, &sigmas)
             })
             .collect()
     }
 
-    /// Returns the score of candidate `params` at `pose`, from the pool points `examined`, the
-    /// shared `features` (their true points in sonar 1, with their measurements) and their
-    /// `metrics`.
+    /// Returns the score of candidate `params` at `pose`, from the pool points `examined` and its
+    /// shared features' `metrics` (one each) and recovery `sigmas` (those that have one).
     fn reduce(
         &self,
         params: Params,
         pose: &RelativePose,
         examined: usize,
-        features: &[([f64; 3], Measurement)],
         metrics: &[f64],
+        sigmas: &[f64],
     ) -> Score {
         let c = self.config;
-        let viewpoint = Viewpoint::of(pose);
-        let sigmas: Vec<f64> = features
-            .iter()
-            .filter_map(|&(f, _)| {
-                TruePoint::new(&c.source, &c.target, f)
-                    .seen_from(&viewpoint, self.sigma_range)
-                    .sigma_elevation
-            })
-            .collect();
-        let fraction = shared_share(features.len(), examined);
-        let (metric, sigma) = (Stats::of(metrics), Stats::of(&sigmas));
+        let fraction = shared_share(metrics.len(), examined);
+        let (metric, sigma) = (Stats::of(metrics), Stats::of(sigmas));
         let cost = self.search_cost(metrics, examined);
         let (value, se) = match c.objective {
             Objective::Correspondence => cost,
@@ -652,7 +760,7 @@ impl<'a> Scorer<'a> {
             (fraction * (1.0 - fraction) / examined as f64).sqrt()
         };
         // Every part is finite (bounded inputs); a score that still is not is no score.
-        let feasible = !features.is_empty() && fraction >= c.min_shared && value.is_none_or(f64::is_finite);
+        let feasible = !metrics.is_empty() && fraction >= c.min_shared && value.is_none_or(f64::is_finite);
         Score {
             rotation: [params[0], params[1], params[2]],
             offset: [params[3], params[4], params[5]],
@@ -660,7 +768,7 @@ impl<'a> Scorer<'a> {
             shared: fraction,
             shared_se,
             examined,
-            features: features.len(),
+            features: metrics.len(),
             metric,
             sigma,
             score: value.filter(|_| feasible),
@@ -770,5 +878,95 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A pool in sonar 1's frame hands each candidate the points, measurements and true points
+    /// that [`kept`] works out under it, bit for bit: drawn pools, and given points on the
+    /// bounds of sonar 1's view, some nudged just outside, which its measurement check refuses
+    /// (as a rounding might). A pool
+    /// in sonar 2's frame hands out `kept`'s own.
+    #[test]
+    fn what_the_pool_knows_is_what_each_candidate_works_out() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        // Points on the bounds of sonar 1's view.
+        let on_bounds = |sonar: &Sonar| {
+            let (ha, he) = (sonar.azimuth_aperture / 2.0, sonar.elevation_aperture / 2.0);
+            let points: Vec<String> = (0..400)
+                .map(|i| {
+                    let r = [sonar.range_min, sonar.range_max, 1.0 + f64::from(i) * 0.02][i as usize % 3];
+                    format!(
+                        "[{r}, {}, {}]",
+                        [ha, -ha][i as usize % 2],
+                        [he, -he, 0.0][i as usize / 3 % 3]
+                    )
+                })
+                .collect();
+            format!("points = [{}]", points.join(", "))
+        };
+        let (mut from_pool, mut refused) = (0, 0);
+        for (from, to) in [
+            ("paper-fls", "paper-fls"),
+            ("paper-sss", "paper-fls"),
+            ("paper-fls", "paper-sss"),
+        ] {
+            let features = [
+                "count = 300\nseed = 3".to_string(),
+                on_bounds(&Sonar::preset(from).unwrap()),
+            ];
+            for f in &features {
+                let text = format!(
+                    "from = \"{from}\"\nto = \"{to}\"\nobjective = \"correspondence\"\n[features]\n{f}\n\
+                     [rig]\norigin = [0.3, -0.2, 0.1]\n[search]\nroll = {{ start = 0, stop = 0, step = 1 }}\n"
+                );
+                let c = AdviseConfig::parse("test.toml", &text, std::path::Path::new(".")).unwrap();
+                let mut pool = Pool::new(&c);
+                if f.starts_with("points") {
+                    // Nudged off the range bounds, as rounding might: some just outside.
+                    for (i, (_, p)) in pool.points.iter_mut().enumerate() {
+                        *p *= [1.0, 1.0 + 1e-12, 1.0 - 1e-12][i % 3];
+                    }
+                }
+                refused += (0..pool.known.len() * KNOWN_CHUNK)
+                    .take(pool.points.len())
+                    .filter(|&k| !pool.in_target && pool.known(k).is_none())
+                    .count();
+                for _ in 0..40 {
+                    let params = [
+                        rng.random_range(-40.0..40.0),
+                        rng.random_range(-40.0..40.0),
+                        rng.random_range(-40.0..40.0),
+                        rng.random_range(-0.5..0.5),
+                        rng.random_range(-0.5..0.5),
+                        rng.random_range(-0.5..0.5),
+                    ];
+                    let pose = c.pose_of(params).unwrap();
+                    let viewpoint = Viewpoint::of(&pose);
+                    let (examined, shared) = pool.shared(&pose);
+                    let (want_examined, want) = kept(&c.source, &pool, &pose);
+                    assert_eq!(examined, want_examined, "{from}→{to} {f}");
+                    match shared {
+                        Shared::Pool(positions) => {
+                            assert!(!pool.in_target);
+                            assert_eq!(positions.len(), want.len(), "{from}→{to} {f}");
+                            for (&k, (f, m)) in positions.iter().zip(&want) {
+                                let known = pool.known(k).unwrap();
+                                assert_eq!(known.measurement, *m);
+                                assert_eq!(
+                                    known.truth.seen_from(&viewpoint, 0.01),
+                                    TruePoint::new(&c.source, &c.target, *f).seen_from(&viewpoint, 0.01)
+                                );
+                            }
+                            from_pool += positions.len();
+                        }
+                        Shared::Own(own) => {
+                            assert!(pool.in_target);
+                            assert_eq!(own, want);
+                        }
+                    }
+                }
+            }
+        }
+        assert!(from_pool > 5_000, "{from_pool} features from the pool");
+        assert!(refused > 0, "no point refused by the measurement check");
     }
 }
