@@ -177,8 +177,9 @@ pub struct Pool {
     /// Sonar 1 and sonar 2.
     sonars: (Sonar, Sonar),
     /// For a pool in sonar 1's frame, [`Known`] of its points ([`Pool::known`]), a chunk of
-    /// [`KNOWN_CHUNK`] worked out the first time a candidate keeps one of them; empty for a
-    /// pool in sonar 2's frame, whose points move with the candidate.
+    /// [`KNOWN_CHUNK`] worked out the first time a candidate's walk hands one of them on (80
+    /// bytes a point, so at most the pool's size times 80 when every chunk is reached); empty
+    /// for a pool in sonar 2's frame, whose points move with the candidate.
     known: Vec<OnceLock<Box<[Option<Known>]>>>,
 }
 
@@ -250,8 +251,9 @@ impl Outside {
     }
 }
 
-/// The most points a drawn pool holds (48 MB): a pool of `count` features draws a hundred times
-/// as many, so a share down to 1 % still finds them all.
+/// The most points a drawn pool holds: a pool of `count` features draws a hundred times as many,
+/// so a share down to 1 % still finds them all. A pool point takes 32 bytes, and in sonar 1's
+/// frame up to 80 more once a candidate reaches it ([`Known`]): 64 MB and 160 MB at most.
 pub const MAX_POOL: usize = 2_000_000;
 
 /// The features one candidate is scored over.
@@ -883,7 +885,7 @@ mod tests {
     /// A pool in sonar 1's frame hands each candidate the points, measurements and true points
     /// that [`kept`] works out under it, bit for bit: drawn pools, and given points on the
     /// bounds of sonar 1's view, some nudged just outside, which its measurement check refuses
-    /// (as a rounding might). A pool
+    /// (as a rounding might), and drawn points moved just past its range. A pool
     /// in sonar 2's frame hands out `kept`'s own.
     #[test]
     fn what_the_pool_knows_is_what_each_candidate_works_out() {
@@ -903,7 +905,7 @@ mod tests {
                 .collect();
             format!("points = [{}]", points.join(", "))
         };
-        let (mut from_pool, mut refused) = (0, 0);
+        let (mut from_pool, mut refused, mut refused_taken) = (0, 0, 0);
         for (from, to) in [
             ("paper-fls", "paper-fls"),
             ("paper-sss", "paper-fls"),
@@ -920,16 +922,18 @@ mod tests {
                 );
                 let c = AdviseConfig::parse("test.toml", &text, std::path::Path::new(".")).unwrap();
                 let mut pool = Pool::new(&c);
-                if f.starts_with("points") {
-                    // Nudged off the range bounds, as rounding might: some just outside.
-                    for (i, (_, p)) in pool.points.iter_mut().enumerate() {
+                let range_max = c.source.range_max;
+                for (i, (_, p)) in pool.points.iter_mut().enumerate() {
+                    if f.starts_with("points") {
+                        // Nudged off the range bounds, as rounding might: some just outside.
                         *p *= [1.0, 1.0 + 1e-12, 1.0 - 1e-12][i % 3];
+                    } else if i % 7 == 0 {
+                        // A drawn point moved just past sonar 1's range: sonar 2 may see it,
+                        // the measurement check refuses it, and it counts towards the features
+                        // asked for all the same.
+                        *p *= range_max * (1.0 + 1e-9) / p.length();
                     }
                 }
-                refused += (0..pool.known.len() * KNOWN_CHUNK)
-                    .take(pool.points.len())
-                    .filter(|&k| !pool.in_target && pool.known(k).is_none())
-                    .count();
                 for _ in 0..40 {
                     let params = [
                         rng.random_range(-40.0..40.0),
@@ -944,6 +948,12 @@ mod tests {
                     let (examined, shared) = pool.shared(&pose);
                     let (want_examined, want) = kept(&c.source, &pool, &pose);
                     assert_eq!(examined, want_examined, "{from}→{to} {f}");
+                    // A walk that stops before the end of the draw took the count asked, the
+                    // refused points among them.
+                    if examined < pool.drawn {
+                        assert_eq!(pool.select(&pose).features.len(), pool.want);
+                        refused_taken += pool.want - shared.len();
+                    }
                     match shared {
                         Shared::Pool(positions) => {
                             assert!(!pool.in_target);
@@ -964,9 +974,18 @@ mod tests {
                         }
                     }
                 }
+                // Counted after the walks, which worked out the chunks they reached.
+                refused += (0..pool.known.len() * KNOWN_CHUNK)
+                    .take(pool.points.len())
+                    .filter(|&k| pool.known(k).is_none())
+                    .count();
             }
         }
         assert!(from_pool > 5_000, "{from_pool} features from the pool");
         assert!(refused > 0, "no point refused by the measurement check");
+        assert!(
+            refused_taken > 0,
+            "no refused point counted towards a walk's count"
+        );
     }
 }
