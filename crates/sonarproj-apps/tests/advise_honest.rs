@@ -541,3 +541,27 @@ fn the_uniform_cover_meets_its_stated_bound() {
         );
     }
 }
+
+/// Two feasible scores a part in 10⁸ apart, equal as f32: the landscape still colours them apart
+/// (its scale is worked out in f64), where its colour map once divided zero by zero and panicked.
+#[test]
+fn scores_equal_in_f32_still_draw_a_landscape() {
+    // One point both sonars see, 999 sonar 2 misses: each candidate's cost is the blind cost but
+    // for one point's share of it.
+    let points = format!("[[5, 0, 0]{}]", ", [0.1, 0, 0]".repeat(999));
+    let c = config(&format!(
+        "from = \"paper-fls\"\nto = \"paper-fls\"\n[features]\npoints = {points}\n\
+         [rig]\norigin = [0, 0, -0.5]\n[search]\nroll = [0, 10]\npitch = [0, 5]\nrefine = 0\n"
+    ));
+    let a = advise::advise(&c, &Backend::CpuFast).unwrap();
+    let scores: Vec<f64> = a.candidates.iter().filter_map(|(_, s)| s.score).collect();
+    assert_eq!(scores.len(), 2, "{scores:?}");
+    // The case this test is about: different in f64, one value in f32.
+    assert_ne!(scores[0], scores[1]);
+    #[expect(clippy::cast_possible_truncation, reason = "the f32 the colour map once took")]
+    let in_f32 = scores.iter().map(|&s| s as f32).collect::<Vec<_>>();
+    assert_eq!(in_f32[0], in_f32[1], "{scores:?}");
+    let dir = tempfile::tempdir().unwrap();
+    advise::write(&c, &a, dir.path()).unwrap();
+    assert!(dir.path().join("landscape.png").is_file());
+}

@@ -138,8 +138,19 @@ pub fn line_grid(grid: &LineGrid, path: &Path) -> Result<()> {
 }
 
 /// Returns the colour of curve `i` of `n`: Viridis, evenly spread.
+#[expect(clippy::cast_precision_loss, reason = "a figure's few curves")]
 fn series_colour(i: usize, n: usize) -> RGBColor {
-    ViridisRGB::get_color_normalized(i as f32, 0.0, (n - 1) as f32)
+    viridis(i as f64, 0.0, n.saturating_sub(1) as f64)
+}
+
+/// Returns Viridis's colour of `v` on the scale `lo..=hi`, worked out in f64 (a scale narrower
+/// than f32 resolves is still a scale). A value off the scale takes its nearer end; a scale of
+/// no width, or a value that is not a number, takes the low end.
+fn viridis(v: f64, lo: f64, hi: f64) -> RGBColor {
+    let t = (v - lo) / (hi - lo);
+    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 };
+    #[expect(clippy::cast_possible_truncation, reason = "a fraction in 0..=1")]
+    ViridisRGB::get_color_normalized(t as f32, 0.0, 1.0)
 }
 
 /// Draws one legend centred on `area`: `lead`, then a line sample and its label per entry.
@@ -201,7 +212,7 @@ pub fn heatmaps(row: &HeatmapRow, path: &Path) -> Result<()> {
                 .map_err(plot_error)?;
             chart
                 .draw_series(data.cells.iter().map(|&(x, y, v)| {
-                    let c = ViridisRGB::get_color_normalized(v as f32, 0.0, vmax as f32);
+                    let c = viridis(v, 0.0, vmax);
                     Rectangle::new(
                         [(x - step / 2.0, y - step / 2.0), (x + step / 2.0, y + step / 2.0)],
                         c.filled(),
@@ -305,7 +316,7 @@ fn colour_bar(area: &Area<'_>, lo: f64, hi: f64, label: &str) -> Result<()> {
     cb.draw_series((0..n).map(|i| {
         let a = lo + (hi - lo) * i as f64 / n as f64;
         let b = lo + (hi - lo) * (i + 1) as f64 / n as f64;
-        let c = ViridisRGB::get_color_normalized(a as f32, lo as f32, hi as f32);
+        let c = viridis(a, lo, hi);
         Rectangle::new([(0.0, a), (1.0, b)], c.filled())
     }))
     .map_err(plot_error)?;
@@ -435,7 +446,7 @@ pub fn sweep_marked(
             .draw_series(points.iter().map(|(c, v)| {
                 let (i, j) = (find(&xv, c[0]), find(&yv, c[1]));
                 let colour = match v {
-                    Some(v) => ViridisRGB::get_color_normalized(*v as f32, vlo as f32, vhi as f32),
+                    Some(v) => viridis(*v, vlo, vhi),
                     None => RGBColor(200, 200, 200),
                 };
                 Rectangle::new([(xe[i], ye[j]), (xe[i + 1], ye[j + 1])], colour.filled())
@@ -543,7 +554,20 @@ fn sweep_line(
 
 #[cfg(test)]
 mod tests {
-    use super::{even_ticks, without_unit};
+    use super::{even_ticks, viridis, without_unit};
+
+    #[test]
+    fn a_colour_scale_of_any_width_gives_a_colour() {
+        // A part in 10⁸ apart: one value as f32, two ends of the scale in f64.
+        let (lo, hi) = (52.302_287_544_094_135, 52.302_288_567_157_056);
+        assert_ne!(viridis(lo, lo, hi), viridis(hi, lo, hi));
+        assert_eq!(viridis(hi, lo, hi), viridis(1.0, 0.0, 1.0));
+        // No width, not a number, off the scale: an end, no panic.
+        assert_eq!(viridis(3.0, 3.0, 3.0), viridis(0.0, 0.0, 1.0));
+        assert_eq!(viridis(f64::NAN, 0.0, 1.0), viridis(0.0, 0.0, 1.0));
+        assert_eq!(viridis(5.0, 0.0, 1.0), viridis(1.0, 0.0, 1.0));
+        assert_eq!(viridis(-5.0, 0.0, 1.0), viridis(0.0, 0.0, 1.0));
+    }
 
     #[test]
     fn a_unit_is_taken_off_a_label() {
