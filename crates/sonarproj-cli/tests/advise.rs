@@ -225,6 +225,27 @@ fn bad_advise_files_exit_2_naming_the_key() {
             &["rig", "within 1000000 m"],
         ),
         (format!("{base}[from_pose]\nstep = 0\n"), &["from_pose.step = 0"]),
+        // The value as written, and the choices step really has.
+        (
+            base.replace("step = 0.1", "step = -0.1"),
+            &["step = -0.1 is invalid", "\"auto\" or \"exact\""],
+        ),
+        (
+            base.replace("step = 0.1", "step = \"fine\""),
+            &["step = \"fine\"", "must be > 0 (deg), \"auto\" or \"exact\""],
+        ),
+        (
+            base.replace("step = 0.1", "step = 1e-300"),
+            &["advise file", "step = 1e-300", "samples per pose"],
+        ),
+        (
+            base.replace("count = 10", "count = \"10\""),
+            &["features.count = \"10\"", "must be one number"],
+        ),
+        (
+            base.replace("origin = [0, 0, 0]", "origin = [2000000, 0, 0]"),
+            &["rig.origin", "within ±1000000"],
+        ),
         (
             base.replace("[rig]\norigin = [0, 0, 0]\n", ""),
             &["rig", "missing"],
@@ -247,4 +268,34 @@ fn bad_advise_files_exit_2_naming_the_key() {
         );
         assert!(!out.exists(), "case {k}: the output directory was created");
     }
+}
+
+/// A search where sonar 2 sees no feature says so, not just "see min_shared".
+#[test]
+fn nothing_shared_is_said_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("far.toml");
+    std::fs::write(
+        &file,
+        "from = \"paper-fls\"\nto = \"paper-fls\"\n[features]\ncount = 10\n\
+         [rig]\norigin = [0, 0, 5000]\n[search]\nroll = [0, 10]\nrefine = 0\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let run = common::sonarproj()
+        .args([
+            "advise",
+            "--config",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args(["--backend", "cpu-fast"])
+        .assert()
+        .success();
+    let err = String::from_utf8_lossy(&run.get_output().stderr).to_string();
+    assert!(
+        err.contains("no candidate pose lets sonar 2 see any of the features"),
+        "{err}"
+    );
 }

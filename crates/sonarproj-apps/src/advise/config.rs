@@ -40,7 +40,7 @@
 use std::path::{Path, PathBuf};
 
 use sonarproj::geometry::sonar::Sonar;
-use sonarproj::sampling::Sampling;
+use sonarproj::sampling::{Measurement, Sampling, SamplingPlan};
 
 use glam::DVec3;
 use sonarproj::geometry::pose::{RelativePose, Rotation};
@@ -259,6 +259,7 @@ impl AdviseConfig {
         } else {
             Sampling::Auto
         });
+        check_step(f, &source, &target, sampling)?;
         if sampling == Sampling::Exact && source.kind == sonarproj::SonarKind::Sss {
             return Err(f.error(
                 "step",
@@ -373,18 +374,34 @@ impl AdviseConfig {
 /// Returns the sampling `step` gives: a step > 0 (deg), `"exact"`, or `"auto"`; `None` when
 /// `step` is not given.
 fn sampling(f: ConfigFile<'_>, top: &toml::Table) -> Result<Option<Sampling>> {
+    let allowed = "must be > 0 (deg), \"auto\" or \"exact\"";
     match top.get("step") {
         Some(toml::Value::String(s)) if s == "auto" => Ok(Some(Sampling::Auto)),
         Some(toml::Value::String(s)) if s == "exact" => Ok(Some(Sampling::Exact)),
-        Some(_) => match f.number(top, "step", "step")? {
+        Some(v @ (toml::Value::Integer(_) | toml::Value::Float(_))) => match f.number(top, "step", "step")? {
             Some(s) if s > 0.0 => Ok(Some(Sampling::Step(s))),
-            other => Err(f.error(
-                "step",
-                format!("{other:?}"),
-                "must be > 0 (deg), \"auto\" or \"exact\"",
-            )),
+            _ => Err(f.error("step", v.clone(), allowed)),
         },
+        Some(v) => Err(f.error("step", v.clone(), allowed)),
         None => Ok(None),
+    }
+}
+
+/// Returns `Ok` when a step `sampling` draws no more samples a pose than a pose may (the count
+/// depends on sonar 1's apertures alone), else the error naming `step`.
+fn check_step(f: ConfigFile<'_>, source: &Sonar, target: &Sonar, sampling: Sampling) -> Result<()> {
+    let Sampling::Step(step) = sampling else {
+        return Ok(());
+    };
+    let m = Measurement {
+        range: source.range_max,
+        azimuth: 0.0,
+    };
+    match SamplingPlan::counts(source, target, &m, sampling, None) {
+        Err(sonarproj::Error::InvalidValue { value, allowed, .. }) => {
+            Err(f.error("step", step, format!("gives {value}: {allowed}")))
+        }
+        other => other.map(|_| ()).map_err(Into::into),
     }
 }
 
@@ -613,7 +630,11 @@ fn rig(f: ConfigFile<'_>, t: Option<&toml::Table>) -> Result<Rig> {
             _ => Err(f.error(
                 name,
                 v.clone(),
-                "must be three finite numbers (m, or [range m, azimuth deg, elevation deg])",
+                format!(
+                    "must be three finite numbers within ±{} (m, or [range m, azimuth deg, \
+                     elevation deg])",
+                    sonarproj::limits::MAX_TRANSLATION
+                ),
             )),
         }
     };

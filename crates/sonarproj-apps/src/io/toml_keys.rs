@@ -95,6 +95,9 @@ impl<'a> ConfigFile<'a> {
     /// [`sonarproj::Error::InvalidValue`] naming `name` unless it is one finite number.
     pub(crate) fn number(self, table: &toml::Table, name: &str, key: &str) -> Result<Option<f64>> {
         let Some(v) = table.get(key) else { return Ok(None) };
+        if !(v.is_integer() || v.is_float() || v.is_array() || v.is_table()) {
+            return Err(self.error(name, v, "must be one number"));
+        }
         match self.values(name, v)?.as_slice() {
             [x] => Ok(Some(*x)),
             _ => Err(self.error(name, v, "must be one number")),

@@ -71,7 +71,17 @@ pub(super) fn run(a: AdviseArgs) -> Result<()> {
             100.0 * b.shared,
             100.0 * b.shared_se
         ),
-        None => "no candidate is feasible (see min_shared)".to_string(),
+        // Why none is: nothing shared at all says more than min_shared.
+        None if advice.candidates.iter().all(|(_, s)| s.features == 0) => {
+            "no candidate is feasible: no candidate pose lets sonar 2 see any of the features \
+             (see [rig] and [search])"
+                .to_string()
+        }
+        None => format!(
+            "no candidate is feasible: none shares at least min_shared = {} of the features with \
+             a score",
+            config.min_shared
+        ),
     };
     let projected: usize = advice.candidates.iter().map(|(_, s)| s.features).sum();
     eprintln!(
