@@ -239,6 +239,10 @@ fn bad_advise_files_exit_2_naming_the_key() {
             &["advise file", "step = 1e-300", "samples per pose"],
         ),
         (
+            base.replace("count = 10", "points = [[5, 0, 0]]\nseed = 3"),
+            &["features.seed = 3", "not both"],
+        ),
+        (
             base.replace("count = 10", "count = \"10\""),
             &["features.count = \"10\"", "must be one number"],
         ),

@@ -33,12 +33,14 @@ pub(super) fn read(f: ConfigFile<'_>, t: Option<&toml::Table>, source: &Sonar) -
     let t = t.ok_or_else(missing)?;
     f.only("features.", t, &["count", "seed", "points"])?;
     if let Some(points) = t.get("points") {
-        if t.contains_key("count") {
-            return Err(f.error(
-                "features.count",
-                t["count"].clone(),
-                "give count or points, not both",
-            ));
+        for key in ["count", "seed"] {
+            if t.contains_key(key) {
+                return Err(f.error(
+                    &format!("features.{key}"),
+                    t[key].clone(),
+                    "draws features: give count (and seed) or points, not both",
+                ));
+            }
         }
         let bad = || {
             f.error(
