@@ -253,7 +253,8 @@ impl Outside {
 
 /// The most points a drawn pool holds: a pool of `count` features draws a hundred times as many,
 /// so a share down to 1 % still finds them all. A pool point takes 32 bytes, and in sonar 1's
-/// frame up to 80 more once a candidate reaches it ([`Known`]): 64 MB and 160 MB at most.
+/// frame up to 80 more once a candidate reaches it (its measurement and true point): 64 MB and
+/// 160 MB at most.
 pub const MAX_POOL: usize = 2_000_000;
 
 /// The features one candidate is scored over.
