@@ -138,7 +138,7 @@ fn a_reported_score_is_the_score_of_its_pose_by_hand() {
         };
         let pose = RelativePose::new(rotation, s.translation).unwrap();
         // Its features: the pool's points both sonars see, in order (what features.csv lists).
-        let selection = advise::score::Pool::new(&c).select(&pose);
+        let selection = advise::pool::Pool::new(&c).select(&pose);
         let shared: Vec<&[f64; 3]> = selection.features.iter().collect();
         assert!(shared.iter().all(|f| {
             let (r, az, el) =

@@ -15,6 +15,7 @@
 pub mod config;
 pub mod features;
 pub mod pareto;
+pub mod pool;
 mod report;
 pub mod score;
 pub mod search;

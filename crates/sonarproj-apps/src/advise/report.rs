@@ -10,7 +10,8 @@ use serde_json::json;
 use crate::advise::Advice;
 use crate::advise::config::{AXES, AdviseConfig, Objective, Rig, unit};
 use crate::advise::features::Features;
-use crate::advise::score::{Params, Pool, Score};
+use crate::advise::pool::Pool;
+use crate::advise::score::{Params, Score};
 use crate::advise::search::Stage;
 use crate::error::{Error, Result};
 use crate::io::parquet::{Column, Encoding, Kind, Table, TableWriter};
@@ -138,8 +139,8 @@ pub fn write(config: &AdviseConfig, advice: &Advice, dir: &Path) -> Result<Writt
         .map_err(err)?;
         // The best pose's own features: those it was scored over.
         let pose = config.pose_of(best.params())?;
-        let pool = crate::advise::score::Pool::new(config);
-        for (f, _) in &crate::advise::score::kept(&config.source, &pool, &pose).1 {
+        let pool = Pool::new(config);
+        for (f, _) in &crate::advise::pool::kept(&config.source, &pool, &pose).1 {
             let row: Vec<String> = f
                 .iter()
                 .chain(&best.rotation)
